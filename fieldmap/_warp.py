@@ -1,0 +1,135 @@
+"""Warp runtime: configuration before first use, device selection, multi-core CPU launches.
+
+Warp's CPU backend runs one launch on one core. Launches release the GIL, so
+:func:`launch_chunked` splits a 1-D launch into contiguous chunks (one per core) and
+launches them from a thread pool; on CUDA it issues a single launch.
+
+Kernels that go through :func:`launch_chunked` take an ``offset: wp.int32`` as their *last*
+input and index their work as ``i = wp.tid() + offset``.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import warp as wp
+
+_lock = threading.Lock()
+_ready = False
+_pool: ThreadPoolExecutor | None = None
+
+
+def cpu_workers() -> int:
+    """Number of CPU threads used for CPU launches (``FIELDMAP_THREADS`` or all cores)."""
+    env = os.environ.get("FIELDMAP_THREADS")
+    if env:
+        return max(1, int(env))
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def init() -> None:
+    """Configure and initialise Warp once (cache directory, quiet logs, no autodiff)."""
+    global _ready
+    if _ready:
+        return
+    with _lock:
+        if _ready:
+            return
+        cache = os.environ.get("FIELDMAP_KERNEL_CACHE") or os.path.join(
+            os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "fieldmap", "warp"
+        )
+        wp.config.kernel_cache_dir = cache
+        wp.config.quiet = True
+        wp.config.enable_backward = False
+        wp.config.verbose_warnings = False
+        wp.init()
+        _ready = True
+
+
+def devices() -> list[str]:
+    """Names of all Warp devices present (``"cpu"`` first, then ``"cuda:N"``)."""
+    init()
+    return [str(d) for d in wp.get_devices()]
+
+
+class DeviceError(ValueError):
+    """Raised when a requested device does not exist on this machine."""
+
+
+def resolve_device(device: str | None = None) -> str:
+    """Return a valid Warp device name.
+
+    ``None`` or ``"auto"`` picks the first CUDA device when present, else ``"cpu"``.
+    """
+    names = devices()
+    if device in (None, "auto"):
+        cuda = [d for d in names if d.startswith("cuda")]
+        return cuda[0] if cuda else "cpu"
+    if device == "cuda":
+        device = "cuda:0"
+    if device not in names:
+        raise DeviceError(f"device {device!r} not present (available: {', '.join(names)})")
+    return device
+
+
+def _pool_get() -> ThreadPoolExecutor:
+    global _pool
+    if _pool is None:
+        with _lock:
+            if _pool is None:
+                _pool = ThreadPoolExecutor(max_workers=cpu_workers(), thread_name_prefix="fieldmap")
+    return _pool
+
+
+def chunks(n: int, parts: int) -> list[tuple[int, int]]:
+    """Split ``range(n)`` into at most ``parts`` contiguous ``(start, count)`` pieces."""
+    parts = max(1, min(parts, n))
+    base, extra = divmod(n, parts)
+    out, start = [], 0
+    for k in range(parts):
+        cnt = base + (1 if k < extra else 0)
+        if cnt:
+            out.append((start, cnt))
+        start += cnt
+    return out
+
+
+def launch_chunked(kernel, dim: int, inputs: list, device: str, parts: int | None = None) -> None:
+    """Launch a 1-D ``kernel`` over ``dim`` threads, using every CPU core on the CPU backend.
+
+    Parameters
+    ----------
+    kernel : warp.Kernel
+        A kernel whose last input is ``offset: wp.int32``.
+    dim : int
+        Total number of threads.
+    inputs : list
+        Kernel inputs *without* the trailing offset.
+    device : str
+        Warp device name.
+    parts : int, optional
+        Number of CPU chunks; default: one per worker thread (CPU) and 1 (CUDA).
+    """
+    init()
+    if dim <= 0:
+        return
+    if not str(device).startswith("cpu"):
+        wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
+        return
+    pieces = chunks(dim, parts or cpu_workers())
+    if len(pieces) == 1:
+        wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
+        return
+    pool = _pool_get()
+    futs = [
+        pool.submit(wp.launch, kernel, dim=cnt, inputs=[*inputs, start], device=device)
+        for start, cnt in pieces
+    ]
+    for f in futs:
+        f.result()
+    wp.synchronize_device(device)

@@ -1,0 +1,1 @@
+"""Data files shipped with fieldmap (read them through importlib.resources)."""
