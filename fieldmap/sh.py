@@ -1,0 +1,212 @@
+"""Host side of the spherical-harmonic Warp kernels: model tables, caching, launches.
+
+:func:`kernel_model` turns an :class:`~fieldmap.model.SHModel` into the device struct
+:class:`fieldmap.kernels.sh.SHKernelModel` (coefficients and recursion tables transposed to
+``[m, n]``, see Holmes & Featherstone 2002 eqs. 11-16); :func:`sh_gravitation` and
+:func:`sh_potential` evaluate the series at ECEF points with every CPU core or on CUDA.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+
+import numpy as np
+import warp as wp
+
+from . import _warp
+from .errors import InputError
+from .model import SHModel
+
+_cache: dict = {}
+_cache_lock = threading.Lock()
+_CACHE_MAX = 8
+
+
+def recursion_tables(lmax: int) -> dict[str, np.ndarray]:
+    """Recursion tables of the scaled column recursion, indexed ``[m, n]``.
+
+    Holmes & Featherstone (2002) eqs. 11-13 and 15 (fully normalised):
+    ``a_nm = sqrt((2n−1)(2n+1)/((n−m)(n+m)))``,
+    ``b_nm = sqrt((2n+1)(n+m−1)(n−m−1)/((n−m)(n+m)(2n−3)))``,
+    ``f_nm = sqrt((n²−m²)(2n+1)/(2n−1))`` for n > m (0 elsewhere); row m = 0 of ``f`` holds
+    ``sqrt(n(n+1)/2)`` (factor of dP̄n0/dφ = sqrt(n(n+1)/2) P̄n1); ``sect[m]`` = P̄mm/u^m
+    (s_0 = 1, s_1 = √3, s_m = s_{m−1} sqrt((2m+1)/(2m))).
+
+    Parameters
+    ----------
+    lmax : int
+        Maximum degree.
+
+    Returns
+    -------
+    dict
+        ``anm``, ``bnm``, ``fnm`` of shape ``(lmax+1, lmax+1)`` and ``sect`` of length lmax+1.
+    """
+    L = int(lmax)
+    m = np.arange(L + 1, dtype=np.float64)[:, None]
+    n = np.arange(L + 1, dtype=np.float64)[None, :]
+    lower = n > m
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.sqrt((2 * n - 1) * (2 * n + 1) / ((n - m) * (n + m)))
+        b = np.sqrt((2 * n + 1) * (n + m - 1) * (n - m - 1) / ((n - m) * (n + m) * (2 * n - 3)))
+        f = np.sqrt((n * n - m * m) * (2 * n + 1) / (2 * n - 1))
+    a = np.where(lower, a, 0.0)
+    b = np.where(lower & (n - m >= 2), b, 0.0)
+    f = np.where(lower, f, 0.0)
+    f[0, :] = np.sqrt(n[0] * (n[0] + 1) / 2.0)
+    sect = np.ones(L + 1)
+    if L >= 1:
+        k = np.arange(2, L + 1, dtype=np.float64)
+        sect[1] = np.sqrt(3.0)
+        sect[2:] = np.sqrt(3.0) * np.cumprod(np.sqrt((2 * k + 1) / (2 * k)))
+    return {"anm": a, "bnm": b, "fnm": f, "sect": sect}
+
+
+def _check_lmax(model: SHModel, lmax) -> int:
+    if lmax is None:
+        return model.lmax
+    try:
+        lmax_i = int(lmax)
+    except (TypeError, ValueError):
+        raise InputError(f"lmax must be an integer, got {lmax!r}") from None
+    if lmax_i != lmax or lmax_i < 0 or lmax_i > model.lmax:
+        raise InputError(f"lmax {lmax} is outside the model {model.name} (0..{model.lmax})")
+    return lmax_i
+
+
+_loaded: set = set()
+
+
+def _load(device: str) -> None:
+    # Compile/load the kernel module once, before launch_chunked's threads race to do it.
+    if device not in _loaded:
+        from .kernels import sh as ksh
+
+        wp.load_module(ksh, device=device)
+        _loaded.add(device)
+
+
+def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = None):
+    """Build (or fetch from the cache) the device struct of ``model`` truncated to ``lmax``.
+
+    Parameters
+    ----------
+    model : SHModel
+        Fully normalised coefficients.
+    device : str, optional
+        Warp device name (default: :func:`fieldmap._warp.resolve_device`).
+    lmax : int, optional
+        Truncation degree (default: the model's).
+
+    Returns
+    -------
+    fieldmap.kernels.sh.SHKernelModel
+        Cached by (model identity, lmax, device); the entry dies with the model object.
+    """
+    _warp.init()
+    from .kernels import sh as ksh
+
+    device = _warp.resolve_device(device)
+    L = _check_lmax(model, lmax)
+    _load(device)
+    key = (id(model), L, device)
+    with _cache_lock:
+        hit = _cache.get(key)
+        if hit is not None and hit[0]() is model:
+            return hit[1]
+    tab = recursion_tables(L)
+    km = ksh.SHKernelModel()
+    km.cnm = wp.array(np.ascontiguousarray(model.C[: L + 1, : L + 1].T), dtype=wp.float64, device=device)
+    km.snm = wp.array(np.ascontiguousarray(model.S[: L + 1, : L + 1].T), dtype=wp.float64, device=device)
+    km.anm = wp.array(tab["anm"], dtype=wp.float64, device=device)
+    km.bnm = wp.array(tab["bnm"], dtype=wp.float64, device=device)
+    km.fnm = wp.array(tab["fnm"], dtype=wp.float64, device=device)
+    km.sect = wp.array(tab["sect"], dtype=wp.float64, device=device)
+    km.lmax = L
+    km.gm = wp.float64(model.gm)
+    km.radius = wp.float64(model.radius)
+    with _cache_lock:
+        if len(_cache) >= _CACHE_MAX:
+            _cache.pop(next(iter(_cache)))
+        try:
+            ref = weakref.ref(model)
+        except TypeError:  # pragma: no cover - SHModel is weak-referenceable
+            ref = lambda: model  # noqa: E731
+        _cache[key] = (ref, km)
+    return km
+
+
+def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
+    x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
+    shape = x.shape
+    pos = np.ascontiguousarray(np.stack([x.ravel(), y.ravel(), z.ravel()], axis=-1))
+    if not np.all(np.isfinite(pos)):
+        raise InputError("positions must be finite")
+    if np.any(np.einsum("ij,ij->i", pos, pos) == 0.0):
+        raise InputError("position at the Earth's centre: the series is undefined there")
+    return pos, shape
+
+
+def sh_gravitation(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
+    """Gravitation (gradient of the potential, no centrifugal term) at ECEF points.
+
+    Chen et al. (2022) eqs. 2-3, evaluated with the Warp kernel ``sh_points_ecef_kernel``.
+
+    Parameters
+    ----------
+    model : SHModel
+        Gravity model.
+    x, y, z : array_like
+        ECEF coordinates (broadcast together). Units: m.
+    lmax : int, optional
+        Truncation degree.
+    device : str, optional
+        Warp device.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., 3)``, ECEF components. Units: m/s².
+    """
+    from .kernels import sh as ksh
+
+    device = _warp.resolve_device(device)
+    km = kernel_model(model, device, lmax)
+    pos, shape = _positions(x, y, z)
+    n = pos.shape[0]
+    p_d = wp.array(pos, dtype=wp.vec3d, device=device)
+    g_d = wp.zeros(n, dtype=wp.vec3d, device=device)
+    _warp.launch_chunked(ksh.sh_points_ecef_kernel, n, [km, p_d, g_d], device)
+    return g_d.numpy().reshape(*shape, 3)
+
+
+def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
+    """Gravitational potential at ECEF points (Chen et al. 2022 eq. 1).
+
+    Parameters
+    ----------
+    model : SHModel
+        Gravity model.
+    x, y, z : array_like
+        ECEF coordinates. Units: m.
+    lmax : int, optional
+        Truncation degree.
+    device : str, optional
+        Warp device.
+
+    Returns
+    -------
+    numpy.ndarray
+        Potential, the broadcast shape of the inputs. Units: m²/s².
+    """
+    from .kernels import sh as ksh
+
+    device = _warp.resolve_device(device)
+    km = kernel_model(model, device, lmax)
+    pos, shape = _positions(x, y, z)
+    n = pos.shape[0]
+    p_d = wp.array(pos, dtype=wp.vec3d, device=device)
+    v_d = wp.zeros(n, dtype=wp.float64, device=device)
+    _warp.launch_chunked(ksh.sh_potential_kernel, n, [km, p_d, v_d], device)
+    return v_d.numpy().reshape(shape)

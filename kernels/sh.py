@@ -1,0 +1,235 @@
+"""Spherical-harmonic synthesis of the gravitational potential and its gradient (Warp, float64).
+
+Potential (Chen et al. 2022 eq. 1, fully normalised, no Condon-Shortley phase):
+
+.. math::
+    V = \\frac{GM}{r}\\sum_{n=0}^{N} q^n \\sum_{m=0}^{n}
+        (\\bar C_{nm}\\cos m\\lambda + \\bar S_{nm}\\sin m\\lambda)\\bar P_{nm}(t),
+    \\qquad q = R/r,\\; t = \\sin\\varphi,\\; u = \\cos\\varphi .
+
+Numerical scheme (Holmes & Featherstone 2002, J. Geodesy 76:279-299): the scaled functions
+``Q_nm = 1e-280 * P̄nm(t) / u^m`` are computed by the standard forward column recursion in n for
+each fixed order m (their eqs. 11-13); the factor u^m is applied afterwards by Horner's scheme in
+u, running m from lmax down to 0, so no intermediate quantity underflows at ±89.99° nor
+overflows below degree ~2700. Derivatives (their eqs. 15-16, fully normalised):
+
+.. math::
+    \\frac{d\\bar P_{nm}}{d\\varphi} = u^{m-1}\\,(-n t Q_{nm} + f_{nm} Q_{n-1,m}) \\cdot 10^{280}
+    \\quad (m \\ge 1), \\qquad
+    \\frac{d\\bar P_{n0}}{d\\varphi} = \\sqrt{n(n+1)/2}\\; u\\, Q_{n1} \\cdot 10^{280} ,
+
+which stay finite at the poles (u = 0): the east component carries the factor m u^{m-1}, whose
+m = 1 term is the pole limit. The powers q^n are folded into the recursion
+(``Q'_nm = q^n Q_nm`` obeys the same recursion with ``a_nm -> a_nm q``, ``b_nm -> b_nm q²``).
+
+The tables live in :class:`SHKernelModel`, stored transposed as ``[m, n]`` so that one column
+recursion walks contiguous memory; they are built on the host by
+``fieldmap.sh.kernel_model``. Row ``m = 0`` of ``fnm`` holds ``sqrt(n(n+1)/2)`` (the m = 0
+derivative factor; the m >= 1 rows hold ``f_nm``).
+"""
+
+import warp as wp
+
+from .frames import geodetic_to_ecef
+
+#: 1e-280 scale of the Holmes & Featherstone (2002) recursion and its inverse.
+SCALE = wp.constant(wp.float64(1.0e-280))
+INV_SCALE = wp.constant(wp.float64(1.0e280))
+#: columns whose q^m falls below this contribute < 1e-28 relative and are skipped (this also
+#: keeps the folded recursion clear of subnormal numbers far above the reference sphere).
+QM_MIN = wp.constant(wp.float64(1.0e-30))
+
+sh_vec8 = wp.types.vector(length=8, dtype=wp.float64)
+
+
+@wp.struct
+class SHKernelModel:
+    """Device-side spherical-harmonic model with its recursion tables (all ``[m, n]``)."""
+
+    cnm: wp.array2d(dtype=wp.float64)
+    snm: wp.array2d(dtype=wp.float64)
+    anm: wp.array2d(dtype=wp.float64)
+    bnm: wp.array2d(dtype=wp.float64)
+    fnm: wp.array2d(dtype=wp.float64)
+    sect: wp.array(dtype=wp.float64)
+    lmax: int
+    gm: wp.float64
+    radius: wp.float64
+
+
+@wp.func
+def sh_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
+    """Per-order sums of the scaled Legendre series for order ``m``.
+
+    Returns an ``sh_vec8`` with the sums over n = m..lmax of q^n times
+    [0] C Q, [1] S Q, [2] (n+1) C Q, [3] (n+1) S Q, [4] C (−n t Q_n + f Q_{n−1}), [5] the same
+    with S (0 for m = 0), [6] sqrt(n(n+1)/2) C_n0 Q_n1 (m = 1 only), [7] 0; Q = Q_nm carries the
+    1e-280 scale and not the u^m factor (Holmes & Featherstone 2002 eqs. 11-16).
+    Units: dimensionless (t = sin φ geocentric, q = R/r).
+    """
+    out = sh_vec8()
+    lmax = model.lmax
+    if m > lmax:
+        return out
+    qm = wp.pow(q, wp.float64(m))
+    if qm < QM_MIN:
+        return out
+    tq = t * q
+    qq = q * q
+    # Q'_{m,m} = q^m Q_mm and Q'_{m-1,m} = 0: the general recursion then gives Q'_{m+1,m}
+    # because b_{m+1,m} = 0.
+    p1 = SCALE * model.sect[m] * qm
+    p2 = wp.float64(0.0)
+    c = model.cnm[m, m]
+    s = model.snm[m, m]
+    s0 = c * p1
+    s1 = s * p1
+    nf1 = wp.float64(m + 1)
+    s2 = nf1 * s0
+    s3 = nf1 * s1
+    d4 = wp.float64(0.0)  # sum of f_nm C_nm Q'_{n-1,m} (times q later)
+    d5 = wp.float64(0.0)
+    s6 = wp.float64(0.0)
+    if m == 1:
+        s6 = model.fnm[0, 1] * model.cnm[0, 1] * p1
+    for n in range(m + 1, lmax + 1):
+        pn = model.anm[m, n] * tq * p1 - model.bnm[m, n] * qq * p2
+        c = model.cnm[m, n]
+        s = model.snm[m, n]
+        nf1 = nf1 + wp.float64(1.0)
+        wc = c * pn
+        ws = s * pn
+        s0 = s0 + wc
+        s1 = s1 + ws
+        s2 = s2 + nf1 * wc
+        s3 = s3 + nf1 * ws
+        fp = model.fnm[m, n] * p1
+        d4 = d4 + c * fp
+        d5 = d5 + s * fp
+        if m == 1:
+            s6 = s6 + model.fnm[0, n] * model.cnm[0, n] * pn
+        p2 = p1
+        p1 = pn
+    out[0] = s0
+    out[1] = s1
+    out[2] = s2
+    out[3] = s3
+    if m >= 1:
+        # sum n q^n C Q = s2 - s0; the f-term used Q'_{n-1} = q^{n-1} Q_{n-1}, hence the factor q
+        out[4] = -t * (s2 - s0) + q * d4
+        out[5] = -t * (s3 - s1) + q * d5
+    out[6] = s6
+    return out
+
+
+@wp.func
+def sh_spherical(model: SHKernelModel, p: wp.vec3d):
+    """Potential and gravitation in the geocentric spherical frame at ECEF position ``p``.
+
+    Returns ``wp.vec4d(V, g_east, g_north, g_up)`` with the components of the gradient along the
+    local geocentric east, north, radial-up unit vectors (Chen et al. 2022 eqs. 2-3 in
+    spherical form). Units: m -> m²/s², m/s².
+    """
+    x = p[0]
+    y = p[1]
+    z = p[2]
+    rho = wp.sqrt(x * x + y * y)
+    r = wp.sqrt(rho * rho + z * z)
+    t = z / r
+    u = rho / r
+    lam = wp.atan2(y, x)
+    q = model.radius / r
+    vs = wp.float64(0.0)
+    rs = wp.float64(0.0)
+    ns = wp.float64(0.0)
+    es = wp.float64(0.0)
+    n6 = wp.float64(0.0)
+    m = model.lmax
+    while m >= 0:
+        col = sh_column(model, m, t, q)
+        ml = wp.float64(m) * lam
+        cm = wp.cos(ml)
+        sm = wp.sin(ml)
+        vs = vs * u + (col[0] * cm + col[1] * sm)
+        rs = rs * u + (col[2] * cm + col[3] * sm)
+        if m >= 1:
+            ns = ns * u + (col[4] * cm + col[5] * sm)
+            es = es * u + wp.float64(m) * (col[1] * cm - col[0] * sm)
+        if m == 1:
+            n6 = col[6]
+        m = m - 1
+    k = model.gm / r * INV_SCALE
+    kr = k / r
+    return wp.vec4d(k * vs, kr * es, kr * (ns + u * n6), -kr * rs)
+
+
+@wp.func
+def sh_gravitation_ecef(model: SHKernelModel, p: wp.vec3d):
+    """Gravitational acceleration (gradient of V, no centrifugal term) at ECEF ``p``.
+
+    Units: m -> m/s² (ECEF components).
+    """
+    res = sh_spherical(model, p)
+    x = p[0]
+    y = p[1]
+    z = p[2]
+    rho = wp.sqrt(x * x + y * y)
+    r = wp.sqrt(rho * rho + z * z)
+    t = z / r
+    u = rho / r
+    lam = wp.atan2(y, x)
+    cl = wp.cos(lam)
+    sl = wp.sin(lam)
+    ge = res[1]
+    gn = res[2]
+    gu = res[3]
+    # east = (-sin λ, cos λ, 0), north = (-t cos λ, -t sin λ, u), up = (u cos λ, u sin λ, t)
+    h = u * gu - t * gn
+    return wp.vec3d(h * cl - ge * sl, h * sl + ge * cl, t * gu + u * gn)
+
+
+@wp.func
+def sh_potential(model: SHKernelModel, p: wp.vec3d):
+    """Gravitational potential V at ECEF ``p`` (Chen et al. 2022 eq. 1). Units: m -> m²/s²."""
+    return sh_spherical(model, p)[0]
+
+
+@wp.kernel
+def sh_points_ecef_kernel(
+    model: SHKernelModel,
+    pos: wp.array(dtype=wp.vec3d),
+    g_out: wp.array(dtype=wp.vec3d),
+    offset: wp.int32,
+):
+    """Gravitation (ECEF, m/s²) at scattered ECEF positions (m)."""
+    i = wp.tid() + offset
+    g_out[i] = sh_gravitation_ecef(model, pos[i])
+
+
+@wp.kernel
+def sh_points_geodetic_kernel(
+    model: SHKernelModel,
+    lat: wp.array(dtype=wp.float64),
+    lon: wp.array(dtype=wp.float64),
+    h: wp.array(dtype=wp.float64),
+    a: wp.float64,
+    e2: wp.float64,
+    g_out: wp.array(dtype=wp.vec3d),
+    offset: wp.int32,
+):
+    """Gravitation (ECEF, m/s²) at geodetic lat, lon (rad), h (m) on the ellipsoid (a, e²)."""
+    i = wp.tid() + offset
+    p = geodetic_to_ecef(lat[i], lon[i], h[i], a, e2)
+    g_out[i] = sh_gravitation_ecef(model, p)
+
+
+@wp.kernel
+def sh_potential_kernel(
+    model: SHKernelModel,
+    pos: wp.array(dtype=wp.vec3d),
+    v_out: wp.array(dtype=wp.float64),
+    offset: wp.int32,
+):
+    """Potential (m²/s²) at scattered ECEF positions (m)."""
+    i = wp.tid() + offset
+    v_out[i] = sh_potential(model, pos[i])
