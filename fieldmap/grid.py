@@ -1,0 +1,413 @@
+"""Latitude-longitude grids: specification, validation and fast synthesis of gravitation.
+
+:class:`GridSpec` describes a grid of geodetic latitudes and longitudes (degrees) at one or more
+heights (m above the ellipsoid). :func:`synthesize` evaluates, on every node, the model
+gravitation minus a normal gravitation (the disturbance) or the model gravitation alone, in the
+geodetic east-north-up frame, by circles of latitude: one Legendre pass per (row, height) with
+:func:`fieldmap.kernels.grid.row_fourier_kernel`, then the longitude sums of all nodes of the row
+by FFT (regular longitudes) or a direct sum kernel (any longitudes). Rows are processed in
+blocks so memory stays bounded for any grid size and degree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+
+#: Lowest height accepted (m): the series is meant for points outside the masses.
+MIN_HEIGHT_M = -1000.0
+#: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
+BLOCK_BYTES = 192 * 2**20
+_EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A validated geodetic grid.
+
+    Attributes
+    ----------
+    lat : numpy.ndarray
+        Geodetic latitudes, ascending. Units: degrees.
+    lon : numpy.ndarray
+        Longitudes, ascending (may exceed 180 for a region crossing the antimeridian). Units: degrees.
+    heights : numpy.ndarray
+        Heights above the ellipsoid. Units: m.
+    step_deg : float
+        Nominal spacing. Units: degrees.
+    """
+
+    lat: np.ndarray
+    lon: np.ndarray
+    heights: np.ndarray
+    step_deg: float
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(number of heights, latitudes, longitudes)."""
+        return (self.heights.size, self.lat.size, self.lon.size)
+
+    @property
+    def region(self) -> tuple[float, float, float, float]:
+        """(west, east, south, north) of the nodes. Units: degrees."""
+        return (float(self.lon[0]), float(self.lon[-1]), float(self.lat[0]), float(self.lat[-1]))
+
+
+def _axis(start: float, stop: float, step: float) -> np.ndarray:
+    n = int(math.floor((stop - start) / step + _EPS)) + 1
+    return start + step * np.arange(n, dtype=np.float64)
+
+
+def make_grid(
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: tuple[float, float, float, float] | None = None,
+    heights_m=(20000.0,),
+) -> GridSpec:
+    """Build and validate a grid specification.
+
+    Parameters
+    ----------
+    step_deg : float
+        Node spacing in latitude and longitude. Units: degrees (> 0).
+    lat_max : float
+        Global grids span latitudes -lat_max..lat_max (the paper: 80) and longitudes
+        -180..180-step. Units: degrees (0..90).
+    region : (west, east, south, north), optional
+        Regional grid instead, nodes from west/south in steps up to east/north. east < west means
+        the region crosses the antimeridian. Units: degrees.
+    heights_m : sequence of float
+        Heights above the ellipsoid. Units: m (finite, >= -1000).
+
+    Raises
+    ------
+    InputError
+        Non-positive or non-finite step, latitude beyond +-90, empty region, bad heights.
+    """
+    try:
+        step = float(step_deg)
+    except (TypeError, ValueError):
+        raise InputError(f"step must be a number, got {step_deg!r}") from None
+    if not math.isfinite(step) or step <= 0:
+        raise InputError(f"step must be a positive number of degrees, got {step_deg!r}")
+    if step > 90:
+        raise InputError(f"step {step} deg is larger than 90 deg")
+    h = np.atleast_1d(np.asarray(heights_m, dtype=np.float64)).ravel()
+    if h.size == 0:
+        raise InputError("no height given")
+    if not np.all(np.isfinite(h)):
+        raise InputError(f"heights must be finite, got {h.tolist()}")
+    if np.any(h < MIN_HEIGHT_M):
+        raise InputError(
+            f"height {h.min():g} m is below {MIN_HEIGHT_M:g} m: the spherical-harmonic series is "
+            "meant for points outside the Earth's masses"
+        )
+    if region is None:
+        lm = float(lat_max)
+        if not math.isfinite(lm) or not 0 <= lm <= 90:
+            raise InputError(f"latitude limit must be within 0..90 deg, got {lat_max!r}")
+        lat = _axis(-lm, lm, step)
+        nlon = 360.0 / step
+        nlon = int(round(nlon)) if abs(nlon - round(nlon)) < 1e-6 else int(math.floor(nlon)) + 1
+        lon = -180.0 + step * np.arange(nlon, dtype=np.float64)
+        lon = lon[lon < 180.0 - _EPS]
+    else:
+        if len(region) != 4:
+            raise InputError(f"region must be west east south north, got {region!r}")
+        w, e, s, n = (float(x) for x in region)
+        if not all(math.isfinite(x) for x in (w, e, s, n)):
+            raise InputError(f"region bounds must be finite, got {region!r}")
+        if not (-90 <= s <= 90 and -90 <= n <= 90):
+            raise InputError(f"region latitudes must be within -90..90 deg, got south={s} north={n}")
+        if n < s:
+            raise InputError(f"empty region: north {n} is south of south {s}")
+        if not (-360 <= w <= 360 and -360 <= e <= 360):
+            raise InputError(f"region longitudes must be within -360..360 deg, got {w}, {e}")
+        if e < w:
+            e += 360.0
+        if e - w > 360.0 + _EPS:
+            raise InputError(f"region spans more than 360 deg of longitude ({w}..{e})")
+        lat = _axis(s, n, step)
+        lon = _axis(w, e, step)
+        if lon.size > 1 and lon[-1] - lon[0] >= 360.0 - _EPS:
+            lon = lon[:-1]
+    if lat.size == 0 or lon.size == 0:
+        raise InputError("empty grid")
+    if lat.size * lon.size * h.size > 2_000_000_000:
+        raise InputError(f"grid of {lat.size}x{lon.size}x{h.size} nodes is too large")
+    return GridSpec(lat=lat, lon=lon, heights=h, step_deg=step)
+
+
+def area_weights(lat_deg: np.ndarray) -> np.ndarray:
+    """Area weight of each latitude row of a grid (any longitude spacing).
+
+    Each node stands for the band between the mid-latitudes to its neighbours (half bands at the
+    ends of the grid), whose area on the sphere is proportional to the difference of the sines.
+
+    Parameters
+    ----------
+    lat_deg : numpy.ndarray
+        Ascending latitudes. Units: degrees.
+
+    Returns
+    -------
+    numpy.ndarray
+        Weights, summing to sin(last) - sin(first) (or 1 for a single row).
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64)
+    if lat.size == 1:
+        return np.ones(1)
+    edges = np.concatenate([[lat[0]], 0.5 * (lat[1:] + lat[:-1]), [lat[-1]]])
+    return np.diff(np.sin(np.radians(edges)))
+
+
+def _regular_period(lon_deg: np.ndarray) -> int | None:
+    """Number L of nodes on the full circle if the longitudes are lon0 + k*360/L, else None."""
+    if lon_deg.size < 2:
+        return None
+    step = (lon_deg[-1] - lon_deg[0]) / (lon_deg.size - 1)
+    if step <= 0:
+        return None
+    period = 360.0 / step
+    nper = int(round(period))
+    if abs(period - nper) > 1e-8 * period or nper < lon_deg.size or nper > 2**22:
+        return None
+    k = np.arange(lon_deg.size)
+    if np.max(np.abs(lon_deg - (lon_deg[0] + k * 360.0 / nper))) > 1e-9:
+        return None
+    return nper
+
+
+def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu") -> np.ndarray:
+    """Evaluate Re(sum_m W[..., m] e^{i m lon}) at every longitude.
+
+    Parameters
+    ----------
+    W : numpy.ndarray
+        Complex, shape (..., nm): W_m = A_m - i B_m for the series sum A_m cos + B_m sin.
+    lon_deg : numpy.ndarray
+        Longitudes. Units: degrees.
+    device : str
+        Warp device for the direct-sum fallback (irregular longitudes).
+
+    Returns
+    -------
+    numpy.ndarray
+        Real, shape (..., nlon).
+    """
+    lon_deg = np.asarray(lon_deg, dtype=np.float64)
+    lead, nm = W.shape[:-1], W.shape[-1]
+    W = W.reshape(-1, nm)
+    nper = _regular_period(lon_deg)
+    if nper is not None:
+        import scipy.fft
+
+        m = np.arange(nm)
+        # rotate so that node k sits at k * 2 pi / L, then alias orders m -> m mod L (exact there)
+        Z = W * np.exp(1j * m * np.radians(lon_deg[0]))
+        nfold = -(-nm // nper)
+        F = np.zeros((W.shape[0], nfold * nper), dtype=np.complex128)
+        F[:, :nm] = Z
+        F = F.reshape(W.shape[0], nfold, nper).sum(axis=1)
+        out = scipy.fft.ifft(F, axis=-1, norm="forward", workers=-1)[:, : lon_deg.size].real
+        return np.ascontiguousarray(out).reshape(*lead, lon_deg.size)
+    return _direct_sums(W, lon_deg, device).reshape(*lead, lon_deg.size)
+
+
+def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
+    import warp as wp
+
+    from . import _warp
+    from .kernels import grid as kgrid
+
+    _load(device)
+    nser, nm = W.shape
+    ab = np.stack([W.real, -W.imag], axis=-1)
+    coef = wp.array(np.ascontiguousarray(ab), dtype=wp.vec2d, device=device)
+    lon = wp.array(np.radians(lon_deg), dtype=wp.float64, device=device)
+    out = wp.zeros((nser, lon_deg.size), dtype=wp.float64, device=device)
+    _warp.launch_chunked(
+        kgrid.longitude_sum_kernel, nser * lon_deg.size,
+        [coef, lon, nm, lon_deg.size, out], device,
+    )
+    return out.numpy()
+
+
+QUANTITIES = ("disturbance", "gravitation", "gravity")
+
+
+_loaded: set = set()
+
+
+def _load(device: str) -> None:
+    """Compile/load the grid kernels once, before launch_chunked's threads race to do it."""
+    import warp as wp
+
+    from . import _warp
+    from .kernels import grid as kgrid
+
+    _warp.init()
+    if device not in _loaded:
+        wp.load_module(kgrid, device=device)
+        _loaded.add(device)
+
+
+def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
+    """Per-item geometry and normal gravitation (geodetic ENU), see ``row_setup_kernel``."""
+    import warp as wp
+
+    from . import _warp
+    from .kernels import grid as kgrid
+    from .normal import normal_params
+
+    _load(device)
+    n = lat_rad.size
+    lat = wp.array(lat_rad, dtype=wp.float64, device=device)
+    hh = wp.array(h_m, dtype=wp.float64, device=device)
+    outs = [wp.zeros(n, dtype=wp.float64, device=device) for _ in range(6)]
+    gamma = wp.zeros(n, dtype=wp.vec3d, device=device)
+    ell = normal_params(ellipsoid)
+    _warp.launch_chunked(
+        kgrid.row_setup_kernel, n,
+        [lat, hh, ell, wp.float64(radius), int(order), *outs, gamma], device,
+    )
+    return outs, gamma
+
+
+def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | None = None):
+    """Normal gravitation of every (height, row) in geodetic ENU (it does not depend on longitude).
+
+    Parameters
+    ----------
+    grid : GridSpec
+    ellipsoid : fieldmap.ellipsoid.Ellipsoid, optional
+        Default WGS84.
+    order : int
+        0 for the exact level-ellipsoid field, 2/4/6 for the J2/J4/J6 series (eqs. 7-13 of
+        Chen et al. 2022, corrected).
+    device : str, optional
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
+    """
+    from . import _warp
+    from .ellipsoid import WGS84
+
+    if order not in (0, 2, 4, 6):
+        raise InputError(f"normal-gravity order must be 2, 4 or 6, got {order!r}")
+    device = _warp.resolve_device(device)
+    ellipsoid = ellipsoid or WGS84
+    nh, nlat, _ = grid.shape
+    lat = np.tile(np.radians(grid.lat), nh)
+    h = np.repeat(grid.heights, nlat)
+    _, gamma = _row_setup(lat, h, ellipsoid, ellipsoid.a, order, device)
+    return gamma.numpy().reshape(nh, nlat, 3)
+
+
+def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
+    """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
+
+    Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
+    d = (N + h) cos(phi) the distance from the rotation axis.
+    """
+    from .ellipsoid import WGS84
+
+    ell = ellipsoid or WGS84
+    phi = np.radians(grid.lat)[None, :]
+    h = grid.heights[:, None]
+    nrad = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(phi) ** 2)
+    d = (nrad + h) * np.cos(phi)
+    w2 = ell.omega**2
+    out = np.zeros((grid.heights.size, grid.lat.size, 3))
+    out[..., 1] = -w2 * d * np.sin(phi)
+    out[..., 2] = w2 * d * np.cos(phi)
+    return out
+
+
+def synthesize(
+    model,
+    grid: GridSpec,
+    ellipsoid=None,
+    quantity: str = "disturbance",
+    device: str | None = None,
+    progress: bool | None = None,
+) -> np.ndarray:
+    """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
+
+    Parameters
+    ----------
+    model : fieldmap.model.SHModel
+        Fully normalised coefficients (GM and radius of the model are used as they are).
+    grid : GridSpec
+    ellipsoid : fieldmap.ellipsoid.Ellipsoid, optional
+        Normal field for the disturbance and frame for the geodetic coordinates. Default WGS84.
+    quantity : {"disturbance", "gravitation", "gravity"}
+        ``disturbance``: model gravitation minus exact normal gravitation (the centrifugal
+        parts cancel); ``gravitation``: model alone (eq. 3 of Chen et al. 2022); ``gravity``:
+        model plus centrifugal.
+    device : str, optional
+        Warp device (default: CUDA when present, else CPU on every core).
+    progress : bool, optional
+        Progress bar over row blocks; default: only for long runs on a terminal.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (nh, nlat, nlon, 3): east, north, up. Units: m/s².
+    """
+    import warp as wp
+    from tqdm.auto import tqdm
+
+    from . import _warp
+    from .ellipsoid import WGS84
+    from .kernels import grid as kgrid
+    from .sh import kernel_model
+
+    if quantity not in QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    ellipsoid = ellipsoid or WGS84
+    device = _warp.resolve_device(device)
+    _warp.init()
+    km = kernel_model(model, device)
+    nm = model.lmax + 1
+    nh, nlat, nlon = grid.shape
+    nitems = nh * nlat
+    lat_all = np.tile(np.radians(grid.lat), nh)
+    h_all = np.repeat(grid.heights, nlat)
+    nper = _regular_period(grid.lon) or nlon
+    per_item = nm * (6 * 8 + 3 * 16 * 2) + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
+    block = int(max(1, min(nitems, BLOCK_BYTES // per_item)))
+    if device == "cpu" and block < nitems:
+        block = max(block, min(nitems, _warp.cpu_workers()))
+    out = np.empty((nitems, nlon, 3))
+    work = float(nitems) * nm * nm
+    # tqdm: disable=None shows the bar on a terminal only
+    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
+    bar = tqdm(total=nitems, unit="row", desc="synthesis", disable=disable, leave=False)
+    cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
+    for start in range(0, nitems, block):
+        stop = min(nitems, start + block)
+        nb = stop - start
+        geo, gamma = _row_setup(
+            lat_all[start:stop], h_all[start:stop], ellipsoid, model.radius, 0, device
+        )
+        coef = wp.zeros((nb, nm), dtype=kgrid.vec6d, device=device)
+        _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
+        c = coef.numpy()
+        W = np.empty((nb, 3, nm), dtype=np.complex128)
+        for comp in range(3):
+            W[:, comp, :] = c[:, :, 2 * comp] - 1j * c[:, :, 2 * comp + 1]
+        if quantity == "disturbance":
+            W[:, :, 0] -= gamma.numpy()
+        elif quantity == "gravity":
+            W[:, :, 0] += cen[start:stop]
+        out[start:stop] = np.moveaxis(longitude_sums(W, grid.lon, device), 1, 2)
+        bar.update(nb)
+    bar.close()
+    return out.reshape(nh, nlat, nlon, 3)
