@@ -1,0 +1,37 @@
+"""Pluggable navigation gravitation for the strapdown kernels (float64, ECEF, no centrifugal).
+
+One device function dispatches on an integer kind so that one launch can propagate trajectories
+with different navigation gravity models (Chen et al. 2022, Table 1): the J2/J4/J6 truncations of
+eq. (13), the exact level-ellipsoid field and a spherical-harmonic model (eqs. 1-3) of any degree.
+"""
+
+import warp as wp
+
+from .normal import NormalParams, centrifugal_ecef, jn_gravitation, normal_gravitation_exact
+from .sh import SHKernelModel, sh_gravitation_ecef
+
+NAV_NORMAL_EXACT = wp.constant(0)
+NAV_SH = wp.constant(1)
+NAV_J2 = wp.constant(2)
+NAV_J4 = wp.constant(4)
+NAV_J6 = wp.constant(6)
+
+
+@wp.func
+def nav_gravitation_ecef(kind: int, p: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
+    """Gravitational acceleration at ECEF ``p`` for navigation gravity ``kind``.
+
+    kind: NAV_J2 / NAV_J4 / NAV_J6 (eq. 13 truncations), NAV_NORMAL_EXACT (closed-form level
+    ellipsoid) or NAV_SH (``sh`` up to ``sh.lmax``). Units: m -> m/s², ECEF components.
+    """
+    if kind == NAV_SH:
+        return sh_gravitation_ecef(sh, p)
+    if kind == NAV_NORMAL_EXACT:
+        return normal_gravitation_exact(p, ell)
+    return jn_gravitation(p, ell, kind)
+
+
+@wp.func
+def nav_gravity_ecef(kind: int, p: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
+    """Gravity (gravitation + centrifugal, Groves eq. 3.7.5) at ECEF ``p``. Units: m -> m/s²."""
+    return nav_gravitation_ecef(kind, p, ell, sh) + centrifugal_ecef(p, ell.omega)
