@@ -110,7 +110,7 @@ def normal_gravity(
     device: str | None = None,
     groves_j2: float | None = GROVES_J2,
 ) -> np.ndarray:
-    """Normal gravity vector at geodetic points.
+    """Compute the normal gravity vector at geodetic points.
 
     Parameters
     ----------
@@ -185,7 +185,7 @@ def normal_gravitation_ecef(
     centrifugal: bool = False,
     groves_j2: float | None = GROVES_J2,
 ) -> np.ndarray:
-    """Normal gravitation (default) or gravity at ECEF points, ECEF components.
+    """Compute normal gravitation (default) or gravity at ECEF points, ECEF components.
 
     Parameters
     ----------

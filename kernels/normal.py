@@ -160,7 +160,7 @@ def normal_gravitation_exact(p: wp.vec3d, ell: NormalParams):
 
 @wp.func
 def jn_gravitation(p: wp.vec3d, ell: NormalParams, order: int):
-    r"""Truncated zonal gravitation (J2, J2+J4 or J2+J4+J6) at ECEF ``p``. Units: m/s².
+    r"""Return the truncated zonal gravitation (J2, J2+J4 or J2+J4+J6) at ECEF ``p``. Units: m/s².
 
     Chen et al. (2022) eq. (13), corrected. With s = z/ρ and t = (a/ρ)²:
 
@@ -220,7 +220,7 @@ def centrifugal_ecef(p: wp.vec3d, omega: wp.float64):
 
 @wp.func
 def normal_field_ecef(p: wp.vec3d, ell: NormalParams, kind: int, with_centrifugal: int):
-    """Normal gravitation (kind 0: exact; 2, 4, 6: J-truncated) plus optional centrifugal, ECEF."""
+    """Return normal gravitation (kind 0: exact; 2, 4, 6: J-truncated) [+ centrifugal], ECEF."""
     g = wp.vec3d(_ZERO, _ZERO, _ZERO)
     if kind == KIND_EXACT:
         g = normal_gravitation_exact(p, ell)
@@ -243,7 +243,7 @@ def normal_points_kernel(
     out: wp.array(dtype=wp.vec3d),
     offset: wp.int32,
 ):
-    """Normal gravity at geodetic points (lat, lon in rad, h in m) in ECEF, ENU or NED (m/s²)."""
+    """Evaluate normal gravity at geodetic points (lat, lon rad, h m) in ECEF/ENU/NED (m/s²)."""
     i = wp.tid() + offset
     p = geodetic_to_ecef(lat[i], lon[i], h[i], ell.a, ell.e2)
     g = normal_field_ecef(p, ell, kind, with_centrifugal)
@@ -263,6 +263,6 @@ def normal_ecef_kernel(
     out: wp.array(dtype=wp.vec3d),
     offset: wp.int32,
 ):
-    """Normal gravitation (+ optional centrifugal) at ECEF points (m), ECEF result (m/s²)."""
+    """Evaluate normal gravitation (+ centrifugal) at ECEF points (m), ECEF result (m/s²)."""
     i = wp.tid() + offset
     out[i] = normal_field_ecef(pts[i], ell, kind, with_centrifugal)

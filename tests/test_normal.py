@@ -28,7 +28,7 @@ def _ecef(lat, lon, h, ell):
 
 
 def _assert_vec_close(got, want, rel, scale=None):
-    """max |got − want| ≤ rel · |want| point by point (vector norm)."""
+    """Assert max |got − want| ≤ rel · |want| point by point (vector norm)."""
     scale = np.linalg.norm(want, axis=-1) if scale is None else scale
     err = np.linalg.norm(got - want, axis=-1) / scale
     assert np.all(err <= rel), f"max rel error {err.max():.3e} > {rel:.1e}"

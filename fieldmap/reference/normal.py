@@ -121,7 +121,8 @@ def exact_gravitation_ecef(x, y, z, ell: Ellipsoid):
 def legendre_and_derivative(nmax: int, t):
     """Legendre polynomials P_n(t) and P_n'(t), n = 0..nmax, shape (nmax+1, ...).
 
-    Bonnet's recursion n P_n = (2n−1) t P_{n−1} − (n−1) P_{n−2}, and P_n' = P_{n−2}' + (2n−1) P_{n−1}
+    Bonnet's recursion n P_n = (2n−1) t P_{n−1} − (n−1) P_{n−2}, and
+    P_n' = P_{n−2}' + (2n−1) P_{n−1}
     (valid at t = ±1, unlike the (1 − t²) form).
     """
     t = np.asarray(t, dtype=np.float64)
@@ -137,7 +138,8 @@ def legendre_and_derivative(nmax: int, t):
     return P, dP
 
 
-def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40, radius: float | None = None):
+def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40,
+                             radius: float | None = None):
     r"""Gradient of V = (GM/r)[1 − Σ_{n=1}^{nmax} J_{2n} (R/r)^{2n} P_{2n}(z/r)]. (..., 3), m/s².
 
     Chen et al. (2022) eq. (6)/(7); J_{2n} from :meth:`Ellipsoid.J2n` (H&M eq. 2-92), R = a by
@@ -177,7 +179,7 @@ def _p2n(n: int, s):
 
 
 def jn_potential(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None):
-    """Truncated zonal potential, Chen et al. (2022) eq. (7) up to J_order (2, 4, 6). m²/s²."""
+    """Return the zonal potential of Chen et al. (2022) eq. (7) up to J_order (2, 4, 6). m²/s²."""
     rho = np.sqrt(x * x + y * y + z * z)
     s = z / rho
     J = {1: ell.J2 if j2 is None else j2, 2: ell.J4, 3: ell.J6}
@@ -208,7 +210,8 @@ def groves_j2_gravitation(x, y, z, mu: float, J2: float, R0: float):
     r = np.sqrt(x * x + y * y + z * z)
     zr2 = (z / r) ** 2
     k = 1.5 * J2 * R0**2 / r**2
-    vec = np.stack([x + k * (1 - 5 * zr2) * x, y + k * (1 - 5 * zr2) * y, z + k * (3 - 5 * zr2) * z])
+    vec = np.stack([x + k * (1 - 5 * zr2) * x, y + k * (1 - 5 * zr2) * y,
+                    z + k * (3 - 5 * zr2) * z])
     return np.moveaxis(-mu / r**3 * vec, 0, -1)
 
 
@@ -243,7 +246,7 @@ def _ned_basis(lat, lon):
 
 def normal_gravity(lat_deg, lon_deg, h, ell: Ellipsoid, kind="exact", centrifugal=True,
                    frame="enu", groves_j2=1.082627e-3):
-    """Reference normal gravity at geodetic points, same conventions as ``fieldmap.normal``."""
+    """Compute normal gravity at geodetic points (reference), conventions of ``fieldmap.normal``."""
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
     lat, lon, h = np.broadcast_arrays(lat, lon, np.asarray(h, dtype=np.float64))
     x, y, z = _geodetic_to_ecef(lat, lon, h, ell)
