@@ -1,0 +1,100 @@
+"""Area-weighted statistics of latitude-longitude maps.
+
+Every node of a grid stands for the area of its cell; on a regular grid that area is
+proportional to the band of latitude the node covers (:func:`fieldmap.grid.area_weights`), so
+a plain node count would over-weight high latitudes by 1/cos(latitude). Chen et al. (2022) §4.1
+quote "the fraction of the total area" above a threshold: that is the area-weighted fraction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .grid import area_weights
+
+#: 1 mg = 1e-3 g with standard gravity g = 9.80665 m/s² (Chen et al. 2022, §4.1). Units: m/s².
+MG = 9.80665e-3
+#: 1 mGal = 1e-5 m/s². Units: m/s².
+MGAL = 1e-5
+
+DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
+DEFAULT_PERCENTILES = (50.0, 90.0, 99.0)
+
+
+def weights_2d(lat_deg: np.ndarray, nlon: int) -> np.ndarray:
+    """Area weight of every node of a (lat, lon) map, normalised to sum 1."""
+    w = np.repeat(area_weights(lat_deg)[:, None], nlon, axis=1)
+    return w / w.sum()
+
+
+def weighted_percentile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
+    """Weighted percentile (0..100): smallest value whose cumulative weight reaches q %."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    order = np.argsort(v, kind="stable")
+    cw = np.cumsum(w[order])
+    k = int(np.searchsorted(cw, q / 100.0 * cw[-1], side="left"))
+    return float(v[order[min(k, v.size - 1)]])
+
+
+def map_statistics(
+    modulus_mg: np.ndarray,
+    lat_deg: np.ndarray,
+    thresholds_mg=DEFAULT_THRESHOLDS_MG,
+    percentiles=DEFAULT_PERCENTILES,
+) -> dict:
+    """Statistics of a modulus map with area weights.
+
+    Parameters
+    ----------
+    modulus_mg : numpy.ndarray
+        Shape (nlat, nlon). Units: mg.
+    lat_deg : numpy.ndarray
+        Latitudes of the rows. Units: degrees.
+    thresholds_mg : sequence of float
+        Units: mg.
+    percentiles : sequence of float
+        0..100.
+
+    Returns
+    -------
+    dict
+        ``max_mg``, ``min_mg``, ``mean_mg`` (area-weighted), ``rms_mg``, ``p<q>_mg``,
+        ``area_fraction_above`` {threshold (str, mg): fraction 0..1}.
+    """
+    v = np.asarray(modulus_mg, dtype=np.float64)
+    if v.ndim != 2 or v.shape[0] != np.size(lat_deg):
+        raise ValueError("modulus must be (nlat, nlon) matching the latitudes")
+    if not np.all(np.isfinite(v)):
+        raise ValueError("map holds non-finite values")
+    w = weights_2d(lat_deg, v.shape[1])
+    out = {
+        "max_mg": float(v.max()),
+        "min_mg": float(v.min()),
+        "mean_mg": float(np.sum(w * v)),
+        "rms_mg": float(np.sqrt(np.sum(w * v * v))),
+    }
+    for q in percentiles:
+        out[f"p{q:g}_mg"] = weighted_percentile(v, w, q)
+    out["area_fraction_above"] = {
+        threshold_key(t): float(np.sum(w[v > t])) for t in thresholds_mg
+    }
+    return out
+
+
+def threshold_key(t: float) -> str:
+    """JSON key of a threshold in mg, e.g. 0.1 -> "0.1", 0.05 -> "0.05"."""
+    return f"{float(t):g}"
+
+
+def parse_thresholds(values) -> tuple[float, ...]:
+    """Validate thresholds (mg): finite, positive, sorted, unique."""
+    from .errors import InputError
+
+    try:
+        vals = sorted({float(v) for v in values})
+    except (TypeError, ValueError):
+        raise InputError(f"thresholds must be numbers in mg, got {values!r}") from None
+    if not vals or not all(np.isfinite(v) and v > 0 for v in vals):
+        raise InputError(f"thresholds must be positive finite numbers in mg, got {values!r}")
+    return tuple(vals)
