@@ -1,16 +1,17 @@
-"""Launch frames of Chen et al. (2022) §3.2: t-frame, l-frame, launch-centred inertial a-frame (NumPy).
+"""Launch frames of Chen et al. (2022) §3.2: t-, l- and launch-centred inertial a-frame (NumPy).
 
 Frames (all right-handed):
 
 * **e** — ECEF.
-* **t** — launch Earth-centred inertial frame: coincides with ECEF at the launch epoch t = 0 and
-  stays fixed in inertial space, so ``r_t = R_e^t(t) r_e`` with ``R_e^t`` the rotation by +ω·t about
-  the polar axis (eq. 19).
+* **t** — launch Earth-centred inertial frame: coincides with ECEF at the launch epoch t = 0
+  and stays fixed in inertial space, so ``r_t = R_e^t(t) r_e`` with ``R_e^t`` the rotation by
+  +ω·t about the polar axis (eq. 19).
 * **l** — local frame of the geocentric spherical coordinates (east, north, up along the
   coordinate lines of geocentric latitude φ and longitude λ) at the current point (eq. 16).
 * **a** — launch-centred inertial frame: origin at the launch point (fixed in inertial space at
-  its t = 0 position), y along the geodetic up of the launch point, x horizontal towards the launch
-  azimuth A0 (clockwise from north), z = x × y (eq. 17). Positions: ``P_a = R_t^a (r_t − r_launch)``.
+  its t = 0 position), y along the geodetic up of the launch point, x horizontal towards the
+  launch azimuth A0 (clockwise from north), z = x × y (eq. 17).
+  Positions: ``P_a = R_t^a (r_t − r_launch)``.
 
 Misprints found in the printed equations (checked numerically in ``tests/test_launch_frames.py``):
 
@@ -35,7 +36,7 @@ from .frames import geodetic_to_ecef
 
 
 def C_e_to_t(t, omega: float = WGS84.omega):
-    """Rotation ECEF -> launch Earth-centred inertial t-frame at time t after launch, eq. (19).
+    r"""Rotation ECEF -> launch Earth-centred inertial t-frame at time t after launch, eq. (19).
 
     Units: t in s, omega in rad/s. Returns shape ``(..., 3, 3)``.
 

@@ -46,11 +46,14 @@ def quat_to_dcm(q) -> np.ndarray:
     q = np.asarray(q, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
 
 
 def dcm_to_quat(C) -> np.ndarray:
@@ -65,7 +68,7 @@ def dcm_to_quat(C) -> np.ndarray:
 
 
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
-    """Navigation gravity name (``j2``, ``j4``, ``j6``, ``normal``, ``sh``, ``sh18``...) -> (kind, lmax)."""
+    """Navigation gravity name (``j2``, ``j4``, ``j6``, ``normal``, ``sh``, ``shN``) -> (kind, lmax)."""
     key = str(name).strip().lower()
     if key in ("j2", "j4", "j6", "normal"):
         return GRAVITY_KINDS[key], 0
@@ -76,7 +79,9 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
         raise InputError(f"navigation gravity {name!r} needs an SH model (sh_model=...)")
     deg = sh_model.lmax if m.group(1) is None else int(m.group(1))
     if deg < 2 or deg > sh_model.lmax:
-        raise InputError(f"SH degree {deg} of {name!r} is outside 2..{sh_model.lmax} of {sh_model.name}")
+        raise InputError(
+            f"SH degree {deg} of {name!r} is outside 2..{sh_model.lmax} of {sh_model.name}"
+        )
     return GRAVITY_KINDS["sh"], deg
 
 
@@ -85,7 +90,7 @@ def _finite(name, a, shape_tail=None) -> np.ndarray:
         a = np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be numeric") from None
-    if shape_tail and a.shape[-len(shape_tail):] != shape_tail:
+    if shape_tail and a.shape[-len(shape_tail) :] != shape_tail:
         raise InputError(f"{name} must have trailing shape {shape_tail}, got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise InputError(f"{name} contains non-finite values")
@@ -106,8 +111,9 @@ def _dummy_sh(device: str):
 
     km = ksh.SHKernelModel()
     one = np.ones((1, 1))
-    km.cnm, km.snm, km.anm, km.bnm, km.fnm = (wp.array(one, dtype=wp.float64, device=device)
-                                               for _ in range(5))
+    km.cnm, km.snm, km.anm, km.bnm, km.fnm = (
+        wp.array(one, dtype=wp.float64, device=device) for _ in range(5)
+    )
     km.sect = wp.array(np.ones(1), dtype=wp.float64, device=device)
     km.lmax = 0
     km.gm = wp.float64(WGS84.GM)
@@ -126,9 +132,24 @@ def launch_params(frame: LaunchFrame):
     return lp
 
 
-def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=None,
-                  ellipsoid: Ellipsoid | str = WGS84, imu_set=None, errors=None, t0=0.0,
-                  output_every=1, device=None) -> LciResult:
+def propagate_lci(
+    dtheta,
+    dv,
+    dt,
+    P0,
+    V0,
+    q0,
+    launch,
+    gravity="j4",
+    *,
+    sh_model=None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    imu_set=None,
+    errors=None,
+    t0=0.0,
+    output_every=1,
+    device=None,
+) -> LciResult:
     """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
 
     Parameters
@@ -174,7 +195,9 @@ def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=
     if dtheta.ndim == 2:
         dtheta, dv = dtheta[None], (dv[None] if dv.ndim == 2 else dv)
     if dtheta.ndim != 3 or dv.shape != dtheta.shape:
-        raise InputError(f"dtheta {dtheta.shape} and dv {dv.shape} must match, (n_sets, n_samples, 3)")
+        raise InputError(
+            f"dtheta {dtheta.shape} and dv {dv.shape} must match, (n_sets, n_samples, 3)"
+        )
     n_sets, n_samples = dtheta.shape[:2]
     if n_samples < 2 or n_samples % 2:
         raise InputError(f"need an even number (>= 2) of IMU samples, got {n_samples}")
@@ -191,6 +214,10 @@ def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=
         lens.append(a.shape[0] if a.ndim == 2 else 1)
     if imu_set is not None:
         lens.append(np.size(imu_set))
+    tails = {"acc_bias": 1, "gyro_bias": 1, "acc_M": 2, "gyro_M": 2}
+    for key, val in (errors or {}).items():
+        val = np.asarray(val)
+        lens.append(val.shape[0] if val.ndim > tails.get(key, 0) else 1)
     n = max(lens)
     if len(names) == 1:
         names = names * n
@@ -209,14 +236,26 @@ def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=
     if np.any(np.abs(norms - 1.0) > 1e-6):
         raise InputError("q0 must be unit quaternions")
     q0_xyzw = np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
-    frame = launch if isinstance(launch, LaunchFrame) else LaunchFrame(*launch, ellipsoid=get_ellipsoid(ellipsoid))
+    frame = (
+        launch
+        if isinstance(launch, LaunchFrame)
+        else LaunchFrame(*launch, ellipsoid=get_ellipsoid(ellipsoid))
+    )
     device = _warp.resolve_device(device)
 
     from .kernels import strapdown as ksd
     from .normal import normal_params
 
     err = errors or {}
-    unknown = set(err) - {"acc_bias", "gyro_bias", "acc_M", "gyro_M", "acc_noise", "gyro_noise", "seed"}
+    unknown = set(err) - {
+        "acc_bias",
+        "gyro_bias",
+        "acc_M",
+        "gyro_M",
+        "acc_noise",
+        "gyro_noise",
+        "seed",
+    }
     if unknown:
         raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
     se = ksd.SensorErrors()
@@ -227,7 +266,9 @@ def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=
     se.gyro_M = arr(_per_traj("gyro_M", err.get("gyro_M", np.eye(3)), n, (3, 3)), wp.mat33d)
     se.acc_noise = arr(_per_traj("acc_noise", err.get("acc_noise", 0.0), n, ()), wp.float64)
     se.gyro_noise = arr(_per_traj("gyro_noise", err.get("gyro_noise", 0.0), n, ()), wp.float64)
-    se.seed = arr(_per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32), wp.int32)
+    se.seed = arr(
+        _per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32), wp.int32
+    )
 
     sh_lmax = int(kl[:, 1].max())
     if sh_lmax > 0:
@@ -243,14 +284,33 @@ def propagate_lci(dtheta, dv, dt, P0, V0, q0, launch, gravity="j4", *, sh_model=
     q_out = wp.zeros((n, n_out), dtype=wp.quatd, device=device)
     wp.load_module(ksd, device=device)
     inputs = [
-        arr(dtheta, wp.vec3d), arr(dv, wp.vec3d), arr(imu_set.astype(np.int32), wp.int32), se,
-        arr(P0, wp.vec3d), arr(V0, wp.vec3d), arr(q0_xyzw, wp.quatd),
-        arr(np.ascontiguousarray(kl[:, 0]), wp.int32), arr(np.ascontiguousarray(kl[:, 1]), wp.int32),
-        launch_params(frame), normal_params(frame.ellipsoid), shk, wp.float64(dt),
-        wp.float64(t0), n_steps, output_every, P_out, V_out, q_out,
+        arr(dtheta, wp.vec3d),
+        arr(dv, wp.vec3d),
+        arr(imu_set.astype(np.int32), wp.int32),
+        se,
+        arr(P0, wp.vec3d),
+        arr(V0, wp.vec3d),
+        arr(q0_xyzw, wp.quatd),
+        arr(np.ascontiguousarray(kl[:, 0]), wp.int32),
+        arr(np.ascontiguousarray(kl[:, 1]), wp.int32),
+        launch_params(frame),
+        normal_params(frame.ellipsoid),
+        shk,
+        wp.float64(dt),
+        wp.float64(t0),
+        n_steps,
+        output_every,
+        P_out,
+        V_out,
+        q_out,
     ]
     _warp.launch_chunked(ksd.lci_kernel, n, inputs, device)
     q = q_out.numpy()
     t = t0 + 2.0 * dt * output_every * np.arange(n_out)
-    return LciResult(t=t, P=P_out.numpy(), V=V_out.numpy(),
-                     q=np.concatenate([q[..., 3:], q[..., :3]], axis=-1), gravity=tuple(names))
+    return LciResult(
+        t=t,
+        P=P_out.numpy(),
+        V=V_out.numpy(),
+        q=np.concatenate([q[..., 3:], q[..., :3]], axis=-1),
+        gravity=tuple(names),
+    )

@@ -26,9 +26,15 @@ def C_t_to_a(lon0: wp.float64, B0: wp.float64, A0: wp.float64):
     sl = wp.sin(lon0)
     cl = wp.cos(lon0)
     return wp.mat33d(
-        -sA * sl - cA * sB * cl, sA * cl - cA * sB * sl, cA * cB,
-        cB * cl, cB * sl, sB,
-        -cA * sl + sA * sB * cl, cA * cl + sA * sB * sl, -sA * cB,
+        -sA * sl - cA * sB * cl,
+        sA * cl - cA * sB * sl,
+        cA * cB,
+        cB * cl,
+        cB * sl,
+        sB,
+        -cA * sl + sA * sB * cl,
+        cA * cl + sA * sB * sl,
+        -sA * cB,
     )
 
 

@@ -52,7 +52,12 @@ def quat_from_rotvec(phi: wp.vec3d):
     k = _ZERO
     if a2 < wp.float64(1.0e-6):
         # cos(a/2) and sin(a/2)/a to a^6 / a^4 terms: truncation < a^8/10^7 < 1e-30
-        w = _ONE - a2 / wp.float64(8.0) + a2 * a2 / wp.float64(384.0) - a2 * a2 * a2 / wp.float64(46080.0)
+        w = (
+            _ONE
+            - a2 / wp.float64(8.0)
+            + a2 * a2 / wp.float64(384.0)
+            - a2 * a2 * a2 / wp.float64(46080.0)
+        )
         k = _HALF - a2 / wp.float64(48.0) + a2 * a2 / wp.float64(3840.0)
     else:
         a = wp.sqrt(a2)
@@ -113,15 +118,35 @@ def lci_kernel(
         dv1 = err.acc_M[i] * dvel[s, 2 * k] + err.acc_bias[i] * dt
         dv2 = err.acc_M[i] * dvel[s, 2 * k + 1] + err.acc_bias[i] * dt
         if sg != _ZERO:
-            th1 = th1 + sg * wp.vec3d(wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state)))
-            th2 = th2 + sg * wp.vec3d(wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state)))
+            th1 = th1 + sg * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
+            th2 = th2 + sg * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
         if sa != _ZERO:
-            dv1 = dv1 + sa * wp.vec3d(wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state)))
-            dv2 = dv2 + sa * wp.vec3d(wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state)))
+            dv1 = dv1 + sa * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
+            dv2 = dv2 + sa * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
         th = th1 + th2
         dvb = dv1 + dv2
         phi = th + _TWO_THIRDS * wp.cross(th1, th2)
-        dvb = dvb + _HALF * wp.cross(th, dvb) + _TWO_THIRDS * (wp.cross(th1, dv2) + wp.cross(dv1, th2))
+        dvb = (
+            dvb
+            + _HALF * wp.cross(th, dvb)
+            + _TWO_THIRDS * (wp.cross(th1, dv2) + wp.cross(dv1, th2))
+        )
         dv_a = wp.quat_rotate(q, dvb)
         t_mid = t0 + T * wp.float64(k) + dt
         r_e = a_to_ecef(lp, P + V * (_HALF * T), t_mid)

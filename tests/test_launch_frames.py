@@ -21,8 +21,9 @@ W = WGS84.omega
 
 
 def _orthonormal(C):
-    np.testing.assert_allclose(C @ np.swapaxes(C, -1, -2), np.broadcast_to(np.eye(3), C.shape),
-                               rtol=0, atol=2e-15)
+    np.testing.assert_allclose(
+        C @ np.swapaxes(C, -1, -2), np.broadcast_to(np.eye(3), C.shape), rtol=0, atol=2e-15
+    )
     np.testing.assert_allclose(np.linalg.det(C), 1.0, rtol=0, atol=2e-15)
 
 
@@ -31,12 +32,14 @@ def test_matrices_are_rotations(launch):
     _orthonormal(C_t_to_a(*launch))
     t = np.array([0.0, 17.0, 3600.0, 86164.0])
     _orthonormal(C_e_to_t(t))
-    _orthonormal(C_l_to_t(np.array([-40.0, 0.0, 33.0, 89.0]), np.array([5.0, 100.0, -120.0, 0.0]), t))
+    _orthonormal(
+        C_l_to_t(np.array([-40.0, 0.0, 33.0, 89.0]), np.array([5.0, 100.0, -120.0, 0.0]), t)
+    )
     _orthonormal(C_e_to_a(t, *launch))
 
 
 def test_printed_R11_is_a_misprint():
-    # eq. (17) as printed: R11 with cos B0 -> rows no longer orthonormal (unless B0 = 45° or cos A0 = 0).
+    # eq. (17) as printed: R11 with cos B0 -> rows not orthonormal (unless B0 = 45° or cos A0 = 0)
     C = C_t_to_a(105.3, 27.1, 63.0, printed=True)
     assert np.abs(C @ C.T - np.eye(3)).max() > 1e-2
     np.testing.assert_allclose(C[0, 1:], C_t_to_a(105.3, 27.1, 63.0)[0, 1:], rtol=0, atol=0)
@@ -83,8 +86,11 @@ def test_round_trips_and_origin(launch):
     # the launch point stays in place in ECEF; in the a-frame it drifts by Earth rotation
     # closed form: the chord of a circle of radius rho = hypot(x, y) turned by ω t
     rho = np.hypot(*lf.r_launch[:2])
-    np.testing.assert_allclose(np.linalg.norm(lf.ecef_to_a(lf.r_launch, 600.0)),
-                               2 * rho * np.sin(W * 600.0 / 2), rtol=1e-12)
+    np.testing.assert_allclose(
+        np.linalg.norm(lf.ecef_to_a(lf.r_launch, 600.0)),
+        2 * rho * np.sin(W * 600.0 / 2),
+        rtol=1e-12,
+    )
     # a-frame "up" at launch is the geodetic up: a point 1 km above launch at t=0 is at y = 1 km
     lat, lon, _ = LAUNCHES[0][1], LAUNCHES[0][0], 0
     lf0 = LaunchFrame(lon, lat, 30.0)
@@ -94,7 +100,8 @@ def test_round_trips_and_origin(launch):
 
 def _geocentric(r):
     return np.degrees(np.arctan2(r[..., 2], np.hypot(r[..., 0], r[..., 1]))), np.degrees(
-        np.arctan2(r[..., 1], r[..., 0]))
+        np.arctan2(r[..., 1], r[..., 0])
+    )
 
 
 @pytest.mark.parametrize("launch", LAUNCHES)
@@ -121,10 +128,17 @@ from fieldmap.kernels import launch_frames as klf  # noqa: E402
 
 
 @wp.kernel
-def _frames_kernel(lp: klf.LaunchParams, P: wp.array(dtype=wp.vec3d), t: wp.array(dtype=wp.float64),
-                   r_out: wp.array(dtype=wp.vec3d), back: wp.array(dtype=wp.vec3d),
-                   rot: wp.array(dtype=wp.vec3d), lt: wp.array(dtype=wp.mat33d),
-                   lat_gc: wp.float64, lon: wp.float64):
+def _frames_kernel(
+    lp: klf.LaunchParams,
+    P: wp.array(dtype=wp.vec3d),
+    t: wp.array(dtype=wp.float64),
+    r_out: wp.array(dtype=wp.vec3d),
+    back: wp.array(dtype=wp.vec3d),
+    rot: wp.array(dtype=wp.vec3d),
+    lt: wp.array(dtype=wp.mat33d),
+    lat_gc: wp.float64,
+    lon: wp.float64,
+):
     i = wp.tid()
     r = klf.a_to_ecef(lp, P[i], t[i])
     r_out[i] = r
@@ -143,8 +157,12 @@ def test_warp_frames_match_numpy(device):
     _warp.init()
     lf = LaunchFrame(105.3, 27.1, 63.0, h0=500.0)
     cta = wp.zeros(1, dtype=wp.mat33d, device=device)
-    wp.launch(_cta_kernel, dim=1, inputs=[np.radians(lf.lon0), np.radians(lf.B0), np.radians(lf.A0),
-                                          cta], device=device)
+    wp.launch(
+        _cta_kernel,
+        dim=1,
+        inputs=[np.radians(lf.lon0), np.radians(lf.B0), np.radians(lf.A0), cta],
+        device=device,
+    )
     np.testing.assert_allclose(cta.numpy()[0], lf.C_t_to_a, rtol=0, atol=1e-15)
     lp = klf.LaunchParams()
     lp.C_t_to_a = wp.mat33d(*lf.C_t_to_a.ravel())
@@ -155,9 +173,20 @@ def test_warp_frames_match_numpy(device):
     t = rng.uniform(0, 3000, 64)
     outs = [wp.zeros(64, dtype=wp.vec3d, device=device) for _ in range(3)]
     lt = wp.zeros(64, dtype=wp.mat33d, device=device)
-    wp.launch(_frames_kernel, dim=64, inputs=[lp, wp.array(P, dtype=wp.vec3d, device=device),
-              wp.array(t, dtype=wp.float64, device=device), *outs, lt, np.radians(31.0),
-              np.radians(-12.0)], device=device)
+    wp.launch(
+        _frames_kernel,
+        dim=64,
+        inputs=[
+            lp,
+            wp.array(P, dtype=wp.vec3d, device=device),
+            wp.array(t, dtype=wp.float64, device=device),
+            *outs,
+            lt,
+            np.radians(31.0),
+            np.radians(-12.0),
+        ],
+        device=device,
+    )
     r, back, rot = (o.numpy() for o in outs)
     np.testing.assert_allclose(r, lf.a_to_ecef(P, t), rtol=1e-15, atol=1e-8)
     np.testing.assert_allclose(back, P, rtol=0, atol=1e-8)

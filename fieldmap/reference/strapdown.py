@@ -26,8 +26,20 @@ def rodrigues(phi: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + c * (K @ K)
 
 
-def propagate_lci_reference(dtheta, dv, dt, P0, V0, C0, frame: LaunchFrame, gravitation_ecef,
-                            t0=0.0, output_every=1, acc_bias=None, gyro_bias=None):
+def propagate_lci_reference(
+    dtheta,
+    dv,
+    dt,
+    P0,
+    V0,
+    C0,
+    frame: LaunchFrame,
+    gravitation_ecef,
+    t0=0.0,
+    output_every=1,
+    acc_bias=None,
+    gyro_bias=None,
+):
     """Two-sample LCI propagation of n trajectories.
 
     Parameters

@@ -1,0 +1,343 @@
+"""LCI strapdown kernel: NumPy reference, closed forms (bias, gravity offset, coning), inputs."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from fieldmap import _warp
+from fieldmap.ellipsoid import WGS84
+from fieldmap.errors import InputError
+from fieldmap.launch_frames import LaunchFrame
+from fieldmap.reference import normal as rnorm
+from fieldmap.reference.strapdown import propagate_lci_reference
+from fieldmap.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+
+DEVICES = _warp.devices()
+FRAME = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
+
+
+def _g_ref(kind):
+    """Independent NumPy gravitation callables (fieldmap.reference.normal, Groves eq. 3.7.7)."""
+    if kind == "j2":
+        return lambda r: rnorm.groves_j2_gravitation(
+            r[:, 0], r[:, 1], r[:, 2], WGS84.GM, WGS84.J2, WGS84.a
+        )
+    if kind == "normal":
+        return lambda r: rnorm.exact_gravitation_ecef(r[:, 0], r[:, 1], r[:, 2], WGS84)
+    order = int(kind[1])
+    return lambda r: rnorm.jn_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84, order)
+
+
+def _random_motion(n, ns, dt, seed=0):
+    rng = np.random.default_rng(seed)
+    dth = rng.normal(0, 0.2, (n, ns, 3)) * dt
+    dv = (rng.normal(0, 3, (n, ns, 3)) + [0, 9.8, 0]) * dt
+    P0 = rng.normal(0, 100, (n, 3)) + [0, 20e3, 0]
+    V0 = rng.normal(0, 300, (n, 3))
+    q0 = dcm_to_quat(Rotation.random(n, random_state=rng).as_matrix())
+    return dth, dv, P0, V0, q0
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_kernel_equals_reference(device):
+    kinds = ["j2", "j4", "j6", "normal"]
+    n, ns, dt = 8, 1200, 0.005
+    dth, dv, P0, V0, q0 = _random_motion(n, ns, dt)
+    sets = np.arange(n) % 4  # trajectories share increment sets
+    res = propagate_lci(
+        dth[:4],
+        dv[:4],
+        dt,
+        P0,
+        V0,
+        q0,
+        FRAME,
+        kinds * 2,
+        imu_set=sets,
+        output_every=50,
+        t0=12.5,
+        device=device,
+    )
+    for kind in kinds:
+        sel = [i for i in range(n) if res.gravity[i] == kind]
+        ts, P, V, C = propagate_lci_reference(
+            dth[sets[sel]],
+            dv[sets[sel]],
+            dt,
+            P0[sel],
+            V0[sel],
+            quat_to_dcm(q0[sel]),
+            FRAME,
+            _g_ref(kind),
+            t0=12.5,
+            output_every=50,
+        )
+        np.testing.assert_allclose(res.t, ts, rtol=1e-15)
+        scale = np.abs(P).max()
+        assert np.abs(res.P[sel] - P).max() <= 1e-12 * scale + 1e-9, kind
+        assert np.abs(res.V[sel] - V).max() <= 1e-12 * np.abs(V).max(), kind
+        assert np.abs(quat_to_dcm(res.q[sel]) - C).max() <= 1e-12, kind
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_sh_kind_equals_reference(device):
+    from fieldmap.models import load_model
+    from fieldmap.reference import sh as rsh
+
+    model = load_model("eigen-6s", lmax=24)
+    n, ns, dt = 2, 200, 0.01
+    dth, dv, P0, V0, q0 = _random_motion(n, ns, dt, seed=3)
+    res = propagate_lci(
+        dth,
+        dv,
+        dt,
+        P0,
+        V0,
+        q0,
+        FRAME,
+        ["sh12", "sh"],
+        sh_model=model,
+        output_every=25,
+        device=device,
+    )
+    for i, L in enumerate([12, 24]):
+        g = lambda r, L=L: rsh.gravitation_ecef(model, r[:, 0], r[:, 1], r[:, 2], lmax=L)  # noqa: E731
+        _, P, V, C = propagate_lci_reference(
+            dth[i : i + 1],
+            dv[i : i + 1],
+            dt,
+            P0[i : i + 1],
+            V0[i : i + 1],
+            quat_to_dcm(q0[i : i + 1]),
+            FRAME,
+            g,
+            output_every=25,
+        )
+        assert np.abs(res.P[i] - P[0]).max() <= 1e-12 * np.abs(P).max() + 1e-9
+        assert np.abs(res.V[i] - V[0]).max() <= 1e-12 * np.abs(V).max()
+
+
+def _inertially_fixed(P0, kind, n_samples, dt, C_b_a=np.eye(3)):
+    """Increments of a body at rest in the a-frame: dθ = 0, dv = −C_a^b g^a dt.
+
+    For a zonal field the gravitation at an inertially fixed point is constant in the a-frame
+    (the Earth turns about its symmetry axis), so these increments are exact.
+    """
+    r = FRAME.a_to_ecef(P0, 0.0)
+    g_a = FRAME.vector_e_to_a(_g_ref(kind)(r[None])[0], 0.0)
+    dv = np.broadcast_to(-(C_b_a.T @ g_a) * dt, (n_samples, 3)).copy()
+    return np.zeros((n_samples, 3)), dv, g_a
+
+
+def _gradient_a(P0, kind, step=1.0):
+    """Gravity gradient ∂g^a/∂P (1/s²) by central differences of the reference gravitation."""
+    G = np.empty((3, 3))
+    for j in range(3):
+        d = np.zeros(3)
+        d[j] = step
+        gp = FRAME.vector_e_to_a(_g_ref(kind)(FRAME.a_to_ecef(P0 + d, 0.0)[None])[0], 0.0)
+        gm = FRAME.vector_e_to_a(_g_ref(kind)(FRAME.a_to_ecef(P0 - d, 0.0)[None])[0], 0.0)
+        G[:, j] = (gp - gm) / (2 * step)
+    return G
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_accel_bias_gives_half_b_t2(device):
+    P0 = np.array([0.0, 30e3, 0.0])
+    dt, ns = 0.01, 4000  # 40 s
+    C = Rotation.from_euler("xyz", [0.3, -0.2, 1.1]).as_matrix()
+    dth, dv, _ = _inertially_fixed(P0, "j4", ns, dt, C)
+    b = np.array([1e-3, -2e-3, 5e-4])  # m/s² (100-200 µg)
+    res = propagate_lci(
+        np.stack([dth, dth]),
+        np.stack([dv, dv]),
+        dt,
+        P0,
+        np.zeros(3),
+        dcm_to_quat(C),
+        FRAME,
+        "j4",
+        errors={"acc_bias": np.stack([np.zeros(3), b])},
+        output_every=100,
+        device=device,
+    )
+    # no bias: the body stays put (exact increments; floor of the algorithm)
+    assert np.abs(res.P[0] - P0).max() < 1e-6
+    t = res.t[:, None]
+    err = res.P[1] - res.P[0]
+    bA = C @ b
+    G = _gradient_a(P0, "j4")
+    # δP̈ = bA + G δP  ->  δP = ½ bA t² + G bA t⁴/24 + O(G² t⁶)
+    predicted = 0.5 * bA * t**2 + (G @ bA) * t**4 / 24
+    np.testing.assert_allclose(err, predicted, rtol=0, atol=1e-7 * np.abs(predicted).max())
+    # the leading term alone is good to ~G t²/12 (a few 1e-4 at 40 s): short-time ½ b t²
+    np.testing.assert_allclose(err[-1], 0.5 * bA * t[-1] ** 2, rtol=1e-3)
+    assert np.abs(err[-1] - 0.5 * bA * t[-1] ** 2).max() > 1e-6  # and the t⁴ term is resolved
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_constant_gravity_offset_gives_half_dg_t2(device):
+    # truth: at rest in the a-frame under J2; navigation with J6: the model difference at a fixed
+    # inertial point is a constant offset δg (both fields are zonal).
+    P0 = np.array([0.0, 25e3, 0.0])
+    dt, ns = 0.01, 4000
+    dth, dv, g2 = _inertially_fixed(P0, "j2", ns, dt)
+    g6 = FRAME.vector_e_to_a(_g_ref("j6")(FRAME.a_to_ecef(P0, 0.0)[None])[0], 0.0)
+    dg = g6 - g2
+    res = propagate_lci(
+        dth, dv, dt, P0, np.zeros(3), [1.0, 0, 0, 0], FRAME, "j6", output_every=100, device=device
+    )
+    t = res.t[:, None]
+    G = _gradient_a(P0, "j6")
+    predicted = 0.5 * dg * t**2 + (G @ dg) * t**4 / 24
+    np.testing.assert_allclose(
+        res.P[0] - P0, predicted, rtol=0, atol=1e-6 * np.abs(predicted).max()
+    )
+    assert np.linalg.norm(dg) > 1e-5  # a real offset (4 mGal, the J4 term): the test can fail
+
+
+def _coning_increments(alpha, Om, t):
+    """Exact gyro increments of the coning motion C_b^a(t) = rotvec(0, α cos Ωt, α sin Ωt).
+
+    Body rate ω = (−2Ω sin²(α/2), −Ω sin α sin Ωt, Ω sin α cos Ωt) integrated over [t_k, t_k+1].
+    """
+    s = np.sin(alpha)
+    return np.stack(
+        [
+            -2 * Om * np.sin(alpha / 2) ** 2 * np.diff(t),
+            s * np.diff(np.cos(Om * t)),
+            s * np.diff(np.sin(Om * t)),
+        ],
+        -1,
+    )
+
+
+def _coning_attitude(alpha, Om, t):
+    return Rotation.from_rotvec(
+        np.stack([0 * t, alpha * np.cos(Om * t), alpha * np.sin(Om * t)], -1)
+    )
+
+
+def _two_sample_drift_rate(alpha, Om, T):
+    """Exact attitude drift rate of the two-sample algorithm on coning (closed form).
+
+    With C(t) = R_x(Ωt) R_y(α) R_x(−Ωt), step k's increments are step 0's turned by R_x(kΩT), so
+    the computed attitude after N steps is C(0) (E R_x(ΩT))^N R_x(−NΩT) with E = Rot(φ_0), the
+    truth C(0) (R_y(−α) R_x(ΩT) R_y(α))^N R_x(−NΩT): the error angle grows at
+    (|E R_x(ΩT)| − ΩT)/T, ≈ −Ω α² (ΩT)⁴/960 for small ΩT (Ignagni 1990).
+    """
+    inc = _coning_increments(alpha, Om, np.array([0.0, T / 2, T]))
+    phi = inc[0] + inc[1] + 2.0 / 3.0 * np.cross(inc[0], inc[1])
+    M = Rotation.from_rotvec(phi) * Rotation.from_rotvec([Om * T, 0, 0])
+    return (M.magnitude() - Om * T) / T, M
+
+
+def test_coning_closed_form_series():
+    # the exact drift approaches the classic −Ω α² (ΩT)⁴/960 as ΩT -> 0
+    Om, alpha = 2 * np.pi, 0.01
+    ratios = [
+        _two_sample_drift_rate(alpha, Om, T)[0] / (-Om * alpha**2 * (Om * T) ** 4 / 960)
+        for T in (0.1, 0.05, 0.025)
+    ]
+    assert abs(ratios[-1] - 1) < 2e-3 and abs(ratios[-1] - 1) < abs(ratios[0] - 1)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_coning_drift_matches_closed_form(device):
+    alpha, Om, dt = 0.02, 2 * np.pi, 0.05  # T = 0.1 s, ΩT = 0.63 rad
+    ns = 20000  # 1000 s
+    t = np.arange(ns + 1) * dt
+    dth = _coning_increments(alpha, Om, t)
+    C0 = _coning_attitude(alpha, Om, np.array([0.0]))
+    res = propagate_lci(
+        dth,
+        np.zeros_like(dth),
+        dt,
+        [0, 1e5, 0],
+        np.zeros(3),
+        dcm_to_quat(C0.as_matrix()),
+        FRAME,
+        "j2",
+        output_every=1000,
+        device=device,
+    )
+    rate, M = _two_sample_drift_rate(alpha, Om, 2 * dt)
+    N = np.arange(res.t.size) * 1000
+    # the algorithm's attitude in closed form: C(0) M^N R_x(−NΩT)
+    closed = [
+        C0[0]
+        * Rotation.from_rotvec(M.as_rotvec() * k)
+        * Rotation.from_rotvec([-k * Om * 2 * dt, 0, 0])
+        for k in N
+    ]
+    comp = Rotation.from_matrix(quat_to_dcm(res.q[0]))
+    for k in range(res.t.size):
+        assert (closed[k].inv() * comp[k]).magnitude() < 1e-11
+    # error against the true attitude grows linearly at the closed-form rate (plus a bounded part)
+    truth = _coning_attitude(alpha, Om, res.t)
+    err = (truth.inv() * comp).magnitude()
+    slope = np.polyfit(res.t[5:], err[5:], 1)[0]
+    np.testing.assert_allclose(slope, abs(rate), rtol=2e-3)
+    assert abs(rate) > 1e-7  # about 0.08 °/h: resolved far above rounding
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_noise_is_seeded_and_scaled(device):
+    n, ns, dt = 256, 400, 0.01
+    P0 = np.array([0.0, 1e4, 0.0])
+    dth, dv, _ = _inertially_fixed(P0, "j2", ns, dt)
+    sig = 1e-3  # m/s/√s
+    err = {"acc_noise": np.full(n, sig), "seed": np.arange(n) + 7}
+    a = propagate_lci(
+        dth,
+        dv,
+        dt,
+        P0,
+        0.0 * P0,
+        [1.0, 0, 0, 0],
+        FRAME,
+        "j2",
+        errors=err,
+        output_every=ns // 2,
+        device=device,
+    )
+    b = propagate_lci(
+        dth,
+        dv,
+        dt,
+        P0,
+        0.0 * P0,
+        [1.0, 0, 0, 0],
+        FRAME,
+        "j2",
+        errors=err,
+        output_every=ns // 2,
+        device=device,
+    )
+    np.testing.assert_array_equal(a.V, b.V)
+    dV = a.V[:, -1] - a.V[:, -1].mean(axis=0)
+    # velocity random walk: var = σ² t per axis; 768 samples -> ±10 % at 2σ
+    np.testing.assert_allclose(dV.var(), sig**2 * a.t[-1], rtol=0.12)
+
+
+def test_input_validation():
+    dth = np.zeros((10, 3))
+    ok = dict(dt=0.01, P0=np.zeros(3), V0=np.zeros(3), q0=[1.0, 0, 0, 0], launch=FRAME)
+    bad = dth.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(InputError, match="non-finite"):
+        propagate_lci(bad, dth, **ok)
+    with pytest.raises(InputError, match="must match"):
+        propagate_lci(dth, dth[:8], **ok)
+    with pytest.raises(InputError, match="even"):
+        propagate_lci(dth[:9], dth[:9], **ok)
+    with pytest.raises(InputError, match="dt must be > 0"):
+        propagate_lci(dth, dth, **{**ok, "dt": 0.0})
+    with pytest.raises(InputError, match="dt must be > 0"):
+        propagate_lci(dth, dth, **{**ok, "dt": -1.0})
+    with pytest.raises(InputError, match="unknown navigation gravity"):
+        propagate_lci(dth, dth, gravity="j3", **ok)
+    with pytest.raises(InputError, match="needs an SH model"):
+        propagate_lci(dth, dth, gravity="sh18", **ok)
+    with pytest.raises(InputError, match="unit quaternions"):
+        propagate_lci(dth, dth, **{**ok, "q0": [1.0, 1.0, 0, 0]})
