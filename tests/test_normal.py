@@ -313,3 +313,49 @@ def test_shapes_and_params():
     p = N.normal_params(GRS80)
     assert p.j2 == GRS80.J2 and p.j6 == GRS80.J6 and p.q0 == GRS80.q0
     assert N.normal_params("WGS84", j2=N.GROVES_J2).j2 == 1.082627e-3
+
+
+# ----------------------------------------------------------------------------- external: GeographicLib
+
+
+def _write_zero_egm(folder, ell):
+    """Write a GeographicLib gravity model with all coefficients 0 (format: REFERENCE.md)."""
+    import struct
+
+    (folder / "zero.egm").write_text(
+        "EGMF-1\nName zero\nDescription point mass only\n"
+        f"ModelRadius {ell.a!r}\nModelMass {ell.GM!r}\nAngularVelocity {ell.omega!r}\n"
+        f"ReferenceRadius {ell.a!r}\nReferenceMass {ell.GM!r}\nFlattening {ell.f!r}\n"
+        "Normalization full\nByteOrder little\nID ZEROMDL1\n"
+    )
+    # degree 20: GeographicLib subtracts the normal field's zonals only up to the model's degree
+    n, m = 20, 0
+    nc, ns = (m + 1) * (2 * n - m + 2) // 2, m * (2 * n - m + 1) // 2
+    with open(folder / "zero.egm.cof", "wb") as fh:
+        fh.write(b"ZEROMDL1" + struct.pack("<ii", n, m))
+        fh.write(struct.pack(f"<{nc + ns}d", *([0.0] * (nc + ns))))
+        fh.write(struct.pack("<ii", -1, -1))
+
+
+@pytest.mark.parametrize("ell", ELLS, ids=lambda e: e.name)
+def test_exact_vector_vs_geographiclib(ell, tmp_path):
+    # GeographicLib's Gravity: -G gives g of the model, -D gives g − γ with γ its own closed-form
+    # NormalGravity vector (east, north, up); so γ_GeographicLib = G − D, independent of the model.
+    import shutil
+    import subprocess
+
+    exe = shutil.which("Gravity")
+    if exe is None:
+        pytest.skip("GeographicLib's Gravity tool (Debian geographiclib-tools) not installed")
+    _write_zero_egm(tmp_path, ell)
+    lat, lon, h = _points(150, hmin=0.0, hmax=1e6, seed=17)
+    stdin = "".join(f"{float(a)!r} {float(b)!r} {float(c)!r}\n" for a, b, c in zip(lat, lon, h))
+
+    def run(flag, prec):
+        res = subprocess.run([exe, "-n", "zero", "-d", str(tmp_path), flag, "-p", prec],
+                             input=stdin, capture_output=True, text=True, check=True)
+        return np.loadtxt(res.stdout.splitlines())
+
+    gamma_gl = run("-G", "15") - run("-D", "12") * 1e-5
+    got = N.normal_gravity(lat, lon, h, ell, frame="enu")
+    _assert_vec_close(got, gamma_gl, 5e-15)  # output printed to 1e-15 m/s²
