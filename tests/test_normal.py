@@ -315,7 +315,7 @@ def test_shapes_and_params():
     assert N.normal_params("WGS84", j2=N.GROVES_J2).j2 == 1.082627e-3
 
 
-# ----------------------------------------------------------------------------- external: GeographicLib
+# ---------------------------------------------------------------------- external: GeographicLib
 
 
 def _write_zero_egm(folder, ell):
