@@ -44,7 +44,7 @@ def init() -> None:
             os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "fieldmap", "warp"
         )
         wp.config.kernel_cache_dir = cache
-        wp.config.quiet = True
+        wp.config.log_level = wp.LOG_WARNING  # no "Module ... load" chatter on stdout
         wp.config.enable_backward = False
         wp.config.verbose_warnings = False
         wp.init()
@@ -122,6 +122,8 @@ def launch_chunked(kernel, dim: int, inputs: list, device: str, parts: int | Non
         wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
         return
     pieces = chunks(dim, parts or cpu_workers())
+    # load (compile) the module once, before several threads would race to do it
+    kernel.module.load(device)
     if len(pieces) == 1:
         wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
         return
