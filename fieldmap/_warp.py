@@ -11,6 +11,7 @@ input and index their work as ``i = wp.tid() + offset``.
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -47,8 +48,35 @@ def init() -> None:
         wp.config.log_level = wp.LOG_WARNING  # no "Module ... load" chatter on stdout
         wp.config.enable_backward = False
         wp.config.verbose_warnings = False
-        wp.init()
+        _quiet_init()
         _ready = True
+
+
+def _quiet_init() -> None:
+    """Run ``wp.init()`` with its native "no CUDA driver" notice kept off the user's terminal.
+
+    On a CPU-only machine Warp prints a warning from C code on file descriptor 2; fieldmap runs
+    on the CPU there by design. Anything else written during init is passed through.
+    """
+    import tempfile
+
+    if os.environ.get("FIELDMAP_VERBOSE"):
+        wp.init()
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            text = tmp.read().decode("utf-8", "replace")
+    keep = [ln for ln in text.splitlines() if ln.strip() and "CUDA driver" not in ln]
+    if keep:
+        print("\n".join(keep), file=sys.stderr)
 
 
 def devices() -> list[str]:
