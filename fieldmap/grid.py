@@ -39,12 +39,15 @@ class GridSpec:
         Heights above the ellipsoid. Units: m.
     step_deg : float
         Nominal spacing. Units: degrees.
+    is_global : bool
+        True for a global grid (all longitudes, latitudes -lat_max..lat_max).
     """
 
     lat: np.ndarray
     lon: np.ndarray
     heights: np.ndarray
     step_deg: float
+    is_global: bool = False
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -139,7 +142,7 @@ def make_grid(
         raise InputError("empty grid")
     if lat.size * lon.size * h.size > 2_000_000_000:
         raise InputError(f"grid of {lat.size}x{lon.size}x{h.size} nodes is too large")
-    return GridSpec(lat=lat, lon=lon, heights=h, step_deg=step)
+    return GridSpec(lat=lat, lon=lon, heights=h, step_deg=step, is_global=region is None)
 
 
 def area_weights(lat_deg: np.ndarray) -> np.ndarray:
@@ -240,6 +243,16 @@ def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
 QUANTITIES = ("disturbance", "gravitation", "gravity")
 
 
+def resolve_device(device: str | None) -> str:
+    """Warp device name; an unknown device is an :class:`InputError` (one-line CLI message)."""
+    from . import _warp
+
+    try:
+        return _warp.resolve_device(device)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
 _loaded: set = set()
 
 
@@ -301,7 +314,7 @@ def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | No
 
     if order not in (0, 2, 4, 6):
         raise InputError(f"normal-gravity order must be 2, 4 or 6, got {order!r}")
-    device = _warp.resolve_device(device)
+    device = resolve_device(device)
     ellipsoid = ellipsoid or WGS84
     nh, nlat, _ = grid.shape
     lat = np.tile(np.radians(grid.lat), nh)
@@ -372,8 +385,7 @@ def synthesize(
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
     ellipsoid = ellipsoid or WGS84
-    device = _warp.resolve_device(device)
-    _warp.init()
+    device = resolve_device(device)
     km = kernel_model(model, device)
     nm = model.lmax + 1
     nh, nlat, nlon = grid.shape

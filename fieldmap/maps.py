@@ -2,8 +2,8 @@
 
 Every function returns an ``xarray.Dataset`` with CF-1.8 attributes on (latitude, longitude)
 (and ``height`` or ``order`` for stacks). Vectors are in the local geodetic east-north-up frame.
-Statistics use area weights (:mod:`fieldmap.stats`). Writing files is left to
-:mod:`fieldmap.products` callers (:func:`save_products` in the CLI).
+Statistics use area weights (:mod:`fieldmap.stats`). Files are written by
+:mod:`fieldmap.cli_maps` through the atomic writers of :mod:`fieldmap.io`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import xarray as xr
 
 from . import __version__
 from .errors import InputError
-from .grid import make_grid, normal_rows, synthesize
+from .grid import make_grid, normal_rows, resolve_device, synthesize
 from .stats import MG, MGAL, map_statistics, parse_thresholds, threshold_key
 
 UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
@@ -80,6 +80,7 @@ def _global_attrs(title, model, ellipsoid, grid, source) -> dict:
         "references": REFERENCE,
         "ellipsoid": ellipsoid.name,
         "grid_step_deg": float(grid.step_deg),
+        "grid_kind": "global" if grid.is_global else "regional",
         "region_west_east_south_north_deg": np.array(grid.region),
         "frame": "local geodetic east-north-up",
     }
@@ -163,6 +164,7 @@ def disturbance_map(
         raise InputError("disturbance_map takes one height; use altitude_sweep for several")
     grid = make_grid(step_deg, lat_max, region, h)
     ell = _ellipsoid(ellipsoid)
+    device = resolve_device(device)
     mod = _model(model, lmax, epoch)
     vec = synthesize(mod, grid, ell, "disturbance", device, progress)[0]
     ds = xr.Dataset(
@@ -200,6 +202,7 @@ def altitude_sweep(
     h = _heights_m(height_km)
     grid = make_grid(step_deg, lat_max, region, h)
     ell = _ellipsoid(ellipsoid)
+    device = resolve_device(device)
     mod = _model(model, lmax, epoch)
     vec = synthesize(mod, grid, ell, "disturbance", device, progress)
     dims = ("height", "latitude", "longitude")
@@ -252,6 +255,7 @@ def truncation_map(
         raise InputError("truncation_map takes one height")
     grid = make_grid(step_deg, lat_max, region, h)
     ell = _ellipsoid(ellipsoid)
+    device = resolve_device(device)
     exact = normal_rows(grid, ell, 0, device)[0]
     err = np.stack([normal_rows(grid, ell, o, device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
@@ -288,6 +292,7 @@ def component_maps(
         raise InputError("component_maps takes one height")
     grid = make_grid(step_deg, lat_max, region, h)
     ell = _ellipsoid(ellipsoid)
+    device = resolve_device(device)
     mod = _model(model, lmax, epoch)
     from .grid import centrifugal_rows
 
