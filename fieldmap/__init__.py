@@ -7,3 +7,22 @@ Public API (see the README): models are read with :func:`fieldmap.icgem.read_icg
 __version__ = "0.1.0"
 
 from .ellipsoid import GRS80, WGS84, Ellipsoid  # noqa: F401
+
+# Lazy exports: importing fieldmap stays light (no Warp, xarray, matplotlib until used).
+_LAZY = {
+    "disturbance_map": "fieldmap.maps",
+    "truncation_map": "fieldmap.maps",
+    "altitude_sweep": "fieldmap.maps",
+}
+
+
+def __getattr__(name):
+    """Import lazily exported functions on first use (PEP 562)."""
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'fieldmap' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(mod), name)
+    globals()[name] = value
+    return value
