@@ -19,9 +19,7 @@ quadrature points per Warp launch (:func:`fieldmap.sh.sh_gravitation`).
 
 from __future__ import annotations
 
-import importlib.resources
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
@@ -91,21 +89,11 @@ def validate_increments(dtheta, dv, dt) -> None:
 
 
 # --- truth gravitation --------------------------------------------------------------------------
-@lru_cache(maxsize=4)
-def load_truth_model(name: str = DEFAULT_TRUTH):
-    """Load a gravity model by name (``fieldmap.models.load_model`` when present, else the bundled file)."""
-    try:
-        from .models import load_model
-    except ImportError:  # the models module of another helper is not there yet
-        load_model = None
-    if load_model is not None:
-        return load_model(name)
-    if name.lower().replace("_", "-") not in ("eigen-6s", "eigen6s"):
-        raise InputError(f"unknown gravity model {name!r}")
-    from .icgem import read_icgem
+def load_truth_model(name: str = DEFAULT_TRUTH, lmax: int | None = None):
+    """Load a gravity model by name or path via :func:`fieldmap.models.load_model`."""
+    from .models import load_model
 
-    with importlib.resources.as_file(importlib.resources.files("fieldmap.data") / "eigen-6s.gfc.gz") as p:
-        return read_icgem(str(p))
+    return load_model(name, lmax=lmax)
 
 
 class Gravitation:
@@ -236,36 +224,3 @@ def synthesize(
         "rate_hz": float(rate_hz),
     }
     return ImuIncrements(dtheta, dv, dt, float(t0), meta)
-
-
-def dcm_to_quat(C) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` -> unit quaternions ``(..., 4)`` as (x, y, z, w).
-
-    Shepperd's method (largest-component branch), so it is accurate for any rotation; ``q``
-    rotates vectors like ``C`` (q ⊗ v ⊗ q* = C v), with w ≥ 0.
-    """
-    C = np.asarray(C, dtype=np.float64)
-    tr = np.trace(C, axis1=-2, axis2=-1)
-    cand = np.stack([tr, C[..., 0, 0], C[..., 1, 1], C[..., 2, 2]], -1)
-    k = np.argmax(cand, -1)
-    q = np.empty(C.shape[:-2] + (4,))
-    for branch in range(4):
-        m = k == branch
-        if not np.any(m):
-            continue
-        c = C[m]
-        if branch == 0:
-            w = 0.5 * np.sqrt(1.0 + tr[m])
-            x, y, z = (c[:, 2, 1] - c[:, 1, 2]) / (4 * w), (c[:, 0, 2] - c[:, 2, 0]) / (4 * w), (c[:, 1, 0] - c[:, 0, 1]) / (4 * w)
-        elif branch == 1:
-            x = 0.5 * np.sqrt(1.0 + c[:, 0, 0] - c[:, 1, 1] - c[:, 2, 2])
-            w, y, z = (c[:, 2, 1] - c[:, 1, 2]) / (4 * x), (c[:, 0, 1] + c[:, 1, 0]) / (4 * x), (c[:, 0, 2] + c[:, 2, 0]) / (4 * x)
-        elif branch == 2:
-            y = 0.5 * np.sqrt(1.0 - c[:, 0, 0] + c[:, 1, 1] - c[:, 2, 2])
-            w, x, z = (c[:, 0, 2] - c[:, 2, 0]) / (4 * y), (c[:, 0, 1] + c[:, 1, 0]) / (4 * y), (c[:, 1, 2] + c[:, 2, 1]) / (4 * y)
-        else:
-            z = 0.5 * np.sqrt(1.0 - c[:, 0, 0] - c[:, 1, 1] + c[:, 2, 2])
-            w, x, y = (c[:, 1, 0] - c[:, 0, 1]) / (4 * z), (c[:, 0, 2] + c[:, 2, 0]) / (4 * z), (c[:, 1, 2] + c[:, 2, 1]) / (4 * z)
-        qq = np.stack([x, y, z, w], -1)
-        q[m] = qq * np.where(qq[:, 3:] < 0, -1.0, 1.0)
-    return q

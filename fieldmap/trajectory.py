@@ -329,17 +329,25 @@ class Stationary(Trajectory):
 
 
 class ConstantVelocity(Trajectory):
-    """Straight line at constant Earth-relative velocity ``v_e`` (ECEF, m/s) from ``r0`` (ECEF, m).
+    """Straight line in ECEF at constant Earth-relative velocity from the launch point.
+
+    Parameters
+    ----------
+    frame : LaunchFrame
+    duration : float
+        Units: s.
+    v_enu : array_like (3,)
+        Velocity in the east-north-up frame of the launch point (kept constant in ECEF). Units: m/s.
 
     Attitude: velocity-aligned forward-right-down (the default law).
     """
 
     name = "constant-velocity"
 
-    def __init__(self, frame: LaunchFrame, duration: float, v_e, r0=None):
+    def __init__(self, frame: LaunchFrame, duration: float, v_enu=(150.0, 200.0, 5.0)):
         super().__init__(frame, duration)
-        self.v0 = np.asarray(v_e, dtype=np.float64)
-        self.r0 = frame.r_launch if r0 is None else np.asarray(r0, dtype=np.float64)
+        self.r0 = frame.r_launch
+        self.v0 = C_e_to_enu(frame.B0, frame.lon0).T @ np.asarray(v_enu, dtype=np.float64)
 
     def _ecef(self, t):
         r = self.r0 + t[:, None] * self.v0
@@ -375,6 +383,9 @@ class Coning(Trajectory):
 
     def _ecef(self, t):
         return self._base._ecef(t)
+
+    def _attitude(self, t, r, v, a):
+        return self._base._attitude(t, r, v, a)
 
     def kinematics(self, t) -> Kinematics:
         """Exact state at times ``t``; attitude and body rate from the closed form above."""
