@@ -1,5 +1,8 @@
-"""GeographicLib .egm/.egm.cof writer checked by the external ``Gravity`` tool, and the engine
-checked against that tool (EIGEN-6S, full degree, random points)."""
+"""GeographicLib model writer checked by the external ``Gravity`` tool; engine checked by it.
+
+The .egm/.egm.cof writer is validated by closed forms (point mass, J2) evaluated by the tool; the
+spherical-harmonic engine is then compared with the tool on EIGEN-6S at full degree.
+"""
 
 from __future__ import annotations
 
