@@ -1,0 +1,193 @@
+"""Grid specification and grid synthesis (kernels/grid.py, fieldmap/grid.py).
+
+The grid kernel (row Legendre pass + FFT over longitude) is checked against independent paths:
+the scattered-point Warp kernel (fieldmap.gravity), the NumPy reference of the SH engine
+(fieldmap.reference.sh), closed forms (the level ellipsoid's own zonal series gives a zero
+disturbance), and its own direct (non-FFT) longitude sums.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from fieldmap import _warp, frames
+from fieldmap import grid as G
+from fieldmap.ellipsoid import WGS84
+from fieldmap.errors import InputError
+from fieldmap.model import SHModel
+from fieldmap.models import kaula_model, load_model
+
+DEVICES = _warp.devices()
+
+
+def _enu(model, grid, ih, quantity, device):
+    """Scattered-point path at the grid nodes, geodetic ENU (m/s²)."""
+    from fieldmap.gravity import disturbance, gravitation
+
+    la, lo = np.meshgrid(grid.lat, grid.lon, indexing="ij")
+    h = grid.heights[ih]
+    if quantity == "disturbance":
+        return disturbance(la, lo, h, model=model, unit="m/s2", device=device)
+    return gravitation(la, lo, h, model=model, device=device)
+
+
+# ----------------------------------------------------------------------------- grid spec
+@pytest.mark.parametrize("kwargs, msg", [
+    ({"step_deg": 0}, "step"),
+    ({"step_deg": -1}, "step"),
+    ({"step_deg": float("nan")}, "step"),
+    ({"step_deg": "x"}, "step"),
+    ({"lat_max": 90.5}, "latitude"),
+    ({"lat_max": -1}, "latitude"),
+    ({"region": (10, 20, 30, 20)}, "empty region"),
+    ({"region": (10, 20, -95, 20)}, "latitudes"),
+    ({"region": (10, 20, 30)}, "west east south north"),
+    ({"heights_m": [float("inf")]}, "finite"),
+    ({"heights_m": [float("nan")]}, "finite"),
+    ({"heights_m": [-50e3]}, "below"),
+    ({"heights_m": []}, "no height"),
+])
+def test_bad_specs_raise(kwargs, msg):
+    with pytest.raises(InputError, match=msg):
+        G.make_grid(**kwargs)
+
+
+def test_paper_grid_shape():
+    # Chen et al. 2022 §4.1: 80S-80N, 180W-179E on 1 deg x 1 deg
+    g = G.make_grid(1.0, 80.0)
+    assert g.shape == (1, 161, 360)
+    assert g.lon[0] == -180.0 and g.lon[-1] == 179.0 and g.is_global
+    g5 = G.make_grid(5.0 / 60.0, 80.0)
+    assert g5.lat.size == 1921 and g5.lon.size == 4320
+    assert abs(g5.lat[-1] - 80.0) < 1e-9
+
+
+def test_region_across_antimeridian():
+    g = G.make_grid(1.0, region=(170, -170, -5, 5))
+    assert g.lon[0] == 170 and g.lon[-1] == 190 and g.lon.size == 21 and not g.is_global
+    g1 = G.make_grid(0.025, region=(100, 112, 18, 37))
+    assert g1.lon.size == 481 and g1.lat.size == 761
+
+
+def test_area_weights_closed_form():
+    lat = np.linspace(-90, 90, 181)
+    w = G.area_weights(lat)
+    assert w.sum() == pytest.approx(2.0, rel=1e-14)  # ∫cos φ dφ over the sphere
+    # the band 30..90 deg holds (1 - sin 30)/2 = 1/4 of the sphere; nodes above 30 carry it
+    # except the half band of the 30-deg node itself
+    frac = w[lat > 30].sum() / w.sum()
+    expected = (1 - math.sin(math.radians(30.5))) / 2
+    assert frac == pytest.approx(expected, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- synthesis
+@pytest.fixture(scope="module")
+def eigen():
+    return load_model("eigen-6s", lmax=120)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("quantity", ["gravitation", "disturbance"])
+def test_grid_matches_scattered_points(eigen, device, quantity):
+    """Grid kernel vs the scattered-point kernel: ≤ 1e-12 of |g| (the disturbance is a difference
+    of two ~9.8 m/s² vectors, so its relative accuracy is bounded by |g|·eps, not by |δg|)."""
+    grid = G.make_grid(7.5, 90.0, heights_m=[0.0, 20e3, 100e3])
+    out = G.synthesize(eigen, grid, quantity=quantity, device=device)
+    for ih in range(grid.heights.size):
+        ref = _enu(eigen, grid, ih, quantity, device)
+        scale = 9.8
+        assert np.max(np.abs(out[ih] - ref)) <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_grid_matches_numpy_reference(device):
+    """Against the NumPy SH reference (independent recursion), Kaula model degree 90, 1e-12 rel."""
+    from fieldmap.reference import sh as ref
+
+    model = kaula_model(90, seed=3)
+    grid = G.make_grid(0.5, region=(-20.25, 40, -89.75, 89.75), heights_m=[30e3])
+    grid = G.GridSpec(grid.lat[::23], grid.lon[::7], grid.heights, 0.5)  # irregular sample
+    out = G.synthesize(model, grid, quantity="gravitation", device=device)[0]
+    la, lo = np.meshgrid(grid.lat, grid.lon, indexing="ij")
+    x, y, z = frames.geodetic_to_ecef(la, lo, 30e3)
+    g = ref.gravitation_ecef(model, x.ravel(), y.ravel(), z.ravel()).reshape(*la.shape, 3)
+    enu = np.einsum("...ij,...j->...i", frames.C_e_to_enu(la, lo), g)
+    err = np.max(np.linalg.norm(out - enu, axis=-1) / np.linalg.norm(enu, axis=-1))
+    assert err <= 1e-12
+
+
+def test_level_ellipsoid_series_gives_zero_disturbance():
+    """A model made of the ellipsoid's own zonal J2n series (H&M eq. 2-92, GM and a of WGS84)
+    must give δg ≈ 0 against the exact normal field — shares no code with the SH series."""
+    L = 20
+    C = np.zeros((L + 1, L + 1))
+    S = np.zeros_like(C)
+    C[0, 0] = 1.0
+    for n in range(1, L // 2 + 1):
+        C[2 * n, 0] = -WGS84.J2n(n) / math.sqrt(4 * n + 1)
+    model = SHModel("ellipsoid", WGS84.GM, WGS84.a, C, S, L)
+    grid = G.make_grid(10.0, 90.0, heights_m=[0.0, 20e3, 100e3])
+    out = G.synthesize(model, grid, quantity="disturbance", device="cpu")
+    assert np.max(np.abs(out)) < 1e-11  # m/s², i.e. 1e-6 mGal (series truncated at J20)
+
+
+def test_fft_and_direct_longitude_sums_agree(eigen):
+    """Regular longitudes go through the FFT; a shifted copy with one extra node does not."""
+    reg = G.make_grid(3.0, region=(-30, 60, -60, 60), heights_m=[20e3])
+    assert G._regular_period(reg.lon) == 120
+    irr_lon = np.append(reg.lon, 61.7)
+    assert G._regular_period(irr_lon) is None
+    irr = G.GridSpec(reg.lat, irr_lon, reg.heights, 3.0)
+    a = G.synthesize(eigen, reg, device="cpu")
+    b = G.synthesize(eigen, irr, device="cpu")
+    assert np.max(np.abs(a - b[..., :-1, :])) < 1e-12 * 9.8
+
+
+def test_aliasing_fold_is_exact():
+    """Degree above the number of longitudes: orders fold mod L exactly on the nodes."""
+    model = kaula_model(60, seed=1)
+    grid = G.make_grid(10.0, region=(-180, 170, -50, 50), heights_m=[5e3])  # L = 36 < 61 orders
+    a = G.synthesize(model, grid, quantity="gravitation", device="cpu")
+    b = G.synthesize(model, G.GridSpec(grid.lat, np.append(grid.lon, 175.5), grid.heights, 10.0),
+                     quantity="gravitation", device="cpu")
+    assert np.max(np.abs(a - b[..., :-1, :])) < 1e-12 * 9.8
+
+
+def test_row_blocks_do_not_change_results(eigen, monkeypatch):
+    grid = G.make_grid(4.0, 80.0, heights_m=[20e3, 50e3])
+    full = G.synthesize(eigen, grid, device="cpu")
+    monkeypatch.setattr(G, "BLOCK_BYTES", 1)  # one row per block (clamped to the core count)
+    blocks = G.synthesize(eigen, grid, device="cpu", progress=True)
+    np.testing.assert_array_equal(full, blocks)
+
+
+def test_near_pole_high_degree_stays_finite():
+    """Degree 700 at ±89.99° (u^m underflows unless applied in halves): matches the point path."""
+    model = kaula_model(700, seed=2)
+    grid = G.make_grid(0.01, region=(0, 0.05, 89.96, 90.0), heights_m=[20e3])
+    out = G.synthesize(model, grid, quantity="gravitation", device="cpu")
+    ref = _enu(model, grid, 0, "gravitation", "cpu")
+    assert np.all(np.isfinite(out))
+    assert np.max(np.abs(out - ref)) <= 1e-12 * 9.8
+
+
+def test_normal_rows_match_reference():
+    """Per-row normal gravitation (exact, J2, J4) vs the NumPy normal-gravity reference."""
+    from fieldmap.reference import normal as nref
+
+    grid = G.make_grid(10.0, 90.0, heights_m=[20e3])
+    la = grid.lat
+    for order, kind in ((0, "exact"), (2, "j2"), (4, "j4"), (6, "j6")):
+        rows = G.normal_rows(grid, WGS84, order, "cpu")[0]
+        ref = nref.normal_gravity(la, np.zeros_like(la), 20e3, WGS84, kind=kind, centrifugal=False,
+                                  frame="enu")
+        assert np.max(np.abs(rows - ref)) < 1e-13 * 9.8, kind
+
+
+def test_bad_quantity_and_device():
+    grid = G.make_grid(30.0)
+    with pytest.raises(InputError, match="quantity"):
+        G.synthesize(kaula_model(4), grid, quantity="potential")
+    with pytest.raises(InputError, match="device"):
+        G.synthesize(kaula_model(4), grid, device="cuda:7")
