@@ -9,7 +9,7 @@ Public API (degrees and metres in, NumPy out):
   vectors carry the same centrifugal term, so δg is the difference of the *gravitations*: the
   spherical-harmonic one with the model's own GM and radius, the exact level-ellipsoid one
   (Heiskanen & Moritz 1967 §2-7…2-9, :mod:`fieldmap.normal`) with the ellipsoid's GM and a.
-  Nothing is rescaled: the degree-0 difference (GM_model − GM_ell)/r² (≈ 0.0004 mGal for
+  Nothing is rescaled: the degree-0 difference (GM_model − GM_ell)/r² (≈ 0.0007 mGal for
   EIGEN-6S vs WGS84) and the differing zonal terms are part of δg.
 
 Points are geodetic latitude/longitude (degrees) and height above the ellipsoid (metres). The
