@@ -1,0 +1,243 @@
+"""``fieldmap navsim``: the navigation-error studies of Chen et al. (2022) §5 (Tables 1, 3, 4).
+
+Writes, for each study, ``navsim_<study>.csv`` / ``.json`` (table rows, truth model, floor, paper
+values), ``navsim_<study>.nc`` (error curves over time, xarray/NetCDF, CF attributes) and
+``navsim_<study>.png`` (Figs. 11-13 like curves) under ``--out`` (default ``outputs/``). Every
+input is checked before any work starts; every file is written to a temporary name and renamed,
+so a failed run leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import tempfile
+
+import numpy as np
+
+from .errors import InputError
+
+STUDIES = ("table1", "table3", "table4")
+
+
+def register(subparsers) -> None:
+    """Add the ``navsim`` sub-command."""
+    p = subparsers.add_parser(
+        "navsim",
+        help="navigation errors by gravity model and IMU grade (Chen et al. 2022 Tables 1, 3, 4)",
+        description="Boost-glide INS simulation in the launch-centred inertial frame: exact IMU "
+        "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
+        "each navigation gravity model and IMU error draw in one Warp launch.",
+    )
+    p.add_argument("--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)")
+    p.add_argument("--models", default="j2,j4,j6,normal,sh18,sh200",
+                   help="navigation gravity models, comma separated: j2 j4 j6 normal sh shN "
+                   "(table1; table4 uses them with the IMU errors)")
+    p.add_argument("--nav", default="j4", help="navigation gravity of table3 (default j4)")
+    p.add_argument("--draws", type=int, default=None, help="Monte Carlo draws (table3: 50, table4: 20)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the error draws")
+    p.add_argument("--bias-mode", default="gauss", choices=("gauss", "sign", "fixed"),
+                   help="how constant errors are drawn per run (see fieldmap.imu_errors)")
+    p.add_argument("--rate", type=float, default=200.0, help="IMU rate, Hz (default 200)")
+    p.add_argument("--gauss", type=int, default=2, help="Gauss-Legendre nodes per IMU sample")
+    p.add_argument("--duration", type=float, default=800.0, help="flight time, s (default 800)")
+    p.add_argument("--truth", default="eigen-6s", help="truth model name or ICGEM file")
+    p.add_argument("--truth-degree", type=int, default=None, help="truth degree (default full)")
+    p.add_argument("--output-dt", type=float, default=1.0, help="interval of the curves, s")
+    p.add_argument("--no-timing", action="store_true", help="skip the gravity CPU-time measurement")
+    p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
+    p.add_argument("--out", default="outputs", help="output folder (default outputs/)")
+    p.set_defaults(func=run)
+
+
+def _check_args(args):
+    from .models import load_model
+    from .navsim import check_model_names
+    from ._warp import DeviceError, resolve_device
+
+    for name, v in (("--rate", args.rate), ("--duration", args.duration), ("--output-dt", args.output_dt)):
+        if not np.isfinite(v) or v <= 0:
+            raise InputError(f"{name} must be a positive number, got {v}")
+    if args.draws is not None and args.draws < 1:
+        raise InputError(f"--draws must be >= 1, got {args.draws}")
+    if not 1 <= args.gauss <= 16:
+        raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
+    if args.duration * args.rate < 2:
+        raise InputError("--duration × --rate gives fewer than 2 IMU samples")
+    if args.duration > 800.0:
+        raise InputError(f"--duration {args.duration} s is longer than the boost-glide path (800 s)")
+    try:
+        device = resolve_device(args.device)
+    except DeviceError as exc:
+        raise InputError(str(exc)) from None
+    model = load_model(args.truth, lmax=args.truth_degree)
+    models = check_model_names([m for m in args.models.replace(" ", ",").split(",") if m], model)
+    nav = check_model_names([args.nav], model)[0]
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"--out {args.out!r} exists and is not a folder")
+    return device, models, nav
+
+
+def run(args) -> int:
+    """Run the chosen study (or all) and write its outputs."""
+    from tqdm import tqdm
+
+    from . import navsim
+
+    device, models, nav = _check_args(args)
+    studies = STUDIES if args.study == "all" else (args.study,)
+    tqdm.write(f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, truth {args.truth})")
+    sc = navsim.build_scenario(duration=args.duration, rate_hz=args.rate, truth=args.truth,
+                               truth_lmax=args.truth_degree, n_gauss=args.gauss,
+                               output_dt=args.output_dt, device=device, progress=True)
+    results = []
+    for study in tqdm(studies, desc="navsim studies", unit="study"):
+        if study == "table1":
+            res = navsim.table1(sc, models, timing=not args.no_timing)
+        elif study == "table3":
+            res = navsim.table3(sc, draws=args.draws or 50, seed=args.seed, nav=nav, mode=args.bias_mode)
+        else:
+            res = navsim.table4(sc, [m for m in models if m.startswith("sh") or m == nav] or [nav],
+                                draws=args.draws or 20, seed=args.seed, mode=args.bias_mode, reference=nav)
+        results.append(res)
+    os.makedirs(args.out, exist_ok=True)
+    for res in results:
+        print(format_table(res))
+        write_outputs(res, args.out)
+    return 0
+
+
+def format_table(res) -> str:
+    """Plain-text table of a study's rows (with the paper's values where they exist)."""
+    from .navsim import PAPER_TABLE1, PAPER_TABLE3
+
+    lines = [f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
+             f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="]
+    if res.study == "table1":
+        lines.append(f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'eval s':>10s}   paper: |dv| |dp| eval")
+        for r in res.rows:
+            p = PAPER_TABLE1.get(r["model"], ("", "", ""))
+            lines.append(f"{r['model']:8s} {r['final_velocity_error_m_s']:10.4f} {r['final_position_error_m']:10.2f} "
+                         f"{r.get('gravity_eval_seconds', float('nan')):10.2e}   {p[0]} {p[1]} {p[2]}")
+        fl = res.meta["floor"]
+        lines.append(f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
+                     f"|dp| {fl['final_position_error_m']:.3e} m")
+    else:
+        key = "group" if res.study == "table3" else "case"
+        lines.append(f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'p95':>8s} {'|dp| mean':>10s} {'rms':>8s} "
+                     f"{'p95':>8s}" + ("   paper |dv| |dp|" if res.study == "table3" else ""))
+        for r in res.rows:
+            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if res.study == "table3" else ("", "")
+            lines.append(
+                f"{str(r[key]):14s} {r['final_velocity_error_m_s_mean']:10.4f} {r['final_velocity_error_m_s_rms']:8.4f} "
+                f"{r['final_velocity_error_m_s_p95']:8.4f} {r['final_position_error_m_mean']:10.2f} "
+                f"{r['final_position_error_m_rms']:8.2f} {r['final_position_error_m_p95']:8.2f}   {p[0]} {p[1]}")
+    return "\n".join(lines)
+
+
+def _atomic(path: str, write) -> None:
+    """Write ``path`` through a temporary file in the same folder and rename it."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+    os.close(fd)
+    try:
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _write_text(path: str, text: str) -> None:
+    with open(path, "w", newline="") as fh:
+        fh.write(text)
+
+
+def _json_doc(res) -> dict:
+    from .navsim import PAPER_TABLE1, PAPER_TABLE3
+
+    doc = {"study": res.study, "truth_model": res.meta["truth_model"],
+           "truth_degree": res.meta["truth_degree"], "meta": res.meta}
+    if res.study == "table1":
+        doc["floor"] = res.meta["floor"]
+        for r in res.rows:
+            doc[r["model"]] = {k: v for k, v in r.items() if k != "model"}
+        doc["paper"] = {k: dict(zip(("final_velocity_error_m_s", "final_position_error_m",
+                                     "gravity_eval_seconds"), v)) for k, v in PAPER_TABLE1.items()}
+    else:
+        doc["rows"] = res.rows
+        if res.study == "table3":
+            doc["paper"] = {f"group{k}": dict(zip(("final_velocity_error_m_s", "final_position_error_m"), v))
+                            for k, v in PAPER_TABLE3.items()}
+    return doc
+
+
+def write_outputs(res, out_dir: str) -> list[str]:
+    """CSV, JSON, NetCDF and PNG of one study (atomic writes). Returns the paths."""
+    base = os.path.join(out_dir, f"navsim_{res.study}")
+    buf = io.StringIO()
+    keys = list(dict.fromkeys(k for r in res.rows for k in r))
+    w = csv.DictWriter(buf, fieldnames=keys)
+    w.writeheader()
+    w.writerows(res.rows)
+    paths = [base + ".csv", base + ".json", base + ".nc", base + ".png"]
+    _atomic(paths[0], lambda p: _write_text(p, buf.getvalue()))
+    text = json.dumps(_json_doc(res), indent=2, default=float)
+    _atomic(paths[1], lambda p: _write_text(p, text + "\n"))
+    ds = to_dataset(res)
+    _atomic(paths[2], lambda p: ds.to_netcdf(p))
+    _atomic(paths[3], lambda p: plot(res, p))
+    return paths
+
+
+def to_dataset(res):
+    """Error curves of a study as an ``xarray.Dataset`` (dims run, time; CF-1.8 attributes)."""
+    import xarray as xr
+
+    ds = xr.Dataset(
+        {"position_error": (("run", "time"), res.pos, {"units": "m", "long_name": "norm of the a-frame position error"}),
+         "velocity_error": (("run", "time"), res.vel, {"units": "m s-1", "long_name": "norm of the inertial velocity error"})},
+        coords={"run": ("run", np.array(res.labels, dtype=str)),
+                "time": ("time", res.t, {"units": "s", "long_name": "time since launch"})},
+        attrs={"Conventions": "CF-1.8", "title": f"fieldmap navsim {res.study}",
+               "source": f"truth {res.meta['truth_model']} degree {res.meta['truth_degree']}",
+               "meta": json.dumps(res.meta, default=float)},
+    )
+    return ds
+
+
+def plot(res, path: str) -> None:
+    """Position and velocity error curves (Figs. 11-13 like); Monte Carlo: median and 5-95 % band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    groups: dict[str, list[int]] = {}
+    for i, lab in enumerate(res.labels):
+        groups.setdefault(lab.split("/")[0], []).append(i)
+    for ax, data, unit in ((axes[0], res.pos, "position error (m)"), (axes[1], res.vel, "velocity error (m/s)")):
+        for lab, idx in groups.items():
+            d = data[idx][:, 1:]
+            if len(idx) == 1:
+                ax.plot(res.t[1:], d[0], label=lab)
+            else:
+                line, = ax.plot(res.t[1:], np.median(d, 0), label=f"{lab} (median)")
+                ax.fill_between(res.t[1:], np.percentile(d, 5, 0), np.percentile(d, 95, 0),
+                                color=line.get_color(), alpha=0.2)
+        ax.set_yscale("log")
+        ax.set_xlabel("time since launch (s)")
+        ax.set_ylabel(unit)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{res.study}: truth {res.meta['truth_model']} (degree {res.meta['truth_degree']})")
+    fig.tight_layout()
+    fig.savefig(path, format="png", dpi=110)
+    plt.close(fig)
