@@ -68,7 +68,7 @@ def dcm_to_quat(C) -> np.ndarray:
 
 
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
-    """Navigation gravity name (``j2``, ``j4``, ``j6``, ``normal``, ``sh``, ``shN``) -> (kind, lmax)."""
+    """Navigation gravity name (j2, j4, j6, normal, sh, shN) -> (kernel kind, SH degree)."""
     key = str(name).strip().lower()
     if key in ("j2", "j4", "j6", "normal"):
         return GRAVITY_KINDS[key], 0
@@ -132,6 +132,141 @@ def launch_params(frame: LaunchFrame):
     return lp
 
 
+_ERROR_KEYS = {
+    "acc_bias": (3,),
+    "gyro_bias": (3,),
+    "acc_M": (3, 3),
+    "gyro_M": (3, 3),
+    "acc_noise": (),
+    "gyro_noise": (),
+    "seed": (),
+}
+_ERROR_DEFAULTS = {
+    "acc_bias": np.zeros(3),
+    "gyro_bias": np.zeros(3),
+    "acc_M": np.eye(3),
+    "gyro_M": np.eye(3),
+    "acc_noise": 0.0,
+    "gyro_noise": 0.0,
+}
+
+
+@dataclass
+class _Batch:
+    n: int
+    names: list
+    inputs: list  # increments, imu_set, sensor errors
+    states: dict
+    kinds: list  # kind, lmax arrays
+    shk: object
+    n_steps: int
+    n_out: int
+    device: str
+
+
+def _prepare(
+    dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step
+):
+    """Validate and upload everything the two kernels share (one row per trajectory)."""
+    _warp.init()
+    dtheta = _finite("dtheta", dtheta, (3,))
+    dv = _finite("dv", dv, (3,))
+    if dtheta.ndim == 2:
+        dtheta, dv = dtheta[None], (dv[None] if dv.ndim == 2 else dv)
+    if dtheta.ndim != 3 or dv.shape != dtheta.shape:
+        raise InputError(
+            f"dtheta {dtheta.shape} and dv {dv.shape} must match (n_sets, n_samples, 3)"
+        )
+    n_sets, n_samples = dtheta.shape[:2]
+    if n_samples < per_step or n_samples % per_step:
+        raise InputError(
+            f"need a multiple of {per_step} IMU samples (even for LCI), got {n_samples}"
+        )
+    dt = float(_finite("dt", dt))
+    if not dt > 0:
+        raise InputError(f"dt must be > 0, got {dt}")
+    output_every = int(output_every)
+    if output_every < 1:
+        raise InputError("output_every must be >= 1")
+    err = dict(errors or {})
+    unknown = set(err) - set(_ERROR_KEYS)
+    if unknown:
+        raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
+    names = [gravity] if isinstance(gravity, str) else list(gravity)
+    lens = [len(names), n_sets, 1 if imu_set is None else np.size(imu_set)]
+    for a, tail in list(states.values()) + [(v, _ERROR_KEYS[k]) for k, v in err.items()]:
+        a = np.asarray(a)
+        lens.append(a.shape[0] if a.ndim > len(tail) else 1)
+    n = max(lens)
+    if len(names) == 1:
+        names = names * n
+    if len(names) != n:
+        raise InputError(f"{len(names)} gravity names for {n} trajectories")
+    kl = np.array([parse_gravity(g, sh_model) for g in names], dtype=np.int32).reshape(n, 2)
+    if imu_set is None:
+        imu_set = np.arange(n) if n_sets == n else np.zeros(n, dtype=np.int32)
+    imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
+    if imu_set.min() < 0 or imu_set.max() >= n_sets:
+        raise InputError(f"imu_set indices must lie in 0..{n_sets - 1}")
+    states = {k: _per_traj(k, a, n, tail) for k, (a, tail) in states.items()}
+    device = _warp.resolve_device(device)
+    from .kernels import strapdown as ksd
+
+    arr = lambda a, dtype: wp.array(a, dtype=dtype, device=device)  # noqa: E731
+    se = ksd.SensorErrors()
+    types = {(3,): wp.vec3d, (3, 3): wp.mat33d, (): wp.float64}
+    for key, tail in _ERROR_KEYS.items():
+        if key == "seed":
+            seed = _per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
+            se.seed = arr(seed, wp.int32)
+        else:
+            setattr(
+                se,
+                key,
+                arr(_per_traj(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail), types[tail]),
+            )
+    sh_lmax = int(kl[:, 1].max())
+    if sh_lmax > 0:
+        from .sh import kernel_model
+
+        shk = kernel_model(sh_model, device, sh_lmax)
+    else:
+        shk = _dummy_sh(device)
+    wp.load_module(ksd, device=device)
+    n_steps = n_samples // per_step
+    return _Batch(
+        n=n,
+        names=names,
+        device=device,
+        shk=shk,
+        n_steps=n_steps,
+        n_out=n_steps // output_every + 1,
+        states=states,
+        inputs=[
+            arr(dtheta, wp.vec3d),
+            arr(dv, wp.vec3d),
+            arr(imu_set.astype(np.int32), wp.int32),
+            se,
+        ],
+        kinds=[
+            arr(np.ascontiguousarray(kl[:, 0]), wp.int32),
+            arr(np.ascontiguousarray(kl[:, 1]), wp.int32),
+        ],
+    )
+
+
+def _quat_in(q0) -> np.ndarray:
+    norms = np.linalg.norm(q0, axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-6):
+        raise InputError("q0 must be unit quaternions")
+    return np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
+
+
+def _quat_out(q) -> np.ndarray:
+    q = q.numpy()
+    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+
+
 def propagate_lci(
     dtheta,
     dv,
@@ -189,128 +324,50 @@ def propagate_lci(
     -------
     LciResult
     """
-    _warp.init()
-    dtheta = _finite("dtheta", dtheta, (3,))
-    dv = _finite("dv", dv, (3,))
-    if dtheta.ndim == 2:
-        dtheta, dv = dtheta[None], (dv[None] if dv.ndim == 2 else dv)
-    if dtheta.ndim != 3 or dv.shape != dtheta.shape:
-        raise InputError(
-            f"dtheta {dtheta.shape} and dv {dv.shape} must match, (n_sets, n_samples, 3)"
-        )
-    n_sets, n_samples = dtheta.shape[:2]
-    if n_samples < 2 or n_samples % 2:
-        raise InputError(f"need an even number (>= 2) of IMU samples, got {n_samples}")
-    dt = float(_finite("dt", dt))
-    if not dt > 0:
-        raise InputError(f"dt must be > 0, got {dt}")
-    output_every = int(output_every)
-    if output_every < 1:
-        raise InputError("output_every must be >= 1")
-    names = [gravity] if isinstance(gravity, str) else list(gravity)
-    lens = [len(names), n_sets]
-    for name, a in (("P0", P0), ("V0", V0), ("q0", q0)):
-        a = np.asarray(a)
-        lens.append(a.shape[0] if a.ndim == 2 else 1)
-    if imu_set is not None:
-        lens.append(np.size(imu_set))
-    tails = {"acc_bias": 1, "gyro_bias": 1, "acc_M": 2, "gyro_M": 2}
-    for key, val in (errors or {}).items():
-        val = np.asarray(val)
-        lens.append(val.shape[0] if val.ndim > tails.get(key, 0) else 1)
-    n = max(lens)
-    if len(names) == 1:
-        names = names * n
-    if len(names) != n:
-        raise InputError(f"{len(names)} gravity names for {n} trajectories")
-    kl = np.array([parse_gravity(g, sh_model) for g in names], dtype=np.int32).reshape(n, 2)
-    if imu_set is None:
-        imu_set = np.arange(n) if n_sets == n else np.zeros(n, dtype=np.int32)
-    imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
-    if imu_set.min() < 0 or imu_set.max() >= n_sets:
-        raise InputError(f"imu_set indices must lie in 0..{n_sets - 1}")
-    P0 = _per_traj("P0", P0, n, (3,))
-    V0 = _per_traj("V0", V0, n, (3,))
-    q0 = _per_traj("q0", q0, n, (4,))
-    norms = np.linalg.norm(q0, axis=1)
-    if np.any(np.abs(norms - 1.0) > 1e-6):
-        raise InputError("q0 must be unit quaternions")
-    q0_xyzw = np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
     frame = (
         launch
         if isinstance(launch, LaunchFrame)
         else LaunchFrame(*launch, ellipsoid=get_ellipsoid(ellipsoid))
     )
-    device = _warp.resolve_device(device)
-
+    b = _prepare(
+        dtheta,
+        dv,
+        dt,
+        {"P0": (P0, (3,)), "V0": (V0, (3,)), "q0": (q0, (4,))},
+        gravity,
+        sh_model,
+        imu_set,
+        errors,
+        output_every,
+        device,
+        per_step=2,
+    )
     from .kernels import strapdown as ksd
     from .normal import normal_params
 
-    err = errors or {}
-    unknown = set(err) - {
-        "acc_bias",
-        "gyro_bias",
-        "acc_M",
-        "gyro_M",
-        "acc_noise",
-        "gyro_noise",
-        "seed",
-    }
-    if unknown:
-        raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
-    se = ksd.SensorErrors()
-    arr = lambda a, dtype: wp.array(a, dtype=dtype, device=device)  # noqa: E731
-    se.acc_bias = arr(_per_traj("acc_bias", err.get("acc_bias", np.zeros(3)), n, (3,)), wp.vec3d)
-    se.gyro_bias = arr(_per_traj("gyro_bias", err.get("gyro_bias", np.zeros(3)), n, (3,)), wp.vec3d)
-    se.acc_M = arr(_per_traj("acc_M", err.get("acc_M", np.eye(3)), n, (3, 3)), wp.mat33d)
-    se.gyro_M = arr(_per_traj("gyro_M", err.get("gyro_M", np.eye(3)), n, (3, 3)), wp.mat33d)
-    se.acc_noise = arr(_per_traj("acc_noise", err.get("acc_noise", 0.0), n, ()), wp.float64)
-    se.gyro_noise = arr(_per_traj("gyro_noise", err.get("gyro_noise", 0.0), n, ()), wp.float64)
-    se.seed = arr(
-        _per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32), wp.int32
-    )
-
-    sh_lmax = int(kl[:, 1].max())
-    if sh_lmax > 0:
-        from .sh import kernel_model
-
-        shk = kernel_model(sh_model, device, sh_lmax)
-    else:
-        shk = _dummy_sh(device)
-    n_steps = n_samples // 2
-    n_out = n_steps // output_every + 1
-    P_out = wp.zeros((n, n_out), dtype=wp.vec3d, device=device)
-    V_out = wp.zeros((n, n_out), dtype=wp.vec3d, device=device)
-    q_out = wp.zeros((n, n_out), dtype=wp.quatd, device=device)
-    wp.load_module(ksd, device=device)
+    dev = b.device
+    P_out, V_out = (wp.zeros((b.n, b.n_out), dtype=wp.vec3d, device=dev) for _ in range(2))
+    q_out = wp.zeros((b.n, b.n_out), dtype=wp.quatd, device=dev)
+    st = b.states
     inputs = [
-        arr(dtheta, wp.vec3d),
-        arr(dv, wp.vec3d),
-        arr(imu_set.astype(np.int32), wp.int32),
-        se,
-        arr(P0, wp.vec3d),
-        arr(V0, wp.vec3d),
-        arr(q0_xyzw, wp.quatd),
-        arr(np.ascontiguousarray(kl[:, 0]), wp.int32),
-        arr(np.ascontiguousarray(kl[:, 1]), wp.int32),
+        *b.inputs,
+        wp.array(st["P0"], dtype=wp.vec3d, device=dev),
+        wp.array(st["V0"], dtype=wp.vec3d, device=dev),
+        wp.array(_quat_in(st["q0"]), dtype=wp.quatd, device=dev),
+        *b.kinds,
         launch_params(frame),
         normal_params(frame.ellipsoid),
-        shk,
+        b.shk,
         wp.float64(dt),
         wp.float64(t0),
-        n_steps,
-        output_every,
+        b.n_steps,
+        int(output_every),
         P_out,
         V_out,
         q_out,
     ]
-    _warp.launch_chunked(ksd.lci_kernel, n, inputs, device)
-    q = q_out.numpy()
-    t = t0 + 2.0 * dt * output_every * np.arange(n_out)
+    _warp.launch_chunked(ksd.lci_kernel, b.n, inputs, dev)
+    t = t0 + 2.0 * float(dt) * int(output_every) * np.arange(b.n_out)
     return LciResult(
-        t=t,
-        P=P_out.numpy(),
-        V=V_out.numpy(),
-        q=np.concatenate([q[..., 3:], q[..., :3]], axis=-1),
-        gravity=tuple(names),
+        t=t, P=P_out.numpy(), V=V_out.numpy(), q=_quat_out(q_out), gravity=tuple(b.names)
     )

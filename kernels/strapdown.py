@@ -14,9 +14,10 @@ degree, loops over its steps and writes every ``output_every``-th state.
 
 import warp as wp
 
+from .frames import ecef_to_enu, geodetic_to_ecef
 from .launch_frames import LaunchParams, a_to_ecef, vector_e_to_a
 from .navgravity import nav_gravitation_ecef
-from .normal import NormalParams
+from .normal import NormalParams, centrifugal_ecef
 from .sh import SHKernelModel
 
 _ZERO = wp.constant(wp.float64(0.0))
@@ -159,4 +160,98 @@ def lci_kernel(
             j = (k + 1) // output_every
             P_out[i, j] = P
             V_out[i, j] = V
+            q_out[i, j] = q
+
+
+@wp.func
+def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
+    """Specific force in NED, C_b^n (dv + ½ dθ×dv)/dt (seed 001, navtk ``calc_force_ned``). m/s²."""
+    return wp.quat_rotate(q_b_n, dv + _HALF * wp.cross(dth, dv)) / dt
+
+
+@wp.func
+def gravity_ned(kind: int, llh: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
+    """Gravity (gravitation + centrifugal, Groves eq. 3.7.5) in NED at geodetic (rad, rad, m)."""
+    r = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
+    g = ecef_to_enu(
+        nav_gravitation_ecef(kind, r, ell, sh) + centrifugal_ecef(r, ell.omega), llh[0], llh[1]
+    )
+    return wp.vec3d(g[1], g[0], -g[2])
+
+
+@wp.kernel
+def ned_kernel(
+    dtheta: wp.array2d(dtype=wp.vec3d),
+    dvel: wp.array2d(dtype=wp.vec3d),
+    imu_set: wp.array(dtype=wp.int32),
+    err: SensorErrors,
+    llh0: wp.array(dtype=wp.vec3d),
+    v0: wp.array(dtype=wp.vec3d),
+    q0: wp.array(dtype=wp.quatd),
+    kind: wp.array(dtype=wp.int32),
+    lmax: wp.array(dtype=wp.int32),
+    ell: NormalParams,
+    sh: SHKernelModel,
+    dt: wp.float64,
+    n_steps: wp.int32,
+    output_every: wp.int32,
+    llh_out: wp.array2d(dtype=wp.vec3d),
+    v_out: wp.array2d(dtype=wp.vec3d),
+    q_out: wp.array2d(dtype=wp.quatd),
+    offset: wp.int32,
+):
+    """Earth-relative NED mechanization, one update per IMU sample (Titterton & Weston ch. 3, 11).
+
+    With ω_ie^n = Ω(cos L, 0, −sin L), ω_en^n = (v_E/(R_E+h), −v_N/(R_N+h), −v_E tan L/(R_E+h)) at
+    the start of the sample: f^n = C_b^n (dv + ½ dθ×dv)/dt;
+    v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
+    L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
+    """
+    i = wp.tid() + offset
+    s = imu_set[i]
+    model = sh
+    model.lmax = lmax[i]
+    gk = kind[i]
+    llh = llh0[i]
+    v = v0[i]
+    q = q0[i]
+    sg = err.gyro_noise[i] * wp.sqrt(dt)
+    sa = err.acc_noise[i] * wp.sqrt(dt)
+    state = wp.rand_init(err.seed[i])
+    llh_out[i, 0] = llh
+    v_out[i, 0] = v
+    q_out[i, 0] = q
+    for k in range(n_steps):
+        th = err.gyro_M[i] * dtheta[s, k] + err.gyro_bias[i] * dt
+        dv = err.acc_M[i] * dvel[s, k] + err.acc_bias[i] * dt
+        if sg != _ZERO:
+            th = th + sg * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
+        if sa != _ZERO:
+            dv = dv + sa * wp.vec3d(
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+                wp.float64(wp.randn(state)),
+            )
+        sl = wp.sin(llh[0])
+        cl = wp.cos(llh[0])
+        w = _ONE - ell.e2 * sl * sl
+        re = ell.a / wp.sqrt(w) + llh[2]
+        rn = ell.a * (_ONE - ell.e2) / (w * wp.sqrt(w)) + llh[2]
+        w_ie = wp.vec3d(ell.omega * cl, _ZERO, -ell.omega * sl)
+        w_en = wp.vec3d(v[1] / re, -v[0] / rn, -v[1] * sl / (cl * re))
+        f = force_ned(q, dt, th, dv)
+        g = gravity_ned(gk, llh, ell, model)
+        v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
+        vm = _HALF * (v + v_new)
+        llh = llh + wp.vec3d(vm[0] / rn, vm[1] / (re * cl), -vm[2]) * dt
+        v = v_new
+        q = wp.normalize(quat_from_rotvec(-(w_ie + w_en) * dt) * q * quat_from_rotvec(th))
+        if (k + 1) % output_every == 0:
+            j = (k + 1) // output_every
+            llh_out[i, j] = llh
+            v_out[i, j] = v
             q_out[i, j] = q

@@ -96,3 +96,65 @@ def propagate_lci_reference(
             Cs.append(C.copy())
             ts.append(t0 + (k + 1) * T)
     return np.array(ts), np.stack(Ps, 1), np.stack(Vs, 1), np.stack(Cs, 1)
+
+
+def propagate_ned_reference(
+    dtheta, dv, dt, llh0, v0, C0, gravity_ned, ellipsoid, output_every=1, attitude="split"
+):
+    """Earth-relative NED mechanization, one update per sample, n trajectories at once.
+
+    Parameters
+    ----------
+    dtheta, dv : ndarray, shape (n, n_samples, 3)
+        Body-frame increments. Units: rad, m/s.
+    dt : float
+        Sample interval. Units: s.
+    llh0 : ndarray, shape (n, 3)
+        Geodetic latitude, longitude (rad) and height (m).
+    v0 : ndarray, shape (n, 3)
+        Earth-relative NED velocity. Units: m/s.
+    C0 : ndarray, shape (n, 3, 3)
+        Initial C_b^n.
+    gravity_ned : callable
+        ``g(llh)`` (n, 3) -> gravity (gravitation + centrifugal) in NED (n, 3), m/s².
+    ellipsoid : Ellipsoid
+        Supplies a, e2 and the rotation rate.
+    attitude : {"split", "body"}
+        "split": C⁺ = Rot(−ω_in dt) C Rot(dθ) (as the kernel); "body": C⁺ = C Rot(dθ − C^T ω_in dt),
+        the body-frame rate difference of Titterton & Weston eq. 3.28, kept to compare with navtk.
+
+    Returns
+    -------
+    llh, v, C : arrays (n, n_out, 3), (n, n_out, 3), (n, n_out, 3, 3)
+    """
+    a, e2, om = ellipsoid.a, ellipsoid.e2, ellipsoid.omega
+    llh = np.array(llh0, dtype=np.float64)
+    v = np.array(v0, dtype=np.float64)
+    C = np.array(C0, dtype=np.float64)
+    out_llh, out_v, out_C = [llh.copy()], [v.copy()], [C.copy()]
+    for k in range(dtheta.shape[1]):
+        lat, h = llh[:, 0], llh[:, 2]
+        s, c = np.sin(lat), np.cos(lat)
+        R_E = a / np.sqrt(1 - e2 * s**2)  # transverse radius of curvature
+        R_N = a * (1 - e2) / (1 - e2 * s**2) ** 1.5  # meridian radius of curvature
+        w_ie = np.stack([om * c, 0 * c, -om * s], -1)
+        w_en = np.stack(
+            [v[:, 1] / (R_E + h), -v[:, 0] / (R_N + h), -v[:, 1] * np.tan(lat) / (R_E + h)], -1
+        )
+        th, dvk = dtheta[:, k], dv[:, k]
+        f_n = np.einsum("nij,nj->ni", C, dvk + 0.5 * np.cross(th, dvk)) / dt  # seed 001
+        coriolis = np.cross(2 * w_ie + w_en, v)
+        v_new = v + (f_n + gravity_ned(llh) - coriolis) * dt
+        vm = 0.5 * (v + v_new)
+        llh = llh + dt * np.stack([vm[:, 0] / (R_N + h), vm[:, 1] / ((R_E + h) * c), -vm[:, 2]], -1)
+        w_in = w_ie + w_en
+        if attitude == "body":
+            C = C @ rodrigues(th - np.einsum("nji,nj->ni", C, w_in) * dt)
+        else:
+            C = rodrigues(-w_in * dt) @ C @ rodrigues(th)
+        v = v_new
+        if (k + 1) % output_every == 0:
+            out_llh.append(llh.copy())
+            out_v.append(v.copy())
+            out_C.append(C.copy())
+    return np.stack(out_llh, 1), np.stack(out_v, 1), np.stack(out_C, 1)
