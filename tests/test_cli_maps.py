@@ -1,0 +1,96 @@
+"""CLI ``fieldmap map|sweep|truncation``: outputs, JSON summaries, one-line errors, nothing written."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from fieldmap.cli import main
+
+SMALL = ["--step-deg", "10", "--lmax", "40"]
+
+
+def test_map_writes_outputs(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["map", *SMALL, "--height-km", "20", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "EIGEN-6S degree 40" in text and "area above" in text
+    names = sorted(p.name for p in out.iterdir())
+    stem = "disturbance_eigen-6s_L40_h20km_step10"
+    assert f"{stem}.nc" in names and f"{stem}.json" in names and f"{stem}_isolines.png" in names
+    assert f"{stem}_above_0.06mg.png" in names and f"{stem}_above_0.1mg.png" in names
+    assert not [n for n in names if n.startswith(".")]  # no temporary files left
+    js = json.loads((out / f"{stem}.json").read_text())
+    assert js["model"] == "EIGEN-6S" and js["lmax"] == 40 and js["height_m"] == 20000.0
+    assert 0 < js["mean_mg"] < js["max_mg"] < 1.0
+    assert set(js["area_fraction_above"]) == {"0.02", "0.05", "0.06", "0.1"}
+    assert all(0 <= v <= 1 for v in js["area_fraction_above"].values())
+
+
+def test_map_region_thresholds(tmp_path):
+    out = tmp_path / "r"
+    rc = main(["map", "--lmax", "60", "--step-deg", "0.5", "--region", "100", "112", "18", "37",
+               "--thresholds-mg", "0.025,0.05", "0.075", "0.10", "--no-plots", "--out", str(out)])
+    assert rc == 0
+    (js_path,) = out.glob("*.json")
+    assert "region100_112_18_37" in js_path.name
+    js = json.loads(js_path.read_text())
+    assert set(js["area_fraction_above"]) == {"0.025", "0.05", "0.075", "0.1"}
+    assert js["region_deg"] == [100.0, 112.0, 18.0, 37.0]
+
+
+def test_sweep_and_truncation(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["sweep", *SMALL, "--height-km", "20", "50", "100", "--out", str(out)]) == 0
+    table = capsys.readouterr().out
+    assert "h (km)" in table and "100" in table
+    (js_path,) = out.glob("sweep_*.json")
+    js = json.loads(js_path.read_text())
+    assert js["height_m"] == [20000.0, 50000.0, 100000.0] and len(js["max_mg"]) == 3
+    assert len(list(out.glob("sweep_*_isolines_h*km.png"))) == 3
+    assert main(["truncation", "--step-deg", "10", "--orders", "2,4,6", "--out", str(out)]) == 0
+    (tj,) = out.glob("truncation_*.json")
+    js = json.loads(tj.read_text())
+    assert set(js["max_mg"]) == {"j2", "j4", "j6"}
+    assert js["max_mg"]["j2"] > js["max_mg"]["j4"] > js["max_mg"]["j6"] > 0
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["map", "--step-deg", "0"], "step"),
+    (["map", "--step-deg", "-2"], "step"),
+    (["map", "--lat-max", "95"], "latitude"),
+    (["map", "--region", "10", "20", "40", "30"], "empty region"),
+    (["map", "--height-km", "nan"], "finite"),
+    (["map", "--height-km", "-100"], "below"),
+    (["map", "--lmax", "241"], "241"),
+    (["map", "--thresholds-mg", "0.1,x"], "thresholds"),
+    (["map", "--device", "cuda:9"], "device"),
+    (["map", "--model", "/nonexistent/model.gfc"], "model.gfc"),
+    (["sweep", "--height-km", "20", "inf"], "finite"),
+    (["sweep", "--height-km", "20", "20"], "repeated"),
+    (["truncation", "--orders", "2,8"], "orders"),
+])
+def test_bad_input_one_line_nothing_written(tmp_path, capsys, args, msg):
+    out = tmp_path / "never"
+    assert main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error" in err[0] and msg in err[0]
+    assert not out.exists()
+
+
+def test_unwritable_out_dir(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["map", *SMALL, "--out", str(blocker)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert blocker.read_text() == "x"
+
+
+def test_console_script_help():
+    r = subprocess.run([sys.executable, "-m", "fieldmap", "map", "--help"], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0
+    for opt in ("--model", "--lmax", "--height-km", "--step-deg", "--lat-max", "--region",
+                "--thresholds-mg", "--device", "--out"):
+        assert opt in r.stdout
