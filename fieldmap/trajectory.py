@@ -266,7 +266,8 @@ class BoostGlide(Trajectory):
         s1 = p.v_start + (p.v_glide - p.v_start) * sa - p.v_loss * sd
         s2 = (p.v_glide - p.v_start) * sa1 - p.v_loss * sd1
         st, st1, st2, _ = smooth_step(t, p.t_turn, p.w_turn)
-        return (s, s1, s2), (p.c_turn * st, p.c_turn * st1, p.c_turn * st2)
+        st0 = smooth_step(0.0, p.t_turn, p.w_turn)[0]  # start on the launch point: c(0) = 0
+        return (s, s1, s2), (p.c_turn * (st - st0), p.c_turn * st1, p.c_turn * st2)
 
     def _ecef(self, t):
         e1, e2, e3 = self._e
