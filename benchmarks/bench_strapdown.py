@@ -49,7 +49,7 @@ def _increments(ns, dt, seed=0):
 
 
 def bench_pyins(n_traj, ns, dt, repeat):
-    """pyins' numba NED integrator over n_traj trajectories with numba.prange (all cores)."""
+    """Time pyins' numba NED integrator over n_traj trajectories with numba.prange (all cores)."""
     import numba
     from pyins._numba_integrate import integrate
 
@@ -73,6 +73,7 @@ def bench_pyins(n_traj, ns, dt, repeat):
 
 
 def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
+    """Median seconds of one batched propagation (LCI or NED kernel) of n_traj trajectories."""
     dth, dv = _increments(ns, dt)
     if mech == "lci":
 
@@ -123,7 +124,8 @@ int main(int argc, char** argv) {
   int n = atoi(argv[4]);
   std::vector<double> X(n), Y(n), Z(n);
   for (int i = 0; i < n; ++i) {  // points 20-100 km up over the study area
-    double lat = (20.0 + 15.0 * i / n) * M_PI / 180, lon = (103.0 + 6.0 * ((i * 7919) % n) / n) * M_PI / 180;
+    double lat = (20.0 + 15.0 * i / n) * M_PI / 180;
+    double lon = (103.0 + 6.0 * ((i * 7919) % n) / n) * M_PI / 180;
     double r = 6378137.0 + 20000.0 + 80000.0 * ((i * 104729) % n) / n;
     X[i] = r * cos(lat) * cos(lon); Y[i] = r * cos(lat) * sin(lon); Z[i] = r * sin(lat);
   }
@@ -138,7 +140,7 @@ int main(int argc, char** argv) {
 
 
 def bench_geographiclib(model, degree, n_points, repeat):
-    """Seconds per point of GeographicLib GravityModel::V (potential + gravitation) at ``degree`` (one core)."""
+    """Seconds per point of GeographicLib ``GravityModel::V`` (with gravitation), one core."""
     from fieldmap.geographiclib import gravity_tool, run_gravity_tool, write_egm
 
     tmp = tempfile.mkdtemp(prefix="bench_gl_")
@@ -182,6 +184,7 @@ def bench_geographiclib(model, degree, n_points, repeat):
 
 
 def main(argv=None):
+    """Run the benchmark and print rates and ratios."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=20000, help="IMU samples per trajectory (J4)")
     ap.add_argument("--dt", type=float, default=0.005)

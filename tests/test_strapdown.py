@@ -406,7 +406,7 @@ def test_ned_kernel_equals_reference(device):
 
 
 def _navtk_same_gravity(dth, dv, dt, C0):
-    """navtk's mechanization_standard fed increments that make its gravity equal ours.
+    """Run navtk's mechanization_standard fed increments that make its gravity equal ours.
 
     At each step navtk evaluates its Savage gravity at the start position and forms
     f = C (dv' + ½ dθ×dv')/dt; choosing (I + ½[dθ×]) dv' = dv + ½ dθ×dv + C^T (g_ours − g_navtk) dt
@@ -433,7 +433,7 @@ def _navtk_same_gravity(dth, dv, dt, C0):
 
 
 def test_ned_reference_equals_navtk_with_body_rate_attitude():
-    """navtk (T&W body-rate attitude update) = our reference run with the same attitude form."""
+    """Navtk (T&W body-rate attitude form) equals our reference run with that attitude form."""
     from fieldmap.reference.strapdown import propagate_ned_reference
 
     N, dt = 1000, 0.01
