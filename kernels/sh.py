@@ -123,6 +123,130 @@ def sh_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
 
 
 @wp.func
+def sh_column_pair(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
+    """:func:`sh_column` for the orders ``m`` and ``m − 1`` together (m ≥ 2, m ≤ lmax).
+
+    The two column recursions run in one loop: each is a chain of dependent multiply-adds, so
+    interleaving two independent chains roughly halves the latency-bound time per term.
+    Returns ``(col_m, col_m_minus_1)``, each as :func:`sh_column` (entry [6] is 0: m − 1 ≥ 1).
+    """
+    lmax = model.lmax
+    k = m - 1
+    tq = t * q
+    qq = q * q
+    qk = wp.pow(q, wp.float64(k))
+    oa = sh_vec8()
+    ob = sh_vec8()
+    if qk < QM_MIN:
+        return oa, ob
+    # column k: seed n = k, then the step n = m (b_{m,k} = 0), so both columns stand at n = m
+    b1 = SCALE * model.sect[k] * qk
+    pb = model.anm[k, m] * tq * b1
+    cb = model.cnm[k, m]
+    sb = model.snm[k, m]
+    nfb = wp.float64(m + 1)
+    w0c = model.cnm[k, k] * b1
+    w0s = model.snm[k, k] * b1
+    B0 = w0c + cb * pb
+    B1 = w0s + sb * pb
+    B2 = wp.float64(m) * w0c + nfb * cb * pb
+    B3 = wp.float64(m) * w0s + nfb * sb * pb
+    fb = model.fnm[k, m] * b1
+    Bd4 = cb * fb
+    Bd5 = sb * fb
+    b2 = b1
+    b1 = pb
+    a1 = SCALE * model.sect[m] * qk * q
+    a2 = wp.float64(0.0)
+    A0 = model.cnm[m, m] * a1
+    A1 = model.snm[m, m] * a1
+    A2 = nfb * A0
+    A3 = nfb * A1
+    Ad4 = wp.float64(0.0)
+    Ad5 = wp.float64(0.0)
+    nf1 = nfb
+    for n in range(m + 1, lmax + 1):
+        pa = model.anm[m, n] * tq * a1 - model.bnm[m, n] * qq * a2
+        pb = model.anm[k, n] * tq * b1 - model.bnm[k, n] * qq * b2
+        nf1 = nf1 + wp.float64(1.0)
+        ca = model.cnm[m, n]
+        sa = model.snm[m, n]
+        cb = model.cnm[k, n]
+        sb = model.snm[k, n]
+        wca = ca * pa
+        wsa = sa * pa
+        wcb = cb * pb
+        wsb = sb * pb
+        A0 = A0 + wca
+        A1 = A1 + wsa
+        A2 = A2 + nf1 * wca
+        A3 = A3 + nf1 * wsa
+        B0 = B0 + wcb
+        B1 = B1 + wsb
+        B2 = B2 + nf1 * wcb
+        B3 = B3 + nf1 * wsb
+        fa = model.fnm[m, n] * a1
+        fb = model.fnm[k, n] * b1
+        Ad4 = Ad4 + ca * fa
+        Ad5 = Ad5 + sa * fa
+        Bd4 = Bd4 + cb * fb
+        Bd5 = Bd5 + sb * fb
+        a2 = a1
+        a1 = pa
+        b2 = b1
+        b1 = pb
+    oa[0] = A0
+    oa[1] = A1
+    oa[2] = A2
+    oa[3] = A3
+    oa[4] = -t * (A2 - A0) + q * Ad4
+    oa[5] = -t * (A3 - A1) + q * Ad5
+    ob[0] = B0
+    ob[1] = B1
+    ob[2] = B2
+    ob[3] = B3
+    ob[4] = -t * (B2 - B0) + q * Bd4
+    ob[5] = -t * (B3 - B1) + q * Bd5
+    return oa, ob
+
+
+@wp.func
+def _horner_step(col: sh_vec8, m: int, lam: wp.float64, u: wp.float64, acc: wp.vec4d):
+    """One Horner step in u for order m >= 1: acc = acc * u + terms of order m.
+
+    acc = (V sum, radial sum, north sum, east sum), see the module docstring.
+    """
+    ml = wp.float64(m) * lam
+    cm = wp.cos(ml)
+    sm = wp.sin(ml)
+    return wp.vec4d(
+        acc[0] * u + (col[0] * cm + col[1] * sm),
+        acc[1] * u + (col[2] * cm + col[3] * sm),
+        acc[2] * u + (col[4] * cm + col[5] * sm),
+        acc[3] * u + wp.float64(m) * (col[1] * cm - col[0] * sm),
+    )
+
+
+@wp.func
+def _m0_derivative_sum(model: SHKernelModel, t: wp.float64, q: wp.float64):
+    """Entry [6] of :func:`sh_column` for m = 1 alone: sum of q^n sqrt(n(n+1)/2) C_n0 Q_n1."""
+    lmax = model.lmax
+    if lmax < 1:
+        return wp.float64(0.0)
+    tq = t * q
+    qq = q * q
+    p1 = SCALE * model.sect[1] * q
+    p2 = wp.float64(0.0)
+    s6 = model.fnm[0, 1] * model.cnm[0, 1] * p1
+    for n in range(2, lmax + 1):
+        pn = model.anm[1, n] * tq * p1 - model.bnm[1, n] * qq * p2
+        s6 = s6 + model.fnm[0, n] * model.cnm[0, n] * pn
+        p2 = p1
+        p1 = pn
+    return s6
+
+
+@wp.func
 def sh_spherical(model: SHKernelModel, p: wp.vec3d):
     """Potential and gravitation in the geocentric spherical frame at ECEF position ``p``.
 
@@ -139,25 +263,27 @@ def sh_spherical(model: SHKernelModel, p: wp.vec3d):
     u = rho / r
     lam = wp.atan2(y, x)
     q = model.radius / r
-    vs = wp.float64(0.0)
-    rs = wp.float64(0.0)
-    ns = wp.float64(0.0)
-    es = wp.float64(0.0)
-    n6 = wp.float64(0.0)
+    acc = wp.vec4d()
     m = model.lmax
-    while m >= 0:
-        col = sh_column(model, m, t, q)
-        ml = wp.float64(m) * lam
-        cm = wp.cos(ml)
-        sm = wp.sin(ml)
-        vs = vs * u + (col[0] * cm + col[1] * sm)
-        rs = rs * u + (col[2] * cm + col[3] * sm)
-        if m >= 1:
-            ns = ns * u + (col[4] * cm + col[5] * sm)
-            es = es * u + wp.float64(m) * (col[1] * cm - col[0] * sm)
-        if m == 1:
-            n6 = col[6]
-        m = m - 1
+    while m >= 2:
+        cols = sh_column_pair(model, m, t, q)
+        acc = _horner_step(cols[0], m, lam, u, acc)
+        acc = _horner_step(cols[1], m - 1, lam, u, acc)
+        m = m - 2
+    n6 = wp.float64(0.0)
+    if m == 1:
+        col = sh_column(model, 1, t, q)
+        acc = _horner_step(col, 1, lam, u, acc)
+        n6 = col[6]
+    else:
+        # order 1 was paired with order 2 above; its entry [6] (dP̄n0/dφ) comes from here
+        n6 = _m0_derivative_sum(model, t, q)
+    col = sh_column(model, 0, t, q)
+    # order 0: only V and the radial sum get the Horner step (north/east sums start at m = 1)
+    vs = acc[0] * u + col[0]
+    rs = acc[1] * u + col[2]
+    ns = acc[2]
+    es = acc[3]
     k = model.gm / r * INV_SCALE
     kr = k / r
     return wp.vec4d(k * vs, kr * es, kr * (ns + u * n6), -kr * rs)
