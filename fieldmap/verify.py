@@ -1,0 +1,241 @@
+"""Kernel-vs-NumPy comparisons that a user can run on their own machine (``fieldmap verify``).
+
+Each check evaluates one Warp kernel path and its independent NumPy reference
+(:mod:`fieldmap.reference`) on the same random inputs and reports the largest absolute and
+relative difference (relative to the largest magnitude of the reference, per output vector) and
+the time of both. A check whose modules are absent is reported as skipped, so the command keeps
+working while parts of the package are missing.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+#: default largest accepted relative difference of a kernel and its NumPy reference
+RTOL = 1e-12
+
+
+@dataclass
+class CheckResult:
+    """One row of the verification table."""
+
+    quantity: str
+    device: str
+    max_abs: float = float("nan")
+    max_rel: float = float("nan")
+    kernel_s: float = float("nan")
+    numpy_s: float = float("nan")
+    unit: str = ""
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """True when the relative difference is within :data:`RTOL` (skipped checks pass)."""
+        return bool(self.note.startswith("skipped") or self.max_rel <= RTOL)
+
+
+def _timed(fn, repeats: int = 1):
+    """Return (result, best wall time of ``repeats`` calls)."""
+    best, out = float("inf"), None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return out, best
+
+
+def _diff(got, want) -> tuple[float, float]:
+    got, want = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
+    if got.shape != want.shape or not np.all(np.isfinite(got)):
+        return float("inf"), float("inf")
+    err = np.abs(got - want)
+    if want.ndim and want.shape[-1] == 3:  # vectors: error norm over the reference norm
+        err = np.linalg.norm(got - want, axis=-1)
+        scale = np.linalg.norm(want, axis=-1)
+    else:
+        scale = np.abs(want)
+    max_abs = float(err.max()) if err.size else 0.0
+    ref = float(scale.max()) if scale.size else 0.0
+    return max_abs, (max_abs / ref if ref > 0 else max_abs)
+
+
+def _compare(quantity, device, kernel, numpy_ref, unit):
+    kernel()  # warm-up: compiles or loads the module, builds cached tables
+    got, tk = _timed(kernel, repeats=3)
+    want, tn = _timed(numpy_ref)
+    a, r = _diff(got, want)
+    return CheckResult(quantity, device, a, r, tk, tn, unit)
+
+
+def random_points(n: int, seed: int = 0, hmax: float = 100e3):
+    """Geodetic points uniform on the sphere, heights 0..hmax, including the poles and ±89.99°.
+
+    Units: degrees, degrees, m.
+    """
+    rng = np.random.default_rng(seed)
+    lat = np.degrees(np.arcsin(rng.uniform(-1.0, 1.0, n)))
+    lon = rng.uniform(-180.0, 180.0, n)
+    h = rng.uniform(0.0, hmax, n)
+    special = np.array([90.0, -90.0, 89.99, -89.99, 0.0])[: n]
+    lat[: special.size] = special
+    return lat, lon, h
+
+
+def _sh_checks(device, lmax, npoints):
+    from .frames import geodetic_to_ecef
+    from .models import load_model
+    from .reference import sh as ref
+    from .sh import sh_gravitation, sh_potential
+
+    model = load_model("eigen-6s", lmax=lmax)
+    x, y, z = geodetic_to_ecef(*random_points(npoints, seed=1))
+    tag = f"degree {model.lmax}, {npoints} points"
+    yield _compare(f"SH gravitation ({tag})", device,
+                   lambda: sh_gravitation(model, x, y, z, device=device),
+                   lambda: ref.gravitation_ecef(model, x, y, z), "m/s²")
+    yield _compare(f"SH potential ({tag})", device,
+                   lambda: sh_potential(model, x, y, z, device=device),
+                   lambda: ref.potential(model, x, y, z), "m²/s²")
+
+
+def _normal_checks(device, npoints):
+    from .ellipsoid import WGS84
+    from .normal import normal_gravity
+    from .reference import normal as ref
+
+    lat, lon, h = random_points(npoints, seed=2)
+    for kind in ("exact", "j2", "j4", "j6"):
+        yield _compare(
+            f"normal gravitation {kind} ({npoints} points)", device,
+            lambda kind=kind: normal_gravity(lat, lon, h, WGS84, kind=kind, centrifugal=False,
+                                             frame="ecef", device=device),
+            lambda kind=kind: ref.normal_gravity(lat, lon, h, WGS84, kind=kind,
+                                                 centrifugal=False, frame="ecef"),
+            "m/s²")
+
+
+def _grid_checks(device, lmax):
+    from .frames import ecef_to_enu_vector, geodetic_to_ecef
+    from .grid import make_grid, synthesize
+    from .models import load_model
+    from .reference import sh as ref
+
+    model = load_model("eigen-6s", lmax=lmax)
+    grid = make_grid(step_deg=10.0, lat_max=80.0, heights_m=(20e3, 100e3))
+    H, LAT, LON = np.meshgrid(grid.heights, grid.lat, grid.lon, indexing="ij")
+
+    def numpy_ref():
+        x, y, z = geodetic_to_ecef(LAT.ravel(), LON.ravel(), H.ravel())
+        g = ref.gravitation_ecef(model, x, y, z)
+        return ecef_to_enu_vector(g, LAT.ravel(), LON.ravel()).reshape(H.shape + (3,))
+
+    yield _compare(f"SH grid gravitation (degree {model.lmax}, {H.size} nodes)", device,
+                   lambda: synthesize(model, grid, quantity="gravitation", device=device,
+                                      progress=False),
+                   numpy_ref, "m/s²")
+
+
+def _strapdown_checks(device):
+    from .ellipsoid import WGS84
+    from .launch_frames import LaunchFrame
+    from .reference import normal as rnorm
+    from .reference.strapdown import propagate_lci_reference
+    from .strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+
+    rng = np.random.default_rng(4)
+    n, ns, dt = 4, 400, 0.005
+    dth = rng.normal(0, 0.2, (n, ns, 3)) * dt
+    dv = (rng.normal(0, 3, (n, ns, 3)) + [0, 9.8, 0]) * dt
+    P0 = rng.normal(0, 100, (n, 3)) + [0, 20e3, 0]
+    V0 = rng.normal(0, 300, (n, 3))
+    C0 = np.array([np.eye(3)] * n)
+    frame = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
+
+    def kernel():
+        res = propagate_lci(dth, dv, dt, P0, V0, dcm_to_quat(C0), frame, "j4",
+                            output_every=20, device=device)
+        return res.P, res.V, quat_to_dcm(res.q)
+
+    def numpy_ref():
+        _, P, V, C = propagate_lci_reference(
+            dth, dv, dt, P0, V0, C0, frame,
+            lambda r: rnorm.jn_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84, 4),
+            output_every=20)
+        return P, V, C
+
+    kernel()  # warm-up
+    got, tk = _timed(kernel, repeats=3)
+    want, tn = _timed(numpy_ref)
+    tag = f"strapdown LCI J4 ({n} traj. x {ns // 2} steps)"
+    for what, unit, k in (("position", "m", 0), ("velocity", "m/s", 1), ("attitude DCM", "", 2)):
+        a, r = _diff(got[k].reshape(-1, 3), want[k].reshape(-1, 3))
+        yield CheckResult(f"{tag}: {what}", device, a, r, tk, tn, unit)
+
+
+CHECKS = (
+    ("fieldmap.sh", lambda d, o: _sh_checks(d, o["lmax"], o["points"])),
+    ("fieldmap.normal", lambda d, o: _normal_checks(d, o["points"])),
+    ("fieldmap.grid", lambda d, o: _grid_checks(d, min(o["lmax"], 120))),
+    ("fieldmap.strapdown", lambda d, o: _strapdown_checks(d)),
+)
+
+
+def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckResult]:
+    """Run every available kernel-vs-NumPy comparison.
+
+    Parameters
+    ----------
+    devices : list of str, optional
+        Warp devices (default: every device present).
+    lmax : int
+        Degree of the EIGEN-6S checks (≤ 240).
+    points : int
+        Number of random points of the point checks.
+
+    Returns
+    -------
+    list of CheckResult
+    """
+    from . import _warp
+
+    devices = list(devices) if devices else _warp.devices()
+    opts = {"lmax": int(lmax), "points": int(points)}
+    rows = []
+    for device in devices:
+        for module, make in CHECKS:
+            try:
+                importlib.import_module(module)
+            except ImportError as exc:
+                rows.append(CheckResult(module, device, note=f"skipped ({exc})"))
+                continue
+            try:
+                rows.extend(make(device, opts))
+            except ImportError as exc:  # a reference or helper module not written yet
+                rows.append(CheckResult(module, device, note=f"skipped ({exc})"))
+            except Exception as exc:  # report, keep going: a broken check is a failure
+                rows.append(CheckResult(module, device, float("inf"), float("inf"),
+                                        note=f"error: {type(exc).__name__}: {exc}"))
+    return rows
+
+
+def format_table(rows: list[CheckResult]) -> str:
+    """Render the rows as a plain-text table."""
+    head = ("quantity", "device", "max abs diff", "max rel diff", "kernel [ms]", "NumPy [ms]",
+            "status")
+    body = []
+    for r in rows:
+        if r.note:
+            body.append((r.quantity, r.device, "", "", "", "", r.note))
+            continue
+        body.append((r.quantity, r.device, f"{r.max_abs:.2e} {r.unit}", f"{r.max_rel:.2e}",
+                     f"{1e3 * r.kernel_s:.2f}", f"{1e3 * r.numpy_s:.1f}",
+                     "ok" if r.ok else f"FAIL (> {RTOL:g})"))
+    widths = [max(len(str(x[i])) for x in (head, *body)) for i in range(len(head))]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip()
+             for row in (head, *body)]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
