@@ -32,14 +32,14 @@ def describe(ds, height_m=None) -> str:
     return ", ".join(parts)
 
 
-def _map_axes(ax, ds):
+def _map_axes(ax, ds, **coast):
     lon = ds["longitude"].values
     lat = ds["latitude"].values
     step = float(ds.attrs.get("grid_step_deg", 1.0))
     ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
     ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
     ax.set_aspect("equal")
-    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9)
+    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9, **coast)
     ax.set_xlabel("longitude (°)")
     ax.set_ylabel("latitude (°)")
 
@@ -126,8 +126,7 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
     cmap = ListedColormap(["#f4f4f4", "black"])
     mesh = ax.pcolormesh(ds["longitude"].values, ds["latitude"].values, (v > threshold_mg).astype(float),
                          cmap=cmap, vmin=0, vmax=1, shading="nearest", rasterized=True)
-    _map_axes(ax, ds)
-    coastline.draw(ax, lon_min=float(ds["longitude"].values[0]) - 1e-9, color="tab:orange", linewidth=0.6)
+    _map_axes(ax, ds, color="tab:orange", linewidth=0.6)
     cb = fig.colorbar(mesh, ax=ax, ticks=[0.25, 0.75], shrink=0.6, pad=0.02)
     cb.ax.set_yticklabels([f"≤ {threshold_mg:g} mg", f"> {threshold_mg:g} mg"])
     ax.set_title(title or f"|δg| > {threshold_mg:g} mg on {100 * frac:.2f}% of the area — {describe(ds)}",
