@@ -15,7 +15,7 @@ degree, loops over its steps and writes every ``output_every``-th state.
 import warp as wp
 
 from .frames import ecef_to_enu, geodetic_to_ecef
-from .launch_frames import LaunchParams, a_to_ecef, vector_e_to_a
+from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import nav_gravitation_ecef
 from .normal import NormalParams, centrifugal_ecef
 from .sh import SHKernelModel
@@ -107,6 +107,7 @@ def lci_kernel(
     V = V0[i]
     q = q0[i]
     T = dt + dt
+    C_a_t = wp.transpose(lp.C_t_to_a)
     sg = err.gyro_noise[i] * wp.sqrt(dt)
     sa = err.acc_noise[i] * wp.sqrt(dt)
     state = wp.rand_init(err.seed[i])
@@ -150,8 +151,10 @@ def lci_kernel(
         )
         dv_a = wp.quat_rotate(q, dvb)
         t_mid = t0 + T * wp.float64(k) + dt
-        r_e = a_to_ecef(lp, P + V * (_HALF * T), t_mid)
-        g_a = vector_e_to_a(lp, nav_gravitation_ecef(gk, r_e, ell, model), t_mid)
+        # R_e^t(t) once per step: r_e = R_t^e (R_a^t P~ + r_launch), g^a = R_t^a R_e^t g^e (eq. 20)
+        C_et = C_e_to_t(t_mid, lp.omega)
+        r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
+        g_a = lp.C_t_to_a * (C_et * nav_gravitation_ecef(gk, r_e, ell, model))
         V_new = V + dv_a + g_a * T
         P = P + (V + V_new) * (_HALF * T)
         V = V_new
