@@ -499,3 +499,19 @@ def test_ned_kernel_converges_to_navtk():
     diffs = np.array(diffs)
     assert np.all(diffs[1] < [1e-4, 1e-5, 1e-7])  # 10 s, 1.5 km flown
     np.testing.assert_allclose(diffs[0] / diffs[1], 2.0, rtol=0.05)
+
+
+def test_input_validation_models_and_errors():
+    from fieldmap.models import load_model
+
+    dth = np.zeros((10, 3))
+    ok = dict(dt=0.01, P0=np.zeros(3), V0=np.zeros(3), q0=[1.0, 0, 0, 0], launch=FRAME)
+    model = load_model("eigen-6s", lmax=24)
+    with pytest.raises(InputError, match="outside"):
+        propagate_lci(dth, dth, gravity="sh200", sh_model=model, **ok)
+    with pytest.raises(InputError, match="unknown sensor error"):
+        propagate_lci(dth, dth, errors={"acc_bais": np.zeros(3)}, **ok)
+    with pytest.raises(InputError, match="imu_set"):
+        propagate_lci(dth, dth, imu_set=[0, 1], **ok)
+    with pytest.raises(InputError, match="P0"):
+        propagate_lci(dth, dth, **{**ok, "P0": [0.0, np.inf, 0.0]})
