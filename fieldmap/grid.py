@@ -169,7 +169,10 @@ def area_weights(lat_deg: np.ndarray) -> np.ndarray:
 
 
 def _regular_period(lon_deg: np.ndarray) -> int | None:
-    """Number L of nodes on the full circle if the longitudes are lon0 + k*360/L, else None."""
+    """Number L of nodes on the full circle if the longitudes are lon0 + k*360/L, else None.
+
+    More than L nodes are allowed (a grid holding both 0 and 360 deg): they wrap around.
+    """
     if lon_deg.size < 2:
         return None
     step = (lon_deg[-1] - lon_deg[0]) / (lon_deg.size - 1)
@@ -177,7 +180,7 @@ def _regular_period(lon_deg: np.ndarray) -> int | None:
         return None
     period = 360.0 / step
     nper = int(round(period))
-    if abs(period - nper) > 1e-8 * period or nper < lon_deg.size or nper > 2**22:
+    if abs(period - nper) > 1e-8 * period or nper > 2**22:
         return None
     k = np.arange(lon_deg.size)
     if np.max(np.abs(lon_deg - (lon_deg[0] + k * 360.0 / nper))) > 1e-9:
@@ -216,7 +219,9 @@ def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu") -> n
         F = np.zeros((W.shape[0], nfold * nper), dtype=np.complex128)
         F[:, :nm] = Z
         F = F.reshape(W.shape[0], nfold, nper).sum(axis=1)
-        out = scipy.fft.ifft(F, axis=-1, norm="forward", workers=-1)[:, : lon_deg.size].real
+        out = scipy.fft.ifft(F, axis=-1, norm="forward", workers=-1).real
+        # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
+        out = out[:, : lon_deg.size] if lon_deg.size <= nper else out[:, np.arange(lon_deg.size) % nper]
         return np.ascontiguousarray(out).reshape(*lead, lon_deg.size)
     return _direct_sums(W, lon_deg, device).reshape(*lead, lon_deg.size)
 

@@ -191,3 +191,16 @@ def test_bad_quantity_and_device():
         G.synthesize(kaula_model(4), grid, quantity="potential")
     with pytest.raises(InputError, match="device"):
         G.synthesize(kaula_model(4), grid, device="cuda:7")
+
+
+def test_longitudes_past_one_turn_wrap(eigen):
+    """A Driscoll-Healy-like row holding both 0 and 360 deg: FFT path, last node = first node,
+    and equal to the direct-sum path."""
+    lon = 360.0 * np.arange(13) / 12
+    assert G._regular_period(lon) == 12
+    grid = G.GridSpec(np.array([-30.0, 45.0]), lon, np.array([20e3]), 30.0)
+    a = G.synthesize(eigen, grid, device="cpu")
+    np.testing.assert_allclose(a[..., -1, :], a[..., 0, :], rtol=0, atol=1e-12 * 9.8)
+    b = G.synthesize(eigen, G.GridSpec(grid.lat, np.append(lon, 1.3), grid.heights, 30.0),
+                     device="cpu")
+    assert np.max(np.abs(a - b[..., :-1, :])) < 1e-12 * 9.8
