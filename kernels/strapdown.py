@@ -206,7 +206,8 @@ def ned_kernel(
     """Earth-relative NED mechanization, one update per IMU sample (Titterton & Weston ch. 3, 11).
 
     With ω_ie^n = Ω(cos L, 0, −sin L), ω_en^n = (v_E/(R_E+h), −v_N/(R_N+h), −v_E tan L/(R_E+h)) at
-    the start of the sample: f^n = C_b^n (dv + ½ dθ×dv)/dt;
+    the start of the sample: f^n = C_b^n (dv + ½ dθ×dv)/dt − ½ ω_in^n × C_b^n dv (the
+    rotation correction of seed 001 plus the n-frame rotation over the sample, Savage 1998);
     v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
     L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
     """
@@ -246,7 +247,9 @@ def ned_kernel(
         rn = ell.a * (_ONE - ell.e2) / (w * wp.sqrt(w)) + llh[2]
         w_ie = wp.vec3d(ell.omega * cl, _ZERO, -ell.omega * sl)
         w_en = wp.vec3d(v[1] / re, -v[0] / rn, -v[1] * sl / (cl * re))
-        f = force_ned(q, dt, th, dv)
+        # navtk's calc_force_ned omits the n-frame term: without it a body at rest on the rotating
+        # Earth sees a spurious ½ ω_ie × f dt (0.36 mGal at dt = 10 ms); with it rest is exact
+        f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
         g = gravity_ned(gk, llh, ell, model)
         v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
         vm = _HALF * (v + v_new)

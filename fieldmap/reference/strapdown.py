@@ -99,7 +99,17 @@ def propagate_lci_reference(
 
 
 def propagate_ned_reference(
-    dtheta, dv, dt, llh0, v0, C0, gravity_ned, ellipsoid, output_every=1, attitude="split"
+    dtheta,
+    dv,
+    dt,
+    llh0,
+    v0,
+    C0,
+    gravity_ned,
+    ellipsoid,
+    output_every=1,
+    attitude="split",
+    frame_rotation=True,
 ):
     """Earth-relative NED mechanization, one update per sample, n trajectories at once.
 
@@ -122,6 +132,9 @@ def propagate_ned_reference(
     attitude : {"split", "body"}
         "split": C⁺ = Rot(−ω_in dt) C Rot(dθ) (as the kernel); "body": C⁺ = C Rot(dθ − C^T ω_in dt),
         the body-frame rate difference of Titterton & Weston eq. 3.28, kept to compare with navtk.
+    frame_rotation : bool
+        Subtract ½ ω_in^n × C dv (rotation of the n-frame over the sample, as the kernel); navtk
+        does not (False reproduces it).
 
     Returns
     -------
@@ -143,6 +156,8 @@ def propagate_ned_reference(
         )
         th, dvk = dtheta[:, k], dv[:, k]
         f_n = np.einsum("nij,nj->ni", C, dvk + 0.5 * np.cross(th, dvk)) / dt  # seed 001
+        if frame_rotation:
+            f_n -= 0.5 * np.cross(w_ie + w_en, np.einsum("nij,nj->ni", C, dvk))
         coriolis = np.cross(2 * w_ie + w_en, v)
         v_new = v + (f_n + gravity_ned(llh) - coriolis) * dt
         vm = 0.5 * (v + v_new)
