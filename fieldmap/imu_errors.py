@@ -141,6 +141,11 @@ class ErrorDraws:
         return ErrorDraws(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
                              for f in fields(ErrorDraws)})
 
+    def take(self, idx) -> "ErrorDraws":
+        """The runs ``idx`` (any integer index array), in that order."""
+        idx = np.asarray(idx, dtype=np.int64)
+        return ErrorDraws(**{f.name: getattr(self, f.name)[idx] for f in fields(ErrorDraws)})
+
     def repeat(self, k: int) -> "ErrorDraws":
         """Each run repeated ``k`` times in a block (same errors for k gravity models)."""
         return ErrorDraws(**{f.name: np.tile(getattr(self, f.name), (k,) + (1,) * (getattr(self, f.name).ndim - 1))

@@ -140,17 +140,48 @@ def propagate(sc: Scenario, gravity: list[str], sets: list[ImuIncrements] | None
     sets = sets or [sc.imu]
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
+    gravity = list(gravity)
+    n = len(gravity)
+    imu_set = np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
+    perm = balanced_order(gravity)
     k0 = sc.traj.kinematics([sc.imu.t0])
     t0 = time.perf_counter()
     res = propagate_lci(dth, dv, sc.imu.dt, k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]),
-                        sc.traj.frame, gravity=list(gravity), sh_model=sc.truth_model,
-                        imu_set=imu_set, errors=None if errors is None else errors.kernel_errors(),
+                        sc.traj.frame, gravity=[gravity[i] for i in perm], sh_model=sc.truth_model,
+                        imu_set=imu_set[perm],
+                        errors=None if errors is None else errors.take(perm).kernel_errors(),
                         t0=sc.imu.t0, output_every=sc.output_every, device=sc.device)
     secs = time.perf_counter() - t0
-    dP = res.P - sc.truth.P_a[None]
-    dV = res.V - sc.truth.V_a[None]
+    inv = np.argsort(perm)
+    dP = res.P[inv] - sc.truth.P_a[None]
+    dV = res.V[inv] - sc.truth.V_a[None]
     return {"t": res.t, "dP": dP, "dV": dV, "pos": np.linalg.norm(dP, axis=-1),
             "vel": np.linalg.norm(dV, axis=-1), "seconds": secs}
+
+
+def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
+    """Order of the runs that gives every CPU chunk of the launch a similar cost.
+
+    ``fieldmap._warp.launch_chunked`` splits the threads into contiguous pieces, one per core;
+    runs are sorted by estimated cost ((N+1)² per step for SH degree N, 1 for the normal models)
+    and dealt round-robin into the pieces.
+    """
+    from ._warp import chunks, cpu_workers
+
+    n = len(gravity)
+    cost = np.array([(int(g[2:]) + 1) ** 2 if g.startswith("sh") and g[2:].isdigit() else 1
+                     for g in gravity], dtype=np.float64)
+    order = np.argsort(-cost, kind="stable")
+    pieces = chunks(n, parts or cpu_workers())
+    buckets: list[list[int]] = [[] for _ in pieces]
+    room = [cnt for _, cnt in pieces]
+    load = np.zeros(len(pieces))
+    for i in order:
+        open_ = [b for b in range(len(pieces)) if len(buckets[b]) < room[b]]
+        b = min(open_, key=lambda j: load[j])
+        buckets[b].append(int(i))
+        load[b] += cost[i]
+    return np.array([i for b in buckets for i in b], dtype=np.int64)
 
 
 def gravity_eval_seconds(name: str, sh_model, n_points: int | None = None, device: str = "cpu",
