@@ -95,7 +95,6 @@ def test_point_mass_and_j2_closed_forms(tmp_path):
 
 
 @needs_tool
-@pytest.mark.slow
 def test_eigen6s_engine_vs_gravity_tool(tmp_path):
     """fieldmap.gravity vs GeographicLib on 300 random points, EIGEN-6S to degree 240.
 

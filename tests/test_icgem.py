@@ -129,6 +129,18 @@ def _static_lines(nmax, skip=()):
     return out
 
 
+def test_crlf_and_fortran_header(tmp_path):
+    """Windows line ends and a Fortran D exponent in the header."""
+    body = "".join(_static_lines(3))
+    ref = read_icgem(_tiny(tmp_path, body, name="a.gfc"))
+    path = _tiny(tmp_path, body, name="b.gfc")
+    text = path.read_text().replace("3.986004415E+14", "0.3986004415D+15")
+    path.write_bytes(text.replace("\n", "\r\n").encode())
+    back = read_icgem(path)
+    assert back.gm == ref.gm == 3.986004415e14
+    np.testing.assert_array_equal(back.C, ref.C)
+
+
 def test_unnormalized_conversion(tmp_path):
     """C̄nm = Cnm / sqrt((2-δm0)(2n+1)(n-m)!/(n+m)!)  (Heiskanen & Moritz 1967 eq. 1-73)."""
     body = "".join(_static_lines(3))
