@@ -176,11 +176,53 @@ def _strapdown_checks(device):
         yield CheckResult(f"{tag}: {what}", device, a, r, tk, tn, unit)
 
 
+def _strapdown_ned_checks(device):
+    from .ellipsoid import WGS84
+    from .frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
+    from .reference import normal as rnorm
+    from .reference.strapdown import propagate_ned_reference
+    from .strapdown import quat_to_dcm
+    from .strapdown_ned import propagate_ned
+
+    N, dt = 600, 0.01
+    t = (np.arange(N) + 0.5) * dt  # smooth aircraft-like body rates and specific forces
+    dth = np.stack([0.05 * np.sin(0.7 * t), 0.03 * np.cos(0.3 * t), 0.02 + 0 * t], -1) * dt
+    dv = np.stack([2 + 0.5 * np.sin(t), 0.3 * np.cos(2 * t), -9.8 + 0.2 * np.sin(0.5 * t)],
+                  -1) * dt
+    v0 = np.array([150.0, 80.0, -5.0])
+
+    def g_ned(llh):  # Groves (2013) eq. 3.7.7 J2 gravitation + centrifugal, NED
+        lat, lon = np.degrees(llh[:, 0]), np.degrees(llh[:, 1])
+        r = np.stack(geodetic_to_ecef(lat, lon, llh[:, 2]), -1)
+        g = rnorm.groves_j2_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84.GM, WGS84.J2, WGS84.a)
+        g = g + WGS84.omega**2 * r * [1.0, 1.0, 0.0]
+        return enu_to_ned(np.einsum("nij,nj->ni", C_e_to_enu(lat, lon), g))
+
+    def kernel():
+        res = propagate_ned(dth, dv, dt, 30.0, 100.0, 1000.0, v0, np.array([1.0, 0, 0, 0]), "j2",
+                            output_every=50, device=device)
+        return res.v_ned[0], quat_to_dcm(res.q[0])
+
+    def numpy_ref():
+        _, V, C = propagate_ned_reference(
+            dth[None], dv[None], dt, np.array([[np.radians(30.0), np.radians(100.0), 1000.0]]),
+            v0[None], np.eye(3)[None], g_ned, WGS84, output_every=50)
+        return V[0], C[0]
+
+    kernel()
+    got, tk = _timed(kernel, repeats=3)
+    want, tn = _timed(numpy_ref)
+    for what, unit, k in (("velocity", "m/s", 0), ("attitude DCM", "", 1)):
+        a, r = _diff(got[k].reshape(-1, 3), want[k].reshape(-1, 3))
+        yield CheckResult(f"strapdown NED J2 ({N} steps): {what}", device, a, r, tk, tn, unit)
+
+
 CHECKS = (
     ("fieldmap.sh", lambda d, o: _sh_checks(d, o["lmax"], o["points"])),
     ("fieldmap.normal", lambda d, o: _normal_checks(d, o["points"])),
     ("fieldmap.grid", lambda d, o: _grid_checks(d, min(o["lmax"], 120))),
     ("fieldmap.strapdown", lambda d, o: _strapdown_checks(d)),
+    ("fieldmap.strapdown_ned", lambda d, o: _strapdown_ned_checks(d)),
 )
 
 
