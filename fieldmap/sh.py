@@ -117,8 +117,11 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
             return hit[1]
     tab = recursion_tables(L)
     km = ksh.SHKernelModel()
-    km.cnm = wp.array(np.ascontiguousarray(model.C[: L + 1, : L + 1].T), dtype=wp.float64, device=device)
-    km.snm = wp.array(np.ascontiguousarray(model.S[: L + 1, : L + 1].T), dtype=wp.float64, device=device)
+    # transposed to [m, n]: one column recursion then reads contiguous memory
+    km.cnm = wp.array(np.ascontiguousarray(model.C[: L + 1, : L + 1].T), dtype=wp.float64,
+                      device=device)
+    km.snm = wp.array(np.ascontiguousarray(model.S[: L + 1, : L + 1].T), dtype=wp.float64,
+                      device=device)
     km.anm = wp.array(tab["anm"], dtype=wp.float64, device=device)
     km.bnm = wp.array(tab["bnm"], dtype=wp.float64, device=device)
     km.fnm = wp.array(tab["fnm"], dtype=wp.float64, device=device)
@@ -210,3 +213,52 @@ def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str |
     v_d = wp.zeros(n, dtype=wp.float64, device=device)
     _warp.launch_chunked(ksh.sh_potential_kernel, n, [km, p_d, v_d], device)
     return v_d.numpy().reshape(shape)
+
+
+def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=None,
+                            lmax: int | None = None, device: str | None = None):
+    """Gravitation at geodetic points, ECEF components (kernel ``sh_points_geodetic_kernel``).
+
+    The geodetic → ECEF conversion runs inside the kernel (``kernels.frames.geodetic_to_ecef``).
+
+    Parameters
+    ----------
+    model : SHModel
+        Gravity model.
+    lat_deg, lon_deg : array_like
+        Geodetic latitude and longitude (broadcast with ``h_m``). Units: degrees.
+    h_m : array_like
+        Height above ``ellipsoid``. Units: m.
+    ellipsoid : Ellipsoid, optional
+        Default WGS84.
+    lmax : int, optional
+        Truncation degree.
+    device : str, optional
+        Warp device.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast(lat, lon, h).shape + (3,)``. Units: m/s².
+    """
+    from .ellipsoid import WGS84
+    from .kernels import sh as ksh
+
+    ell = WGS84 if ellipsoid is None else ellipsoid
+    lat, lon, h = np.broadcast_arrays(
+        *(np.asarray(v, dtype=np.float64) for v in (lat_deg, lon_deg, h_m)))
+    if not (np.all(np.isfinite(lat)) and np.all(np.isfinite(lon)) and np.all(np.isfinite(h))):
+        raise InputError("latitude, longitude and height must be finite")
+    if np.any(np.abs(lat) > 90.0):
+        raise InputError("latitude must be within [-90, 90] degrees")
+    device = _warp.resolve_device(device)
+    km = kernel_model(model, device, lmax)
+    shape = lat.shape
+    n = lat.size
+    arrs = [wp.array(np.ascontiguousarray(v.ravel()), dtype=wp.float64, device=device)
+            for v in (np.radians(lat), np.radians(lon), h)]
+    g_d = wp.zeros(n, dtype=wp.vec3d, device=device)
+    if n:
+        _warp.launch_chunked(ksh.sh_points_geodetic_kernel, n,
+                             [km, *arrs, wp.float64(ell.a), wp.float64(ell.e2), g_d], device)
+    return g_d.numpy().reshape(*shape, 3)

@@ -1,11 +1,11 @@
-"""Spherical-harmonic synthesis of the gravitational potential and its gradient (Warp, float64).
+r"""Spherical-harmonic synthesis of the gravitational potential and its gradient (Warp, float64).
 
 Potential (Chen et al. 2022 eq. 1, fully normalised, no Condon-Shortley phase):
 
 .. math::
-    V = \\frac{GM}{r}\\sum_{n=0}^{N} q^n \\sum_{m=0}^{n}
-        (\\bar C_{nm}\\cos m\\lambda + \\bar S_{nm}\\sin m\\lambda)\\bar P_{nm}(t),
-    \\qquad q = R/r,\\; t = \\sin\\varphi,\\; u = \\cos\\varphi .
+    V = \frac{GM}{r}\sum_{n=0}^{N} q^n \sum_{m=0}^{n}
+        (\bar C_{nm}\cos m\lambda + \bar S_{nm}\sin m\lambda)\bar P_{nm}(t),
+    \qquad q = R/r,\; t = \sin\varphi,\; u = \cos\varphi .
 
 Numerical scheme (Holmes & Featherstone 2002, J. Geodesy 76:279-299): the scaled functions
 ``Q_nm = 1e-280 * P̄nm(t) / u^m`` are computed by the standard forward column recursion in n for
@@ -14,9 +14,9 @@ u, running m from lmax down to 0, so no intermediate quantity underflows at ±89
 overflows below degree ~2700. Derivatives (their eqs. 15-16, fully normalised):
 
 .. math::
-    \\frac{d\\bar P_{nm}}{d\\varphi} = u^{m-1}\\,(-n t Q_{nm} + f_{nm} Q_{n-1,m}) \\cdot 10^{280}
-    \\quad (m \\ge 1), \\qquad
-    \\frac{d\\bar P_{n0}}{d\\varphi} = \\sqrt{n(n+1)/2}\\; u\\, Q_{n1} \\cdot 10^{280} ,
+    \frac{d\bar P_{nm}}{d\varphi} = u^{m-1}\,(-n t Q_{nm} + f_{nm} Q_{n-1,m}) \cdot 10^{280}
+    \quad (m \ge 1), \qquad
+    \frac{d\bar P_{n0}}{d\varphi} = \sqrt{n(n+1)/2}\; u\, Q_{n1} \cdot 10^{280} ,
 
 which stay finite at the poles (u = 0): the east component carries the factor m u^{m-1}, whose
 m = 1 term is the pole limit. The powers q^n are folded into the recursion

@@ -1,4 +1,7 @@
-"""Public gravity API (fieldmap.gravity): disturbance bookkeeping, centrifugal term, frames, units, input errors."""
+"""Public gravity API (fieldmap.gravity).
+
+Disturbance bookkeeping, centrifugal term, frames, units, input errors.
+"""
 
 import numpy as np
 import pytest
@@ -12,8 +15,11 @@ DEVICES = _warp.devices()
 
 
 def zonal_model(ell, gm=None, radius=None, nmax=12):
-    """Normal gravitational potential of ``ell`` as a zonal series (H&M 1967 eq. 2-92),
-    re-expressed with the constants ``gm``, ``radius``: C_{2k,0} = −J_{2k}/√(4k+1) · (GM/gm) (a/R)^{2k}."""
+    """Build the normal gravitational potential of ``ell`` as a zonal series (H&M 1967 eq. 2-92).
+
+    Re-expressed with the constants ``gm``, ``radius``:
+    C_{2k,0} = −J_{2k}/√(4k+1) · (GM/gm) (a/R)^{2k}.
+    """
     gm = ell.GM if gm is None else gm
     radius = ell.a if radius is None else radius
     L = 2 * nmax
@@ -25,6 +31,7 @@ def zonal_model(ell, gm=None, radius=None, nmax=12):
 
 
 def points(n=25, seed=0):
+    """Random geodetic points 0..100 km plus both poles and the equator."""
     rng = np.random.default_rng(seed)
     lat = np.r_[np.degrees(np.arcsin(rng.uniform(-1, 1, n))), 90.0, -90.0, 0.0]
     lon = np.r_[rng.uniform(-180, 180, n), 0.0, 45.0, 0.0]
@@ -35,8 +42,10 @@ def points(n=25, seed=0):
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("ell", [WGS84, GRS80], ids=["WGS84", "GRS80"])
 def test_disturbance_of_normal_field_vanishes(device, ell):
-    """The ellipsoid's own field as an SH model, written with *other* GM and radius (rescaled
-    coefficients): δg must vanish, so each field must use its own constants."""
+    """The ellipsoid's own field as an SH model has δg = 0, whatever its GM and radius.
+
+    The coefficients are rescaled to other constants, so each field must use its own.
+    """
     lat, lon, h = points()
     for gm, radius in [(None, None), (3.986004415e14, 6378136.3), (3.9860046e14, 6.4e6)]:
         model = zonal_model(ell, gm, radius)
@@ -46,8 +55,10 @@ def test_disturbance_of_normal_field_vanishes(device, ell):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_disturbance_degree0_term(device):
-    """Model GM ≠ ellipsoid GM with the same normalised coefficients: the model field is
-    (GM_m/GM_e) × normal gravitation, so δg = (GM_m/GM_e − 1) γ_gravitation (not zero)."""
+    """Model GM ≠ ellipsoid GM, same normalised coefficients: δg = (GM_m/GM_e − 1) γ.
+
+    The model field is (GM_m/GM_e) × the normal gravitation, so the degree-0 part stays.
+    """
     lat, lon, h = points(seed=1)
     base = zonal_model(WGS84)
     gm_m = 3.986004415e14  # EIGEN-6S earth_gravity_constant
@@ -81,6 +92,7 @@ def test_gravity_minus_gravitation_is_centrifugal(device):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_frames_and_units(device):
+    """NED is a reordering of ENU, ENU rotates back to ECEF, unit factors are exact."""
     from fieldmap.models import load_model
 
     model = load_model("eigen-6s", lmax=60)
@@ -105,8 +117,10 @@ def test_frames_and_units(device):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_eigen6s_plausible(device):
-    """Bundled EIGEN-6S at h = 0: |g| within 9.76..9.84 m/s² and |δg| below 1000 mGal (the
-    Earth's largest free-air anomalies are a few hundred mGal)."""
+    """Bundled EIGEN-6S at h = 0: |g| within 9.76..9.84 m/s², |δg| below 1000 mGal.
+
+    The Earth's largest gravity anomalies are a few hundred mGal.
+    """
     lat, lon, _ = points(200, seed=4)
     h = np.zeros_like(lat)
     g = gravity.gravity(lat, lon, h, device=device)
@@ -119,6 +133,7 @@ def test_eigen6s_plausible(device):
 
 
 def test_shapes_and_truncation():
+    """Inputs broadcast, lmax equals an explicit truncation, empty input gives empty output."""
     from fieldmap.models import load_model
 
     model = load_model("eigen-6s")
@@ -148,6 +163,7 @@ def test_shapes_and_truncation():
     ],
 )
 def test_bad_input(kwargs):
+    """Each bad argument raises InputError (a FieldmapError)."""
     args = dict(lat=10.0, lon=20.0, h=0.0)
     for k in ("lat", "lon", "h"):
         if k in kwargs:

@@ -35,6 +35,7 @@ def kaula(lmax, seed=0, gm=GM, radius=R):
 
 
 def eigen6s_or_kaula():
+    """Bundled EIGEN-6S, or a synthetic degree-240 model if the model loader fails."""
     try:
         from fieldmap.models import load_model
 
@@ -44,7 +45,7 @@ def eigen6s_or_kaula():
 
 
 def sample_points(n=40, seed=3):
-    """Random ECEF points at -1 km .. 1000 km, plus poles and near-pole points."""
+    """Return random ECEF points at -1 km .. 1000 km, plus poles and near-pole points."""
     rng = np.random.default_rng(seed)
     lat = np.degrees(np.arcsin(rng.uniform(-1, 1, n)))
     lon = rng.uniform(-180, 180, n)
@@ -60,17 +61,20 @@ def sample_points(n=40, seed=3):
 
 
 def rel_vec(a, b):
+    """Largest |a − b| / |b| over the rows of two (N, 3) arrays."""
     return np.max(np.linalg.norm(a - b, axis=-1) / np.linalg.norm(b, axis=-1))
 
 
 @pytest.fixture(scope="module")
 def eigen():
+    """Model used for the comparisons."""
     return eigen6s_or_kaula()
 
 
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("lmax", [2, 20, 240])
 def test_kernel_vs_reference(eigen, device, lmax):
+    """Kernel gravitation and potential vs the NumPy reference, 1e-12 relative."""
     x, y, z = sample_points()
     g = fsh.sh_gravitation(eigen, x, y, z, lmax=lmax, device=device)
     g_ref = ref.gravitation_ecef(eigen, x, y, z, lmax=lmax)
@@ -117,7 +121,7 @@ def test_point_mass(device):
 
 
 def groves_j2_gravitation(x, y, z, gm, radius, j2):
-    """Closed-form J2 gravitation, Groves (2013) eq. 3.7.7 (without the centrifugal part)."""
+    """Return the closed-form J2 gravitation, Groves (2013) eq. 3.7.7 (no centrifugal part)."""
     r = np.sqrt(x * x + y * y + z * z)
     k = 1.5 * j2 * (radius / r) ** 2
     zr2 = (z / r) ** 2
@@ -129,6 +133,7 @@ def groves_j2_gravitation(x, y, z, gm, radius, j2):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_j2_closed_form(device):
+    """J2-only model vs Groves' closed form."""
     j2 = WGS84.J2
     C = np.zeros((3, 3))
     C[0, 0] = 1.0
@@ -188,8 +193,11 @@ def test_parity(device, n, m):
 
 
 def test_reference_legendre_parity_and_known_values():
-    """Reference ALFs: parity, and closed forms P̄10 = √3 t, P̄11 = √3 u, P̄20 = √5 (3t²−1)/2,
-    P̄22 = √(15)/2 u² (Heiskanen & Moritz 1967 eq. 1-62 with the normalisation of eq. 1-73)."""
+    """Reference ALFs: parity and low-degree closed forms.
+
+    P̄10 = √3 t, P̄11 = √3 u, P̄20 = √5 (3t²−1)/2, P̄22 = √(15)/2 u² (Heiskanen & Moritz 1967
+    eq. 1-62 with the normalisation of eq. 1-73).
+    """
     phi = np.radians([-89.99, -40.0, 0.0, 17.0, 72.0])
     P = ref.legendre_matrix(phi, 60)
     Pm = ref.legendre_matrix(-phi, 60)
@@ -204,8 +212,11 @@ def test_reference_legendre_parity_and_known_values():
 
 
 def test_reference_orthonormality():
-    """4π normalisation: ∫ P̄nm P̄km dt over [−1, 1] = 2 (2 − δ_m0) δ_nk (Heiskanen & Moritz 1967
-    eq. 1-74 with ∫cos² mλ dλ = π(1 + δ_m0)); Gauss-Legendre quadrature is exact here."""
+    """4π normalisation: ∫ P̄nm P̄km dt over [−1, 1] = 2 (2 − δ_m0) δ_nk.
+
+    Heiskanen & Moritz (1967) eq. 1-74 with ∫cos² mλ dλ = π(1 + δ_m0); Gauss-Legendre quadrature
+    is exact for these polynomials.
+    """
     lmax = 40
     t, w = np.polynomial.legendre.leggauss(lmax + 2)
     P = ref.legendre_matrix(np.arcsin(t), lmax)
@@ -214,7 +225,24 @@ def test_reference_orthonormality():
         np.testing.assert_allclose(G, np.eye(lmax + 1 - m), atol=2e-13)
 
 
+@pytest.mark.parametrize("device", DEVICES)
+def test_geodetic_kernel_matches_ecef_path(eigen, device):
+    """The geodetic-input kernel equals the ECEF kernel fed with NumPy's geodetic → ECEF."""
+    from fieldmap.frames import geodetic_to_ecef
+
+    rng = np.random.default_rng(8)
+    lat = np.r_[rng.uniform(-90, 90, 30), 90.0, -90.0, 89.99]
+    lon = np.r_[rng.uniform(-180, 360, 30), 0.0, 10.0, 20.0]
+    h = np.r_[rng.uniform(-500, 5e5, 30), 0.0, 1e4, 0.0]
+    g = fsh.sh_gravitation_geodetic(eigen, lat, lon, h, WGS84, lmax=120, device=device)
+    x, y, z = geodetic_to_ecef(lat, lon, h, WGS84)
+    g2 = fsh.sh_gravitation(eigen, x, y, z, lmax=120, device=device)
+    # the two geodetic -> ECEF conversions differ by rounding (~1e-9 m), i.e. ~1e-15 of g
+    assert rel_vec(g, g2) <= 1e-13
+
+
 def test_kernel_model_cache_and_errors():
+    """Cache hits by identity and degree; bad degree and the Earth's centre are rejected."""
     from fieldmap.errors import InputError
 
     model = kaula(10)
@@ -244,7 +272,7 @@ def test_recursion_tables_identities():
 
 
 def zonal_normal_model(ellipsoid, nmax=12):
-    """Normal potential as a zonal series: C_{2k,0} = −J_{2k}/√(4k+1) (H&M 1967 eq. 2-92)."""
+    """Build the normal potential as a zonal series C_{2k,0} = −J_{2k}/√(4k+1) (H&M eq. 2-92)."""
     L = 2 * nmax
     C = np.zeros((L + 1, L + 1))
     C[0, 0] = 1.0
@@ -256,6 +284,7 @@ def zonal_normal_model(ellipsoid, nmax=12):
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("h", [0.0, 2e4, 1e5])
 def test_zonal_series_vs_exact_normal(device, h):
+    """WGS84 zonal J2n series (degree 24) vs the exact level-ellipsoid gravitation."""
     normal = pytest.importorskip("fieldmap.normal")
     from fieldmap.frames import geodetic_to_ecef
 

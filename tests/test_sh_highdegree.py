@@ -1,16 +1,16 @@
 """Degree-2190 synthesis against an independent mpmath evaluation (30 significant digits).
 
-The mpmath code below shares nothing with the kernels: plain (unscaled) fully normalised ALF
-column recursions in arbitrary precision (mpmath has no underflow), latitude derivatives from
+The mpmath code below shares nothing with the kernels: plain (unscaled) fully normalised ALF column
+recursions in arbitrary precision (mpmath has no underflow), latitude derivatives from
 differentiating the recursion itself, P̄nm/u from a third recursion seeded with u^{m−1}, and the
 spherical-to-ECEF rotation written out here.
 
-Cost control (pure-Python mpmath runs ~1e5 operations per second): near the poles P̄nm(t) falls
-off like (n u / 2)^m / m!, so the columns are summed in increasing m until three consecutive
-columns contribute less than 1e-22 of the result (for u ≤ 1.8e-3, n ≤ 2190 this happens before
-m ≈ 40, for 88° before m ≈ 150, and the remaining terms decrease monotonically). At mid latitudes all orders matter, so
-there the model keeps only a set of orders spread over 0..2190 (all degrees of each), and the
-kernel evaluates exactly the same model.
+Cost control (pure-Python mpmath runs ~1e5 operations per second): near the poles P̄nm(t) falls off
+like (n u / 2)^m / m!, so the columns are summed in increasing m until three consecutive columns
+contribute less than 1e-22 of the result (for u ≤ 1.8e-3, n ≤ 2190 this happens before m ≈ 40, for
+88° before m ≈ 150, and the remaining terms decrease monotonically). At mid latitudes all orders
+matter, so there the model keeps only a set of orders spread over 0..2190 (all degrees of each), and
+the kernel evaluates exactly the same model.
 """
 
 import mpmath as mp
@@ -117,19 +117,21 @@ def ecef(lat_deg, lon_deg, h):
     return r * np.cos(phi) * np.cos(lam), r * np.cos(phi) * np.sin(lam), r * np.sin(phi)
 
 
-POLAR = [(88.0, 200.0, 5.0e3), (89.9, 30.0, 0.0), (89.99, -120.0, 2.0e4), (-89.99, 75.0, 0.0), (90.0, 0.0, 0.0),
-         (-90.0, 0.0, 1.0e3)]
+POLAR = [(88.0, 200.0, 5.0e3), (89.9, 30.0, 0.0), (89.99, -120.0, 2.0e4), (-89.99, 75.0, 0.0),
+         (90.0, 0.0, 0.0), (-90.0, 0.0, 1.0e3)]
 ORDERS = [0, 1, 2, 3, 10, 100, 500, 1000, 1500, 2000, 2189, 2190]
 MIDLAT = [(37.0, 123.0, 0.0), (-4.0, 301.0, 1.0e4)]
 
 
 @pytest.fixture(scope="module")
 def dense():
+    """Dense degree-2190 Kaula model."""
     return kaula_model(L, seed=2190)
 
 
 @pytest.fixture(scope="module")
 def sparse():
+    """Degree-2190 Kaula model restricted to the orders ORDERS."""
     return kaula_model(L, seed=2191, orders=ORDERS)
 
 
@@ -154,12 +156,14 @@ def _check(model, points, device, orders=None):
 @pytest.mark.slow
 @pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_polar_vs_mpmath(dense, device):
+    """Dense model near and at the poles vs mpmath, 1e-12 relative."""
     assert _check(dense, POLAR, device) <= 1e-12
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_midlatitude_orders_vs_mpmath(sparse, device):
+    """Orders up to 2190 at mid and low latitude vs mpmath, 1e-12 relative."""
     assert _check(sparse, MIDLAT, device, orders=ORDERS) <= 1e-12
 
 

@@ -1,4 +1,4 @@
-"""NumPy reference for the spherical-harmonic synthesis (independent of the Warp kernels).
+r"""NumPy reference for the spherical-harmonic synthesis (independent of the Warp kernels).
 
 Written for clarity. Differences from :mod:`fieldmap.kernels.sh` on purpose:
 
@@ -11,8 +11,8 @@ Written for clarity. Differences from :mod:`fieldmap.kernels.sh` on purpose:
 * latitude derivatives come from the **m+1 identity**
 
   .. math::
-      \\frac{d\\bar P_{nm}}{d\\varphi} = -m\\,\\frac{t}{u}\\,\\bar P_{nm} + e_{nm}\\,\\bar P_{n,m+1},
-      \\quad e_{nm} = \\sqrt{(n-m)(n+m+1)}\\;(m \\ge 1),\\quad e_{n0} = \\sqrt{n(n+1)/2},
+      \frac{d\bar P_{nm}}{d\varphi} = -m\frac{t}{u}\bar P_{nm} + e_{nm}\bar P_{n,m+1},
+      \quad e_{nm} = \sqrt{(n-m)(n+m+1)}\;(m \ge 1),\quad e_{n0} = \sqrt{n(n+1)/2},
 
   (from dP_n^m/dφ = −m (t/u) P_n^m + P_n^{m+1} for the unnormalised functions and the ratio of
   normalisation factors; the m = 0 factor carries 1/√2 because P̄_n0 has no factor √2);
@@ -21,13 +21,13 @@ Written for clarity. Differences from :mod:`fieldmap.kernels.sh` on purpose:
 The potential and its spherical gradient follow Chen et al. (2022) eqs. 1-3:
 
 .. math::
-    V = \\frac{GM}{r}\\sum_n q^n\\sum_m (C\\cos m\\lambda + S\\sin m\\lambda)\\bar P_{nm},\\quad
-    \\partial_r V = -\\frac{GM}{r^2}\\sum_n (n+1) q^n \\sum_m(\\dots)\\bar P_{nm},
+    V = \frac{GM}{r}\sum_n q^n\sum_m (C\cos m\lambda + S\sin m\lambda)\bar P_{nm},\quad
+    \partial_r V = -\frac{GM}{r^2}\sum_n (n+1) q^n \sum_m(\dots)\bar P_{nm},
 
-    \\frac{1}{r}\\partial_\\varphi V = \\frac{GM}{r^2}\\sum_n q^n\\sum_m(\\dots)
-        \\frac{d\\bar P_{nm}}{d\\varphi},\\quad
-    \\frac{1}{r\\cos\\varphi}\\partial_\\lambda V = \\frac{GM}{r^2}\\sum_n q^n\\sum_m
-        m(S\\cos m\\lambda - C\\sin m\\lambda)\\frac{\\bar P_{nm}}{u}.
+    \frac{1}{r}\partial_\varphi V = \frac{GM}{r^2}\sum_n q^n\sum_m(\dots)
+        \frac{d\bar P_{nm}}{d\varphi},\quad
+    \frac{1}{r\cos\varphi}\partial_\lambda V = \frac{GM}{r^2}\sum_n q^n\sum_m
+        m(S\cos m\lambda - C\sin m\lambda)\frac{\bar P_{nm}}{u}.
 """
 
 from __future__ import annotations
@@ -79,7 +79,8 @@ def legendre_rows(t: np.ndarray, u: np.ndarray, lmax: int):
             m = np.arange(n, dtype=np.float64)
             a = np.sqrt((2 * n - 1) * (2 * n + 1) / ((n - m) * (n + m)))
             with np.errstate(invalid="ignore", divide="ignore"):
-                b = np.sqrt((2 * n + 1) * (n + m - 1) * (n - m - 1) / ((n - m) * (n + m) * (2 * n - 3)))
+                b = np.sqrt((2 * n + 1) * (n + m - 1) * (n - m - 1)
+                            / ((n - m) * (n + m) * (2 * n - 3)))
             b = np.where(n - m >= 2, b, 0.0)
             qn[:, :n] = a * t[:, None] * q1[:, :n] - b * q2[:, :n]
             sect = np.sqrt(3.0) if n == 1 else sect * np.sqrt((2 * n + 1) / (2.0 * n))
