@@ -42,14 +42,15 @@ from .model import SHModel
 
 _KEYS = {"gfc": 0, "gfct": 1, "trnd": 2, "dot": 2, "acos": 3, "asin": 4}
 _KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
-# allowed number of value fields after "key n m", per kind, for (icgem1.0, icgem2.0);
-# the optional pair is (sigma C, sigma S)
+# allowed number of value fields after "key n m", per kind, for (icgem1.0, icgem2.0): C S, up to
+# four sigmas (errors "calibrated_and_formal"), then t0 (gfct), the period (acos/asin), and in
+# icgem2.0 the validity interval t0 t1 of every time-variable line
 _NFIELDS = {
-    0: ((2, 3, 4), (2, 3, 4)),
-    1: ((3, 4, 5), (4, 5, 6)),
-    2: ((2, 3, 4), (4, 5, 6)),
-    3: ((3, 4, 5), (5, 6, 7)),
-    4: ((3, 4, 5), (5, 6, 7)),
+    0: (range(2, 7), range(2, 7)),
+    1: (range(3, 8), range(4, 9)),
+    2: (range(2, 7), range(4, 9)),
+    3: (range(3, 8), range(5, 10)),
+    4: (range(3, 8), range(5, 10)),
 }
 _NORMS = {"fully_normalized": True, "fully_normalised": True, "unnormalized": False,
           "unnormalised": False}
@@ -281,11 +282,12 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
                     f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}")
     nf = ntok[li] - 3
     for kd, allowed in _NFIELDS.items():
-        bad = (kind == kd) & ~np.isin(nf, allowed[v2])
+        ok = allowed[v2]
+        bad = (kind == kd) & ((nf < ok.start) | (nf >= ok.stop))
         if bad.any():
             k = np.flatnonzero(bad)[0]
             raise _fail(path, line_of(bad), f"'{_KIND_NAME[kd]}' line with {nf[k]} values"
-                        f" (expected {' or '.join(map(str, allowed[v2]))})")
+                        f" (expected {ok.start} to {ok.stop - 1})")
     for bad, why in ((m > n, "order m > degree n"), (n > nmax, f"degree above max_degree {nmax}")):
         if bad.any():
             k = np.flatnonzero(bad)[0]

@@ -129,11 +129,12 @@ def _static_lines(nmax, skip=()):
     return out
 
 
-def test_crlf_and_fortran_header(tmp_path):
-    """Windows line ends and a Fortran D exponent in the header."""
+def test_crlf_fortran_header_four_sigmas(tmp_path):
+    """Windows line ends, a Fortran D exponent in the header, calibrated+formal sigma columns."""
     body = "".join(_static_lines(3))
     ref = read_icgem(_tiny(tmp_path, body, name="a.gfc"))
-    path = _tiny(tmp_path, body, name="b.gfc")
+    path = _tiny(tmp_path, body.replace(" 0 0\n", " 0 0 1e-12 2e-12\n"), name="b.gfc")
+    assert " 0 0 1e-12 2e-12\n" in path.read_text()
     text = path.read_text().replace("3.986004415E+14", "0.3986004415D+15")
     path.write_bytes(text.replace("\n", "\r\n").encode())
     back = read_icgem(path)
@@ -199,7 +200,7 @@ def _cases():
     yield "truncated", dict(body="".join(good[:-2])), "n=3 m=2 after this one (file truncated?)", 16
     yield "cut line", dict(body="".join(good[:-1]) + good[-1][:12]), "with 1 values", 18
     yield "keyword", dict(body="".join(good + ["gfq 3 3 0 0 0 0\n"])), "unknown keyword", 19
-    yield "fields", dict(body="".join(good + ["gfc 3 3 0 0 0 0 0 0\n"])), "with 6 values", 19
+    yield "fields", dict(body="".join(good + ["gfc 3 3 0 0 0 0 0 0 0 0\n"])), "with 8 values", 19
     yield "orphan trnd", dict(body="".join(good + ["trnd 3 3 0 0 0 0\n"])), "without a", 19
     yield "neg degree", dict(body="".join(good + ["gfc -3 3 0 0\n"])), "bad degree", 19
 
