@@ -1,12 +1,12 @@
-"""Reproduce Table 1 / Fig. 11 of Chen et al. (2022): navigation errors with only gravity-model errors.
+"""Reproduce Table 1 / Fig. 11 of Chen et al. (2022): navigation errors from gravity models only.
 
 Truth: the bundled EIGEN-6S at full degree (240; the paper used EIGEN-6C4 to degree 2190). The
 boost-glide path (fieldmap.trajectory.BoostGlide) is flown with exact IMU increments and
 navigated with J2, J4, J6, the exact normal field, SH degree 18 and SH degree 200, all in one
 Warp launch, plus the truth model itself (the numerical floor).
 
-    python examples/table1_gravity_models.py            # 800 s at 200 Hz (about 2 min on 2 cores)
-    python examples/table1_gravity_models.py --small    # 60 s at 100 Hz (seconds; used by the tests)
+    python examples/table1_gravity_models.py          # 800 s at 200 Hz (about 2 min, 2 cores)
+    python examples/table1_gravity_models.py --small  # 60 s at 100 Hz (used by the tests)
 """
 
 from __future__ import annotations
@@ -28,8 +28,9 @@ def main(argv=None) -> int:
     from fieldmap.cli_nav import format_table, write_outputs
 
     duration, rate = (60.0, 100.0) if args.small else (800.0, 200.0)
-    sc = navsim.build_scenario(duration=duration, rate_hz=rate, n_gauss=2, device=args.device,
-                               progress=not args.small)
+    sc = navsim.build_scenario(
+        duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
+    )
     res = navsim.table1(sc, navsim.TABLE1_MODELS, timing=not args.small)
     print(format_table(res))
     os.makedirs(args.out, exist_ok=True)

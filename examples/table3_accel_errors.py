@@ -1,11 +1,11 @@
-"""Reproduce Table 3 / Fig. 12 of Chen et al. (2022): J4 navigation with the accelerometer groups of Table 2.
+"""Reproduce Table 3 / Fig. 12 of Chen et al. (2022): J4 navigation with Table 2 accelerometers.
 
 Monte Carlo over the accelerometer bias and white noise of each group (Table 2; bias read as µg,
 noise as µg/√Hz — see fieldmap.imu_errors), every draw of every group in one Warp launch; the
 table gives mean, RMS and 95th percentile of the final errors over the draws.
 
-    python examples/table3_accel_errors.py              # 800 s at 200 Hz, 50 draws per group
-    python examples/table3_accel_errors.py --small      # 60 s at 100 Hz, 4 draws (used by the tests)
+    python examples/table3_accel_errors.py          # 800 s at 200 Hz, 50 draws per group
+    python examples/table3_accel_errors.py --small  # 60 s at 100 Hz, 4 draws (used by the tests)
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ def main(argv=None) -> int:
     from fieldmap.cli_nav import format_table, write_outputs
 
     duration, rate, draws = (60.0, 100.0, 4) if args.small else (800.0, 200.0, 50)
-    sc = navsim.build_scenario(duration=duration, rate_hz=rate, n_gauss=2, device=args.device,
-                               progress=not args.small)
+    sc = navsim.build_scenario(
+        duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
+    )
     res = navsim.table3(sc, draws=args.draws or draws, seed=args.seed, nav="j4")
     print(format_table(res))
     os.makedirs(args.out, exist_ok=True)

@@ -31,15 +31,26 @@ def register(subparsers) -> None:
         "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
         "each navigation gravity model and IMU error draw in one Warp launch.",
     )
-    p.add_argument("--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)")
-    p.add_argument("--models", default="j2,j4,j6,normal,sh18,sh200",
-                   help="navigation gravity models, comma separated: j2 j4 j6 normal sh shN "
-                   "(table1; table4 uses them with the IMU errors)")
+    p.add_argument(
+        "--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)"
+    )
+    p.add_argument(
+        "--models",
+        default="j2,j4,j6,normal,sh18,sh200",
+        help="navigation gravity models, comma separated: j2 j4 j6 normal sh shN "
+        "(table1; table4 uses them with the IMU errors)",
+    )
     p.add_argument("--nav", default="j4", help="navigation gravity of table3 (default j4)")
-    p.add_argument("--draws", type=int, default=None, help="Monte Carlo draws (table3: 50, table4: 20)")
+    p.add_argument(
+        "--draws", type=int, default=None, help="Monte Carlo draws (table3: 50, table4: 20)"
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the error draws")
-    p.add_argument("--bias-mode", default="gauss", choices=("gauss", "sign", "fixed"),
-                   help="how constant errors are drawn per run (see fieldmap.imu_errors)")
+    p.add_argument(
+        "--bias-mode",
+        default="gauss",
+        choices=("gauss", "sign", "fixed"),
+        help="how constant errors are drawn per run (see fieldmap.imu_errors)",
+    )
     p.add_argument("--rate", type=float, default=200.0, help="IMU rate, Hz (default 200)")
     p.add_argument("--gauss", type=int, default=2, help="Gauss-Legendre nodes per IMU sample")
     p.add_argument("--duration", type=float, default=800.0, help="flight time, s (default 800)")
@@ -53,11 +64,15 @@ def register(subparsers) -> None:
 
 
 def _check_args(args):
+    from ._warp import DeviceError, resolve_device
     from .models import load_model
     from .navsim import check_model_names
-    from ._warp import DeviceError, resolve_device
 
-    for name, v in (("--rate", args.rate), ("--duration", args.duration), ("--output-dt", args.output_dt)):
+    for name, v in (
+        ("--rate", args.rate),
+        ("--duration", args.duration),
+        ("--output-dt", args.output_dt),
+    ):
         if not np.isfinite(v) or v <= 0:
             raise InputError(f"{name} must be a positive number, got {v}")
     if args.draws is not None and args.draws < 1:
@@ -67,7 +82,9 @@ def _check_args(args):
     if args.duration * args.rate < 2:
         raise InputError("--duration × --rate gives fewer than 2 IMU samples")
     if args.duration > 800.0:
-        raise InputError(f"--duration {args.duration} s is longer than the boost-glide path (800 s)")
+        raise InputError(
+            f"--duration {args.duration} s is longer than the boost-glide path (800 s)"
+        )
     try:
         device = resolve_device(args.device)
     except DeviceError as exc:
@@ -88,19 +105,37 @@ def run(args) -> int:
 
     device, models, nav = _check_args(args)
     studies = STUDIES if args.study == "all" else (args.study,)
-    tqdm.write(f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, truth {args.truth})")
-    sc = navsim.build_scenario(duration=args.duration, rate_hz=args.rate, truth=args.truth,
-                               truth_lmax=args.truth_degree, n_gauss=args.gauss,
-                               output_dt=args.output_dt, device=device, progress=True)
+    tqdm.write(
+        f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
+        f"truth {args.truth})"
+    )
+    sc = navsim.build_scenario(
+        duration=args.duration,
+        rate_hz=args.rate,
+        truth=args.truth,
+        truth_lmax=args.truth_degree,
+        n_gauss=args.gauss,
+        output_dt=args.output_dt,
+        device=device,
+        progress=True,
+    )
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):
         if study == "table1":
             res = navsim.table1(sc, models, timing=not args.no_timing)
         elif study == "table3":
-            res = navsim.table3(sc, draws=args.draws or 50, seed=args.seed, nav=nav, mode=args.bias_mode)
+            res = navsim.table3(
+                sc, draws=args.draws or 50, seed=args.seed, nav=nav, mode=args.bias_mode
+            )
         else:
-            res = navsim.table4(sc, [m for m in models if m.startswith("sh") or m == nav] or [nav],
-                                draws=args.draws or 20, seed=args.seed, mode=args.bias_mode, reference=nav)
+            res = navsim.table4(
+                sc,
+                [m for m in models if m.startswith("sh") or m == nav] or [nav],
+                draws=args.draws or 20,
+                seed=args.seed,
+                mode=args.bias_mode,
+                reference=nav,
+            )
         results.append(res)
     os.makedirs(args.out, exist_ok=True)
     for res in results:
@@ -113,27 +148,42 @@ def format_table(res) -> str:
     """Plain-text table of a study's rows (with the paper's values where they exist)."""
     from .navsim import PAPER_TABLE1, PAPER_TABLE3
 
-    lines = [f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
-             f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="]
+    lines = [
+        f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
+        f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="
+    ]
     if res.study == "table1":
-        lines.append(f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'eval s':>10s}   paper: |dv| |dp| eval")
+        lines.append(
+            f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'eval s':>10s}"
+            "   paper: |dv| |dp| eval"
+        )
         for r in res.rows:
             p = PAPER_TABLE1.get(r["model"], ("", "", ""))
-            lines.append(f"{r['model']:8s} {r['final_velocity_error_m_s']:10.4f} {r['final_position_error_m']:10.2f} "
-                         f"{r.get('gravity_eval_seconds', float('nan')):10.2e}   {p[0]} {p[1]} {p[2]}")
+            lines.append(
+                f"{r['model']:8s} {r['final_velocity_error_m_s']:10.4f} "
+                f"{r['final_position_error_m']:10.2f} "
+                f"{r.get('gravity_eval_seconds', float('nan')):10.2e}   {p[0]} {p[1]} {p[2]}"
+            )
         fl = res.meta["floor"]
-        lines.append(f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
-                     f"|dp| {fl['final_position_error_m']:.3e} m")
+        lines.append(
+            f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
+            f"|dp| {fl['final_position_error_m']:.3e} m"
+        )
     else:
         key = "group" if res.study == "table3" else "case"
-        lines.append(f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'p95':>8s} {'|dp| mean':>10s} {'rms':>8s} "
-                     f"{'p95':>8s}" + ("   paper |dv| |dp|" if res.study == "table3" else ""))
+        lines.append(
+            f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'p95':>8s} {'|dp| mean':>10s} {'rms':>8s} "
+            f"{'p95':>8s}" + ("   paper |dv| |dp|" if res.study == "table3" else "")
+        )
         for r in res.rows:
             p = PAPER_TABLE3.get(r.get("group"), ("", "")) if res.study == "table3" else ("", "")
             lines.append(
-                f"{str(r[key]):14s} {r['final_velocity_error_m_s_mean']:10.4f} {r['final_velocity_error_m_s_rms']:8.4f} "
-                f"{r['final_velocity_error_m_s_p95']:8.4f} {r['final_position_error_m_mean']:10.2f} "
-                f"{r['final_position_error_m_rms']:8.2f} {r['final_position_error_m_p95']:8.2f}   {p[0]} {p[1]}")
+                f"{str(r[key]):14s} {r['final_velocity_error_m_s_mean']:10.4f} "
+                f"{r['final_velocity_error_m_s_rms']:8.4f} "
+                f"{r['final_velocity_error_m_s_p95']:8.4f} "
+                f"{r['final_position_error_m_mean']:10.2f} {r['final_position_error_m_rms']:8.2f} "
+                f"{r['final_position_error_m_p95']:8.2f}   {p[0]} {p[1]}"
+            )
     return "\n".join(lines)
 
 
@@ -162,19 +212,32 @@ def _write_text(path: str, text: str) -> None:
 def _json_doc(res) -> dict:
     from .navsim import PAPER_TABLE1, PAPER_TABLE3
 
-    doc = {"study": res.study, "truth_model": res.meta["truth_model"],
-           "truth_degree": res.meta["truth_degree"], "meta": res.meta}
+    doc = {
+        "study": res.study,
+        "truth_model": res.meta["truth_model"],
+        "truth_degree": res.meta["truth_degree"],
+        "meta": res.meta,
+    }
     if res.study == "table1":
         doc["floor"] = res.meta["floor"]
         for r in res.rows:
             doc[r["model"]] = {k: v for k, v in r.items() if k != "model"}
-        doc["paper"] = {k: dict(zip(("final_velocity_error_m_s", "final_position_error_m",
-                                     "gravity_eval_seconds"), v)) for k, v in PAPER_TABLE1.items()}
+        doc["paper"] = {
+            k: dict(
+                zip(
+                    ("final_velocity_error_m_s", "final_position_error_m", "gravity_eval_seconds"),
+                    v,
+                )
+            )
+            for k, v in PAPER_TABLE1.items()
+        }
     else:
         doc["rows"] = res.rows
         if res.study == "table3":
-            doc["paper"] = {f"group{k}": dict(zip(("final_velocity_error_m_s", "final_position_error_m"), v))
-                            for k, v in PAPER_TABLE3.items()}
+            doc["paper"] = {
+                f"group{k}": dict(zip(("final_velocity_error_m_s", "final_position_error_m"), v))
+                for k, v in PAPER_TABLE3.items()
+            }
     return doc
 
 
@@ -201,19 +264,34 @@ def to_dataset(res):
     import xarray as xr
 
     ds = xr.Dataset(
-        {"position_error": (("run", "time"), res.pos, {"units": "m", "long_name": "norm of the a-frame position error"}),
-         "velocity_error": (("run", "time"), res.vel, {"units": "m s-1", "long_name": "norm of the inertial velocity error"})},
-        coords={"run": ("run", np.array(res.labels, dtype=str)),
-                "time": ("time", res.t, {"units": "s", "long_name": "time since launch"})},
-        attrs={"Conventions": "CF-1.8", "title": f"fieldmap navsim {res.study}",
-               "source": f"truth {res.meta['truth_model']} degree {res.meta['truth_degree']}",
-               "meta": json.dumps(res.meta, default=float)},
+        {
+            "position_error": (
+                ("run", "time"),
+                res.pos,
+                {"units": "m", "long_name": "norm of the a-frame position error"},
+            ),
+            "velocity_error": (
+                ("run", "time"),
+                res.vel,
+                {"units": "m s-1", "long_name": "norm of the inertial velocity error"},
+            ),
+        },
+        coords={
+            "run": ("run", np.array(res.labels, dtype=str)),
+            "time": ("time", res.t, {"units": "s", "long_name": "time since launch"}),
+        },
+        attrs={
+            "Conventions": "CF-1.8",
+            "title": f"fieldmap navsim {res.study}",
+            "source": f"truth {res.meta['truth_model']} degree {res.meta['truth_degree']}",
+            "meta": json.dumps(res.meta, default=float),
+        },
     )
     return ds
 
 
 def plot(res, path: str) -> None:
-    """Position and velocity error curves (Figs. 11-13 like); Monte Carlo: median and 5-95 % band."""
+    """Plot position and velocity error curves (Figs. 11-13); Monte Carlo: median, 5-95 % band."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -223,21 +301,31 @@ def plot(res, path: str) -> None:
     groups: dict[str, list[int]] = {}
     for i, lab in enumerate(res.labels):
         groups.setdefault(lab.split("/")[0], []).append(i)
-    for ax, data, unit in ((axes[0], res.pos, "position error (m)"), (axes[1], res.vel, "velocity error (m/s)")):
+    for ax, data, unit in (
+        (axes[0], res.pos, "position error (m)"),
+        (axes[1], res.vel, "velocity error (m/s)"),
+    ):
         for lab, idx in groups.items():
             d = data[idx][:, 1:]
             if len(idx) == 1:
                 ax.plot(res.t[1:], d[0], label=lab)
             else:
-                line, = ax.plot(res.t[1:], np.median(d, 0), label=f"{lab} (median)")
-                ax.fill_between(res.t[1:], np.percentile(d, 5, 0), np.percentile(d, 95, 0),
-                                color=line.get_color(), alpha=0.2)
+                (line,) = ax.plot(res.t[1:], np.median(d, 0), label=f"{lab} (median)")
+                ax.fill_between(
+                    res.t[1:],
+                    np.percentile(d, 5, 0),
+                    np.percentile(d, 95, 0),
+                    color=line.get_color(),
+                    alpha=0.2,
+                )
         ax.set_yscale("log")
         ax.set_xlabel("time since launch (s)")
         ax.set_ylabel(unit)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle(f"{res.study}: truth {res.meta['truth_model']} (degree {res.meta['truth_degree']})")
+    fig.suptitle(
+        f"{res.study}: truth {res.meta['truth_model']} (degree {res.meta['truth_degree']})"
+    )
     fig.tight_layout()
     fig.savefig(path, format="png", dpi=110)
     plt.close(fig)

@@ -1,12 +1,12 @@
-"""Exact IMU synthesis: gyro and accelerometer increments from a reference trajectory.
+r"""Exact IMU synthesis: gyro and accelerometer increments from a reference trajectory.
 
 For each IMU sample ``[t_i, t_i + dt]`` the increments the two-sample mechanization of Chen et al.
 (2022) Fig. 1 expects are (Savage 1998 §2; Titterton & Weston 2004 §11.2):
 
 .. math::
-    \\Delta\\theta_i = \\int_{t_i}^{t_i+dt} \\omega_{ib}^b(t)\\,dt, \\qquad
-    \\Delta v_i = \\int_{t_i}^{t_i+dt} f^b(t)\\,dt, \\qquad
-    f^b = C_a^b\\,(A_a - \\gamma^a(P_a, t))
+    \Delta\theta_i = \int_{t_i}^{t_i+dt} \omega_{ib}^b(t)\,dt, \qquad
+    \Delta v_i = \int_{t_i}^{t_i+dt} f^b(t)\,dt, \qquad
+    f^b = C_a^b\,(A_a - \gamma^a(P_a, t))
 
 with f = a − γ the specific force (seed 000 eq. 3.7.1: accelerometers sense the non-gravitational
 force, so at rest the sensed force points up) and γ the gravitation of the *truth* model (no
@@ -79,11 +79,18 @@ def validate_increments(dtheta, dv, dt) -> None:
         raise InputError(f"IMU sample interval dt must be positive and finite, got {dt}")
     dtheta, dv = np.asarray(dtheta), np.asarray(dv)
     if dtheta.ndim != 2 or dtheta.shape[-1] != 3 or dv.ndim != 2 or dv.shape[-1] != 3:
-        raise InputError(f"IMU increments must have shape (n, 3), got {dtheta.shape} and {dv.shape}")
+        raise InputError(
+            f"IMU increments must have shape (n, 3), got {dtheta.shape} and {dv.shape}"
+        )
     if dtheta.shape != dv.shape:
-        raise InputError(f"gyro and accelerometer increments differ in length: {dtheta.shape} vs {dv.shape}")
+        raise InputError(
+            f"gyro and accelerometer increments differ in length: {dtheta.shape} vs {dv.shape}"
+        )
     if dtheta.shape[0] < 2 or dtheta.shape[0] % 2:
-        raise InputError(f"the two-sample mechanization needs an even number (>= 2) of samples, got {dtheta.shape[0]}")
+        raise InputError(
+            "the two-sample mechanization needs an even number (>= 2) of samples, "
+            f"got {dtheta.shape[0]}"
+        )
     if not (np.all(np.isfinite(dtheta)) and np.all(np.isfinite(dv))):
         raise InputError("IMU increments contain NaN or inf")
 
@@ -111,14 +118,18 @@ class Gravitation:
         Warp device.
     """
 
-    def __init__(self, kind: str = "sh", model=None, lmax: int | None = None, device: str | None = None):
+    def __init__(
+        self, kind: str = "sh", model=None, lmax: int | None = None, device: str | None = None
+    ):
         self.kind = str(kind).lower()
         self.device = device
         if self.kind == "sh":
             self.model = model if model is not None else load_truth_model()
             self.lmax = self.model.lmax if lmax is None else int(lmax)
             if not 0 <= self.lmax <= self.model.lmax:
-                raise InputError(f"degree {lmax} is beyond the model {self.model.name} (max {self.model.lmax})")
+                raise InputError(
+                    f"degree {lmax} is beyond the model {self.model.name} (max {self.model.lmax})"
+                )
             self.name = f"{self.model.name} (degree {self.lmax})"
         elif self.kind in ("exact", "j2", "j4", "j6"):
             self.model, self.lmax, self.name = None, None, f"normal {self.kind} (WGS84)"

@@ -1,4 +1,4 @@
-"""IMU error models of Chen et al. (2022) Tables 2 and 4: bias, white noise, scale factor, misalignment.
+r"""IMU error models of Chen et al. (2022) Tables 2 and 4: bias, noise, scale factor, misalignment.
 
 Units used here (standard, unambiguous) and how the paper's printed units are read:
 
@@ -23,9 +23,9 @@ Measurement model (applied per IMU sample of length dt, as :func:`apply` and the
 ``fieldmap.kernels.strapdown.lci_kernel`` do):
 
 .. math::
-    \\Delta\\tilde v = M_a\\,\\Delta v + b_a\\,dt + \\sigma_a\\sqrt{dt}\\,n,\\qquad
-    \\Delta\\tilde\\theta = M_g\\,\\Delta\\theta + b_g\\,dt + \\sigma_g\\sqrt{dt}\\,n,\\qquad
-    M = (I + \\mathrm{diag}(s))\\,R(\\varepsilon)
+    \Delta\tilde v = M_a\,\Delta v + b_a\,dt + \sigma_a\sqrt{dt}\,n,\qquad
+    \Delta\tilde\theta = M_g\,\Delta\theta + b_g\,dt + \sigma_g\sqrt{dt}\,n,\qquad
+    M = (I + \mathrm{diag}(s))\,R(\varepsilon)
 
 with n ~ N(0, I) independent per sample and axis (so the noise of a mean over τ seconds falls as
 σ/√τ: σ in units/√Hz), s the per-axis scale-factor errors and R(ε) the rotation by the small
@@ -105,8 +105,14 @@ TABLE2_GROUPS = {
 
 #: Table 4 of Chen et al. (2022): the full IMU error model.
 TABLE4 = ImuErrorSpec(
-    acc_bias_ug=10.0, acc_noise_ug_rthz=1.0, acc_scale_ppm=10.0, acc_misalign_arcsec=0.5,
-    gyro_bias_deg_h=0.003, gyro_arw_deg_rth=0.0003, gyro_scale_ppm=10.0, gyro_misalign_arcsec=0.5,
+    acc_bias_ug=10.0,
+    acc_noise_ug_rthz=1.0,
+    acc_scale_ppm=10.0,
+    acc_misalign_arcsec=0.5,
+    gyro_bias_deg_h=0.003,
+    gyro_arw_deg_rth=0.0003,
+    gyro_scale_ppm=10.0,
+    gyro_misalign_arcsec=0.5,
 )
 
 
@@ -132,24 +138,34 @@ class ErrorDraws:
         return self.acc_bias.shape[0]
 
     def kernel_errors(self) -> dict:
-        """The ``errors=`` dictionary of :func:`fieldmap.strapdown.propagate_lci`."""
+        """Return the ``errors=`` dictionary of :func:`fieldmap.strapdown.propagate_lci`."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @staticmethod
     def concat(parts: list["ErrorDraws"]) -> "ErrorDraws":
         """Stack several sets of runs (e.g. one per IMU grade) into one launch."""
-        return ErrorDraws(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
-                             for f in fields(ErrorDraws)})
+        return ErrorDraws(
+            **{
+                f.name: np.concatenate([getattr(p, f.name) for p in parts])
+                for f in fields(ErrorDraws)
+            }
+        )
 
     def take(self, idx) -> "ErrorDraws":
-        """The runs ``idx`` (any integer index array), in that order."""
+        """Return the runs ``idx`` (any integer index array), in that order."""
         idx = np.asarray(idx, dtype=np.int64)
         return ErrorDraws(**{f.name: getattr(self, f.name)[idx] for f in fields(ErrorDraws)})
 
     def repeat(self, k: int) -> "ErrorDraws":
         """Each run repeated ``k`` times in a block (same errors for k gravity models)."""
-        return ErrorDraws(**{f.name: np.tile(getattr(self, f.name), (k,) + (1,) * (getattr(self, f.name).ndim - 1))
-                             for f in fields(ErrorDraws)})
+        return ErrorDraws(
+            **{
+                f.name: np.tile(
+                    getattr(self, f.name), (k,) + (1,) * (getattr(self, f.name).ndim - 1)
+                )
+                for f in fields(ErrorDraws)
+            }
+        )
 
 
 def _axes(rng, sigma: float, n: int, mode: str) -> np.ndarray:
@@ -199,12 +215,21 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
     acc_b = _axes(rng, spec.acc_bias_ug * UG, n, mode)
     gyro_b = _axes(rng, spec.gyro_bias_deg_h * DEG_H, n, mode)
     acc_M = (1.0 + _axes(rng, spec.acc_scale_ppm * 1e-6, n, mode))[:, :, None] * rotation(
-        _axes(rng, spec.acc_misalign_arcsec * ARCSEC, n, mode))
+        _axes(rng, spec.acc_misalign_arcsec * ARCSEC, n, mode)
+    )
     gyro_M = (1.0 + _axes(rng, spec.gyro_scale_ppm * 1e-6, n, mode))[:, :, None] * rotation(
-        _axes(rng, spec.gyro_misalign_arcsec * ARCSEC, n, mode))
+        _axes(rng, spec.gyro_misalign_arcsec * ARCSEC, n, mode)
+    )
     seeds = rng.integers(0, 2**31 - 1, size=n, dtype=np.int64).astype(np.int32)
-    return ErrorDraws(acc_b, gyro_b, acc_M, gyro_M, np.full(n, spec.acc_noise_ug_rthz * UG),
-                      np.full(n, spec.gyro_arw_deg_rth * DEG_RTH), seeds)
+    return ErrorDraws(
+        acc_b,
+        gyro_b,
+        acc_M,
+        gyro_M,
+        np.full(n, spec.acc_noise_ug_rthz * UG),
+        np.full(n, spec.gyro_arw_deg_rth * DEG_RTH),
+        seeds,
+    )
 
 
 def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):

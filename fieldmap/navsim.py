@@ -31,8 +31,10 @@ from .trajectory import BoostGlide, Kinematics, Trajectory
 TABLE1_MODELS = ("j2", "j4", "j6", "normal", "sh18", "sh200")
 #: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation.
 PAPER_TABLE1 = {
-    "j2": (0.742, 387.18, 0.000003), "j4": (0.686, 351.28, 0.000003),
-    "j6": (0.686, 351.19, 0.000004), "sh18": (0.181, 117.52, 0.000214),
+    "j2": (0.742, 387.18, 0.000003),
+    "j4": (0.686, 351.28, 0.000003),
+    "j6": (0.686, 351.19, 0.000004),
+    "sh18": (0.181, 117.52, 0.000214),
     "sh200": (0.060, 35.88, 0.004449),
 }
 #: Paper values (Chen et al. 2022 Table 3): |δv| m/s, |δp| m per accelerometer group.
@@ -79,15 +81,26 @@ class Scenario:
         if nav_truth not in self.extra_sets:
             g = Gravitation(NORMAL_KINDS[nav_truth], device=self.device)
             self.extra_sets[nav_truth] = synthesize(
-                self.traj, self.imu.rate_hz, g, n_gauss=self.imu.meta["n_gauss"],
-                duration=self.imu.duration)
+                self.traj,
+                self.imu.rate_hz,
+                g,
+                n_gauss=self.imu.meta["n_gauss"],
+                duration=self.imu.duration,
+            )
         return self.extra_sets[nav_truth]
 
 
-def build_scenario(duration: float = 800.0, rate_hz: float = 200.0, truth: str = "eigen-6s",
-                   truth_lmax: int | None = None, n_gauss: int = 3, output_dt: float = 1.0,
-                   trajectory: Trajectory | None = None, device: str | None = None,
-                   progress: bool = False) -> Scenario:
+def build_scenario(
+    duration: float = 800.0,
+    rate_hz: float = 200.0,
+    truth: str = "eigen-6s",
+    truth_lmax: int | None = None,
+    n_gauss: int = 3,
+    output_dt: float = 1.0,
+    trajectory: Trajectory | None = None,
+    device: str | None = None,
+    progress: bool = False,
+) -> Scenario:
     """Synthesize the IMU of the boost-glide path (or ``trajectory``) under the truth model.
 
     Parameters
@@ -125,8 +138,13 @@ def build_scenario(duration: float = 800.0, rate_hz: float = 200.0, truth: str =
     return Scenario(traj, model, imu, every, t_out, traj.kinematics(t_out), device)
 
 
-def propagate(sc: Scenario, gravity: list[str], sets: list[ImuIncrements] | None = None,
-              imu_set=None, errors: imu_errors.ErrorDraws | None = None):
+def propagate(
+    sc: Scenario,
+    gravity: list[str],
+    sets: list[ImuIncrements] | None = None,
+    imu_set=None,
+    errors: imu_errors.ErrorDraws | None = None,
+):
     """All runs in one :func:`fieldmap.strapdown.propagate_lci` launch; errors vs. the truth.
 
     Returns
@@ -142,21 +160,40 @@ def propagate(sc: Scenario, gravity: list[str], sets: list[ImuIncrements] | None
     dv = np.stack([s.dv for s in sets])
     gravity = list(gravity)
     n = len(gravity)
-    imu_set = np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
+    imu_set = (
+        np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
+    )
     perm = balanced_order(gravity)
     k0 = sc.traj.kinematics([sc.imu.t0])
     t0 = time.perf_counter()
-    res = propagate_lci(dth, dv, sc.imu.dt, k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]),
-                        sc.traj.frame, gravity=[gravity[i] for i in perm], sh_model=sc.truth_model,
-                        imu_set=imu_set[perm],
-                        errors=None if errors is None else errors.take(perm).kernel_errors(),
-                        t0=sc.imu.t0, output_every=sc.output_every, device=sc.device)
+    res = propagate_lci(
+        dth,
+        dv,
+        sc.imu.dt,
+        k0.P_a[0],
+        k0.V_a[0],
+        dcm_to_quat(k0.C_b_to_a[0]),
+        sc.traj.frame,
+        gravity=[gravity[i] for i in perm],
+        sh_model=sc.truth_model,
+        imu_set=imu_set[perm],
+        errors=None if errors is None else errors.take(perm).kernel_errors(),
+        t0=sc.imu.t0,
+        output_every=sc.output_every,
+        device=sc.device,
+    )
     secs = time.perf_counter() - t0
     inv = np.argsort(perm)
     dP = res.P[inv] - sc.truth.P_a[None]
     dV = res.V[inv] - sc.truth.V_a[None]
-    return {"t": res.t, "dP": dP, "dV": dV, "pos": np.linalg.norm(dP, axis=-1),
-            "vel": np.linalg.norm(dV, axis=-1), "seconds": secs}
+    return {
+        "t": res.t,
+        "dP": dP,
+        "dV": dV,
+        "pos": np.linalg.norm(dP, axis=-1),
+        "vel": np.linalg.norm(dV, axis=-1),
+        "seconds": secs,
+    }
 
 
 def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
@@ -169,8 +206,10 @@ def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
     from ._warp import chunks, cpu_workers
 
     n = len(gravity)
-    cost = np.array([(int(g[2:]) + 1) ** 2 if g.startswith("sh") and g[2:].isdigit() else 1
-                     for g in gravity], dtype=np.float64)
+    cost = np.array(
+        [(int(g[2:]) + 1) ** 2 if g.startswith("sh") and g[2:].isdigit() else 1 for g in gravity],
+        dtype=np.float64,
+    )
     order = np.argsort(-cost, kind="stable")
     pieces = chunks(n, parts or cpu_workers())
     buckets: list[list[int]] = [[] for _ in pieces]
@@ -184,8 +223,9 @@ def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
     return np.array([i for b in buckets for i in b], dtype=np.int64)
 
 
-def gravity_eval_seconds(name: str, sh_model, n_points: int | None = None, device: str = "cpu",
-                         repeats: int = 3) -> float:
+def gravity_eval_seconds(
+    name: str, sh_model, n_points: int | None = None, device: str = "cpu", repeats: int = 3
+) -> float:
     """Measured cost of one gravity evaluation of navigation model ``name`` (one CPU thread).
 
     Points along the boost-glide path are evaluated in one batch through the same Warp device
@@ -245,22 +285,33 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
     out = propagate(sc, runs)
     rows = []
     for i, name in enumerate(names):
-        row = {"model": name, "final_velocity_error_m_s": float(out["vel"][i, -1]),
-               "final_position_error_m": float(out["pos"][i, -1])}
+        row = {
+            "model": name,
+            "final_velocity_error_m_s": float(out["vel"][i, -1]),
+            "final_position_error_m": float(out["pos"][i, -1]),
+        }
         if timing:
             row["gravity_eval_seconds"] = gravity_eval_seconds(name, sc.truth_model)
         rows.append(row)
-    floor = {"nav_gravity": sc.truth_key, "final_position_error_m": float(out["pos"][-1, -1]),
-             "final_velocity_error_m_s": float(out["vel"][-1, -1]),
-             "max_position_error_m": float(out["pos"][-1].max())}
+    floor = {
+        "nav_gravity": sc.truth_key,
+        "final_position_error_m": float(out["pos"][-1, -1]),
+        "final_velocity_error_m_s": float(out["vel"][-1, -1]),
+        "max_position_error_m": float(out["pos"][-1].max()),
+    }
     meta = _meta(sc) | {"floor": floor, "propagation_seconds": out["seconds"], "n_runs": len(runs)}
     return StudyResult("table1", rows, out["t"], runs, out["pos"], out["vel"], meta)
 
 
 def _stats(x: np.ndarray) -> dict:
-    return {"mean": float(np.mean(x)), "rms": float(np.sqrt(np.mean(x * x))),
-            "p05": float(np.percentile(x, 5)), "p50": float(np.percentile(x, 50)),
-            "p95": float(np.percentile(x, 95)), "max": float(np.max(x))}
+    return {
+        "mean": float(np.mean(x)),
+        "rms": float(np.sqrt(np.mean(x * x))),
+        "p05": float(np.percentile(x, 5)),
+        "p50": float(np.percentile(x, 50)),
+        "p95": float(np.percentile(x, 95)),
+        "max": float(np.max(x)),
+    }
 
 
 def _mc_rows(labels, out, n, extra):
@@ -275,8 +326,14 @@ def _mc_rows(labels, out, n, extra):
     return rows
 
 
-def table3(sc: Scenario, groups=(1, 2, 3, 4), draws: int = 50, seed: int = 0, nav: str = "j4",
-           mode: str = "gauss") -> StudyResult:
+def table3(
+    sc: Scenario,
+    groups=(1, 2, 3, 4),
+    draws: int = 50,
+    seed: int = 0,
+    nav: str = "j4",
+    mode: str = "gauss",
+) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
     ``draws`` Monte Carlo runs per group (group 4, error-free, is deterministic: one run) in one
@@ -292,24 +349,42 @@ def table3(sc: Scenario, groups=(1, 2, 3, 4), draws: int = 50, seed: int = 0, na
         parts.append(imu_errors.draw(spec, n, seed=seed + 1000 * gi, mode=mode))
         counts.append(n)
         labels.append(f"group{grp}")
-        extra.append({"group": grp, "acc_bias_ug": spec.acc_bias_ug,
-                      "acc_noise_ug_rthz": spec.acc_noise_ug_rthz, "draws": n})
+        extra.append(
+            {
+                "group": grp,
+                "acc_bias_ug": spec.acc_bias_ug,
+                "acc_noise_ug_rthz": spec.acc_noise_ug_rthz,
+                "draws": n,
+            }
+        )
     err = imu_errors.ErrorDraws.concat(parts)
     out = propagate(sc, [nav] * err.n, errors=err)
     rows, start = [], 0
     for j, n in enumerate(counts):
-        sub = {k: (v[start:start + n] if k in ("pos", "vel") else v) for k, v in out.items()}
+        sub = {k: (v[start : start + n] if k in ("pos", "vel") else v) for k, v in out.items()}
         rows += _mc_rows([labels[j]], sub, n, [extra[j]])
         start += n
-    meta = _meta(sc) | {"nav_gravity": nav, "draws": int(draws), "seed": int(seed), "bias_mode": mode,
-                        "propagation_seconds": out["seconds"], "n_runs": err.n}
+    meta = _meta(sc) | {
+        "nav_gravity": nav,
+        "draws": int(draws),
+        "seed": int(seed),
+        "bias_mode": mode,
+        "propagation_seconds": out["seconds"],
+        "n_runs": err.n,
+    }
     run_labels = [f"{labels[j]}/{i}" for j, n in enumerate(counts) for i in range(n)]
     return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
 
 
-def table4(sc: Scenario, models=("j4", "sh18", "sh200"), draws: int = 20, seed: int = 0,
-           spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4, mode: str = "gauss",
-           reference: str = "j4") -> StudyResult:
+def table4(
+    sc: Scenario,
+    models=("j4", "sh18", "sh200"),
+    draws: int = 20,
+    seed: int = 0,
+    spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4,
+    mode: str = "gauss",
+    reference: str = "j4",
+) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
     Rows: ``imu_only`` (navigation with ``reference`` on increments synthesized with
@@ -320,7 +395,9 @@ def table4(sc: Scenario, models=("j4", "sh18", "sh200"), draws: int = 20, seed: 
     names = check_model_names(models, sc.truth_model)
     ref = check_model_names([reference], sc.truth_model)[0]
     if ref not in NORMAL_KINDS:
-        raise InputError(f"the IMU-only reference must be a normal model (j2 j4 j6 normal), got {ref!r}")
+        raise InputError(
+            f"the IMU-only reference must be a normal model (j2 j4 j6 normal), got {ref!r}"
+        )
     err1 = imu_errors.draw(spec, draws, seed=seed, mode=mode)
     rows_models = [ref] + names
     err = err1.repeat(len(rows_models))
@@ -328,18 +405,30 @@ def table4(sc: Scenario, models=("j4", "sh18", "sh200"), draws: int = 20, seed: 
     imu_set = [1 if j == 0 else 0 for j in range(len(rows_models)) for _ in range(err1.n)]
     out = propagate(sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err)
     labels = ["imu_only"] + [f"imu+{m}" for m in names]
-    extra = [{"case": lab, "nav_gravity": m, "gravity_model_error": j > 0, "draws": err1.n}
-             for j, (lab, m) in enumerate(zip(labels, rows_models))]
+    extra = [
+        {"case": lab, "nav_gravity": m, "gravity_model_error": j > 0, "draws": err1.n}
+        for j, (lab, m) in enumerate(zip(labels, rows_models))
+    ]
     rows = _mc_rows(labels, out, err1.n, extra)
-    meta = _meta(sc) | {"draws": int(draws), "seed": int(seed), "bias_mode": mode,
-                        "imu_errors": spec.__dict__, "propagation_seconds": out["seconds"],
-                        "n_runs": err.n}
+    meta = _meta(sc) | {
+        "draws": int(draws),
+        "seed": int(seed),
+        "bias_mode": mode,
+        "imu_errors": spec.__dict__,
+        "propagation_seconds": out["seconds"],
+        "n_runs": err.n,
+    }
     run_labels = [f"{lab}/{i}" for lab in labels for i in range(err1.n)]
     return StudyResult("table4", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
 
 
 def _meta(sc: Scenario) -> dict:
-    return {"truth_model": sc.truth_model.name, "truth_degree": int(sc.truth_model.lmax),
-            "trajectory": sc.traj.name, "duration_s": float(sc.imu.duration),
-            "imu_rate_hz": float(sc.imu.rate_hz), "n_gauss": int(sc.imu.meta["n_gauss"]),
-            "device": sc.device or "auto"}
+    return {
+        "truth_model": sc.truth_model.name,
+        "truth_degree": int(sc.truth_model.lmax),
+        "trajectory": sc.traj.name,
+        "duration_s": float(sc.imu.duration),
+        "imu_rate_hz": float(sc.imu.rate_hz),
+        "n_gauss": int(sc.imu.meta["n_gauss"]),
+        "device": sc.device or "auto",
+    }

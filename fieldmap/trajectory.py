@@ -1,13 +1,13 @@
-"""Reference trajectories with closed-form position, velocity, acceleration, attitude and body rate.
+r"""Reference trajectories: closed-form position, velocity, acceleration, attitude, body rate.
 
 Every trajectory is a C-infinity function of time. The translational motion is defined Earth-fixed
 (ECEF position r_e(t) and its first two time derivatives in closed form) and carried into the
 launch-centred inertial a-frame of Chen et al. (2022) §3.2 (eqs. 17, 19, 20) exactly:
 
 .. math::
-    P_a = R_t^a (R_e^t r_e - r_0),\\quad
-    V_a = R_e^a (\\dot r_e + \\omega\\times r_e),\\quad
-    A_a = R_e^a (\\ddot r_e + 2\\omega\\times\\dot r_e + \\omega\\times(\\omega\\times r_e))
+    P_a = R_t^a (R_e^t r_e - r_0),\quad
+    V_a = R_e^a (\dot r_e + \omega\times r_e),\quad
+    A_a = R_e^a (\ddot r_e + 2\omega\times\dot r_e + \omega\times(\omega\times r_e))
 
 (Groves 2013 eq. 2.84 ff.: the a-frame is inertial, so ``A_a`` is the inertial acceleration that the
 mechanization of eq. 14 integrates). Attitude is a smooth law: body x along the Earth-relative
@@ -66,7 +66,7 @@ def _rows(M, v):
 
 
 def _unit_and_rate(w, wdot):
-    """Unit vector of ``w`` and its time derivative (ẇ − (ŵ·ẇ)ŵ)/|w|."""
+    """Return the unit vector of ``w`` and its time derivative (ẇ − (ŵ·ẇ)ŵ)/|w|."""
     n = np.linalg.norm(w, axis=-1, keepdims=True)
     u = w / n
     return u, (wdot - np.sum(u * wdot, -1, keepdims=True) * u) / n
@@ -89,7 +89,9 @@ class Trajectory:
 
     def __init__(self, frame: LaunchFrame, duration: float):
         if not np.isfinite(duration) or duration <= 0:
-            raise InputError(f"trajectory duration must be a positive number of seconds, got {duration}")
+            raise InputError(
+                f"trajectory duration must be a positive number of seconds, got {duration}"
+            )
         self.frame = frame
         self.duration = float(duration)
 
@@ -140,7 +142,7 @@ class Trajectory:
         return ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], self.frame.ellipsoid)
 
     def check_above_surface(self, n: int = 2001, min_height: float = 0.0) -> None:
-        """Raise :class:`InputError` when the path dips below ``min_height`` (m) above the ellipsoid."""
+        """Raise :class:`InputError` if the path dips below ``min_height`` (m) above ellipsoid."""
         _, _, h = self.geodetic(np.linspace(0.0, self.duration, n))
         if np.min(h) < min_height:
             raise InputError(
@@ -171,8 +173,9 @@ class BoostGlideProfile:
     """Shape of the boost-glide path (heights in m, speeds in m/s, times and widths in s).
 
     Height above the ellipsoid (measured along the geocentric radius):
-    ``h = h_start + h_boost·S(t_boost) − h_dive·S(t_dive) + h_skip·sin(2π(t − t_skip)/p_skip)·S(t_skip)``;
-    ground speed along the track ``ṡ = v_start + (v_glide − v_start)·S(t_accel) − v_loss·S(t_decel)``;
+    ``h = h_start + h_boost·S(t_boost) − h_dive·S(t_dive)
+    + h_skip·sin(2π(t − t_skip)/p_skip)·S(t_skip)``; ground speed along the track
+    ``ṡ = v_start + (v_glide − v_start)·S(t_accel) − v_loss·S(t_decel)``;
     cross-range offset ``c = c_turn·S(t_turn)`` (to the left of the launch azimuth).
     """
 
@@ -207,7 +210,8 @@ class BoostGlide(Trajectory):
     103–109°E, 20–35°N. The path is ``r_e = ρ(t) u(t)`` with the unit vector
     ``u = cos χ (cos σ e1 + sin σ e2) + sin χ e3`` (e1 geocentric up of the launch point, e2 the
     horizontal launch azimuth, e3 = e1 × e2), σ = s/R̄ and χ = c/R̄, and
-    ``ρ = r_ell(u_z) + h`` with the ellipsoid's geocentric radius ``r_ell = ab/√(b² + (a²−b²)u_z²)``,
+    ``ρ = r_ell(u_z) + h`` with the ellipsoid's geocentric radius
+    ``r_ell = ab/√(b² + (a²−b²)u_z²)``,
     so ``h`` is the height above the ellipsoid along the radius (within metres of geodetic height).
     """
 
@@ -254,7 +258,11 @@ class BoostGlide(Trajectory):
         sn, cs = np.sin(k * (t - p.t_skip)), np.cos(k * (t - p.t_skip))
         h = self._h0 + p.h_boost * sb - p.h_dive * sd + p.h_skip * sn * ss
         h1 = p.h_boost * sb1 - p.h_dive * sd1 + p.h_skip * (k * cs * ss + sn * ss1)
-        h2 = p.h_boost * sb2 - p.h_dive * sd2 + p.h_skip * (-k * k * sn * ss + 2 * k * cs * ss1 + sn * ss2)
+        h2 = (
+            p.h_boost * sb2
+            - p.h_dive * sd2
+            + p.h_skip * (-k * k * sn * ss + 2 * k * cs * ss1 + sn * ss2)
+        )
         return h, h1, h2
 
     def ground_profile(self, t):
@@ -284,8 +292,11 @@ class BoostGlide(Trajectory):
         u_ss, u_sc, u_cc = -cc * g, -sc * gp, -u
         ud = col(sg1) * u_s + col(ch1) * u_c
         udd = (
-            col(sg2) * u_s + col(ch2) * u_c
-            + col(sg1**2) * u_ss + col(2 * sg1 * ch1) * u_sc + col(ch1**2) * u_cc
+            col(sg2) * u_s
+            + col(ch2) * u_c
+            + col(sg1**2) * u_ss
+            + col(2 * sg1 * ch1) * u_sc
+            + col(ch1**2) * u_cc
         )
         f, f1, f2 = self._r_ell(u[:, 2])
         h, h1, h2 = self.height_profile(t)
@@ -375,8 +386,13 @@ class Coning(Trajectory):
 
     name = "coning"
 
-    def __init__(self, frame: LaunchFrame, duration: float, half_angle: float = 0.01,
-                 rate: float = 2.0 * np.pi):
+    def __init__(
+        self,
+        frame: LaunchFrame,
+        duration: float,
+        half_angle: float = 0.01,
+        rate: float = 2.0 * np.pi,
+    ):
         super().__init__(frame, duration)
         self.half_angle, self.rate = float(half_angle), float(rate)
         self._base = Stationary(frame, duration)
@@ -394,8 +410,14 @@ class Coning(Trajectory):
         wt, al, W = self.rate * k.t, self.half_angle, self.rate
         c, s = np.cos(wt), np.sin(wt)
         one, zero = np.ones_like(c), np.zeros_like(c)
-        Rz = np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1),
-                       np.stack([zero, zero, one], -1)], -2)
+        Rz = np.stack(
+            [
+                np.stack([c, -s, zero], -1),
+                np.stack([s, c, zero], -1),
+                np.stack([zero, zero, one], -1),
+            ],
+            -2,
+        )
         Rx = np.array([[1, 0, 0], [0, np.cos(al), -np.sin(al)], [0, np.sin(al), np.cos(al)]])
         C = self.C0 @ Rz @ Rx @ np.swapaxes(Rz, -1, -2)
         w_b = W * np.stack([-np.sin(al) * s, np.sin(al) * c, (np.cos(al) - 1.0) * one], -1)

@@ -1,6 +1,8 @@
-"""Exact IMU synthesis: stationary closed form, replay through the two-sample mechanization
-(independent NumPy replay written here, and the Warp kernel), the numerical floor, a constant
-gravity offset, and input validation."""
+"""Exact IMU synthesis: stationary closed form, replay, floor, gravity offset, validation.
+
+Replay through the two-sample mechanization: an independent NumPy replay written here, and the
+Warp kernel.
+"""
 
 import numpy as np
 import pytest
@@ -37,7 +39,7 @@ def _expm_so3(phi):
 
 
 def replay(imu, traj, gravitation):
-    """Two-sample launch-centred inertial mechanization (Chen et al. 2022 Fig. 1, eq. 15), DCM form."""
+    """Two-sample launch-centred inertial mechanization (Chen et al. 2022 Fig. 1, eq. 15), DCMs."""
     k0 = traj.kinematics([imu.t0])
     P, V, C = k0.P_a[0].copy(), k0.V_a[0].copy(), k0.C_b_to_a[0].copy()
     dt, T = imu.dt, 2 * imu.dt
@@ -69,10 +71,14 @@ def test_stationary_increments_equal_reaction_to_gravity():
     r = FRAME.r_launch
     g_e = j2_gravitation(r)[0] + WGS84.omega**2 * np.array([r[0], r[1], 0.0])
     f_b = -st.C_b_e.T @ g_e  # body = NED
-    np.testing.assert_allclose(imu.dv / imu.dt, np.broadcast_to(f_b, imu.dv.shape), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        imu.dv / imu.dt, np.broadcast_to(f_b, imu.dv.shape), rtol=0, atol=1e-12
+    )
     assert f_b[2] < -9.7  # NED down component negative: the sensed force points up
     w_b = st.C_b_e.T @ np.array([0.0, 0.0, WGS84.omega])
-    np.testing.assert_allclose(imu.dtheta / imu.dt, np.broadcast_to(w_b, imu.dtheta.shape), rtol=0, atol=1e-18)
+    np.testing.assert_allclose(
+        imu.dtheta / imu.dt, np.broadcast_to(w_b, imu.dtheta.shape), rtol=0, atol=1e-18
+    )
 
 
 def test_replay_reaches_the_floor_and_converges_at_second_order():
@@ -82,8 +88,11 @@ def test_replay_reaches_the_floor_and_converges_at_second_order():
         imu = synthesize(bg, rate, j2_gravitation, n_gauss=3, duration=40.0)
         P, V, C = replay(imu, bg, j2_gravitation)
         kt = bg.kinematics([imu.duration])
-        finals[rate] = (np.linalg.norm(P - kt.P_a[0]), np.linalg.norm(V - kt.V_a[0]),
-                        np.linalg.norm(C.T @ kt.C_b_to_a[0] - np.eye(3)))
+        finals[rate] = (
+            np.linalg.norm(P - kt.P_a[0]),
+            np.linalg.norm(V - kt.V_a[0]),
+            np.linalg.norm(C.T @ kt.C_b_to_a[0] - np.eye(3)),
+        )
     # floor at 200 Hz over 40 s of the boost (largest jerk of the flight): below a millimetre
     assert finals[200.0][0] < 1e-3 and finals[200.0][1] < 1e-4 and finals[200.0][2] < 1e-12
     # the mechanization's truncation error, not the synthesis, dominates: O(T²) convergence
@@ -97,8 +106,17 @@ def test_kernel_replay_equals_numpy_replay():
     imu = synthesize(bg, 100.0, Gravitation("j2"), n_gauss=2, duration=20.0)
     P_ref, V_ref, _ = replay(imu, bg, j2_gravitation)
     k0 = bg.kinematics([0.0])
-    res = propagate_lci(imu.dtheta, imu.dv, imu.dt, k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]),
-                        FRAME, gravity="j2", device="cpu")
+    res = propagate_lci(
+        imu.dtheta,
+        imu.dv,
+        imu.dt,
+        k0.P_a[0],
+        k0.V_a[0],
+        dcm_to_quat(k0.C_b_to_a[0]),
+        FRAME,
+        gravity="j2",
+        device="cpu",
+    )
     np.testing.assert_allclose(res.P[0, -1], P_ref, rtol=0, atol=1e-6)
     np.testing.assert_allclose(res.V[0, -1], V_ref, rtol=0, atol=1e-8)
     kt = bg.kinematics([imu.duration])
@@ -124,8 +142,12 @@ def test_constant_gravity_offset_gives_half_dg_t2():
     dg_a = FRAME.vector_e_to_a(dg_e, tend / 2)
     # gravity-gradient feedback over 10 s is ~Γt²/12 ~ 1e-5 relative; Earth rotation turns δg by
     # 7e-4 rad over the run (evaluated at mid-time here): 1e-3 relative covers both
-    np.testing.assert_allclose(P - P0, -0.5 * dg_a * tend**2, rtol=0, atol=1e-3 * 0.5 * np.linalg.norm(dg_e) * tend**2)
-    np.testing.assert_allclose(V - V0, -dg_a * tend, rtol=0, atol=1e-3 * np.linalg.norm(dg_e) * tend)
+    np.testing.assert_allclose(
+        P - P0, -0.5 * dg_a * tend**2, rtol=0, atol=1e-3 * 0.5 * np.linalg.norm(dg_e) * tend**2
+    )
+    np.testing.assert_allclose(
+        V - V0, -dg_a * tend, rtol=0, atol=1e-3 * np.linalg.norm(dg_e) * tend
+    )
 
 
 def test_truth_sh_floor_is_ten_times_below_the_smallest_model_effect():

@@ -19,8 +19,18 @@ def test_tables_hold_the_paper_values():
     assert [ie.TABLE2_GROUPS[g].acc_bias_ug for g in (1, 2, 3, 4)] == [100.0, 10.0, 1.0, 0.0]
     assert [ie.TABLE2_GROUPS[g].acc_noise_ug_rthz for g in (1, 2, 3, 4)] == [10.0, 1.0, 0.1, 0.0]
     t4 = ie.TABLE4
-    assert (t4.gyro_bias_deg_h, t4.gyro_arw_deg_rth, t4.gyro_misalign_arcsec, t4.gyro_scale_ppm) == (0.003, 0.0003, 0.5, 10.0)
-    assert (t4.acc_bias_ug, t4.acc_noise_ug_rthz, t4.acc_misalign_arcsec, t4.acc_scale_ppm) == (10.0, 1.0, 0.5, 10.0)
+    assert (
+        t4.gyro_bias_deg_h,
+        t4.gyro_arw_deg_rth,
+        t4.gyro_misalign_arcsec,
+        t4.gyro_scale_ppm,
+    ) == (0.003, 0.0003, 0.5, 10.0)
+    assert (t4.acc_bias_ug, t4.acc_noise_ug_rthz, t4.acc_misalign_arcsec, t4.acc_scale_ppm) == (
+        10.0,
+        1.0,
+        0.5,
+        10.0,
+    )
 
 
 def test_draws_are_deterministic_per_seed():
@@ -64,8 +74,13 @@ def test_white_noise_scales_with_sqrt_hz():
     for rate in (100.0, 400.0):
         dt = 1.0 / rate
         n_sec = 400
-        th, v = ie.apply(np.zeros((int(rate) * n_sec, 3)), np.zeros((int(rate) * n_sec, 3)), dt, d,
-                         rng=np.random.default_rng(int(rate)))
+        th, v = ie.apply(
+            np.zeros((int(rate) * n_sec, 3)),
+            np.zeros((int(rate) * n_sec, 3)),
+            dt,
+            d,
+            rng=np.random.default_rng(int(rate)),
+        )
         assert np.std(v) == pytest.approx(sigma * np.sqrt(dt), rel=0.02)
         assert np.std(th) == pytest.approx(0.01 * ie.DEG_RTH * np.sqrt(dt), rel=0.02)
         per_second = v.reshape(n_sec, int(rate), 3).sum(axis=1)  # 1200 one-second sums
@@ -80,10 +95,14 @@ def test_scale_factor_and_misalignment_matrix():
     s = np.linalg.norm(M, axis=2) - 1.0
     assert np.std(s) == pytest.approx(10e-6, rel=0.1)
     R = M / (1.0 + s)[:, :, None]
-    np.testing.assert_allclose(np.swapaxes(R, 1, 2) @ R, np.broadcast_to(np.eye(3), R.shape), atol=1e-15)
+    np.testing.assert_allclose(
+        np.swapaxes(R, 1, 2) @ R, np.broadcast_to(np.eye(3), R.shape), atol=1e-15
+    )
     eps = np.stack([R[:, 2, 1], R[:, 0, 2], R[:, 1, 0]], -1)
     assert np.std(eps) == pytest.approx(0.5 * ie.ARCSEC, rel=0.1)
-    np.testing.assert_allclose(ie.rotation(np.array([[0.0, 0.0, np.pi / 2]]))[0] @ [1, 0, 0], [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(
+        ie.rotation(np.array([[0.0, 0.0, np.pi / 2]]))[0] @ [1, 0, 0], [0, 1, 0], atol=1e-15
+    )
 
 
 def test_kernel_bias_gives_half_b_t2():
@@ -99,8 +118,18 @@ def test_kernel_bias_gives_half_b_t2():
     d = ie.draw(ie.ImuErrorSpec(acc_bias_ug=100.0), 2, seed=0, mode="fixed")
     d2 = ie.ErrorDraws.concat([d, ie.draw(ie.ImuErrorSpec(), 1)])
     k0 = st.kinematics([0.0])
-    res = propagate_lci(imu.dtheta, imu.dv, imu.dt, k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]),
-                        fr, gravity="j2", errors=d2.kernel_errors(), device="cpu")
+    res = propagate_lci(
+        imu.dtheta,
+        imu.dv,
+        imu.dt,
+        k0.P_a[0],
+        k0.V_a[0],
+        dcm_to_quat(k0.C_b_to_a[0]),
+        fr,
+        gravity="j2",
+        errors=d2.kernel_errors(),
+        device="cpu",
+    )
     kt = st.kinematics(res.t[-1:])
     err = np.linalg.norm(res.P[:, -1] - kt.P_a[0], axis=1)
     expect = 0.5 * np.sqrt(3) * 100.0 * ie.UG * 20.0**2

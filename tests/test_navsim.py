@@ -1,5 +1,8 @@
-"""Navigation studies (small sizes): Table 1 ordering and floor, Table 3/4 statistics and
-determinism, the ``fieldmap navsim`` CLI (outputs, one-line errors, nothing written) and examples."""
+"""Navigation studies (small sizes): Table 1 ordering and floor, Tables 3/4, CLI, examples.
+
+Table 3/4 statistics and determinism; the ``fieldmap navsim`` CLI (outputs, one-line errors,
+nothing written); the examples with their small-size switch.
+"""
 
 import json
 import os
@@ -47,8 +50,10 @@ def test_table1_floor_is_ten_times_below_the_smallest_effect(t1):
 
 
 def test_gravity_eval_seconds_increase_with_cost(scenario):
-    sec = {m: navsim.gravity_eval_seconds(m, scenario.truth_model, repeats=1)
-           for m in ("j4", "sh18", "sh200")}
+    sec = {
+        m: navsim.gravity_eval_seconds(m, scenario.truth_model, repeats=1)
+        for m in ("j4", "sh18", "sh200")
+    }
     assert 0 < sec["j4"] < sec["sh18"] < sec["sh200"]
 
 
@@ -67,12 +72,18 @@ def test_table3_statistics_and_determinism(scenario, t1):
     by = {r["group"]: r for r in a.rows}
     # group 4 (no accelerometer error) is the J4 run of Table 1 exactly
     j4 = next(r for r in t1.rows if r["model"] == "j4")
-    assert by[4]["final_position_error_m_mean"] == pytest.approx(j4["final_position_error_m"], rel=1e-12)
+    assert by[4]["final_position_error_m_mean"] == pytest.approx(
+        j4["final_position_error_m"], rel=1e-12
+    )
     assert by[4]["draws"] == 1 and by[1]["draws"] == 4
     # 100 µg bias for 60 s: ~½·b·t² ≈ 1.8 m per axis, far above the 1.1 m gravity error
     assert by[1]["final_position_error_m_rms"] > 1.5 * by[4]["final_position_error_m_mean"]
     r = by[1]
-    assert r["final_position_error_m_p05"] <= r["final_position_error_m_p50"] <= r["final_position_error_m_p95"]
+    assert (
+        r["final_position_error_m_p05"]
+        <= r["final_position_error_m_p50"]
+        <= r["final_position_error_m_p95"]
+    )
     assert r["final_position_error_m_rms"] >= r["final_position_error_m_mean"]
 
 
@@ -90,8 +101,24 @@ def _run_cli(argv, capsys):
 
 def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
     out = tmp_path / "o"
-    code, cap = _run_cli(["--study", "table1", "--duration", "20", "--rate", "100", "--truth-degree", "60",
-                          "--models", "j2,j4,j6,normal,sh18,sh40", "--no-timing", "--out", str(out)], capsys)
+    code, cap = _run_cli(
+        [
+            "--study",
+            "table1",
+            "--duration",
+            "20",
+            "--rate",
+            "100",
+            "--truth-degree",
+            "60",
+            "--models",
+            "j2,j4,j6,normal,sh18,sh40",
+            "--no-timing",
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert "floor (sh60 = truth)" in cap.out
     files = sorted(os.listdir(out))
@@ -107,17 +134,20 @@ def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
         assert ds.position_error.shape == (7, 21) and ds.position_error.attrs["units"] == "m"
 
 
-@pytest.mark.parametrize("argv, msg", [
-    (["--models", "j2,j3"], "unknown navigation gravity"),
-    (["--models", "sh300"], "outside"),
-    (["--truth-degree", "999"], "lmax"),
-    (["--duration", "0"], "positive"),
-    (["--duration", "nan"], "positive"),
-    (["--rate", "-5"], "positive"),
-    (["--draws", "0"], "draws"),
-    (["--truth", "no-such-model"], "unknown model"),
-    (["--device", "cuda:7"], "not present"),
-])
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--models", "j2,j3"], "unknown navigation gravity"),
+        (["--models", "sh300"], "outside"),
+        (["--truth-degree", "999"], "lmax"),
+        (["--duration", "0"], "positive"),
+        (["--duration", "nan"], "positive"),
+        (["--rate", "-5"], "positive"),
+        (["--draws", "0"], "draws"),
+        (["--truth", "no-such-model"], "unknown model"),
+        (["--device", "cuda:7"], "not present"),
+    ],
+)
 def test_cli_bad_input_one_line_nothing_written(tmp_path, capsys, argv, msg):
     out = tmp_path / "never"
     code, cap = _run_cli([*argv, "--out", str(out)], capsys)

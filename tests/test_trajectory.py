@@ -1,4 +1,4 @@
-"""Reference trajectories: derivatives vs finite differences, region and altitude bounds, closed forms."""
+"""Reference trajectories: derivatives vs finite differences, region bounds, closed forms."""
 
 import numpy as np
 import pytest
@@ -19,8 +19,12 @@ def _fd(fun, t, h):
 
 
 def _trajectories():
-    return [BoostGlide(), Stationary(FRAME, 100.0), ConstantVelocity(FRAME, 100.0),
-            Coning(FRAME, 100.0, half_angle=0.02, rate=3.0)]
+    return [
+        BoostGlide(),
+        Stationary(FRAME, 100.0),
+        ConstantVelocity(FRAME, 100.0),
+        Coning(FRAME, 100.0, half_angle=0.02, rate=3.0),
+    ]
 
 
 @pytest.mark.parametrize("traj", _trajectories(), ids=lambda t: t.name)
@@ -41,7 +45,9 @@ def test_attitude_orthonormal_and_rate_matches_finite_differences(traj):
     t = np.linspace(0.05, traj.duration - 0.05, 29)
     k = traj.kinematics(t)
     C = k.C_b_to_a
-    np.testing.assert_allclose(np.swapaxes(C, 1, 2) @ C, np.broadcast_to(np.eye(3), C.shape), atol=1e-14)
+    np.testing.assert_allclose(
+        np.swapaxes(C, 1, 2) @ C, np.broadcast_to(np.eye(3), C.shape), atol=1e-14
+    )
     np.testing.assert_allclose(np.linalg.det(C), 1.0, atol=1e-14)
     dC = _fd(lambda s: traj.kinematics(s).C_b_to_a, t, 1e-3)
     W = np.swapaxes(C, 1, 2) @ dC  # = [w_b]x
@@ -76,13 +82,21 @@ def test_stationary_closed_form():
     w = np.array([0.0, 0.0, FRAME.omega])
     r = FRAME.r_launch
     # inertial velocity and centripetal acceleration of an Earth-fixed point, rotated into a
-    np.testing.assert_allclose(k.V_a, FRAME.vector_e_to_a(np.broadcast_to(np.cross(w, r), (3, 3)), t), atol=1e-9)
-    np.testing.assert_allclose(k.A_a, FRAME.vector_e_to_a(np.broadcast_to(np.cross(w, np.cross(w, r)), (3, 3)), t),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        k.V_a, FRAME.vector_e_to_a(np.broadcast_to(np.cross(w, r), (3, 3)), t), atol=1e-9
+    )
+    np.testing.assert_allclose(
+        k.A_a,
+        FRAME.vector_e_to_a(np.broadcast_to(np.cross(w, np.cross(w, r)), (3, 3)), t),
+        atol=1e-12,
+    )
     # body rate = Earth rate resolved in the NED body axes: (ω cos B, 0, −ω sin B)
     B = np.radians(FRAME.B0)
-    np.testing.assert_allclose(k.w_b, np.broadcast_to([FRAME.omega * np.cos(B), 0, -FRAME.omega * np.sin(B)], (3, 3)),
-                               atol=1e-18)
+    np.testing.assert_allclose(
+        k.w_b,
+        np.broadcast_to([FRAME.omega * np.cos(B), 0, -FRAME.omega * np.sin(B)], (3, 3)),
+        atol=1e-18,
+    )
 
 
 def test_coning_rate_closed_form_values():
@@ -90,8 +104,14 @@ def test_coning_rate_closed_form_values():
     c = Coning(FRAME, 10.0, half_angle=al, rate=W)
     t = np.array([0.0, 0.3, 1.7])
     k = c.kinematics(t)
-    expect = W * np.stack([-np.sin(al) * np.sin(W * t), np.sin(al) * np.cos(W * t),
-                           np.full_like(t, np.cos(al) - 1.0)], -1)
+    expect = W * np.stack(
+        [
+            -np.sin(al) * np.sin(W * t),
+            np.sin(al) * np.cos(W * t),
+            np.full_like(t, np.cos(al) - 1.0),
+        ],
+        -1,
+    )
     np.testing.assert_allclose(k.w_b, expect, atol=1e-15)
     # the attitude is periodic: back to C0 after one coning period
     np.testing.assert_allclose(c.kinematics([2 * np.pi / W]).C_b_to_a[0], k.C_b_to_a[0], atol=1e-14)
