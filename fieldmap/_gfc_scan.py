@@ -81,6 +81,8 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
         Index of the first token that is not a finite number (None on success).
     """
     keep_tok = keep_line[tok_line] & (np.arange(starts.size) - first[tok_line] >= 3)
+    if not keep_tok.any():
+        return np.zeros(0), None
     mark = np.zeros(buf.size + 1, np.int8)
     mark[starts[keep_tok]] = 1  # starts sit on text, ends on whitespace: never the same byte
     mark[ends[keep_tok]] = -1

@@ -297,6 +297,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     keep_line = np.zeros(ntok.size, bool)
     keep_line[li[keep]] = True
     vals, bad_tok = scan.parse_values(buf, starts, ends, tok_line, first, keep_line)
+    if vals is None and bad_tok < 0:  # pragma: no cover - NumPy and float() disagree
+        raise ModelFileError(f"{path}: could not parse the coefficient values")
     if vals is None:
         raise _fail(path, nhead + int(tok_line[bad_tok]) + 1, f"bad number {text_of(bad_tok)!r}")
     lines, kind, n, m, nf = li[keep], kind[keep], n[keep], m[keep], nf[keep]

@@ -142,6 +142,15 @@ def test_crlf_fortran_header_four_sigmas(tmp_path):
     np.testing.assert_array_equal(back.C, ref.C)
 
 
+def test_degrees_0_and_1_may_be_omitted(tmp_path):
+    """Files starting at degree 2: C00 = 1, degree 1 zero; truncation below 2 reads no line."""
+    body = "".join(_static_lines(3, skip={(0, 0), (1, 0), (1, 1)}))
+    full = read_icgem(_tiny(tmp_path, body))
+    assert full.C[0, 0] == 1.0 and not full.C[1].any() and full.C[3, 2] == 4.02e-6
+    low = read_icgem(_tiny(tmp_path, body), lmax=1)
+    np.testing.assert_array_equal(low.C, [[1.0, 0.0], [0.0, 0.0]])
+
+
 def test_unnormalized_conversion(tmp_path):
     """C̄nm = Cnm / sqrt((2-δm0)(2n+1)(n-m)!/(n+m)!)  (Heiskanen & Moritz 1967 eq. 1-73)."""
     body = "".join(_static_lines(3))
