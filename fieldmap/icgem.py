@@ -52,6 +52,8 @@ _NFIELDS = {
     3: (range(3, 8), range(5, 10)),
     4: (range(3, 8), range(5, 10)),
 }
+#: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
+MAX_DEGREE = 10800
 _NORMS = {"fully_normalized": True, "fully_normalised": True, "unnormalized": False,
           "unnormalised": False}
 
@@ -252,6 +254,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     if int(lmax) != lmax or not 0 <= int(lmax) <= nmax:
         raise InputError(f"lmax {lmax} is outside 0..{nmax}, the degree range of {path}")
     lmax, t = int(lmax), parse_epoch(epoch)
+    if lmax > MAX_DEGREE:
+        raise InputError(f"{path}: degree {lmax} is above {MAX_DEGREE}; pass a smaller lmax")
     if v2 and t is None:
         raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
 

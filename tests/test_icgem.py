@@ -255,6 +255,45 @@ def test_bad_files_without_lines(tmp_path):
         read_icgem(tmp_path / "absent.gfc")
 
 
+def test_fuzzed_files_fail_cleanly(tmp_path):
+    """Random byte edits of a valid file: either a model or one ModelFileError line, never else."""
+    lines = _static_lines(3, skip={(2, 1)}) + ["gfct 2 1 1.0e-6 2.0e-6 0 0 20000101\n",
+                                               "trnd 2 1 1.0e-9 -1.0e-9 0 0\n",
+                                               "acos 2 1 3.0e-9 0 0 0 1.0\n"]
+    base = _tiny(tmp_path, "".join(lines)).read_bytes()
+    alphabet = b" \n\t0123456789.-+eEdDgfcmtrnd_xyz\xe9"
+    rng = np.random.default_rng(0)
+    path, outcomes = tmp_path / "fuzz.gfc", {"ok": 0, "error": 0}
+    for _ in range(300):
+        b = bytearray(base)
+        for _ in range(int(rng.integers(1, 4))):
+            pos, ch = int(rng.integers(0, len(b))), alphabet[int(rng.integers(0, len(alphabet)))]
+            op = int(rng.integers(0, 3))
+            if op == 0:
+                del b[pos]
+            elif op == 1:
+                b.insert(pos, ch)
+            else:
+                b[pos] = ch
+        path.write_bytes(bytes(b))
+        try:
+            read_icgem(path)
+            outcomes["ok"] += 1
+        except ModelFileError as exc:
+            assert "\n" not in str(exc) and str(path) in str(exc)
+            outcomes["error"] += 1
+    assert outcomes["ok"] > 10 and outcomes["error"] > 100
+
+
+def test_implausible_degree(tmp_path):
+    """A header max_degree beyond what fits in memory asks for a truncation."""
+    path = _tiny(tmp_path, "".join(_static_lines(3)), nmax=50000)
+    with pytest.raises(InputError, match="pass a smaller lmax"):
+        read_icgem(path)
+    with pytest.raises(ModelFileError, match="n=4 m=0"):  # the file really ends at degree 3
+        read_icgem(path, lmax=10)
+
+
 @pytest.mark.slow
 def test_degree_2190_file(tmp_path):
     """A synthetic EIGEN-6C4-sized file (2.4 million lines) round-trips exactly, quickly."""
