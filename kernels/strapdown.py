@@ -110,15 +110,19 @@ def lci_kernel(
     C_a_t = wp.transpose(lp.C_t_to_a)
     sg = err.gyro_noise[i] * wp.sqrt(dt)
     sa = err.acc_noise[i] * wp.sqrt(dt)
+    Mg = err.gyro_M[i]
+    Ma = err.acc_M[i]
+    bg = err.gyro_bias[i] * dt
+    ba = err.acc_bias[i] * dt
     state = wp.rand_init(err.seed[i])
     P_out[i, 0] = P
     V_out[i, 0] = V
     q_out[i, 0] = q
     for k in range(n_steps):
-        th1 = err.gyro_M[i] * dtheta[s, 2 * k] + err.gyro_bias[i] * dt
-        th2 = err.gyro_M[i] * dtheta[s, 2 * k + 1] + err.gyro_bias[i] * dt
-        dv1 = err.acc_M[i] * dvel[s, 2 * k] + err.acc_bias[i] * dt
-        dv2 = err.acc_M[i] * dvel[s, 2 * k + 1] + err.acc_bias[i] * dt
+        th1 = Mg * dtheta[s, 2 * k] + bg
+        th2 = Mg * dtheta[s, 2 * k + 1] + bg
+        dv1 = Ma * dvel[s, 2 * k] + ba
+        dv2 = Ma * dvel[s, 2 * k + 1] + ba
         if sg != _ZERO:
             th1 = th1 + sg * wp.vec3d(
                 wp.float64(wp.randn(state)),
@@ -221,13 +225,17 @@ def ned_kernel(
     q = q0[i]
     sg = err.gyro_noise[i] * wp.sqrt(dt)
     sa = err.acc_noise[i] * wp.sqrt(dt)
+    Mg = err.gyro_M[i]
+    Ma = err.acc_M[i]
+    bg = err.gyro_bias[i] * dt
+    ba = err.acc_bias[i] * dt
     state = wp.rand_init(err.seed[i])
     llh_out[i, 0] = llh
     v_out[i, 0] = v
     q_out[i, 0] = q
     for k in range(n_steps):
-        th = err.gyro_M[i] * dtheta[s, k] + err.gyro_bias[i] * dt
-        dv = err.acc_M[i] * dvel[s, k] + err.acc_bias[i] * dt
+        th = Mg * dtheta[s, k] + bg
+        dv = Ma * dvel[s, k] + ba
         if sg != _ZERO:
             th = th + sg * wp.vec3d(
                 wp.float64(wp.randn(state)),
