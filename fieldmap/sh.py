@@ -18,9 +18,12 @@ from . import _warp
 from .errors import InputError
 from .model import SHModel
 
-_cache: dict = {}
 _cache_lock = threading.Lock()
-_CACHE_MAX = 8
+_cache: dict = {}  # (id(model), lmax, device) -> (weakref(model), SHKernelModel)
+_CACHE_MAX = 32  # structs only: their arrays are shared through the two caches below
+_tables: dict = {}  # device -> (lmax, (anm, bnm, fnm, sect)) for the largest lmax seen
+_coefs: dict = {}  # (id(model), device) -> (weakref(model), lmax, (cnm, snm))
+_COEF_MAX = 3  # (model, device) pairs kept; a degree-2190 model holds 77 MB
 
 
 def recursion_tables(lmax: int) -> dict[str, np.ndarray]:
@@ -102,7 +105,9 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
     Returns
     -------
     fieldmap.kernels.sh.SHKernelModel
-        Cached by (model identity, lmax, device); the entry dies with the model object.
+        Cached by (model identity, lmax, device); entries die with the model object. The
+        recursion tables are shared by all models on a device, and a truncation reuses the
+        coefficient arrays of a higher one.
     """
     _warp.init()
     from .kernels import sh as ksh
@@ -115,29 +120,51 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
         hit = _cache.get(key)
         if hit is not None and hit[0]() is model:
             return hit[1]
-    tab = recursion_tables(L)
+    # The kernel reads rows m <= lmax and columns n <= lmax only, so larger tables and the
+    # coefficient arrays of a higher truncation of the same model serve any smaller lmax.
+    tab = _device_tables(L, device)
+    cnm, snm = _device_coefficients(model, L, device)
     km = ksh.SHKernelModel()
-    # transposed to [m, n]: one column recursion then reads contiguous memory
-    km.cnm = wp.array(np.ascontiguousarray(model.C[: L + 1, : L + 1].T), dtype=wp.float64,
-                      device=device)
-    km.snm = wp.array(np.ascontiguousarray(model.S[: L + 1, : L + 1].T), dtype=wp.float64,
-                      device=device)
-    km.anm = wp.array(tab["anm"], dtype=wp.float64, device=device)
-    km.bnm = wp.array(tab["bnm"], dtype=wp.float64, device=device)
-    km.fnm = wp.array(tab["fnm"], dtype=wp.float64, device=device)
-    km.sect = wp.array(tab["sect"], dtype=wp.float64, device=device)
+    km.cnm, km.snm = cnm, snm
+    km.anm, km.bnm, km.fnm, km.sect = tab
     km.lmax = L
     km.gm = wp.float64(model.gm)
     km.radius = wp.float64(model.radius)
     with _cache_lock:
         if len(_cache) >= _CACHE_MAX:
             _cache.pop(next(iter(_cache)))
-        try:
-            ref = weakref.ref(model)
-        except TypeError:  # pragma: no cover - SHModel is weak-referenceable
-            ref = lambda: model  # noqa: E731
-        _cache[key] = (ref, km)
+        _cache[key] = (weakref.ref(model), km)
     return km
+
+
+def _device_tables(L: int, device: str):
+    with _cache_lock:
+        hit = _tables.get(device)
+        if hit is not None and hit[0] >= L:
+            return hit[1]
+    tab = recursion_tables(L)
+    arrs = tuple(wp.array(tab[k], dtype=wp.float64, device=device)
+                 for k in ("anm", "bnm", "fnm", "sect"))
+    with _cache_lock:
+        _tables[device] = (L, arrs)
+    return arrs
+
+
+def _device_coefficients(model: SHModel, L: int, device: str):
+    key = (id(model), device)
+    with _cache_lock:
+        hit = _coefs.get(key)
+        if hit is not None and hit[0]() is model and hit[1] >= L:
+            return hit[2]
+    # transposed to [m, n]: one column recursion then reads contiguous memory
+    arrs = tuple(wp.array(np.ascontiguousarray(A[: L + 1, : L + 1].T), dtype=wp.float64,
+                          device=device) for A in (model.C, model.S))
+    with _cache_lock:
+        _coefs.pop(key, None)
+        while len(_coefs) >= _COEF_MAX:
+            _coefs.pop(next(iter(_coefs)))
+        _coefs[key] = (weakref.ref(model), L, arrs)
+    return arrs
 
 
 def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
