@@ -167,7 +167,8 @@ def format_table(res) -> str:
         fl = res.meta["floor"]
         lines.append(
             f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
-            f"|dp| {fl['final_position_error_m']:.3e} m"
+            f"|dp| {fl['final_position_error_m']:.3e} m "
+            f"(smallest effect / floor: {fl['margin_position']:.0f}x, {fl['margin_velocity']:.0f}x)"
         )
     else:
         key = "group" if res.study == "table3" else "case"

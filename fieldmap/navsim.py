@@ -299,8 +299,16 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
         "final_velocity_error_m_s": float(out["vel"][-1, -1]),
         "max_position_error_m": float(out["pos"][-1].max()),
     }
+    # how far below the smallest gravity-model effect of this run the floor lies (want >= 10)
+    floor["margin_position"] = min(r["final_position_error_m"] for r in rows) / max(
+        floor["final_position_error_m"], 1e-300
+    )
+    floor["margin_velocity"] = min(r["final_velocity_error_m_s"] for r in rows) / max(
+        floor["final_velocity_error_m_s"], 1e-300
+    )
     meta = _meta(sc) | {"floor": floor, "propagation_seconds": out["seconds"], "n_runs": len(runs)}
-    return StudyResult("table1", rows, out["t"], runs, out["pos"], out["vel"], meta)
+    labels = names + [f"floor:{sc.truth_key}"]
+    return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
 def _stats(x: np.ndarray) -> dict:
