@@ -53,7 +53,7 @@ def _points(n, seed=0):
 
 
 def bench_fieldmap(model, n, repeats, device):
-    """Return µs/point of the kernel alone and of the public disturbance call (warm)."""
+    """Return µs/point of the kernel alone, the public disturbance call, the kernel on 1 core."""
     from fieldmap import gravity as fg
     from fieldmap.sh import sh_gravitation
 
@@ -63,7 +63,16 @@ def bench_fieldmap(model, n, repeats, device):
     fg.disturbance(lat, lon, h, model=model, device=device)
     t_k = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
     t_api = _median_time(lambda: fg.disturbance(lat, lon, h, model=model, device=device), repeats)
-    return 1e6 * t_k / n, 1e6 * t_api / n
+    saved = os.environ.get("FIELDMAP_THREADS")
+    os.environ["FIELDMAP_THREADS"] = "1"  # launch_chunked reads it per call: one chunk, one core
+    try:
+        t_1 = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
+    finally:
+        if saved is None:
+            del os.environ["FIELDMAP_THREADS"]
+        else:
+            os.environ["FIELDMAP_THREADS"] = saved
+    return 1e6 * t_k / n, 1e6 * t_api / n, 1e6 * t_1 / n
 
 
 def bench_geographiclib(model, n, repeats):
@@ -145,12 +154,13 @@ def main(argv=None) -> int:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"EIGEN-6S degree {model.lmax}, device {device} ({_warp.cpu_workers()} CPU threads), "
           f"medians of {args.repeats}; 1-min load average before the run: {load:.2f}")
-    k_us, api_us = bench_fieldmap(model, args.points, args.repeats, device)
+    k_us, api_us, one_us = bench_fieldmap(model, args.points, args.repeats, device)
     tool_us = bench_geographiclib(model, args.tool_points, args.repeats)
     pysh_us = bench_pyshtools(model, args.pyshtools_points, max(1, min(args.repeats, 3)))
 
     rows = [(f"fieldmap kernel sh_gravitation ({args.points} pts)", k_us),
             (f"fieldmap gravity.disturbance ({args.points} pts)", api_us),
+            (f"fieldmap kernel sh_gravitation, 1 thread ({args.points} pts)", one_us),
             (f"GeographicLib Gravity -G, 1 process ({args.tool_points} pts)", tool_us),
             (f"pyshtools expand(lat, lon, r) ({args.pyshtools_points} pts)", pysh_us),
             ("Chen et al. 2022, degree 200 (printed)", PAPER_US_PER_POINT_DEG200)]
