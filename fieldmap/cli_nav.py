@@ -38,9 +38,13 @@ def register(subparsers) -> None:
         "--models",
         default="j2,j4,j6,normal,sh18,sh200",
         help="navigation gravity models, comma separated: j2 j4 j6 normal sh shN "
-        "(table1; table4 uses them with the IMU errors)",
+        "(table1; table4 adds the full IMU errors to the SH ones and to --nav)",
     )
-    p.add_argument("--nav", default="j4", help="navigation gravity of table3 (default j4)")
+    p.add_argument(
+        "--nav",
+        default="j4",
+        help="normal model of table3 and of the table4 IMU-only reference (default j4)",
+    )
     p.add_argument(
         "--draws", type=int, default=None, help="Monte Carlo draws (table3: 50, table4: 20)"
     )
