@@ -14,14 +14,17 @@ import warnings
 
 import numpy as np
 
+_WHITESPACE = np.zeros(256, bool)
+_WHITESPACE[[9, 10, 13, 32]] = True
 
-def tokenise(data: bytes):
-    """Split the data section into whitespace-separated tokens.
+
+def tokenise(raw: bytes, offset: int = 0):
+    """Split the data section ``raw[offset:]`` into whitespace-separated tokens (no copy of it).
 
     Returns
     -------
     buf : numpy.ndarray of uint8
-        The bytes (padded with a newline and spaces).
+        Read-only view of the data bytes.
     starts, ends : numpy.ndarray of int
         Byte offsets of each token (``ends`` exclusive).
     tok_line : numpy.ndarray of int
@@ -30,13 +33,15 @@ def tokenise(data: bytes):
         Per line: number of tokens, index of the first token. The position within its line of
         token ``t`` is ``t - first[tok_line[t]]``.
     """
-    buf = np.frombuffer(data + b"\n    ", np.uint8)
-    ws = (buf == 32) | (buf == 9) | (buf == 13) | (buf == 10)
+    buf = np.frombuffer(raw, np.uint8, offset=offset)
+    ws = _WHITESPACE[buf]
     edge = np.diff(ws.view(np.int8), prepend=np.int8(1), append=np.int8(1))
     starts = np.flatnonzero(edge == -1)  # whitespace -> text
     ends = np.flatnonzero(edge[1:] == 1) + 1  # text -> whitespace, exclusive
     del ws, edge
     newlines = np.flatnonzero(buf == 10)
+    if buf.size == 0 or buf[-1] != 10:  # last line without a newline
+        newlines = np.append(newlines, buf.size)
     tok_line = np.searchsorted(newlines, starts)
     ntok = np.bincount(tok_line, minlength=newlines.size)
     first = np.cumsum(ntok) - ntok
@@ -89,10 +94,12 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
     work = np.where(np.cumsum(mark[:-1], dtype=np.int8) > 0, buf, np.uint8(32))
     del mark
     work[(work == 68) | (work == 100)] = 69  # Fortran D exponent -> E
+    text = work.tobytes()  # np.fromstring wants read-only bytes
+    del work
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         try:
-            vals = np.fromstring(work.tobytes(), sep=" ")  # text mode: not deprecated
+            vals = np.fromstring(text, sep=" ")  # text mode: not deprecated
         except (ValueError, DeprecationWarning):
             vals = None
     if vals is not None and vals.size == keep_tok.sum() and np.isfinite(vals).all():

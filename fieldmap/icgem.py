@@ -129,10 +129,14 @@ def _read_bytes(path) -> bytes:
     return raw
 
 
+_CONTROL = np.zeros(256, bool)
+_CONTROL[[c for c in range(32) if c not in (9, 10, 13)]] = True
+
+
 def _check_text(path, raw: bytes) -> None:
     """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine)."""
     b = np.frombuffer(raw, np.uint8)
-    ctrl = (b < 32) & (b != 9) & (b != 10) & (b != 13)
+    ctrl = _CONTROL[b]
     if ctrl.any():
         pos = int(np.argmax(ctrl))
         line = raw.count(b"\n", 0, pos) + 1
@@ -141,7 +145,7 @@ def _check_text(path, raw: bytes) -> None:
 
 # ----------------------------------------------------------------------------------- header
 def _parse_header(path, raw: bytes):
-    """Return (header dict, {key: line}, data bytes, number of lines before the data)."""
+    """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
     m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
     if not m_end:
         raise ModelFileError(f"{path}: no 'end_of_head' line (not an ICGEM .gfc file?)")
@@ -160,9 +164,9 @@ def _parse_header(path, raw: bytes):
             where[key] = first_line + k
     where["end_of_head"] = raw.count(b"\n", 0, m_end.start()) + 1
     nl = raw.find(b"\n", m_end.end())
-    data = raw[nl + 1 :] if nl >= 0 else b""
+    offset = nl + 1 if nl >= 0 else len(raw)
     nhead = raw.count(b"\n", 0, nl + 1) if nl >= 0 else raw.count(b"\n") + 1
-    return header, where, data, nhead
+    return header, where, offset, nhead
 
 
 def _header_number(path, header, where, key, integer=False):
@@ -240,7 +244,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     path = os.fspath(path)
     raw = _read_bytes(path)
     _check_text(path, raw)
-    header, where, data, nhead = _parse_header(path, raw)
+    header, where, offset, nhead = _parse_header(path, raw)
     gm = _header_number(path, header, where, "earth_gravity_constant")
     radius = _header_number(path, header, where, "radius")
     nmax = _header_number(path, header, where, "max_degree", integer=True)
@@ -259,7 +263,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     if v2 and t is None:
         raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
 
-    buf, starts, ends, tok_line, ntok, first = scan.tokenise(data)
+    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, offset)
     li = np.flatnonzero(ntok > 0)  # data lines with content
     f0 = first[li]
 
