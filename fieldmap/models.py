@@ -2,8 +2,8 @@
 
 ``load_model()`` with no argument returns the bundled EIGEN-6S (degree 240, see
 ``fieldmap/data/README.md``), read through :mod:`importlib.resources`. Parsed models are cached in
-memory, keyed by the file (path, size, modification time) and the epoch; a truncation is a cheap
-copy of the cached full model.
+memory, keyed by the file (path, size, modification time), the epoch and the degree read; a
+truncation of a cached full model is a cheap copy.
 """
 
 from __future__ import annotations
@@ -92,10 +92,13 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
         )
     st = os.stat(name)
     key = ("file", os.path.realpath(name), st.st_size, st.st_mtime_ns, t)
-    if key not in _cache and lmax is not None:
-        # not cached yet: read only the degrees needed (skips the parsing of the rest)
-        return read_icgem(name, lmax=lmax, epoch=t)
-    return _truncate(_read_cached(key, lambda: read_icgem(name, epoch=t)), lmax)
+    with _cache_lock:
+        full = _cache.get(key + (None,))
+    if full is not None:
+        return _truncate(full, lmax)
+    # read only the degrees needed (the reader skips the numbers of higher degrees)
+    part = None if lmax is None else int(lmax)
+    return _read_cached(key + (part,), lambda: read_icgem(name, lmax=part, epoch=t))
 
 
 def _with_source(model: SHModel, source: str) -> SHModel:

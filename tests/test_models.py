@@ -47,6 +47,7 @@ def test_user_file_and_unknown_name(tmp_path):
     write_icgem(path, model)
     part = load_model(os.fspath(path), lmax=10)
     np.testing.assert_array_equal(part.C, model.C[:11, :11])
+    assert load_model(path, lmax=10) is part  # truncated reads are cached too
     full = load_model(path)
     assert load_model(path) is full
     np.testing.assert_array_equal(full.S, model.S)
