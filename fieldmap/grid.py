@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .longitude import _regular_period, longitude_sums
 
 #: Lowest height accepted (m): the series is meant for points outside the masses.
 MIN_HEIGHT_M = -1000.0
@@ -114,6 +115,9 @@ def make_grid(
         if not math.isfinite(lm) or not 0 <= lm <= 90:
             raise InputError(f"latitude limit must be within 0..90 deg, got {lat_max!r}")
         lat = _axis(-lm, lm, step)
+        if abs(lat[-1] - lm) < 1e-9:  # make the mirror rows exact negatives of each other
+            half = lat.size // 2
+            lat[lat.size - half:] = -lat[:half][::-1]
         nlon = 360.0 / step
         nlon = int(round(nlon)) if abs(nlon - round(nlon)) < 1e-6 else int(math.floor(nlon)) + 1
         lon = -180.0 + step * np.arange(nlon, dtype=np.float64)
@@ -143,106 +147,6 @@ def make_grid(
     if lat.size * lon.size * h.size > 2_000_000_000:
         raise InputError(f"grid of {lat.size}x{lon.size}x{h.size} nodes is too large")
     return GridSpec(lat=lat, lon=lon, heights=h, step_deg=step, is_global=region is None)
-
-
-def area_weights(lat_deg: np.ndarray) -> np.ndarray:
-    """Area weight of each latitude row of a grid (any longitude spacing).
-
-    Each node stands for the band between the mid-latitudes to its neighbours (half bands at the
-    ends of the grid), whose area on the sphere is proportional to the difference of the sines.
-
-    Parameters
-    ----------
-    lat_deg : numpy.ndarray
-        Ascending latitudes. Units: degrees.
-
-    Returns
-    -------
-    numpy.ndarray
-        Weights, summing to sin(last) - sin(first) (or 1 for a single row).
-    """
-    lat = np.asarray(lat_deg, dtype=np.float64)
-    if lat.size == 1:
-        return np.ones(1)
-    edges = np.concatenate([[lat[0]], 0.5 * (lat[1:] + lat[:-1]), [lat[-1]]])
-    return np.diff(np.sin(np.radians(edges)))
-
-
-def _regular_period(lon_deg: np.ndarray) -> int | None:
-    """Number L of nodes on the full circle if the longitudes are lon0 + k*360/L, else None.
-
-    More than L nodes are allowed (a grid holding both 0 and 360 deg): they wrap around.
-    """
-    if lon_deg.size < 2:
-        return None
-    step = (lon_deg[-1] - lon_deg[0]) / (lon_deg.size - 1)
-    if step <= 0:
-        return None
-    period = 360.0 / step
-    nper = int(round(period))
-    if abs(period - nper) > 1e-8 * period or nper > 2**22:
-        return None
-    k = np.arange(lon_deg.size)
-    if np.max(np.abs(lon_deg - (lon_deg[0] + k * 360.0 / nper))) > 1e-9:
-        return None
-    return nper
-
-
-def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu") -> np.ndarray:
-    """Evaluate Re(sum_m W[..., m] e^{i m lon}) at every longitude.
-
-    Parameters
-    ----------
-    W : numpy.ndarray
-        Complex, shape (..., nm): W_m = A_m - i B_m for the series sum A_m cos + B_m sin.
-    lon_deg : numpy.ndarray
-        Longitudes. Units: degrees.
-    device : str
-        Warp device for the direct-sum fallback (irregular longitudes).
-
-    Returns
-    -------
-    numpy.ndarray
-        Real, shape (..., nlon).
-    """
-    lon_deg = np.asarray(lon_deg, dtype=np.float64)
-    lead, nm = W.shape[:-1], W.shape[-1]
-    W = W.reshape(-1, nm)
-    nper = _regular_period(lon_deg)
-    if nper is not None:
-        import scipy.fft
-
-        m = np.arange(nm)
-        # rotate so that node k sits at k * 2 pi / L, then alias orders m -> m mod L (exact there)
-        Z = W * np.exp(1j * m * np.radians(lon_deg[0]))
-        nfold = -(-nm // nper)
-        F = np.zeros((W.shape[0], nfold * nper), dtype=np.complex128)
-        F[:, :nm] = Z
-        F = F.reshape(W.shape[0], nfold, nper).sum(axis=1)
-        out = scipy.fft.ifft(F, axis=-1, norm="forward", workers=-1).real
-        # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
-        out = out[:, : lon_deg.size] if lon_deg.size <= nper else out[:, np.arange(lon_deg.size) % nper]
-        return np.ascontiguousarray(out).reshape(*lead, lon_deg.size)
-    return _direct_sums(W, lon_deg, device).reshape(*lead, lon_deg.size)
-
-
-def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
-    import warp as wp
-
-    from . import _warp
-    from .kernels import grid as kgrid
-
-    _load(device)
-    nser, nm = W.shape
-    ab = np.stack([W.real, -W.imag], axis=-1)
-    coef = wp.array(np.ascontiguousarray(ab), dtype=wp.vec2d, device=device)
-    lon = wp.array(np.radians(lon_deg), dtype=wp.float64, device=device)
-    out = wp.zeros((nser, lon_deg.size), dtype=wp.float64, device=device)
-    _warp.launch_chunked(
-        kgrid.longitude_sum_kernel, nser * lon_deg.size,
-        [coef, lon, nm, lon_deg.size, out], device,
-    )
-    return out.numpy()
 
 
 QUANTITIES = ("disturbance", "gravitation", "gravity")
@@ -355,6 +259,7 @@ def synthesize(
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
+    symmetric: bool = True,
 ) -> np.ndarray:
     """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
 
@@ -373,6 +278,9 @@ def synthesize(
         Warp device (default: CUDA when present, else CPU on every core).
     progress : bool, optional
         Progress bar over row blocks; default: only for long runs on a terminal.
+    symmetric : bool
+        Share one Legendre recursion between rows mirrored about the equator (default); False
+        runs the engine's ``sh_column`` on every row (used to cross-check the two paths).
 
     Returns
     -------
@@ -397,34 +305,76 @@ def synthesize(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
+    units = [(k * nlat + a, k * nlat + b if b >= 0 else -1)
+             for k in range(nh) for a, b in (mirror_pairs(grid.lat) if symmetric else
+                                             [(i, -1) for i in range(nlat)])]
     nper = _regular_period(grid.lon) or nlon
-    per_item = nm * (6 * 8 + 3 * 16 * 2) + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
-    block = int(max(1, min(nitems, BLOCK_BYTES // per_item)))
+    per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
+    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
-        block = max(block, min(nitems, _warp.cpu_workers()))
+        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
     out = np.empty((nitems, nlon, 3))
     work = float(nitems) * nm * nm
     # tqdm: disable=None shows the bar on a terminal only
     disable = (not progress) if progress is not None else (None if work > 2e10 else True)
     bar = tqdm(total=nitems, unit="row", desc="synthesis", disable=disable, leave=False)
     cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
-    for start in range(0, nitems, block):
-        stop = min(nitems, start + block)
-        nb = stop - start
-        geo, gamma = _row_setup(
-            lat_all[start:stop], h_all[start:stop], ellipsoid, model.radius, 0, device
-        )
-        coef = wp.zeros((nb, nm), dtype=kgrid.vec6d, device=device)
-        _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
-        c = coef.numpy()
-        W = np.empty((nb, 3, nm), dtype=np.complex128)
-        for comp in range(3):
-            W[:, comp, :] = c[:, :, 2 * comp] - 1j * c[:, :, 2 * comp + 1]
+    u0 = 0
+    while u0 < len(units):
+        # a block of whole units (a mirrored pair of rows, or a single row)
+        u1, count = u0, 0
+        while u1 < len(units) and (count == 0 or count + 2 <= block):
+            count += 1 if units[u1][1] < 0 else 2
+            u1 += 1
+        blk = units[u0:u1]
+        items = np.array([i for a, b in blk for i in ((a,) if b < 0 else (a, b))], dtype=np.int64)
+        nb = items.size
+        geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
+        coef = wp.zeros((nb, 3, nm), dtype=wp.vec2d, device=device)
+        if symmetric:
+            loc_a, loc_b, k = [], [], 0
+            for _, b in blk:
+                loc_a.append(k)
+                loc_b.append(k + 1 if b >= 0 else -1)
+                k += 1 if b < 0 else 2
+            ng = -(-len(loc_a) // 4)
+            pad = 4 * ng - len(loc_a)
+            ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, 4)
+            gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, 4)
+            ra = wp.array(ga, dtype=wp.int32, device=device)
+            rb = wp.array(gb, dtype=wp.int32, device=device)
+            _warp.launch_chunked(kgrid.row_fourier_group_kernel, ng * nm,
+                                 [km, *geo, ra, rb, nm, coef], device)
+        else:
+            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
+        W = coef.numpy().view(np.complex128)[..., 0]  # (nb, 3, nm): A_m - i B_m
         if quantity == "disturbance":
             W[:, :, 0] -= gamma.numpy()
         elif quantity == "gravity":
-            W[:, :, 0] += cen[start:stop]
-        out[start:stop] = np.moveaxis(longitude_sums(W, grid.lon, device), 1, 2)
+            W[:, :, 0] += cen[items]
+        out[items] = np.moveaxis(longitude_sums(W, grid.lon, device), 1, 2)
         bar.update(nb)
+        u0 = u1
     bar.close()
     return out.reshape(nh, nlat, nlon, 3)
+
+
+def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
+    """Group rows into (row, mirror row at -latitude) pairs, or (row, -1) without a mirror.
+
+    Only exact mirrors pair up (:func:`make_grid` makes symmetric global grids exactly so);
+    the equator row has no mirror other than itself.
+    """
+    where = {float(v): i for i, v in enumerate(lat_deg)}
+    used, out = set(), []
+    for i, v in enumerate(lat_deg):
+        if i in used:
+            continue
+        j = where.get(-float(v)) if v != 0 else None
+        if j is not None and j != i and j not in used:
+            out.append((i, j))
+            used.update((i, j))
+        else:
+            out.append((i, -1))
+            used.add(i)
+    return out

@@ -1,7 +1,7 @@
 """Area-weighted statistics of latitude-longitude maps.
 
 Every node of a grid stands for the area of its cell; on a regular grid that area is
-proportional to the band of latitude the node covers (:func:`fieldmap.grid.area_weights`), so
+proportional to the band of latitude the node covers (:func:`area_weights`), so
 a plain node count would over-weight high latitudes by 1/cos(latitude). Chen et al. (2022) §4.1
 quote "the fraction of the total area" above a threshold: that is the area-weighted fraction.
 """
@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid import area_weights
-
 #: 1 mg = 1e-3 g with standard gravity g = 9.80665 m/s² (Chen et al. 2022, §4.1). Units: m/s².
 MG = 9.80665e-3
 #: 1 mGal = 1e-5 m/s². Units: m/s².
@@ -19,6 +17,29 @@ MGAL = 1e-5
 
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
 DEFAULT_PERCENTILES = (50.0, 90.0, 99.0)
+
+
+def area_weights(lat_deg: np.ndarray) -> np.ndarray:
+    """Area weight of each latitude row of a grid (any longitude spacing).
+
+    Each node stands for the band between the mid-latitudes to its neighbours (half bands at the
+    ends of the grid), whose area on the sphere is proportional to the difference of the sines.
+
+    Parameters
+    ----------
+    lat_deg : numpy.ndarray
+        Ascending latitudes. Units: degrees.
+
+    Returns
+    -------
+    numpy.ndarray
+        Weights, summing to sin(last) - sin(first) (or 1 for a single row).
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64)
+    if lat.size == 1:
+        return np.ones(1)
+    edges = np.concatenate([[lat[0]], 0.5 * (lat[1:] + lat[:-1]), [lat[-1]]])
+    return np.diff(np.sin(np.radians(edges)))
 
 
 def weights_2d(lat_deg: np.ndarray, nlon: int) -> np.ndarray:
