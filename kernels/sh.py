@@ -123,6 +123,101 @@ def sh_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
 
 
 @wp.func
+def sh_column_rows2(model: SHKernelModel, m: int, t0: wp.float64, q0: wp.float64,
+                    t1: wp.float64, q1: wp.float64):
+    """:func:`sh_column` of order ``m`` at two points (t0, q0) and (t1, q1) in one pass.
+
+    For grids: two latitude rows (or heights) share every table load, which halves the memory
+    traffic at high degree, and their two independent recursion chains overlap in the CPU
+    pipeline. Returns ``(col_0, col_1)``, each exactly as :func:`sh_column`.
+    """
+    oa = sh_vec8()
+    ob = sh_vec8()
+    lmax = model.lmax
+    if m > lmax:
+        return oa, ob
+    qa = wp.pow(q0, wp.float64(m))
+    qb = wp.pow(q1, wp.float64(m))
+    # a negligible column (q^m < QM_MIN) is run with a zero seed: it stays exactly zero
+    if qa < QM_MIN:
+        qa = wp.float64(0.0)
+    if qb < QM_MIN:
+        qb = wp.float64(0.0)
+    tqa = t0 * q0
+    qqa = q0 * q0
+    tqb = t1 * q1
+    qqb = q1 * q1
+    a1 = SCALE * model.sect[m] * qa
+    b1 = SCALE * model.sect[m] * qb
+    a2 = wp.float64(0.0)
+    b2 = wp.float64(0.0)
+    c = model.cnm[m, m]
+    s = model.snm[m, m]
+    nf1 = wp.float64(m + 1)
+    A0 = c * a1
+    A1 = s * a1
+    A2 = nf1 * A0
+    A3 = nf1 * A1
+    B0 = c * b1
+    B1 = s * b1
+    B2 = nf1 * B0
+    B3 = nf1 * B1
+    Ad4 = wp.float64(0.0)
+    Ad5 = wp.float64(0.0)
+    Bd4 = wp.float64(0.0)
+    Bd5 = wp.float64(0.0)
+    A6 = wp.float64(0.0)
+    B6 = wp.float64(0.0)
+    if m == 1:
+        A6 = model.fnm[0, 1] * model.cnm[0, 1] * a1
+        B6 = model.fnm[0, 1] * model.cnm[0, 1] * b1
+    for n in range(m + 1, lmax + 1):
+        an = model.anm[m, n]
+        bn = model.bnm[m, n]
+        pa = an * tqa * a1 - bn * qqa * a2
+        pb = an * tqb * b1 - bn * qqb * b2
+        c = model.cnm[m, n]
+        s = model.snm[m, n]
+        f = model.fnm[m, n]
+        nf1 = nf1 + wp.float64(1.0)
+        wca = c * pa
+        wsa = s * pa
+        wcb = c * pb
+        wsb = s * pb
+        A0 = A0 + wca
+        A1 = A1 + wsa
+        A2 = A2 + nf1 * wca
+        A3 = A3 + nf1 * wsa
+        B0 = B0 + wcb
+        B1 = B1 + wsb
+        B2 = B2 + nf1 * wcb
+        B3 = B3 + nf1 * wsb
+        fa = f * a1
+        fb = f * b1
+        Ad4 = Ad4 + c * fa
+        Ad5 = Ad5 + s * fa
+        Bd4 = Bd4 + c * fb
+        Bd5 = Bd5 + s * fb
+        if m == 1:
+            g = model.fnm[0, n] * model.cnm[0, n]
+            A6 = A6 + g * pa
+            B6 = B6 + g * pb
+        a2 = a1
+        a1 = pa
+        b2 = b1
+        b1 = pb
+    zero = wp.float64(0.0)
+    oa = sh_vec8(A0, A1, A2, A3, zero, zero, A6, zero)
+    ob = sh_vec8(B0, B1, B2, B3, zero, zero, B6, zero)
+    if m >= 1:
+        oa[4] = -t0 * (A2 - A0) + q0 * Ad4
+        oa[5] = -t0 * (A3 - A1) + q0 * Ad5
+        ob[4] = -t1 * (B2 - B0) + q1 * Bd4
+        ob[5] = -t1 * (B3 - B1) + q1 * Bd5
+    return oa, ob
+
+
+@wp.func
 def sh_column_pair(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
     """:func:`sh_column` for the orders ``m`` and ``m − 1`` together (m ≥ 2, m ≤ lmax).
 
@@ -195,18 +290,9 @@ def sh_column_pair(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
         a1 = pa
         b2 = b1
         b1 = pb
-    oa[0] = A0
-    oa[1] = A1
-    oa[2] = A2
-    oa[3] = A3
-    oa[4] = -t * (A2 - A0) + q * Ad4
-    oa[5] = -t * (A3 - A1) + q * Ad5
-    ob[0] = B0
-    ob[1] = B1
-    ob[2] = B2
-    ob[3] = B3
-    ob[4] = -t * (B2 - B0) + q * Bd4
-    ob[5] = -t * (B3 - B1) + q * Bd5
+    zero = wp.float64(0.0)
+    oa = sh_vec8(A0, A1, A2, A3, -t * (A2 - A0) + q * Ad4, -t * (A3 - A1) + q * Ad5, zero, zero)
+    ob = sh_vec8(B0, B1, B2, B3, -t * (B2 - B0) + q * Bd4, -t * (B3 - B1) + q * Bd5, zero, zero)
     return oa, ob
 
 
