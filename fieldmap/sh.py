@@ -66,15 +66,27 @@ def recursion_tables(lmax: int) -> dict[str, np.ndarray]:
     return {"anm": a, "bnm": b, "fnm": f, "sect": sect}
 
 
+#: Highest degree the 1e-280-scaled recursion keeps in range at every latitude (Holmes &
+#: Featherstone 2002 give 2700; near the poles P̄nm/u^m reaches ~e^(n/2), and at degree 2800
+#: the scaled values overflow above 88.8° — checked with a Kaula model on a latitude sweep).
+MAX_DEGREE = 2700
+
+
 def _check_lmax(model: SHModel, lmax) -> int:
     if lmax is None:
-        return model.lmax
-    try:
-        lmax_i = int(lmax)
-    except (TypeError, ValueError):
-        raise InputError(f"lmax must be an integer, got {lmax!r}") from None
-    if lmax_i != lmax or lmax_i < 0 or lmax_i > model.lmax:
-        raise InputError(f"lmax {lmax} is outside the model {model.name} (0..{model.lmax})")
+        lmax_i = model.lmax
+    else:
+        try:
+            lmax_i = int(lmax)
+        except (TypeError, ValueError):
+            raise InputError(f"lmax must be an integer, got {lmax!r}") from None
+        if lmax_i != lmax or lmax_i < 0 or lmax_i > model.lmax:
+            raise InputError(f"lmax {lmax} is outside the model {model.name} (0..{model.lmax})")
+    if lmax_i > MAX_DEGREE:
+        raise InputError(
+            f"degree {lmax_i} is above {MAX_DEGREE}, the limit of the scaled Legendre recursion; "
+            f"truncate the model with lmax <= {MAX_DEGREE}"
+        )
     return lmax_i
 
 

@@ -258,6 +258,10 @@ def test_kernel_model_cache_and_errors():
         fsh.sh_gravitation(model, 0.0, 0.0, 0.0)
     with pytest.raises(InputError):
         fsh.sh_gravitation(model, np.nan, 0.0, 7e6)
+    big = SHModel("big", GM, R, np.zeros((2802, 2802)), np.zeros((2802, 2802)), 2801)
+    with pytest.raises(InputError, match="2700"):
+        fsh.kernel_model(big, "cpu")
+    assert fsh.kernel_model(big, "cpu", lmax=20).lmax == 20
 
 
 def test_recursion_tables_identities():
