@@ -107,12 +107,22 @@ def run_circle(exe, name, folder, grid: G.GridSpec, repeat: int, out=None):
 
 
 def median_time(fn, repeat: int) -> float:
+    """Median wall time of ``fn()`` over ``repeat`` runs. Units: s."""
     times = []
     for _ in range(repeat):
         t = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t)
     return statistics.median(times)
+
+
+def paired_medians(fn_a, fn_b, repeat: int) -> tuple[float, float]:
+    """Median times of two functions run alternately (the machine's load hits both alike)."""
+    ta, tb = [], []
+    for _ in range(repeat):
+        ta.append(median_time(fn_a, 1))
+        tb.append(median_time(fn_b, 1))
+    return statistics.median(ta), statistics.median(tb)
 
 
 def line(label, ours, peer, target):
@@ -171,12 +181,12 @@ def main() -> int:
 
             g_dh = peer()
             shape = g_dh.rad.data.shape
-            t_sh = median_time(peer, rep)
             nlat, nlon = shape
             lat = 90.0 - 180.0 * np.arange(nlat) / (nlat - 1)
             lon = 360.0 * np.arange(nlon) / (nlon - 1)
             dh = G.GridSpec(lat[::-1].copy(), lon, np.array([h]), 180.0 / (nlat - 1))
-            t_us = median_time(lambda: G.synthesize(eigen, dh, quantity="gravity", device=dev), rep)
+            t_us, t_sh = paired_medians(
+                lambda: G.synthesize(eigen, dh, quantity="gravity", device=dev), peer, 2 * rep)
             line(f"vs pyshtools SHGravCoeffs.expand {nlat}x{nlon}", t_us, t_sh, 0.5)
         else:
             print("  pyshtools not installed")

@@ -313,7 +313,7 @@ def synthesize(
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
         block = max(block, min(nitems, 2 * _warp.cpu_workers()))
-    out = np.empty((nitems, nlon, 3))
+    out = np.empty((nitems, 3, nlon))
     work = float(nitems) * nm * nm
     # tqdm: disable=None shows the bar on a terminal only
     disable = (not progress) if progress is not None else (None if work > 2e10 else True)
@@ -323,20 +323,18 @@ def synthesize(
     while u0 < len(units):
         # a block of whole units (a mirrored pair of rows, or a single row)
         u1, count = u0, 0
-        while u1 < len(units) and (count == 0 or count + 2 <= block):
+        while u1 < len(units) and (count == 0 or count + 1 + (units[u1][1] >= 0) <= block):
             count += 1 if units[u1][1] < 0 else 2
             u1 += 1
         blk = units[u0:u1]
-        items = np.array([i for a, b in blk for i in ((a,) if b < 0 else (a, b))], dtype=np.int64)
+        items = np.sort([i for a, b in blk for i in ((a,) if b < 0 else (a, b))])
+        local = {int(it): k for k, it in enumerate(items)}
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         coef = wp.zeros((nb, 3, nm), dtype=wp.vec2d, device=device)
         if symmetric:
-            loc_a, loc_b, k = [], [], 0
-            for _, b in blk:
-                loc_a.append(k)
-                loc_b.append(k + 1 if b >= 0 else -1)
-                k += 1 if b < 0 else 2
+            loc_a = [local[a] for a, _ in blk]
+            loc_b = [local[b] if b >= 0 else -1 for _, b in blk]
             ng = -(-len(loc_a) // 4)
             pad = 4 * ng - len(loc_a)
             ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, 4)
@@ -352,11 +350,15 @@ def synthesize(
             W[:, :, 0] -= gamma.numpy()
         elif quantity == "gravity":
             W[:, :, 0] += cen[items]
-        out[items] = np.moveaxis(longitude_sums(W, grid.lon, device), 1, 2)
+        if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
+            longitude_sums(W, grid.lon, device, out=out[items[0]: items[-1] + 1])
+        else:
+            out[items] = longitude_sums(W, grid.lon, device)
         bar.update(nb)
         u0 = u1
     bar.close()
-    return out.reshape(nh, nlat, nlon, 3)
+    # (height, lat, component, lon) in memory; the (height, lat, lon, component) view costs nothing
+    return np.moveaxis(out.reshape(nh, nlat, 3, nlon), 2, 3)
 
 
 def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:

@@ -1,7 +1,7 @@
 """Longitude sums of a grid row: sum_m (A_m cos m lon + B_m sin m lon) at every node.
 
-Regular longitudes lon0 + k 360/L go through a real inverse FFT of length L (orders m >= L fold
-onto m mod L exactly on the nodes); any other longitudes through a direct-sum Warp kernel
+Regular longitudes lon0 + k 360/L go through inverse FFTs of length L, two real series per
+complex transform (orders m >= L fold onto m mod L exactly on the nodes); any other longitudes through a direct-sum Warp kernel
 (:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by :func:`fieldmap.grid.synthesize`.
 """
 
@@ -30,7 +30,8 @@ def _regular_period(lon_deg: np.ndarray) -> int | None:
     return nper
 
 
-def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu") -> np.ndarray:
+def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu",
+                   out: np.ndarray | None = None) -> np.ndarray:
     """Evaluate Re(sum_m W[..., m] e^{i m lon}) at every longitude.
 
     Parameters
@@ -41,57 +42,67 @@ def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu") -> n
         Longitudes. Units: degrees.
     device : str
         Warp device for the direct-sum fallback (irregular longitudes).
+    out : numpy.ndarray, optional
+        Real array of shape (..., nlon) to fill (may be a view into a larger buffer).
 
     Returns
     -------
     numpy.ndarray
-        Real, shape (..., nlon).
+        Real, shape (..., nlon) (``out`` when given).
     """
     lon_deg = np.asarray(lon_deg, dtype=np.float64)
     lead, nm = W.shape[:-1], W.shape[-1]
+    nlon = lon_deg.size
     W = W.reshape(-1, nm)
+    ns = W.shape[0]
+    if out is None:
+        out = np.empty((*lead, nlon))
+    res = out.reshape(ns, nlon)  # a view for the contiguous buffers the callers pass
     nper = _regular_period(lon_deg)
-    if nper is not None:
-        import scipy.fft
+    if nper is None:
+        res[...] = _direct_sums(W, lon_deg, device)
+        return out
+    import scipy.fft
 
-        # rotate so that node k sits at k * 2 pi / L, then alias orders m -> m mod L (exact there)
-        Z = W
-        if lon_deg[0] != 0.0:
-            Z = W * np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
-        if nm > nper:
-            nfold = -(-nm // nper)
-            F = np.zeros((W.shape[0], nfold * nper), dtype=np.complex128)
-            F[:, :nm] = Z
-            F = F.reshape(W.shape[0], nfold, nper).sum(axis=1)
-        else:
-            F = Z
-        # Re(sum_j F_j w^jk) by a real inverse FFT of half length: X_0 = Re F_0,
-        # X_j = (F_j + conj F_{L-j}) / 2 for 0 < j < L/2, X_{L/2} = Re F_{L/2} (even L)
-        half = nper // 2
-        X = np.zeros((W.shape[0], half + 1), dtype=np.complex128)
-        nlow = min(F.shape[1], half + 1)
-        X[:, :nlow] = F[:, :nlow]
-        X[:, 1:] *= 0.5
-        if F.shape[1] > half + 1:
-            jj = np.arange(half + 1, F.shape[1])
-            X[:, nper - jj] += 0.5 * np.conj(F[:, half + 1:])
-        X[:, 0] = X[:, 0].real
-        if nper % 2 == 0 and nlow == half + 1:
-            X[:, half] = F[:, half].real
-        out = scipy.fft.irfft(X, n=nper, axis=-1, norm="forward", workers=-1)
-        # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
-        out = out[:, : lon_deg.size] if lon_deg.size <= nper else out[:, np.arange(lon_deg.size) % nper]
-        return np.ascontiguousarray(out).reshape(*lead, lon_deg.size)
-    return _direct_sums(W, lon_deg, device).reshape(*lead, lon_deg.size)
+    # rotate so that node k sits at k * 2 pi / L, then alias orders m -> m mod L (exact there)
+    F = W
+    if lon_deg[0] != 0.0:
+        F = W * np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
+    if nm > nper:
+        nfold = -(-nm // nper)
+        G = np.zeros((ns, nfold * nper), dtype=np.complex128)
+        G[:, :nm] = F
+        F = G.reshape(ns, nfold, nper).sum(axis=1)
+    # Two real series per complex inverse FFT: with P = F_a + i F_b, M = F_a - i F_b (both
+    # zero from order nF on), z_k = Re(sum F_a w^jk) + i Re(sum F_b w^jk) is the inverse DFT of
+    # Z_j = (P_j + conj M_{-j}) / 2 (indices mod L). The tail of Z holds conj M reversed.
+    nF = F.shape[1]
+    if ns % 2:
+        F = np.concatenate([F, np.zeros((1, nF), dtype=F.dtype)])
+    Fa, Fb = F[0::2], F[1::2]
+    Z = np.zeros((Fa.shape[0], nper), dtype=np.complex128)
+    Z[:, :nF] = Fa + 1j * Fb
+    if nF > 1:
+        Z[:, nper - nF + 1:] += np.conj(Fa[:, :0:-1] - 1j * Fb[:, :0:-1])
+    Z[:, 0] += np.conj(Fa[:, 0] - 1j * Fb[:, 0])
+    Z *= 0.5
+    z = scipy.fft.ifft(Z, axis=-1, norm="forward", workers=-1, overwrite_x=True)
+    # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
+    for k0 in range(0, nlon, nper):
+        k1 = min(nlon, k0 + nper)
+        res[0::2, k0:k1] = z.real[:, : k1 - k0]
+        res[1::2, k0:k1] = z.imag[: ns // 2, : k1 - k0]
+    if not np.shares_memory(res, out):
+        out[...] = res.reshape(out.shape)
+    return out
 
 
 def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
     import warp as wp
 
     from . import _warp
-    from .kernels import grid as kgrid
-
     from .grid import _load
+    from .kernels import grid as kgrid
 
     _load(device)
     nser, nm = W.shape

@@ -161,7 +161,8 @@ def test_row_blocks_do_not_change_results(eigen, monkeypatch):
     full = G.synthesize(eigen, grid, device="cpu")
     monkeypatch.setattr(G, "BLOCK_BYTES", 1)  # one row per block (clamped to the core count)
     blocks = G.synthesize(eigen, grid, device="cpu", progress=True)
-    np.testing.assert_array_equal(full, blocks)
+    # equal up to rounding: the FFT pairs series differently in other blocks
+    np.testing.assert_allclose(full, blocks, rtol=0, atol=1e-14 * 9.8)
 
 
 def test_near_pole_high_degree_stays_finite():
@@ -213,7 +214,7 @@ def test_longitudes_past_one_turn_wrap(eigen):
 def test_longitude_sums_match_explicit_series(nm, nper, lon0):
     """FFT path (real inverse FFT, aliasing fold, phase shift) vs the explicit cos/sin series."""
     rng = np.random.default_rng(nm * 100 + nper)
-    W = rng.normal(size=(4, nm)) + 1j * rng.normal(size=(4, nm))
+    W = rng.normal(size=(3 + nm % 2, nm)) + 1j * rng.normal(size=(3 + nm % 2, nm))  # odd, even
     lon = lon0 + 360.0 / nper * np.arange(nper)
     got = G.longitude_sums(W, lon)
     m = np.arange(nm)[:, None]
