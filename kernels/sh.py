@@ -20,7 +20,8 @@ overflows below degree ~2700. Derivatives (their eqs. 15-16, fully normalised):
 
 which stay finite at the poles (u = 0): the east component carries the factor m u^{m-1}, whose
 m = 1 term is the pole limit. The powers q^n are folded into the recursion
-(``Q'_nm = q^n Q_nm`` obeys the same recursion with ``a_nm -> a_nm q``, ``b_nm -> b_nm q²``).
+(``Q'_nm = q^n Q_nm`` obeys the same recursion with ``a_nm -> a_nm q``, ``b_nm -> b_nm q²``),
+and cos/sin(mλ) are evaluated directly for each order (no recurrence, so no error growth in m).
 
 The tables live in :class:`SHKernelModel`, stored transposed as ``[m, n]`` so that one column
 recursion walks contiguous memory; they are built on the host by
@@ -35,9 +36,10 @@ from .frames import geodetic_to_ecef
 #: 1e-280 scale of the Holmes & Featherstone (2002) recursion and its inverse.
 SCALE = wp.constant(wp.float64(1.0e-280))
 INV_SCALE = wp.constant(wp.float64(1.0e280))
-#: columns whose q^m falls below this contribute < 1e-28 relative and are skipped (this also
-#: keeps the folded recursion clear of subnormal numbers far above the reference sphere).
-QM_MIN = wp.constant(wp.float64(1.0e-30))
+#: degrees whose q^n falls below this are left out: |P̄nm| ≤ sqrt(2(2n+1)) and |C|, |S| < 1e-5
+#: for n ≥ 2, so they add < 1e-28 of the degree-0 term; far above the reference sphere this
+#: shortens every column and keeps the folded recursion (~1e-280 q^n) clear of subnormals.
+QM_MIN = wp.constant(wp.float64(1.0e-25))
 
 sh_vec8 = wp.types.vector(length=8, dtype=wp.float64)
 
@@ -58,6 +60,17 @@ class SHKernelModel:
 
 
 @wp.func
+def sh_degree_cut(model: SHKernelModel, q: wp.float64):
+    """Highest degree summed at q = R/r: lmax, or the last n with q^n ≥ QM_MIN (q < 1)."""
+    top = model.lmax
+    if q < wp.float64(1.0):
+        k = wp.log(QM_MIN) / wp.log(q)
+        if k < wp.float64(top):
+            top = int(k)
+    return top
+
+
+@wp.func
 def sh_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
     """Per-order sums of the scaled Legendre series for order ``m``.
 
@@ -68,12 +81,10 @@ def sh_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
     Units: dimensionless (t = sin φ geocentric, q = R/r).
     """
     out = sh_vec8()
-    lmax = model.lmax
+    lmax = sh_degree_cut(model, q)
     if m > lmax:
         return out
     qm = wp.pow(q, wp.float64(m))
-    if qm < QM_MIN:
-        return out
     tq = t * q
     qq = q * q
     # Q'_{m,m} = q^m Q_mm and Q'_{m-1,m} = 0: the general recursion then gives Q'_{m+1,m}
@@ -131,11 +142,9 @@ def sh_column_rows2(model: SHKernelModel, m: int, t0: wp.float64, q0: wp.float64
     traffic at high degree, and their two independent recursion chains overlap in the CPU
     pipeline. Returns ``(col_0, col_1)``, each exactly as :func:`sh_column`.
     """
-    oa = sh_vec8()
-    ob = sh_vec8()
-    lmax = model.lmax
+    lmax = wp.max(sh_degree_cut(model, q0), sh_degree_cut(model, q1))
     if m > lmax:
-        return oa, ob
+        return sh_vec8(), sh_vec8()
     qa = wp.pow(q0, wp.float64(m))
     qb = wp.pow(q1, wp.float64(m))
     # a negligible column (q^m < QM_MIN) is run with a zero seed: it stays exactly zero
@@ -143,10 +152,7 @@ def sh_column_rows2(model: SHKernelModel, m: int, t0: wp.float64, q0: wp.float64
         qa = wp.float64(0.0)
     if qb < QM_MIN:
         qb = wp.float64(0.0)
-    tqa = t0 * q0
-    qqa = q0 * q0
-    tqb = t1 * q1
-    qqb = q1 * q1
+    tqa, qqa, tqb, qqb = t0 * q0, q0 * q0, t1 * q1, q1 * q1
     a1 = SCALE * model.sect[m] * qa
     b1 = SCALE * model.sect[m] * qb
     a2 = wp.float64(0.0)
@@ -225,15 +231,14 @@ def sh_column_pair(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
     interleaving two independent chains roughly halves the latency-bound time per term.
     Returns ``(col_m, col_m_minus_1)``, each as :func:`sh_column` (entry [6] is 0: m − 1 ≥ 1).
     """
-    lmax = model.lmax
+    lmax = sh_degree_cut(model, q)
     k = m - 1
+    if m > lmax:
+        # order m is cut off; order m - 1 may still have its single term n = m - 1
+        return sh_vec8(), sh_column(model, k, t, q)
     tq = t * q
     qq = q * q
     qk = wp.pow(q, wp.float64(k))
-    oa = sh_vec8()
-    ob = sh_vec8()
-    if qk < QM_MIN:
-        return oa, ob
     # column k: seed n = k, then the step n = m (b_{m,k} = 0), so both columns stand at n = m
     b1 = SCALE * model.sect[k] * qk
     pb = model.anm[k, m] * tq * b1
@@ -316,7 +321,7 @@ def _horner_step(col: sh_vec8, m: int, lam: wp.float64, u: wp.float64, acc: wp.v
 @wp.func
 def _m0_derivative_sum(model: SHKernelModel, t: wp.float64, q: wp.float64):
     """Entry [6] of :func:`sh_column` for m = 1 alone: sum of q^n sqrt(n(n+1)/2) C_n0 Q_n1."""
-    lmax = model.lmax
+    lmax = sh_degree_cut(model, q)
     if lmax < 1:
         return wp.float64(0.0)
     tq = t * q
@@ -350,7 +355,7 @@ def sh_spherical(model: SHKernelModel, p: wp.vec3d):
     lam = wp.atan2(y, x)
     q = model.radius / r
     acc = wp.vec4d()
-    m = model.lmax
+    m = sh_degree_cut(model, q)
     while m >= 2:
         cols = sh_column_pair(model, m, t, q)
         acc = _horner_step(cols[0], m, lam, u, acc)
@@ -382,19 +387,14 @@ def sh_gravitation_ecef(model: SHKernelModel, p: wp.vec3d):
     Units: m -> m/s² (ECEF components).
     """
     res = sh_spherical(model, p)
-    x = p[0]
-    y = p[1]
-    z = p[2]
-    rho = wp.sqrt(x * x + y * y)
-    r = wp.sqrt(rho * rho + z * z)
-    t = z / r
+    rho = wp.sqrt(p[0] * p[0] + p[1] * p[1])
+    r = wp.sqrt(rho * rho + p[2] * p[2])
+    t = p[2] / r
     u = rho / r
-    lam = wp.atan2(y, x)
+    lam = wp.atan2(p[1], p[0])
     cl = wp.cos(lam)
     sl = wp.sin(lam)
-    ge = res[1]
-    gn = res[2]
-    gu = res[3]
+    ge, gn, gu = res[1], res[2], res[3]
     # east = (-sin λ, cos λ, 0), north = (-t cos λ, -t sin λ, u), up = (u cos λ, u sin λ, t)
     h = u * gu - t * gn
     return wp.vec3d(h * cl - ge * sl, h * sl + ge * cl, t * gu + u * gn)

@@ -109,6 +109,23 @@ def test_kernel_vs_reference_high_degree_part(device):
 
 
 @pytest.mark.parametrize("device", DEVICES)
+def test_far_points_degree_cut(eigen, device):
+    """Far above the sphere, where q^n < 1e-25 cuts the series, the kernel matches the full sum.
+
+    Radii from 2 R to the GNSS radius 26 600 km, poles included.
+    """
+    rng = np.random.default_rng(12)
+    n = 20
+    r = np.r_[rng.uniform(1.2e7, 2.66e7, n), 1.3e7, 2.66e7]
+    phi = np.r_[np.arcsin(rng.uniform(-1, 1, n)), np.pi / 2, -np.pi / 2]
+    lam = np.r_[rng.uniform(-np.pi, np.pi, n), 0.0, 0.0]
+    x, y, z = r * np.cos(phi) * np.cos(lam), r * np.cos(phi) * np.sin(lam), r * np.sin(phi)
+    x[-2:], y[-2:] = 0.0, 0.0
+    g = fsh.sh_gravitation(eigen, x, y, z, device=device)
+    assert rel_vec(g, ref.gravitation_ecef(eigen, x, y, z)) <= 1e-12
+
+
+@pytest.mark.parametrize("device", DEVICES)
 def test_point_mass(device):
     """C00 = 1 only: V = GM/r, g = -GM r_vec / r^3 (Newton)."""
     C = np.zeros((4, 4))
