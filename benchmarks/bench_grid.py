@@ -68,7 +68,11 @@ int main(int argc, char** argv) {
     auto t1 = std::chrono::steady_clock::now();
     std::printf("%.6f\n", std::chrono::duration<double>(t1 - t0).count());
   }
-  if (out) { FILE* f = std::fopen(out, "wb"); std::fwrite(buf.data(), 8, buf.size(), f); std::fclose(f); }
+  if (out) {
+    FILE* f = std::fopen(out, "wb");
+    std::fwrite(buf.data(), 8, buf.size(), f);
+    std::fclose(f);
+  }
   return 0;
 }
 """
@@ -76,14 +80,19 @@ int main(int argc, char** argv) {
 
 def build_circle(tmp: str) -> str | None:
     """Compile the circle-mode program; None if g++ or GeographicLib is missing."""
-    if not shutil.which("g++") or not os.path.exists("/usr/include/GeographicLib/GravityCircle.hpp"):
+    if not shutil.which("g++") or not os.path.exists(
+        "/usr/include/GeographicLib/GravityCircle.hpp"
+    ):
         return None
     src = os.path.join(tmp, "circle.cpp")
     exe = os.path.join(tmp, "circle")
     with open(src, "w") as f:
         f.write(CIRCLE_CPP)
-    r = subprocess.run(["g++", "-O3", "-march=native", "-o", exe, src, "-lGeographicLib"],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        ["g++", "-O3", "-march=native", "-o", exe, src, "-lGeographicLib"],
+        capture_output=True,
+        text=True,
+    )
     if r.returncode != 0:
         print("g++ failed:", r.stderr.strip()[:500])
         return None
@@ -93,9 +102,19 @@ def build_circle(tmp: str) -> str | None:
 def run_circle(exe, name, folder, grid: G.GridSpec, repeat: int, out=None):
     """Median seconds of one full grid in circle mode (one core), and the grid if ``out``."""
     lat, lon = grid.lat, grid.lon
-    args = [exe, name, folder, repr(float(grid.heights[0])), repr(float(lat[0])),
-            repr(float(lat[1] - lat[0])), str(lat.size), repr(float(lon[0])),
-            repr(float(lon[1] - lon[0])), str(lon.size), str(repeat)]
+    args = [
+        exe,
+        name,
+        folder,
+        repr(float(grid.heights[0])),
+        repr(float(lat[0])),
+        repr(float(lat[1] - lat[0])),
+        str(lat.size),
+        repr(float(lon[0])),
+        repr(float(lon[1] - lon[0])),
+        str(lon.size),
+        str(repeat),
+    ]
     if out:
         args.append(out)
     r = subprocess.run(args, capture_output=True, text=True, check=True)
@@ -128,8 +147,10 @@ def paired_medians(fn_a, fn_b, repeat: int) -> tuple[float, float]:
 def line(label, ours, peer, target):
     ratio = ours / peer
     ok = "meets" if ratio <= target else "MISSES"
-    print(f"  {label:<44} ours {ours:8.4f} s   peer {peer:8.4f} s   ratio {ratio:5.3f}  "
-          f"({ok} target <= {target})")
+    print(
+        f"  {label:<44} ours {ours:8.4f} s   peer {peer:8.4f} s   ratio {ratio:5.3f}  "
+        f"({ok} target <= {target})"
+    )
     return ratio
 
 
@@ -158,10 +179,12 @@ def main() -> int:
             t_gl, vals = run_circle(exe, name, tmp, grid, rep, os.path.join(tmp, "g1.bin"))
             line("vs GeographicLib circle mode", ours["q1"], t_gl, 0.2)
             mine = G.synthesize(eigen, grid, device=dev)[0]
-            print(f"     max |ours - GeographicLib| = {np.max(np.abs(mine - vals)) / 1e-5:.2e} mGal "
-                  f"(max |dg| {np.max(np.abs(vals)) / 1e-5:.1f} mGal)")
+            print(
+                f"     max |ours - GeographicLib| = {np.max(np.abs(mine - vals)) / 1e-5:.2e} mGal "
+                f"(max |dg| {np.max(np.abs(vals)) / 1e-5:.1f} mGal)"
+            )
         else:
-            print(f"  ours {ours['q1']:.4f} s; GeographicLib circle program unavailable (g++ or headers)")
+            print(f"  ours {ours['q1']:.4f} s; GeographicLib circle program unavailable")
         # ---------------------------------------------------------------- 2. pyshtools DH grid
         print("2. Driscoll-Healy grid lmax 240 (483 x 965), gravity vector at h = 20 km")
         try:
@@ -171,13 +194,16 @@ def main() -> int:
         if pysh is not None:
             L = 240
             coeffs = np.stack([eigen.C, eigen.S])
-            clm = pysh.SHGravCoeffs.from_array(coeffs, gm=eigen.gm, r0=eigen.radius,
-                                               omega=WGS84.omega)
+            clm = pysh.SHGravCoeffs.from_array(
+                coeffs, gm=eigen.gm, r0=eigen.radius, omega=WGS84.omega
+            )
             h = 20e3
             f_infl = 1.0 - (WGS84.b + h) / (WGS84.a + h)
 
             def peer():
-                return clm.expand(a=WGS84.a + h, f=f_infl, lmax=L, normal_gravity=False, extend=True)
+                return clm.expand(
+                    a=WGS84.a + h, f=f_infl, lmax=L, normal_gravity=False, extend=True
+                )
 
             g_dh = peer()
             shape = g_dh.rad.data.shape
@@ -186,7 +212,8 @@ def main() -> int:
             lon = 360.0 * np.arange(nlon) / (nlon - 1)
             dh = G.GridSpec(lat[::-1].copy(), lon, np.array([h]), 180.0 / (nlat - 1))
             t_us, t_sh = paired_medians(
-                lambda: G.synthesize(eigen, dh, quantity="gravity", device=dev), peer, 2 * rep)
+                lambda: G.synthesize(eigen, dh, quantity="gravity", device=dev), peer, 2 * rep
+            )
             line(f"vs pyshtools SHGravCoeffs.expand {nlat}x{nlon}", t_us, t_sh, 0.5)
         else:
             print("  pyshtools not installed")
@@ -194,15 +221,22 @@ def main() -> int:
         L3 = 720 if args.quick else 2190
         kau = kaula_model(L3, seed=7)
         grid3 = G.make_grid(1.0, 80.0, heights_m=[20e3])
-        print(f"3. Kaula-rule model degree {L3}, 1 deg grid 80S-80N (161 x 360), h = 20 km, disturbance")
+        print(
+            f"3. Kaula-rule model degree {L3}, 1 deg grid 80S-80N (161 x 360), h = 20 km, "
+            "disturbance"
+        )
         G.synthesize(kau, G.make_grid(60.0, heights_m=[20e3]), device=dev)
         t_us = median_time(lambda: G.synthesize(kau, grid3, device=dev), max(3, rep // 2))
         if exe:
             name = write_egm(kau, tmp, "kaula")
-            t_gl, vals = run_circle(exe, name, tmp, grid3, max(3, rep // 2), os.path.join(tmp, "g3.bin"))
+            t_gl, vals = run_circle(
+                exe, name, tmp, grid3, max(3, rep // 2), os.path.join(tmp, "g3.bin")
+            )
             line("vs GeographicLib circle mode", t_us, t_gl, 0.5)
             mine = G.synthesize(kau, grid3, device=dev)[0]
-            print(f"     max |ours - GeographicLib| = {np.max(np.abs(mine - vals)) / 1e-5:.2e} mGal")
+            print(
+                f"     max |ours - GeographicLib| = {np.max(np.abs(mine - vals)) / 1e-5:.2e} mGal"
+            )
         else:
             print(f"  ours {t_us:.4f} s; GeographicLib circle program unavailable")
     finally:

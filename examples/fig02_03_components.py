@@ -1,5 +1,7 @@
-"""Figs. 2 and 3 of Chen et al. (2022): gravity components at 20 km from the model and from the
-exact normal (ellipsoidal) gravity of WGS84, 80S-80N on a 1-degree grid.
+"""Figs. 2 and 3 of Chen et al. (2022).
+
+Gravity components at 20 km from the model and from the exact normal (ellipsoidal) gravity of WGS84,
+80S-80N on a 1-degree grid.
 
 Run: ``python examples/fig02_03_components.py`` (figures in outputs/examples/).
 """
@@ -14,8 +16,10 @@ out = out_dir()
 write_png(plots.plot_components(ds, "model"), out / "fig02_model_gravity_20km.png")
 write_png(plots.plot_components(ds, "normal"), out / "fig03_normal_gravity_20km.png")
 up = ds["model_up"]
-print(f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, h = 20 km: g_up from "
-      f"{float(up.min()):.5f} to {float(up.max()):.5f} m/s² (stronger at the poles than at the "
-      "equator, as the paper notes); model minus normal up: "
-      f"{float(abs(ds.model_up - ds.normal_up).max()) * 1e5:.1f} mGal at most")
+print(
+    f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, h = 20 km: g_up from "
+    f"{float(up.min()):.5f} to {float(up.max()):.5f} m/s² (stronger at the poles than at the "
+    "equator, as the paper notes); model minus normal up: "
+    f"{float(abs(ds.model_up - ds.normal_up).max()) * 1e5:.1f} mGal at most"
+)
 print(f"figures: {out}/fig02_model_gravity_20km.png, {out}/fig03_normal_gravity_20km.png")

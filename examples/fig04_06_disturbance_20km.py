@@ -1,5 +1,7 @@
-"""Figs. 4, 5 and 6 of Chen et al. (2022): disturbance modulus at 20 km with isolines at 0.02,
-0.06 and 0.10 mg, and the areas above 0.06 mg and 0.10 mg (in black), 80S-80N, 1-degree grid.
+"""Figs. 4, 5 and 6 of Chen et al. (2022).
+
+Disturbance modulus at 20 km with isolines at 0.02, 0.06 and 0.10 mg, and the areas above 0.06 mg
+and 0.10 mg (in black), 80S-80N, 1-degree grid.
 
 Run: ``python examples/fig04_06_disturbance_20km.py``.
 """
@@ -10,15 +12,23 @@ import fieldmap
 from fieldmap import plots
 from fieldmap.io import write_png
 
-ds = fieldmap.disturbance_map(model="eigen-6s", lmax=lmax(), height_km=20, step_deg=step(),
-                              lat_max=80, thresholds_mg=(0.02, 0.05, 0.06, 0.10))
+ds = fieldmap.disturbance_map(
+    model="eigen-6s",
+    lmax=lmax(),
+    height_km=20,
+    step_deg=step(),
+    lat_max=80,
+    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
+)
 out = out_dir()
 write_png(plots.plot_isolines(ds, [0.02, 0.06, 0.10]), out / "fig04_isolines_20km.png")
 write_png(plots.plot_threshold(ds, 0.06), out / "fig05_above_0.06mg_20km.png")
 write_png(plots.plot_threshold(ds, 0.10), out / "fig06_above_0.10mg_20km.png")
 a = ds.attrs
-print(f"{a['model']} degree {a['model_lmax']}, h = 20 km, {ds.sizes['latitude']} x "
-      f"{ds.sizes['longitude']} nodes")
+print(
+    f"{a['model']} degree {a['model_lmax']}, h = 20 km, {ds.sizes['latitude']} x "
+    f"{ds.sizes['longitude']} nodes"
+)
 print("  area above    ours     paper (EIGEN-6C4, degree 2190)")
 for key, paper in (("0.05", 16.67), ("0.06", 9.45), ("0.1", 1.68)):
     print(f"  {key:>5} mg   {100 * a[f'area_fraction_above_{key}_mg']:6.2f} %   {paper:6.2f} %")

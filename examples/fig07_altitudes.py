@@ -1,5 +1,7 @@
-"""Fig. 7 of Chen et al. (2022): disturbance isolines at 50 and 100 km, with the altitude sweep
-20-100 km (area above thresholds and maximum versus height).
+"""Fig. 7 of Chen et al. (2022).
+
+Disturbance isolines at 50 and 100 km, with the altitude sweep 20-100 km (area above thresholds and
+maximum versus height).
 
 Run: ``python examples/fig07_altitudes.py``.
 """
@@ -11,19 +13,31 @@ from fieldmap import plots
 from fieldmap.io import write_png
 
 heights = [20, 30, 50, 70, 100]
-sw = fieldmap.altitude_sweep(model="eigen-6s", lmax=lmax(), height_km=heights, step_deg=step(),
-                             lat_max=80, thresholds_mg=(0.02, 0.05, 0.06, 0.10))
+sw = fieldmap.altitude_sweep(
+    model="eigen-6s",
+    lmax=lmax(),
+    height_km=heights,
+    step_deg=step(),
+    lat_max=80,
+    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
+)
 out = out_dir()
 for k, h in enumerate(heights):
     if h in (50, 100):
-        write_png(plots.plot_isolines(sw, [0.02, 0.06, 0.10], height_index=k),
-                  out / f"fig07_isolines_{h}km.png")
+        write_png(
+            plots.plot_isolines(sw, [0.02, 0.06, 0.10], height_index=k),
+            out / f"fig07_isolines_{h}km.png",
+        )
 write_png(plots.plot_sweep(sw), out / "fig07_sweep.png")
 print(f"{sw.attrs['model']} degree {sw.attrs['model_lmax']}")
 print("  h (km)  max (mg)  mean (mg)  >0.05 mg  >0.06 mg  >0.10 mg")
 for k, h in enumerate(heights):
     f = 100 * sw["area_fraction_above"].values[k]
-    print(f"  {h:6d}  {sw.max_mg.values[k]:8.4f}  {sw.mean_mg.values[k]:9.4f}  {f[1]:7.2f}%  "
-          f"{f[2]:7.2f}%  {f[3]:7.2f}%")
-print("Paper: at 50 and 100 km the areas above 0.10 mg and inside the 0.06-mg isoline shrink, "
-      "but areas above 0.06 mg still exist at 100 km.")
+    print(
+        f"  {h:6d}  {sw.max_mg.values[k]:8.4f}  {sw.mean_mg.values[k]:9.4f}  {f[1]:7.2f}%  "
+        f"{f[2]:7.2f}%  {f[3]:7.2f}%"
+    )
+print(
+    "Paper: at 50 and 100 km the areas above 0.10 mg and inside the 0.06-mg isoline shrink, "
+    "but areas above 0.06 mg still exist at 100 km."
+)

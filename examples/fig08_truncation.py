@@ -1,5 +1,6 @@
-"""Fig. 8 of Chen et al. (2022): J2 and J4 (and J6) normal gravitation minus the exact
-level-ellipsoid gravitation at 20 km (WGS84).
+"""Fig. 8 of Chen et al. (2022).
+
+J2 and J4 (and J6) normal gravitation minus the exact level-ellipsoid gravitation at 20 km (WGS84).
 
 Run: ``python examples/fig08_truncation.py``.
 """

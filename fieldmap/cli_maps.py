@@ -32,18 +32,39 @@ def _numbers(values, what: str, kind=float) -> list:
 
 def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
     if model:
-        p.add_argument("--model", default="eigen-6s",
-                       help="bundled model name or ICGEM .gfc[.gz] file (default: eigen-6s, degree 240)")
-        p.add_argument("--lmax", type=int, default=None,
-                       help="truncation degree (default: the model's full degree)")
-        p.add_argument("--epoch", default=None, help="epoch of time-variable models (year or YYYY-MM-DD)")
+        p.add_argument(
+            "--model",
+            default="eigen-6s",
+            help="bundled model name or ICGEM .gfc[.gz] file (default: eigen-6s, degree 240)",
+        )
+        p.add_argument(
+            "--lmax",
+            type=int,
+            default=None,
+            help="truncation degree (default: the model's full degree)",
+        )
+        p.add_argument(
+            "--epoch", default=None, help="epoch of time-variable models (year or YYYY-MM-DD)"
+        )
     p.add_argument("--step-deg", type=float, default=1.0, help="grid step in degrees (default 1)")
-    p.add_argument("--lat-max", type=float, default=80.0,
-                   help="global grid from -LAT_MAX to LAT_MAX degrees (default 80, as the paper)")
-    p.add_argument("--region", type=float, nargs=4, metavar=("W", "E", "S", "N"), default=None,
-                   help="regional grid instead of global: west east south north, degrees")
+    p.add_argument(
+        "--lat-max",
+        type=float,
+        default=80.0,
+        help="global grid from -LAT_MAX to LAT_MAX degrees (default 80, as the paper)",
+    )
+    p.add_argument(
+        "--region",
+        type=float,
+        nargs=4,
+        metavar=("W", "E", "S", "N"),
+        default=None,
+        help="regional grid instead of global: west east south north, degrees",
+    )
     p.add_argument("--ellipsoid", default="WGS84", help="normal field: WGS84 (default) or GRS80")
-    p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: cuda if present)")
+    p.add_argument(
+        "--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: cuda if present)"
+    )
     p.add_argument("--out", default="outputs", help="output folder (default: outputs/)")
     p.add_argument("--no-plots", action="store_true", help="write NetCDF and JSON only")
 
@@ -51,31 +72,61 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
 def register(subparsers) -> None:
     """Add the map, sweep and truncation sub-commands."""
     p = subparsers.add_parser(
-        "map", help="gravity-disturbance map at one height (the main job)",
-        description=("Global (80S-80N) or regional map of the gravity disturbance "
-                     "g_model - gamma_exact: east, north, up, modulus in mGal and mg, with area-weighted "
-                     "statistics. Writes NetCDF, JSON and PNG (isolines, threshold maps) to --out."))
+        "map",
+        help="gravity-disturbance map at one height (the main job)",
+        description=(
+            "Global (80S-80N) or regional map of the gravity disturbance "
+            "g_model - gamma_exact: east, north, up, modulus in mGal and mg, with area-weighted "
+            "statistics. Writes NetCDF, JSON and PNG (isolines, threshold maps) to --out."
+        ),
+    )
     _common(p)
-    p.add_argument("--height-km", type=float, default=20.0, help="height above the ellipsoid in km (default 20)")
-    p.add_argument("--thresholds-mg", nargs="+", default=[DEFAULT_THRESHOLDS],
-                   help="thresholds in mg for area fractions and isolines (default 0.02,0.05,0.06,0.10)")
+    p.add_argument(
+        "--height-km",
+        type=float,
+        default=20.0,
+        help="height above the ellipsoid in km (default 20)",
+    )
+    p.add_argument(
+        "--thresholds-mg",
+        nargs="+",
+        default=[DEFAULT_THRESHOLDS],
+        help="thresholds in mg for area fractions and isolines (default 0.02,0.05,0.06,0.10)",
+    )
     p.set_defaults(func=run_map)
 
     p = subparsers.add_parser(
-        "sweep", help="disturbance statistics over several heights",
-        description="Disturbance maps and statistics at several heights (table, plot, per-height maps).")
+        "sweep",
+        help="disturbance statistics over several heights",
+        description="Disturbance maps and statistics at several heights (table, plot, maps).",
+    )
     _common(p)
-    p.add_argument("--height-km", nargs="+", default=["20,30,50,70,100"],
-                   help="heights in km (default 20 30 50 70 100)")
-    p.add_argument("--thresholds-mg", nargs="+", default=[DEFAULT_THRESHOLDS],
-                   help="thresholds in mg (default 0.02,0.05,0.06,0.10)")
+    p.add_argument(
+        "--height-km",
+        nargs="+",
+        default=["20,30,50,70,100"],
+        help="heights in km (default 20 30 50 70 100)",
+    )
+    p.add_argument(
+        "--thresholds-mg",
+        nargs="+",
+        default=[DEFAULT_THRESHOLDS],
+        help="thresholds in mg (default 0.02,0.05,0.06,0.10)",
+    )
     p.set_defaults(func=run_sweep)
 
     p = subparsers.add_parser(
-        "truncation", help="J2/J4/J6 normal gravitation truncation-error maps",
-        description="Maps of the J2n normal gravitation minus the exact level-ellipsoid gravitation.")
+        "truncation",
+        help="J2/J4/J6 normal gravitation truncation-error maps",
+        description="Maps of the J2n normal gravitation minus the exact level-ellipsoid one.",
+    )
     _common(p, model=False)
-    p.add_argument("--height-km", type=float, default=20.0, help="height above the ellipsoid in km (default 20)")
+    p.add_argument(
+        "--height-km",
+        type=float,
+        default=20.0,
+        help="height above the ellipsoid in km (default 20)",
+    )
     p.add_argument("--orders", default="2,4,6", help="J2n orders, e.g. 2,4,6 (default)")
     p.set_defaults(func=run_truncation)
 
@@ -138,16 +189,28 @@ def run_map(args) -> int:
     thresholds = parse_thresholds(_numbers(args.thresholds_mg, "--thresholds-mg"))
     _preflight(args, [args.height_km])
     t0 = time.perf_counter()
-    ds = disturbance_map(model=args.model, lmax=args.lmax, height_km=args.height_km,
-                         step_deg=args.step_deg, lat_max=args.lat_max, region=_region(args),
-                         thresholds_mg=thresholds, device=args.device, ellipsoid=args.ellipsoid,
-                         epoch=args.epoch)
+    ds = disturbance_map(
+        model=args.model,
+        lmax=args.lmax,
+        height_km=args.height_km,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        thresholds_mg=thresholds,
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+        epoch=args.epoch,
+    )
     elapsed = time.perf_counter() - t0
     a = ds.attrs
-    print(f"{a['model']} degree {a['model_lmax']}, h = {args.height_km:g} km, "
-          f"{ds.sizes['latitude']} x {ds.sizes['longitude']} nodes, {elapsed:.2f} s")
-    print(f"  max {a['max_mg']:.4f} mg   mean {a['mean_mg']:.4f} mg   "
-          f"median {a['p50_mg']:.4f} mg   p99 {a['p99_mg']:.4f} mg")
+    print(
+        f"{a['model']} degree {a['model_lmax']}, h = {args.height_km:g} km, "
+        f"{ds.sizes['latitude']} x {ds.sizes['longitude']} nodes, {elapsed:.2f} s"
+    )
+    print(
+        f"  max {a['max_mg']:.4f} mg   mean {a['mean_mg']:.4f} mg   "
+        f"median {a['p50_mg']:.4f} mg   p99 {a['p99_mg']:.4f} mg"
+    )
     print("  threshold (mg)   area above (%)")
     for t in thresholds:
         from .stats import threshold_key
@@ -175,25 +238,42 @@ def run_sweep(args) -> int:
         raise InputError(f"--height-km: repeated height in {heights}")
     _preflight(args, heights)
     t0 = time.perf_counter()
-    ds = altitude_sweep(model=args.model, lmax=args.lmax, height_km=heights, step_deg=args.step_deg,
-                        lat_max=args.lat_max, region=_region(args), thresholds_mg=thresholds,
-                        device=args.device, ellipsoid=args.ellipsoid, epoch=args.epoch)
+    ds = altitude_sweep(
+        model=args.model,
+        lmax=args.lmax,
+        height_km=heights,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        thresholds_mg=thresholds,
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+        epoch=args.epoch,
+    )
     elapsed = time.perf_counter() - t0
-    print(f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, {ds.sizes['latitude']} x "
-          f"{ds.sizes['longitude']} nodes x {ds.sizes['height']} heights, {elapsed:.2f} s")
+    print(
+        f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, {ds.sizes['latitude']} x "
+        f"{ds.sizes['longitude']} nodes x {ds.sizes['height']} heights, {elapsed:.2f} s"
+    )
     head = "  h (km)   max (mg)  mean (mg)" + "".join(f"  >{t:g} mg (%)" for t in thresholds)
     print(head)
     for k, h in enumerate(ds["height"].values):
         row = f"  {h / 1e3:>6g}   {ds['max_mg'].values[k]:8.4f}   {ds['mean_mg'].values[k]:8.4f}"
-        row += "".join(f"  {100 * f:>{len(f'>{t:g} mg (%)')}.2f}"
-                       for t, f in zip(thresholds, ds["area_fraction_above"].values[k]))
+        row += "".join(
+            f"  {100 * f:>{len(f'>{t:g} mg (%)')}.2f}"
+            for t, f in zip(thresholds, ds["area_fraction_above"].values[k])
+        )
         print(row)
     figures = []
     if not args.no_plots:
         figures.append(("table", lambda: plots.plot_sweep(ds)))
         for k, h in enumerate(ds["height"].values):
-            figures.append((f"isolines_h{h / 1e3:g}km",
-                            lambda k=k: plots.plot_isolines(ds, thresholds, height_index=k)))
+            figures.append(
+                (
+                    f"isolines_h{h / 1e3:g}km",
+                    lambda k=k: plots.plot_isolines(ds, thresholds, height_index=k),
+                )
+            )
     _print_files(_write(ds, _stem(ds, "sweep"), Path(args.out), figures, {}))
     return 0
 
@@ -205,9 +285,15 @@ def run_truncation(args) -> int:
 
     orders = _numbers(args.orders, "--orders", kind=int)
     _preflight(args, [args.height_km])
-    ds = truncation_map(height_km=args.height_km, orders=orders, step_deg=args.step_deg,
-                        lat_max=args.lat_max, region=_region(args), device=args.device,
-                        ellipsoid=args.ellipsoid)
+    ds = truncation_map(
+        height_km=args.height_km,
+        orders=orders,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+    )
     print(f"J2n truncation error at h = {args.height_km:g} km ({ds.attrs['ellipsoid']})")
     print("  order   max (mg)      mean (mg)")
     mean = ds["modulus_mg"].mean(dim=("latitude", "longitude")).values

@@ -35,7 +35,7 @@ class GridSpec:
     lat : numpy.ndarray
         Geodetic latitudes, ascending. Units: degrees.
     lon : numpy.ndarray
-        Longitudes, ascending (may exceed 180 for a region crossing the antimeridian). Units: degrees.
+        Longitudes, ascending (beyond 180 for a region across the antimeridian). Units: degrees.
     heights : numpy.ndarray
         Heights above the ellipsoid. Units: m.
     step_deg : float
@@ -117,7 +117,7 @@ def make_grid(
         lat = _axis(-lm, lm, step)
         if abs(lat[-1] - lm) < 1e-9:  # make the mirror rows exact negatives of each other
             half = lat.size // 2
-            lat[lat.size - half:] = -lat[:half][::-1]
+            lat[lat.size - half :] = -lat[:half][::-1]
         nlon = 360.0 / step
         nlon = int(round(nlon)) if abs(nlon - round(nlon)) < 1e-6 else int(math.floor(nlon)) + 1
         lon = -180.0 + step * np.arange(nlon, dtype=np.float64)
@@ -129,7 +129,9 @@ def make_grid(
         if not all(math.isfinite(x) for x in (w, e, s, n)):
             raise InputError(f"region bounds must be finite, got {region!r}")
         if not (-90 <= s <= 90 and -90 <= n <= 90):
-            raise InputError(f"region latitudes must be within -90..90 deg, got south={s} north={n}")
+            raise InputError(
+                f"region latitudes must be within -90..90 deg, got south={s} north={n}"
+            )
         if n < s:
             raise InputError(f"empty region: north {n} is south of south {s}")
         if not (-360 <= w <= 360 and -360 <= e <= 360):
@@ -194,14 +196,18 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     gamma = wp.zeros(n, dtype=wp.vec3d, device=device)
     ell = normal_params(ellipsoid)
     _warp.launch_chunked(
-        kgrid.row_setup_kernel, n,
-        [lat, hh, ell, wp.float64(radius), int(order), *outs, gamma], device,
+        kgrid.row_setup_kernel,
+        n,
+        [lat, hh, ell, wp.float64(radius), int(order), *outs, gamma],
+        device,
     )
     return outs, gamma
 
 
 def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | None = None):
-    """Normal gravitation of every (height, row) in geodetic ENU (it does not depend on longitude).
+    """Return the normal gravitation of every (height, row) in geodetic ENU.
+
+    It is the same at all longitudes.
 
     Parameters
     ----------
@@ -218,7 +224,6 @@ def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | No
     numpy.ndarray
         Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
     """
-    from . import _warp
     from .ellipsoid import WGS84
 
     if order not in (0, 2, 4, 6):
@@ -305,9 +310,11 @@ def synthesize(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
-    units = [(k * nlat + a, k * nlat + b if b >= 0 else -1)
-             for k in range(nh) for a, b in (mirror_pairs(grid.lat) if symmetric else
-                                             [(i, -1) for i in range(nlat)])]
+    units = [
+        (k * nlat + a, k * nlat + b if b >= 0 else -1)
+        for k in range(nh)
+        for a, b in (mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)])
+    ]
     nper = _regular_period(grid.lon) or nlon
     per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
@@ -341,8 +348,9 @@ def synthesize(
             gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, 4)
             ra = wp.array(ga, dtype=wp.int32, device=device)
             rb = wp.array(gb, dtype=wp.int32, device=device)
-            _warp.launch_chunked(kgrid.row_fourier_group_kernel, ng * nm,
-                                 [km, *geo, ra, rb, nm, coef], device)
+            _warp.launch_chunked(
+                kgrid.row_fourier_group_kernel, ng * nm, [km, *geo, ra, rb, nm, coef], device
+            )
         else:
             _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
         W = coef.numpy().view(np.complex128)[..., 0]  # (nb, 3, nm): A_m - i B_m
@@ -351,7 +359,7 @@ def synthesize(
         elif quantity == "gravity":
             W[:, :, 0] += cen[items]
         if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
-            longitude_sums(W, grid.lon, device, out=out[items[0]: items[-1] + 1])
+            longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
         else:
             out[items] = longitude_sums(W, grid.lon, device)
         bar.update(nb)

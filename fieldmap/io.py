@@ -54,7 +54,9 @@ def check_out_dir(out) -> None:
     while not parent.exists():
         parent = parent.parent
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot create output folder {str(path)!r}: {str(parent)!r} is not writable")
+        raise InputError(
+            f"cannot create output folder {str(path)!r}: {str(parent)!r} is not writable"
+        )
 
 
 @contextlib.contextmanager
@@ -76,8 +78,11 @@ def atomic_path(path):
 def write_netcdf(ds, path) -> Path:
     """Write an ``xarray.Dataset`` as NetCDF-4 atomically; return the final path."""
     path = Path(path)
-    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars
-                if ds[name].dtype.kind == "f" and ds[name].ndim >= 2}
+    encoding = {
+        name: {"zlib": True, "complevel": 4}
+        for name in ds.data_vars
+        if ds[name].dtype.kind == "f" and ds[name].ndim >= 2
+    }
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
     return path

@@ -1,8 +1,9 @@
 """Longitude sums of a grid row: sum_m (A_m cos m lon + B_m sin m lon) at every node.
 
 Regular longitudes lon0 + k 360/L go through inverse FFTs of length L, two real series per
-complex transform (orders m >= L fold onto m mod L exactly on the nodes); any other longitudes through a direct-sum Warp kernel
-(:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by :func:`fieldmap.grid.synthesize`.
+complex transform (orders m >= L fold onto m mod L exactly on the nodes); any other longitudes
+through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by
+:func:`fieldmap.grid.synthesize`.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import numpy as np
 
 
 def _regular_period(lon_deg: np.ndarray) -> int | None:
-    """Number L of nodes on the full circle if the longitudes are lon0 + k*360/L, else None.
+    """Return L if the longitudes are lon0 + k*360/L (k = 0, 1, ...), else None.
 
     More than L nodes are allowed (a grid holding both 0 and 360 deg): they wrap around.
     """
@@ -30,8 +31,9 @@ def _regular_period(lon_deg: np.ndarray) -> int | None:
     return nper
 
 
-def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu",
-                   out: np.ndarray | None = None) -> np.ndarray:
+def longitude_sums(
+    W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu", out: np.ndarray | None = None
+) -> np.ndarray:
     """Evaluate Re(sum_m W[..., m] e^{i m lon}) at every longitude.
 
     Parameters
@@ -83,7 +85,7 @@ def longitude_sums(W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu",
     Z = np.zeros((Fa.shape[0], nper), dtype=np.complex128)
     Z[:, :nF] = Fa + 1j * Fb
     if nF > 1:
-        Z[:, nper - nF + 1:] += np.conj(Fa[:, :0:-1] - 1j * Fb[:, :0:-1])
+        Z[:, nper - nF + 1 :] += np.conj(Fa[:, :0:-1] - 1j * Fb[:, :0:-1])
     Z[:, 0] += np.conj(Fa[:, 0] - 1j * Fb[:, 0])
     Z *= 0.5
     z = scipy.fft.ifft(Z, axis=-1, norm="forward", workers=-1, overwrite_x=True)
@@ -111,7 +113,9 @@ def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
     lon = wp.array(np.radians(lon_deg), dtype=wp.float64, device=device)
     out = wp.zeros((nser, lon_deg.size), dtype=wp.float64, device=device)
     _warp.launch_chunked(
-        kgrid.longitude_sum_kernel, nser * lon_deg.size,
-        [coef, lon, nm, lon_deg.size, out], device,
+        kgrid.longitude_sum_kernel,
+        nser * lon_deg.size,
+        [coef, lon, nm, lon_deg.size, out],
+        device,
     )
     return out.numpy()

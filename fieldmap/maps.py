@@ -56,12 +56,22 @@ def _ellipsoid(ellipsoid):
 
 
 def _coords(grid, stacked_heights: bool) -> dict:
-    lat = xr.Variable("latitude", grid.lat, {
-        "units": "degrees_north", "standard_name": "latitude", "long_name": "geodetic latitude"})
-    lon = xr.Variable("longitude", grid.lon, {
-        "units": "degrees_east", "standard_name": "longitude", "long_name": "longitude"})
-    hattrs = {"units": "m", "standard_name": "height_above_reference_ellipsoid",
-              "positive": "up", "long_name": "height above the ellipsoid"}
+    lat = xr.Variable(
+        "latitude",
+        grid.lat,
+        {"units": "degrees_north", "standard_name": "latitude", "long_name": "geodetic latitude"},
+    )
+    lon = xr.Variable(
+        "longitude",
+        grid.lon,
+        {"units": "degrees_east", "standard_name": "longitude", "long_name": "longitude"},
+    )
+    hattrs = {
+        "units": "m",
+        "standard_name": "height_above_reference_ellipsoid",
+        "positive": "up",
+        "long_name": "height above the ellipsoid",
+    }
     if stacked_heights:
         height = xr.Variable("height", grid.heights, hattrs)
     else:
@@ -85,15 +95,17 @@ def _global_attrs(title, model, ellipsoid, grid, source) -> dict:
         "frame": "local geodetic east-north-up",
     }
     if model is not None:
-        attrs.update({
-            "model": model.name,
-            "model_lmax": int(model.lmax),
-            "model_max_degree": int(model.max_degree),
-            "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
-            "model_tide_system": model.tide_system,
-            "model_gm": float(model.gm),
-            "model_radius": float(model.radius),
-        })
+        attrs.update(
+            {
+                "model": model.name,
+                "model_lmax": int(model.lmax),
+                "model_max_degree": int(model.max_degree),
+                "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
+                "model_tide_system": model.tide_system,
+                "model_gm": float(model.gm),
+                "model_radius": float(model.radius),
+            }
+        )
     if grid.heights.size == 1:
         attrs["height_m"] = float(grid.heights[0])
     return attrs
@@ -104,13 +116,22 @@ def _vector_vars(vec, dims, units, what) -> dict:
     scale = UNITS[units]
     out = {}
     for k, name in enumerate(("east", "north", "up")):
-        out[name] = (dims, vec[..., k] / scale, {
-            "units": units, "long_name": f"{_COMP[name]} component of the {what}"})
+        out[name] = (
+            dims,
+            vec[..., k] / scale,
+            {"units": units, "long_name": f"{_COMP[name]} component of the {what}"},
+        )
     mod = np.sqrt(np.sum(vec * vec, axis=-1))
     out["modulus"] = (dims, mod / scale, {"units": units, "long_name": f"modulus of the {what}"})
-    out["modulus_mg"] = (dims, mod / MG, {
-        "units": "mg", "long_name": f"modulus of the {what} in mg",
-        "comment": "1 mg = 1e-3 g_n = 9.80665e-3 m s-2 (milli-g, not milligram)"})
+    out["modulus_mg"] = (
+        dims,
+        mod / MG,
+        {
+            "units": "mg",
+            "long_name": f"modulus of the {what} in mg",
+            "comment": "1 mg = 1e-3 g_n = 9.80665e-3 m s-2 (milli-g, not milligram)",
+        },
+    )
     return out
 
 
@@ -122,9 +143,18 @@ def _stats_attrs(stats: dict) -> dict:
 
 
 def disturbance_map(
-    model="eigen-6s", lmax=None, height_km=20.0, step_deg=1.0, lat_max=80.0, region=None,
-    thresholds_mg=(0.02, 0.05, 0.06, 0.10), device=None, ellipsoid="WGS84", epoch=None,
-    units="mGal", progress=None,
+    model="eigen-6s",
+    lmax=None,
+    height_km=20.0,
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
+    device=None,
+    ellipsoid="WGS84",
+    epoch=None,
+    units="mGal",
+    progress=None,
 ) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
 
@@ -172,9 +202,12 @@ def disturbance_map(
         coords=_coords(grid, False),
         attrs=_global_attrs(
             f"Gravity disturbance at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax}",
-            mod, ell, grid,
+            mod,
+            ell,
+            grid,
             f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-            f"normal gravitation of {ell.name}"),
+            f"normal gravitation of {ell.name}",
+        ),
     )
     stats = map_statistics(ds["modulus_mg"].values, grid.lat, thresholds)
     ds.attrs.update(_stats_attrs(stats))
@@ -183,9 +216,18 @@ def disturbance_map(
 
 
 def altitude_sweep(
-    model="eigen-6s", lmax=None, height_km=(20.0, 30.0, 50.0, 70.0, 100.0), step_deg=1.0,
-    lat_max=80.0, region=None, thresholds_mg=(0.02, 0.05, 0.06, 0.10), device=None,
-    ellipsoid="WGS84", epoch=None, units="mGal", progress=None,
+    model="eigen-6s",
+    lmax=None,
+    height_km=(20.0, 30.0, 50.0, 70.0, 100.0),
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
+    device=None,
+    ellipsoid="WGS84",
+    epoch=None,
+    units="mGal",
+    progress=None,
 ) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
@@ -211,28 +253,60 @@ def altitude_sweep(
         coords=_coords(grid, True),
         attrs=_global_attrs(
             f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in h)} km, "
-            f"{mod.name} degree {mod.lmax}", mod, ell, grid,
+            f"{mod.name} degree {mod.lmax}",
+            mod,
+            ell,
+            grid,
             f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-            f"normal gravitation of {ell.name}"),
+            f"normal gravitation of {ell.name}",
+        ),
     )
-    stats = [map_statistics(ds["modulus_mg"].values[k], grid.lat, thresholds) for k in range(h.size)]
-    ds = ds.assign_coords(threshold_mg=xr.Variable("threshold_mg", np.array(thresholds), {
-        "units": "mg", "long_name": "threshold of the disturbance modulus"}))
-    for key, long in (("max_mg", "maximum"), ("mean_mg", "area-weighted mean"),
-                      ("p50_mg", "area-weighted median"), ("p99_mg", "area-weighted 99th percentile")):
-        ds[key] = ("height", np.array([s[key] for s in stats]), {
-            "units": "mg", "long_name": f"{long} of the disturbance modulus"})
-    frac = np.array([[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats])
-    ds["area_fraction_above"] = (("height", "threshold_mg"), frac, {
-        "units": "1", "long_name": "fraction of the map area where the modulus exceeds the threshold"})
+    stats = [
+        map_statistics(ds["modulus_mg"].values[k], grid.lat, thresholds) for k in range(h.size)
+    ]
+    ds = ds.assign_coords(
+        threshold_mg=xr.Variable(
+            "threshold_mg",
+            np.array(thresholds),
+            {"units": "mg", "long_name": "threshold of the disturbance modulus"},
+        )
+    )
+    for key, long in (
+        ("max_mg", "maximum"),
+        ("mean_mg", "area-weighted mean"),
+        ("p50_mg", "area-weighted median"),
+        ("p99_mg", "area-weighted 99th percentile"),
+    ):
+        ds[key] = (
+            "height",
+            np.array([s[key] for s in stats]),
+            {"units": "mg", "long_name": f"{long} of the disturbance modulus"},
+        )
+    frac = np.array(
+        [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
+    )
+    ds["area_fraction_above"] = (
+        ("height", "threshold_mg"),
+        frac,
+        {
+            "units": "1",
+            "long_name": "fraction of the map area where the modulus exceeds the threshold",
+        },
+    )
     return ds
 
 
 def truncation_map(
-    height_km=20.0, orders=(2, 4, 6), step_deg=1.0, lat_max=80.0, region=None, device=None,
-    ellipsoid="WGS84", units="mGal",
+    height_km=20.0,
+    orders=(2, 4, 6),
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    device=None,
+    ellipsoid="WGS84",
+    units="mGal",
 ) -> xr.Dataset:
-    """Truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
+    """Map the truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
 
     δg_Jn = g_Jn − γ_exact with g_Jn from eqs. (7)-(13) of Chen et al. (2022) (gradient
     corrected) and γ_exact the closed-form level-ellipsoid gravitation.
@@ -260,22 +334,45 @@ def truncation_map(
     err = np.stack([normal_rows(grid, ell, o, device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
     ds = xr.Dataset(
-        _vector_vars(vec, ("order", "latitude", "longitude"), units, "normal gravitation truncation error"),
-        coords={**_coords(grid, False), "order": xr.Variable("order", np.array(orders), {
-            "long_name": "highest zonal J2n term kept", "units": "1"})},
+        _vector_vars(
+            vec, ("order", "latitude", "longitude"), units, "normal gravitation truncation error"
+        ),
+        coords={
+            **_coords(grid, False),
+            "order": xr.Variable(
+                "order",
+                np.array(orders),
+                {"long_name": "highest zonal J2n term kept", "units": "1"},
+            ),
+        },
         attrs=_global_attrs(
-            f"J-series truncation error at {h[0] / 1e3:g} km ({ell.name})", None, ell, grid,
+            f"J-series truncation error at {h[0] / 1e3:g} km ({ell.name})",
+            None,
+            ell,
+            grid,
             f"fieldmap {__version__}: J{'/J'.join(map(str, orders))} normal gravitation minus "
-            f"exact normal gravitation of {ell.name}"),
+            f"exact normal gravitation of {ell.name}",
+        ),
     )
-    ds["max_mg"] = ("order", ds["modulus_mg"].max(dim=("latitude", "longitude")).values,
-                    {"units": "mg", "long_name": "maximum truncation error"})
+    ds["max_mg"] = (
+        "order",
+        ds["modulus_mg"].max(dim=("latitude", "longitude")).values,
+        {"units": "mg", "long_name": "maximum truncation error"},
+    )
     return ds
 
 
 def component_maps(
-    model="eigen-6s", lmax=None, height_km=20.0, step_deg=1.0, lat_max=80.0, region=None,
-    device=None, ellipsoid="WGS84", epoch=None, progress=None,
+    model="eigen-6s",
+    lmax=None,
+    height_km=20.0,
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    device=None,
+    ellipsoid="WGS84",
+    epoch=None,
+    progress=None,
 ) -> xr.Dataset:
     """Model gravity and normal gravity components at one height (Chen et al. 2022 Figs. 2-3).
 
@@ -302,14 +399,28 @@ def component_maps(
     dims = ("latitude", "longitude")
     data = {}
     for k, c in enumerate(("east", "north", "up")):
-        data[f"model_{c}"] = (dims, g[..., k], {
-            "units": "m s-2", "long_name": f"{_COMP[c]} component of gravity from {mod.name}"})
-        data[f"normal_{c}"] = (dims, np.array(gam[..., k]), {
-            "units": "m s-2", "long_name": f"{_COMP[c]} component of normal gravity ({ell.name})"})
-    return xr.Dataset(data, coords=_coords(grid, False), attrs=_global_attrs(
-        f"Gravity components at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
-        mod, ell, grid, f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravity and exact "
-        f"normal gravity of {ell.name}, both with centrifugal acceleration"))
+        data[f"model_{c}"] = (
+            dims,
+            g[..., k],
+            {"units": "m s-2", "long_name": f"{_COMP[c]} component of gravity from {mod.name}"},
+        )
+        data[f"normal_{c}"] = (
+            dims,
+            np.array(gam[..., k]),
+            {"units": "m s-2", "long_name": f"{_COMP[c]} component of normal gravity ({ell.name})"},
+        )
+    return xr.Dataset(
+        data,
+        coords=_coords(grid, False),
+        attrs=_global_attrs(
+            f"Gravity components at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
+            mod,
+            ell,
+            grid,
+            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravity and exact "
+            f"normal gravity of {ell.name}, both with centrifugal acceleration",
+        ),
+    )
 
 
 def summary(ds: xr.Dataset) -> dict:
@@ -320,27 +431,48 @@ def summary(ds: xr.Dataset) -> dict:
     (``height_m`` is a list); for a truncation map, ``max_mg`` = {"j2": ..., ...}.
     """
     a = ds.attrs
-    out = {"product": None, "model": a.get("model"), "lmax": a.get("model_lmax"),
-           "ellipsoid": a.get("ellipsoid"), "grid_step_deg": a.get("grid_step_deg"),
-           "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]]}
+    out = {
+        "product": None,
+        "model": a.get("model"),
+        "lmax": a.get("model_lmax"),
+        "ellipsoid": a.get("ellipsoid"),
+        "grid_step_deg": a.get("grid_step_deg"),
+        "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]],
+    }
     if "order" in ds.dims:
-        out.update(product="truncation", height_m=float(ds["height"].values),
-                   max_mg={f"j{int(o)}": float(v) for o, v in zip(ds["order"].values, ds["max_mg"].values)},
-                   mean_mg={f"j{int(o)}": float(v) for o, v in zip(
-                       ds["order"].values, ds["modulus_mg"].mean(dim=("latitude", "longitude")).values)})
+        out.update(
+            product="truncation",
+            height_m=float(ds["height"].values),
+            max_mg={
+                f"j{int(o)}": float(v) for o, v in zip(ds["order"].values, ds["max_mg"].values)
+            },
+            mean_mg={
+                f"j{int(o)}": float(v)
+                for o, v in zip(
+                    ds["order"].values, ds["modulus_mg"].mean(dim=("latitude", "longitude")).values
+                )
+            },
+        )
         return out
     if "height" in ds.dims:
         thr = [threshold_key(t) for t in ds["threshold_mg"].values]
-        out.update(product="sweep", height_m=[float(x) for x in ds["height"].values],
-                   max_mg=[float(x) for x in ds["max_mg"].values],
-                   mean_mg=[float(x) for x in ds["mean_mg"].values],
-                   area_fraction_above={k: [float(x) for x in ds["area_fraction_above"].values[:, j]]
-                                        for j, k in enumerate(thr)})
+        out.update(
+            product="sweep",
+            height_m=[float(x) for x in ds["height"].values],
+            max_mg=[float(x) for x in ds["max_mg"].values],
+            mean_mg=[float(x) for x in ds["mean_mg"].values],
+            area_fraction_above={
+                k: [float(x) for x in ds["area_fraction_above"].values[:, j]]
+                for j, k in enumerate(thr)
+            },
+        )
         return out
     out.update(product="disturbance", height_m=float(ds["height"].values))
     for k, v in a.items():
         if k.endswith("_mg") and not k.startswith("area_fraction_above") and k != "thresholds_mg":
             out[k] = float(v)
-    out["area_fraction_above"] = {threshold_key(t): float(a[f"area_fraction_above_{threshold_key(t)}_mg"])
-                                  for t in a["thresholds_mg"]}
+    out["area_fraction_above"] = {
+        threshold_key(t): float(a[f"area_fraction_above_{threshold_key(t)}_mg"])
+        for t in a["thresholds_mg"]
+    }
     return out

@@ -47,8 +47,9 @@ def _map_axes(ax, ds, **coast):
 def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None):
     lon = ds["longitude"].values
     lat = ds["latitude"].values
-    mesh = ax.pcolormesh(lon, lat, values, cmap=cmap, shading="nearest", vmin=vmin, vmax=vmax,
-                         rasterized=True)
+    mesh = ax.pcolormesh(
+        lon, lat, values, cmap=cmap, shading="nearest", vmin=vmin, vmax=vmax, rasterized=True
+    )
     _map_axes(ax, ds)
     cb = (fig or ax.figure).colorbar(mesh, ax=ax, shrink=0.85, pad=0.02)
     cb.set_label(label)
@@ -72,8 +73,11 @@ def plot_components(ds, which: str = "model"):
     which : {"model", "normal"}
     """
     fig, axes = plt.subplots(3, 1, figsize=_figsize(ds, 3), constrained_layout=True)
-    what = (f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}" if which == "model"
-            else f"normal gravity of {ds.attrs['ellipsoid']} (exact)")
+    what = (
+        f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
+        if which == "model"
+        else f"normal gravity of {ds.attrs['ellipsoid']} (exact)"
+    )
     h = float(ds["height"].values) / 1e3
     for ax, (k, c) in zip(axes, enumerate(("east", "north", "up"))):
         v = ds[f"{which}_{c}"].values
@@ -92,7 +96,9 @@ def plot_components(ds, which: str = "model"):
 
 def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=None, vmax=None):
     """Modulus of the disturbance (mg) in colour with isolines at ``levels_mg`` (Figs. 4, 7, 10)."""
-    levels = sorted(levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1]))
+    levels = sorted(
+        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
+    )
     sub = ds if height_index is None else ds.isel(height=height_index)
     v = sub["modulus_mg"].values
     fig, ax = plt.subplots(figsize=_figsize(sub), constrained_layout=True)
@@ -103,12 +109,23 @@ def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=Non
     if v.shape[0] > 1 and v.shape[1] > 1:
         styles = ["-", "--", "-.", ":"]
         colors = ["tab:blue", "k", "tab:purple", "tab:green", "tab:cyan"]
-        cs = ax.contour(lon, lat, v, levels=levels, colors=colors[: len(levels)],
-                        linestyles=[styles[i % 4] for i in range(len(levels))], linewidths=0.9,
-                        zorder=6)
+        cs = ax.contour(
+            lon,
+            lat,
+            v,
+            levels=levels,
+            colors=colors[: len(levels)],
+            linestyles=[styles[i % 4] for i in range(len(levels))],
+            linewidths=0.9,
+            zorder=6,
+        )
         ax.clabel(cs, fmt=lambda x: f"{x:g} mg", fontsize=7, inline=True)
-    ax.set_title(title or f"Disturbance modulus with isolines {', '.join(f'{x:g}' for x in levels)} mg"
-                 f" — {describe(sub)}", fontsize=10)
+    ax.set_title(
+        title
+        or f"Disturbance modulus with isolines {', '.join(f'{x:g}' for x in levels)} mg"
+        f" — {describe(sub)}",
+        fontsize=10,
+    )
     return fig
 
 
@@ -124,13 +141,23 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
         frac = float(np.sum(weights_2d(ds["latitude"].values, v.shape[1])[v > threshold_mg]))
     fig, ax = plt.subplots(figsize=_figsize(ds), constrained_layout=True)
     cmap = ListedColormap(["#f4f4f4", "black"])
-    mesh = ax.pcolormesh(ds["longitude"].values, ds["latitude"].values, (v > threshold_mg).astype(float),
-                         cmap=cmap, vmin=0, vmax=1, shading="nearest", rasterized=True)
+    mesh = ax.pcolormesh(
+        ds["longitude"].values,
+        ds["latitude"].values,
+        (v > threshold_mg).astype(float),
+        cmap=cmap,
+        vmin=0,
+        vmax=1,
+        shading="nearest",
+        rasterized=True,
+    )
     _map_axes(ax, ds, color="tab:orange", linewidth=0.6)
     cb = fig.colorbar(mesh, ax=ax, ticks=[0.25, 0.75], shrink=0.6, pad=0.02)
     cb.ax.set_yticklabels([f"≤ {threshold_mg:g} mg", f"> {threshold_mg:g} mg"])
-    ax.set_title(title or f"|δg| > {threshold_mg:g} mg on {100 * frac:.2f}% of the area — {describe(ds)}",
-                 fontsize=10)
+    ax.set_title(
+        title or f"|δg| > {threshold_mg:g} mg on {100 * frac:.2f}% of the area — {describe(ds)}",
+        fontsize=10,
+    )
     return fig
 
 
@@ -161,8 +188,14 @@ def plot_truncation(ds):
     """Modulus of the J2n truncation error per order (Fig. 8), with a latitude profile."""
     orders = [int(o) for o in ds["order"].values]
     n = len(orders)
-    fig, axes = plt.subplots(n, 2, figsize=(13, 3.2 * n + 0.5), squeeze=False,
-                             gridspec_kw={"width_ratios": [3, 1]}, constrained_layout=True)
+    fig, axes = plt.subplots(
+        n,
+        2,
+        figsize=(13, 3.2 * n + 0.5),
+        squeeze=False,
+        gridspec_kw={"width_ratios": [3, 1]},
+        constrained_layout=True,
+    )
     h = float(ds["height"].values) / 1e3
     lat = ds["latitude"].values
     for k, o in enumerate(orders):
@@ -171,8 +204,11 @@ def plot_truncation(ds):
         exp = int(np.floor(np.log10(max(float(v.max()), 1e-300))))
         scale = 10.0**exp
         _field(axes[k, 0], sub, v / scale, "magma_r", f"|δg| (10^{exp} mg)", 0.0)
-        axes[k, 0].set_title(f"({'abc'[k]}) J{o} minus exact normal gravitation, h = {h:g} km "
-                             f"({ds.attrs['ellipsoid']}); max {float(v.max()):.3g} mg", fontsize=10)
+        axes[k, 0].set_title(
+            f"({'abc'[k]}) J{o} minus exact normal gravitation, h = {h:g} km "
+            f"({ds.attrs['ellipsoid']}); max {float(v.max()):.3g} mg",
+            fontsize=10,
+        )
         prof = axes[k, 1]
         for c in ("north", "up"):
             prof.plot(sub[c].values[:, 0] * _to_mg(sub[c].attrs["units"]), lat, label=c)

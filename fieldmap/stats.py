@@ -97,9 +97,7 @@ def map_statistics(
     }
     for q in percentiles:
         out[f"p{q:g}_mg"] = weighted_percentile(v, w, q)
-    out["area_fraction_above"] = {
-        threshold_key(t): float(np.sum(w[v > t])) for t in thresholds_mg
-    }
+    out["area_fraction_above"] = {threshold_key(t): float(np.sum(w[v > t])) for t in thresholds_mg}
     return out
 
 

@@ -1,4 +1,4 @@
-"""Warp kernels for grid synthesis: one Legendre pass per (latitude row, height), shared by the row.
+r"""Warp kernels for grid synthesis: one Legendre pass per (latitude row, height).
 
 A latitude-longitude grid is a set of circles of latitude. On a circle (fixed geocentric
 latitude and radius) the degree sums of Chen et al. (2022) eq. (3) do not depend on longitude,
@@ -15,8 +15,8 @@ The column sums carry the 1e-280 scale of Holmes & Featherstone (2002) and lack 
 :math:`u^m` (u = cos of geocentric latitude). Multiplying by :math:`u^m` directly could underflow
 (e.g. u^805 at 68 deg latitude is below 1e-308) while the column sum is huge and the product
 matters, so :math:`u^m` is applied in two halves and the 1e280 scale last:
-``((s * u^(m//2)) * u^(m - m//2)) * 1e280`` (:func:`half_powers`, one ``pow`` each). A product below 1e-308 after the first two factors
-is at most 1e-28 of GM/r^2 and is negligible.
+``((s * u^(m//2)) * u^(m - m//2)) * 1e280`` (:func:`half_powers`, one ``pow`` each). A product
+below 1e-308 after the first two factors is at most 1e-28 of GM/r^2 and is negligible.
 """
 
 import warp as wp
@@ -26,6 +26,7 @@ from .normal import NormalParams, jn_gravitation, normal_gravitation_exact
 from .sh import QM_MIN, SCALE, SHKernelModel, sh_column, sh_vec8
 
 SCALE_UP = wp.constant(wp.float64(1.0e280))
+
 
 @wp.func
 def _powi(u: wp.float64, k: int) -> wp.float64:
@@ -37,8 +38,11 @@ def _powi(u: wp.float64, k: int) -> wp.float64:
 
 @wp.func
 def half_powers(u: wp.float64, k: int) -> wp.vec2d:
-    """(u**(k//2), u**(k - k//2)) for k >= 0: u**k in two factors that cannot underflow alone
-    while the product still matters (see the module docstring)."""
+    """Return (u**(k//2), u**(k - k//2)) for k >= 0.
+
+    u**k in two factors that cannot underflow alone while the product still matters (see the
+    module docstring).
+    """
     k1 = k / 2
     a = _powi(u, k1)
     if k - k1 == k1:
@@ -48,7 +52,7 @@ def half_powers(u: wp.float64, k: int) -> wp.vec2d:
 
 @wp.func
 def scaled_times(s: wp.float64, hp: wp.vec2d) -> wp.float64:
-    """s * u**k * 1e280 with ``hp = half_powers(u, k)``, without under/overflow on the way."""
+    """S * u**k * 1e280 with ``hp = half_powers(u, k)``, without under/overflow on the way."""
     return ((s * hp[0]) * hp[1]) * SCALE_UP
 
 
@@ -102,8 +106,16 @@ def row_setup_kernel(
 
 @wp.func
 def _coefficients(
-    s: sh_vec8, s6: wp.float64, m: int, u: wp.float64, r: wp.float64, cd: wp.float64,
-    sd: wp.float64, gm: wp.float64, coef: wp.array3d(dtype=wp.vec2d), row: int,
+    s: sh_vec8,
+    s6: wp.float64,
+    m: int,
+    u: wp.float64,
+    r: wp.float64,
+    cd: wp.float64,
+    sd: wp.float64,
+    gm: wp.float64,
+    coef: wp.array3d(dtype=wp.vec2d),
+    row: int,
 ):
     """Write the Fourier coefficients of order m of one row as (A, -B) per component.
 
@@ -225,14 +237,14 @@ mat84d = wp.types.matrix(shape=(8, 4), dtype=wp.float64)
 
 @wp.func
 def sh_column_parity4(model: SHKernelModel, m: int, t: wp.vec4d, q: wp.vec4d):
-    """The engine's ``sh_column`` for four rows at once, split by the parity of n - m.
+    """Sum the engine's ``sh_column`` series for four rows at once, split by the parity of n - m.
 
     Same recursion, tables and 1e-280 scaling as ``sh_column`` (Holmes & Featherstone 2002);
     each degree's terms go to the even or the odd sums (columns k of the returned 8x4 matrices
     ``(even, odd)``), so that the mirror row at -t follows without a second recursion
-    (:func:`_mirror`). The four recursions share every table load (a, b, C, S, f of order m) and run as four
-    independent chains, which the CPU overlaps. A row whose q^m is below ``QM_MIN`` gets zero
-    sums, as in ``sh_column``.
+    (:func:`_mirror`). The four recursions share every table load (a, b, C, S, f of order m)
+    and run as four independent chains, which the CPU overlaps. A row whose q^m is below ``QM_MIN``
+    gets zero sums, as in ``sh_column``.
     """
     ev = mat84d()
     od = mat84d()
@@ -352,9 +364,10 @@ def row_fourier_group_kernel(
 
     One recursion at row ``row_a`` serves its mirror row ``row_b`` at -t as well (same height,
     so same r and q), halving the Legendre work of grids symmetric about the equator such as
-    the paper's 80S-80N; four units per thread share the table loads. Thread ``i`` handles group ``g = i // nm`` and order ``m = i % nm``; unit k of the group
-    is row ``row_a[g, k]`` (recursion at its t) and its mirror ``row_b[g, k]`` (or -1); a
-    padding unit has ``row_a = -1`` and writes nothing.
+    the paper's 80S-80N; four units per thread share the table loads. Thread ``i`` handles
+    group ``g = i // nm`` and order ``m = i % nm``; unit k of the group is row ``row_a[g, k]``
+    (recursion at its t) and its mirror ``row_b[g, k]`` (or -1); a padding unit has ``row_a = -1``
+    and writes nothing.
     """
     i = wp.tid() + offset
     g = i / nm
@@ -379,9 +392,20 @@ def row_fourier_group_kernel(
         if ra >= 0:
             se = _col(ev, k)
             so = _col(od, k)
-            _coefficients(se + so, e6[k] + o6[k], m, u[ra], r[ra], cdel[ra], sdel[ra], model.gm,
-                          coef, ra)
+            _coefficients(
+                se + so, e6[k] + o6[k], m, u[ra], r[ra], cdel[ra], sdel[ra], model.gm, coef, ra
+            )
             rb = row_b[g, k]
             if rb >= 0:
-                _coefficients(_mirror(se, so), e6[k] - o6[k], m, u[rb], r[rb], cdel[rb], sdel[rb],
-                              model.gm, coef, rb)
+                _coefficients(
+                    _mirror(se, so),
+                    e6[k] - o6[k],
+                    m,
+                    u[rb],
+                    r[rb],
+                    cdel[rb],
+                    sdel[rb],
+                    model.gm,
+                    coef,
+                    rb,
+                )

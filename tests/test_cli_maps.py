@@ -1,4 +1,4 @@
-"""CLI ``fieldmap map|sweep|truncation``: outputs, JSON summaries, one-line errors, nothing written."""
+"""CLI ``fieldmap map|sweep|truncation``: outputs, JSON summaries, one-line errors, no writes."""
 
 import json
 import subprocess
@@ -30,8 +30,27 @@ def test_map_writes_outputs(tmp_path, capsys):
 
 def test_map_region_thresholds(tmp_path):
     out = tmp_path / "r"
-    rc = main(["map", "--lmax", "60", "--step-deg", "0.5", "--region", "100", "112", "18", "37",
-               "--thresholds-mg", "0.025,0.05", "0.075", "0.10", "--no-plots", "--out", str(out)])
+    rc = main(
+        [
+            "map",
+            "--lmax",
+            "60",
+            "--step-deg",
+            "0.5",
+            "--region",
+            "100",
+            "112",
+            "18",
+            "37",
+            "--thresholds-mg",
+            "0.025,0.05",
+            "0.075",
+            "0.10",
+            "--no-plots",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     (js_path,) = out.glob("*.json")
     assert "region100_112_18_37" in js_path.name
@@ -56,21 +75,24 @@ def test_sweep_and_truncation(tmp_path, capsys):
     assert js["max_mg"]["j2"] > js["max_mg"]["j4"] > js["max_mg"]["j6"] > 0
 
 
-@pytest.mark.parametrize("args, msg", [
-    (["map", "--step-deg", "0"], "step"),
-    (["map", "--step-deg", "-2"], "step"),
-    (["map", "--lat-max", "95"], "latitude"),
-    (["map", "--region", "10", "20", "40", "30"], "empty region"),
-    (["map", "--height-km", "nan"], "finite"),
-    (["map", "--height-km", "-100"], "below"),
-    (["map", "--lmax", "241"], "241"),
-    (["map", "--thresholds-mg", "0.1,x"], "thresholds"),
-    (["map", "--device", "cuda:9"], "device"),
-    (["map", "--model", "/nonexistent/model.gfc"], "model.gfc"),
-    (["sweep", "--height-km", "20", "inf"], "finite"),
-    (["sweep", "--height-km", "20", "20"], "repeated"),
-    (["truncation", "--orders", "2,8"], "orders"),
-])
+@pytest.mark.parametrize(
+    "args, msg",
+    [
+        (["map", "--step-deg", "0"], "step"),
+        (["map", "--step-deg", "-2"], "step"),
+        (["map", "--lat-max", "95"], "latitude"),
+        (["map", "--region", "10", "20", "40", "30"], "empty region"),
+        (["map", "--height-km", "nan"], "finite"),
+        (["map", "--height-km", "-100"], "below"),
+        (["map", "--lmax", "241"], "241"),
+        (["map", "--thresholds-mg", "0.1,x"], "thresholds"),
+        (["map", "--device", "cuda:9"], "device"),
+        (["map", "--model", "/nonexistent/model.gfc"], "model.gfc"),
+        (["sweep", "--height-km", "20", "inf"], "finite"),
+        (["sweep", "--height-km", "20", "20"], "repeated"),
+        (["truncation", "--orders", "2,8"], "orders"),
+    ],
+)
 def test_bad_input_one_line_nothing_written(tmp_path, capsys, args, msg):
     out = tmp_path / "never"
     assert main([*args, "--out", str(out)]) == 2
@@ -88,9 +110,22 @@ def test_unwritable_out_dir(tmp_path, capsys):
 
 
 def test_console_script_help():
-    r = subprocess.run([sys.executable, "-m", "fieldmap", "map", "--help"], capture_output=True,
-                       text=True, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-m", "fieldmap", "map", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0
-    for opt in ("--model", "--lmax", "--height-km", "--step-deg", "--lat-max", "--region",
-                "--thresholds-mg", "--device", "--out"):
+    for opt in (
+        "--model",
+        "--lmax",
+        "--height-km",
+        "--step-deg",
+        "--lat-max",
+        "--region",
+        "--thresholds-mg",
+        "--device",
+        "--out",
+    ):
         assert opt in r.stdout

@@ -1,5 +1,8 @@
-"""Every map example script (Chen et al. 2022 §4) runs (small grid, low degree) and writes its figures, like warp's
-test_examples.py. Full-size runs reproduce the paper's figures (see the README)."""
+"""Every map example script (Chen et al. 2022 §4) runs small and writes its figures.
+
+Like warp's test_examples.py, at a small grid and low degree. Full-size runs reproduce the paper's
+figures (see the README).
+"""
 
 import runpy
 import sys
@@ -10,9 +13,16 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 FIGURES = {
     "fig02_03_components.py": ["fig02_model_gravity_20km.png", "fig03_normal_gravity_20km.png"],
-    "fig04_06_disturbance_20km.py": ["fig04_isolines_20km.png", "fig05_above_0.06mg_20km.png",
-                                     "fig06_above_0.10mg_20km.png"],
-    "fig07_altitudes.py": ["fig07_isolines_50km.png", "fig07_isolines_100km.png", "fig07_sweep.png"],
+    "fig04_06_disturbance_20km.py": [
+        "fig04_isolines_20km.png",
+        "fig05_above_0.06mg_20km.png",
+        "fig06_above_0.10mg_20km.png",
+    ],
+    "fig07_altitudes.py": [
+        "fig07_isolines_50km.png",
+        "fig07_isolines_100km.png",
+        "fig07_sweep.png",
+    ],
     "fig08_truncation.py": ["fig08_truncation_20km.png"],
     "fig10_region.py": ["fig10_region_20km.png"],
     "section41_statistics.py": [],

@@ -33,21 +33,24 @@ def _enu(model, grid, ih, quantity, device):
 
 
 # ----------------------------------------------------------------------------- grid spec
-@pytest.mark.parametrize("kwargs, msg", [
-    ({"step_deg": 0}, "step"),
-    ({"step_deg": -1}, "step"),
-    ({"step_deg": float("nan")}, "step"),
-    ({"step_deg": "x"}, "step"),
-    ({"lat_max": 90.5}, "latitude"),
-    ({"lat_max": -1}, "latitude"),
-    ({"region": (10, 20, 30, 20)}, "empty region"),
-    ({"region": (10, 20, -95, 20)}, "latitudes"),
-    ({"region": (10, 20, 30)}, "west east south north"),
-    ({"heights_m": [float("inf")]}, "finite"),
-    ({"heights_m": [float("nan")]}, "finite"),
-    ({"heights_m": [-50e3]}, "below"),
-    ({"heights_m": []}, "no height"),
-])
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"step_deg": 0}, "step"),
+        ({"step_deg": -1}, "step"),
+        ({"step_deg": float("nan")}, "step"),
+        ({"step_deg": "x"}, "step"),
+        ({"lat_max": 90.5}, "latitude"),
+        ({"lat_max": -1}, "latitude"),
+        ({"region": (10, 20, 30, 20)}, "empty region"),
+        ({"region": (10, 20, -95, 20)}, "latitudes"),
+        ({"region": (10, 20, 30)}, "west east south north"),
+        ({"heights_m": [float("inf")]}, "finite"),
+        ({"heights_m": [float("nan")]}, "finite"),
+        ({"heights_m": [-50e3]}, "below"),
+        ({"heights_m": []}, "no height"),
+    ],
+)
 def test_bad_specs_raise(kwargs, msg):
     with pytest.raises(InputError, match=msg):
         G.make_grid(**kwargs)
@@ -92,8 +95,11 @@ def eigen():
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("quantity", ["gravitation", "disturbance"])
 def test_grid_matches_scattered_points(eigen, device, quantity):
-    """Grid kernel vs the scattered-point kernel: ≤ 1e-12 of |g| (the disturbance is a difference
-    of two ~9.8 m/s² vectors, so its relative accuracy is bounded by |g|·eps, not by |δg|)."""
+    """Grid kernel vs the scattered-point kernel: ≤ 1e-12 of |g|.
+
+    The disturbance is a difference of two ~9.8 m/s² vectors, so its relative accuracy is
+    bounded by |g|·eps, not by |δg|.
+    """
     grid = G.make_grid(7.5, 90.0, heights_m=[0.0, 20e3, 100e3])
     out = G.synthesize(eigen, grid, quantity=quantity, device=device)
     for ih in range(grid.heights.size):
@@ -120,8 +126,11 @@ def test_grid_matches_numpy_reference(device):
 
 
 def test_level_ellipsoid_series_gives_zero_disturbance():
-    """A model made of the ellipsoid's own zonal J2n series (H&M eq. 2-92, GM and a of WGS84)
-    must give δg ≈ 0 against the exact normal field — shares no code with the SH series."""
+    """The level ellipsoid's own zonal series as a model gives δg ≈ 0.
+
+    Model: J2n of WGS84 (H&M eq. 2-92) with its GM and a, against the exact normal field; the
+    closed form shares no code with the SH series.
+    """
     L = 20
     C = np.zeros((L + 1, L + 1))
     S = np.zeros_like(C)
@@ -151,8 +160,12 @@ def test_aliasing_fold_is_exact():
     model = kaula_model(60, seed=1)
     grid = G.make_grid(10.0, region=(-180, 170, -50, 50), heights_m=[5e3])  # L = 36 < 61 orders
     a = G.synthesize(model, grid, quantity="gravitation", device="cpu")
-    b = G.synthesize(model, G.GridSpec(grid.lat, np.append(grid.lon, 175.5), grid.heights, 10.0),
-                     quantity="gravitation", device="cpu")
+    b = G.synthesize(
+        model,
+        G.GridSpec(grid.lat, np.append(grid.lon, 175.5), grid.heights, 10.0),
+        quantity="gravitation",
+        device="cpu",
+    )
     assert np.max(np.abs(a - b[..., :-1, :])) < 1e-12 * 9.8
 
 
@@ -183,8 +196,9 @@ def test_normal_rows_match_reference():
     la = grid.lat
     for order, kind in ((0, "exact"), (2, "j2"), (4, "j4"), (6, "j6")):
         rows = G.normal_rows(grid, WGS84, order, "cpu")[0]
-        ref = nref.normal_gravity(la, np.zeros_like(la), 20e3, WGS84, kind=kind, centrifugal=False,
-                                  frame="enu")
+        ref = nref.normal_gravity(
+            la, np.zeros_like(la), 20e3, WGS84, kind=kind, centrifugal=False, frame="enu"
+        )
         assert np.max(np.abs(rows - ref)) < 1e-13 * 9.8, kind
 
 
@@ -197,20 +211,25 @@ def test_bad_quantity_and_device():
 
 
 def test_longitudes_past_one_turn_wrap(eigen):
-    """A Driscoll-Healy-like row holding both 0 and 360 deg: FFT path, last node = first node,
-    and equal to the direct-sum path."""
+    """A Driscoll-Healy-like row holding both 0 and 360 deg goes through the FFT.
+
+    Its last node equals the first, and all equal the direct-sum path.
+    """
     lon = 360.0 * np.arange(13) / 12
     assert G._regular_period(lon) == 12
     grid = G.GridSpec(np.array([-30.0, 45.0]), lon, np.array([20e3]), 30.0)
     a = G.synthesize(eigen, grid, device="cpu")
     np.testing.assert_allclose(a[..., -1, :], a[..., 0, :], rtol=0, atol=1e-12 * 9.8)
-    b = G.synthesize(eigen, G.GridSpec(grid.lat, np.append(lon, 1.3), grid.heights, 30.0),
-                     device="cpu")
+    b = G.synthesize(
+        eigen, G.GridSpec(grid.lat, np.append(lon, 1.3), grid.heights, 30.0), device="cpu"
+    )
     assert np.max(np.abs(a - b[..., :-1, :])) < 1e-12 * 9.8
 
 
-@pytest.mark.parametrize("nm, nper, lon0", [(5, 12, 0.0), (7, 12, -180.0), (12, 12, 3.0),
-                                            (13, 11, 0.0), (40, 9, 17.5), (6, 11, 100.0)])
+@pytest.mark.parametrize(
+    "nm, nper, lon0",
+    [(5, 12, 0.0), (7, 12, -180.0), (12, 12, 3.0), (13, 11, 0.0), (40, 9, 17.5), (6, 11, 100.0)],
+)
 def test_longitude_sums_match_explicit_series(nm, nper, lon0):
     """FFT path (real inverse FFT, aliasing fold, phase shift) vs the explicit cos/sin series."""
     rng = np.random.default_rng(nm * 100 + nper)
@@ -225,8 +244,10 @@ def test_longitude_sums_match_explicit_series(nm, nper, lon0):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_mirror_group_path_matches_engine_column_path(eigen, device):
-    """The grouped even/odd recursion (mirror rows, 4 rows per thread) against the engine's
-    sh_column on every row, on a symmetric grid with an equator row, two heights and padding."""
+    """The grouped even/odd recursion (mirror rows, 4 per thread) equals the sh_column path.
+
+    On a symmetric grid with an equator row, two heights and padding, and on a region.
+    """
     grid = G.make_grid(11.0, 77.0, heights_m=[0.0, 35e3])
     assert len(G.mirror_pairs(grid.lat)) == (grid.lat.size + 1) // 2
     a = G.synthesize(eigen, grid, quantity="gravitation", device=device, symmetric=True)

@@ -10,7 +10,6 @@ import fieldmap
 from fieldmap import io, maps, plots, stats
 from fieldmap.ellipsoid import WGS84
 from fieldmap.errors import InputError
-from fieldmap.models import kaula_model
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -74,11 +73,13 @@ def test_disturbance_matches_point_api(small_map):
 
 
 def test_units_mg_and_region_subset(small_map):
-    reg = maps.disturbance_map(lmax=60, step_deg=6.0, region=(150, -138, -14, 10), units="mg",
-                               device="cpu")
+    reg = maps.disturbance_map(
+        lmax=60, step_deg=6.0, region=(150, -138, -14, 10), units="mg", device="cpu"
+    )
     assert reg["east"].attrs["units"] == "mg" and reg.attrs["grid_kind"] == "regional"
-    sub = small_map.sel(latitude=reg.latitude.values,
-                        longitude=((reg.longitude.values + 180) % 360) - 180)
+    sub = small_map.sel(
+        latitude=reg.latitude.values, longitude=((reg.longitude.values + 180) % 360) - 180
+    )
     np.testing.assert_allclose(reg.modulus.values, sub.modulus_mg.values, rtol=1e-10, atol=1e-14)
 
 
@@ -91,7 +92,11 @@ def test_sweep_consistent_with_single_maps(small_map):
     assert sw.mean_mg.values[1] < sw.mean_mg.values[0]
     s = maps.summary(sw)
     assert s["height_m"] == [20000.0, 100000.0] and set(s["area_fraction_above"]) == {
-        "0.02", "0.05", "0.06", "0.1"}
+        "0.02",
+        "0.05",
+        "0.06",
+        "0.1",
+    }
 
 
 def _j4_term_gravitation(lat_deg, h):
@@ -99,7 +104,8 @@ def _j4_term_gravitation(lat_deg, h):
 
     The normal potential is GM/r [1 − Σ J2n (a/r)^2n P2n(sin φc)] (H&M eq. 2-92 convention), so
     its J4 term is −GM J4 a^4 P4 / r^5 and J2-only minus exact ≈ ∇(+GM J4 a^4 P4 / r^5).
-    Geodetic ENU."""
+    Geodetic ENU.
+    """
     from fieldmap import frames
 
     def pot(x, y, z):
@@ -110,9 +116,14 @@ def _j4_term_gravitation(lat_deg, h):
 
     x, y, z = frames.geodetic_to_ecef(lat_deg, 0.0, h)
     d = 1.0
-    g = np.stack([(pot(x + d, y, z) - pot(x - d, y, z)) / (2 * d),
-                  (pot(x, y + d, z) - pot(x, y - d, z)) / (2 * d),
-                  (pot(x, y, z + d) - pot(x, y, z - d)) / (2 * d)], axis=-1)
+    g = np.stack(
+        [
+            (pot(x + d, y, z) - pot(x - d, y, z)) / (2 * d),
+            (pot(x, y + d, z) - pot(x, y - d, z)) / (2 * d),
+            (pot(x, y, z + d) - pot(x, y, z - d)) / (2 * d),
+        ],
+        axis=-1,
+    )
     return np.einsum("...ij,...j->...i", frames.C_e_to_enu(lat_deg, 0.0 * lat_deg), g)
 
 
