@@ -36,7 +36,7 @@ UNITS = {"m/s2": 1.0, "mgal": 1.0e5, "mg": 1.0 / 9.80665e-3}
 FRAMES = ("enu", "ned", "ecef")
 
 
-def _model(model, lmax, epoch) -> SHModel:
+def _model(model, epoch) -> SHModel:
     if isinstance(model, SHModel):
         return model
     from .models import load_model
@@ -80,7 +80,7 @@ def _to_frame(v_ecef: np.ndarray, lat, lon, frame: str) -> np.ndarray:
 
 
 def _gravitation_ecef(model, lat, lon, h, lmax, ellipsoid, device, epoch):
-    m = _model(model, lmax, epoch)
+    m = _model(model, epoch)
     x, y, z = frames.geodetic_to_ecef(lat, lon, h, ellipsoid)
     if x.size == 0:
         return np.zeros(x.shape + (3,)), (x, y, z)
@@ -108,7 +108,8 @@ def gravitation(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=No
     device : str, optional
         Warp device (default: first CUDA device, else CPU).
     epoch : float or str, optional
-        Epoch of time-variable terms when ``model`` is a file or name. Units: decimal year.
+        Epoch of time-variable terms when ``model`` is a file or name (an ``SHModel`` already
+        holds its evaluated coefficients). Units: decimal year or ``'YYYY-MM-DD'``.
     ellipsoid : Ellipsoid or str
         Ellipsoid of the geodetic coordinates (default WGS84).
 
