@@ -36,9 +36,9 @@ from .frames import geodetic_to_ecef
 #: 1e-280 scale of the Holmes & Featherstone (2002) recursion and its inverse.
 SCALE = wp.constant(wp.float64(1.0e-280))
 INV_SCALE = wp.constant(wp.float64(1.0e280))
-#: degrees whose q^n falls below this are left out: |P̄nm| ≤ sqrt(2(2n+1)) and |C|, |S| < 1e-5
-#: for n ≥ 2, so they add < 1e-28 of the degree-0 term; far above the reference sphere this
-#: shortens every column and keeps the folded recursion (~1e-280 q^n) clear of subnormals.
+#: degrees whose q^n falls below this are left out: with |P̄nm| ≤ sqrt(2(2n+1)) and |C|, |S|
+#: < 1e-3 they change V and g by < 1e-25·n² relative to the degree-0 term; far above the sphere
+#: this shortens every column and keeps the folded recursion (~1e-280 q^n) clear of subnormals.
 QM_MIN = wp.constant(wp.float64(1.0e-25))
 
 sh_vec8 = wp.types.vector(length=8, dtype=wp.float64)
@@ -140,7 +140,8 @@ def sh_column_rows2(model: SHKernelModel, m: int, t0: wp.float64, q0: wp.float64
 
     For grids: two latitude rows (or heights) share every table load, which halves the memory
     traffic at high degree, and their two independent recursion chains overlap in the CPU
-    pipeline. Returns ``(col_0, col_1)``, each exactly as :func:`sh_column`.
+    pipeline. Returns ``(col_0, col_1)``, each as :func:`sh_column` (both summed up to the
+    larger of the two degree cuts).
     """
     lmax = wp.max(sh_degree_cut(model, q0), sh_degree_cut(model, q1))
     if m > lmax:
