@@ -167,8 +167,8 @@ def test_j2_closed_form(device):
 def test_gradient_vs_finite_differences(eigen, device):
     """4th-order central differences of the kernel potential, step 40 m.
 
-    Truncation (h^4 V^(5)/30 ~ 1e-15 m/s²) is far below the rounding of V/h (~3e-10 m/s²); the
-    tolerance 1e-9 relative to |g| leaves a factor ~30 margin over that rounding.
+    Truncation (h^4 V^(5)/30 ~ 1e-15 m/s²) is far below the rounding: a few 1e-16 of V ≈ 6e7
+    m²/s² divided by h gives ~1e-9 m/s², ~1e-10 of |g| (1.7e-10 observed); tolerance 1e-9.
     """
     x, y, z = sample_points(12, seed=4)
     p = np.stack([x, y, z], axis=-1)
