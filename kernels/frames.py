@@ -4,12 +4,18 @@ import warp as wp
 
 
 @wp.func
-def geodetic_to_ecef(lat: wp.float64, lon: wp.float64, h: wp.float64, a: wp.float64, e2: wp.float64):
+def geodetic_to_ecef(
+    lat: wp.float64, lon: wp.float64, h: wp.float64, a: wp.float64, e2: wp.float64
+):
     """Geodetic latitude, longitude (rad), height (m) -> ECEF position (m)."""
     sl = wp.sin(lat)
     cl = wp.cos(lat)
     n = a / wp.sqrt(wp.float64(1.0) - e2 * sl * sl)
-    return wp.vec3d((n + h) * cl * wp.cos(lon), (n + h) * cl * wp.sin(lon), (n * (wp.float64(1.0) - e2) + h) * sl)
+    return wp.vec3d(
+        (n + h) * cl * wp.cos(lon),
+        (n + h) * cl * wp.sin(lon),
+        (n * (wp.float64(1.0) - e2) + h) * sl,
+    )
 
 
 @wp.func

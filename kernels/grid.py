@@ -6,8 +6,8 @@ so they are done once per (row, order m) with the engine's :func:`sh_column` and
 Fourier coefficients of the three gravitation components in the *geodetic* east-north-up frame:
 
 .. math::
-    g_c(\\lambda) = \\sum_{m=0}^{N} \\left[A^c_m \\cos m\\lambda + B^c_m \\sin m\\lambda\\right],
-    \\qquad c \\in \\{E, N, U\\}
+    g_c(\lambda) = \sum_{m=0}^{N} \left[A^c_m \cos m\lambda + B^c_m \sin m\lambda\right],
+    \qquad c \in \{E, N, U\}
 
 (the longitude sums, by FFT where longitudes are regular, are done by the host).
 
