@@ -323,15 +323,12 @@ def test_zonal_series_vs_exact_normal(device, h):
 @wp.kernel
 def _columns_kernel(model: ksh.SHKernelModel, m: wp.array(dtype=int), t: wp.array(dtype=wp.float64),
                     q: wp.array(dtype=wp.float64), single: wp.array2d(dtype=ksh.sh_vec8),
-                    rows2: wp.array2d(dtype=ksh.sh_vec8), pair: wp.array2d(dtype=ksh.sh_vec8)):
+                    pair: wp.array2d(dtype=ksh.sh_vec8)):
     i = wp.tid()
     k = m[i]
     single[i, 0] = ksh.sh_column(model, k, t[2 * i], q[2 * i])
     single[i, 1] = ksh.sh_column(model, k, t[2 * i + 1], q[2 * i + 1])
     single[i, 2] = ksh.sh_column(model, wp.max(k - 1, 0), t[2 * i], q[2 * i])
-    r = ksh.sh_column_rows2(model, k, t[2 * i], q[2 * i], t[2 * i + 1], q[2 * i + 1])
-    rows2[i, 0] = r[0]
-    rows2[i, 1] = r[1]
     if k >= 2:
         p = ksh.sh_column_pair(model, k, t[2 * i], q[2 * i])
         pair[i, 0] = p[0]
@@ -340,22 +337,21 @@ def _columns_kernel(model: ksh.SHKernelModel, m: wp.array(dtype=int), t: wp.arra
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_column_variants_match_sh_column(eigen, device):
-    """sh_column_rows2 (two points) and sh_column_pair (orders m, m-1) equal sh_column."""
+    """sh_column_pair (orders m, m-1, as the point kernel runs them) equals sh_column."""
     ms = np.array([2, 3, 7, 50, 121, 239, 240, 0, 1], dtype=np.int32)
     rng = np.random.default_rng(9)
     t = np.sin(np.radians(np.r_[rng.uniform(-90, 90, 2 * ms.size - 2), 89.99, -90.0]))
     q = eigen.radius / (6378137.0 + np.r_[rng.uniform(0, 1e6, 2 * ms.size - 2), 0.0, 1e5])
     km = fsh.kernel_model(eigen, device)
-    out = [wp.zeros((ms.size, n), dtype=ksh.sh_vec8, device=device) for n in (3, 2, 2)]
+    out = [wp.zeros((ms.size, n), dtype=ksh.sh_vec8, device=device) for n in (3, 2)]
     wp.launch(_columns_kernel, dim=ms.size, device=device,
               inputs=[km, wp.array(ms, dtype=int, device=device),
                       wp.array(t, dtype=wp.float64, device=device),
                       wp.array(q, dtype=wp.float64, device=device), *out])
-    single, rows2, pair = (o.numpy() for o in out)
+    single, pair = (o.numpy() for o in out)
     assert np.all(single[-1, :2, 6] != 0)  # order 1 carries the m = 0 derivative sum
     p2 = ms >= 2
-    for got, want in ((rows2[:, 0], single[:, 0]), (rows2[:, 1], single[:, 1]),
-                      (pair[p2, 0, :6], single[p2, 0, :6]), (pair[p2, 1, :6], single[p2, 2, :6])):
+    for got, want in ((pair[p2, 0, :6], single[p2, 0, :6]), (pair[p2, 1, :6], single[p2, 2, :6])):
         scale = np.max(np.abs(want), axis=1, keepdims=True)
         assert np.all(scale > 0)
         assert np.all(np.abs(got - want) <= 1e-14 * scale)
