@@ -1,7 +1,8 @@
 """Fig. 7 of Chen et al. (2022).
 
-Disturbance isolines at 50 and 100 km, with the altitude sweep 20-100 km (area above thresholds and
-maximum versus height).
+Disturbance isolines at 50 and 100 km (one colour scale for all heights, and a two-panel figure
+like the paper's), with the altitude sweep 20-100 km (area above thresholds and maximum versus
+height; the paper's 20-km area fractions as open diamonds).
 
 Run: ``python examples/fig07_altitudes.py``.
 """
@@ -28,7 +29,13 @@ for k, h in enumerate(heights):
             plots.plot_isolines(sw, [0.02, 0.06, 0.10], height_index=k),
             out / f"fig07_isolines_{h}km.png",
         )
-write_png(plots.plot_sweep(sw), out / "fig07_sweep.png")
+write_png(
+    plots.plot_isolines_panels(sw, [heights.index(50), heights.index(100)], [0.02, 0.06, 0.10]),
+    out / "fig07_isolines_50_100km.png",
+)
+# Chen et al. (2022) §4.1: area fractions at 20 km (EIGEN-6C4 degree 2190)
+paper = {0.05: (20, 16.67), 0.06: (20, 9.45), 0.10: (20, 1.68)}
+write_png(plots.plot_sweep(sw, reference=paper), out / "fig07_sweep.png")
 print(f"{sw.attrs['model']} degree {sw.attrs['model_lmax']}")
 print("  h (km)  max (mg)  mean (mg)  >0.05 mg  >0.06 mg  >0.10 mg")
 for k, h in enumerate(heights):

@@ -1,16 +1,20 @@
 """Fig. 10 of Chen et al. (2022).
 
 Disturbance at 20 km around the simulated trajectory (100-112E, 18-37N) with isolines at 0.025,
-0.05, 0.075 and 0.10 mg.
+0.05, 0.075 and 0.10 mg, the paper's trajectory box (103-109E, 20-35N) and the ground track of
+our own boost-glide path (fieldmap.trajectory.BoostGlide, 800 s).
 
 Run: ``python examples/fig10_region.py``.
 """
 
+import numpy as np
 from _settings import lmax, out_dir, step
+from matplotlib.patches import Rectangle
 
 import fieldmap
 from fieldmap import plots
 from fieldmap.io import write_png
+from fieldmap.trajectory import BoostGlide
 
 levels = (0.025, 0.05, 0.075, 0.10)
 ds = fieldmap.disturbance_map(
@@ -21,10 +25,38 @@ ds = fieldmap.disturbance_map(
     region=(100, 112, 18, 37),
     thresholds_mg=levels,
 )
-write_png(plots.plot_isolines(ds, levels), out_dir() / "fig10_region_20km.png")
+fig = plots.plot_isolines(ds, levels)
+ax = fig.axes[0]
+ax.add_patch(Rectangle((103, 20), 6, 15, fill=False, ec="0.1", lw=1.0, ls=(0, (5, 3)), zorder=7))
+box = dict(fc="white", ec="none", alpha=0.8, pad=1.5)
+ax.text(
+    103.15,
+    34.85,
+    "paper's trajectory area\n103–109°E, 20–35°N",
+    fontsize=7,
+    zorder=9,
+    bbox=box,
+    va="top",
+)
+lat, lon, h = BoostGlide().geodetic(np.linspace(0.0, 800.0, 401))
+ax.plot(lon, lat, color="#00a6d6", lw=2.0, zorder=8, label="our boost-glide ground track")
+ax.plot(lon[0], lat[0], "^", color="#00a6d6", mec="k", ms=7, zorder=9)
+ax.plot(lon[-1], lat[-1], "o", color="#00a6d6", mec="k", ms=6, zorder=9)
+ax.text(
+    lon[0] + 0.25, lat[0], "our boost-glide:\nlaunch", fontsize=7, zorder=9, va="center", bbox=box
+)
+ax.text(lon[-1] + 0.25, lat[-1], "end (800 s)", fontsize=7, zorder=9, va="center", bbox=box)
+write_png(fig, out_dir() / "fig10_region_20km.png")
 sub = ds.sel(longitude=slice(103, 109), latitude=slice(20, 35))
 print(
     f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, 100-112E 18-37N at 20 km: "
     f"max {ds.attrs['max_mg']:.4f} mg; along the trajectory area (103-109E, 20-35N) "
     f"max {float(sub.modulus_mg.max()):.4f} mg (paper: between 0.05 and 0.10 mg)"
+)
+on_track = ds.modulus_mg.interp(
+    latitude=("p", lat), longitude=("p", lon)
+)  # the 20-km field under our ground track
+print(
+    f"  under our ground track (20-km field): max {float(on_track.max()):.4f} mg, "
+    f"mean {float(on_track.mean()):.4f} mg"
 )
