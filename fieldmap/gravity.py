@@ -65,11 +65,12 @@ def _points(lat_deg, lon_deg, h_m):
     return lat, lon, h
 
 
-def _frame(frame: str) -> str:
+def _inputs(lat, lon, h, frame: str, ellipsoid):
+    """Return the validated (frame, ellipsoid, lat, lon, h) of the public calls."""
     f = str(frame).lower()
     if f not in FRAMES:
         raise InputError(f"frame must be one of {', '.join(FRAMES)}, got {frame!r}")
-    return f
+    return (f, get_ellipsoid(ellipsoid), *_points(lat, lon, h))
 
 
 def _to_frame(v_ecef: np.ndarray, lat, lon, frame: str) -> np.ndarray:
@@ -82,8 +83,6 @@ def _to_frame(v_ecef: np.ndarray, lat, lon, frame: str) -> np.ndarray:
 def _gravitation_ecef(model, lat, lon, h, lmax, ellipsoid, device, epoch):
     m = _model(model, epoch)
     x, y, z = frames.geodetic_to_ecef(lat, lon, h, ellipsoid)
-    if x.size == 0:
-        return np.zeros(x.shape + (3,)), (x, y, z)
     return sh_gravitation(m, x, y, z, lmax=lmax, device=device), (x, y, z)
 
 
@@ -118,9 +117,7 @@ def gravitation(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=No
     numpy.ndarray
         Shape ``broadcast(lat, lon, h).shape + (3,)``. Units: m/s².
     """
-    f = _frame(frame)
-    ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, h)
+    f, ell, lat, lon, h = _inputs(lat, lon, h, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
     return _to_frame(g, lat, lon, f)
 
@@ -136,9 +133,7 @@ def gravity(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=None, 
     numpy.ndarray
         Shape ``broadcast(lat, lon, h).shape + (3,)``. Units: m/s².
     """
-    f = _frame(frame)
-    ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, h)
+    f, ell, lat, lon, h = _inputs(lat, lon, h, frame, ellipsoid)
     g, (x, y, z) = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
     g = g + frames.centrifugal_ecef(x, y, z, ell.omega)
     return _to_frame(g, lat, lon, f)
@@ -183,12 +178,8 @@ def disturbance(lat, lon, h, model="eigen-6s", lmax=None, ellipsoid: Ellipsoid |
     ukey = str(unit).lower().replace("²", "2").replace("^", "")
     if ukey not in UNITS:
         raise InputError(f"unit must be one of mGal, mg, m/s2, got {unit!r}")
-    f = _frame(frame)
-    ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, h)
+    f, ell, lat, lon, h = _inputs(lat, lon, h, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
-    if lat.size == 0:
-        return np.zeros(lat.shape + (3,))
     gamma = normal_gravity(lat, lon, h, ellipsoid=ell, kind="exact", centrifugal=False,
                            frame="ecef", device=device)
     return _to_frame((g - gamma) * UNITS[ukey], lat, lon, f)

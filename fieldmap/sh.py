@@ -94,7 +94,8 @@ _loaded: set = set()
 
 
 def _load(device: str) -> None:
-    # Compile/load the kernel module once, before launch_chunked's threads race to do it.
+    # Compile/load the point-kernel module once, before launch_chunked's threads race to do it
+    # (here, not in kernel_model: grids and strapdown build the struct but launch their own).
     if device not in _loaded:
         from .kernels import sh as ksh
 
@@ -126,7 +127,6 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
 
     device = _warp.resolve_device(device)
     L = _check_lmax(model, lmax)
-    _load(device)
     key = (id(model), L, device)
     with _cache_lock:
         hit = _cache.get(key)
@@ -190,6 +190,25 @@ def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
     return pos, shape
 
 
+def _launch_points(kernel: str, model: SHModel, lmax, device, columns: list, consts=(),
+                   out_dtype=wp.vec3d) -> np.ndarray:
+    """Run the point kernel ``kernel`` of :mod:`fieldmap.kernels.sh`, one thread per point.
+
+    ``columns`` are ``(array, warp dtype)`` pairs of per-point inputs, ``consts`` the scalar
+    inputs after them; returns the kernel's output array, one row per point.
+    """
+    from .kernels import sh as ksh
+
+    device = _warp.resolve_device(device)
+    km = kernel_model(model, device, lmax)
+    _load(device)
+    n = columns[0][0].shape[0]
+    ins = [wp.array(np.ascontiguousarray(a), dtype=t, device=device) for a, t in columns]
+    out = wp.zeros(n, dtype=out_dtype, device=device)
+    _warp.launch_chunked(getattr(ksh, kernel), n, [km, *ins, *consts, out], device)
+    return out.numpy()
+
+
 def sh_gravitation(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
     """Gravitation (gradient of the potential, no centrifugal term) at ECEF points.
 
@@ -211,16 +230,9 @@ def sh_gravitation(model: SHModel, x, y, z, lmax: int | None = None, device: str
     numpy.ndarray
         Shape ``(..., 3)``, ECEF components. Units: m/s².
     """
-    from .kernels import sh as ksh
-
-    device = _warp.resolve_device(device)
-    km = kernel_model(model, device, lmax)
     pos, shape = _positions(x, y, z)
-    n = pos.shape[0]
-    p_d = wp.array(pos, dtype=wp.vec3d, device=device)
-    g_d = wp.zeros(n, dtype=wp.vec3d, device=device)
-    _warp.launch_chunked(ksh.sh_points_ecef_kernel, n, [km, p_d, g_d], device)
-    return g_d.numpy().reshape(*shape, 3)
+    g = _launch_points("sh_points_ecef_kernel", model, lmax, device, [(pos, wp.vec3d)])
+    return g.reshape(*shape, 3)
 
 
 def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
@@ -242,16 +254,10 @@ def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str |
     numpy.ndarray
         Potential, the broadcast shape of the inputs. Units: m²/s².
     """
-    from .kernels import sh as ksh
-
-    device = _warp.resolve_device(device)
-    km = kernel_model(model, device, lmax)
     pos, shape = _positions(x, y, z)
-    n = pos.shape[0]
-    p_d = wp.array(pos, dtype=wp.vec3d, device=device)
-    v_d = wp.zeros(n, dtype=wp.float64, device=device)
-    _warp.launch_chunked(ksh.sh_potential_kernel, n, [km, p_d, v_d], device)
-    return v_d.numpy().reshape(shape)
+    v = _launch_points("sh_potential_kernel", model, lmax, device, [(pos, wp.vec3d)],
+                       out_dtype=wp.float64)
+    return v.reshape(shape)
 
 
 def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=None,
@@ -281,7 +287,6 @@ def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=Non
         Shape ``broadcast(lat, lon, h).shape + (3,)``. Units: m/s².
     """
     from .ellipsoid import WGS84
-    from .kernels import sh as ksh
 
     ell = WGS84 if ellipsoid is None else ellipsoid
     lat, lon, h = np.broadcast_arrays(
@@ -290,14 +295,7 @@ def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=Non
         raise InputError("latitude, longitude and height must be finite")
     if np.any(np.abs(lat) > 90.0):
         raise InputError("latitude must be within [-90, 90] degrees")
-    device = _warp.resolve_device(device)
-    km = kernel_model(model, device, lmax)
-    shape = lat.shape
-    n = lat.size
-    arrs = [wp.array(np.ascontiguousarray(v.ravel()), dtype=wp.float64, device=device)
-            for v in (np.radians(lat), np.radians(lon), h)]
-    g_d = wp.zeros(n, dtype=wp.vec3d, device=device)
-    if n:
-        _warp.launch_chunked(ksh.sh_points_geodetic_kernel, n,
-                             [km, *arrs, wp.float64(ell.a), wp.float64(ell.e2), g_d], device)
-    return g_d.numpy().reshape(*shape, 3)
+    cols = [(v.ravel(), wp.float64) for v in (np.radians(lat), np.radians(lon), h)]
+    g = _launch_points("sh_points_geodetic_kernel", model, lmax, device, cols,
+                       (wp.float64(ell.a), wp.float64(ell.e2)))
+    return g.reshape(*lat.shape, 3)
