@@ -29,3 +29,9 @@ def ecef_to_enu(v: wp.vec3d, lat: wp.float64, lon: wp.float64):
     n = -sl * co * v[0] - sl * so * v[1] + cl * v[2]
     u = cl * co * v[0] + cl * so * v[1] + sl * v[2]
     return wp.vec3d(e, n, u)
+
+
+@wp.func
+def enu_to_ned(v: wp.vec3d):
+    """Reorder an east-north-up vector into north-east-down."""
+    return wp.vec3d(v[1], v[0], -v[2])

@@ -22,7 +22,7 @@ below 1e-308 after the first two factors is at most 1e-28 of GM/r^2 and is negli
 import warp as wp
 
 from .frames import ecef_to_enu, geodetic_to_ecef
-from .normal import NormalParams, jn_gravitation, normal_gravitation_exact
+from .normal import NormalParams, normal_field_ecef
 from .sh import QM_MIN, SCALE, SHKernelModel, sh_column, sh_vec8
 
 SCALE_UP = wp.constant(wp.float64(1.0e280))
@@ -96,12 +96,7 @@ def row_setup_kernel(
     q_out[i] = radius / r
     cdel_out[i] = cp * u + sp * t
     sdel_out[i] = sp * u - cp * t
-    g = wp.vec3d()
-    if order == 0:
-        g = normal_gravitation_exact(p, ell)
-    else:
-        g = jn_gravitation(p, ell, order)
-    gamma_out[i] = ecef_to_enu(g, phi, wp.float64(0.0))
+    gamma_out[i] = ecef_to_enu(normal_field_ecef(p, ell, order, 0), phi, wp.float64(0.0))
 
 
 @wp.func

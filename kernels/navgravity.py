@@ -7,10 +7,10 @@ eq. (13), the exact level-ellipsoid field and a spherical-harmonic model (eqs. 1
 
 import warp as wp
 
-from .normal import NormalParams, centrifugal_ecef, jn_gravitation, normal_gravitation_exact
+from .normal import KIND_EXACT, NormalParams, centrifugal_ecef, normal_field_ecef
 from .sh import SHKernelModel, sh_gravitation_ecef
 
-NAV_NORMAL_EXACT = wp.constant(0)
+NAV_NORMAL_EXACT = KIND_EXACT  # the J kinds are the orders 2, 4, 6, as in normal_field_ecef
 NAV_SH = wp.constant(1)
 NAV_J2 = wp.constant(2)
 NAV_J4 = wp.constant(4)
@@ -26,9 +26,7 @@ def nav_gravitation_ecef(kind: int, p: wp.vec3d, ell: NormalParams, sh: SHKernel
     """
     if kind == NAV_SH:
         return sh_gravitation_ecef(sh, p)
-    if kind == NAV_NORMAL_EXACT:
-        return normal_gravitation_exact(p, ell)
-    return jn_gravitation(p, ell, kind)
+    return normal_field_ecef(p, ell, kind, 0)
 
 
 @wp.func

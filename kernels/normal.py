@@ -15,7 +15,7 @@ Three families, all returning ECEF vectors in m/s²:
 
 import warp as wp
 
-from .frames import ecef_to_enu, geodetic_to_ecef
+from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 
 _ZERO = wp.constant(wp.float64(0.0))
 _HALF = wp.constant(wp.float64(0.5))
@@ -250,7 +250,7 @@ def normal_points_kernel(
     if frame != FRAME_ECEF:
         g = ecef_to_enu(g, lat[i], lon[i])
         if frame == FRAME_NED:
-            g = wp.vec3d(g[1], g[0], -g[2])
+            g = enu_to_ned(g)
     out[i] = g
 
 

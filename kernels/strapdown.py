@@ -14,10 +14,10 @@ degree, loops over its steps and writes every ``output_every``-th state.
 
 import warp as wp
 
-from .frames import ecef_to_enu, geodetic_to_ecef
+from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
-from .navgravity import nav_gravitation_ecef
-from .normal import NormalParams, centrifugal_ecef
+from .navgravity import nav_gravitation_ecef, nav_gravity_ecef
+from .normal import NormalParams
 from .sh import SHKernelModel
 
 _ZERO = wp.constant(wp.float64(0.0))
@@ -43,6 +43,21 @@ class SensorErrors:
     acc_noise: wp.array(dtype=wp.float64)
     gyro_noise: wp.array(dtype=wp.float64)
     seed: wp.array(dtype=wp.int32)
+
+
+@wp.func
+def measured(M: wp.mat33d, x: wp.vec3d, bias_dt: wp.vec3d, sigma: wp.float64, state: wp.uint32):
+    """One measured increment of :class:`SensorErrors`: ``M x + b dt + σ √dt n``.
+
+    ``bias_dt`` = b dt and ``sigma`` = σ √dt (hoisted per thread); n draws three normals from
+    ``state`` only when ``sigma`` ≠ 0. Returns the increment and the advanced RNG state.
+    """
+    y = M * x + bias_dt
+    if sigma != _ZERO:
+        y = y + sigma * wp.vec3d(
+            wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state))
+        )
+    return y, state
 
 
 @wp.func
@@ -119,32 +134,10 @@ def lci_kernel(
     V_out[i, 0] = V
     q_out[i, 0] = q
     for k in range(n_steps):
-        th1 = Mg * dtheta[s, 2 * k] + bg
-        th2 = Mg * dtheta[s, 2 * k + 1] + bg
-        dv1 = Ma * dvel[s, 2 * k] + ba
-        dv2 = Ma * dvel[s, 2 * k + 1] + ba
-        if sg != _ZERO:
-            th1 = th1 + sg * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
-            th2 = th2 + sg * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
-        if sa != _ZERO:
-            dv1 = dv1 + sa * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
-            dv2 = dv2 + sa * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
+        th1, state = measured(Mg, dtheta[s, 2 * k], bg, sg, state)
+        th2, state = measured(Mg, dtheta[s, 2 * k + 1], bg, sg, state)
+        dv1, state = measured(Ma, dvel[s, 2 * k], ba, sa, state)
+        dv2, state = measured(Ma, dvel[s, 2 * k + 1], ba, sa, state)
         th = th1 + th2
         dvb = dv1 + dv2
         phi = th + _TWO_THIRDS * wp.cross(th1, th2)
@@ -180,10 +173,7 @@ def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
 def gravity_ned(kind: int, llh: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
     """Gravity (gravitation + centrifugal, Groves eq. 3.7.5) in NED at geodetic (rad, rad, m)."""
     r = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
-    g = ecef_to_enu(
-        nav_gravitation_ecef(kind, r, ell, sh) + centrifugal_ecef(r, ell.omega), llh[0], llh[1]
-    )
-    return wp.vec3d(g[1], g[0], -g[2])
+    return enu_to_ned(ecef_to_enu(nav_gravity_ecef(kind, r, ell, sh), llh[0], llh[1]))
 
 
 @wp.kernel
@@ -234,20 +224,8 @@ def ned_kernel(
     v_out[i, 0] = v
     q_out[i, 0] = q
     for k in range(n_steps):
-        th = Mg * dtheta[s, k] + bg
-        dv = Ma * dvel[s, k] + ba
-        if sg != _ZERO:
-            th = th + sg * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
-        if sa != _ZERO:
-            dv = dv + sa * wp.vec3d(
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-                wp.float64(wp.randn(state)),
-            )
+        th, state = measured(Mg, dtheta[s, k], bg, sg, state)
+        dv, state = measured(Ma, dvel[s, k], ba, sa, state)
         sl = wp.sin(llh[0])
         cl = wp.cos(llh[0])
         w = _ONE - ell.e2 * sl * sl
