@@ -129,6 +129,12 @@ def _bands(top: float, levels) -> np.ndarray:
     return np.union1d(np.union1d(keep, lev), [0.0, top])
 
 
+def _levels(ds, levels_mg):
+    return sorted(
+        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
+    )
+
+
 def _modulus_top(v, levels) -> float:
     """Upper end of the colour scale: the 99.9th percentile, at least 1.2 x the top isoline."""
     raw = max(float(np.nanpercentile(v, 99.9)), max(levels) * 1.2)
@@ -218,9 +224,7 @@ def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=Non
     heights of the sweep unless ``vmax`` is given. Global maps list the isolines in a legend;
     regional maps label them in place.
     """
-    levels = sorted(
-        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
-    )
+    levels = _levels(ds, levels_mg)
     sub = ds if height_index is None else ds.isel(height=height_index)
     if vmax is None:
         vmax = _modulus_top(ds["modulus_mg"].values, levels)
@@ -273,9 +277,7 @@ def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
 
 def plot_isolines_panels(ds, height_indices, levels_mg=None):
     """Stacked disturbance maps at several heights of a sweep with ONE colour scale (Fig. 7)."""
-    levels = sorted(
-        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
-    )
+    levels = _levels(ds, levels_mg)
     idx = list(height_indices)
     vmax = _modulus_top(ds["modulus_mg"].values[idx], levels)
     w, h = _figsize(ds.isel(height=0), nrows=len(idx))
@@ -283,12 +285,8 @@ def plot_isolines_panels(ds, height_indices, levels_mg=None):
     for k, (ax, i) in enumerate(zip(axes[:, 0], idx)):
         sub = ds.isel(height=i)
         mesh = _isoline_panel(fig, ax, sub, levels, vmax, colorbar=False, legend=k == len(idx) - 1)
-        f = (
-            dict(zip(ds["threshold_mg"].values, ds["area_fraction_above"].values[i]))
-            if ("area_fraction_above" in ds)
-            else {}
-        )
-        extra = "; ".join(f"> {t:g} mg: {100 * x:.2f}%" for t, x in f.items() if t >= 0.05)
+        f = zip(ds["threshold_mg"].values, ds["area_fraction_above"].values[i])
+        extra = "; ".join(f"> {t:g} mg: {100 * x:.2f}%" for t, x in f if t >= 0.05)
         ax.set_title(
             f"({'abcdefgh'[k]}) h = {float(sub['height']) / 1e3:g} km — max "
             f"{float(np.nanmax(sub['modulus_mg'].values)):.3f} mg"
