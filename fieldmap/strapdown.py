@@ -159,9 +159,38 @@ class _Batch:
     states: dict
     kinds: list  # kind, lmax arrays
     shk: object
+    dt: float
     n_steps: int
+    output_every: int
     n_out: int
     device: str
+
+    def launch(self, kernel, start, params: list, times=()) -> tuple:
+        """Run ``kernel`` for every trajectory; return its stored states (NumPy).
+
+        ``start`` = (position, velocity, scalar-first quaternion) per trajectory; ``params`` are
+        the frame structs and ``times`` the float64 inputs after ``dt``, in the kernel's order.
+        Returns (position, velocity, scalar-first quaternion), each (n, n_out, ...).
+        """
+        dev = self.device
+        types = (wp.vec3d, wp.vec3d, wp.quatd)
+        pos, vel, q = start
+        start_d = [wp.array(a, dtype=t, device=dev) for a, t in zip((pos, vel, _quat_in(q)), types)]
+        outs = [wp.zeros((self.n, self.n_out), dtype=t, device=dev) for t in types]
+        inputs = [
+            *self.inputs,
+            *start_d,
+            *self.kinds,
+            *params,
+            self.shk,
+            wp.float64(self.dt),
+            *times,
+            self.n_steps,
+            self.output_every,
+            *outs,
+        ]
+        _warp.launch_chunked(kernel, self.n, inputs, dev)
+        return outs[0].numpy(), outs[1].numpy(), _quat_out(outs[2])
 
 
 def _prepare(
@@ -239,7 +268,9 @@ def _prepare(
         names=names,
         device=device,
         shk=shk,
+        dt=dt,
         n_steps=n_steps,
+        output_every=output_every,
         n_out=n_steps // output_every + 1,
         states=states,
         inputs=[
@@ -345,29 +376,12 @@ def propagate_lci(
     from .kernels import strapdown as ksd
     from .normal import normal_params
 
-    dev = b.device
-    P_out, V_out = (wp.zeros((b.n, b.n_out), dtype=wp.vec3d, device=dev) for _ in range(2))
-    q_out = wp.zeros((b.n, b.n_out), dtype=wp.quatd, device=dev)
     st = b.states
-    inputs = [
-        *b.inputs,
-        wp.array(st["P0"], dtype=wp.vec3d, device=dev),
-        wp.array(st["V0"], dtype=wp.vec3d, device=dev),
-        wp.array(_quat_in(st["q0"]), dtype=wp.quatd, device=dev),
-        *b.kinds,
-        launch_params(frame),
-        normal_params(frame.ellipsoid),
-        b.shk,
-        wp.float64(dt),
-        wp.float64(t0),
-        b.n_steps,
-        int(output_every),
-        P_out,
-        V_out,
-        q_out,
-    ]
-    _warp.launch_chunked(ksd.lci_kernel, b.n, inputs, dev)
-    t = t0 + 2.0 * float(dt) * int(output_every) * np.arange(b.n_out)
-    return LciResult(
-        t=t, P=P_out.numpy(), V=V_out.numpy(), q=_quat_out(q_out), gravity=tuple(b.names)
+    P, V, q = b.launch(
+        ksd.lci_kernel,
+        (st["P0"], st["V0"], st["q0"]),
+        [launch_params(frame), normal_params(frame.ellipsoid)],
+        [wp.float64(t0)],
     )
+    t = t0 + 2.0 * b.dt * b.output_every * np.arange(b.n_out)
+    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names))

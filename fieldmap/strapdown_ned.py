@@ -9,12 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import warp as wp
 
-from . import _warp
 from .ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from .errors import InputError
-from .strapdown import _prepare, _quat_in, _quat_out
+from .strapdown import _prepare
 
 
 @dataclass(frozen=True)
@@ -98,35 +96,18 @@ def propagate_ned(
     from .kernels import strapdown as ksd
     from .normal import normal_params
 
-    dev = b.device
     st = b.states
     llh_rad = st["llh0"].copy()
     llh_rad[:, :2] = np.radians(llh_rad[:, :2])
-    llh_out, v_out = (wp.zeros((b.n, b.n_out), dtype=wp.vec3d, device=dev) for _ in range(2))
-    q_out = wp.zeros((b.n, b.n_out), dtype=wp.quatd, device=dev)
-    inputs = [
-        *b.inputs,
-        wp.array(llh_rad, dtype=wp.vec3d, device=dev),
-        wp.array(st["v_ned0"], dtype=wp.vec3d, device=dev),
-        wp.array(_quat_in(st["q0"]), dtype=wp.quatd, device=dev),
-        *b.kinds,
-        normal_params(get_ellipsoid(ellipsoid)),
-        b.shk,
-        wp.float64(dt),
-        b.n_steps,
-        int(output_every),
-        llh_out,
-        v_out,
-        q_out,
-    ]
-    _warp.launch_chunked(ksd.ned_kernel, b.n, inputs, dev)
-    L = llh_out.numpy()
+    L, v, q = b.launch(
+        ksd.ned_kernel, (llh_rad, st["v_ned0"], st["q0"]), [normal_params(get_ellipsoid(ellipsoid))]
+    )
     return NedResult(
-        t=float(dt) * int(output_every) * np.arange(b.n_out),
+        t=b.dt * b.output_every * np.arange(b.n_out),
         lat=np.degrees(L[..., 0]),
         lon=np.degrees(L[..., 1]),
         h=L[..., 2],
-        v_ned=v_out.numpy(),
-        q=_quat_out(q_out),
+        v_ned=v,
+        q=q,
         gravity=tuple(b.names),
     )
