@@ -8,22 +8,23 @@ Statistics use area weights (:mod:`fieldmap.stats`). Files are written by
 
 from __future__ import annotations
 
-import datetime as _dt
-
 import numpy as np
 import xarray as xr
 
 from . import __version__
+from .cf import COMPONENTS, UNITS, coords, global_attrs, stats_attrs, vector_vars
 from .errors import InputError
 from .grid import make_grid, normal_rows, resolve_device, synthesize
-from .stats import MG, MGAL, map_statistics, parse_thresholds, threshold_key
+from .stats import map_statistics, parse_thresholds, threshold_key
 
-UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
-REFERENCE = (
-    "Chen, Wang, Chen, Liu (2022), Normal gravity model for inertial navigation of a hypersonic "
-    "boost-glide vehicle, Section 4"
-)
-_COMP = {"east": "eastward", "north": "northward", "up": "upward"}
+__all__ = [
+    "UNITS",
+    "altitude_sweep",
+    "component_maps",
+    "disturbance_map",
+    "summary",
+    "truncation_map",
+]
 
 
 def _check_units(units: str) -> float:
@@ -32,11 +33,14 @@ def _check_units(units: str) -> float:
     return UNITS[units]
 
 
-def _heights_m(height_km) -> np.ndarray:
+def _heights_m(height_km, one: str | None = None) -> np.ndarray:
+    """Heights in m from km; ``one``: the message of the error raised unless there is one."""
     try:
         h = np.atleast_1d(np.asarray(height_km, dtype=np.float64)).ravel() * 1e3
     except (TypeError, ValueError):
         raise InputError(f"heights must be numbers in km, got {height_km!r}") from None
+    if one is not None and h.size != 1:
+        raise InputError(one)
     return h
 
 
@@ -46,100 +50,35 @@ def _model(model, lmax, epoch):
     return load_model(model, lmax=lmax, epoch=epoch)
 
 
-def _ellipsoid(ellipsoid):
+def _setup(step_deg, lat_max, region, h, ellipsoid, device):
+    """Return the validated (grid, ellipsoid, device) of a product."""
     from .ellipsoid import get_ellipsoid
 
+    grid = make_grid(step_deg, lat_max, region, h)
     try:
-        return get_ellipsoid(ellipsoid)
+        ell = get_ellipsoid(ellipsoid)
     except (KeyError, ValueError) as exc:
         raise InputError(f"unknown ellipsoid {ellipsoid!r}") from exc
+    return grid, ell, resolve_device(device)
 
 
-def _coords(grid, stacked_heights: bool) -> dict:
-    lat = xr.Variable(
-        "latitude",
-        grid.lat,
-        {"units": "degrees_north", "standard_name": "latitude", "long_name": "geodetic latitude"},
+def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.Dataset:
+    """Disturbance vectors on every node as a Dataset; ``stacked``: with a height dimension."""
+    vec = synthesize(mod, grid, ell, "disturbance", device, progress)
+    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
+    return xr.Dataset(
+        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance"),
+        coords=coords(grid, stacked),
+        attrs=global_attrs(
+            f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in grid.heights)} km, "
+            f"{mod.name} degree {mod.lmax}",
+            mod,
+            ell,
+            grid,
+            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
+            f"normal gravitation of {ell.name}",
+        ),
     )
-    lon = xr.Variable(
-        "longitude",
-        grid.lon,
-        {"units": "degrees_east", "standard_name": "longitude", "long_name": "longitude"},
-    )
-    hattrs = {
-        "units": "m",
-        "standard_name": "height_above_reference_ellipsoid",
-        "positive": "up",
-        "long_name": "height above the ellipsoid",
-    }
-    if stacked_heights:
-        height = xr.Variable("height", grid.heights, hattrs)
-    else:
-        height = xr.Variable((), grid.heights[0], hattrs)
-    return {"latitude": lat, "longitude": lon, "height": height}
-
-
-def _global_attrs(title, model, ellipsoid, grid, source) -> dict:
-    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-    attrs = {
-        "Conventions": "CF-1.8",
-        "title": title,
-        "institution": "fieldmap",
-        "source": source,
-        "history": f"{now} created by fieldmap {__version__}",
-        "references": REFERENCE,
-        "ellipsoid": ellipsoid.name,
-        "grid_step_deg": float(grid.step_deg),
-        "grid_kind": "global" if grid.is_global else "regional",
-        "region_west_east_south_north_deg": np.array(grid.region),
-        "frame": "local geodetic east-north-up",
-    }
-    if model is not None:
-        attrs.update(
-            {
-                "model": model.name,
-                "model_lmax": int(model.lmax),
-                "model_max_degree": int(model.max_degree),
-                "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
-                "model_tide_system": model.tide_system,
-                "model_gm": float(model.gm),
-                "model_radius": float(model.radius),
-            }
-        )
-    if grid.heights.size == 1:
-        attrs["height_m"] = float(grid.heights[0])
-    return attrs
-
-
-def _vector_vars(vec, dims, units, what) -> dict:
-    """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``."""
-    scale = UNITS[units]
-    out = {}
-    for k, name in enumerate(("east", "north", "up")):
-        out[name] = (
-            dims,
-            vec[..., k] / scale,
-            {"units": units, "long_name": f"{_COMP[name]} component of the {what}"},
-        )
-    mod = np.sqrt(np.sum(vec * vec, axis=-1))
-    out["modulus"] = (dims, mod / scale, {"units": units, "long_name": f"modulus of the {what}"})
-    out["modulus_mg"] = (
-        dims,
-        mod / MG,
-        {
-            "units": "mg",
-            "long_name": f"modulus of the {what} in mg",
-            "comment": "1 mg = 1e-3 g_n = 9.80665e-3 m s-2 (milli-g, not milligram)",
-        },
-    )
-    return out
-
-
-def _stats_attrs(stats: dict) -> dict:
-    attrs = {k: v for k, v in stats.items() if k != "area_fraction_above"}
-    for key, frac in stats["area_fraction_above"].items():
-        attrs[f"area_fraction_above_{key}_mg"] = frac
-    return attrs
 
 
 def disturbance_map(
@@ -189,28 +128,12 @@ def disturbance_map(
     """
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
-    h = _heights_m(height_km)
-    if h.size != 1:
-        raise InputError("disturbance_map takes one height; use altitude_sweep for several")
-    grid = make_grid(step_deg, lat_max, region, h)
-    ell = _ellipsoid(ellipsoid)
-    device = resolve_device(device)
+    h = _heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
+    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     mod = _model(model, lmax, epoch)
-    vec = synthesize(mod, grid, ell, "disturbance", device, progress)[0]
-    ds = xr.Dataset(
-        _vector_vars(vec, ("latitude", "longitude"), units, "gravity disturbance"),
-        coords=_coords(grid, False),
-        attrs=_global_attrs(
-            f"Gravity disturbance at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax}",
-            mod,
-            ell,
-            grid,
-            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-            f"normal gravitation of {ell.name}",
-        ),
-    )
+    ds = _disturbance(mod, grid, ell, device, units, progress, stacked=False)
     stats = map_statistics(ds["modulus_mg"].values, grid.lat, thresholds)
-    ds.attrs.update(_stats_attrs(stats))
+    ds.attrs.update(stats_attrs(stats))
     ds.attrs["thresholds_mg"] = np.array(thresholds)
     return ds
 
@@ -242,25 +165,9 @@ def altitude_sweep(
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
     h = _heights_m(height_km)
-    grid = make_grid(step_deg, lat_max, region, h)
-    ell = _ellipsoid(ellipsoid)
-    device = resolve_device(device)
+    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     mod = _model(model, lmax, epoch)
-    vec = synthesize(mod, grid, ell, "disturbance", device, progress)
-    dims = ("height", "latitude", "longitude")
-    ds = xr.Dataset(
-        _vector_vars(vec, dims, units, "gravity disturbance"),
-        coords=_coords(grid, True),
-        attrs=_global_attrs(
-            f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in h)} km, "
-            f"{mod.name} degree {mod.lmax}",
-            mod,
-            ell,
-            grid,
-            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-            f"normal gravitation of {ell.name}",
-        ),
-    )
+    ds = _disturbance(mod, grid, ell, device, units, progress, stacked=True)
     stats = [
         map_statistics(ds["modulus_mg"].values[k], grid.lat, thresholds) for k in range(h.size)
     ]
@@ -324,28 +231,24 @@ def truncation_map(
         raise InputError(f"orders must be among 2, 4, 6, got {orders!r}") from None
     if not orders or any(o not in (2, 4, 6) for o in orders) or len(set(orders)) != len(orders):
         raise InputError(f"orders must be distinct values among 2, 4, 6, got {orders!r}")
-    h = _heights_m(height_km)
-    if h.size != 1:
-        raise InputError("truncation_map takes one height")
-    grid = make_grid(step_deg, lat_max, region, h)
-    ell = _ellipsoid(ellipsoid)
-    device = resolve_device(device)
+    h = _heights_m(height_km, "truncation_map takes one height")
+    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     exact = normal_rows(grid, ell, 0, device)[0]
     err = np.stack([normal_rows(grid, ell, o, device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
     ds = xr.Dataset(
-        _vector_vars(
+        vector_vars(
             vec, ("order", "latitude", "longitude"), units, "normal gravitation truncation error"
         ),
         coords={
-            **_coords(grid, False),
+            **coords(grid, False),
             "order": xr.Variable(
                 "order",
                 np.array(orders),
                 {"long_name": "highest zonal J2n term kept", "units": "1"},
             ),
         },
-        attrs=_global_attrs(
+        attrs=global_attrs(
             f"J-series truncation error at {h[0] / 1e3:g} km ({ell.name})",
             None,
             ell,
@@ -384,12 +287,8 @@ def component_maps(
         ``model_east``, ``model_north``, ``model_up`` and ``normal_east``, ``normal_north``,
         ``normal_up`` on (latitude, longitude). Units: m s-2.
     """
-    h = _heights_m(height_km)
-    if h.size != 1:
-        raise InputError("component_maps takes one height")
-    grid = make_grid(step_deg, lat_max, region, h)
-    ell = _ellipsoid(ellipsoid)
-    device = resolve_device(device)
+    h = _heights_m(height_km, "component_maps takes one height")
+    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     mod = _model(model, lmax, epoch)
     from .grid import centrifugal_rows
 
@@ -398,21 +297,21 @@ def component_maps(
     gam = np.broadcast_to(gam[:, None, :], g.shape)
     dims = ("latitude", "longitude")
     data = {}
-    for k, c in enumerate(("east", "north", "up")):
+    for k, (c, cf_name) in enumerate(COMPONENTS.items()):
         data[f"model_{c}"] = (
             dims,
             g[..., k],
-            {"units": "m s-2", "long_name": f"{_COMP[c]} component of gravity from {mod.name}"},
+            {"units": "m s-2", "long_name": f"{cf_name} component of gravity from {mod.name}"},
         )
         data[f"normal_{c}"] = (
             dims,
             np.array(gam[..., k]),
-            {"units": "m s-2", "long_name": f"{_COMP[c]} component of normal gravity ({ell.name})"},
+            {"units": "m s-2", "long_name": f"{cf_name} component of normal gravity ({ell.name})"},
         )
     return xr.Dataset(
         data,
-        coords=_coords(grid, False),
-        attrs=_global_attrs(
+        coords=coords(grid, False),
+        attrs=global_attrs(
             f"Gravity components at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
             mod,
             ell,
