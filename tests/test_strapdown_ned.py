@@ -36,42 +36,38 @@ LLH0 = np.array([np.radians(30.0), np.radians(100.0), 1000.0])
 VNED0 = np.array([150.0, 80.0, -5.0])
 
 
-@pytest.mark.parametrize("device", DEVICES)
-def test_ned_kernel_equals_reference(device):
-    from fieldmap.reference.strapdown import propagate_ned_reference
+def _kernel_run(dth, dv, dt, C0, output_every, device):
+    """Run the NED kernel (J2 gravity) from LLH0, VNED0 and attitude C0."""
     from fieldmap.strapdown_ned import propagate_ned
 
+    return propagate_ned(
+        dth, dv, dt, 30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0), "j2",
+        output_every=output_every, device=device,
+    )
+
+
+def _reference_run(dth, dv, dt, C0, output_every, **kw):
+    """Run the NumPy reference (J2 gravity) from LLH0, VNED0, C0: (llh, v, C) of trajectory 0."""
+    from fieldmap.reference.strapdown import propagate_ned_reference
+
+    L, V, C = propagate_ned_reference(
+        dth[None], dv[None], dt, LLH0[None], VNED0[None], C0[None], _g_ned_j2, WGS84,
+        output_every=output_every, **kw,
+    )
+    return L[0], V[0], C[0]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_ned_kernel_equals_reference(device):
     N, dt = 1000, 0.01
     dth, dv, C0 = _ned_motion(N, dt)
-    res = propagate_ned(
-        dth,
-        dv,
-        dt,
-        30.0,
-        100.0,
-        1000.0,
-        VNED0,
-        dcm_to_quat(C0),
-        "j2",
-        output_every=100,
-        device=device,
-    )
-    L, V, C = propagate_ned_reference(
-        dth[None],
-        dv[None],
-        dt,
-        LLH0[None],
-        VNED0[None],
-        C0[None],
-        _g_ned_j2,
-        WGS84,
-        output_every=100,
-    )
-    np.testing.assert_allclose(np.radians(res.lat[0]), L[0, :, 0], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(np.radians(res.lon[0]), L[0, :, 1], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(res.h[0], L[0, :, 2], rtol=0, atol=1e-9)
-    np.testing.assert_allclose(res.v_ned[0], V[0], rtol=0, atol=1e-12 * np.abs(V).max())
-    np.testing.assert_allclose(quat_to_dcm(res.q[0]), C[0], rtol=0, atol=1e-13)
+    res = _kernel_run(dth, dv, dt, C0, 100, device)
+    L, V, C = _reference_run(dth, dv, dt, C0, 100)
+    np.testing.assert_allclose(np.radians(res.lat[0]), L[:, 0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.radians(res.lon[0]), L[:, 1], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(res.h[0], L[:, 2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.v_ned[0], V, rtol=0, atol=1e-12 * np.abs(V).max())
+    np.testing.assert_allclose(quat_to_dcm(res.q[0]), C, rtol=0, atol=1e-13)
 
 
 def _navtk_same_gravity(dth, dv, dt, C0):
@@ -103,28 +99,14 @@ def _navtk_same_gravity(dth, dv, dt, C0):
 
 def test_ned_reference_equals_navtk_with_body_rate_attitude():
     """Navtk (T&W body-rate attitude form) equals our reference run with that attitude form."""
-    from fieldmap.reference.strapdown import propagate_ned_reference
-
     N, dt = 1000, 0.01
     dth, dv, C0 = _ned_motion(N, dt)
     llh, v, C = _navtk_same_gravity(dth, dv, dt, C0)
-    L, V, Cr = propagate_ned_reference(
-        dth[None],
-        dv[None],
-        dt,
-        LLH0[None],
-        VNED0[None],
-        C0[None],
-        _g_ned_j2,
-        WGS84,
-        output_every=N,
-        attitude="body",
-        frame_rotation=False,
-    )
-    np.testing.assert_allclose(L[0, -1, :2], llh[:2], rtol=0, atol=1e-15)  # rad: ~6 nm
-    np.testing.assert_allclose(L[0, -1, 2], llh[2], rtol=0, atol=1e-9)
-    np.testing.assert_allclose(V[0, -1], v, rtol=0, atol=1e-11)
-    np.testing.assert_allclose(Cr[0, -1], C, rtol=0, atol=1e-13)
+    L, V, Cr = _reference_run(dth, dv, dt, C0, N, attitude="body", frame_rotation=False)
+    np.testing.assert_allclose(L[-1, :2], llh[:2], rtol=0, atol=1e-15)  # rad: ~6 nm
+    np.testing.assert_allclose(L[-1, 2], llh[2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(V[-1], v, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(Cr[-1], C, rtol=0, atol=1e-13)
 
 
 def test_ned_kernel_converges_to_navtk():
@@ -134,25 +116,11 @@ def test_ned_kernel_converges_to_navtk():
     Rot(−ω_in dt) C Rot(dθ) (ours) and our n-frame rotation term −½ ω_in × Δv^n, both O(dt²) per
     step: halving dt halves the difference.
     """
-    from fieldmap.strapdown_ned import propagate_ned
-
     diffs = []
     for N, dt in ((500, 0.02), (1000, 0.01)):
         dth, dv, C0 = _ned_motion(N, dt)
         llh, v, C = _navtk_same_gravity(dth, dv, dt, C0)
-        res = propagate_ned(
-            dth,
-            dv,
-            dt,
-            30.0,
-            100.0,
-            1000.0,
-            VNED0,
-            dcm_to_quat(C0),
-            "j2",
-            output_every=N,
-            device="cpu",
-        )
+        res = _kernel_run(dth, dv, dt, C0, N, "cpu")
         dpos = np.array(
             [
                 (np.radians(res.lat[0, -1]) - llh[0]) * 6.37e6,
