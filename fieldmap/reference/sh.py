@@ -158,13 +158,11 @@ def gravitation_ecef(model: SHModel, x, y, z, lmax: int | None = None) -> np.nda
     x, y, z = (np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in (x, y, z))
     _, ge, gn, gu = spherical_gradient(model, x, y, z, lmax)
     lam = np.arctan2(y, x)
-    r = np.sqrt(x * x + y * y + z * z)
     phi = np.arctan2(z, np.hypot(x, y))
     # columns: unit vectors east, north, up of the geocentric spherical frame in ECEF
     east = np.stack([-np.sin(lam), np.cos(lam), np.zeros_like(lam)], axis=-1)
     north = np.stack([-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)], axis=-1)
     up = np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
-    del r
     return ge[:, None] * east + gn[:, None] * north + gu[:, None] * up
 
 
