@@ -310,11 +310,8 @@ def synthesize(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
-    units = [
-        (k * nlat + a, k * nlat + b if b >= 0 else -1)
-        for k in range(nh)
-        for a, b in (mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)])
-    ]
+    pairs = mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)]
+    units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
     nper = _regular_period(grid.lon) or nlon
     per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
