@@ -10,7 +10,11 @@ functions only (``frames``, ``launch_frames``, ``navgravity``) are covered by th
 them, plus the small wrapper kernels below for functions no fieldmap kernel calls; a coverage test
 fails on any ``@wp.func`` that none of these builds compiled.
 
-The builds use the options fieldmap runs with (``fieldmap._warp.init()``: no backward kernels).
+The builds run once per session in a child interpreter that calls ``fieldmap._warp.init()`` before
+importing any kernel module, so they use the options fieldmap runs with (no backward kernels: a
+Warp module fixes its options when it is first imported). The CUBINs' ``.nv.info`` records give
+registers and stack frame per kernel (printed with ``-s``); a last test shows that a kernel which
+builds and runs on the CPU but not in CUDA fails here with NVRTC's message.
 """
 
 from __future__ import annotations
