@@ -16,34 +16,11 @@ from fieldmap import _warp
 from fieldmap import sh as fsh
 from fieldmap.ellipsoid import WGS84
 from fieldmap.model import SHModel
+from fieldmap.models import kaula_model, load_model
 from fieldmap.reference import sh as ref
 
 DEVICES = _warp.devices()
 GM, R = 3.986004415e14, 6378136.3  # EIGEN-6S header constants (any values would do here)
-
-
-def kaula(lmax, seed=0, gm=GM, radius=R):
-    """Random model with Kaula's rule sigma_n = 1e-5/n^2 and a realistic C20 (built here)."""
-    rng = np.random.default_rng(seed)
-    n = np.arange(lmax + 1)[:, None]
-    m = np.arange(lmax + 1)[None, :]
-    sig = np.where(n >= 2, 1e-5 / np.maximum(n, 1) ** 2, 0.0)
-    C = np.where(m <= n, rng.standard_normal((lmax + 1, lmax + 1)) * sig, 0.0)
-    S = np.where((m <= n) & (m > 0), rng.standard_normal((lmax + 1, lmax + 1)) * sig, 0.0)
-    C[0, 0] = 1.0
-    if lmax >= 2:
-        C[2, 0] = -4.84165e-4
-    return SHModel("kaula-test", gm, radius, C, S, lmax, source="synthetic")
-
-
-def eigen6s_or_kaula():
-    """Bundled EIGEN-6S, or a synthetic degree-240 model if the model loader fails."""
-    try:
-        from fieldmap.models import load_model
-
-        return load_model("eigen-6s")
-    except Exception:  # models module not usable yet: fall back to a synthetic model
-        return kaula(240, seed=6)
 
 
 def sample_points(n=40, seed=3):
@@ -69,8 +46,8 @@ def rel_vec(a, b):
 
 @pytest.fixture(scope="module")
 def eigen():
-    """Model used for the comparisons."""
-    return eigen6s_or_kaula()
+    """Model used for the comparisons: the bundled EIGEN-6S (degree 240)."""
+    return load_model("eigen-6s")
 
 
 @pytest.mark.parametrize("device", DEVICES)
@@ -96,7 +73,7 @@ def test_kernel_vs_reference_high_degree_part(device):
     ~n²·1e-16 relative (1e-11 at 89.9°, n = 300) in any float64 code fed with t, kernel and
     reference alike. Relative to the whole field that is < 1e-15 (checked in the other tests).
     """
-    model = kaula(300, seed=11)
+    model = kaula_model(300, seed=11)
     C, S = model.C.copy(), model.S.copy()
     C[:150], S[:150] = 0.0, 0.0
     hi = SHModel("hi", GM, R, C, S, 300)
@@ -264,7 +241,7 @@ def test_kernel_model_cache_and_errors():
     """Cache hits by identity and degree; bad degree and the Earth's centre are rejected."""
     from fieldmap.errors import InputError
 
-    model = kaula(10)
+    model = kaula_model(10)
     a = fsh.kernel_model(model, "cpu")
     assert fsh.kernel_model(model, "cpu") is a
     assert fsh.kernel_model(model, "cpu", lmax=5) is not a
