@@ -18,6 +18,7 @@ from fieldmap.ellipsoid import WGS84
 from fieldmap.model import SHModel
 from fieldmap.models import kaula_model, load_model
 from fieldmap.reference import sh as ref
+from fieldmap.reference.normal import zonal_sh_model
 
 DEVICES = _warp.devices()
 GM, R = 3.986004415e14, 6378136.3  # EIGEN-6S header constants (any values would do here)
@@ -271,16 +272,6 @@ def test_recursion_tables_identities():
     np.testing.assert_allclose(f[0], np.sqrt(n * (n + 1) / 2.0), rtol=1e-15)
 
 
-def zonal_normal_model(ellipsoid, nmax=12):
-    """Build the normal potential as a zonal series C_{2k,0} = −J_{2k}/√(4k+1) (H&M eq. 2-92)."""
-    L = 2 * nmax
-    C = np.zeros((L + 1, L + 1))
-    C[0, 0] = 1.0
-    for k in range(1, nmax + 1):
-        C[2 * k, 0] = -ellipsoid.J2n(k) / np.sqrt(4 * k + 1)
-    return SHModel("zonal-normal", ellipsoid.GM, ellipsoid.a, C, np.zeros_like(C), L)
-
-
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("h", [0.0, 2e4, 1e5])
 def test_zonal_series_vs_exact_normal(device, h):
@@ -288,7 +279,7 @@ def test_zonal_series_vs_exact_normal(device, h):
     normal = pytest.importorskip("fieldmap.normal")
     from fieldmap.frames import geodetic_to_ecef
 
-    model = zonal_normal_model(WGS84)
+    model = zonal_sh_model(WGS84)
     lat = np.r_[np.linspace(-90, 90, 37), 89.99]
     lon = np.linspace(0, 300, lat.size)
     x, y, z = geodetic_to_ecef(lat, lon, np.full(lat.size, h))

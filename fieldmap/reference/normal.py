@@ -163,6 +163,31 @@ def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40,
     return dV_dr[..., None] * rhat + (dV_dt / r)[..., None] * (zhat - t[..., None] * rhat)
 
 
+def zonal_sh_model(ell: Ellipsoid, nmax: int = 12, gm: float | None = None,
+                   radius: float | None = None):
+    r"""Return the normal gravitational potential as a zonal SH model of degree 2 nmax.
+
+    Fully normalised coefficients of the J2n series (Heiskanen & Moritz 1967 eq. 2-92),
+    re-expressed with the model constants ``gm``, ``radius`` (default: the ellipsoid's GM, a):
+
+    .. math::
+        \bar C_{00} = GM/gm,\qquad
+        \bar C_{2k,0} = -\frac{J_{2k}}{\sqrt{4k+1}}\,\frac{GM}{gm}\Big(\frac{a}{R}\Big)^{2k}.
+
+    Units: gm m³/s², radius m.
+    """
+    from ..model import SHModel
+
+    gm = ell.GM if gm is None else gm
+    radius = ell.a if radius is None else radius
+    L = 2 * nmax
+    C = np.zeros((L + 1, L + 1))
+    C[0, 0] = ell.GM / gm
+    for k in range(1, nmax + 1):
+        C[2 * k, 0] = -ell.J2n(k) / np.sqrt(4 * k + 1) * (ell.GM / gm) * (ell.a / radius) ** (2 * k)
+    return SHModel(f"zonal-{ell.name}", gm, radius, C, np.zeros_like(C), L)
+
+
 # ---------------------------------------------------------------------------------------------
 # truncated J2/J4/J6 (Chen et al. 2022 eqs. 7-8) by complex-step differentiation
 
