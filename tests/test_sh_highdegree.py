@@ -20,6 +20,7 @@ import pytest
 from fieldmap import _warp
 from fieldmap import sh as fsh
 from fieldmap.model import SHModel
+from fieldmap.models import kaula_model
 from fieldmap.reference import sh as ref
 
 DEVICES = _warp.devices()
@@ -27,21 +28,14 @@ GM, R = 3.986004415e14, 6378136.3
 L = 2190
 
 
-def kaula_model(lmax, seed, orders=None):
-    """Kaula-rule model sigma_n = 1e-5/n^2 (orders restricted to ``orders`` when given)."""
-    rng = np.random.default_rng(seed)
-    n = np.arange(lmax + 1)[:, None]
-    m = np.arange(lmax + 1)[None, :]
-    sig = np.where(n >= 2, 1e-5 / np.maximum(n, 1) ** 2, 0.0)
-    keep = m <= n
-    if orders is not None:
-        keep &= np.isin(m, orders)
-    C = np.where(keep, rng.standard_normal((lmax + 1, lmax + 1)) * sig, 0.0)
-    S = np.where(keep & (m > 0), rng.standard_normal((lmax + 1, lmax + 1)) * sig, 0.0)
-    C[0, 0] = 1.0
-    C[2, 0] = -4.84165e-4
-    name = f"kaula-{lmax}-seed{seed}" + ("-orders" if orders is not None else "")
-    return SHModel(name, GM, R, C, S, lmax, source="synthetic")
+def kaula_orders(lmax, seed, orders):
+    """:func:`fieldmap.models.kaula_model` with only the orders ``orders`` (and C00, C20) kept."""
+    model = kaula_model(lmax, seed=seed)
+    drop = ~np.isin(np.arange(lmax + 1), orders)
+    C, S = model.C.copy(), model.S.copy()
+    C[:, drop], S[:, drop] = 0.0, 0.0
+    C[0, 0], C[2, 0] = model.C[0, 0], model.C[2, 0]
+    return SHModel(model.name + "-orders", GM, R, C, S, lmax, source="synthetic")
 
 
 def mp_gravitation(model, x, y, z, orders=None, tol=mp.mpf("1e-22")):
@@ -132,7 +126,7 @@ def dense():
 @pytest.fixture(scope="module")
 def sparse():
     """Degree-2190 Kaula model restricted to the orders ORDERS."""
-    return kaula_model(L, seed=2191, orders=ORDERS)
+    return kaula_orders(L, seed=2191, orders=ORDERS)
 
 
 _MP_CACHE = {}  # (model name, point) -> mpmath result, shared by the device parametrisations
