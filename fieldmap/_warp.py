@@ -151,7 +151,7 @@ def launch_chunked(kernel, dim: int, inputs: list, device: str, parts: int | Non
         return
     pieces = chunks(dim, parts or cpu_workers())
     # load (compile) the module once, before several threads would race to do it
-    kernel.module.load(device)
+    wp.load_module(kernel.module, device=device)
     if len(pieces) == 1:
         wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
         return

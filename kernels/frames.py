@@ -2,6 +2,10 @@
 
 import warp as wp
 
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.func
 def geodetic_to_ecef(

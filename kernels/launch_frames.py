@@ -6,6 +6,10 @@ eq. (16) uses λ + ω t, eq. (17) uses R11 = −sin A0 sin λ0 − cos A0 sin B0
 
 import warp as wp
 
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.struct
 class LaunchParams:

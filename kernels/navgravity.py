@@ -7,6 +7,10 @@ eq. (13), the exact level-ellipsoid field and a spherical-harmonic model (eqs. 1
 
 import warp as wp
 
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
+
 from .normal import KIND_EXACT, NormalParams, centrifugal_ecef, normal_field_ecef
 from .sh import SHKernelModel, sh_gravitation_ecef
 

@@ -31,6 +31,10 @@ derivative factor; the m >= 1 rows hold ``f_nm``).
 
 import warp as wp
 
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
+
 from .frames import geodetic_to_ecef
 
 #: 1e-280 scale of the Holmes & Featherstone (2002) recursion and its inverse.

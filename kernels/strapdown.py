@@ -14,6 +14,10 @@ degree, loops over its steps and writes every ``output_every``-th state.
 
 import warp as wp
 
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
+
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import nav_gravitation_ecef, nav_gravity_ecef
