@@ -25,6 +25,7 @@ import json
 import os
 import pkgutil
 import re
+import shutil
 import struct
 import subprocess
 import sys
@@ -357,6 +358,9 @@ def test_cuda_only_error_is_reported(cuda_builds, tmp_path):
         build = build_cuda(module, tmp_path / "out")
     finally:
         del sys.modules[path.stem]
+        # leave no build of this throw-away module in the user's kernel cache
+        for leftover in Path(wp.config.kernel_cache_dir).rglob(f"*{path.stem}*"):
+            shutil.rmtree(leftover, ignore_errors=True) if leftover.is_dir() else leftover.unlink()
     assert build.error is not None
     assert "fieldmap_undeclared_on_cuda" in build.log and "error" in build.log, build.log
 

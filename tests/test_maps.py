@@ -1,7 +1,6 @@
 """Map products, area-weighted statistics, atomic writers, plots (fieldmap.maps/stats/io/plots)."""
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -221,4 +220,8 @@ def test_coastline_data():
     assert d.min() < 0.1
     w, _ = coastline.shifted(0.0)
     assert np.nanmin(w) >= 0 and np.nanmax(w) < 360
-    assert math.isclose(np.nanmax(np.abs(np.diff(w))), np.nanmax(np.abs(np.diff(w))))
+    # the wrap at 0/360 E is broken with NaN: no segment runs across the map (largest step of
+    # the 1:50m data between neighbouring vertices is < 10 degrees)
+    assert np.nanmax(np.abs(np.diff(w))) < 10.0
+    w2, _ = coastline.shifted(-180.0)
+    assert np.nanmin(w2) >= -180 and np.nanmax(w2) < 180 and np.nanmax(np.abs(np.diff(w2))) < 10.0
