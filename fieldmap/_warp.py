@@ -23,7 +23,7 @@ _pool: ThreadPoolExecutor | None = None
 
 
 def cpu_workers() -> int:
-    """Number of CPU threads used for CPU launches (``FIELDMAP_THREADS`` or all cores)."""
+    """Return the number of threads for CPU launches (``FIELDMAP_THREADS`` or all cores)."""
     env = os.environ.get("FIELDMAP_THREADS")
     if env:
         return max(1, int(env))

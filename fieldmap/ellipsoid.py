@@ -17,7 +17,8 @@ def _q_series(x: float) -> float:
 
     Heiskanen & Moritz (1967) eq. 2-58 with x = E/u (x = e' on the ellipsoid). The closed form
     cancels catastrophically for small x, so the alternating series
-    :math:`q = \tfrac12\sum_{k\ge1} (-1)^{k+1} \frac{4k\,x^{2k+1}}{(2k+1)(2k+3)}` is used for x < 0.5.
+    :math:`q = \tfrac12\sum_{k\ge1} (-1)^{k+1} \frac{4k\,x^{2k+1}}{(2k+1)(2k+3)}` is used
+    for x < 0.5.
     """
     if x >= 0.5:
         return 0.5 * ((1.0 + 3.0 / (x * x)) * math.atan(x) - 3.0 / x)
@@ -95,7 +96,7 @@ class Ellipsoid:
 
     @cached_property
     def m(self) -> float:
-        """m = ω²a²b/GM, Heiskanen & Moritz (1967) eq. 2-70."""
+        """Ratio m = ω²a²b/GM, Heiskanen & Moritz (1967) eq. 2-70."""
         return self.omega**2 * self.a**2 * self.b / self.GM
 
     @cached_property

@@ -9,13 +9,13 @@ import numpy as np
 
 @dataclass(frozen=True)
 class SHModel:
-    """Fully normalised spherical-harmonic coefficients of a gravitational potential.
+    r"""Fully normalised spherical-harmonic coefficients of a gravitational potential.
 
     The potential is (Chen et al. 2022 eq. 1, fully normalised, no Condon-Shortley phase)
 
     .. math::
-        V = \\frac{GM}{r}\\sum_{n=0}^{N}\\left(\\frac{R}{r}\\right)^n\\sum_{m=0}^{n}
-            (\\bar C_{nm}\\cos m\\lambda + \\bar S_{nm}\\sin m\\lambda)\\bar P_{nm}(\\sin\\varphi)
+        V = \frac{GM}{r}\sum_{n=0}^{N}\left(\frac{R}{r}\right)^n\sum_{m=0}^{n}
+            (\bar C_{nm}\cos m\lambda + \bar S_{nm}\sin m\lambda)\bar P_{nm}(\sin\varphi)
 
     Attributes
     ----------
