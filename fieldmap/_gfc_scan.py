@@ -5,14 +5,19 @@ strings: token boundaries are found on the byte array, keywords and degree/order
 with vectorised integer arithmetic, and all coefficient values are parsed by one call of
 :func:`numpy.fromstring` on a copy of the bytes where every other token has been blanked.
 Only when that parse fails does a per-token Python pass run, to name the offending token.
+Also here: ICGEM time stamps to decimal years, and unnormalised coefficients to fully
+normalised ones.
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import math
 import warnings
 
 import numpy as np
+
+from .errors import ModelFileError
 
 _WHITESPACE = np.zeros(256, bool)
 _WHITESPACE[[9, 10, 13, 32]] = True
@@ -113,3 +118,35 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
         if not ok:
             return None, int(t)
     return None, -1  # pragma: no cover - fromstring and float() disagree
+
+
+def unnormalized_to_full(C, S, path):
+    """Divide by the normalisation N̄nm = sqrt((2 − δm0)(2n+1)(n−m)!/(n+m)!)."""
+    nmax = C.shape[0] - 1
+    n = np.arange(nmax + 1, dtype=float)
+    norm = np.zeros_like(C)
+    col = np.sqrt(2.0 * n + 1.0)  # m = 0
+    for m in range(nmax + 1):
+        if m > 0:  # N̄n,m = N̄n,m−1 / sqrt((n+m)(n−m+1)), times sqrt(2) from m=0 to m=1
+            with np.errstate(divide="ignore", invalid="ignore"):
+                col = col / np.sqrt((n + m) * (n - m + 1.0)) * (math.sqrt(2.0) if m == 1 else 1)
+        norm[m:, m] = col[m:]
+    tiny = (norm[np.tril_indices(nmax + 1)] == 0) | ~np.isfinite(norm[np.tril_indices(nmax + 1)])
+    if tiny.any():
+        raise ModelFileError(f"{path}: unnormalized coefficients beyond the float64 range")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(norm > 0, C / norm, 0.0), np.where(norm > 0, S / norm, 0.0)
+
+
+def decimal_year(year: int, month: int, day: int, hour: int = 0, minute: int = 0) -> float:
+    """Return the decimal year of a calendar date (year + elapsed fraction of that year)."""
+    t = _dt.datetime(year, month, day, hour, minute)
+    y0, y1 = _dt.datetime(year, 1, 1), _dt.datetime(year + 1, 1, 1)
+    return year + (t - y0).total_seconds() / (y1 - y0).total_seconds()
+
+
+def yyyymmdd(value: float) -> float:
+    """Decimal year of an ICGEM time stamp ``yyyymmdd[.hhmm]`` given as a float."""
+    date = int(math.floor(value))
+    hhmm = int(round((value - date) * 1e4))
+    return decimal_year(date // 10000, (date // 100) % 100, date % 100, hhmm // 100, hhmm % 100)

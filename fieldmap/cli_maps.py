@@ -8,6 +8,8 @@ computes, then writes NetCDF (CF-1.8), PNG figures and a JSON summary atomically
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import time
 from pathlib import Path
 
@@ -41,17 +43,25 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             "--lmax",
             type=int,
             default=None,
-            help="truncation degree (default: the model's full degree)",
+            help="truncation degree, 0..the model's (default: the model's full degree)",
         )
         p.add_argument(
-            "--epoch", default=None, help="epoch of time-variable models (year or YYYY-MM-DD)"
+            "--epoch",
+            default=None,
+            help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
         )
-    p.add_argument("--step-deg", type=float, default=1.0, help="grid step in degrees (default 1)")
+    p.add_argument(
+        "--step-deg",
+        type=float,
+        default=1.0,
+        help="grid step in degrees, > 0 and at most the region's size (default 1)",
+    )
     p.add_argument(
         "--lat-max",
         type=float,
         default=80.0,
-        help="global grid from -LAT_MAX to LAT_MAX degrees (default 80, as the paper)",
+        help="global grid from -LAT_MAX to LAT_MAX degrees, 0 < LAT_MAX <= 90 "
+        "(default 80, as the paper)",
     )
     p.add_argument(
         "--region",
@@ -59,13 +69,19 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         nargs=4,
         metavar=("W", "E", "S", "N"),
         default=None,
-        help="regional grid instead of global: west east south north, degrees",
+        help="regional grid instead of global: west east south north in degrees "
+        "(longitudes -360..360, W > E crosses the antimeridian; -90 <= S < N <= 90)",
     )
     p.add_argument("--ellipsoid", default="WGS84", help="normal field: WGS84 (default) or GRS80")
     p.add_argument(
         "--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: cuda if present)"
     )
-    p.add_argument("--out", default="outputs", help="output folder (default: outputs/)")
+    p.add_argument(
+        "--out",
+        default="outputs",
+        help="output folder, created with its parents if missing (default: outputs/); "
+        "nothing is written unless the whole run succeeds",
+    )
     p.add_argument("--no-plots", action="store_true", help="write NetCDF and JSON only")
 
 
@@ -77,7 +93,8 @@ def register(subparsers) -> None:
         description=(
             "Global (80S-80N) or regional map of the gravity disturbance "
             "g_model - gamma_exact: east, north, up, modulus in mGal and mg, with area-weighted "
-            "statistics. Writes NetCDF, JSON and PNG (isolines, threshold maps) to --out."
+            "statistics. Writes NetCDF, JSON and PNG (isolines, threshold maps) to --out. "
+            "Bad input: one line on stderr, exit status 2, nothing written."
         ),
     )
     _common(p)
@@ -85,13 +102,14 @@ def register(subparsers) -> None:
         "--height-km",
         type=float,
         default=20.0,
-        help="height above the ellipsoid in km (default 20)",
+        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
     )
     p.add_argument(
         "--thresholds-mg",
         nargs="+",
         default=[DEFAULT_THRESHOLDS],
-        help="thresholds in mg for area fractions and isolines (default 0.02,0.05,0.06,0.10)",
+        help="thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
+        "positive and distinct (default 0.02,0.05,0.06,0.10)",
     )
     p.set_defaults(func=run_map)
 
@@ -105,13 +123,15 @@ def register(subparsers) -> None:
         "--height-km",
         nargs="+",
         default=["20,30,50,70,100"],
-        help="heights in km (default 20 30 50 70 100)",
+        help="heights above the ellipsoid in km, -1 to 1e5, distinct; separate arguments "
+        "or comma-separated (default 20 30 50 70 100)",
     )
     p.add_argument(
         "--thresholds-mg",
         nargs="+",
         default=[DEFAULT_THRESHOLDS],
-        help="thresholds in mg (default 0.02,0.05,0.06,0.10)",
+        help="thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct "
+        "(default 0.02,0.05,0.06,0.10)",
     )
     p.set_defaults(func=run_sweep)
 
@@ -125,7 +145,7 @@ def register(subparsers) -> None:
         "--height-km",
         type=float,
         default=20.0,
-        help="height above the ellipsoid in km (default 20)",
+        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
     )
     p.add_argument("--orders", default="2,4,6", help="J2n orders, e.g. 2,4,6 (default)")
     p.set_defaults(func=run_truncation)
@@ -148,32 +168,90 @@ def _stem(ds, kind: str) -> str:
     return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
 
 
+def _thresholds(args) -> list[float]:
+    from .stats import parse_thresholds
+
+    values = _numbers(args.thresholds_mg, "--thresholds-mg")
+    if len(set(values)) != len(values):
+        raise InputError(f"--thresholds-mg: repeated threshold in {values}")
+    return parse_thresholds(values)
+
+
 def _region(args):
     return tuple(args.region) if args.region is not None else None
 
 
-def _preflight(args, heights_km) -> None:
-    """Validate the grid, device and output folder before any computation or writing."""
+#: highest map height accepted (as ``fieldmap point``: beyond 1e8 m, a quarter of the lunar
+#: distance, the Earth's field model is no longer the relevant one). Units: m.
+MAX_HEIGHT_M = 1.0e8
+#: bytes of result per grid node and height (east, north, up, modulus in two units and the
+#: working copies of the synthesis), to refuse grids whose result cannot fit in memory
+_BYTES_PER_NODE = 96
+
+
+def _memory_bytes() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - non-POSIX
+        return None
+
+
+def _preflight(args, heights_km, layers: int = 1) -> None:
+    """Validate the grid, device and output folder before any computation or writing.
+
+    ``layers`` is the number of maps per height (orders of a truncation map), for the memory
+    estimate.
+    """
     from .grid import make_grid, resolve_device
     from .io import check_out_dir
 
-    make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
+    for h in heights_km:
+        if math.isfinite(h) and 1e3 * h > MAX_HEIGHT_M:
+            raise InputError(
+                f"height {h:g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where an "
+                "Earth gravity model is meant to be used"
+            )
+    grid = make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
+    nlat, nlon = grid.lat.size, grid.lon.size
+    if args.region is not None:
+        w, e, s, n = args.region
+        if s == n or w == e:
+            raise InputError(
+                f"empty region: --region {w:g} {e:g} {s:g} {n:g} has no area "
+                "(west = east or south = north)"
+            )
+    elif args.lat_max == 0:
+        raise InputError("--lat-max 0 gives a grid with no area; use a value in (0, 90]")
+    if nlat < 2 or nlon < 2:
+        raise InputError(
+            f"--step-deg {args.step_deg:g} is larger than the region: the grid would have "
+            f"{nlat} latitude(s) x {nlon} longitude(s); use a smaller step"
+        )
+    mem = _memory_bytes()
+    need = nlat * nlon * len(heights_km) * layers * _BYTES_PER_NODE
+    if mem is not None and need > mem // 2:
+        raise InputError(
+            f"a grid of {nlat} x {nlon} nodes x {len(heights_km) * layers} maps needs about "
+            f"{need / 2**30:.0f} GiB for its result, more than half of this machine's "
+            f"{mem / 2**30:.0f} GiB; use a larger --step-deg or a --region"
+        )
     if args.device is not None:
         resolve_device(args.device)
     check_out_dir(args.out)
 
 
 def _write(ds, stem: str, out: Path, figures: list, summary: dict) -> list[Path]:
-    from .io import prepare_out_dir, write_json, write_netcdf, write_png
+    """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
+    from .io import output_batch
     from .maps import summary as _summary
 
-    out = prepare_out_dir(out)
-    files = [write_netcdf(ds, out / f"{stem}.nc")]
     js = {**_summary(ds), **summary}
-    files.append(write_json(js, out / f"{stem}.json"))
-    for suffix, make in figures:
-        files.append(write_png(make(), out / f"{stem}_{suffix}.png"))
-    return files
+    with output_batch(out) as batch:
+        batch.netcdf(ds, f"{stem}.nc")
+        batch.json(js, f"{stem}.json")
+        for suffix, make in figures:
+            batch.png(make(), f"{stem}_{suffix}.png")
+        return batch.commit()
 
 
 def _print_files(files) -> None:
@@ -184,9 +262,8 @@ def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
     from . import plots
     from .maps import disturbance_map
-    from .stats import parse_thresholds
 
-    thresholds = parse_thresholds(_numbers(args.thresholds_mg, "--thresholds-mg"))
+    thresholds = _thresholds(args)
     _preflight(args, [args.height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
@@ -230,9 +307,8 @@ def run_sweep(args) -> int:
     """``fieldmap sweep``: statistics over several heights."""
     from . import plots
     from .maps import altitude_sweep
-    from .stats import parse_thresholds
 
-    thresholds = parse_thresholds(_numbers(args.thresholds_mg, "--thresholds-mg"))
+    thresholds = _thresholds(args)
     heights = _numbers(args.height_km, "--height-km")
     if len(set(heights)) != len(heights):
         raise InputError(f"--height-km: repeated height in {heights}")
@@ -284,7 +360,7 @@ def run_truncation(args) -> int:
     from .maps import truncation_map
 
     orders = _numbers(args.orders, "--orders", kind=int)
-    _preflight(args, [args.height_km])
+    _preflight(args, [args.height_km], layers=len(orders))
     ds = truncation_map(
         height_km=args.height_km,
         orders=orders,

@@ -12,8 +12,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import tempfile
 
 import numpy as np
 
@@ -29,7 +27,8 @@ def register(subparsers) -> None:
         help="navigation errors by gravity model and IMU grade (Chen et al. 2022 Tables 1, 3, 4)",
         description="Boost-glide INS simulation in the launch-centred inertial frame: exact IMU "
         "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
-        "each navigation gravity model and IMU error draw in one Warp launch.",
+        "each navigation gravity model and IMU error draw in one Warp launch. "
+        "Bad input: one line on stderr, exit status 2, nothing written.",
     )
     p.add_argument(
         "--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)"
@@ -46,29 +45,65 @@ def register(subparsers) -> None:
         help="normal model of table3 and of the table4 IMU-only reference (default j4)",
     )
     p.add_argument(
-        "--draws", type=int, default=None, help="Monte Carlo draws (table3: 50, table4: 20)"
+        "--draws",
+        type=int,
+        default=None,
+        help=f"Monte Carlo draws, 1..{MAX_DRAWS} (default: table3 50, table4 20)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the error draws")
+    p.add_argument("--seed", type=int, default=0, help="seed of the error draws, >= 0 (default 0)")
     p.add_argument(
         "--bias-mode",
         default="gauss",
         choices=("gauss", "sign", "fixed"),
         help="how constant errors are drawn per run (see fieldmap.imu_errors)",
     )
-    p.add_argument("--rate", type=float, default=200.0, help="IMU rate, Hz (default 200)")
-    p.add_argument("--gauss", type=int, default=2, help="Gauss-Legendre nodes per IMU sample")
-    p.add_argument("--duration", type=float, default=800.0, help="flight time, s (default 800)")
-    p.add_argument("--truth", default="eigen-6s", help="truth model name or ICGEM file")
-    p.add_argument("--truth-degree", type=int, default=None, help="truth degree (default full)")
-    p.add_argument("--output-dt", type=float, default=1.0, help="interval of the curves, s")
+    p.add_argument("--rate", type=float, default=200.0, help="IMU sample rate in Hz (default 200)")
+    p.add_argument(
+        "--gauss",
+        type=int,
+        default=2,
+        help="Gauss-Legendre nodes per IMU sample, 1..16 (default 2)",
+    )
+    p.add_argument(
+        "--duration", type=float, default=800.0, help="flight time in s, at most 800 (default 800)"
+    )
+    p.add_argument(
+        "--truth",
+        default="eigen-6s",
+        help="truth gravity model: bundled name or ICGEM .gfc[.gz] file (default eigen-6s)",
+    )
+    p.add_argument(
+        "--truth-degree",
+        type=int,
+        default=None,
+        help="truth degree (default: the model's full degree)",
+    )
+    p.add_argument(
+        "--output-dt",
+        type=float,
+        default=1.0,
+        help="interval of the error curves in s, at most --duration (default 1)",
+    )
     p.add_argument("--no-timing", action="store_true", help="skip the gravity CPU-time measurement")
     p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
-    p.add_argument("--out", default="outputs", help="output folder (default outputs/)")
+    p.add_argument(
+        "--out",
+        default="outputs",
+        help="output folder, created with its parents if missing (default outputs/)",
+    )
     p.set_defaults(func=run)
 
 
+#: most Monte Carlo draws per study (each draw propagates the whole flight; 10 000 draws of the
+#: 800 s path take hours on a CPU)
+MAX_DRAWS = 10_000
+
+
 def _check_args(args):
+    """Validate every option (and the output folder) before any work; return the checked ones."""
     from ._warp import DeviceError, resolve_device
+    from .imu import sample_count
+    from .io import check_out_dir
     from .models import load_model
     from .navsim import check_model_names
 
@@ -79,8 +114,10 @@ def _check_args(args):
     ):
         if not np.isfinite(v) or v <= 0:
             raise InputError(f"{name} must be a positive number, got {v}")
-    if args.draws is not None and args.draws < 1:
-        raise InputError(f"--draws must be >= 1, got {args.draws}")
+    if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
+        raise InputError(f"--draws must be within 1..{MAX_DRAWS}, got {args.draws}")
+    if args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}")
     if not 1 <= args.gauss <= 16:
         raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
     if args.duration * args.rate < 2:
@@ -89,15 +126,19 @@ def _check_args(args):
         raise InputError(
             f"--duration {args.duration} s is longer than the boost-glide path (800 s)"
         )
+    if args.output_dt > args.duration:
+        raise InputError(
+            f"--output-dt {args.output_dt:g} s is longer than --duration {args.duration:g} s"
+        )
+    sample_count(args.duration, args.rate)
+    model = load_model(args.truth, lmax=args.truth_degree)
+    models = check_model_names([m for m in args.models.replace(" ", ",").split(",") if m], model)
+    nav = check_model_names([args.nav], model)[0]
+    check_out_dir(args.out)
     try:
         device = resolve_device(args.device)
     except DeviceError as exc:
         raise InputError(str(exc)) from None
-    model = load_model(args.truth, lmax=args.truth_degree)
-    models = check_model_names([m for m in args.models.replace(" ", ",").split(",") if m], model)
-    nav = check_model_names([args.nav], model)[0]
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise InputError(f"--out {args.out!r} exists and is not a folder")
     return device, models, nav
 
 
@@ -106,6 +147,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from . import navsim
+    from .io import output_batch
 
     device, models, nav = _check_args(args)
     studies = STUDIES if args.study == "all" else (args.study,)
@@ -141,10 +183,11 @@ def run(args) -> int:
                 reference=nav,
             )
         results.append(res)
-    os.makedirs(args.out, exist_ok=True)
+    with output_batch(args.out) as batch:  # all files of all studies, or none
+        for res in results:
+            write_outputs(res, batch)
     for res in results:
         print(format_table(res))
-        write_outputs(res, args.out)
     return 0
 
 
@@ -192,28 +235,6 @@ def format_table(res) -> str:
     return "\n".join(lines)
 
 
-def _atomic(path: str, write) -> None:
-    """Write ``path`` through a temporary file in the same folder and rename it."""
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _write_text(path: str, text: str) -> None:
-    with open(path, "w", newline="") as fh:
-        fh.write(text)
-
-
 def _json_doc(res) -> dict:
     from .navsim import PAPER_TABLE1, PAPER_TABLE3
 
@@ -246,22 +267,32 @@ def _json_doc(res) -> dict:
     return doc
 
 
-def write_outputs(res, out_dir: str) -> list[str]:
-    """CSV, JSON, NetCDF and PNG of one study (atomic writes). Returns the paths."""
-    base = os.path.join(out_dir, f"navsim_{res.study}")
+def write_outputs(res, out) -> list[str]:
+    """CSV, JSON, NetCDF and PNG of one study; return the paths.
+
+    ``out`` is a folder (the four files are written as one :func:`fieldmap.io.output_batch`)
+    or an open :class:`fieldmap.io.OutputBatch` (committed by its owner).
+    """
+    from .io import OutputBatch, output_batch
+
+    if not isinstance(out, OutputBatch):
+        with output_batch(out) as batch:
+            paths = write_outputs(res, batch)
+        return paths
+    base = f"navsim_{res.study}"
     buf = io.StringIO()
     keys = list(dict.fromkeys(k for r in res.rows for k in r))
     w = csv.DictWriter(buf, fieldnames=keys)
     w.writeheader()
     w.writerows(res.rows)
-    paths = [base + ".csv", base + ".json", base + ".nc", base + ".png"]
-    _atomic(paths[0], lambda p: _write_text(p, buf.getvalue()))
-    text = json.dumps(_json_doc(res), indent=2, default=float)
-    _atomic(paths[1], lambda p: _write_text(p, text + "\n"))
-    ds = to_dataset(res)
-    _atomic(paths[2], lambda p: ds.to_netcdf(p))
-    _atomic(paths[3], lambda p: plot(res, p))
-    return paths
+    paths = [
+        out.text(buf.getvalue(), base + ".csv"),
+        out.text(json.dumps(_json_doc(res), indent=2, default=float) + "\n", base + ".json"),
+        out.netcdf(to_dataset(res), base + ".nc"),
+    ]
+    plot(res, str(out.path(base + ".png")))
+    paths.append(out.folder / (base + ".png"))
+    return [str(p) for p in paths]
 
 
 def to_dataset(res):

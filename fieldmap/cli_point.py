@@ -24,6 +24,9 @@ import sys
 #: of the lunar distance) the Earth model is no longer the relevant field. Units: m.
 MIN_HEIGHT = -10.0e3
 MAX_HEIGHT = 1.0e8
+#: accepted longitudes, as GeographicLib's DMS::DecodeLatLon ([-540, 540) degrees); a larger
+#: number is a typing error, and far beyond it float64 no longer resolves a degree. Units: deg.
+MAX_ABS_LON = 540.0
 
 QUANTITIES = ("disturbance", "gravity", "normal")
 NORMALS = ("exact", "j2", "j4", "j6")
@@ -38,7 +41,10 @@ def register(subparsers) -> None:
         description=(
             "Read 'lat lon [h]' lines (degrees, degrees, metres above WGS84) and print east north "
             "up per line: the gravity disturbance in mGal (default), gravity incl. centrifugal "
-            "in m/s², or normal gravity in m/s². Bad lines print 'ERROR: reason'."
+            "in m/s², or normal gravity in m/s². Accepted: |lat| <= 90, lon in [-540, 540), "
+            "h from -10 km to 1e5 km. A bad line prints 'ERROR: reason' in its place (one "
+            "summary line on stderr, exit status 1); bad options: one line on stderr, exit 2. "
+            "Empty input: no output, exit 0."
         ),
     )
     p.add_argument("--quantity", choices=QUANTITIES, default="disturbance",
@@ -47,9 +53,11 @@ def register(subparsers) -> None:
                    help="normal-gravity model for --quantity normal (default: exact)")
     p.add_argument("--model", default="eigen-6s",
                    help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)")
-    p.add_argument("--lmax", type=int, default=None, help="truncation degree")
+    p.add_argument("--lmax", type=int, default=None,
+                   help="truncation degree, 0..the model's (default: the model's full degree)")
     p.add_argument("--epoch", default=None,
-                   help="epoch of time-variable terms: decimal year or YYYY-MM-DD")
+                   help="epoch of time-variable terms: decimal year (1900..2200) or YYYY-MM-DD "
+                        "(default: the model's reference epoch)")
     p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: auto)")
     p.add_argument("--precision", type=int, default=None,
                    help="decimals printed (default: 3 for mGal, 5 for m/s², as Gravity)")
@@ -65,7 +73,8 @@ def register(subparsers) -> None:
     v.add_argument("--device", action="append", default=None,
                    help="device to check (repeatable; default: every device present)")
     v.add_argument("--lmax", type=int, default=240, help="degree of the EIGEN-6S checks (≤ 240)")
-    v.add_argument("--points", type=int, default=200, help="random points per check")
+    v.add_argument("--points", type=int, default=200,
+                   help="random points per check, >= 5 (default 200)")
     v.set_defaults(func=run_verify)
 
 
@@ -90,6 +99,8 @@ def parse_point_line(line: str):
     h = vals[2] if len(vals) == 3 else 0.0
     if abs(lat) > 90.0:
         raise ValueError(f"latitude {lat:g} outside [-90, 90]")
+    if not -MAX_ABS_LON <= lon < MAX_ABS_LON:
+        raise ValueError(f"longitude {lon:g} outside [-540, 540)")
     if h < MIN_HEIGHT:
         raise ValueError(f"height {h:g} m is more than {-MIN_HEIGHT:g} m below the ellipsoid")
     if h > MAX_HEIGHT:
@@ -152,7 +163,8 @@ def run_point(args) -> int:
     if args.lmax is not None and args.lmax < 0:
         raise InputError(f"--lmax must be >= 0, got {args.lmax}")
     if args.input == "-":
-        text = sys.stdin.read()
+        stdin = getattr(sys.stdin, "buffer", None)
+        text = stdin.read().decode("utf-8", "replace") if stdin else sys.stdin.read()
     else:
         with open(args.input, encoding="utf-8", errors="replace") as f:
             text = f.read()
@@ -174,7 +186,12 @@ def run_point(args) -> int:
     out = sys.stdout
     out.write("".join(r + "\n" for r in results))
     out.flush()
-    return 1 if any(r.startswith("ERROR:") for r in results) else 0
+    bad = [k for k, r in enumerate(results) if r.startswith("ERROR:")]
+    if bad:
+        print(f"fieldmap point: {len(bad)} of {len(results)} input lines could not be used "
+              f"(first: line {bad[0] + 1}: {results[bad[0]][7:]})", file=sys.stderr)
+        return 1
+    return 0
 
 
 def run_verify(args) -> int:

@@ -27,7 +27,6 @@ a few seconds); a per-line pass runs only to name the line of an error.
 
 from __future__ import annotations
 
-import datetime as _dt
 import gzip
 import math
 import os
@@ -37,6 +36,9 @@ import zlib
 import numpy as np
 
 from . import _gfc_scan as scan
+from ._gfc_scan import decimal_year  # public here
+from ._gfc_scan import unnormalized_to_full as _unnormalized_to_full
+from ._gfc_scan import yyyymmdd as _yyyymmdd
 from .errors import InputError, ModelFileError
 from .model import SHModel
 
@@ -64,20 +66,6 @@ def _fail(path, line, msg):
 
 
 # ----------------------------------------------------------------------------------- epochs
-def decimal_year(year: int, month: int, day: int, hour: int = 0, minute: int = 0) -> float:
-    """Return the decimal year of a calendar date (year + elapsed fraction of that year)."""
-    t = _dt.datetime(year, month, day, hour, minute)
-    y0, y1 = _dt.datetime(year, 1, 1), _dt.datetime(year + 1, 1, 1)
-    return year + (t - y0).total_seconds() / (y1 - y0).total_seconds()
-
-
-def _yyyymmdd(value: float) -> float:
-    """Decimal year of an ICGEM time stamp ``yyyymmdd[.hhmm]`` given as a float."""
-    date = int(math.floor(value))
-    hhmm = int(round((value - date) * 1e4))
-    return decimal_year(date // 10000, (date // 100) % 100, date % 100, hhmm // 100, hhmm % 100)
-
-
 def parse_epoch(epoch) -> float | None:
     """Return an epoch as a decimal year.
 
@@ -89,6 +77,10 @@ def parse_epoch(epoch) -> float | None:
     """
     if epoch is None:
         return None
+    if isinstance(epoch, bytes):
+        epoch = epoch.decode("latin-1")
+    if isinstance(epoch, (bool, np.bool_)) or not isinstance(epoch, (str, int, float, np.number)):
+        raise InputError(f"bad epoch {epoch!r}: use a decimal year (2010.5) or a date YYYY-MM-DD")
     if isinstance(epoch, str):
         s = epoch.strip()
         m = re.fullmatch(r"(\d{4})-?(\d{2})-?(\d{2})(?:[T ](\d{2}):(\d{2}))?", s)
@@ -106,6 +98,24 @@ def parse_epoch(epoch) -> float | None:
     if not (1900.0 <= epoch <= 2200.0):
         raise InputError(f"epoch {epoch} is not a decimal year between 1900 and 2200")
     return epoch
+
+
+def as_degree(lmax, what: str = "lmax") -> int | None:
+    """Return ``lmax`` as an int (None stays None); raise :class:`InputError` if not a degree.
+
+    Accepts integers, integral floats (``240.0``) and integer strings; rejects booleans,
+    fractions, NaN, inf and anything else. The range is the caller's to check.
+    """
+    if lmax is None:
+        return None
+    try:
+        value = int(lmax)
+        ok = not isinstance(lmax, (bool, np.bool_)) and float(lmax) == value
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise InputError(f"{what} must be an integer degree, got {lmax!r}")
+    return value
 
 
 # ----------------------------------------------------------------------------------- bytes
@@ -182,24 +192,6 @@ def _header_number(path, header, where, key, integer=False):
     return int(val) if integer else val
 
 
-def _unnormalized_to_full(C, S, path):
-    """Divide by the normalisation N̄nm = sqrt((2 − δm0)(2n+1)(n−m)!/(n+m)!)."""
-    nmax = C.shape[0] - 1
-    n = np.arange(nmax + 1, dtype=float)
-    norm = np.zeros_like(C)
-    col = np.sqrt(2.0 * n + 1.0)  # m = 0
-    for m in range(nmax + 1):
-        if m > 0:  # N̄n,m = N̄n,m−1 / sqrt((n+m)(n−m+1)), times sqrt(2) from m=0 to m=1
-            with np.errstate(divide="ignore", invalid="ignore"):
-                col = col / np.sqrt((n + m) * (n - m + 1.0)) * (math.sqrt(2.0) if m == 1 else 1)
-        norm[m:, m] = col[m:]
-    tiny = (norm[np.tril_indices(nmax + 1)] == 0) | ~np.isfinite(norm[np.tril_indices(nmax + 1)])
-    if tiny.any():
-        raise ModelFileError(f"{path}: unnormalized coefficients beyond the float64 range")
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(norm > 0, C / norm, 0.0), np.where(norm > 0, S / norm, 0.0)
-
-
 def _times(path, values, lines, nhead):
     """Decimal years of ICGEM time stamps ``yyyymmdd[.hhmm]`` (one per data line)."""
     uniq, inv = np.unique(values, return_inverse=True)
@@ -241,7 +233,11 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     InputError
         ``lmax`` above the file's ``max_degree``, or a bad or out-of-range epoch.
     """
-    path = os.fspath(path)
+    try:
+        path = os.fspath(path)
+    except TypeError:
+        raise InputError(f"model file must be a path, got {path!r}") from None
+    lmax = as_degree(lmax)
     raw = _read_bytes(path)
     _check_text(path, raw)
     header, where, offset, nhead = _parse_header(path, raw)
@@ -255,7 +251,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     v2 = (header.get("format", "").split() or [""])[0].lower().startswith("icgem2")
     if lmax is None:
         lmax = nmax
-    if int(lmax) != lmax or not 0 <= int(lmax) <= nmax:
+    if not 0 <= lmax <= nmax:
         raise InputError(f"lmax {lmax} is outside 0..{nmax}, the degree range of {path}")
     lmax, t = int(lmax), parse_epoch(epoch)
     if lmax > MAX_DEGREE:

@@ -75,9 +75,16 @@ class ImuIncrements:
 
 def validate_increments(dtheta, dv, dt) -> None:
     """Raise :class:`InputError` for mismatched or non-finite increments or a bad interval."""
-    if not np.isfinite(dt) or dt <= 0:
+    try:
+        dt_value = float(dt)
+    except (TypeError, ValueError):
+        raise InputError(f"IMU sample interval dt must be a number, got {dt!r}") from None
+    if not np.isfinite(dt_value) or dt_value <= 0:
         raise InputError(f"IMU sample interval dt must be positive and finite, got {dt}")
-    dtheta, dv = np.asarray(dtheta), np.asarray(dv)
+    try:
+        dtheta, dv = np.asarray(dtheta, dtype=np.float64), np.asarray(dv, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("IMU increments must be numeric arrays of shape (n, 3)") from None
     if dtheta.ndim != 2 or dtheta.shape[-1] != 3 or dv.ndim != 2 or dv.shape[-1] != 3:
         raise InputError(
             f"IMU increments must have shape (n, 3), got {dtheta.shape} and {dv.shape}"
@@ -150,16 +157,35 @@ class Gravitation:
 
 # --- synthesis ------------------------------------------------------------------------------------
 def gauss_legendre01(n: int):
-    """Gauss–Legendre nodes and weights on [0, 1] (n ≥ 1)."""
+    """Gauss–Legendre nodes and weights on [0, 1] (1 ≤ n ≤ 64)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 64:
+        raise InputError(f"number of Gauss-Legendre nodes must be an integer in 1..64, got {n!r}")
     x, w = np.polynomial.legendre.leggauss(int(n))
     return 0.5 * (x + 1.0), 0.5 * w
 
 
+#: most IMU samples of one synthesis (the paper's 800 s at 200 Hz is 160 000; this allows
+#: 12.5x that and keeps the Gauss-node gravity evaluations within a few GiB)
+MAX_SAMPLES = 2_000_000
+
+
 def sample_count(duration: float, rate_hz: float) -> int:
-    """Even number of samples covering ``duration`` at ``rate_hz`` (two samples per nav step)."""
+    """Even number of samples covering ``duration`` at ``rate_hz`` (two samples per nav step).
+
+    Units: ``duration`` s, ``rate_hz`` Hz. Raises :class:`InputError` for a non-positive or
+    non-finite value, fewer than 2 samples, or more than :data:`MAX_SAMPLES`.
+    """
     if not np.isfinite(rate_hz) or rate_hz <= 0:
         raise InputError(f"IMU rate must be positive, got {rate_hz}")
-    n = int(round(duration * rate_hz / 2.0)) * 2
+    if not np.isfinite(duration) or duration <= 0:
+        raise InputError(f"duration must be positive, got {duration}")
+    n = duration * rate_hz
+    if n > MAX_SAMPLES:
+        raise InputError(
+            f"duration {duration:g} s at {rate_hz:g} Hz gives {n:.3g} IMU samples, more than "
+            f"{MAX_SAMPLES}"
+        )
+    n = int(round(n / 2.0)) * 2
     if n < 2:
         raise InputError(f"duration {duration} s at {rate_hz} Hz gives fewer than 2 samples")
     return n

@@ -15,7 +15,7 @@ from importlib import resources
 import numpy as np
 
 from .errors import InputError
-from .icgem import parse_epoch, read_icgem
+from .icgem import as_degree, parse_epoch, read_icgem
 from .model import SHModel
 
 #: bundled models: lower-case name -> file in fieldmap/data
@@ -50,9 +50,10 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
 
     Parameters
     ----------
-    name_or_path : str or os.PathLike or SHModel
+    name_or_path : str or os.PathLike or SHModel or None
         A bundled model name (``"eigen-6s"``, case-insensitive), the path of an ICGEM ``.gfc`` or
         ``.gfc.gz`` file, or an :class:`SHModel` (returned, truncated to ``lmax`` if given).
+        None: the default model (EIGEN-6S).
     lmax : int, optional
         Truncation degree; default: the model's full degree.
     epoch : float or str, optional
@@ -66,13 +67,23 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
     Raises
     ------
     InputError
-        Unknown name, missing file, or ``lmax`` above the model's degree.
+        Unknown name, missing file, ``lmax`` not a non-negative integer or above the model's
+        degree, bad epoch.
     ModelFileError
         Malformed model file.
     """
+    lmax = as_degree(lmax)
+    if name_or_path is None:
+        name_or_path = DEFAULT_MODEL
     if isinstance(name_or_path, SHModel):
         return _truncate(name_or_path, lmax)
     t = parse_epoch(epoch)
+    if isinstance(name_or_path, bytes):
+        name_or_path = os.fsdecode(name_or_path)
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise InputError(
+            f"model must be a bundled model name, a file path or an SHModel, got {name_or_path!r}"
+        )
     name = os.fspath(name_or_path)
     bundled = BUNDLED.get(str(name).strip().lower())
     if bundled:

@@ -126,12 +126,14 @@ def build_scenario(
     """
     if not np.isfinite(duration) or duration <= 0:
         raise InputError(f"duration must be positive, got {duration}")
+    if not np.isfinite(output_dt) or output_dt <= 0:
+        raise InputError(f"output interval must be positive, got {output_dt}")
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device)
     imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
     steps = imu.n_samples // 2
-    every = max(1, int(round(output_dt * rate_hz / 2.0)))
+    every = min(steps, max(1, int(round(output_dt * rate_hz / 2.0))))
     while steps % every:  # the last state must be stored
         every -= 1
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
