@@ -150,3 +150,18 @@ def yyyymmdd(value: float) -> float:
     date = int(math.floor(value))
     hhmm = int(round((value - date) * 1e4))
     return decimal_year(date // 10000, (date // 100) % 100, date % 100, hhmm // 100, hhmm % 100)
+
+
+def first_outsize(C, S):
+    """Return ``(n, m, value)`` of the first coefficient too large to be physical, else None.
+
+    Fully normalised coefficients of a real body are far below 1 in size beyond degree 0
+    (Kaula's rule: about 1e-5/n²) and C̄00 is 1 by definition; a value beyond 1 is a unit or
+    normalisation error, and one beyond 1e150 overflows the synthesis.
+    """
+    big = (np.abs(C) > 1.0) | (np.abs(S) > 1.0)
+    if not big.any():
+        return None
+    n, m = (int(v[0]) for v in np.nonzero(big))
+    value = C[n, m] if abs(C[n, m]) > 1.0 else S[n, m]
+    return n, m, float(value)

@@ -181,8 +181,8 @@ def run_point(args) -> int:
         values = evaluate_points(lat, lon, h, args.quantity, args.normal, args.model, args.lmax,
                                  args.epoch, args.device)
         it = iter(values)
-        results = [r if r is not None else
-                   " ".join(f"{v:.{decimals}f}" for v in next(it)) for r in results]
+        # never print NaN or inf: a point where the series does not converge is a bad line
+        results = [r if r is not None else _format(next(it), decimals) for r in results]
     out = sys.stdout
     out.write("".join(r + "\n" for r in results))
     out.flush()
@@ -192,6 +192,12 @@ def run_point(args) -> int:
               f"(first: line {bad[0] + 1}: {results[bad[0]][7:]})", file=sys.stderr)
         return 1
     return 0
+
+
+def _format(row, decimals: int) -> str:
+    if not all(math.isfinite(v) for v in row):
+        return "ERROR: result is not finite (point too close to the masses for this model)"
+    return " ".join(f"{v:.{decimals}f}" for v in row)
 
 
 def run_verify(args) -> int:

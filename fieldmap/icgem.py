@@ -340,6 +340,10 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
                                 C, S, nhead)
     if not _NORMS[norm]:
         C, S = _unnormalized_to_full(C, S, path)
+    if (big := scan.first_outsize(C, S)) is not None:
+        bn, bm, v = big
+        raise _fail(path, nhead + int(lines[(n == bn) & (m == bm)][0]) + 1,
+                    f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model")
     name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
     return SHModel(
         name=name, gm=gm, radius=radius, C=C, S=S, max_degree=nmax,

@@ -29,7 +29,7 @@ def prepare_out_dir(out) -> Path:
 
     Call this only after every other input has been validated, so that bad input writes nothing.
     """
-    path = Path(out).expanduser()
+    path = _folder(out)
     if path.exists() and not path.is_dir():
         raise InputError(f"output path {str(path)!r} exists and is not a folder")
     try:
@@ -45,6 +45,12 @@ def prepare_out_dir(out) -> Path:
     return path
 
 
+def _folder(out) -> Path:
+    if not str(out).strip():
+        raise InputError("output folder name is empty")
+    return Path(out).expanduser()
+
+
 def check_out_dir(out) -> None:
     """Validate an output folder without leaving anything behind (raises :class:`InputError`).
 
@@ -53,7 +59,7 @@ def check_out_dir(out) -> None:
     enough: it says yes to root on read-only mounts and in ``/proc``). A missing folder is not
     created here; :func:`prepare_out_dir` creates it, with its parents, just before writing.
     """
-    path = Path(out).expanduser().absolute()
+    path = _folder(out).absolute()
     if path.exists():
         if not path.is_dir():
             raise InputError(f"output path {str(path)!r} exists and is not a folder")

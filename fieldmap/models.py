@@ -109,7 +109,25 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
         return _truncate(full, lmax)
     # read only the degrees needed (the reader skips the numbers of higher degrees)
     part = None if lmax is None else int(lmax)
-    return _read_cached(key + (part,), lambda: read_icgem(name, lmax=part, epoch=t))
+    return _read_cached(key + (part,), lambda: _earth(read_icgem(name, lmax=part, epoch=t)))
+
+
+#: accepted GM and reference radius of a user's model file: within 2 % of WGS84's (every
+#: Earth model on ICGEM is within 1e-6); others (Moon, Mars, unit errors) make the
+#: disturbance against the WGS84/GRS80 normal field meaningless. Units: m³/s², m.
+EARTH_GM = (0.98 * 3.986004418e14, 1.02 * 3.986004418e14)
+EARTH_RADIUS = (0.98 * 6378137.0, 1.02 * 6378137.0)
+
+
+def _earth(model: SHModel) -> SHModel:
+    """Return ``model`` if its GM and radius are an Earth model's; else raise InputError."""
+    if not (EARTH_GM[0] <= model.gm <= EARTH_GM[1]
+            and EARTH_RADIUS[0] <= model.radius <= EARTH_RADIUS[1]):
+        raise InputError(
+            f"{model.source}: GM {model.gm:g} m³/s² and radius {model.radius:g} m are not an "
+            "Earth model's (fieldmap compares with the WGS84/GRS80 normal field)"
+        )
+    return model
 
 
 def _with_source(model: SHModel, source: str) -> SHModel:

@@ -56,6 +56,14 @@ BAD_MODELS = {
     "truncated.gfc": ((_HEAD + _BODY[:40]).encode(), "line 11: 'gfc' line with 0 values"),
     "headeronly.gfc": (_HEAD.encode(), "no coefficient lines"),
     "nan.gfc": ((_HEAD + _BODY.replace("2.4e-06", "nan")).encode(), "bad number 'nan'"),
+    "huge.gfc": ((_HEAD + _BODY.replace("2.4e-06", "1e300")).encode(),
+                 "line 14: coefficient n=2 m=2 is 1e+300"),
+}
+# parse, but are no Earth model: evaluating them gave NaN or 1e300 mGal, printed as numbers
+ALIEN_MODELS = {
+    "moon.gfc": ("3.986004415E+14", "4.902800066E+12", "GM 4.9028e+12"),
+    "radius.gfc": ("radius 6378136.3", "radius 1e300", "radius 1e+300 m"),
+    "tinyradius.gfc": ("radius 6378136.3", "radius 1e-300", "radius 1e-300 m"),
 }
 
 
@@ -65,6 +73,8 @@ def work(tmp_path, monkeypatch):
     for name, (data, _) in BAD_MODELS.items():
         (tmp_path / name).write_bytes(data)
     (tmp_path / "good.gfc").write_text(_HEAD + _BODY)
+    for name, (a, b, _) in ALIEN_MODELS.items():
+        (tmp_path / name).write_text(_HEAD.replace(a, b) + _BODY)
     (tmp_path / "afile").write_text("x")
     (tmp_path / "adir").mkdir()
     monkeypatch.chdir(tmp_path)
@@ -122,7 +132,8 @@ POINT_OPTIONS = [
     (["--precision", "100"], "--precision"),
     (["--input", "nonexist.txt"], "No such file"),
     (["--input", "adir"], "Is a directory"),
-] + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()]
+] + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()] + [
+    (["--model", name], msg) for name, (_, _, msg) in ALIEN_MODELS.items()]
 
 
 @pytest.mark.parametrize("args, msg", POINT_OPTIONS, ids=lambda v: str(v))
@@ -161,6 +172,18 @@ def test_point_bad_lines(work, capsys, monkeypatch):
         assert text.startswith("ERROR: ") and why in text, (line, text)
     assert np.isfinite([float(v) for v in got[0].split() + got[-1].split()]).all()
     _assert_one_line(rc, err, 1, f"{len(BAD_LINES)} of {len(lines)} input lines", before, work)
+
+
+def test_point_never_prints_non_finite(work, capsys, monkeypatch):
+    """A result that is NaN or inf is reported as a bad line, not printed as a number."""
+    from fieldmap import cli_point
+
+    monkeypatch.setattr(cli_point, "evaluate_points",
+                        lambda lat, *a: np.array([[1.0, 2.0, 3.0], [np.nan, 0.0, 0.0]]))
+    rc, out, err = _main(["point"], capsys, "1 2 3\n4 5 6\n", monkeypatch)
+    assert out.splitlines() == ["1.000 2.000 3.000", "ERROR: result is not finite "
+                                "(point too close to the masses for this model)"]
+    assert rc == 1 and len(err.splitlines()) == 1
 
 
 def test_point_empty_input(work, capsys, monkeypatch):
@@ -215,6 +238,9 @@ GRID_CASES = [
     (["--out", "afile/sub"], "not a folder"),
     (["--out", "/proc/fieldmap_out"], "cannot create output folder"),
     (["--out", "/dev/null"], "not a folder"),
+    (["--out", "/proc/self"], "is not writable"),
+    (["--out", "/sys"], "is not writable"),
+    (["--out", ""], "output folder name is empty"),
     (["--height-km", "nan"], "finite"),
     (["--height-km", "inf"], "finite"),
     (["--height-km=-inf"], "finite"),
@@ -350,6 +376,7 @@ NAVSIM_CASES = [
     (["--out", "afile"], "not a folder"),
     (["--out", "afile/sub"], "not a folder"),
     (["--out", "/proc/fieldmap_out"], "cannot create output folder"),
+    (["--out", ""], "output folder name is empty"),
 ]
 
 
@@ -387,9 +414,13 @@ def test_api_models_and_reader(work):
         with pytest.raises(InputError, match="epoch"):
             load_model(epoch=epoch)
     for name, (_, msg) in BAD_MODELS.items():
-        with pytest.raises(ModelFileError, match=msg) as info:
+        with pytest.raises(ModelFileError, match=msg.replace("+", r"\+")) as info:
             read_icgem(name)
         assert name in str(info.value) and "\n" not in str(info.value)
+    for name, (_, _, msg) in ALIEN_MODELS.items():
+        assert read_icgem(name).lmax == 2  # a valid file ...
+        with pytest.raises(InputError, match="not an Earth model"):
+            load_model(name)  # ... but not a model fieldmap evaluates
 
 
 def test_api_maps_reject_bad_grids():
@@ -524,6 +555,22 @@ def test_map_interrupted_while_writing(work, capsys, monkeypatch, how):
             "error": (3, "internal error: RuntimeError: figure failed")}[how]
     _assert_one_line(rc, err, want[0], want[1], before, work)
     assert signal.getsignal(signal.SIGTERM) is not cli._on_sigterm  # handler restored
+
+
+def test_disk_full_while_writing(work, capsys, monkeypatch):
+    """ENOSPC while the NetCDF is written: one line naming it, no file left (not even .tmp)."""
+    import errno
+
+    from fieldmap import io as fio
+
+    def full(ds, tmp):
+        Path(tmp).write_bytes(b"CDF\x01partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp))
+
+    monkeypatch.setattr(fio, "_netcdf_to", full)
+    before = _tree(work)
+    rc, _, err = _main(["truncation", "--step-deg", "30", "--out", "res"], capsys)
+    _assert_one_line(rc, err, 2, "No space left on device", before, work)
 
 
 def test_writers_use_temp_and_replace_in_same_folder(tmp_path, monkeypatch):
