@@ -273,7 +273,7 @@ def write_outputs(res, out) -> list[str]:
     ``out`` is a folder (the four files are written as one :func:`fieldmap.io.output_batch`)
     or an open :class:`fieldmap.io.OutputBatch` (committed by its owner).
     """
-    from .io import OutputBatch, output_batch
+    from .io import OutputBatch, output_batch, signals_deferred
 
     if not isinstance(out, OutputBatch):
         with output_batch(out) as batch:
@@ -290,7 +290,8 @@ def write_outputs(res, out) -> list[str]:
         out.text(json.dumps(_json_doc(res), indent=2, default=float) + "\n", base + ".json"),
         out.netcdf(to_dataset(res), base + ".nc"),
     ]
-    plot(res, str(out.path(base + ".png")))
+    with signals_deferred():  # see fieldmap.io.signals_deferred
+        plot(res, str(out.path(base + ".png")))
     paths.append(out.folder / (base + ".png"))
     return [str(p) for p in paths]
 

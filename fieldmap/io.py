@@ -18,7 +18,9 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import signal
 import tempfile
+import threading
 from pathlib import Path
 
 from .errors import InputError
@@ -117,13 +119,39 @@ def atomic_path(path):
         raise
 
 
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold SIGINT and SIGTERM until the block ends, then deliver them (main thread only).
+
+    A ``KeyboardInterrupt`` raised inside the NetCDF/HDF5 writer can leave one of its locks
+    held; the cleanup that follows then waits on that lock for ever (seen with a 185 MB file).
+    Writing one file is short, so the signal waits for it; the caller's cleanup then removes
+    the temporary file as usual.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    old = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        old[sig] = signal.signal(sig, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        for sig in dict.fromkeys(caught):
+            signal.raise_signal(sig)  # the restored handler runs now
+
+
 def _netcdf_to(ds, tmp) -> None:
     encoding = {
         name: {"zlib": True, "complevel": 4}
         for name in ds.data_vars
         if ds[name].dtype.kind == "f" and ds[name].ndim >= 2
     }
-    ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+    with signals_deferred():
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
 
 
 def _text_to(text: str, tmp) -> None:
@@ -141,7 +169,8 @@ def _png_to(fig, tmp, dpi: int) -> None:
     import matplotlib.pyplot as plt
 
     try:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
+        with signals_deferred():
+            fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
     finally:
         plt.close(fig)
 
