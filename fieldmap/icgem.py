@@ -31,7 +31,6 @@ import gzip
 import math
 import os
 import re
-import zlib
 
 import numpy as np
 
@@ -119,40 +118,6 @@ def as_degree(lmax, what: str = "lmax") -> int | None:
 
 
 # ----------------------------------------------------------------------------------- bytes
-def _read_bytes(path) -> bytes:
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
-    except FileNotFoundError:
-        raise ModelFileError(f"{path}: no such model file") from None
-    except IsADirectoryError:
-        raise ModelFileError(f"{path}: is a directory, not a model file") from None
-    except OSError as exc:
-        raise ModelFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (EOFError, OSError, zlib.error) as exc:
-            raise ModelFileError(f"{path}: truncated or corrupt gzip data ({exc})") from None
-    if not raw or raw.isspace():
-        raise ModelFileError(f"{path}: empty file")
-    return raw
-
-
-_CONTROL = np.zeros(256, bool)
-_CONTROL[[c for c in range(32) if c not in (9, 10, 13)]] = True
-
-
-def _check_text(path, raw: bytes) -> None:
-    """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine)."""
-    b = np.frombuffer(raw, np.uint8)
-    ctrl = _CONTROL[b]
-    if ctrl.any():
-        pos = int(np.argmax(ctrl))
-        line = raw.count(b"\n", 0, pos) + 1
-        raise _fail(path, line, f"binary byte 0x{b[pos]:02x}: not an ICGEM text file")
-
-
 # ----------------------------------------------------------------------------------- header
 def _parse_header(path, raw: bytes):
     """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
@@ -238,8 +203,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     except TypeError:
         raise InputError(f"model file must be a path, got {path!r}") from None
     lmax = as_degree(lmax)
-    raw = _read_bytes(path)
-    _check_text(path, raw)
+    raw = scan.read_bytes(path)
+    scan.check_text(path, raw)
     header, where, offset, nhead = _parse_header(path, raw)
     gm = _header_number(path, header, where, "earth_gravity_constant")
     radius = _header_number(path, header, where, "radius")

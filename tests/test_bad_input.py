@@ -132,6 +132,7 @@ POINT_OPTIONS = [
     (["--precision", "100"], "--precision"),
     (["--input", "nonexist.txt"], "No such file"),
     (["--input", "adir"], "Is a directory"),
+    (["--model", "/dev/zero"], "binary byte 0x00"),
 ] + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()] + [
     (["--model", name], msg) for name, (_, _, msg) in ALIEN_MODELS.items()]
 
@@ -186,6 +187,27 @@ def test_point_never_prints_non_finite(work, capsys, monkeypatch):
     assert rc == 1 and len(err.splitlines()) == 1
 
 
+def test_point_input_size_is_capped(work, capsys, monkeypatch):
+    """``--input /dev/zero`` ends with one error line instead of filling the memory."""
+    from fieldmap import cli_point
+
+    monkeypatch.setattr(cli_point, "MAX_INPUT_BYTES", 8 << 20)
+    before = _tree(work)
+    rc, out, err = _main(["point", "--input", "/dev/zero"], capsys)
+    _assert_one_line(rc, err, 2, "/dev/zero: more than", before, work)
+    assert out == ""
+
+
+def test_model_from_a_pipe(work, capsys, monkeypatch):
+    """A model read from a pipe (``--model <(zcat f.gz)``) works; binary streams stop at once."""
+    r, w = os.pipe()
+    with open(w, "wb") as fh:
+        fh.write((_HEAD + _BODY).encode())
+    rc, out, err = _main(["point", "--model", f"/dev/fd/{r}"], capsys, "10 20 0\n", monkeypatch)
+    os.close(r)
+    assert rc == 0 and len(out.split()) == 3, err
+
+
 def test_point_empty_input(work, capsys, monkeypatch):
     """Empty stdin is zero points (as GeographicLib's Gravity): no output, exit 0, silent."""
     rc, out, err = _main(["point"], capsys, "", monkeypatch)
@@ -197,7 +219,8 @@ def test_point_empty_input(work, capsys, monkeypatch):
     (["--lmax", "-1"], "within 0..240"),
     (["--lmax", "241"], "within 0..240"),
     (["--lmax", "x"], "invalid int value"),
-    (["--points", "0"], ">= 5"),
+    (["--points", "0"], "within 5..1000000"),
+    (["--points", "100000000"], "within 5..1000000"),
     (["--points", "x"], "invalid int value"),
     (["--device", "cuda:7"], "not present"),
     (["--device", "bogus"], "not present"),
@@ -670,7 +693,7 @@ def test_console_script_parse_errors_one_line(tmp_path):
 # ----------------------------------------------------------------------------- --help
 @pytest.mark.parametrize("cmd, words", [
     ("point", ["degrees", "metres", "mGal", "m/s²", "[-540, 540)", "exit 2"]),
-    ("verify", ["1e-12", ">= 5"]),
+    ("verify", ["1e-12", "5..1000000"]),
     ("map", ["km", "degrees", "mg", "9.80665e-3 m/s²", "created", "nothing written"]),
     ("sweep", ["km", "degrees", "mg", "distinct", "created"]),
     ("truncation", ["km", "degrees", "2,4,6", "created"]),
