@@ -128,11 +128,18 @@ class Gravitation:
     def __init__(
         self, kind: str = "sh", model=None, lmax: int | None = None, device: str | None = None
     ):
+        from ._warp import DeviceError, resolve_device
+        from .icgem import as_degree
+
         self.kind = str(kind).lower()
-        self.device = device
+        try:
+            self.device = None if device is None else resolve_device(device)
+        except DeviceError as exc:
+            raise InputError(str(exc)) from None
         if self.kind == "sh":
             self.model = model if model is not None else load_truth_model()
-            self.lmax = self.model.lmax if lmax is None else int(lmax)
+            lmax = as_degree(lmax)
+            self.lmax = self.model.lmax if lmax is None else lmax
             if not 0 <= self.lmax <= self.model.lmax:
                 raise InputError(
                     f"degree {lmax} is beyond the model {self.model.name} (max {self.model.lmax})"

@@ -91,8 +91,12 @@ class ImuErrorSpec:
     def __post_init__(self):
         for f in fields(self):
             v = getattr(self, f.name)
-            if not np.isfinite(v) or v < 0:
-                raise InputError(f"IMU error {f.name} must be finite and >= 0, got {v}")
+            try:
+                ok = not isinstance(v, (bool, str, bytes)) and np.isfinite(v) and v >= 0
+            except TypeError:
+                ok = False
+            if not ok:
+                raise InputError(f"IMU error {f.name} must be finite and >= 0, got {v!r}")
 
 
 #: Table 2 of Chen et al. (2022): accelerometer error groups (gyro perfect).
@@ -208,10 +212,13 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
     """
     if mode not in MODES:
         raise InputError(f"unknown bias mode {mode!r} (known: {', '.join(MODES)})")
-    n = int(n)
+    n = _integer(n, "number of Monte Carlo draws")
     if n < 1:
         raise InputError(f"number of Monte Carlo draws must be >= 1, got {n}")
-    rng = np.random.default_rng(int(seed))
+    seed = _integer(seed, "seed")
+    if seed < 0:
+        raise InputError(f"seed must be >= 0, got {seed}")
+    rng = np.random.default_rng(seed)
     acc_b = _axes(rng, spec.acc_bias_ug * UG, n, mode)
     gyro_b = _axes(rng, spec.gyro_bias_deg_h * DEG_H, n, mode)
     acc_M = (1.0 + _axes(rng, spec.acc_scale_ppm * 1e-6, n, mode))[:, :, None] * rotation(
@@ -253,8 +260,12 @@ def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
     tuple of ndarray
         Measured ``(dtheta, dv)``.
     """
-    if not np.isfinite(dt) or dt <= 0:
-        raise InputError(f"dt must be positive, got {dt}")
+    from .imu import validate_increments
+
+    validate_increments(dtheta, dv, dt)
+    run = _integer(run, "run")
+    if not 0 <= run < draws.n:
+        raise InputError(f"run {run} is outside the {draws.n} draws")
     rng = np.random.default_rng(int(draws.seed[run])) if rng is None else rng
     dtheta, dv = np.asarray(dtheta, float), np.asarray(dv, float)
     th = dtheta @ draws.gyro_M[run].T + draws.gyro_bias[run] * dt
@@ -262,6 +273,18 @@ def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
     th = th + draws.gyro_noise[run] * np.sqrt(dt) * rng.standard_normal(th.shape)
     v = v + draws.acc_noise[run] * np.sqrt(dt) * rng.standard_normal(v.shape)
     return th, v
+
+
+def _integer(value, what: str) -> int:
+    """Return ``value`` as an int; raise :class:`InputError` unless it is a whole number."""
+    try:
+        out = int(value)
+        ok = not isinstance(value, (bool, np.bool_)) and float(value) == out
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise InputError(f"{what} must be an integer, got {value!r}")
+    return out
 
 
 def scaled(spec: ImuErrorSpec, factor: float) -> ImuErrorSpec:

@@ -124,10 +124,9 @@ def build_scenario(
     progress : bool
         tqdm progress bars.
     """
-    if not np.isfinite(duration) or duration <= 0:
-        raise InputError(f"duration must be positive, got {duration}")
-    if not np.isfinite(output_dt) or output_dt <= 0:
-        raise InputError(f"output interval must be positive, got {output_dt}")
+    for what, v in (("duration", duration), ("output interval", output_dt), ("rate", rate_hz)):
+        if isinstance(v, (str, bytes, bool)) or not np.isfinite(v) or v <= 0:
+            raise InputError(f"{what} must be a positive number, got {v!r}")
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device)

@@ -60,6 +60,16 @@ class Kinematics:
     w_b: np.ndarray
 
 
+def _number(value, what: str) -> float:
+    """Return ``value`` as a float; raise :class:`InputError` if it is not a real number."""
+    try:
+        if isinstance(value, (str, bytes, bool)):
+            raise TypeError
+        return float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number, got {value!r}") from None
+
+
 def _rows(M, v):
     """Apply matrices ``M`` (3,3) or (N,3,3) to row vectors ``v`` (N,3)."""
     return np.einsum("...ij,...j->...i", M, v)
@@ -88,6 +98,7 @@ class Trajectory:
     name = "trajectory"
 
     def __init__(self, frame: LaunchFrame, duration: float):
+        duration = _number(duration, "trajectory duration")
         if not np.isfinite(duration) or duration <= 0:
             raise InputError(
                 f"trajectory duration must be a positive number of seconds, got {duration}"
@@ -325,9 +336,13 @@ class Stationary(Trajectory):
 
     def __init__(self, frame: LaunchFrame, duration: float, lat=None, lon=None, h=None):
         super().__init__(frame, duration)
-        lat = frame.B0 if lat is None else lat
-        lon = frame.lon0 if lon is None else lon
-        h = frame.h0 if h is None else h
+        lat = frame.B0 if lat is None else _number(lat, "latitude")
+        lon = frame.lon0 if lon is None else _number(lon, "longitude")
+        h = frame.h0 if h is None else _number(h, "height")
+        if not (np.isfinite([lat, lon, h]).all() and abs(lat) <= 90.0):
+            raise InputError(
+                f"stationary point needs finite lat in [-90, 90], lon, h; got {lat}, {lon}, {h}"
+            )
         self.r0 = np.array(geodetic_to_ecef(lat, lon, h, frame.ellipsoid))
         enu = C_e_to_enu(lat, lon)  # rows E, N, U in ECEF
         self.C_b_e = np.stack([enu[1], enu[0], -enu[2]], axis=-1)  # columns N, E, D

@@ -523,9 +523,42 @@ def test_api_navsim_inputs():
         with pytest.raises(InputError, match="Gauss"):
             imu.gauss_legendre01(n)
     frame = LaunchFrame(lon0=105.0, B0=25.0, A0=90.0)
+    for kw in ({"lat": 91.0}, {"h": float("nan")}, {"lon": "x"}):
+        with pytest.raises(InputError):
+            Stationary(frame, 10.0, **kw)
+    for duration in ("x", None, float("nan"), 0.0):
+        with pytest.raises(InputError, match="duration"):
+            Stationary(frame, duration)
+    with pytest.raises(InputError, match="not present"):
+        imu.Gravitation("j2", device="cuda:7")
+    with pytest.raises(InputError, match="integer degree"):
+        imu.Gravitation("sh", model=model, lmax=2.5)
+    for kw in ({"duration": "x"}, {"rate_hz": float("inf")}, {"output_dt": -1.0}):
+        with pytest.raises(InputError, match="must be a positive number"):
+            navsim.build_scenario(**kw)
     deep = Stationary(frame, 10.0, h=-5000.0)
     with pytest.raises(InputError, match="below the surface"):
         imu.synthesize(deep, 20.0, imu.Gravitation("j2"))
+
+
+def test_api_imu_errors():
+    """IMU error specs, draws and their application refuse bad values with InputError."""
+    from fieldmap import imu_errors as ie
+
+    for value in (-1.0, float("nan"), "x", None, True):
+        with pytest.raises(InputError, match="acc_bias_ug"):
+            ie.ImuErrorSpec(acc_bias_ug=value)
+    for kw, msg in (({"n": 0}, ">= 1"), ({"n": 2.5}, "integer"), ({"n": 2, "seed": -1}, ">= 0"),
+                    ({"n": 2, "seed": "x"}, "integer"), ({"n": 2, "mode": "x"}, "bias mode")):
+        with pytest.raises(InputError, match=msg):
+            ie.draw(ie.TABLE4, **kw)
+    d = ie.draw(ie.TABLE4, 2)
+    z = np.zeros((4, 3))
+    for args, kw, msg in (((z, z, 0.0, d), {}, "positive"), ((z, z, 0.005, d), {"run": 5}, "run 5"),
+                          ((z, np.zeros((6, 3)), 0.005, d), {}, "differ in length"),
+                          ((z, z * np.nan, 0.005, d), {}, "NaN or inf")):
+        with pytest.raises(InputError, match=msg):
+            ie.apply(*args, **kw)
 
 
 def test_build_scenario_long_output_interval_is_fast():
