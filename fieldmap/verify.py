@@ -234,18 +234,38 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
     devices : list of str, optional
         Warp devices (default: every device present).
     lmax : int
-        Degree of the EIGEN-6S checks (≤ 240).
+        Degree of the EIGEN-6S checks (0..240).
     points : int
-        Number of random points of the point checks.
+        Number of random points of the point checks (5..1000000).
+
+    Raises
+    ------
+    InputError
+        A device not present, or ``lmax``/``points`` out of range.
 
     Returns
     -------
     list of CheckResult
     """
     from . import _warp
+    from .errors import InputError
+    from .icgem import as_degree
 
-    devices = list(devices) if devices else _warp.devices()
-    opts = {"lmax": int(lmax), "points": int(points)}
+    if isinstance(devices, str):
+        devices = [devices]
+    try:
+        devices = [_warp.resolve_device(d) for d in devices] if devices else _warp.devices()
+    except _warp.DeviceError as exc:
+        raise InputError(str(exc)) from None
+    lmax = as_degree(lmax)
+    if isinstance(points, (bool, str)) or int(points) != points:
+        raise InputError(f"points must be an integer, got {points!r}")
+    points = int(points)
+    if not 0 <= lmax <= 240:
+        raise InputError(f"lmax must be within 0..240 (EIGEN-6S), got {lmax}")
+    if not 5 <= points <= 1_000_000:
+        raise InputError(f"points must be within 5..1000000, got {points}")
+    opts = {"lmax": lmax, "points": points}
     rows = []
     for device in devices:
         for module, make in CHECKS:

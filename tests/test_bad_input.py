@@ -541,6 +541,17 @@ def test_api_navsim_inputs():
         imu.synthesize(deep, 20.0, imu.Gravitation("j2"))
 
 
+def test_api_verify():
+    """``fieldmap.verify.run_checks`` checks its arguments before running anything."""
+    from fieldmap.verify import run_checks
+
+    for kw, msg in (({"devices": ["cuda:7"]}, "not present"), ({"devices": "tpu"}, "not present"),
+                    ({"lmax": 241}, "0..240"), ({"lmax": 2.5}, "integer degree"),
+                    ({"points": 1}, "5..1000000"), ({"points": "x"}, "must be an integer")):
+        with pytest.raises(InputError, match=msg):
+            run_checks(**kw)
+
+
 def test_api_imu_errors():
     """IMU error specs, draws and their application refuse bad values with InputError."""
     from fieldmap import imu_errors as ie
