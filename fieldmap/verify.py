@@ -258,7 +258,11 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
     except _warp.DeviceError as exc:
         raise InputError(str(exc)) from None
     lmax = as_degree(lmax)
-    if isinstance(points, (bool, str)) or int(points) != points:
+    try:
+        ok = not isinstance(points, (bool, str)) and int(points) == points
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
         raise InputError(f"points must be an integer, got {points!r}")
     points = int(points)
     if not 0 <= lmax <= 240:

@@ -547,7 +547,8 @@ def test_api_verify():
 
     for kw, msg in (({"devices": ["cuda:7"]}, "not present"), ({"devices": "tpu"}, "not present"),
                     ({"lmax": 241}, "0..240"), ({"lmax": 2.5}, "integer degree"),
-                    ({"points": 1}, "5..1000000"), ({"points": "x"}, "must be an integer")):
+                    ({"points": 1}, "5..1000000"), ({"points": "x"}, "must be an integer"),
+                    ({"points": None}, "must be an integer"), ({"points": 1e300}, "5..1000000")):
         with pytest.raises(InputError, match=msg):
             run_checks(**kw)
 
