@@ -116,7 +116,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="disturbance statistics over several heights",
-        description="Disturbance maps and statistics at several heights (table, plot, maps).",
+        description="Disturbance maps (east, north, up, modulus in mGal and mg) and their "
+        "area-weighted statistics at several heights: table, plot, maps. Bad input: one line "
+        "on stderr, exit status 2, nothing written.",
     )
     _common(p)
     p.add_argument(
@@ -138,7 +140,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "truncation",
         help="J2/J4/J6 normal gravitation truncation-error maps",
-        description="Maps of the J2n normal gravitation minus the exact level-ellipsoid one.",
+        description="Maps of the J2n normal gravitation minus the exact level-ellipsoid one "
+        "(east, north, up, modulus in mGal and mg) for each order. Bad input: one line on "
+        "stderr, exit status 2, nothing written.",
     )
     _common(p, model=False)
     p.add_argument(

@@ -740,8 +740,8 @@ def test_console_script_parse_errors_one_line(tmp_path):
     ("point", ["degrees", "metres", "mGal", "m/s²", "[-540, 540)", "exit 2"]),
     ("verify", ["1e-12", "5..1000000"]),
     ("map", ["km", "degrees", "mg", "9.80665e-3 m/s²", "created", "nothing written"]),
-    ("sweep", ["km", "degrees", "mg", "distinct", "created"]),
-    ("truncation", ["km", "degrees", "2,4,6", "created"]),
+    ("sweep", ["km", "degrees", "mGal", "distinct", "created", "nothing written"]),
+    ("truncation", ["km", "degrees", "mGal", "2,4,6", "created", "nothing written"]),
     ("navsim", ["Hz", "in s", "1..16", "created", "nothing written"]),
 ])
 def test_help_documents_units(capsys, cmd, words):
