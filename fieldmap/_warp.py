@@ -17,6 +17,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
 
+from .errors import InputError
+
 _lock = threading.Lock()
 _ready = False
 _pool: ThreadPoolExecutor | None = None
@@ -85,7 +87,7 @@ def devices() -> list[str]:
     return [str(d) for d in wp.get_devices()]
 
 
-class DeviceError(ValueError):
+class DeviceError(InputError):
     """Raised when a requested device does not exist on this machine."""
 
 
