@@ -24,12 +24,18 @@ from . import frames
 from .ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from .errors import InputError
 from .model import SHModel
+from .normal import MAX_HEIGHT as _NORMAL_MAX_HEIGHT
+from .normal import check_geodetic
 from .sh import sh_gravitation
 
 #: Lowest accepted height above the ellipsoid. The series is the exterior potential; below the
 #: topography it is a harmonic continuation that diverges somewhere under the Brillouin sphere,
 #: and a few km below sea level is as far as a navigation user goes. Units: m.
 MIN_HEIGHT = -10.0e3
+#: Highest accepted height, :data:`fieldmap.normal.MAX_HEIGHT` (1e8 m): beyond it an Earth model
+#: is not the relevant field, and far above it (h = 1e300) the series silently returned NaN.
+#: Units: m.
+MAX_HEIGHT = _NORMAL_MAX_HEIGHT
 
 #: Units of the disturbance: factor from m/s². 1 mGal = 1e-5 m/s², 1 mg = 9.80665e-3 m/s².
 UNITS = {"m/s2": 1.0, "mgal": 1.0e5, "mg": 1.0 / 9.80665e-3}
@@ -45,24 +51,11 @@ def _model(model, epoch) -> SHModel:
 
 
 def _points(lat_deg, lon_deg, h_m):
-    out = []
-    for name, v in (("latitude", lat_deg), ("longitude", lon_deg), ("height", h_m)):
-        try:
-            a = np.asarray(v, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise InputError(f"{name} must be numeric") from None
-        if not np.all(np.isfinite(a)):
-            raise InputError(f"{name} must be finite")
-        out.append(a)
-    lat, lon, h = np.broadcast_arrays(*out)
-    if np.any(np.abs(lat) > 90.0):
-        raise InputError("latitude must be within [-90, 90] degrees")
-    if np.any(h < MIN_HEIGHT):
-        raise InputError(
-            f"height below {MIN_HEIGHT:.0f} m: too deep under the surface for the "
-            "spherical-harmonic series"
-        )
-    return lat, lon, h
+    """Return the validated, broadcast (lat, lon, h): see :func:`fieldmap.normal.check_geodetic`."""
+    return check_geodetic(
+        lat_deg, lon_deg, h_m,
+        "too deep under the surface for the spherical-harmonic series", min_height=MIN_HEIGHT,
+    )
 
 
 def _inputs(lat, lon, h, frame: str, ellipsoid):
@@ -95,9 +88,10 @@ def gravitation(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=No
     Parameters
     ----------
     lat, lon : array_like
-        Geodetic latitude and longitude (broadcast with ``h``). Units: degrees.
+        Geodetic latitude in [-90, 90] and longitude in [-540, 540) (GeographicLib's range),
+        broadcast with ``h``. Units: degrees.
     h : array_like
-        Height above ``ellipsoid``, ≥ ``MIN_HEIGHT``. Units: m.
+        Height above ``ellipsoid``, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT`` (1e8 m). Units: m.
     model : SHModel or str
         A model, a bundled model name or the path of an ICGEM file.
     lmax : int, optional
@@ -150,9 +144,9 @@ def disturbance(lat, lon, h, model="eigen-6s", lmax=None, ellipsoid: Ellipsoid |
     Parameters
     ----------
     lat, lon : array_like
-        Geodetic latitude and longitude. Units: degrees.
+        Geodetic latitude in [-90, 90] and longitude in [-540, 540). Units: degrees.
     h : array_like
-        Height above ``ellipsoid``. Units: m.
+        Height above ``ellipsoid``, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT``. Units: m.
     model : SHModel or str
         A model, a bundled model name or the path of an ICGEM file.
     lmax : int, optional

@@ -33,6 +33,12 @@ GROVES_J2 = 1.082627e-3
 #: continuation of the exterior normal field (exact down to the focal disc), which is what a
 #: navigation system uses a few km below sea level; deeper points are rejected. Units: m.
 MIN_HEIGHT = -10.0e3
+#: Highest accepted height above the ellipsoid: 1e8 m, a quarter of the lunar distance, beyond
+#: which an Earth gravity model is no longer the relevant field (and far below the heights where
+#: r² overflows and the kernels would silently return NaN, e.g. h = 1e300). Units: m.
+MAX_HEIGHT = 1.0e8
+#: Accepted longitudes, half-open as GeographicLib's DMS::DecodeLatLon: [-540, 540). Units: deg.
+LON_MIN, LON_MAX = -540.0, 540.0
 
 KINDS = {"exact": 0, "j2": 2, "j4": 4, "j6": 6, "groves_j2": 2}
 FRAMES = {"ecef": 0, "enu": 1, "ned": 2}
@@ -93,6 +99,66 @@ def _as_float(name: str, v) -> np.ndarray:
     return arr
 
 
+def _worst(a: np.ndarray, bad: np.ndarray) -> float:
+    """First offending value of ``a`` where ``bad`` (for the error message)."""
+    return float(a[bad].ravel()[0])
+
+
+def check_geodetic(lat_deg, lon_deg, h_m, below: str, min_height: float = MIN_HEIGHT):
+    """Validate geodetic points and broadcast them together.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like
+        Geodetic latitude in [-90, 90] and longitude in [-540, 540) (GeographicLib's range).
+        Units: degrees.
+    h_m : array_like
+        Height above the ellipsoid in [``min_height``, ``MAX_HEIGHT``]. Units: m.
+    below : str
+        End of the message for a height below ``min_height`` (why the caller refuses it).
+    min_height : float
+        Lowest accepted height. Units: m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(lat, lon, h)`` float64, broadcast to one shape (read-only views).
+
+    Raises
+    ------
+    InputError
+        Non-numeric, non-finite or out-of-range values, or shapes that do not broadcast.
+    """
+    lat = _as_float("latitude", lat_deg)
+    lon = _as_float("longitude", lon_deg)
+    h = _as_float("height", h_m)
+    try:
+        lat, lon, h = np.broadcast_arrays(lat, lon, h)
+    except ValueError:
+        raise InputError(
+            f"latitude, longitude and height of shapes {lat.shape}, {lon.shape}, {h.shape} do "
+            "not broadcast to one shape"
+        ) from None
+    bad = np.abs(lat) > 90.0
+    if np.any(bad):
+        raise InputError(f"latitude must be within [-90, 90] degrees, got {_worst(lat, bad):g}")
+    bad = (lon < LON_MIN) | (lon >= LON_MAX)
+    if np.any(bad):
+        raise InputError(
+            f"longitude must be within [{LON_MIN:g}, {LON_MAX:g}) degrees, got {_worst(lon, bad):g}"
+        )
+    bad = h < min_height
+    if np.any(bad):
+        raise InputError(f"height {_worst(h, bad):g} m is below {min_height:.0f} m: {below}")
+    bad = h > MAX_HEIGHT
+    if np.any(bad):
+        raise InputError(
+            f"height {_worst(h, bad):g} m is above {MAX_HEIGHT:g} m, outside the range where an "
+            "Earth gravity model is meant to be used"
+        )
+    return lat, lon, h
+
+
 def _params_for(ell: Ellipsoid, kind: str, groves_j2: float | None) -> _k.NormalParams:
     if kind == "groves_j2":
         return normal_params(ell, j2=ell.J2 if groves_j2 is None else groves_j2)
@@ -115,9 +181,10 @@ def normal_gravity(
     Parameters
     ----------
     lat_deg, lon_deg : array_like
-        Geodetic latitude and longitude (broadcast together with ``h_m``). Units: degrees.
+        Geodetic latitude in [-90, 90] and longitude in [-540, 540) (broadcast together with
+        ``h_m``). Units: degrees.
     h_m : array_like
-        Height above the ellipsoid, ≥ ``MIN_HEIGHT``. Units: m.
+        Height above the ellipsoid, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT``. Units: m.
     ellipsoid : Ellipsoid or str
         Level ellipsoid, default WGS84.
     kind : {"exact", "j2", "j4", "j6", "groves_j2"}
@@ -142,17 +209,10 @@ def normal_gravity(
     key = _check_kind(kind)
     fkey = _check_frame(frame)
     ell = get_ellipsoid(ellipsoid)
-    lat = _as_float("latitude", lat_deg)
-    lon = _as_float("longitude", lon_deg)
-    h = _as_float("height", h_m)
-    if np.any(np.abs(lat) > 90.0):
-        raise InputError("latitude must be within [-90, 90] degrees")
-    if np.any(h < MIN_HEIGHT):
-        raise InputError(
-            f"height below {MIN_HEIGHT:.0f} m: deep inside the level ellipsoid, outside the domain "
-            "of the normal-gravity model"
-        )
-    lat, lon, h = np.broadcast_arrays(lat, lon, h)
+    lat, lon, h = check_geodetic(
+        lat_deg, lon_deg, h_m,
+        "deep inside the level ellipsoid, outside the domain of the normal-gravity model",
+    )
     shape = lat.shape
     n = lat.size
     if n == 0:
@@ -190,7 +250,8 @@ def normal_gravitation_ecef(
     Parameters
     ----------
     x, y, z : array_like
-        ECEF coordinates (broadcast together). Units: m.
+        ECEF coordinates (broadcast together), at most ``MAX_HEIGHT`` above and
+        ``-MIN_HEIGHT`` below the ellipsoid. Units: m.
     ellipsoid, kind, device, groves_j2
         As in :func:`normal_gravity`.
     centrifugal : bool
@@ -203,15 +264,34 @@ def normal_gravitation_ecef(
     """
     key = _check_kind(kind)
     ell = get_ellipsoid(ellipsoid)
-    x, y, z = np.broadcast_arrays(*(_as_float(nm, v) for nm, v in zip("xyz", (x, y, z))))
+    xyz = [_as_float(nm, v) for nm, v in zip("xyz", (x, y, z))]
+    try:
+        x, y, z = np.broadcast_arrays(*xyz)
+    except ValueError:
+        raise InputError(
+            f"x, y and z of shapes {', '.join(str(v.shape) for v in xyz)} do not broadcast to "
+            "one shape"
+        ) from None
     shape = x.shape
     if x.size == 0:
         return np.zeros(shape + (3,))
+    # bound the components first: squares of ~1e200 m overflow to inf in the geodetic conversion
+    far = ell.a + MAX_HEIGHT
+    if np.any((np.abs(x) > far) | (np.abs(y) > far) | (np.abs(z) > far)):
+        raise InputError(
+            f"ECEF point more than {MAX_HEIGHT:g} m above the ellipsoid (a coordinate exceeds "
+            f"{far:g} m): outside the range where an Earth gravity model is meant to be used"
+        )
     _, _, h = ecef_to_geodetic(x, y, z, ell)
     if np.any(~(h >= MIN_HEIGHT)):
         raise InputError(
             f"ECEF point more than {-MIN_HEIGHT:.0f} m below the ellipsoid: outside the domain "
             "of the normal-gravity model"
+        )
+    if np.any(h > MAX_HEIGHT):
+        raise InputError(
+            f"ECEF point more than {MAX_HEIGHT:g} m above the ellipsoid: outside the range where "
+            "an Earth gravity model is meant to be used"
         )
     dev = _warp.resolve_device(device)
     pts = np.ascontiguousarray(np.stack([x.ravel(), y.ravel(), z.ravel()], axis=-1))
