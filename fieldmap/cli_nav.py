@@ -328,41 +328,7 @@ def to_dataset(res):
 
 
 def plot(res, path: str) -> None:
-    """Plot position and velocity error curves (Figs. 11-13); Monte Carlo: median, 5-95 % band."""
-    import matplotlib
+    """Write the study's figure (Figs. 11-13 like; see :mod:`fieldmap.navplots`) as PNG."""
+    from .navplots import plot as _plot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    groups: dict[str, list[int]] = {}
-    for i, lab in enumerate(res.labels):
-        groups.setdefault(lab.split("/")[0], []).append(i)
-    for ax, data, unit in (
-        (axes[0], res.pos, "position error (m)"),
-        (axes[1], res.vel, "velocity error (m/s)"),
-    ):
-        for lab, idx in groups.items():
-            d = data[idx][:, 1:]
-            if len(idx) == 1:
-                ax.plot(res.t[1:], d[0], label=lab)
-            else:
-                (line,) = ax.plot(res.t[1:], np.median(d, 0), label=f"{lab} (median)")
-                ax.fill_between(
-                    res.t[1:],
-                    np.percentile(d, 5, 0),
-                    np.percentile(d, 95, 0),
-                    color=line.get_color(),
-                    alpha=0.2,
-                )
-        ax.set_yscale("log")
-        ax.set_xlabel("time since launch (s)")
-        ax.set_ylabel(unit)
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.suptitle(
-        f"{res.study}: truth {res.meta['truth_model']} (degree {res.meta['truth_degree']})"
-    )
-    fig.tight_layout()
-    fig.savefig(path, format="png", dpi=110)
-    plt.close(fig)
+    _plot(res, path)
