@@ -225,7 +225,7 @@ def _at_800(meta) -> bool:
 
 
 def _paper_proxy(table: str, extra: str = ""):
-    label = f"Chen et al. (2022) {table} at 800 s (truth EIGEN-6C4){extra}"
+    label = f"large hollow markers: Chen et al. (2022) {table} at 800 s (truth EIGEN-6C4{extra})"
     return _proxy(ls="none", marker="o", ms=9, mfc="none", mec="k", mew=1.6, label=label)
 
 
@@ -291,7 +291,7 @@ def _table1(res):
                 rel_paper = {m: abs(paper[m][col] / paper["j6"][col] - 1) for m in paper}
                 _paper_marks(ax, res.t[-1], {m: rel_paper[m] for m in rel if m in paper}, styles)
             ax.margins(x=0.0)
-            ax.set_xlim(right=t[-1] * 1.09)
+            ax.set_xlim(right=t[-1] * 1.13)
     if paper:
         extra = "; lower panels: relative to its J6" if rel and ref == "normal" else ""
         handles.append(_paper_proxy("Table 1", extra))
@@ -299,7 +299,7 @@ def _table1(res):
         "Fig. 11 / Table 1 — navigation error caused by the navigation gravity model alone "
         "(error-free IMU)"
     )
-    bottom = f"effect of the J-truncation of the normal field (numbers: value at {t[-1]:g} s)"
+    bottom = f"J-truncation effect on the normal field (labels: signed value at {t[-1]:g} s)"
     _finish(fig, axes, title, _context(meta), handles, 2, bottom=bottom)
     return fig
 
@@ -342,7 +342,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
             for ax, col in zip(axes[1], (1, 0)):
                 ratios = {c: v[col] / paper[ref][col] for c, v in paper.items() if c != ref}
                 _paper_marks(ax, res.t[-1], ratios, styles)
-        handles.append(_paper_proxy("Table 3", "; lower panels: ratio of its values"))
+        handles.append(_paper_proxy("Table 3", "; lower panels: ratios of its values"))
     if ref:
         for ax, (key, _, _) in zip(axes[1], PANELS):
             q = "p" if key == "pos" else "v"

@@ -168,3 +168,94 @@ def test_examples_small(tmp_path, script, monkeypatch, capsys):
     assert exc.value.code == 0
     assert "paper" in capsys.readouterr().out
     assert len(os.listdir(tmp_path)) == 4
+
+
+# --- figures (Figs. 11-13): what a reader must be able to read off them -------------------------
+
+
+def _styles(ax):
+    return [(ln.get_color(), ln.get_marker()) for ln in ax.get_lines()]
+
+
+def _title(fig):
+    return fig._suptitle.get_text()
+
+
+def _legend(fig):
+    return [t.get_text() for t in fig.legends[0].get_texts()]
+
+
+def test_table1_figure(t1):
+    import matplotlib.pyplot as plt
+
+    from fieldmap import navplots
+
+    fig = navplots.make_figure(t1)
+    try:
+        title = _title(fig)
+        for part in ("Table 1", "EIGEN-6S to degree 240", "boost-glide", "60 s", "IMU 100 Hz"):
+            assert part in title
+        axes = np.array(fig.axes).reshape(2, 2)
+        assert axes[0, 0].get_ylabel().endswith("(m)")
+        assert axes[0, 1].get_ylabel().endswith("(m/s)")
+        assert all(ax.get_xlabel() == "time since launch (s)" for ax in axes[1])
+        # 6 models + floor, each with its own colour and its own marker (J4, J6 and normal
+        # coincide to the eye: colour alone would not tell them apart)
+        st = _styles(axes[0, 0])
+        assert len(st) == 7 and len({c for c, _ in st}) == 7
+        assert len({m for _, m in st if m not in (None, "None")}) == 6
+        legend = _legend(fig)
+        assert sum("numerical floor" in t for t in legend) == 1
+        # lower panel: | |δp_Jn| / |δp_normal| − 1 | for J2, J4, J6, recomputed from the curves
+        by = {lab: i for i, lab in enumerate(t1.labels)}
+        ref = t1.pos[by["normal"], -1]
+        finals = [ln.get_ydata()[-1] for ln in axes[1, 0].get_lines()]
+        expect = [abs(t1.pos[by[m], -1] / ref - 1) for m in ("j2", "j4", "j6")]
+        np.testing.assert_allclose(finals, expect, rtol=1e-12)
+        # the truncation effect falls by orders of magnitude from J2 to J4 to J6 (paper §5.2)
+        assert finals[0] > 100 * finals[1] > 100 * finals[2] > 0
+    finally:
+        plt.close(fig)
+
+
+def test_monte_carlo_figures(scenario, tmp_path):
+    import matplotlib.pyplot as plt
+
+    from fieldmap import navplots
+
+    res3 = navsim.table3(scenario, draws=3, seed=2)
+    res4 = navsim.table4(scenario, ["j4", "sh200"], draws=3, seed=2)
+    for res, words in (
+        (res3, ("Table 3", "Table 2", "3 Monte Carlo draws", "IMU 100 Hz", "J4")),
+        (res4, ("Table 4", "gyro bias 0.003 °/h", "accelerometer bias 10 µg", "3 Monte Carlo")),
+    ):
+        fig = navplots.make_figure(res)
+        try:
+            title = _title(fig)
+            assert all(w in title for w in words), (title, words)
+            assert "shaded: 5th–95th percentile over 3 draws, line: median" in _legend(fig)
+            axes = np.array(fig.axes).reshape(2, 2)
+            n_cases = len(res.rows)
+            for ax in axes[0]:
+                assert len(set(_styles(ax))) == n_cases
+                assert len(ax.collections) == n_cases - (res.study == "table3")  # group 4: 1 run
+            # lower panels: the reference case is the line at 1; the others are ratios to it
+            assert "ratio to" in axes[1, 0].get_ylabel()
+            ref_line = axes[1, 0].get_lines()[0] if res.study == "table4" else None
+            if ref_line is not None:
+                assert np.all(np.asarray(ref_line.get_ydata()) == 1.0)
+        finally:
+            plt.close(fig)
+    # table 4 lower panel, J4 case: median over draws of the draw-by-draw ratio to IMU-only
+    fig = navplots.make_figure(res4)
+    try:
+        ratio_line = np.array(fig.axes).reshape(2, 2)[1, 0].get_lines()[1]
+        i0 = [i for i, lab in enumerate(res4.labels) if lab.startswith("imu_only/")]
+        i1 = [i for i, lab in enumerate(res4.labels) if lab.startswith("imu+j4/")]
+        expect = np.median(res4.pos[i1, -1] / res4.pos[i0, -1])
+        assert ratio_line.get_ydata()[-1] == pytest.approx(expect, rel=1e-12)
+    finally:
+        plt.close(fig)
+    path = tmp_path / "f.png"
+    navplots.plot(res3, str(path))
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
