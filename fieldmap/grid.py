@@ -1,154 +1,31 @@
-"""Latitude-longitude grids: specification, validation and fast synthesis of gravitation.
+"""Latitude-longitude grids: fast synthesis of gravitation on a :class:`GridSpec`.
 
-:class:`GridSpec` describes a grid of geodetic latitudes and longitudes (degrees) at one or more
-heights (m above the ellipsoid). :func:`synthesize` evaluates, on every node, the model
-gravitation minus a normal gravitation (the disturbance) or the model gravitation alone, in the
-geodetic east-north-up frame, by circles of latitude: one Legendre pass per (row, height) with
-:func:`fieldmap.kernels.grid.row_fourier_kernel`, then the longitude sums of all nodes of the row
-by FFT (regular longitudes) or a direct sum kernel (any longitudes). Rows are processed in
-blocks so memory stays bounded for any grid size and degree.
+:class:`GridSpec` (built and validated by :func:`make_grid`, both from
+:mod:`fieldmap.gridspec` and re-exported here) describes a grid of geodetic latitudes and
+longitudes (degrees) at one or more heights (m above the ellipsoid). :func:`synthesize`
+evaluates, on every node, the model gravitation minus a normal gravitation (the disturbance) or
+the model gravitation alone, in the geodetic east-north-up frame, by circles of latitude: one
+Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier_kernel`, then the
+longitude sums of all nodes of the row by FFT (regular longitudes) or a direct sum kernel (any
+longitudes). Rows are processed in blocks so memory stays bounded for any grid size and degree.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from .errors import InputError
+from .gridspec import (  # noqa: F401 - re-exported: the grid API lives here for users
+    MAX_HEIGHT_M,
+    MIN_HEIGHT_M,
+    GridSpec,
+    check_memory,
+    make_grid,
+)
 from .longitude import _regular_period, longitude_sums
 
-#: Lowest height accepted (m): the series is meant for points outside the masses.
-MIN_HEIGHT_M = -1000.0
 #: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
 BLOCK_BYTES = 192 * 2**20
-_EPS = 1e-9
-
-
-@dataclass(frozen=True)
-class GridSpec:
-    """A validated geodetic grid.
-
-    Attributes
-    ----------
-    lat : numpy.ndarray
-        Geodetic latitudes, ascending. Units: degrees.
-    lon : numpy.ndarray
-        Longitudes, ascending (beyond 180 for a region across the antimeridian). Units: degrees.
-    heights : numpy.ndarray
-        Heights above the ellipsoid. Units: m.
-    step_deg : float
-        Nominal spacing. Units: degrees.
-    is_global : bool
-        True for a global grid (all longitudes, latitudes -lat_max..lat_max).
-    """
-
-    lat: np.ndarray
-    lon: np.ndarray
-    heights: np.ndarray
-    step_deg: float
-    is_global: bool = False
-
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        """(number of heights, latitudes, longitudes)."""
-        return (self.heights.size, self.lat.size, self.lon.size)
-
-    @property
-    def region(self) -> tuple[float, float, float, float]:
-        """(west, east, south, north) of the nodes. Units: degrees."""
-        return (float(self.lon[0]), float(self.lon[-1]), float(self.lat[0]), float(self.lat[-1]))
-
-
-def _axis(start: float, stop: float, step: float) -> np.ndarray:
-    n = int(math.floor((stop - start) / step + _EPS)) + 1
-    return start + step * np.arange(n, dtype=np.float64)
-
-
-def make_grid(
-    step_deg: float = 1.0,
-    lat_max: float = 80.0,
-    region: tuple[float, float, float, float] | None = None,
-    heights_m=(20000.0,),
-) -> GridSpec:
-    """Build and validate a grid specification.
-
-    Parameters
-    ----------
-    step_deg : float
-        Node spacing in latitude and longitude. Units: degrees (> 0).
-    lat_max : float
-        Global grids span latitudes -lat_max..lat_max (the paper: 80) and longitudes
-        -180..180-step. Units: degrees (0..90).
-    region : (west, east, south, north), optional
-        Regional grid instead, nodes from west/south in steps up to east/north. east < west means
-        the region crosses the antimeridian. Units: degrees.
-    heights_m : sequence of float
-        Heights above the ellipsoid. Units: m (finite, >= -1000).
-
-    Raises
-    ------
-    InputError
-        Non-positive or non-finite step, latitude beyond +-90, empty region, bad heights.
-    """
-    try:
-        step = float(step_deg)
-    except (TypeError, ValueError):
-        raise InputError(f"step must be a number, got {step_deg!r}") from None
-    if not math.isfinite(step) or step <= 0:
-        raise InputError(f"step must be a positive number of degrees, got {step_deg!r}")
-    if step > 90:
-        raise InputError(f"step {step} deg is larger than 90 deg")
-    h = np.atleast_1d(np.asarray(heights_m, dtype=np.float64)).ravel()
-    if h.size == 0:
-        raise InputError("no height given")
-    if not np.all(np.isfinite(h)):
-        raise InputError(f"heights must be finite, got {h.tolist()}")
-    if np.any(h < MIN_HEIGHT_M):
-        raise InputError(
-            f"height {h.min():g} m is below {MIN_HEIGHT_M:g} m: the spherical-harmonic series is "
-            "meant for points outside the Earth's masses"
-        )
-    if region is None:
-        lm = float(lat_max)
-        if not math.isfinite(lm) or not 0 <= lm <= 90:
-            raise InputError(f"latitude limit must be within 0..90 deg, got {lat_max!r}")
-        lat = _axis(-lm, lm, step)
-        if abs(lat[-1] - lm) < 1e-9:  # make the mirror rows exact negatives of each other
-            half = lat.size // 2
-            lat[lat.size - half :] = -lat[:half][::-1]
-        nlon = 360.0 / step
-        nlon = int(round(nlon)) if abs(nlon - round(nlon)) < 1e-6 else int(math.floor(nlon)) + 1
-        lon = -180.0 + step * np.arange(nlon, dtype=np.float64)
-        lon = lon[lon < 180.0 - _EPS]
-    else:
-        if len(region) != 4:
-            raise InputError(f"region must be west east south north, got {region!r}")
-        w, e, s, n = (float(x) for x in region)
-        if not all(math.isfinite(x) for x in (w, e, s, n)):
-            raise InputError(f"region bounds must be finite, got {region!r}")
-        if not (-90 <= s <= 90 and -90 <= n <= 90):
-            raise InputError(
-                f"region latitudes must be within -90..90 deg, got south={s} north={n}"
-            )
-        if n < s:
-            raise InputError(f"empty region: north {n} is south of south {s}")
-        if not (-360 <= w <= 360 and -360 <= e <= 360):
-            raise InputError(f"region longitudes must be within -360..360 deg, got {w}, {e}")
-        if e < w:
-            e += 360.0
-        if e - w > 360.0 + _EPS:
-            raise InputError(f"region spans more than 360 deg of longitude ({w}..{e})")
-        lat = _axis(s, n, step)
-        lon = _axis(w, e, step)
-        if lon.size > 1 and lon[-1] - lon[0] >= 360.0 - _EPS:
-            lon = lon[:-1]
-    if lat.size == 0 or lon.size == 0:
-        raise InputError("empty grid")
-    if lat.size * lon.size * h.size > 2_000_000_000:
-        raise InputError(f"grid of {lat.size}x{lon.size}x{h.size} nodes is too large")
-    return GridSpec(lat=lat, lon=lon, heights=h, step_deg=step, is_global=region is None)
 
 
 QUANTITIES = ("disturbance", "gravitation", "gravity")

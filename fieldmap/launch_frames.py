@@ -31,8 +31,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .ellipsoid import WGS84, Ellipsoid
+from .ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from .errors import InputError
 from .frames import geodetic_to_ecef
+
+#: Accepted launch longitudes and azimuths, half-open, as GeographicLib's angle range. Units: deg.
+ANGLE_RANGE = (-540.0, 540.0)
+#: Accepted launch heights: as :mod:`fieldmap.normal` (-10 km .. 1e8 m). Units: m.
+HEIGHT_RANGE = (-10.0e3, 1.0e8)
+
+
+def _checked(name: str, value, lo: float, hi: float, closed: bool, unit: str) -> float:
+    """``value`` as a float within [lo, hi] (``closed``) or [lo, hi), else :class:`InputError`."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number, got {value!r}") from None
+    inside = lo <= v <= hi if closed else lo <= v < hi
+    if not inside:  # NaN fails both comparisons
+        end = "]" if closed else ")"
+        raise InputError(
+            f"{name} must be a finite number within [{lo:g}, {hi:g}{end} {unit}, got {value!r}"
+        )
+    return v
 
 
 def C_e_to_t(t, omega: float = WGS84.omega):
@@ -108,13 +129,18 @@ class LaunchFrame:
     Parameters
     ----------
     lon0, B0 : float
-        Launch longitude and geodetic latitude. Units: degrees.
+        Launch longitude in [-540, 540) and geodetic latitude in [-90, 90]. Units: degrees.
     A0 : float
-        Launch azimuth, clockwise from north. Units: degrees.
+        Launch azimuth, clockwise from north, in [-540, 540). Units: degrees.
     h0 : float
-        Launch height above the ellipsoid (origin of the a-frame). Units: m.
-    ellipsoid : Ellipsoid
+        Launch height above the ellipsoid (origin of the a-frame), -10 km .. 1e8 m. Units: m.
+    ellipsoid : Ellipsoid or str
         Reference ellipsoid (its ``a``, ``e2`` and rotation rate ``omega`` are used).
+
+    Raises
+    ------
+    InputError
+        A non-numeric, non-finite or out-of-range field, or an unknown ellipsoid.
     """
 
     lon0: float
@@ -122,6 +148,18 @@ class LaunchFrame:
     A0: float
     h0: float = 0.0
     ellipsoid: Ellipsoid = WGS84
+
+    def __post_init__(self):
+        """Validate and normalise the fields (floats, an :class:`Ellipsoid`); InputError if bad."""
+        checks = (
+            ("lon0", "launch longitude lon0", *ANGLE_RANGE, False, "degrees"),
+            ("B0", "launch latitude B0", -90.0, 90.0, True, "degrees"),
+            ("A0", "launch azimuth A0", *ANGLE_RANGE, False, "degrees"),
+            ("h0", "launch height h0", *HEIGHT_RANGE, True, "m"),
+        )
+        for field, *args in checks:
+            object.__setattr__(self, field, _checked(args[0], getattr(self, field), *args[1:]))
+        object.__setattr__(self, "ellipsoid", get_ellipsoid(self.ellipsoid))
 
     @property
     def omega(self) -> float:

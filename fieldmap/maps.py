@@ -14,7 +14,7 @@ import xarray as xr
 from . import __version__
 from .cf import COMPONENTS, UNITS, coords, global_attrs, stats_attrs, vector_vars
 from .errors import InputError
-from .grid import make_grid, normal_rows, resolve_device, synthesize
+from .grid import MAX_HEIGHT_M, check_memory, make_grid, normal_rows, resolve_device, synthesize
 from .stats import map_statistics, parse_thresholds, threshold_key
 
 __all__ = [
@@ -34,14 +34,41 @@ def _check_units(units: str) -> float:
 
 
 def _heights_m(height_km, one: str | None = None) -> np.ndarray:
-    """Heights in m from km; ``one``: the message of the error raised unless there is one."""
+    """Heights in m from km; ``one``: the message of the error raised unless there is one.
+
+    Checked here in the caller's unit (km), so that 1e306 km is "above 100000 km" rather than an
+    overflow to inf; distinct values (a sweep of the same height twice is a typing slip).
+    """
     try:
-        h = np.atleast_1d(np.asarray(height_km, dtype=np.float64)).ravel() * 1e3
+        km = np.atleast_1d(np.asarray(height_km, dtype=np.float64)).ravel()
     except (TypeError, ValueError):
         raise InputError(f"heights must be numbers in km, got {height_km!r}") from None
-    if one is not None and h.size != 1:
+    if one is not None and km.size != 1:
         raise InputError(one)
-    return h
+    if not np.all(np.isfinite(km)):
+        raise InputError(f"heights must be finite, got {km.tolist()} km")
+    if np.any(km > MAX_HEIGHT_M / 1e3):
+        raise InputError(
+            f"height {km.max():g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where "
+            "an Earth gravity model is meant to be used"
+        )
+    values, counts = np.unique(km, return_counts=True)
+    if np.any(counts > 1):
+        raise InputError(
+            f"heights must be distinct: {values[counts > 1][0]:g} km is repeated in {km.tolist()}"
+        )
+    return km * 1e3
+
+
+def _orders(orders) -> tuple[int, ...]:
+    """Distinct J2n orders among 2, 4, 6; 2.5 or "x" is an error, not order 2."""
+    try:
+        vals = [float(o) for o in orders]
+    except (TypeError, ValueError):
+        raise InputError(f"orders must be among 2, 4, 6, got {orders!r}") from None
+    if not vals or any(v not in (2.0, 4.0, 6.0) for v in vals) or len(set(vals)) != len(vals):
+        raise InputError(f"orders must be distinct values among 2, 4, 6, got {orders!r}")
+    return tuple(int(v) for v in vals)
 
 
 def _model(model, lmax, epoch):
@@ -104,7 +131,7 @@ def disturbance_map(
     lmax : int, optional
         Truncation degree (default: the model's).
     height_km : float
-        Units: km above the ellipsoid.
+        Height above the ellipsoid, -1 ≤ h ≤ 1e5 (``MAX_HEIGHT_M``). Units: km.
     step_deg, lat_max : float
         Grid spacing and latitude limit of a global grid. Units: degrees.
     region : (west, east, south, north), optional
@@ -154,7 +181,8 @@ def altitude_sweep(
 ) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
-    Parameters are those of :func:`disturbance_map`; ``height_km`` is a sequence (km).
+    Parameters are those of :func:`disturbance_map`; ``height_km`` is a sequence of distinct
+    heights (km).
 
     Returns
     -------
@@ -218,6 +246,15 @@ def truncation_map(
     δg_Jn = g_Jn − γ_exact with g_Jn from eqs. (7)-(13) of Chen et al. (2022) (gradient
     corrected) and γ_exact the closed-form level-ellipsoid gravitation.
 
+    Parameters
+    ----------
+    height_km : float
+        Height above the ellipsoid, -1 ≤ h ≤ 1e5. Units: km.
+    orders : sequence of int
+        Distinct orders among 2, 4, 6 (2.5 is an error, not order 2).
+    step_deg, lat_max, region, device, ellipsoid, units
+        As in :func:`disturbance_map`.
+
     Returns
     -------
     xarray.Dataset
@@ -225,14 +262,10 @@ def truncation_map(
         (order). The field is independent of longitude (both are axisymmetric).
     """
     _check_units(units)
-    try:
-        orders = tuple(int(o) for o in orders)
-    except (TypeError, ValueError):
-        raise InputError(f"orders must be among 2, 4, 6, got {orders!r}") from None
-    if not orders or any(o not in (2, 4, 6) for o in orders) or len(set(orders)) != len(orders):
-        raise InputError(f"orders must be distinct values among 2, 4, 6, got {orders!r}")
+    orders = _orders(orders)
     h = _heights_m(height_km, "truncation_map takes one height")
     grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
+    check_memory(grid, layers=len(orders))
     exact = normal_rows(grid, ell, 0, device)[0]
     err = np.stack([normal_rows(grid, ell, o, device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))

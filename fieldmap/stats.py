@@ -83,11 +83,19 @@ def map_statistics(
         ``max_mg``, ``min_mg``, ``mean_mg`` (area-weighted), ``rms_mg``, ``p<q>_mg``,
         ``area_fraction_above`` {threshold (str, mg): fraction 0..1}.
     """
-    v = np.asarray(modulus_mg, dtype=np.float64)
-    if v.ndim != 2 or v.shape[0] != np.size(lat_deg):
-        raise ValueError("modulus must be (nlat, nlon) matching the latitudes")
+    from .errors import InputError
+
+    try:
+        v = np.asarray(modulus_mg, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("modulus must be a numeric (nlat, nlon) array") from None
+    if v.ndim != 2 or v.shape[0] != np.size(lat_deg) or v.size == 0:
+        raise InputError(
+            f"modulus of shape {v.shape} must be (nlat, nlon) with nlat = {np.size(lat_deg)} "
+            "latitudes"
+        )
     if not np.all(np.isfinite(v)):
-        raise ValueError("map holds non-finite values")
+        raise InputError("map holds non-finite values")
     w = weights_2d(lat_deg, v.shape[1])
     out = {
         "max_mg": float(v.max()),
@@ -107,13 +115,18 @@ def threshold_key(t: float) -> str:
 
 
 def parse_thresholds(values) -> tuple[float, ...]:
-    """Validate thresholds (mg): finite, positive, sorted, unique."""
+    """Validate thresholds (mg): finite, positive, distinct; returned sorted.
+
+    A repeated threshold is an error (as ``--thresholds-mg`` of the CLI), not silently dropped.
+    """
     from .errors import InputError
 
     try:
-        vals = sorted({float(v) for v in values})
+        vals = [float(v) for v in values]
     except (TypeError, ValueError):
         raise InputError(f"thresholds must be numbers in mg, got {values!r}") from None
     if not vals or not all(np.isfinite(v) and v > 0 for v in vals):
         raise InputError(f"thresholds must be positive finite numbers in mg, got {values!r}")
-    return tuple(vals)
+    if len(set(vals)) != len(vals):
+        raise InputError(f"thresholds_mg: repeated threshold in {vals}")
+    return tuple(sorted(vals))

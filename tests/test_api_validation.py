@@ -11,9 +11,12 @@ import numpy as np
 import pytest
 
 from fieldmap import gravity as GR
+from fieldmap import grid as G
+from fieldmap import gridspec, maps, stats
 from fieldmap import normal as N
 from fieldmap.ellipsoid import WGS84
 from fieldmap.errors import FieldmapError, InputError
+from fieldmap.launch_frames import LaunchFrame
 
 LMAX = 4  # small degree: these tests are about input checks, not the series
 
@@ -101,3 +104,166 @@ def test_ecef_far_point_is_finite():
     g = N.normal_gravitation_ecef(0.0, 0.0, WGS84.b + 0.99e8, device="cpu")
     ref = N.normal_gravity(90.0, 0.0, 0.99e8, centrifugal=False, frame="ecef", device="cpu")
     np.testing.assert_allclose(g, ref, rtol=1e-12, atol=1e-12 * np.linalg.norm(ref))
+
+
+# ----------------------------------------------------------------------------- grids
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"heights_m": [20e3, 1e300]}, r"height 1e\+300 m is above 1e\+08 m"),
+        ({"heights_m": [1.0000001e8]}, r"is above 1e\+08 m"),
+        ({"heights_m": ["x"]}, "heights must be numbers"),
+        ({"region": (10, 10, 0, 10)}, "empty region: .* has no area"),
+        ({"region": (0, 10, 10, 10)}, "empty region: .* has no area"),
+        ({"region": (170, -190, 0, 10)}, "empty region: .* has no area"),
+        ({"lat_max": 0}, "latitude limit 0 gives a grid with no area"),
+        ({"lat_max": 0.4}, r"larger than the region: .* 1 latitude\(s\) x 360"),
+        ({"step_deg": 5, "region": (0, 1, 0, 1)}, r"1 latitude\(s\) x 1 longitude\(s\)"),
+        ({"step_deg": 5, "region": (0, 10, 0, 1)}, r"1 latitude\(s\) x 3 longitude\(s\)"),
+        ({"lat_max": "x"}, "latitude limit must be a number"),
+        ({"region": 5}, "west east south north"),
+        ({"region": (0, "x", 0, 1)}, "region bound must be a number"),
+    ],
+)
+def test_bad_grids_raise(kwargs, msg):
+    with pytest.raises(InputError, match=msg) as info:
+        G.make_grid(**kwargs)
+    _one_line(info)
+
+
+def test_highest_grid_height_accepted():
+    assert G.make_grid(30.0, heights_m=[-1000.0, 1e8]).heights.tolist() == [-1000.0, 1e8]
+
+
+def test_grid_refused_by_the_memory_its_result_needs(monkeypatch):
+    """96 B per node and height against half the physical memory; the message states sizes."""
+    monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 8 * 2**30)
+    # 1 deg: 161 x 360 nodes x 2 heights x 96 B = 11 MB, fine
+    assert G.make_grid(1.0, heights_m=[20e3, 30e3]).shape == (2, 161, 360)
+    # 0.03 deg: 5333 x 12000 nodes x 96 B = 5.7 GiB > 4 GiB
+    with pytest.raises(InputError, match=r"5333 x 12000 nodes x 1 maps needs about 5\.7 GiB") as i:
+        G.make_grid(0.03)
+    assert "8 GiB" in _one_line(i)
+    # the 2e9-node limit of before let through grids of ~190 GB
+    monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 1 * 2**30)
+    with pytest.raises(InputError, match="GiB"):
+        G.make_grid(0.1, heights_m=[20e3, 30e3, 50e3])
+    # a truncation map holds one map per order: 1201 x 3600 nodes fit once (0.4 GiB), not 3 times
+    with pytest.raises(InputError, match=r"x 3 maps needs"):
+        maps.truncation_map(step_deg=0.1, orders=(2, 4, 6), lat_max=60, device="cpu")
+
+
+@pytest.mark.parametrize(
+    "step, lat_max, top, nrows",
+    [
+        (1.0, 80.0, 80.0, 161),  # the paper's grid: 2 lat_max a whole number of steps
+        (30.0, 80.0, 60.0, 5),  # was -80..70: now the multiples of 30 within +-80
+        (6.0, 80.0, 78.0, 27),
+        (2.0, 81.0, 81.0, 82),  # +81 reachable from -81 by whole steps: kept, no equator row
+        (0.3, 80.0, 79.8, 533),
+        (5.0 / 60.0, 80.0, 80.0, 1921),
+        (7.0, 90.0, 84.0, 25),
+    ],
+)
+def test_global_grids_are_symmetric(step, lat_max, top, nrows):
+    g = G.make_grid(step, lat_max)
+    assert g.lat.size == nrows
+    np.testing.assert_array_equal(g.lat, -g.lat[::-1])  # exact mirrors, for mirror_pairs
+    assert abs(g.lat[-1] - top) < 1e-9 and g.lat[-1] <= lat_max
+    np.testing.assert_allclose(np.diff(g.lat), step, rtol=1e-9)
+    if nrows % 2:
+        assert g.lat[nrows // 2] == 0.0  # the equator row is exactly 0
+    pairs = G.mirror_pairs(g.lat)
+    assert len(pairs) == (nrows + 1) // 2
+
+
+def test_symmetric_grid_names_its_extent():
+    """The file stem of the CLI is built from the region: step 30 now says latmax60, not 70."""
+    g = G.make_grid(30.0, 80.0)
+    assert g.region == (-180.0, 150.0, -60.0, 60.0)
+
+
+# ----------------------------------------------------------------------------- map products
+@pytest.mark.parametrize(
+    "func, kwargs, msg",
+    [
+        ("disturbance_map", {"height_km": 1e300}, r"height 1e\+300 km is above 100000 km"),
+        ("disturbance_map", {"height_km": 1e306}, r"height 1e\+306 km is above 100000 km"),
+        ("truncation_map", {"height_km": 1e300}, r"height 1e\+300 km is above 100000 km"),
+        ("component_maps", {"height_km": 1.5e5}, "is above 100000 km"),
+        ("altitude_sweep", {"height_km": [20, 1e300]}, "is above 100000 km"),
+        ("altitude_sweep", {"height_km": [20, 30, 20]}, "20 km is repeated"),
+        ("altitude_sweep", {"height_km": [20.0, 20]}, "20 km is repeated"),
+        ("truncation_map", {"orders": [2.5]}, r"among 2, 4, 6, got \[2.5\]"),
+        ("truncation_map", {"orders": [2, 4.0001]}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": ["x"]}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": 2}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": [4, 4.0]}, "distinct"),
+        ("disturbance_map", {"thresholds_mg": [0.05, 0.1, 0.05]}, "repeated threshold"),
+        ("disturbance_map", {"lat_max": 0}, "no area"),
+        ("disturbance_map", {"region": (0, 10, 5, 5)}, "no area"),
+    ],
+)
+def test_bad_map_products_raise(func, kwargs, msg):
+    kwargs = {"step_deg": 30.0, "device": "cpu", **kwargs}
+    if func != "truncation_map":
+        kwargs["lmax"] = LMAX
+    with pytest.raises(InputError, match=msg) as info:
+        getattr(maps, func)(**kwargs)
+    _one_line(info)
+
+
+def test_truncation_orders_given_as_floats_are_whole():
+    tr = maps.truncation_map(step_deg=30.0, orders=(2.0, 6), device="cpu")
+    assert tr["order"].values.tolist() == [2, 6] and np.all(np.isfinite(tr.max_mg.values))
+
+
+def test_truncation_at_highest_height_is_finite():
+    """1e5 km was all NaN at 1e300 km; the highest accepted height gives finite, tiny errors."""
+    tr = maps.truncation_map(height_km=1e5, step_deg=30.0, orders=(2,), device="cpu")
+    assert np.all(np.isfinite(tr.modulus_mg.values)) and 0 < float(tr.max_mg[0]) < 1e-3
+
+
+# ----------------------------------------------------------------------------- thresholds
+def test_repeated_thresholds_raise():
+    with pytest.raises(InputError, match=r"repeated threshold in \[0.05, 0.1, 0.05\]") as info:
+        stats.parse_thresholds([0.05, 0.1, 0.05])
+    _one_line(info)
+    assert stats.parse_thresholds([0.1, 0.02]) == (0.02, 0.1)
+
+
+def test_map_statistics_bad_arrays_raise():
+    with pytest.raises(InputError, match="non-finite"):
+        stats.map_statistics(np.full((2, 3), np.nan), np.array([0.0, 1.0]))
+    with pytest.raises(InputError, match=r"shape \(3, 3\)"):
+        stats.map_statistics(np.ones((3, 3)), np.array([0.0, 1.0]))
+
+
+# ----------------------------------------------------------------------------- launch frames
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"B0": 91.0}, r"launch latitude B0 .* within \[-90, 90\] degrees, got 91"),
+        ({"B0": -90.5}, "launch latitude B0"),
+        ({"lon0": float("nan")}, "launch longitude lon0 must be a finite number"),
+        ({"lon0": 540.0}, r"launch longitude lon0 .* \[-540, 540\)"),
+        ({"A0": float("inf")}, "launch azimuth A0"),
+        ({"h0": float("nan")}, "launch height h0"),
+        ({"h0": 1e300}, "launch height h0"),
+        ({"B0": "north"}, "launch latitude B0 must be a number"),
+        ({"ellipsoid": "Clarke1866"}, "unknown ellipsoid"),
+    ],
+)
+def test_bad_launch_frames_raise(kwargs, msg):
+    args = {"lon0": 105.0, "B0": 25.0, "A0": 90.0, **kwargs}
+    with pytest.raises(InputError, match=msg) as info:
+        LaunchFrame(**args)
+    _one_line(info)
+
+
+def test_launch_frame_fields_normalised():
+    lf = LaunchFrame(105, 90, -190, h0=0, ellipsoid="grs80")
+    assert (lf.lon0, lf.B0, lf.A0, lf.h0) == (105.0, 90.0, -190.0, 0.0)
+    assert lf.ellipsoid.name == "GRS80"
+    C = lf.C_t_to_a
+    np.testing.assert_allclose(C @ C.T, np.eye(3), atol=1e-15)
