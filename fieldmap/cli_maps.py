@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import time
 from pathlib import Path
 
@@ -61,7 +60,8 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         type=float,
         default=80.0,
         help="global grid from -LAT_MAX to LAT_MAX degrees, 0 < LAT_MAX <= 90 "
-        "(default 80, as the paper)",
+        "(default 80, as the paper); rows are whole multiples of the step, symmetric about "
+        "the equator",
     )
     p.add_argument(
         "--region",
@@ -185,60 +185,25 @@ def _region(args):
     return tuple(args.region) if args.region is not None else None
 
 
-#: highest map height accepted (as ``fieldmap point``: beyond 1e8 m, a quarter of the lunar
-#: distance, the Earth's field model is no longer the relevant one). Units: m.
-MAX_HEIGHT_M = 1.0e8
-#: bytes of result per grid node and height (east, north, up, modulus in two units and the
-#: working copies of the synthesis), to refuse grids whose result cannot fit in memory
-_BYTES_PER_NODE = 96
-
-
-def _memory_bytes() -> int | None:
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - non-POSIX
-        return None
-
-
 def _preflight(args, heights_km, layers: int = 1) -> None:
-    """Validate the grid, device and output folder before any computation or writing.
+    """Validate the grid, its memory, device and output folder before any computation or writing.
 
     ``layers`` is the number of maps per height (orders of a truncation map), for the memory
-    estimate.
+    estimate. The grid rules (heights, empty regions, steps larger than the region, memory) are
+    those of :func:`fieldmap.gridspec.make_grid` and :func:`fieldmap.gridspec.check_memory`.
     """
-    from .grid import make_grid, resolve_device
+    from .grid import resolve_device
+    from .gridspec import MAX_HEIGHT_M, check_memory, make_grid
     from .io import check_out_dir
 
-    for h in heights_km:
+    for h in heights_km:  # in the unit the user typed
         if math.isfinite(h) and 1e3 * h > MAX_HEIGHT_M:
             raise InputError(
                 f"height {h:g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where an "
                 "Earth gravity model is meant to be used"
             )
     grid = make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
-    nlat, nlon = grid.lat.size, grid.lon.size
-    if args.region is not None:
-        w, e, s, n = args.region
-        if s == n or w == e:
-            raise InputError(
-                f"empty region: --region {w:g} {e:g} {s:g} {n:g} has no area "
-                "(west = east or south = north)"
-            )
-    elif args.lat_max == 0:
-        raise InputError("--lat-max 0 gives a grid with no area; use a value in (0, 90]")
-    if nlat < 2 or nlon < 2:
-        raise InputError(
-            f"--step-deg {args.step_deg:g} is larger than the region: the grid would have "
-            f"{nlat} latitude(s) x {nlon} longitude(s); use a smaller step"
-        )
-    mem = _memory_bytes()
-    need = nlat * nlon * len(heights_km) * layers * _BYTES_PER_NODE
-    if mem is not None and need > mem // 2:
-        raise InputError(
-            f"a grid of {nlat} x {nlon} nodes x {len(heights_km) * layers} maps needs about "
-            f"{need / 2**30:.0f} GiB for its result, more than half of this machine's "
-            f"{mem / 2**30:.0f} GiB; use a larger --step-deg or a --region"
-        )
+    check_memory(grid, layers)
     if args.device is not None:
         resolve_device(args.device)
     check_out_dir(args.out)

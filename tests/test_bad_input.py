@@ -298,10 +298,10 @@ def _grid_argv(cmd, args):
 @pytest.mark.parametrize("args, msg", GRID_CASES, ids=lambda v: str(v))
 def test_grid_bad_input(work, capsys, monkeypatch, cmd, args, msg):
     """Bad grid specifications, heights, devices and output folders: exit 2, nothing written."""
-    from fieldmap import cli_maps
+    from fieldmap import gridspec
 
     # the memory check must not depend on this machine: pretend it has 8 GiB
-    monkeypatch.setattr(cli_maps, "_memory_bytes", lambda: 8 * 2**30)
+    monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 8 * 2**30)
     before = _tree(work)
     rc, _, err = _main(_grid_argv(cmd, args), capsys)
     _assert_one_line(rc, err, 2, msg, before, work)
