@@ -17,8 +17,9 @@ from .stats import MG, MGAL
 #: Output units of the map variables and their size in m/s² (values in m/s² are divided by it).
 UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
 REFERENCE = (
-    "Chen, Wang, Chen, Liu (2022), Normal gravity model for inertial navigation of a hypersonic "
-    "boost-glide vehicle, Section 4"
+    "Chen K., Zeng C.-Z., Pei S.-S., Liang W.-C. (2022), Normal gravity model for inertial "
+    "navigation of a hypersonic boost-glide vehicle, J. Zhejiang Univ. Sci. A, "
+    "doi:10.1631/jzus.A2100133, Section 4"
 )
 #: CF names of the east, north, up components.
 COMPONENTS = {"east": "eastward", "north": "northward", "up": "upward"}
