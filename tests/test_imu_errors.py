@@ -96,7 +96,7 @@ def test_scale_factor_and_misalignment_matrix():
     assert np.std(s) == pytest.approx(10e-6, rel=0.1)
     R = M / (1.0 + s)[:, :, None]
     np.testing.assert_allclose(
-        np.swapaxes(R, 1, 2) @ R, np.broadcast_to(np.eye(3), R.shape), atol=1e-15
+        np.swapaxes(R, 1, 2) @ R, np.broadcast_to(np.eye(3), R.shape), rtol=0, atol=1e-15
     )
     eps = np.stack([R[:, 2, 1], R[:, 0, 2], R[:, 1, 0]], -1)
     assert np.std(eps) == pytest.approx(0.5 * ie.ARCSEC, rel=0.1)
