@@ -137,7 +137,8 @@ def test_ned_kernel_converges_to_navtk():
         )
     diffs = np.array(diffs)
     assert np.all(diffs[1] < [5e-4, 1e-4, 1e-7])  # 10 s, 1.5 km flown
-    np.testing.assert_allclose(diffs[0] / diffs[1], 2.0, rtol=0.05)
+    # next-order terms move the ratio by O(dt): 1.2e-4 measured
+    np.testing.assert_allclose(diffs[0] / diffs[1], 2.0, rtol=5e-3)
 
 
 @pytest.mark.parametrize("device", DEVICES)
