@@ -136,5 +136,5 @@ def test_verify_reports_failures(monkeypatch):
     monkeypatch.setattr(verify, "CHECKS", (("numpy", broken),))
     rows = verify.run_checks(["cpu"])
     assert len(rows) == 1 and not rows[0].ok
-    assert rows[0].max_rel == pytest.approx(1e-9, rel=1e-6)
+    assert rows[0].max_rel == pytest.approx(1e-9, rel=1e-6, abs=0)
     assert "FAIL" in verify.format_table(rows)

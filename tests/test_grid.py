@@ -78,12 +78,12 @@ def test_area_weights_closed_form():
     from fieldmap.stats import area_weights
 
     w = area_weights(lat)
-    assert w.sum() == pytest.approx(2.0, rel=1e-14)  # ∫cos φ dφ over the sphere
+    assert w.sum() == pytest.approx(2.0, rel=1e-14, abs=0)  # ∫cos φ dφ over the sphere
     # the band 30..90 deg holds (1 - sin 30)/2 = 1/4 of the sphere; nodes above 30 carry it
     # except the half band of the 30-deg node itself
     frac = w[lat > 30].sum() / w.sum()
     expected = (1 - math.sin(math.radians(30.5))) / 2
-    assert frac == pytest.approx(expected, rel=1e-12)
+    assert frac == pytest.approx(expected, rel=1e-12, abs=0)
 
 
 # ----------------------------------------------------------------------------- synthesis

@@ -160,7 +160,7 @@ def test_unnormalized_conversion(tmp_path):
         for m in range(n + 1):
             norm = math.sqrt((1 if m == 0 else 2) * (2 * n + 1) * math.factorial(n - m)
                              / math.factorial(n + m))
-            assert unn.C[n, m] == pytest.approx(full.C[n, m] / norm, rel=1e-15)
+            assert unn.C[n, m] == pytest.approx(full.C[n, m] / norm, rel=1e-15, abs=0)
             assert unn.S[n, m] == pytest.approx(full.S[n, m] / norm, rel=1e-15, abs=0)
 
 
@@ -172,10 +172,10 @@ def test_time_variable_icgem1(tmp_path):
     path = _tiny(tmp_path, "".join(lines))
     at_t0 = read_icgem(path)
     assert at_t0.epoch == 2000.0
-    assert at_t0.C[2, 1] == pytest.approx(1.0e-6 + 3.0e-9, rel=1e-15)  # acos counts at t0
+    assert at_t0.C[2, 1] == pytest.approx(1.0e-6 + 3.0e-9, rel=1e-15, abs=0)  # acos counts at t0
     later = read_icgem(path, epoch=2000.5)  # half a year: cos(pi) = -1, sin(pi/2) = 1
-    assert later.C[2, 1] == pytest.approx(1.0e-6 + 0.5e-9 - 3.0e-9, rel=1e-15)
-    assert later.S[2, 1] == pytest.approx(2.0e-6 - 0.5e-9 + 5.0e-9, rel=1e-15)
+    assert later.C[2, 1] == pytest.approx(1.0e-6 + 0.5e-9 - 3.0e-9, rel=1e-15, abs=0)
+    assert later.S[2, 1] == pytest.approx(2.0e-6 - 0.5e-9 + 5.0e-9, rel=1e-15, abs=0)
 
 
 def test_icgem2_intervals(tmp_path):
@@ -186,8 +186,8 @@ def test_icgem2_intervals(tmp_path):
               "gfct 2 0 -5.0e-4 0 0 0 20100101.0000 20200101.0000\n",
               "acos 2 0 2.0e-10 0 0 0 20100101.0000 20200101.0000 1.0\n"]
     path = _tiny(tmp_path, "".join(lines), extra="format icgem2.0\n")
-    assert read_icgem(path, epoch=2005.0).C[2, 0] == pytest.approx(-4.0e-4 + 5e-10, rel=1e-15)
-    assert read_icgem(path, epoch=2012.0).C[2, 0] == pytest.approx(-5.0e-4 + 2e-10, rel=1e-15)
+    assert read_icgem(path, epoch=2005.0).C[2, 0] == pytest.approx(-4.0e-4 + 5e-10, rel=1e-15, abs=0)
+    assert read_icgem(path, epoch=2012.0).C[2, 0] == pytest.approx(-5.0e-4 + 2e-10, rel=1e-15, abs=0)
     with pytest.raises(InputError, match="give an epoch"):
         read_icgem(path)
     with pytest.raises(InputError, match="outside the validity"):

@@ -45,7 +45,9 @@ def test_table1_floor_is_ten_times_below_the_smallest_effect(t1):
     smallest_v = min(r["final_velocity_error_m_s"] for r in t1.rows)
     assert floor["final_position_error_m"] * 10 < smallest_p
     assert floor["final_velocity_error_m_s"] * 10 < smallest_v
-    assert floor["margin_position"] == pytest.approx(smallest_p / floor["final_position_error_m"])
+    assert floor["margin_position"] == pytest.approx(
+        smallest_p / floor["final_position_error_m"], rel=1e-14, abs=0
+    )
     assert t1.labels[-1] == "floor:sh240"
     assert t1.pos.shape == (7, t1.t.size) and t1.t[-1] == pytest.approx(60.0)
     assert np.all(t1.pos[:, 0] < 1e-9)  # the runs start on the truth
