@@ -117,8 +117,9 @@ def test_kernel_replay_equals_numpy_replay():
         gravity="j2",
         device="cpu",
     )
-    np.testing.assert_allclose(res.P[0, -1], P_ref, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(res.V[0, -1], V_ref, rtol=0, atol=1e-8)
+    # same algorithm, two code paths: rounding only (4e-12 m and 8e-13 m/s measured after 20 s)
+    np.testing.assert_allclose(res.P[0, -1], P_ref, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(res.V[0, -1], V_ref, rtol=0, atol=2e-11)
     kt = bg.kinematics([imu.duration])
     assert np.linalg.norm(res.P[0, -1] - kt.P_a[0]) < 1e-3
 
