@@ -49,7 +49,7 @@ def test_example_runs(script, tmp_path, monkeypatch, capsys):
 
 
 def _check_section41_numbers(out):
-    """The printed "ours" column against the point API (no grid synthesis, no FFT).
+    """Check the printed "ours" column against the point API (no grid synthesis, no FFT).
 
     Node maxima of |δg| at 20/50/100 km and the 20 km area fraction above 0.05 mg, recomputed
     from ``fieldmap.gravity.disturbance`` at the nodes of the same 10° grid (±80°); the printed
