@@ -193,7 +193,7 @@ def test_cli_bad_input_one_line_nothing_written(tmp_path, capsys, argv, msg):
 
 
 @pytest.mark.parametrize("script", ["table1_gravity_models.py", "table3_accel_errors.py"])
-def test_examples_small(tmp_path, script, monkeypatch, capsys):
+def test_examples_small(tmp_path, script, monkeypatch, capsys, t1):
     path = os.path.join(os.path.dirname(__file__), "..", "examples", script)
     monkeypatch.setattr(sys, "argv", [script, "--small", "--out", str(tmp_path)])
     with pytest.raises(SystemExit) as exc:
@@ -201,6 +201,12 @@ def test_examples_small(tmp_path, script, monkeypatch, capsys):
     assert exc.value.code == 0
     assert "paper" in capsys.readouterr().out
     assert len(os.listdir(tmp_path)) == 4
+    if script == "table1_gravity_models.py":
+        # --small is the t1 scenario (60 s, 100 Hz, 2 Gauss nodes): the written table is t1's
+        doc = json.loads((tmp_path / "navsim_table1.json").read_text())
+        for row in t1.rows:
+            for key in ("final_position_error_m", "final_velocity_error_m_s"):
+                assert doc[row["model"]][key] == pytest.approx(row[key], rel=1e-12, abs=0)
 
 
 # --- figures (Figs. 11-13): what a reader must be able to read off them -------------------------
