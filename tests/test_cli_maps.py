@@ -26,6 +26,17 @@ def test_map_writes_outputs(tmp_path, capsys):
     assert 0 < js["mean_mg"] < js["max_mg"] < 1.0
     assert set(js["area_fraction_above"]) == {"0.02", "0.05", "0.06", "0.1"}
     assert all(0 <= v <= 1 for v in js["area_fraction_above"].values())
+    # the files hold what the API computes for the same request
+    import numpy as np
+    import xarray as xr
+
+    import fieldmap
+
+    ds = fieldmap.disturbance_map(lmax=40, step_deg=10.0, height_km=20, device="cpu")
+    assert js["max_mg"] == pytest.approx(float(ds.modulus_mg.max()), rel=1e-12, abs=0)
+    assert js["mean_mg"] == pytest.approx(ds.attrs["mean_mg"], rel=1e-12, abs=0)
+    with xr.open_dataset(out / f"{stem}.nc") as nc:
+        np.testing.assert_allclose(nc.modulus_mg.values, ds.modulus_mg.values, rtol=1e-12)
 
 
 def test_map_region_thresholds(tmp_path):
