@@ -222,6 +222,21 @@ def test_truncation_at_highest_height_is_finite():
     """1e5 km was all NaN at 1e300 km; the highest accepted height gives finite, tiny errors."""
     tr = maps.truncation_map(height_km=1e5, step_deg=30.0, orders=(2,), device="cpu")
     assert np.all(np.isfinite(tr.modulus_mg.values)) and 0 < float(tr.max_mg[0]) < 1e-3
+    # closed form: J2 minus exact is the J4 term of H&M eq. 2-92, U4 = −GM J4 a⁴ P4(sin φc)/r⁵,
+    # |∇U4| = GM |J4| a⁴/r⁶ · |(5 P4, dP4/dφc)|; the J6 term is (a/r)² J6/J4 ~ 1e-5 of it
+    # (2e-5 measured)
+    from fieldmap import frames
+
+    lat = tr.latitude.values
+    x, y, z = frames.geodetic_to_ecef(lat, 0.0 * lat, 1e8)
+    r = np.sqrt(x * x + y * y + z * z)
+    s = z / r
+    k = WGS84.GM * abs(WGS84.J4) * WGS84.a**4 / r**6
+    radial = 5 * k * (35 * s**4 - 30 * s**2 + 3) / 8
+    north = k * (140 * s**3 - 60 * s) / 8 * np.sqrt(1 - s * s)
+    expect_mg = np.hypot(radial, north) / 9.80665e-3
+    got = tr.modulus_mg.values[0]
+    np.testing.assert_allclose(got, np.broadcast_to(expect_mg[:, None], got.shape), rtol=1e-3)
 
 
 # ----------------------------------------------------------------------------- thresholds
