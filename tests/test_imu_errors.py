@@ -133,8 +133,10 @@ def test_kernel_bias_gives_half_b_t2():
     kt = st.kinematics(res.t[-1:])
     err = np.linalg.norm(res.P[:, -1] - kt.P_a[0], axis=1)
     expect = 0.5 * np.sqrt(3) * 100.0 * ie.UG * 20.0**2
-    np.testing.assert_allclose(err[:2], expect, rtol=2e-3)
-    assert err[2] < 1e-5
+    # gravity-gradient feedback is at most ~G t²/12 ≈ 5e-5 relative over 20 s (1.6e-8 measured:
+    # for a bias along (1, 1, 1) in NED axes the first-order term nearly cancels)
+    np.testing.assert_allclose(err[:2], expect, rtol=2e-4)
+    assert err[2] < 1e-7  # no bias: the floor of 1 Gauss node and the mechanization (1.5e-9 m)
 
 
 def test_bad_specs_are_rejected():
