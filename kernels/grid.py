@@ -21,13 +21,13 @@ below 1e-308 after the first two factors is at most 1e-28 of GM/r^2 and is negli
 
 import warp as wp
 
-# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
-# the import order relative to fieldmap._warp.init())
-wp.set_module_options({"enable_backward": False})
-
 from .frames import ecef_to_enu, geodetic_to_ecef
 from .normal import NormalParams, normal_field_ecef
 from .sh import QM_MIN, SCALE, SHKernelModel, sh_column, sh_vec8
+
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
 
 SCALE_UP = wp.constant(wp.float64(1.0e280))
 

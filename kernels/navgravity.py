@@ -7,12 +7,12 @@ eq. (13), the exact level-ellipsoid field and a spherical-harmonic model (eqs. 1
 
 import warp as wp
 
+from .normal import KIND_EXACT, NormalParams, centrifugal_ecef, normal_field_ecef
+from .sh import SHKernelModel, sh_gravitation_ecef
+
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())
 wp.set_module_options({"enable_backward": False})
-
-from .normal import KIND_EXACT, NormalParams, centrifugal_ecef, normal_field_ecef
-from .sh import SHKernelModel, sh_gravitation_ecef
 
 NAV_NORMAL_EXACT = KIND_EXACT  # the J kinds are the orders 2, 4, 6, as in normal_field_ecef
 NAV_SH = wp.constant(1)

@@ -15,11 +15,11 @@ Three families, all returning ECEF vectors in m/s²:
 
 import warp as wp
 
+from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
+
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())
 wp.set_module_options({"enable_backward": False})
-
-from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 
 _ZERO = wp.constant(wp.float64(0.0))
 _HALF = wp.constant(wp.float64(0.5))

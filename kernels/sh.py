@@ -31,11 +31,11 @@ derivative factor; the m >= 1 rows hold ``f_nm``).
 
 import warp as wp
 
+from .frames import geodetic_to_ecef
+
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())
 wp.set_module_options({"enable_backward": False})
-
-from .frames import geodetic_to_ecef
 
 #: 1e-280 scale of the Holmes & Featherstone (2002) recursion and its inverse.
 SCALE = wp.constant(wp.float64(1.0e-280))

@@ -14,15 +14,15 @@ degree, loops over its steps and writes every ``output_every``-th state.
 
 import warp as wp
 
-# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
-# the import order relative to fieldmap._warp.init())
-wp.set_module_options({"enable_backward": False})
-
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import nav_gravitation_ecef, nav_gravity_ecef
 from .normal import NormalParams
 from .sh import SHKernelModel
+
+# forward kernels only: fieldmap never differentiates through them (faster builds, whatever
+# the import order relative to fieldmap._warp.init())
+wp.set_module_options({"enable_backward": False})
 
 _ZERO = wp.constant(wp.float64(0.0))
 _HALF = wp.constant(wp.float64(0.5))
