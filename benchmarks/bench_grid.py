@@ -29,10 +29,10 @@ import time
 import numpy as np
 
 from fieldmap import _warp
-from fieldmap import grid as G
-from fieldmap.ellipsoid import WGS84
-from fieldmap.geographiclib import write_egm
-from fieldmap.models import kaula_model, load_model
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.grids import synthesis as G
+from fieldmap.models.geographiclib import write_egm
+from fieldmap.models.registry import kaula_model, load_model
 
 CIRCLE_CPP = r"""
 // Times a full lat-lon grid of gravity disturbances with GeographicLib's circle mode.

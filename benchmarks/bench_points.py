@@ -28,9 +28,9 @@ import time
 import numpy as np
 
 from fieldmap import _warp
-from fieldmap.frames import geodetic_to_ecef
-from fieldmap.geographiclib import gravity_tool, write_egm
-from fieldmap.models import load_model
+from fieldmap.field.frames import geodetic_to_ecef
+from fieldmap.models.geographiclib import gravity_tool, write_egm
+from fieldmap.models.registry import load_model
 
 PAPER_US_PER_POINT_DEG200 = 4400.0  # Chen et al. (2022), degree 200, per point
 
@@ -54,8 +54,8 @@ def _points(n, seed=0):
 
 def bench_fieldmap(model, n, repeats, device):
     """Return µs/point of the kernel alone, the public disturbance call, the kernel on 1 core."""
-    from fieldmap import gravity as fg
-    from fieldmap.sh import sh_gravitation
+    from fieldmap.field import gravity as fg
+    from fieldmap.field.sh import sh_gravitation
 
     lat, lon, h = _points(n)
     x, y, z = geodetic_to_ecef(lat, lon, h)

@@ -25,9 +25,9 @@ import time
 import numpy as np
 
 from fieldmap import _warp
-from fieldmap.launch_frames import LaunchFrame
-from fieldmap.strapdown import propagate_lci
-from fieldmap.strapdown_ned import propagate_ned
+from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.strapdown import propagate_lci
+from fieldmap.nav.strapdown_ned import propagate_ned
 
 FRAME = LaunchFrame(105.3, 27.1, 63.0)
 
@@ -145,7 +145,7 @@ def bench_geographiclib(model, degree, n_points, repeat):
     C++ ``GravityModel::V`` (potential and ECEF gravitation, compiled here) and the ``Gravity``
     command line in point mode (``-G``, includes text I/O and the geodetic conversion).
     """
-    from fieldmap.geographiclib import gravity_tool, run_gravity_tool, write_egm
+    from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
 
     out = []
     tmp = tempfile.mkdtemp(prefix="bench_gl_")
@@ -223,7 +223,7 @@ def main(argv=None):
         )
 
     print("\n== SH degree-200 navigation gravity ==")
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
 
     model = load_model("eigen-6s", lmax=200)
     n_traj, steps = 64, a.sh_steps

@@ -25,6 +25,6 @@ def lmax():
 
 def out_dir() -> Path:
     """Folder of the figures (created)."""
-    from fieldmap.io import prepare_out_dir
+    from fieldmap.products.io import prepare_out_dir
 
     return prepare_out_dir(os.environ.get("FIELDMAP_EXAMPLE_OUT", "outputs/examples"))

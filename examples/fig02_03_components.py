@@ -8,8 +8,8 @@ Run: ``python examples/fig02_03_components.py`` (figures in outputs/examples/).
 
 from _settings import lmax, out_dir, step
 
-from fieldmap import maps, plots
-from fieldmap.io import write_png
+from fieldmap.products import maps, plots
+from fieldmap.products.io import write_png
 
 ds = maps.component_maps(model="eigen-6s", lmax=lmax(), height_km=20, step_deg=step(), lat_max=80)
 out = out_dir()

@@ -9,8 +9,8 @@ Run: ``python examples/fig04_06_disturbance_20km.py``.
 from _settings import lmax, out_dir, step
 
 import fieldmap
-from fieldmap import plots
-from fieldmap.io import write_png
+from fieldmap.products import plots
+from fieldmap.products.io import write_png
 
 ds = fieldmap.disturbance_map(
     model="eigen-6s",

@@ -10,8 +10,8 @@ Run: ``python examples/fig07_altitudes.py``.
 from _settings import lmax, out_dir, step
 
 import fieldmap
-from fieldmap import plots
-from fieldmap.io import write_png
+from fieldmap.products import plots
+from fieldmap.products.io import write_png
 
 heights = [20, 30, 50, 70, 100]
 sw = fieldmap.altitude_sweep(

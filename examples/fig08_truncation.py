@@ -8,8 +8,8 @@ Run: ``python examples/fig08_truncation.py``.
 from _settings import out_dir, step
 
 import fieldmap
-from fieldmap import plots
-from fieldmap.io import write_png
+from fieldmap.products import plots
+from fieldmap.products.io import write_png
 
 tr = fieldmap.truncation_map(height_km=20, orders=(2, 4, 6), step_deg=step(), lat_max=80)
 write_png(plots.plot_truncation(tr), out_dir() / "fig08_truncation_20km.png")

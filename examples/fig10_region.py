@@ -2,7 +2,7 @@
 
 Disturbance at 20 km around the simulated trajectory (100-112E, 18-37N) with isolines at 0.025,
 0.05, 0.075 and 0.10 mg, the paper's trajectory box (103-109E, 20-35N) and the ground track of
-our own boost-glide path (fieldmap.trajectory.BoostGlide, 800 s).
+our own boost-glide path (fieldmap.nav.trajectory.BoostGlide, 800 s).
 
 Run: ``python examples/fig10_region.py``.
 """
@@ -12,9 +12,9 @@ from _settings import lmax, out_dir, step
 from matplotlib.patches import Rectangle
 
 import fieldmap
-from fieldmap import plots
-from fieldmap.io import write_png
-from fieldmap.trajectory import BoostGlide
+from fieldmap.nav.trajectory import BoostGlide
+from fieldmap.products import plots
+from fieldmap.products.io import write_png
 
 levels = (0.025, 0.05, 0.075, 0.10)
 ds = fieldmap.disturbance_map(

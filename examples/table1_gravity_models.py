@@ -1,7 +1,7 @@
 """Reproduce Table 1 / Fig. 11 of Chen et al. (2022): navigation errors from gravity models only.
 
 Truth: the bundled EIGEN-6S at full degree (240; the paper used EIGEN-6C4 to degree 2190). The
-boost-glide path (fieldmap.trajectory.BoostGlide) is flown with exact IMU increments and
+boost-glide path (fieldmap.nav.trajectory.BoostGlide) is flown with exact IMU increments and
 navigated with J2, J4, J6, the exact normal field, SH degree 18 and SH degree 200, all in one
 Warp launch, plus the truth model itself (the numerical floor).
 
@@ -24,8 +24,8 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     args = ap.parse_args(argv)
 
-    from fieldmap import navsim
-    from fieldmap.cli_nav import format_table, write_outputs
+    from fieldmap.cli.nav import format_table, write_outputs
+    from fieldmap.nav import studies as navsim
 
     duration, rate = (60.0, 100.0) if args.small else (800.0, 200.0)
     sc = navsim.build_scenario(

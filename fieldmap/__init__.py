@@ -1,18 +1,18 @@
 """fieldmap: Earth gravity-field maps and strapdown inertial navigation with NVIDIA Warp.
 
-Public API (see the README): models are read with :func:`fieldmap.icgem.read_icgem` or
-:func:`fieldmap.models.load_model`; ellipsoids live in :mod:`fieldmap.ellipsoid`.
+Public API (see the README): models are read with :func:`fieldmap.models.icgem.read_icgem` or
+:func:`fieldmap.models.registry.load_model`; ellipsoids live in :mod:`fieldmap.field.ellipsoid`.
 """
 
 __version__ = "0.1.0"
 
-from .ellipsoid import GRS80, WGS84, Ellipsoid  # noqa: F401
+from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid  # noqa: F401
 
 # Lazy exports: importing fieldmap stays light (no Warp, xarray, matplotlib until used).
 _LAZY = {
-    "disturbance_map": "fieldmap.maps",
-    "truncation_map": "fieldmap.maps",
-    "altitude_sweep": "fieldmap.maps",
+    "disturbance_map": "fieldmap.products.maps",
+    "truncation_map": "fieldmap.products.maps",
+    "altitude_sweep": "fieldmap.products.maps",
 }
 
 

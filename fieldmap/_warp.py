@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
 
-from .errors import InputError
+from fieldmap.errors import InputError
 
 _lock = threading.Lock()
 _ready = False

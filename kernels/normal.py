@@ -10,7 +10,7 @@ Three families, all returning ECEF vectors in m/s²:
   eqs. (7)–(13), with the printed misprints corrected (see the function's comments).
 * :func:`centrifugal_ecef` — ω²(x, y, 0) (Groves 2013 eq. 3.7.5, second term).
 
-:class:`NormalParams` is built on the host by ``fieldmap.normal.normal_params(ellipsoid)``.
+:class:`NormalParams` is built on the host by ``fieldmap.field.normal.normal_params(ellipsoid)``.
 """
 
 import warp as wp
@@ -35,7 +35,7 @@ _C429_5 = wp.constant(wp.float64(429.0 / 5.0))
 _Q_SERIES_MAX = wp.constant(wp.float64(0.5))
 _Q_SERIES_TOL = wp.constant(wp.float64(1.0e-18))
 
-# Kind codes shared with fieldmap.normal (host side).
+# Kind codes shared with fieldmap.field.normal (host side).
 KIND_EXACT = wp.constant(0)
 FRAME_ECEF = wp.constant(0)
 FRAME_ENU = wp.constant(1)

@@ -25,7 +25,7 @@ and cos/sin(mλ) are evaluated directly for each order (no recurrence, so no err
 
 The tables live in :class:`SHKernelModel`, stored transposed as ``[m, n]`` so that one column
 recursion walks contiguous memory; they are built on the host by
-``fieldmap.sh.kernel_model``. Row ``m = 0`` of ``fnm`` holds ``sqrt(n(n+1)/2)`` (the m = 0
+``fieldmap.field.sh.kernel_model``. Row ``m = 0`` of ``fnm`` holds ``sqrt(n(n+1)/2)`` (the m = 0
 derivative factor; the m >= 1 rows hold ``f_nm``).
 """
 

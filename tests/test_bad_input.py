@@ -173,7 +173,7 @@ def test_point_bad_lines(work, capsys, monkeypatch):
 
 def test_point_never_prints_non_finite(work, capsys, monkeypatch):
     """A result that is NaN or inf is reported as a bad line, not printed as a number."""
-    from fieldmap import cli_point
+    from fieldmap.cli import point as cli_point
 
     monkeypatch.setattr(cli_point, "evaluate_points",
                         lambda lat, *a: np.array([[1.0, 2.0, 3.0], [np.nan, 0.0, 0.0]]))
@@ -185,7 +185,7 @@ def test_point_never_prints_non_finite(work, capsys, monkeypatch):
 
 def test_point_input_size_is_capped(work, capsys, monkeypatch):
     """``--input /dev/zero`` ends with one error line instead of filling the memory."""
-    from fieldmap import cli_point
+    from fieldmap.cli import point as cli_point
 
     monkeypatch.setattr(cli_point, "MAX_INPUT_BYTES", 8 << 20)
     before = _tree(work)
@@ -298,7 +298,7 @@ def _grid_argv(cmd, args):
 @pytest.mark.parametrize("args, msg", GRID_CASES, ids=lambda v: str(v))
 def test_grid_bad_input(work, capsys, monkeypatch, cmd, args, msg):
     """Bad grid specifications, heights, devices and output folders: exit 2, nothing written."""
-    from fieldmap import gridspec
+    from fieldmap.grids import spec as gridspec
 
     # the memory check must not depend on this machine: pretend it has 8 GiB
     monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 8 * 2**30)

@@ -35,8 +35,8 @@ from fieldmap.errors import FieldmapError, InputError, ModelFileError
 # ----------------------------------------------------------------------------- public API
 def test_api_models_and_reader(work):  # noqa: F811 (fixture)
     """``load_model`` and ``read_icgem`` raise FieldmapError subclasses for bad arguments."""
-    from fieldmap.icgem import read_icgem
-    from fieldmap.models import load_model
+    from fieldmap.models.icgem import read_icgem
+    from fieldmap.models.registry import load_model
 
     for lmax in (1.5, float("nan"), float("inf"), "x", True, [3]):
         with pytest.raises(InputError, match="integer degree"):
@@ -66,7 +66,7 @@ def test_api_models_and_reader(work):  # noqa: F811 (fixture)
 
 
 def test_api_maps_reject_bad_grids():
-    """The map API refuses the same grids as the CLI (the checks live in fieldmap.grid)."""
+    """The map API refuses the same grids as the CLI (checks: fieldmap.grids)."""
     import fieldmap
 
     cases = [
@@ -92,8 +92,8 @@ def test_api_maps_reject_bad_grids():
 
 
 def test_api_gravity_rejects_bad_points():
-    """``fieldmap.gravity`` refuses non-numeric, non-finite and impossible coordinates."""
-    from fieldmap import gravity as fg
+    """``fieldmap.field.gravity`` refuses non-numeric, non-finite and impossible coordinates."""
+    from fieldmap.field import gravity as fg
 
     for lat, lon, h in (([np.nan], [0], [0]), (["a"], [0], [0]), ([91], [0], [0]),
                         ([0], [np.inf], [0]), ([0], [0], [np.inf]), ([0], [0], [-1e6])):
@@ -108,10 +108,11 @@ def test_api_gravity_rejects_bad_points():
 
 def test_api_navsim_inputs():
     """Navigation inputs: IMU arrays, dt, names, degrees, trajectories below the surface."""
-    from fieldmap import imu, navsim
-    from fieldmap.launch_frames import LaunchFrame
-    from fieldmap.models import load_model
-    from fieldmap.trajectory import Stationary
+    from fieldmap.models.registry import load_model
+    from fieldmap.nav import imu
+    from fieldmap.nav import studies as navsim
+    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.trajectory import Stationary
 
     good = np.zeros((10, 3))
     for dth, dv, dt, msg in (
@@ -161,8 +162,8 @@ def test_api_navsim_inputs():
 
 
 def test_api_verify():
-    """``fieldmap.verify.run_checks`` checks its arguments before running anything."""
-    from fieldmap.verify import run_checks
+    """``fieldmap.cli.verify.run_checks`` checks its arguments before running anything."""
+    from fieldmap.cli.verify import run_checks
 
     for kw, msg in (({"devices": ["cuda:7"]}, "not present"), ({"devices": "tpu"}, "not present"),
                     ({"lmax": 241}, "0..240"), ({"lmax": 2.5}, "integer degree"),
@@ -174,7 +175,7 @@ def test_api_verify():
 
 def test_api_imu_errors():
     """IMU error specs, draws and their application refuse bad values with InputError."""
-    from fieldmap import imu_errors as ie
+    from fieldmap.nav import imu_errors as ie
 
     for value in (-1.0, float("nan"), "x", None, True):
         with pytest.raises(InputError, match="acc_bias_ug"):
@@ -194,7 +195,7 @@ def test_api_imu_errors():
 
 def test_build_scenario_long_output_interval_is_fast():
     """An output interval longer than the flight stores the last state (no endless search)."""
-    from fieldmap import navsim
+    from fieldmap.nav import studies as navsim
 
     t0 = time.perf_counter()
     sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
@@ -205,7 +206,7 @@ def test_build_scenario_long_output_interval_is_fast():
 # ----------------------------------------------------------------------------- atomic writing
 def test_output_batch_leaves_nothing_on_interrupt(tmp_path):
     """Ctrl-C while the third file of a batch is written: no file, no temporary, no new folder."""
-    from fieldmap.io import output_batch
+    from fieldmap.products.io import output_batch
 
     out = tmp_path / "a" / "b"
     with pytest.raises(KeyboardInterrupt):
@@ -225,7 +226,7 @@ def test_output_batch_leaves_nothing_on_interrupt(tmp_path):
 @pytest.mark.parametrize("how", ["interrupt", "sigterm", "error"])
 def test_map_interrupted_while_writing(work, capsys, monkeypatch, how):  # noqa: F811 (fixture)
     """A map run stopped while writing its figures leaves none of its files (NetCDF, JSON)."""
-    from fieldmap import plots
+    from fieldmap.products import plots
 
     def boom(*a, **k):
         if how == "interrupt":
@@ -252,7 +253,7 @@ def test_signals_wait_for_the_file_being_written(sig, exc):
     Without the deferral, Ctrl-C in the middle of writing a 185 MB NetCDF file hung the
     process for good (a lock of the writer left held, then waited on by its cleanup).
     """
-    from fieldmap import io as fio
+    from fieldmap.products import io as fio
 
     previous = signal.signal(signal.SIGTERM, cli._on_sigterm)
     steps = []
@@ -273,7 +274,7 @@ def test_disk_full_while_writing(work, capsys, monkeypatch):  # noqa: F811 (fixt
     """ENOSPC while the NetCDF is written: one line naming it, no file left (not even .tmp)."""
     import errno
 
-    from fieldmap import io as fio
+    from fieldmap.products import io as fio
 
     def full(ds, tmp):
         Path(tmp).write_bytes(b"CDF\x01partial")
@@ -287,7 +288,7 @@ def test_disk_full_while_writing(work, capsys, monkeypatch):  # noqa: F811 (fixt
 
 def test_writers_use_temp_and_replace_in_same_folder(tmp_path, monkeypatch):
     """Writers rename a temporary file of the destination folder over the final name."""
-    from fieldmap import io as fio
+    from fieldmap.products import io as fio
 
     seen = []
     real = os.replace

@@ -9,8 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from fieldmap.geographiclib import gravity_tool, run_gravity_tool, write_egm
-from fieldmap.models import load_model
+from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
+from fieldmap.models.registry import load_model
 
 
 def _run(args, stdin="", env=None):
@@ -33,7 +33,7 @@ def _stdin(points):
 
 def test_disturbance_matches_api_and_geographiclib(tmp_path):
     """Default output: δg east north up in mGal, same as the API and as GeographicLib's Gravity."""
-    from fieldmap import gravity as fg
+    from fieldmap.field import gravity as fg
 
     out = _run(["point", "--precision", "10"], _stdin(POINTS))
     assert out.returncode == 0, out.stderr
@@ -50,8 +50,8 @@ def test_disturbance_matches_api_and_geographiclib(tmp_path):
 
 def test_gravity_and_normal_quantities():
     """--quantity gravity (m/s², incl. centrifugal) and normal --normal exact|j2|j4|j6."""
-    from fieldmap import gravity as fg
-    from fieldmap.normal import normal_gravity
+    from fieldmap.field import gravity as fg
+    from fieldmap.field.normal import normal_gravity
 
     lat, lon, h = POINTS.T
     out = _run(["point", "--quantity", "gravity", "--precision", "14", "--lmax", "60"],
@@ -127,7 +127,7 @@ def test_verify_command():
 
 def test_verify_reports_failures(monkeypatch):
     """A comparison beyond 1e-12 relative is flagged (so the command can fail)."""
-    from fieldmap import verify
+    from fieldmap.cli import verify
 
     def broken(device, opts):
         yield verify._compare("deliberately wrong", device, lambda: np.ones(3) * (1 + 1e-9),

@@ -6,9 +6,9 @@ import mpmath
 import numpy as np
 import pytest
 
-from fieldmap.ellipsoid import GRS80, WGS84, Ellipsoid, _q_series, get_ellipsoid
 from fieldmap.errors import InputError
-from fieldmap.frames import C_e_to_enu, ecef_to_geodetic, enu_to_ned, geodetic_to_ecef
+from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid, _q_series, get_ellipsoid
+from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, enu_to_ned, geodetic_to_ecef
 
 
 def test_wgs84_derived_constants():

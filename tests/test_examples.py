@@ -52,14 +52,15 @@ def _check_section41_numbers(out):
     """Check the printed "ours" column against the point API (no grid synthesis, no FFT).
 
     Node maxima of |δg| at 20/50/100 km and the 20 km area fraction above 0.05 mg, recomputed
-    from ``fieldmap.gravity.disturbance`` at the nodes of the same 10° grid (±80°); the printed
+    from ``fieldmap.field.gravity.disturbance``
+    at the nodes of the same 10° grid (±80°); the printed
     values are rounded to 3 decimals (mg) and 2 decimals (%).
     """
     import numpy as np
 
-    from fieldmap.gravity import disturbance
-    from fieldmap.gridspec import make_grid
-    from fieldmap.stats import weights_2d
+    from fieldmap.field.gravity import disturbance
+    from fieldmap.grids.spec import make_grid
+    from fieldmap.products.stats import weights_2d
 
     rows = (re.match(r"(.+?)\s{2,}([-+.\de]+) ", line) for line in out.splitlines())
     ours = {m[1]: float(m[2]) for m in rows if m}

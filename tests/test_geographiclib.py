@@ -12,11 +12,11 @@ import struct
 import numpy as np
 import pytest
 
-from fieldmap.ellipsoid import WGS84
-from fieldmap.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.geographiclib import egm_id, gravity_tool, run_gravity_tool, write_egm
-from fieldmap.model import SHModel
-from fieldmap.models import kaula_model, load_model
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+from fieldmap.models.geographiclib import egm_id, gravity_tool, run_gravity_tool, write_egm
+from fieldmap.models.registry import kaula_model, load_model
+from fieldmap.models.shmodel import SHModel
 
 needs_tool = pytest.mark.skipif(gravity_tool() is None,
                                 reason="GeographicLib's Gravity (geographiclib-tools) missing")
@@ -96,13 +96,13 @@ def test_point_mass_and_j2_closed_forms(tmp_path):
 
 @needs_tool
 def test_eigen6s_engine_vs_gravity_tool(tmp_path):
-    """fieldmap.gravity vs GeographicLib on 300 random points, EIGEN-6S to degree 240.
+    """fieldmap.field.gravity vs GeographicLib on 300 random points, EIGEN-6S to degree 240.
 
     Disturbance (mGal, ENU, each field with its own GM and radius) and total gravity (m/s², ENU,
     incl. centrifugal). Measured: 2.0e-9 mGal and 2.1e-14 m/s², both float64 rounding of
     g ≈ 9.8 m/s² (2e-15 relative); the bounds below leave a factor ~5.
     """
-    from fieldmap import gravity as fg
+    from fieldmap.field import gravity as fg
 
     model = load_model("eigen-6s")
     name = write_egm(model, tmp_path)

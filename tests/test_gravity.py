@@ -1,4 +1,4 @@
-"""Public gravity API (fieldmap.gravity).
+"""Public gravity API (fieldmap.field.gravity).
 
 Disturbance bookkeeping, centrifugal term, frames, units, input errors.
 """
@@ -6,10 +6,11 @@ Disturbance bookkeeping, centrifugal term, frames, units, input errors.
 import numpy as np
 import pytest
 
-from fieldmap import _warp, gravity
-from fieldmap.ellipsoid import GRS80, WGS84
+from fieldmap import _warp
 from fieldmap.errors import FieldmapError, InputError
-from fieldmap.model import SHModel
+from fieldmap.field import gravity
+from fieldmap.field.ellipsoid import GRS80, WGS84
+from fieldmap.models.shmodel import SHModel
 from fieldmap.reference.normal import zonal_sh_model
 
 DEVICES = _warp.devices()
@@ -49,7 +50,7 @@ def test_disturbance_degree0_term(device):
     gm_m = 3.986004415e14  # EIGEN-6S earth_gravity_constant
     model = SHModel("gm", gm_m, base.radius, base.C, base.S, base.lmax)
     dg = gravity.disturbance(lat, lon, h, model=model, unit="m/s2", frame="ecef", device=device)
-    from fieldmap.normal import normal_gravity
+    from fieldmap.field.normal import normal_gravity
 
     gam = normal_gravity(lat, lon, h, kind="exact", centrifugal=False, frame="ecef", device=device)
     expect = (gm_m / WGS84.GM - 1.0) * gam
@@ -61,7 +62,7 @@ def test_disturbance_degree0_term(device):
 @pytest.mark.parametrize("device", DEVICES)
 def test_gravity_minus_gravitation_is_centrifugal(device):
     """Closed form in ENU: ω² p (0, −sin φ, cos φ), p = (N + h) cos φ (Groves 2013 eq. 3.7.5)."""
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
 
     model = load_model("eigen-6s", lmax=30)
     lat, lon, h = points(seed=2)
@@ -78,7 +79,7 @@ def test_gravity_minus_gravitation_is_centrifugal(device):
 @pytest.mark.parametrize("device", DEVICES)
 def test_frames_and_units(device):
     """NED is a reordering of ENU, ENU rotates back to ECEF, unit factors are exact."""
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
 
     model = load_model("eigen-6s", lmax=60)
     lat, lon, h = points(seed=3)
@@ -120,7 +121,7 @@ def test_eigen6s_plausible(device):
 
 def test_shapes_and_truncation():
     """Inputs broadcast, lmax equals an explicit truncation, empty input gives empty output."""
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
 
     model = load_model("eigen-6s")
     assert gravity.disturbance(10.0, 20.0, 0.0, model=model, lmax=10).shape == (3,)

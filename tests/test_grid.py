@@ -1,7 +1,7 @@
 """Grid specification and grid synthesis (kernels/grid.py, fieldmap/grid.py).
 
 The grid kernel (row Legendre pass + FFT over longitude) is checked against independent paths:
-the scattered-point Warp kernel (fieldmap.gravity), the NumPy reference of the SH engine
+the scattered-point Warp kernel (fieldmap.field.gravity), the NumPy reference of the SH engine
 (fieldmap.reference.sh), closed forms (the level ellipsoid's own zonal series gives a zero
 disturbance), and its own direct (non-FFT) longitude sums.
 """
@@ -11,12 +11,13 @@ import math
 import numpy as np
 import pytest
 
-from fieldmap import _warp, frames
-from fieldmap import grid as G
-from fieldmap.ellipsoid import WGS84
+from fieldmap import _warp
 from fieldmap.errors import InputError
-from fieldmap.model import SHModel
-from fieldmap.models import kaula_model, load_model
+from fieldmap.field import frames
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.grids import synthesis as G
+from fieldmap.models.registry import kaula_model, load_model
+from fieldmap.models.shmodel import SHModel
 from fieldmap.reference.normal import zonal_sh_model
 
 DEVICES = _warp.devices()
@@ -24,7 +25,7 @@ DEVICES = _warp.devices()
 
 def _enu(model, grid, ih, quantity, device):
     """Scattered-point path at the grid nodes, geodetic ENU (m/s²)."""
-    from fieldmap.gravity import disturbance, gravitation
+    from fieldmap.field.gravity import disturbance, gravitation
 
     la, lo = np.meshgrid(grid.lat, grid.lon, indexing="ij")
     h = grid.heights[ih]
@@ -76,7 +77,7 @@ def test_region_across_antimeridian():
 
 def test_area_weights_closed_form():
     lat = np.linspace(-90, 90, 181)
-    from fieldmap.stats import area_weights
+    from fieldmap.products.stats import area_weights
 
     w = area_weights(lat)
     assert w.sum() == pytest.approx(2.0, rel=1e-14, abs=0)  # ∫cos φ dφ over the sphere
@@ -279,7 +280,7 @@ def test_grid_disturbance_matches_geographiclib_tool(tmp_path, eigen):
 
     Debian geographiclib-tools; EIGEN-6S degree 120, WGS84 normal field, 20 and 100 km.
     """
-    from fieldmap.geographiclib import gravity_tool, run_gravity_tool, write_egm
+    from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
 
     if gravity_tool() is None:
         pytest.skip("GeographicLib's Gravity tool is not installed")

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError, ModelFileError
-from fieldmap.icgem import decimal_year, parse_epoch, read_icgem, write_icgem
-from fieldmap.models import kaula_model
+from fieldmap.models.icgem import decimal_year, parse_epoch, read_icgem, write_icgem
+from fieldmap.models.registry import kaula_model
 
 
 @pytest.fixture(scope="module")

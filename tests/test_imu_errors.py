@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from fieldmap import imu_errors as ie
 from fieldmap.errors import InputError
+from fieldmap.nav import imu_errors as ie
 
 
 def test_unit_constants():
@@ -106,11 +106,11 @@ def test_scale_factor_and_misalignment_matrix():
 
 
 def test_kernel_bias_gives_half_b_t2():
-    """The draws drive fieldmap.strapdown's kernel: 100 µg fixed bias at rest -> ½ b t²."""
-    from fieldmap.imu import Gravitation, synthesize
-    from fieldmap.launch_frames import LaunchFrame
-    from fieldmap.strapdown import dcm_to_quat, propagate_lci
-    from fieldmap.trajectory import Stationary
+    """The draws drive fieldmap.nav.strapdown's kernel: 100 µg fixed bias at rest -> ½ b t²."""
+    from fieldmap.nav.imu import Gravitation, synthesize
+    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
+    from fieldmap.nav.trajectory import Stationary
 
     fr = LaunchFrame(108.2, 34.0, 195.0, 400.0)
     st = Stationary(fr, 20.0)

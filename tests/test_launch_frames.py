@@ -5,9 +5,9 @@ import pytest
 import warp as wp
 
 from fieldmap import _warp
-from fieldmap.ellipsoid import WGS84
-from fieldmap.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.launch_frames import (
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.nav.launch_frames import (
     C_e_to_a,
     C_e_to_t,
     C_l_to_a,

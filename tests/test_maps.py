@@ -1,4 +1,4 @@
-"""Map products, area-weighted statistics, atomic writers, plots (fieldmap.maps/stats/io/plots)."""
+"""Map products, area-weighted statistics, atomic writers, plots (fieldmap.products)."""
 
 import json
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import fieldmap
-from fieldmap import io, maps, plots, stats
-from fieldmap.ellipsoid import WGS84
 from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.products import io, maps, plots, stats
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -62,7 +62,7 @@ def test_disturbance_dataset_structure(small_map):
 
 
 def test_disturbance_matches_point_api(small_map):
-    from fieldmap.gravity import disturbance
+    from fieldmap.field.gravity import disturbance
 
     ds = small_map
     la, lo = np.meshgrid(ds.latitude.values, ds.longitude.values, indexing="ij")
@@ -108,7 +108,7 @@ def _j4_term_gravitation(lat_deg, h):
     its J4 term is −GM J4 a^4 P4 / r^5 and J2-only minus exact ≈ ∇(+GM J4 a^4 P4 / r^5).
     Geodetic ENU.
     """
-    from fieldmap import frames
+    from fieldmap.field import frames
 
     def pot(x, y, z):
         r = np.sqrt(x * x + y * y + z * z)
@@ -214,7 +214,7 @@ def test_plots_render(tmp_path, small_map):
 
 
 def test_coastline_data():
-    from fieldmap import coastline
+    from fieldmap.products import coastline
 
     lon, lat = coastline.coastlines()
     ok = np.isfinite(lon)

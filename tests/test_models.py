@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.icgem import write_icgem
-from fieldmap.models import clear_cache, kaula_model, load_model
+from fieldmap.models.icgem import write_icgem
+from fieldmap.models.registry import clear_cache, kaula_model, load_model
 
 
 def test_bundled_default_cached_case_insensitive():
@@ -34,7 +34,7 @@ def test_bundled_default_cached_case_insensitive():
 
 def test_bundled_model_found_from_any_directory(tmp_path):
     """importlib.resources, not a path relative to the working directory."""
-    code = "from fieldmap.models import load_model; print(load_model().lmax)"
+    code = "from fieldmap.models.registry import load_model; print(load_model().lmax)"
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                          text=True, check=True)
     assert out.stdout.strip() == "240"

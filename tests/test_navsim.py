@@ -12,8 +12,8 @@ import sys
 import numpy as np
 import pytest
 
-from fieldmap import navsim
 from fieldmap.cli import main as cli_main
+from fieldmap.nav import studies as navsim
 
 
 @pytest.fixture(scope="module")
@@ -227,7 +227,7 @@ def _legend(fig):
 def test_table1_figure(t1):
     import matplotlib.pyplot as plt
 
-    from fieldmap import navplots
+    from fieldmap.nav import plots as navplots
 
     fig = navplots.make_figure(t1)
     try:
@@ -260,7 +260,7 @@ def test_table1_figure(t1):
 def test_monte_carlo_figures(scenario, tmp_path):
     import matplotlib.pyplot as plt
 
-    from fieldmap import navplots
+    from fieldmap.nav import plots as navplots
 
     res3 = navsim.table3(scenario, draws=3, seed=2)
     res4 = navsim.table4(scenario, ["j4", "sh200"], draws=3, seed=2)

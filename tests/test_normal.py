@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from fieldmap import _warp
-from fieldmap import normal as N
-from fieldmap.ellipsoid import GRS80, WGS84, Ellipsoid
 from fieldmap.errors import InputError
+from fieldmap.field import normal as N
+from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid
 from fieldmap.reference import normal as R
 
 DEVICES = _warp.devices()

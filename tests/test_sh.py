@@ -1,10 +1,10 @@
-"""Spherical-harmonic Warp kernels (fieldmap.kernels.sh via fieldmap.sh) against independent checks.
+"""Spherical-harmonic Warp kernels (kernels.sh via field.sh) against independent checks.
 
 * the NumPy reference ``fieldmap.reference.sh`` (row-wise X-number ALFs, m+1 derivative identity);
 * closed forms: point mass, J2-only field (Groves 2013 eq. 3.7.7, coded here);
 * finite differences of the kernel potential;
 * parity of the Legendre functions, P̄nm(−t) = (−1)^{n+m} P̄nm(t);
-* the zonal J2n series of WGS84 against the exact normal gravitation of ``fieldmap.normal``.
+* the zonal J2n series of WGS84 against the exact normal gravitation of ``fieldmap.field.normal``.
 """
 
 import numpy as np
@@ -13,10 +13,10 @@ import warp as wp
 from fieldmap.kernels import sh as ksh
 
 from fieldmap import _warp
-from fieldmap import sh as fsh
-from fieldmap.ellipsoid import WGS84
-from fieldmap.model import SHModel
-from fieldmap.models import kaula_model, load_model
+from fieldmap.field import sh as fsh
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.models.registry import kaula_model, load_model
+from fieldmap.models.shmodel import SHModel
 from fieldmap.reference import sh as ref
 from fieldmap.reference.normal import zonal_sh_model
 
@@ -225,7 +225,7 @@ def test_reference_orthonormality():
 @pytest.mark.parametrize("device", DEVICES)
 def test_geodetic_kernel_matches_ecef_path(eigen, device):
     """The geodetic-input kernel equals the ECEF kernel fed with NumPy's geodetic → ECEF."""
-    from fieldmap.frames import geodetic_to_ecef
+    from fieldmap.field.frames import geodetic_to_ecef
 
     rng = np.random.default_rng(8)
     lat = np.r_[rng.uniform(-90, 90, 30), 90.0, -90.0, 89.99]
@@ -276,8 +276,8 @@ def test_recursion_tables_identities():
 @pytest.mark.parametrize("h", [0.0, 2e4, 1e5])
 def test_zonal_series_vs_exact_normal(device, h):
     """WGS84 zonal J2n series (degree 24) vs the exact level-ellipsoid gravitation."""
-    normal = pytest.importorskip("fieldmap.normal")
-    from fieldmap.frames import geodetic_to_ecef
+    normal = pytest.importorskip("fieldmap.field.normal")
+    from fieldmap.field.frames import geodetic_to_ecef
 
     model = zonal_sh_model(WGS84)
     lat = np.r_[np.linspace(-90, 90, 37), 89.99]

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from fieldmap import _warp
-from fieldmap import sh as fsh
-from fieldmap.model import SHModel
-from fieldmap.models import kaula_model
+from fieldmap.field import sh as fsh
+from fieldmap.models.registry import kaula_model
+from fieldmap.models.shmodel import SHModel
 from fieldmap.reference import sh as ref
 
 DEVICES = _warp.devices()
@@ -29,7 +29,7 @@ L = 2190
 
 
 def kaula_orders(lmax, seed, orders):
-    """:func:`fieldmap.models.kaula_model` with only the orders ``orders`` (and C00, C20) kept."""
+    """Kaula model with only the orders ``orders`` (and C00, C20) kept."""
     model = kaula_model(lmax, seed=seed)
     drop = ~np.isin(np.arange(lmax + 1), orders)
     C, S = model.C.copy(), model.S.copy()

@@ -5,12 +5,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap import _warp
-from fieldmap.ellipsoid import WGS84
 from fieldmap.errors import InputError
-from fieldmap.launch_frames import LaunchFrame
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_lci_reference
-from fieldmap.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
 
 DEVICES = _warp.devices()
 FRAME = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
@@ -81,7 +81,7 @@ def test_kernel_equals_reference(device):
 
 @pytest.mark.parametrize("device", DEVICES)
 def test_sh_kind_equals_reference(device):
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
     from fieldmap.reference import sh as rsh
 
     model = load_model("eigen-6s", lmax=24)
@@ -323,7 +323,7 @@ def test_input_validation():
 
 
 def test_input_validation_models_and_errors():
-    from fieldmap.models import load_model
+    from fieldmap.models.registry import load_model
 
     dth = np.zeros((10, 3))
     ok = dict(dt=0.01, P0=np.zeros(3), V0=np.zeros(3), q0=[1.0, 0, 0, 0], launch=FRAME)

@@ -5,16 +5,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap import _warp
-from fieldmap.ellipsoid import WGS84
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.nav.strapdown import dcm_to_quat, quat_to_dcm
 from fieldmap.reference import normal as rnorm
-from fieldmap.strapdown import dcm_to_quat, quat_to_dcm
 
 DEVICES = _warp.devices()
 
 
 def _g_ned_j2(llh):
     """J2 gravitation (Groves eq. 3.7.7) + centrifugal (eq. 3.7.5) in NED at (rad, rad, m) rows."""
-    from fieldmap.frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
+    from fieldmap.field.frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
 
     lat, lon = np.degrees(llh[:, 0]), np.degrees(llh[:, 1])
     r = np.stack(geodetic_to_ecef(lat, lon, llh[:, 2]), -1)
@@ -38,7 +38,7 @@ VNED0 = np.array([150.0, 80.0, -5.0])
 
 def _kernel_run(dth, dv, dt, C0, output_every, device):
     """Run the NED kernel (J2 gravity) from LLH0, VNED0 and attitude C0."""
-    from fieldmap.strapdown_ned import propagate_ned
+    from fieldmap.nav.strapdown_ned import propagate_ned
 
     return propagate_ned(
         dth, dv, dt, 30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0), "j2",
@@ -148,7 +148,7 @@ def test_ned_body_at_rest_on_earth_stays_put(device):
     With these exact increments the mechanization keeps the body in place (Groves eq. 3.7.5
     convention, seeds 000/004); flipping the sign of f makes it fall at 2g.
     """
-    from fieldmap.strapdown_ned import propagate_ned
+    from fieldmap.nav.strapdown_ned import propagate_ned
 
     lat = np.radians(34.0)
     llh = np.array([[lat, np.radians(108.0), 500.0]])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.launch_frames import LaunchFrame
-from fieldmap.trajectory import BoostGlide, Coning, ConstantVelocity, Stationary
+from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.trajectory import BoostGlide, Coning, ConstantVelocity, Stationary
 
 FRAME = LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0)
 # 4th-order central difference weights for f'(t) with step h

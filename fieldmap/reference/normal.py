@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ellipsoid import Ellipsoid
+from fieldmap.field.ellipsoid import Ellipsoid
 
 # ---------------------------------------------------------------------------------------------
 # exact closed form, Cartesian route
@@ -176,7 +176,7 @@ def zonal_sh_model(ell: Ellipsoid, nmax: int = 12, gm: float | None = None,
 
     Units: gm m³/s², radius m.
     """
-    from ..model import SHModel
+    from fieldmap.models.shmodel import SHModel
 
     gm = ell.GM if gm is None else gm
     radius = ell.a if radius is None else radius
@@ -271,7 +271,10 @@ def _ned_basis(lat, lon):
 
 def normal_gravity(lat_deg, lon_deg, h, ell: Ellipsoid, kind="exact", centrifugal=True,
                    frame="enu", groves_j2=1.082627e-3):
-    """Compute normal gravity at geodetic points (reference), conventions of ``fieldmap.normal``."""
+    """Compute normal gravity at geodetic points (reference).
+
+    Conventions of ``fieldmap.field.normal``.
+    """
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
     lat, lon, h = np.broadcast_arrays(lat, lon, np.asarray(h, dtype=np.float64))
     x, y, z = _geodetic_to_ecef(lat, lon, h, ell)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import SHModel
+from fieldmap.models.shmodel import SHModel
 
 _STEP = 400  # X-number exponent step: values are mantissa * 2**(400 k)
 _BIG = 2.0**_STEP

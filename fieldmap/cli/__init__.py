@@ -1,0 +1,145 @@
+"""Command-line entry point ``fieldmap``.
+
+Each sub-command lives in its own module exposing ``register(subparsers)``; that function adds
+the sub-parser and sets ``func`` (called with the parsed namespace, returns an exit status).
+Every :class:`fieldmap.errors.FieldmapError` (and ``OSError`` on output) becomes one line on
+stderr and exit status 2, never a traceback; so do bad option values found by argparse (no usage
+block). Exit statuses: 0 success; 1 ``fieldmap point`` with bad input lines, or ``verify`` with
+a failed check; 2 bad input; 3 an unexpected internal error (one line; set ``FIELDMAP_DEBUG=1``
+for the traceback); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM). Interrupted or
+terminated runs leave no partial output files (see :mod:`fieldmap.products.io`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import signal
+import sys
+import warnings
+
+# module name -> registers these sub-commands
+_COMMAND_MODULES = (
+    "fieldmap.cli.point",  # point, verify
+    "fieldmap.cli.maps",  # map, sweep, truncation
+    "fieldmap.cli.nav",  # navsim
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (no usage block), exit status 2."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised as an exception so that temporary files are cleaned up."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the top-level parser with every available sub-command."""
+    parser = _Parser(
+        prog="fieldmap",
+        description=(
+            "Gravity-field maps and strapdown navigation with Warp kernels. "
+            "Default model: the bundled EIGEN-6S (degree 240)."
+        ),
+    )
+    from fieldmap import __version__
+
+    parser.add_argument("--version", action="version", version=f"fieldmap {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name in _COMMAND_MODULES:
+        try:
+            mod = importlib.import_module(name)
+        except ModuleNotFoundError as exc:  # a sub-command not written yet
+            if exc.name == name:
+                continue
+            raise
+        mod.register(sub)
+    return parser
+
+
+def _device_error(exc) -> bool:
+    mod = sys.modules.get("fieldmap._warp")
+    return mod is not None and isinstance(exc, mod.DeviceError)
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; return the exit status."""
+    from fieldmap.errors import FieldmapError
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    # Warp's notice about stale cache folders of another Warp version says nothing about the run
+    warnings.filterwarnings("ignore", message="Kernel cache artifacts from a previous Warp")
+    prefix = f"fieldmap {args.command}"
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # pragma: no cover - not the main thread
+        pass
+    try:
+        return int(args.func(args) or 0)
+    except FieldmapError as exc:
+        print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # e.g. ``fieldmap point < pts | head``: stop quietly
+        _silence_stdout()
+        return 1
+    except OSError as exc:
+        where = f" {exc.filename!r}:" if getattr(exc, "filename", None) else ""
+        print(f"{prefix}: error:{where} {_one_line(exc.strerror or exc)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return 130
+    except _Terminated:
+        print(f"{prefix}: terminated", file=sys.stderr)
+        return 143
+    except MemoryError:
+        print(
+            f"{prefix}: error: out of memory; use a coarser grid or fewer points", file=sys.stderr
+        )
+        return 2
+    except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
+        if _device_error(exc):
+            print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        if os.environ.get("FIELDMAP_DEBUG"):
+            raise
+        print(
+            f"{prefix}: internal error: {type(exc).__name__}: {_one_line(exc)} "
+            "(set FIELDMAP_DEBUG=1 for the traceback)",
+            file=sys.stderr,
+        )
+        return 3
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe, point stdout at /dev/null so that the exit flush does not fail."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # pragma: no cover
+        pass
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

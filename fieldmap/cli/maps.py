@@ -1,0 +1,349 @@
+"""CLI sub-commands ``fieldmap map``, ``fieldmap sweep`` and ``fieldmap truncation``.
+
+Each validates all input first (grid, model degree, thresholds, device, output folder), then
+computes, then writes NetCDF (CF-1.8), PNG figures and a JSON summary atomically under
+``--out`` (default ``outputs/``) and prints a short statistics table. Bad input writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+from fieldmap.errors import InputError
+
+DEFAULT_THRESHOLDS = "0.02,0.05,0.06,0.10"
+
+
+def _numbers(values, what: str, kind=float) -> list:
+    """Parse numbers given as separate arguments and/or comma-separated lists."""
+    out = []
+    for v in values if isinstance(values, (list, tuple)) else [values]:
+        for tok in str(v).replace(",", " ").split():
+            try:
+                out.append(kind(tok))
+            except ValueError:
+                raise InputError(f"{what}: {tok!r} is not a number") from None
+    if not out:
+        raise InputError(f"{what}: no value given")
+    return out
+
+
+def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
+    if model:
+        p.add_argument(
+            "--model",
+            default="eigen-6s",
+            help="bundled model name or ICGEM .gfc[.gz] file (default: eigen-6s, degree 240)",
+        )
+        p.add_argument(
+            "--lmax",
+            type=int,
+            default=None,
+            help="truncation degree, 0..the model's (default: the model's full degree)",
+        )
+        p.add_argument(
+            "--epoch",
+            default=None,
+            help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
+        )
+    p.add_argument(
+        "--step-deg",
+        type=float,
+        default=1.0,
+        help="grid step in degrees, > 0 and at most the region's size (default 1)",
+    )
+    p.add_argument(
+        "--lat-max",
+        type=float,
+        default=80.0,
+        help="global grid from -LAT_MAX to LAT_MAX degrees, 0 < LAT_MAX <= 90 "
+        "(default 80, as the paper); rows are whole multiples of the step, symmetric about "
+        "the equator",
+    )
+    p.add_argument(
+        "--region",
+        type=float,
+        nargs=4,
+        metavar=("W", "E", "S", "N"),
+        default=None,
+        help="regional grid instead of global: west east south north in degrees "
+        "(longitudes -360..360, W > E crosses the antimeridian; -90 <= S < N <= 90)",
+    )
+    p.add_argument("--ellipsoid", default="WGS84", help="normal field: WGS84 (default) or GRS80")
+    p.add_argument(
+        "--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: cuda if present)"
+    )
+    p.add_argument(
+        "--out",
+        default="outputs",
+        help="output folder, created with its parents if missing (default: outputs/); "
+        "nothing is written unless the whole run succeeds",
+    )
+    p.add_argument("--no-plots", action="store_true", help="write NetCDF and JSON only")
+
+
+def register(subparsers) -> None:
+    """Add the map, sweep and truncation sub-commands."""
+    p = subparsers.add_parser(
+        "map",
+        help="gravity-disturbance map at one height (the main job)",
+        description=(
+            "Global (80S-80N) or regional map of the gravity disturbance "
+            "g_model - gamma_exact: east, north, up, modulus in mGal and mg, with area-weighted "
+            "statistics. Writes NetCDF, JSON and PNG (isolines, threshold maps) to --out. "
+            "Bad input: one line on stderr, exit status 2, nothing written."
+        ),
+    )
+    _common(p)
+    p.add_argument(
+        "--height-km",
+        type=float,
+        default=20.0,
+        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
+    )
+    p.add_argument(
+        "--thresholds-mg",
+        nargs="+",
+        default=[DEFAULT_THRESHOLDS],
+        help="thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
+        "positive and distinct (default 0.02,0.05,0.06,0.10)",
+    )
+    p.set_defaults(func=run_map)
+
+    p = subparsers.add_parser(
+        "sweep",
+        help="disturbance statistics over several heights",
+        description="Disturbance maps (east, north, up, modulus in mGal and mg) and their "
+        "area-weighted statistics at several heights: table, plot, maps. Bad input: one line "
+        "on stderr, exit status 2, nothing written.",
+    )
+    _common(p)
+    p.add_argument(
+        "--height-km",
+        nargs="+",
+        default=["20,30,50,70,100"],
+        help="heights above the ellipsoid in km, -1 to 1e5, distinct; separate arguments "
+        "or comma-separated (default 20 30 50 70 100)",
+    )
+    p.add_argument(
+        "--thresholds-mg",
+        nargs="+",
+        default=[DEFAULT_THRESHOLDS],
+        help="thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct "
+        "(default 0.02,0.05,0.06,0.10)",
+    )
+    p.set_defaults(func=run_sweep)
+
+    p = subparsers.add_parser(
+        "truncation",
+        help="J2/J4/J6 normal gravitation truncation-error maps",
+        description="Maps of the J2n normal gravitation minus the exact level-ellipsoid one "
+        "(east, north, up, modulus in mGal and mg) for each order. Bad input: one line on "
+        "stderr, exit status 2, nothing written.",
+    )
+    _common(p, model=False)
+    p.add_argument(
+        "--height-km",
+        type=float,
+        default=20.0,
+        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
+    )
+    p.add_argument("--orders", default="2,4,6", help="J2n orders, e.g. 2,4,6 (default)")
+    p.set_defaults(func=run_truncation)
+
+
+def _stem(ds, kind: str) -> str:
+    a = ds.attrs
+    parts = [kind]
+    if a.get("model"):
+        parts.append(f"{a['model'].lower()}_L{a['model_lmax']}")
+    w, e, s, n = (float(x) for x in a["region_west_east_south_north_deg"])
+    if "height" not in ds.dims:
+        parts.append(f"h{float(ds['height'].values) / 1e3:g}km")
+    if a.get("grid_kind") == "global":
+        if n != 80.0:
+            parts.append(f"latmax{n:g}")
+    else:
+        parts.append(f"region{w:g}_{e:g}_{s:g}_{n:g}")
+    parts.append(f"step{float(a['grid_step_deg']):g}")
+    return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
+
+
+def _thresholds(args) -> list[float]:
+    from fieldmap.products.stats import parse_thresholds
+
+    values = _numbers(args.thresholds_mg, "--thresholds-mg")
+    if len(set(values)) != len(values):
+        raise InputError(f"--thresholds-mg: repeated threshold in {values}")
+    return parse_thresholds(values)
+
+
+def _region(args):
+    return tuple(args.region) if args.region is not None else None
+
+
+def _preflight(args, heights_km, layers: int = 1) -> None:
+    """Validate the grid, its memory, device and output folder before any computation or writing.
+
+    ``layers`` is the number of maps per height (orders of a truncation map), for the memory
+    estimate. The grid rules (heights, empty regions, steps larger than the region, memory) are
+    those of :func:`fieldmap.grids.spec.make_grid` and :func:`fieldmap.grids.spec.check_memory`.
+    """
+    from fieldmap.grids.spec import MAX_HEIGHT_M, check_memory, make_grid
+    from fieldmap.grids.synthesis import resolve_device
+    from fieldmap.products.io import check_out_dir
+
+    for h in heights_km:  # in the unit the user typed
+        if math.isfinite(h) and 1e3 * h > MAX_HEIGHT_M:
+            raise InputError(
+                f"height {h:g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where an "
+                "Earth gravity model is meant to be used"
+            )
+    grid = make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
+    check_memory(grid, layers)
+    if args.device is not None:
+        resolve_device(args.device)
+    check_out_dir(args.out)
+
+
+def _write(ds, stem: str, out: Path, figures: list, summary: dict) -> list[Path]:
+    """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
+    from fieldmap.products.io import output_batch
+    from fieldmap.products.maps import summary as _summary
+
+    js = {**_summary(ds), **summary}
+    with output_batch(out) as batch:
+        batch.netcdf(ds, f"{stem}.nc")
+        batch.json(js, f"{stem}.json")
+        for suffix, make in figures:
+            batch.png(make(), f"{stem}_{suffix}.png")
+        return batch.commit()
+
+
+def _print_files(files) -> None:
+    print("written: " + ", ".join(str(f) for f in files))
+
+
+def run_map(args) -> int:
+    """``fieldmap map``: disturbance map at one height."""
+    from fieldmap.products import plots
+    from fieldmap.products.maps import disturbance_map
+
+    thresholds = _thresholds(args)
+    _preflight(args, [args.height_km])
+    t0 = time.perf_counter()
+    ds = disturbance_map(
+        model=args.model,
+        lmax=args.lmax,
+        height_km=args.height_km,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        thresholds_mg=thresholds,
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+        epoch=args.epoch,
+    )
+    elapsed = time.perf_counter() - t0
+    a = ds.attrs
+    print(
+        f"{a['model']} degree {a['model_lmax']}, h = {args.height_km:g} km, "
+        f"{ds.sizes['latitude']} x {ds.sizes['longitude']} nodes, {elapsed:.2f} s"
+    )
+    print(
+        f"  max {a['max_mg']:.4f} mg   mean {a['mean_mg']:.4f} mg   "
+        f"median {a['p50_mg']:.4f} mg   p99 {a['p99_mg']:.4f} mg"
+    )
+    print("  threshold (mg)   area above (%)")
+    for t in thresholds:
+        from fieldmap.products.stats import threshold_key
+
+        print(f"  {t:>14g}   {100 * a[f'area_fraction_above_{threshold_key(t)}_mg']:>14.2f}")
+    figures = []
+    if not args.no_plots:
+        figures.append(("isolines", lambda: plots.plot_isolines(ds, thresholds)))
+        for t in thresholds:
+            if t >= 0.05:
+                figures.append((f"above_{t:g}mg", lambda t=t: plots.plot_threshold(ds, t)))
+    _print_files(_write(ds, _stem(ds, "disturbance"), Path(args.out), figures, {}))
+    return 0
+
+
+def run_sweep(args) -> int:
+    """``fieldmap sweep``: statistics over several heights."""
+    from fieldmap.products import plots
+    from fieldmap.products.maps import altitude_sweep
+
+    thresholds = _thresholds(args)
+    heights = _numbers(args.height_km, "--height-km")
+    if len(set(heights)) != len(heights):
+        raise InputError(f"--height-km: repeated height in {heights}")
+    _preflight(args, heights)
+    t0 = time.perf_counter()
+    ds = altitude_sweep(
+        model=args.model,
+        lmax=args.lmax,
+        height_km=heights,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        thresholds_mg=thresholds,
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+        epoch=args.epoch,
+    )
+    elapsed = time.perf_counter() - t0
+    print(
+        f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, {ds.sizes['latitude']} x "
+        f"{ds.sizes['longitude']} nodes x {ds.sizes['height']} heights, {elapsed:.2f} s"
+    )
+    head = "  h (km)   max (mg)  mean (mg)" + "".join(f"  >{t:g} mg (%)" for t in thresholds)
+    print(head)
+    for k, h in enumerate(ds["height"].values):
+        row = f"  {h / 1e3:>6g}   {ds['max_mg'].values[k]:8.4f}   {ds['mean_mg'].values[k]:8.4f}"
+        row += "".join(
+            f"  {100 * f:>{len(f'>{t:g} mg (%)')}.2f}"
+            for t, f in zip(thresholds, ds["area_fraction_above"].values[k])
+        )
+        print(row)
+    figures = []
+    if not args.no_plots:
+        figures.append(("table", lambda: plots.plot_sweep(ds)))
+        for k, h in enumerate(ds["height"].values):
+            figures.append(
+                (
+                    f"isolines_h{h / 1e3:g}km",
+                    lambda k=k: plots.plot_isolines(ds, thresholds, height_index=k),
+                )
+            )
+    _print_files(_write(ds, _stem(ds, "sweep"), Path(args.out), figures, {}))
+    return 0
+
+
+def run_truncation(args) -> int:
+    """``fieldmap truncation``: J2n truncation-error maps."""
+    from fieldmap.products import plots
+    from fieldmap.products.maps import truncation_map
+
+    orders = _numbers(args.orders, "--orders", kind=int)
+    _preflight(args, [args.height_km], layers=len(orders))
+    ds = truncation_map(
+        height_km=args.height_km,
+        orders=orders,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=_region(args),
+        device=args.device,
+        ellipsoid=args.ellipsoid,
+    )
+    print(f"J2n truncation error at h = {args.height_km:g} km ({ds.attrs['ellipsoid']})")
+    print("  order   max (mg)      mean (mg)")
+    mean = ds["modulus_mg"].mean(dim=("latitude", "longitude")).values
+    for o, mx, mn in zip(ds["order"].values, ds["max_mg"].values, mean):
+        print(f"  J{int(o):<5d} {mx:11.4e}   {mn:11.4e}")
+    figures = [] if args.no_plots else [("maps", lambda: plots.plot_truncation(ds))]
+    _print_files(_write(ds, _stem(ds, "truncation"), Path(args.out), figures, {}))
+    return 0

@@ -1,0 +1,253 @@
+"""Sub-commands ``fieldmap point`` (gravity at points from stdin) and ``fieldmap verify``.
+
+``fieldmap point`` works like GeographicLib's ``Gravity``; ``fieldmap verify`` runs the
+kernel-vs-NumPy comparisons of :mod:`fieldmap.cli.verify` on this machine.
+
+``fieldmap point`` reads lines ``lat lon [h]`` (geodetic degrees, metres above WGS84; h defaults
+to 0 as in ``Gravity``) and prints one line per input line: east north up of the disturbance in
+mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in m/s². A line that
+cannot be used prints ``ERROR: <reason>`` in its place, the other lines are still computed (in
+one batched kernel launch) and the exit status is 1.
+
+Heavy modules (Warp, the engine) are imported only when a command runs, so that ``fieldmap
+point`` starts quickly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+#: accepted height range of ``fieldmap point``. Below: the series is not valid deep under the
+#: surface (same limit as :data:`fieldmap.field.gravity.MIN_HEIGHT`); above: beyond 1e8 m (a quarter
+#: of the lunar distance) the Earth model is no longer the relevant field. Units: m.
+MIN_HEIGHT = -10.0e3
+MAX_HEIGHT = 1.0e8
+#: accepted longitudes, as GeographicLib's DMS::DecodeLatLon ([-540, 540) degrees); a larger
+#: number is a typing error, and far beyond it float64 no longer resolves a degree. Units: deg.
+MAX_ABS_LON = 540.0
+
+QUANTITIES = ("disturbance", "gravity", "normal")
+NORMALS = ("exact", "j2", "j4", "j6")
+_DEFAULT_DECIMALS = {"disturbance": 3, "gravity": 5, "normal": 5}  # as GeographicLib's Gravity
+
+
+def register(subparsers) -> None:
+    """Add the ``point`` and ``verify`` sub-commands."""
+    p = subparsers.add_parser(
+        "point",
+        help="gravity at points read from stdin (lat lon h per line)",
+        description=(
+            "Read 'lat lon [h]' lines (degrees, degrees, metres above WGS84) and print east north "
+            "up per line: the gravity disturbance in mGal (default), gravity incl. centrifugal "
+            "in m/s², or normal gravity in m/s². Accepted: |lat| <= 90, lon in [-540, 540), "
+            "h from -10 km to 1e5 km. A bad line prints 'ERROR: reason' in its place (one "
+            "summary line on stderr, exit status 1); bad options: one line on stderr, exit 2. "
+            "Empty input: no output, exit 0."
+        ),
+    )
+    p.add_argument("--quantity", choices=QUANTITIES, default="disturbance",
+                   help="disturbance (mGal), gravity (m/s², incl. centrifugal) or normal (m/s²)")
+    p.add_argument("--normal", choices=NORMALS, default="exact",
+                   help="normal-gravity model for --quantity normal (default: exact)")
+    p.add_argument("--model", default="eigen-6s",
+                   help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)")
+    p.add_argument("--lmax", type=int, default=None,
+                   help="truncation degree, 0..the model's (default: the model's full degree)")
+    p.add_argument("--epoch", default=None,
+                   help="epoch of time-variable terms: decimal year (1900..2200) or YYYY-MM-DD "
+                        "(default: the model's reference epoch)")
+    p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: auto)")
+    p.add_argument("--precision", type=int, default=None,
+                   help="decimals printed (default: 3 for mGal, 5 for m/s², as Gravity)")
+    p.add_argument("--input", default="-", help="read points from this file (default: stdin)")
+    p.set_defaults(func=run_point)
+
+    v = subparsers.add_parser(
+        "verify",
+        help="compare the Warp kernels with their NumPy references on this machine",
+        description="Run kernel-vs-NumPy comparisons and print max differences and timings; "
+                    "exit status 1 if any relative difference exceeds 1e-12.",
+    )
+    v.add_argument("--device", action="append", default=None,
+                   help="device to check (repeatable; default: every device present)")
+    v.add_argument("--lmax", type=int, default=240, help="degree of the EIGEN-6S checks (≤ 240)")
+    v.add_argument("--points", type=int, default=200,
+                   help="random points per check, 5..1000000 (default 200)")
+    v.set_defaults(func=run_verify)
+
+
+def parse_point_line(line: str):
+    """Return ``(lat, lon, h)`` of one input line, or raise ValueError with the reason.
+
+    Units: degrees, degrees, m.
+    """
+    fields = line.split()
+    if len(fields) not in (2, 3):
+        raise ValueError(f"expected 'lat lon [h]', got {len(fields)} fields")
+    vals = []
+    for name, text in zip(("latitude", "longitude", "height"), fields):
+        try:
+            v = float(text)
+        except ValueError:
+            raise ValueError(f"{name} {text!r} is not a number") from None
+        if not math.isfinite(v):
+            raise ValueError(f"{name} {text!r} is not finite")
+        vals.append(v)
+    lat, lon = vals[0], vals[1]
+    h = vals[2] if len(vals) == 3 else 0.0
+    if abs(lat) > 90.0:
+        raise ValueError(f"latitude {lat:g} outside [-90, 90]")
+    if not -MAX_ABS_LON <= lon < MAX_ABS_LON:
+        raise ValueError(f"longitude {lon:g} outside [-540, 540)")
+    if h < MIN_HEIGHT:
+        raise ValueError(f"height {h:g} m is more than {-MIN_HEIGHT:g} m below the ellipsoid")
+    if h > MAX_HEIGHT:
+        raise ValueError(f"height {h:g} m is above {MAX_HEIGHT:g} m")
+    return lat, lon, h
+
+
+def evaluate_points(lat, lon, h, quantity="disturbance", normal="exact", model="eigen-6s",
+                    lmax=None, epoch=None, device=None):
+    """East, north, up of ``quantity`` at the points, in one batched launch.
+
+    Parameters
+    ----------
+    lat, lon : numpy.ndarray
+        Geodetic latitude and longitude. Units: degrees.
+    h : numpy.ndarray
+        Height above WGS84. Units: m.
+    quantity : {"disturbance", "gravity", "normal"}
+        Disturbance (mGal), gravity incl. centrifugal (m/s²) or normal gravity (m/s²).
+    normal : {"exact", "j2", "j4", "j6"}
+        Normal model of ``quantity="normal"``.
+    model, lmax, epoch, device
+        As :func:`fieldmap.field.gravity.disturbance`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n, 3)``.
+    """
+    from fieldmap import _warp
+    from fieldmap.errors import InputError
+
+    try:
+        device = _warp.resolve_device(device)
+    except _warp.DeviceError as exc:
+        raise InputError(str(exc)) from None
+    if quantity == "normal":
+        from fieldmap.field.normal import normal_gravity
+
+        return normal_gravity(lat, lon, h, kind=normal, centrifugal=True, frame="enu",
+                              device=device)
+    from fieldmap.field import gravity as fg
+    from fieldmap.models.registry import load_model
+
+    sh_model = load_model(model, lmax=lmax, epoch=epoch)
+    if quantity == "gravity":
+        return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
+    return fg.disturbance(lat, lon, h, model=sh_model, unit="mGal", frame="enu", device=device)
+
+
+def run_point(args) -> int:
+    """Run ``fieldmap point``; return the exit status (1 if any line was bad)."""
+    import numpy as np
+
+    from fieldmap.errors import InputError
+
+    decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
+    if not 0 <= decimals <= 20:
+        raise InputError(f"--precision must be within 0..20, got {decimals}")
+    if args.lmax is not None and args.lmax < 0:
+        raise InputError(f"--lmax must be >= 0, got {args.lmax}")
+    if args.input == "-":
+        text = _read_capped(getattr(sys.stdin, "buffer", sys.stdin), "stdin")
+    else:
+        with open(args.input, "rb") as f:
+            text = _read_capped(f, args.input)
+    lines = text.splitlines()
+    points, results = [], []
+    for line in lines:
+        try:
+            points.append(parse_point_line(line))
+            results.append(None)
+        except ValueError as exc:
+            results.append(f"ERROR: {exc}")
+    if points:
+        lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
+        values = evaluate_points(lat, lon, h, args.quantity, args.normal, args.model, args.lmax,
+                                 args.epoch, args.device)
+        it = iter(values)
+        # never print NaN or inf: a point where the series does not converge is a bad line
+        results = [r if r is not None else _format(next(it), decimals) for r in results]
+    out = sys.stdout
+    out.write("".join(r + "\n" for r in results))
+    out.flush()
+    bad = [k for k, r in enumerate(results) if r.startswith("ERROR:")]
+    if bad:
+        print(f"fieldmap point: {len(bad)} of {len(results)} input lines could not be used "
+              f"(first: line {bad[0] + 1}: {results[bad[0]][7:]})", file=sys.stderr)
+        return 1
+    return 0
+
+
+#: most input read by ``fieldmap point`` (about 40 million points); ``--input /dev/zero``
+#: must end with an error, not fill the memory. Units: bytes.
+MAX_INPUT_BYTES = 2**30
+
+
+def _read_capped(stream, name: str) -> str:
+    """Read all of ``stream`` (bytes or text) up to :data:`MAX_INPUT_BYTES`.
+
+    Undecodable bytes become U+FFFD, so that their line is reported as bad.
+    """
+    from fieldmap.errors import InputError
+
+    parts, size = [], 0
+    while chunk := stream.read(1 << 20):
+        parts.append(chunk)
+        size += len(chunk)
+        if size > MAX_INPUT_BYTES:
+            raise InputError(f"{name}: more than {MAX_INPUT_BYTES >> 30} GiB of input; split it")
+    if parts and isinstance(parts[0], str):
+        return "".join(parts)
+    return b"".join(parts).decode("utf-8", "replace")
+
+
+def _format(row, decimals: int) -> str:
+    if not all(math.isfinite(v) for v in row):
+        return "ERROR: result is not finite (point too close to the masses for this model)"
+    return " ".join(f"{v:.{decimals}f}" for v in row)
+
+
+def run_verify(args) -> int:
+    """Run ``fieldmap verify``; return 1 if any comparison exceeds the tolerance."""
+    from fieldmap import _warp
+    from fieldmap.cli.verify import RTOL, format_table, run_checks
+    from fieldmap.errors import InputError
+
+    if not 0 <= args.lmax <= 240:
+        raise InputError(f"--lmax must be within 0..240 (EIGEN-6S), got {args.lmax}")
+    if not 5 <= args.points <= 1_000_000:
+        raise InputError(f"--points must be within 5..1000000, got {args.points}")
+    devices = None
+    if args.device:
+        try:
+            devices = [_warp.resolve_device(d) for d in args.device]
+        except _warp.DeviceError as exc:
+            raise InputError(str(exc)) from None
+    rows = run_checks(devices, lmax=args.lmax, points=args.points)
+    print(format_table(rows))
+    bad = [r for r in rows if not r.ok]
+    print(f"\n{len(rows) - len(bad)} of {len(rows)} checks within {RTOL:g} relative"
+          + ("" if not bad else f"; {len(bad)} FAILED"))
+    return 1 if bad else 0
+
+
+def _main(argv=None) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point
+    parser = argparse.ArgumentParser(prog="fieldmap")
+    register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(argv)
+    return args.func(args)

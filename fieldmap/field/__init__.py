@@ -1,0 +1,1 @@
+"""The field at points: ellipsoids, normal gravity, SH synthesis, gravity, frames."""

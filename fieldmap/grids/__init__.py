@@ -1,0 +1,1 @@
+"""Latitude-longitude grids: grid specifications, row-wise synthesis, longitude sums (FFT)."""

@@ -1,0 +1,264 @@
+"""Latitude-longitude grids: fast synthesis of gravitation on a :class:`GridSpec`.
+
+:class:`GridSpec` (built and validated by :func:`make_grid`, both from
+:mod:`fieldmap.grids.spec` and re-exported here) describes a grid of geodetic latitudes and
+longitudes (degrees) at one or more heights (m above the ellipsoid). :func:`synthesize`
+evaluates, on every node, the model gravitation minus a normal gravitation (the disturbance) or
+the model gravitation alone, in the geodetic east-north-up frame, by circles of latitude: one
+Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier_kernel`, then the
+longitude sums of all nodes of the row by FFT (regular longitudes) or a direct sum kernel (any
+longitudes). Rows are processed in blocks so memory stays bounded for any grid size and degree.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.grids.longitude import _regular_period, longitude_sums
+from fieldmap.grids.spec import (  # noqa: F401 - re-exported: the grid API lives here for users
+    MAX_HEIGHT_M,
+    MIN_HEIGHT_M,
+    GridSpec,
+    check_memory,
+    make_grid,
+)
+
+#: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
+BLOCK_BYTES = 192 * 2**20
+
+
+QUANTITIES = ("disturbance", "gravitation", "gravity")
+
+
+def resolve_device(device: str | None) -> str:
+    """Warp device name; an unknown device is an :class:`InputError` (one-line CLI message)."""
+    from fieldmap import _warp
+
+    try:
+        return _warp.resolve_device(device)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
+_loaded: set = set()
+
+
+def _load(device: str) -> None:
+    """Compile/load the grid kernels once, before launch_chunked's threads race to do it."""
+    import warp as wp
+
+    from fieldmap import _warp
+    from fieldmap.kernels import grid as kgrid
+
+    _warp.init()
+    if device not in _loaded:
+        wp.load_module(kgrid, device=device)
+        _loaded.add(device)
+
+
+def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
+    """Per-item geometry and normal gravitation (geodetic ENU), see ``row_setup_kernel``."""
+    import warp as wp
+
+    from fieldmap import _warp
+    from fieldmap.field.normal import normal_params
+    from fieldmap.kernels import grid as kgrid
+
+    _load(device)
+    n = lat_rad.size
+    lat = wp.array(lat_rad, dtype=wp.float64, device=device)
+    hh = wp.array(h_m, dtype=wp.float64, device=device)
+    outs = [wp.zeros(n, dtype=wp.float64, device=device) for _ in range(6)]
+    gamma = wp.zeros(n, dtype=wp.vec3d, device=device)
+    ell = normal_params(ellipsoid)
+    _warp.launch_chunked(
+        kgrid.row_setup_kernel,
+        n,
+        [lat, hh, ell, wp.float64(radius), int(order), *outs, gamma],
+        device,
+    )
+    return outs, gamma
+
+
+def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | None = None):
+    """Return the normal gravitation of every (height, row) in geodetic ENU.
+
+    It is the same at all longitudes.
+
+    Parameters
+    ----------
+    grid : GridSpec
+    ellipsoid : fieldmap.field.ellipsoid.Ellipsoid, optional
+        Default WGS84.
+    order : int
+        0 for the exact level-ellipsoid field, 2/4/6 for the J2/J4/J6 series (eqs. 7-13 of
+        Chen et al. 2022, corrected).
+    device : str, optional
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
+    """
+    from fieldmap.field.ellipsoid import WGS84
+
+    if order not in (0, 2, 4, 6):
+        raise InputError(f"normal-gravity order must be 2, 4 or 6, got {order!r}")
+    device = resolve_device(device)
+    ellipsoid = ellipsoid or WGS84
+    nh, nlat, _ = grid.shape
+    lat = np.tile(np.radians(grid.lat), nh)
+    h = np.repeat(grid.heights, nlat)
+    _, gamma = _row_setup(lat, h, ellipsoid, ellipsoid.a, order, device)
+    return gamma.numpy().reshape(nh, nlat, 3)
+
+
+def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
+    """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
+
+    Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
+    d = (N + h) cos(phi) the distance from the rotation axis.
+    """
+    from fieldmap.field.ellipsoid import WGS84
+
+    ell = ellipsoid or WGS84
+    phi = np.radians(grid.lat)[None, :]
+    h = grid.heights[:, None]
+    nrad = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(phi) ** 2)
+    d = (nrad + h) * np.cos(phi)
+    w2 = ell.omega**2
+    out = np.zeros((grid.heights.size, grid.lat.size, 3))
+    out[..., 1] = -w2 * d * np.sin(phi)
+    out[..., 2] = w2 * d * np.cos(phi)
+    return out
+
+
+def synthesize(
+    model,
+    grid: GridSpec,
+    ellipsoid=None,
+    quantity: str = "disturbance",
+    device: str | None = None,
+    progress: bool | None = None,
+    symmetric: bool = True,
+) -> np.ndarray:
+    """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
+
+    Parameters
+    ----------
+    model : fieldmap.models.shmodel.SHModel
+        Fully normalised coefficients (GM and radius of the model are used as they are).
+    grid : GridSpec
+    ellipsoid : fieldmap.field.ellipsoid.Ellipsoid, optional
+        Normal field for the disturbance and frame for the geodetic coordinates. Default WGS84.
+    quantity : {"disturbance", "gravitation", "gravity"}
+        ``disturbance``: model gravitation minus exact normal gravitation (the centrifugal
+        parts cancel); ``gravitation``: model alone (eq. 3 of Chen et al. 2022); ``gravity``:
+        model plus centrifugal.
+    device : str, optional
+        Warp device (default: CUDA when present, else CPU on every core).
+    progress : bool, optional
+        Progress bar over row blocks; default: only for long runs on a terminal.
+    symmetric : bool
+        Share one Legendre recursion between rows mirrored about the equator (default); False
+        runs the engine's ``sh_column`` on every row (used to cross-check the two paths).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (nh, nlat, nlon, 3): east, north, up. Units: m/s².
+    """
+    import warp as wp
+    from tqdm.auto import tqdm
+
+    from fieldmap import _warp
+    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.sh import kernel_model
+    from fieldmap.kernels import grid as kgrid
+
+    if quantity not in QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    ellipsoid = ellipsoid or WGS84
+    device = resolve_device(device)
+    km = kernel_model(model, device)
+    nm = model.lmax + 1
+    nh, nlat, nlon = grid.shape
+    nitems = nh * nlat
+    lat_all = np.tile(np.radians(grid.lat), nh)
+    h_all = np.repeat(grid.heights, nlat)
+    pairs = mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)]
+    units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
+    nper = _regular_period(grid.lon) or nlon
+    per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
+    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
+    if device == "cpu" and block < nitems:
+        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
+    out = np.empty((nitems, 3, nlon))
+    work = float(nitems) * nm * nm
+    # tqdm: disable=None shows the bar on a terminal only
+    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
+    bar = tqdm(total=nitems, unit="row", desc="synthesis", disable=disable, leave=False)
+    cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
+    u0 = 0
+    while u0 < len(units):
+        # a block of whole units (a mirrored pair of rows, or a single row)
+        u1, count = u0, 0
+        while u1 < len(units) and (count == 0 or count + 1 + (units[u1][1] >= 0) <= block):
+            count += 1 if units[u1][1] < 0 else 2
+            u1 += 1
+        blk = units[u0:u1]
+        items = np.sort([i for a, b in blk for i in ((a,) if b < 0 else (a, b))])
+        local = {int(it): k for k, it in enumerate(items)}
+        nb = items.size
+        geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
+        coef = wp.zeros((nb, 3, nm), dtype=wp.vec2d, device=device)
+        if symmetric:
+            loc_a = [local[a] for a, _ in blk]
+            loc_b = [local[b] if b >= 0 else -1 for _, b in blk]
+            ng = -(-len(loc_a) // 4)
+            pad = 4 * ng - len(loc_a)
+            ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, 4)
+            gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, 4)
+            ra = wp.array(ga, dtype=wp.int32, device=device)
+            rb = wp.array(gb, dtype=wp.int32, device=device)
+            _warp.launch_chunked(
+                kgrid.row_fourier_group_kernel, ng * nm, [km, *geo, ra, rb, nm, coef], device
+            )
+        else:
+            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
+        W = coef.numpy().view(np.complex128)[..., 0]  # (nb, 3, nm): A_m - i B_m
+        if quantity == "disturbance":
+            W[:, :, 0] -= gamma.numpy()
+        elif quantity == "gravity":
+            W[:, :, 0] += cen[items]
+        if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
+            longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
+        else:
+            out[items] = longitude_sums(W, grid.lon, device)
+        bar.update(nb)
+        u0 = u1
+    bar.close()
+    # (height, lat, component, lon) in memory; the (height, lat, lon, component) view costs nothing
+    return np.moveaxis(out.reshape(nh, nlat, 3, nlon), 2, 3)
+
+
+def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
+    """Group rows into (row, mirror row at -latitude) pairs, or (row, -1) without a mirror.
+
+    Only exact mirrors pair up (:func:`make_grid` makes symmetric global grids exactly so);
+    the equator row has no mirror other than itself.
+    """
+    where = {float(v): i for i, v in enumerate(lat_deg)}
+    used, out = set(), []
+    for i, v in enumerate(lat_deg):
+        if i in used:
+            continue
+        j = where.get(-float(v)) if v != 0 else None
+        if j is not None and j != i and j not in used:
+            out.append((i, j))
+            used.update((i, j))
+        else:
+            out.append((i, -1))
+            used.add(i)
+    return out

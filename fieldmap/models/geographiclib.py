@@ -1,0 +1,158 @@
+"""GeographicLib gravity-model files and the ``Gravity`` command-line tool, for cross-checks.
+
+GeographicLib (Karney) reads a gravity model ``NAME`` from two files in a folder:
+
+* ``NAME.egm`` — text: ``EGMF-1`` then ``key value`` lines (``ModelRadius``, ``ModelMass``,
+  ``AngularVelocity``, ``ReferenceRadius``, ``ReferenceMass``, ``Flattening``, ``Normalization``,
+  ``ByteOrder``, ``ID`` of exactly 8 characters, ...);
+* ``NAME.egm.cof`` — binary little-endian: the 8-character ID, int32 N, M, then C̄nm as float64
+  column by column (m = 0..M, n = m..N), then S̄nm likewise for m = 1..M, then the correction
+  field (int32 −1, −1: none). The degree-0 coefficient is stored as 0: the tool adds the GM/r
+  term itself (GeographicLib's GravityModel rejects a non-zero C̄00).
+
+``Gravity -n NAME -d DIR -D`` prints the disturbance east north up (mGal), ``-G`` the gravity
+east north up including the centrifugal term (m/s²), in the local geodetic frame at each point,
+with GeographicLib's own exact normal field of the reference ellipsoid for ``-D``. The tool is
+independent of fieldmap's engine (Clenshaw summation with scaling, Karney 2011), which makes it a
+check of the spherical-harmonic evaluation.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import struct
+import subprocess
+
+import numpy as np
+
+from fieldmap.errors import FieldmapError, InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.models.shmodel import SHModel
+
+GRAVITY_EXE = "Gravity"
+_MODES = {"disturbance": "-D", "gravity": "-G", "D": "-D", "G": "-G"}
+
+
+def egm_id(name: str) -> str:
+    """Return an 8-character ID derived from a model name (upper-case letters and digits)."""
+    core = re.sub(r"[^A-Z0-9]", "", name.upper()) or "FIELDMAP"
+    return (core + "XXXXXXXX")[:8]
+
+
+def write_egm(model: SHModel, folder, name: str | None = None,
+              reference: Ellipsoid = WGS84, description: str | None = None) -> str:
+    """Write ``model`` as GeographicLib ``NAME.egm`` and ``NAME.egm.cof`` in ``folder``.
+
+    Parameters
+    ----------
+    model : SHModel
+        Fully normalised coefficients; its ``gm`` and ``radius`` become ``ModelMass`` and
+        ``ModelRadius``. C̄00 is written as 0 (GeographicLib adds the central term).
+    folder : str or os.PathLike
+        Output folder (created if needed).
+    name : str, optional
+        Model name for ``Gravity -n`` (default: the model's name, lower case, safe characters).
+    reference : Ellipsoid
+        Normal field subtracted by ``Gravity -D`` (``Reference*``, ``Flattening``,
+        ``AngularVelocity``); default WGS84.
+    description : str, optional
+        ``Description`` line.
+
+    Returns
+    -------
+    str
+        The model name to pass to ``Gravity -n``.
+    """
+    name = name or re.sub(r"[^a-z0-9_-]", "", model.name.lower()) or "fieldmap"
+    os.makedirs(folder, exist_ok=True)
+    ident = egm_id(model.name)
+    N = model.lmax
+    if N < 0 or model.C.shape != (N + 1, N + 1):
+        raise InputError(f"model {model.name}: coefficient arrays are not (lmax+1)^2")
+    meta = [
+        "EGMF-1",
+        f"Name {name}",
+        f"Description {description or model.name + ' (written by fieldmap)'}",
+        f"ModelRadius {model.radius!r}",
+        f"ModelMass {model.gm!r}",
+        f"AngularVelocity {reference.omega!r}",
+        f"ReferenceRadius {reference.a!r}",
+        f"ReferenceMass {reference.GM!r}",
+        f"Flattening {reference.f!r}",
+        "Normalization full",
+        "ByteOrder little",
+        f"ID {ident}",
+    ]
+    with open(os.path.join(folder, f"{name}.egm"), "w", encoding="ascii", errors="replace") as f:
+        f.write("\n".join(meta) + "\n")
+    C = model.C.copy()
+    C[0, 0] = 0.0  # GeographicLib adds the 1/r term itself
+    # column-major: for m = 0..N, n = m..N (C), then for m = 1..N (S)
+    c_cols = np.concatenate([C[m:, m] for m in range(N + 1)])
+    s_cols = np.concatenate([model.S[m:, m] for m in range(1, N + 1)]) if N else np.zeros(0)
+    with open(os.path.join(folder, f"{name}.egm.cof"), "wb") as f:
+        f.write(ident.encode("ascii"))
+        f.write(struct.pack("<ii", N, N))
+        f.write(np.ascontiguousarray(c_cols, dtype="<f8").tobytes())
+        f.write(np.ascontiguousarray(s_cols, dtype="<f8").tobytes())
+        f.write(struct.pack("<ii", -1, -1))  # no correction field
+    return name
+
+
+def gravity_tool() -> str | None:
+    """Path of GeographicLib's ``Gravity`` executable (Debian ``geographiclib-tools``) or None."""
+    return shutil.which(GRAVITY_EXE)
+
+
+def run_gravity_tool(points, model_dir, name: str, mode: str = "disturbance",
+                     nmax: int | None = None, precision: int = 12,
+                     timeout: float = 600.0) -> np.ndarray:
+    """Evaluate a model with GeographicLib's ``Gravity`` at ``lat lon h`` points.
+
+    Parameters
+    ----------
+    points : array_like
+        Shape ``(n, 3)``: geodetic latitude, longitude (degrees) and height above WGS84 (m).
+    model_dir : str or os.PathLike
+        Folder holding ``NAME.egm`` and ``NAME.egm.cof``.
+    name : str
+        Model name.
+    mode : {"disturbance", "gravity"}
+        ``-D``: disturbance east, north, up in mGal; ``-G``: gravity incl. centrifugal,
+        east, north, up in m/s².
+    nmax : int, optional
+        Truncation degree (``-N``).
+    precision : int
+        Output precision (``-p``).
+    timeout : float
+        Units: s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n, 3)``, east, north, up.
+    """
+    exe = gravity_tool()
+    if exe is None:
+        raise FieldmapError("GeographicLib's Gravity tool is not installed (geographiclib-tools)")
+    flag = _MODES.get(mode)
+    if flag is None:
+        raise InputError(f"mode must be 'disturbance' or 'gravity', got {mode!r}")
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError("points must have shape (n, 3): lat, lon, h")
+    cmd = [exe, "-n", name, "-d", os.fspath(model_dir), flag, "-p", str(int(precision))]
+    if nmax is not None:
+        cmd += ["-N", str(int(nmax))]
+    text = "".join(f"{a!r} {b!r} {c!r}\n" for a, b, c in pts.tolist())
+    proc = subprocess.run(cmd, input=text, capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0:
+        msg = (proc.stderr or proc.stdout).strip().splitlines()
+        raise FieldmapError(f"Gravity failed: {msg[-1] if msg else proc.returncode}")
+    out = np.array([[float(v) for v in line.split()] for line in proc.stdout.splitlines()
+                    if line.strip()])
+    if out.shape != pts.shape:
+        raise FieldmapError(f"Gravity returned {out.shape[0]} lines for {pts.shape[0]} points")
+    return out

@@ -1,0 +1,413 @@
+r"""Reader (and a small writer) for ICGEM ``.gfc`` spherical-harmonic gravity-field files.
+
+Format: Barthelmes & Förste, "The ICGEM-format" (GFZ Potsdam, 2011 revision), with the time-variable
+lines of ICGEM 1.0 and the ``icgem2.0`` piecewise variant (``format icgem2.0`` in the header).
+
+* Free text (any bytes, e.g. Latin-1) may precede ``begin_of_head``; header lines ``key value`` end
+  with ``end_of_head``. Required keys: ``earth_gravity_constant``, ``radius``, ``max_degree``;
+  ``norm`` (``fully_normalized`` default, or ``unnormalized``), ``tide_system``, ``errors``,
+  ``modelname`` are optional.
+* Data lines ``gfc n m C S [sC sS]``; time-variable (ICGEM 1.0) ``gfct n m C S [sC sS] t0``,
+  ``trnd``/``dot n m C S [sC sS]`` (per year), ``acos``/``asin n m C S [sC sS] period`` (years).
+  For a coefficient with reference epoch t0 the value at epoch t is
+
+  .. math::
+      G(t) = G_{gfct} + \dot G\,(t-t_0) + \sum_p \left[A_p\cos\frac{2\pi(t-t_0)}{p}
+             + B_p\sin\frac{2\pi(t-t_0)}{p}\right]
+
+  (the rule quoted in EIGEN-6S's own header). Default epoch: each coefficient's t0, where the
+  ``acos`` terms still count (cos 0 = 1). In ``icgem2.0`` files every time-variable line carries
+  its validity interval ``t0 t1`` (before the period) and the epoch must be given.
+* Times ``yyyymmdd[.hhmm]`` are converted to decimal years: year + elapsed fraction of that year.
+* Fortran ``D`` exponents are accepted; ``.gz`` files are detected by their magic bytes.
+
+The data section is tokenised with NumPy in bulk (a degree-2190 file, 2.4 million lines, loads in
+a few seconds); a per-line pass runs only to name the line of an error.
+"""
+
+from __future__ import annotations
+
+import gzip
+import math
+import os
+import re
+
+import numpy as np
+
+from fieldmap.errors import InputError, ModelFileError
+from fieldmap.models import _gfc_scan as scan
+from fieldmap.models._gfc_scan import decimal_year  # public here
+from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
+from fieldmap.models._gfc_scan import yyyymmdd as _yyyymmdd
+from fieldmap.models.shmodel import SHModel
+
+_KEYS = {"gfc": 0, "gfct": 1, "trnd": 2, "dot": 2, "acos": 3, "asin": 4}
+_KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
+# allowed number of value fields after "key n m", per kind, for (icgem1.0, icgem2.0): C S, up to
+# four sigmas (errors "calibrated_and_formal"), then t0 (gfct), the period (acos/asin), and in
+# icgem2.0 the validity interval t0 t1 of every time-variable line
+_NFIELDS = {
+    0: (range(2, 7), range(2, 7)),
+    1: (range(3, 8), range(4, 9)),
+    2: (range(2, 7), range(4, 9)),
+    3: (range(3, 8), range(5, 10)),
+    4: (range(3, 8), range(5, 10)),
+}
+#: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
+MAX_DEGREE = 10800
+_NORMS = {"fully_normalized": True, "fully_normalised": True, "unnormalized": False,
+          "unnormalised": False}
+
+
+def _fail(path, line, msg):
+    where = f"{path}, line {line}" if line else f"{path}"
+    return ModelFileError(f"{where}: {msg}")
+
+
+# ----------------------------------------------------------------------------------- epochs
+def parse_epoch(epoch) -> float | None:
+    """Return an epoch as a decimal year.
+
+    Parameters
+    ----------
+    epoch : float, str or None
+        A decimal year (``2010.5``), or a string ``YYYY-MM-DD[THH:MM]``, ``YYYYMMDD`` or a
+        decimal year. Units: year.
+    """
+    if epoch is None:
+        return None
+    if isinstance(epoch, bytes):
+        epoch = epoch.decode("latin-1")
+    if isinstance(epoch, (bool, np.bool_)) or not isinstance(epoch, (str, int, float, np.number)):
+        raise InputError(f"bad epoch {epoch!r}: use a decimal year (2010.5) or a date YYYY-MM-DD")
+    if isinstance(epoch, str):
+        s = epoch.strip()
+        m = re.fullmatch(r"(\d{4})-?(\d{2})-?(\d{2})(?:[T ](\d{2}):(\d{2}))?", s)
+        try:
+            if m:
+                y, mo, d, hh, mm = (int(g) if g else 0 for g in m.groups())
+                epoch = decimal_year(y, mo, d, hh, mm)
+            else:
+                epoch = float(s)
+        except ValueError:
+            raise InputError(
+                f"bad epoch {epoch!r}: use a decimal year (2010.5) or a date YYYY-MM-DD"
+            ) from None
+    epoch = float(epoch)
+    if not (1900.0 <= epoch <= 2200.0):
+        raise InputError(f"epoch {epoch} is not a decimal year between 1900 and 2200")
+    return epoch
+
+
+def as_degree(lmax, what: str = "lmax") -> int | None:
+    """Return ``lmax`` as an int (None stays None); raise :class:`InputError` if not a degree.
+
+    Accepts integers, integral floats (``240.0``) and integer strings; rejects booleans,
+    fractions, NaN, inf and anything else. The range is the caller's to check.
+    """
+    if lmax is None:
+        return None
+    try:
+        value = int(lmax)
+        ok = not isinstance(lmax, (bool, np.bool_)) and float(lmax) == value
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise InputError(f"{what} must be an integer degree, got {lmax!r}")
+    return value
+
+
+# ----------------------------------------------------------------------------------- bytes
+# ----------------------------------------------------------------------------------- header
+def _parse_header(path, raw: bytes):
+    """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
+    m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
+    if not m_end:
+        raise ModelFileError(f"{path}: no 'end_of_head' line (not an ICGEM .gfc file?)")
+    m_beg = re.search(rb"^[ \t]*begin_of_head\b.*$", raw[: m_end.start()], re.M)
+    head_start = m_beg.end() if m_beg else 0
+    first_line = raw.count(b"\n", 0, head_start) + 1
+    header, where = {}, {}
+    text = raw[head_start : m_end.start()].decode("latin-1")
+    for k, line in enumerate(text.split("\n")):
+        parts = line.split(None, 1)
+        if not parts:
+            continue
+        key = parts[0].lower()
+        if key not in header:
+            header[key] = parts[1].strip() if len(parts) > 1 else ""
+            where[key] = first_line + k
+    where["end_of_head"] = raw.count(b"\n", 0, m_end.start()) + 1
+    nl = raw.find(b"\n", m_end.end())
+    offset = nl + 1 if nl >= 0 else len(raw)
+    nhead = raw.count(b"\n", 0, nl + 1) if nl >= 0 else raw.count(b"\n") + 1
+    return header, where, offset, nhead
+
+
+def _header_number(path, header, where, key, integer=False):
+    if key not in header:
+        raise _fail(path, where["end_of_head"], f"header key '{key}' is missing before end_of_head")
+    text = header[key].split()[0] if header[key].split() else ""
+    try:
+        val = float(text.replace("D", "E").replace("d", "e"))
+    except ValueError:
+        raise _fail(path, where[key], f"header '{key}': bad number {text!r}") from None
+    if not math.isfinite(val) or val <= (-1 if integer else 0) or (integer and val != int(val)):
+        raise _fail(path, where[key], f"header '{key}': invalid value {text!r}")
+    return int(val) if integer else val
+
+
+def _times(path, values, lines, nhead):
+    """Decimal years of ICGEM time stamps ``yyyymmdd[.hhmm]`` (one per data line)."""
+    uniq, inv = np.unique(values, return_inverse=True)
+    out = np.empty(uniq.size)
+    for k, v in enumerate(uniq):
+        try:
+            out[k] = _yyyymmdd(float(v))
+        except (ValueError, OverflowError):
+            line = nhead + int(lines[np.flatnonzero(inv == k)[0]]) + 1
+            raise _fail(path, line, f"bad time stamp {v!r} (expected yyyymmdd[.hhmm])") from None
+    return out[inv]
+
+
+def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
+    """Read an ICGEM ``.gfc`` (or ``.gfc.gz``) file into a fully normalised :class:`SHModel`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The model file (plain or gzip-compressed).
+    lmax : int, optional
+        Keep degrees 0..lmax only (lines of higher degree are skipped before their numbers are
+        parsed). Default: the file's ``max_degree``.
+    epoch : float or str, optional
+        Epoch for the time-variable terms, a decimal year or ``'YYYY-MM-DD'``. Units: year.
+        Default: each coefficient's own reference epoch t0 (required for ``icgem2.0`` files).
+
+    Returns
+    -------
+    SHModel
+        Coefficients C, S indexed ``[n, m]``. Missing degree 0 and 1 lines default to
+        C00 = 1 and zero degree-1 terms (centre of mass at the origin); any other missing
+        coefficient is an error.
+
+    Raises
+    ------
+    ModelFileError
+        Malformed file; the message names the file and the line.
+    InputError
+        ``lmax`` above the file's ``max_degree``, or a bad or out-of-range epoch.
+    """
+    try:
+        path = os.fspath(path)
+    except TypeError:
+        raise InputError(f"model file must be a path, got {path!r}") from None
+    lmax = as_degree(lmax)
+    raw = scan.read_bytes(path)
+    scan.check_text(path, raw)
+    header, where, offset, nhead = _parse_header(path, raw)
+    gm = _header_number(path, header, where, "earth_gravity_constant")
+    radius = _header_number(path, header, where, "radius")
+    nmax = _header_number(path, header, where, "max_degree", integer=True)
+    norm = (header.get("norm", "fully_normalized").split() or ["fully_normalized"])[0].lower()
+    if norm not in _NORMS:
+        raise _fail(path, where["norm"], f"unknown normalisation {norm!r}"
+                    " (expected fully_normalized or unnormalized)")
+    v2 = (header.get("format", "").split() or [""])[0].lower().startswith("icgem2")
+    if lmax is None:
+        lmax = nmax
+    if not 0 <= lmax <= nmax:
+        raise InputError(f"lmax {lmax} is outside 0..{nmax}, the degree range of {path}")
+    lmax, t = int(lmax), parse_epoch(epoch)
+    if lmax > MAX_DEGREE:
+        raise InputError(f"{path}: degree {lmax} is above {MAX_DEGREE}; pass a smaller lmax")
+    if v2 and t is None:
+        raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
+
+    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, offset)
+    li = np.flatnonzero(ntok > 0)  # data lines with content
+    f0 = first[li]
+
+    def line_of(mask):
+        return nhead + int(li[np.flatnonzero(mask)[0]]) + 1
+
+    def text_of(t):
+        return buf[starts[t] : ends[t]].tobytes().decode("latin-1")
+
+    if li.size == 0:
+        raise _fail(path, nhead, "no coefficient lines after end_of_head (truncated file?)")
+    kind = scan.keyword_kinds(buf, starts[f0], ends[f0], _KEYS)
+    if (kind < 0).any():
+        k = np.flatnonzero(kind < 0)[0]
+        raise _fail(path, line_of(kind < 0), f"unknown keyword {text_of(f0[k])!r}")
+    short = ntok[li] < 3
+    if short.any():
+        raise _fail(path, line_of(short), "expected 'key n m C S ...', line too short")
+    n, ok_n = scan.small_ints(buf, starts[f0 + 1], ends[f0 + 1])
+    m, ok_m = scan.small_ints(buf, starts[f0 + 2], ends[f0 + 2])
+    if not (ok_n & ok_m).all():
+        k = np.flatnonzero(~(ok_n & ok_m))[0]
+        raise _fail(path, line_of(~(ok_n & ok_m)),
+                    f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}")
+    nf = ntok[li] - 3
+    for kd, allowed in _NFIELDS.items():
+        ok = allowed[v2]
+        bad = (kind == kd) & ((nf < ok.start) | (nf >= ok.stop))
+        if bad.any():
+            k = np.flatnonzero(bad)[0]
+            raise _fail(path, line_of(bad), f"'{_KIND_NAME[kd]}' line with {nf[k]} values"
+                        f" (expected {ok.start} to {ok.stop - 1})")
+    for bad, why in ((m > n, "order m > degree n"), (n > nmax, f"degree above max_degree {nmax}")):
+        if bad.any():
+            k = np.flatnonzero(bad)[0]
+            raise _fail(path, line_of(bad), f"{why} (n={n[k]}, m={m[k]})")
+
+    keep = n <= lmax
+    keep_line = np.zeros(ntok.size, bool)
+    keep_line[li[keep]] = True
+    vals, bad_tok = scan.parse_values(buf, starts, ends, tok_line, first, keep_line)
+    if vals is None and bad_tok < 0:  # pragma: no cover - NumPy and float() disagree
+        raise ModelFileError(f"{path}: could not parse the coefficient values")
+    if vals is None:
+        raise _fail(path, nhead + int(tok_line[bad_tok]) + 1, f"bad number {text_of(bad_tok)!r}")
+    lines, kind, n, m, nf = li[keep], kind[keep], n[keep], m[keep], nf[keep]
+    off = np.cumsum(nf) - nf
+    c, s = vals[off], vals[off + 1]
+    last, prev = vals[off + nf - 1], vals[off + nf - 2]
+    tv = kind >= 1  # time-variable lines
+    period = np.where(kind >= 3, last, 1.0)
+    if ((kind >= 3) & ~(period > 0)).any():
+        raise _fail(path, nhead + int(lines[(kind >= 3) & ~(period > 0)][0]) + 1,
+                    "period must be positive")
+    t0 = np.zeros(kind.size)
+    if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
+        t1 = np.zeros(kind.size)
+        stamp0 = np.where(kind >= 3, vals[off + nf - 3], prev)
+        stamp1 = np.where(kind >= 3, prev, last)
+        t0[tv] = _times(path, stamp0[tv], lines[tv], nhead)
+        t1[tv] = _times(path, stamp1[tv], lines[tv], nhead)
+        active = ~tv | ((t0 <= t) & (t < t1))
+        gct = kind == 1
+        has_gfct = np.unique(n[gct] * (n[gct] + 1) // 2 + m[gct])
+        act_gfct = np.unique(n[gct & active] * (n[gct & active] + 1) // 2 + m[gct & active])
+        if has_gfct.size != act_gfct.size:
+            lo, hi = t0[gct].min(), t1[gct].max()
+            raise InputError(f"epoch {t:.4f} is outside the validity intervals of {path}"
+                             f" ({lo:.4f} to {hi:.4f}) for some coefficients")
+        lines, kind, n, m, c, s, t0, period = (a[active] for a in
+                                              (lines, kind, n, m, c, s, t0, period))
+    elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
+        g = kind == 1
+        t0[g] = _times(path, last[g], lines[g], nhead)
+    idx = n * (n + 1) // 2 + m
+    C, S = _static(path, lines, kind, n, m, idx, c, s, lmax, nhead)
+    eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2,
+                                C, S, nhead)
+    if not _NORMS[norm]:
+        C, S = _unnormalized_to_full(C, S, path)
+    if (big := scan.first_outsize(C, S)) is not None:
+        bn, bm, v = big
+        raise _fail(path, nhead + int(lines[(n == bn) & (m == bm)][0]) + 1,
+                    f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model")
+    name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
+    return SHModel(
+        name=name, gm=gm, radius=radius, C=C, S=S, max_degree=nmax,
+        tide_system=(header.get("tide_system", "unknown").split() or ["unknown"])[0].lower(),
+        epoch=eval_epoch, source=path, header=header,
+    )
+
+
+def _duplicates(path, keys, lines, nhead, what):
+    order = np.argsort(keys, kind="stable")
+    dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
+    if dup.size:
+        later = order[dup + 1]
+        k = later[np.argmin(lines[later])]
+        first = lines[order[dup[np.argmin(lines[later])]]]
+        raise _fail(path, nhead + int(lines[k]) + 1,
+                    f"duplicate {what} (first given on line {nhead + int(first) + 1})")
+
+
+def _static(path, lines, kind, n, m, idx, c, s, lmax, nhead):
+    """Fill C, S from gfc/gfct lines; check duplicates and gaps."""
+    st = kind <= 1
+    if st.any():
+        _duplicates(path, idx[st], lines[st], nhead, "coefficient")
+    C = np.zeros((lmax + 1, lmax + 1))
+    S = np.zeros((lmax + 1, lmax + 1))
+    C[n[st], m[st]], S[n[st], m[st]] = c[st], s[st]
+    have = np.zeros((lmax + 1, lmax + 1), bool)
+    have[n[st], m[st]] = True
+    if not have[0, 0]:
+        C[0, 0] = 1.0
+    have[:2] = True  # degrees 0 and 1 may be omitted (C00 = 1, origin at the centre of mass)
+    have[np.triu_indices(lmax + 1, 1)] = True
+    if not have.all():
+        miss_n, miss_m = (int(v[0]) for v in np.nonzero(~have))
+        midx = miss_n * (miss_n + 1) // 2 + miss_m
+        before = idx[st] < midx
+        if not before.any():
+            raise ModelFileError(f"{path}: no line for n={miss_n} m={miss_m}")
+        last = np.max(lines[st][before])
+        why = "file truncated?" if midx > idx[st].max() else "degree gap"
+        raise _fail(path, nhead + int(last) + 1,
+                    f"no line for n={miss_n} m={miss_m} after this one ({why})")
+    return C, S
+
+
+def _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead):
+    """Add trend and periodic terms at epoch ``t`` (None: each coefficient's t0)."""
+    tv = kind >= 2
+    ref = np.full(int(idx.max(initial=0)) + 1, np.nan)
+    g = kind == 1
+    ref[idx[g]] = t0[g]
+    tref = t0 if v2 else ref[idx]
+    orphan = tv & np.isnan(tref)
+    if orphan.any():
+        k = np.flatnonzero(orphan)[0]
+        raise _fail(path, nhead + int(lines[k]) + 1,
+                    f"'{_KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line")
+    for kd, what in ((2, "trend"), (3, "acos term"), (4, "asin term")):
+        sel = kind == kd
+        if sel.any():
+            keys = idx[sel] * 4096.0 + (period[sel] if kd >= 3 else 0.0)
+            _duplicates(path, keys, lines[sel], nhead, what)
+    dt = (t - tref) if t is not None else np.zeros(idx.size)
+    factor = np.select([kind == 2, kind == 3, kind == 4],
+                       [dt, np.cos(2 * np.pi * dt / period), np.sin(2 * np.pi * dt / period)], 0.0)
+    np.add.at(C, (n[tv], m[tv]), factor[tv] * c[tv])
+    np.add.at(S, (n[tv], m[tv]), factor[tv] * s[tv])
+    if t is not None:
+        return t
+    epochs = np.unique(t0[g])
+    return float(epochs[0]) if epochs.size == 1 else None
+
+
+def write_icgem(path, model: SHModel, preamble: str = "") -> None:
+    """Write ``model`` as a static ICGEM file (``gfc`` lines, fully normalised; gzip if ``.gz``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file.
+    model : SHModel
+        Coefficients to write (degrees 0..model.lmax).
+    preamble : str
+        Free text written before ``begin_of_head``.
+    """
+    head = [preamble.rstrip("\n"), "begin_of_head", "product_type  gravity_field",
+            f"modelname  {model.name}", f"earth_gravity_constant  {model.gm!r}",
+            f"radius  {model.radius!r}", f"max_degree  {model.lmax}",
+            "norm  fully_normalized", f"tide_system  {model.tide_system}", "errors  no",
+            "end_of_head"]
+    nn, mm = np.tril_indices(model.lmax + 1)
+    order = np.lexsort((mm, nn))
+    body = "".join(
+        f"gfc {a:5d} {b:5d} {c:+.16e} {d:+.16e}\n"
+        for a, b, c, d in zip(nn[order].tolist(), mm[order].tolist(),
+                              model.C[nn, mm][order].tolist(), model.S[nn, mm][order].tolist())
+    )
+    text = ("\n".join(head).lstrip("\n") + "\n" + body).encode("latin-1")
+    opener = gzip.open if os.fspath(path).endswith(".gz") else open
+    with opener(path, "wb") as f:
+        f.write(text)

@@ -1,0 +1,1 @@
+"""Strapdown navigation: launch frames, trajectories, IMU synthesis/errors, mechanizations."""

@@ -1,0 +1,387 @@
+"""Batched strapdown propagation on Warp devices: launch-centred inertial (LCI) mechanization.
+
+One launch of :data:`fieldmap.kernels.strapdown.lci_kernel` propagates many trajectories
+(Monte Carlo draws × navigation gravity models × IMU grades): each thread loops over its own
+two-sample steps (Chen et al. 2022 eq. 14, Fig. 1). Quaternions in this API are scalar-first
+``[w, x, y, z]`` (Hamilton), ``q_b^a`` rotating body vectors into the a-frame.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from fieldmap import _warp
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.models.shmodel import SHModel
+from fieldmap.nav.launch_frames import LaunchFrame
+
+#: navigation gravity names -> kernel kind (kernels/navgravity.py); "shN" = SH to degree N
+GRAVITY_KINDS = {"normal": 0, "sh": 1, "j2": 2, "j4": 4, "j6": 6}
+_SH_NAME = re.compile(r"^sh(\d+)?$")
+
+
+@dataclass(frozen=True)
+class LciResult:
+    """Output of :func:`propagate_lci` (every ``output_every``-th step, initial state first).
+
+    Attributes: ``t`` (n_out,) s since launch; ``P``, ``V`` (n_traj, n_out, 3) a-frame position
+    (m) and inertial velocity (m/s); ``q`` (n_traj, n_out, 4) scalar-first q_b^a; ``gravity``
+    the navigation gravity name of each trajectory.
+    """
+
+    t: np.ndarray
+    P: np.ndarray
+    V: np.ndarray
+    q: np.ndarray
+    gravity: tuple
+
+
+def quat_to_dcm(q) -> np.ndarray:
+    """Scalar-first quaternions ``(..., 4)`` -> rotation matrices ``(..., 3, 3)``."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+
+
+def dcm_to_quat(C) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` -> scalar-first quaternions with w >= 0."""
+    from scipy.spatial.transform import Rotation
+
+    C = np.asarray(C, dtype=np.float64)
+    xyzw = Rotation.from_matrix(C.reshape(-1, 3, 3)).as_quat()
+    q = np.concatenate([xyzw[:, 3:], xyzw[:, :3]], axis=1)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return q.reshape(C.shape[:-2] + (4,))
+
+
+def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
+    """Navigation gravity name (j2, j4, j6, normal, sh, shN) -> (kernel kind, SH degree)."""
+    key = str(name).strip().lower()
+    if key in ("j2", "j4", "j6", "normal"):
+        return GRAVITY_KINDS[key], 0
+    m = _SH_NAME.match(key)
+    if not m:
+        raise InputError(f"unknown navigation gravity model {name!r} (j2, j4, j6, normal, sh, shN)")
+    if sh_model is None:
+        raise InputError(f"navigation gravity {name!r} needs an SH model (sh_model=...)")
+    deg = sh_model.lmax if m.group(1) is None else int(m.group(1))
+    if deg < 2 or deg > sh_model.lmax:
+        raise InputError(
+            f"SH degree {deg} of {name!r} is outside 2..{sh_model.lmax} of {sh_model.name}"
+        )
+    return GRAVITY_KINDS["sh"], deg
+
+
+def _finite(name, a, shape_tail=None) -> np.ndarray:
+    try:
+        a = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be numeric") from None
+    if shape_tail and a.shape[-len(shape_tail) :] != shape_tail:
+        raise InputError(f"{name} must have trailing shape {shape_tail}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} contains non-finite values")
+    return a
+
+
+def _per_traj(name, a, n, tail) -> np.ndarray:
+    a = _finite(name, a, tail)
+    if a.ndim == len(tail):
+        a = np.broadcast_to(a, (n,) + tail)
+    if a.shape != (n,) + tail:
+        raise InputError(f"{name} must have shape {tail} or {(n,) + tail}, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def _dummy_sh(device: str):
+    from fieldmap.kernels import sh as ksh
+
+    km = ksh.SHKernelModel()
+    one = np.ones((1, 1))
+    km.cnm, km.snm, km.anm, km.bnm, km.fnm = (
+        wp.array(one, dtype=wp.float64, device=device) for _ in range(5)
+    )
+    km.sect = wp.array(np.ones(1), dtype=wp.float64, device=device)
+    km.lmax = 0
+    km.gm = wp.float64(WGS84.GM)
+    km.radius = wp.float64(WGS84.a)
+    return km
+
+
+def launch_params(frame: LaunchFrame):
+    """Device struct of a launch frame (R_t^a of eq. 17, launch point, Earth rate)."""
+    from fieldmap.kernels.launch_frames import LaunchParams
+
+    lp = LaunchParams()
+    lp.C_t_to_a = wp.mat33d(*frame.C_t_to_a.ravel())
+    lp.r_launch = wp.vec3d(*frame.r_launch)
+    lp.omega = wp.float64(frame.omega)
+    return lp
+
+
+_ERROR_KEYS = {
+    "acc_bias": (3,),
+    "gyro_bias": (3,),
+    "acc_M": (3, 3),
+    "gyro_M": (3, 3),
+    "acc_noise": (),
+    "gyro_noise": (),
+    "seed": (),
+}
+_ERROR_DEFAULTS = {
+    "acc_bias": np.zeros(3),
+    "gyro_bias": np.zeros(3),
+    "acc_M": np.eye(3),
+    "gyro_M": np.eye(3),
+    "acc_noise": 0.0,
+    "gyro_noise": 0.0,
+}
+
+
+@dataclass
+class _Batch:
+    n: int
+    names: list
+    inputs: list  # increments, imu_set, sensor errors
+    states: dict
+    kinds: list  # kind, lmax arrays
+    shk: object
+    dt: float
+    n_steps: int
+    output_every: int
+    n_out: int
+    device: str
+
+    def launch(self, kernel, start, params: list, times=()) -> tuple:
+        """Run ``kernel`` for every trajectory; return its stored states (NumPy).
+
+        ``start`` = (position, velocity, scalar-first quaternion) per trajectory; ``params`` are
+        the frame structs and ``times`` the float64 inputs after ``dt``, in the kernel's order.
+        Returns (position, velocity, scalar-first quaternion), each (n, n_out, ...).
+        """
+        dev = self.device
+        types = (wp.vec3d, wp.vec3d, wp.quatd)
+        pos, vel, q = start
+        start_d = [wp.array(a, dtype=t, device=dev) for a, t in zip((pos, vel, _quat_in(q)), types)]
+        outs = [wp.zeros((self.n, self.n_out), dtype=t, device=dev) for t in types]
+        inputs = [
+            *self.inputs,
+            *start_d,
+            *self.kinds,
+            *params,
+            self.shk,
+            wp.float64(self.dt),
+            *times,
+            self.n_steps,
+            self.output_every,
+            *outs,
+        ]
+        _warp.launch_chunked(kernel, self.n, inputs, dev)
+        return outs[0].numpy(), outs[1].numpy(), _quat_out(outs[2])
+
+
+def _prepare(
+    dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step
+):
+    """Validate and upload everything the two kernels share (one row per trajectory)."""
+    _warp.init()
+    dtheta = _finite("dtheta", dtheta, (3,))
+    dv = _finite("dv", dv, (3,))
+    if dtheta.ndim == 2:
+        dtheta, dv = dtheta[None], (dv[None] if dv.ndim == 2 else dv)
+    if dtheta.ndim != 3 or dv.shape != dtheta.shape:
+        raise InputError(
+            f"dtheta {dtheta.shape} and dv {dv.shape} must match (n_sets, n_samples, 3)"
+        )
+    n_sets, n_samples = dtheta.shape[:2]
+    if n_samples < per_step or n_samples % per_step:
+        raise InputError(
+            f"need a multiple of {per_step} IMU samples (even for LCI), got {n_samples}"
+        )
+    dt = float(_finite("dt", dt))
+    if not dt > 0:
+        raise InputError(f"dt must be > 0, got {dt}")
+    output_every = int(output_every)
+    if output_every < 1:
+        raise InputError("output_every must be >= 1")
+    err = dict(errors or {})
+    unknown = set(err) - set(_ERROR_KEYS)
+    if unknown:
+        raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
+    names = [gravity] if isinstance(gravity, str) else list(gravity)
+    lens = [len(names), n_sets, 1 if imu_set is None else np.size(imu_set)]
+    for a, tail in list(states.values()) + [(v, _ERROR_KEYS[k]) for k, v in err.items()]:
+        a = np.asarray(a)
+        lens.append(a.shape[0] if a.ndim > len(tail) else 1)
+    n = max(lens)
+    if len(names) == 1:
+        names = names * n
+    if len(names) != n:
+        raise InputError(f"{len(names)} gravity names for {n} trajectories")
+    kl = np.array([parse_gravity(g, sh_model) for g in names], dtype=np.int32).reshape(n, 2)
+    if imu_set is None:
+        imu_set = np.arange(n) if n_sets == n else np.zeros(n, dtype=np.int32)
+    imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
+    if imu_set.min() < 0 or imu_set.max() >= n_sets:
+        raise InputError(f"imu_set indices must lie in 0..{n_sets - 1}")
+    states = {k: _per_traj(k, a, n, tail) for k, (a, tail) in states.items()}
+    device = _warp.resolve_device(device)
+    from fieldmap.kernels import strapdown as ksd
+
+    arr = lambda a, dtype: wp.array(a, dtype=dtype, device=device)  # noqa: E731
+    se = ksd.SensorErrors()
+    types = {(3,): wp.vec3d, (3, 3): wp.mat33d, (): wp.float64}
+    for key, tail in _ERROR_KEYS.items():
+        if key == "seed":
+            seed = _per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
+            se.seed = arr(seed, wp.int32)
+        else:
+            setattr(
+                se,
+                key,
+                arr(_per_traj(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail), types[tail]),
+            )
+    sh_lmax = int(kl[:, 1].max())
+    if sh_lmax > 0:
+        from fieldmap.field.sh import kernel_model
+
+        shk = kernel_model(sh_model, device, sh_lmax)
+    else:
+        shk = _dummy_sh(device)
+    wp.load_module(ksd, device=device)
+    n_steps = n_samples // per_step
+    return _Batch(
+        n=n,
+        names=names,
+        device=device,
+        shk=shk,
+        dt=dt,
+        n_steps=n_steps,
+        output_every=output_every,
+        n_out=n_steps // output_every + 1,
+        states=states,
+        inputs=[
+            arr(dtheta, wp.vec3d),
+            arr(dv, wp.vec3d),
+            arr(imu_set.astype(np.int32), wp.int32),
+            se,
+        ],
+        kinds=[
+            arr(np.ascontiguousarray(kl[:, 0]), wp.int32),
+            arr(np.ascontiguousarray(kl[:, 1]), wp.int32),
+        ],
+    )
+
+
+def _quat_in(q0) -> np.ndarray:
+    norms = np.linalg.norm(q0, axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-6):
+        raise InputError("q0 must be unit quaternions")
+    return np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
+
+
+def _quat_out(q) -> np.ndarray:
+    q = q.numpy()
+    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+
+
+def propagate_lci(
+    dtheta,
+    dv,
+    dt,
+    P0,
+    V0,
+    q0,
+    launch,
+    gravity="j4",
+    *,
+    sh_model=None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    imu_set=None,
+    errors=None,
+    t0=0.0,
+    output_every=1,
+    device=None,
+) -> LciResult:
+    """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
+
+    Parameters
+    ----------
+    dtheta, dv : array_like, shape (n_samples, 3) or (n_sets, n_samples, 3)
+        Gyro and accelerometer increments per IMU sample, body frame; n_samples even (two
+        samples per navigation step). Units: rad, m/s.
+    dt : float
+        IMU sample interval; the navigation step is T = 2 dt. Units: s.
+    P0, V0 : array_like, shape (3,) or (n_traj, 3)
+        Initial a-frame position and inertial velocity. Units: m, m/s.
+    q0 : array_like, shape (4,) or (n_traj, 4)
+        Initial attitude q_b^a, scalar first.
+    launch : LaunchFrame or tuple
+        The a-frame, or ``(lon0, B0, A0[, h0])`` in degrees (h0 in m).
+    gravity : str or sequence of str
+        Navigation gravity per trajectory: ``j2``, ``j4``, ``j6``, ``normal`` (exact level
+        ellipsoid), ``sh`` (full ``sh_model``) or ``shN`` (degree N).
+    sh_model : SHModel, optional
+        Spherical-harmonic model for the ``sh`` kinds.
+    ellipsoid : Ellipsoid or str
+        Level ellipsoid of the normal kinds.
+    imu_set : array_like of int, optional
+        Increment set of each trajectory (default: trajectory i uses set i, or set 0 if one set).
+    errors : dict, optional
+        Per-trajectory sensor errors (shape (3,) or (n_traj, ...)): ``acc_bias`` m/s²,
+        ``gyro_bias`` rad/s, ``acc_M``, ``gyro_M`` (3×3, I + scale + misalignment),
+        ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int.
+    t0 : float
+        Time of the first sample after launch (Earth rotation angle ω t0). Units: s.
+    output_every : int
+        Decimation of the stored states (in navigation steps).
+    device : str, optional
+        Warp device (default: CUDA if present, else CPU using every core).
+
+    Returns
+    -------
+    LciResult
+    """
+    frame = (
+        launch
+        if isinstance(launch, LaunchFrame)
+        else LaunchFrame(*launch, ellipsoid=get_ellipsoid(ellipsoid))
+    )
+    b = _prepare(
+        dtheta,
+        dv,
+        dt,
+        {"P0": (P0, (3,)), "V0": (V0, (3,)), "q0": (q0, (4,))},
+        gravity,
+        sh_model,
+        imu_set,
+        errors,
+        output_every,
+        device,
+        per_step=2,
+    )
+    from fieldmap.field.normal import normal_params
+    from fieldmap.kernels import strapdown as ksd
+
+    st = b.states
+    P, V, q = b.launch(
+        ksd.lci_kernel,
+        (st["P0"], st["V0"], st["q0"]),
+        [launch_params(frame), normal_params(frame.ellipsoid)],
+        [wp.float64(t0)],
+    )
+    t = t0 + 2.0 * b.dt * b.output_every * np.arange(b.n_out)
+    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names))

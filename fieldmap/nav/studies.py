@@ -1,0 +1,443 @@
+"""Navigation-error studies of Chen et al. (2022) §5: Tables 1, 3, 4 and Figs. 11-13.
+
+A :class:`Scenario` holds the reference trajectory (Fig. 9 like boost-glide), its exact IMU
+increments under the truth gravitation (default: bundled EIGEN-6S at full degree) and the exact
+states at the output times. Each study puts all its navigation runs (gravity models × IMU error
+draws × IMU grades) into **one** call of :func:`fieldmap.nav.strapdown.propagate_lci` (one Warp
+launch, one thread per run) and reduces the errors against the exact trajectory.
+
+Errors are the norms of the a-frame position and inertial-velocity differences (navigation −
+truth); the paper's tables give "absolute values" of the final errors.
+
+"Without gravity-model error" runs (Table 4) use a second increment set synthesized with the
+navigation model itself as the truth (same trajectory, same sensor errors), which isolates the IMU
+errors at the cost of a cheap second synthesis instead of a degree-240 navigation run per draw.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.nav import imu_errors
+from fieldmap.nav.imu import Gravitation, ImuIncrements, load_truth_model, synthesize
+from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
+
+#: Navigation gravity models of Table 1 (keys of the JSON output).
+TABLE1_MODELS = ("j2", "j4", "j6", "normal", "sh18", "sh200")
+#: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation.
+PAPER_TABLE1 = {
+    "j2": (0.742, 387.18, 0.000003),
+    "j4": (0.686, 351.28, 0.000003),
+    "j6": (0.686, 351.19, 0.000004),
+    "sh18": (0.181, 117.52, 0.000214),
+    "sh200": (0.060, 35.88, 0.004449),
+}
+#: Paper values (Chen et al. 2022 Table 3): |δv| m/s, |δp| m per accelerometer group.
+PAPER_TABLE3 = {1: (2.033, 1019.98), 2: (0.507, 296.69), 3: (0.667, 344.29), 4: (0.686, 351.19)}
+NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "normal": "exact"}
+
+
+def check_model_names(names, sh_model) -> list[str]:
+    """Validate navigation gravity names (``j2 j4 j6 normal sh shN``); raise :class:`InputError`."""
+    from fieldmap.nav.strapdown import parse_gravity
+
+    out = []
+    for name in names:
+        key = str(name).strip().lower()
+        parse_gravity(key, sh_model)
+        out.append(key if key != "sh" else f"sh{sh_model.lmax}")
+    if not out:
+        raise InputError("no navigation gravity model given")
+    return out
+
+
+@dataclass
+class Scenario:
+    """Trajectory, truth model, exact IMU increments and exact states at the output times."""
+
+    traj: Trajectory
+    truth_model: object
+    imu: ImuIncrements
+    output_every: int
+    t_out: np.ndarray
+    truth: Kinematics
+    device: str | None = None
+    extra_sets: dict = field(default_factory=dict)
+
+    @property
+    def truth_key(self) -> str:
+        """Navigation name of the truth model (``shN`` at its full degree)."""
+        return f"sh{self.truth_model.lmax}"
+
+    def imu_set(self, nav_truth: str | None = None) -> ImuIncrements:
+        """Increments under the truth model, or (cached) under a normal model ``nav_truth``."""
+        if nav_truth is None:
+            return self.imu
+        if nav_truth not in self.extra_sets:
+            g = Gravitation(NORMAL_KINDS[nav_truth], device=self.device)
+            self.extra_sets[nav_truth] = synthesize(
+                self.traj,
+                self.imu.rate_hz,
+                g,
+                n_gauss=self.imu.meta["n_gauss"],
+                duration=self.imu.duration,
+            )
+        return self.extra_sets[nav_truth]
+
+
+def build_scenario(
+    duration: float = 800.0,
+    rate_hz: float = 200.0,
+    truth: str = "eigen-6s",
+    truth_lmax: int | None = None,
+    n_gauss: int = 3,
+    output_dt: float = 1.0,
+    trajectory: Trajectory | None = None,
+    device: str | None = None,
+    progress: bool = False,
+) -> Scenario:
+    """Synthesize the IMU of the boost-glide path (or ``trajectory``) under the truth model.
+
+    Parameters
+    ----------
+    duration : float
+        Flight time simulated. Units: s.
+    rate_hz : float
+        IMU sample rate (navigation step 2/rate). Units: Hz.
+    truth : str
+        Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``).
+    truth_lmax : int, optional
+        Truth degree (default: full).
+    n_gauss : int
+        Gauss–Legendre nodes per IMU sample.
+    output_dt : float
+        Interval of the stored error curves. Units: s.
+    trajectory : Trajectory, optional
+        Default :class:`fieldmap.nav.trajectory.BoostGlide` of length ``duration``.
+    device : str, optional
+        Warp device.
+    progress : bool
+        tqdm progress bars.
+    """
+    for what, v in (("duration", duration), ("output interval", output_dt), ("rate", rate_hz)):
+        if isinstance(v, (str, bytes, bool)) or not np.isfinite(v) or v <= 0:
+            raise InputError(f"{what} must be a positive number, got {v!r}")
+    traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
+    model = load_truth_model(truth, truth_lmax)
+    g = Gravitation("sh", model=model, device=device)
+    imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
+    steps = imu.n_samples // 2
+    every = min(steps, max(1, int(round(output_dt * rate_hz / 2.0))))
+    while steps % every:  # the last state must be stored
+        every -= 1
+    t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
+    return Scenario(traj, model, imu, every, t_out, traj.kinematics(t_out), device)
+
+
+def propagate(
+    sc: Scenario,
+    gravity: list[str],
+    sets: list[ImuIncrements] | None = None,
+    imu_set=None,
+    errors: imu_errors.ErrorDraws | None = None,
+):
+    """All runs in one :func:`fieldmap.nav.strapdown.propagate_lci` launch; errors vs. the truth.
+
+    Returns
+    -------
+    dict
+        ``pos`` and ``vel`` (n_runs, n_out) error norms (m, m/s), ``dP``, ``dV`` (n_runs, n_out, 3)
+        a-frame error vectors, ``t`` (n_out,), ``seconds`` wall time of the launch.
+    """
+    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
+
+    sets = sets or [sc.imu]
+    dth = np.stack([s.dtheta for s in sets])
+    dv = np.stack([s.dv for s in sets])
+    gravity = list(gravity)
+    n = len(gravity)
+    imu_set = (
+        np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
+    )
+    perm = balanced_order(gravity)
+    k0 = sc.traj.kinematics([sc.imu.t0])
+    t0 = time.perf_counter()
+    res = propagate_lci(
+        dth,
+        dv,
+        sc.imu.dt,
+        k0.P_a[0],
+        k0.V_a[0],
+        dcm_to_quat(k0.C_b_to_a[0]),
+        sc.traj.frame,
+        gravity=[gravity[i] for i in perm],
+        sh_model=sc.truth_model,
+        imu_set=imu_set[perm],
+        errors=None if errors is None else errors.take(perm).kernel_errors(),
+        t0=sc.imu.t0,
+        output_every=sc.output_every,
+        device=sc.device,
+    )
+    secs = time.perf_counter() - t0
+    inv = np.argsort(perm)
+    dP = res.P[inv] - sc.truth.P_a[None]
+    dV = res.V[inv] - sc.truth.V_a[None]
+    return {
+        "t": res.t,
+        "dP": dP,
+        "dV": dV,
+        "pos": np.linalg.norm(dP, axis=-1),
+        "vel": np.linalg.norm(dV, axis=-1),
+        "seconds": secs,
+    }
+
+
+def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
+    """Order of the runs that gives every CPU chunk of the launch a similar cost.
+
+    ``fieldmap._warp.launch_chunked`` splits the threads into contiguous pieces, one per core;
+    runs are sorted by estimated cost ((N+1)² per step for SH degree N, 1 for the normal models)
+    and dealt round-robin into the pieces.
+    """
+    from fieldmap._warp import chunks, cpu_workers
+
+    n = len(gravity)
+    cost = np.array(
+        [(int(g[2:]) + 1) ** 2 if g.startswith("sh") and g[2:].isdigit() else 1 for g in gravity],
+        dtype=np.float64,
+    )
+    order = np.argsort(-cost, kind="stable")
+    pieces = chunks(n, parts or cpu_workers())
+    buckets: list[list[int]] = [[] for _ in pieces]
+    room = [cnt for _, cnt in pieces]
+    load = np.zeros(len(pieces))
+    for i in order:
+        open_ = [b for b in range(len(pieces)) if len(buckets[b]) < room[b]]
+        b = min(open_, key=lambda j: load[j])
+        buckets[b].append(int(i))
+        load[b] += cost[i]
+    return np.array([i for b in buckets for i in b], dtype=np.int64)
+
+
+def gravity_eval_seconds(
+    name: str, sh_model, n_points: int | None = None, device: str = "cpu", repeats: int = 3
+) -> float:
+    """Measured cost of one gravity evaluation of navigation model ``name`` (one CPU thread).
+
+    Points along the boost-glide path are evaluated in one batch through the same Warp device
+    functions the propagator uses; the median wall time over ``repeats`` divided by the number of
+    points is returned. Units: s.
+    """
+    from fieldmap import _warp
+
+    key = name.strip().lower()
+    if key in NORMAL_KINDS:
+        g = Gravitation(NORMAL_KINDS[key], device=device)
+        n_points = n_points or 20000
+    else:
+        lmax = sh_model.lmax if key == "sh" else int(key[2:])
+        g = Gravitation("sh", model=sh_model, lmax=lmax, device=device)
+        n_points = n_points or max(200, min(20000, int(4e7 / (lmax + 1) ** 2)))
+    r = BoostGlide().kinematics(np.linspace(0.0, 800.0, n_points)).r_e
+    g(r[:8])  # compile / build tables outside the timing
+    old = os.environ.get("FIELDMAP_THREADS")
+    os.environ["FIELDMAP_THREADS"] = "1"
+    try:
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            g(r)
+            times.append(time.perf_counter() - t0)
+    finally:
+        if old is None:
+            os.environ.pop("FIELDMAP_THREADS", None)
+        else:
+            os.environ["FIELDMAP_THREADS"] = old
+    _ = _warp  # CPU launches run on one thread with FIELDMAP_THREADS=1
+    return float(np.median(times) / n_points)
+
+
+@dataclass
+class StudyResult:
+    """Rows of a table plus the error curves behind it (see :mod:`fieldmap.cli.nav` for output)."""
+
+    study: str
+    rows: list[dict]
+    t: np.ndarray
+    labels: list[str]
+    pos: np.ndarray
+    vel: np.ndarray
+    meta: dict
+
+
+def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResult:
+    """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
+
+    One launch propagates every model in ``models`` plus the truth model itself (the numerical
+    floor: truth = navigation model, no sensor errors).
+    """
+    names = check_model_names(models, sc.truth_model)
+    runs = names + [sc.truth_key]
+    out = propagate(sc, runs)
+    rows = []
+    for i, name in enumerate(names):
+        row = {
+            "model": name,
+            "final_velocity_error_m_s": float(out["vel"][i, -1]),
+            "final_position_error_m": float(out["pos"][i, -1]),
+        }
+        if timing:
+            row["gravity_eval_seconds"] = gravity_eval_seconds(name, sc.truth_model)
+        rows.append(row)
+    floor = {
+        "nav_gravity": sc.truth_key,
+        "final_position_error_m": float(out["pos"][-1, -1]),
+        "final_velocity_error_m_s": float(out["vel"][-1, -1]),
+        "max_position_error_m": float(out["pos"][-1].max()),
+    }
+    # how far below the smallest gravity-model effect of this run the floor lies (want >= 10)
+    floor["margin_position"] = min(r["final_position_error_m"] for r in rows) / max(
+        floor["final_position_error_m"], 1e-300
+    )
+    floor["margin_velocity"] = min(r["final_velocity_error_m_s"] for r in rows) / max(
+        floor["final_velocity_error_m_s"], 1e-300
+    )
+    meta = _meta(sc) | {"floor": floor, "propagation_seconds": out["seconds"], "n_runs": len(runs)}
+    labels = names + [f"floor:{sc.truth_key}"]
+    return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
+
+
+def _stats(x: np.ndarray) -> dict:
+    return {
+        "mean": float(np.mean(x)),
+        "rms": float(np.sqrt(np.mean(x * x))),
+        "p05": float(np.percentile(x, 5)),
+        "p50": float(np.percentile(x, 50)),
+        "p95": float(np.percentile(x, 95)),
+        "max": float(np.max(x)),
+    }
+
+
+def _mc_rows(labels, out, n, extra):
+    rows = []
+    for j, lab in enumerate(labels):
+        sl = slice(j * n, (j + 1) * n)
+        row = dict(extra[j])
+        for key, unit in (("vel", "velocity_error_m_s"), ("pos", "position_error_m")):
+            for stat, v in _stats(out[key][sl, -1]).items():
+                row[f"final_{unit}_{stat}"] = v
+        rows.append(row)
+    return rows
+
+
+def table3(
+    sc: Scenario,
+    groups=(1, 2, 3, 4),
+    draws: int = 50,
+    seed: int = 0,
+    nav: str = "j4",
+    mode: str = "gauss",
+) -> StudyResult:
+    """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
+
+    ``draws`` Monte Carlo runs per group (group 4, error-free, is deterministic: one run) in one
+    launch; statistics of the final errors over the draws.
+    """
+    nav = check_model_names([nav], sc.truth_model)[0]
+    parts, labels, extra, counts = [], [], [], []
+    for gi, grp in enumerate(groups):
+        if grp not in imu_errors.TABLE2_GROUPS:
+            raise InputError(f"unknown Table 2 group {grp!r} (1..4)")
+        spec = imu_errors.TABLE2_GROUPS[grp]
+        n = 1 if spec == imu_errors.ImuErrorSpec() else int(draws)
+        parts.append(imu_errors.draw(spec, n, seed=seed + 1000 * gi, mode=mode))
+        counts.append(n)
+        labels.append(f"group{grp}")
+        extra.append(
+            {
+                "group": grp,
+                "acc_bias_ug": spec.acc_bias_ug,
+                "acc_noise_ug_rthz": spec.acc_noise_ug_rthz,
+                "draws": n,
+            }
+        )
+    err = imu_errors.ErrorDraws.concat(parts)
+    out = propagate(sc, [nav] * err.n, errors=err)
+    rows, start = [], 0
+    for j, n in enumerate(counts):
+        sub = {k: (v[start : start + n] if k in ("pos", "vel") else v) for k, v in out.items()}
+        rows += _mc_rows([labels[j]], sub, n, [extra[j]])
+        start += n
+    meta = _meta(sc) | {
+        "nav_gravity": nav,
+        "draws": int(draws),
+        "seed": int(seed),
+        "bias_mode": mode,
+        "propagation_seconds": out["seconds"],
+        "n_runs": err.n,
+    }
+    run_labels = [f"{labels[j]}/{i}" for j, n in enumerate(counts) for i in range(n)]
+    return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
+
+
+def table4(
+    sc: Scenario,
+    models=("j4", "sh18", "sh200"),
+    draws: int = 20,
+    seed: int = 0,
+    spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4,
+    mode: str = "gauss",
+    reference: str = "j4",
+) -> StudyResult:
+    """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
+
+    Rows: ``imu_only`` (navigation with ``reference`` on increments synthesized with
+    ``reference`` as truth: no gravity-model error) and one row per navigation model in ``models``
+    on the truth increments (IMU + gravity-model error). The same ``draws`` error draws are used
+    in every row; all runs go into one launch.
+    """
+    names = check_model_names(models, sc.truth_model)
+    ref = check_model_names([reference], sc.truth_model)[0]
+    if ref not in NORMAL_KINDS:
+        raise InputError(
+            f"the IMU-only reference must be a normal model (j2 j4 j6 normal), got {ref!r}"
+        )
+    err1 = imu_errors.draw(spec, draws, seed=seed, mode=mode)
+    rows_models = [ref] + names
+    err = err1.repeat(len(rows_models))
+    grav = [m for m in rows_models for _ in range(err1.n)]
+    imu_set = [1 if j == 0 else 0 for j in range(len(rows_models)) for _ in range(err1.n)]
+    out = propagate(sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err)
+    labels = ["imu_only"] + [f"imu+{m}" for m in names]
+    extra = [
+        {"case": lab, "nav_gravity": m, "gravity_model_error": j > 0, "draws": err1.n}
+        for j, (lab, m) in enumerate(zip(labels, rows_models))
+    ]
+    rows = _mc_rows(labels, out, err1.n, extra)
+    meta = _meta(sc) | {
+        "draws": int(draws),
+        "seed": int(seed),
+        "bias_mode": mode,
+        "imu_errors": spec.__dict__,
+        "propagation_seconds": out["seconds"],
+        "n_runs": err.n,
+    }
+    run_labels = [f"{lab}/{i}" for lab in labels for i in range(err1.n)]
+    return StudyResult("table4", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
+
+
+def _meta(sc: Scenario) -> dict:
+    return {
+        "truth_model": sc.truth_model.name,
+        "truth_degree": int(sc.truth_model.lmax),
+        "trajectory": sc.traj.name,
+        "duration_s": float(sc.imu.duration),
+        "imu_rate_hz": float(sc.imu.rate_hz),
+        "n_gauss": int(sc.imu.meta["n_gauss"]),
+        "device": sc.device or "auto",
+    }

@@ -1,0 +1,1 @@
+"""Products built from grids: maps, statistics, CF metadata, writers, plots, coastlines."""

@@ -1,0 +1,450 @@
+"""Figures of the map products (Chen et al. 2022 Figs. 2-8 and 10), with coastlines.
+
+Every function takes a Dataset from :mod:`fieldmap.products.maps` and returns a matplotlib Figure
+(Agg backend, no display needed);
+:func:`fieldmap.products.io.write_png` saves it atomically. Maps are
+plate carrée in degrees, with the shipped Natural Earth coastlines, a colourbar with units and a
+title naming the model, its degree and the height.
+
+Disturbance maps use colour bands whose edges include the isoline levels, so that colour and
+isolines tell the same story; isolines carry a white halo to stay visible on every colour.
+Maps of several heights of one sweep share one colour scale (the largest value of the sweep),
+so that they can be compared by eye.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.patheffects as pe  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+from matplotlib.ticker import FuncFormatter, MaxNLocator  # noqa: E402
+
+from fieldmap.products import coastline  # noqa: E402
+from fieldmap.products.stats import threshold_key  # noqa: E402
+
+MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
+# isoline styles by rank of the level (lowest first): colour, width, dash
+_ISO = [
+    ("#2b7bd6", 0.6, "-"),
+    ("black", 1.1, "-"),
+    ("#6a1b9a", 1.5, "-"),
+    ("#0b6623", 1.8, "-"),
+]
+
+
+def _halo(lw):
+    return [pe.withStroke(linewidth=lw + 1.3, foreground="white", alpha=0.85)]
+
+
+def describe(ds, height_m=None) -> str:
+    """'EIGEN-6S degree 240, h = 20 km' from a Dataset's attributes."""
+    h = float(ds["height"].values) if height_m is None else float(height_m)
+    parts = []
+    if ds.attrs.get("model"):
+        parts.append(f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}")
+    parts.append(f"h = {h / 1e3:g} km")
+    return ", ".join(parts)
+
+
+def _regional(ds) -> bool:
+    return ds.attrs.get("grid_kind", "global") != "global"
+
+
+def _map_axes(ax, ds, **coast):
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    step = float(ds.attrs.get("grid_step_deg", 1.0))
+    ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
+    ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
+    ax.set_aspect("equal")
+    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9, **coast)
+    if not _regional(ds):
+        ax.set_xticks(np.arange(-180, 181, 60) if lon[0] < 0 else np.arange(0, 361, 60))
+        ax.set_yticks(np.arange(-80, 81, 20))
+    ax.set_xlabel("longitude (°E)")
+    ax.set_ylabel("latitude (°N)")
+    ax.tick_params(labelsize=8)
+
+
+def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
+    cb = fig.colorbar(
+        mesh, ax=axes, shrink=0.9, pad=0.015, aspect=25, fraction=0.04, extend=extend, ticks=ticks
+    )
+    cb.set_label(label, fontsize=9)
+    cb.ax.yaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    cb.ax.tick_params(labelsize=8)
+    return cb
+
+
+def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=None, extend=None):
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    if norm is not None:
+        vmin = vmax = None
+    mesh = ax.pcolormesh(
+        lon,
+        lat,
+        values,
+        cmap=cmap,
+        norm=norm,
+        shading="nearest",
+        vmin=vmin,
+        vmax=vmax,
+        rasterized=True,
+    )
+    _map_axes(ax, ds)
+    if extend is None:
+        top = vmax if norm is None else norm.vmax
+        extend = "max" if top is not None and np.nanmax(values) > top else "neither"
+    _colorbar(fig or ax.figure, mesh, ax, label, extend=extend)
+    return mesh
+
+
+def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3):
+    """Figure size in inches for ``nrows`` map panels plus a colourbar column."""
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
+    w = min(map_width, max_map_height / aspect)
+    return (w + extra_width, min(22.0, nrows * (w * aspect + 0.8) + 0.3))
+
+
+def _bands(top: float, levels) -> np.ndarray:
+    """Colour-band edges from 0 to ``top``: round steps plus every isoline level.
+
+    A round edge closer than 0.3 step to an isoline level is dropped so that no band is a
+    sliver.
+    """
+    nice = MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, top)
+    nice = np.round(nice[(nice >= 0) & (nice < top * (1 - 1e-9))], 12)
+    step = nice[1] - nice[0] if nice.size > 1 else top
+    lev = np.array([x for x in levels if 0 < x < top])
+    keep = [e for e in nice if lev.size == 0 or np.min(np.abs(lev - e)) > 0.3 * step or e in lev]
+    return np.union1d(np.union1d(keep, lev), [0.0, top])
+
+
+def _levels(ds, levels_mg):
+    return sorted(
+        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
+    )
+
+
+def _modulus_top(v, levels) -> float:
+    """Upper end of the colour scale: the 99.9th percentile, at least 1.2 x the top isoline."""
+    raw = max(float(np.nanpercentile(v, 99.9)), max(levels) * 1.2)
+    return float(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, raw)[-1])
+
+
+def _isolines(ax, ds, v, levels, labels: bool):
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    if v.shape[0] < 2 or v.shape[1] < 2:
+        return []
+    handles = []
+    for rank, lev in enumerate(sorted(levels)):
+        color, lw, ls = _ISO[min(rank, len(_ISO) - 1)]
+        cs = ax.contour(
+            lon, lat, v, levels=[lev], colors=[color], linewidths=lw, linestyles=[ls], zorder=6
+        )
+        cs.set(path_effects=_halo(lw))
+        if labels:
+            txt = ax.clabel(cs, fmt=lambda x: f"{x:g}", fontsize=8, inline=True, inline_spacing=3)
+            for t in txt:
+                t.set(path_effects=[pe.withStroke(linewidth=2.5, foreground="white")])
+        handles.append(
+            Line2D([], [], color=color, lw=lw, ls=ls, label=f"{lev:g} mg", path_effects=_halo(lw))
+        )
+    return handles
+
+
+def plot_components(ds, which: str = "model"):
+    """Three panels (east, north, up) of model or normal gravity (Figs. 2 and 3).
+
+    Horizontal components are in mGal on a symmetric scale clipped at the 99.5th percentile of
+    their magnitude (arrows on the colourbar mark values beyond it); the up component is in m/s².
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`fieldmap.products.maps.component_maps`.
+    which : {"model", "normal"}
+    """
+    fig, axes = plt.subplots(3, 1, figsize=_figsize(ds, 3), constrained_layout=True)
+    what = (
+        f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
+        if which == "model"
+        else f"normal gravity of {ds.attrs['ellipsoid']} (exact)"
+    )
+    h = float(ds["height"].values) / 1e3
+    for ax, (k, c) in zip(axes, enumerate(("east", "north", "up"))):
+        v = ds[f"{which}_{c}"].values
+        if c != "up":
+            v = v * 1e5
+            big = float(np.max(np.abs(v)))
+            lim = float(np.percentile(np.abs(v), 99.5))
+            if big < 1e-6:
+                lim = 1.0
+                ax.text(
+                    0.5,
+                    0.5,
+                    "identically 0 (rotationally symmetric field)",
+                    transform=ax.transAxes,
+                    ha="center",
+                    va="center",
+                    fontsize=9,
+                    bbox=dict(fc="white", ec="0.6", alpha=0.9),
+                    zorder=7,
+                )
+            _field(
+                ax,
+                ds,
+                v,
+                "RdBu_r",
+                f"g {c} (mGal)",
+                -lim,
+                lim,
+                extend="both" if big > lim * 1.0001 else "neither",
+            )
+        else:
+            _field(ax, ds, v, "viridis", "g up (m/s²)")
+        ax.set_title(f"({'abc'[k]}) {c} component of {what}, h = {h:g} km", fontsize=10)
+    return fig
+
+
+def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=None, vmax=None):
+    """Modulus of the disturbance (mg) in colour with isolines at ``levels_mg`` (Figs. 4, 7, 10).
+
+    With ``height_index`` (one height of an altitude sweep) the colour scale is common to all
+    heights of the sweep unless ``vmax`` is given. Global maps list the isolines in a legend;
+    regional maps label them in place.
+    """
+    levels = _levels(ds, levels_mg)
+    sub = ds if height_index is None else ds.isel(height=height_index)
+    if vmax is None:
+        vmax = _modulus_top(ds["modulus_mg"].values, levels)
+    fig, ax = plt.subplots(figsize=_figsize(sub), constrained_layout=True)
+    _isoline_panel(fig, ax, sub, levels, vmax)
+    common = " (colour scale common to all heights)" if height_index is not None else ""
+    ax.set_title(
+        title
+        or f"Gravity disturbance |δg| with isolines {', '.join(f'{x:g}' for x in levels)} mg\n"
+        f"{describe(sub)}, {sub.attrs.get('ellipsoid', 'WGS84')} normal field{common}",
+        fontsize=10,
+    )
+    return fig
+
+
+def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
+    v = sub["modulus_mg"].values
+    edges = _bands(vmax, levels)
+    cmap = plt.get_cmap("YlOrRd", len(edges) - 1)
+    norm = BoundaryNorm(edges, cmap.N)
+    lon = sub["longitude"].values
+    lat = sub["latitude"].values
+    mesh = ax.pcolormesh(lon, lat, v, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    _map_axes(ax, sub, color="0.25", linewidth=0.45)
+    handles = _isolines(ax, sub, v, levels, labels=_regional(sub))
+    if handles and legend:
+        lead = Line2D([], [], color="none", label="isolines:")
+        ax.legend(
+            handles=[lead, *handles],
+            fontsize=8,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.1 if not _regional(sub) else -0.06),
+            ncol=len(handles) + 1 if not _regional(sub) else 3,
+            frameon=False,
+            handlelength=2.2,
+            columnspacing=1.2,
+        )
+    if colorbar:
+        ticks = edges if len(edges) <= 16 else None
+        _colorbar(
+            fig,
+            mesh,
+            ax,
+            f"|δg| (mg)   [{MG_NOTE}]",
+            extend="max" if np.nanmax(v) > vmax else "neither",
+            ticks=ticks,
+        )
+    return mesh
+
+
+def plot_isolines_panels(ds, height_indices, levels_mg=None):
+    """Stacked disturbance maps at several heights of a sweep with ONE colour scale (Fig. 7)."""
+    levels = _levels(ds, levels_mg)
+    idx = list(height_indices)
+    vmax = _modulus_top(ds["modulus_mg"].values[idx], levels)
+    w, h = _figsize(ds.isel(height=0), nrows=len(idx))
+    fig, axes = plt.subplots(len(idx), 1, figsize=(w, h), constrained_layout=True, squeeze=False)
+    for k, (ax, i) in enumerate(zip(axes[:, 0], idx)):
+        sub = ds.isel(height=i)
+        mesh = _isoline_panel(fig, ax, sub, levels, vmax, colorbar=False, legend=k == len(idx) - 1)
+        f = zip(ds["threshold_mg"].values, ds["area_fraction_above"].values[i])
+        extra = "; ".join(f"> {t:g} mg: {100 * x:.2f}%" for t, x in f if t >= 0.05)
+        ax.set_title(
+            f"({'abcdefgh'[k]}) h = {float(sub['height']) / 1e3:g} km — max "
+            f"{float(np.nanmax(sub['modulus_mg'].values)):.3f} mg"
+            + (f"; area {extra}" if extra else ""),
+            fontsize=9,
+        )
+    edges = _bands(vmax, levels)
+    _colorbar(
+        fig,
+        mesh,
+        axes[:, 0],
+        f"|δg| (mg)   [{MG_NOTE}]",
+        extend="max" if np.nanmax(ds["modulus_mg"].values[idx]) > vmax else "neither",
+        ticks=edges if len(edges) <= 16 else None,
+    )
+    fig.suptitle(
+        f"Gravity disturbance |δg|, {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
+        f" minus exact {ds.attrs.get('ellipsoid', 'WGS84')} normal gravity "
+        "(one colour scale)",
+        fontsize=10,
+    )
+    return fig
+
+
+def plot_threshold(ds, threshold_mg: float, title: str | None = None):
+    """Area where the modulus exceeds ``threshold_mg`` in black (Figs. 5 and 6)."""
+    v = ds["modulus_mg"].values
+    key = f"area_fraction_above_{threshold_key(threshold_mg)}_mg"
+    if key in ds.attrs:
+        frac = float(ds.attrs[key])
+    else:
+        from fieldmap.products.stats import weights_2d
+
+        frac = float(np.sum(weights_2d(ds["latitude"].values, v.shape[1])[v > threshold_mg]))
+    fig, ax = plt.subplots(figsize=_figsize(ds, extra_width=0.4), constrained_layout=True)
+    cmap = ListedColormap(["#f2f2f2", "black"])
+    ax.pcolormesh(
+        ds["longitude"].values,
+        ds["latitude"].values,
+        (v > threshold_mg).astype(float),
+        cmap=cmap,
+        vmin=0,
+        vmax=1,
+        shading="nearest",
+        rasterized=True,
+    )
+    _map_axes(ax, ds, color="#e66100", linewidth=0.6)
+    ax.legend(
+        handles=[
+            Patch(fc="black", label=f"|δg| > {threshold_mg:g} mg ({100 * frac:.2f}% of area)"),
+            Patch(fc="#f2f2f2", ec="0.5", label=f"|δg| ≤ {threshold_mg:g} mg"),
+            Line2D([], [], color="#e66100", lw=1, label="coastline"),
+        ],
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1 if not _regional(ds) else -0.06),
+        ncol=3 if not _regional(ds) else 1,
+        fontsize=8,
+        frameon=False,
+    )
+    ax.set_title(
+        title
+        or f"Area with |δg| > {threshold_mg:g} mg: {100 * frac:.2f}% (area-weighted)\n"
+        f"{describe(ds)}, {ds.attrs.get('ellipsoid', 'WGS84')} normal field",
+        fontsize=10,
+    )
+    return fig
+
+
+def plot_sweep(ds, reference=None):
+    """Area fraction above each threshold, and max / mean modulus, versus height (Fig. 7 study).
+
+    Parameters
+    ----------
+    reference : dict, optional
+        ``{threshold_mg: (height_km, percent)}`` values of another study (e.g. the paper's
+        §4.1 fractions at 20 km) drawn as open markers. Units: mg, km, %.
+    """
+    h = ds["height"].values / 1e3
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    frac = 100 * ds["area_fraction_above"].values
+    a1.set_yscale(
+        "log" if np.all(frac > 0) else "symlog", **({} if np.all(frac > 0) else {"linthresh": 0.01})
+    )
+    for j, t in enumerate(ds["threshold_mg"].values):
+        (line,) = a1.plot(h, frac[:, j], "o-", label=f"> {t:g} mg")
+        if reference and float(t) in reference:
+            rh, rp = reference[float(t)]
+            a1.plot([rh], [rp], "D", color=line.get_color(), mfc="none", ms=9, mew=1.5)
+    if reference:
+        a1.plot([], [], "D", color="0.3", mfc="none", label="paper (EIGEN-6C4 d2190)")
+    a1.set_xlabel("height above the ellipsoid (km)")
+    a1.set_ylabel("area fraction (%)")
+    a1.grid(True, which="major", alpha=0.3)
+    a1.grid(True, which="minor", alpha=0.1)
+    a1.legend(fontsize=8)
+    a1.set_title("Area (area-weighted) with |δg| above thresholds", fontsize=10)
+    a2.plot(h, ds["max_mg"].values, "o-", label="maximum")
+    if "p99_mg" in ds:
+        a2.plot(h, ds["p99_mg"].values, "^-", label="99th percentile")
+    a2.plot(h, ds["mean_mg"].values, "s-", label="area-weighted mean")
+    a2.set_xlabel("height above the ellipsoid (km)")
+    a2.set_ylabel("|δg| (mg)")
+    a2.set_ylim(bottom=0)
+    a2.grid(True, alpha=0.3)
+    a2.legend(fontsize=8)
+    a2.set_title("Disturbance modulus versus height", fontsize=10)
+    fig.suptitle(
+        f"Altitude sweep — {ds.attrs['model']} degree {ds.attrs['model_lmax']} minus exact "
+        f"{ds.attrs.get('ellipsoid', 'WGS84')} normal gravity",
+        fontsize=11,
+    )
+    return fig
+
+
+def plot_truncation(ds):
+    """Modulus of the J2n truncation error per order (Fig. 8), with a latitude profile."""
+    orders = [int(o) for o in ds["order"].values]
+    n = len(orders)
+    w, _ = _figsize(ds, extra_width=0.0)
+    fig, axes = plt.subplots(
+        n,
+        2,
+        figsize=(w + 4.2, 3.0 * n + 0.4),
+        squeeze=False,
+        gridspec_kw={"width_ratios": [3, 1]},
+        constrained_layout=True,
+    )
+    h = float(ds["height"].values) / 1e3
+    lat = ds["latitude"].values
+    for k, o in enumerate(orders):
+        sub = ds.isel(order=k)
+        v = sub["modulus_mg"].values
+        exp = int(np.floor(np.log10(max(float(v.max()), 1e-300))))
+        scale = 10.0**exp
+        _field(axes[k, 0], sub, v / scale, "magma_r", f"|δg| ($10^{{{exp}}}$ mg)", 0.0)
+        axes[k, 0].set_title(
+            f"({'abcdef'[k]}) J{o} minus exact normal gravitation, h = {h:g} km "
+            f"({ds.attrs['ellipsoid']}); max {float(v.max()):.3g} mg",
+            fontsize=10,
+        )
+        prof = axes[k, 1]
+        for c in ("north", "up"):
+            prof.plot(sub[c].values[:, 0] * _to_mg(sub[c].attrs["units"]) / scale, lat, label=c)
+        prof.axvline(0, color="0.5", lw=0.6)
+        prof.set_xlabel(f"δg ($10^{{{exp}}}$ mg)")
+        prof.set_ylabel("latitude (°N)")
+        prof.set_yticks(np.arange(-80, 81, 20) if not _regional(ds) else prof.get_yticks())
+        prof.set_ylim(lat[0], lat[-1])
+        prof.grid(True, alpha=0.3)
+        east0 = float(np.max(np.abs(sub["east"].values))) == 0.0
+        prof.legend(fontsize=8, title="east ≡ 0" if east0 else None, title_fontsize=7)
+        prof.set_title("zonal profile of the components", fontsize=9)
+    return fig
+
+
+def _to_mg(units: str) -> float:
+    from fieldmap.products.maps import UNITS
+    from fieldmap.products.stats import MG
+
+    return UNITS[units] / MG
