@@ -104,8 +104,9 @@ def bench_pyshtools(model, n, repeats):
     L = model.lmax
     cilm = np.zeros((2, L + 1, L + 1))
     cilm[0], cilm[1] = model.C, model.S
-    coeffs = pyshtools.SHGravCoeffs.from_array(cilm, gm=model.gm, r0=model.radius,
-                                                omega=7.292115e-5)
+    coeffs = pyshtools.SHGravCoeffs.from_array(
+        cilm, gm=model.gm, r0=model.radius, omega=7.292115e-5
+    )
     lat, lon, h = _points(n, seed=2)
     x, y, z = geodetic_to_ecef(lat, lon, h)
     r = np.sqrt(x * x + y * y + z * z)
@@ -152,18 +153,22 @@ def main(argv=None) -> int:
     device = _warp.resolve_device(args.device)
     model = load_model("eigen-6s")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    print(f"EIGEN-6S degree {model.lmax}, device {device} ({_warp.cpu_workers()} CPU threads), "
-          f"medians of {args.repeats}; 1-min load average before the run: {load:.2f}")
+    print(
+        f"EIGEN-6S degree {model.lmax}, device {device} ({_warp.cpu_workers()} CPU threads), "
+        f"medians of {args.repeats}; 1-min load average before the run: {load:.2f}"
+    )
     k_us, api_us, one_us = bench_fieldmap(model, args.points, args.repeats, device)
     tool_us = bench_geographiclib(model, args.tool_points, args.repeats)
     pysh_us = bench_pyshtools(model, args.pyshtools_points, max(1, min(args.repeats, 3)))
 
-    rows = [(f"fieldmap kernel sh_gravitation ({args.points} pts)", k_us),
-            (f"fieldmap gravity.disturbance ({args.points} pts)", api_us),
-            (f"fieldmap kernel sh_gravitation, 1 thread ({args.points} pts)", one_us),
-            (f"GeographicLib Gravity -G, 1 process ({args.tool_points} pts)", tool_us),
-            (f"pyshtools expand(lat, lon, r) ({args.pyshtools_points} pts)", pysh_us),
-            ("Chen et al. 2022, degree 200 (printed)", PAPER_US_PER_POINT_DEG200)]
+    rows = [
+        (f"fieldmap kernel sh_gravitation ({args.points} pts)", k_us),
+        (f"fieldmap gravity.disturbance ({args.points} pts)", api_us),
+        (f"fieldmap kernel sh_gravitation, 1 thread ({args.points} pts)", one_us),
+        (f"GeographicLib Gravity -G, 1 process ({args.tool_points} pts)", tool_us),
+        (f"pyshtools expand(lat, lon, r) ({args.pyshtools_points} pts)", pysh_us),
+        ("Chen et al. 2022, degree 200 (printed)", PAPER_US_PER_POINT_DEG200),
+    ]
     print(f"\n{'method':58s} {'us/point':>10s} {'vs kernel':>10s} {'vs API':>8s}")
     for name, us in rows:
         if us is None:
@@ -172,8 +177,10 @@ def main(argv=None) -> int:
         print(f"{name:58s} {us:10.2f} {us / k_us:9.1f}x {us / api_us:7.1f}x")
     if not args.skip_cli:
         warm, cold = bench_cli(args.repeats)
-        print(f"\nfieldmap point, 1 point, wall: warm cache {warm:.2f} s (median of "
-              f"{args.repeats}), cold cache {cold:.2f} s (median of 2)")
+        print(
+            f"\nfieldmap point, 1 point, wall: warm cache {warm:.2f} s (median of "
+            f"{args.repeats}), cold cache {cold:.2f} s (median of 2)"
+        )
     return 0
 
 

@@ -198,9 +198,7 @@ def jn_gravitation(p: wp.vec3d, ell: NormalParams, order: int):
     B = _THREE * ell.j2 * t
     if order >= 4:
         t2 = t * t
-        A = A + _C15_8 * ell.j4 * t2 * (
-            -_ONE + wp.float64(14.0) * s2 - wp.float64(21.0) * s2 * s2
-        )
+        A = A + _C15_8 * ell.j4 * t2 * (-_ONE + wp.float64(14.0) * s2 - wp.float64(21.0) * s2 * s2)
         B = B + wp.float64(2.5) * ell.j4 * t2 * (wp.float64(7.0) * s2 - _THREE)
     if order >= 6:
         t3 = t * t * t

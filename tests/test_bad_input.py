@@ -42,18 +42,24 @@ BAD_MODELS = {
     "text.gfc": (b"hello world\n", "end_of_head"),
     "corrupt.gfc.gz": (gzip.compress((_HEAD + _BODY).encode())[:40], "corrupt gzip"),
     "nohead_key.gfc": ((_HEAD.replace("radius 6378136.3\n", "") + _BODY).encode(), "'radius'"),
-    "badnum.gfc": ((_HEAD + _BODY.replace("-4.84165E-04", "-4.8x165E-04")).encode(),
-                   "line 12: bad number"),
+    "badnum.gfc": (
+        (_HEAD + _BODY.replace("-4.84165E-04", "-4.8x165E-04")).encode(),
+        "line 12: bad number",
+    ),
     "gap.gfc": ((_HEAD + _BODY.replace("gfc 2 1 0.0 0.0\n", "")).encode(), "n=2 m=1"),
     "dup.gfc": ((_HEAD + _BODY + "gfc 2 2 0.0 0.0\n").encode(), "duplicate"),
     "n_lt_m.gfc": ((_HEAD + _BODY + "gfc 1 2 0.0 0.0\n").encode(), "order m > degree n"),
-    "norm.gfc": ((_HEAD.replace("fully_normalized", "semi") + _BODY).encode(),
-                 "unknown normalisation"),
+    "norm.gfc": (
+        (_HEAD.replace("fully_normalized", "semi") + _BODY).encode(),
+        "unknown normalisation",
+    ),
     "truncated.gfc": ((_HEAD + _BODY[:40]).encode(), "line 11: 'gfc' line with 0 values"),
     "headeronly.gfc": (_HEAD.encode(), "no coefficient lines"),
     "nan.gfc": ((_HEAD + _BODY.replace("2.4e-06", "nan")).encode(), "bad number 'nan'"),
-    "huge.gfc": ((_HEAD + _BODY.replace("2.4e-06", "1e300")).encode(),
-                 "line 14: coefficient n=2 m=2 is 1e+300"),
+    "huge.gfc": (
+        (_HEAD + _BODY.replace("2.4e-06", "1e300")).encode(),
+        "line 14: coefficient n=2 m=2 is 1e+300",
+    ),
 }
 # parse, but are no Earth model: evaluating them gave NaN or 1e300 mGal, printed as numbers
 ALIEN_MODELS = {
@@ -107,30 +113,33 @@ def _assert_one_line(rc, err, want_rc, msg, before, root):
 
 
 # ----------------------------------------------------------------------------- fieldmap point
-POINT_OPTIONS = [
-    (["--lmax", "-1"], "--lmax must be >= 0"),
-    (["--lmax", "241"], "exceeds the degree 240"),
-    (["--lmax", "1.5"], "invalid int value: '1.5'"),
-    (["--lmax", "nan"], "invalid int value"),
-    (["--lmax", "99999999999"], "exceeds the degree"),
-    (["--epoch", "garbage"], "bad epoch"),
-    (["--epoch", "nan"], "not a decimal year"),
-    (["--epoch", "inf"], "not a decimal year"),
-    (["--epoch", "2010-13-45"], "bad epoch"),
-    (["--model", "nonexist.gfc"], "unknown model"),
-    (["--model", "adir"], "is a directory"),
-    (["--model", ""], "unknown model"),
-    (["--device", "cuda:7"], "not present"),
-    (["--device", "tpu"], "not present"),
-    (["--quantity", "foo"], "invalid choice"),
-    (["--normal", "j8"], "invalid choice"),
-    (["--precision", "nan"], "invalid int value"),
-    (["--precision", "100"], "--precision"),
-    (["--input", "nonexist.txt"], "No such file"),
-    (["--input", "adir"], "Is a directory"),
-    (["--model", "/dev/zero"], "binary byte 0x00"),
-] + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()] + [
-    (["--model", name], msg) for name, (_, _, msg) in ALIEN_MODELS.items()]
+POINT_OPTIONS = (
+    [
+        (["--lmax", "-1"], "--lmax must be >= 0"),
+        (["--lmax", "241"], "exceeds the degree 240"),
+        (["--lmax", "1.5"], "invalid int value: '1.5'"),
+        (["--lmax", "nan"], "invalid int value"),
+        (["--lmax", "99999999999"], "exceeds the degree"),
+        (["--epoch", "garbage"], "bad epoch"),
+        (["--epoch", "nan"], "not a decimal year"),
+        (["--epoch", "inf"], "not a decimal year"),
+        (["--epoch", "2010-13-45"], "bad epoch"),
+        (["--model", "nonexist.gfc"], "unknown model"),
+        (["--model", "adir"], "is a directory"),
+        (["--model", ""], "unknown model"),
+        (["--device", "cuda:7"], "not present"),
+        (["--device", "tpu"], "not present"),
+        (["--quantity", "foo"], "invalid choice"),
+        (["--normal", "j8"], "invalid choice"),
+        (["--precision", "nan"], "invalid int value"),
+        (["--precision", "100"], "--precision"),
+        (["--input", "nonexist.txt"], "No such file"),
+        (["--input", "adir"], "Is a directory"),
+        (["--model", "/dev/zero"], "binary byte 0x00"),
+    ]
+    + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()]
+    + [(["--model", name], msg) for name, (_, _, msg) in ALIEN_MODELS.items()]
+)
 
 
 @pytest.mark.parametrize("args, msg", POINT_OPTIONS, ids=lambda v: str(v))
@@ -175,11 +184,16 @@ def test_point_never_prints_non_finite(work, capsys, monkeypatch):
     """A result that is NaN or inf is reported as a bad line, not printed as a number."""
     from fieldmap.cli import point as cli_point
 
-    monkeypatch.setattr(cli_point, "evaluate_points",
-                        lambda lat, *a: np.array([[1.0, 2.0, 3.0], [np.nan, 0.0, 0.0]]))
+    monkeypatch.setattr(
+        cli_point,
+        "evaluate_points",
+        lambda lat, *a: np.array([[1.0, 2.0, 3.0], [np.nan, 0.0, 0.0]]),
+    )
     rc, out, err = _main(["point"], capsys, "1 2 3\n4 5 6\n", monkeypatch)
-    assert out.splitlines() == ["1.000 2.000 3.000", "ERROR: result is not finite "
-                                "(point too close to the masses for this model)"]
+    assert out.splitlines() == [
+        "1.000 2.000 3.000",
+        "ERROR: result is not finite (point too close to the masses for this model)",
+    ]
     assert rc == 1 and len(err.splitlines()) == 1
 
 
@@ -211,16 +225,19 @@ def test_point_empty_input(work, capsys, monkeypatch):
 
 
 # ----------------------------------------------------------------------------- fieldmap verify
-@pytest.mark.parametrize("args, msg", [
-    (["--lmax", "-1"], "within 0..240"),
-    (["--lmax", "241"], "within 0..240"),
-    (["--lmax", "x"], "invalid int value"),
-    (["--points", "0"], "within 5..1000000"),
-    (["--points", "100000000"], "within 5..1000000"),
-    (["--points", "x"], "invalid int value"),
-    (["--device", "cuda:7"], "not present"),
-    (["--device", "bogus"], "not present"),
-])
+@pytest.mark.parametrize(
+    "args, msg",
+    [
+        (["--lmax", "-1"], "within 0..240"),
+        (["--lmax", "241"], "within 0..240"),
+        (["--lmax", "x"], "invalid int value"),
+        (["--points", "0"], "within 5..1000000"),
+        (["--points", "100000000"], "within 5..1000000"),
+        (["--points", "x"], "invalid int value"),
+        (["--device", "cuda:7"], "not present"),
+        (["--device", "bogus"], "not present"),
+    ],
+)
 def test_verify_bad_options(work, capsys, args, msg):
     """Bad options of ``fieldmap verify``."""
     before = _tree(work)
@@ -316,13 +333,16 @@ def test_model_bad_input(work, capsys, cmd, args, msg):
     _assert_one_line(rc, err, 2, msg, before, work)
 
 
-@pytest.mark.parametrize("args, msg", [
-    (["--height-km", "20,nan,30"], "finite"),
-    (["--height-km", "20", "x"], "'x' is not a number"),
-    (["--height-km", ","], "no value"),
-    (["--height-km", "20,20"], "repeated height"),
-    (["--height-km", "20", "2e5"], "is above 100000 km"),
-])
+@pytest.mark.parametrize(
+    "args, msg",
+    [
+        (["--height-km", "20,nan,30"], "finite"),
+        (["--height-km", "20", "x"], "'x' is not a number"),
+        (["--height-km", ","], "no value"),
+        (["--height-km", "20,20"], "repeated height"),
+        (["--height-km", "20", "2e5"], "is above 100000 km"),
+    ],
+)
 def test_sweep_bad_heights(work, capsys, args, msg):
     """Lists of heights with one bad entry."""
     before = _tree(work)
@@ -330,14 +350,17 @@ def test_sweep_bad_heights(work, capsys, args, msg):
     _assert_one_line(rc, err, 2, msg, before, work)
 
 
-@pytest.mark.parametrize("orders, msg", [
-    ("x", "'x' is not a number"),
-    ("3", "among 2, 4, 6"),
-    ("8", "among 2, 4, 6"),
-    ("2,2", "distinct"),
-    ("2.5", "'2.5' is not a number"),
-    ("", "no value"),
-])
+@pytest.mark.parametrize(
+    "orders, msg",
+    [
+        ("x", "'x' is not a number"),
+        ("3", "among 2, 4, 6"),
+        ("8", "among 2, 4, 6"),
+        ("2,2", "distinct"),
+        ("2.5", "'2.5' is not a number"),
+        ("", "no value"),
+    ],
+)
 def test_truncation_bad_orders(work, capsys, orders, msg):
     """``--orders`` of ``fieldmap truncation``."""
     before = _tree(work)
@@ -347,11 +370,14 @@ def test_truncation_bad_orders(work, capsys, orders, msg):
 
 def test_missing_out_folder_is_created_only_on_success(work, capsys):
     """A missing --out folder is created (with parents) by a good run, and not by a bad one."""
-    rc, _, err = _main(["truncation", "--step-deg", "5", "--height-km", "nan",
-                        "--out", "new/deeper"], capsys)
+    rc, _, err = _main(
+        ["truncation", "--step-deg", "5", "--height-km", "nan", "--out", "new/deeper"], capsys
+    )
     assert rc == 2 and not (work / "new").exists(), err
-    rc, _, err = _main(["truncation", "--step-deg", "30", "--orders", "2", "--no-plots",
-                        "--out", "new/deeper"], capsys)
+    rc, _, err = _main(
+        ["truncation", "--step-deg", "30", "--orders", "2", "--no-plots", "--out", "new/deeper"],
+        capsys,
+    )
     assert rc == 0, err
     names = sorted(p.name for p in (work / "new" / "deeper").iterdir())
     assert [n.rsplit(".", 1)[1] for n in names] == ["json", "nc"], names
@@ -410,14 +436,17 @@ def test_navsim_bad_input(work, capsys, args, msg):
 
 
 # ----------------------------------------------------------------------------- --help
-@pytest.mark.parametrize("cmd, words", [
-    ("point", ["degrees", "metres", "mGal", "m/s²", "[-540, 540)", "exit 2"]),
-    ("verify", ["1e-12", "5..1000000"]),
-    ("map", ["km", "degrees", "mg", "9.80665e-3 m/s²", "created", "nothing written"]),
-    ("sweep", ["km", "degrees", "mGal", "distinct", "created", "nothing written"]),
-    ("truncation", ["km", "degrees", "mGal", "2,4,6", "created", "nothing written"]),
-    ("navsim", ["Hz", "in s", "1..16", "created", "nothing written"]),
-])
+@pytest.mark.parametrize(
+    "cmd, words",
+    [
+        ("point", ["degrees", "metres", "mGal", "m/s²", "[-540, 540)", "exit 2"]),
+        ("verify", ["1e-12", "5..1000000"]),
+        ("map", ["km", "degrees", "mg", "9.80665e-3 m/s²", "created", "nothing written"]),
+        ("sweep", ["km", "degrees", "mGal", "distinct", "created", "nothing written"]),
+        ("truncation", ["km", "degrees", "mGal", "2,4,6", "created", "nothing written"]),
+        ("navsim", ["Hz", "in s", "1..16", "created", "nothing written"]),
+    ],
+)
 def test_help_documents_units(capsys, cmd, words):
     """Every sub-command's --help exits 0 and states units and accepted ranges."""
     with pytest.raises(SystemExit) as info:

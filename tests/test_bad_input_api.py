@@ -95,8 +95,14 @@ def test_api_gravity_rejects_bad_points():
     """``fieldmap.field.gravity`` refuses non-numeric, non-finite and impossible coordinates."""
     from fieldmap.field import gravity as fg
 
-    for lat, lon, h in (([np.nan], [0], [0]), (["a"], [0], [0]), ([91], [0], [0]),
-                        ([0], [np.inf], [0]), ([0], [0], [np.inf]), ([0], [0], [-1e6])):
+    for lat, lon, h in (
+        ([np.nan], [0], [0]),
+        (["a"], [0], [0]),
+        ([91], [0], [0]),
+        ([0], [np.inf], [0]),
+        ([0], [0], [np.inf]),
+        ([0], [0], [-1e6]),
+    ):
         for func in (fg.gravitation, fg.gravity, fg.disturbance):
             with pytest.raises(InputError):
                 func(lat, lon, h)
@@ -165,10 +171,16 @@ def test_api_verify():
     """``fieldmap.cli.verify.run_checks`` checks its arguments before running anything."""
     from fieldmap.cli.verify import run_checks
 
-    for kw, msg in (({"devices": ["cuda:7"]}, "not present"), ({"devices": "tpu"}, "not present"),
-                    ({"lmax": 241}, "0..240"), ({"lmax": 2.5}, "integer degree"),
-                    ({"points": 1}, "5..1000000"), ({"points": "x"}, "must be an integer"),
-                    ({"points": None}, "must be an integer"), ({"points": 1e300}, "5..1000000")):
+    for kw, msg in (
+        ({"devices": ["cuda:7"]}, "not present"),
+        ({"devices": "tpu"}, "not present"),
+        ({"lmax": 241}, "0..240"),
+        ({"lmax": 2.5}, "integer degree"),
+        ({"points": 1}, "5..1000000"),
+        ({"points": "x"}, "must be an integer"),
+        ({"points": None}, "must be an integer"),
+        ({"points": 1e300}, "5..1000000"),
+    ):
         with pytest.raises(InputError, match=msg):
             run_checks(**kw)
 
@@ -180,15 +192,23 @@ def test_api_imu_errors():
     for value in (-1.0, float("nan"), "x", None, True):
         with pytest.raises(InputError, match="acc_bias_ug"):
             ie.ImuErrorSpec(acc_bias_ug=value)
-    for kw, msg in (({"n": 0}, ">= 1"), ({"n": 2.5}, "integer"), ({"n": 2, "seed": -1}, ">= 0"),
-                    ({"n": 2, "seed": "x"}, "integer"), ({"n": 2, "mode": "x"}, "bias mode")):
+    for kw, msg in (
+        ({"n": 0}, ">= 1"),
+        ({"n": 2.5}, "integer"),
+        ({"n": 2, "seed": -1}, ">= 0"),
+        ({"n": 2, "seed": "x"}, "integer"),
+        ({"n": 2, "mode": "x"}, "bias mode"),
+    ):
         with pytest.raises(InputError, match=msg):
             ie.draw(ie.TABLE4, **kw)
     d = ie.draw(ie.TABLE4, 2)
     z = np.zeros((4, 3))
-    for args, kw, msg in (((z, z, 0.0, d), {}, "positive"), ((z, z, 0.005, d), {"run": 5}, "run 5"),
-                          ((z, np.zeros((6, 3)), 0.005, d), {}, "differ in length"),
-                          ((z, z * np.nan, 0.005, d), {}, "NaN or inf")):
+    for args, kw, msg in (
+        ((z, z, 0.0, d), {}, "positive"),
+        ((z, z, 0.005, d), {"run": 5}, "run 5"),
+        ((z, np.zeros((6, 3)), 0.005, d), {}, "differ in length"),
+        ((z, z * np.nan, 0.005, d), {}, "NaN or inf"),
+    ):
         with pytest.raises(InputError, match=msg):
             ie.apply(*args, **kw)
 
@@ -239,14 +259,18 @@ def test_map_interrupted_while_writing(work, capsys, monkeypatch, how):  # noqa:
     monkeypatch.setattr(plots, "plot_isolines", boom)
     before = _tree(work)
     rc, _, err = _main(["map", "--step-deg", "10", "--out", "res"], capsys)
-    want = {"interrupt": (130, "interrupted"), "sigterm": (143, "terminated"),
-            "error": (3, "internal error: RuntimeError: figure failed")}[how]
+    want = {
+        "interrupt": (130, "interrupted"),
+        "sigterm": (143, "terminated"),
+        "error": (3, "internal error: RuntimeError: figure failed"),
+    }[how]
     _assert_one_line(rc, err, want[0], want[1], before, work)
     assert signal.getsignal(signal.SIGTERM) is not cli._on_sigterm  # handler restored
 
 
-@pytest.mark.parametrize("sig, exc", [(signal.SIGINT, KeyboardInterrupt),
-                                      (signal.SIGTERM, cli._Terminated)])
+@pytest.mark.parametrize(
+    "sig, exc", [(signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, cli._Terminated)]
+)
 def test_signals_wait_for_the_file_being_written(sig, exc):
     """A signal during one file's write is delivered after it (HDF5 locks stay consistent).
 
@@ -311,12 +335,19 @@ def test_writers_use_temp_and_replace_in_same_folder(tmp_path, monkeypatch):
 # ----------------------------------------------------------------------------- real processes
 def _spawn(args, **kw):
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    return subprocess.Popen([sys.executable, "-m", "fieldmap", *args], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
+    return subprocess.Popen(
+        [sys.executable, "-m", "fieldmap", *args],
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        **kw,
+    )
 
 
-@pytest.mark.parametrize("sig, rc, word", [(signal.SIGINT, 130, "interrupted"),
-                                           (signal.SIGTERM, 143, "terminated")])
+@pytest.mark.parametrize(
+    "sig, rc, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")]
+)
 def test_signal_one_line(tmp_path, sig, rc, word):
     """Ctrl-C or SIGTERM while ``fieldmap point`` waits for input: one line, no traceback."""
     p = _spawn(["point"], stdin=subprocess.PIPE, cwd=tmp_path)

@@ -14,17 +14,29 @@ from fieldmap.models.registry import load_model
 
 
 def _run(args, stdin="", env=None):
-    return subprocess.run([sys.executable, "-m", "fieldmap", *args], input=stdin,
-                          capture_output=True, text=True, timeout=300,
-                          env={**os.environ, **(env or {})})
+    return subprocess.run(
+        [sys.executable, "-m", "fieldmap", *args],
+        input=stdin,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, **(env or {})},
+    )
 
 
 def _numbers(stdout):
     return np.array([[float(v) for v in line.split()] for line in stdout.splitlines()])
 
 
-POINTS = np.array([[45.0, 10.0, 1000.0], [90.0, 0.0, 0.0], [-89.99, 170.0, 100e3],
-                   [0.0, -75.5, 20e3], [-33.9, 151.2, -50.0]])
+POINTS = np.array(
+    [
+        [45.0, 10.0, 1000.0],
+        [90.0, 0.0, 0.0],
+        [-89.99, 170.0, 100e3],
+        [0.0, -75.5, 20e3],
+        [-33.9, 151.2, -50.0],
+    ]
+)
 
 
 def _stdin(points):
@@ -54,33 +66,55 @@ def test_gravity_and_normal_quantities():
     from fieldmap.field.normal import normal_gravity
 
     lat, lon, h = POINTS.T
-    out = _run(["point", "--quantity", "gravity", "--precision", "14", "--lmax", "60"],
-               _stdin(POINTS))
+    out = _run(
+        ["point", "--quantity", "gravity", "--precision", "14", "--lmax", "60"], _stdin(POINTS)
+    )
     assert out.returncode == 0, out.stderr
     want = fg.gravity(lat, lon, h, model=load_model("eigen-6s", lmax=60))
     np.testing.assert_allclose(_numbers(out.stdout), want, rtol=0, atol=1e-13)
     for kind in ("exact", "j2", "j4", "j6"):
-        out = _run(["point", "--quantity", "normal", "--normal", kind, "--precision", "14"],
-                   _stdin(POINTS))
+        out = _run(
+            ["point", "--quantity", "normal", "--normal", kind, "--precision", "14"], _stdin(POINTS)
+        )
         assert out.returncode == 0, out.stderr
         want = normal_gravity(lat, lon, h, kind=kind, centrifugal=True, frame="enu")
         np.testing.assert_allclose(_numbers(out.stdout), want, rtol=0, atol=1e-13)
-    exact = _numbers(_run(["point", "--quantity", "normal", "--precision", "9"],
-                          "0 0 0\n").stdout)[0]
+    exact = _numbers(_run(["point", "--quantity", "normal", "--precision", "9"], "0 0 0\n").stdout)[
+        0
+    ]
     assert exact[2] == pytest.approx(-9.7803253359, abs=1e-9)  # WGS84 γ_e (NIMA TR8350.2)
 
 
 def test_bad_lines_keep_line_count():
     """Each bad line prints ERROR in its place; good lines are computed; exit status 1."""
-    lines = ["45 10 1000", "foo 1 2", "91 0 0", "", "1 2 3 4", "0 0 nan", "0 0 -20000",
-             "0 0 1e12", "12 34", "inf 0 0", "-89.99 170 100000"]
+    lines = [
+        "45 10 1000",
+        "foo 1 2",
+        "91 0 0",
+        "",
+        "1 2 3 4",
+        "0 0 nan",
+        "0 0 -20000",
+        "0 0 1e12",
+        "12 34",
+        "inf 0 0",
+        "-89.99 170 100000",
+    ]
     out = _run(["point"], "\n".join(lines) + "\n")
     assert out.returncode == 1
     assert "Traceback" not in out.stderr + out.stdout
     res = out.stdout.splitlines()
     assert len(res) == len(lines)
-    bad = {1: "not a number", 2: "outside [-90, 90]", 3: "0 fields", 4: "4 fields",
-           5: "not finite", 6: "below the ellipsoid", 7: "is above", 9: "not finite"}
+    bad = {
+        1: "not a number",
+        2: "outside [-90, 90]",
+        3: "0 fields",
+        4: "4 fields",
+        5: "not finite",
+        6: "below the ellipsoid",
+        7: "is above",
+        9: "not finite",
+    }
     for i, text in enumerate(res):
         if i in bad:
             assert text.startswith("ERROR: ") and bad[i] in text, (i, text)
@@ -93,13 +127,16 @@ def test_bad_lines_keep_line_count():
     assert h0[0] == h0[1]  # h defaults to 0, as in GeographicLib's Gravity
 
 
-@pytest.mark.parametrize("args, msg", [
-    (["--model", "no-such-model"], "unknown model"),
-    (["--lmax", "500"], "exceeds the degree"),
-    (["--device", "cuda:7"], "not present"),
-    (["--epoch", "someday"], "bad epoch"),
-    (["--precision", "-1"], "--precision"),
-])
+@pytest.mark.parametrize(
+    "args, msg",
+    [
+        (["--model", "no-such-model"], "unknown model"),
+        (["--lmax", "500"], "exceeds the degree"),
+        (["--device", "cuda:7"], "not present"),
+        (["--epoch", "someday"], "bad epoch"),
+        (["--precision", "-1"], "--precision"),
+    ],
+)
 def test_bad_options_one_line(args, msg):
     """Bad options: one line on stderr, exit 2, no traceback."""
     out = _run(["point", *args], "45 10 0\n")
@@ -119,8 +156,13 @@ def test_verify_command():
     out = _run(["verify", "--device", "cpu", "--lmax", "40", "--points", "30"])
     assert out.returncode == 0, out.stdout + out.stderr
     text = out.stdout
-    for what in ("SH gravitation", "normal gravitation exact", "normal gravitation j6",
-                 "max rel diff", "kernel [ms]"):
+    for what in (
+        "SH gravitation",
+        "normal gravitation exact",
+        "normal gravitation j6",
+        "max rel diff",
+        "kernel [ms]",
+    ):
         assert what in text
     assert "FAIL" not in text
 
@@ -130,8 +172,9 @@ def test_verify_reports_failures(monkeypatch):
     from fieldmap.cli import verify
 
     def broken(device, opts):
-        yield verify._compare("deliberately wrong", device, lambda: np.ones(3) * (1 + 1e-9),
-                              lambda: np.ones(3), "")
+        yield verify._compare(
+            "deliberately wrong", device, lambda: np.ones(3) * (1 + 1e-9), lambda: np.ones(3), ""
+        )
 
     monkeypatch.setattr(verify, "CHECKS", (("numpy", broken),))
     rows = verify.run_checks(["cpu"])

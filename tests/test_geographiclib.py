@@ -18,8 +18,9 @@ from fieldmap.models.geographiclib import egm_id, gravity_tool, run_gravity_tool
 from fieldmap.models.registry import kaula_model, load_model
 from fieldmap.models.shmodel import SHModel
 
-needs_tool = pytest.mark.skipif(gravity_tool() is None,
-                                reason="GeographicLib's Gravity (geographiclib-tools) missing")
+needs_tool = pytest.mark.skipif(
+    gravity_tool() is None, reason="GeographicLib's Gravity (geographiclib-tools) missing"
+)
 
 
 def _zonal_model(nmax, gm, radius, zonal=None):
@@ -87,9 +88,15 @@ def test_point_mass_and_j2_closed_forms(tmp_path):
     write_egm(_zonal_model(2, gm, R0, {2: -J2 / math.sqrt(5.0)}), tmp_path, name="j2")
     zr2 = (z / r) ** 2
     k = 1.5 * J2 * (R0 / r) ** 2
-    j2_grav = -gm / r[:, None] ** 3 * (
-        r_vec + k[:, None] * np.stack([(1 - 5 * zr2) * x, (1 - 5 * zr2) * y, (3 - 5 * zr2) * z],
-                                      axis=-1))
+    j2_grav = (
+        -gm
+        / r[:, None] ** 3
+        * (
+            r_vec
+            + k[:, None]
+            * np.stack([(1 - 5 * zr2) * x, (1 - 5 * zr2) * y, (3 - 5 * zr2) * z], axis=-1)
+        )
+    )
     tool = run_gravity_tool(pts, tmp_path, "j2", "gravity", precision=15)
     np.testing.assert_allclose(tool, _enu(j2_grav + cen, lat, lon), rtol=0, atol=2e-14)
 

@@ -97,8 +97,9 @@ def test_round_trip_gzip_fortran_latin1(tmp_path):
     text = plain.read_bytes().decode("latin-1")
     head, body = text.split("end_of_head\n")
     fortran = plain.with_suffix(".d.gfc")
-    fortran.write_bytes((head + "end_of_head\n" + re.sub(r"e([+-]\d\d)", r"D\1", body))
-                        .encode("latin-1"))
+    fortran.write_bytes(
+        (head + "end_of_head\n" + re.sub(r"e([+-]\d\d)", r"D\1", body)).encode("latin-1")
+    )
     assert "D-" in fortran.read_text("latin-1")
     np.testing.assert_array_equal(read_icgem(fortran).C, model.C)
 
@@ -158,8 +159,9 @@ def test_unnormalized_conversion(tmp_path):
     unn = read_icgem(_tiny(tmp_path, body, norm="unnormalized", name="u.gfc"))
     for n in range(4):
         for m in range(n + 1):
-            norm = math.sqrt((1 if m == 0 else 2) * (2 * n + 1) * math.factorial(n - m)
-                             / math.factorial(n + m))
+            norm = math.sqrt(
+                (1 if m == 0 else 2) * (2 * n + 1) * math.factorial(n - m) / math.factorial(n + m)
+            )
             assert unn.C[n, m] == pytest.approx(full.C[n, m] / norm, rel=1e-15, abs=0)
             assert unn.S[n, m] == pytest.approx(full.S[n, m] / norm, rel=1e-15, abs=0)
 
@@ -167,8 +169,12 @@ def test_unnormalized_conversion(tmp_path):
 def test_time_variable_icgem1(tmp_path):
     """ICGEM 1.0 gfct/trnd/acos/asin against the rule G(t) written out by hand."""
     lines = _static_lines(3, skip={(2, 1)})
-    lines += ["gfct 2 1 1.0e-6 2.0e-6 0 0 20000101\n", "trnd 2 1 1.0e-9 -1.0e-9 0 0\n",
-              "acos 2 1 3.0e-9 0 0 0 1.0\n", "asin 2 1 0 5.0e-9 0 0 2.0\n"]
+    lines += [
+        "gfct 2 1 1.0e-6 2.0e-6 0 0 20000101\n",
+        "trnd 2 1 1.0e-9 -1.0e-9 0 0\n",
+        "acos 2 1 3.0e-9 0 0 0 1.0\n",
+        "asin 2 1 0 5.0e-9 0 0 2.0\n",
+    ]
     path = _tiny(tmp_path, "".join(lines))
     at_t0 = read_icgem(path)
     assert at_t0.epoch == 2000.0
@@ -181,10 +187,12 @@ def test_time_variable_icgem1(tmp_path):
 def test_icgem2_intervals(tmp_path):
     """icgem2.0: the interval holding the epoch is used, with t0 of that interval."""
     lines = _static_lines(3, skip={(2, 0)})
-    lines += ["gfct 2 0 -4.0e-4 0 0 0 20000101.0000 20100101.0000\n",
-              "trnd 2 0 1.0e-10 0 0 0 20000101.0000 20100101.0000\n",
-              "gfct 2 0 -5.0e-4 0 0 0 20100101.0000 20200101.0000\n",
-              "acos 2 0 2.0e-10 0 0 0 20100101.0000 20200101.0000 1.0\n"]
+    lines += [
+        "gfct 2 0 -4.0e-4 0 0 0 20000101.0000 20100101.0000\n",
+        "trnd 2 0 1.0e-10 0 0 0 20000101.0000 20100101.0000\n",
+        "gfct 2 0 -5.0e-4 0 0 0 20100101.0000 20200101.0000\n",
+        "acos 2 0 2.0e-10 0 0 0 20100101.0000 20200101.0000 1.0\n",
+    ]
     path = _tiny(tmp_path, "".join(lines), extra="format icgem2.0\n")
     c20 = read_icgem(path, epoch=2005.0).C[2, 0]
     assert c20 == pytest.approx(-4.0e-4 + 5e-10, rel=1e-15, abs=0)
@@ -199,10 +207,18 @@ def test_icgem2_intervals(tmp_path):
 def _cases():
     good = _static_lines(3)  # 10 lines; data line k is file line 9 + k
     yield "missing key", dict(body="".join(good)), "header key 'radius'", 7
-    yield "bad number", dict(body="".join(good[:4] + ["gfc 2 1 1.0x-6 0 0 0\n"] + good[5:])), \
-        "bad number '1.0x-6'", 13
-    yield "nan", dict(body="".join(good[:4] + ["gfc 2 1 nan 0 0 0\n"] + good[5:])), \
-        "bad number 'nan'", 13
+    yield (
+        "bad number",
+        dict(body="".join(good[:4] + ["gfc 2 1 1.0x-6 0 0 0\n"] + good[5:])),
+        "bad number '1.0x-6'",
+        13,
+    )
+    yield (
+        "nan",
+        dict(body="".join(good[:4] + ["gfc 2 1 nan 0 0 0\n"] + good[5:])),
+        "bad number 'nan'",
+        13,
+    )
     yield "gap", dict(body="".join(good[:4] + good[5:])), "no line for n=2 m=1", 12
     yield "duplicate", dict(body="".join(good + good[4:5])), "duplicate coefficient", 19
     yield "n<m", dict(body="".join(good + ["gfc 1 3 0 0 0 0\n"])), "m > degree n", 19
@@ -222,7 +238,8 @@ def test_malformed_files(tmp_path, case):
     name, kw, msg, line = case
     if name == "missing key":
         text = HEAD.format(nmax=3, norm="fully_normalized", extra="").replace(
-            "radius         6378136.3\n", "")
+            "radius         6378136.3\n", ""
+        )
         path = tmp_path / "t.gfc"
         path.write_text(text + kw["body"])
     else:
@@ -259,9 +276,11 @@ def test_bad_files_without_lines(tmp_path):
 
 def test_fuzzed_files_fail_cleanly(tmp_path):
     """Random byte edits of a valid file: either a model or one ModelFileError line, never else."""
-    lines = _static_lines(3, skip={(2, 1)}) + ["gfct 2 1 1.0e-6 2.0e-6 0 0 20000101\n",
-                                               "trnd 2 1 1.0e-9 -1.0e-9 0 0\n",
-                                               "acos 2 1 3.0e-9 0 0 0 1.0\n"]
+    lines = _static_lines(3, skip={(2, 1)}) + [
+        "gfct 2 1 1.0e-6 2.0e-6 0 0 20000101\n",
+        "trnd 2 1 1.0e-9 -1.0e-9 0 0\n",
+        "acos 2 1 3.0e-9 0 0 0 1.0\n",
+    ]
     base = _tiny(tmp_path, "".join(lines)).read_bytes()
     alphabet = b" \n\t0123456789.-+eEdDgfcmtrnd_xyz\xe9"
     rng = np.random.default_rng(0)

@@ -35,8 +35,9 @@ def test_bundled_default_cached_case_insensitive():
 def test_bundled_model_found_from_any_directory(tmp_path):
     """importlib.resources, not a path relative to the working directory."""
     code = "from fieldmap.models.registry import load_model; print(load_model().lmax)"
-    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True
+    )
     assert out.stdout.strip() == "240"
 
 

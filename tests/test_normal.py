@@ -56,8 +56,9 @@ def test_kernel_matches_reference(device, kind, frame):
     lat, lon, h = _points()
     for ell in ELLS:
         for cf in (True, False):
-            got = N.normal_gravity(lat, lon, h, ell, kind=kind, centrifugal=cf, frame=frame,
-                                   device=device)
+            got = N.normal_gravity(
+                lat, lon, h, ell, kind=kind, centrifugal=cf, frame=frame, device=device
+            )
             want = R.normal_gravity(lat, lon, h, ell, kind=kind, centrifugal=cf, frame=frame)
             _assert_vec_close(got, want, 1e-12)
 
@@ -197,11 +198,17 @@ def test_printed_eq13_is_wrong():
     s2 = z**2 / rho**2
     corrected = N.normal_gravitation_ecef(x, y, z, ell, kind="j4")
     a = ell.a
-    A = 1 + ell.J2 * 1.5 * a**2 / rho**2 * (1 - 5 * s2) \
+    A = (
+        1
+        + ell.J2 * 1.5 * a**2 / rho**2 * (1 - 5 * s2)
         + ell.J4 * 15 * a**4 / (8 * rho**6) * (-1 + 14 * s2 - 21 * s2)
+    )
     B = 3 * ell.J2 * a**2 / rho**2 + ell.J4 * 2.5 * a**4 / rho**4 * (7 * s2 - 3)
-    printed = -ell.GM / rho[:, None] ** 3 * (A[:, None] * np.stack([x, y, z], -1)
-                                              + (B * z)[:, None] * np.array([0, 0, 1.0]))
+    printed = (
+        -ell.GM
+        / rho[:, None] ** 3
+        * (A[:, None] * np.stack([x, y, z], -1) + (B * z)[:, None] * np.array([0, 0, 1.0]))
+    )
     cs = R.jn_gravitation(x, y, z, ell, 4)
     assert np.linalg.norm(corrected - cs, axis=-1).max() < 1e-13
     assert np.linalg.norm(printed - cs, axis=-1).min() > 1e-6  # ~tens of mGal off
@@ -227,7 +234,8 @@ def test_groves_eq377_is_the_j2_formula():
     x, y, z = _ecef(lat, lon, h, WGS84)
     C_e_to_ned = R._ned_basis(np.radians(lat), np.radians(lon))
     cen = R.groves_centrifugal_ned(
-        np.radians(lat), np.einsum("...ij,...j->...i", C_e_to_ned, np.stack([x, y, z], -1)),
+        np.radians(lat),
+        np.einsum("...ij,...j->...i", C_e_to_ned, np.stack([x, y, z], -1)),
         WGS84.omega,
     )
 
@@ -264,8 +272,9 @@ def test_boule_normal_gravity(h):
     np.testing.assert_allclose(g_u, gamma_b, rtol=2e-13, atol=0)
     # ... and the full magnitude: |γ| = sqrt(γ_u² + γ_β²)
     g_beta2 = np.einsum("ij,ij->i", g, g) - g_u**2
-    np.testing.assert_allclose(np.linalg.norm(g, axis=-1), np.sqrt(gamma_b**2 + g_beta2),
-                               rtol=2e-13, atol=0)
+    np.testing.assert_allclose(
+        np.linalg.norm(g, axis=-1), np.sqrt(gamma_b**2 + g_beta2), rtol=2e-13, atol=0
+    )
     rel = np.abs(np.linalg.norm(g, axis=-1) / gamma_b - 1).max()
     assert rel < (1e-13 if h == 0 else 1e-8)
 
@@ -277,9 +286,14 @@ def test_truncation_errors_at_20km_have_paper_magnitudes():
     # Chen et al. (2022) Fig. 8 text: J2 ~ 0.01 mg, J4 ~ 1e-5 mg at 20 km
     lat = np.linspace(-90, 90, 1801)
     exact = N.normal_gravity(lat, 0.0, 20e3, centrifugal=False, frame="ecef")
-    err = {k: np.linalg.norm(N.normal_gravity(lat, 0.0, 20e3, kind=k, centrifugal=False,
-                                              frame="ecef") - exact, axis=-1).max() / MG
-           for k in ("j2", "j4", "j6")}
+    err = {
+        k: np.linalg.norm(
+            N.normal_gravity(lat, 0.0, 20e3, kind=k, centrifugal=False, frame="ecef") - exact,
+            axis=-1,
+        ).max()
+        / MG
+        for k in ("j2", "j4", "j6")
+    }
     assert 3e-3 < err["j2"] < 3e-2, err
     assert 3e-6 < err["j4"] < 1e-4, err
     assert err["j6"] < err["j4"] / 30, err
@@ -360,8 +374,13 @@ def test_exact_vector_vs_geographiclib(ell, tmp_path):
     stdin = "".join(f"{float(a)!r} {float(b)!r} {float(c)!r}\n" for a, b, c in zip(lat, lon, h))
 
     def run(flag, prec):
-        res = subprocess.run([exe, "-n", "zero", "-d", str(tmp_path), flag, "-p", prec],
-                             input=stdin, capture_output=True, text=True, check=True)
+        res = subprocess.run(
+            [exe, "-n", "zero", "-d", str(tmp_path), flag, "-p", prec],
+            input=stdin,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         return np.loadtxt(res.stdout.splitlines())
 
     gamma_gl = run("-G", "15") - run("-D", "12") * 1e-5

@@ -289,9 +289,14 @@ def test_zonal_series_vs_exact_normal(device, h):
 
 
 @wp.kernel
-def _columns_kernel(model: ksh.SHKernelModel, m: wp.array(dtype=int), t: wp.array(dtype=wp.float64),
-                    q: wp.array(dtype=wp.float64), single: wp.array2d(dtype=ksh.sh_vec8),
-                    pair: wp.array2d(dtype=ksh.sh_vec8)):
+def _columns_kernel(
+    model: ksh.SHKernelModel,
+    m: wp.array(dtype=int),
+    t: wp.array(dtype=wp.float64),
+    q: wp.array(dtype=wp.float64),
+    single: wp.array2d(dtype=ksh.sh_vec8),
+    pair: wp.array2d(dtype=ksh.sh_vec8),
+):
     i = wp.tid()
     k = m[i]
     single[i, 0] = ksh.sh_column(model, k, t[2 * i], q[2 * i])
@@ -312,10 +317,18 @@ def test_column_variants_match_sh_column(eigen, device):
     q = eigen.radius / (6378137.0 + np.r_[rng.uniform(0, 1e6, 2 * ms.size - 2), 0.0, 1e5])
     km = fsh.kernel_model(eigen, device)
     out = [wp.zeros((ms.size, n), dtype=ksh.sh_vec8, device=device) for n in (3, 2)]
-    wp.launch(_columns_kernel, dim=ms.size, device=device,
-              inputs=[km, wp.array(ms, dtype=int, device=device),
-                      wp.array(t, dtype=wp.float64, device=device),
-                      wp.array(q, dtype=wp.float64, device=device), *out])
+    wp.launch(
+        _columns_kernel,
+        dim=ms.size,
+        device=device,
+        inputs=[
+            km,
+            wp.array(ms, dtype=int, device=device),
+            wp.array(t, dtype=wp.float64, device=device),
+            wp.array(q, dtype=wp.float64, device=device),
+            *out,
+        ],
+    )
     single, pair = (o.numpy() for o in out)
     assert np.all(single[-1, :2, 6] != 0)  # order 1 carries the m = 0 derivative sum
     p2 = ms >= 2

@@ -71,8 +71,10 @@ def mp_gravitation(model, x, y, z, orders=None, tol=mp.mpf("1e-22")):
         for n in range(m, lmax + 1):
             if n > m:
                 a = mp.sqrt(mp.mpf((2 * n - 1) * (2 * n + 1)) / ((n - m) * (n + m)))
-                b = mp.sqrt(mp.mpf((2 * n + 1) * (n + m - 1) * (n - m - 1))
-                            / ((n - m) * (n + m) * (2 * n - 3)))
+                b = mp.sqrt(
+                    mp.mpf((2 * n + 1) * (n + m - 1) * (n - m - 1))
+                    / ((n - m) * (n + m) * (2 * n - 3))
+                )
                 P = a * t * P1 - b * P2
                 D = a * (u * P1 + t * D1) - b * D2  # d/dφ of the recursion: dt/dφ = u
                 W = a * t * W1 - b * W2
@@ -111,8 +113,14 @@ def ecef(lat_deg, lon_deg, h):
     return r * np.cos(phi) * np.cos(lam), r * np.cos(phi) * np.sin(lam), r * np.sin(phi)
 
 
-POLAR = [(88.0, 200.0, 5.0e3), (89.9, 30.0, 0.0), (89.99, -120.0, 2.0e4), (-89.99, 75.0, 0.0),
-         (90.0, 0.0, 0.0), (-90.0, 0.0, 1.0e3)]
+POLAR = [
+    (88.0, 200.0, 5.0e3),
+    (89.9, 30.0, 0.0),
+    (89.99, -120.0, 2.0e4),
+    (-89.99, 75.0, 0.0),
+    (90.0, 0.0, 0.0),
+    (-90.0, 0.0, 1.0e3),
+]
 ORDERS = [0, 1, 2, 3, 10, 100, 500, 1000, 1500, 2000, 2189, 2190]
 MIDLAT = [(37.0, 123.0, 0.0), (-4.0, 301.0, 1.0e4)]
 
@@ -165,9 +173,18 @@ def test_degree2190_midlatitude_orders_vs_mpmath(sparse, device):
 @pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_dense_vs_reference(dense, device):
     """All orders at degree 2190: kernel vs the NumPy X-number reference at mixed latitudes."""
-    pts = [ecef(lat, lon, h) for lat, lon, h in
-           [(0.0, 0.0, 0.0), (23.0, 45.0, 2e4), (-51.0, 190.0, 1e5), (70.0, -10.0, 0.0),
-            (89.9, 30.0, 0.0), (-89.99, 75.0, 0.0), (90.0, 0.0, 0.0)]]
+    pts = [
+        ecef(lat, lon, h)
+        for lat, lon, h in [
+            (0.0, 0.0, 0.0),
+            (23.0, 45.0, 2e4),
+            (-51.0, 190.0, 1e5),
+            (70.0, -10.0, 0.0),
+            (89.9, 30.0, 0.0),
+            (-89.99, 75.0, 0.0),
+            (90.0, 0.0, 0.0),
+        ]
+    ]
     x, y, z = (np.array(c) for c in zip(*pts))
     g = fsh.sh_gravitation(dense, x, y, z, device=device)
     g_ref = ref.gravitation_ecef(dense, x, y, z)

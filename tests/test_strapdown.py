@@ -289,8 +289,19 @@ def test_noise_is_seeded_and_scaled(device):
     sig = 1e-3  # m/s/√s
     err = {"acc_noise": np.full(n, sig), "seed": np.arange(n) + 7}
     a, b = (
-        propagate_lci(dth, dv, dt, P0, 0.0 * P0, [1.0, 0, 0, 0], FRAME, "j2", errors=err,
-                      output_every=ns // 2, device=device)
+        propagate_lci(
+            dth,
+            dv,
+            dt,
+            P0,
+            0.0 * P0,
+            [1.0, 0, 0, 0],
+            FRAME,
+            "j2",
+            errors=err,
+            output_every=ns // 2,
+            device=device,
+        )
         for _ in range(2)
     )
     np.testing.assert_array_equal(a.V, b.V)  # same seeds, same draws

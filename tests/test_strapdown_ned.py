@@ -41,8 +41,17 @@ def _kernel_run(dth, dv, dt, C0, output_every, device):
     from fieldmap.nav.strapdown_ned import propagate_ned
 
     return propagate_ned(
-        dth, dv, dt, 30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0), "j2",
-        output_every=output_every, device=device,
+        dth,
+        dv,
+        dt,
+        30.0,
+        100.0,
+        1000.0,
+        VNED0,
+        dcm_to_quat(C0),
+        "j2",
+        output_every=output_every,
+        device=device,
     )
 
 
@@ -51,8 +60,16 @@ def _reference_run(dth, dv, dt, C0, output_every, **kw):
     from fieldmap.reference.strapdown import propagate_ned_reference
 
     L, V, C = propagate_ned_reference(
-        dth[None], dv[None], dt, LLH0[None], VNED0[None], C0[None], _g_ned_j2, WGS84,
-        output_every=output_every, **kw,
+        dth[None],
+        dv[None],
+        dt,
+        LLH0[None],
+        VNED0[None],
+        C0[None],
+        _g_ned_j2,
+        WGS84,
+        output_every=output_every,
+        **kw,
     )
     return L[0], V[0], C[0]
 

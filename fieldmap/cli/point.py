@@ -47,20 +47,42 @@ def register(subparsers) -> None:
             "Empty input: no output, exit 0."
         ),
     )
-    p.add_argument("--quantity", choices=QUANTITIES, default="disturbance",
-                   help="disturbance (mGal), gravity (m/s², incl. centrifugal) or normal (m/s²)")
-    p.add_argument("--normal", choices=NORMALS, default="exact",
-                   help="normal-gravity model for --quantity normal (default: exact)")
-    p.add_argument("--model", default="eigen-6s",
-                   help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)")
-    p.add_argument("--lmax", type=int, default=None,
-                   help="truncation degree, 0..the model's (default: the model's full degree)")
-    p.add_argument("--epoch", default=None,
-                   help="epoch of time-variable terms: decimal year (1900..2200) or YYYY-MM-DD "
-                        "(default: the model's reference epoch)")
+    p.add_argument(
+        "--quantity",
+        choices=QUANTITIES,
+        default="disturbance",
+        help="disturbance (mGal), gravity (m/s², incl. centrifugal) or normal (m/s²)",
+    )
+    p.add_argument(
+        "--normal",
+        choices=NORMALS,
+        default="exact",
+        help="normal-gravity model for --quantity normal (default: exact)",
+    )
+    p.add_argument(
+        "--model",
+        default="eigen-6s",
+        help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)",
+    )
+    p.add_argument(
+        "--lmax",
+        type=int,
+        default=None,
+        help="truncation degree, 0..the model's (default: the model's full degree)",
+    )
+    p.add_argument(
+        "--epoch",
+        default=None,
+        help="epoch of time-variable terms: decimal year (1900..2200) or YYYY-MM-DD "
+        "(default: the model's reference epoch)",
+    )
     p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: auto)")
-    p.add_argument("--precision", type=int, default=None,
-                   help="decimals printed (default: 3 for mGal, 5 for m/s², as Gravity)")
+    p.add_argument(
+        "--precision",
+        type=int,
+        default=None,
+        help="decimals printed (default: 3 for mGal, 5 for m/s², as Gravity)",
+    )
     p.add_argument("--input", default="-", help="read points from this file (default: stdin)")
     p.set_defaults(func=run_point)
 
@@ -68,13 +90,18 @@ def register(subparsers) -> None:
         "verify",
         help="compare the Warp kernels with their NumPy references on this machine",
         description="Run kernel-vs-NumPy comparisons and print max differences and timings; "
-                    "exit status 1 if any relative difference exceeds 1e-12.",
+        "exit status 1 if any relative difference exceeds 1e-12.",
     )
-    v.add_argument("--device", action="append", default=None,
-                   help="device to check (repeatable; default: every device present)")
+    v.add_argument(
+        "--device",
+        action="append",
+        default=None,
+        help="device to check (repeatable; default: every device present)",
+    )
     v.add_argument("--lmax", type=int, default=240, help="degree of the EIGEN-6S checks (≤ 240)")
-    v.add_argument("--points", type=int, default=200,
-                   help="random points per check, 5..1000000 (default 200)")
+    v.add_argument(
+        "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
+    )
     v.set_defaults(func=run_verify)
 
 
@@ -108,8 +135,17 @@ def parse_point_line(line: str):
     return lat, lon, h
 
 
-def evaluate_points(lat, lon, h, quantity="disturbance", normal="exact", model="eigen-6s",
-                    lmax=None, epoch=None, device=None):
+def evaluate_points(
+    lat,
+    lon,
+    h,
+    quantity="disturbance",
+    normal="exact",
+    model="eigen-6s",
+    lmax=None,
+    epoch=None,
+    device=None,
+):
     """East, north, up of ``quantity`` at the points, in one batched launch.
 
     Parameters
@@ -140,8 +176,9 @@ def evaluate_points(lat, lon, h, quantity="disturbance", normal="exact", model="
     if quantity == "normal":
         from fieldmap.field.normal import normal_gravity
 
-        return normal_gravity(lat, lon, h, kind=normal, centrifugal=True, frame="enu",
-                              device=device)
+        return normal_gravity(
+            lat, lon, h, kind=normal, centrifugal=True, frame="enu", device=device
+        )
     from fieldmap.field import gravity as fg
     from fieldmap.models.registry import load_model
 
@@ -177,8 +214,9 @@ def run_point(args) -> int:
             results.append(f"ERROR: {exc}")
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
-        values = evaluate_points(lat, lon, h, args.quantity, args.normal, args.model, args.lmax,
-                                 args.epoch, args.device)
+        values = evaluate_points(
+            lat, lon, h, args.quantity, args.normal, args.model, args.lmax, args.epoch, args.device
+        )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line
         results = [r if r is not None else _format(next(it), decimals) for r in results]
@@ -187,8 +225,11 @@ def run_point(args) -> int:
     out.flush()
     bad = [k for k, r in enumerate(results) if r.startswith("ERROR:")]
     if bad:
-        print(f"fieldmap point: {len(bad)} of {len(results)} input lines could not be used "
-              f"(first: line {bad[0] + 1}: {results[bad[0]][7:]})", file=sys.stderr)
+        print(
+            f"fieldmap point: {len(bad)} of {len(results)} input lines could not be used "
+            f"(first: line {bad[0] + 1}: {results[bad[0]][7:]})",
+            file=sys.stderr,
+        )
         return 1
     return 0
 
@@ -241,8 +282,10 @@ def run_verify(args) -> int:
     rows = run_checks(devices, lmax=args.lmax, points=args.points)
     print(format_table(rows))
     bad = [r for r in rows if not r.ok]
-    print(f"\n{len(rows) - len(bad)} of {len(rows)} checks within {RTOL:g} relative"
-          + ("" if not bad else f"; {len(bad)} FAILED"))
+    print(
+        f"\n{len(rows) - len(bad)} of {len(rows)} checks within {RTOL:g} relative"
+        + ("" if not bad else f"; {len(bad)} FAILED")
+    )
     return 1 if bad else 0
 
 

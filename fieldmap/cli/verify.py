@@ -80,7 +80,7 @@ def random_points(n: int, seed: int = 0, hmax: float = 100e3):
     lat = np.degrees(np.arcsin(rng.uniform(-1.0, 1.0, n)))
     lon = rng.uniform(-180.0, 180.0, n)
     h = rng.uniform(0.0, hmax, n)
-    special = np.array([90.0, -90.0, 89.99, -89.99, 0.0])[: n]
+    special = np.array([90.0, -90.0, 89.99, -89.99, 0.0])[:n]
     lat[: special.size] = special
     return lat, lon, h
 
@@ -94,12 +94,20 @@ def _sh_checks(device, lmax, npoints):
     model = load_model("eigen-6s", lmax=lmax)
     x, y, z = geodetic_to_ecef(*random_points(npoints, seed=1))
     tag = f"degree {model.lmax}, {npoints} points"
-    yield _compare(f"SH gravitation ({tag})", device,
-                   lambda: sh_gravitation(model, x, y, z, device=device),
-                   lambda: ref.gravitation_ecef(model, x, y, z), "m/s²")
-    yield _compare(f"SH potential ({tag})", device,
-                   lambda: sh_potential(model, x, y, z, device=device),
-                   lambda: ref.potential(model, x, y, z), "m²/s²")
+    yield _compare(
+        f"SH gravitation ({tag})",
+        device,
+        lambda: sh_gravitation(model, x, y, z, device=device),
+        lambda: ref.gravitation_ecef(model, x, y, z),
+        "m/s²",
+    )
+    yield _compare(
+        f"SH potential ({tag})",
+        device,
+        lambda: sh_potential(model, x, y, z, device=device),
+        lambda: ref.potential(model, x, y, z),
+        "m²/s²",
+    )
 
 
 def _normal_checks(device, npoints):
@@ -110,12 +118,16 @@ def _normal_checks(device, npoints):
     lat, lon, h = random_points(npoints, seed=2)
     for kind in ("exact", "j2", "j4", "j6"):
         yield _compare(
-            f"normal gravitation {kind} ({npoints} points)", device,
-            lambda kind=kind: normal_gravity(lat, lon, h, WGS84, kind=kind, centrifugal=False,
-                                             frame="ecef", device=device),
-            lambda kind=kind: ref.normal_gravity(lat, lon, h, WGS84, kind=kind,
-                                                 centrifugal=False, frame="ecef"),
-            "m/s²")
+            f"normal gravitation {kind} ({npoints} points)",
+            device,
+            lambda kind=kind: normal_gravity(
+                lat, lon, h, WGS84, kind=kind, centrifugal=False, frame="ecef", device=device
+            ),
+            lambda kind=kind: ref.normal_gravity(
+                lat, lon, h, WGS84, kind=kind, centrifugal=False, frame="ecef"
+            ),
+            "m/s²",
+        )
 
 
 def _grid_checks(device, lmax):
@@ -133,10 +145,13 @@ def _grid_checks(device, lmax):
         g = ref.gravitation_ecef(model, x, y, z)
         return ecef_to_enu_vector(g, LAT.ravel(), LON.ravel()).reshape(H.shape + (3,))
 
-    yield _compare(f"SH grid gravitation (degree {model.lmax}, {H.size} nodes)", device,
-                   lambda: synthesize(model, grid, quantity="gravitation", device=device,
-                                      progress=False),
-                   numpy_ref, "m/s²")
+    yield _compare(
+        f"SH grid gravitation (degree {model.lmax}, {H.size} nodes)",
+        device,
+        lambda: synthesize(model, grid, quantity="gravitation", device=device, progress=False),
+        numpy_ref,
+        "m/s²",
+    )
 
 
 def _strapdown_checks(device):
@@ -156,15 +171,23 @@ def _strapdown_checks(device):
     frame = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
 
     def kernel():
-        res = propagate_lci(dth, dv, dt, P0, V0, dcm_to_quat(C0), frame, "j4",
-                            output_every=20, device=device)
+        res = propagate_lci(
+            dth, dv, dt, P0, V0, dcm_to_quat(C0), frame, "j4", output_every=20, device=device
+        )
         return res.P, res.V, quat_to_dcm(res.q)
 
     def numpy_ref():
         _, P, V, C = propagate_lci_reference(
-            dth, dv, dt, P0, V0, C0, frame,
+            dth,
+            dv,
+            dt,
+            P0,
+            V0,
+            C0,
+            frame,
             lambda r: rnorm.jn_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84, 4),
-            output_every=20)
+            output_every=20,
+        )
         return P, V, C
 
     kernel()  # warm-up
@@ -187,8 +210,7 @@ def _strapdown_ned_checks(device):
     N, dt = 600, 0.01
     t = (np.arange(N) + 0.5) * dt  # smooth aircraft-like body rates and specific forces
     dth = np.stack([0.05 * np.sin(0.7 * t), 0.03 * np.cos(0.3 * t), 0.02 + 0 * t], -1) * dt
-    dv = np.stack([2 + 0.5 * np.sin(t), 0.3 * np.cos(2 * t), -9.8 + 0.2 * np.sin(0.5 * t)],
-                  -1) * dt
+    dv = np.stack([2 + 0.5 * np.sin(t), 0.3 * np.cos(2 * t), -9.8 + 0.2 * np.sin(0.5 * t)], -1) * dt
     v0 = np.array([150.0, 80.0, -5.0])
 
     def g_ned(llh):  # Groves (2013) eq. 3.7.7 J2 gravitation + centrifugal, NED
@@ -199,14 +221,33 @@ def _strapdown_ned_checks(device):
         return enu_to_ned(np.einsum("nij,nj->ni", C_e_to_enu(lat, lon), g))
 
     def kernel():
-        res = propagate_ned(dth, dv, dt, 30.0, 100.0, 1000.0, v0, np.array([1.0, 0, 0, 0]), "j2",
-                            output_every=50, device=device)
+        res = propagate_ned(
+            dth,
+            dv,
+            dt,
+            30.0,
+            100.0,
+            1000.0,
+            v0,
+            np.array([1.0, 0, 0, 0]),
+            "j2",
+            output_every=50,
+            device=device,
+        )
         return res.v_ned[0], quat_to_dcm(res.q[0])
 
     def numpy_ref():
         _, V, C = propagate_ned_reference(
-            dth[None], dv[None], dt, np.array([[np.radians(30.0), np.radians(100.0), 1000.0]]),
-            v0[None], np.eye(3)[None], g_ned, WGS84, output_every=50)
+            dth[None],
+            dv[None],
+            dt,
+            np.array([[np.radians(30.0), np.radians(100.0), 1000.0]]),
+            v0[None],
+            np.eye(3)[None],
+            g_ned,
+            WGS84,
+            output_every=50,
+        )
         return V[0], C[0]
 
     kernel()
@@ -283,25 +324,48 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
             except ImportError as exc:  # a reference or helper module not written yet
                 rows.append(CheckResult(module, device, note=f"skipped ({exc})"))
             except Exception as exc:  # report, keep going: a broken check is a failure
-                rows.append(CheckResult(module, device, float("inf"), float("inf"),
-                                        note=f"error: {type(exc).__name__}: {exc}"))
+                rows.append(
+                    CheckResult(
+                        module,
+                        device,
+                        float("inf"),
+                        float("inf"),
+                        note=f"error: {type(exc).__name__}: {exc}",
+                    )
+                )
     return rows
 
 
 def format_table(rows: list[CheckResult]) -> str:
     """Render the rows as a plain-text table."""
-    head = ("quantity", "device", "max abs diff", "max rel diff", "kernel [ms]", "NumPy [ms]",
-            "status")
+    head = (
+        "quantity",
+        "device",
+        "max abs diff",
+        "max rel diff",
+        "kernel [ms]",
+        "NumPy [ms]",
+        "status",
+    )
     body = []
     for r in rows:
         if r.note:
             body.append((r.quantity, r.device, "", "", "", "", r.note))
             continue
-        body.append((r.quantity, r.device, f"{r.max_abs:.2e} {r.unit}", f"{r.max_rel:.2e}",
-                     f"{1e3 * r.kernel_s:.2f}", f"{1e3 * r.numpy_s:.1f}",
-                     "ok" if r.ok else f"FAIL (> {RTOL:g})"))
+        body.append(
+            (
+                r.quantity,
+                r.device,
+                f"{r.max_abs:.2e} {r.unit}",
+                f"{r.max_rel:.2e}",
+                f"{1e3 * r.kernel_s:.2f}",
+                f"{1e3 * r.numpy_s:.1f}",
+                "ok" if r.ok else f"FAIL (> {RTOL:g})",
+            )
+        )
     widths = [max(len(str(x[i])) for x in (head, *body)) for i in range(len(head))]
-    lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip()
-             for row in (head, *body)]
+    lines = [
+        "  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip() for row in (head, *body)
+    ]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)

@@ -57,8 +57,11 @@ def _points(lat_deg, lon_deg, h_m):
     See :func:`fieldmap.field.normal.check_geodetic`.
     """
     return check_geodetic(
-        lat_deg, lon_deg, h_m,
-        "too deep under the surface for the spherical-harmonic series", min_height=MIN_HEIGHT,
+        lat_deg,
+        lon_deg,
+        h_m,
+        "too deep under the surface for the spherical-harmonic series",
+        min_height=MIN_HEIGHT,
     )
 
 
@@ -83,8 +86,17 @@ def _gravitation_ecef(model, lat, lon, h, lmax, ellipsoid, device, epoch):
     return sh_gravitation(m, x, y, z, lmax=lmax, device=device), (x, y, z)
 
 
-def gravitation(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=None, epoch=None,
-                ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
+def gravitation(
+    lat,
+    lon,
+    h,
+    model="eigen-6s",
+    lmax=None,
+    frame="enu",
+    device=None,
+    epoch=None,
+    ellipsoid: Ellipsoid | str = WGS84,
+) -> np.ndarray:
     """Gravitational acceleration of a spherical-harmonic model (no centrifugal term).
 
     Chen et al. (2022) eqs. 1-3, evaluated by the Warp kernel of :mod:`fieldmap.kernels.sh`.
@@ -120,8 +132,17 @@ def gravitation(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=No
     return _to_frame(g, lat, lon, f)
 
 
-def gravity(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=None, epoch=None,
-            ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
+def gravity(
+    lat,
+    lon,
+    h,
+    model="eigen-6s",
+    lmax=None,
+    frame="enu",
+    device=None,
+    epoch=None,
+    ellipsoid: Ellipsoid | str = WGS84,
+) -> np.ndarray:
     """Gravity = model gravitation + centrifugal ω²(x, y, 0), ω of ``ellipsoid``.
 
     Groves (2013) eq. 3.7.5. Parameters as :func:`gravitation`.
@@ -137,8 +158,18 @@ def gravity(lat, lon, h, model="eigen-6s", lmax=None, frame="enu", device=None, 
     return _to_frame(g, lat, lon, f)
 
 
-def disturbance(lat, lon, h, model="eigen-6s", lmax=None, ellipsoid: Ellipsoid | str = WGS84,
-                unit="mGal", frame="enu", device=None, epoch=None) -> np.ndarray:
+def disturbance(
+    lat,
+    lon,
+    h,
+    model="eigen-6s",
+    lmax=None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    unit="mGal",
+    frame="enu",
+    device=None,
+    epoch=None,
+) -> np.ndarray:
     """Gravity disturbance vector δg = g_model − γ_exact at the same point.
 
     The centrifugal terms cancel, so this is the model gravitation (model GM and radius) minus
@@ -178,6 +209,7 @@ def disturbance(lat, lon, h, model="eigen-6s", lmax=None, ellipsoid: Ellipsoid |
         raise InputError(f"unit must be one of mGal, mg, m/s2, got {unit!r}")
     f, ell, lat, lon, h = _inputs(lat, lon, h, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
-    gamma = normal_gravity(lat, lon, h, ellipsoid=ell, kind="exact", centrifugal=False,
-                           frame="ecef", device=device)
+    gamma = normal_gravity(
+        lat, lon, h, ellipsoid=ell, kind="exact", centrifugal=False, frame="ecef", device=device
+    )
     return _to_frame((g - gamma) * UNITS[ukey], lat, lon, f)

@@ -210,7 +210,9 @@ def normal_gravity(
     fkey = _check_frame(frame)
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = check_geodetic(
-        lat_deg, lon_deg, h_m,
+        lat_deg,
+        lon_deg,
+        h_m,
         "deep inside the level ellipsoid, outside the domain of the normal-gravity model",
     )
     shape = lat.shape

@@ -155,8 +155,9 @@ def _device_tables(L: int, device: str):
         if hit is not None and hit[0] >= L:
             return hit[1]
     tab = recursion_tables(L)
-    arrs = tuple(wp.array(tab[k], dtype=wp.float64, device=device)
-                 for k in ("anm", "bnm", "fnm", "sect"))
+    arrs = tuple(
+        wp.array(tab[k], dtype=wp.float64, device=device) for k in ("anm", "bnm", "fnm", "sect")
+    )
     with _cache_lock:
         _tables[device] = (L, arrs)
     return arrs
@@ -169,8 +170,10 @@ def _device_coefficients(model: SHModel, L: int, device: str):
         if hit is not None and hit[0]() is model and hit[1] >= L:
             return hit[2]
     # transposed to [m, n]: one column recursion then reads contiguous memory
-    arrs = tuple(wp.array(np.ascontiguousarray(A[: L + 1, : L + 1].T), dtype=wp.float64,
-                          device=device) for A in (model.C, model.S))
+    arrs = tuple(
+        wp.array(np.ascontiguousarray(A[: L + 1, : L + 1].T), dtype=wp.float64, device=device)
+        for A in (model.C, model.S)
+    )
     with _cache_lock:
         _coefs.pop(key, None)
         while len(_coefs) >= _COEF_MAX:
@@ -190,8 +193,9 @@ def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
     return pos, shape
 
 
-def _launch_points(kernel: str, model: SHModel, lmax, device, columns: list, consts=(),
-                   out_dtype=wp.vec3d) -> np.ndarray:
+def _launch_points(
+    kernel: str, model: SHModel, lmax, device, columns: list, consts=(), out_dtype=wp.vec3d
+) -> np.ndarray:
     """Run the point kernel ``kernel`` of :mod:`fieldmap.kernels.sh`, one thread per point.
 
     ``columns`` are ``(array, warp dtype)`` pairs of per-point inputs, ``consts`` the scalar
@@ -255,13 +259,21 @@ def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str |
         Potential, the broadcast shape of the inputs. Units: m²/s².
     """
     pos, shape = _positions(x, y, z)
-    v = _launch_points("sh_potential_kernel", model, lmax, device, [(pos, wp.vec3d)],
-                       out_dtype=wp.float64)
+    v = _launch_points(
+        "sh_potential_kernel", model, lmax, device, [(pos, wp.vec3d)], out_dtype=wp.float64
+    )
     return v.reshape(shape)
 
 
-def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=None,
-                            lmax: int | None = None, device: str | None = None):
+def sh_gravitation_geodetic(
+    model: SHModel,
+    lat_deg,
+    lon_deg,
+    h_m,
+    ellipsoid=None,
+    lmax: int | None = None,
+    device: str | None = None,
+):
     """Gravitation at geodetic points, ECEF components (kernel ``sh_points_geodetic_kernel``).
 
     The geodetic → ECEF conversion runs inside the kernel (``kernels.frames.geodetic_to_ecef``).
@@ -290,12 +302,19 @@ def sh_gravitation_geodetic(model: SHModel, lat_deg, lon_deg, h_m, ellipsoid=Non
 
     ell = WGS84 if ellipsoid is None else ellipsoid
     lat, lon, h = np.broadcast_arrays(
-        *(np.asarray(v, dtype=np.float64) for v in (lat_deg, lon_deg, h_m)))
+        *(np.asarray(v, dtype=np.float64) for v in (lat_deg, lon_deg, h_m))
+    )
     if not (np.all(np.isfinite(lat)) and np.all(np.isfinite(lon)) and np.all(np.isfinite(h))):
         raise InputError("latitude, longitude and height must be finite")
     if np.any(np.abs(lat) > 90.0):
         raise InputError("latitude must be within [-90, 90] degrees")
     cols = [(v.ravel(), wp.float64) for v in (np.radians(lat), np.radians(lon), h)]
-    g = _launch_points("sh_points_geodetic_kernel", model, lmax, device, cols,
-                       (wp.float64(ell.a), wp.float64(ell.e2)))
+    g = _launch_points(
+        "sh_points_geodetic_kernel",
+        model,
+        lmax,
+        device,
+        cols,
+        (wp.float64(ell.a), wp.float64(ell.e2)),
+    )
     return g.reshape(*lat.shape, 3)

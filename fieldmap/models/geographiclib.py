@@ -41,8 +41,13 @@ def egm_id(name: str) -> str:
     return (core + "XXXXXXXX")[:8]
 
 
-def write_egm(model: SHModel, folder, name: str | None = None,
-              reference: Ellipsoid = WGS84, description: str | None = None) -> str:
+def write_egm(
+    model: SHModel,
+    folder,
+    name: str | None = None,
+    reference: Ellipsoid = WGS84,
+    description: str | None = None,
+) -> str:
     """Write ``model`` as GeographicLib ``NAME.egm`` and ``NAME.egm.cof`` in ``folder``.
 
     Parameters
@@ -106,9 +111,15 @@ def gravity_tool() -> str | None:
     return shutil.which(GRAVITY_EXE)
 
 
-def run_gravity_tool(points, model_dir, name: str, mode: str = "disturbance",
-                     nmax: int | None = None, precision: int = 12,
-                     timeout: float = 600.0) -> np.ndarray:
+def run_gravity_tool(
+    points,
+    model_dir,
+    name: str,
+    mode: str = "disturbance",
+    nmax: int | None = None,
+    precision: int = 12,
+    timeout: float = 600.0,
+) -> np.ndarray:
     """Evaluate a model with GeographicLib's ``Gravity`` at ``lat lon h`` points.
 
     Parameters
@@ -151,8 +162,9 @@ def run_gravity_tool(points, model_dir, name: str, mode: str = "disturbance",
     if proc.returncode != 0:
         msg = (proc.stderr or proc.stdout).strip().splitlines()
         raise FieldmapError(f"Gravity failed: {msg[-1] if msg else proc.returncode}")
-    out = np.array([[float(v) for v in line.split()] for line in proc.stdout.splitlines()
-                    if line.strip()])
+    out = np.array(
+        [[float(v) for v in line.split()] for line in proc.stdout.splitlines() if line.strip()]
+    )
     if out.shape != pts.shape:
         raise FieldmapError(f"Gravity returned {out.shape[0]} lines for {pts.shape[0]} points")
     return out

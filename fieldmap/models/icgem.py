@@ -55,8 +55,12 @@ _NFIELDS = {
 }
 #: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
 MAX_DEGREE = 10800
-_NORMS = {"fully_normalized": True, "fully_normalised": True, "unnormalized": False,
-          "unnormalised": False}
+_NORMS = {
+    "fully_normalized": True,
+    "fully_normalised": True,
+    "unnormalized": False,
+    "unnormalised": False,
+}
 
 
 def _fail(path, line, msg):
@@ -211,8 +215,11 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     nmax = _header_number(path, header, where, "max_degree", integer=True)
     norm = (header.get("norm", "fully_normalized").split() or ["fully_normalized"])[0].lower()
     if norm not in _NORMS:
-        raise _fail(path, where["norm"], f"unknown normalisation {norm!r}"
-                    " (expected fully_normalized or unnormalized)")
+        raise _fail(
+            path,
+            where["norm"],
+            f"unknown normalisation {norm!r} (expected fully_normalized or unnormalized)",
+        )
     v2 = (header.get("format", "").split() or [""])[0].lower().startswith("icgem2")
     if lmax is None:
         lmax = nmax
@@ -247,16 +254,23 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     m, ok_m = scan.small_ints(buf, starts[f0 + 2], ends[f0 + 2])
     if not (ok_n & ok_m).all():
         k = np.flatnonzero(~(ok_n & ok_m))[0]
-        raise _fail(path, line_of(~(ok_n & ok_m)),
-                    f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}")
+        raise _fail(
+            path,
+            line_of(~(ok_n & ok_m)),
+            f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}",
+        )
     nf = ntok[li] - 3
     for kd, allowed in _NFIELDS.items():
         ok = allowed[v2]
         bad = (kind == kd) & ((nf < ok.start) | (nf >= ok.stop))
         if bad.any():
             k = np.flatnonzero(bad)[0]
-            raise _fail(path, line_of(bad), f"'{_KIND_NAME[kd]}' line with {nf[k]} values"
-                        f" (expected {ok.start} to {ok.stop - 1})")
+            raise _fail(
+                path,
+                line_of(bad),
+                f"'{_KIND_NAME[kd]}' line with {nf[k]} values"
+                f" (expected {ok.start} to {ok.stop - 1})",
+            )
     for bad, why in ((m > n, "order m > degree n"), (n > nmax, f"degree above max_degree {nmax}")):
         if bad.any():
             k = np.flatnonzero(bad)[0]
@@ -277,8 +291,9 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     tv = kind >= 1  # time-variable lines
     period = np.where(kind >= 3, last, 1.0)
     if ((kind >= 3) & ~(period > 0)).any():
-        raise _fail(path, nhead + int(lines[(kind >= 3) & ~(period > 0)][0]) + 1,
-                    "period must be positive")
+        raise _fail(
+            path, nhead + int(lines[(kind >= 3) & ~(period > 0)][0]) + 1, "period must be positive"
+        )
     t0 = np.zeros(kind.size)
     if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
         t1 = np.zeros(kind.size)
@@ -292,28 +307,40 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         act_gfct = np.unique(n[gct & active] * (n[gct & active] + 1) // 2 + m[gct & active])
         if has_gfct.size != act_gfct.size:
             lo, hi = t0[gct].min(), t1[gct].max()
-            raise InputError(f"epoch {t:.4f} is outside the validity intervals of {path}"
-                             f" ({lo:.4f} to {hi:.4f}) for some coefficients")
-        lines, kind, n, m, c, s, t0, period = (a[active] for a in
-                                              (lines, kind, n, m, c, s, t0, period))
+            raise InputError(
+                f"epoch {t:.4f} is outside the validity intervals of {path}"
+                f" ({lo:.4f} to {hi:.4f}) for some coefficients"
+            )
+        lines, kind, n, m, c, s, t0, period = (
+            a[active] for a in (lines, kind, n, m, c, s, t0, period)
+        )
     elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
         g = kind == 1
         t0[g] = _times(path, last[g], lines[g], nhead)
     idx = n * (n + 1) // 2 + m
     C, S = _static(path, lines, kind, n, m, idx, c, s, lmax, nhead)
-    eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2,
-                                C, S, nhead)
+    eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead)
     if not _NORMS[norm]:
         C, S = _unnormalized_to_full(C, S, path)
     if (big := scan.first_outsize(C, S)) is not None:
         bn, bm, v = big
-        raise _fail(path, nhead + int(lines[(n == bn) & (m == bm)][0]) + 1,
-                    f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model")
+        raise _fail(
+            path,
+            nhead + int(lines[(n == bn) & (m == bm)][0]) + 1,
+            f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model",
+        )
     name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
     return SHModel(
-        name=name, gm=gm, radius=radius, C=C, S=S, max_degree=nmax,
+        name=name,
+        gm=gm,
+        radius=radius,
+        C=C,
+        S=S,
+        max_degree=nmax,
         tide_system=(header.get("tide_system", "unknown").split() or ["unknown"])[0].lower(),
-        epoch=eval_epoch, source=path, header=header,
+        epoch=eval_epoch,
+        source=path,
+        header=header,
     )
 
 
@@ -324,8 +351,11 @@ def _duplicates(path, keys, lines, nhead, what):
         later = order[dup + 1]
         k = later[np.argmin(lines[later])]
         first = lines[order[dup[np.argmin(lines[later])]]]
-        raise _fail(path, nhead + int(lines[k]) + 1,
-                    f"duplicate {what} (first given on line {nhead + int(first) + 1})")
+        raise _fail(
+            path,
+            nhead + int(lines[k]) + 1,
+            f"duplicate {what} (first given on line {nhead + int(first) + 1})",
+        )
 
 
 def _static(path, lines, kind, n, m, idx, c, s, lmax, nhead):
@@ -350,8 +380,9 @@ def _static(path, lines, kind, n, m, idx, c, s, lmax, nhead):
             raise ModelFileError(f"{path}: no line for n={miss_n} m={miss_m}")
         last = np.max(lines[st][before])
         why = "file truncated?" if midx > idx[st].max() else "degree gap"
-        raise _fail(path, nhead + int(last) + 1,
-                    f"no line for n={miss_n} m={miss_m} after this one ({why})")
+        raise _fail(
+            path, nhead + int(last) + 1, f"no line for n={miss_n} m={miss_m} after this one ({why})"
+        )
     return C, S
 
 
@@ -365,16 +396,22 @@ def _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, 
     orphan = tv & np.isnan(tref)
     if orphan.any():
         k = np.flatnonzero(orphan)[0]
-        raise _fail(path, nhead + int(lines[k]) + 1,
-                    f"'{_KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line")
+        raise _fail(
+            path,
+            nhead + int(lines[k]) + 1,
+            f"'{_KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line",
+        )
     for kd, what in ((2, "trend"), (3, "acos term"), (4, "asin term")):
         sel = kind == kd
         if sel.any():
             keys = idx[sel] * 4096.0 + (period[sel] if kd >= 3 else 0.0)
             _duplicates(path, keys, lines[sel], nhead, what)
     dt = (t - tref) if t is not None else np.zeros(idx.size)
-    factor = np.select([kind == 2, kind == 3, kind == 4],
-                       [dt, np.cos(2 * np.pi * dt / period), np.sin(2 * np.pi * dt / period)], 0.0)
+    factor = np.select(
+        [kind == 2, kind == 3, kind == 4],
+        [dt, np.cos(2 * np.pi * dt / period), np.sin(2 * np.pi * dt / period)],
+        0.0,
+    )
     np.add.at(C, (n[tv], m[tv]), factor[tv] * c[tv])
     np.add.at(S, (n[tv], m[tv]), factor[tv] * s[tv])
     if t is not None:
@@ -395,17 +432,29 @@ def write_icgem(path, model: SHModel, preamble: str = "") -> None:
     preamble : str
         Free text written before ``begin_of_head``.
     """
-    head = [preamble.rstrip("\n"), "begin_of_head", "product_type  gravity_field",
-            f"modelname  {model.name}", f"earth_gravity_constant  {model.gm!r}",
-            f"radius  {model.radius!r}", f"max_degree  {model.lmax}",
-            "norm  fully_normalized", f"tide_system  {model.tide_system}", "errors  no",
-            "end_of_head"]
+    head = [
+        preamble.rstrip("\n"),
+        "begin_of_head",
+        "product_type  gravity_field",
+        f"modelname  {model.name}",
+        f"earth_gravity_constant  {model.gm!r}",
+        f"radius  {model.radius!r}",
+        f"max_degree  {model.lmax}",
+        "norm  fully_normalized",
+        f"tide_system  {model.tide_system}",
+        "errors  no",
+        "end_of_head",
+    ]
     nn, mm = np.tril_indices(model.lmax + 1)
     order = np.lexsort((mm, nn))
     body = "".join(
         f"gfc {a:5d} {b:5d} {c:+.16e} {d:+.16e}\n"
-        for a, b, c, d in zip(nn[order].tolist(), mm[order].tolist(),
-                              model.C[nn, mm][order].tolist(), model.S[nn, mm][order].tolist())
+        for a, b, c, d in zip(
+            nn[order].tolist(),
+            mm[order].tolist(),
+            model.C[nn, mm][order].tolist(),
+            model.S[nn, mm][order].tolist(),
+        )
     )
     text = ("\n".join(head).lstrip("\n") + "\n" + body).encode("latin-1")
     opener = gzip.open if os.fspath(path).endswith(".gz") else open

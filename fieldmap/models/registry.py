@@ -121,8 +121,10 @@ EARTH_RADIUS = (0.98 * 6378137.0, 1.02 * 6378137.0)
 
 def _earth(model: SHModel) -> SHModel:
     """Return ``model`` if its GM and radius are an Earth model's; else raise InputError."""
-    if not (EARTH_GM[0] <= model.gm <= EARTH_GM[1]
-            and EARTH_RADIUS[0] <= model.radius <= EARTH_RADIUS[1]):
+    if not (
+        EARTH_GM[0] <= model.gm <= EARTH_GM[1]
+        and EARTH_RADIUS[0] <= model.radius <= EARTH_RADIUS[1]
+    ):
         raise InputError(
             f"{model.source}: GM {model.gm:g} m³/s² and radius {model.radius:g} m are not an "
             "Earth model's (fieldmap compares with the WGS84/GRS80 normal field)"
@@ -144,8 +146,9 @@ def _truncate(model: SHModel, lmax) -> SHModel:
     return model.truncated(int(lmax))
 
 
-def kaula_model(lmax: int, seed: int = 0, gm: float = 3.986004415e14,
-                radius: float = 6378136.3) -> SHModel:
+def kaula_model(
+    lmax: int, seed: int = 0, gm: float = 3.986004415e14, radius: float = 6378136.3
+) -> SHModel:
     """Return a synthetic model with random coefficients following Kaula's rule.
 
     Each C̄nm, S̄nm (n ≥ 2) is drawn from a normal distribution of standard deviation
@@ -177,5 +180,14 @@ def kaula_model(lmax: int, seed: int = 0, gm: float = 3.986004415e14,
     C[0, 0] = 1.0
     if lmax >= 2:
         C[2, 0] = -4.84165e-4
-    return SHModel(name=f"kaula-{lmax}-seed{seed}", gm=float(gm), radius=float(radius), C=C, S=S,
-                   max_degree=lmax, tide_system="unknown", epoch=None, source="synthetic")
+    return SHModel(
+        name=f"kaula-{lmax}-seed{seed}",
+        gm=float(gm),
+        radius=float(radius),
+        C=C,
+        S=S,
+        max_degree=lmax,
+        tide_system="unknown",
+        epoch=None,
+        source="synthetic",
+    )

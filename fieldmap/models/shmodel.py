@@ -61,10 +61,9 @@ class SHModel:
 
         lmax = int(lmax)
         if lmax < 0 or lmax > self.lmax:
-            raise InputError(
-                f"degree {lmax} is outside the model {self.name} (0..{self.lmax})"
-            )
+            raise InputError(f"degree {lmax} is outside the model {self.name} (0..{self.lmax})")
         return replace(
-            self, C=np.ascontiguousarray(self.C[: lmax + 1, : lmax + 1]),
+            self,
+            C=np.ascontiguousarray(self.C[: lmax + 1, : lmax + 1]),
             S=np.ascontiguousarray(self.S[: lmax + 1, : lmax + 1]),
         )

@@ -138,8 +138,7 @@ def legendre_and_derivative(nmax: int, t):
     return P, dP
 
 
-def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40,
-                             radius: float | None = None):
+def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40, radius: float | None = None):
     r"""Gradient of V = (GM/r)[1 − Σ_{n=1}^{nmax} J_{2n} (R/r)^{2n} P_{2n}(z/r)]. (..., 3), m/s².
 
     Chen et al. (2022) eq. (6)/(7); J_{2n} from :meth:`Ellipsoid.J2n` (H&M eq. 2-92), R = a by
@@ -163,8 +162,9 @@ def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40,
     return dV_dr[..., None] * rhat + (dV_dt / r)[..., None] * (zhat - t[..., None] * rhat)
 
 
-def zonal_sh_model(ell: Ellipsoid, nmax: int = 12, gm: float | None = None,
-                   radius: float | None = None):
+def zonal_sh_model(
+    ell: Ellipsoid, nmax: int = 12, gm: float | None = None, radius: float | None = None
+):
     r"""Return the normal gravitational potential as a zonal SH model of degree 2 nmax.
 
     Fully normalised coefficients of the J2n series (Heiskanen & Moritz 1967 eq. 2-92),
@@ -235,8 +235,9 @@ def groves_j2_gravitation(x, y, z, mu: float, J2: float, R0: float):
     r = np.sqrt(x * x + y * y + z * z)
     zr2 = (z / r) ** 2
     k = 1.5 * J2 * R0**2 / r**2
-    vec = np.stack([x + k * (1 - 5 * zr2) * x, y + k * (1 - 5 * zr2) * y,
-                    z + k * (3 - 5 * zr2) * z])
+    vec = np.stack(
+        [x + k * (1 - 5 * zr2) * x, y + k * (1 - 5 * zr2) * y, z + k * (3 - 5 * zr2) * z]
+    )
     return np.moveaxis(-mu / r**3 * vec, 0, -1)
 
 
@@ -269,8 +270,16 @@ def _ned_basis(lat, lon):
     return np.stack([north, east, down], -2)
 
 
-def normal_gravity(lat_deg, lon_deg, h, ell: Ellipsoid, kind="exact", centrifugal=True,
-                   frame="enu", groves_j2=1.082627e-3):
+def normal_gravity(
+    lat_deg,
+    lon_deg,
+    h,
+    ell: Ellipsoid,
+    kind="exact",
+    centrifugal=True,
+    frame="enu",
+    groves_j2=1.082627e-3,
+):
     """Compute normal gravity at geodetic points (reference).
 
     Conventions of ``fieldmap.field.normal``.
@@ -283,8 +292,9 @@ def normal_gravity(lat_deg, lon_deg, h, ell: Ellipsoid, kind="exact", centrifuga
     elif kind in ("j2", "j4", "j6"):
         g = jn_gravitation(x, y, z, ell, int(kind[1]))
     elif kind == "groves_j2":
-        g = groves_j2_gravitation(x, y, z, ell.GM, ell.J2 if groves_j2 is None else groves_j2,
-                                  ell.a)
+        g = groves_j2_gravitation(
+            x, y, z, ell.GM, ell.J2 if groves_j2 is None else groves_j2, ell.a
+        )
     else:
         raise ValueError(kind)
     C = _ned_basis(lat, lon)

@@ -79,8 +79,9 @@ def legendre_rows(t: np.ndarray, u: np.ndarray, lmax: int):
             m = np.arange(n, dtype=np.float64)
             a = np.sqrt((2 * n - 1) * (2 * n + 1) / ((n - m) * (n + m)))
             with np.errstate(invalid="ignore", divide="ignore"):
-                b = np.sqrt((2 * n + 1) * (n + m - 1) * (n - m - 1)
-                            / ((n - m) * (n + m) * (2 * n - 3)))
+                b = np.sqrt(
+                    (2 * n + 1) * (n + m - 1) * (n - m - 1) / ((n - m) * (n + m) * (2 * n - 3))
+                )
             b = np.where(n - m >= 2, b, 0.0)
             qn[:, :n] = a * t[:, None] * q1[:, :n] - b * q2[:, :n]
             sect = np.sqrt(3.0) if n == 1 else sect * np.sqrt((2 * n + 1) / (2.0 * n))
