@@ -1,28 +1,177 @@
 """fieldmap: Earth gravity-field maps and strapdown inertial navigation with NVIDIA Warp.
 
-Public API (see the README): models are read with :func:`fieldmap.models.icgem.read_icgem` or
-:func:`fieldmap.models.registry.load_model`; ellipsoids live in :mod:`fieldmap.field.ellipsoid`.
+The package is layered the way the data flows (model file → coefficients → field → grid →
+product → file), with navigation apart:
+
+- :mod:`fieldmap.models`: model file readers, the :class:`SHModel` type, bundled models;
+- :mod:`fieldmap.field`: ellipsoids, normal gravity, SH synthesis, gravity at points, frames;
+- :mod:`fieldmap.grids`: grid specifications, row-wise synthesis, longitude sums;
+- :mod:`fieldmap.products`: maps, statistics, CF metadata, writers, plots;
+- :mod:`fieldmap.nav`: launch frames, trajectories, IMU synthesis and errors, mechanizations,
+  navigation studies;
+- :mod:`fieldmap.cli`: the ``fieldmap`` command;
+- ``fieldmap.kernels``: the Warp kernels (top-level folder ``kernels/`` of the repository).
+
+Everything a user needs is importable from the top level (see ``__all__``); the names are
+resolved lazily, so ``import fieldmap`` loads neither Warp, xarray nor matplotlib.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
 
-from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid  # noqa: F401
+import importlib
+import importlib.abc
+import importlib.machinery
+import sys
+import types
 
-# Lazy exports: importing fieldmap stays light (no Warp, xarray, matplotlib until used).
+from fieldmap._version import __version__ as __version__
+from fieldmap.errors import FieldmapError as FieldmapError
+from fieldmap.errors import InputError as InputError
+from fieldmap.errors import ModelFileError as ModelFileError
+from fieldmap.field.ellipsoid import GRS80 as GRS80
+from fieldmap.field.ellipsoid import WGS84 as WGS84
+from fieldmap.field.ellipsoid import Ellipsoid as Ellipsoid
+
+#: Public name -> module that defines it (imported on first use, PEP 562).
 _LAZY = {
+    # models
+    "SHModel": "fieldmap.models.shmodel",
+    "load_model": "fieldmap.models.registry",
+    "kaula_model": "fieldmap.models.registry",
+    "read_icgem": "fieldmap.models.icgem",
+    # the field at points
+    "gravitation": "fieldmap.field.gravity",
+    "gravity": "fieldmap.field.gravity",
+    "disturbance": "fieldmap.field.gravity",
+    "normal_gravity": "fieldmap.field.normal",
+    "normal_gravitation_ecef": "fieldmap.field.normal",
+    "somigliana": "fieldmap.field.normal",
+    "get_ellipsoid": "fieldmap.field.ellipsoid",
+    "geodetic_to_ecef": "fieldmap.field.frames",
+    "ecef_to_geodetic": "fieldmap.field.frames",
+    # products
     "disturbance_map": "fieldmap.products.maps",
-    "truncation_map": "fieldmap.products.maps",
     "altitude_sweep": "fieldmap.products.maps",
+    "truncation_map": "fieldmap.products.maps",
+    "component_maps": "fieldmap.products.maps",
+    # navigation
+    "LaunchFrame": "fieldmap.nav.launch_frames",
+    "Trajectory": "fieldmap.nav.trajectory",
+    "BoostGlide": "fieldmap.nav.trajectory",
+    "synthesize_imu": ("fieldmap.nav.imu", "synthesize"),
+    "ImuErrorSpec": "fieldmap.nav.imu_errors",
+    "propagate_lci": "fieldmap.nav.strapdown",
+    "propagate_ned": "fieldmap.nav.strapdown_ned",
+    "calc_force_ned": "fieldmap.nav.forcened",
+}
+
+__all__ = sorted(
+    [
+        "__version__",
+        "FieldmapError",
+        "InputError",
+        "ModelFileError",
+        "Ellipsoid",
+        "WGS84",
+        "GRS80",
+        *_LAZY,
+    ]
+)
+
+#: Module paths of fieldmap 0.1 (a flat package) -> where they live now. Importing an old path
+#: still works and gives the new module (with a DeprecationWarning); they go in fieldmap 0.3.
+_MOVED = {
+    "icgem": "models.icgem",
+    "_gfc_scan": "models._gfc_scan",
+    "model": "models.shmodel",
+    "geographiclib": "models.geographiclib",
+    "ellipsoid": "field.ellipsoid",
+    "normal": "field.normal",
+    "sh": "field.sh",
+    "gravity": "field.gravity",
+    "frames": "field.frames",
+    "gridspec": "grids.spec",
+    "grid": "grids.synthesis",
+    "longitude": "grids.longitude",
+    "maps": "products.maps",
+    "stats": "products.stats",
+    "cf": "products.cf",
+    "io": "products.io",
+    "plots": "products.plots",
+    "coastline": "products.coastline",
+    "launch_frames": "nav.launch_frames",
+    "strapdown": "nav.strapdown",
+    "strapdown_ned": "nav.strapdown_ned",
+    "imu": "nav.imu",
+    "imu_errors": "nav.imu_errors",
+    "trajectory": "nav.trajectory",
+    "navsim": "nav.studies",
+    "navplots": "nav.plots",
+    "forcened": "nav.forcened",
+    "cli_maps": "cli.maps",
+    "cli_nav": "cli.nav",
+    "cli_point": "cli.point",
+    "verify": "cli.verify",
 }
 
 
-def __getattr__(name):
-    """Import lazily exported functions on first use (PEP 562)."""
-    mod = _LAZY.get(name)
-    if mod is None:
+def __getattr__(name: str):
+    """Resolve the lazily exported names on first use (PEP 562)."""
+    target = _LAZY.get(name)
+    if target is None:
         raise AttributeError(f"module 'fieldmap' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(mod), name)
+    module, attr = target if isinstance(target, tuple) else (target, name)
+    value = getattr(importlib.import_module(module), attr)
     globals()[name] = value
     return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _AliasLoader(importlib.abc.Loader):
+    def __init__(self, new: str):
+        self.new = new
+
+    def create_module(self, spec):
+        return importlib.import_module(self.new)
+
+    def exec_module(self, module):
+        pass
+
+
+class _MovedFinder(importlib.abc.MetaPathFinder):
+    """Import ``fieldmap.<old>`` (0.1 layout) as the module that replaced it."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        head, _, leaf = fullname.partition(".")
+        if head != "fieldmap" or leaf not in _MOVED:
+            return None
+        import warnings
+
+        new = "fieldmap." + _MOVED[leaf]
+        warnings.warn(
+            f"{fullname} moved to {new} in fieldmap 0.2; the old path goes in 0.3",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return importlib.machinery.ModuleSpec(fullname, _AliasLoader(new))
+
+
+class _Package(types.ModuleType):
+    """The ``fieldmap`` module: an old module path never shadows a public function.
+
+    ``from fieldmap.gravity import disturbance`` (0.1 layout) makes the import system set
+    ``fieldmap.gravity`` to the module; the public function of that name is kept instead.
+    """
+
+    def __setattr__(self, name, value):
+        if isinstance(value, types.ModuleType) and name in _MOVED and name in _LAZY:
+            return
+        super().__setattr__(name, value)
+
+
+if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
+    sys.meta_path.append(_MovedFinder())
+sys.modules[__name__].__class__ = _Package
