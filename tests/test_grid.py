@@ -293,3 +293,34 @@ def test_grid_disturbance_matches_geographiclib_tool(tmp_path, eigen):
         ref = run_gravity_tool(pts, tmp_path, name, "disturbance").reshape(ours[ih].shape)
         # two float64 evaluations of |δg| ~ 100 mGal from |g| ~ 9.8e5 mGal: ~1e-9 mGal observed
         assert np.max(np.abs(ours[ih] - ref)) < 1e-8
+
+
+# ---------------------------------------------------------------------- symmetric global grids
+@pytest.mark.parametrize(
+    "step, lat_max, top, nrows",
+    [
+        (1.0, 80.0, 80.0, 161),  # the paper's grid: 2 lat_max a whole number of steps
+        (30.0, 80.0, 60.0, 5),  # was -80..70: now the multiples of 30 within +-80
+        (6.0, 80.0, 78.0, 27),
+        (2.0, 81.0, 81.0, 82),  # +81 reachable from -81 by whole steps: kept, no equator row
+        (0.3, 80.0, 79.8, 533),
+        (5.0 / 60.0, 80.0, 80.0, 1921),
+        (7.0, 90.0, 84.0, 25),
+    ],
+)
+def test_global_grids_are_symmetric(step, lat_max, top, nrows):
+    g = G.make_grid(step, lat_max)
+    assert g.lat.size == nrows
+    np.testing.assert_array_equal(g.lat, -g.lat[::-1])  # exact mirrors, for mirror_pairs
+    assert abs(g.lat[-1] - top) < 1e-9 and g.lat[-1] <= lat_max
+    np.testing.assert_allclose(np.diff(g.lat), step, rtol=1e-9)
+    if nrows % 2:
+        assert g.lat[nrows // 2] == 0.0  # the equator row is exactly 0
+    pairs = G.mirror_pairs(g.lat)
+    assert len(pairs) == (nrows + 1) // 2
+
+
+def test_symmetric_grid_names_its_extent():
+    """The file stem of the CLI is built from the region: step 30 now says latmax60, not 70."""
+    g = G.make_grid(30.0, 80.0)
+    assert g.region == (-180.0, 150.0, -60.0, 60.0)

@@ -3,14 +3,16 @@
 Each CLI case runs ``fieldmap.cli.main`` in this process (fast: Warp and the model are loaded
 once) from an empty working folder that holds only the fixture files, and asserts: the exit
 status, exactly one line on stderr naming the problem (never a traceback or a usage block), and
-that no file or folder appeared (the default ``outputs/`` lies in that folder too). The public
-API, interrupted writes and real processes are in ``test_bad_input_api.py``.
+that no file or folder appeared (the default ``outputs/`` lies in that folder too). The real
+console script is run once, for argparse's own errors. The public API is checked in
+``test_bad_input_api.py``, interrupted writes and signals in ``test_interrupts.py``.
 """
 
 from __future__ import annotations
 
 import gzip
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -455,3 +457,29 @@ def test_help_documents_units(capsys, cmd, words):
     text = " ".join(capsys.readouterr().out.split())
     for w in words:
         assert w in text, (cmd, w)
+
+
+# ----------------------------------------------------------------------------- real console script
+def _spawn(args, **kw):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "fieldmap", *args],
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        **kw,
+    )
+
+
+def test_console_script_parse_errors_one_line(tmp_path):
+    """Errors found by argparse in the real console script: one line, exit 2, no usage block."""
+    p = _spawn(["map", "--lmax", "x"], cwd=tmp_path)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and out == ""
+    assert err.strip().splitlines() == [
+        "fieldmap map: error: argument --lmax: invalid int value: 'x' (see 'fieldmap map --help')"
+    ]
+    p = _spawn(["bogus"], cwd=tmp_path)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and len(err.strip().splitlines()) == 1 and "invalid choice" in err
