@@ -218,6 +218,38 @@ def test_model_from_a_pipe(work, capsys, monkeypatch):
     rc, out, err = _main(["point", "--model", f"/dev/fd/{r}"], capsys, "10 20 0\n", monkeypatch)
     os.close(r)
     assert rc == 0 and len(out.split()) == 3, err
+    ref = _main(["point", "--model", "good.gfc"], capsys, "10 20 0\n", monkeypatch)
+    assert out == ref[1]  # the same model as from the file
+
+    # an endless binary stream (``--model <(cat /dev/urandom)``): refused after its first bytes
+    r, w = os.pipe()
+    written = 0
+
+    def feed():
+        nonlocal written
+        block = bytes(range(256)) * 256  # 64 KiB, a NUL byte first
+        try:
+            while written < 1 << 30:  # 1 GiB: a reader that never stops makes the test fail
+                written += os.write(w, block)
+        except OSError:  # EPIPE: the reader closed the pipe
+            pass
+        finally:
+            os.close(w)
+
+    import threading
+
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    before = _tree(work)
+    rc, out, err = _main(["point", "--model", f"/dev/fd/{r}"], capsys, "10 20 0\n", monkeypatch)
+    os.close(r)  # the writer's next write fails: it stops
+    writer.join(timeout=30)
+    assert not writer.is_alive()
+    _assert_one_line(rc, err, 2, "binary byte 0x00", before, work)
+    assert out == ""
+    # read at most the first 16 MiB chunk (checked for binary bytes before more is read) and
+    # what the pipe held (64 KiB); 16.06 MiB measured
+    assert written <= 17 << 20, written
 
 
 def test_point_empty_input(work, capsys, monkeypatch):

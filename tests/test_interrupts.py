@@ -151,15 +151,24 @@ def test_signal_one_line(tmp_path, sig, rc, word):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_broken_pipe_is_quiet(tmp_path):
-    """``fieldmap point < many | head -1``: no traceback when the reader goes away."""
+@pytest.mark.parametrize("lines_read", [0, 1])
+def test_broken_pipe_is_quiet(tmp_path, lines_read):
+    """``fieldmap point < many | head -1``: no traceback when the reader goes away.
+
+    The reader takes ``lines_read`` lines (``head -1`` reads one, a reader that fails at once
+    none), then closes the pipe while the command still has thousands of lines to print.
+    """
     pts = "".join(f"{i % 80} {i % 360} 0\n" for i in range(20000))
     p = _spawn(["point", "--quantity", "normal"], stdin=subprocess.PIPE, cwd=tmp_path)
     p.stdin.write(pts)
     p.stdin.close()
-    p.stdout.close()  # the reader is gone before anything is printed
+    got = [p.stdout.readline() for _ in range(lines_read)]
+    p.stdout.close()  # the reader is gone; 20000 - lines_read lines are still to come
     err = p.stderr.read()
     p.stderr.close()
     p.wait(timeout=120)
     assert "Traceback" not in err and "Exception ignored" not in err, err
+    assert err == ""
     assert p.returncode == 1
+    for line in got:  # what the reader did get is whole output lines: g east north up
+        assert len(line.split()) == 3 and line.endswith("\n"), line
