@@ -63,15 +63,8 @@ def bench_fieldmap(model, n, repeats, device):
     fg.disturbance(lat, lon, h, model=model, device=device)
     t_k = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
     t_api = _median_time(lambda: fg.disturbance(lat, lon, h, model=model, device=device), repeats)
-    saved = os.environ.get("FIELDMAP_THREADS")
-    os.environ["FIELDMAP_THREADS"] = "1"  # launch_chunked reads it per call: one chunk, one core
-    try:
+    with _warp.threads(1):  # one chunk, one core
         t_1 = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
-    finally:
-        if saved is None:
-            del os.environ["FIELDMAP_THREADS"]
-        else:
-            os.environ["FIELDMAP_THREADS"] = saved
     return 1e6 * t_k / n, 1e6 * t_api / n, 1e6 * t_1 / n
 
 

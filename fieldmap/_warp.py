@@ -5,30 +5,65 @@ Warp's CPU backend runs one launch on one core. Launches release the GIL, so
 launches them from a thread pool; on CUDA it issues a single launch.
 
 Kernels that go through :func:`launch_chunked` take an ``offset: wp.int32`` as their *last*
-input and index their work as ``i = wp.tid() + offset``.
+input and index their work as ``i = wp.tid() + offset``. Settings (``FIELDMAP_THREADS``,
+``FIELDMAP_KERNEL_CACHE``, ``FIELDMAP_VERBOSE``) come from :mod:`fieldmap.config`.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
 import sys
 import threading
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
 
+from fieldmap import config
 from fieldmap.errors import InputError
 
 _lock = threading.Lock()
 _ready = False
 _pool: ThreadPoolExecutor | None = None
+_threads: contextvars.ContextVar[int | None] = contextvars.ContextVar("threads", default=None)
 
 
 def cpu_workers() -> int:
-    """Return the number of threads for CPU launches (``FIELDMAP_THREADS`` or all cores)."""
-    env = os.environ.get("FIELDMAP_THREADS")
-    if env:
-        return max(1, int(env))
+    """Return the number of threads for CPU launches.
+
+    In order: :func:`threads` in effect, ``FIELDMAP_THREADS`` (:mod:`fieldmap.config`), the
+    cores this process may run on.
+    """
+    n = _threads.get()
+    return n if n is not None else _default_workers()
+
+
+@contextlib.contextmanager
+def threads(n: int) -> Iterator[None]:
+    """Run the CPU launches of the enclosed block (in this thread) on ``n`` threads.
+
+    Examples
+    --------
+    >>> from fieldmap import _warp
+    >>> with _warp.threads(1):
+    ...     _warp.cpu_workers()
+    1
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise InputError(f"thread count must be a positive integer, got {n!r}")
+    token = _threads.set(n)
+    try:
+        yield
+    finally:
+        _threads.reset(token)
+
+
+def _default_workers() -> int:
+    n = config.get().threads
+    if n is not None:
+        return n
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - non-Linux
@@ -43,10 +78,7 @@ def init() -> None:
     with _lock:
         if _ready:
             return
-        cache = os.environ.get("FIELDMAP_KERNEL_CACHE") or os.path.join(
-            os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "fieldmap", "warp"
-        )
-        wp.config.kernel_cache_dir = cache
+        wp.config.kernel_cache_dir = config.get().kernel_cache
         wp.config.log_level = wp.LOG_WARNING  # no "Module ... load" chatter on stdout
         wp.config.enable_backward = False
         wp.config.verbose_warnings = False
@@ -62,7 +94,7 @@ def _quiet_init() -> None:
     """
     import tempfile
 
-    if os.environ.get("FIELDMAP_VERBOSE"):
+    if config.get().verbose:
         wp.init()
         return
     sys.stderr.flush()
@@ -112,7 +144,9 @@ def _pool_get() -> ThreadPoolExecutor:
     if _pool is None:
         with _lock:
             if _pool is None:
-                _pool = ThreadPoolExecutor(max_workers=cpu_workers(), thread_name_prefix="fieldmap")
+                _pool = ThreadPoolExecutor(
+                    max_workers=_default_workers(), thread_name_prefix="fieldmap"
+                )
     return _pool
 
 

@@ -1,38 +1,39 @@
-"""Bad input to the public Python API, interrupted and failing writes, real CLI processes.
+"""Bad input to the public Python API: models, points, grids, map products, navigation, verify.
 
-Companion of ``test_bad_input.py`` (the sub-commands, run in-process), sharing its fixtures:
-the API raises :class:`fieldmap.errors.FieldmapError` subclasses for bad arguments; output is
-all-or-nothing under Ctrl-C, SIGTERM, a full disk or a failing figure; the real console script
-prints one line for signals, a broken pipe and argparse's errors.
+Every bad argument raises a :class:`fieldmap.errors.FieldmapError` subclass (``InputError``,
+``ModelFileError``) with a one-line message naming the problem, never a raw NumPy error or a silent
+NaN. Boundary values just inside the accepted ranges still give finite, physically right results.
+The same rules seen through the CLI are in ``test_bad_input_cli.py`` (whose model fixtures this
+file shares).
 """
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from test_bad_input import (  # noqa: F401 - ``work`` is a fixture
-    _BODY,
-    _HEAD,
-    ALIEN_MODELS,
-    BAD_MODELS,
-    _assert_one_line,
-    _main,
-    _tree,
-    work,
-)
+from test_bad_input_cli import ALIEN_MODELS, BAD_MODELS, work  # noqa: F401 - ``work`` is a fixture
 
-from fieldmap import cli
 from fieldmap.errors import FieldmapError, InputError, ModelFileError
+from fieldmap.field import gravity as GR
+from fieldmap.field import normal as N
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.grids import spec as gridspec
+from fieldmap.grids import synthesis as G
+from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.products import maps, stats
+
+LMAX = 4  # small degree: these tests are about input checks, not the series
 
 
-# ----------------------------------------------------------------------------- public API
+def _one_line(info) -> str:
+    msg = str(info.value)
+    assert "\n" not in msg and isinstance(info.value, FieldmapError)
+    return msg
+
+
+# ----------------------------------------------------------------------------- models
 def test_api_models_and_reader(work):  # noqa: F811 (fixture)
     """``load_model`` and ``read_icgem`` raise FieldmapError subclasses for bad arguments."""
     from fieldmap.models.icgem import read_icgem
@@ -65,53 +66,259 @@ def test_api_models_and_reader(work):  # noqa: F811 (fixture)
             load_model(name)  # ... but not a model fieldmap evaluates
 
 
-def test_api_maps_reject_bad_grids():
-    """The map API refuses the same grids as the CLI (checks: fieldmap.grids)."""
-    import fieldmap
-
-    cases = [
-        (fieldmap.disturbance_map, {"step_deg": 0}),
-        (fieldmap.disturbance_map, {"step_deg": "x"}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "lat_max": 91}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "height_km": float("nan")}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "height_km": -100}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "lmax": 241}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "lmax": 1.5}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "region": (0, 10, 20, 10)}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "thresholds_mg": [-1]}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "model": "nonexist.gfc"}),
-        (fieldmap.disturbance_map, {"step_deg": 10, "epoch": "garbage"}),
-        (fieldmap.altitude_sweep, {"step_deg": 10, "height_km": []}),
-        (fieldmap.altitude_sweep, {"step_deg": 10, "height_km": [20, float("inf")]}),
-        (fieldmap.truncation_map, {"step_deg": 10, "orders": [3]}),
-        (fieldmap.truncation_map, {"step_deg": 10, "orders": [2, 2]}),
-    ]
-    for func, kw in cases:
-        with pytest.raises(FieldmapError):
-            func(**kw)
+# ----------------------------------------------------------------------------- geodetic points
+POINT_FUNCS = [
+    ("disturbance", lambda *p: GR.disturbance(*p, lmax=LMAX, device="cpu")),
+    ("gravitation", lambda *p: GR.gravitation(*p, lmax=LMAX, device="cpu")),
+    ("gravity", lambda *p: GR.gravity(*p, lmax=LMAX, device="cpu")),
+    ("normal_gravity", lambda *p: N.normal_gravity(*p, device="cpu")),
+]
 
 
-def test_api_gravity_rejects_bad_points():
-    """``fieldmap.field.gravity`` refuses non-numeric, non-finite and impossible coordinates."""
-    from fieldmap.field import gravity as fg
+@pytest.mark.parametrize("name, func", POINT_FUNCS, ids=[f[0] for f in POINT_FUNCS])
+@pytest.mark.parametrize(
+    "point, msg",
+    [
+        (([1.0, 2.0], [1.0, 2.0, 3.0], 0.0), r"shapes \(2,\), \(3,\), \(\) do not broadcast"),
+        ((np.zeros((2, 3)), np.zeros(2), 0.0), r"shapes \(2, 3\), \(2,\), \(\) do not broadcast"),
+        ((0.0, 1e6, 0.0), r"longitude must be within \[-540, 540\) degrees, got 1e\+06"),
+        ((0.0, 540.0, 0.0), r"longitude .* got 540"),
+        ((0.0, -540.5, 0.0), r"longitude .* got -540.5"),
+        ((0.0, 0.0, 1e300), r"height 1e\+300 m is above 1e\+08 m"),
+        ((0.0, 0.0, [0.0, 1.0000001e8]), r"height 1e\+08 m is above 1e\+08 m"),
+        ((91.0, 0.0, 0.0), r"latitude must be within \[-90, 90\] degrees, got 91"),
+        ((0.0, 0.0, -2e4), r"height -20000 m is below -10000 m"),
+        ((0.0, np.nan, 0.0), "longitude must be finite"),
+        (([np.nan], [0.0], [0.0]), "latitude must be finite"),
+        ((["a"], [0.0], [0.0]), "latitude must be numeric"),
+        (([0.0], [np.inf], [0.0]), "longitude must be finite"),
+        (([0.0], [0.0], [np.inf]), "height must be finite"),
+    ],
+)
+def test_bad_points_raise(name, func, point, msg):
+    with pytest.raises(InputError, match=msg) as info:
+        func(*point)
+    _one_line(info)
 
-    for lat, lon, h in (
-        ([np.nan], [0], [0]),
-        (["a"], [0], [0]),
-        ([91], [0], [0]),
-        ([0], [np.inf], [0]),
-        ([0], [0], [np.inf]),
-        ([0], [0], [-1e6]),
+
+@pytest.mark.parametrize("name, func", POINT_FUNCS, ids=[f[0] for f in POINT_FUNCS])
+def test_longitude_range_is_geographiclib_s(name, func):
+    """[-540, 540) is accepted (GeographicLib's DMS::DecodeLatLon range) and wraps by 360 deg."""
+    lat = np.array([10.0, -35.0, 60.0])
+    a = func(lat, np.array([-540.0, 400.0, 539.5]), 20e3)
+    b = func(lat, np.array([-180.0, 40.0, 179.5]), 20e3)
+    # the same ECEF points up to the rounding of cos/sin of the larger angles
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.max(np.abs(b)))
+
+
+def test_bad_degree_and_frame_raise():
+    for kw, msg in (({"lmax": 500}, r"lmax 500 is outside the model"), ({"frame": "xyz"}, "frame")):
+        with pytest.raises(InputError, match=msg) as info:
+            GR.disturbance([0.0], [0.0], [0.0], device="cpu", **kw)
+        _one_line(info)
+
+
+def test_highest_height_is_finite_and_near_point_mass():
+    """At h = MAX_HEIGHT = 1e8 m the field is finite and ≈ GM/r² (J2 (a/r)² ~ 4e-6 relative)."""
+    assert GR.MAX_HEIGHT == N.MAX_HEIGHT == 1e8
+    r = WGS84.a + 1e8  # on the equator, geodetic height = distance - a
+    for g in (
+        GR.gravitation(0.0, 0.0, 1e8, lmax=LMAX, device="cpu"),
+        N.normal_gravity(0.0, 0.0, 1e8, centrifugal=False, device="cpu"),
     ):
-        for func in (fg.gravitation, fg.gravity, fg.disturbance):
-            with pytest.raises(InputError):
-                func(lat, lon, h)
-    with pytest.raises(InputError):
-        fg.disturbance([0], [0], [0], lmax=500)
-    with pytest.raises(InputError):
-        fg.disturbance([0], [0], [0], frame="xyz")
+        assert np.all(np.isfinite(g))
+        np.testing.assert_allclose(np.linalg.norm(g), WGS84.GM / r**2, rtol=1e-5)
+    d = GR.disturbance(0.0, 0.0, 1e8, lmax=LMAX, device="cpu")
+    assert np.all(np.isfinite(d)) and np.linalg.norm(d) < 1.0  # mGal, far above the masses
 
 
+@pytest.mark.parametrize(
+    "xyz, msg",
+    [
+        ((1e300, 0.0, 0.0), r"more than 1e\+08 m above the ellipsoid"),
+        ((1e200, 1e200, 0.0), r"more than 1e\+08 m above the ellipsoid"),
+        ((0.0, 0.0, WGS84.b + 1.01e8), r"more than 1e\+08 m above the ellipsoid"),
+        ((7e7, 7e7, 7e7), r"more than 1e\+08 m above the ellipsoid"),
+        (([7e6, 7e6], [0.0, 0.0, 0.0], 0.0), r"shapes \(2,\), \(3,\), \(\) do not broadcast"),
+        ((0.0, 0.0, 0.0), "below the ellipsoid"),
+    ],
+)
+def test_bad_ecef_points_raise(xyz, msg):
+    with pytest.raises(InputError, match=msg) as info:
+        N.normal_gravitation_ecef(*xyz, device="cpu")
+    _one_line(info)
+
+
+def test_ecef_far_point_is_finite():
+    """Just inside the limit: finite and equal to the geodetic call at the same point."""
+    g = N.normal_gravitation_ecef(0.0, 0.0, WGS84.b + 0.99e8, device="cpu")
+    ref = N.normal_gravity(90.0, 0.0, 0.99e8, centrifugal=False, frame="ecef", device="cpu")
+    np.testing.assert_allclose(g, ref, rtol=1e-12, atol=1e-12 * np.linalg.norm(ref))
+
+
+# ----------------------------------------------------------------------------- grids
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"heights_m": [20e3, 1e300]}, r"height 1e\+300 m is above 1e\+08 m"),
+        ({"heights_m": [1.0000001e8]}, r"is above 1e\+08 m"),
+        ({"heights_m": ["x"]}, "heights must be numbers"),
+        ({"region": (10, 10, 0, 10)}, "empty region: .* has no area"),
+        ({"region": (0, 10, 10, 10)}, "empty region: .* has no area"),
+        ({"region": (170, -190, 0, 10)}, "empty region: .* has no area"),
+        ({"lat_max": 0}, "latitude limit 0 gives a grid with no area"),
+        ({"lat_max": 0.4}, r"larger than the region: .* 1 latitude\(s\) x 360"),
+        ({"step_deg": 5, "region": (0, 1, 0, 1)}, r"1 latitude\(s\) x 1 longitude\(s\)"),
+        ({"step_deg": 5, "region": (0, 10, 0, 1)}, r"1 latitude\(s\) x 3 longitude\(s\)"),
+        ({"lat_max": "x"}, "latitude limit must be a number"),
+        ({"region": 5}, "west east south north"),
+        ({"region": (0, "x", 0, 1)}, "region bound must be a number"),
+    ],
+)
+def test_bad_grids_raise(kwargs, msg):
+    with pytest.raises(InputError, match=msg) as info:
+        G.make_grid(**kwargs)
+    _one_line(info)
+
+
+def test_highest_grid_height_accepted():
+    assert G.make_grid(30.0, heights_m=[-1000.0, 1e8]).heights.tolist() == [-1000.0, 1e8]
+
+
+def test_grid_refused_by_the_memory_its_result_needs(monkeypatch):
+    """96 B per node and height against half the physical memory; the message states sizes."""
+    monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 8 * 2**30)
+    # 1 deg: 161 x 360 nodes x 2 heights x 96 B = 11 MB, fine
+    assert G.make_grid(1.0, heights_m=[20e3, 30e3]).shape == (2, 161, 360)
+    # 0.03 deg: 5333 x 12000 nodes x 96 B = 5.7 GiB > 4 GiB
+    with pytest.raises(InputError, match=r"5333 x 12000 nodes x 1 maps needs about 5\.7 GiB") as i:
+        G.make_grid(0.03)
+    assert "8 GiB" in _one_line(i)
+    # the 2e9-node limit of before let through grids of ~190 GB
+    monkeypatch.setattr(gridspec, "_memory_bytes", lambda: 1 * 2**30)
+    with pytest.raises(InputError, match="GiB"):
+        G.make_grid(0.1, heights_m=[20e3, 30e3, 50e3])
+    # a truncation map holds one map per order: 1201 x 3600 nodes fit once (0.4 GiB), not 3 times
+    with pytest.raises(InputError, match=r"x 3 maps needs"):
+        maps.truncation_map(step_deg=0.1, orders=(2, 4, 6), lat_max=60, device="cpu")
+
+
+# ----------------------------------------------------------------------------- map products
+@pytest.mark.parametrize(
+    "func, kwargs, msg",
+    [
+        ("disturbance_map", {"height_km": 1e300}, r"height 1e\+300 km is above 100000 km"),
+        ("disturbance_map", {"height_km": 1e306}, r"height 1e\+306 km is above 100000 km"),
+        ("truncation_map", {"height_km": 1e300}, r"height 1e\+300 km is above 100000 km"),
+        ("component_maps", {"height_km": 1.5e5}, "is above 100000 km"),
+        ("altitude_sweep", {"height_km": [20, 1e300]}, "is above 100000 km"),
+        ("altitude_sweep", {"height_km": [20, 30, 20]}, "20 km is repeated"),
+        ("altitude_sweep", {"height_km": [20.0, 20]}, "20 km is repeated"),
+        ("truncation_map", {"orders": [2.5]}, r"among 2, 4, 6, got \[2.5\]"),
+        ("truncation_map", {"orders": [2, 4.0001]}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": ["x"]}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": 2}, "among 2, 4, 6"),
+        ("truncation_map", {"orders": [4, 4.0]}, "distinct"),
+        ("disturbance_map", {"thresholds_mg": [0.05, 0.1, 0.05]}, "repeated threshold"),
+        ("disturbance_map", {"lat_max": 0}, "no area"),
+        ("disturbance_map", {"region": (0, 10, 5, 5)}, "no area"),
+        ("disturbance_map", {"region": (0, 10, 20, 10)}, "north 10.0 is south of south 20.0"),
+        ("disturbance_map", {"step_deg": 0}, "step must be a positive number"),
+        ("disturbance_map", {"step_deg": "x"}, "step must be a number, got 'x'"),
+        ("disturbance_map", {"lat_max": 91}, "latitude limit must be within 0..90"),
+        ("disturbance_map", {"height_km": float("nan")}, "heights must be finite"),
+        ("disturbance_map", {"height_km": -100}, "height -100000 m is below -1000 m"),
+        ("disturbance_map", {"lmax": 241}, "lmax 241 exceeds the degree 240"),
+        ("disturbance_map", {"lmax": 1.5}, "integer degree, got 1.5"),
+        ("disturbance_map", {"thresholds_mg": [-1]}, "thresholds must be positive finite"),
+        ("disturbance_map", {"model": "nonexist.gfc"}, "unknown model 'nonexist.gfc'"),
+        ("disturbance_map", {"epoch": "garbage"}, "bad epoch 'garbage'"),
+        ("altitude_sweep", {"height_km": []}, "no height given"),
+        ("altitude_sweep", {"height_km": [20, float("inf")]}, "heights must be finite"),
+        ("truncation_map", {"orders": [3]}, r"among 2, 4, 6, got \[3\]"),
+    ],
+)
+def test_bad_map_products_raise(func, kwargs, msg):
+    kwargs = {"step_deg": 30.0, "device": "cpu", **kwargs}
+    if func != "truncation_map":
+        kwargs.setdefault("lmax", LMAX)
+    with pytest.raises(InputError, match=msg) as info:
+        getattr(maps, func)(**kwargs)
+    _one_line(info)
+
+
+def test_truncation_orders_given_as_floats_are_whole():
+    tr = maps.truncation_map(step_deg=30.0, orders=(2.0, 6), device="cpu")
+    assert tr["order"].values.tolist() == [2, 6] and np.all(np.isfinite(tr.max_mg.values))
+
+
+def test_truncation_at_highest_height_is_finite():
+    """1e5 km was all NaN at 1e300 km; the highest accepted height gives finite, tiny errors."""
+    tr = maps.truncation_map(height_km=1e5, step_deg=30.0, orders=(2,), device="cpu")
+    assert np.all(np.isfinite(tr.modulus_mg.values)) and 0 < float(tr.max_mg[0]) < 1e-3
+    # closed form: J2 minus exact is the J4 term of H&M eq. 2-92, U4 = −GM J4 a⁴ P4(sin φc)/r⁵,
+    # |∇U4| = GM |J4| a⁴/r⁶ · |(5 P4, dP4/dφc)|; the J6 term is (a/r)² J6/J4 ~ 1e-5 of it
+    # (2e-5 measured)
+    from fieldmap.field import frames
+
+    lat = tr.latitude.values
+    x, y, z = frames.geodetic_to_ecef(lat, 0.0 * lat, 1e8)
+    r = np.sqrt(x * x + y * y + z * z)
+    s = z / r
+    k = WGS84.GM * abs(WGS84.J4) * WGS84.a**4 / r**6
+    radial = 5 * k * (35 * s**4 - 30 * s**2 + 3) / 8
+    north = k * (140 * s**3 - 60 * s) / 8 * np.sqrt(1 - s * s)
+    expect_mg = np.hypot(radial, north) / 9.80665e-3
+    got = tr.modulus_mg.values[0]
+    np.testing.assert_allclose(got, np.broadcast_to(expect_mg[:, None], got.shape), rtol=1e-3)
+
+
+# ----------------------------------------------------------------------------- thresholds
+def test_repeated_thresholds_raise():
+    with pytest.raises(InputError, match=r"repeated threshold in \[0.05, 0.1, 0.05\]") as info:
+        stats.parse_thresholds([0.05, 0.1, 0.05])
+    _one_line(info)
+    assert stats.parse_thresholds([0.1, 0.02]) == (0.02, 0.1)
+
+
+def test_map_statistics_bad_arrays_raise():
+    with pytest.raises(InputError, match="non-finite"):
+        stats.map_statistics(np.full((2, 3), np.nan), np.array([0.0, 1.0]))
+    with pytest.raises(InputError, match=r"shape \(3, 3\)"):
+        stats.map_statistics(np.ones((3, 3)), np.array([0.0, 1.0]))
+
+
+# ----------------------------------------------------------------------------- launch frames
+@pytest.mark.parametrize(
+    "kwargs, msg",
+    [
+        ({"B0": 91.0}, r"launch latitude B0 .* within \[-90, 90\] degrees, got 91"),
+        ({"B0": -90.5}, "launch latitude B0"),
+        ({"lon0": float("nan")}, "launch longitude lon0 must be a finite number"),
+        ({"lon0": 540.0}, r"launch longitude lon0 .* \[-540, 540\)"),
+        ({"A0": float("inf")}, "launch azimuth A0"),
+        ({"h0": float("nan")}, "launch height h0"),
+        ({"h0": 1e300}, "launch height h0"),
+        ({"B0": "north"}, "launch latitude B0 must be a number"),
+        ({"ellipsoid": "Clarke1866"}, "unknown ellipsoid"),
+    ],
+)
+def test_bad_launch_frames_raise(kwargs, msg):
+    args = {"lon0": 105.0, "B0": 25.0, "A0": 90.0, **kwargs}
+    with pytest.raises(InputError, match=msg) as info:
+        LaunchFrame(**args)
+    _one_line(info)
+
+
+def test_launch_frame_fields_normalised():
+    lf = LaunchFrame(105, 90, -190, h0=0, ellipsoid="grs80")
+    assert (lf.lon0, lf.B0, lf.A0, lf.h0) == (105.0, 90.0, -190.0, 0.0)
+    assert lf.ellipsoid.name == "GRS80"
+    C = lf.C_t_to_a
+    np.testing.assert_allclose(C @ C.T, np.eye(3), rtol=0, atol=1e-15)
+
+
+# ----------------------------------------------------------------------- navigation and verify
 def test_api_navsim_inputs():
     """Navigation inputs: IMU arrays, dt, names, degrees, trajectories below the surface."""
     from fieldmap.models.registry import load_model
@@ -221,166 +428,3 @@ def test_build_scenario_long_output_interval_is_fast():
     sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
     assert time.perf_counter() - t0 < 60.0
     assert sc.t_out[-1] == pytest.approx(sc.imu.t0 + sc.imu.duration)
-
-
-# ----------------------------------------------------------------------------- atomic writing
-def test_output_batch_leaves_nothing_on_interrupt(tmp_path):
-    """Ctrl-C while the third file of a batch is written: no file, no temporary, no new folder."""
-    from fieldmap.products.io import output_batch
-
-    out = tmp_path / "a" / "b"
-    with pytest.raises(KeyboardInterrupt):
-        with output_batch(out) as batch:
-            batch.json({"x": 1}, "one.json")
-            batch.text("a,b\n", "two.csv")
-            with open(batch.path("three.nc"), "w") as fh:
-                fh.write("partial")
-                raise KeyboardInterrupt
-    assert list(tmp_path.iterdir()) == []
-    with output_batch(out) as batch:
-        batch.json({"x": 1}, "one.json")
-    assert sorted(p.name for p in out.iterdir()) == ["one.json"]
-    assert (out / "one.json").read_text() == '{\n  "x": 1\n}\n'
-
-
-@pytest.mark.parametrize("how", ["interrupt", "sigterm", "error"])
-def test_map_interrupted_while_writing(work, capsys, monkeypatch, how):  # noqa: F811 (fixture)
-    """A map run stopped while writing its figures leaves none of its files (NetCDF, JSON)."""
-    from fieldmap.products import plots
-
-    def boom(*a, **k):
-        if how == "interrupt":
-            raise KeyboardInterrupt
-        if how == "sigterm":
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(5)  # the handler raises before this ends
-        raise RuntimeError("figure failed")
-
-    monkeypatch.setattr(plots, "plot_isolines", boom)
-    before = _tree(work)
-    rc, _, err = _main(["map", "--step-deg", "10", "--out", "res"], capsys)
-    want = {
-        "interrupt": (130, "interrupted"),
-        "sigterm": (143, "terminated"),
-        "error": (3, "internal error: RuntimeError: figure failed"),
-    }[how]
-    _assert_one_line(rc, err, want[0], want[1], before, work)
-    assert signal.getsignal(signal.SIGTERM) is not cli._on_sigterm  # handler restored
-
-
-@pytest.mark.parametrize(
-    "sig, exc", [(signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, cli._Terminated)]
-)
-def test_signals_wait_for_the_file_being_written(sig, exc):
-    """A signal during one file's write is delivered after it (HDF5 locks stay consistent).
-
-    Without the deferral, Ctrl-C in the middle of writing a 185 MB NetCDF file hung the
-    process for good (a lock of the writer left held, then waited on by its cleanup).
-    """
-    from fieldmap.products import io as fio
-
-    previous = signal.signal(signal.SIGTERM, cli._on_sigterm)
-    steps = []
-    try:
-        with pytest.raises(exc):
-            with fio.signals_deferred():
-                os.kill(os.getpid(), sig)
-                time.sleep(0.05)
-                steps.append("write finished")
-            steps.append("not reached")
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    assert steps == ["write finished"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-
-
-def test_disk_full_while_writing(work, capsys, monkeypatch):  # noqa: F811 (fixture)
-    """ENOSPC while the NetCDF is written: one line naming it, no file left (not even .tmp)."""
-    import errno
-
-    from fieldmap.products import io as fio
-
-    def full(ds, tmp):
-        Path(tmp).write_bytes(b"CDF\x01partial")
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp))
-
-    monkeypatch.setattr(fio, "_netcdf_to", full)
-    before = _tree(work)
-    rc, _, err = _main(["truncation", "--step-deg", "30", "--out", "res"], capsys)
-    _assert_one_line(rc, err, 2, "No space left on device", before, work)
-
-
-def test_writers_use_temp_and_replace_in_same_folder(tmp_path, monkeypatch):
-    """Writers rename a temporary file of the destination folder over the final name."""
-    from fieldmap.products import io as fio
-
-    seen = []
-    real = os.replace
-
-    def spy(src, dst):
-        seen.append((Path(src), Path(dst)))
-        return real(src, dst)
-
-    monkeypatch.setattr(fio.os, "replace", spy)
-    fio.write_json({"a": 1}, tmp_path / "x.json")
-    with fio.output_batch(tmp_path) as b:
-        b.text("t", "y.csv")
-    assert [d.name for _, d in seen] == ["x.json", "y.csv"]
-    assert all(s.parent == d.parent == tmp_path and s.name.startswith(".") for s, d in seen)
-    with pytest.raises(TypeError):
-        fio.write_json({"a": object()}, tmp_path / "z.json")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.json", "y.csv"]
-
-
-# ----------------------------------------------------------------------------- real processes
-def _spawn(args, **kw):
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    return subprocess.Popen(
-        [sys.executable, "-m", "fieldmap", *args],
-        env=env,
-        text=True,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        **kw,
-    )
-
-
-@pytest.mark.parametrize(
-    "sig, rc, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")]
-)
-def test_signal_one_line(tmp_path, sig, rc, word):
-    """Ctrl-C or SIGTERM while ``fieldmap point`` waits for input: one line, no traceback."""
-    p = _spawn(["point"], stdin=subprocess.PIPE, cwd=tmp_path)
-    time.sleep(3.0)  # past start-up: blocked reading stdin inside main()
-    p.send_signal(sig)
-    out, err = p.communicate(timeout=60)
-    assert p.returncode == rc, err
-    assert err.strip().splitlines() == [f"fieldmap point: {word}"]
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_broken_pipe_is_quiet(tmp_path):
-    """``fieldmap point < many | head -1``: no traceback when the reader goes away."""
-    pts = "".join(f"{i % 80} {i % 360} 0\n" for i in range(20000))
-    p = _spawn(["point", "--quantity", "normal"], stdin=subprocess.PIPE, cwd=tmp_path)
-    p.stdin.write(pts)
-    p.stdin.close()
-    p.stdout.close()  # the reader is gone before anything is printed
-    err = p.stderr.read()
-    p.stderr.close()
-    p.wait(timeout=120)
-    assert "Traceback" not in err and "Exception ignored" not in err, err
-    assert p.returncode == 1
-
-
-def test_console_script_parse_errors_one_line(tmp_path):
-    """Errors found by argparse in the real console script: one line, exit 2, no usage block."""
-    p = _spawn(["map", "--lmax", "x"], cwd=tmp_path)
-    out, err = p.communicate(timeout=60)
-    assert p.returncode == 2 and out == ""
-    assert err.strip().splitlines() == [
-        "fieldmap map: error: argument --lmax: invalid int value: 'x' (see 'fieldmap map --help')"
-    ]
-    p = _spawn(["bogus"], cwd=tmp_path)
-    _, err = p.communicate(timeout=60)
-    assert p.returncode == 2 and len(err.strip().splitlines()) == 1 and "invalid choice" in err

@@ -6,14 +6,11 @@ Disturbance bookkeeping, centrifugal term, frames, units, input errors.
 import numpy as np
 import pytest
 
-from fieldmap import _warp
 from fieldmap.errors import FieldmapError, InputError
 from fieldmap.field import gravity
 from fieldmap.field.ellipsoid import GRS80, WGS84
 from fieldmap.models.shmodel import SHModel
 from fieldmap.reference.normal import zonal_sh_model
-
-DEVICES = _warp.devices()
 
 
 def points(n=25, seed=0):
@@ -25,7 +22,6 @@ def points(n=25, seed=0):
     return lat, lon, h
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("ell", [WGS84, GRS80], ids=["WGS84", "GRS80"])
 def test_disturbance_of_normal_field_vanishes(device, ell):
     """The ellipsoid's own field as an SH model has δg = 0, whatever its GM and radius.
@@ -39,7 +35,6 @@ def test_disturbance_of_normal_field_vanishes(device, ell):
         assert np.max(np.abs(dg)) < 2e-7  # mGal; 1e-13 of g is 1e-7 mGal
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_disturbance_degree0_term(device):
     """Model GM ≠ ellipsoid GM, same normalised coefficients: δg = (GM_m/GM_e − 1) γ.
 
@@ -59,7 +54,6 @@ def test_disturbance_degree0_term(device):
     assert np.all(up > 6e-4) and np.all(up < 8e-4)  # (GM_e − GM_m)/r² ≈ 0.0007 mGal
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_gravity_minus_gravitation_is_centrifugal(device):
     """Closed form in ENU: ω² p (0, −sin φ, cos φ), p = (N + h) cos φ (Groves 2013 eq. 3.7.5)."""
     from fieldmap.models.registry import load_model
@@ -76,7 +70,6 @@ def test_gravity_minus_gravitation_is_centrifugal(device):
     np.testing.assert_allclose(g - gv, cf, rtol=0, atol=4 * np.spacing(9.8))
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_frames_and_units(device):
     """NED is a reordering of ENU, ENU rotates back to ECEF, unit factors are exact."""
     from fieldmap.models.registry import load_model
@@ -102,7 +95,6 @@ def test_frames_and_units(device):
     np.testing.assert_allclose(mg, ms2 / 9.80665e-3, rtol=1e-15)  # 1 mg = 9.80665e-3 m/s²
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_eigen6s_plausible(device):
     """Bundled EIGEN-6S at h = 0: |g| within 9.76..9.84 m/s², |δg| below 1000 mGal.
 

@@ -20,8 +20,6 @@ from fieldmap.models.registry import kaula_model, load_model
 from fieldmap.models.shmodel import SHModel
 from fieldmap.reference.normal import zonal_sh_model
 
-DEVICES = _warp.devices()
-
 
 def _enu(model, grid, ih, quantity, device):
     """Scattered-point path at the grid nodes, geodetic ENU (m/s²)."""
@@ -94,7 +92,6 @@ def eigen():
     return load_model("eigen-6s", lmax=120)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("quantity", ["gravitation", "disturbance"])
 def test_grid_matches_scattered_points(eigen, device, quantity):
     """Grid kernel vs the scattered-point kernel: ≤ 1e-12 of |g|.
@@ -110,7 +107,6 @@ def test_grid_matches_scattered_points(eigen, device, quantity):
         assert np.max(np.abs(out[ih] - ref)) <= 1e-12 * scale
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_grid_matches_numpy_reference(device):
     """Against the NumPy SH reference (independent recursion), Kaula model degree 90, 1e-12 rel."""
     from fieldmap.reference import sh as ref
@@ -182,10 +178,17 @@ def test_aliasing_fold_is_exact():
 
 
 def test_row_blocks_do_not_change_results(eigen, monkeypatch):
-    grid = G.make_grid(4.0, 80.0, heights_m=[20e3, 50e3])
+    grid = G.make_grid(4.0, 80.0, heights_m=[20e3, 50e3])  # 2 x 41 rows
     full = G.synthesize(eigen, grid, device="cpu")
-    monkeypatch.setattr(G, "BLOCK_BYTES", 1)  # one row per block (clamped to the core count)
-    blocks = G.synthesize(eigen, grid, device="cpu", progress=True)
+    # one row per block, clamped to 2 x the CPU threads: pinned to 2 threads (blocks of 4 rows),
+    # else a machine with 41 or more cores would synthesize all 82 rows in one block
+    monkeypatch.setattr(G, "BLOCK_BYTES", 1)
+    calls = []
+    row_setup = G._row_setup
+    monkeypatch.setattr(G, "_row_setup", lambda *a, **k: calls.append(1) or row_setup(*a, **k))
+    with _warp.threads(2):
+        blocks = G.synthesize(eigen, grid, device="cpu", progress=True)
+    assert len(calls) >= 82 // 4  # the blocks did happen (one row setup per block)
     # equal up to rounding: the FFT pairs series differently in other blocks (1.8e-16 of the
     # largest disturbance measured)
     np.testing.assert_allclose(full, blocks, rtol=0, atol=1e-14 * np.max(np.abs(full)))
@@ -256,7 +259,6 @@ def test_longitude_sums_match_explicit_series(nm, nper, lon0):
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-13 * np.abs(W).sum())
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_mirror_group_path_matches_engine_column_path(eigen, device):
     """The grouped even/odd recursion (mirror rows, 4 per thread) equals the sh_column path.
 
@@ -293,3 +295,34 @@ def test_grid_disturbance_matches_geographiclib_tool(tmp_path, eigen):
         ref = run_gravity_tool(pts, tmp_path, name, "disturbance").reshape(ours[ih].shape)
         # two float64 evaluations of |δg| ~ 100 mGal from |g| ~ 9.8e5 mGal: ~1e-9 mGal observed
         assert np.max(np.abs(ours[ih] - ref)) < 1e-8
+
+
+# ---------------------------------------------------------------------- symmetric global grids
+@pytest.mark.parametrize(
+    "step, lat_max, top, nrows",
+    [
+        (1.0, 80.0, 80.0, 161),  # the paper's grid: 2 lat_max a whole number of steps
+        (30.0, 80.0, 60.0, 5),  # was -80..70: now the multiples of 30 within +-80
+        (6.0, 80.0, 78.0, 27),
+        (2.0, 81.0, 81.0, 82),  # +81 reachable from -81 by whole steps: kept, no equator row
+        (0.3, 80.0, 79.8, 533),
+        (5.0 / 60.0, 80.0, 80.0, 1921),
+        (7.0, 90.0, 84.0, 25),
+    ],
+)
+def test_global_grids_are_symmetric(step, lat_max, top, nrows):
+    g = G.make_grid(step, lat_max)
+    assert g.lat.size == nrows
+    np.testing.assert_array_equal(g.lat, -g.lat[::-1])  # exact mirrors, for mirror_pairs
+    assert abs(g.lat[-1] - top) < 1e-9 and g.lat[-1] <= lat_max
+    np.testing.assert_allclose(np.diff(g.lat), step, rtol=1e-9)
+    if nrows % 2:
+        assert g.lat[nrows // 2] == 0.0  # the equator row is exactly 0
+    pairs = G.mirror_pairs(g.lat)
+    assert len(pairs) == (nrows + 1) // 2
+
+
+def test_symmetric_grid_names_its_extent():
+    """The file stem of the CLI is built from the region: step 30 now says latmax60, not 70."""
+    g = G.make_grid(30.0, 80.0)
+    assert g.region == (-180.0, 150.0, -60.0, 60.0)

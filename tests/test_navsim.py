@@ -85,11 +85,18 @@ def test_j2_run_error_is_the_integrated_gravity_difference(scenario):
 
 
 def test_gravity_eval_seconds_increase_with_cost(scenario):
+    """Medians of 5 timings; only ratios far beyond the noise of a loaded machine are checked.
+
+    Measured on 2 cores: j4 0.8 µs, sh18 1.6-2.1 µs, sh200 86-135 µs per point. Degree 200 is
+    (201/19)² ≈ 110 times the work of degree 18 and J4 is cheaper still, so sh200 must cost at
+    least 4 times either; j4 < sh18 (a factor 2) is not asserted: one stall can reverse it.
+    """
     sec = {
-        m: navsim.gravity_eval_seconds(m, scenario.truth_model, repeats=1)
+        m: navsim.gravity_eval_seconds(m, scenario.truth_model, repeats=5)
         for m in ("j4", "sh18", "sh200")
     }
-    assert 0 < sec["j4"] < sec["sh18"] < sec["sh200"]
+    assert all(0 < s < 1e-2 for s in sec.values()), sec
+    assert 4 * max(sec["j4"], sec["sh18"]) < sec["sh200"], sec
 
 
 def test_balanced_order_spreads_expensive_runs():

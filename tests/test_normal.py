@@ -3,13 +3,11 @@
 import numpy as np
 import pytest
 
-from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.field import normal as N
 from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid
 from fieldmap.reference import normal as R
 
-DEVICES = _warp.devices()
 ELLS = [WGS84, GRS80]
 MG = 9.80665e-3  # 1 mg in m/s² (seed 002, g = 9.80665 m/s²)
 
@@ -49,7 +47,6 @@ def _fd4(pot, x, y, z, d):
 # ----------------------------------------------------------------------------- kernel vs NumPy
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("kind", ["exact", "j2", "j4", "j6", "groves_j2"])
 @pytest.mark.parametrize("frame", ["ecef", "enu", "ned"])
 def test_kernel_matches_reference(device, kind, frame):
@@ -63,7 +60,6 @@ def test_kernel_matches_reference(device, kind, frame):
             _assert_vec_close(got, want, 1e-12)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("kind", ["exact", "j4", "groves_j2"])
 def test_ecef_entry_matches_reference(device, kind):
     lat, lon, h = _points(100)
@@ -76,7 +72,6 @@ def test_ecef_entry_matches_reference(device, kind):
     _assert_vec_close(got_cf, want_cf, 1e-12)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("f", [0.2, 0.3, 0.5])
 def test_exact_closed_form_branch_flat_ellipsoids(device, f):
     # E/u ≥ 0.5 uses the closed form of q in the kernel (never reached by the Earth, e' ≈ 0.082);

@@ -12,7 +12,6 @@ import pytest
 import warp as wp
 from fieldmap.kernels import sh as ksh
 
-from fieldmap import _warp
 from fieldmap.field import sh as fsh
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.models.registry import kaula_model, load_model
@@ -20,7 +19,6 @@ from fieldmap.models.shmodel import SHModel
 from fieldmap.reference import sh as ref
 from fieldmap.reference.normal import zonal_sh_model
 
-DEVICES = _warp.devices()
 GM, R = 3.986004415e14, 6378136.3  # EIGEN-6S header constants (any values would do here)
 
 
@@ -51,7 +49,6 @@ def eigen():
     return load_model("eigen-6s")
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("lmax", [2, 20, 240])
 def test_kernel_vs_reference(eigen, device, lmax):
     """Kernel gravitation and potential vs the NumPy reference, 1e-12 relative."""
@@ -65,7 +62,6 @@ def test_kernel_vs_reference(eigen, device, lmax):
     np.testing.assert_allclose(V, V_ref, rtol=1e-12, atol=0)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_kernel_vs_reference_high_degree_part(device):
     """Only degrees 150..300 (no C00): the high-degree machinery relative to its own size.
 
@@ -86,7 +82,6 @@ def test_kernel_vs_reference_high_degree_part(device):
     assert rel_vec(g, g_ref) <= 1e-12
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_far_points_degree_cut(eigen, device):
     """Far above the sphere, where q^n < 1e-25 cuts the series, the kernel matches the full sum.
 
@@ -103,7 +98,6 @@ def test_far_points_degree_cut(eigen, device):
     assert rel_vec(g, ref.gravitation_ecef(eigen, x, y, z)) <= 1e-12
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_point_mass(device):
     """C00 = 1 only: V = GM/r, g = -GM r_vec / r^3 (Newton)."""
     C = np.zeros((4, 4))
@@ -128,7 +122,6 @@ def groves_j2_gravitation(x, y, z, gm, radius, j2):
     return np.stack([gx, gy, gz], axis=-1)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_j2_closed_form(device):
     """J2-only model vs Groves' closed form."""
     j2 = WGS84.J2
@@ -141,7 +134,6 @@ def test_j2_closed_form(device):
     assert rel_vec(g, groves_j2_gravitation(x, y, z, WGS84.GM, WGS84.a, j2)) <= 1e-14
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_gradient_vs_finite_differences(eigen, device):
     """4th-order central differences of the kernel potential, step 40 m.
 
@@ -164,7 +156,6 @@ def test_gradient_vs_finite_differences(eigen, device):
     assert np.max(err) <= 1e-9
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("n,m", [(2, 0), (3, 1), (7, 4), (20, 19), (31, 0), (120, 57)])
 def test_parity(device, n, m):
     """One coefficient C_nm = S_nm = 1: V(λ, −φ) = (−1)^{n+m} V(λ, φ), g_up alike, g_north odd."""
@@ -222,7 +213,6 @@ def test_reference_orthonormality():
         np.testing.assert_allclose(G, np.eye(lmax + 1 - m), rtol=0, atol=2e-13)  # 1.6e-14 measured
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_geodetic_kernel_matches_ecef_path(eigen, device):
     """The geodetic-input kernel equals the ECEF kernel fed with NumPy's geodetic → ECEF."""
     from fieldmap.field.frames import geodetic_to_ecef
@@ -272,7 +262,6 @@ def test_recursion_tables_identities():
     np.testing.assert_allclose(f[0], np.sqrt(n * (n + 1) / 2.0), rtol=1e-15)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("h", [0.0, 2e4, 1e5])
 def test_zonal_series_vs_exact_normal(device, h):
     """WGS84 zonal J2n series (degree 24) vs the exact level-ellipsoid gravitation."""
@@ -308,7 +297,6 @@ def _columns_kernel(
         pair[i, 1] = p[1]
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_column_variants_match_sh_column(eigen, device):
     """sh_column_pair (orders m, m-1, as the point kernel runs them) equals sh_column."""
     ms = np.array([2, 3, 7, 50, 121, 239, 240, 0, 1], dtype=np.int32)

@@ -17,13 +17,11 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from fieldmap import _warp
 from fieldmap.field import sh as fsh
 from fieldmap.models.registry import kaula_model
 from fieldmap.models.shmodel import SHModel
 from fieldmap.reference import sh as ref
 
-DEVICES = _warp.devices()
 GM, R = 3.986004415e14, 6378136.3
 L = 2190
 
@@ -156,21 +154,18 @@ def _check(model, points, device, orders=None):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_polar_vs_mpmath(dense, device):
     """Dense model near and at the poles vs mpmath, 1e-12 relative."""
     assert _check(dense, POLAR, device) <= 1e-12
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_midlatitude_orders_vs_mpmath(sparse, device):
     """Orders up to 2190 at mid and low latitude vs mpmath, 1e-12 relative."""
     assert _check(sparse, MIDLAT, device, orders=ORDERS) <= 1e-12
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_dense_vs_reference(dense, device):
     """All orders at degree 2190: kernel vs the NumPy X-number reference at mixed latitudes."""
     pts = [
@@ -193,7 +188,6 @@ def test_degree2190_dense_vs_reference(dense, device):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("device", DEVICES)
 def test_degree2190_high_part_vs_mpmath(sparse, device):
     """Degrees 1000..2190 only, relative to their own (1e-5 m/s²) size, up to 60° latitude.
 

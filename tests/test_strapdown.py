@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.launch_frames import LaunchFrame
@@ -12,7 +11,6 @@ from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_lci_reference
 
-DEVICES = _warp.devices()
 FRAME = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
 
 
@@ -38,7 +36,6 @@ def _random_motion(n, ns, dt, seed=0):
     return dth, dv, P0, V0, q0
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_kernel_equals_reference(device):
     kinds = ["j2", "j4", "j6", "normal"]
     n, ns, dt = 8, 1200, 0.005
@@ -79,7 +76,6 @@ def test_kernel_equals_reference(device):
         assert np.abs(quat_to_dcm(res.q[sel]) - C).max() <= 1e-12, kind
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_sh_kind_equals_reference(device):
     from fieldmap.models.registry import load_model
     from fieldmap.reference import sh as rsh
@@ -141,7 +137,6 @@ def _gradient_a(P0, kind, step=1.0):
     return G
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_accel_bias_gives_half_b_t2(device):
     P0 = np.array([0.0, 30e3, 0.0])
     dt, ns = 0.01, 4000  # 40 s
@@ -175,7 +170,6 @@ def test_accel_bias_gives_half_b_t2(device):
     assert np.abs(err[-1] - 0.5 * bA * t[-1] ** 2).max() > 1e-6  # and the t⁴ term is resolved
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_constant_gravity_offset_gives_half_dg_t2(device):
     # truth: at rest in the a-frame under J2; navigation with J6: the model difference at a fixed
     # inertial point is a constant offset δg (both fields are zonal).
@@ -242,7 +236,6 @@ def test_coning_closed_form_series():
     assert abs(ratios[-1] - 1) < 2e-3 and abs(ratios[-1] - 1) < abs(ratios[0] - 1)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_coning_drift_matches_closed_form(device):
     alpha, Om, dt = 0.02, 2 * np.pi, 0.05  # T = 0.1 s, ΩT = 0.63 rad
     ns = 20000  # 1000 s
@@ -281,7 +274,6 @@ def test_coning_drift_matches_closed_form(device):
     assert abs(rate) > 1e-7  # about 0.08 °/h: resolved far above rounding
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_noise_is_seeded_and_scaled(device):
     n, ns, dt = 256, 400, 0.01
     P0 = np.array([0.0, 1e4, 0.0])

@@ -4,12 +4,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fieldmap import _warp
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.strapdown import dcm_to_quat, quat_to_dcm
 from fieldmap.reference import normal as rnorm
-
-DEVICES = _warp.devices()
 
 
 def _g_ned_j2(llh):
@@ -74,7 +71,6 @@ def _reference_run(dth, dv, dt, C0, output_every, **kw):
     return L[0], V[0], C[0]
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_ned_kernel_equals_reference(device):
     N, dt = 1000, 0.01
     dth, dv, C0 = _ned_motion(N, dt)
@@ -158,7 +154,6 @@ def test_ned_kernel_converges_to_navtk():
     np.testing.assert_allclose(diffs[0] / diffs[1], 2.0, rtol=5e-3)
 
 
-@pytest.mark.parametrize("device", DEVICES)
 def test_ned_body_at_rest_on_earth_stays_put(device):
     """At rest on the rotating Earth: gyros sense ω_ie, accelerometers sense f = −g (up).
 

@@ -77,6 +77,7 @@ def _one_line(text) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status."""
+    from fieldmap import config
     from fieldmap.errors import FieldmapError
 
     parser = build_parser()
@@ -93,6 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # pragma: no cover - not the main thread
         pass
     try:
+        config.get()  # the FIELDMAP_* variables, read once: a bad value is bad input (exit 2)
         return int(args.func(args) or 0)
     except FieldmapError as exc:
         print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
@@ -119,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
         if _device_error(exc):
             print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
             return 2
-        if os.environ.get("FIELDMAP_DEBUG"):
+        if config.get().debug:
             raise
         print(
             f"{prefix}: internal error: {type(exc).__name__}: {_one_line(exc)} "

@@ -220,9 +220,7 @@ def run_point(args) -> int:
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line
         results = [r if r is not None else _format(next(it), decimals) for r in results]
-    out = sys.stdout
-    out.write("".join(r + "\n" for r in results))
-    out.flush()
+    _write_all(sys.stdout, "".join(r + "\n" for r in results))
     bad = [k for k, r in enumerate(results) if r.startswith("ERROR:")]
     if bad:
         print(
@@ -232,6 +230,25 @@ def run_point(args) -> int:
         )
         return 1
     return 0
+
+
+def _write_all(out, text: str) -> None:
+    """Write ``text`` whole or raise (``BrokenPipeError`` when the reader has gone).
+
+    One large ``sys.stdout.write`` that the pipe takes only in part (``| head -1``) loses the rest
+    without an error (CPython's buffered writer returns the short count, and the text layer
+    drops it): write through the byte buffer until every byte is taken.
+    """
+    out.flush()
+    buf = getattr(out, "buffer", None)
+    if buf is None:  # a text-only stream (tests capture stdout in a StringIO)
+        out.write(text)
+        out.flush()
+        return
+    view = memoryview(text.encode(out.encoding or "utf-8"))
+    while view:
+        view = view[buf.write(view) :]
+    buf.flush()
 
 
 #: most input read by ``fieldmap point`` (about 40 million points); ``--input /dev/zero``

@@ -16,7 +16,6 @@ errors at the cost of a cheap second synthesis instead of a degree-240 navigatio
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 
@@ -245,20 +244,12 @@ def gravity_eval_seconds(
         n_points = n_points or max(200, min(20000, int(4e7 / (lmax + 1) ** 2)))
     r = BoostGlide().kinematics(np.linspace(0.0, 800.0, n_points)).r_e
     g(r[:8])  # compile / build tables outside the timing
-    old = os.environ.get("FIELDMAP_THREADS")
-    os.environ["FIELDMAP_THREADS"] = "1"
-    try:
-        times = []
+    times = []
+    with _warp.threads(1):  # CPU launches on one thread
         for _ in range(repeats):
             t0 = time.perf_counter()
             g(r)
             times.append(time.perf_counter() - t0)
-    finally:
-        if old is None:
-            os.environ.pop("FIELDMAP_THREADS", None)
-        else:
-            os.environ["FIELDMAP_THREADS"] = old
-    _ = _warp  # CPU launches run on one thread with FIELDMAP_THREADS=1
     return float(np.median(times) / n_points)
 
 

@@ -3,14 +3,16 @@
 Each CLI case runs ``fieldmap.cli.main`` in this process (fast: Warp and the model are loaded
 once) from an empty working folder that holds only the fixture files, and asserts: the exit
 status, exactly one line on stderr naming the problem (never a traceback or a usage block), and
-that no file or folder appeared (the default ``outputs/`` lies in that folder too). The public
-API, interrupted writes and real processes are in ``test_bad_input_api.py``.
+that no file or folder appeared (the default ``outputs/`` lies in that folder too). The real
+console script is run once, for argparse's own errors. The public API is checked in
+``test_bad_input_api.py``, interrupted writes and signals in ``test_interrupts.py``.
 """
 
 from __future__ import annotations
 
 import gzip
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -216,6 +218,38 @@ def test_model_from_a_pipe(work, capsys, monkeypatch):
     rc, out, err = _main(["point", "--model", f"/dev/fd/{r}"], capsys, "10 20 0\n", monkeypatch)
     os.close(r)
     assert rc == 0 and len(out.split()) == 3, err
+    ref = _main(["point", "--model", "good.gfc"], capsys, "10 20 0\n", monkeypatch)
+    assert out == ref[1]  # the same model as from the file
+
+    # an endless binary stream (``--model <(cat /dev/urandom)``): refused after its first bytes
+    r, w = os.pipe()
+    written = 0
+
+    def feed():
+        nonlocal written
+        block = bytes(range(256)) * 256  # 64 KiB, a NUL byte first
+        try:
+            while written < 1 << 30:  # 1 GiB: a reader that never stops makes the test fail
+                written += os.write(w, block)
+        except OSError:  # EPIPE: the reader closed the pipe
+            pass
+        finally:
+            os.close(w)
+
+    import threading
+
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    before = _tree(work)
+    rc, out, err = _main(["point", "--model", f"/dev/fd/{r}"], capsys, "10 20 0\n", monkeypatch)
+    os.close(r)  # the writer's next write fails: it stops
+    writer.join(timeout=30)
+    assert not writer.is_alive()
+    _assert_one_line(rc, err, 2, "binary byte 0x00", before, work)
+    assert out == ""
+    # read at most the first 16 MiB chunk (checked for binary bytes before more is read) and
+    # what the pipe held (64 KiB); 16.06 MiB measured
+    assert written <= 17 << 20, written
 
 
 def test_point_empty_input(work, capsys, monkeypatch):
@@ -455,3 +489,29 @@ def test_help_documents_units(capsys, cmd, words):
     text = " ".join(capsys.readouterr().out.split())
     for w in words:
         assert w in text, (cmd, w)
+
+
+# ----------------------------------------------------------------------------- real console script
+def _spawn(args, **kw):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "fieldmap", *args],
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        **kw,
+    )
+
+
+def test_console_script_parse_errors_one_line(tmp_path):
+    """Errors found by argparse in the real console script: one line, exit 2, no usage block."""
+    p = _spawn(["map", "--lmax", "x"], cwd=tmp_path)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and out == ""
+    assert err.strip().splitlines() == [
+        "fieldmap map: error: argument --lmax: invalid int value: 'x' (see 'fieldmap map --help')"
+    ]
+    p = _spawn(["bogus"], cwd=tmp_path)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and len(err.strip().splitlines()) == 1 and "invalid choice" in err
