@@ -138,11 +138,8 @@ def vector_vars(vec, dims, units, what) -> dict:
     scale = UNITS[units]
     comps = np.moveaxis(vec, -1, 0)
     buf = np.empty((5, *comps.shape[1:]))
-    mod, spare = buf[3], buf[4]
-    np.multiply(comps[0], comps[0], out=mod)
-    for k in (1, 2):
-        np.multiply(comps[k], comps[k], out=spare)
-        mod += spare
+    mod = buf[3]
+    np.einsum("k...,k...->...", comps, comps, out=mod)  # one pass, no temporaries
     np.sqrt(mod, out=mod)
     np.divide(mod, MG, out=buf[4])
     np.divide(comps, scale, out=buf[:3])

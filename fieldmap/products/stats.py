@@ -76,14 +76,23 @@ def weighted_percentiles(values, weights, qs) -> np.ndarray:
         One value per ``q``, in the units of ``values``.
     """
     v = np.asarray(values, dtype=np.float64)
-    w = np.broadcast_to(np.asarray(weights, dtype=np.float64), v.shape).ravel()
-    v = v.ravel()
     qs = np.atleast_1d(np.asarray(qs, dtype=np.float64))
     lo, hi = float(v.min()), float(v.max())
     if hi == lo:
         return np.full(qs.shape, lo)
+    # one buffer for the three temporaries (weights, scaled values, bucket numbers): on some
+    # systems fresh memory costs more than the arithmetic (page faults), and a large buffer
+    # gets huge pages
+    scratch = np.empty((3, v.size))
+    w = scratch[0]
+    np.copyto(w.reshape(v.shape), np.asarray(weights, dtype=np.float64))
+    v = v.ravel()
     nb = int(min(max(v.size // 8, 1), 1 << 16))
-    idx = ((v - lo) * (nb / (hi - lo))).astype(np.intp)
+    scaled = scratch[1]
+    np.subtract(v, lo, out=scaled)
+    scaled *= nb / (hi - lo)
+    idx = scratch[2].view(np.int64)
+    np.copyto(idx, scaled, casting="unsafe")  # truncation: the bucket number
     np.minimum(idx, nb - 1, out=idx)  # v = hi lands on nb by rounding
     cum = np.cumsum(np.bincount(idx, weights=w, minlength=nb))
     out = np.empty(qs.shape)
