@@ -315,7 +315,8 @@ def to_dataset(res):
             ),
         },
         coords={
-            "run": ("run", np.array(res.labels, dtype=str)),
+            # an auxiliary coordinate: CF coordinate variables are numeric (CF 1.8 §5)
+            "label": ("run", np.array(res.labels, dtype=str), {"long_name": "run label"}),
             "time": ("time", res.t, {"units": "s", "long_name": "time since launch"}),
         },
         attrs={

@@ -12,7 +12,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap import __version__
-from fieldmap.products.stats import MG, MGAL
+from fieldmap.products.stats import MG, MGAL, threshold_key
 
 #: Output units of the map variables and their size in m/s² (values in m/s² are divided by it).
 UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
@@ -23,6 +23,51 @@ REFERENCE = (
 )
 #: CF names of the east, north, up components.
 COMPONENTS = {"east": "eastward", "north": "northward", "up": "upward"}
+#: milli-g in UDUNITS terms. UDUNITS (and so every CF tool) reads "mg" as milligram, a mass;
+#: a scaled SI unit converts correctly to m s-2 and mGal.
+MG_UNITS = "0.00980665 m s-2"
+#: ``units`` attribute written for each output unit of :data:`UNITS`.
+CF_UNITS = {"mGal": "mGal", "mg": MG_UNITS, "m s-2": "m s-2"}
+MG_COMMENT = (
+    "values in mg (milli-g): 1 mg = 1e-3 g_n = 9.80665e-3 m s-2 = 980.665 mGal; the units "
+    "attribute spells it as a scaled SI unit because UDUNITS reads 'mg' as milligram"
+)
+
+
+def cf_units(units: str) -> str:
+    """Return the ``units`` attribute (UDUNITS spelling) of an output unit of :data:`UNITS`."""
+    return CF_UNITS.get(units, units)
+
+
+def units_scale(units_attr: str) -> float:
+    """Size in m/s² of a unit given by name (:data:`UNITS`) or by its ``units`` attribute."""
+    for name, attr in CF_UNITS.items():
+        if units_attr in (name, attr):
+            return UNITS[name]
+    raise KeyError(units_attr)
+
+
+def mg_attrs(long_name: str) -> dict:
+    """Attributes of a variable in mg: UDUNITS-readable units, a comment naming milli-g."""
+    return {"units": MG_UNITS, "long_name": long_name, "comment": MG_COMMENT}
+
+
+def attr_name(key: str) -> str:
+    """Return a legal CF attribute name for a statistics key: "p99.9_mg" -> "p99p9_mg".
+
+    CF attribute names are letters, digits and underscores (CF 1.8 §2.3): "." becomes "p"
+    (point) and "-" becomes "m" (minus), as in "0p05".
+    """
+    return key.replace(".", "p").replace("-", "m").replace("+", "")
+
+
+def fraction_attr(threshold_mg: float) -> str:
+    """Global attribute of the area fraction above a threshold: 0.05 -> area_fraction_above_0p05_mg.
+
+    The JSON summaries keep the threshold as written ("0.05"); see
+    :func:`fieldmap.products.stats.threshold_key`.
+    """
+    return attr_name(f"area_fraction_above_{threshold_key(threshold_mg)}_mg")
 
 
 def coords(grid, stacked_heights: bool) -> dict:
@@ -84,32 +129,40 @@ def global_attrs(title, model, ellipsoid, grid, source) -> dict:
 
 
 def vector_vars(vec, dims, units, what) -> dict:
-    """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``."""
+    """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
+
+    ``vec`` has the components last (any leading shape, views welcome). The five variables
+    are written into one buffer, so that a map costs one allocation instead of a dozen
+    temporaries (the map call is meant to cost little more than its synthesis).
+    """
     scale = UNITS[units]
+    comps = np.moveaxis(vec, -1, 0)
+    buf = np.empty((5, *comps.shape[1:]))
+    mod = buf[3]
+    np.einsum("k...,k...->...", comps, comps, out=mod)  # one pass, no temporaries
+    np.sqrt(mod, out=mod)
+    np.divide(mod, MG, out=buf[4])
+    np.divide(comps, scale, out=buf[:3])
+    np.divide(mod, scale, out=mod)
     out = {}
     for k, name in enumerate(("east", "north", "up")):
         out[name] = (
             dims,
-            vec[..., k] / scale,
-            {"units": units, "long_name": f"{COMPONENTS[name]} component of the {what}"},
+            buf[k],
+            {"units": cf_units(units), "long_name": f"{COMPONENTS[name]} component of the {what}"},
         )
-    mod = np.sqrt(np.sum(vec * vec, axis=-1))
-    out["modulus"] = (dims, mod / scale, {"units": units, "long_name": f"modulus of the {what}"})
-    out["modulus_mg"] = (
+    out["modulus"] = (
         dims,
-        mod / MG,
-        {
-            "units": "mg",
-            "long_name": f"modulus of the {what} in mg",
-            "comment": "1 mg = 1e-3 g_n = 9.80665e-3 m s-2 (milli-g, not milligram)",
-        },
+        buf[3],
+        {"units": cf_units(units), "long_name": f"modulus of the {what}"},
     )
+    out["modulus_mg"] = (dims, buf[4], mg_attrs(f"modulus of the {what} in mg"))
     return out
 
 
 def stats_attrs(stats: dict) -> dict:
-    """Flatten :func:`fieldmap.products.stats.map_statistics` into scalar attributes."""
-    attrs = {k: v for k, v in stats.items() if k != "area_fraction_above"}
+    """Flatten :func:`fieldmap.products.stats.map_statistics` into legal CF global attributes."""
+    attrs = {attr_name(k): v for k, v in stats.items() if k != "area_fraction_above"}
     for key, frac in stats["area_fraction_above"].items():
-        attrs[f"area_fraction_above_{key}_mg"] = frac
+        attrs[fraction_attr(float(key))] = frac
     return attrs

@@ -21,7 +21,16 @@ from fieldmap.grids.synthesis import (
     resolve_device,
     synthesize,
 )
-from fieldmap.products.cf import COMPONENTS, UNITS, coords, global_attrs, stats_attrs, vector_vars
+from fieldmap.products.cf import (
+    COMPONENTS,
+    UNITS,
+    coords,
+    fraction_attr,
+    global_attrs,
+    mg_attrs,
+    stats_attrs,
+    vector_vars,
+)
 from fieldmap.products.stats import map_statistics, parse_thresholds, threshold_key
 
 __all__ = [
@@ -157,8 +166,10 @@ def disturbance_map(
     Returns
     -------
     xarray.Dataset
-        Variables east, north, up, modulus, modulus_mg on (latitude, longitude); statistics
-        (max_mg, mean_mg, percentiles, area_fraction_above_<t>_mg) in the attributes.
+        Variables east, north, up, modulus, modulus_mg on (latitude, longitude); area-weighted
+        statistics (max_mg, mean_mg, rms_mg, p50_mg, ..., area_fraction_above_<t>_mg, the
+        threshold written with "p" for its point, e.g. ``area_fraction_above_0p05_mg``: see
+        :func:`fieldmap.products.cf.fraction_attr`) in the attributes.
     """
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
@@ -210,7 +221,7 @@ def altitude_sweep(
         threshold_mg=xr.Variable(
             "threshold_mg",
             np.array(thresholds),
-            {"units": "mg", "long_name": "threshold of the disturbance modulus"},
+            mg_attrs("threshold of the disturbance modulus"),
         )
     )
     for key, long in (
@@ -222,7 +233,7 @@ def altitude_sweep(
         ds[key] = (
             "height",
             np.array([s[key] for s in stats]),
-            {"units": "mg", "long_name": f"{long} of the disturbance modulus"},
+            mg_attrs(f"{long} of the disturbance modulus"),
         )
     frac = np.array(
         [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
@@ -265,8 +276,9 @@ def truncation_map(
     Returns
     -------
     xarray.Dataset
-        east, north, up, modulus, modulus_mg on (order, latitude, longitude); ``max_mg`` on
-        (order). The field is independent of longitude (both are axisymmetric).
+        east, north, up, modulus, modulus_mg on (order, latitude, longitude); ``max_mg`` and
+        the area-weighted ``mean_mg`` and ``rms_mg`` on (order). The field is independent of
+        longitude (both are axisymmetric).
     """
     _check_units(units)
     orders = _orders(orders)
@@ -297,11 +309,15 @@ def truncation_map(
             f"exact normal gravitation of {ell.name}",
         ),
     )
-    ds["max_mg"] = (
-        "order",
-        ds["modulus_mg"].max(dim=("latitude", "longitude")).values,
-        {"units": "mg", "long_name": "maximum truncation error"},
-    )
+    # the same area-weighted statistics as the disturbance maps (a plain node mean would
+    # over-weight the high latitudes, where the J2n errors are largest)
+    st = [map_statistics(m, grid.lat, thresholds_mg=()) for m in ds["modulus_mg"].values]
+    for key, long in (
+        ("max_mg", "maximum"),
+        ("mean_mg", "area-weighted mean"),
+        ("rms_mg", "area-weighted root mean square"),
+    ):
+        ds[key] = ("order", np.array([s[key] for s in st]), mg_attrs(f"{long} truncation error"))
     return ds
 
 
@@ -386,10 +402,10 @@ def summary(ds: xr.Dataset) -> dict:
                 f"j{int(o)}": float(v) for o, v in zip(ds["order"].values, ds["max_mg"].values)
             },
             mean_mg={
-                f"j{int(o)}": float(v)
-                for o, v in zip(
-                    ds["order"].values, ds["modulus_mg"].mean(dim=("latitude", "longitude")).values
-                )
+                f"j{int(o)}": float(v) for o, v in zip(ds["order"].values, ds["mean_mg"].values)
+            },
+            rms_mg={
+                f"j{int(o)}": float(v) for o, v in zip(ds["order"].values, ds["rms_mg"].values)
             },
         )
         return out
@@ -411,7 +427,6 @@ def summary(ds: xr.Dataset) -> dict:
         if k.endswith("_mg") and not k.startswith("area_fraction_above") and k != "thresholds_mg":
             out[k] = float(v)
     out["area_fraction_above"] = {
-        threshold_key(t): float(a[f"area_fraction_above_{threshold_key(t)}_mg"])
-        for t in a["thresholds_mg"]
+        threshold_key(t): float(a[fraction_attr(t)]) for t in a["thresholds_mg"]
     }
     return out

@@ -27,7 +27,7 @@ from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.ticker import FuncFormatter, MaxNLocator  # noqa: E402
 
 from fieldmap.products import coastline  # noqa: E402
-from fieldmap.products.stats import threshold_key  # noqa: E402
+from fieldmap.products.cf import fraction_attr  # noqa: E402
 
 MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
 # isoline styles by rank of the level (lowest first): colour, width, dash
@@ -315,7 +315,7 @@ def plot_isolines_panels(ds, height_indices, levels_mg=None):
 def plot_threshold(ds, threshold_mg: float, title: str | None = None):
     """Area where the modulus exceeds ``threshold_mg`` in black (Figs. 5 and 6)."""
     v = ds["modulus_mg"].values
-    key = f"area_fraction_above_{threshold_key(threshold_mg)}_mg"
+    key = fraction_attr(threshold_mg)
     if key in ds.attrs:
         frac = float(ds.attrs[key])
     else:
@@ -444,7 +444,7 @@ def plot_truncation(ds):
 
 
 def _to_mg(units: str) -> float:
-    from fieldmap.products.maps import UNITS
+    from fieldmap.products.cf import units_scale
     from fieldmap.products.stats import MG
 
-    return UNITS[units] / MG
+    return units_scale(units) / MG
