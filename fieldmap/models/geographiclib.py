@@ -32,7 +32,16 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.models.shmodel import SHModel
 
 GRAVITY_EXE = "Gravity"
-_MODES = {"disturbance": "-D", "gravity": "-G", "D": "-D", "G": "-G"}
+_MODES = {
+    "disturbance": "-D",
+    "gravity": "-G",
+    "anomaly": "-A",
+    "geoid": "-H",
+    "D": "-D",
+    "G": "-G",
+    "A": "-A",
+    "H": "-H",
+}
 
 
 def egm_id(name: str) -> str:
@@ -130,9 +139,10 @@ def run_gravity_tool(
         Folder holding ``NAME.egm`` and ``NAME.egm.cof``.
     name : str
         Model name.
-    mode : {"disturbance", "gravity"}
+    mode : {"disturbance", "gravity", "anomaly", "geoid"}
         ``-D``: disturbance east, north, up in mGal; ``-G``: gravity incl. centrifugal,
-        east, north, up in m/s².
+        east, north, up in m/s²; ``-A``: gravity anomaly (mGal), deflection ξ north and η east
+        (arcsec), spherical approximation; ``-H``: geoid height (m), needs h = 0.
     nmax : int, optional
         Truncation degree (``-N``).
     precision : int
@@ -143,14 +153,14 @@ def run_gravity_tool(
     Returns
     -------
     numpy.ndarray
-        Shape ``(n, 3)``, east, north, up.
+        Shape ``(n, 3)`` (``(n, 1)`` for ``geoid``), the tool's columns.
     """
     exe = gravity_tool()
     if exe is None:
         raise FieldmapError("GeographicLib's Gravity tool is not installed (geographiclib-tools)")
     flag = _MODES.get(mode)
     if flag is None:
-        raise InputError(f"mode must be 'disturbance' or 'gravity', got {mode!r}")
+        raise InputError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
     pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise InputError("points must have shape (n, 3): lat, lon, h")
@@ -165,6 +175,6 @@ def run_gravity_tool(
     out = np.array(
         [[float(v) for v in line.split()] for line in proc.stdout.splitlines() if line.strip()]
     )
-    if out.shape != pts.shape:
+    if out.shape != (pts.shape[0], 1 if flag == "-H" else 3):
         raise FieldmapError(f"Gravity returned {out.shape[0]} lines for {pts.shape[0]} points")
     return out
