@@ -72,8 +72,12 @@ def register(subparsers) -> None:
     p.add_argument(
         "--model",
         default="eigen-6s",
-        help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)",
+        help="bundled model name, model file (ICGEM .gfc[.gz], NGA coefficients, GeographicLib "
+        ".egm) or GeographicLib model name (default: eigen-6s)",
     )
+    from fieldmap.models.registry import add_model_options, register_cache_command
+
+    add_model_options(p)
     p.add_argument(
         "--lmax",
         type=int,
@@ -113,6 +117,7 @@ def register(subparsers) -> None:
         "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
     )
     v.set_defaults(func=run_verify)
+    register_cache_command(subparsers)
 
 
 def parse_point_line(line: str):
@@ -155,6 +160,7 @@ def evaluate_points(
     lmax=None,
     epoch=None,
     device=None,
+    model_options: dict | None = None,
 ):
     """East, north, up of ``quantity`` at the points, in one batched launch.
 
@@ -172,6 +178,9 @@ def evaluate_points(
         Normal model of ``quantity="normal"``.
     model, lmax, epoch, device
         As :func:`fieldmap.field.gravity.disturbance`.
+    model_options : dict, optional
+        More keywords of :func:`fieldmap.models.registry.load_model` (model_dir, gm, radius,
+        cache).
 
     Returns
     -------
@@ -192,9 +201,10 @@ def evaluate_points(
             lat, lon, h, kind=normal, centrifugal=True, frame="enu", device=device
         )
     from fieldmap.field import gravity as fg
-    from fieldmap.models.registry import load_model
+    from fieldmap.models.registry import announce, load_model
 
-    sh_model = load_model(model, lmax=lmax, epoch=epoch)
+    sh_model = load_model(model, lmax=lmax, epoch=epoch, **(model_options or {}))
+    announce(sh_model)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
     if quantity in ("anomaly", "geoid", "potential"):
@@ -213,6 +223,7 @@ def run_point(args) -> int:
     import numpy as np
 
     from fieldmap.errors import InputError
+    from fieldmap.models.registry import model_options
 
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
@@ -238,7 +249,16 @@ def run_point(args) -> int:
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
         values = evaluate_points(
-            lat, lon, h, args.quantity, args.normal, args.model, args.lmax, args.epoch, args.device
+            lat,
+            lon,
+            h,
+            args.quantity,
+            args.normal,
+            args.model,
+            args.lmax,
+            args.epoch,
+            args.device,
+            model_options=model_options(args),
         )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line

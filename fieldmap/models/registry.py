@@ -175,6 +175,8 @@ def load_model(
         )
     name = os.fspath(name_or_path)
     bundled = BUNDLED.get(str(name).strip().lower())
+    if bundled and (gm is not None or radius is not None):
+        raise InputError(f"{name} has its own GM and radius; --gm/--radius are for NGA files only")
     if bundled:
         key = ("bundled", bundled, t)
 
@@ -303,3 +305,75 @@ def kaula_model(
         epoch=None,
         source="synthetic",
     )
+
+
+def add_model_options(parser) -> None:
+    """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""
+    parser.add_argument(
+        "--model-dir",
+        default=None,
+        help="folder of GeographicLib models: --model NAME reads DIR/NAME.egm (as Gravity -d)",
+    )
+    parser.add_argument(
+        "--gm",
+        type=float,
+        default=None,
+        help="GM of an NGA coefficient file, m³/s² (default: EGM96/EGM2008 values by file name)",
+    )
+    parser.add_argument(
+        "--radius",
+        type=float,
+        default=None,
+        help="reference radius of an NGA coefficient file, m (default as --gm)",
+    )
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="parse the model file, neither reading nor writing the on-disk model cache",
+    )
+
+
+def model_options(args) -> dict:
+    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`."""
+    return {
+        "model_dir": getattr(args, "model_dir", None),
+        "gm": getattr(args, "gm", None),
+        "radius": getattr(args, "radius", None),
+        "cache": not getattr(args, "no_cache", False),
+    }
+
+
+def announce(model: SHModel, stream=None) -> None:
+    """Tell the user (stderr) which GM and radius an NGA file was read with."""
+    import sys
+
+    note = model.header.get("constants") if isinstance(model.header, dict) else None
+    if note:
+        print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
+
+
+def register_cache_command(subparsers) -> None:
+    """Add ``fieldmap cache {info,clear}`` (the on-disk cache of parsed models)."""
+    c = subparsers.add_parser(
+        "cache",
+        help="show or clear the on-disk cache of parsed model files",
+        description="The cache holds parsed coefficients of model files (verified by checksums, "
+        f"keyed by file content and reader version) under {disk_cache.cache_dir()} "
+        "($FIELDMAP_MODEL_CACHE or $XDG_CACHE_HOME/fieldmap/models).",
+    )
+    c.add_argument("action", choices=("info", "clear"), help="list the entries, or delete them")
+    c.set_defaults(func=_run_cache)
+
+
+def _run_cache(args) -> int:
+    if args.action == "clear":
+        count, size = disk_cache.clear()
+        where = disk_cache.cache_dir()
+        print(f"removed {count} cached models ({size / 2**20:.1f} MiB) from {where}")
+        return 0
+    rows = disk_cache.info()
+    for r in rows:
+        print(f"{r['bytes'] / 2**20:9.1f} MiB  {r['variant']}  {' '.join(r['files'] or [])}")
+    total = sum(r["bytes"] for r in rows)
+    print(f"{len(rows)} cached models, {total / 2**20:.1f} MiB in {disk_cache.cache_dir()}")
+    return 0
