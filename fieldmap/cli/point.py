@@ -28,9 +28,17 @@ MAX_HEIGHT = 1.0e8
 #: number is a typing error, and far beyond it float64 no longer resolves a degree. Units: deg.
 MAX_ABS_LON = 540.0
 
-QUANTITIES = ("disturbance", "gravity", "normal")
+QUANTITIES = ("disturbance", "gravity", "normal", "anomaly", "geoid", "potential")
 NORMALS = ("exact", "j2", "j4", "j6")
-_DEFAULT_DECIMALS = {"disturbance": 3, "gravity": 5, "normal": 5}  # as GeographicLib's Gravity
+#: as GeographicLib's Gravity (no T there: 4 decimals of m²/s² are 0.01 mm of geoid height)
+_DEFAULT_DECIMALS = {
+    "disturbance": 3,
+    "gravity": 5,
+    "normal": 5,
+    "anomaly": 3,
+    "geoid": 4,
+    "potential": 4,
+}
 
 
 def register(subparsers) -> None:
@@ -51,7 +59,9 @@ def register(subparsers) -> None:
         "--quantity",
         choices=QUANTITIES,
         default="disturbance",
-        help="disturbance (mGal), gravity (m/s², incl. centrifugal) or normal (m/s²)",
+        help="disturbance (mGal), gravity (m/s², incl. centrifugal), normal (m/s²); "
+        "anomaly: Δg (mGal), ξ north, η east (arcsec), as Gravity -A; geoid: N (m), as "
+        "Gravity -H (h must be 0); potential: disturbing potential T (m²/s²)",
     )
     p.add_argument(
         "--normal",
@@ -62,8 +72,12 @@ def register(subparsers) -> None:
     p.add_argument(
         "--model",
         default="eigen-6s",
-        help="bundled model name or ICGEM .gfc[.gz] path (default: eigen-6s)",
+        help="bundled model name, model file (ICGEM .gfc[.gz], NGA coefficients, GeographicLib "
+        ".egm) or GeographicLib model name (default: eigen-6s)",
     )
+    from fieldmap.models.registry import add_model_options, register_cache_command
+
+    add_model_options(p)
     p.add_argument(
         "--lmax",
         type=int,
@@ -103,6 +117,7 @@ def register(subparsers) -> None:
         "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
     )
     v.set_defaults(func=run_verify)
+    register_cache_command(subparsers)
 
 
 def parse_point_line(line: str):
@@ -145,6 +160,7 @@ def evaluate_points(
     lmax=None,
     epoch=None,
     device=None,
+    model_options: dict | None = None,
 ):
     """East, north, up of ``quantity`` at the points, in one batched launch.
 
@@ -154,17 +170,22 @@ def evaluate_points(
         Geodetic latitude and longitude. Units: degrees.
     h : numpy.ndarray
         Height above WGS84. Units: m.
-    quantity : {"disturbance", "gravity", "normal"}
-        Disturbance (mGal), gravity incl. centrifugal (m/s²) or normal gravity (m/s²).
+    quantity : {"disturbance", "gravity", "normal", "anomaly", "geoid", "potential"}
+        Disturbance (mGal), gravity incl. centrifugal (m/s²), normal gravity (m/s²), anomaly
+        and deflection (mGal, arcsec, arcsec), geoid height (m), disturbing potential (m²/s²);
+        see :mod:`fieldmap.field.geodesy`.
     normal : {"exact", "j2", "j4", "j6"}
         Normal model of ``quantity="normal"``.
     model, lmax, epoch, device
         As :func:`fieldmap.field.gravity.disturbance`.
+    model_options : dict, optional
+        More keywords of :func:`fieldmap.models.registry.load_model` (model_dir, gm, radius,
+        cache).
 
     Returns
     -------
     numpy.ndarray
-        Shape ``(n, 3)``.
+        Shape ``(n, 3)``, or ``(n, 1)`` for geoid and potential.
     """
     from fieldmap import _warp
     from fieldmap.errors import InputError
@@ -180,11 +201,20 @@ def evaluate_points(
             lat, lon, h, kind=normal, centrifugal=True, frame="enu", device=device
         )
     from fieldmap.field import gravity as fg
-    from fieldmap.models.registry import load_model
+    from fieldmap.models.registry import announce, load_model
 
-    sh_model = load_model(model, lmax=lmax, epoch=epoch)
+    sh_model = load_model(model, lmax=lmax, epoch=epoch, **(model_options or {}))
+    announce(sh_model)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
+    if quantity in ("anomaly", "geoid", "potential"):
+        from fieldmap.field import geodesy
+
+        if quantity == "anomaly":
+            return geodesy.gravity_anomaly(lat, lon, h, model=sh_model, device=device)
+        if quantity == "geoid":
+            return geodesy.geoid_height(lat, lon, model=sh_model, device=device)[:, None]
+        return geodesy.disturbing_potential(lat, lon, h, model=sh_model, device=device)[:, None]
     return fg.disturbance(lat, lon, h, model=sh_model, unit="mGal", frame="enu", device=device)
 
 
@@ -193,6 +223,7 @@ def run_point(args) -> int:
     import numpy as np
 
     from fieldmap.errors import InputError
+    from fieldmap.models.registry import model_options
 
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
@@ -208,14 +239,26 @@ def run_point(args) -> int:
     points, results = [], []
     for line in lines:
         try:
-            points.append(parse_point_line(line))
+            pt = parse_point_line(line)
+            if args.quantity == "geoid" and pt[2] != 0.0:
+                raise ValueError("the geoid height is defined on the ellipsoid: h must be 0")
+            points.append(pt)
             results.append(None)
         except ValueError as exc:
             results.append(f"ERROR: {exc}")
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
         values = evaluate_points(
-            lat, lon, h, args.quantity, args.normal, args.model, args.lmax, args.epoch, args.device
+            lat,
+            lon,
+            h,
+            args.quantity,
+            args.normal,
+            args.model,
+            args.lmax,
+            args.epoch,
+            args.device,
+            model_options=model_options(args),
         )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line

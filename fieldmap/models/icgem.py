@@ -53,6 +53,8 @@ _NFIELDS = {
     3: (range(3, 8), range(5, 10)),
     4: (range(3, 8), range(5, 10)),
 }
+#: version of this reader, part of the key of the on-disk cache (bump when output changes)
+READER_VERSION = 1
 #: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
 MAX_DEGREE = 10800
 _NORMS = {

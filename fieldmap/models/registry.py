@@ -1,13 +1,20 @@
-"""Gravity models by name or path: the bundled EIGEN-6S, user ICGEM files, synthetic Kaula models.
+"""Gravity models by name or path: the bundled EIGEN-6S, user model files, synthetic Kaula models.
 
 ``load_model()`` with no argument returns the bundled EIGEN-6S (degree 240, see
-``fieldmap/data/README.md``), read through :mod:`importlib.resources`. Parsed models are cached in
-memory, keyed by the file (path, size, modification time), the epoch and the degree read; a
-truncation of a cached full model is a cheap copy.
+``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A user's file is
+recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
+plain coefficient file (:mod:`.nga`), or GeographicLib's ``.egm`` + ``.egm.cof`` pair
+(:mod:`.geographiclib`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
+as ``Gravity -n NAME -d DIR``).
+
+Parsed models are cached in memory, keyed by the file (path, size, modification time), the
+epoch, the options and the degree read; a truncation of a cached full model is a cheap copy. A
+new process finds them in the verified on-disk cache of :mod:`.cache` (``cache=False`` skips it).
 """
 
 from __future__ import annotations
 
+import gzip
 import os
 import threading
 from importlib import resources
@@ -15,6 +22,7 @@ from importlib import resources
 import numpy as np
 
 from fieldmap.errors import InputError
+from fieldmap.models import cache as disk_cache
 from fieldmap.models.icgem import as_degree, parse_epoch, read_icgem
 from fieldmap.models.shmodel import SHModel
 
@@ -45,20 +53,101 @@ def clear_cache() -> None:
         _cache.clear()
 
 
-def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> SHModel:
+#: file formats recognised by :func:`detect_format`
+FORMATS = ("icgem", "nga", "egm")
+
+
+def detect_format(path) -> str:
+    """Recognise a model file by its content: ``"icgem"``, ``"nga"`` or ``"egm"``.
+
+    ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
+    first lines of ``n m C S [σC σS]`` numbers are NGA's header-less format; anything else goes
+    to the ICGEM reader, whose errors then say what is missing.
+    """
+    from fieldmap.models.nga import looks_like_nga
+
+    path = os.fspath(path)
+    if path.endswith(".egm.cof"):
+        return "egm"
+    try:
+        with open(path, "rb") as f:
+            head = f.read(1 << 16)
+        if head[:2] == b"\x1f\x8b":
+            with gzip.open(path, "rb") as f:
+                head = f.read(1 << 16)
+    except (OSError, EOFError, gzip.BadGzipFile):
+        return "icgem"  # its reader names the problem
+    if head.lstrip().startswith(b"EGMF-"):
+        return "egm"
+    if b"end_of_head" in head or b"begin_of_head" in head:
+        return "icgem"
+    if looks_like_nga(head):
+        return "nga"
+    return "icgem"
+
+
+def _resolve_path(name: str, model_dir) -> str:
+    """Path of a model given by path, or by GeographicLib name in ``model_dir``."""
+    from fieldmap.models.geographiclib import default_gravity_dirs, find_egm
+
+    if model_dir is not None:
+        found = find_egm(name, model_dir)
+        if found:
+            return found
+        if not os.path.isabs(name):
+            joined = os.path.join(os.fspath(model_dir), name)
+            if os.path.exists(joined):
+                return joined
+    if os.path.exists(name):
+        return name
+    found = None if model_dir is not None else find_egm(name)
+    if found:
+        return found
+    where = (
+        f"nor {name}.egm in {os.fspath(model_dir)}"
+        if model_dir is not None
+        else f"nor a GeographicLib model in {', '.join(default_gravity_dirs())}"
+    )
+    raise InputError(
+        f"unknown model {name!r}: not a bundled model ({', '.join(BUNDLED)}), "
+        f"not an existing file, {where}"
+    )
+
+
+def load_model(
+    name_or_path="eigen-6s",
+    lmax: int | None = None,
+    epoch=None,
+    *,
+    model_dir=None,
+    gm: float | None = None,
+    radius: float | None = None,
+    cache: bool = True,
+) -> SHModel:
     """Return a spherical-harmonic gravity model.
 
     Parameters
     ----------
     name_or_path : str or os.PathLike or SHModel or None
-        A bundled model name (``"eigen-6s"``, case-insensitive), the path of an ICGEM ``.gfc`` or
-        ``.gfc.gz`` file, or an :class:`SHModel` (returned, truncated to ``lmax`` if given).
-        None: the default model (EIGEN-6S).
+        A bundled model name (``"eigen-6s"``, case-insensitive); the path of an ICGEM ``.gfc``
+        or ``.gfc.gz`` file, of an NGA coefficient file (EGM96, EGM2008) or of a GeographicLib
+        ``.egm`` file; a GeographicLib model name (``egm2008``) found in ``model_dir`` or in
+        GeographicLib's gravity folders; or an :class:`SHModel` (returned, truncated to
+        ``lmax`` if given). None: the default model (EIGEN-6S).
     lmax : int, optional
         Truncation degree; default: the model's full degree.
     epoch : float or str, optional
         Epoch of the time-variable terms (decimal year or ``'YYYY-MM-DD'``). Units: year.
         Default: each coefficient's reference epoch.
+    model_dir : str or os.PathLike, optional
+        Folder of GeographicLib models (``Gravity -d``): ``name_or_path`` is then looked up as
+        ``model_dir/NAME.egm`` first.
+    gm, radius : float, optional
+        Units: m³/s², m. GM and reference radius of an NGA coefficient file (which has none);
+        default: NGA's values for EGM84/EGM96/EGM2008 named in the file name. Refused for
+        other formats, which carry their own.
+    cache : bool
+        Use the on-disk cache of parsed coefficients (:mod:`fieldmap.models.cache`).
 
     Returns
     -------
@@ -86,6 +175,8 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
         )
     name = os.fspath(name_or_path)
     bundled = BUNDLED.get(str(name).strip().lower())
+    if bundled and (gm is not None or radius is not None):
+        raise InputError(f"{name} has its own GM and radius; --gm/--radius are for NGA files only")
     if bundled:
         key = ("bundled", bundled, t)
 
@@ -96,20 +187,43 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
             return _with_source(model, f"fieldmap/data/{bundled} (bundled)")
 
         return _truncate(_read_cached(key, reader), lmax)
-    if not os.path.exists(name):
+    name = _resolve_path(name, model_dir)
+    fmt = detect_format(name)
+    if fmt != "nga" and (gm is not None or radius is not None):
         raise InputError(
-            f"unknown model {name!r}: not a bundled model ({', '.join(BUNDLED)}) "
-            "nor an existing file"
+            f"{name}: GM and radius are given by the {fmt} file itself; --gm/--radius are for "
+            "NGA coefficient files only"
         )
-    st = os.stat(name)
-    key = ("file", os.path.realpath(name), st.st_size, st.st_mtime_ns, t)
+    paths = [name[:-4] if name.endswith(".egm.cof") else name]
+    if fmt == "egm":
+        paths.append(paths[0] + ".cof")
+    st = os.stat(paths[-1])
+    key = ("file", os.path.realpath(paths[0]), st.st_size, st.st_mtime_ns, t, fmt, gm, radius)
     with _cache_lock:
         full = _cache.get(key + (None,))
     if full is not None:
         return _truncate(full, lmax)
-    # read only the degrees needed (the reader skips the numbers of higher degrees)
+    # read only the degrees needed (the readers skip or slice the higher degrees)
     part = None if lmax is None else int(lmax)
-    return _read_cached(key + (part,), lambda: _earth(read_icgem(name, lmax=part, epoch=t)))
+    reader, variant = _reader(fmt, paths[0], t, gm, radius)
+    return _read_cached(
+        key + (part,),
+        lambda: _earth(disk_cache.cached_read(paths, variant, part, reader, enabled=cache)),
+    )
+
+
+def _reader(fmt: str, path: str, t, gm, radius):
+    """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format."""
+    from fieldmap.models import geographiclib, icgem, nga
+
+    if fmt == "nga":
+        variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}"
+        return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
+    if fmt == "egm":
+        variant = f"egm-v{geographiclib.READER_VERSION}"
+        return (lambda L: geographiclib.read_egm(path, lmax=L)), variant
+    variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
+    return (lambda L: read_icgem(path, lmax=L, epoch=t)), variant
 
 
 #: accepted GM and reference radius of a user's model file: within 2 % of WGS84's (every
@@ -191,3 +305,75 @@ def kaula_model(
         epoch=None,
         source="synthetic",
     )
+
+
+def add_model_options(parser) -> None:
+    """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""
+    parser.add_argument(
+        "--model-dir",
+        default=None,
+        help="folder of GeographicLib models: --model NAME reads DIR/NAME.egm (as Gravity -d)",
+    )
+    parser.add_argument(
+        "--gm",
+        type=float,
+        default=None,
+        help="GM of an NGA coefficient file, m³/s² (default: EGM96/EGM2008 values by file name)",
+    )
+    parser.add_argument(
+        "--radius",
+        type=float,
+        default=None,
+        help="reference radius of an NGA coefficient file, m (default as --gm)",
+    )
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="parse the model file, neither reading nor writing the on-disk model cache",
+    )
+
+
+def model_options(args) -> dict:
+    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`."""
+    return {
+        "model_dir": getattr(args, "model_dir", None),
+        "gm": getattr(args, "gm", None),
+        "radius": getattr(args, "radius", None),
+        "cache": not getattr(args, "no_cache", False),
+    }
+
+
+def announce(model: SHModel, stream=None) -> None:
+    """Tell the user (stderr) which GM and radius an NGA file was read with."""
+    import sys
+
+    note = model.header.get("constants") if isinstance(model.header, dict) else None
+    if note:
+        print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
+
+
+def register_cache_command(subparsers) -> None:
+    """Add ``fieldmap cache {info,clear}`` (the on-disk cache of parsed models)."""
+    c = subparsers.add_parser(
+        "cache",
+        help="show or clear the on-disk cache of parsed model files",
+        description="The cache holds parsed coefficients of model files (verified by checksums, "
+        f"keyed by file content and reader version) under {disk_cache.cache_dir()} "
+        "($FIELDMAP_MODEL_CACHE or $XDG_CACHE_HOME/fieldmap/models).",
+    )
+    c.add_argument("action", choices=("info", "clear"), help="list the entries, or delete them")
+    c.set_defaults(func=_run_cache)
+
+
+def _run_cache(args) -> int:
+    if args.action == "clear":
+        count, size = disk_cache.clear()
+        where = disk_cache.cache_dir()
+        print(f"removed {count} cached models ({size / 2**20:.1f} MiB) from {where}")
+        return 0
+    rows = disk_cache.info()
+    for r in rows:
+        print(f"{r['bytes'] / 2**20:9.1f} MiB  {r['variant']}  {' '.join(r['files'] or [])}")
+    total = sum(r["bytes"] for r in rows)
+    print(f"{len(rows)} cached models, {total / 2**20:.1f} MiB in {disk_cache.cache_dir()}")
+    return 0

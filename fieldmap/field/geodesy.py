@@ -1,0 +1,323 @@
+r"""The geodesist's quantities: disturbing potential, gravity anomaly, deflection, geoid height.
+
+Definitions (as GeographicLib's ``Gravity -A`` and ``-H``, Karney's ``GravityModel``, which
+reproduce NGA's synthesis programs):
+
+* **Disturbing potential** :math:`T = W - U`, model gravity potential minus the normal potential
+  of the level ellipsoid at the same point; the centrifugal parts are equal and cancel, so
+  :math:`T = V_{model} - V_{normal}`. It is summed as one spherical-harmonic series whose
+  coefficients are the model's minus the ellipsoid's even zonals
+  :math:`\bar C^{ell}_{n0} = -(GM_e/GM)(a_e/R)^n J_n/\sqrt{2n+1}` (Heiskanen & Moritz 1967
+  eq. 2-92 for :math:`J_n`), re-expressed with the model's GM and radius R; the ellipsoid's
+  series is summed to degree 40 whatever the model's degree (its terms fall as
+  :math:`e^n`, below 1e-30 of the central term there), so a truncated model is compared with the
+  whole normal field.
+* **Degree 0.** By default (``degree0=False``, GeographicLib's choice) the term
+  :math:`(GM - GM_e)/r` is left out of T, so that T, Δg, ξ, η and N do not depend on the
+  model's and ellipsoid's differing GM (for EGM2008 vs WGS84, 0.3 m²/s² in T, 3 cm in N).
+  ``degree0=True`` keeps it (then T is exactly V − U).
+* **Geoid height** by Bruns' formula (H&M eq. 2-144) :math:`N = T(\varphi, \lambda, 0)/\gamma_0
+  + \zeta_0 + N_{corr}`, with T at the ellipsoid (h = 0) and γ0 Somigliana's normal gravity at
+  the same latitude (H&M eq. 2-78). The difference :math:`W_0 - U_0` of the geoid's and the
+  ellipsoid's potential is not modelled; the constant :math:`\zeta_0` (GeographicLib's
+  ``HeightOffset``, −0.41 m for EGM96 and EGM2008, holding the degree-0 term of N) and the
+  correction series :math:`N_{corr}` (EGM2008's ζ-to-N terms, summed on the unit sphere) are
+  added when the model file has them (GeographicLib ``.egm`` files), and are zero otherwise.
+* **Gravity anomaly and deflection of the vertical**, spherical approximation (H&M §2-14,
+  eq. 2-151c; this is what ``Gravity -A`` prints and what NGA's programs compute):
+
+  .. math::
+      \Delta g = -\frac{\partial T}{\partial r} - \frac{2T}{r},\qquad
+      \xi = -\frac{1}{\gamma}\,\frac{\partial T}{r\,\partial\psi},\qquad
+      \eta = -\frac{1}{\gamma}\,\frac{\partial T}{r\cos\psi\,\partial\lambda}
+
+  with the gradient of T in the geocentric spherical frame at the point P (ψ geocentric
+  latitude, r geocentric radius) and γ the magnitude of normal gravity (with centrifugal) at P.
+  ξ is the northerly, η the easterly component.
+
+The series are summed by the engine of :mod:`fieldmap.field.sh` (Warp kernels), no new kernel.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import weakref
+from dataclasses import replace
+
+import numpy as np
+
+from fieldmap.field import frames
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.gravity import _points
+from fieldmap.models.shmodel import SHModel
+
+#: Highest degree of the ellipsoid's zonal series subtracted from the model. |J_n| falls like
+#: e^n (e² = 0.0067 for WGS84): J_40 ~ 1e-44, far below the float64 rounding of the central term.
+NORMAL_DEGREE = 40
+ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
+MGAL = 1.0e5  # mGal per m/s²
+
+_memo_lock = threading.Lock()
+_memo: dict = {}  # (id(model), ellipsoid, degree0) -> (weakref(model), SHModel)
+
+
+def _height_offset(model: SHModel) -> float:
+    """GeographicLib ``HeightOffset`` ζ0 of a model read from a ``.egm`` file (else 0). Units: m."""
+    return float(model.header.get("HeightOffset", 0.0) or 0.0)
+
+
+def disturbing_model(
+    model: SHModel, ellipsoid: Ellipsoid | str = WGS84, *, degree0: bool = False
+) -> SHModel:
+    r"""Coefficients of the disturbing potential T = V_model − V_ellipsoid.
+
+    Parameters
+    ----------
+    model : SHModel
+        Fully normalised model (its GM and radius R are kept).
+    ellipsoid : Ellipsoid or str
+        Level ellipsoid of the normal field (default WGS84).
+    degree0 : bool
+        Keep the degree-0 term 1 − GM_e/GM (False: C̄00 = 0, as GeographicLib).
+
+    Returns
+    -------
+    SHModel
+        Degree ``max(model.lmax, 40)`` (the normal series is never truncated with the model);
+        :math:`\bar C_{n0} - \bar C^{ell}_{n0}` for even n, with
+        :math:`\bar C^{ell}_{n0} = -(GM_e/GM)(a_e/R)^n J_n/\sqrt{2n+1}`
+        (Heiskanen & Moritz 1967 eq. 2-92, full normalisation of :math:`P_n`).
+    """
+    ell = get_ellipsoid(ellipsoid)
+    key = (id(model), ell, bool(degree0))
+    with _memo_lock:
+        hit = _memo.get(key)
+        if hit is not None and hit[0]() is model:
+            return hit[1]
+    L = max(model.lmax, NORMAL_DEGREE)
+    C = np.zeros((L + 1, L + 1))
+    S = np.zeros((L + 1, L + 1))
+    C[: model.lmax + 1, : model.lmax + 1] = model.C
+    S[: model.lmax + 1, : model.lmax + 1] = model.S
+    mult = ell.GM / model.gm
+    # (GM − GM_e)/GM, not 1 − GM_e/GM: the difference of the constants is exact, the ratio's
+    # rounding would be 1e-7 of this 7e-10 term
+    C[0, 0] = (C[0, 0] - 1.0 + (model.gm - ell.GM) / model.gm) if degree0 else 0.0
+    amult = (ell.a / model.radius) ** 2
+    for k in range(1, NORMAL_DEGREE // 2 + 1):
+        n = 2 * k
+        mult *= amult
+        C[n, 0] -= -mult * ell.J2n(k) / math.sqrt(2 * n + 1)
+    out = replace(
+        model,
+        name=f"{model.name} - {ell.name}",
+        C=C,
+        S=S,
+        source=f"{model.source} minus the {ell.name} normal potential",
+    )
+    with _memo_lock:
+        while len(_memo) >= 4:
+            _memo.pop(next(iter(_memo)))
+        _memo[key] = (weakref.ref(model), out)
+    return out
+
+
+def _resolve(model, lmax, epoch) -> SHModel:
+    from fieldmap.models.registry import load_model
+
+    return load_model(model, lmax=lmax, epoch=epoch)
+
+
+def _t_and_gradient(m: SHModel, ell: Ellipsoid, lat, lon, h, degree0: bool, device, grad=True):
+    """T (m²/s²), its ECEF gradient (m/s², None unless ``grad``) and the ECEF position."""
+    from fieldmap.field.sh import sh_gravitation, sh_potential
+
+    dm = disturbing_model(m, ell, degree0=degree0)
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    t = sh_potential(dm, x, y, z, device=device)
+    g = sh_gravitation(dm, x, y, z, device=device) if grad else None
+    return t, g, (x, y, z)
+
+
+def disturbing_potential(
+    lat,
+    lon,
+    h,
+    *,
+    model="eigen-6s",
+    lmax: int | None = None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+    epoch=None,
+) -> np.ndarray:
+    """Disturbing potential T = W − U at geodetic points (see the module docstring).
+
+    Parameters
+    ----------
+    lat, lon : array_like
+        Geodetic latitude in [-90, 90] and longitude in [-540, 540). Units: degrees.
+    h : array_like
+        Height above ``ellipsoid``, −10 km ≤ h ≤ 1e8 m. Units: m.
+    model : SHModel or str
+        A model, a bundled model name or a model file path.
+    lmax : int, optional
+        Truncation degree of the model (the normal field is never truncated).
+    ellipsoid : Ellipsoid or str
+        Level ellipsoid of the normal field and of the coordinates (default WGS84).
+    degree0 : bool
+        Keep the term (GM − GM_e)/r (default False, as GeographicLib).
+    device : str, optional
+        Warp device.
+    epoch : float or str, optional
+        Epoch of time-variable terms. Units: decimal year.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: m²/s².
+    """
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(lat, lon, h)
+    m = _resolve(model, lmax, epoch)
+    t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
+    return t
+
+
+def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
+    """Spherical-approximation anomaly and deflection from T and its ECEF gradient.
+
+    Heiskanen & Moritz (1967) eq. 2-151c for Δg; ξ, η from the horizontal gradient in the
+    geocentric frame (module docstring). Longitudes are the input ones, so that the local
+    frame at a pole is the one of the given longitude (as GeographicLib).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Disturbing potential. Units: m²/s².
+    grad_ecef : numpy.ndarray
+        Shape ``t.shape + (3,)``, gradient of T. Units: m/s².
+    xyz : tuple of numpy.ndarray
+        ECEF position. Units: m.
+    lon_deg : numpy.ndarray
+        Longitude. Units: degrees.
+    gamma : numpy.ndarray
+        Normal gravity magnitude at the point. Units: m/s².
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``t.shape + (3,)``: Δg (mGal), ξ (arcsec), η (arcsec).
+    """
+    x, y, z = xyz
+    p = np.hypot(x, y)
+    r = np.hypot(p, z)
+    cpsi, spsi = p / r, z / r
+    lam = np.radians(lon_deg)
+    cl, sl = np.cos(lam), np.sin(lam)
+    gx, gy, gz = grad_ecef[..., 0], grad_ecef[..., 1], grad_ecef[..., 2]
+    d_east = -sl * gx + cl * gy
+    d_north = -spsi * (cl * gx + sl * gy) + cpsi * gz
+    d_up = cpsi * (cl * gx + sl * gy) + spsi * gz
+    dg = -d_up - 2.0 * t / r
+    xi = -d_north / gamma
+    eta = -d_east / gamma
+    return np.stack([dg * MGAL, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
+
+
+def gravity_anomaly(
+    lat,
+    lon,
+    h,
+    *,
+    model="eigen-6s",
+    lmax: int | None = None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+    epoch=None,
+) -> np.ndarray:
+    """Gravity anomaly Δg and deflection of the vertical ξ, η (spherical approximation).
+
+    As GeographicLib's ``Gravity -A`` (``GravityModel::SphericalAnomaly``); definitions in the
+    module docstring. Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast(lat, lon, h).shape + (3,)``: Δg (mGal), ξ north (arcsec), η east
+        (arcsec).
+    """
+    from fieldmap.field.normal import normal_gravity
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(lat, lon, h)
+    m = _resolve(model, lmax, epoch)
+    t, grad, xyz = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
+    gam = normal_gravity(
+        lat, lon, h, ellipsoid=ell, kind="exact", centrifugal=True, frame="ecef", device=device
+    )
+    return anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1))
+
+
+def correction_height(
+    model: SHModel, lat, lon, *, lmax: int | None = None, ellipsoid=WGS84, device=None
+) -> np.ndarray:
+    """ζ0 + the correction series of a GeographicLib model at geodetic points (m; 0 if none).
+
+    GeographicLib sums the correction (EGM2008's ζ-to-N terms) as a fully normalised series on
+    the unit sphere at the point's geocentric direction, times ``CorrectionMultiplier``.
+    """
+    from fieldmap.field.sh import sh_potential
+
+    out = np.full(np.shape(lat), _height_offset(model), dtype=np.float64)
+    corr = model.header.get("correction")
+    if isinstance(corr, SHModel) and (np.any(corr.C) or np.any(corr.S)):
+        if lmax is not None and lmax < corr.lmax:
+            corr = corr.truncated(lmax)
+        x, y, z = frames.geodetic_to_ecef(lat, lon, np.zeros_like(lat), get_ellipsoid(ellipsoid))
+        r = np.sqrt(x * x + y * y + z * z)
+        # gm = radius = 1 at r = 1: the sum itself
+        unit = replace(corr, gm=1.0, radius=1.0)
+        mult = float(model.header.get("CorrectionMultiplier", 1.0) or 1.0)
+        out = out + mult * sh_potential(unit, x / r, y / r, z / r, device=device)
+    return out
+
+
+def geoid_height(
+    lat,
+    lon,
+    *,
+    model="eigen-6s",
+    lmax: int | None = None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+    epoch=None,
+) -> np.ndarray:
+    """Geoid height N above the ellipsoid by Bruns' formula, as GeographicLib's ``Gravity -H``.
+
+    N = T(φ, λ, 0)/γ0(φ) + ζ0 + N_corr (module docstring; Heiskanen & Moritz 1967 eq. 2-144):
+    T on the ellipsoid, γ0 Somigliana's normal gravity there.
+
+    Parameters
+    ----------
+    lat, lon : array_like
+        Geodetic latitude and longitude. Units: degrees.
+    model, lmax, ellipsoid, degree0, device, epoch
+        As :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of ``lat``, ``lon``. Units: m.
+    """
+    from fieldmap.field.normal import somigliana
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(lat, lon, 0.0)
+    m = _resolve(model, lmax, epoch)
+    t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
+    n = t / somigliana(lat, ell)
+    return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)

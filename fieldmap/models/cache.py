@@ -1,0 +1,313 @@
+"""Verified on-disk cache of parsed model coefficients, so that a new process loads a model fast.
+
+Parsing a degree-2190 text model takes ~10 s; its coefficients as two ``.npy`` arrays load,
+memory-mapped, in tens of milliseconds. Layout under :func:`cache_dir`
+(``$FIELDMAP_MODEL_CACHE``, else ``$XDG_CACHE_HOME/fieldmap/models``, else
+``~/.cache/fieldmap/models``)::
+
+    entries/<content-hash>-<variant-hash>/{C.npy, S.npy, [CC.npy, CS.npy,] meta.json}
+    paths/<hash of the real path>.json      # stat index: path, size, mtime_ns, inode -> hash
+
+* **Key.** The SHA-256 of the model file's bytes (both files for GeographicLib's pair), plus a
+  *variant*: the reader's name and version (:data:`fieldmap.models.icgem.READER_VERSION` etc.;
+  bumped when a reader's output changes), the epoch of time-variable terms, the degree read
+  (``all`` or a truncation) and, for NGA files, the GM and radius used. A changed file, reader or
+  option is a different entry; nothing is ever looked up by path alone.
+* **Fast check.** Hashing costs ~0.15 s per 200 MB from the page cache and seconds from a cold
+  disk or a network file system, at every process start. So the content hash of a path is
+  remembered in a stat index together with the file's size, modification time (ns) and inode;
+  while all four are unchanged the remembered hash is used, and any change rehashes the file.
+  (A rewrite that keeps size, mtime to the nanosecond and inode is the one case this misses;
+  ``--no-cache`` or :func:`clear` handles it.)
+* **Never trusted blindly.** ``meta.json`` stores the SHA-256 of every array's bytes, its shape
+  and dtype; each load verifies them (~25 ms per 38 MB array) and an entry that fails — missing
+  file, bad JSON, other shape, other checksum, other format version — is deleted and rebuilt
+  from the model file.
+* **Atomic.** An entry is written in a temporary folder and renamed into place; a process that
+  loses the race keeps its own copy in memory and removes its temporary folder. A cache folder
+  that cannot be written only costs the speed-up (the model still loads).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import replace
+
+import numpy as np
+
+from fieldmap.models.shmodel import SHModel
+
+#: format of the entries themselves (bump when the layout changes)
+CACHE_FORMAT = 1
+_ARRAYS = ("C", "S")
+_CORR = ("CC", "CS")
+
+
+def cache_dir() -> str:
+    """Folder of the model cache (see the module docstring); not created here."""
+    env = os.environ.get("FIELDMAP_MODEL_CACHE")
+    if env:
+        return env
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "fieldmap", "models")
+
+
+def _sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(8 << 20):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _sha256_array(a: np.ndarray) -> str:
+    return hashlib.sha256(memoryview(np.ascontiguousarray(a)).cast("B")).hexdigest()
+
+
+def content_hash(paths: list[str], root: str | None = None) -> str:
+    """SHA-256 of the files' contents, through the stat index (module docstring)."""
+    root = root or cache_dir()
+    parts = []
+    for p in paths:
+        real = os.path.realpath(p)
+        st = os.stat(real)
+        stamp = [st.st_size, st.st_mtime_ns, st.st_ino]
+        idx = os.path.join(root, "paths", hashlib.sha256(real.encode()).hexdigest()[:32] + ".json")
+        digest = None
+        try:
+            with open(idx, encoding="utf-8") as f:
+                rec = json.load(f)
+            if rec.get("path") == real and rec.get("stat") == stamp:
+                digest = rec.get("sha256")
+        except (OSError, ValueError):
+            pass
+        if not (isinstance(digest, str) and len(digest) == 64):
+            digest = _sha256_file(real)
+            _write_json(idx, {"path": real, "stat": stamp, "sha256": digest})
+        parts.append(digest)
+    if len(parts) == 1:
+        return parts[0]
+    return hashlib.sha256("".join(parts).encode()).hexdigest()
+
+
+def _write_json(path: str, obj) -> None:
+    """Write ``obj`` atomically; silently give up where the cache folder is not writable."""
+    try:
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(obj, f)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+def _entry(root: str, digest: str, variant: str) -> str:
+    vhash = hashlib.sha256(variant.encode()).hexdigest()[:16]
+    return os.path.join(root, "entries", f"{digest[:40]}-{vhash}")
+
+
+def _meta_of(model: SHModel) -> dict:
+    header = {k: v for k, v in model.header.items() if k != "correction"}
+    return {
+        "name": model.name,
+        "gm": model.gm,
+        "radius": model.radius,
+        "max_degree": model.max_degree,
+        "tide_system": model.tide_system,
+        "epoch": model.epoch,
+        "source": model.source,
+        "header": header,
+    }
+
+
+def load(paths: list[str], variant: str, *, root: str | None = None) -> SHModel | None:
+    """Return the cached model for these files and variant, or None (absent or invalid).
+
+    An entry that fails verification is deleted.
+    """
+    root = root or cache_dir()
+    try:
+        digest = content_hash(paths, root)
+    except OSError:
+        return None
+    folder = _entry(root, digest, variant)
+    if not os.path.isdir(folder):
+        return None
+    try:
+        with open(os.path.join(folder, "meta.json"), encoding="utf-8") as f:
+            meta = json.load(f)
+        if meta.get("format") != CACHE_FORMAT or meta.get("variant") != variant:
+            raise ValueError("other format or variant")
+        arrays = {}
+        for name, rec in meta["arrays"].items():
+            a = np.load(os.path.join(folder, f"{name}.npy"), mmap_mode="r", allow_pickle=False)
+            if list(a.shape) != rec["shape"] or a.dtype != np.float64:
+                raise ValueError(f"{name}: shape or dtype")
+            if _sha256_array(a) != rec["sha256"]:
+                raise ValueError(f"{name}: checksum")
+            arrays[name] = a
+        m = meta["model"]
+        header = dict(m["header"])
+        if "CC" in arrays:
+            header["correction"] = SHModel(
+                f"{m['name']} correction",
+                1.0,
+                1.0,
+                arrays["CC"],
+                arrays["CS"],
+                arrays["CC"].shape[0] - 1,
+                source=m["source"],
+            )
+        return SHModel(
+            name=m["name"],
+            gm=float(m["gm"]),
+            radius=float(m["radius"]),
+            C=arrays["C"],
+            S=arrays["S"],
+            max_degree=int(m["max_degree"]),
+            tide_system=m["tide_system"],
+            epoch=m["epoch"],
+            source=m["source"],
+            header=header,
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+
+
+def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = None) -> bool:
+    """Write ``model`` as the entry of these files and variant; True if written.
+
+    Never raises for an unwritable cache (the caller keeps the model it has in memory).
+    """
+    root = root or cache_dir()
+    try:
+        digest = content_hash(paths, root)
+        folder = _entry(root, digest, variant)
+        os.makedirs(os.path.dirname(folder), exist_ok=True)
+        tmp = tempfile.mkdtemp(dir=os.path.dirname(folder), prefix=".tmp-")
+    except OSError:
+        return False
+    try:
+        arrays = {"C": model.C, "S": model.S}
+        corr = model.header.get("correction")
+        if isinstance(corr, SHModel):
+            arrays.update({"CC": corr.C, "CS": corr.S})
+        rec = {}
+        for name, a in arrays.items():
+            a = np.ascontiguousarray(a, dtype=np.float64)
+            np.save(os.path.join(tmp, f"{name}.npy"), a, allow_pickle=False)
+            rec[name] = {"shape": list(a.shape), "sha256": _sha256_array(a)}
+        meta = {
+            "format": CACHE_FORMAT,
+            "variant": variant,
+            "files": [os.path.realpath(p) for p in paths],
+            "arrays": rec,
+            "model": _meta_of(model),
+        }
+        with open(os.path.join(tmp, "meta.json"), "w", encoding="utf-8") as f:
+            json.dump(meta, f)
+        try:
+            os.rename(tmp, folder)
+        except OSError:  # another process was first, or a stale entry sits there
+            shutil.rmtree(folder, ignore_errors=True)
+            os.rename(tmp, folder)
+        return True
+    except (OSError, TypeError, ValueError):
+        shutil.rmtree(tmp, ignore_errors=True)
+        return False
+
+
+def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, enabled=True):
+    """Return the model of ``paths`` read to degree ``lmax``, through the cache.
+
+    Parameters
+    ----------
+    paths : list of str
+        The model file(s) (their contents key the entry).
+    variant : str
+        Reader name and version, epoch, options (see the module docstring).
+    lmax : int or None
+        Degree needed (None: all). A cached full read serves every lmax (a slice of the
+        memory map); otherwise a read to exactly this degree is looked up, then made and stored.
+    reader : callable
+        ``reader(lmax) -> SHModel``, the parser.
+    enabled : bool
+        False: parse and neither read nor write the cache.
+    """
+    if not enabled:
+        return reader(lmax)
+    full = load(paths, variant + "|all")
+    if full is not None:
+        if lmax is None or lmax == full.lmax:
+            return full
+        if lmax < full.lmax:
+            return _slice(full, lmax)
+    if lmax is not None:
+        part = load(paths, variant + f"|L{lmax}")
+        if part is not None:
+            return part
+    model = reader(lmax)
+    store(paths, variant + ("|all" if lmax is None else f"|L{lmax}"), model)
+    return model
+
+
+def _slice(model: SHModel, lmax: int) -> SHModel:
+    return replace(
+        model,
+        C=np.ascontiguousarray(model.C[: lmax + 1, : lmax + 1]),
+        S=np.ascontiguousarray(model.S[: lmax + 1, : lmax + 1]),
+    )
+
+
+def clear(root: str | None = None) -> tuple[int, int]:
+    """Delete every cached model; return (entries removed, bytes freed)."""
+    root = root or cache_dir()
+    count = size = 0
+    for sub in ("entries", "paths"):
+        folder = os.path.join(root, sub)
+        if not os.path.isdir(folder):
+            continue
+        for name in os.listdir(folder):
+            path = os.path.join(folder, name)
+            if sub == "entries" and not name.startswith(".tmp-"):
+                count += 1
+            for dirpath, _, files in os.walk(path):
+                for fn in files:
+                    try:
+                        size += os.path.getsize(os.path.join(dirpath, fn))
+                    except OSError:
+                        pass
+            if os.path.isdir(path):
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                try:
+                    os.remove(path)
+                except OSError:
+                    pass
+    return count, size
+
+
+def info(root: str | None = None) -> list[dict]:
+    """List the cached models: folder, files, variant, size in bytes."""
+    root = root or cache_dir()
+    out = []
+    folder = os.path.join(root, "entries")
+    if not os.path.isdir(folder):
+        return out
+    for name in sorted(os.listdir(folder)):
+        path = os.path.join(folder, name)
+        try:
+            with open(os.path.join(path, "meta.json"), encoding="utf-8") as f:
+                meta = json.load(f)
+            size = sum(os.path.getsize(os.path.join(path, f)) for f in os.listdir(path))
+        except (OSError, ValueError):
+            continue
+        files, variant = meta.get("files"), meta.get("variant")
+        out.append({"entry": path, "files": files, "variant": variant, "bytes": size})
+    return out
