@@ -20,6 +20,7 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -198,11 +199,14 @@ def finish_zarr(path, attrs: dict, extra_vars: dict | None = None) -> None:
     """Add the statistics (attributes and small variables) and consolidate the metadata."""
     import zarr
 
+    kept = dict(zarr.open_group(path, mode="r").attrs)  # appending variables resets them
     if extra_vars:
         xr.Dataset(extra_vars).to_zarr(path, mode="a", consolidated=False)
     g = zarr.open_group(path, mode="r+")
-    g.attrs.update({k: _jsonable(v) for k, v in attrs.items()})
-    zarr.consolidate_metadata(path)
+    g.attrs.update({**kept, **{k: _jsonable(v) for k, v in attrs.items()}})
+    with warnings.catch_warnings():  # "not part of the Zarr 3 specification": xarray reads it
+        warnings.simplefilter("ignore")
+        zarr.consolidate_metadata(path)
 
 
 def _jsonable(v):
@@ -324,6 +328,7 @@ def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
         n = ds.sizes["latitude"] * ds.sizes["longitude"]
         s = max(1, math.ceil(math.sqrt(n / max_nodes)))
         view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
+    view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
     if s > 1:
         view.attrs["grid_step_deg"] = float(view.attrs.get("grid_step_deg", 1.0)) * s
         view.attrs["figure_decimation"] = s

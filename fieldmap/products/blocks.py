@@ -334,7 +334,7 @@ def parse_scheduler(text: str | None):
 
 
 @contextlib.contextmanager
-def open_client(scheduler, connect_timeout: float = 10.0) -> Iterator[object]:
+def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
     """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
 
     ``("local", N)`` starts a LocalCluster of N single-threaded worker processes on 127.0.0.1
@@ -357,7 +357,7 @@ def open_client(scheduler, connect_timeout: float = 10.0) -> Iterator[object]:
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
-            dashboard_address=None,
+            dashboard_address="127.0.0.1:0",
             silence_logs=logging.ERROR,
             env={"FIELDMAP_THREADS": str(max(1, cores // n))},
         )

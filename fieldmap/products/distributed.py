@@ -28,7 +28,8 @@ __all__ = [
 FORMATS = ("netcdf", "zarr")
 
 
-def _setup(model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units):
+def prepare(model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units):
+    """Validate grid (not whole in memory), ellipsoid and device; load the model."""
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import make_grid
     from fieldmap.grids.synthesis import resolve_device
@@ -92,7 +93,7 @@ def disturbance_blocks(
     from fieldmap.products.stats import parse_thresholds
 
     thresholds = parse_thresholds(thresholds_mg)
-    grid, ell, mod = _setup(
+    grid, ell, mod = prepare(
         model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
     )
     check_memory(grid)  # the result is returned whole
@@ -149,6 +150,8 @@ def write_disturbance(
     scheduler=None,
     rows_per_block=None,
     window=None,
+    setup=None,
+    atomic: bool = True,
 ) -> dict:
     """Compute a disturbance map or sweep block by block and stream it to ``path``.
 
@@ -161,6 +164,11 @@ def write_disturbance(
     client, scheduler
         A ``dask.distributed.Client``, or ``"local:N"`` / a scheduler address; neither: the
         blocks run here one after the other.
+    setup : (grid, ellipsoid, model), optional
+        Already validated and loaded (the CLI does it once).
+    atomic : bool
+        Write to a temporary name renamed at the end (default); False when ``path`` is already
+        a temporary name of the caller's.
 
     Returns
     -------
@@ -173,12 +181,15 @@ def write_disturbance(
     if fmt not in FORMATS:
         raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
     thresholds = parse_thresholds(thresholds_mg)
-    grid, ell, mod = _setup(
-        model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
-    )
+    if setup is None:
+        setup = prepare(
+            model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
+        )
+    grid, ell, mod = setup
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    place = blockio.atomic_store(path) if atomic else contextlib.nullcontext(path)
     # connect (or start the local cluster) before anything is written
-    with _client(client, scheduler) as c, blockio.atomic_store(path) as tmp:
+    with _client(client, scheduler) as c, place as tmp:
         writer = None
         try:
             if fmt == "zarr":
@@ -248,7 +259,7 @@ def lazy_disturbance(
         chunks = chunks.get("latitude")
     rows = None if chunks in (None, True, "auto") else chunks
     thresholds = parse_thresholds(thresholds_mg)
-    grid, ell, mod = _setup(
+    grid, ell, mod = prepare(
         model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
     )
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
