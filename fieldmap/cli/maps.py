@@ -12,6 +12,7 @@ import math
 import time
 from pathlib import Path
 
+from fieldmap.cli import distributed
 from fieldmap.errors import InputError
 
 DEFAULT_THRESHOLDS = "0.02,0.05,0.06,0.10"
@@ -117,6 +118,7 @@ def register(subparsers) -> None:
         help="thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
         "positive and distinct (default 0.02,0.05,0.06,0.10)",
     )
+    distributed.add_options(p)
     p.set_defaults(func=run_map)
 
     p = subparsers.add_parser(
@@ -141,6 +143,7 @@ def register(subparsers) -> None:
         help="thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct "
         "(default 0.02,0.05,0.06,0.10)",
     )
+    distributed.add_options(p)
     p.set_defaults(func=run_sweep)
 
     p = subparsers.add_parser(
@@ -239,6 +242,8 @@ def run_map(args) -> int:
     from fieldmap.products.maps import disturbance_map
 
     thresholds = _thresholds(args)
+    if distributed.wanted(args):
+        return distributed.run(args, [args.height_km], thresholds, stacked=False)
     _preflight(args, [args.height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
@@ -287,6 +292,8 @@ def run_sweep(args) -> int:
     heights = _numbers(args.height_km, "--height-km")
     if len(set(heights)) != len(heights):
         raise InputError(f"--height-km: repeated height in {heights}")
+    if distributed.wanted(args):
+        return distributed.run(args, heights, thresholds, stacked=True)
     _preflight(args, heights)
     t0 = time.perf_counter()
     ds = altitude_sweep(

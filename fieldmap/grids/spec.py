@@ -137,6 +137,8 @@ def make_grid(
     lat_max: float = 80.0,
     region: tuple[float, float, float, float] | None = None,
     heights_m=(20000.0,),
+    *,
+    whole_in_memory: bool = True,
 ) -> GridSpec:
     """Build and validate a grid specification.
 
@@ -158,6 +160,9 @@ def make_grid(
         the region crosses the antimeridian. Units: degrees.
     heights_m : sequence of float
         Heights above the ellipsoid. Units: m (finite, -1000 <= h <= 1e8).
+    whole_in_memory : bool
+        Check that the whole result fits in memory (:func:`check_memory`); False for products
+        computed and written block by block (:mod:`fieldmap.products.blocks`).
 
     Raises
     ------
@@ -236,7 +241,8 @@ def make_grid(
             f"latitude(s) x {lon.size} longitude(s); use a smaller step"
         )
     grid = GridSpec(lat=lat, lon=lon, heights=h, step_deg=step, is_global=region is None)
-    check_memory(grid)
+    if whole_in_memory:
+        check_memory(grid)
     if lat.size * lon.size * h.size > 2_000_000_000:  # int32 indices, whatever the memory
         raise InputError(f"grid of {lat.size}x{lon.size}x{h.size} nodes is too large (> 2e9)")
     return grid

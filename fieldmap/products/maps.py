@@ -137,6 +137,10 @@ def disturbance_map(
     epoch=None,
     units="mGal",
     progress=None,
+    *,
+    client=None,
+    scheduler=None,
+    chunks=None,
 ) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
 
@@ -162,6 +166,12 @@ def disturbance_map(
         Epoch for time-variable models.
     units : {"mGal", "mg", "m s-2"}
         Units of east, north, up, modulus (``modulus_mg`` is always added).
+    client : dask.distributed.Client, optional
+        Compute on this cluster, block by block (:mod:`fieldmap.products.distributed`).
+    scheduler : str, optional
+        ``"local:N"`` (a LocalCluster of N processes for this call) or a scheduler address.
+    chunks : int or "auto", optional
+        Return a lazy dask-backed Dataset, blocks of at most this many latitude rows.
 
     Returns
     -------
@@ -174,6 +184,10 @@ def disturbance_map(
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
     h = _heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
+    if client is not None or scheduler is not None or chunks is not None:
+        from fieldmap.products import distributed
+
+        return distributed.route(locals(), h, stacked=False)
     grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     mod = _model(model, lmax, epoch)
     ds = _disturbance(mod, grid, ell, device, units, progress, stacked=False)
@@ -196,6 +210,10 @@ def altitude_sweep(
     epoch=None,
     units="mGal",
     progress=None,
+    *,
+    client=None,
+    scheduler=None,
+    chunks=None,
 ) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
@@ -211,6 +229,10 @@ def altitude_sweep(
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
     h = _heights_m(height_km)
+    if client is not None or scheduler is not None or chunks is not None:
+        from fieldmap.products import distributed
+
+        return distributed.route(locals(), h, stacked=True)
     grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     mod = _model(model, lmax, epoch)
     ds = _disturbance(mod, grid, ell, device, units, progress, stacked=True)
@@ -258,6 +280,8 @@ def truncation_map(
     device=None,
     ellipsoid="WGS84",
     units="mGal",
+    *,
+    client=None,
 ) -> xr.Dataset:
     """Map the truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
 
@@ -272,6 +296,8 @@ def truncation_map(
         Distinct orders among 2, 4, 6 (2.5 is an error, not order 2).
     step_deg, lat_max, region, device, ellipsoid, units
         As in :func:`disturbance_map`.
+    client : dask.distributed.Client, optional
+        Evaluate the rows on this cluster (the same numbers, bit for bit).
 
     Returns
     -------
@@ -285,8 +311,13 @@ def truncation_map(
     h = _heights_m(height_km, "truncation_map takes one height")
     grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
     check_memory(grid, layers=len(orders))
-    exact = normal_rows(grid, ell, 0, device)[0]
-    err = np.stack([normal_rows(grid, ell, o, device)[0] - exact for o in orders])
+    rows = normal_rows
+    if client is not None:
+        from fieldmap.products.distributed import normal_rows_on
+
+        rows = normal_rows_on(client)
+    exact = rows(grid, ell, 0, device)[0]
+    err = np.stack([rows(grid, ell, o, device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
     ds = xr.Dataset(
         vector_vars(

@@ -1,0 +1,335 @@
+"""Block-by-block outputs of :mod:`fieldmap.products.blocks`: NetCDF-4, zarr, in-memory, lazy.
+
+- **zarr** (:class:`ZarrTarget`): chunked along latitude (``chunk_rows`` rows of all longitudes,
+  Blosc/zstd), written by the workers in parallel. A block holds two runs of rows (south rows
+  and their mirrors), so a chunk may be shared by two blocks; each worker writes the chunks its
+  block covers whole and returns the rows of shared chunks (fewer than ``chunk_rows`` per run
+  end), which the client writes. No chunk ever has two writers at once, without any lock.
+- **NetCDF-4** (:class:`NetCDFWriter`): zlib level 4 (as :mod:`fieldmap.products.io`), chunks of
+  ``chunk_rows`` rows; HDF5 has no parallel writer without MPI, so the client is the one writer
+  and the workers send it their blocks (at most ``window`` in flight, which bounds the memory).
+- Both are written under a hidden temporary name next to the final one and renamed only when
+  the whole product, statistics included, is complete (:func:`atomic_store`): a failed or
+  interrupted run leaves no partial product under the final name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fieldmap.products.blocks import VARIABLES
+
+#: Bytes of one chunk of one variable (uncompressed), for the default ``chunk_rows``.
+CHUNK_BYTES = 2**20
+
+
+def chunk_rows(nlon: int) -> int:
+    """Rows per chunk: about ``CHUNK_BYTES`` of float64 per chunk, 1..256 rows."""
+    return int(min(256, max(1, CHUNK_BYTES // (8 * nlon))))
+
+
+def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Dataset:
+    """Coordinates, global and variable attributes of a disturbance product, without data.
+
+    The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
+    same :mod:`fieldmap.products.cf` helpers); ``attrs["variables"]`` maps each variable name
+    to its attributes.
+    """
+    from fieldmap import __version__
+    from fieldmap.products.cf import coords, global_attrs, vector_vars
+
+    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
+    vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
+    heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
+    attrs = global_attrs(
+        f"Gravity disturbance at {heights} km, {mod.name} degree {mod.lmax}",
+        mod,
+        ell,
+        grid,
+        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
+        f"normal gravitation of {ell.name}",
+    )
+    c = coords(grid, stacked)
+    if stacked:
+        c["threshold_mg"] = xr.Variable(
+            "threshold_mg",
+            np.array(thresholds, dtype=np.float64),
+            {"units": "mg", "long_name": "threshold of the disturbance modulus"},
+        )
+    ds = xr.Dataset(coords=c, attrs=attrs)
+    ds.attrs["variables"] = {name: vv[name][2] for name in VARIABLES}
+    ds.attrs["dims"] = dims
+    return ds
+
+
+def sweep_statistics(stats: list[dict], thresholds) -> dict:
+    """Statistics variables of a sweep: {name: (dims, values, attrs)} as altitude_sweep's."""
+    from fieldmap.products.stats import threshold_key
+
+    out = {}
+    for key, long in (
+        ("max_mg", "maximum"),
+        ("mean_mg", "area-weighted mean"),
+        ("p50_mg", "area-weighted median"),
+        ("p99_mg", "area-weighted 99th percentile"),
+    ):
+        out[key] = (
+            "height",
+            np.array([s[key] for s in stats]),
+            {"units": "mg", "long_name": f"{long} of the disturbance modulus"},
+        )
+    frac = np.array(
+        [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
+    )
+    out["area_fraction_above"] = (
+        ("height", "threshold_mg"),
+        frac,
+        {
+            "units": "1",
+            "long_name": "fraction of the map area where the modulus exceeds the threshold",
+        },
+    )
+    return out
+
+
+def map_attrs(stats: dict, thresholds) -> dict:
+    """Global statistics attributes of a one-height map (as disturbance_map's)."""
+    from fieldmap.products.blocks import PERCENTILE_RTOL
+    from fieldmap.products.cf import stats_attrs
+
+    attrs = stats_attrs(stats)
+    attrs["thresholds_mg"] = np.array(thresholds)
+    attrs["percentile_method"] = (
+        f"mergeable area-weighted histogram of the modulus, relative accuracy {PERCENTILE_RTOL:.1e}"
+    )
+    return attrs
+
+
+def _slabs(block, nrows_total: int, rows: int):
+    """Split each run of a block into chunk-aligned parts: (r0, r1, whole_chunks)."""
+    out = []
+    for r0, r1 in block.runs():
+        a = -(-r0 // rows) * rows
+        b = r1 if r1 == nrows_total else (r1 // rows) * rows
+        if a >= b:
+            out.append((r0, r1, False))
+            continue
+        if r0 < a:
+            out.append((r0, a, False))
+        out.append((a, b, True))
+        if b < r1:
+            out.append((b, r1, False))
+    return out
+
+
+def _put(arr, layer, stacked, r0, r1, values) -> None:
+    if stacked:
+        arr[layer, r0:r1, :] = values
+    else:
+        arr[r0:r1, :] = values
+
+
+class ZarrTarget:
+    """A zarr store being filled block by block (picklable: workers open it by path)."""
+
+    def __init__(self, path, nlat: int, rows: int, stacked: bool):
+        self.path = str(path)
+        self.nlat = nlat
+        self.rows = rows
+        self.stacked = stacked
+
+    def _arrays(self):
+        import zarr
+
+        return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in VARIABLES}
+
+    def write_block(self, block, data: dict) -> dict:
+        """Write the whole chunks of ``block``; return the rows of shared chunks."""
+        arrays = self._arrays()
+        pos = {int(r): k for k, r in enumerate(block.rows)}
+        edges = []
+        for r0, r1, whole in _slabs(block, self.nlat, self.rows):
+            k0, k1 = pos[r0], pos[r1 - 1] + 1
+            if whole:
+                for name in VARIABLES:
+                    _put(arrays[name], block.layer, self.stacked, r0, r1, data[name][k0:k1])
+            else:
+                edges.append((r0, r1, {name: data[name][k0:k1] for name in VARIABLES}))
+        return {"edges": edges}
+
+    def sink(self, block, data: dict) -> None:
+        """Client side: write the shared-chunk rows a worker returned."""
+        arrays = self._arrays()
+        for r0, r1, values in data["edges"]:
+            for name in VARIABLES:
+                _put(arrays[name], block.layer, self.stacked, r0, r1, values[name])
+
+
+def create_zarr(path, tmpl: xr.Dataset, grid) -> ZarrTarget:
+    """Create the zarr store (coordinates, attributes, empty chunked variables) at ``path``."""
+    import dask.array as da
+    import zarr
+
+    nh, nlat, nlon = grid.shape
+    stacked = "height" in tmpl.attrs["dims"]
+    rows = chunk_rows(nlon)
+    shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
+    chunks = (1, rows, nlon) if stacked else (rows, nlon)
+    ds = tmpl.copy()
+    var_attrs = ds.attrs.pop("variables")
+    dims = ds.attrs.pop("dims")
+    for name in VARIABLES:
+        ds[name] = (dims, da.zeros(shape, chunks=chunks), var_attrs[name])
+    encoding = {name: {"chunks": chunks} for name in VARIABLES}
+    ds.to_zarr(path, mode="w", compute=False, encoding=encoding, consolidated=False)
+    del zarr
+    return ZarrTarget(path, nlat, rows, stacked)
+
+
+def finish_zarr(path, attrs: dict, extra_vars: dict | None = None) -> None:
+    """Add the statistics (attributes and small variables) and consolidate the metadata."""
+    import zarr
+
+    kept = dict(zarr.open_group(path, mode="r").attrs)  # appending variables resets them
+    if extra_vars:
+        xr.Dataset(extra_vars).to_zarr(path, mode="a", consolidated=False)
+    g = zarr.open_group(path, mode="r+")
+    g.attrs.update({**kept, **{k: _jsonable(v) for k, v in attrs.items()}})
+    with warnings.catch_warnings():  # "not part of the Zarr 3 specification": xarray reads it
+        warnings.simplefilter("ignore")
+        zarr.consolidate_metadata(path)
+
+
+def _jsonable(v):
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+class NetCDFWriter:
+    """A NetCDF-4 file written block by block by one writer (the client)."""
+
+    def __init__(self, path, tmpl: xr.Dataset, grid):
+        import netCDF4
+
+        nh, nlat, nlon = grid.shape
+        ds = tmpl.copy()
+        var_attrs = ds.attrs.pop("variables")
+        dims = ds.attrs.pop("dims")
+        self.stacked = "height" in dims
+        ds.to_netcdf(path, engine="netcdf4", mode="w")
+        self.nc = netCDF4.Dataset(path, "a")
+        rows = chunk_rows(nlon)
+        chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
+        self.vars = {}
+        for name in VARIABLES:
+            v = self.nc.createVariable(
+                name, "f8", dims, zlib=True, complevel=4, chunksizes=chunks, fill_value=np.nan
+            )
+            v.setncatts(var_attrs[name])
+            if not self.stacked:
+                v.setncattr("coordinates", "height")
+            self.vars[name] = v
+
+    def sink(self, block, data: dict) -> None:
+        """Write one block's variables at its rows."""
+        pos = 0
+        for r0, r1 in block.runs():
+            n = r1 - r0
+            for name in VARIABLES:
+                _put(self.vars[name], block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
+            pos += n
+
+    def finish(self, attrs: dict, extra_vars: dict | None = None) -> None:
+        """Write the statistics and close the file."""
+        for name, (dims, values, vattrs) in (extra_vars or {}).items():
+            dims = (dims,) if isinstance(dims, str) else dims
+            v = self.nc.createVariable(name, "f8", dims)
+            v[...] = values
+            v.setncatts(vattrs)
+        self.nc.setncatts(attrs)
+        self.close()
+
+    def close(self) -> None:
+        """Close the file (idempotent)."""
+        if self.nc is not None and self.nc.isopen():
+            self.nc.close()
+
+
+class MemorySink:
+    """Assemble the blocks into in-memory arrays (the Python API's eager mode)."""
+
+    def __init__(self, grid, stacked: bool):
+        nh, nlat, nlon = grid.shape
+        shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
+        self.stacked = stacked
+        self.arrays = {name: np.empty(shape) for name in VARIABLES}
+
+    def sink(self, block, data: dict) -> None:
+        """Copy one block's variables into place."""
+        for name in VARIABLES:
+            if self.stacked:
+                self.arrays[name][block.layer, block.rows] = data[name]
+            else:
+                self.arrays[name][block.rows] = data[name]
+
+
+@contextlib.contextmanager
+def atomic_store(final):
+    """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
+
+    Works for a file or a folder (zarr). An existing product of the same name is replaced
+    only once the new one is complete; on any error the temporary path is removed.
+    """
+    final = Path(final)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    tmp.rmdir()  # the writer creates it (a file or a folder)
+    try:
+        yield tmp
+        if final.is_dir() and not final.is_symlink():
+            old = final.with_name(f".{final.name}.old-{os.getpid()}")
+            os.replace(final, old)
+            os.replace(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    except BaseException:
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise
+
+
+def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
+    """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
+
+    Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
+    the store, so that figures of huge grids never hold the full-resolution arrays.
+    """
+    opener = (
+        (lambda p: xr.open_zarr(p, consolidated=True))
+        if fmt == "zarr"
+        else (lambda p: xr.open_dataset(p, engine="netcdf4"))
+    )
+    with opener(path) as ds:
+        n = ds.sizes["latitude"] * ds.sizes["longitude"]
+        s = max(1, math.ceil(math.sqrt(n / max_nodes)))
+        view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
+    view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
+    if s > 1:
+        view.attrs["grid_step_deg"] = float(view.attrs.get("grid_step_deg", 1.0)) * s
+        view.attrs["figure_decimation"] = s
+    return view

@@ -1,0 +1,521 @@
+"""Block engine: map products computed block by block, locally or on a Dask cluster.
+
+A product (disturbance map or altitude sweep) is split into blocks of latitude rows at one
+height. A block holds whole mirror units of :func:`fieldmap.grids.synthesis.mirror_pairs` (a row
+and its mirror at minus the latitude share one Legendre recursion), grouped exactly as
+:func:`fieldmap.grids.synthesis.synthesize` groups them, and is computed by ``synthesize`` on the
+sub-grid of its rows. The plan depends only on the grid and ``rows_per_block``, never on the
+executor, so a product is bitwise the same whether its blocks run here one after the other (each
+on every core through the Warp thread pool), on ``local:N`` worker processes, or on a remote
+cluster; a block that is run again after a worker died gives the same bits.
+
+Statistics are combined from per-block partial results in block order (so exactly the same on
+every executor): maximum, minimum, area-weighted sums for the mean and RMS, area above each
+threshold. Percentiles come from a mergeable histogram of the area weight on logarithmic bins of
+the modulus (``HIST_BINS`` bins over ``HIST_RANGE_MG``): the bin holding the percentile is exact
+and its geometric centre is returned, within a relative ``PERCENTILE_RTOL`` of the weighted
+percentile of :func:`fieldmap.products.stats.weighted_percentile`.
+
+Memory: one block of ``nb`` rows and ``nlon`` longitudes takes about ``nb * (per_item + 104 *
+nlon)`` bytes on the process computing it (``per_item`` of ``synthesize``: Fourier coefficients
+and FFT work arrays, ``nm * 144 + nlon * 144`` bytes for ``nm = lmax + 1``; 104 = the five output
+variables and the vector), plus the model (``16 * nm**2`` bytes) and the interpreter (~0.3 GB);
+see :func:`block_bytes`. The client holds at most ``window`` blocks (NetCDF) or only their
+boundary rows and statistics (zarr). Nothing is proportional to the grid but the row weights.
+
+Writing (:mod:`fieldmap.products.blockio`): zarr stores are written by the workers in parallel;
+NetCDF-4 files by one writer, the client, as blocks arrive (HDF5 has no safe parallel writer
+without MPI). Both go to a temporary name renamed at the end.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+import os
+from collections.abc import Iterator
+
+import numpy as np
+
+from fieldmap.errors import InputError
+
+__all__ = [
+    "HIST_BINS",
+    "HIST_RANGE_MG",
+    "PERCENTILE_RTOL",
+    "Block",
+    "block_bytes",
+    "compute_block",
+    "open_client",
+    "plan_blocks",
+]
+
+#: Number of logarithmic histogram bins of the percentiles.
+HIST_BINS = 2**17
+#: Range of the histogram of the modulus (mg): values outside fall into the end bins.
+HIST_RANGE_MG = (1e-12, 1e4)
+_LOG_LO = math.log10(HIST_RANGE_MG[0])
+_LOG_STEP = (math.log10(HIST_RANGE_MG[1]) - _LOG_LO) / HIST_BINS
+#: Largest relative error of a percentile: half a bin, 10**(step/2) - 1 (1.4e-4).
+PERCENTILE_RTOL = 10 ** (_LOG_STEP / 2) - 1
+#: Blocks per height of the default plan (at least; more where memory asks for it).
+BLOCKS_PER_HEIGHT = 32
+#: Variables of a disturbance block, in the order of :func:`fieldmap.products.cf.vector_vars`.
+VARIABLES = ("east", "north", "up", "modulus", "modulus_mg")
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """One block of a product: rows (ascending indices into the grid's latitudes) at one height.
+
+    Attributes
+    ----------
+    index : int
+        Position in the plan (statistics are folded in this order).
+    layer : int
+        Height index.
+    rows : numpy.ndarray
+        Row indices, ascending (one or two contiguous runs: south rows and their mirrors).
+    """
+
+    index: int
+    layer: int
+    rows: np.ndarray
+
+    def runs(self) -> list[tuple[int, int]]:
+        """Contiguous runs ``[r0, r1)`` of the rows."""
+        r = self.rows
+        cut = np.flatnonzero(np.diff(r) != 1) + 1
+        starts = np.concatenate([[0], cut])
+        stops = np.concatenate([cut, [r.size]])
+        return [(int(r[a]), int(r[b - 1]) + 1) for a, b in zip(starts, stops)]
+
+
+def _per_item(nm: int, nlon: int, lon: np.ndarray) -> int:
+    """Bytes per row of one ``synthesize`` block (its own formula), plus the five outputs."""
+    from fieldmap.grids.longitude import _regular_period
+
+    nper = _regular_period(lon) or nlon
+    return nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2 + nlon * 8 * 8
+
+
+def block_bytes(nb: int, lmax: int, nlon: int, lon: np.ndarray | None = None) -> int:
+    """Working memory of one block of ``nb`` rows (bytes), without interpreter and model.
+
+    ``nb * (nm * 144 + nper * 96 + nlon * 112)`` with ``nm = lmax + 1`` and ``nper`` the FFT
+    length (``nlon`` for a global grid): Fourier coefficients, FFT work arrays, the vector and
+    the five output variables (east, north, up, modulus, modulus_mg).
+    """
+    lon = np.arange(nlon) * (360.0 / nlon) if lon is None else lon
+    return nb * _per_item(lmax + 1, nlon, lon)
+
+
+def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Block]:
+    """Split a grid into blocks of whole mirror units, height by height.
+
+    Parameters
+    ----------
+    grid : fieldmap.grids.spec.GridSpec
+    lmax : int
+        Degree of the synthesis (for the default block size).
+    rows_per_block : int, optional
+        Most rows per block (a mirrored pair counts two; at least 2). Default: the smaller of
+        what :func:`fieldmap.grids.synthesis.synthesize` keeps in one block
+        (``BLOCK_BYTES / per_item``) and ``ceil(nlat / BLOCKS_PER_HEIGHT)``.
+
+    Returns
+    -------
+    list of Block
+        Independent of the executor: the same grid and ``rows_per_block`` give the same plan.
+    """
+    from fieldmap.grids.synthesis import BLOCK_BYTES, mirror_pairs
+
+    nh, nlat, nlon = grid.shape
+    if rows_per_block is None:
+        per = _per_item(lmax + 1, nlon, grid.lon)
+        rows_per_block = min(BLOCK_BYTES // per, math.ceil(nlat / BLOCKS_PER_HEIGHT))
+    else:
+        try:
+            rows_per_block = int(rows_per_block)
+        except (TypeError, ValueError):
+            raise InputError(f"rows per block must be an integer, got {rows_per_block!r}") from None
+        if rows_per_block < 1:
+            raise InputError(f"rows per block must be >= 1, got {rows_per_block}")
+    size = max(2, min(nlat, rows_per_block))
+    units = mirror_pairs(grid.lat)
+    blocks = []
+    for layer in range(nh):
+        u0 = 0
+        while u0 < len(units):  # the grouping rule of synthesize
+            u1, count = u0, 0
+            while u1 < len(units) and (count == 0 or count + 1 + (units[u1][1] >= 0) <= size):
+                count += 1 if units[u1][1] < 0 else 2
+                u1 += 1
+            rows = np.sort([i for a, b in units[u0:u1] for i in ((a,) if b < 0 else (a, b))])
+            blocks.append(Block(len(blocks), layer, rows.astype(np.int64)))
+            u0 = u1
+    return blocks
+
+
+# ---------------------------------------------------------------------------- statistics
+
+
+def _hist_index(v: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore"):
+        k = np.floor((np.log10(v) - _LOG_LO) / _LOG_STEP)
+    return np.clip(np.nan_to_num(k, nan=0.0, neginf=0.0), 0, HIST_BINS - 1).astype(np.int64)
+
+
+def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -> dict:
+    """Partial statistics of one block: extrema, weighted sums, weighted histogram.
+
+    ``row_weights`` are the (unnormalised) area weights of the block's rows
+    (:func:`fieldmap.products.stats.area_weights` of the whole grid, taken at the rows).
+    """
+    v = modulus_mg
+    if not np.all(np.isfinite(v)):
+        raise InputError("map holds non-finite values")
+    w = np.repeat(row_weights, v.shape[1])
+    return {
+        "max": float(v.max()),
+        "min": float(v.min()),
+        "sw": float(row_weights @ v.sum(axis=1)),
+        "sw2": float(row_weights @ (v * v).sum(axis=1)),
+        "above": [float(row_weights @ (v > t).sum(axis=1)) for t in thresholds],
+        "hist": np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS),
+    }
+
+
+def merge_partials(acc: dict | None, part: dict) -> dict:
+    """Fold one block's partial statistics into the running total (call in block order)."""
+    if acc is None:
+        return {**part, "above": list(part["above"]), "hist": part["hist"].copy()}
+    acc["max"] = max(acc["max"], part["max"])
+    acc["min"] = min(acc["min"], part["min"])
+    acc["sw"] += part["sw"]
+    acc["sw2"] += part["sw2"]
+    acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
+    acc["hist"] += part["hist"]
+    return acc
+
+
+def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -> dict:
+    """Statistics in the form of :func:`fieldmap.products.stats.map_statistics`."""
+    from fieldmap.products.stats import threshold_key
+
+    out = {
+        "max_mg": acc["max"],
+        "min_mg": acc["min"],
+        "mean_mg": acc["sw"] / total_weight,
+        "rms_mg": math.sqrt(acc["sw2"] / total_weight),
+    }
+    cw = np.cumsum(acc["hist"])
+    for q in percentiles:
+        k = int(np.searchsorted(cw, q / 100.0 * cw[-1], side="left"))
+        k = min(k, HIST_BINS - 1)
+        out[f"p{q:g}_mg"] = float(10 ** (_LOG_LO + (k + 0.5) * _LOG_STEP))
+    out["area_fraction_above"] = {
+        threshold_key(t): a / total_weight for t, a in zip(thresholds, acc["above"])
+    }
+    return out
+
+
+class OrderedFold:
+    """Fold partial statistics in block order whatever order they arrive in."""
+
+    def __init__(self, nlayers: int):
+        self.acc: list[dict | None] = [None] * nlayers
+        self._next = 0
+        self._waiting: dict[int, tuple[int, dict]] = {}
+
+    def add(self, index: int, layer: int, part: dict) -> None:
+        """Record block ``index``'s partial; fold every block now in sequence."""
+        self._waiting[index] = (layer, part)
+        while self._next in self._waiting:
+            lay, p = self._waiting.pop(self._next)
+            self.acc[lay] = merge_partials(self.acc[lay], p)
+            self._next += 1
+
+
+# ---------------------------------------------------------------------------- one block
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """Everything a worker needs for one block except the model (shipped once per worker)."""
+
+    block: Block
+    lat: np.ndarray  # the block's latitudes (deg)
+    lon: np.ndarray
+    height: float
+    step_deg: float
+    is_global: bool
+    row_weights: np.ndarray
+    ellipsoid: str
+    device: str | None
+    units: str
+    thresholds: tuple
+    store: object = None  # a blockio.ZarrTarget when workers write, else None
+
+
+def _worker_threads() -> None:
+    """Let a Dask worker's Warp launches use its share of the cores (set once per process)."""
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+    except (ImportError, ValueError):
+        return
+    if "FIELDMAP_THREADS" not in os.environ:
+        os.environ["FIELDMAP_THREADS"] = str(max(1, int(w.state.nthreads)))
+
+
+def compute_block(job: Job, model) -> dict:
+    """Synthesise one block; write it to the zarr store if ``job.store``, return the rest.
+
+    Returns
+    -------
+    dict
+        ``index``, ``layer``, ``rows``, ``partial`` (statistics) and ``data``: the variables
+        {name: (nb, nlon) array} when the caller writes them, else only the boundary rows the
+        workers cannot write alone (``blockio.ZarrTarget.write_block``).
+    """
+    from fieldmap.field.ellipsoid import get_ellipsoid
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.grids.synthesis import synthesize
+    from fieldmap.products.cf import UNITS
+    from fieldmap.products.stats import MG
+
+    _worker_threads()
+    ell = get_ellipsoid(job.ellipsoid)
+    sub = GridSpec(
+        lat=job.lat,
+        lon=job.lon,
+        heights=np.array([job.height]),
+        step_deg=job.step_deg,
+        is_global=job.is_global,
+    )
+    vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
+    # the expressions of fieldmap.products.cf.vector_vars, element by element the same bits
+    scale = UNITS[job.units]
+    mod = np.sqrt(np.sum(vec * vec, axis=-1))
+    data = {name: vec[..., k] / scale for k, name in enumerate(("east", "north", "up"))}
+    data["modulus"] = mod / scale
+    data["modulus_mg"] = mod / MG
+    del vec, mod
+    partial = block_partial(data["modulus_mg"], job.row_weights, job.thresholds)
+    out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
+    if job.store is not None:
+        data = job.store.write_block(job.block, data)
+    out["data"] = data
+    out["partial"] = partial
+    return out
+
+
+# ---------------------------------------------------------------------------- executors
+
+
+def parse_scheduler(text: str | None):
+    """``None``/"threads" (local thread pool), ``("local", N)`` or a scheduler address."""
+    if text is None or text in ("threads", "none", ""):
+        return None
+    if text.startswith("local:"):
+        try:
+            n = int(text.split(":", 1)[1])
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise InputError(f"--scheduler local:N needs a worker count N >= 1, got {text!r}")
+        return ("local", n)
+    if text == "local":
+        return ("local", max(1, os.cpu_count() or 1))
+    return text
+
+
+@contextlib.contextmanager
+def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
+    """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
+
+    ``("local", N)`` starts a LocalCluster of N single-threaded worker processes on 127.0.0.1
+    (no dashboard) and shuts it down afterwards; an address connects to a running scheduler.
+    An unreachable scheduler is an :class:`InputError` (one line, CLI exit 2).
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError(
+            "Dask is not installed: pip install 'fieldmap[distributed]' (dask[distributed], zarr)"
+        ) from None
+    import logging
+
+    if isinstance(scheduler, tuple):
+        n = scheduler[1]
+        cores = max(1, os.cpu_count() or 1)
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",
+            silence_logs=logging.ERROR,
+            env={"FIELDMAP_THREADS": str(max(1, cores // n))},
+        )
+        try:
+            with Client(cluster) as client:
+                yield client
+        finally:
+            cluster.close()
+        return
+    try:
+        client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
+    try:
+        yield client
+    finally:
+        client.close()
+
+
+def _run_local(jobs, model, on_result, progress) -> None:
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(jobs), unit="block", desc="blocks", disable=_bar_off(progress))
+    try:
+        for job in jobs:
+            on_result(compute_block(job, model))
+            bar.update(1)
+    finally:
+        bar.close()
+
+
+def _bar_off(progress):
+    return (not progress) if progress is not None else None
+
+
+def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> None:
+    """Submit the blocks to ``client`` (at most ``window`` in flight), handle results."""
+    from distributed import as_completed
+    from tqdm.auto import tqdm
+
+    nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+    # the coefficients travel once to every worker, not once per task
+    model_f = client.scatter(model, broadcast=True, hash=False)
+    window = window or 2 * nworkers
+    bar = tqdm(total=len(jobs), unit="block", desc="blocks (dask)", disable=_bar_off(progress))
+    pending = iter(jobs)
+    futures = [
+        client.submit(compute_block, job, model_f, pure=False, retries=2)
+        for job in _take(pending, window)
+    ]
+    seq = as_completed(futures)
+    try:
+        for fut in seq:
+            res = fut.result()
+            fut.release()
+            on_result(res)
+            del res
+            bar.update(1)
+            for job in _take(pending, 1):
+                seq.add(client.submit(compute_block, job, model_f, pure=False, retries=2))
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        bar.close()
+        client.cancel(model_f)
+
+
+def _take(it, n):
+    out = []
+    for _ in range(n):
+        try:
+            out.append(next(it))
+        except StopIteration:
+            break
+    return out
+
+
+# ---------------------------------------------------------------------------- products
+
+
+def make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store=None) -> list[Job]:
+    """One :class:`Job` per block."""
+    from fieldmap.products.stats import area_weights
+
+    aw = area_weights(grid.lat)
+    return [
+        Job(
+            block=b,
+            lat=grid.lat[b.rows],
+            lon=grid.lon,
+            height=float(grid.heights[b.layer]),
+            step_deg=grid.step_deg,
+            is_global=grid.is_global,
+            row_weights=aw[b.rows],
+            ellipsoid=ellipsoid,
+            device=device,
+            units=units,
+            thresholds=tuple(thresholds),
+            store=store,
+        )
+        for b in blocks
+    ]
+
+
+def run_blocks(
+    grid,
+    model,
+    *,
+    ellipsoid: str = "WGS84",
+    device: str | None = None,
+    units: str = "mGal",
+    thresholds=(0.02, 0.05, 0.06, 0.10),
+    percentiles=(50.0, 90.0, 99.0),
+    rows_per_block: int | None = None,
+    client=None,
+    sink=None,
+    store=None,
+    progress: bool | None = None,
+    window: int | None = None,
+) -> list[dict]:
+    """Compute every block of a disturbance product; return the statistics per height.
+
+    Parameters
+    ----------
+    grid : GridSpec
+    model : SHModel
+    client : dask.distributed.Client, optional
+        Run the blocks on this cluster; default: here, one after the other.
+    sink : callable, optional
+        ``sink(block, data)`` receives every block's variables (or, with ``store``, the
+        boundary rows the workers left), in completion order.
+    store : blockio.ZarrTarget, optional
+        Workers write their blocks straight into this zarr store.
+    window : int, optional
+        Blocks in flight on the cluster (default: two per worker), which bounds the memory.
+
+    Returns
+    -------
+    list of dict
+        Per height, in the form of :func:`fieldmap.products.stats.map_statistics`.
+    """
+    from fieldmap.products.stats import area_weights
+
+    blocks = plan_blocks(grid, model.lmax, rows_per_block)
+    jobs = make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store)
+    fold = OrderedFold(grid.heights.size)
+
+    def on_result(res):
+        if sink is not None:
+            sink(blocks[res["index"]], res["data"])
+        fold.add(res["index"], res["layer"], res["partial"])
+
+    if client is None:
+        _run_local(jobs, model, on_result, progress)
+    else:
+        _run_dask(client, jobs, model, on_result, progress, window)
+    total = float(area_weights(grid.lat).sum()) * grid.lon.size
+    return [finish_statistics(a, total, thresholds, percentiles) for a in fold.acc]
