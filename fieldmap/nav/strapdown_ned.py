@@ -12,7 +12,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.nav.strapdown import _prepare
+from fieldmap.nav.strapdown import prepare_batch
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ def propagate_ned(
     )
     if llh.size and np.any(np.abs(llh[..., 0]) >= 89.0):
         raise InputError("the NED mechanization is not valid within 1 degree of the poles")
-    b = _prepare(
+    b = prepare_batch(
         dtheta,
         dv,
         dt,
