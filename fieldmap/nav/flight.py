@@ -321,8 +321,9 @@ class FlightTrajectory(Trajectory):
         return C, np.einsum("nij,nj->ni", C, w_b)
 
     def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:
-        """Refuse paths deeper than ``min_height`` (default -11 km: ellipsoidal heights at sea
-        level reach -106 m, and the check in the base class is for rockets).
+        """Refuse paths deeper than ``min_height`` (m; default -11 km).
+
+        Ellipsoidal heights at sea level reach -106 m; the base class's 0 m is for rockets.
         """
         super().check_above_surface(n, min_height)
 
@@ -358,7 +359,7 @@ def route_flight(
     sample_dt: float = 1.0,
     ellipsoid: Ellipsoid = WGS84,
 ) -> FlightSamples:
-    """A study flight along geodesics between waypoints at constant ground speed.
+    """Build a study flight along geodesics between waypoints at constant ground speed.
 
     Parameters
     ----------
