@@ -179,6 +179,12 @@ _ERROR_KEYS = {
     "acc_noise": (),
     "gyro_noise": (),
     "seed": (),
+    "acc_gm_sigma": (),
+    "acc_gm_tau": (),
+    "gyro_gm_sigma": (),
+    "gyro_gm_tau": (),
+    "acc_gm": (3,),
+    "gyro_gm": (3,),
 }
 _ERROR_DEFAULTS = {
     "acc_bias": np.zeros(3),
@@ -187,6 +193,12 @@ _ERROR_DEFAULTS = {
     "gyro_M": np.eye(3),
     "acc_noise": 0.0,
     "gyro_noise": 0.0,
+    "acc_gm_sigma": 0.0,
+    "acc_gm_tau": 0.0,
+    "gyro_gm_sigma": 0.0,
+    "gyro_gm_tau": 0.0,
+    "acc_gm": np.zeros(3),
+    "gyro_gm": np.zeros(3),
 }
 
 
@@ -203,6 +215,11 @@ class _Batch:
     output_every: int
     n_out: int
     device: str
+
+    @property
+    def sensor_errors(self):
+        """Uploaded :class:`fieldmap.kernels.strapdown.SensorErrors` (final GM states after use)."""
+        return self.inputs[3]
 
     def launch(self, kernel, start, params: list, times=()) -> tuple:
         """Run ``kernel`` for every trajectory; return its stored states (NumPy).
@@ -392,7 +409,10 @@ def propagate_lci(
     errors : dict, optional
         Per-trajectory sensor errors (shape (3,) or (n_traj, ...)): ``acc_bias`` m/s²,
         ``gyro_bias`` rad/s, ``acc_M``, ``gyro_M`` (3×3, I + scale + misalignment),
-        ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int.
+        ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int; first-order Gauss–Markov
+        bias instability ``acc_gm_sigma`` m/s², ``gyro_gm_sigma`` rad/s with correlation times
+        ``acc_gm_tau``, ``gyro_gm_tau`` s (0: none) and initial states ``acc_gm`` m/s²,
+        ``gyro_gm`` rad/s (n_traj, 3).
     t0 : float
         Time of the first sample after launch (Earth rotation angle ω t0). Units: s.
     output_every : int
