@@ -34,10 +34,13 @@ _TWO_THIRDS = wp.constant(wp.float64(2.0 / 3.0))
 class SensorErrors:
     """Per-thread sensor errors, all arrays indexed by trajectory.
 
-    Measured increments: ``dv = M_a dv_true + b_a dt + σ_a √dt n``,
-    ``dθ = M_g dθ_true + b_g dt + σ_g √dt n`` with n ~ N(0, I) from Warp's RNG seeded per
-    thread. Units: b_a m/s², b_g rad/s, σ_a m/s/√s, σ_g rad/√s; M dimensionless (I + scale
-    factor + misalignment).
+    Measured increments: ``dv = M_a dv_true + (b_a + β_a) dt + σ_a √dt n``,
+    ``dθ = M_g dθ_true + (b_g + β_g) dt + σ_g √dt n`` with n ~ N(0, I) from Warp's RNG seeded
+    per thread and β a first-order Gauss–Markov bias per axis, updated once per sample:
+    ``β⁺ = e^(−dt/τ) β + s √(1 − e^(−2dt/τ)) n`` (stationary σ = s; exact discretisation,
+    Maybeck 1979 §4.9 / Brown & Hwang 2012 §2.9). Units: b_a, s_a m/s², b_g, s_g rad/s,
+    σ_a m/s/√s, σ_g rad/√s, τ s (0: no Gauss–Markov term); M dimensionless (I + scale factor
+    + misalignment).
     """
 
     acc_bias: wp.array(dtype=wp.vec3d)
@@ -47,6 +50,54 @@ class SensorErrors:
     acc_noise: wp.array(dtype=wp.float64)
     gyro_noise: wp.array(dtype=wp.float64)
     seed: wp.array(dtype=wp.int32)
+    acc_gm_sigma: wp.array(dtype=wp.float64)
+    acc_gm_tau: wp.array(dtype=wp.float64)
+    gyro_gm_sigma: wp.array(dtype=wp.float64)
+    gyro_gm_tau: wp.array(dtype=wp.float64)
+    acc_gm: wp.array(dtype=wp.vec3d)
+    gyro_gm: wp.array(dtype=wp.vec3d)
+
+
+@wp.struct
+class BaroAiding:
+    """Third-order barometric altitude loop (Widnall & Sinha 1980; Titterton & Weston 2004 §5.3).
+
+    With δh = h_INS − h_baro: ḣ = −v_D − k1 δh, v̇_D += k2 δh + δa, δȧ = k3 δh. Baro
+    measurement per IMU sample: ``h_baro = h_ref + bias + γ + σ n`` with γ a Gauss–Markov
+    drift (σ_gm, τ_gm). ``enabled`` 0: free vertical channel (the loop is skipped). ``state``
+    per trajectory (δa m/s², γ m, unused) is read at the start and written at the end, so a
+    flight can be propagated in time blocks. Units: k1 1/s, k2 1/s², k3 1/s³, heights m.
+    """
+
+    enabled: wp.int32
+    k1: wp.float64
+    k2: wp.float64
+    k3: wp.float64
+    h_ref: wp.array2d(dtype=wp.float64)
+    bias: wp.array(dtype=wp.float64)
+    noise: wp.array(dtype=wp.float64)
+    gm_sigma: wp.array(dtype=wp.float64)
+    gm_tau: wp.array(dtype=wp.float64)
+    state: wp.array(dtype=wp.vec3d)
+
+
+@wp.func
+def gm_coeffs(sigma: wp.float64, tau: wp.float64, dt: wp.float64):
+    """Per-sample factors (e^(−dt/τ), s √(1 − e^(−2dt/τ))) of a Gauss–Markov process; (1, 0) off."""
+    if tau > _ZERO and sigma > _ZERO:
+        a = wp.exp(-dt / tau)
+        return a, sigma * wp.sqrt(_ONE - a * a)
+    return _ONE, _ZERO
+
+
+@wp.func
+def gm_step(beta: wp.vec3d, a: wp.float64, b: wp.float64, state: wp.uint32):
+    """One Gauss–Markov update of three axes; draws normals only when ``b`` ≠ 0."""
+    if b != _ZERO:
+        beta = a * beta + b * wp.vec3d(
+            wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state))
+        )
+    return beta, state
 
 
 @wp.func
@@ -134,14 +185,22 @@ def lci_kernel(
     bg = err.gyro_bias[i] * dt
     ba = err.acc_bias[i] * dt
     state = wp.rand_init(err.seed[i])
+    ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
+    aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+    beta_g = err.gyro_gm[i]
+    beta_a = err.acc_gm[i]
     P_out[i, 0] = P
     V_out[i, 0] = V
     q_out[i, 0] = q
     for k in range(n_steps):
-        th1, state = measured(Mg, dtheta[s, 2 * k], bg, sg, state)
-        th2, state = measured(Mg, dtheta[s, 2 * k + 1], bg, sg, state)
-        dv1, state = measured(Ma, dvel[s, 2 * k], ba, sa, state)
-        dv2, state = measured(Ma, dvel[s, 2 * k + 1], ba, sa, state)
+        th1, state = measured(Mg, dtheta[s, 2 * k], bg + beta_g * dt, sg, state)
+        beta_g, state = gm_step(beta_g, ga, gb, state)
+        th2, state = measured(Mg, dtheta[s, 2 * k + 1], bg + beta_g * dt, sg, state)
+        beta_g, state = gm_step(beta_g, ga, gb, state)
+        dv1, state = measured(Ma, dvel[s, 2 * k], ba + beta_a * dt, sa, state)
+        beta_a, state = gm_step(beta_a, aa, ab, state)
+        dv2, state = measured(Ma, dvel[s, 2 * k + 1], ba + beta_a * dt, sa, state)
+        beta_a, state = gm_step(beta_a, aa, ab, state)
         th = th1 + th2
         dvb = dv1 + dv2
         phi = th + _TWO_THIRDS * wp.cross(th1, th2)
@@ -165,6 +224,8 @@ def lci_kernel(
             P_out[i, j] = P
             V_out[i, j] = V
             q_out[i, j] = q
+    err.gyro_gm[i] = beta_g
+    err.acc_gm[i] = beta_a
 
 
 @wp.func
@@ -192,6 +253,7 @@ def ned_kernel(
     kind: wp.array(dtype=wp.int32),
     lmax: wp.array(dtype=wp.int32),
     ell: NormalParams,
+    baro: BaroAiding,
     sh: SHKernelModel,
     dt: wp.float64,
     n_steps: wp.int32,
@@ -208,6 +270,8 @@ def ned_kernel(
     rotation correction of seed 001 plus the n-frame rotation over the sample, Savage 1998);
     v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
     L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
+    With ``baro.enabled`` the vertical channel is damped by :class:`BaroAiding` (δh from the
+    start of the sample: v_D += (k2 δh + δa) dt, h −= k1 δh dt, δa += k3 δh dt).
     """
     i = wp.tid() + offset
     s = imu_set[i]
@@ -224,12 +288,32 @@ def ned_kernel(
     bg = err.gyro_bias[i] * dt
     ba = err.acc_bias[i] * dt
     state = wp.rand_init(err.seed[i])
+    ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
+    aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+    beta_g = err.gyro_gm[i]
+    beta_a = err.acc_gm[i]
+    aid = baro.state[i]
+    da = aid[0]
+    drift = aid[1]
+    ba_a, ba_b = gm_coeffs(baro.gm_sigma[i], baro.gm_tau[i], dt)
+    b_bias = baro.bias[i]
+    b_noise = baro.noise[i]
     llh_out[i, 0] = llh
     v_out[i, 0] = v
     q_out[i, 0] = q
     for k in range(n_steps):
-        th, state = measured(Mg, dtheta[s, k], bg, sg, state)
-        dv, state = measured(Ma, dvel[s, k], ba, sa, state)
+        th, state = measured(Mg, dtheta[s, k], bg + beta_g * dt, sg, state)
+        beta_g, state = gm_step(beta_g, ga, gb, state)
+        dv, state = measured(Ma, dvel[s, k], ba + beta_a * dt, sa, state)
+        beta_a, state = gm_step(beta_a, aa, ab, state)
+        dh = _ZERO
+        if baro.enabled != 0:
+            h_b = baro.h_ref[s, k] + b_bias + drift
+            if b_noise != _ZERO:
+                h_b = h_b + b_noise * wp.float64(wp.randn(state))
+            if ba_b != _ZERO:
+                drift = ba_a * drift + ba_b * wp.float64(wp.randn(state))
+            dh = llh[2] - h_b
         sl = wp.sin(llh[0])
         cl = wp.cos(llh[0])
         w = _ONE - ell.e2 * sl * sl
@@ -242,8 +326,11 @@ def ned_kernel(
         f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
         g = gravity_ned(gk, llh, ell, model)
         v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
+        if baro.enabled != 0:
+            v_new = v_new + wp.vec3d(_ZERO, _ZERO, (baro.k2 * dh + da) * dt)
         vm = _HALF * (v + v_new)
-        llh = llh + wp.vec3d(vm[0] / rn, vm[1] / (re * cl), -vm[2]) * dt
+        llh = llh + wp.vec3d(vm[0] / rn, vm[1] / (re * cl), -vm[2] - baro.k1 * dh) * dt
+        da = da + baro.k3 * dh * dt
         v = v_new
         q = wp.normalize(quat_from_rotvec(-(w_ie + w_en) * dt) * q * quat_from_rotvec(th))
         if (k + 1) % output_every == 0:
@@ -251,3 +338,6 @@ def ned_kernel(
             llh_out[i, j] = llh
             v_out[i, j] = v
             q_out[i, j] = q
+    err.gyro_gm[i] = beta_g
+    err.acc_gm[i] = beta_a
+    baro.state[i] = wp.vec3d(da, drift, _ZERO)

@@ -305,3 +305,12 @@ def test_monte_carlo_figures(scenario, tmp_path):
     path = tmp_path / "f.png"
     navplots.plot(res3, str(path))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_output_interval_that_does_not_divide_the_run_raises():
+    """0.7 s at 100 Hz is 35 steps, which do not divide a 2 s run: an error, not a silent change."""
+    from fieldmap.errors import InputError
+
+    with pytest.raises(InputError, match="0.7 s is not a whole number"):
+        navsim.build_scenario(duration=2.0, rate_hz=100.0, truth_lmax=8, output_dt=0.7)
+    assert navsim.output_steps(0.5, 100, 0.02) == 25

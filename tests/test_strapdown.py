@@ -339,3 +339,41 @@ def test_input_validation_models_and_errors():
         propagate_lci(dth, dth, imu_set=[0, 1], **ok)
     with pytest.raises(InputError, match="P0"):
         propagate_lci(dth, dth, **{**ok, "P0": [0.0, np.inf, 0.0]})
+
+
+def test_several_sets_without_imu_set_raise():
+    """Two increment sets for three trajectories: no silent use of set 0."""
+    from fieldmap.errors import InputError
+    from fieldmap.nav.launch_frames import LaunchFrame
+
+    dth = np.zeros((2, 4, 3))
+    dv = np.zeros((2, 4, 3))
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    frame = LaunchFrame(lon0=10.0, B0=40.0, A0=0.0)
+    with pytest.raises(InputError, match="2 increment sets for 3 trajectories"):
+        propagate_lci(dth, dv, 0.01, np.zeros(3), np.zeros(3), q0, frame, ["j2", "j4", "j6"])
+    res = propagate_lci(
+        dth, dv, 0.01, np.zeros(3), np.zeros(3), q0, frame, ["j2", "j4", "j6"], imu_set=[0, 1, 1]
+    )
+    assert res.P.shape == (3, 3, 3)
+
+
+def test_lci_ellipsoid_conflicting_with_launch_frame_raises():
+    """``ellipsoid=`` is not silently ignored when the launch frame has another one."""
+    from fieldmap.errors import InputError
+    from fieldmap.field.ellipsoid import GRS80
+    from fieldmap.nav.launch_frames import LaunchFrame
+
+    frame = LaunchFrame(lon0=10.0, B0=40.0, A0=0.0)
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    z = np.zeros((2, 3))
+    with pytest.raises(InputError, match="differs from the launch frame"):
+        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, frame, ellipsoid=GRS80)
+
+
+def test_quat_to_dcm_zero_quaternion_raises():
+    """A zero quaternion is an error, not a matrix of NaNs."""
+    from fieldmap.errors import InputError
+
+    with pytest.raises(InputError, match="non-zero"):
+        quat_to_dcm(np.zeros(4))

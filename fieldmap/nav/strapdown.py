@@ -20,9 +20,25 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav.launch_frames import LaunchFrame
 
-#: navigation gravity names -> kernel kind (kernels/navgravity.py); "shN" = SH to degree N
-GRAVITY_KINDS = {"normal": 0, "sh": 1, "j2": 2, "j4": 4, "j6": 6}
+
+def _kernel_kinds() -> dict:
+    from fieldmap.kernels import navgravity as kng
+
+    return {
+        "normal": int(kng.NAV_NORMAL_EXACT),
+        "sh": int(kng.NAV_SH),
+        "j2": int(kng.NAV_J2),
+        "j4": int(kng.NAV_J4),
+        "j6": int(kng.NAV_J6),
+    }
+
+
+#: navigation gravity names -> kernel kind (the integer codes of kernels/navgravity.py);
+#: "shN" = SH to degree N
+GRAVITY_KINDS = _kernel_kinds()
 _SH_NAME = re.compile(r"^sh(\d+)?$")
+#: normal navigation models from the simplest to the most complete
+NORMAL_MODELS = ("j2", "j4", "j6", "normal")
 
 
 @dataclass(frozen=True)
@@ -44,7 +60,10 @@ class LciResult:
 def quat_to_dcm(q) -> np.ndarray:
     """Scalar-first quaternions ``(..., 4)`` -> rotation matrices ``(..., 3, 3)``."""
     q = np.asarray(q, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if not np.all(np.isfinite(norm)) or np.any(norm < 1e-12):
+        raise InputError("quat_to_dcm needs finite, non-zero quaternions")
+    q = q / norm
     w, x, y, z = np.moveaxis(q, -1, 0)
     return np.stack(
         [
@@ -65,6 +84,26 @@ def dcm_to_quat(C) -> np.ndarray:
     q = np.concatenate([xyzw[:, 3:], xyzw[:, :3]], axis=1)
     q *= np.where(q[:, :1] < 0, -1.0, 1.0)
     return q.reshape(C.shape[:-2] + (4,))
+
+
+def sh_degree(name: str) -> int | None:
+    """SH degree N of a navigation name ``shN`` (None for ``sh`` or a normal model).
+
+    The one parser of the ``shN`` spelling; :func:`parse_gravity` validates against a model.
+    """
+    m = _SH_NAME.match(str(name).strip().lower())
+    return None if m is None or m.group(1) is None else int(m.group(1))
+
+
+def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
+    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 for the normal models."""
+    key = str(name).strip().lower()
+    if key in GRAVITY_KINDS and key != "sh":
+        return 1.0
+    deg = sh_degree(key)
+    if deg is None:
+        deg = sh_model.lmax if sh_model is not None else 0
+    return float((deg + 1) ** 2)
 
 
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
@@ -140,6 +179,12 @@ _ERROR_KEYS = {
     "acc_noise": (),
     "gyro_noise": (),
     "seed": (),
+    "acc_gm_sigma": (),
+    "acc_gm_tau": (),
+    "gyro_gm_sigma": (),
+    "gyro_gm_tau": (),
+    "acc_gm": (3,),
+    "gyro_gm": (3,),
 }
 _ERROR_DEFAULTS = {
     "acc_bias": np.zeros(3),
@@ -148,6 +193,12 @@ _ERROR_DEFAULTS = {
     "gyro_M": np.eye(3),
     "acc_noise": 0.0,
     "gyro_noise": 0.0,
+    "acc_gm_sigma": 0.0,
+    "acc_gm_tau": 0.0,
+    "gyro_gm_sigma": 0.0,
+    "gyro_gm_tau": 0.0,
+    "acc_gm": np.zeros(3),
+    "gyro_gm": np.zeros(3),
 }
 
 
@@ -164,6 +215,11 @@ class _Batch:
     output_every: int
     n_out: int
     device: str
+
+    @property
+    def sensor_errors(self):
+        """Uploaded :class:`fieldmap.kernels.strapdown.SensorErrors` (final GM states after use)."""
+        return self.inputs[3]
 
     def launch(self, kernel, start, params: list, times=()) -> tuple:
         """Run ``kernel`` for every trajectory; return its stored states (NumPy).
@@ -193,10 +249,13 @@ class _Batch:
         return outs[0].numpy(), outs[1].numpy(), _quat_out(outs[2])
 
 
-def _prepare(
+def prepare_batch(
     dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step
 ):
-    """Validate and upload everything the two kernels share (one row per trajectory)."""
+    """Validate and upload everything the LCI and NED kernels share (one row per trajectory).
+
+    Used by :func:`propagate_lci` and :func:`fieldmap.nav.strapdown_ned.propagate_ned`.
+    """
     _warp.init()
     dtheta = _finite("dtheta", dtheta, (3,))
     dv = _finite("dv", dv, (3,))
@@ -233,6 +292,11 @@ def _prepare(
         raise InputError(f"{len(names)} gravity names for {n} trajectories")
     kl = np.array([parse_gravity(g, sh_model) for g in names], dtype=np.int32).reshape(n, 2)
     if imu_set is None:
+        if n_sets not in (1, n):
+            raise InputError(
+                f"{n_sets} increment sets for {n} trajectories: give imu_set= (the set of each "
+                "trajectory) or one set per trajectory"
+            )
         imu_set = np.arange(n) if n_sets == n else np.zeros(n, dtype=np.int32)
     imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
     if imu_set.min() < 0 or imu_set.max() >= n_sets:
@@ -309,7 +373,7 @@ def propagate_lci(
     gravity="j4",
     *,
     sh_model=None,
-    ellipsoid: Ellipsoid | str = WGS84,
+    ellipsoid: Ellipsoid | str | None = None,
     imu_set=None,
     errors=None,
     t0=0.0,
@@ -336,14 +400,19 @@ def propagate_lci(
         ellipsoid), ``sh`` (full ``sh_model``) or ``shN`` (degree N).
     sh_model : SHModel, optional
         Spherical-harmonic model for the ``sh`` kinds.
-    ellipsoid : Ellipsoid or str
-        Level ellipsoid of the normal kinds.
+    ellipsoid : Ellipsoid or str, optional
+        Level ellipsoid of the frame and of the normal kinds (default: the frame's, WGS84 for a
+        tuple). Given with a :class:`LaunchFrame` of another ellipsoid: :class:`InputError`.
     imu_set : array_like of int, optional
-        Increment set of each trajectory (default: trajectory i uses set i, or set 0 if one set).
+        Increment set of each trajectory (default: trajectory i uses set i, or set 0 if one set;
+        several sets for a different number of trajectories need ``imu_set``).
     errors : dict, optional
         Per-trajectory sensor errors (shape (3,) or (n_traj, ...)): ``acc_bias`` m/s²,
         ``gyro_bias`` rad/s, ``acc_M``, ``gyro_M`` (3×3, I + scale + misalignment),
-        ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int.
+        ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int; first-order Gauss–Markov
+        bias instability ``acc_gm_sigma`` m/s², ``gyro_gm_sigma`` rad/s with correlation times
+        ``acc_gm_tau``, ``gyro_gm_tau`` s (0: none) and initial states ``acc_gm`` m/s²,
+        ``gyro_gm`` rad/s (n_traj, 3).
     t0 : float
         Time of the first sample after launch (Earth rotation angle ω t0). Units: s.
     output_every : int
@@ -355,12 +424,18 @@ def propagate_lci(
     -------
     LciResult
     """
-    frame = (
-        launch
-        if isinstance(launch, LaunchFrame)
-        else LaunchFrame(*launch, ellipsoid=get_ellipsoid(ellipsoid))
-    )
-    b = _prepare(
+    if isinstance(launch, LaunchFrame):
+        frame = launch
+        if ellipsoid is not None and get_ellipsoid(ellipsoid) != frame.ellipsoid:
+            raise InputError(
+                f"ellipsoid {get_ellipsoid(ellipsoid).name} differs from the launch frame's "
+                f"{frame.ellipsoid.name}: give it to the LaunchFrame"
+            )
+    else:
+        frame = LaunchFrame(
+            *launch, ellipsoid=get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
+        )
+    b = prepare_batch(
         dtheta,
         dv,
         dt,

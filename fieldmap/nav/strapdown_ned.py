@@ -12,7 +12,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.nav.strapdown import _prepare
+from fieldmap.nav.strapdown import prepare_batch
 
 
 @dataclass(frozen=True)
@@ -30,6 +30,56 @@ class NedResult:
     v_ned: np.ndarray
     q: np.ndarray
     gravity: tuple
+    #: final Gauss–Markov states (n_traj, 3) of the accelerometers and gyros and the final
+    #: baro-loop state (n_traj, 3: δa m/s², baro drift m, 0), to continue in the next block
+    final: dict | None = None
+
+
+@dataclass(frozen=True)
+class Baro:
+    """Third-order baro altitude loop and baro error model (see ``kernels.strapdown.BaroAiding``).
+
+    Parameters
+    ----------
+    h_ref : array_like (n_samples,) or (n_sets, n_samples)
+        True height at the start of each IMU sample (the baro senses it plus its errors). m.
+    k1, k2, k3 : float
+        Loop gains. Units: 1/s, 1/s², 1/s³. :func:`baro_gains` gives a triple pole.
+    bias : float or array_like (n_traj,)
+        Constant baro error per run. Units: m.
+    noise : float or array_like (n_traj,)
+        White noise per IMU sample. Units: m.
+    gm_sigma, gm_tau : float or array_like (n_traj,)
+        Gauss–Markov baro drift: stationary σ (m) and correlation time (s; 0: none).
+    state : array_like (n_traj, 3), optional
+        Loop state at the start (δa m/s², drift m, 0); default zeros.
+    """
+
+    h_ref: np.ndarray
+    k1: float
+    k2: float
+    k3: float
+    bias: object = 0.0
+    noise: object = 0.0
+    gm_sigma: object = 0.0
+    gm_tau: object = 0.0
+    state: object = None
+
+
+def baro_gains(tau: float = 100.0, ellipsoid: Ellipsoid = WGS84) -> tuple[float, float, float]:
+    r"""Gains of the third-order baro loop with a triple pole at s = −1/τ.
+
+    The height error of the loop obeys s³ + k1 s² + (k2 − 2g/R) s + k3 = 0 (the 2g/R term is
+    the vertical-channel instability, Titterton & Weston 2004 §5.3); matching (s + 1/τ)³ gives
+
+    .. math:: k_1 = 3/\tau,\quad k_2 = 3/\tau^2 + 2 g/R,\quad k_3 = 1/\tau^3.
+
+    Units: τ s; returns 1/s, 1/s², 1/s³.
+    """
+    if not np.isfinite(tau) or tau <= 0:
+        raise InputError(f"baro loop time constant must be positive, got {tau}")
+    g_over_r = 9.80665 / ellipsoid.a
+    return 3.0 / tau, 3.0 / tau**2 + 2.0 * g_over_r, 1.0 / tau**3
 
 
 def propagate_ned(
@@ -49,6 +99,7 @@ def propagate_ned(
     errors=None,
     output_every=1,
     device=None,
+    baro: Baro | None = None,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -70,6 +121,8 @@ def propagate_ned(
         Initial q_b^n, scalar first.
     gravity, sh_model, ellipsoid, imu_set, errors, output_every, device
         As in :func:`fieldmap.nav.strapdown.propagate_lci`.
+    baro : Baro, optional
+        Altitude aiding of the vertical channel (default: free inertial).
 
     Returns
     -------
@@ -80,7 +133,7 @@ def propagate_ned(
     )
     if llh.size and np.any(np.abs(llh[..., 0]) >= 89.0):
         raise InputError("the NED mechanization is not valid within 1 degree of the poles")
-    b = _prepare(
+    b = prepare_batch(
         dtheta,
         dv,
         dt,
@@ -99,9 +152,18 @@ def propagate_ned(
     st = b.states
     llh_rad = st["llh0"].copy()
     llh_rad[:, :2] = np.radians(llh_rad[:, :2])
+    aid = _baro_struct(baro, b, ksd)
     L, v, q = b.launch(
-        ksd.ned_kernel, (llh_rad, st["v_ned0"], st["q0"]), [normal_params(get_ellipsoid(ellipsoid))]
+        ksd.ned_kernel,
+        (llh_rad, st["v_ned0"], st["q0"]),
+        [normal_params(get_ellipsoid(ellipsoid)), aid],
     )
+    se = b.sensor_errors
+    final = {
+        "acc_gm": se.acc_gm.numpy(),
+        "gyro_gm": se.gyro_gm.numpy(),
+        "baro": aid.state.numpy(),
+    }
     return NedResult(
         t=b.dt * b.output_every * np.arange(b.n_out),
         lat=np.degrees(L[..., 0]),
@@ -110,4 +172,46 @@ def propagate_ned(
         v_ned=v,
         q=q,
         gravity=tuple(b.names),
+        final=final,
     )
+
+
+def _baro_struct(baro: Baro | None, b, ksd):
+    """Device struct of the baro loop (disabled with placeholder arrays when ``baro`` is None)."""
+    import warp as wp
+
+    from fieldmap.nav.strapdown import _per_traj
+
+    dev, n = b.device, b.n
+    aid = ksd.BaroAiding()
+    arr = lambda a, t=wp.float64: wp.array(a, dtype=t, device=dev)  # noqa: E731
+    if baro is None:
+        aid.enabled = 0
+        aid.k1 = aid.k2 = aid.k3 = wp.float64(0.0)
+        aid.h_ref = wp.zeros((1, 1), dtype=wp.float64, device=dev)
+        for key in ("bias", "noise", "gm_sigma", "gm_tau"):
+            setattr(aid, key, arr(np.zeros(n)))
+        aid.state = arr(np.zeros((n, 3)), wp.vec3d)
+        return aid
+    h_ref = np.asarray(baro.h_ref, dtype=np.float64)
+    h_ref = h_ref[None] if h_ref.ndim == 1 else h_ref
+    n_sets, n_samples = b.inputs[0].shape
+    if h_ref.shape != (n_sets, n_samples) or not np.all(np.isfinite(h_ref)):
+        raise InputError(
+            f"baro h_ref must be finite with shape ({n_samples},) or ({n_sets}, {n_samples}), "
+            f"got {h_ref.shape}"
+        )
+    gains = np.array([baro.k1, baro.k2, baro.k3], dtype=np.float64)
+    if not np.all(np.isfinite(gains)) or np.any(gains < 0):
+        raise InputError(f"baro gains must be finite and >= 0, got {gains}")
+    aid.enabled = 1
+    aid.k1, aid.k2, aid.k3 = (wp.float64(x) for x in gains)
+    aid.h_ref = arr(np.ascontiguousarray(h_ref))
+    for key in ("bias", "noise", "gm_sigma", "gm_tau"):
+        val = _per_traj(f"baro {key}", getattr(baro, key), n, ())
+        if key != "bias" and np.any(val < 0):
+            raise InputError(f"baro {key} must be >= 0")
+        setattr(aid, key, arr(val))
+    state = np.zeros((n, 3)) if baro.state is None else baro.state
+    aid.state = arr(_per_traj("baro state", state, n, (3,)), wp.vec3d)
+    return aid

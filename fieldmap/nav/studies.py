@@ -115,7 +115,9 @@ def build_scenario(
     n_gauss : int
         Gauss–Legendre nodes per IMU sample.
     output_dt : float
-        Interval of the stored error curves. Units: s.
+        Interval of the stored error curves; a whole number of navigation steps (2/rate) that
+        divides the run (else :class:`InputError`), or at least ``duration`` (the end state
+        only). Units: s.
     trajectory : Trajectory, optional
         Default :class:`fieldmap.nav.trajectory.BoostGlide` of length ``duration``.
     device : str, optional
@@ -131,11 +133,32 @@ def build_scenario(
     g = Gravitation("sh", model=model, device=device)
     imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
     steps = imu.n_samples // 2
-    every = min(steps, max(1, int(round(output_dt * rate_hz / 2.0))))
-    while steps % every:  # the last state must be stored
-        every -= 1
+    every = output_steps(output_dt, steps, 2.0 / float(rate_hz))
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
     return Scenario(traj, model, imu, every, t_out, traj.kinematics(t_out), device)
+
+
+def output_steps(output_dt: float, steps: int, step_s: float) -> int:
+    """Navigation steps per stored state for an output interval ``output_dt`` (s).
+
+    ``output_dt`` must be a whole number of steps of ``step_s`` seconds that divides the
+    ``steps`` of the run, or at least the run's length (then only the end state is stored);
+    otherwise :class:`InputError` names the nearest valid intervals.
+    """
+    if output_dt >= steps * step_s * (1.0 - 1e-12):
+        return steps
+    k = output_dt / step_s
+    every = int(round(k))
+    if every >= 1 and abs(k - every) <= 1e-9 * max(1.0, k) and steps % every == 0:
+        return every
+    divisors = [d for d in range(1, steps + 1) if steps % d == 0]
+    lo = max([d for d in divisors if d * step_s <= output_dt] or [1])
+    hi = min([d for d in divisors if d * step_s >= output_dt] or [steps])
+    raise InputError(
+        f"output interval {output_dt:g} s is not a whole number of navigation steps "
+        f"({step_s:g} s) dividing the run ({steps * step_s:g} s): use e.g. "
+        f"{lo * step_s:g} s or {hi * step_s:g} s"
+    )
 
 
 def propagate(
@@ -204,12 +227,10 @@ def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
     and dealt round-robin into the pieces.
     """
     from fieldmap._warp import chunks, cpu_workers
+    from fieldmap.nav.strapdown import gravity_cost
 
     n = len(gravity)
-    cost = np.array(
-        [(int(g[2:]) + 1) ** 2 if g.startswith("sh") and g[2:].isdigit() else 1 for g in gravity],
-        dtype=np.float64,
-    )
+    cost = np.array([gravity_cost(g) for g in gravity], dtype=np.float64)
     order = np.argsort(-cost, kind="stable")
     pieces = chunks(n, parts or cpu_workers())
     buckets: list[list[int]] = [[] for _ in pieces]
@@ -239,7 +260,9 @@ def gravity_eval_seconds(
         g = Gravitation(NORMAL_KINDS[key], device=device)
         n_points = n_points or 20000
     else:
-        lmax = sh_model.lmax if key == "sh" else int(key[2:])
+        from fieldmap.nav.strapdown import parse_gravity
+
+        lmax = parse_gravity(key, sh_model)[1]
         g = Gravitation("sh", model=sh_model, lmax=lmax, device=device)
         n_points = n_points or max(200, min(20000, int(4e7 / (lmax + 1) ** 2)))
     r = BoostGlide().kinematics(np.linspace(0.0, 800.0, n_points)).r_e

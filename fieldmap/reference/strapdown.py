@@ -110,6 +110,7 @@ def propagate_ned_reference(
     output_every=1,
     attitude="split",
     frame_rotation=True,
+    baro=None,
 ):
     """Earth-relative NED mechanization, one update per sample, n trajectories at once.
 
@@ -135,6 +136,10 @@ def propagate_ned_reference(
     frame_rotation : bool
         Subtract ½ ω_in^n × C dv (rotation of the n-frame over the sample, as the kernel); navtk
         does not (False reproduces it).
+    baro : dict, optional
+        Third-order baro loop: ``k1, k2, k3`` (1/s, 1/s², 1/s³), ``h_ref`` (n, n_samples) baro
+        heights without error (m), ``bias`` (n,) m. With δh = h − (h_ref + bias) at the start of
+        each sample: ḣ = −v_D − k1 δh, v̇_D gains k2 δh + δa, δȧ = k3 δh (Widnall & Sinha 1980).
 
     Returns
     -------
@@ -145,7 +150,12 @@ def propagate_ned_reference(
     v = np.array(v0, dtype=np.float64)
     C = np.array(C0, dtype=np.float64)
     out_llh, out_v, out_C = [llh.copy()], [v.copy()], [C.copy()]
+    delta_a = np.zeros(llh.shape[0])
     for k in range(dtheta.shape[1]):
+        if baro is not None:
+            dh = llh[:, 2] - (baro["h_ref"][:, k] + baro["bias"])
+        else:
+            dh = np.zeros(llh.shape[0])
         lat, h = llh[:, 0], llh[:, 2]
         s, c = np.sin(lat), np.cos(lat)
         R_E = a / np.sqrt(1 - e2 * s**2)  # transverse radius of curvature
@@ -160,8 +170,15 @@ def propagate_ned_reference(
             f_n -= 0.5 * np.cross(w_ie + w_en, np.einsum("nij,nj->ni", C, dvk))
         coriolis = np.cross(2 * w_ie + w_en, v)
         v_new = v + (f_n + gravity_ned(llh) - coriolis) * dt
+        k1 = 0.0
+        if baro is not None:
+            v_new[:, 2] += (baro["k2"] * dh + delta_a) * dt
+            k1 = baro["k1"]
         vm = 0.5 * (v + v_new)
-        llh = llh + dt * np.stack([vm[:, 0] / (R_N + h), vm[:, 1] / ((R_E + h) * c), -vm[:, 2]], -1)
+        h_rate = -vm[:, 2] - k1 * dh
+        llh = llh + dt * np.stack([vm[:, 0] / (R_N + h), vm[:, 1] / ((R_E + h) * c), h_rate], -1)
+        if baro is not None:
+            delta_a = delta_a + baro["k3"] * dh * dt
         w_in = w_ie + w_en
         if attitude == "body":
             C = C @ rodrigues(th - np.einsum("nji,nj->ni", C, w_in) * dt)

@@ -1,0 +1,461 @@
+r"""A user's flight as a smooth :class:`~fieldmap.nav.trajectory.Trajectory`: samples and routes.
+
+Input: times (s), geodetic latitude, longitude (degrees) and height above the ellipsoid (m),
+optionally roll, pitch and heading (degrees), from a CSV file (header row, ``#`` comment lines),
+a NetCDF file, a pandas ``DataFrame``, an xarray ``Dataset`` or plain arrays. Sampling may be
+irregular (a 1 Hz GNSS log is typical).
+
+Interpolation. Positions are carried to ECEF and interpolated by a quintic B-spline in time
+(``scipy.interpolate.make_interp_spline``, k = 5: C⁴, so the acceleration the IMU senses is
+twice continuously differentiable); velocity and acceleration are its exact derivatives. Attitude
+is a :class:`scipy.spatial.transform.RotationSpline` of ``C_b^e`` through the knots (C² in
+rotation, its body rate continuous). Without attitude columns the flight is *coordinated*: heading
+along the ground track, pitch along the flight path, roll ``atan(V ψ̇ / g)`` from the turn rate
+(Etkin & Reid 1996 §6.4: no side force in a balanced turn). IMU increments are then synthesized
+exactly from the interpolated path by :func:`fieldmap.nav.imu.synthesize`.
+
+A flight is refused with one :class:`fieldmap.errors.InputError` naming the source, line and
+column when a column is missing, a value is not a finite number, times do not increase, there
+are fewer than 6 points (a quintic spline's minimum), latitude/longitude look like radians,
+the path jumps (> 8 km/s between samples) or the spline's acceleration exceeds 100 g.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.trajectory import Trajectory
+
+REQUIRED = ("time_s", "lat_deg", "lon_deg", "height_m")
+ATTITUDE = ("roll_deg", "pitch_deg", "heading_deg")
+G0 = 9.80665
+#: accelerations beyond this are refused (m/s²)
+MAX_ACCEL = 100.0 * G0
+#: speeds between consecutive samples beyond this are a position jump (m/s)
+MAX_SPEED = 8000.0
+#: the quintic spline needs at least k + 1 points
+MIN_POINTS = 6
+
+
+@dataclass(frozen=True)
+class FlightSamples:
+    """Validated samples of one flight (times relative to the first sample).
+
+    ``t`` (n,) s; ``lat``, ``lon`` (n,) degrees (longitude unwrapped); ``h`` (n,) m;
+    ``attitude`` (n, 3) roll, pitch, heading in degrees or None; ``source`` and ``lines`` (the
+    line, or record, of each sample in the source) for messages; ``t_start`` the first time.
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    attitude: np.ndarray | None
+    source: str
+    lines: np.ndarray
+    t_start: float = 0.0
+
+
+def _where(source, lines, i, column) -> str:
+    return f"{source} line {int(lines[i])} column {column}"
+
+
+def _columns_from_csv(path: Path):
+    """Columns of a CSV file as float arrays plus the line number of each row."""
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the flight file ({exc})") from None
+    rows, lines, header, hline = [], [], None, 0
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        s = raw.strip()
+        if not s or s.startswith("#"):
+            continue
+        cells = next(csv.reader([s]))
+        if header is None:
+            header, hline = [c.strip() for c in cells], lineno
+            continue
+        if len(cells) != len(header):
+            raise InputError(
+                f"{path} line {lineno}: {len(cells)} fields, the header (line {hline}) has "
+                f"{len(header)}"
+            )
+        rows.append(cells)
+        lines.append(lineno)
+    if header is None:
+        raise InputError(f"{path}: empty flight file (no header, no samples)")
+    cols = {}
+    for j, name in enumerate(header):
+        if name not in REQUIRED + ATTITUDE:
+            continue
+        vals = np.empty(len(rows))
+        for i, r in enumerate(rows):
+            try:
+                vals[i] = float(r[j])
+            except ValueError:
+                raise InputError(
+                    f"{path} line {lines[i]} column {name}: {r[j].strip()!r} is not a number"
+                ) from None
+        cols[name] = vals
+    return cols, np.array(lines, dtype=np.int64), str(path), header
+
+
+def _columns_from_mapping(data, source: str):
+    names = list(data.keys()) if hasattr(data, "keys") else []
+    cols = {}
+    for name in names:
+        if name in REQUIRED + ATTITUDE:
+            try:
+                cols[name] = np.asarray(data[name], dtype=np.float64).ravel()
+            except (TypeError, ValueError):
+                raise InputError(f"{source} column {name}: values are not numbers") from None
+    n = max((c.size for c in cols.values()), default=0)
+    for name, c in cols.items():
+        if c.size != n:
+            raise InputError(f"{source} column {name}: {c.size} values, other columns have {n}")
+    return cols, np.arange(1, n + 1), source, names
+
+
+def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
+    """Read and validate a flight from a file, DataFrame, Dataset or mapping of arrays.
+
+    Parameters
+    ----------
+    source : str, Path, pandas.DataFrame, xarray.Dataset or dict
+        CSV (``.csv``/``.txt``: header row, ``#`` comments) or NetCDF (``.nc``) file, or
+        columns ``time_s, lat_deg, lon_deg, height_m`` [``roll_deg, pitch_deg, heading_deg``].
+        Units: s, degrees, degrees, m, degrees.
+    ellipsoid : Ellipsoid
+        Ellipsoid of the geodetic coordinates (for the speed and acceleration checks).
+
+    Returns
+    -------
+    FlightSamples
+
+    Raises
+    ------
+    InputError
+        Naming the source, the line (file rows; record number for arrays) and the column.
+    """
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        if not path.is_file():
+            raise InputError(f"{path}: flight file not found")
+        if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
+            import xarray as xr
+
+            try:
+                with xr.open_dataset(path) as ds:
+                    cols, lines, name, header = _columns_from_mapping(
+                        {k: ds[k].values for k in ds.variables}, str(path)
+                    )
+            except (OSError, ValueError) as exc:
+                raise InputError(f"{path}: not a readable NetCDF file ({exc})") from None
+            name = f"{path} (record)"
+        else:
+            cols, lines, name, header = _columns_from_csv(path)
+    else:
+        kind = type(source).__name__
+        mapping = source
+        if kind == "Dataset":
+            mapping = {k: source[k].values for k in source.variables}
+        cols, lines, name, header = _columns_from_mapping(mapping, f"flight {kind} (record)")
+    missing = [c for c in REQUIRED if c not in cols]
+    if missing:
+        raise InputError(
+            f"{name}: missing column(s) {', '.join(missing)} (have: {', '.join(map(str, header))})"
+        )
+    att = [c for c in ATTITUDE if c in cols]
+    if att and len(att) != 3:
+        raise InputError(
+            f"{name}: give all of {', '.join(ATTITUDE)} or none (coordinated flight), got "
+            f"{', '.join(att)}"
+        )
+    n = cols["time_s"].size
+    if n == 0:
+        raise InputError(f"{name}: no samples")
+    for c in REQUIRED + (ATTITUDE if att else ()):
+        bad = np.flatnonzero(~np.isfinite(cols[c]))
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], c)}: {cols[c][bad[0]]} is not finite")
+    if n < MIN_POINTS:
+        raise InputError(f"{name}: {n} samples, the quintic spline needs at least {MIN_POINTS}")
+    t = cols["time_s"]
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = bad[0] + 1
+        what = "repeats" if dt[bad[0]] == 0 else "goes back from"
+        raise InputError(
+            f"{_where(name, lines, i, 'time_s')}: time {t[i]:g} s {what} the previous "
+            f"{t[i - 1]:g} s (times must increase)"
+        )
+    lat, lon, h = cols["lat_deg"], cols["lon_deg"], cols["height_m"]
+    for c, v, lim in (("lat_deg", lat, 90.0), ("lon_deg", lon, 540.0)):
+        bad = np.flatnonzero(np.abs(v) > lim)
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], c)}: {v[bad[0]]:g} is beyond ±{lim:g}")
+    bad = np.flatnonzero((h < -11_000.0) | (h > 1.0e8))
+    if bad.size:
+        raise InputError(
+            f"{_where(name, lines, bad[0], 'height_m')}: {h[bad[0]]:g} m is outside -11 km..1e8 m"
+        )
+    lon = np.degrees(np.unwrap(np.radians(lon)))
+    r = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), -1)
+    speed = np.linalg.norm(np.diff(r, axis=0), axis=1) / dt
+    _check_radians(name, lines, lat, lon, speed)
+    bad = np.flatnonzero(speed > MAX_SPEED)
+    if bad.size:
+        i = bad[0] + 1
+        raise InputError(
+            f"{_where(name, lines, i, 'lat_deg')}: position jump ({speed[bad[0]]:.0f} m/s from "
+            f"the previous sample, more than {MAX_SPEED:g} m/s)"
+        )
+    attitude = None
+    if att:
+        attitude = np.stack([cols[c] for c in ATTITUDE], -1)
+        attitude[:, 2] = np.degrees(np.unwrap(np.radians(attitude[:, 2])))
+        bad = np.flatnonzero(np.abs(cols["pitch_deg"]) > 90.0)
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], 'pitch_deg')}: beyond ±90 degrees")
+    return FlightSamples(t - t[0], lat, lon, h, attitude, name, lines, float(t[0]))
+
+
+def _check_radians(name, lines, lat, lon, speed) -> None:
+    """Refuse latitudes/longitudes that look like radians.
+
+    All values inside ±π/2, ±π and a path that would be an aircraft's speed (1..1000 m/s) only if
+    the numbers were radians (57.3× the distance), i.e. at most 17 m/s read as degrees.
+    """
+    v_deg = float(np.median(speed))
+    if (
+        np.all(np.abs(lat) <= np.pi / 2)
+        and np.all(np.abs(lon) <= np.pi)
+        and 1.0 <= np.degrees(v_deg) <= 1000.0
+        and v_deg < 17.5
+    ):
+        raise InputError(
+            f"{_where(name, lines, 0, 'lat_deg')}: latitudes and longitudes look like radians "
+            f"(all within ±π/2, ±π; median speed {v_deg:.2f} m/s read as degrees, "
+            f"{np.degrees(v_deg):.0f} m/s as radians): give degrees"
+        )
+
+
+def _C_n_to_e(lat_deg, lon_deg):
+    """Columns north, east, down of the local-level frame in ECEF, (..., 3, 3)."""
+    enu = C_e_to_enu(lat_deg, lon_deg)
+    return np.stack([enu[..., 1, :], enu[..., 0, :], -enu[..., 2, :]], axis=-1)
+
+
+class FlightTrajectory(Trajectory):
+    """Smooth trajectory through flight samples (see the module docstring).
+
+    Parameters
+    ----------
+    samples : FlightSamples or anything :func:`read_flight` accepts
+    ellipsoid : Ellipsoid
+
+    The launch-centred frame (for ``--frame lci``) sits at the first sample, azimuth = the
+    first heading. Time 0 is the first sample.
+    """
+
+    name = "flight"
+
+    def __init__(self, samples, *, ellipsoid: Ellipsoid = WGS84):
+        from scipy.interpolate import make_interp_spline
+        from scipy.spatial.transform import Rotation, RotationSpline
+
+        s = samples if isinstance(samples, FlightSamples) else read_flight(samples)
+        self.samples = s
+        r = np.stack(geodetic_to_ecef(s.lat, s.lon, s.h, ellipsoid), -1)
+        self._spline = make_interp_spline(s.t, r, k=5)
+        self._d1 = self._spline.derivative(1)
+        self._d2 = self._spline.derivative(2)
+        v, a = self._d1(s.t), self._d2(s.t)
+        C_n_e = _C_n_to_e(s.lat, s.lon)
+        v_n = np.einsum("nji,nj->ni", C_n_e, v)
+        if s.attitude is None:
+            att = coordinated_attitude(v_n, np.einsum("nji,nj->ni", C_n_e, a))
+        else:
+            att = np.radians(s.attitude)
+        self.attitude_knots_deg = np.degrees(att)
+        C_b_n = Rotation.from_euler("ZYX", att[:, ::-1]).as_matrix()
+        self._rot = RotationSpline(s.t, Rotation.from_matrix(C_n_e @ C_b_n))
+        frame = LaunchFrame(
+            lon0=float((s.lon[0] + 180.0) % 360.0 - 180.0),
+            B0=float(s.lat[0]),
+            A0=float(np.degrees(att[0, 2]) % 360.0),
+            h0=float(s.h[0]),
+            ellipsoid=ellipsoid,
+        )
+        super().__init__(frame, float(s.t[-1]))
+        self._check_acceleration()
+
+    def _check_acceleration(self) -> None:
+        s = self.samples
+        tt = np.concatenate([s.t, 0.5 * (s.t[1:] + s.t[:-1])])
+        acc = np.linalg.norm(self._d2(tt), axis=1)
+        if acc.max() > MAX_ACCEL:
+            j = int(np.argmax(acc))
+            i = j if j < s.t.size else j - s.t.size + 1
+            raise InputError(
+                f"{_where(s.source, s.lines, i, 'lat_deg')}: the interpolated path accelerates at "
+                f"{acc[j] / G0:.0f} g near t = {tt[j]:g} s (more than 100 g: a position jump?)"
+            )
+
+    def _ecef(self, t):
+        return self._spline(t), self._d1(t), self._d2(t)
+
+    def _attitude(self, t, r, v, a):
+        rot = self._rot(t)
+        C = rot.as_matrix()
+        w_b = self._rot(t, 1)  # body-frame rate of C_b^e (RotationSpline's convention)
+        return C, np.einsum("nij,nj->ni", C, w_b)
+
+    def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:
+        """Refuse paths deeper than ``min_height`` (m; default -11 km).
+
+        Ellipsoidal heights at sea level reach -106 m; the base class's 0 m is for rockets.
+        """
+        super().check_above_surface(n, min_height)
+
+
+def coordinated_attitude(v_ned, a_ned) -> np.ndarray:
+    """Roll, pitch, heading (rad, (n, 3)) of a coordinated flight from NED velocity and accel.
+
+    Heading ψ = atan2(v_E, v_N), pitch θ = atan2(−v_D, v_H), roll φ = atan(v_H ψ̇ / g0) with the
+    turn rate ψ̇ = (v_N a_E − v_E a_N)/v_H². Below 0.5 m/s ground speed the heading is held.
+    """
+    vN, vE, vD = v_ned.T
+    vh = np.hypot(vN, vE)
+    psi = np.arctan2(vE, vN)
+    slow = vh < 0.5
+    if np.all(slow):
+        psi = np.zeros_like(psi)
+    elif np.any(slow):
+        idx = np.flatnonzero(~slow)
+        psi = np.interp(np.arange(psi.size), idx, np.unwrap(psi[idx]))
+    psi = np.unwrap(psi)
+    theta = np.arctan2(-vD, vh)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(slow, 0.0, (vN * a_ned[:, 1] - vE * a_ned[:, 0]) / np.maximum(vh, 0.5) ** 2)
+    phi = np.arctan(vh * rate / G0)
+    return np.stack([phi, theta, psi], -1)
+
+
+def route_flight(
+    waypoints,
+    speed_mps: float,
+    *,
+    max_accel: float = 2.0,
+    sample_dt: float = 1.0,
+    ellipsoid: Ellipsoid = WGS84,
+) -> FlightSamples:
+    """Build a study flight along geodesics between waypoints at constant ground speed.
+
+    Parameters
+    ----------
+    waypoints : sequence of (lat, lon, h) or str ``"lat,lon,h;lat,lon,h;..."``
+        Units: degrees, degrees, m.
+    speed_mps : float
+        Ground speed. Units: m/s.
+    max_accel : float
+        Bound on the turn and climb accelerations. Units: m/s².
+    sample_dt : float
+        Spacing of the generated samples. Units: s.
+
+    Each leg is a geodesic (Karney 2013, via ``geographiclib``) with the height linear in the
+    distance flown; the corners (heading and climb-rate steps) are rounded by a Gaussian filter
+    of the samples in time whose width σ = max(Δψ v, Δḣ)/(a_max √(2π)) keeps the peak turn and
+    climb accelerations at ``max_accel`` (the filtered heading rate peaks at Δψ/(σ√(2π))).
+    """
+    from geographiclib.geodesic import Geodesic
+    from scipy.ndimage import gaussian_filter1d
+
+    pts = parse_route(waypoints) if isinstance(waypoints, str) else np.asarray(waypoints, float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2:
+        raise InputError("a route needs at least two waypoints 'lat,lon,h'")
+    if not np.all(np.isfinite(pts)) or np.any(np.abs(pts[:, 0]) > 89.0):
+        raise InputError("route waypoints need finite values and |lat| <= 89 degrees")
+    for name, v in (("--speed-mps", speed_mps), ("max_accel", max_accel), ("dt", sample_dt)):
+        if not np.isfinite(v) or v <= 0:
+            raise InputError(f"{name} must be a positive number, got {v}")
+    geod = Geodesic(ellipsoid.a, ellipsoid.f)
+    lat, lon, h, az = [], [], [], []
+    d_done = 0.0
+    for k in range(len(pts) - 1):
+        line = geod.InverseLine(pts[k, 0], pts[k, 1], pts[k + 1, 0], pts[k + 1, 1])
+        if line.s13 < 1.0:
+            raise InputError(f"route waypoints {k + 1} and {k + 2} coincide")
+        s = np.arange(d_done, line.s13, speed_mps * sample_dt)
+        d_done = (s[-1] + speed_mps * sample_dt - line.s13) if s.size else d_done - line.s13
+        for si in s:
+            g = line.Position(si)
+            lat.append(g["lat2"])
+            lon.append(g["lon2"])
+            az.append(g["azi2"])
+            h.append(pts[k, 2] + (pts[k + 1, 2] - pts[k, 2]) * si / line.s13)
+    lat, lon, h = np.array(lat), np.degrees(np.unwrap(np.radians(lon))), np.array(h)
+    az = np.unwrap(np.radians(az))
+    if lat.size < MIN_POINTS:
+        raise InputError("the route is shorter than 6 samples: add distance or lower the speed")
+    hdot = np.diff(h) / sample_dt
+    turn = np.max(np.abs(np.diff(az)), initial=0.0) * speed_mps
+    climb = np.max(np.abs(np.diff(hdot)), initial=0.0)
+    sigma_s = max(turn, climb) / (max_accel * np.sqrt(2.0 * np.pi))
+    sigma = max(sigma_s / sample_dt, 3.0)
+    pad = int(np.ceil(5 * sigma)) + 1
+    # extend both ends at constant velocity so the filter does not slow the flight down there
+    ext = [
+        np.concatenate(
+            [
+                x[0] - (x[1] - x[0]) * np.arange(pad, 0, -1),
+                x,
+                x[-1] + (x[-1] - x[-2]) * np.arange(1, pad + 1),
+            ]
+        )
+        for x in (lat, lon, h)
+    ]
+    lat, lon, h = (gaussian_filter1d(x, sigma, mode="nearest")[pad:-pad] for x in ext)
+    t = sample_dt * np.arange(lat.size)
+    return FlightSamples(t, lat, lon, h, None, "route", np.arange(1, t.size + 1))
+
+
+def parse_route(text: str) -> np.ndarray:
+    """``"lat,lon,h;lat,lon,h;..."`` -> (n, 3) array; :class:`InputError` naming the waypoint."""
+    out = []
+    for k, part in enumerate(p for p in str(text).split(";") if p.strip()):
+        vals = part.replace(" ", ",").split(",")
+        vals = [v for v in vals if v]
+        try:
+            if len(vals) != 3:
+                raise ValueError
+            out.append([float(v) for v in vals])
+        except ValueError:
+            raise InputError(
+                f"--route waypoint {k + 1} {part.strip()!r}: need 'lat,lon,h' (degrees, degrees, m)"
+            ) from None
+    return np.array(out, dtype=np.float64).reshape(-1, 3)
+
+
+def geodetic_state(traj: Trajectory, t):
+    """Truth in navigation terms at times ``t``: lat, lon (deg), h (m), v_ned (m/s), C_b^n.
+
+    Derived from :meth:`Trajectory.kinematics` (ECEF state and C_b^a) for any trajectory.
+    """
+    k = traj.kinematics(t)
+    lat, lon, h = ecef_to_geodetic(k.r_e[:, 0], k.r_e[:, 1], k.r_e[:, 2], traj.frame.ellipsoid)
+    C_n_e = _C_n_to_e(lat, lon)
+    C_a_e = np.swapaxes(traj.frame.C_e_to_a(k.t), -1, -2)
+    C_b_e = C_a_e @ k.C_b_to_a
+    v_ned = np.einsum("nji,nj->ni", C_n_e, k.v_e)
+    C_b_n = np.swapaxes(C_n_e, -1, -2) @ C_b_e
+    return lat, lon, h, v_ned, C_b_n
