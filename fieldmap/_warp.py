@@ -28,7 +28,13 @@ def cpu_workers() -> int:
     """Return the number of threads for CPU launches (``FIELDMAP_THREADS`` or all cores)."""
     env = os.environ.get("FIELDMAP_THREADS")
     if env:
-        return max(1, int(env))
+        try:
+            n = int(env)
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise InputError(f"FIELDMAP_THREADS must be a whole number >= 1, got {env!r}")
+        return n
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - non-Linux

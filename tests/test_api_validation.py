@@ -198,7 +198,6 @@ def test_symmetric_grid_names_its_extent():
         ("truncation_map", {"orders": [2.5]}, r"among 2, 4, 6, got \[2.5\]"),
         ("truncation_map", {"orders": [2, 4.0001]}, "among 2, 4, 6"),
         ("truncation_map", {"orders": ["x"]}, "among 2, 4, 6"),
-        ("truncation_map", {"orders": 2}, "among 2, 4, 6"),
         ("truncation_map", {"orders": [4, 4.0]}, "distinct"),
         ("disturbance_map", {"thresholds_mg": [0.05, 0.1, 0.05]}, "repeated threshold"),
         ("disturbance_map", {"lat_max": 0}, "no area"),

@@ -77,7 +77,7 @@ def test_gravity_and_normal_quantities():
             ["point", "--quantity", "normal", "--normal", kind, "--precision", "14"], _stdin(POINTS)
         )
         assert out.returncode == 0, out.stderr
-        want = normal_gravity(lat, lon, h, kind=kind, centrifugal=True, frame="enu")
+        want = normal_gravity(lat, lon, h, normal=kind, centrifugal=True, frame="enu")
         np.testing.assert_allclose(_numbers(out.stdout), want, rtol=0, atol=1e-13)
     exact = _numbers(_run(["point", "--quantity", "normal", "--precision", "9"], "0 0 0\n").stdout)[
         0

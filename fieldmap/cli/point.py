@@ -185,7 +185,7 @@ def evaluate_points(
     sh_model = load_model(model, lmax=lmax, epoch=epoch)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
-    return fg.disturbance(lat, lon, h, model=sh_model, unit="mGal", frame="enu", device=device)
+    return fg.disturbance(lat, lon, h, model=sh_model, units="mGal", frame="enu", device=device)
 
 
 def run_point(args) -> int:

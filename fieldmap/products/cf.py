@@ -12,10 +12,10 @@ import numpy as np
 import xarray as xr
 
 from fieldmap import __version__
-from fieldmap.products.stats import MG, MGAL
+from fieldmap.products.stats import MG
+from fieldmap.units import UNITS as UNITS  # noqa: F401 - the one table of units, re-exported
+from fieldmap.units import get_unit
 
-#: Output units of the map variables and their size in m/s² (values in m/s² are divided by it).
-UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
 REFERENCE = (
     "Chen K., Zeng C.-Z., Pei S.-S., Liang W.-C. (2022), Normal gravity model for inertial "
     "navigation of a hypersonic boost-glide vehicle, J. Zhejiang Univ. Sci. A, "
@@ -84,8 +84,12 @@ def global_attrs(title, model, ellipsoid, grid, source) -> dict:
 
 
 def vector_vars(vec, dims, units, what) -> dict:
-    """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``."""
-    scale = UNITS[units]
+    """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
+
+    ``units`` is any spelling :func:`fieldmap.units.get_unit` accepts.
+    """
+    unit = get_unit(units)
+    scale, units = unit.si, unit.udunits
     out = {}
     for k, name in enumerate(("east", "north", "up")):
         out[name] = (

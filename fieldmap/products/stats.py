@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-#: 1 mg = 1e-3 g with standard gravity g = 9.80665 m/s² (Chen et al. 2022, §4.1). Units: m/s².
-MG = 9.80665e-3
-#: 1 mGal = 1e-5 m/s². Units: m/s².
-MGAL = 1e-5
+from fieldmap.units import MG as MG  # 1 mg = 1e-3 standard gravity (m/s²)
+from fieldmap.units import MGAL as MGAL  # 1 mGal = 1e-5 m/s²
 
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
 DEFAULT_PERCENTILES = (50.0, 90.0, 99.0)
