@@ -57,6 +57,12 @@ UNITS: dict[str, Unit] = {
     "m/s2": Unit("m/s2", 1.0, "m s-2", "metre per second squared"),
 }
 
+
+def _key(units: str) -> str:
+    text = str(units).strip().lower().replace("²", "2").replace("**", "").replace("^", "")
+    return "".join(text.split())
+
+
 #: Accepted spellings (after :func:`_key` normalisation) -> canonical name.
 ALIASES: dict[str, str] = {
     "mgal": "mGal",
@@ -70,9 +76,8 @@ ALIASES: dict[str, str] = {
 }
 
 
-def _key(units: str) -> str:
-    text = str(units).strip().lower().replace("²", "2").replace("**", "").replace("^", "")
-    return "".join(text.split())
+# the UDUNITS spellings written in CF files read back as the same units
+ALIASES.update({_key(u.udunits): name for name, u in UNITS.items()})
 
 
 def get_unit(units: str | Unit) -> Unit:

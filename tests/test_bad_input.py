@@ -155,8 +155,8 @@ BAD_LINES = {
     "nan 10 0": "latitude 'nan' is not finite",
     "10 inf 0": "longitude 'inf' is not finite",
     "10 10 -inf": "height '-inf' is not finite",
-    "91 10 0": "latitude 91 outside",
-    "10 1e300 0": "longitude 1e+300 outside [-540, 540)",
+    "91 10 0": "latitude must be within [-90, 90] degrees, got 91",
+    "10 1e300 0": "longitude must be within [-540, 540) degrees, got 1e+300",
     "10 10 -1e6": "below the ellipsoid",
     "10 10 1e300": "height 1e+300 m is above",
     "a b c": "latitude 'a' is not a number",
@@ -281,8 +281,8 @@ GRID_CASES = [
     (["--height-km", "inf"], "finite"),
     (["--height-km=-inf"], "finite"),
     (["--height-km", "x"], "'x'"),
-    (["--height-km", "-100"], "below -1000 m"),
-    (["--height-km", "-6400"], "below -1000 m"),
+    (["--height-km", "-100"], "--height-km: height -100 km is below -10 km"),
+    (["--height-km", "-6400"], "below -10 km"),
     (["--height-km", "1e300"], "is above 100000 km"),
 ]
 MODEL_CASES = [
@@ -296,11 +296,11 @@ MODEL_CASES = [
     (["--model", "garbage.gfc"], "binary byte"),
     (["--model", "corrupt.gfc.gz"], "corrupt gzip"),
     (["--model", "good.gfc", "--lmax", "3"], "outside 0..2"),
-    (["--thresholds-mg", "x"], "'x' is not a number"),
+    (["--thresholds-mg", "x"], "--thresholds-mg: thresholds must be numbers in mg, got ['x']"),
     (["--thresholds-mg", "nan"], "positive finite"),
     (["--thresholds-mg", "-1"], "positive finite"),
     (["--thresholds-mg", "0"], "positive finite"),
-    (["--thresholds-mg", "0.05,x"], "'x' is not a number"),
+    (["--thresholds-mg", "0.05,x"], "must be numbers in mg, got ['0.05', 'x']"),
     (["--thresholds-mg", ","], "no value"),
     (["--thresholds-mg", "0.05,0.05"], "repeated threshold"),
 ]
@@ -339,7 +339,7 @@ def test_model_bad_input(work, capsys, cmd, args, msg):
         (["--height-km", "20,nan,30"], "finite"),
         (["--height-km", "20", "x"], "'x' is not a number"),
         (["--height-km", ","], "no value"),
-        (["--height-km", "20,20"], "repeated height"),
+        (["--height-km", "20,20"], "heights must be distinct: 20 km is repeated"),
         (["--height-km", "20", "2e5"], "is above 100000 km"),
     ],
 )
@@ -357,7 +357,7 @@ def test_sweep_bad_heights(work, capsys, args, msg):
         ("3", "among 2, 4, 6"),
         ("8", "among 2, 4, 6"),
         ("2,2", "distinct"),
-        ("2.5", "'2.5' is not a number"),
+        ("2.5", "--orders: orders must be distinct values among 2, 4, 6, got [2.5]"),
         ("", "no value"),
     ],
 )

@@ -107,7 +107,7 @@ def test_bad_lines_keep_line_count():
     assert len(res) == len(lines)
     bad = {
         1: "not a number",
-        2: "outside [-90, 90]",
+        2: "latitude must be within [-90, 90]",
         3: "0 fields",
         4: "4 fields",
         5: "not finite",

@@ -19,17 +19,10 @@ import argparse
 import math
 import sys
 
-#: accepted height range of ``fieldmap point``. Below: the series is not valid deep under the
-#: surface (same limit as :data:`fieldmap.field.gravity.MIN_HEIGHT`); above: beyond 1e8 m (a quarter
-#: of the lunar distance) the Earth model is no longer the relevant field. Units: m.
-MIN_HEIGHT = -10.0e3
-MAX_HEIGHT = 1.0e8
-#: accepted longitudes, as GeographicLib's DMS::DecodeLatLon ([-540, 540) degrees); a larger
-#: number is a typing error, and far beyond it float64 no longer resolves a degree. Units: deg.
-MAX_ABS_LON = 540.0
-
 QUANTITIES = ("disturbance", "gravity", "normal")
-NORMALS = ("exact", "j2", "j4", "j6")
+#: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
+#: not import Warp; a test checks that both agree).
+NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
 _DEFAULT_DECIMALS = {"disturbance": 3, "gravity": 5, "normal": 5}  # as GeographicLib's Gravity
 
 
@@ -56,8 +49,10 @@ def register(subparsers) -> None:
     p.add_argument(
         "--normal",
         choices=NORMALS,
+        type=lambda s: str(s).lower().replace("_", "-"),
         default="exact",
-        help="normal-gravity model for --quantity normal (default: exact)",
+        help="normal-gravity model for --quantity normal, the normal= of the Python API "
+        "(default: exact)",
     )
     p.add_argument(
         "--model",
@@ -108,7 +103,9 @@ def register(subparsers) -> None:
 def parse_point_line(line: str):
     """Return ``(lat, lon, h)`` of one input line, or raise ValueError with the reason.
 
-    Units: degrees, degrees, m.
+    Only the syntax is checked here (2 or 3 finite numbers); the ranges are those of the API,
+    checked for all lines at once by :func:`fieldmap.limits.point_errors`. Units: degrees,
+    degrees, m.
     """
     fields = line.split()
     if len(fields) not in (2, 3):
@@ -122,17 +119,7 @@ def parse_point_line(line: str):
         if not math.isfinite(v):
             raise ValueError(f"{name} {text!r} is not finite")
         vals.append(v)
-    lat, lon = vals[0], vals[1]
-    h = vals[2] if len(vals) == 3 else 0.0
-    if abs(lat) > 90.0:
-        raise ValueError(f"latitude {lat:g} outside [-90, 90]")
-    if not -MAX_ABS_LON <= lon < MAX_ABS_LON:
-        raise ValueError(f"longitude {lon:g} outside [-540, 540)")
-    if h < MIN_HEIGHT:
-        raise ValueError(f"height {h:g} m is more than {-MIN_HEIGHT:g} m below the ellipsoid")
-    if h > MAX_HEIGHT:
-        raise ValueError(f"height {h:g} m is above {MAX_HEIGHT:g} m")
-    return lat, lon, h
+    return vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0
 
 
 def evaluate_points(
@@ -156,7 +143,7 @@ def evaluate_points(
         Height above WGS84. Units: m.
     quantity : {"disturbance", "gravity", "normal"}
         Disturbance (mGal), gravity incl. centrifugal (m/s²) or normal gravity (m/s²).
-    normal : {"exact", "j2", "j4", "j6"}
+    normal : {"exact", "j2", "j4", "j6", "groves-j2"}
         Normal model of ``quantity="normal"``.
     model, lmax, epoch, device
         As :func:`fieldmap.field.gravity.disturbance`.
@@ -177,7 +164,7 @@ def evaluate_points(
         from fieldmap.field.normal import normal_gravity
 
         return normal_gravity(
-            lat, lon, h, kind=normal, centrifugal=True, frame="enu", device=device
+            lat, lon, h, normal=normal, centrifugal=True, frame="enu", device=device
         )
     from fieldmap.field import gravity as fg
     from fieldmap.models.registry import load_model
@@ -204,14 +191,22 @@ def run_point(args) -> int:
     else:
         with open(args.input, "rb") as f:
             text = _read_capped(f, args.input)
+    from fieldmap.limits import point_errors
+
     lines = text.splitlines()
-    points, results = [], []
+    parsed, results = [], []
     for line in lines:
         try:
-            points.append(parse_point_line(line))
+            parsed.append(parse_point_line(line))
             results.append(None)
         except ValueError as exc:
             results.append(f"ERROR: {exc}")
+    if parsed:  # the ranges of the API, with its messages
+        where = [k for k, r in enumerate(results) if r is None]
+        for k, why in zip(where, point_errors(*zip(*parsed))):
+            if why is not None:
+                results[k] = f"ERROR: {why}"
+    points = [p for p, k in zip(parsed, where) if results[k] is None] if parsed else []
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
         values = evaluate_points(

@@ -126,5 +126,5 @@ def parse_thresholds(values) -> tuple[float, ...]:
     if not vals or not all(np.isfinite(v) and v > 0 for v in vals):
         raise InputError(f"thresholds must be positive finite numbers in mg, got {values!r}")
     if len(set(vals)) != len(vals):
-        raise InputError(f"thresholds_mg: repeated threshold in {vals}")
+        raise InputError(f"thresholds must be distinct: repeated threshold in {vals}")
     return tuple(sorted(vals))
