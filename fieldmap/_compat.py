@@ -47,6 +47,7 @@ def keyword_api(
 
         @functools.wraps(func)
         def wrapper(*args: Any, **kwargs: Any) -> Any:
+            notes = []
             if len(args) > ncoords:
                 extra = args[ncoords:]
                 if len(extra) > len(old_order):
@@ -54,7 +55,7 @@ def keyword_api(
                         f"{name}() takes {ncoords} positional arguments but {len(args)} were given"
                     )
                 names = old_order[: len(extra)]
-                warn(f"{name}(): pass {', '.join(names)} by keyword", stacklevel=3)
+                notes.append(f"pass {', '.join(names)} by keyword")
                 for key, value in zip(names, extra):
                     if key in kwargs:
                         raise TypeError(f"{name}() got multiple values for argument {key!r}")
@@ -64,8 +65,10 @@ def keyword_api(
                 if old in kwargs:
                     if new in kwargs:
                         raise TypeError(f"{name}() got both {old!r} (0.1 name) and {new!r}")
-                    warn(f"{name}(): {old}= is now {new}=", stacklevel=3)
+                    notes.append(f"{old}= is now {new}=")
                     kwargs[new] = kwargs.pop(old)
+            if notes:
+                warn(f"{name}(): {'; '.join(notes)}", stacklevel=3)
             return func(*args, **kwargs)
 
         return cast(F, wrapper)

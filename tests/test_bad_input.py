@@ -455,3 +455,15 @@ def test_help_documents_units(capsys, cmd, words):
     text = " ".join(capsys.readouterr().out.split())
     for w in words:
         assert w in text, (cmd, w)
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-2", "1.5"])
+def test_bad_thread_count_is_bad_input(work, capsys, monkeypatch, value):
+    """``FIELDMAP_THREADS`` that is not a whole number >= 1: bad input (exit 2), not internal."""
+    monkeypatch.setenv("FIELDMAP_THREADS", value)
+    before = _tree(work)
+    rc, out, err = _main(["point", "--lmax", "4"], capsys, "10 20 30\n", monkeypatch)
+    _assert_one_line(
+        rc, err, 2, f"FIELDMAP_THREADS must be a whole number >= 1, got {value!r}", before, work
+    )
+    assert out == ""

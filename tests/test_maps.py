@@ -164,7 +164,7 @@ def test_bad_inputs_raise():
     with pytest.raises(InputError, match="one height"):
         fieldmap.disturbance_map(height_km=[20, 30])
     with pytest.raises(InputError, match="below"):
-        fieldmap.disturbance_map(height_km=-5)
+        fieldmap.disturbance_map(height_km=-11)  # the limit is -10 km (fieldmap.limits)
     with pytest.raises(InputError, match="ellipsoid"):
         fieldmap.disturbance_map(ellipsoid="Clarke1866")
 

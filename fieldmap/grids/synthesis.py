@@ -99,8 +99,8 @@ def normal_rows(
     from fieldmap.field.normal import NORMAL_MODELS, normal_model
 
     if order is not None:
-        _compat.warn("normal_rows(): order= is now normal=")
-        normal = order
+        _compat.warn("normal_rows(): order= is now normal= ('exact', 'j2', 'j4', 'j6')")
+        normal = {0: "exact", 2: "j2", 4: "j4", 6: "j6"}.get(order, order)
     key = normal_model(normal)
     if key == "groves-j2":
         raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
