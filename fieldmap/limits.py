@@ -206,14 +206,23 @@ def check_orders(orders) -> tuple[int, ...]:
 
     Parameters
     ----------
-    orders : int or sequence of int
-        2.5 or "x" is an error, not order 2.
+    orders : int, str or sequence of them
+        2, 4, 6, or the names of the normal models ``"j2"``, ``"j4"``, ``"j6"``
+        (:data:`fieldmap.field.normal.NORMAL_MODELS`); 2.5 or "x" is an error, not order 2.
 
     Returns
     -------
     tuple of int
     """
-    vals = _numbers(orders, "orders", "among 2, 4, 6")
+    items = orders if isinstance(orders, Iterable) and not isinstance(orders, str) else [orders]
+    vals = []
+    for o in items:
+        try:
+            vals.append(float(o[1:] if isinstance(o, str) and o[:1] in "jJ" else o))
+        except (TypeError, ValueError):
+            raise InputError(f"orders must be among 2, 4, 6 (or j2, j4, j6), got {o!r}") from None
+    if not vals:
+        raise InputError("orders: no value given")
     if any(v not in J2N_ORDERS for v in vals) or len(set(vals)) != len(vals):
         got = ", ".join(f"{v:g}" for v in vals)
         raise InputError(f"orders must be distinct values among 2, 4, 6, got [{got}]")

@@ -353,7 +353,8 @@ def test_sweep_bad_heights(work, capsys, args, msg):
 @pytest.mark.parametrize(
     "orders, msg",
     [
-        ("x", "'x' is not a number"),
+        ("x", "--orders: orders must be among 2, 4, 6 (or j2, j4, j6), got 'x'"),
+        ("j2,j5", "among 2, 4, 6, got [2, 5]"),
         ("3", "among 2, 4, 6"),
         ("8", "among 2, 4, 6"),
         ("2,2", "distinct"),

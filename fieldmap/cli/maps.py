@@ -155,7 +155,7 @@ def register(subparsers) -> None:
     )
     _common(p, model=False)
     _list_arg(p, "--height-km", "20", "height above the ellipsoid in km, -10 to 1e5")
-    _list_arg(p, "--orders", "2,4,6", "J2n orders of the normal models j2, j4, j6: among 2, 4, 6")
+    _list_arg(p, "--orders", "2,4,6", "normal models j2, j4, j6 by name or order (2, 4, 6)")
     p.set_defaults(func=run_truncation)
 
 
