@@ -12,6 +12,8 @@ longitudes). Rows are processed in blocks so memory stays bounded for any grid s
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from fieldmap import _compat
@@ -24,6 +26,10 @@ from fieldmap.grids.spec import (  # noqa: F401 - re-exported: the grid API live
     check_memory,
     make_grid,
 )
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.models.shmodel import SHModel
 
 #: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
 BLOCK_BYTES = 192 * 2**20
@@ -68,7 +74,7 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
 
 def normal_rows(
     grid: GridSpec,
-    ellipsoid=None,
+    ellipsoid: Ellipsoid | None = None,
     normal: str = "exact",
     device: str | None = None,
     *,
@@ -100,7 +106,7 @@ def normal_rows(
 
     if order is not None:
         _compat.warn("normal_rows(): order= is now normal= ('exact', 'j2', 'j4', 'j6')")
-        normal = {0: "exact", 2: "j2", 4: "j4", 6: "j6"}.get(order, order)
+        normal = {0: "exact", 2: "j2", 4: "j4", 6: "j6"}.get(order) or repr(order)
     key = normal_model(normal)
     if key == "groves-j2":
         raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
@@ -113,7 +119,7 @@ def normal_rows(
     return gamma.numpy().reshape(nh, nlat, 3)
 
 
-def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
+def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.ndarray:
     """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
 
     Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
@@ -134,9 +140,9 @@ def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
 
 
 def synthesize(
-    model,
+    model: SHModel,
     grid: GridSpec,
-    ellipsoid=None,
+    ellipsoid: Ellipsoid | None = None,
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
@@ -249,7 +255,8 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     the equator row has no mirror other than itself.
     """
     where = {float(v): i for i, v in enumerate(lat_deg)}
-    used, out = set(), []
+    used: set[int] = set()
+    out = []
     for i, v in enumerate(lat_deg):
         if i in used:
             continue
