@@ -45,10 +45,18 @@ _LAZY = {
     "disturbance": "fieldmap.field.gravity",
     "normal_gravity": "fieldmap.field.normal",
     "normal_gravitation_ecef": "fieldmap.field.normal",
+    "normal_model": "fieldmap.field.normal",
+    "NORMAL_MODELS": "fieldmap.field.normal",
     "somigliana": "fieldmap.field.normal",
     "get_ellipsoid": "fieldmap.field.ellipsoid",
     "geodetic_to_ecef": "fieldmap.field.frames",
     "ecef_to_geodetic": "fieldmap.field.frames",
+    # units and accepted ranges
+    "Unit": "fieldmap.units",
+    "UNITS": "fieldmap.units",
+    "get_unit": "fieldmap.units",
+    "MIN_HEIGHT": "fieldmap.limits",
+    "MAX_HEIGHT": "fieldmap.limits",
     # products
     "disturbance_map": "fieldmap.products.maps",
     "altitude_sweep": "fieldmap.products.maps",

@@ -157,8 +157,8 @@ BAD_LINES = {
     "nan 10 0": "latitude 'nan' is not finite",
     "10 inf 0": "longitude 'inf' is not finite",
     "10 10 -inf": "height '-inf' is not finite",
-    "91 10 0": "latitude 91 outside",
-    "10 1e300 0": "longitude 1e+300 outside [-540, 540)",
+    "91 10 0": "latitude must be within [-90, 90] degrees, got 91",
+    "10 1e300 0": "longitude must be within [-540, 540) degrees, got 1e+300",
     "10 10 -1e6": "below the ellipsoid",
     "10 10 1e300": "height 1e+300 m is above",
     "a b c": "latitude 'a' is not a number",
@@ -315,8 +315,8 @@ GRID_CASES = [
     (["--height-km", "inf"], "finite"),
     (["--height-km=-inf"], "finite"),
     (["--height-km", "x"], "'x'"),
-    (["--height-km", "-100"], "below -1000 m"),
-    (["--height-km", "-6400"], "below -1000 m"),
+    (["--height-km", "-100"], "--height-km: height -100 km is below -10 km"),
+    (["--height-km", "-6400"], "below -10 km"),
     (["--height-km", "1e300"], "is above 100000 km"),
 ]
 MODEL_CASES = [
@@ -330,11 +330,11 @@ MODEL_CASES = [
     (["--model", "garbage.gfc"], "binary byte"),
     (["--model", "corrupt.gfc.gz"], "corrupt gzip"),
     (["--model", "good.gfc", "--lmax", "3"], "outside 0..2"),
-    (["--thresholds-mg", "x"], "'x' is not a number"),
+    (["--thresholds-mg", "x"], "--thresholds-mg: thresholds must be numbers in mg, got ['x']"),
     (["--thresholds-mg", "nan"], "positive finite"),
     (["--thresholds-mg", "-1"], "positive finite"),
     (["--thresholds-mg", "0"], "positive finite"),
-    (["--thresholds-mg", "0.05,x"], "'x' is not a number"),
+    (["--thresholds-mg", "0.05,x"], "must be numbers in mg, got ['0.05', 'x']"),
     (["--thresholds-mg", ","], "no value"),
     (["--thresholds-mg", "0.05,0.05"], "repeated threshold"),
 ]
@@ -373,7 +373,7 @@ def test_model_bad_input(work, capsys, cmd, args, msg):
         (["--height-km", "20,nan,30"], "finite"),
         (["--height-km", "20", "x"], "'x' is not a number"),
         (["--height-km", ","], "no value"),
-        (["--height-km", "20,20"], "repeated height"),
+        (["--height-km", "20,20"], "heights must be distinct: 20 km is repeated"),
         (["--height-km", "20", "2e5"], "is above 100000 km"),
     ],
 )
@@ -387,11 +387,12 @@ def test_sweep_bad_heights(work, capsys, args, msg):
 @pytest.mark.parametrize(
     "orders, msg",
     [
-        ("x", "'x' is not a number"),
+        ("x", "--orders: orders must be among 2, 4, 6 (or j2, j4, j6), got 'x'"),
+        ("j2,j5", "among 2, 4, 6, got [2, 5]"),
         ("3", "among 2, 4, 6"),
         ("8", "among 2, 4, 6"),
         ("2,2", "distinct"),
-        ("2.5", "'2.5' is not a number"),
+        ("2.5", "--orders: orders must be distinct values among 2, 4, 6, got [2.5]"),
         ("", "no value"),
     ],
 )
@@ -515,3 +516,15 @@ def test_console_script_parse_errors_one_line(tmp_path):
     p = _spawn(["bogus"], cwd=tmp_path)
     _, err = p.communicate(timeout=60)
     assert p.returncode == 2 and len(err.strip().splitlines()) == 1 and "invalid choice" in err
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-2", "1.5"])
+def test_bad_thread_count_is_bad_input(work, capsys, monkeypatch, value):
+    """``FIELDMAP_THREADS`` that is not a whole number >= 1: bad input (exit 2), not internal."""
+    monkeypatch.setenv("FIELDMAP_THREADS", value)
+    before = _tree(work)
+    rc, out, err = _main(["point", "--lmax", "4"], capsys, "10 20 30\n", monkeypatch)
+    _assert_one_line(
+        rc, err, 2, f"FIELDMAP_THREADS must be a positive integer, got {value!r}", before, work
+    )
+    assert out == ""

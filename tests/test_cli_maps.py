@@ -140,3 +140,29 @@ def test_console_script_help():
         "--out",
     ):
         assert opt in r.stdout
+
+
+def test_one_list_syntax(tmp_path, capsys):
+    """Lists (heights, orders, thresholds) read the same as separate or comma-separated values."""
+    runs = {}
+    for name, args in {
+        "spaces": ["--height-km", "20", "50", "--thresholds-mg", "0.05", "0.1"],
+        "commas": ["--height-km", "20,50", "--thresholds-mg", "0.05,0.1"],
+        "mixed": ["--height-km", "20,", "50", "--thresholds-mg", "0.05", ",0.1"],
+    }.items():
+        out = tmp_path / name
+        argv = ["sweep", "--step-deg", "30", "--lmax", "4", "--no-plots", *args, "--out", str(out)]
+        assert main(argv) == 0
+        (js,) = out.glob("sweep_*.json")
+        runs[name] = json.loads(js.read_text())
+    assert runs["spaces"]["height_m"] == [20000.0, 50000.0]
+    assert runs["spaces"]["area_fraction_above"].keys() == {"0.05", "0.1"}
+    assert runs["spaces"]["max_mg"] == runs["commas"]["max_mg"] == runs["mixed"]["max_mg"]
+    for name, orders in {"a": ["2", "4"], "b": ["2,4"], "c": ["j2", "J4"]}.items():
+        out = tmp_path / f"t{name}"
+        argv = ["truncation", "--step-deg", "30", "--no-plots", "--orders", *orders]
+        assert main([*argv, "--out", str(out)]) == 0
+        (js,) = out.glob("truncation_*.json")
+        runs[name] = json.loads(js.read_text())["max_mg"]
+    assert runs["a"] == runs["b"] == runs["c"] and set(runs["a"]) == {"j2", "j4"}
+    capsys.readouterr()

@@ -67,7 +67,7 @@ def _check_section41_numbers(out):
     grid = make_grid(10.0, 80.0, heights_m=[20e3])
     la, lo = np.meshgrid(grid.lat, grid.lon, indexing="ij")
     for km in (20, 50, 100):
-        dg = disturbance(la, lo, km * 1e3, model="eigen-6s", lmax=30, unit="mg", device="cpu")
+        dg = disturbance(la, lo, km * 1e3, model="eigen-6s", lmax=30, units="mg", device="cpu")
         mod = np.linalg.norm(dg, axis=-1)
         assert abs(ours[f"max |dg| at {km} km"] - mod.max()) <= 5e-4 + 1e-9, km
         if km == 20:

@@ -117,7 +117,7 @@ def test_eigen6s_engine_vs_gravity_tool(tmp_path):
     pts = np.c_[lat, lon, h]
     dist_tool = run_gravity_tool(pts, tmp_path, name, "disturbance", precision=12)
     grav_tool = run_gravity_tool(pts, tmp_path, name, "gravity", precision=15)
-    dist = fg.disturbance(lat, lon, h, model=model, unit="mGal", frame="enu")
+    dist = fg.disturbance(lat, lon, h, model=model, units="mGal", frame="enu")
     grav = fg.gravity(lat, lon, h, model=model, frame="enu")
     assert np.abs(dist_tool).max() > 50.0  # a real signal, not two zeros
     np.testing.assert_allclose(dist, dist_tool, rtol=0, atol=1e-8)

@@ -44,13 +44,15 @@ def test_disturbance_degree0_term(device):
     base = zonal_sh_model(WGS84)
     gm_m = 3.986004415e14  # EIGEN-6S earth_gravity_constant
     model = SHModel("gm", gm_m, base.radius, base.C, base.S, base.lmax)
-    dg = gravity.disturbance(lat, lon, h, model=model, unit="m/s2", frame="ecef", device=device)
+    dg = gravity.disturbance(lat, lon, h, model=model, units="m/s2", frame="ecef", device=device)
     from fieldmap.field.normal import normal_gravity
 
-    gam = normal_gravity(lat, lon, h, kind="exact", centrifugal=False, frame="ecef", device=device)
+    gam = normal_gravity(
+        lat, lon, h, normal="exact", centrifugal=False, frame="ecef", device=device
+    )
     expect = (gm_m / WGS84.GM - 1.0) * gam
     np.testing.assert_allclose(dg, expect, rtol=0, atol=1e-13 * 9.8)
-    up = gravity.disturbance(lat, lon, h, model=model, unit="mGal", device=device)[:, 2]
+    up = gravity.disturbance(lat, lon, h, model=model, units="mGal", device=device)[:, 2]
     assert np.all(up > 6e-4) and np.all(up < 8e-4)  # (GM_e − GM_m)/r² ≈ 0.0007 mGal
 
 
@@ -89,9 +91,9 @@ def test_frames_and_units(device):
     # a rotation of the same numbers: rounding only (1.4e-16 of max|δg| measured)
     np.testing.assert_allclose(back, ecef, rtol=0, atol=1e-14 * np.max(np.abs(ecef)))
     kw = dict(model=model, frame="ecef", device=device)
-    ms2 = gravity.disturbance(lat, lon, h, unit="m/s2", **kw)
+    ms2 = gravity.disturbance(lat, lon, h, units="m/s2", **kw)
     np.testing.assert_allclose(ecef, ms2 * 1e5, rtol=1e-15)  # 1 mGal = 1e-5 m/s²
-    mg = gravity.disturbance(lat, lon, h, unit="mg", **kw)
+    mg = gravity.disturbance(lat, lon, h, units="mg", **kw)
     np.testing.assert_allclose(mg, ms2 / 9.80665e-3, rtol=1e-15)  # 1 mg = 9.80665e-3 m/s²
 
 
@@ -134,7 +136,7 @@ def test_shapes_and_truncation():
         dict(h=-2e4),
         dict(h="x"),
         dict(frame="xyz"),
-        dict(unit="gal"),
+        dict(units="gal"),
         dict(lmax=241),
         dict(lmax=-1),
         dict(model="no-such-model"),

@@ -28,7 +28,7 @@ def _enu(model, grid, ih, quantity, device):
     la, lo = np.meshgrid(grid.lat, grid.lon, indexing="ij")
     h = grid.heights[ih]
     if quantity == "disturbance":
-        return disturbance(la, lo, h, model=model, unit="m/s2", device=device)
+        return disturbance(la, lo, h, model=model, units="m/s2", device=device)
     return gravitation(la, lo, h, model=model, device=device)
 
 
@@ -153,9 +153,9 @@ def test_level_ellipsoid_series_gives_zero_disturbance():
 def test_fft_and_direct_longitude_sums_agree(eigen):
     """Regular longitudes go through the FFT; a shifted copy with one extra node does not."""
     reg = G.make_grid(3.0, region=(-30, 60, -60, 60), heights_m=[20e3])
-    assert G._regular_period(reg.lon) == 120
+    assert G.regular_period(reg.lon) == 120
     irr_lon = np.append(reg.lon, 61.7)
-    assert G._regular_period(irr_lon) is None
+    assert G.regular_period(irr_lon) is None
     irr = G.GridSpec(reg.lat, irr_lon, reg.heights, 3.0)
     a = G.synthesize(eigen, reg, device="cpu")
     b = G.synthesize(eigen, irr, device="cpu")
@@ -210,8 +210,8 @@ def test_normal_rows_match_reference():
 
     grid = G.make_grid(10.0, 90.0, heights_m=[20e3])
     la = grid.lat
-    for order, kind in ((0, "exact"), (2, "j2"), (4, "j4"), (6, "j6")):
-        rows = G.normal_rows(grid, WGS84, order, "cpu")[0]
+    for kind in ("exact", "j2", "j4", "j6"):
+        rows = G.normal_rows(grid, WGS84, normal=kind, device="cpu")[0]
         ref = nref.normal_gravity(
             la, np.zeros_like(la), 20e3, WGS84, kind=kind, centrifugal=False, frame="enu"
         )
@@ -232,7 +232,7 @@ def test_longitudes_past_one_turn_wrap(eigen):
     Its last node equals the first, and all equal the direct-sum path.
     """
     lon = 360.0 * np.arange(13) / 12
-    assert G._regular_period(lon) == 12
+    assert G.regular_period(lon) == 12
     grid = G.GridSpec(np.array([-30.0, 45.0]), lon, np.array([20e3]), 30.0)
     a = G.synthesize(eigen, grid, device="cpu")
     scale = np.max(np.abs(a))  # the disturbance (~1e-3 m/s²), not g

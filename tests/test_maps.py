@@ -66,7 +66,7 @@ def test_disturbance_matches_point_api(small_map):
 
     ds = small_map
     la, lo = np.meshgrid(ds.latitude.values, ds.longitude.values, indexing="ij")
-    ref = disturbance(la, lo, 20e3, model="eigen-6s", lmax=60, unit="mGal", device="cpu")
+    ref = disturbance(la, lo, 20e3, model="eigen-6s", lmax=60, units="mGal", device="cpu")
     got = np.stack([ds.east, ds.north, ds.up], axis=-1)
     # grid (FFT) and point paths both cancel g − γ: a few ulp of g (1e-15 of g, 1e-9 mGal measured)
     assert np.max(np.abs(got - ref)) < 2e-14 * 9.8 / 1e-5
@@ -76,7 +76,8 @@ def test_units_mg_and_region_subset(small_map):
     reg = maps.disturbance_map(
         lmax=60, step_deg=6.0, region=(150, -138, -12, 12), units="mg", device="cpu"
     )  # global 6 deg rows: the multiples of 6 within +-80 (make_grid), so -12..12 are among them
-    assert reg["east"].attrs["units"] == "mg" and reg.attrs["grid_kind"] == "regional"
+    assert reg["east"].attrs["units"] == "0.00980665 m s-2"  # milli-g as UDUNITS reads it
+    assert reg.attrs["grid_kind"] == "regional"
     sub = small_map.sel(
         latitude=reg.latitude.values, longitude=((reg.longitude.values + 180) % 360) - 180
     )
@@ -163,7 +164,7 @@ def test_bad_inputs_raise():
     with pytest.raises(InputError, match="one height"):
         fieldmap.disturbance_map(height_km=[20, 30])
     with pytest.raises(InputError, match="below"):
-        fieldmap.disturbance_map(height_km=-5)
+        fieldmap.disturbance_map(height_km=-11)  # the limit is -10 km (fieldmap.limits)
     with pytest.raises(InputError, match="ellipsoid"):
         fieldmap.disturbance_map(ellipsoid="Clarke1866")
 

@@ -273,7 +273,7 @@ def test_zonal_series_vs_exact_normal(device, h):
     lon = np.linspace(0, 300, lat.size)
     x, y, z = geodetic_to_ecef(lat, lon, np.full(lat.size, h))
     g = fsh.sh_gravitation(model, x, y, z, device=device)
-    gamma = normal.normal_gravitation_ecef(x, y, z, WGS84, kind="exact", device=device)
+    gamma = normal.normal_gravitation_ecef(x, y, z, ellipsoid=WGS84, normal="exact", device=device)
     assert rel_vec(g, gamma) <= 1e-13
 
 

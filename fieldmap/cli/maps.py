@@ -8,7 +8,6 @@ computes, then writes NetCDF (CF-1.8), PNG figures and a JSON summary atomically
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from pathlib import Path
 
@@ -18,18 +17,35 @@ from fieldmap.errors import InputError
 DEFAULT_THRESHOLDS = "0.02,0.05,0.06,0.10"
 
 
-def _numbers(values, what: str, kind=float) -> list:
-    """Parse numbers given as separate arguments and/or comma-separated lists."""
+def _list(values, option: str) -> list[str]:
+    """Split a list option: separate arguments and/or comma-separated (``20 30`` or ``20,30``).
+
+    The values stay text: the API converts and validates them, and its message is the one the
+    user reads (prefixed with the option's name).
+    """
     out = []
     for v in values if isinstance(values, (list, tuple)) else [values]:
-        for tok in str(v).replace(",", " ").split():
-            try:
-                out.append(kind(tok))
-            except ValueError:
-                raise InputError(f"{what}: {tok!r} is not a number") from None
+        out.extend(str(v).replace(",", " ").split())
     if not out:
-        raise InputError(f"{what}: no value given")
+        raise InputError(f"{option}: no value given")
     return out
+
+
+def _api(option: str, check, *args, **kwargs):
+    """Run an API validation ``check``; its InputError names the option the value came from."""
+    try:
+        return check(*args, **kwargs)
+    except InputError as exc:
+        raise InputError(f"{option}: {exc}") from None
+
+
+def _list_arg(p: argparse.ArgumentParser, name: str, default: str, help: str) -> None:
+    p.add_argument(
+        name,
+        nargs="+",
+        default=[default],
+        help=help + "; separate arguments or comma-separated (default: " + default + ")",
+    )
 
 
 def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
@@ -105,18 +121,13 @@ def register(subparsers) -> None:
         ),
     )
     _common(p)
-    p.add_argument(
-        "--height-km",
-        type=float,
-        default=20.0,
-        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
-    )
-    p.add_argument(
+    _list_arg(p, "--height-km", "20", "height above the ellipsoid in km, -10 to 1e5")
+    _list_arg(
+        p,
         "--thresholds-mg",
-        nargs="+",
-        default=[DEFAULT_THRESHOLDS],
-        help="thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
-        "positive and distinct (default 0.02,0.05,0.06,0.10)",
+        DEFAULT_THRESHOLDS,
+        "thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
+        "positive and distinct",
     )
     distributed.add_options(p)
     p.set_defaults(func=run_map)
@@ -129,19 +140,17 @@ def register(subparsers) -> None:
         "on stderr, exit status 2, nothing written.",
     )
     _common(p)
-    p.add_argument(
+    _list_arg(
+        p,
         "--height-km",
-        nargs="+",
-        default=["20,30,50,70,100"],
-        help="heights above the ellipsoid in km, -1 to 1e5, distinct; separate arguments "
-        "or comma-separated (default 20 30 50 70 100)",
+        "20,30,50,70,100",
+        "heights above the ellipsoid in km, -10 to 1e5, distinct",
     )
-    p.add_argument(
+    _list_arg(
+        p,
         "--thresholds-mg",
-        nargs="+",
-        default=[DEFAULT_THRESHOLDS],
-        help="thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct "
-        "(default 0.02,0.05,0.06,0.10)",
+        DEFAULT_THRESHOLDS,
+        "thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct",
     )
     distributed.add_options(p)
     p.set_defaults(func=run_sweep)
@@ -154,13 +163,8 @@ def register(subparsers) -> None:
         "stderr, exit status 2, nothing written.",
     )
     _common(p, model=False)
-    p.add_argument(
-        "--height-km",
-        type=float,
-        default=20.0,
-        help="height above the ellipsoid in km, -1 to 1e5 (default 20)",
-    )
-    p.add_argument("--orders", default="2,4,6", help="J2n orders, e.g. 2,4,6 (default)")
+    _list_arg(p, "--height-km", "20", "height above the ellipsoid in km, -10 to 1e5")
+    _list_arg(p, "--orders", "2,4,6", "normal models j2, j4, j6 by name or order (2, 4, 6)")
     p.set_defaults(func=run_truncation)
 
 
@@ -184,10 +188,17 @@ def _stem(ds, kind: str) -> str:
 def _thresholds(args) -> list[float]:
     from fieldmap.products.stats import parse_thresholds
 
-    values = _numbers(args.thresholds_mg, "--thresholds-mg")
-    if len(set(values)) != len(values):
-        raise InputError(f"--thresholds-mg: repeated threshold in {values}")
-    return parse_thresholds(values)
+    return list(
+        _api("--thresholds-mg", parse_thresholds, _list(args.thresholds_mg, "--thresholds-mg"))
+    )
+
+
+def _heights_km(args, one: str | None = None) -> list[float]:
+    """``--height-km`` as validated by the API (:func:`fieldmap.limits.heights_from_km`)."""
+    from fieldmap.limits import heights_from_km
+
+    tokens = _list(args.height_km, "--height-km")
+    return [h / 1e3 for h in _api("--height-km", heights_from_km, tokens, one=one)]
 
 
 def _region(args):
@@ -198,19 +209,13 @@ def _preflight(args, heights_km, layers: int = 1) -> None:
     """Validate the grid, its memory, device and output folder before any computation or writing.
 
     ``layers`` is the number of maps per height (orders of a truncation map), for the memory
-    estimate. The grid rules (heights, empty regions, steps larger than the region, memory) are
-    those of :func:`fieldmap.grids.spec.make_grid` and :func:`fieldmap.grids.spec.check_memory`.
+    estimate. The rules are those of the API: :func:`fieldmap.grids.spec.make_grid` and
+    :func:`fieldmap.grids.spec.check_memory`; the heights are already validated.
     """
-    from fieldmap.grids.spec import MAX_HEIGHT_M, check_memory, make_grid
+    from fieldmap.grids.spec import check_memory, make_grid
     from fieldmap.grids.synthesis import resolve_device
     from fieldmap.products.io import check_out_dir
 
-    for h in heights_km:  # in the unit the user typed
-        if math.isfinite(h) and 1e3 * h > MAX_HEIGHT_M:
-            raise InputError(
-                f"height {h:g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where an "
-                "Earth gravity model is meant to be used"
-            )
     grid = make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
     check_memory(grid, layers)
     if args.device is not None:
@@ -242,14 +247,15 @@ def run_map(args) -> int:
     from fieldmap.products.maps import disturbance_map
 
     thresholds = _thresholds(args)
+    (height_km,) = _heights_km(args, "map takes one height; use sweep for several")
     if distributed.wanted(args):
-        return distributed.run(args, [args.height_km], thresholds, stacked=False)
-    _preflight(args, [args.height_km])
+        return distributed.run(args, [height_km], thresholds, stacked=False)
+    _preflight(args, [height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
         model=args.model,
         lmax=args.lmax,
-        height_km=args.height_km,
+        height_km=height_km,
         step_deg=args.step_deg,
         lat_max=args.lat_max,
         region=_region(args),
@@ -261,7 +267,7 @@ def run_map(args) -> int:
     elapsed = time.perf_counter() - t0
     a = ds.attrs
     print(
-        f"{a['model']} degree {a['model_lmax']}, h = {args.height_km:g} km, "
+        f"{a['model']} degree {a['model_lmax']}, h = {height_km:g} km, "
         f"{ds.sizes['latitude']} x {ds.sizes['longitude']} nodes, {elapsed:.2f} s"
     )
     print(
@@ -289,9 +295,7 @@ def run_sweep(args) -> int:
     from fieldmap.products.maps import altitude_sweep
 
     thresholds = _thresholds(args)
-    heights = _numbers(args.height_km, "--height-km")
-    if len(set(heights)) != len(heights):
-        raise InputError(f"--height-km: repeated height in {heights}")
+    heights = _heights_km(args)
     if distributed.wanted(args):
         return distributed.run(args, heights, thresholds, stacked=True)
     _preflight(args, heights)
@@ -338,13 +342,15 @@ def run_sweep(args) -> int:
 
 def run_truncation(args) -> int:
     """``fieldmap truncation``: J2n truncation-error maps."""
+    from fieldmap.limits import check_orders
     from fieldmap.products import plots
     from fieldmap.products.maps import truncation_map
 
-    orders = _numbers(args.orders, "--orders", kind=int)
-    _preflight(args, [args.height_km], layers=len(orders))
+    orders = _api("--orders", check_orders, _list(args.orders, "--orders"))
+    (height_km,) = _heights_km(args, "truncation takes one height")
+    _preflight(args, [height_km], layers=len(orders))
     ds = truncation_map(
-        height_km=args.height_km,
+        height_km=height_km,
         orders=orders,
         step_deg=args.step_deg,
         lat_max=args.lat_max,
@@ -352,7 +358,7 @@ def run_truncation(args) -> int:
         device=args.device,
         ellipsoid=args.ellipsoid,
     )
-    print(f"J2n truncation error at h = {args.height_km:g} km ({ds.attrs['ellipsoid']})")
+    print(f"J2n truncation error at h = {height_km:g} km ({ds.attrs['ellipsoid']})")
     print("  order   max (mg)      mean (mg)")
     for o, mx, mn in zip(ds["order"].values, ds["max_mg"].values, ds["mean_mg"].values):
         print(f"  J{int(o):<5d} {mx:11.4e}   {mn:11.4e}")

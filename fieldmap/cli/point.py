@@ -19,17 +19,10 @@ import argparse
 import math
 import sys
 
-#: accepted height range of ``fieldmap point``. Below: the series is not valid deep under the
-#: surface (same limit as :data:`fieldmap.field.gravity.MIN_HEIGHT`); above: beyond 1e8 m (a quarter
-#: of the lunar distance) the Earth model is no longer the relevant field. Units: m.
-MIN_HEIGHT = -10.0e3
-MAX_HEIGHT = 1.0e8
-#: accepted longitudes, as GeographicLib's DMS::DecodeLatLon ([-540, 540) degrees); a larger
-#: number is a typing error, and far beyond it float64 no longer resolves a degree. Units: deg.
-MAX_ABS_LON = 540.0
-
 QUANTITIES = ("disturbance", "gravity", "normal", "anomaly", "geoid", "potential")
-NORMALS = ("exact", "j2", "j4", "j6")
+#: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
+#: not import Warp; a test checks that both agree).
+NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
 #: as GeographicLib's Gravity (no T there: 4 decimals of m²/s² are 0.01 mm of geoid height)
 _DEFAULT_DECIMALS = {
     "disturbance": 3,
@@ -66,8 +59,10 @@ def register(subparsers) -> None:
     p.add_argument(
         "--normal",
         choices=NORMALS,
+        type=lambda s: str(s).lower().replace("_", "-"),
         default="exact",
-        help="normal-gravity model for --quantity normal (default: exact)",
+        help="normal-gravity model for --quantity normal, the normal= of the Python API "
+        "(default: exact)",
     )
     p.add_argument(
         "--model",
@@ -123,7 +118,9 @@ def register(subparsers) -> None:
 def parse_point_line(line: str):
     """Return ``(lat, lon, h)`` of one input line, or raise ValueError with the reason.
 
-    Units: degrees, degrees, m.
+    Only the syntax is checked here (2 or 3 finite numbers); the ranges are those of the API,
+    checked for all lines at once by :func:`fieldmap.limits.point_errors`. Units: degrees,
+    degrees, m.
     """
     fields = line.split()
     if len(fields) not in (2, 3):
@@ -137,17 +134,7 @@ def parse_point_line(line: str):
         if not math.isfinite(v):
             raise ValueError(f"{name} {text!r} is not finite")
         vals.append(v)
-    lat, lon = vals[0], vals[1]
-    h = vals[2] if len(vals) == 3 else 0.0
-    if abs(lat) > 90.0:
-        raise ValueError(f"latitude {lat:g} outside [-90, 90]")
-    if not -MAX_ABS_LON <= lon < MAX_ABS_LON:
-        raise ValueError(f"longitude {lon:g} outside [-540, 540)")
-    if h < MIN_HEIGHT:
-        raise ValueError(f"height {h:g} m is more than {-MIN_HEIGHT:g} m below the ellipsoid")
-    if h > MAX_HEIGHT:
-        raise ValueError(f"height {h:g} m is above {MAX_HEIGHT:g} m")
-    return lat, lon, h
+    return vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0
 
 
 def evaluate_points(
@@ -174,7 +161,7 @@ def evaluate_points(
         Disturbance (mGal), gravity incl. centrifugal (m/s²), normal gravity (m/s²), anomaly
         and deflection (mGal, arcsec, arcsec), geoid height (m), disturbing potential (m²/s²);
         see :mod:`fieldmap.field.geodesy`.
-    normal : {"exact", "j2", "j4", "j6"}
+    normal : {"exact", "j2", "j4", "j6", "groves-j2"}
         Normal model of ``quantity="normal"``.
     model, lmax, epoch, device
         As :func:`fieldmap.field.gravity.disturbance`.
@@ -198,7 +185,7 @@ def evaluate_points(
         from fieldmap.field.normal import normal_gravity
 
         return normal_gravity(
-            lat, lon, h, kind=normal, centrifugal=True, frame="enu", device=device
+            lat, lon, h, normal=normal, centrifugal=True, frame="enu", device=device
         )
     from fieldmap.field import gravity as fg
     from fieldmap.models.registry import announce, load_model
@@ -215,7 +202,7 @@ def evaluate_points(
         if quantity == "geoid":
             return geodesy.geoid_height(lat, lon, model=sh_model, device=device)[:, None]
         return geodesy.disturbing_potential(lat, lon, h, model=sh_model, device=device)[:, None]
-    return fg.disturbance(lat, lon, h, model=sh_model, unit="mGal", frame="enu", device=device)
+    return fg.disturbance(lat, lon, h, model=sh_model, units="mGal", frame="enu", device=device)
 
 
 def run_point(args) -> int:
@@ -235,17 +222,25 @@ def run_point(args) -> int:
     else:
         with open(args.input, "rb") as f:
             text = _read_capped(f, args.input)
+    from fieldmap.limits import point_errors
+
     lines = text.splitlines()
-    points, results = [], []
+    parsed, results = [], []
     for line in lines:
         try:
             pt = parse_point_line(line)
             if args.quantity == "geoid" and pt[2] != 0.0:
                 raise ValueError("the geoid height is defined on the ellipsoid: h must be 0")
-            points.append(pt)
+            parsed.append(pt)
             results.append(None)
         except ValueError as exc:
             results.append(f"ERROR: {exc}")
+    if parsed:  # the ranges of the API, with its messages
+        where = [k for k, r in enumerate(results) if r is None]
+        for k, why in zip(where, point_errors(*zip(*parsed))):
+            if why is not None:
+                results[k] = f"ERROR: {why}"
+    points = [p for p, k in zip(parsed, where) if results[k] is None] if parsed else []
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
         values = evaluate_points(

@@ -121,7 +121,14 @@ def _normal_checks(device, npoints):
             f"normal gravitation {kind} ({npoints} points)",
             device,
             lambda kind=kind: normal_gravity(
-                lat, lon, h, WGS84, kind=kind, centrifugal=False, frame="ecef", device=device
+                lat,
+                lon,
+                h,
+                normal=kind,
+                ellipsoid=WGS84,
+                centrifugal=False,
+                frame="ecef",
+                device=device,
             ),
             lambda kind=kind: ref.normal_gravity(
                 lat, lon, h, WGS84, kind=kind, centrifugal=False, frame="ecef"

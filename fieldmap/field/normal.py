@@ -8,18 +8,19 @@ Public API (NumPy in, NumPy out; the work runs in the Warp kernels of ``fieldmap
 * :func:`somigliana` — the closed Somigliana formula for the magnitude on the ellipsoid.
 * :func:`normal_params` — the ``NormalParams`` struct the device functions take.
 
-Kinds: ``"exact"`` (Heiskanen & Moritz 1967 §2-7 to 2-9), ``"j2"``, ``"j4"``, ``"j6"`` (Chen et al.
-2022 eqs. 7–13, corrected; J2n from the ellipsoid, H&M eq. 2-92, reference radius a) and
-``"groves_j2"`` (Groves 2013 eq. 3.7.7 with its printed J2 = 1.082627e-3; centrifugal eqs.
-3.7.5/3.7.6).
+Models (``normal=``, the same names as the CLI's ``--normal``): ``"exact"`` (Heiskanen & Moritz
+1967 §2-7 to 2-9), ``"j2"``, ``"j4"``, ``"j6"`` (Chen et al. 2022 eqs. 7–13, corrected; J2n from
+the ellipsoid, H&M eq. 2-92, reference radius a) and ``"groves-j2"`` (Groves 2013 eq. 3.7.7
+with its printed J2 = 1.082627e-3; centrifugal eqs. 3.7.5/3.7.6).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import warp as wp
+from numpy.typing import ArrayLike
 
-from fieldmap import _warp
+from fieldmap import _compat, _warp, limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.frames import ecef_to_geodetic
@@ -29,18 +30,16 @@ from fieldmap.kernels import normal as _k
 #: (a, f, GM, ω) is 1.08262982e-3 (``WGS84.J2``).
 GROVES_J2 = 1.082627e-3
 
-#: Lowest accepted height above the ellipsoid. Below the ellipsoid the formulas give the harmonic
-#: continuation of the exterior normal field (exact down to the focal disc), which is what a
-#: navigation system uses a few km below sea level; deeper points are rejected. Units: m.
-MIN_HEIGHT = -10.0e3
-#: Highest accepted height above the ellipsoid: 1e8 m, a quarter of the lunar distance, beyond
-#: which an Earth gravity model is no longer the relevant field (and far below the heights where
-#: r² overflows and the kernels would silently return NaN, e.g. h = 1e300). Units: m.
-MAX_HEIGHT = 1.0e8
-#: Accepted longitudes, half-open as GeographicLib's DMS::DecodeLatLon: [-540, 540). Units: deg.
-LON_MIN, LON_MAX = -540.0, 540.0
+#: Accepted heights and longitudes (one rule for points and grids, :mod:`fieldmap.limits`).
+MIN_HEIGHT = limits.MIN_HEIGHT
+MAX_HEIGHT = limits.MAX_HEIGHT
+LON_MIN, LON_MAX = limits.LON_MIN, limits.LON_MAX
 
-KINDS = {"exact": 0, "j2": 2, "j4": 4, "j6": 6, "groves_j2": 2}
+#: The normal-gravity models, one vocabulary for the API and the CLI (``normal=``,
+#: ``--normal``): name -> J2n order of the kernel (0: the exact closed form).
+NORMAL_MODELS = {"exact": 0, "j2": 2, "j4": 4, "j6": 6, "groves-j2": 2}
+#: 0.1 name of :data:`NORMAL_MODELS`.
+KINDS = NORMAL_MODELS
 FRAMES = {"ecef": 0, "enu": 1, "ned": 2}
 
 
@@ -75,10 +74,36 @@ def normal_params(ellipsoid: Ellipsoid | str = WGS84, j2: float | None = None) -
     return p
 
 
-def _check_kind(kind: str) -> str:
-    key = str(kind).lower()
-    if key not in KINDS:
-        raise InputError(f"unknown normal-gravity kind {kind!r} (known: {', '.join(KINDS)})")
+def normal_model(normal: str | int) -> str:
+    """Return the canonical name of a normal-gravity model.
+
+    Parameters
+    ----------
+    normal : str
+        ``"exact"``, ``"j2"``, ``"j4"``, ``"j6"`` or ``"groves-j2"``, in any case, ``_`` for
+        ``-`` allowed. The J2n order of fieldmap 0.1's grid functions (0 for exact, 2, 4, 6) is
+        accepted with a ``DeprecationWarning``.
+
+    Returns
+    -------
+    str
+        A key of :data:`NORMAL_MODELS`.
+
+    Raises
+    ------
+    InputError
+        An unknown model.
+    """
+    if isinstance(normal, (int, np.integer)) and not isinstance(normal, bool):
+        if int(normal) in (0, 2, 4, 6):
+            name = "exact" if int(normal) == 0 else f"j{int(normal)}"
+            _compat.warn(f"normal-gravity order {int(normal)} is now normal={name!r}", 4)
+            return name
+    key = str(normal).strip().lower().replace("_", "-")
+    if key not in NORMAL_MODELS:
+        raise InputError(
+            f"unknown normal-gravity model {normal!r} (known: {', '.join(NORMAL_MODELS)})"
+        )
     return key
 
 
@@ -90,87 +115,31 @@ def _check_frame(frame: str) -> str:
 
 
 def _as_float(name: str, v) -> np.ndarray:
-    try:
-        arr = np.asarray(v, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be numeric ({exc})") from None
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{name} must be finite (got NaN or inf)")
-    return arr
+    return limits._as_float(name, v)
 
 
-def _worst(a: np.ndarray, bad: np.ndarray) -> float:
-    """First offending value of ``a`` where ``bad`` (for the error message)."""
-    return float(a[bad].ravel()[0])
-
-
-def check_geodetic(lat_deg, lon_deg, h_m, below: str, min_height: float = MIN_HEIGHT):
-    """Validate geodetic points and broadcast them together.
-
-    Parameters
-    ----------
-    lat_deg, lon_deg : array_like
-        Geodetic latitude in [-90, 90] and longitude in [-540, 540) (GeographicLib's range).
-        Units: degrees.
-    h_m : array_like
-        Height above the ellipsoid in [``min_height``, ``MAX_HEIGHT``]. Units: m.
-    below : str
-        End of the message for a height below ``min_height`` (why the caller refuses it).
-    min_height : float
-        Lowest accepted height. Units: m.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(lat, lon, h)`` float64, broadcast to one shape (read-only views).
-
-    Raises
-    ------
-    InputError
-        Non-numeric, non-finite or out-of-range values, or shapes that do not broadcast.
-    """
-    lat = _as_float("latitude", lat_deg)
-    lon = _as_float("longitude", lon_deg)
-    h = _as_float("height", h_m)
-    try:
-        lat, lon, h = np.broadcast_arrays(lat, lon, h)
-    except ValueError:
-        raise InputError(
-            f"latitude, longitude and height of shapes {lat.shape}, {lon.shape}, {h.shape} do "
-            "not broadcast to one shape"
-        ) from None
-    bad = np.abs(lat) > 90.0
-    if np.any(bad):
-        raise InputError(f"latitude must be within [-90, 90] degrees, got {_worst(lat, bad):g}")
-    bad = (lon < LON_MIN) | (lon >= LON_MAX)
-    if np.any(bad):
-        raise InputError(
-            f"longitude must be within [{LON_MIN:g}, {LON_MAX:g}) degrees, got {_worst(lon, bad):g}"
-        )
-    bad = h < min_height
-    if np.any(bad):
-        raise InputError(f"height {_worst(h, bad):g} m is below {min_height:.0f} m: {below}")
-    bad = h > MAX_HEIGHT
-    if np.any(bad):
-        raise InputError(
-            f"height {_worst(h, bad):g} m is above {MAX_HEIGHT:g} m, outside the range where an "
-            "Earth gravity model is meant to be used"
-        )
-    return lat, lon, h
+#: 0.1 name of :func:`fieldmap.limits.check_geodetic`.
+check_geodetic = limits.check_geodetic
 
 
 def _params_for(ell: Ellipsoid, kind: str, groves_j2: float | None) -> _k.NormalParams:
-    if kind == "groves_j2":
+    if kind == "groves-j2":
         return normal_params(ell, j2=ell.J2 if groves_j2 is None else groves_j2)
     return normal_params(ell)
 
 
+@_compat.keyword_api(
+    3,
+    ("ellipsoid", "kind", "centrifugal", "frame", "device", "groves_j2"),
+    {"lat_deg": "latitude", "lon_deg": "longitude", "h_m": "height", "kind": "normal"},
+)
 def normal_gravity(
-    lat_deg,
-    lon_deg,
-    h_m,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    normal: str = "exact",
     ellipsoid: Ellipsoid | str = WGS84,
-    kind: str = "exact",
     centrifugal: bool = True,
     frame: str = "enu",
     device: str | None = None,
@@ -180,16 +149,19 @@ def normal_gravity(
 
     Parameters
     ----------
-    lat_deg, lon_deg : array_like
-        Geodetic latitude in [-90, 90] and longitude in [-540, 540) (broadcast together with
-        ``h_m``). Units: degrees.
-    h_m : array_like
+    latitude : array_like
+        Geodetic latitude in [-90, 90], broadcast with ``longitude`` and ``height``.
+        Units: degrees.
+    longitude : array_like
+        Longitude in [-540, 540) (GeographicLib's range). Units: degrees.
+    height : array_like
         Height above the ellipsoid, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT``. Units: m.
+    normal : {"exact", "j2", "j4", "j6", "groves-j2"}
+        Exact closed form (Heiskanen & Moritz 1967 §2-7…2-9), the truncated zonal models of
+        Chen et al. (2022) eqs. (7)–(13) (corrected), or Groves (2013) eq. 3.7.7
+        (:func:`normal_model`; 0.1: ``kind=``).
     ellipsoid : Ellipsoid or str
         Level ellipsoid, default WGS84.
-    kind : {"exact", "j2", "j4", "j6", "groves_j2"}
-        Exact closed form (Heiskanen & Moritz 1967 §2-7…2-9) or the truncated zonal models of
-        Chen et al. (2022) eqs. (7)–(13) (corrected), or Groves (2013) eq. 3.7.7.
     centrifugal : bool
         Add the centrifugal acceleration ω²(x, y, 0) (Groves eq. 3.7.5/3.7.6): gravity; else
         gravitation only.
@@ -198,23 +170,18 @@ def normal_gravity(
     device : str, optional
         Warp device (default: first CUDA device, else CPU).
     groves_j2 : float or None
-        J2 of ``kind="groves_j2"``: Groves' printed 1.082627e-3 by default, ``None`` for the
-        ellipsoid's own J2 (then identical to ``kind="j2"``).
+        J2 of ``normal="groves-j2"``: Groves' printed 1.082627e-3 by default, ``None`` for the
+        ellipsoid's own J2 (then identical to ``normal="j2"``).
 
     Returns
     -------
     numpy.ndarray
-        Shape ``broadcast(lat, lon, h).shape + (3,)``. Units: m/s².
+        Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
     """
-    key = _check_kind(kind)
+    key = normal_model(normal)
     fkey = _check_frame(frame)
     ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = check_geodetic(
-        lat_deg,
-        lon_deg,
-        h_m,
-        "deep inside the level ellipsoid, outside the domain of the normal-gravity model",
-    )
+    lat, lon, h = limits.check_geodetic(latitude, longitude, height)
     shape = lat.shape
     n = lat.size
     if n == 0:
@@ -231,20 +198,24 @@ def normal_gravity(
     _warp.launch_chunked(
         _k.normal_points_kernel,
         n,
-        [*arrs, params, KINDS[key], int(bool(centrifugal)), FRAMES[fkey], out],
+        [*arrs, params, NORMAL_MODELS[key], int(bool(centrifugal)), FRAMES[fkey], out],
         dev,
     )
     return out.numpy().reshape(shape + (3,))
 
 
+@_compat.keyword_api(
+    3, ("ellipsoid", "kind", "device", "centrifugal", "groves_j2"), {"kind": "normal"}
+)
 def normal_gravitation_ecef(
-    x,
-    y,
-    z,
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    *,
+    normal: str = "exact",
     ellipsoid: Ellipsoid | str = WGS84,
-    kind: str = "exact",
-    device: str | None = None,
     centrifugal: bool = False,
+    device: str | None = None,
     groves_j2: float | None = GROVES_J2,
 ) -> np.ndarray:
     """Compute normal gravitation (default) or gravity at ECEF points, ECEF components.
@@ -254,7 +225,7 @@ def normal_gravitation_ecef(
     x, y, z : array_like
         ECEF coordinates (broadcast together), at most ``MAX_HEIGHT`` above and
         ``-MIN_HEIGHT`` below the ellipsoid. Units: m.
-    ellipsoid, kind, device, groves_j2
+    normal, ellipsoid, device, groves_j2
         As in :func:`normal_gravity`.
     centrifugal : bool
         Add ω²(x, y, 0) (default False: gravitation only).
@@ -264,7 +235,7 @@ def normal_gravitation_ecef(
     numpy.ndarray
         Shape ``broadcast(x, y, z).shape + (3,)``. Units: m/s².
     """
-    key = _check_kind(kind)
+    key = normal_model(normal)
     ell = get_ellipsoid(ellipsoid)
     xyz = [_as_float(nm, v) for nm, v in zip("xyz", (x, y, z))]
     try:
@@ -301,12 +272,16 @@ def normal_gravitation_ecef(
     out = wp.empty(x.size, dtype=wp.vec3d, device=dev)
     params = _params_for(ell, key, groves_j2)
     _warp.launch_chunked(
-        _k.normal_ecef_kernel, x.size, [p_wp, params, KINDS[key], int(bool(centrifugal)), out], dev
+        _k.normal_ecef_kernel,
+        x.size,
+        [p_wp, params, NORMAL_MODELS[key], int(bool(centrifugal)), out],
+        dev,
     )
     return out.numpy().reshape(shape + (3,))
 
 
-def somigliana(lat_deg, ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
+@_compat.keyword_api(1, ("ellipsoid",), {"lat_deg": "latitude"})
+def somigliana(latitude: ArrayLike, *, ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
     r"""Magnitude of normal gravity on the ellipsoid (h = 0), Somigliana's closed formula.
 
     .. math::
@@ -317,7 +292,7 @@ def somigliana(lat_deg, ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
 
     Parameters
     ----------
-    lat_deg : array_like
+    latitude : array_like
         Geodetic latitude. Units: degrees.
     ellipsoid : Ellipsoid or str
         Level ellipsoid.
@@ -328,7 +303,7 @@ def somigliana(lat_deg, ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
         Normal gravity magnitude. Units: m/s².
     """
     ell = get_ellipsoid(ellipsoid)
-    lat = _as_float("latitude", lat_deg)
+    lat = _as_float("latitude", latitude)
     if np.any(np.abs(lat) > 90.0):
         raise InputError("latitude must be within [-90, 90] degrees")
     phi = np.radians(lat)

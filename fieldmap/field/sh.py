@@ -90,19 +90,6 @@ def _check_lmax(model: SHModel, lmax) -> int:
     return lmax_i
 
 
-_loaded: set = set()
-
-
-def _load(device: str) -> None:
-    # Compile/load the point-kernel module once, before launch_chunked's threads race to do it
-    # (here, not in kernel_model: grids and strapdown build the struct but launch their own).
-    if device not in _loaded:
-        from fieldmap.kernels import sh as ksh
-
-        wp.load_module(ksh, device=device)
-        _loaded.add(device)
-
-
 def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = None):
     """Build (or fetch from the cache) the device struct of ``model`` truncated to ``lmax``.
 
@@ -205,7 +192,6 @@ def _launch_points(
 
     device = _warp.resolve_device(device)
     km = kernel_model(model, device, lmax)
-    _load(device)
     n = columns[0][0].shape[0]
     ins = [wp.array(np.ascontiguousarray(a), dtype=t, device=device) for a, t in columns]
     out = wp.zeros(n, dtype=out_dtype, device=device)

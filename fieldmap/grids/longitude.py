@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def _regular_period(lon_deg: np.ndarray) -> int | None:
+def regular_period(lon_deg: np.ndarray) -> int | None:
     """Return L if the longitudes are lon0 + k*360/L (k = 0, 1, ...), else None.
 
     More than L nodes are allowed (a grid holding both 0 and 360 deg): they wrap around.
@@ -60,7 +60,7 @@ def longitude_sums(
     if out is None:
         out = np.empty((*lead, nlon))
     res = out.reshape(ns, nlon)  # a view for the contiguous buffers the callers pass
-    nper = _regular_period(lon_deg)
+    nper = regular_period(lon_deg)
     if nper is None:
         res[...] = _direct_sums(W, lon_deg, device)
         return out
@@ -103,10 +103,9 @@ def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
     import warp as wp
 
     from fieldmap import _warp
-    from fieldmap.grids.synthesis import _load
     from fieldmap.kernels import grid as kgrid
 
-    _load(device)
+    _warp.init()  # launch_chunked compiles the module once, before its threads launch
     nser, nm = W.shape
     ab = np.stack([W.real, -W.imag], axis=-1)
     coef = wp.array(np.ascontiguousarray(ab), dtype=wp.vec2d, device=device)

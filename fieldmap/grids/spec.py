@@ -14,15 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fieldmap import limits
 from fieldmap.errors import InputError
 
-#: Lowest height accepted (m): the series is meant for points outside the masses.
-MIN_HEIGHT_M = -1000.0
-#: Highest height accepted (m): 1e8 m, a quarter of the lunar distance, as
-#: :data:`fieldmap.field.normal.MAX_HEIGHT`;
-#: beyond it an Earth model is not the relevant field (and at
-#: 1e300 m the synthesis returned NaN).
-MAX_HEIGHT_M = 1.0e8
+#: Lowest and highest heights accepted, the same as for points (:mod:`fieldmap.limits` says
+#: why). Units: m.
+MIN_HEIGHT_M = limits.MIN_HEIGHT
+MAX_HEIGHT_M = limits.MAX_HEIGHT
 #: Bytes of result per node and height of a map product: east, north, up, modulus in the
 #: requested unit and in mg, plus the working copies of the synthesis.
 BYTES_PER_NODE = 96
@@ -159,7 +157,7 @@ def make_grid(
         Regional grid instead, nodes from west/south in steps up to east/north. east < west means
         the region crosses the antimeridian. Units: degrees.
     heights_m : sequence of float
-        Heights above the ellipsoid. Units: m (finite, -1000 <= h <= 1e8).
+        Heights above the ellipsoid. Units: m (finite, -1e4 <= h <= 1e8, :mod:`fieldmap.limits`).
     whole_in_memory : bool
         Check that the whole result fits in memory (:func:`check_memory`); False for products
         computed and written block by block (:mod:`fieldmap.products.blocks`).
@@ -176,24 +174,9 @@ def make_grid(
         raise InputError(f"step must be a positive number of degrees, got {step_deg!r}")
     if step > 90:
         raise InputError(f"step {step} deg is larger than 90 deg")
-    try:
-        h = np.atleast_1d(np.asarray(heights_m, dtype=np.float64)).ravel()
-    except (TypeError, ValueError):
-        raise InputError(f"heights must be numbers in m, got {heights_m!r}") from None
-    if h.size == 0:
+    if np.size(heights_m) == 0:
         raise InputError("no height given")
-    if not np.all(np.isfinite(h)):
-        raise InputError(f"heights must be finite, got {h.tolist()}")
-    if np.any(h < MIN_HEIGHT_M):
-        raise InputError(
-            f"height {h.min():g} m is below {MIN_HEIGHT_M:g} m: the spherical-harmonic series is "
-            "meant for points outside the Earth's masses"
-        )
-    if np.any(h > MAX_HEIGHT_M):
-        raise InputError(
-            f"height {h.max():g} m is above {MAX_HEIGHT_M:g} m, outside the range where an Earth "
-            "gravity model is meant to be used"
-        )
+    h = limits.check_heights(heights_m)
     if region is None:
         lm = _number(lat_max, "latitude limit")
         if not math.isfinite(lm) or not 0 <= lm <= 90:

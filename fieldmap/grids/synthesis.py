@@ -12,10 +12,13 @@ longitudes). Rows are processed in blocks so memory stays bounded for any grid s
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from fieldmap import _compat
 from fieldmap.errors import InputError
-from fieldmap.grids.longitude import _regular_period, longitude_sums
+from fieldmap.grids.longitude import longitude_sums, regular_period
 from fieldmap.grids.spec import (  # noqa: F401 - re-exported: the grid API lives here for users
     MAX_HEIGHT_M,
     MIN_HEIGHT_M,
@@ -23,6 +26,10 @@ from fieldmap.grids.spec import (  # noqa: F401 - re-exported: the grid API live
     check_memory,
     make_grid,
 )
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.models.shmodel import SHModel
 
 #: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
 BLOCK_BYTES = 192 * 2**20
@@ -41,22 +48,6 @@ def resolve_device(device: str | None) -> str:
         raise InputError(str(exc)) from None
 
 
-_loaded: set = set()
-
-
-def _load(device: str) -> None:
-    """Compile/load the grid kernels once, before launch_chunked's threads race to do it."""
-    import warp as wp
-
-    from fieldmap import _warp
-    from fieldmap.kernels import grid as kgrid
-
-    _warp.init()
-    if device not in _loaded:
-        wp.load_module(kgrid, device=device)
-        _loaded.add(device)
-
-
 def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     """Per-item geometry and normal gravitation (geodetic ENU), see ``row_setup_kernel``."""
     import warp as wp
@@ -65,7 +56,7 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import grid as kgrid
 
-    _load(device)
+    _warp.init()  # launch_chunked compiles the module once, before its threads launch
     n = lat_rad.size
     lat = wp.array(lat_rad, dtype=wp.float64, device=device)
     hh = wp.array(h_m, dtype=wp.float64, device=device)
@@ -81,7 +72,14 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     return outs, gamma
 
 
-def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | None = None):
+def normal_rows(
+    grid: GridSpec,
+    ellipsoid: Ellipsoid | None = None,
+    normal: str = "exact",
+    device: str | None = None,
+    *,
+    order: int | None = None,
+) -> np.ndarray:
     """Return the normal gravitation of every (height, row) in geodetic ENU.
 
     It is the same at all longitudes.
@@ -91,10 +89,12 @@ def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | No
     grid : GridSpec
     ellipsoid : fieldmap.field.ellipsoid.Ellipsoid, optional
         Default WGS84.
-    order : int
-        0 for the exact level-ellipsoid field, 2/4/6 for the J2/J4/J6 series (eqs. 7-13 of
-        Chen et al. 2022, corrected).
+    normal : {"exact", "j2", "j4", "j6"}
+        The exact level-ellipsoid field or the J2/J4/J6 series (eqs. 7-13 of Chen et al. 2022,
+        corrected); names of :func:`fieldmap.field.normal.normal_model`.
     device : str, optional
+    order : int, optional
+        fieldmap 0.1's spelling of ``normal`` (0 exact, 2, 4, 6), deprecated.
 
     Returns
     -------
@@ -102,19 +102,24 @@ def normal_rows(grid: GridSpec, ellipsoid=None, order: int = 0, device: str | No
         Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
     """
     from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.normal import NORMAL_MODELS, normal_model
 
-    if order not in (0, 2, 4, 6):
-        raise InputError(f"normal-gravity order must be 2, 4 or 6, got {order!r}")
+    if order is not None:
+        _compat.warn("normal_rows(): order= is now normal= ('exact', 'j2', 'j4', 'j6')")
+        normal = {0: "exact", 2: "j2", 4: "j4", 6: "j6"}.get(order) or repr(order)
+    key = normal_model(normal)
+    if key == "groves-j2":
+        raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
     device = resolve_device(device)
     ellipsoid = ellipsoid or WGS84
     nh, nlat, _ = grid.shape
     lat = np.tile(np.radians(grid.lat), nh)
     h = np.repeat(grid.heights, nlat)
-    _, gamma = _row_setup(lat, h, ellipsoid, ellipsoid.a, order, device)
+    _, gamma = _row_setup(lat, h, ellipsoid, ellipsoid.a, NORMAL_MODELS[key], device)
     return gamma.numpy().reshape(nh, nlat, 3)
 
 
-def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
+def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.ndarray:
     """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
 
     Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
@@ -135,9 +140,9 @@ def centrifugal_rows(grid: GridSpec, ellipsoid=None) -> np.ndarray:
 
 
 def synthesize(
-    model,
+    model: SHModel,
     grid: GridSpec,
-    ellipsoid=None,
+    ellipsoid: Ellipsoid | None = None,
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
@@ -189,7 +194,7 @@ def synthesize(
     h_all = np.repeat(grid.heights, nlat)
     pairs = mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)]
     units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
-    nper = _regular_period(grid.lon) or nlon
+    nper = regular_period(grid.lon) or nlon
     per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
@@ -250,7 +255,8 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     the equator row has no mirror other than itself.
     """
     where = {float(v): i for i, v in enumerate(lat_deg)}
-    used, out = set(), []
+    used: set[int] = set()
+    out = []
     for i, v in enumerate(lat_deg):
         if i in used:
             continue

@@ -159,7 +159,7 @@ class Gravitation:
             return sh_gravitation(self.model, x, y, z, lmax=self.lmax, device=self.device)
         from fieldmap.field.normal import normal_gravitation_ecef
 
-        return normal_gravitation_ecef(x, y, z, kind=self.kind, device=self.device)
+        return normal_gravitation_ecef(x, y, z, normal=self.kind, device=self.device)
 
 
 # --- synthesis ------------------------------------------------------------------------------------

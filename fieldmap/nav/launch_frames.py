@@ -31,14 +31,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.frames import geodetic_to_ecef
 
 #: Accepted launch longitudes and azimuths, half-open, as GeographicLib's angle range. Units: deg.
-ANGLE_RANGE = (-540.0, 540.0)
-#: Accepted launch heights: as :mod:`fieldmap.field.normal` (-10 km .. 1e8 m). Units: m.
-HEIGHT_RANGE = (-10.0e3, 1.0e8)
+ANGLE_RANGE = (limits.LON_MIN, limits.LON_MAX)
+#: Accepted launch heights: those of every point (:mod:`fieldmap.limits`, -10 km .. 1e8 m).
+#: Units: m.
+HEIGHT_RANGE = (limits.MIN_HEIGHT, limits.MAX_HEIGHT)
 
 
 def _checked(name: str, value, lo: float, hi: float, closed: bool, unit: str) -> float:

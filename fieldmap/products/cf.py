@@ -12,10 +12,11 @@ import numpy as np
 import xarray as xr
 
 from fieldmap import __version__
-from fieldmap.products.stats import MG, MGAL, threshold_key
+from fieldmap.errors import InputError
+from fieldmap.products.stats import threshold_key
+from fieldmap.units import MG, MGAL, get_unit  # noqa: F401 - re-exported for 0.1 callers
+from fieldmap.units import UNITS as UNITS  # noqa: F401 - the one table of units, re-exported
 
-#: Output units of the map variables and their size in m/s² (values in m/s² are divided by it).
-UNITS = {"mGal": MGAL, "mg": MG, "m s-2": 1.0}
 REFERENCE = (
     "Chen K., Zeng C.-Z., Pei S.-S., Liang W.-C. (2022), Normal gravity model for inertial "
     "navigation of a hypersonic boost-glide vehicle, J. Zhejiang Univ. Sci. A, "
@@ -26,8 +27,6 @@ COMPONENTS = {"east": "eastward", "north": "northward", "up": "upward"}
 #: milli-g in UDUNITS terms. UDUNITS (and so every CF tool) reads "mg" as milligram, a mass;
 #: a scaled SI unit converts correctly to m s-2 and mGal.
 MG_UNITS = "0.00980665 m s-2"
-#: ``units`` attribute written for each output unit of :data:`UNITS`.
-CF_UNITS = {"mGal": "mGal", "mg": MG_UNITS, "m s-2": "m s-2"}
 MG_COMMENT = (
     "values in mg (milli-g): 1 mg = 1e-3 g_n = 9.80665e-3 m s-2 = 980.665 mGal; the units "
     "attribute spells it as a scaled SI unit because UDUNITS reads 'mg' as milligram"
@@ -36,15 +35,15 @@ MG_COMMENT = (
 
 def cf_units(units: str) -> str:
     """Return the ``units`` attribute (UDUNITS spelling) of an output unit of :data:`UNITS`."""
-    return CF_UNITS.get(units, units)
+    return get_unit(units).udunits
 
 
 def units_scale(units_attr: str) -> float:
     """Size in m/s² of a unit given by name (:data:`UNITS`) or by its ``units`` attribute."""
-    for name, attr in CF_UNITS.items():
-        if units_attr in (name, attr):
-            return UNITS[name]
-    raise KeyError(units_attr)
+    try:
+        return get_unit(units_attr).si
+    except InputError:
+        raise KeyError(units_attr) from None
 
 
 def mg_attrs(long_name: str) -> dict:
@@ -134,8 +133,10 @@ def vector_vars(vec, dims, units, what) -> dict:
     ``vec`` has the components last (any leading shape, views welcome). The five variables
     are written into one buffer, so that a map costs one allocation instead of a dozen
     temporaries (the map call is meant to cost little more than its synthesis).
+    ``units`` is any spelling :func:`fieldmap.units.get_unit` accepts.
     """
-    scale = UNITS[units]
+    unit = get_unit(units)
+    scale, units = unit.si, unit.name
     comps = np.moveaxis(vec, -1, 0)
     buf = np.empty((5, *comps.shape[1:]))
     mod = buf[3]

@@ -11,10 +11,9 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from fieldmap import __version__
+from fieldmap import __version__, limits
 from fieldmap.errors import InputError
 from fieldmap.grids.synthesis import (
-    MAX_HEIGHT_M,
     check_memory,
     make_grid,
     normal_rows,
@@ -32,6 +31,7 @@ from fieldmap.products.cf import (
     vector_vars,
 )
 from fieldmap.products.stats import map_statistics, parse_thresholds, threshold_key
+from fieldmap.units import get_unit
 
 __all__ = [
     "UNITS",
@@ -44,47 +44,20 @@ __all__ = [
 
 
 def _check_units(units: str) -> float:
-    if units not in UNITS:
-        raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
-    return UNITS[units]
+    return get_unit(units).si
 
 
 def _heights_m(height_km, one: str | None = None) -> np.ndarray:
-    """Heights in m from km; ``one``: the message of the error raised unless there is one.
+    """Distinct heights in m from km; ``one``: the message raised unless there is one height.
 
-    Checked here in the caller's unit (km), so that 1e306 km is "above 100000 km" rather than an
-    overflow to inf; distinct values (a sweep of the same height twice is a typing slip).
+    The rule is :func:`fieldmap.limits.heights_from_km`.
     """
-    try:
-        km = np.atleast_1d(np.asarray(height_km, dtype=np.float64)).ravel()
-    except (TypeError, ValueError):
-        raise InputError(f"heights must be numbers in km, got {height_km!r}") from None
-    if one is not None and km.size != 1:
-        raise InputError(one)
-    if not np.all(np.isfinite(km)):
-        raise InputError(f"heights must be finite, got {km.tolist()} km")
-    if np.any(km > MAX_HEIGHT_M / 1e3):
-        raise InputError(
-            f"height {km.max():g} km is above {MAX_HEIGHT_M / 1e3:g} km, outside the range where "
-            "an Earth gravity model is meant to be used"
-        )
-    values, counts = np.unique(km, return_counts=True)
-    if np.any(counts > 1):
-        raise InputError(
-            f"heights must be distinct: {values[counts > 1][0]:g} km is repeated in {km.tolist()}"
-        )
-    return km * 1e3
+    return limits.heights_from_km(height_km, distinct=True, one=one)
 
 
 def _orders(orders) -> tuple[int, ...]:
-    """Distinct J2n orders among 2, 4, 6; 2.5 or "x" is an error, not order 2."""
-    try:
-        vals = [float(o) for o in orders]
-    except (TypeError, ValueError):
-        raise InputError(f"orders must be among 2, 4, 6, got {orders!r}") from None
-    if not vals or any(v not in (2.0, 4.0, 6.0) for v in vals) or len(set(vals)) != len(vals):
-        raise InputError(f"orders must be distinct values among 2, 4, 6, got {orders!r}")
-    return tuple(int(v) for v in vals)
+    """Distinct J2n orders among 2, 4, 6 (:func:`fieldmap.limits.check_orders`)."""
+    return limits.check_orders(orders)
 
 
 def _model(model, lmax, epoch):
@@ -151,7 +124,7 @@ def disturbance_map(
     lmax : int, optional
         Truncation degree (default: the model's).
     height_km : float
-        Height above the ellipsoid, -1 ≤ h ≤ 1e5 (``MAX_HEIGHT_M``). Units: km.
+        Height above the ellipsoid, -10 ≤ h ≤ 1e5 (:mod:`fieldmap.limits`). Units: km.
     step_deg, lat_max : float
         Grid spacing and latitude limit of a global grid. Units: degrees.
     region : (west, east, south, north), optional
@@ -164,8 +137,9 @@ def disturbance_map(
         Normal field (``"WGS84"`` or ``"GRS80"``).
     epoch : float or str, optional
         Epoch for time-variable models.
-    units : {"mGal", "mg", "m s-2"}
-        Units of east, north, up, modulus (``modulus_mg`` is always added).
+    units : {"mGal", "mg", "m/s2"}
+        Units of east, north, up, modulus (``modulus_mg`` is always added); any spelling of
+        :mod:`fieldmap.units` (``"m s-2"``, any case).
     client : dask.distributed.Client, optional
         Compute on this cluster, block by block (:mod:`fieldmap.products.distributed`).
     scheduler : str, optional
@@ -291,7 +265,7 @@ def truncation_map(
     Parameters
     ----------
     height_km : float
-        Height above the ellipsoid, -1 ≤ h ≤ 1e5. Units: km.
+        Height above the ellipsoid, -10 ≤ h ≤ 1e5. Units: km.
     orders : sequence of int
         Distinct orders among 2, 4, 6 (2.5 is an error, not order 2).
     step_deg, lat_max, region, device, ellipsoid, units
@@ -316,8 +290,8 @@ def truncation_map(
         from fieldmap.products.distributed import normal_rows_on
 
         rows = normal_rows_on(client)
-    exact = rows(grid, ell, 0, device)[0]
-    err = np.stack([rows(grid, ell, o, device)[0] - exact for o in orders])
+    exact = rows(grid, ell, "exact", device)[0]
+    err = np.stack([rows(grid, ell, f"j{o}", device)[0] - exact for o in orders])
     vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
     ds = xr.Dataset(
         vector_vars(
@@ -380,7 +354,7 @@ def component_maps(
     from fieldmap.grids.synthesis import centrifugal_rows
 
     g = synthesize(mod, grid, ell, "gravity", device, progress)[0]
-    gam = (normal_rows(grid, ell, 0, device) + centrifugal_rows(grid, ell))[0]
+    gam = (normal_rows(grid, ell, "exact", device) + centrifugal_rows(grid, ell))[0]
     gam = np.broadcast_to(gam[:, None, :], g.shape)
     dims = ("latitude", "longitude")
     data = {}

@@ -444,7 +444,6 @@ def plot_truncation(ds):
 
 
 def _to_mg(units: str) -> float:
-    from fieldmap.products.cf import units_scale
-    from fieldmap.products.stats import MG
+    from fieldmap.units import MG, get_unit
 
-    return units_scale(units) / MG
+    return get_unit(units).si / MG

@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-#: 1 mg = 1e-3 g with standard gravity g = 9.80665 m/s² (Chen et al. 2022, §4.1). Units: m/s².
-MG = 9.80665e-3
-#: 1 mGal = 1e-5 m/s². Units: m/s².
-MGAL = 1e-5
+from fieldmap.units import MG as MG  # 1 mg = 1e-3 standard gravity (m/s²)
+from fieldmap.units import MGAL as MGAL  # 1 mGal = 1e-5 m/s²
 
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
 DEFAULT_PERCENTILES = (50.0, 90.0, 99.0)
@@ -194,5 +192,5 @@ def parse_thresholds(values) -> tuple[float, ...]:
     if not vals or not all(np.isfinite(v) and v > 0 for v in vals):
         raise InputError(f"thresholds must be positive finite numbers in mg, got {values!r}")
     if len(set(vals)) != len(vals):
-        raise InputError(f"thresholds_mg: repeated threshold in {vals}")
+        raise InputError(f"thresholds must be distinct: repeated threshold in {vals}")
     return tuple(sorted(vals))
