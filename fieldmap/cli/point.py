@@ -281,7 +281,7 @@ def _format(row, decimals: int) -> str:
 
 
 def run_verify(args) -> int:
-    """Run ``fieldmap verify``; return 1 if any comparison exceeds the tolerance."""
+    """Run ``fieldmap verify``; return 1 if a check failed (or none passed), else 0."""
     from fieldmap import _warp
     from fieldmap.cli.verify import RTOL, format_table, run_checks
     from fieldmap.errors import InputError
@@ -298,12 +298,14 @@ def run_verify(args) -> int:
             raise InputError(str(exc)) from None
     rows = run_checks(devices, lmax=args.lmax, points=args.points)
     print(format_table(rows))
-    bad = [r for r in rows if not r.ok]
+    count = {s: sum(r.status == s for r in rows) for s in ("ok", "skipped", "FAIL")}
     print(
-        f"\n{len(rows) - len(bad)} of {len(rows)} checks within {RTOL:g} relative"
-        + ("" if not bad else f"; {len(bad)} FAILED")
+        f"\n{count['ok']} of {len(rows)} checks within {RTOL:g} relative"
+        + (f"; {count['skipped']} skipped" if count["skipped"] else "")
+        + (f"; {count['FAIL']} FAILED" if count["FAIL"] else "")
     )
-    return 1 if bad else 0
+    # a skipped check is no pass: nothing verified is a failure too
+    return 1 if count["FAIL"] or not count["ok"] else 0
 
 
 def _main(argv=None) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point
