@@ -205,7 +205,8 @@ def run_point(args) -> int:
         with open(args.input, "rb") as f:
             text = _read_capped(f, args.input)
     lines = text.splitlines()
-    points, results = [], []
+    points: list[tuple[float, float, float]] = []
+    results: list = []  # None: a point to compute, then its printed line
     for line in lines:
         try:
             points.append(parse_point_line(line))

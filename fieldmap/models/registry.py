@@ -87,7 +87,7 @@ def load_model(name_or_path="eigen-6s", lmax: int | None = None, epoch=None) -> 
     name = os.fspath(name_or_path)
     bundled = BUNDLED.get(str(name).strip().lower())
     if bundled:
-        key = ("bundled", bundled, t)
+        key: tuple = ("bundled", bundled, t)
 
         def reader():
             ref = resources.files("fieldmap.data").joinpath(bundled)
