@@ -5,7 +5,7 @@ Public API (degrees and metres in, NumPy out):
 * :func:`gravitation` — gradient of the model potential (Chen et al. 2022 eqs. 1-3);
 * :func:`gravity` — gravitation plus the centrifugal acceleration ω²(x, y, 0) (Groves 2013
   eq. 3.7.5), ω of the ellipsoid;
-* :func:`disturbance` — δg = g_model − γ at the same point (seed 002 section 2.3). Both gravity
+* :func:`disturbance` — δg = g_model − γ at the same point (Chen et al. 2022 §2.3). Both gravity
   vectors carry the same centrifugal term, so δg is the difference of the *gravitations*: the
   spherical-harmonic one with the model's own GM and radius, the exact level-ellipsoid one
   (Heiskanen & Moritz 1967 §2-7…2-9, :mod:`fieldmap.field.normal`) with the ellipsoid's GM and a.
@@ -174,7 +174,7 @@ def disturbance(
 
     The centrifugal terms cancel, so this is the model gravitation (model GM and radius) minus
     the exact normal gravitation of the level ellipsoid (its own GM and a; Heiskanen & Moritz
-    1967 §2-7…2-9), seed 002 eq. 14 with the exact normal field.
+    1967 §2-7…2-9), Chen et al. (2022) eq. 14 with the exact normal field.
 
     Parameters
     ----------
