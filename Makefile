@@ -1,27 +1,59 @@
 # Quick start (fresh machine):  make map   |   make test
+#
+# One virtual environment (.venv); each target installs what it needs on top of it, once:
+# `make map` the runtime dependencies only, `make test` adds the `test` extra, `make lint` the
+# `dev` extra. Stamp files in .venv record what was installed from which pyproject.toml.
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
+PIP    := $(BIN)/python -m pip install --quiet
 
-.PHONY: map test install bench clean
+.PHONY: map test test-fast lint format install bench clean
 
-$(BIN)/fieldmap: pyproject.toml
+$(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(PIP) --upgrade pip
+
+$(VENV)/.runtime: pyproject.toml | $(BIN)/python
+	$(PIP) -e .
 	@touch $@
 
-install: $(BIN)/fieldmap
+$(VENV)/.test: pyproject.toml $(VENV)/.runtime
+	$(PIP) -e ".[test]"
+	@touch $@
+
+$(VENV)/.dev: pyproject.toml $(VENV)/.runtime
+	$(PIP) -e ".[dev]"
+	@touch $@
+
+## fieldmap and its runtime dependencies.
+install: $(VENV)/.runtime
 
 ## The main job: global 1-degree disturbance map at 20 km from the bundled EIGEN-6S (outputs/).
 map: install
 	$(BIN)/fieldmap map --height-km 20 --step-deg 1 --out outputs
 
 ## The whole test suite (includes the slow high-degree and external-tool checks).
-test: install
+test: $(VENV)/.test
 	$(BIN)/python -m pytest -q
 
-bench: install
+## The test suite without the tests marked slow (about half the time).
+test-fast: $(VENV)/.test
+	$(BIN)/python -m pytest -q -m "not slow"
+
+## Style and types: ruff (lint and format) and mypy, as CI runs them.
+lint: $(VENV)/.dev
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/mypy
+
+## Rewrite the files in ruff's format and apply ruff's safe fixes.
+format: $(VENV)/.dev
+	$(BIN)/ruff format .
+	$(BIN)/ruff check --fix .
+
+## Benchmarks: ratios against peers (pyshtools, GeographicLib, numba) measured in the same run.
+bench: $(VENV)/.test
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 clean:

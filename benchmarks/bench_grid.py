@@ -1,4 +1,4 @@
-"""Benchmark: grid synthesis against GeographicLib's circle mode and pyshtools (issue 3, "Speed").
+"""Benchmark: grid synthesis against GeographicLib's circle mode and pyshtools.
 
 Prints medians and ratios measured in the same run:
 

@@ -1,6 +1,6 @@
 """Benchmark: batched strapdown propagation vs pyins' numba integrator and GeographicLib.
 
-Prints medians and ratios measured in the same run (issue 4, "Speed"):
+Prints medians and ratios measured in the same run:
 
 1. J4 navigation gravity, 64 trajectories (and more): our LCI two-sample kernel and our NED
    kernel vs ``pyins._numba_integrate.integrate`` run over the same 64 trajectories from a

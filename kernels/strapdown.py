@@ -230,7 +230,7 @@ def lci_kernel(
 
 @wp.func
 def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
-    """Specific force in NED, C_b^n (dv + ½ dθ×dv)/dt (seed 001, navtk ``calc_force_ned``). m/s²."""
+    """Specific force in NED, C_b^n (dv + ½ dθ×dv)/dt (Titterton & Weston 2004 eq. 11.64). m/s²."""
     return wp.quat_rotate(q_b_n, dv + _HALF * wp.cross(dth, dv)) / dt
 
 
@@ -267,7 +267,7 @@ def ned_kernel(
 
     With ω_ie^n = Ω(cos L, 0, −sin L), ω_en^n = (v_E/(R_E+h), −v_N/(R_N+h), −v_E tan L/(R_E+h)) at
     the start of the sample: f^n = C_b^n (dv + ½ dθ×dv)/dt − ½ ω_in^n × C_b^n dv (the
-    rotation correction of seed 001 plus the n-frame rotation over the sample, Savage 1998);
+    rotation correction of Titterton & Weston eq. 11.64 plus the n-frame rotation, Savage 1998);
     v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
     L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
     With ``baro.enabled`` the vertical channel is damped by :class:`BaroAiding` (δh from the

@@ -14,9 +14,8 @@ Temporary files
     get a private ``TMPDIR`` that is removed when the session ends: Warp leaves a precompiled
     header folder (``wp_pch_*``, 4.5 MB per compiling thread) in the temporary folder of every
     process that compiles kernels and does not exit through Python's clean-up (signals,
-    ``os._exit``), and matplotlib leaves a configuration folder where the home folder is not
-    writable. ``tmp_path`` folders are kept for failed tests only (``tmp_path_retention_policy``
-    in pyproject.toml).
+    ``os._exit``); whatever else a child leaves there goes with it. ``tmp_path`` folders are kept
+    for failed tests only (``tmp_path_retention_policy`` in pyproject.toml).
 """
 
 from __future__ import annotations
@@ -29,19 +28,20 @@ import pytest
 
 from fieldmap import _warp
 
-_PRIVATE_TMP = "FIELDMAP_TEST_TMPDIR"
+#: (private TMPDIR, previous TMPDIR) of this session
+_tmp_key = pytest.StashKey[tuple]()
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Give the child processes a temporary folder of their own; configure Warp once."""
+    """Configure Warp once; give the child processes a temporary folder of their own."""
+    # Warp's options (kernel cache, no backward pass) before any test module defines a kernel
+    _warp.init()
     if hasattr(config, "workerinput"):  # pragma: no cover - a pytest-xdist worker: main owns it
         return
     root = tempfile.gettempdir()  # fixes this process's (and pytest's tmp_path) folder first
     private = tempfile.mkdtemp(prefix="fieldmap-tests-", dir=root)
     config.stash[_tmp_key] = (private, os.environ.get("TMPDIR"))
     os.environ["TMPDIR"] = private
-    # Warp's options (kernel cache, no backward pass) before any test module defines a kernel
-    _warp.init()
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -55,9 +55,6 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     else:
         os.environ["TMPDIR"] = previous
     shutil.rmtree(private, ignore_errors=True)
-
-
-_tmp_key = pytest.StashKey[tuple]()
 
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:

@@ -1,4 +1,4 @@
-"""calc_force_ned against NavToolKit's compiled implementation (seed 001)."""
+"""calc_force_ned against NavToolKit's compiled implementation (Titterton & Weston 11.64)."""
 
 import numpy as np
 import pytest

@@ -43,7 +43,7 @@ def _points(n, seed):
 
 
 def test_cof_layout(tmp_path):
-    """The binary layout of REFERENCE.md, read back independently with struct."""
+    """The binary layout of GeographicLib's ``.egm.cof`` files, read back with struct."""
     model = kaula_model(7, seed=2)
     name = write_egm(model, tmp_path, name="k7")
     raw = (tmp_path / "k7.egm.cof").read_bytes()

@@ -17,7 +17,7 @@ FRAME = LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0)
 
 
 def j2_gravitation(r):
-    """Groves (2013) eq. 3.7.7 (seed 000) with the WGS84 GM, a and derived J2 (independent code)."""
+    """Groves (2013) eq. 3.7.7 with the WGS84 GM, a and derived J2 (independent code)."""
     r = np.atleast_2d(r)
     mu, J2, R0 = WGS84.GM, WGS84.J2, WGS84.a
     n = np.linalg.norm(r, axis=1, keepdims=True)
@@ -65,7 +65,7 @@ def test_gauss_legendre_integrates_polynomials_exactly():
 
 
 def test_stationary_increments_equal_reaction_to_gravity():
-    """At rest: dv/dt = −C_n^b (γ + centrifugal) (points up, seed 000/004), dθ/dt = C_e^b ω_ie."""
+    """At rest: dv/dt = −C_n^b (γ + centrifugal) (up: Groves 2013 §2.4.7), dθ/dt = C_e^b ω_ie."""
     st = Stationary(FRAME, 1.0)
     imu = synthesize(st, 100.0, j2_gravitation, n_gauss=2)
     r = FRAME.r_launch

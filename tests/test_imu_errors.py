@@ -8,7 +8,7 @@ from fieldmap.nav import imu_errors as ie
 
 
 def test_unit_constants():
-    # 1 µg = 1e-6 · 9.80665 m/s² (seed 002 §4.1 uses g = 9.80665); 1 °/h = π/180/3600 rad/s
+    # 1 µg = 1e-6 · 9.80665 m/s² (Chen et al. 2022 §4.1 use g = 9.80665); 1 °/h = π/180/3600 rad/s
     assert ie.UG == pytest.approx(9.80665e-6, rel=1e-15, abs=0)
     assert ie.DEG_H == pytest.approx(4.84813681109536e-06, rel=1e-14, abs=0)
     assert ie.DEG_RTH == pytest.approx(np.radians(1.0) / 60.0, rel=1e-15, abs=0)

@@ -9,7 +9,7 @@ from fieldmap.field.ellipsoid import GRS80, WGS84, Ellipsoid
 from fieldmap.reference import normal as R
 
 ELLS = [WGS84, GRS80]
-MG = 9.80665e-3  # 1 mg in m/s² (seed 002, g = 9.80665 m/s²)
+MG = 9.80665e-3  # 1 mg in m/s² (Chen et al. 2022: g = 9.80665 m/s²)
 
 
 def _points(n=400, hmin=-5e3, hmax=2e6, seed=1):
@@ -344,7 +344,7 @@ def test_shapes_and_params():
 
 
 def _write_zero_egm(folder, ell):
-    """Write a GeographicLib gravity model with all coefficients 0 (format: REFERENCE.md)."""
+    """Write a GeographicLib gravity model with all coefficients 0 (GeographicLib's format)."""
     import struct
 
     (folder / "zero.egm").write_text(

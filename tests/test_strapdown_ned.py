@@ -158,7 +158,7 @@ def test_ned_body_at_rest_on_earth_stays_put(device):
     """At rest on the rotating Earth: gyros sense ω_ie, accelerometers sense f = −g (up).
 
     With these exact increments the mechanization keeps the body in place (Groves eq. 3.7.5
-    convention, seeds 000/004); flipping the sign of f makes it fall at 2g.
+    convention, Groves 2013 §2.4.7); flipping the sign of f makes it fall at 2g.
     """
     from fieldmap.nav.strapdown_ned import propagate_ned
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 from fieldmap.cli import distributed
@@ -185,7 +187,7 @@ def _stem(ds, kind: str) -> str:
     return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
 
 
-def _thresholds(args) -> list[float]:
+def _thresholds(args) -> tuple[float, ...]:
     from fieldmap.products.stats import parse_thresholds
 
     return list(
@@ -279,12 +281,12 @@ def run_map(args) -> int:
         from fieldmap.products.cf import fraction_attr
 
         print(f"  {t:>14g}   {100 * a[fraction_attr(t)]:>14.2f}")
-    figures = []
+    figures: list[tuple[str, Callable[[], object]]] = []
     if not args.no_plots:
         figures.append(("isolines", lambda: plots.plot_isolines(ds, thresholds)))
         for t in thresholds:
             if t >= 0.05:
-                figures.append((f"above_{t:g}mg", lambda t=t: plots.plot_threshold(ds, t)))
+                figures.append((f"above_{t:g}mg", partial(plots.plot_threshold, ds, t)))
     _print_files(_write(ds, _stem(ds, "disturbance"), Path(args.out), figures, {}, args.float32))
     return 0
 
@@ -326,14 +328,14 @@ def run_sweep(args) -> int:
             for t, f in zip(thresholds, ds["area_fraction_above"].values[k])
         )
         print(row)
-    figures = []
+    figures: list[tuple[str, Callable[[], object]]] = []
     if not args.no_plots:
         figures.append(("table", lambda: plots.plot_sweep(ds)))
         for k, h in enumerate(ds["height"].values):
             figures.append(
                 (
                     f"isolines_h{h / 1e3:g}km",
-                    lambda k=k: plots.plot_isolines(ds, thresholds, height_index=k),
+                    partial(plots.plot_isolines, ds, thresholds, height_index=k),
                 )
             )
     _print_files(_write(ds, _stem(ds, "sweep"), Path(args.out), figures, {}, args.float32))

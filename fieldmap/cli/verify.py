@@ -3,8 +3,10 @@
 Each check evaluates one Warp kernel path and its independent NumPy reference
 (:mod:`fieldmap.reference`) on the same random inputs and reports the largest absolute and
 relative difference (relative to the largest magnitude of the reference, per output vector) and
-the time of both. A check whose modules are absent is reported as skipped, so the command keeps
-working while parts of the package are missing.
+the time of both. Each row has one of three statuses: ``ok`` (within :data:`RTOL`), ``FAIL``
+(beyond it, or the check raised, or a module it needs cannot be imported: a missing part of
+fieldmap or of its dependencies is a broken install, never a skipped check) and ``skipped`` (the
+check cannot run here and says why, :class:`SkipCheck`); a skipped check is not counted as passed.
 """
 
 from __future__ import annotations
@@ -19,9 +21,13 @@ import numpy as np
 RTOL = 1e-12
 
 
+class SkipCheck(Exception):
+    """Raised by a check that cannot run here (the message says why); reported as skipped."""
+
+
 @dataclass
 class CheckResult:
-    """One row of the verification table."""
+    """One row of the verification table (``note``: why it was skipped or failed to run)."""
 
     quantity: str
     device: str
@@ -31,11 +37,17 @@ class CheckResult:
     numpy_s: float = float("nan")
     unit: str = ""
     note: str = ""
+    skipped: bool = False
 
     @property
     def ok(self) -> bool:
-        """True when the relative difference is within :data:`RTOL` (skipped checks pass)."""
-        return bool(self.note.startswith("skipped") or self.max_rel <= RTOL)
+        """True when the check ran and its relative difference is within :data:`RTOL`."""
+        return not self.skipped and not self.note and bool(self.max_rel <= RTOL)
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"skipped"`` or ``"FAIL"``."""
+        return "skipped" if self.skipped else ("ok" if self.ok else "FAIL")
 
 
 def _timed(fn, repeats: int = 1):
@@ -305,7 +317,7 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
         devices = [_warp.resolve_device(d) for d in devices] if devices else _warp.devices()
     except _warp.DeviceError as exc:
         raise InputError(str(exc)) from None
-    lmax = as_degree(lmax)
+    degree = as_degree(lmax)
     try:
         ok = not isinstance(points, (bool, str)) and int(points) == points
     except (TypeError, ValueError, OverflowError):
@@ -313,23 +325,29 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
     if not ok:
         raise InputError(f"points must be an integer, got {points!r}")
     points = int(points)
-    if not 0 <= lmax <= 240:
+    if degree is None or not 0 <= degree <= 240:
         raise InputError(f"lmax must be within 0..240 (EIGEN-6S), got {lmax}")
     if not 5 <= points <= 1_000_000:
         raise InputError(f"points must be within 5..1000000, got {points}")
-    opts = {"lmax": lmax, "points": points}
-    rows = []
+    opts = {"lmax": degree, "points": points}
+    rows: list[CheckResult] = []
     for device in devices:
         for module, make in CHECKS:
             try:
                 importlib.import_module(module)
-            except ImportError as exc:
-                rows.append(CheckResult(module, device, note=f"skipped ({exc})"))
-                continue
-            try:
                 rows.extend(make(device, opts))
-            except ImportError as exc:  # a reference or helper module not written yet
-                rows.append(CheckResult(module, device, note=f"skipped ({exc})"))
+            except SkipCheck as exc:
+                rows.append(CheckResult(module, device, note=f"skipped: {exc}", skipped=True))
+            except ImportError as exc:  # a part of fieldmap or a dependency is missing
+                rows.append(
+                    CheckResult(
+                        module,
+                        device,
+                        float("inf"),
+                        float("inf"),
+                        note=f"broken install: {type(exc).__name__}: {exc}",
+                    )
+                )
             except Exception as exc:  # report, keep going: a broken check is a failure
                 rows.append(
                     CheckResult(
@@ -357,7 +375,7 @@ def format_table(rows: list[CheckResult]) -> str:
     body = []
     for r in rows:
         if r.note:
-            body.append((r.quantity, r.device, "", "", "", "", r.note))
+            body.append((r.quantity, r.device, "", "", "", "", f"{r.status}: {r.note}"))
             continue
         body.append(
             (

@@ -26,7 +26,7 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.frames import ecef_to_geodetic
 from fieldmap.kernels import normal as _k
 
-#: J2 printed in Groves (2013) below eq. 3.7.7 (seed 000). The WGS84 value derived from
+#: J2 printed in Groves (2013) below eq. 3.7.7. The WGS84 value derived from
 #: (a, f, GM, ω) is 1.08262982e-3 (``WGS84.J2``).
 GROVES_J2 = 1.082627e-3
 

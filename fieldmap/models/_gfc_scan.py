@@ -54,7 +54,8 @@ def read_bytes(path) -> bytes:
 
 
 def _read_stream(f, path) -> bytes:
-    parts, size = [], 0
+    parts: list[bytes] = []
+    size = 0
     while chunk := f.read(_CHUNK):
         if not parts and chunk[:2] != b"\x1f\x8b":
             check_text(path, chunk)  # binary data (e.g. /dev/zero) fails at once

@@ -178,7 +178,7 @@ def load_model(
     if bundled and (gm is not None or radius is not None):
         raise InputError(f"{name} has its own GM and radius; --gm/--radius are for NGA files only")
     if bundled:
-        key = ("bundled", bundled, t)
+        key: tuple = ("bundled", bundled, t)
 
         def reader():
             ref = resources.files("fieldmap.data").joinpath(bundled)

@@ -1,4 +1,4 @@
-"""Delta-velocity to NED specific force with the rotation correction (seed 001).
+"""Delta-velocity to NED specific force with the rotation correction ½ dθ×dv.
 
 Same formula as NavToolKit's ``navtk::inertial::calc_force_ned`` (Titterton & Weston 2004,
 eq. 11.64 without the high-rate sculling integral).

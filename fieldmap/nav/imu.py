@@ -8,7 +8,7 @@ For each IMU sample ``[t_i, t_i + dt]`` the increments the two-sample mechanizat
     \Delta v_i = \int_{t_i}^{t_i+dt} f^b(t)\,dt, \qquad
     f^b = C_a^b\,(A_a - \gamma^a(P_a, t))
 
-with f = a − γ the specific force (seed 000 eq. 3.7.1: accelerometers sense the non-gravitational
+with f = a − γ the specific force (Groves 2013 eq. 3.7.1: accelerometers sense the non-gravitational
 force, so at rest the sensed force points up) and γ the gravitation of the *truth* model (no
 centrifugal term: the a-frame is inertial). Both integrals are evaluated by Gauss–Legendre
 quadrature with ``n_gauss`` nodes per sample (exact for polynomials of degree 2·n_gauss − 1); the

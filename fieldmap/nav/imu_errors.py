@@ -47,7 +47,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 
-G0 = 9.80665  #: standard gravity used by the paper for "g" (seed 002 §4.1). Units: m/s².
+G0 = 9.80665  #: standard gravity used by the paper for "g" (Chen et al. 2022 §4.1). Units: m/s².
 UG = G0 * 1e-6  #: 1 µg in m/s².
 DEG_H = np.pi / 180.0 / 3600.0  #: 1 °/h in rad/s.
 DEG_RTH = np.pi / 180.0 / 60.0  #: 1 °/√h in rad/√s.

@@ -1,6 +1,6 @@
 """Batched Earth-relative NED strapdown propagation on Warp devices (host API).
 
-The local-level mechanization most users of seeds 001/004 work in; the kernel is
+The local-level mechanization of Groves (2013) ch. 5 and NavToolKit; the kernel is
 ``fieldmap.kernels.strapdown.ned_kernel``. Quaternions are scalar-first ``q_b^n``.
 """
 

@@ -221,7 +221,7 @@ def jn_gravitation(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None,
     for k in range(3):
         pts = [x, y, z]
         pts[k] = pts[k] + 1j * step
-        out.append(np.imag(jn_potential(*pts, ell, order, j2)) / step)
+        out.append(np.imag(jn_potential(pts[0], pts[1], pts[2], ell, order, j2)) / step)
     return np.stack(out, axis=-1)
 
 

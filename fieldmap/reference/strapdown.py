@@ -165,7 +165,7 @@ def propagate_ned_reference(
             [v[:, 1] / (R_E + h), -v[:, 0] / (R_N + h), -v[:, 1] * np.tan(lat) / (R_E + h)], -1
         )
         th, dvk = dtheta[:, k], dv[:, k]
-        f_n = np.einsum("nij,nj->ni", C, dvk + 0.5 * np.cross(th, dvk)) / dt  # seed 001
+        f_n = np.einsum("nij,nj->ni", C, dvk + 0.5 * np.cross(th, dvk)) / dt  # T&W eq. 11.64
         if frame_rotation:
             f_n -= 0.5 * np.cross(w_ie + w_en, np.einsum("nij,nj->ni", C, dvk))
         coriolis = np.cross(2 * w_ie + w_en, v)
