@@ -1,0 +1,205 @@
+"""Local Sphinx extension of the fieldmap documentation (loaded by ``conf.py``).
+
+- :func:`write_api_lists` writes the autosummary lists of the API reference at build time, from
+  ``fieldmap.__all__`` and the public subpackages and modules found by :mod:`pkgutil`, so a new
+  module or public name appears without editing the documentation;
+- :func:`escape_magnitudes` keeps plain-text magnitudes such as ``|δp|`` in docstrings from being
+  read as reStructuredText substitutions;
+- :func:`cli_parser` is the ``fieldmap`` argument parser with its help texts made inert for
+  sphinx-argparse (which parses them as reStructuredText; they are written for a terminal).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import inspect
+import pkgutil
+import re
+import shutil
+from pathlib import Path
+
+import fieldmap
+
+DOCS = Path(__file__).resolve().parent.parent
+
+# -- generated API lists ----------------------------------------------------------------------
+#: Subpackages shown first, in the order the data flows; any other public subpackage follows.
+ORDER = ["models", "field", "grids", "products", "nav", "reference"]
+#: Not part of the Python API reference: the CLI has its own page, data holds files only, and
+#: the Warp kernels (``fieldmap.kernels``) are documented through their host functions.
+EXCLUDE = {"cli", "data", "kernels"}
+TITLES = {
+    "models": "Gravity-field models",
+    "field": "The field at points",
+    "grids": "Grids",
+    "products": "Maps and products",
+    "nav": "Navigation",
+    "reference": "NumPy references",
+}
+
+
+def _public_modules() -> tuple[list[str], list[str]]:
+    """Return the public subpackages and top-level modules of fieldmap, by name."""
+    packages, modules = [], []
+    for info in pkgutil.iter_modules(fieldmap.__path__):
+        if info.name.startswith("_") or info.name in EXCLUDE:
+            continue
+        (packages if info.ispkg else modules).append(info.name)
+    rank = {name: i for i, name in enumerate(ORDER)}
+    packages.sort(key=lambda n: (rank.get(n, len(ORDER)), n))
+    return packages, sorted(modules)
+
+
+def _canonical(name: str) -> str | None:
+    """Return the documented path of a top-level name (its defining module), if it has one."""
+    obj = getattr(fieldmap, name)
+    if inspect.isclass(obj) or inspect.isfunction(obj):
+        module = getattr(obj, "__module__", "")
+        qualname = getattr(obj, "__qualname__", name)
+        if module.startswith("fieldmap.") and not module.split(".")[1].startswith("_"):
+            if getattr(importlib.import_module(module), qualname, None) is obj:
+                return f"{module}.{qualname}"
+    return None
+
+
+def write_api_lists(app=None, config=None) -> None:
+    """Write the autosummary lists of the API reference (``api/_toplevel.rst``, ``_modules.rst``).
+
+    Called before autosummary reads the sources, so the stubs it generates always follow the
+    package: ``fieldmap.__all__`` for the top level, :mod:`pkgutil` for subpackages and modules.
+    Stale stubs of a previous build are removed first.
+    """
+    out = DOCS / "api"
+    shutil.rmtree(out / "generated", ignore_errors=True)
+
+    linked, own = [], []
+    for name in fieldmap.__all__:
+        if name.startswith("_"):
+            continue
+        target = _canonical(name)
+        if target is None:
+            own.append(f"fieldmap.{name}")
+        else:
+            linked.append(f"~{target}")
+    top = [
+        ".. autosummary::",
+        "",
+        *(f"   {t}" for t in linked),
+        "",
+    ]
+    if own:
+        top += [
+            "Constants and instances:",
+            "",
+            ".. autosummary::",
+            "   :toctree: generated",
+            "",
+            *(f"   {t}" for t in own),
+            "",
+        ]
+    (out / "_toplevel.rst").write_text("\n".join(top))
+
+    packages, modules = _public_modules()
+    body = []
+    for name in packages + modules:
+        mod = importlib.import_module(f"fieldmap.{name}")
+        doc = (inspect.getdoc(mod) or "").strip().splitlines()
+        title = TITLES.get(name) or (doc[0].rstrip(".") if doc else name)
+        title = f"{title}: ``fieldmap.{name}``"
+        body += [
+            title,
+            "-" * len(title),
+            "",
+            ".. autosummary::",
+            "   :toctree: generated",
+            "   :recursive:",
+            "",
+            f"   fieldmap.{name}",
+            "",
+        ]
+    (out / "_modules.rst").write_text("\n".join(body))
+
+
+# -- |x| in docstrings ------------------------------------------------------------------------
+# The docstrings are written as plain text, where |δp| is a magnitude; reStructuredText reads it
+# as a substitution reference and fails on it ("Undefined substitution referenced"). Outside
+# inline literals, roles, math and literal blocks, such bars are escaped before numpydoc parses
+# the docstring.
+_BARS = re.compile(r"(?<![\\\w|])\|(?=[^\s|])([^|`\n]*?[^\s|\\])\|(?![\w|])")
+_INLINE = re.compile(r"(``.+?``|:[\w:+-]+:`[^`]*`|`[^`]*`_{0,2})")
+
+
+def _escape_bars(line: str) -> str:
+    parts = _INLINE.split(line)
+    for i in range(0, len(parts), 2):  # even parts are outside inline markup
+        parts[i] = _BARS.sub(r"\\|\1\\|", parts[i])
+    return "".join(parts)
+
+
+def escape_magnitudes(app, what, name, obj, options, lines: list[str]) -> None:
+    """Escape ``|x|`` (a magnitude in plain text) in a docstring, in place."""
+    block_indent = None  # indentation of the directive or paragraph opening a literal block
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue  # inside a literal, math or code block: leave it as written
+            block_indent = None
+        if re.match(r"\.\. (math|code-block|code|highlight|literalinclude)::", stripped):
+            block_indent = indent
+            continue
+        if stripped.endswith("::") and not stripped.startswith(".."):
+            block_indent = indent
+        if stripped.startswith(("| ", "+-", "+=")) or stripped == "|":
+            continue  # a line block or a grid table
+        lines[i] = _escape_bars(line)
+
+
+# -- the CLI parser for sphinx-argparse ------------------------------------------------------
+_RST_SPECIAL = re.compile(r"([^\w\s.,;()'\"])")
+
+
+def _inert(text: str | None) -> str | None:
+    """Return plain text as reStructuredText that renders as written (one paragraph)."""
+    if not text:
+        return text
+    return _RST_SPECIAL.sub(r"\\\1", " ".join(text.split()))
+
+
+def cli_parser() -> argparse.ArgumentParser:
+    """Return :func:`fieldmap.cli.build_parser` with every help text escaped for the docs.
+
+    argparse re-wraps help texts as one paragraph, so do the docs; ``%(default)s`` and the like
+    are expanded first (sphinx-argparse formats the help again, hence the doubled ``%``).
+    """
+    from fieldmap.cli import build_parser
+
+    parser = build_parser()
+    todo = [parser]
+    while todo:
+        p = todo.pop()
+        p.description = _inert(p.description)
+        p.epilog = _inert(p.epilog)
+        formatter = p._get_formatter()
+        for group in p._action_groups:
+            group.description = _inert(group.description)
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for choice in action._choices_actions:
+                    choice.help = _inert(choice.help)
+                todo.extend(action.choices.values())
+                continue
+            if action.help and action.help is not argparse.SUPPRESS:
+                action.help = _inert(formatter._expand_help(action)).replace("%", "%%")
+            if action.choices is not None:
+                action.choices = [_inert(str(c)) for c in action.choices]
+    return parser
+
+
+def setup(app):
+    """Generate the API lists before autosummary (builder-inited) runs; escape docstrings."""
+    app.connect("config-inited", write_api_lists)
+    app.connect("autodoc-process-docstring", escape_magnitudes, priority=400)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
