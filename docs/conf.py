@@ -35,7 +35,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "api/_*.rst"]
+exclude_patterns = ["_build", "api/_*.rst", "shared"]
 templates_path = ["_templates"]
 
 # -- API reference --------------------------------------------------------------------------
