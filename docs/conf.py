@@ -45,6 +45,7 @@ templates_path = ["_templates"]
 autosummary_generate = ["api/index.rst", "api/_toplevel.rst", "api/_modules.rst"]
 autosummary_imported_members = False  # each object is documented once, in its defining module
 autodoc_default_options = {"member-order": "bysource"}
+autodoc_preserve_defaults = True  # signatures show defaults as written (WGS84, not its repr)
 autodoc_typehints = "none"  # types are in the numpydoc Parameters sections
 autodoc_mock_imports: list[str] = []  # Warp, xarray and matplotlib import fine here
 
@@ -68,6 +69,9 @@ html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
     "secondary_sidebar_items": ["page-toc"],
+    # the left navigation of ~230 API pages is most of the build time when expanded
+    "collapse_navigation": True,
+    "navigation_depth": 2,
 }
 html_sidebars = {"index": []}
 html_show_sourcelink = False
