@@ -36,6 +36,9 @@ TITLES = {
     "products": "Maps and products",
     "nav": "Navigation",
     "reference": "NumPy references",
+    "errors": "Errors",
+    "units": "Units",
+    "limits": "Accepted ranges",
 }
 
 
@@ -49,6 +52,14 @@ def _public_modules() -> tuple[list[str], list[str]]:
     rank = {name: i for i, name in enumerate(ORDER)}
     packages.sort(key=lambda n: (rank.get(n, len(ORDER)), n))
     return packages, sorted(modules)
+
+
+def _first_sentence(module) -> str:
+    """Return the first sentence of a module docstring as a short plain title, or ''."""
+    doc = " ".join((inspect.getdoc(module) or "").split("\n\n")[0].split())
+    doc = re.sub(r":\w+:`~?([^`]*)`", r"\1", doc).replace("``", "")
+    first = re.split(r"(?<=[.:;])\s", doc, maxsplit=1)[0].rstrip(".:;")
+    return first if 0 < len(first) <= 60 and "`" not in first and "*" not in first else ""
 
 
 def _canonical(name: str) -> str | None:
@@ -103,10 +114,8 @@ def write_api_lists(app=None, config=None) -> None:
     packages, modules = _public_modules()
     body = []
     for name in packages + modules:
-        mod = importlib.import_module(f"fieldmap.{name}")
-        doc = (inspect.getdoc(mod) or "").strip().splitlines()
-        title = TITLES.get(name) or (doc[0].rstrip(".") if doc else name)
-        title = f"{title}: ``fieldmap.{name}``"
+        title = TITLES.get(name) or _first_sentence(importlib.import_module(f"fieldmap.{name}"))
+        title = f"{title}: ``fieldmap.{name}``" if title else f"``fieldmap.{name}``"
         body += [
             title,
             "-" * len(title),
