@@ -17,6 +17,7 @@ import inspect
 import pkgutil
 import re
 import shutil
+import sys
 from pathlib import Path
 
 import fieldmap
@@ -63,15 +64,45 @@ def _first_sentence(module) -> str:
 
 
 def _canonical(name: str) -> str | None:
-    """Return the documented path of a top-level name (its defining module), if it has one."""
+    """Return the documented path of a top-level name (where it is defined), if it has one.
+
+    Functions and classes: their module and qualified name. Constants and instances: the public
+    module holding the same object with a ``#:`` doc comment (autosummary documents those).
+    """
     obj = getattr(fieldmap, name)
     if inspect.isclass(obj) or inspect.isfunction(obj):
         module = getattr(obj, "__module__", "")
         qualname = getattr(obj, "__qualname__", name)
-        if module.startswith("fieldmap.") and not module.split(".")[1].startswith("_"):
-            if getattr(importlib.import_module(module), qualname, None) is obj:
-                return f"{module}.{qualname}"
+        if _public(module) and getattr(importlib.import_module(module), qualname, None) is obj:
+            return f"{module}.{qualname}"
+        return None
+    from sphinx.errors import PycodeError
+    from sphinx.pycode import ModuleAnalyzer
+
+    lazy = getattr(fieldmap, "_LAZY", {}).get(name)  # where fieldmap.__init__ takes it from
+    first = [lazy if isinstance(lazy, str) else ""]
+    for module in first + sorted(m for m in list(sys.modules) if _public(m)):
+        if module not in sys.modules:
+            continue
+        if getattr(sys.modules[module], "__dict__", {}).get(name) is not obj:
+            continue
+        try:
+            if ("", name) in ModuleAnalyzer.for_module(module).find_attr_docs():
+                return f"{module}.{name}"
+        except PycodeError:
+            continue
     return None
+
+
+def _public(module: str) -> bool:
+    """Whether a module is documented by the recursive pages (public, not excluded)."""
+    parts = module.split(".")
+    return (
+        len(parts) > 1
+        and parts[0] == "fieldmap"
+        and parts[1] not in EXCLUDE
+        and not any(p.startswith("_") for p in parts[1:])
+    )
 
 
 def write_api_lists(app=None, config=None) -> None:
@@ -84,12 +115,13 @@ def write_api_lists(app=None, config=None) -> None:
     out = DOCS / "api"
     shutil.rmtree(out / "generated", ignore_errors=True)
 
+    public = [name for name in fieldmap.__all__ if not name.startswith("_")]
+    for name in public:  # import every lazily exported name first, so _canonical sees them
+        getattr(fieldmap, name)
     linked, own = [], []
-    for name in fieldmap.__all__:
-        if name.startswith("_"):
-            continue
+    for name in public:
         target = _canonical(name)
-        if target is None:
+        if target is None or target.rsplit(".", 1)[1] != name:  # e.g. synthesize_imu
             own.append(f"fieldmap.{name}")
         else:
             linked.append(f"~{target}")
