@@ -133,7 +133,7 @@ def write_api_lists(app=None, config=None) -> None:
     ]
     if own:
         top += [
-            "Constants and instances:",
+            "Other exports (constants, instances, functions exported under another name):",
             "",
             ".. autosummary::",
             "   :toctree: generated",
