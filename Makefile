@@ -21,18 +21,18 @@ map: install
 test: install
 	$(BIN)/python -m pytest -q
 
-## The documentation: HTML in docs/_build/html (fresh environment, warnings are errors).
-.PHONY: docs
-docs: $(VENV)/.docs-stamp
-	$(BIN)/python -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
-	@echo "docs: docs/_build/html/index.html"
-
-$(VENV)/.docs-stamp: $(BIN)/fieldmap pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[docs]"
-	@touch $@
-
 bench: install
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 clean:
 	rm -rf $(VENV) build *.egg-info
+
+## The documentation: HTML in docs/_build/html (fresh environment, warnings are errors).
+.PHONY: docs
+docs: install $(VENV)/.docs
+	$(BIN)/python -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
+$(VENV)/.docs: pyproject.toml | install
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	@touch $@
