@@ -15,7 +15,7 @@ from pathlib import Path
 
 import fieldmap
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "_ext"))
+sys.path.insert(0, str(Path(__file__).resolve().parent / "_ext"))  # fieldmap_docs
 
 project = "fieldmap"
 author = "the fieldmap developers"
@@ -41,8 +41,16 @@ templates_path = ["_templates"]
 # -- API reference --------------------------------------------------------------------------
 # fieldmap_docs.write_api_lists writes the lists of the API reference into api/_toplevel.rst and
 # api/_modules.rst, included by api/index.rst; autosummary does not follow includes, so it is
-# told to scan them (the stubs it generates are scanned in turn, recursively).
-autosummary_generate = ["api/index.rst", "api/_toplevel.rst", "api/_modules.rst"]
+# told to scan them, with every other page (the stubs it generates are scanned in turn).
+_HERE = Path(__file__).resolve().parent
+autosummary_generate = sorted(
+    {"api/_toplevel.rst", "api/_modules.rst"}
+    | {
+        p.relative_to(_HERE).as_posix()
+        for p in _HERE.rglob("*.rst")
+        if not {"_build", "_templates", "generated"} & set(p.relative_to(_HERE).parts)
+    }
+)
 autosummary_imported_members = False  # each object is documented once, in its defining module
 autodoc_default_options = {"member-order": "bysource"}
 autodoc_preserve_defaults = True  # signatures show defaults as written (WGS84, not its repr)
