@@ -58,3 +58,13 @@ bench: $(VENV)/.test
 
 clean:
 	rm -rf $(VENV) build *.egg-info
+
+## The documentation: HTML in docs/_build/html (fresh environment, warnings are errors).
+.PHONY: docs
+docs: install $(VENV)/.docs
+	$(BIN)/python -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
+$(VENV)/.docs: pyproject.toml | install
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	@touch $@
