@@ -94,9 +94,9 @@ class Block:
 
 def _per_item(nm: int, nlon: int, lon: np.ndarray) -> int:
     """Bytes per row of one ``synthesize`` block (its own formula), plus the five outputs."""
-    from fieldmap.grids.longitude import _regular_period
+    from fieldmap.grids.longitude import regular_period
 
-    nper = _regular_period(lon) or nlon
+    nper = regular_period(lon) or nlon
     return nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2 + nlon * 8 * 8
 
 
