@@ -49,7 +49,7 @@ import numpy as np
 
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.field.gravity import _points
+from fieldmap.limits import check_geodetic as _points
 from fieldmap.models.shmodel import SHModel
 
 #: Highest degree of the ellipsoid's zonal series subtracted from the model. |J_n| falls like
