@@ -55,6 +55,8 @@ class LciResult:
     V: np.ndarray
     q: np.ndarray
     gravity: tuple
+    #: final Gauss–Markov states (n_traj, 3) ``acc_gm``, ``gyro_gm`` (to continue a flight)
+    final: dict | None = None
 
 
 def quat_to_dcm(q) -> np.ndarray:
@@ -459,4 +461,6 @@ def propagate_lci(
         [wp.float64(t0)],
     )
     t = t0 + 2.0 * b.dt * b.output_every * np.arange(b.n_out)
-    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names))
+    se = b.sensor_errors
+    final = {"acc_gm": se.acc_gm.numpy(), "gyro_gm": se.gyro_gm.numpy()}
+    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names), final=final)
