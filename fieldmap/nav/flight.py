@@ -275,6 +275,7 @@ class FlightTrajectory(Trajectory):
 
         s = samples if isinstance(samples, FlightSamples) else read_flight(samples)
         self.samples = s
+        self.name = Path(s.source.split(" (")[0]).name if s.source != "route" else "route"
         r = np.stack(geodetic_to_ecef(s.lat, s.lon, s.h, ellipsoid), -1)
         self._spline = make_interp_spline(s.t, r, k=5)
         self._d1 = self._spline.derivative(1)
