@@ -374,9 +374,11 @@ def route_flight(
         Spacing of the generated samples. Units: s.
 
     Each leg is a geodesic (Karney 2013, via ``geographiclib``) with the height linear in the
-    distance flown; the corners (heading and climb-rate steps) are rounded by a Gaussian filter
-    of the samples in time whose width σ = max(Δψ v, Δḣ)/(a_max √(2π)) keeps the peak turn and
-    climb accelerations at ``max_accel`` (the filtered heading rate peaks at Δψ/(σ√(2π))).
+    distance flown. The heading and climb-rate steps at the corners are smoothed by a Gaussian
+    filter in time of width σ = max(Δψ v, Δḣ)/(a_max √(2π)) (a smoothed step Δ has the peak
+    slope Δ/(σ√(2π)), so turn and climb accelerations stay at ``max_accel``) and flown at
+    constant ground speed from the first waypoint by geodesic steps; the turns cut the corners,
+    so the later waypoints are passed within about σ v.
     """
     from geographiclib.geodesic import Geodesic
     from scipy.ndimage import gaussian_filter1d
@@ -408,24 +410,23 @@ def route_flight(
     az = np.unwrap(np.radians(az))
     if lat.size < MIN_POINTS:
         raise InputError("the route is shorter than 6 samples: add distance or lower the speed")
-    hdot = np.diff(h) / sample_dt
-    turn = np.max(np.abs(np.diff(az)), initial=0.0) * speed_mps
-    climb = np.max(np.abs(np.diff(hdot)), initial=0.0)
+    hdot = np.gradient(h, sample_dt)
+    turn = np.max(np.abs(np.diff(az)), initial=0.0) * speed_mps  # V Δψ, m/s
+    climb = np.ptp(hdot)  # largest change of climb rate, m/s (bound)
+    # a step of size Δ smoothed by a Gaussian of σ seconds has a peak slope Δ/(σ√(2π))
     sigma_s = max(turn, climb) / (max_accel * np.sqrt(2.0 * np.pi))
-    sigma = max(sigma_s / sample_dt, 3.0)
-    pad = int(np.ceil(5 * sigma)) + 1
-    # extend both ends at constant velocity so the filter does not slow the flight down there
-    ext = [
-        np.concatenate(
-            [
-                x[0] - (x[1] - x[0]) * np.arange(pad, 0, -1),
-                x,
-                x[-1] + (x[-1] - x[-2]) * np.arange(1, pad + 1),
-            ]
-        )
-        for x in (lat, lon, h)
-    ]
-    lat, lon, h = (gaussian_filter1d(x, sigma, mode="nearest")[pad:-pad] for x in ext)
+    sigma = max(sigma_s / sample_dt, 3.0)  # in samples
+    az_s = gaussian_filter1d(az, sigma, mode="nearest")
+    hdot_s = gaussian_filter1d(hdot, sigma, mode="nearest")
+    # fly the smoothed heading and climb rate at constant ground speed (geodesic steps)
+    lat_f, lon_f, h_f = [lat[0]], [lon[0]], [h[0]]
+    for k in range(lat.size - 1):
+        g = geod.Direct(lat_f[-1], lon_f[-1], np.degrees(0.5 * (az_s[k] + az_s[k + 1])),
+                        speed_mps * sample_dt)  # fmt: skip
+        lat_f.append(g["lat2"])
+        lon_f.append(g["lon2"])
+        h_f.append(h_f[-1] + 0.5 * (hdot_s[k] + hdot_s[k + 1]) * sample_dt)
+    lat, lon, h = np.array(lat_f), np.degrees(np.unwrap(np.radians(lon_f))), np.array(h_f)
     t = sample_dt * np.arange(lat.size)
     return FlightSamples(t, lat, lon, h, None, "route", np.arange(1, t.size + 1))
 
