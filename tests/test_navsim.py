@@ -129,6 +129,41 @@ def test_table4_rows(scenario):
     assert not res.rows[0]["gravity_model_error"] and res.rows[1]["gravity_model_error"]
 
 
+def test_table4_values_against_an_independent_computation(scenario):
+    """Bias-only IMU (+1σ on every axis): both rows recomputed outside the study code.
+
+    ``imu_only``: increments synthesized with the NumPy J4 reference (``jn_gravitation``) as the
+    truth and propagated by the NumPy LCI reference with J4 and the same biases; ``imu+j4``: the
+    study's truth increments through the same reference. A wrong increment set (e.g. the truth
+    one for ``imu_only``) moves the first row by the J4 gravity-model error (0.73 m here).
+    """
+    from fieldmap.nav.imu import synthesize
+    from fieldmap.nav.imu_errors import DEG_H, UG, ImuErrorSpec
+    from fieldmap.reference import normal as nref
+    from fieldmap.reference.strapdown import propagate_lci_reference
+
+    spec = ImuErrorSpec(acc_bias_ug=10.0, gyro_bias_deg_h=0.003)
+    res = navsim.table4(scenario, ["j4"], draws=1, spec=spec, mode="fixed")
+    sc, fr = scenario, scenario.traj.frame
+    j4 = lambda r: nref.jn_gravitation(*np.asarray(r).T, fr.ellipsoid, 4)  # noqa: E731
+    imu_j4 = synthesize(
+        sc.traj, sc.imu.rate_hz, j4, n_gauss=2,
+        duration=sc.imu.duration,
+    )  # fmt: skip
+    k0 = sc.traj.kinematics([0.0])
+    bias = {"acc_bias": np.full((1, 3), 10.0 * UG), "gyro_bias": np.full((1, 3), 0.003 * DEG_H)}
+    finals = []
+    for inc in (imu_j4, sc.imu):
+        _, P, _, _ = propagate_lci_reference(
+            inc.dtheta[None], inc.dv[None], inc.dt, k0.P_a, k0.V_a, k0.C_b_to_a, fr,
+            j4, output_every=sc.output_every, **bias,
+        )  # fmt: skip
+        finals.append(np.linalg.norm(P[0, -1] - sc.truth.P_a[-1]))
+    got = [r["final_position_error_m_mean"] for r in res.rows]
+    assert abs(finals[1] - finals[0]) > 0.3  # the rows differ by the J4 effect (0.73 m in 60 s)
+    np.testing.assert_allclose(got, finals, rtol=1e-4)
+
+
 def _run_cli(argv, capsys):
     code = cli_main(["navsim", *argv])
     return code, capsys.readouterr()

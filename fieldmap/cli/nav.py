@@ -344,4 +344,4 @@ def run(args) -> int:
             write_outputs(res, batch)
     for res in results:
         print(format_table(res))
-    return 0
+    return 1 if any(res.meta.get("diverged") for res in results) else 0

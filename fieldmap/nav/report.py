@@ -26,46 +26,63 @@ def _num(x, fmt: str, width: int) -> str:
 
 
 def format_table(res) -> str:
-    """Plain-text table of a study's rows (with the paper's values where they exist)."""
+    """Plain-text table of a study's rows; the paper's values only for the paper's 800 s run.
+
+    Columns never overflow: values too wide for their column are printed in exponent form, missing
+    or non-finite ones as ``-``; diverged runs are listed below the table.
+    """
+    from fieldmap.nav.plots import _at_800
     from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
 
+    paper = _at_800(res.meta)
     lines = [
         f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
         f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="
     ]
     if res.study == "table1":
         lines.append(
-            f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'eval s':>10s}"
-            "   paper: |dv| |dp| eval"
+            f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'horiz m':>10s} {'vert m':>10s} "
+            f"{'eval s':>10s}" + ("   paper: |dv| |dp| eval" if paper else "")
         )
         for r in res.rows:
-            p = PAPER_TABLE1.get(r["model"], ("", "", ""))
+            p = PAPER_TABLE1.get(r["model"], ("", "", "")) if paper else ("", "", "")
             lines.append(
-                f"{r['model']:8s} {r['final_velocity_error_m_s']:10.4f} "
-                f"{r['final_position_error_m']:10.2f} "
-                f"{_num(r.get('gravity_eval_seconds'), '10.2e', 10)}   {p[0]} {p[1]} {p[2]}"
+                f"{r['model']:8s} {_num(r['final_velocity_error_m_s'], '10.4f', 10)} "
+                f"{_num(r['final_position_error_m'], '10.2f', 10)} "
+                f"{_num(r.get('final_horizontal_error_m'), '10.2f', 10)} "
+                f"{_num(r.get('final_vertical_error_m'), '10.2f', 10)} "
+                f"{_num(r.get('gravity_eval_seconds'), '10.2e', 10)}"
+                + (f"   {p[0]} {p[1]} {p[2]}" if paper else "")
             )
         fl = res.meta["floor"]
         lines.append(
             f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
             f"|dp| {fl['final_position_error_m']:.3e} m "
-            f"(smallest effect / floor: {fl['margin_position']:.0f}x, {fl['margin_velocity']:.0f}x)"
+            f"(smallest effect / floor: {fl['margin_position']:.3g}x, "
+            f"{fl['margin_velocity']:.3g}x)"
         )
     else:
         key = "group" if res.study == "table3" else "case"
+        show = paper and res.study == "table3"
         lines.append(
-            f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'p95':>8s} {'|dp| mean':>10s} {'rms':>8s} "
-            f"{'p95':>8s}" + ("   paper |dv| |dp|" if res.study == "table3" else "")
+            f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'|dp| mean':>10s} {'rms':>8s} "
+            f"{'p95':>8s} {'horiz rms':>10s} {'vert rms':>10s}"
+            + ("   paper |dv| |dp|" if show else "")
         )
         for r in res.rows:
-            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if res.study == "table3" else ("", "")
+            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if show else ("", "")
             lines.append(
-                f"{str(r[key]):14s} {r['final_velocity_error_m_s_mean']:10.4f} "
-                f"{r['final_velocity_error_m_s_rms']:8.4f} "
-                f"{r['final_velocity_error_m_s_p95']:8.4f} "
-                f"{r['final_position_error_m_mean']:10.2f} {r['final_position_error_m_rms']:8.2f} "
-                f"{r['final_position_error_m_p95']:8.2f}   {p[0]} {p[1]}"
+                f"{str(r[key]):14s} {_num(r['final_velocity_error_m_s_mean'], '10.4f', 10)} "
+                f"{_num(r['final_velocity_error_m_s_rms'], '8.4f', 8)} "
+                f"{_num(r['final_position_error_m_mean'], '10.2f', 10)} "
+                f"{_num(r['final_position_error_m_rms'], '8.2f', 8)} "
+                f"{_num(r['final_position_error_m_p95'], '8.2f', 8)} "
+                f"{_num(r.get('final_horizontal_error_m_rms'), '10.2f', 10)} "
+                f"{_num(r.get('final_vertical_error_m_rms'), '10.2f', 10)}"
+                + (f"   {p[0]} {p[1]}" if show else "")
             )
+    for d in res.meta.get("diverged", []):
+        lines.append(f"DIVERGED: run {d['run']} (model {d['model']}) at t = {d['time_s']:.0f} s")
     return "\n".join(lines)
 
 
@@ -76,6 +93,7 @@ def _json_doc(res) -> dict:
         "study": res.study,
         "truth_model": res.meta["truth_model"],
         "truth_degree": res.meta["truth_degree"],
+        "diverged": res.meta.get("diverged", []),
         "meta": res.meta,
     }
     if res.study == "table1":

@@ -210,14 +210,59 @@ def propagate(
     inv = np.argsort(perm)
     dP = res.P[inv] - sc.truth.P_a[None]
     dV = res.V[inv] - sc.truth.V_a[None]
-    return {
-        "t": res.t,
-        "dP": dP,
-        "dV": dV,
-        "pos": np.linalg.norm(dP, axis=-1),
-        "vel": np.linalg.norm(dV, axis=-1),
-        "seconds": secs,
-    }
+    with np.errstate(invalid="ignore", over="ignore"):
+        d_ned = _a_to_ned(sc, dP)
+        out = {
+            "t": res.t,
+            "dP": dP,
+            "dV": dV,
+            "pos": np.linalg.norm(dP, axis=-1),
+            "vel": np.linalg.norm(dV, axis=-1),
+            "hor": np.hypot(d_ned[..., 0], d_ned[..., 1]),
+            "ver": np.abs(d_ned[..., 2]),
+            "ned": d_ned,
+            "seconds": secs,
+        }
+    out["diverged"] = divergence(out["pos"], res.t, gravity)
+    return out
+
+
+#: an error beyond an Earth radius (m) has left physical meaning
+EARTH_RADIUS = 6_371_000.0
+
+
+def divergence(pos, t, gravity, labels=None) -> list[dict]:
+    """Find runs whose position error is non-finite or beyond an Earth radius; warn for each.
+
+    Returns ``[{"run": i or label, "model": name, "time_s": first bad time}, ...]``.
+    """
+    import warnings
+
+    bad = ~np.isfinite(pos) | (np.nan_to_num(pos, nan=np.inf) > EARTH_RADIUS)
+    out = []
+    for i in np.flatnonzero(bad.any(axis=1)):
+        k = int(np.argmax(bad[i]))
+        run = labels[i] if labels is not None else int(i)
+        out.append({"run": run, "model": gravity[i], "time_s": float(t[k])})
+        warnings.warn(
+            f"navigation run {run} (model {gravity[i]}) diverged at t = {t[k]:.0f} s "
+            "(error non-finite or beyond an Earth radius)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return out
+
+
+def _a_to_ned(sc: Scenario, dP: np.ndarray) -> np.ndarray:
+    """A-frame error vectors (n, n_out, 3) -> north, east, down at the true position."""
+    from fieldmap.field.frames import ecef_to_geodetic
+    from fieldmap.nav.flight import _C_n_to_e
+
+    r = sc.truth.r_e
+    lat, lon, _ = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], sc.traj.frame.ellipsoid)
+    C_a_e = np.swapaxes(sc.traj.frame.C_e_to_a(sc.t_out), -1, -2)
+    M = np.swapaxes(_C_n_to_e(lat, lon), -1, -2) @ C_a_e  # C_a^n (n_out, 3, 3)
+    return np.einsum("tij,rtj->rti", M, dP)
 
 
 def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
@@ -313,6 +358,11 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
             "model": name,
             "final_velocity_error_m_s": float(out["vel"][i, -1]),
             "final_position_error_m": float(out["pos"][i, -1]),
+            "final_horizontal_error_m": float(out["hor"][i, -1]),
+            "final_vertical_error_m": float(out["ver"][i, -1]),
+            "final_north_error_m": float(out["ned"][i, -1, 0]),
+            "final_east_error_m": float(out["ned"][i, -1, 1]),
+            "final_down_error_m": float(out["ned"][i, -1, 2]),
         }
         if timing:
             row["gravity_eval_seconds"] = gravity_eval_seconds(name, sc.truth_model)
@@ -330,12 +380,19 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
     floor["margin_velocity"] = min(r["final_velocity_error_m_s"] for r in rows) / max(
         floor["final_velocity_error_m_s"], 1e-300
     )
-    meta = _meta(sc) | {"floor": floor, "propagation_seconds": out["seconds"], "n_runs": len(runs)}
+    meta = _meta(sc) | {
+        "floor": floor,
+        "propagation_seconds": out["seconds"],
+        "n_runs": len(runs),
+        "diverged": out["diverged"],
+    }
     labels = names + [f"floor:{sc.truth_key}"]
     return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
 def _stats(x: np.ndarray) -> dict:
+    if not np.all(np.isfinite(x)):
+        return {k: float("nan") for k in ("mean", "rms", "p05", "p50", "p95", "max")}
     return {
         "mean": float(np.mean(x)),
         "rms": float(np.sqrt(np.mean(x * x))),
@@ -351,7 +408,12 @@ def _mc_rows(labels, out, n, extra):
     for j, lab in enumerate(labels):
         sl = slice(j * n, (j + 1) * n)
         row = dict(extra[j])
-        for key, unit in (("vel", "velocity_error_m_s"), ("pos", "position_error_m")):
+        for key, unit in (
+            ("vel", "velocity_error_m_s"),
+            ("pos", "position_error_m"),
+            ("hor", "horizontal_error_m"),
+            ("ver", "vertical_error_m"),
+        ):
             for stat, v in _stats(out[key][sl, -1]).items():
                 row[f"final_{unit}_{stat}"] = v
         rows.append(row)
@@ -393,7 +455,10 @@ def table3(
     out = propagate(sc, [nav] * err.n, errors=err)
     rows, start = [], 0
     for j, n in enumerate(counts):
-        sub = {k: (v[start : start + n] if k in ("pos", "vel") else v) for k, v in out.items()}
+        sub = {
+            k: (v[start : start + n] if k in ("pos", "vel", "hor", "ver") else v)
+            for k, v in out.items()
+        }
         rows += _mc_rows([labels[j]], sub, n, [extra[j]])
         start += n
     meta = _meta(sc) | {
@@ -403,6 +468,7 @@ def table3(
         "bias_mode": mode,
         "propagation_seconds": out["seconds"],
         "n_runs": err.n,
+        "diverged": out["diverged"],
     }
     run_labels = [f"{labels[j]}/{i}" for j, n in enumerate(counts) for i in range(n)]
     return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
@@ -449,6 +515,7 @@ def table4(
         "imu_errors": spec.__dict__,
         "propagation_seconds": out["seconds"],
         "n_runs": err.n,
+        "diverged": out["diverged"],
     }
     run_labels = [f"{lab}/{i}" for lab in labels for i in range(err1.n)]
     return StudyResult("table4", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
