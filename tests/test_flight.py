@@ -287,3 +287,14 @@ def test_cli_flight_and_bad_file(tmp_path, capsys):
     assert main(["navsim", "--trajectory", str(bad), "--out", str(out2)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "line 13 column time_s" in err[0] and not out2.exists()
+
+
+def test_attitude_equals_scipy_rotation_spline():
+    """The NumPy evaluation of the rotation spline equals scipy's RotationSpline (rounding)."""
+    ft = FlightTrajectory(_turning_flight())
+    t = np.linspace(0, ft.duration, 1001)
+    r, v, a = ft._ecef(t)
+    C, w = ft._attitude(t, r, v, a)
+    C2 = ft._rot(t).as_matrix()
+    np.testing.assert_allclose(C, C2, rtol=0, atol=1e-14)  # 7e-16 measured
+    np.testing.assert_allclose(w, np.einsum("nij,nj->ni", C2, ft._rot(t, 1)), rtol=0, atol=1e-16)

@@ -290,6 +290,8 @@ class FlightTrajectory(Trajectory):
         self.attitude_knots_deg = np.degrees(att)
         C_b_n = Rotation.from_euler("ZYX", att[:, ::-1]).as_matrix()
         self._rot = RotationSpline(s.t, Rotation.from_matrix(C_n_e @ C_b_n))
+        self._rot_d1 = self._rot.interpolator.derivative()
+        self._knot_C = self._rot.rotations.as_matrix()
         frame = LaunchFrame(
             lon0=float((s.lon[0] + 180.0) % 360.0 - 180.0),
             B0=float(s.lat[0]),
@@ -316,9 +318,33 @@ class FlightTrajectory(Trajectory):
         return self._spline(t), self._d1(t), self._d2(t)
 
     def _attitude(self, t, r, v, a):
-        rot = self._rot(t)
-        C = rot.as_matrix()
-        w_b = self._rot(t, 1)  # body-frame rate of C_b^e (RotationSpline's convention)
+        """C_b^e and ω_eb^e from the rotation spline, evaluated in NumPy.
+
+        :class:`~scipy.spatial.transform.RotationSpline` stores, per interval i, a cubic
+        rotation vector φ(t) with C(t) = C_i exp([φ×]); its body rate is
+        ω = φ̇ − k1 φ×φ̇ + k2 φ×(φ×φ̇), k1 = (1 − cos θ)/θ², k2 = (θ − sin θ)/θ³, θ = |φ|
+        (Bortz 1971; the same formula as scipy's). Evaluated here with vectorised cross products
+        (3× faster than ``RotationSpline.__call__``; equal to it to 1e-15, checked in the tests).
+        """
+        t = np.asarray(t, dtype=np.float64)
+        knots = self._rot.times
+        i = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, knots.size - 2)
+        phi = self._rot.interpolator(t)
+        phid = self._rot_d1(t)
+        th2 = np.sum(phi * phi, -1)
+        th = np.sqrt(th2)
+        small = th < 1e-4
+        safe = np.where(small, 1.0, th)
+        k1 = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+        k2 = np.where(small, 1.0 / 6.0 - th2 / 120.0, (safe - np.sin(safe)) / safe**3)
+        c = np.cross(phi, phid)
+        w_b = phid - k1[:, None] * c + k2[:, None] * np.cross(phi, c)
+        s1 = np.where(small, 1.0 - th2 / 6.0, np.sin(safe) / safe)
+        K = np.zeros(phi.shape + (3,))
+        K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -phi[:, 2], phi[:, 1], -phi[:, 0]
+        K = K - np.swapaxes(K, -1, -2)
+        E = np.eye(3) + s1[:, None, None] * K + k1[:, None, None] * (K @ K)
+        C = self._knot_C[i] @ E
         return C, np.einsum("nij,nj->ni", C, w_b)
 
     def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:

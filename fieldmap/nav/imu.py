@@ -242,6 +242,8 @@ def synthesize(
     dt = 1.0 / float(rate_hz)
     traj.check_above_surface()
     xg, wg = gauss_legendre01(n_gauss)
+    # trajectories that keep the base-class kinematics: rotation-invariant ECEF path (no a-frame)
+    direct = type(traj).kinematics is Trajectory.kinematics
     dtheta = np.empty((n, 3))
     dv = np.empty((n, 3))
     per = max(1, batch // n_gauss)
@@ -254,12 +256,16 @@ def synthesize(
         s1 = min(n, s0 + per)
         ts = t0 + dt * np.arange(s0, s1, dtype=np.float64)
         tq = (ts[:, None] + dt * xg[None, :]).ravel()
-        k = traj.kinematics(tq)
-        g_e = np.asarray(gravity(k.r_e), dtype=np.float64)
-        g_a = traj.frame.vector_e_to_a(g_e, tq)
-        f_b = np.einsum("nji,nj->ni", k.C_b_to_a, k.A_a - g_a)
+        if direct:
+            w_b, f_b = _body_ecef(traj, tq, gravity)
+        else:
+            k = traj.kinematics(tq)
+            g_e = np.asarray(gravity(k.r_e), dtype=np.float64)
+            g_a = traj.frame.vector_e_to_a(g_e, tq)
+            f_b = np.einsum("nji,nj->ni", k.C_b_to_a, k.A_a - g_a)
+            w_b = k.w_b
         wq = (dt * wg)[None, :, None]
-        dtheta[s0:s1] = np.sum(k.w_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
+        dtheta[s0:s1] = np.sum(w_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
         dv[s0:s1] = np.sum(f_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
     meta = {
         "trajectory": traj.name,
@@ -268,3 +274,19 @@ def synthesize(
         "rate_hz": float(rate_hz),
     }
     return ImuIncrements(dtheta, dv, dt, float(t0), meta)
+
+
+def _body_ecef(traj: Trajectory, t, gravity):
+    """Body rate ω_ib^b and specific force f^b at times ``t`` straight from the ECEF motion.
+
+    f^b = C_e^b (r̈ + 2ω×ṙ + ω×(ω×r) − γ(r)) and ω_ib^b = C_e^b (ω_eb^e + ω_ie^e): the same
+    vectors as through the a-frame (a rotation of both sides, Groves 2013 eq. 2.84 ff.), without
+    the a-frame's rotation matrices.
+    """
+    r, v, a = traj._ecef(t)
+    C_b_e, w_eb_e = traj._attitude(t, r, v, a)
+    w = np.array([0.0, 0.0, traj.frame.omega])
+    g_e = np.asarray(gravity(r), dtype=np.float64)
+    a_in = a + 2.0 * np.cross(w, v) + np.cross(w, np.cross(w, r)) - g_e
+    both = np.einsum("nji,nkj->nki", C_b_e, np.stack([w_eb_e + w, a_in], 1))
+    return both[:, 0], both[:, 1]
