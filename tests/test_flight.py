@@ -186,15 +186,27 @@ def test_j4_error_equals_double_integral_of_geographiclib_gravity(tmp_path):
     assert np.linalg.norm(sim - pred[-1]) < 0.03 * np.linalg.norm(pred[-1])
 
 
-def test_time_blocks_do_not_change_the_result():
-    """Propagating in time blocks carries the whole state.
+def test_time_blocks_do_not_change_the_result(monkeypatch):
+    """Propagating in time blocks carries the whole state; no synthesis exceeds one block.
 
     Bias + scale-factor IMU (no noise: same numbers whatever the seeds per block): 60 s blocks
     give the 240 s block's errors to rounding.
     """
+    from fieldmap.nav import flightsim
+
+    sizes = []
+    real = flightsim.synthesize
+
+    def spy(*args, **kw):
+        out = real(*args, **kw)
+        sizes.append(out.n_samples)
+        return out
+
     imu = ImuErrorSpec(acc_bias_ug=100.0, gyro_bias_deg_h=1.0, acc_scale_ppm=100.0)
     _, a = _ideal_study(imu=imu, draws=2, block_s=240.0)
+    monkeypatch.setattr(flightsim, "synthesize", spy)
     _, b = _ideal_study(imu=imu, draws=2, block_s=60.0)
+    assert max(sizes) == 6000 and len(sizes) == 8  # 4 blocks × 2 sets of 60 s at 100 Hz
     np.testing.assert_allclose(a.dpos, b.dpos, rtol=0, atol=1e-6)  # m; errors reach ~100 m
     assert np.abs(a.dpos).max() > 10.0
 
