@@ -343,3 +343,11 @@ def test_output_interval_that_does_not_divide_the_run_raises():
     with pytest.raises(InputError, match="0.7 s is not a whole number"):
         navsim.build_scenario(duration=2.0, rate_hz=100.0, truth_lmax=8, output_dt=0.7)
     assert navsim.output_steps(0.5, 100, 0.02) == 25
+
+
+def test_progress_launches_give_the_numbers_of_one_launch(scenario):
+    """Table 4 with the progress bar (several launches) = one launch, bit for bit."""
+    a = navsim.table4(scenario, ["j4", "sh18"], draws=3, seed=2)
+    b = navsim.table4(scenario, ["j4", "sh18"], draws=3, seed=2, progress=True)
+    np.testing.assert_array_equal(a.pos, b.pos)
+    assert a.rows == b.rows

@@ -324,10 +324,15 @@ def run(args) -> int:
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):
         if study == "table1":
-            res = navsim.table1(sc, models, timing=not args.no_timing)
+            res = navsim.table1(sc, models, timing=not args.no_timing, progress=True)
         elif study == "table3":
             res = navsim.table3(
-                sc, draws=args.draws or 50, seed=args.seed, nav=nav, mode=args.bias_mode
+                sc,
+                draws=args.draws or 50,
+                seed=args.seed,
+                nav=nav,
+                mode=args.bias_mode,
+                progress=True,
             )
         else:
             res = navsim.table4(
@@ -337,6 +342,7 @@ def run(args) -> int:
                 seed=args.seed,
                 mode=args.bias_mode,
                 reference=nav,
+                progress=True,
             )
         results.append(res)
     with output_batch(args.out) as batch:  # all files of all studies, or none

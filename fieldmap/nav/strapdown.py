@@ -283,7 +283,12 @@ def prepare_batch(
     if unknown:
         raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
     names = [gravity] if isinstance(gravity, str) else list(gravity)
-    lens = [len(names), n_sets, 1 if imu_set is None else np.size(imu_set)]
+    # with imu_set given, the number of sets says nothing about the number of trajectories
+    lens = [
+        len(names),
+        n_sets if imu_set is None else 1,
+        1 if imu_set is None else np.size(imu_set),
+    ]
     for a, tail in list(states.values()) + [(v, _ERROR_KEYS[k]) for k, v in err.items()]:
         a = np.asarray(a)
         lens.append(a.shape[0] if a.ndim > len(tail) else 1)

@@ -168,8 +168,12 @@ def propagate(
     sets: list[ImuIncrements] | None = None,
     imu_set=None,
     errors: imu_errors.ErrorDraws | None = None,
+    progress: bool = False,
 ):
     """All runs in one :func:`fieldmap.nav.strapdown.propagate_lci` launch; errors vs. the truth.
+
+    With ``progress`` the runs go into up to 8 launches (a tqdm bar over them) with the same
+    results.
 
     Returns
     -------
@@ -187,25 +191,50 @@ def propagate(
     imu_set = (
         np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
     )
-    perm = balanced_order(gravity)
     k0 = sc.traj.kinematics([sc.imu.t0])
     t0 = time.perf_counter()
-    res = propagate_lci(
-        dth,
-        dv,
-        sc.imu.dt,
-        k0.P_a[0],
-        k0.V_a[0],
-        dcm_to_quat(k0.C_b_to_a[0]),
-        sc.traj.frame,
-        gravity=[gravity[i] for i in perm],
-        sh_model=sc.truth_model,
-        imu_set=imu_set[perm],
-        errors=None if errors is None else errors.take(perm).kernel_errors(),
-        t0=sc.imu.t0,
-        output_every=sc.output_every,
-        device=sc.device,
-    )
+
+    def launch(idx):
+        """Propagate the runs ``idx`` in one launch (balanced over the CPU chunks)."""
+        perm = idx[balanced_order([gravity[i] for i in idx])]
+        res = propagate_lci(
+            dth,
+            dv,
+            sc.imu.dt,
+            k0.P_a[0],
+            k0.V_a[0],
+            dcm_to_quat(k0.C_b_to_a[0]),
+            sc.traj.frame,
+            gravity=[gravity[i] for i in perm],
+            sh_model=sc.truth_model,
+            imu_set=imu_set[perm],
+            errors=None if errors is None else errors.take(perm).kernel_errors(),
+            t0=sc.imu.t0,
+            output_every=sc.output_every,
+            device=sc.device,
+        )
+        return perm, res
+
+    if progress and n > 1:
+        # several launches, each a cost-balanced share of the runs: every run is independent
+        # (own thread, own seed), so the numbers are those of one launch
+        from tqdm import tqdm
+
+        from fieldmap.nav.strapdown import gravity_cost
+
+        order = np.argsort([-gravity_cost(g, sc.truth_model) for g in gravity], kind="stable")
+        parts = [order[j :: min(n, 8)] for j in range(min(n, 8))]
+        done = [launch(p) for p in tqdm(parts, desc="navigation runs", unit="launch")]
+        perm = np.concatenate([p for p, _ in done])
+        res = type(done[0][1])(
+            t=done[0][1].t,
+            P=np.concatenate([r.P for _, r in done]),
+            V=np.concatenate([r.V for _, r in done]),
+            q=np.concatenate([r.q for _, r in done]),
+            gravity=sum((r.gravity for _, r in done), ()),
+        )
+    else:
+        perm, res = launch(np.arange(n))
     secs = time.perf_counter() - t0
     inv = np.argsort(perm)
     dP = res.P[inv] - sc.truth.P_a[None]
@@ -343,7 +372,9 @@ class StudyResult:
     meta: dict
 
 
-def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResult:
+def table1(
+    sc: Scenario, models=TABLE1_MODELS, timing: bool = True, progress: bool = False
+) -> StudyResult:
     """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
 
     One launch propagates every model in ``models`` plus the truth model itself (the numerical
@@ -351,7 +382,7 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
     """
     names = check_model_names(models, sc.truth_model)
     runs = names + [sc.truth_key]
-    out = propagate(sc, runs)
+    out = propagate(sc, runs, progress=progress)
     rows = []
     for i, name in enumerate(names):
         row = {
@@ -427,6 +458,7 @@ def table3(
     seed: int = 0,
     nav: str = "j4",
     mode: str = "gauss",
+    progress: bool = False,
 ) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
@@ -452,7 +484,7 @@ def table3(
             }
         )
     err = imu_errors.ErrorDraws.concat(parts)
-    out = propagate(sc, [nav] * err.n, errors=err)
+    out = propagate(sc, [nav] * err.n, errors=err, progress=progress)
     rows, start = [], 0
     for j, n in enumerate(counts):
         sub = {
@@ -482,6 +514,7 @@ def table4(
     spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4,
     mode: str = "gauss",
     reference: str = "j4",
+    progress: bool = False,
 ) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
@@ -501,7 +534,9 @@ def table4(
     err = err1.repeat(len(rows_models))
     grav = [m for m in rows_models for _ in range(err1.n)]
     imu_set = [1 if j == 0 else 0 for j in range(len(rows_models)) for _ in range(err1.n)]
-    out = propagate(sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err)
+    out = propagate(
+        sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err, progress=progress
+    )
     labels = ["imu_only"] + [f"imu+{m}" for m in names]
     extra = [
         {"case": lab, "nav_gravity": m, "gravity_model_error": j > 0, "draws": err1.n}
