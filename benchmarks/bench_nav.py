@@ -58,10 +58,7 @@ def bench_synthesis(traj, rate, seconds, repeat):
     ypr = Rotation.from_matrix(C).as_euler("ZYX", degrees=True)
     rph = np.stack([ypr[:, 2], ypr[:, 1], ypr[:, 0] % 360.0], -1)
     lla = np.stack([lat, lon, h], -1)
-    theirs = (
-        _median(lambda: sim.generate_imu(t, lla, rph, v, sensor_type="increment"), repeat)
-        / n
-    )
+    theirs = _median(lambda: sim.generate_imu(t, lla, rph, v, sensor_type="increment"), repeat) / n
     return ours, theirs
 
 
