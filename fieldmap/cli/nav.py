@@ -194,7 +194,8 @@ def _check_args(args):
         raise InputError("--duration × --rate gives fewer than 2 IMU samples")
     if args.duration > 800.0:
         raise InputError(
-            f"--duration {args.duration} s is longer than the boost-glide path (800 s)"
+            f"--duration {args.duration} s is longer than the boost-glide path (800 s); fly "
+            "longer with --trajectory FILE or --route"
         )
     if args.output_dt > args.duration:
         raise InputError(
