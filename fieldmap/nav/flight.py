@@ -340,11 +340,19 @@ class FlightTrajectory(Trajectory):
         c = np.cross(phi, phid)
         w_b = phid - k1[:, None] * c + k2[:, None] * np.cross(phi, c)
         s1 = np.where(small, 1.0 - th2 / 6.0, np.sin(safe) / safe)
-        K = np.zeros(phi.shape + (3,))
-        K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -phi[:, 2], phi[:, 1], -phi[:, 0]
-        K = K - np.swapaxes(K, -1, -2)
-        E = np.eye(3) + s1[:, None, None] * K + k1[:, None, None] * (K @ K)
-        C = self._knot_C[i] @ E
+        # Rodrigues with [φ×]² = φφᵀ − θ² I: E = (1 − k1 θ²) I + s1 [φ×] + k1 φφᵀ
+        sk = s1[:, None] * phi
+        E = (k1[:, None, None] * phi[:, :, None]) * phi[:, None, :]
+        diag = 1.0 - k1 * th2
+        for j in range(3):
+            E[:, j, j] += diag
+        E[:, 0, 1] -= sk[:, 2]
+        E[:, 1, 0] += sk[:, 2]
+        E[:, 0, 2] += sk[:, 1]
+        E[:, 2, 0] -= sk[:, 1]
+        E[:, 1, 2] -= sk[:, 0]
+        E[:, 2, 1] += sk[:, 0]
+        C = np.matmul(self._knot_C[i], E)
         return C, np.einsum("nij,nj->ni", C, w_b)
 
     def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:
