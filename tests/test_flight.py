@@ -334,3 +334,24 @@ def test_two_gravities_in_one_synthesis_equal_two_syntheses():
         np.testing.assert_allclose(got.dtheta, ref.dtheta, rtol=0, atol=1e-18)
         np.testing.assert_allclose(got.dv, ref.dv, rtol=0, atol=1e-15)  # ~0.1 m/s values
     assert np.abs(a.dv - b.dv).max() > 1e-7  # the two models really differ (J4 term)
+
+
+def test_attitude_columns_are_used():
+    """Roll/pitch/heading columns set the attitude.
+
+    The coordinated angles given as columns (heading wrapped to 0..360) reproduce the default
+    attitude; a 10° roll offset shows up as a 10° rotation.
+    """
+    cols = _turning_flight()
+    ft = FlightTrajectory(cols)
+    att = ft.attitude_knots_deg
+    given = cols | {"roll_deg": att[:, 0], "pitch_deg": att[:, 1], "heading_deg": att[:, 2] % 360}
+    t = np.linspace(0, 110, 23)
+    C1, C2 = ft.kinematics(t).C_b_to_a, FlightTrajectory(given).kinematics(t).C_b_to_a
+    np.testing.assert_allclose(C2, C1, rtol=0, atol=1e-12)
+    tilted = given | {"roll_deg": att[:, 0] + 10.0}
+    C3 = FlightTrajectory(tilted).kinematics(t).C_b_to_a
+    ang = np.degrees(np.arccos((np.trace(np.swapaxes(C1, -1, -2) @ C3, axis1=1, axis2=2) - 1) / 2))
+    np.testing.assert_allclose(ang, 10.0, atol=1e-6)
+    with pytest.raises(InputError, match="give all of roll_deg, pitch_deg, heading_deg or none"):
+        read_flight(cols | {"roll_deg": att[:, 0]})
