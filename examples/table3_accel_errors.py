@@ -25,8 +25,8 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     args = ap.parse_args(argv)
 
-    from fieldmap.cli.nav import format_table, write_outputs
     from fieldmap.nav import studies as navsim
+    from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate, draws = (60.0, 100.0, 4) if args.small else (800.0, 200.0, 50)
     sc = navsim.build_scenario(

@@ -24,6 +24,7 @@ _COMMAND_MODULES = (
     "fieldmap.cli.point",  # point, verify
     "fieldmap.cli.maps",  # map, sweep, truncation
     "fieldmap.cli.nav",  # navsim
+    "fieldmap.cli.imu",  # imu allan
 )
 
 

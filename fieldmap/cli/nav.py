@@ -1,4 +1,9 @@
-"""``fieldmap navsim``: the navigation-error studies of Chen et al. (2022) §5 (Tables 1, 3, 4).
+"""``fieldmap navsim``: navigation errors by gravity model and IMU, on the paper's or your flight.
+
+``--study table1|table3|table4|all`` runs the studies of Chen et al. (2022) §5 on the boost-glide
+path; ``--trajectory FILE`` or ``--route "lat,lon,h;..." --speed-mps V`` runs the flight study of
+:mod:`fieldmap.nav.flightsim` (``navsim_flight.*``: see
+:func:`fieldmap.nav.report.write_flight_outputs`).
 
 Writes, for each study, ``navsim_<study>.csv`` / ``.json`` (table rows, truth model, floor, paper
 values), ``navsim_<study>.nc`` (error curves over time, xarray/NetCDF, CF attributes) and
@@ -9,13 +14,14 @@ so a failed run leaves nothing half-written.
 
 from __future__ import annotations
 
-import csv
-import io
-import json
+import argparse
 
 import numpy as np
 
 from fieldmap.errors import InputError
+
+# the tables and files live in the library; re-exported for scripts written against 0.1
+from fieldmap.nav.report import format_table, to_dataset, write_outputs  # noqa: F401
 
 STUDIES = ("table1", "table3", "table4")
 
@@ -34,10 +40,56 @@ def register(subparsers) -> None:
         "--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)"
     )
     p.add_argument(
+        "--trajectory",
+        default=None,
+        metavar="FILE",
+        help="your flight: CSV (header, '#' comments) or NetCDF with time_s, lat_deg, lon_deg, "
+        "height_m [, roll_deg, pitch_deg, heading_deg]; runs the flight study",
+    )
+    p.add_argument(
+        "--route",
+        default=None,
+        help='a study flight along geodesics: "lat,lon,h;lat,lon,h;..." (with --speed-mps)',
+    )
+    p.add_argument("--speed-mps", type=float, default=None, help="ground speed of --route (m/s)")
+    p.add_argument(
+        "--imu",
+        default=None,
+        help="flight study IMU: ideal consumer industrial tactical navigation strategic "
+        "table2-groupN table4, or a TOML file (default ideal)",
+    )
+    p.add_argument(
+        "--frame",
+        default=None,
+        choices=("ned", "lci"),
+        help="mechanization of the flight study (default ned; the paper's studies use lci)",
+    )
+    p.add_argument(
+        "--altitude-aiding",
+        default="auto",
+        choices=("auto", "none", "baro"),
+        help="flight study vertical channel: third-order baro loop or free (auto: baro for "
+        "flights over 15 min)",
+    )
+    p.add_argument(
+        "--fraction",
+        type=float,
+        default=0.1,
+        help="recommended model: added horizontal error below this fraction of the IMU-only "
+        "error (default 0.1)",
+    )
+    p.add_argument(
+        "--block-s",
+        type=float,
+        default=600.0,
+        help="flight study time block in s (memory bound; default 600)",
+    )
+    p.add_argument(
         "--models",
-        default="j2,j4,j6,normal,sh18,sh200",
-        help="navigation gravity models, comma separated: j2 j4 j6 normal sh shN "
-        "(table1; table4 adds the full IMU errors to the SH ones and to --nav)",
+        nargs="+",
+        default=["j2,j4,j6,normal,sh18,sh200"],
+        help="navigation gravity models, comma or space separated: j2 j4 j6 normal sh shN "
+        "(table1 and flight; table4 adds the full IMU errors to the SH ones and to --nav)",
     )
     p.add_argument(
         "--nav",
@@ -61,28 +113,36 @@ def register(subparsers) -> None:
     p.add_argument(
         "--gauss",
         type=int,
-        default=2,
-        help="Gauss-Legendre nodes per IMU sample, 1..16 (default 2)",
+        default=3,
+        help="Gauss-Legendre nodes per IMU sample, 1..16 (default 3, as the API)",
     )
     p.add_argument(
-        "--duration", type=float, default=800.0, help="flight time in s, at most 800 (default 800)"
+        "--duration",
+        type=float,
+        default=None,
+        help="flight time in s (paper's studies: at most 800, default 800; flight: default all)",
     )
     p.add_argument(
-        "--truth",
+        "--model",
         default="eigen-6s",
         help="truth gravity model: bundled name or ICGEM .gfc[.gz] file (default eigen-6s)",
     )
+    p.add_argument("--truth", dest="model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     p.add_argument(
-        "--truth-degree",
+        "--lmax",
         type=int,
         default=None,
         help="truth degree (default: the model's full degree)",
     )
     p.add_argument(
+        "--truth-degree", dest="lmax", type=int, default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    p.add_argument(
         "--output-dt",
         type=float,
-        default=1.0,
-        help="interval of the error curves in s, at most --duration (default 1)",
+        default=None,
+        help="interval of the error curves in s (paper's studies: default 1, dividing the run; "
+        "flight: default about 3600 points)",
     )
     p.add_argument("--no-timing", action="store_true", help="skip the gravity CPU-time measurement")
     p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
@@ -111,9 +171,19 @@ def _check_args(args):
         ("--rate", args.rate),
         ("--duration", args.duration),
         ("--output-dt", args.output_dt),
+        ("--block-s", args.block_s),
+        ("--speed-mps", args.speed_mps),
     ):
-        if not np.isfinite(v) or v <= 0:
+        if v is not None and (not np.isfinite(v) or v <= 0):
             raise InputError(f"{name} must be a positive number, got {v}")
+    if not 0 < args.fraction < 1:
+        raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
+    model = load_model(args.model, lmax=args.lmax)
+    models = check_model_names(split_list(args.models), model)
+    if is_flight(args):
+        return _check_flight_args(args, model, models)
+    args.duration = 800.0 if args.duration is None else args.duration
+    args.output_dt = 1.0 if args.output_dt is None else args.output_dt
     if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
         raise InputError(f"--draws must be within 1..{MAX_DRAWS}, got {args.draws}")
     if args.seed < 0:
@@ -124,15 +194,14 @@ def _check_args(args):
         raise InputError("--duration × --rate gives fewer than 2 IMU samples")
     if args.duration > 800.0:
         raise InputError(
-            f"--duration {args.duration} s is longer than the boost-glide path (800 s)"
+            f"--duration {args.duration} s is longer than the boost-glide path (800 s); fly "
+            "longer with --trajectory FILE or --route"
         )
     if args.output_dt > args.duration:
         raise InputError(
             f"--output-dt {args.output_dt:g} s is longer than --duration {args.duration:g} s"
         )
     sample_count(args.duration, args.rate)
-    model = load_model(args.truth, lmax=args.truth_degree)
-    models = check_model_names([m for m in args.models.replace(" ", ",").split(",") if m], model)
     nav = check_model_names([args.nav], model)[0]
     check_out_dir(args.out)
     try:
@@ -140,6 +209,92 @@ def _check_args(args):
     except DeviceError as exc:
         raise InputError(str(exc)) from None
     return device, models, nav
+
+
+def split_list(values) -> list[str]:
+    """``["j2,j4", "sh18"]`` or ``["j2 j4"]`` -> ``["j2", "j4", "sh18"]`` (commas or spaces)."""
+    return [m for v in values for m in str(v).replace(",", " ").split() if m]
+
+
+def is_flight(args) -> bool:
+    """Tell whether ``--trajectory`` or ``--route`` asks for the flight study."""
+    return args.trajectory is not None or args.route is not None
+
+
+def _check_flight_args(args, model, models):
+    """Validate the flight study's options; build the trajectory (its errors name the line)."""
+    from fieldmap._warp import DeviceError, resolve_device
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.products.io import check_out_dir
+
+    if args.trajectory is not None and args.route is not None:
+        raise InputError("give --trajectory or --route, not both")
+    if args.route is not None and args.speed_mps is None:
+        raise InputError("--route needs --speed-mps")
+    if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
+        raise InputError(f"--draws must be within 1..{MAX_DRAWS}, got {args.draws}")
+    if args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}")
+    if not 1 <= args.gauss <= 16:
+        raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
+    imu = load_imu(args.imu or "ideal")
+    if args.trajectory is not None:
+        traj = FlightTrajectory(args.trajectory)
+    else:
+        traj = FlightTrajectory(route_flight(args.route, args.speed_mps))
+    check_out_dir(args.out)
+    try:
+        device = resolve_device(args.device)
+    except DeviceError as exc:
+        raise InputError(str(exc)) from None
+    return device, models, (traj, imu, model)
+
+
+def run_flight_study(args, device, models, traj, imu, model) -> int:
+    """Run the flight study, write ``navsim_flight.*``, print; exit 1 if a run diverged."""
+    import warnings
+
+    from tqdm import tqdm
+
+    from fieldmap.nav.flightplots import disturbance_grid
+    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.products.io import output_batch
+
+    tqdm.write(
+        f"navsim: flight of {traj.duration:g} s, IMU {imu[0]} at {args.rate:g} Hz, "
+        f"models {' '.join(models)}"
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        res = run_flight(
+            traj,
+            imu=imu[1],
+            imu_name=imu[0],
+            models=models,
+            draws=args.draws or 20,
+            seed=args.seed,
+            rate_hz=args.rate,
+            frame=args.frame or "ned",
+            altitude_aiding=args.altitude_aiding,
+            truth=model,
+            n_gauss=args.gauss,
+            duration=args.duration,
+            output_dt=args.output_dt,
+            block_s=args.block_s,
+            fraction=args.fraction,
+            device=device,
+            progress=True,
+        )
+    for w in caught:
+        if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
+            tqdm.write(f"warning: {w.message}")
+    grid = disturbance_grid(res, model, device=device)
+    with output_batch(args.out) as batch:
+        write_flight_outputs(res, batch, grid)
+    print(format_flight(res))
+    return 1 if res.diverged else 0
 
 
 def run(args) -> int:
@@ -150,16 +305,18 @@ def run(args) -> int:
     from fieldmap.products.io import output_batch
 
     device, models, nav = _check_args(args)
+    if is_flight(args):
+        return run_flight_study(args, device, models, *nav)
     studies = STUDIES if args.study == "all" else (args.study,)
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
-        f"truth {args.truth})"
+        f"truth {args.model})"
     )
     sc = navsim.build_scenario(
         duration=args.duration,
         rate_hz=args.rate,
-        truth=args.truth,
-        truth_lmax=args.truth_degree,
+        truth=args.model,
+        truth_lmax=args.lmax,
         n_gauss=args.gauss,
         output_dt=args.output_dt,
         device=device,
@@ -168,10 +325,15 @@ def run(args) -> int:
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):
         if study == "table1":
-            res = navsim.table1(sc, models, timing=not args.no_timing)
+            res = navsim.table1(sc, models, timing=not args.no_timing, progress=True)
         elif study == "table3":
             res = navsim.table3(
-                sc, draws=args.draws or 50, seed=args.seed, nav=nav, mode=args.bias_mode
+                sc,
+                draws=args.draws or 50,
+                seed=args.seed,
+                nav=nav,
+                mode=args.bias_mode,
+                progress=True,
             )
         else:
             res = navsim.table4(
@@ -181,6 +343,7 @@ def run(args) -> int:
                 seed=args.seed,
                 mode=args.bias_mode,
                 reference=nav,
+                progress=True,
             )
         results.append(res)
     with output_batch(args.out) as batch:  # all files of all studies, or none
@@ -188,149 +351,4 @@ def run(args) -> int:
             write_outputs(res, batch)
     for res in results:
         print(format_table(res))
-    return 0
-
-
-def format_table(res) -> str:
-    """Plain-text table of a study's rows (with the paper's values where they exist)."""
-    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
-
-    lines = [
-        f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
-        f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="
-    ]
-    if res.study == "table1":
-        lines.append(
-            f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'eval s':>10s}"
-            "   paper: |dv| |dp| eval"
-        )
-        for r in res.rows:
-            p = PAPER_TABLE1.get(r["model"], ("", "", ""))
-            lines.append(
-                f"{r['model']:8s} {r['final_velocity_error_m_s']:10.4f} "
-                f"{r['final_position_error_m']:10.2f} "
-                f"{r.get('gravity_eval_seconds', float('nan')):10.2e}   {p[0]} {p[1]} {p[2]}"
-            )
-        fl = res.meta["floor"]
-        lines.append(
-            f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
-            f"|dp| {fl['final_position_error_m']:.3e} m "
-            f"(smallest effect / floor: {fl['margin_position']:.0f}x, {fl['margin_velocity']:.0f}x)"
-        )
-    else:
-        key = "group" if res.study == "table3" else "case"
-        lines.append(
-            f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'p95':>8s} {'|dp| mean':>10s} {'rms':>8s} "
-            f"{'p95':>8s}" + ("   paper |dv| |dp|" if res.study == "table3" else "")
-        )
-        for r in res.rows:
-            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if res.study == "table3" else ("", "")
-            lines.append(
-                f"{str(r[key]):14s} {r['final_velocity_error_m_s_mean']:10.4f} "
-                f"{r['final_velocity_error_m_s_rms']:8.4f} "
-                f"{r['final_velocity_error_m_s_p95']:8.4f} "
-                f"{r['final_position_error_m_mean']:10.2f} {r['final_position_error_m_rms']:8.2f} "
-                f"{r['final_position_error_m_p95']:8.2f}   {p[0]} {p[1]}"
-            )
-    return "\n".join(lines)
-
-
-def _json_doc(res) -> dict:
-    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
-
-    doc = {
-        "study": res.study,
-        "truth_model": res.meta["truth_model"],
-        "truth_degree": res.meta["truth_degree"],
-        "meta": res.meta,
-    }
-    if res.study == "table1":
-        doc["floor"] = res.meta["floor"]
-        for r in res.rows:
-            doc[r["model"]] = {k: v for k, v in r.items() if k != "model"}
-        doc["paper"] = {
-            k: dict(
-                zip(
-                    ("final_velocity_error_m_s", "final_position_error_m", "gravity_eval_seconds"),
-                    v,
-                )
-            )
-            for k, v in PAPER_TABLE1.items()
-        }
-    else:
-        doc["rows"] = res.rows
-        if res.study == "table3":
-            doc["paper"] = {
-                f"group{k}": dict(zip(("final_velocity_error_m_s", "final_position_error_m"), v))
-                for k, v in PAPER_TABLE3.items()
-            }
-    return doc
-
-
-def write_outputs(res, out) -> list[str]:
-    """CSV, JSON, NetCDF and PNG of one study; return the paths.
-
-    ``out`` is a folder (the four files are written as one
-    :func:`fieldmap.products.io.output_batch`)
-    or an open :class:`fieldmap.products.io.OutputBatch` (committed by its owner).
-    """
-    from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
-
-    if not isinstance(out, OutputBatch):
-        with output_batch(out) as batch:
-            paths = write_outputs(res, batch)
-        return paths
-    base = f"navsim_{res.study}"
-    buf = io.StringIO()
-    keys = list(dict.fromkeys(k for r in res.rows for k in r))
-    w = csv.DictWriter(buf, fieldnames=keys)
-    w.writeheader()
-    w.writerows(res.rows)
-    paths = [
-        out.text(buf.getvalue(), base + ".csv"),
-        out.text(json.dumps(_json_doc(res), indent=2, default=float) + "\n", base + ".json"),
-        out.netcdf(to_dataset(res), base + ".nc"),
-    ]
-    with signals_deferred():  # see fieldmap.products.io.signals_deferred
-        plot(res, str(out.path(base + ".png")))
-    paths.append(out.folder / (base + ".png"))
-    return [str(p) for p in paths]
-
-
-def to_dataset(res):
-    """Error curves of a study as an ``xarray.Dataset`` (dims run, time; CF-1.8 attributes)."""
-    import xarray as xr
-
-    ds = xr.Dataset(
-        {
-            "position_error": (
-                ("run", "time"),
-                res.pos,
-                {"units": "m", "long_name": "norm of the a-frame position error"},
-            ),
-            "velocity_error": (
-                ("run", "time"),
-                res.vel,
-                {"units": "m s-1", "long_name": "norm of the inertial velocity error"},
-            ),
-        },
-        coords={
-            # an auxiliary coordinate: CF coordinate variables are numeric (CF 1.8 §5)
-            "label": ("run", np.array(res.labels, dtype=str), {"long_name": "run label"}),
-            "time": ("time", res.t, {"units": "s", "long_name": "time since launch"}),
-        },
-        attrs={
-            "Conventions": "CF-1.8",
-            "title": f"fieldmap navsim {res.study}",
-            "source": f"truth {res.meta['truth_model']} degree {res.meta['truth_degree']}",
-            "meta": json.dumps(res.meta, default=float),
-        },
-    )
-    return ds
-
-
-def plot(res, path: str) -> None:
-    """Write the study's figure (Figs. 11-13 like; see :mod:`fieldmap.nav.plots`) as PNG."""
-    from fieldmap.nav.plots import plot as _plot
-
-    _plot(res, path)
+    return 1 if any(res.meta.get("diverged") for res in results) else 0

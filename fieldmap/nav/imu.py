@@ -216,9 +216,10 @@ def synthesize(
         Reference trajectory (closed form).
     rate_hz : float
         IMU sample rate. Units: Hz.
-    gravity : callable, optional
+    gravity : callable or list of callables, optional
         ECEF gravitation ``γ_e(r_e)`` (N, 3) -> (N, 3), e.g. :class:`Gravitation`; default
-        EIGEN-6S at full degree.
+        EIGEN-6S at full degree. A list gives one increment set per model from one evaluation
+        of the kinematics (the gyro increments are shared).
     n_gauss : int
         Gauss–Legendre nodes per sample.
     duration : float, optional
@@ -232,9 +233,13 @@ def synthesize(
 
     Returns
     -------
-    ImuIncrements
+    ImuIncrements, or a list of them for a list of gravities
     """
     gravity = Gravitation() if gravity is None else gravity
+    many = isinstance(gravity, (list, tuple))
+    gravities = list(gravity) if many else [gravity]
+    if not gravities:
+        raise InputError("synthesize needs at least one gravity model")
     duration = traj.duration if duration is None else float(duration)
     if not np.isfinite(duration) or duration <= 0 or t0 + duration > traj.duration * (1 + 1e-12):
         raise InputError(f"duration {duration} s does not fit the trajectory ({traj.duration} s)")
@@ -242,8 +247,10 @@ def synthesize(
     dt = 1.0 / float(rate_hz)
     traj.check_above_surface()
     xg, wg = gauss_legendre01(n_gauss)
+    # trajectories that keep the base-class kinematics: rotation-invariant ECEF path (no a-frame)
+    direct = type(traj).kinematics is Trajectory.kinematics
     dtheta = np.empty((n, 3))
-    dv = np.empty((n, 3))
+    dvs = [np.empty((n, 3)) for _ in gravities]
     per = max(1, batch // n_gauss)
     starts = range(0, n, per)
     if progress:
@@ -254,17 +261,48 @@ def synthesize(
         s1 = min(n, s0 + per)
         ts = t0 + dt * np.arange(s0, s1, dtype=np.float64)
         tq = (ts[:, None] + dt * xg[None, :]).ravel()
-        k = traj.kinematics(tq)
-        g_e = np.asarray(gravity(k.r_e), dtype=np.float64)
-        g_a = traj.frame.vector_e_to_a(g_e, tq)
-        f_b = np.einsum("nji,nj->ni", k.C_b_to_a, k.A_a - g_a)
+        if direct:
+            w_b, f_bs = _body_ecef(traj, tq, gravities)
+        else:
+            k = traj.kinematics(tq)
+            f_bs = []
+            for g in gravities:
+                g_a = traj.frame.vector_e_to_a(np.asarray(g(k.r_e), dtype=np.float64), tq)
+                f_bs.append(np.einsum("nji,nj->ni", k.C_b_to_a, k.A_a - g_a))
+            w_b = k.w_b
         wq = (dt * wg)[None, :, None]
-        dtheta[s0:s1] = np.sum(k.w_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
-        dv[s0:s1] = np.sum(f_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
-    meta = {
-        "trajectory": traj.name,
-        "truth_gravity": getattr(gravity, "name", repr(gravity)),
-        "n_gauss": int(n_gauss),
-        "rate_hz": float(rate_hz),
-    }
-    return ImuIncrements(dtheta, dv, dt, float(t0), meta)
+        dtheta[s0:s1] = np.sum(w_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
+        for dv, f_b in zip(dvs, f_bs):
+            dv[s0:s1] = np.sum(f_b.reshape(s1 - s0, n_gauss, 3) * wq, axis=1)
+    out = [
+        ImuIncrements(
+            dtheta if j == 0 else dtheta.copy(),
+            dv,
+            dt,
+            float(t0),
+            {
+                "trajectory": traj.name,
+                "truth_gravity": getattr(g, "name", repr(g)),
+                "n_gauss": int(n_gauss),
+                "rate_hz": float(rate_hz),
+            },
+        )
+        for j, (g, dv) in enumerate(zip(gravities, dvs))
+    ]
+    return out if many else out[0]
+
+
+def _body_ecef(traj: Trajectory, t, gravities):
+    """Body rate ω_ib^b and specific forces f^b (one per gravity) at times ``t`` from ECEF.
+
+    f^b = C_e^b (r̈ + 2ω×ṙ + ω×(ω×r) − γ(r)) and ω_ib^b = C_e^b (ω_eb^e + ω_ie^e): the same
+    vectors as through the a-frame (a rotation of both sides, Groves 2013 eq. 2.84 ff.), without
+    the a-frame's rotation matrices.
+    """
+    r, v, a = traj._ecef(t)
+    C_b_e, w_eb_e = traj._attitude(t, r, v, a)
+    w = np.array([0.0, 0.0, traj.frame.omega])
+    a_in = a + 2.0 * np.cross(w, v) + np.cross(w, np.cross(w, r))
+    vecs = [w_eb_e + w] + [a_in - np.asarray(g(r), dtype=np.float64) for g in gravities]
+    body = np.einsum("nji,nkj->nki", C_b_e, np.stack(vecs, 1))
+    return body[:, 0], [body[:, 1 + j] for j in range(len(gravities))]

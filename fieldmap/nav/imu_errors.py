@@ -29,7 +29,16 @@ Measurement model (applied per IMU sample of length dt, as :func:`apply` and the
 
 with n ~ N(0, I) independent per sample and axis (so the noise of a mean over τ seconds falls as
 σ/√τ: σ in units/√Hz), s the per-axis scale-factor errors and R(ε) the rotation by the small
-misalignment vector ε (Rodrigues).
+misalignment vector ε (Rodrigues). The bias ``b`` may add a first-order Gauss–Markov term β
+(bias instability) per axis: ``β⁺ = e^(−dt/τ_c) β + σ_β √(1 − e^(−2dt/τ_c)) n``, started from its
+stationary distribution N(0, σ_β²).
+
+Bias instability. Datasheets quote the *floor* B of the Allan deviation (IEEE Std 952-1997
+Annex C; e.g. Analog Devices' "in-run bias stability"). A first-order Gauss–Markov process of
+stationary σ_β and correlation time τ_c has the Allan deviation
+σ_A(T) = σ_β √((2/x)(1 − (3 − 4e^(−x) + e^(−2x))/(2x))), x = T/τ_c, whose maximum
+0.617 σ_β at T ≈ 1.89 τ_c (see :func:`gm_allan_deviation`) is set equal to B:
+σ_β = B / 0.617 (:data:`GM_ADEV_PEAK`).
 
 Monte Carlo draws (deterministic for a given seed, :class:`numpy.random.Generator`): per run the
 bias, scale-factor and misalignment of every axis are drawn once (constant over the run) according
@@ -77,6 +86,14 @@ class ImuErrorSpec:
         Gyro scale-factor error. Units: ppm.
     gyro_misalign_arcsec : float
         Gyro triad installation error. Units: arcsec.
+    acc_bi_ug : float
+        Accelerometer bias instability (Allan floor). Units: µg.
+    acc_bi_tau_s : float
+        Its Gauss–Markov correlation time. Units: s.
+    gyro_bi_deg_h : float
+        Gyro bias instability (Allan floor). Units: °/h.
+    gyro_bi_tau_s : float
+        Its Gauss–Markov correlation time. Units: s.
     """
 
     acc_bias_ug: float = 0.0
@@ -87,6 +104,10 @@ class ImuErrorSpec:
     gyro_arw_deg_rth: float = 0.0
     gyro_scale_ppm: float = 0.0
     gyro_misalign_arcsec: float = 0.0
+    acc_bi_ug: float = 0.0
+    acc_bi_tau_s: float = 3600.0
+    gyro_bi_deg_h: float = 0.0
+    gyro_bi_tau_s: float = 3600.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -97,6 +118,16 @@ class ImuErrorSpec:
                 ok = False
             if not ok:
                 raise InputError(f"IMU error {f.name} must be finite and >= 0, got {v!r}")
+        for key in ("acc_bi_tau_s", "gyro_bi_tau_s"):
+            if getattr(self, key) <= 0:
+                raise InputError(f"IMU error {key} must be > 0, got {getattr(self, key)!r}")
+
+    @property
+    def is_ideal(self) -> bool:
+        """True when every error source is absent."""
+        return all(
+            getattr(self, f.name) == 0 for f in fields(self) if not f.name.endswith("_tau_s")
+        )
 
 
 #: Table 2 of Chen et al. (2022): accelerometer error groups (gyro perfect).
@@ -125,7 +156,10 @@ class ErrorDraws:
     """Sensor errors of ``n`` Monte Carlo runs in SI units (arrays indexed by run).
 
     Attributes: ``acc_bias`` (n, 3) m/s²; ``gyro_bias`` (n, 3) rad/s; ``acc_M``, ``gyro_M``
-    (n, 3, 3); ``acc_noise`` (n,) m/s/√s; ``gyro_noise`` (n,) rad/√s; ``seed`` (n,) int32.
+    (n, 3, 3); ``acc_noise`` (n,) m/s/√s; ``gyro_noise`` (n,) rad/√s; ``seed`` (n,) int32;
+    Gauss–Markov bias instability ``acc_gm_sigma`` (n,) m/s², ``gyro_gm_sigma`` (n,) rad/s,
+    correlation times ``acc_gm_tau``, ``gyro_gm_tau`` (n,) s and initial states ``acc_gm``,
+    ``gyro_gm`` (n, 3).
     """
 
     acc_bias: np.ndarray
@@ -135,6 +169,12 @@ class ErrorDraws:
     acc_noise: np.ndarray
     gyro_noise: np.ndarray
     seed: np.ndarray
+    acc_gm_sigma: np.ndarray
+    acc_gm_tau: np.ndarray
+    gyro_gm_sigma: np.ndarray
+    gyro_gm_tau: np.ndarray
+    acc_gm: np.ndarray
+    gyro_gm: np.ndarray
 
     @property
     def n(self) -> int:
@@ -228,6 +268,11 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
         _axes(rng, spec.gyro_misalign_arcsec * ARCSEC, n, mode)
     )
     seeds = rng.integers(0, 2**31 - 1, size=n, dtype=np.int64).astype(np.int32)
+    acc_gm_sigma = spec.acc_bi_ug * UG / GM_ADEV_PEAK
+    gyro_gm_sigma = spec.gyro_bi_deg_h * DEG_H / GM_ADEV_PEAK
+    # drawn after everything else so that specs without bias instability draw as before
+    acc_gm = acc_gm_sigma * rng.standard_normal((n, 3)) if acc_gm_sigma else np.zeros((n, 3))
+    gyro_gm = gyro_gm_sigma * rng.standard_normal((n, 3)) if gyro_gm_sigma else np.zeros((n, 3))
     return ErrorDraws(
         acc_b,
         gyro_b,
@@ -236,7 +281,35 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
         np.full(n, spec.acc_noise_ug_rthz * UG),
         np.full(n, spec.gyro_arw_deg_rth * DEG_RTH),
         seeds,
+        np.full(n, acc_gm_sigma),
+        np.full(n, spec.acc_bi_tau_s if acc_gm_sigma else 0.0),
+        np.full(n, gyro_gm_sigma),
+        np.full(n, spec.gyro_bi_tau_s if gyro_gm_sigma else 0.0),
+        acc_gm,
+        gyro_gm,
     )
+
+
+def gm_allan_deviation(T, sigma: float = 1.0, tau_c: float = 1.0):
+    """Allan deviation of a first-order Gauss–Markov process (stationary σ, correlation τ_c).
+
+    σ_A(T)² = σ² (2/x)(1 − (3 − 4e^(−x) + e^(−2x))/(2x)), x = T/τ_c (IEEE Std 952-1997 Annex C;
+    with q_c = 2σ²/τ_c). Units: T, τ_c s; σ any.
+    """
+    x = np.asarray(T, dtype=np.float64) / tau_c
+    return sigma * np.sqrt(
+        (2.0 / x) * (1.0 - (3.0 - 4.0 * np.exp(-x) + np.exp(-2.0 * x)) / (2 * x))
+    )
+
+
+def _gm_peak() -> float:
+    from scipy.optimize import minimize_scalar
+
+    return float(-minimize_scalar(lambda x: -gm_allan_deviation(x), bounds=(0.5, 5.0)).fun)
+
+
+#: maximum of the Gauss–Markov Allan deviation per unit σ (0.617, at T ≈ 1.89 τ_c)
+GM_ADEV_PEAK = _gm_peak()
 
 
 def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
@@ -272,7 +345,31 @@ def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
     v = dv @ draws.acc_M[run].T + draws.acc_bias[run] * dt
     th = th + draws.gyro_noise[run] * np.sqrt(dt) * rng.standard_normal(th.shape)
     v = v + draws.acc_noise[run] * np.sqrt(dt) * rng.standard_normal(v.shape)
+    for x, sig, tau, b0 in (
+        (th, draws.gyro_gm_sigma[run], draws.gyro_gm_tau[run], draws.gyro_gm[run]),
+        (v, draws.acc_gm_sigma[run], draws.acc_gm_tau[run], draws.acc_gm[run]),
+    ):
+        if sig > 0 and tau > 0:
+            x += gauss_markov(x.shape[0], sig, tau, dt, b0, rng) * dt
     return th, v
+
+
+def gauss_markov(n: int, sigma: float, tau: float, dt: float, beta0, rng) -> np.ndarray:
+    """``n`` samples (n, 3) of a first-order Gauss–Markov process, exact discretisation.
+
+    β_0 = ``beta0``; β_{k+1} = a β_k + σ √(1 − a²) n_k, a = e^(−dt/τ) (Brown & Hwang 2012 §2.9).
+    The recursion is a first-order IIR filter (``scipy.signal.lfilter``). Units: σ and β any,
+    τ and dt s.
+    """
+    from scipy.signal import lfilter
+
+    a = np.exp(-dt / tau)
+    w = sigma * np.sqrt(1.0 - a * a) * rng.standard_normal((n, 3))
+    w[0] += a * np.asarray(beta0, dtype=np.float64)
+    out = np.empty((n, 3))
+    out[0] = beta0
+    out[1:] = lfilter([1.0], [1.0, -a], w, axis=0)[:-1]
+    return out
 
 
 def _integer(value, what: str) -> int:

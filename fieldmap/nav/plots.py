@@ -82,9 +82,17 @@ def _mc_context(meta: dict) -> str:
     )
 
 
+def _is_table4(spec: dict) -> bool:
+    """Whether an IMU spec (as a dict) is the paper's Table 4 unit."""
+    from fieldmap.nav.imu_errors import TABLE4
+
+    return all(spec.get(k) == v for k, v in TABLE4.__dict__.items())
+
+
 def _imu_grade(spec: dict) -> str:
+    grade = "IMU grade (Table 4, 1σ)" if _is_table4(spec) else "IMU (1σ)"
     return (
-        f"IMU grade (Table 4, 1σ): gyro bias {spec['gyro_bias_deg_h']:g} °/h, angle random walk "
+        f"{grade}: gyro bias {spec['gyro_bias_deg_h']:g} °/h, angle random walk "
         f"{spec['gyro_arw_deg_rth']:g} °/√h, scale factor {spec['gyro_scale_ppm']:g} ppm, "
         f"misalignment {spec['gyro_misalign_arcsec']:g}″\naccelerometer bias "
         f"{spec['acc_bias_ug']:g} µg, white noise {spec['acc_noise_ug_rthz']:g} µg/√Hz, scale "
@@ -417,7 +425,8 @@ def _table4(res):
     ref = "imu_only" if "imu_only" in cases else None
     sub = f"{_context(meta)}\n{_mc_context(meta)}; the same draws in every case\n"
     text = (
-        "Fig. 13 / Table 4 — navigation error from the full IMU error model, with and without "
+        ("Fig. 13 / Table 4 — " if _is_table4(meta["imu_errors"]) else "")
+        + "navigation error from the full IMU error model, with and without "
         "the gravity-model error",
         sub + _imu_grade(meta["imu_errors"]),
         "ratio to the IMU-only case, draw by draw (the same IMU error draw)",

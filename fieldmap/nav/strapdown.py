@@ -55,6 +55,8 @@ class LciResult:
     V: np.ndarray
     q: np.ndarray
     gravity: tuple
+    #: final Gauss–Markov states (n_traj, 3) ``acc_gm``, ``gyro_gm`` (to continue a flight)
+    final: dict | None = None
 
 
 def quat_to_dcm(q) -> np.ndarray:
@@ -281,7 +283,12 @@ def prepare_batch(
     if unknown:
         raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
     names = [gravity] if isinstance(gravity, str) else list(gravity)
-    lens = [len(names), n_sets, 1 if imu_set is None else np.size(imu_set)]
+    # with imu_set given, the number of sets says nothing about the number of trajectories
+    lens = [
+        len(names),
+        n_sets if imu_set is None else 1,
+        1 if imu_set is None else np.size(imu_set),
+    ]
     for a, tail in list(states.values()) + [(v, _ERROR_KEYS[k]) for k, v in err.items()]:
         a = np.asarray(a)
         lens.append(a.shape[0] if a.ndim > len(tail) else 1)
@@ -459,4 +466,6 @@ def propagate_lci(
         [wp.float64(t0)],
     )
     t = t0 + 2.0 * b.dt * b.output_every * np.arange(b.n_out)
-    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names))
+    se = b.sensor_errors
+    final = {"acc_gm": se.acc_gm.numpy(), "gyro_gm": se.gyro_gm.numpy()}
+    return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names), final=final)

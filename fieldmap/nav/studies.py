@@ -167,8 +167,12 @@ def propagate(
     sets: list[ImuIncrements] | None = None,
     imu_set=None,
     errors: imu_errors.ErrorDraws | None = None,
+    progress: bool = False,
 ):
     """All runs in one :func:`fieldmap.nav.strapdown.propagate_lci` launch; errors vs. the truth.
+
+    With ``progress`` the runs go into up to 8 launches (a tqdm bar over them) with the same
+    results.
 
     Returns
     -------
@@ -186,37 +190,107 @@ def propagate(
     imu_set = (
         np.zeros(n, dtype=np.int64) if imu_set is None else np.asarray(imu_set, dtype=np.int64)
     )
-    perm = balanced_order(gravity)
     k0 = sc.traj.kinematics([sc.imu.t0])
     t0 = time.perf_counter()
-    res = propagate_lci(
-        dth,
-        dv,
-        sc.imu.dt,
-        k0.P_a[0],
-        k0.V_a[0],
-        dcm_to_quat(k0.C_b_to_a[0]),
-        sc.traj.frame,
-        gravity=[gravity[i] for i in perm],
-        sh_model=sc.truth_model,
-        imu_set=imu_set[perm],
-        errors=None if errors is None else errors.take(perm).kernel_errors(),
-        t0=sc.imu.t0,
-        output_every=sc.output_every,
-        device=sc.device,
-    )
+
+    def launch(idx):
+        """Propagate the runs ``idx`` in one launch (balanced over the CPU chunks)."""
+        perm = idx[balanced_order([gravity[i] for i in idx])]
+        res = propagate_lci(
+            dth,
+            dv,
+            sc.imu.dt,
+            k0.P_a[0],
+            k0.V_a[0],
+            dcm_to_quat(k0.C_b_to_a[0]),
+            sc.traj.frame,
+            gravity=[gravity[i] for i in perm],
+            sh_model=sc.truth_model,
+            imu_set=imu_set[perm],
+            errors=None if errors is None else errors.take(perm).kernel_errors(),
+            t0=sc.imu.t0,
+            output_every=sc.output_every,
+            device=sc.device,
+        )
+        return perm, res
+
+    if progress and n > 1:
+        # several launches, each a cost-balanced share of the runs: every run is independent
+        # (own thread, own seed), so the numbers are those of one launch
+        from tqdm import tqdm
+
+        from fieldmap.nav.strapdown import gravity_cost
+
+        order = np.argsort([-gravity_cost(g, sc.truth_model) for g in gravity], kind="stable")
+        parts = [order[j :: min(n, 8)] for j in range(min(n, 8))]
+        done = [launch(p) for p in tqdm(parts, desc="navigation runs", unit="launch")]
+        perm = np.concatenate([p for p, _ in done])
+        res = type(done[0][1])(
+            t=done[0][1].t,
+            P=np.concatenate([r.P for _, r in done]),
+            V=np.concatenate([r.V for _, r in done]),
+            q=np.concatenate([r.q for _, r in done]),
+            gravity=sum((r.gravity for _, r in done), ()),
+        )
+    else:
+        perm, res = launch(np.arange(n))
     secs = time.perf_counter() - t0
     inv = np.argsort(perm)
     dP = res.P[inv] - sc.truth.P_a[None]
     dV = res.V[inv] - sc.truth.V_a[None]
-    return {
-        "t": res.t,
-        "dP": dP,
-        "dV": dV,
-        "pos": np.linalg.norm(dP, axis=-1),
-        "vel": np.linalg.norm(dV, axis=-1),
-        "seconds": secs,
-    }
+    with np.errstate(invalid="ignore", over="ignore"):
+        d_ned = _a_to_ned(sc, dP)
+        out = {
+            "t": res.t,
+            "dP": dP,
+            "dV": dV,
+            "pos": np.linalg.norm(dP, axis=-1),
+            "vel": np.linalg.norm(dV, axis=-1),
+            "hor": np.hypot(d_ned[..., 0], d_ned[..., 1]),
+            "ver": np.abs(d_ned[..., 2]),
+            "ned": d_ned,
+            "seconds": secs,
+        }
+    out["diverged"] = divergence(out["pos"], res.t, gravity)
+    return out
+
+
+#: an error beyond an Earth radius (m) has left physical meaning
+EARTH_RADIUS = 6_371_000.0
+
+
+def divergence(pos, t, gravity, labels=None) -> list[dict]:
+    """Find runs whose position error is non-finite or beyond an Earth radius; warn for each.
+
+    Returns ``[{"run": i or label, "model": name, "time_s": first bad time}, ...]``.
+    """
+    import warnings
+
+    bad = ~np.isfinite(pos) | (np.nan_to_num(pos, nan=np.inf) > EARTH_RADIUS)
+    out = []
+    for i in np.flatnonzero(bad.any(axis=1)):
+        k = int(np.argmax(bad[i]))
+        run = labels[i] if labels is not None else int(i)
+        out.append({"run": run, "model": gravity[i], "time_s": float(t[k])})
+        warnings.warn(
+            f"navigation run {run} (model {gravity[i]}) diverged at t = {t[k]:.0f} s "
+            "(error non-finite or beyond an Earth radius)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return out
+
+
+def _a_to_ned(sc: Scenario, dP: np.ndarray) -> np.ndarray:
+    """A-frame error vectors (n, n_out, 3) -> north, east, down at the true position."""
+    from fieldmap.field.frames import ecef_to_geodetic
+    from fieldmap.nav.flight import _C_n_to_e
+
+    r = sc.truth.r_e
+    lat, lon, _ = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], sc.traj.frame.ellipsoid)
+    C_a_e = np.swapaxes(sc.traj.frame.C_e_to_a(sc.t_out), -1, -2)
+    M = np.swapaxes(_C_n_to_e(lat, lon), -1, -2) @ C_a_e  # C_a^n (n_out, 3, 3)
+    return np.einsum("tij,rtj->rti", M, dP)
 
 
 def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
@@ -289,7 +363,9 @@ class StudyResult:
     meta: dict
 
 
-def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResult:
+def table1(
+    sc: Scenario, models=TABLE1_MODELS, timing: bool = True, progress: bool = False
+) -> StudyResult:
     """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
 
     One launch propagates every model in ``models`` plus the truth model itself (the numerical
@@ -297,13 +373,18 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
     """
     names = check_model_names(models, sc.truth_model)
     runs = names + [sc.truth_key]
-    out = propagate(sc, runs)
+    out = propagate(sc, runs, progress=progress)
     rows = []
     for i, name in enumerate(names):
         row = {
             "model": name,
             "final_velocity_error_m_s": float(out["vel"][i, -1]),
             "final_position_error_m": float(out["pos"][i, -1]),
+            "final_horizontal_error_m": float(out["hor"][i, -1]),
+            "final_vertical_error_m": float(out["ver"][i, -1]),
+            "final_north_error_m": float(out["ned"][i, -1, 0]),
+            "final_east_error_m": float(out["ned"][i, -1, 1]),
+            "final_down_error_m": float(out["ned"][i, -1, 2]),
         }
         if timing:
             row["gravity_eval_seconds"] = gravity_eval_seconds(name, sc.truth_model)
@@ -321,12 +402,19 @@ def table1(sc: Scenario, models=TABLE1_MODELS, timing: bool = True) -> StudyResu
     floor["margin_velocity"] = min(r["final_velocity_error_m_s"] for r in rows) / max(
         floor["final_velocity_error_m_s"], 1e-300
     )
-    meta = _meta(sc) | {"floor": floor, "propagation_seconds": out["seconds"], "n_runs": len(runs)}
+    meta = _meta(sc) | {
+        "floor": floor,
+        "propagation_seconds": out["seconds"],
+        "n_runs": len(runs),
+        "diverged": out["diverged"],
+    }
     labels = names + [f"floor:{sc.truth_key}"]
     return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
 def _stats(x: np.ndarray) -> dict:
+    if not np.all(np.isfinite(x)):
+        return {k: float("nan") for k in ("mean", "rms", "p05", "p50", "p95", "max")}
     return {
         "mean": float(np.mean(x)),
         "rms": float(np.sqrt(np.mean(x * x))),
@@ -342,7 +430,12 @@ def _mc_rows(labels, out, n, extra):
     for j, lab in enumerate(labels):
         sl = slice(j * n, (j + 1) * n)
         row = dict(extra[j])
-        for key, unit in (("vel", "velocity_error_m_s"), ("pos", "position_error_m")):
+        for key, unit in (
+            ("vel", "velocity_error_m_s"),
+            ("pos", "position_error_m"),
+            ("hor", "horizontal_error_m"),
+            ("ver", "vertical_error_m"),
+        ):
             for stat, v in _stats(out[key][sl, -1]).items():
                 row[f"final_{unit}_{stat}"] = v
         rows.append(row)
@@ -356,6 +449,7 @@ def table3(
     seed: int = 0,
     nav: str = "j4",
     mode: str = "gauss",
+    progress: bool = False,
 ) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
@@ -381,10 +475,13 @@ def table3(
             }
         )
     err = imu_errors.ErrorDraws.concat(parts)
-    out = propagate(sc, [nav] * err.n, errors=err)
+    out = propagate(sc, [nav] * err.n, errors=err, progress=progress)
     rows, start = [], 0
     for j, n in enumerate(counts):
-        sub = {k: (v[start : start + n] if k in ("pos", "vel") else v) for k, v in out.items()}
+        sub = {
+            k: (v[start : start + n] if k in ("pos", "vel", "hor", "ver") else v)
+            for k, v in out.items()
+        }
         rows += _mc_rows([labels[j]], sub, n, [extra[j]])
         start += n
     meta = _meta(sc) | {
@@ -394,6 +491,7 @@ def table3(
         "bias_mode": mode,
         "propagation_seconds": out["seconds"],
         "n_runs": err.n,
+        "diverged": out["diverged"],
     }
     run_labels = [f"{labels[j]}/{i}" for j, n in enumerate(counts) for i in range(n)]
     return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
@@ -407,6 +505,7 @@ def table4(
     spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4,
     mode: str = "gauss",
     reference: str = "j4",
+    progress: bool = False,
 ) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
@@ -426,7 +525,9 @@ def table4(
     err = err1.repeat(len(rows_models))
     grav = [m for m in rows_models for _ in range(err1.n)]
     imu_set = [1 if j == 0 else 0 for j in range(len(rows_models)) for _ in range(err1.n)]
-    out = propagate(sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err)
+    out = propagate(
+        sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err, progress=progress
+    )
     labels = ["imu_only"] + [f"imu+{m}" for m in names]
     extra = [
         {"case": lab, "nav_gravity": m, "gravity_model_error": j > 0, "draws": err1.n}
@@ -440,6 +541,7 @@ def table4(
         "imu_errors": spec.__dict__,
         "propagation_seconds": out["seconds"],
         "n_runs": err.n,
+        "diverged": out["diverged"],
     }
     run_labels = [f"{lab}/{i}" for lab in labels for i in range(err1.n)]
     return StudyResult("table4", rows, out["t"], run_labels, out["pos"], out["vel"], meta)

@@ -1,0 +1,141 @@
+"""Benchmark: the flight study (synthesis + batched NED propagation) vs pyins, same run.
+
+Prints, all measured in this run (medians of ``--repeat``):
+
+1. IMU synthesis per sample: :func:`fieldmap.nav.imu.synthesize` on an airliner-like route
+   (J4 truth, 3 Gauss nodes) vs ``pyins.sim.generate_imu`` on the same path sampled at the IMU
+   rate (its own normal gravity, increments).
+2. Propagation per IMU sample and trajectory: our NED kernel (J4, ``--runs`` trajectories in one
+   launch) vs pyins' numba NED integrator (``pyins._numba_integrate.integrate``, the loop of
+   ``pyins.strapdown``) over the same trajectories from a ``numba.prange`` loop (all cores).
+3. The whole study of the issue — ``--minutes`` of flight at ``--rate`` Hz, models j2 j4 j6
+   normal sh18 sh200 + the IMU-only row, ``--draws`` tactical-IMU draws, NED, truth EIGEN-6S
+   degree 200 — with its wall time split into synthesis and propagation.
+
+Usage: ``python benchmarks/bench_nav.py [--minutes 120 --rate 200 --draws 20]``;
+``--quick`` runs 2 minutes at 100 Hz with 3 draws (a CPU check of the script).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+ROUTE = (
+    "47.0,8.0,500;47.4,9.2,11000;48.5,12.0,11000;50.0,14.0,11000;51.0,17.0,9000;"
+    "52.2,21.0,11000;53.0,23.5,600"
+)
+
+
+def _median(fn, repeat):
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t)
+    return float(np.median(out))
+
+
+def bench_synthesis(traj, rate, seconds, repeat):
+    """Seconds per IMU sample: ours (J4 truth) and pyins.sim.generate_imu on the same path."""
+    from pyins import sim
+
+    from fieldmap.nav.flight import geodetic_state
+    from fieldmap.nav.imu import Gravitation, synthesize
+
+    g = Gravitation("j4")
+    n = int(seconds * rate) // 2 * 2
+    synthesize(traj, rate, g, n_gauss=3, duration=2.0)  # warm-up (kernels)
+    ours = _median(lambda: synthesize(traj, rate, g, n_gauss=3, duration=n / rate), repeat) / n
+    t = np.arange(n + 1) / rate
+    lat, lon, h, v, C = geodetic_state(traj, t)
+    from scipy.spatial.transform import Rotation
+
+    ypr = Rotation.from_matrix(C).as_euler("ZYX", degrees=True)
+    rph = np.stack([ypr[:, 2], ypr[:, 1], ypr[:, 0] % 360.0], -1)
+    lla = np.stack([lat, lon, h], -1)
+    theirs = _median(lambda: sim.generate_imu(t, lla, rph, v, sensor_type="increment"), repeat) / n
+    return ours, theirs
+
+
+def bench_propagation(runs, ns, dt, repeat):
+    """Seconds per IMU sample and trajectory: our NED kernel vs pyins' numba integrator."""
+    sys.path.insert(0, os.path.dirname(__file__))
+    from bench_strapdown import bench_ours, bench_pyins
+
+    ours = bench_ours(runs, ns, dt, repeat, mech="ned") / (runs * ns)
+    theirs, threads = bench_pyins(runs, ns, dt, repeat)
+    return ours, theirs / (runs * ns), threads
+
+
+def bench_study(traj, minutes, rate, draws, device):
+    """Wall time of the full flight study, split into synthesis and propagation."""
+    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.imu_specs import PRESETS
+
+    t0 = time.perf_counter()
+    res = run_flight(
+        traj,
+        imu=PRESETS["tactical"],
+        imu_name="tactical",
+        models=["j2", "j4", "j6", "normal", "sh18", "sh200"],
+        draws=draws,
+        rate_hz=rate,
+        truth_lmax=200,
+        duration=60.0 * minutes,
+        output_dt=10.0,
+        device=device,
+        progress=True,
+    )
+    wall = time.perf_counter() - t0
+    return res, wall
+
+
+def main(argv=None) -> int:
+    """Run the three measurements and print the ratios."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--minutes", type=float, default=120.0)
+    ap.add_argument("--rate", type=float, default=200.0)
+    ap.add_argument("--draws", type=int, default=20)
+    ap.add_argument("--runs", type=int, default=140, help="trajectories of the kernel benchmark")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--device", default=None)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--skip-study", action="store_true", help="only the per-sample ratios")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.minutes, args.rate, args.draws, args.runs, args.repeat = 2.0, 100.0, 3, 16, 1
+
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+
+    traj = FlightTrajectory(route_flight(ROUTE, 180.0))
+    syn_o, syn_p = bench_synthesis(traj, args.rate, 20.0 if args.quick else 60.0, args.repeat)
+    print(
+        f"synthesis per IMU sample: ours {syn_o * 1e6:.2f} us, pyins generate_imu "
+        f"{syn_p * 1e6:.2f} us -> ours {syn_p / syn_o:.2f}x faster"
+    )
+    ns = int((20.0 if args.quick else 60.0) * args.rate)
+    pr_o, pr_p, thr = bench_propagation(args.runs, ns, 1.0 / args.rate, args.repeat)
+    print(
+        f"NED propagation per IMU sample and trajectory ({args.runs} trajectories, J4): ours "
+        f"{pr_o * 1e9:.1f} ns, pyins numba ({thr} threads) {pr_p * 1e9:.1f} ns -> ours "
+        f"{pr_p / pr_o:.2f}x faster"
+    )
+    if not args.skip_study:
+        res, wall = bench_study(traj, args.minutes, args.rate, args.draws, args.device)
+        m = res.summary["meta"]
+        print(
+            f"flight study {args.minutes:g} min at {args.rate:g} Hz, 7 rows x {m['draws']} draws, "
+            f"NED, truth EIGEN-6S 200: wall {wall:.1f} s = synthesis {m['synthesis_seconds']:.1f} s"
+            f" + propagation {m['propagation_seconds']:.1f} s (+ outputs/δg)"
+        )
+        print(res.summary["recommendation"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,550 @@
+r"""Navigation study on a user's flight: what each gravity model costs next to the IMU's errors.
+
+For a :class:`~fieldmap.nav.trajectory.Trajectory` (usually a
+:class:`~fieldmap.nav.flight.FlightTrajectory`), an IMU spec and a list of navigation gravity
+models, :func:`run_flight` propagates, in one batched launch per time block:
+
+* ``imu_only`` runs: J4 navigation on increments synthesized with J4 as the truth — the IMU's
+  own errors without any gravity-model error (with an ideal IMU: the replay floor);
+* one run per navigation model and draw on increments synthesized under the truth field
+  (default EIGEN-6S at full degree) — IMU errors plus the gravity-model error.
+
+The same Monte Carlo draws (biases, noise seeds, Gauss–Markov states) are used in every row, so
+``run(model) − run(imu_only)`` isolates the gravity-model error draw by draw.
+
+Time blocks. Synthesis and propagation run in blocks of ``block_s`` seconds: the IMU record of
+one block (two increment sets) is synthesized, propagated for every run, and the final states
+(position, velocity, attitude, Gauss–Markov biases, baro loop) start the next block; the noise
+of block b is seeded with ``seed + 7919 b``. Memory is bounded by one block's increments plus
+the decimated error curves, whatever the flight length.
+
+Errors are reported in the local level frame of the truth: north, east, down position error (m,
+from the latitude/longitude/height differences through the radii of curvature), NED velocity
+error (m/s) and the small-angle attitude error ψ with C_b^n(nav) = (I − [ψ×]) C_b^n(true) (rad).
+
+First-order prediction. The navigation model's gravity error along the path,
+δg = g_model − g_truth (NED), integrated twice in time, predicts the horizontal position error
+of a short flight; it neglects the Schuler feedback (−g/R δp: 8 % of the gravity term after
+5 min, the whole of it after a quarter Schuler period, 21 min) and the Coriolis coupling.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.nav import imu_errors
+from fieldmap.nav.flight import geodetic_state
+from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
+from fieldmap.nav.strapdown import NORMAL_MODELS, dcm_to_quat, quat_to_dcm, sh_degree
+from fieldmap.nav.trajectory import Trajectory
+
+#: an error beyond this has left physical meaning (m)
+EARTH_RADIUS = 6_371_000.0
+#: default altitude aiding switches to baro for flights longer than this (s)
+BARO_AFTER_S = 900.0
+
+
+@dataclass(frozen=True)
+class BaroSpec:
+    """Baro altimeter error model and loop time constant of the altitude aiding.
+
+    ``bias_m`` 1σ constant error per run (pressure-altitude offset), ``noise_m`` white noise per
+    baro sample at ``rate_hz``, ``drift_m``/``drift_tau_s`` a Gauss–Markov drift (weather), the
+    third-order loop with a triple pole at −1/``loop_tau_s``. Defaults: 5 m, 0.5 m at 10 Hz,
+    3 m over 1 h, τ = 100 s (a MEMS barometer: e.g. Bosch BMP388 absolute accuracy ±0.5 hPa
+    ≈ ±4 m, relative noise ~0.03 hPa ≈ 0.25 m).
+    """
+
+    bias_m: float = 5.0
+    noise_m: float = 0.5
+    rate_hz: float = 10.0
+    drift_m: float = 3.0
+    drift_tau_s: float = 3600.0
+    loop_tau_s: float = 100.0
+
+
+@dataclass
+class FlightResult:
+    """Error curves and summary of :func:`run_flight`.
+
+    ``t`` (n_out,) s; ``labels`` run labels (``imu_only/3``, ``j2/3`` …), ``models`` the
+    navigation-model row of each run (``imu_only`` for the reference), ``draw`` its draw;
+    ``dpos``, ``dvel``, ``datt`` (n_runs, n_out, 3) NED position (m), velocity (m/s) and
+    attitude (rad) errors; ``track`` lat, lon, h (n_out, 3) of the truth; ``dg`` per model
+    (n_out, 3) NED gravity error (m/s²) and ``predicted`` (n_out, 2) its double integral
+    (m, north/east); ``summary`` the JSON document; ``diverged`` (run, model, time) tuples.
+    """
+
+    t: np.ndarray
+    labels: list
+    models: list
+    draw: np.ndarray
+    dpos: np.ndarray
+    dvel: np.ndarray
+    datt: np.ndarray
+    track: np.ndarray
+    dg: dict
+    predicted: dict
+    summary: dict
+    diverged: list = field(default_factory=list)
+
+
+def simplicity_order(models) -> list[str]:
+    """Models from the simplest to the most complete: j2, j4, j6, normal, shN by degree, sh."""
+
+    def key(m):
+        if m in NORMAL_MODELS:
+            return (0, NORMAL_MODELS.index(m))
+        d = sh_degree(m)
+        return (1, 10**9 if d is None else d)
+
+    return sorted(models, key=key)
+
+
+def _steps_per_output(output_dt: float, rate_hz: float) -> int:
+    k = output_dt * rate_hz
+    every = int(round(k))
+    if every < 1 or abs(k - every) > 1e-9 * max(k, 1.0):
+        raise InputError(
+            f"output interval {output_dt:g} s is not a whole number of IMU samples at "
+            f"{rate_hz:g} Hz"
+        )
+    return every
+
+
+def default_output_dt(duration: float) -> float:
+    """About 3600 stored states per run, at least one per second. Units: s."""
+    return float(max(1.0, np.ceil(duration / 3600.0)))
+
+
+def _ned_errors(lat, lon, h, v, C, truth, ell):
+    """NED position, velocity and small-angle attitude errors against the truth tuple."""
+    tl, tn, th, tv, tC = truth
+    la = np.radians(tl)
+    s = np.sin(la)
+    w = 1.0 - ell.e2 * s * s
+    R_E = ell.a / np.sqrt(w)
+    R_N = ell.a * (1.0 - ell.e2) / w**1.5
+    dlon = (lon - tn + 180.0) % 360.0 - 180.0
+    dpos = np.stack(
+        [
+            np.radians(lat - tl) * (R_N + th),
+            np.radians(dlon) * (R_E + th) * np.cos(la),
+            -(h - th),
+        ],
+        -1,
+    )
+    dvel = v - tv
+    E = C @ np.swapaxes(tC, -1, -2)  # ≈ I − [ψ×]
+    datt = 0.5 * np.stack(
+        [E[..., 2, 1] - E[..., 1, 2], E[..., 0, 2] - E[..., 2, 0], E[..., 1, 0] - E[..., 0, 1]], -1
+    )
+    return dpos, dvel, -datt
+
+
+def run_flight(
+    traj: Trajectory,
+    *,
+    imu: imu_errors.ImuErrorSpec = imu_errors.ImuErrorSpec(),
+    imu_name: str = "ideal",
+    models=("j2", "j4", "j6", "normal", "sh18", "sh200"),
+    draws: int = 20,
+    seed: int = 0,
+    rate_hz: float = 200.0,
+    frame: str = "ned",
+    altitude_aiding: str = "auto",
+    baro: BaroSpec = BaroSpec(),
+    truth: str = "eigen-6s",
+    truth_lmax: int | None = None,
+    n_gauss: int = 3,
+    duration: float | None = None,
+    output_dt: float | None = None,
+    block_s: float = 600.0,
+    fraction: float = 0.1,
+    device: str | None = None,
+    progress: bool = False,
+) -> FlightResult:
+    """Navigate ``traj`` with each gravity model and IMU draw; errors, δg and a recommendation.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The flight (its kinematics are the truth).
+    imu : ImuErrorSpec
+        1σ sensor errors (:mod:`fieldmap.nav.imu_specs` has presets and TOML files).
+    imu_name : str
+        Label of the IMU in the outputs.
+    models : sequence of str
+        Navigation gravity models (j2 j4 j6 normal sh shN).
+    draws : int
+        Monte Carlo draws (1 for an ideal IMU).
+    seed : int
+        Seed of the draws.
+    rate_hz : float
+        IMU rate. Units: Hz.
+    frame : {"ned", "lci"}
+        Mechanization: Earth-relative NED or the launch-centred inertial frame (first sample).
+    altitude_aiding : {"auto", "none", "baro"}
+        Baro loop on the vertical channel (NED only); ``auto``: baro for flights over 15 min.
+    baro : BaroSpec
+        Baro error model and loop time constant.
+    truth, truth_lmax : str, int
+        Truth gravity model (name or ICGEM file) and degree.
+    n_gauss : int
+        Gauss–Legendre nodes per IMU sample in the synthesis.
+    duration : float, optional
+        Part of the flight to simulate (default all). Units: s.
+    output_dt : float, optional
+        Interval of the stored errors (default :func:`default_output_dt`). Units: s.
+    block_s : float
+        Length of a synthesis/propagation block. Units: s.
+    fraction : float
+        ``recommended_model``: the simplest model whose added horizontal error (RMS over draws)
+        stays below ``fraction`` × the IMU-only horizontal error.
+    device : str, optional
+        Warp device.
+    progress : bool
+        tqdm progress bar over the blocks.
+
+    Returns
+    -------
+    FlightResult
+    """
+    from fieldmap.nav.studies import check_model_names
+
+    frame = str(frame).lower()
+    if frame not in ("ned", "lci"):
+        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
+    aiding = str(altitude_aiding).lower()
+    if aiding not in ("auto", "none", "baro"):
+        raise InputError(f"altitude aiding must be auto, none or baro, got {altitude_aiding!r}")
+    if not 0 < fraction < 1:
+        raise InputError(f"fraction must be in (0, 1), got {fraction}")
+    for what, v in (("IMU rate", rate_hz), ("block length", block_s)):
+        if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
+            raise InputError(f"{what} must be a positive number, got {v!r}")
+    model = load_truth_model(truth, truth_lmax)
+    names = check_model_names(models, model)
+    duration = traj.duration if duration is None else float(duration)
+    if not 0 < duration <= traj.duration * (1 + 1e-12):
+        raise InputError(f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)")
+    if aiding == "auto":
+        aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
+    if aiding == "baro" and frame != "ned":
+        raise InputError("baro altitude aiding needs --frame ned")
+    output_dt = default_output_dt(duration) if output_dt is None else float(output_dt)
+    every = _steps_per_output(output_dt, rate_hz)
+    if frame == "lci" and every % 2:
+        raise InputError(
+            f"--frame lci steps two IMU samples at a time: the output interval {output_dt:g} s "
+            f"must be an even number of samples at {rate_hz:g} Hz"
+        )
+    unit = every * (2 if every % 2 else 1)  # whole outputs, an even number of samples
+    n_total = int(np.floor(duration * rate_hz / unit + 1e-9)) * unit
+    if n_total < unit:
+        raise InputError(
+            f"flight of {duration:g} s is shorter than one output interval ({output_dt:g} s)"
+        )
+    per_block = max(unit, int(block_s * rate_hz) // unit * unit)
+    n_draws = 1 if imu.is_ideal else int(draws)
+    err1 = imu_errors.draw(imu, n_draws, seed=seed)
+    rows = ["imu_only"] + names
+    n_runs = n_draws * len(rows)
+    err = err1.repeat(len(rows))
+    grav = [("j4" if r == "imu_only" else r) for r in rows for _ in range(n_draws)]
+    imu_set = np.array([1 if r == "imu_only" else 0 for r in rows for _ in range(n_draws)])
+    from fieldmap.nav.studies import balanced_order
+
+    perm = balanced_order(grav)
+    inv = np.argsort(perm)
+    ell = traj.frame.ellipsoid
+    dt = 1.0 / float(rate_hz)
+    g_truth = Gravitation("sh", model=model, device=device)
+    g_ref = Gravitation("j4", device=device)
+
+    # start state (truth at t = 0)
+    lat0, lon0, h0, v0, C0 = geodetic_state(traj, [0.0])
+    state = _initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs)
+    kerr = err.take(perm).kernel_errors()
+    state["acc_gm"], state["gyro_gm"] = kerr["acc_gm"], kerr["gyro_gm"]
+    baro_state = np.zeros((n_runs, 3))
+    rng_baro = np.random.default_rng(seed + 1)
+    baro_bias = np.tile(baro.bias_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
+    baro_drift0 = np.tile(baro.drift_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
+    baro_state[:, 1] = baro_drift0
+
+    t_out = [0.0]
+    outs = {"lat": [], "lon": [], "h": [], "v": [], "C": []}
+    starts = range(0, n_total, per_block)
+    if progress:
+        from tqdm import tqdm
+
+        starts = tqdm(starts, desc="flight blocks", unit="block")
+    secs = {"synthesis": 0.0, "propagation": 0.0}
+    for b, s0 in enumerate(starts):
+        nb = min(per_block, n_total - s0)
+        tb = s0 * dt
+        c0 = time.perf_counter()
+        sets = synthesize(traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, t0=tb)
+        c1 = time.perf_counter()
+        secs["synthesis"] += c1 - c0
+        kerr_b = dict(kerr)
+        kerr_b["seed"] = ((kerr["seed"].astype(np.int64) + 7919 * b) % (2**31 - 1)).astype(np.int32)
+        kerr_b["acc_gm"], kerr_b["gyro_gm"] = state["acc_gm"], state["gyro_gm"]
+        res, state = _propagate_block(
+            traj, frame, sets, tb, nb, dt, every, state, [grav[i] for i in perm], model,
+            imu_set[perm], kerr_b, aiding, baro, baro_bias, baro_state, rate_hz, device,
+        )  # fmt: skip
+        baro_state = state.get("baro", baro_state)
+        secs["propagation"] += time.perf_counter() - c1
+        for k in outs:
+            outs[k].append(res[k][:, 1:])
+        t_out.extend(tb + dt * every * np.arange(1, nb // every + 1))
+    t_out = np.array(t_out)
+    start = {"lat": lat0, "lon": lon0, "h": h0, "v": v0, "C": C0}
+    full = {
+        k: np.concatenate([np.broadcast_to(start[k][None], (n_runs,) + start[k].shape)]
+                          + outs[k], axis=1)[inv]
+        for k in outs
+    }  # fmt: skip
+    truth_state = geodetic_state(traj, t_out)
+    dpos, dvel, datt = _ned_errors(
+        full["lat"], full["lon"], full["h"], full["v"], full["C"], truth_state, ell
+    )
+    track = np.stack(truth_state[:3], -1)
+    dg, predicted = gravity_error_along(track, t_out, names, model, ell, device)
+    labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
+    run_models = [r for r in rows for _ in range(n_draws)]
+    draw_idx = np.tile(np.arange(n_draws), len(rows))
+    diverged = _divergence(dpos, t_out, labels, run_models)
+    summary = summarize(
+        dpos, dvel, run_models, rows, n_draws, fraction, diverged,
+        meta={
+            "trajectory": traj.name,
+            "duration_s": float(n_total * dt),
+            "imu": imu_name,
+            "imu_spec": imu.__dict__,
+            "imu_rate_hz": float(rate_hz),
+            "draws": n_draws,
+            "seed": int(seed),
+            "frame": frame,
+            "altitude_aiding": aiding,
+            "baro": baro.__dict__ if aiding == "baro" else None,
+            "truth_model": model.name,
+            "truth_degree": int(model.lmax),
+            "n_gauss": int(n_gauss),
+            "output_dt_s": float(every * dt),
+            "block_s": float(per_block * dt),
+            "synthesis_seconds": secs["synthesis"],
+            "propagation_seconds": secs["propagation"],
+            "device": device or "auto",
+        },
+    )  # fmt: skip
+    return FlightResult(
+        t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
+        diverged,
+    )  # fmt: skip
+
+
+def _initial_state(traj, frame, lat0, lon0, h0, v0, C0, n):
+    st = {"acc_gm": None, "gyro_gm": None}
+    if frame == "ned":
+        st.update(
+            llh=np.tile([lat0[0], lon0[0], h0[0]], (n, 1)),
+            v=np.tile(v0[0], (n, 1)),
+            q=np.tile(dcm_to_quat(C0[0]), (n, 1)),
+        )
+    else:
+        k = traj.kinematics([0.0])
+        st.update(
+            P=np.tile(k.P_a[0], (n, 1)),
+            V=np.tile(k.V_a[0], (n, 1)),
+            q=np.tile(dcm_to_quat(k.C_b_to_a[0]), (n, 1)),
+        )
+    return st
+
+
+def _propagate_block(
+    traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set, kerr, aiding, baro,
+    baro_bias, baro_state, rate_hz, device,
+):  # fmt: skip
+    """One block for every run; returns the stored geodetic states and the next start state."""
+    dth = np.stack([s.dtheta for s in sets])
+    dv = np.stack([s.dv for s in sets])
+    n = len(grav)
+    if frame == "ned":
+        from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+
+        aid = None
+        if aiding == "baro":
+            _, _, h_ref = traj.geodetic(tb + dt * np.arange(nb))
+            k1, k2, k3 = baro_gains(baro.loop_tau_s, traj.frame.ellipsoid)
+            noise = baro.noise_m * np.sqrt(rate_hz / baro.rate_hz)
+            aid = Baro(
+                np.stack([h_ref, h_ref]), k1, k2, k3, bias=baro_bias, noise=noise,
+                gm_sigma=baro.drift_m, gm_tau=baro.drift_tau_s, state=baro_state,
+            )  # fmt: skip
+        res = propagate_ned(
+            dth, dv, dt, state["llh"][:, 0], state["llh"][:, 1], state["llh"][:, 2], state["v"],
+            state["q"], grav, sh_model=model, ellipsoid=traj.frame.ellipsoid, imu_set=imu_set,
+            errors=kerr, output_every=every, device=device, baro=aid,
+        )  # fmt: skip
+        C = quat_to_dcm(res.q)
+        nxt = {
+            "llh": np.stack([res.lat[:, -1], res.lon[:, -1], res.h[:, -1]], -1),
+            "v": res.v_ned[:, -1],
+            "q": res.q[:, -1],
+            "acc_gm": res.final["acc_gm"],
+            "gyro_gm": res.final["gyro_gm"],
+            "baro": res.final["baro"],
+        }
+        return {"lat": res.lat, "lon": res.lon, "h": res.h, "v": res.v_ned, "C": C}, nxt
+    from fieldmap.field.frames import ecef_to_geodetic
+    from fieldmap.nav.flight import _C_n_to_e
+    from fieldmap.nav.strapdown import propagate_lci
+
+    fr = traj.frame
+    res = propagate_lci(
+        dth, dv, dt, state["P"], state["V"], state["q"], fr, grav, sh_model=model,
+        imu_set=imu_set, errors=kerr, t0=tb, output_every=every // 2, device=device,
+    )  # fmt: skip
+    t = res.t
+    r_e, v_in = fr.a_state_to_ecef(res.P.reshape(-1, 3), res.V.reshape(-1, 3), np.tile(t, n))
+    lat, lon, h = ecef_to_geodetic(r_e[:, 0], r_e[:, 1], r_e[:, 2], fr.ellipsoid)
+    v_e = v_in - np.cross([0.0, 0.0, fr.omega], r_e)
+    C_n_e = _C_n_to_e(lat, lon)
+    v_ned = np.einsum("nji,nj->ni", C_n_e, v_e)
+    C_b_a = quat_to_dcm(res.q).reshape(-1, 3, 3)
+    C_a_e = np.swapaxes(fr.C_e_to_a(np.tile(t, n)), -1, -2)
+    C_b_n = np.swapaxes(C_n_e, -1, -2) @ C_a_e @ C_b_a
+    shp = (n, t.size)
+    nxt = {
+        "P": res.P[:, -1],
+        "V": res.V[:, -1],
+        "q": res.q[:, -1],
+        "acc_gm": res.final["acc_gm"],
+        "gyro_gm": res.final["gyro_gm"],
+    }
+    out = {
+        "lat": lat.reshape(shp),
+        "lon": lon.reshape(shp),
+        "h": h.reshape(shp),
+        "v": v_ned.reshape(shp + (3,)),
+        "C": C_b_n.reshape(shp + (3, 3)),
+    }
+    return out, nxt
+
+
+def gravity_error_along(track, t, names, model, ell, device=None):
+    """δg = g_model − g_truth (NED, m/s²) at the track points and its double time integral.
+
+    Returns two dicts keyed by model: δg (n, 3) and the predicted north/east position error
+    (n, 2) in m (cumulative trapezoid twice, zero at t[0]).
+    """
+    from scipy.integrate import cumulative_trapezoid
+
+    from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+    from fieldmap.nav.studies import NORMAL_KINDS
+
+    r = np.stack(geodetic_to_ecef(track[:, 0], track[:, 1], track[:, 2], ell), -1)
+    enu = C_e_to_enu(track[:, 0], track[:, 1])
+    to_ned = lambda g: np.einsum("nij,nj->ni", enu, g)[:, [1, 0, 2]] * [1, 1, -1]  # noqa: E731
+    g_true = to_ned(Gravitation("sh", model=model, device=device)(r))
+    dg, pred = {}, {}
+    for m in names:
+        if m in NORMAL_KINDS:
+            g = Gravitation(NORMAL_KINDS[m], device=device)
+        else:
+            from fieldmap.nav.strapdown import parse_gravity
+
+            g = Gravitation("sh", model=model, lmax=parse_gravity(m, model)[1], device=device)
+        dg[m] = to_ned(g(r)) - g_true
+        v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
+        pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)
+    return dg, pred
+
+
+def _divergence(dpos, t, labels, models) -> list:
+    """(label, model, time) of every run whose error leaves physical meaning; warn for each."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        size = np.linalg.norm(np.nan_to_num(dpos, nan=np.inf), axis=-1)
+    bad = ~np.isfinite(dpos).all(-1) | (size > EARTH_RADIUS)
+    out = []
+    for i in np.flatnonzero(bad.any(axis=1)):
+        k = int(np.argmax(bad[i]))
+        out.append((labels[i], models[i], float(t[k])))
+        warnings.warn(
+            f"navigation run {labels[i]} (model {models[i]}) diverged at t = {t[k]:.0f} s "
+            "(error non-finite or beyond an Earth radius)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return out
+
+
+def _stats(x) -> dict:
+    x = np.asarray(x, dtype=np.float64)
+    if not np.all(np.isfinite(x)):
+        return {"mean": None, "rms": None, "p95": None, "max": None}
+    return {
+        "mean": float(np.mean(x)),
+        "rms": float(np.sqrt(np.mean(x * x))),
+        "p95": float(np.percentile(x, 95)),
+        "max": float(np.max(x)),
+    }
+
+
+def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -> dict:
+    """Build the JSON document: final-error statistics per row, added errors, recommendation."""
+    run_models = np.array(run_models)
+    fin = dpos[:, -1]
+    doc = {"meta": meta, "models": {}, "fraction": fraction}
+    ref = fin[run_models == "imu_only"]
+    imu_h = float(np.sqrt(np.mean(np.sum(ref[:, :2] ** 2, -1))))
+    bad_models = {m for _, m, _ in diverged}
+    for r in rows:
+        sel = run_models == r
+        f = fin[sel]
+        entry = {
+            "final_position_error_m": _stats(np.linalg.norm(f, axis=-1)),
+            "final_horizontal_error_m": _stats(np.hypot(f[:, 0], f[:, 1])),
+            "final_vertical_error_m": _stats(np.abs(f[:, 2])),
+            "final_north_error_m": _stats(f[:, 0]),
+            "final_east_error_m": _stats(f[:, 1]),
+            "final_down_error_m": _stats(f[:, 2]),
+            "final_velocity_error_m_s": _stats(np.linalg.norm(dvel[sel, -1], axis=-1)),
+            "diverged": r in bad_models,
+        }
+        if r != "imu_only":
+            d = f - ref  # same draws, same order
+            entry["added_horizontal_error_m"] = float(np.sqrt(np.mean(np.sum(d[:, :2] ** 2, -1))))
+            entry["added_vertical_error_m"] = float(np.sqrt(np.mean(d[:, 2] ** 2)))
+        doc["models"][r] = entry
+    doc["imu_only_horizontal_error_m"] = imu_h
+    order = simplicity_order([r for r in rows if r != "imu_only"])
+    ok = [
+        m for m in order
+        if not doc["models"][m]["diverged"]
+        and doc["models"][m]["added_horizontal_error_m"] <= fraction * imu_h
+    ]  # fmt: skip
+    if ok:
+        doc["recommended_model"] = ok[0]
+        doc["recommendation"] = (
+            f"{ok[0]}: adds {doc['models'][ok[0]]['added_horizontal_error_m']:.3g} m horizontal "
+            f"error, below {fraction:.0%} of the IMU-only {imu_h:.3g} m"
+        )
+    else:
+        best = min(order, key=lambda m: doc["models"][m]["added_horizontal_error_m"])
+        doc["recommended_model"] = None
+        doc["recommendation"] = (
+            f"no model stays below {fraction:.0%} of the IMU-only error ({imu_h:.3g} m); the "
+            f"smallest added error is {best}'s "
+            f"({doc['models'][best]['added_horizontal_error_m']:.3g} m)"
+        )
+    doc["diverged"] = [{"run": a, "model": m, "time_s": t} for a, m, t in diverged]
+    return doc

@@ -1,0 +1,316 @@
+"""Tables and output files of the navigation studies (paper's Tables 1, 3, 4 and user flights).
+
+:func:`format_table` and :func:`write_outputs` serve the paper's studies
+(:mod:`fieldmap.nav.studies`); :func:`format_flight` and :func:`write_flight_outputs` the flight
+study (:mod:`fieldmap.nav.flightsim`). Files go through :mod:`fieldmap.products.io` (all of a
+batch or none).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+
+
+def _num(x, fmt: str, width: int) -> str:
+    """``x`` formatted, or a dash when missing/non-finite; never wider than ``width``."""
+    if x is None or not np.isfinite(x):
+        return f"{'-':>{width}s}"
+    s = format(x, fmt)
+    if len(s) > width:
+        s = format(x, f">{width}.2e")
+    return f"{s:>{width}s}"
+
+
+def format_table(res) -> str:
+    """Plain-text table of a study's rows; the paper's values only for the paper's 800 s run.
+
+    Columns never overflow: values too wide for their column are printed in exponent form, missing
+    or non-finite ones as ``-``; diverged runs are listed below the table.
+    """
+    from fieldmap.nav.plots import _at_800
+    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
+
+    paper = _at_800(res.meta)
+    lines = [
+        f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
+        f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="
+    ]
+    if res.study == "table1":
+        lines.append(
+            f"{'model':8s} {'|dv| m/s':>10s} {'|dp| m':>10s} {'horiz m':>10s} {'vert m':>10s} "
+            f"{'eval s':>10s}" + ("   paper: |dv| |dp| eval" if paper else "")
+        )
+        for r in res.rows:
+            p = PAPER_TABLE1.get(r["model"], ("", "", "")) if paper else ("", "", "")
+            lines.append(
+                f"{r['model']:8s} {_num(r['final_velocity_error_m_s'], '10.4f', 10)} "
+                f"{_num(r['final_position_error_m'], '10.2f', 10)} "
+                f"{_num(r.get('final_horizontal_error_m'), '10.2f', 10)} "
+                f"{_num(r.get('final_vertical_error_m'), '10.2f', 10)} "
+                f"{_num(r.get('gravity_eval_seconds'), '10.2e', 10)}"
+                + (f"   {p[0]} {p[1]} {p[2]}" if paper else "")
+            )
+        fl = res.meta["floor"]
+        lines.append(
+            f"floor ({fl['nav_gravity']} = truth): |dv| {fl['final_velocity_error_m_s']:.3e} m/s, "
+            f"|dp| {fl['final_position_error_m']:.3e} m "
+            f"(smallest effect / floor: {fl['margin_position']:.3g}x, "
+            f"{fl['margin_velocity']:.3g}x)"
+        )
+    else:
+        key = "group" if res.study == "table3" else "case"
+        show = paper and res.study == "table3"
+        lines.append(
+            f"{key:14s} {'|dv| mean':>10s} {'rms':>8s} {'|dp| mean':>10s} {'rms':>8s} "
+            f"{'p95':>8s} {'horiz rms':>10s} {'vert rms':>10s}"
+            + ("   paper |dv| |dp|" if show else "")
+        )
+        for r in res.rows:
+            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if show else ("", "")
+            lines.append(
+                f"{str(r[key]):14s} {_num(r['final_velocity_error_m_s_mean'], '10.4f', 10)} "
+                f"{_num(r['final_velocity_error_m_s_rms'], '8.4f', 8)} "
+                f"{_num(r['final_position_error_m_mean'], '10.2f', 10)} "
+                f"{_num(r['final_position_error_m_rms'], '8.2f', 8)} "
+                f"{_num(r['final_position_error_m_p95'], '8.2f', 8)} "
+                f"{_num(r.get('final_horizontal_error_m_rms'), '10.2f', 10)} "
+                f"{_num(r.get('final_vertical_error_m_rms'), '10.2f', 10)}"
+                + (f"   {p[0]} {p[1]}" if show else "")
+            )
+    for d in res.meta.get("diverged", []):
+        lines.append(f"DIVERGED: run {d['run']} (model {d['model']}) at t = {d['time_s']:.0f} s")
+    return "\n".join(lines)
+
+
+def _json_doc(res) -> dict:
+    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
+
+    doc = {
+        "study": res.study,
+        "truth_model": res.meta["truth_model"],
+        "truth_degree": res.meta["truth_degree"],
+        "diverged": res.meta.get("diverged", []),
+        "meta": res.meta,
+    }
+    if res.study == "table1":
+        doc["floor"] = res.meta["floor"]
+        for r in res.rows:
+            doc[r["model"]] = {k: v for k, v in r.items() if k != "model"}
+        doc["paper"] = {
+            k: dict(
+                zip(
+                    ("final_velocity_error_m_s", "final_position_error_m", "gravity_eval_seconds"),
+                    v,
+                )
+            )
+            for k, v in PAPER_TABLE1.items()
+        }
+    else:
+        doc["rows"] = res.rows
+        if res.study == "table3":
+            doc["paper"] = {
+                f"group{k}": dict(zip(("final_velocity_error_m_s", "final_position_error_m"), v))
+                for k, v in PAPER_TABLE3.items()
+            }
+    return doc
+
+
+def write_outputs(res, out) -> list[str]:
+    """CSV, JSON, NetCDF and PNG of one study; return the paths.
+
+    ``out`` is a folder (the four files are written as one
+    :func:`fieldmap.products.io.output_batch`)
+    or an open :class:`fieldmap.products.io.OutputBatch` (committed by its owner).
+    """
+    from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
+
+    if not isinstance(out, OutputBatch):
+        with output_batch(out) as batch:
+            paths = write_outputs(res, batch)
+        return paths
+    base = f"navsim_{res.study}"
+    buf = io.StringIO()
+    keys = list(dict.fromkeys(k for r in res.rows for k in r))
+    w = csv.DictWriter(buf, fieldnames=keys)
+    w.writeheader()
+    w.writerows(res.rows)
+    paths = [
+        out.text(buf.getvalue(), base + ".csv"),
+        out.text(json.dumps(_json_doc(res), indent=2, default=float) + "\n", base + ".json"),
+        out.netcdf(to_dataset(res), base + ".nc"),
+    ]
+    with signals_deferred():  # see fieldmap.products.io.signals_deferred
+        plot(res, str(out.path(base + ".png")))
+    paths.append(out.folder / (base + ".png"))
+    return [str(p) for p in paths]
+
+
+def to_dataset(res):
+    """Error curves of a study as an ``xarray.Dataset`` (dims run, time; CF-1.8 attributes)."""
+    import xarray as xr
+
+    ds = xr.Dataset(
+        {
+            "position_error": (
+                ("run", "time"),
+                res.pos,
+                {"units": "m", "long_name": "norm of the a-frame position error"},
+            ),
+            "velocity_error": (
+                ("run", "time"),
+                res.vel,
+                {"units": "m s-1", "long_name": "norm of the inertial velocity error"},
+            ),
+        },
+        coords={
+            # an auxiliary coordinate: CF coordinate variables are numeric (CF 1.8 §5)
+            "label": ("run", np.array(res.labels, dtype=str), {"long_name": "run label"}),
+            "time": ("time", res.t, {"units": "s", "long_name": "time since launch"}),
+        },
+        attrs={
+            "Conventions": "CF-1.8",
+            "title": f"fieldmap navsim {res.study}",
+            "source": f"truth {res.meta['truth_model']} degree {res.meta['truth_degree']}",
+            "meta": json.dumps(res.meta, default=float),
+        },
+    )
+    return ds
+
+
+def plot(res, path: str) -> None:
+    """Write the study's figure (Figs. 11-13 like; see :mod:`fieldmap.nav.plots`) as PNG."""
+    from fieldmap.nav.plots import plot as _plot
+
+    _plot(res, path)
+
+
+# --- flight study ---------------------------------------------------------------------------
+def format_flight(res) -> str:
+    """Plain-text table of a flight study: final errors per model (horizontal / vertical)."""
+    doc = res.summary
+    m = doc["meta"]
+    lines = [
+        f"== flight {m['trajectory']}: {m['duration_s']:g} s, IMU {m['imu']} at "
+        f"{m['imu_rate_hz']:g} Hz, {m['draws']} draw(s), frame {m['frame']}, altitude aiding "
+        f"{m['altitude_aiding']}, truth {m['truth_model']} degree {m['truth_degree']} ==",
+        f"{'model':10s} {'horiz rms m':>12s} {'p95':>10s} {'vert rms m':>11s} {'|dv| rms':>10s} "
+        f"{'added horiz':>12s}",
+    ]
+    for name, e in doc["models"].items():
+        lines.append(
+            f"{name:10s} {_num(e['final_horizontal_error_m']['rms'], '12.3f', 12)} "
+            f"{_num(e['final_horizontal_error_m']['p95'], '10.3f', 10)} "
+            f"{_num(e['final_vertical_error_m']['rms'], '11.3f', 11)} "
+            f"{_num(e['final_velocity_error_m_s']['rms'], '10.4f', 10)} "
+            f"{_num(e.get('added_horizontal_error_m'), '12.3f', 12)}"
+            + ("  DIVERGED" if e["diverged"] else "")
+        )
+    lines.append(f"recommended model: {doc['recommendation']}")
+    return "\n".join(lines)
+
+
+def flight_dataset(res):
+    """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8)."""
+    import xarray as xr
+
+    models = list(res.dg)
+    axis = np.array(["north", "east", "down"])
+    ds = xr.Dataset(
+        {
+            "position_error": (
+                ("run", "time", "axis"),
+                res.dpos,
+                {"units": "m", "long_name": "navigation minus true position, north east down"},
+            ),
+            "velocity_error": (
+                ("run", "time", "axis"),
+                res.dvel,
+                {"units": "m s-1", "long_name": "navigation minus true velocity, NED"},
+            ),
+            "attitude_error": (
+                ("run", "time", "axis"),
+                res.datt,
+                {"units": "rad", "long_name": "small-angle attitude error about N, E, D"},
+            ),
+            "gravity_error": (
+                ("model", "time", "axis"),
+                np.stack([res.dg[m] for m in models]) if models else np.zeros((0, res.t.size, 3)),
+                {"units": "m s-2", "long_name": "navigation model minus truth gravitation, NED"},
+            ),
+            "predicted_position_error": (
+                ("model", "time", "horizontal_axis"),
+                np.stack([res.predicted[m] for m in models])
+                if models
+                else np.zeros((0, res.t.size, 2)),
+                {
+                    "units": "m",
+                    "long_name": "double time integral of the horizontal gravity error",
+                },
+            ),
+            "latitude": ("time", res.track[:, 0], {"units": "degrees_north"}),
+            "longitude": ("time", res.track[:, 1], {"units": "degrees_east"}),
+            "height": ("time", res.track[:, 2], {"units": "m", "long_name": "ellipsoidal height"}),
+        },
+        coords={
+            "run": ("run", np.array(res.labels, dtype=str)),
+            "run_model": ("run", np.array(res.models, dtype=str)),
+            "draw": ("run", res.draw),
+            "model": ("model", np.array(models, dtype=str)),
+            "time": ("time", res.t, {"units": "s", "long_name": "time since the first sample"}),
+            "axis": ("axis", axis),
+            "horizontal_axis": ("horizontal_axis", axis[:2]),
+        },
+        attrs={
+            "Conventions": "CF-1.8",
+            "title": "fieldmap navsim flight study",
+            "source": f"truth {res.summary['meta']['truth_model']} degree "
+            f"{res.summary['meta']['truth_degree']}",
+            "meta": json.dumps(res.summary["meta"], default=float),
+        },
+    )
+    return ds
+
+
+def write_flight_outputs(res, out, disturbance=None) -> list[str]:
+    """``navsim_flight.{json,csv,nc,png}`` and ``navsim_flight_track.png`` of a flight study.
+
+    ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:
+    optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure.
+    """
+    from fieldmap.nav import flightplots
+    from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
+
+    if not isinstance(out, OutputBatch):
+        with output_batch(out) as batch:
+            return write_flight_outputs(res, batch, disturbance)
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["model", "statistic", "horizontal_m", "vertical_m", "north_m", "east_m", "down_m"])
+    for name, e in res.summary["models"].items():
+        for st in ("mean", "rms", "p95"):
+            w.writerow(
+                [name, st]
+                + [
+                    e[k][st]
+                    for k in (
+                        "final_horizontal_error_m",
+                        "final_vertical_error_m",
+                        "final_north_error_m",
+                        "final_east_error_m",
+                        "final_down_error_m",
+                    )
+                ]
+            )
+    paths = [
+        out.text(json.dumps(res.summary, indent=2, default=float) + "\n", "navsim_flight.json"),
+        out.text(buf.getvalue(), "navsim_flight.csv"),
+        out.netcdf(flight_dataset(res), "navsim_flight.nc"),
+    ]
+    with signals_deferred():
+        paths.append(out.png(flightplots.errors_figure(res), "navsim_flight.png"))
+        paths.append(out.png(flightplots.track_figure(res, disturbance), "navsim_flight_track.png"))
+    return [str(p) for p in paths]
