@@ -7,9 +7,17 @@ plate carrée in degrees, with the shipped Natural Earth coastlines, a colourbar
 title naming the model, its degree and the height.
 
 Disturbance maps use colour bands whose edges include the isoline levels, so that colour and
-isolines tell the same story; isolines carry a white halo to stay visible on every colour.
+isolines tell the same story, and a colour bar whose bands are as long as their share of the
+scale (uneven edges are not drawn evenly). Isolines are coloured (none black) with a white halo;
+coastlines are thin and grey, under them, so that the two are not confused. Isolines below the
+area median of the map, which would wind through most of it, are drawn faint and dotted.
+Every map has a labelled graticule (landmarks inland, where there is no coast).
 Maps of several heights of one sweep share one colour scale (the largest value of the sweep),
 so that they can be compared by eye.
+
+Resolution: a map figure asks for enough dots per inch that each grid node gets at least one
+pixel (:func:`fieldmap.products.io.write_png` honours a figure's dpi above its default of 130),
+up to :data:`MAX_MAP_PIXELS` across, beyond which nodes share pixels.
 """
 
 from __future__ import annotations
@@ -24,19 +32,26 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
-from matplotlib.ticker import FuncFormatter, MaxNLocator  # noqa: E402
+from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator  # noqa: E402
 
 from fieldmap.products import coastline  # noqa: E402
 from fieldmap.products.cf import fraction_attr  # noqa: E402
+from fieldmap.products.io import PNG_DPI  # noqa: E402
 
 MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
-# isoline styles by rank of the level (lowest first): colour, width, dash
+# isoline styles by rank of the level (lowest first): colour, width. None is black or grey, the
+# colours of the coastlines and the graticule.
 _ISO = [
-    ("#2b7bd6", 0.6, "-"),
-    ("black", 1.1, "-"),
-    ("#6a1b9a", 1.5, "-"),
-    ("#0b6623", 1.8, "-"),
+    ("#1565c0", 1.0),
+    ("#6a1b9a", 1.4),
+    ("#0b6623", 1.8),
+    ("#00838f", 2.1),
 ]
+_FAINT = ("#5b9bd5", 0.5, ":")  # isolines below the area median of the map
+_COAST = {"color": "0.42", "linewidth": 0.35, "zorder": 4}
+#: Widest map drawn, in pixels; finer grids than this share pixels between nodes.
+MAX_MAP_PIXELS = 4000
+DPI = PNG_DPI
 
 
 def _halo(lw):
@@ -57,6 +72,25 @@ def _regional(ds) -> bool:
     return ds.attrs.get("grid_kind", "global") != "global"
 
 
+def _deg_label(value: float, pos: str, neg: str) -> str:
+    v = float(value)
+    if abs(v) < 1e-9:
+        return "0°"
+    return f"{abs(v):g}°{pos if v > 0 else neg}"
+
+
+def _lon_label(x, _=None) -> str:
+    """120 -> 120°E, -60 or 300 -> 60°W, 180 -> 180°."""
+    x = (float(x) + 180.0) % 360.0 - 180.0
+    if abs(abs(x) - 180.0) < 1e-9:
+        return "180°"
+    return _deg_label(x, "E", "W")
+
+
+def _lat_label(y, _=None) -> str:
+    return _deg_label(y, "N", "S")
+
+
 def _map_axes(ax, ds, **coast):
     lon = ds["longitude"].values
     lat = ds["latitude"].values
@@ -64,18 +98,36 @@ def _map_axes(ax, ds, **coast):
     ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
     ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
     ax.set_aspect("equal")
-    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9, **coast)
+    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9, **{**_COAST, **coast})
     if not _regional(ds):
         ax.set_xticks(np.arange(-180, 181, 60) if lon[0] < 0 else np.arange(0, 361, 60))
         ax.set_yticks(np.arange(-80, 81, 20))
-    ax.set_xlabel("longitude (°E)")
-    ax.set_ylabel("latitude (°N)")
+    else:  # round degrees, a graticule line every few degrees
+        nice = MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10])
+        for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            axis.set_major_locator(FixedLocator(nice.tick_values(*lim)))
+    ax.xaxis.set_major_formatter(FuncFormatter(_lon_label))
+    ax.yaxis.set_major_formatter(FuncFormatter(_lat_label))
+    # the graticule: landmarks inland, above the colours, under coastlines and isolines
+    ax.grid(True, color="0.3", linewidth=0.3, linestyle=(0, (4, 4)), alpha=0.5, zorder=3)
+    ax.set_axisbelow(False)
+    ax.set_xlabel("longitude")
+    ax.set_ylabel("latitude")
     ax.tick_params(labelsize=8)
 
 
 def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
+    # proportional: a band is as long as its share of the scale, even where edges are uneven
     cb = fig.colorbar(
-        mesh, ax=axes, shrink=0.9, pad=0.015, aspect=25, fraction=0.04, extend=extend, ticks=ticks
+        mesh,
+        ax=axes,
+        shrink=0.9,
+        pad=0.015,
+        aspect=25,
+        fraction=0.04,
+        extend=extend,
+        ticks=ticks,
+        spacing="proportional",
     )
     cb.set_label(label, fontsize=9)
     cb.ax.yaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
@@ -116,6 +168,31 @@ def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3):
     return (w + extra_width, min(22.0, nrows * (w * aspect + 0.8) + 0.3))
 
 
+def _map_width_in(ds, map_width=8.0, max_map_height=6.5) -> float:
+    """Width of one map panel of :func:`_figsize`, less its tick labels. Units: inches."""
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
+    # the colour bar column and the latitude tick labels take ~0.6 inch of the panel
+    return max(1.0, min(map_width, max_map_height / aspect) - 0.6)
+
+
+def map_dpi(nodes_across: int, width_in: float) -> int:
+    """Dots per inch giving each of ``nodes_across`` nodes one pixel on ``width_in`` inches.
+
+    At least :data:`DPI`; at most enough for :data:`MAX_MAP_PIXELS` across (a 0.05° global
+    map, 7,200 nodes, is drawn 4,000 pixels wide).
+    """
+    need = int(np.ceil(nodes_across / width_in))
+    return int(max(DPI, min(need, MAX_MAP_PIXELS / width_in)))
+
+
+def _fit_dpi(fig, ds, width_in=None):
+    """Raise the figure's dpi so that every node of ``ds`` gets a pixel (see :func:`map_dpi`)."""
+    fig.set_dpi(map_dpi(ds.sizes["longitude"], width_in or _map_width_in(ds)))
+    return fig
+
+
 def _bands(top: float, levels) -> np.ndarray:
     """Colour-band edges from 0 to ``top``: round steps plus every isoline level.
 
@@ -142,24 +219,56 @@ def _modulus_top(v, levels) -> float:
     return float(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, raw)[-1])
 
 
+def _area_median(sub, v) -> float:
+    """Area-weighted median of the modulus map ``v`` (mg): from the Dataset when it has it."""
+    if "p50_mg" in sub.data_vars and sub["p50_mg"].ndim == 0:
+        return float(sub["p50_mg"])
+    if "p50_mg" in sub.attrs:
+        return float(sub.attrs["p50_mg"])
+    from fieldmap.products.stats import area_weights, weighted_percentile
+
+    return weighted_percentile(v, area_weights(sub["latitude"].values)[:, None], 50.0)
+
+
 def _isolines(ax, ds, v, levels, labels: bool):
+    """Draw one isoline per level; return legend handles.
+
+    A level below the area median of the map encloses most of it in scattered loops (the
+    0.02 mg isoline at 20 km winds through every ocean): it is drawn faint and dotted, not
+    labelled, so that the levels that mark out the map stay readable.
+    """
     lon = ds["longitude"].values
     lat = ds["latitude"].values
     if v.shape[0] < 2 or v.shape[1] < 2:
         return []
+    median = _area_median(ds, v)
     handles = []
-    for rank, lev in enumerate(sorted(levels)):
-        color, lw, ls = _ISO[min(rank, len(_ISO) - 1)]
+    strong = [lev for lev in sorted(levels) if lev >= median]
+    for lev in sorted(levels):
+        if lev < median:
+            color, lw, ls = _FAINT
+            halo, alpha, label = [], 0.8, f"{lev:g} mg (below the median)"
+        else:
+            color, lw = _ISO[min(strong.index(lev), len(_ISO) - 1)]
+            ls, halo, alpha, label = "-", _halo(lw), 1.0, f"{lev:g} mg"
         cs = ax.contour(
-            lon, lat, v, levels=[lev], colors=[color], linewidths=lw, linestyles=[ls], zorder=6
+            lon,
+            lat,
+            v,
+            levels=[lev],
+            colors=[color],
+            linewidths=lw,
+            linestyles=[ls],
+            alpha=alpha,
+            zorder=6,
         )
-        cs.set(path_effects=_halo(lw))
-        if labels:
+        cs.set(path_effects=halo)
+        if labels and lev >= median:
             txt = ax.clabel(cs, fmt=lambda x: f"{x:g}", fontsize=8, inline=True, inline_spacing=3)
             for t in txt:
                 t.set(path_effects=[pe.withStroke(linewidth=2.5, foreground="white")])
         handles.append(
-            Line2D([], [], color=color, lw=lw, ls=ls, label=f"{lev:g} mg", path_effects=_halo(lw))
+            Line2D([], [], color=color, lw=lw, ls=ls, alpha=alpha, label=label, path_effects=halo)
         )
     return handles
 
@@ -177,6 +286,7 @@ def plot_components(ds, which: str = "model"):
     which : {"model", "normal"}
     """
     fig, axes = plt.subplots(3, 1, figsize=_figsize(ds, 3), constrained_layout=True)
+    _fit_dpi(fig, ds)
     what = (
         f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
         if which == "model"
@@ -230,6 +340,7 @@ def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=Non
     if vmax is None:
         vmax = _modulus_top(ds["modulus_mg"].values, levels)
     fig, ax = plt.subplots(figsize=_figsize(sub), constrained_layout=True)
+    _fit_dpi(fig, sub)
     _isoline_panel(fig, ax, sub, levels, vmax)
     common = " (colour scale common to all heights)" if height_index is not None else ""
     ax.set_title(
@@ -249,7 +360,7 @@ def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
     lon = sub["longitude"].values
     lat = sub["latitude"].values
     mesh = ax.pcolormesh(lon, lat, v, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
-    _map_axes(ax, sub, color="0.25", linewidth=0.45)
+    _map_axes(ax, sub)
     handles = _isolines(ax, sub, v, levels, labels=_regional(sub))
     if handles and legend:
         lead = Line2D([], [], color="none", label="isolines:")
@@ -283,6 +394,7 @@ def plot_isolines_panels(ds, height_indices, levels_mg=None):
     vmax = _modulus_top(ds["modulus_mg"].values[idx], levels)
     w, h = _figsize(ds.isel(height=0), nrows=len(idx))
     fig, axes = plt.subplots(len(idx), 1, figsize=(w, h), constrained_layout=True, squeeze=False)
+    _fit_dpi(fig, ds)
     for k, (ax, i) in enumerate(zip(axes[:, 0], idx)):
         sub = ds.isel(height=i)
         mesh = _isoline_panel(fig, ax, sub, levels, vmax, colorbar=False, legend=k == len(idx) - 1)
@@ -323,6 +435,7 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
 
         frac = float(np.sum(weights_2d(ds["latitude"].values, v.shape[1])[v > threshold_mg]))
     fig, ax = plt.subplots(figsize=_figsize(ds, extra_width=0.4), constrained_layout=True)
+    _fit_dpi(fig, ds)
     cmap = ListedColormap(["#f2f2f2", "black"])
     ax.pcolormesh(
         ds["longitude"].values,
@@ -334,7 +447,7 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
         shading="nearest",
         rasterized=True,
     )
-    _map_axes(ax, ds, color="#e66100", linewidth=0.6)
+    _map_axes(ax, ds, color="#e66100", linewidth=0.5)
     ax.legend(
         handles=[
             Patch(fc="black", label=f"|δg| > {threshold_mg:g} mg ({100 * frac:.2f}% of area)"),
@@ -415,6 +528,7 @@ def plot_truncation(ds):
         gridspec_kw={"width_ratios": [3, 1]},
         constrained_layout=True,
     )
+    _fit_dpi(fig, ds, width_in=0.75 * (w + 4.2) - 1.5)
     h = float(ds["height"].values) / 1e3
     lat = ds["latitude"].values
     for k, o in enumerate(orders):
