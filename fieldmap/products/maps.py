@@ -110,7 +110,7 @@ def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.D
     vec = synthesize(mod, grid, ell, "disturbance", device, progress)
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     return xr.Dataset(
-        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance"),
+        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance", overwrite=True),
         coords=coords(grid, stacked),
         attrs=global_attrs(
             f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in grid.heights)} km, "
