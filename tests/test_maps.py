@@ -365,6 +365,18 @@ def test_map_figure_gives_every_node_a_pixel():
     assert plots.map_dpi(7200, 7.4) * 7.4 <= plots.MAX_MAP_PIXELS + 1e-9
 
 
+def test_progress_bar_on_request_or_on_a_terminal(capsys, monkeypatch):
+    """A bar over the row blocks on stderr: asked for, or by default for long grids on a tty."""
+    fieldmap.disturbance_map(lmax=10, step_deg=30.0, device="cpu", progress=True)
+    assert "synthesis" in capsys.readouterr().err
+    fieldmap.disturbance_map(lmax=10, step_deg=30.0, device="cpu")  # short, and not a tty
+    assert capsys.readouterr().err == ""
+    assert not maps.show_progress(10**8)  # pytest's stderr is not a terminal
+    monkeypatch.setattr(maps.sys.stderr, "isatty", lambda: True)
+    assert maps.show_progress(maps.PROGRESS_NODES) and not maps.show_progress(10**4)
+    assert not maps.show_progress(10**8, progress=False)  # quiet
+
+
 def test_coastline_data():
     from fieldmap.products import coastline
 

@@ -8,6 +8,8 @@ Statistics use area weights (:mod:`fieldmap.products.stats`). Files are written 
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import xarray as xr
 
@@ -41,6 +43,23 @@ __all__ = [
     "summary",
     "truncation_map",
 ]
+
+
+#: Grids of at least this many nodes (all heights together; a 0.1° global map has 5.8e6) show
+#: a progress bar on a terminal by default: they take seconds to compute and longer to write.
+PROGRESS_NODES = 2_000_000
+
+
+def show_progress(nodes: int, progress: bool | None = None) -> bool:
+    """Whether to show a progress bar (on stderr) for a product of ``nodes`` grid nodes.
+
+    ``progress`` True or False decides; None (the default of every product) shows one for
+    grids of at least :data:`PROGRESS_NODES` nodes when stderr is a terminal, never in a pipe,
+    a file or a test.
+    """
+    if progress is not None:
+        return bool(progress)
+    return nodes >= PROGRESS_NODES and sys.stderr.isatty()
 
 
 def _check_units(units: str) -> float:
@@ -107,7 +126,9 @@ def _setup(step_deg, lat_max, region, h, ellipsoid, device):
 
 def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.Dataset:
     """Disturbance vectors on every node as a Dataset; ``stacked``: with a height dimension."""
-    vec = synthesize(mod, grid, ell, "disturbance", device, progress)
+    vec = synthesize(
+        mod, grid, ell, "disturbance", device, show_progress(int(np.prod(grid.shape)), progress)
+    )
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     return xr.Dataset(
         vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance", overwrite=True),
@@ -162,6 +183,10 @@ def disturbance_map(
         Epoch for time-variable models.
     units : {"mGal", "mg", "m s-2"}
         Units of east, north, up, modulus (``modulus_mg`` is always added).
+    progress : bool, optional
+        Progress bar over the row blocks of the synthesis, on stderr. Default: shown for
+        grids of 2e6 nodes or more when stderr is a terminal (:func:`show_progress`); False
+        keeps it quiet.
 
     Returns
     -------
@@ -348,7 +373,9 @@ def component_maps(
     mod = _model(model, lmax, epoch)
     from fieldmap.grids.synthesis import centrifugal_rows
 
-    g = synthesize(mod, grid, ell, "gravity", device, progress)[0]
+    g = synthesize(
+        mod, grid, ell, "gravity", device, show_progress(int(np.prod(grid.shape)), progress)
+    )[0]
     gam = (normal_rows(grid, ell, 0, device) + centrifugal_rows(grid, ell))[0]
     gam = np.broadcast_to(gam[:, None, :], g.shape)
     dims = ("latitude", "longitude")
