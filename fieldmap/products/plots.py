@@ -116,6 +116,31 @@ def _map_axes(ax, ds, **coast):
     ax.tick_params(labelsize=8)
 
 
+def _spacing(x: np.ndarray) -> float | None:
+    """Return the step of evenly spaced values (to 1e-9 of it), else None."""
+    if x.size < 2:
+        return None
+    d = np.diff(x)
+    return float(d.mean()) if np.allclose(d, d.mean(), rtol=1e-9, atol=0) else None
+
+
+def _mesh(ax, ds, values, **style):
+    """Colour every node's cell: an image on an evenly spaced grid, else a quad mesh.
+
+    The image is the same picture as ``pcolormesh(shading="nearest")``, drawn an order of
+    magnitude faster on fine grids (a 0.1° global map: 0.1 s instead of 8 s).
+    """
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    dx, dy = _spacing(lon), _spacing(lat)
+    if dx is None or dy is None:
+        return ax.pcolormesh(lon, lat, values, shading="nearest", rasterized=True, **style)
+    extent = (lon[0] - dx / 2, lon[-1] + dx / 2, lat[0] - dy / 2, lat[-1] + dy / 2)
+    return ax.imshow(
+        values, origin="lower", extent=extent, interpolation="nearest", aspect="auto", **style
+    )
+
+
 def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
     # proportional: a band is as long as its share of the scale, even where edges are uneven
     cb = fig.colorbar(
@@ -136,21 +161,9 @@ def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
 
 
 def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=None, extend=None):
-    lon = ds["longitude"].values
-    lat = ds["latitude"].values
     if norm is not None:
         vmin = vmax = None
-    mesh = ax.pcolormesh(
-        lon,
-        lat,
-        values,
-        cmap=cmap,
-        norm=norm,
-        shading="nearest",
-        vmin=vmin,
-        vmax=vmax,
-        rasterized=True,
-    )
+    mesh = _mesh(ax, ds, values, cmap=cmap, norm=norm, vmin=vmin, vmax=vmax)
     _map_axes(ax, ds)
     if extend is None:
         top = vmax if norm is None else norm.vmax
@@ -357,9 +370,7 @@ def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
     edges = _bands(vmax, levels)
     cmap = plt.get_cmap("YlOrRd", len(edges) - 1)
     norm = BoundaryNorm(edges, cmap.N)
-    lon = sub["longitude"].values
-    lat = sub["latitude"].values
-    mesh = ax.pcolormesh(lon, lat, v, cmap=cmap, norm=norm, shading="nearest", rasterized=True)
+    mesh = _mesh(ax, sub, v, cmap=cmap, norm=norm)
     _map_axes(ax, sub)
     handles = _isolines(ax, sub, v, levels, labels=_regional(sub))
     if handles and legend:
@@ -437,16 +448,7 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
     fig, ax = plt.subplots(figsize=_figsize(ds, extra_width=0.4), constrained_layout=True)
     _fit_dpi(fig, ds)
     cmap = ListedColormap(["#f2f2f2", "black"])
-    ax.pcolormesh(
-        ds["longitude"].values,
-        ds["latitude"].values,
-        (v > threshold_mg).astype(float),
-        cmap=cmap,
-        vmin=0,
-        vmax=1,
-        shading="nearest",
-        rasterized=True,
-    )
+    _mesh(ax, ds, (v > threshold_mg).astype(float), cmap=cmap, vmin=0, vmax=1)
     _map_axes(ax, ds, color="#e66100", linewidth=0.5)
     ax.legend(
         handles=[
