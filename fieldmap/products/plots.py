@@ -221,9 +221,12 @@ def _bands(top: float, levels) -> np.ndarray:
 
 
 def _levels(ds, levels_mg):
-    return sorted(
-        levels_mg if levels_mg is not None else ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
-    )
+    """Isoline levels: those given, else the thresholds of the map or sweep, else Fig. 4's."""
+    if levels_mg is None and "threshold_mg" in ds.coords:
+        levels_mg = ds["threshold_mg"].values
+    if levels_mg is None:
+        levels_mg = ds.attrs.get("thresholds_mg", [0.02, 0.06, 0.1])
+    return sorted(float(x) for x in levels_mg)
 
 
 def _modulus_top(v, levels) -> float:
