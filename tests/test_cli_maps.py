@@ -160,5 +160,6 @@ def test_console_script_help():
         "--thresholds-mg",
         "--device",
         "--out",
+        "--float32",
     ):
         assert opt in r.stdout

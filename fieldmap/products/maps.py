@@ -410,7 +410,8 @@ def summary(ds: xr.Dataset) -> dict:
 
     Keys: ``model``, ``lmax``, ``height_m``, ``max_mg``, ``mean_mg``, percentiles and
     ``area_fraction_above`` {threshold in mg: fraction 0..1}; for a sweep, lists per height
-    (``height_m`` is a list); for a truncation map, ``max_mg`` = {"j2": ..., ...}.
+    (``height_m`` is a list); for a truncation map, ``max_mg``, ``mean_mg`` and ``rms_mg``
+    = {"j2": ..., ...} (area-weighted, as every product's).
     """
     a = ds.attrs
     out = {
