@@ -61,6 +61,16 @@ def test_weighted_percentiles_one_pass_equal_the_definition(seed):
     np.testing.assert_array_equal(got, [_percentile_by_definition(v, w, q) for q in qs])
 
 
+def test_weighted_percentiles_crowded_values_and_an_outlier():
+    """Values crowded far from an outlier fall in one bucket: refined, still the definition."""
+    rng = np.random.default_rng(5)
+    v = np.concatenate([rng.random(30000) * 1e-3, [1e6]])
+    w = rng.random(v.size)
+    qs = [0.0, 1.0, 50.0, 99.0, 99.999, 100.0]
+    got = stats.weighted_percentiles(v, w, qs)
+    np.testing.assert_array_equal(got, [_percentile_by_definition(v, w, q) for q in qs])
+
+
 def test_map_percentiles_equal_the_definition():
     """On a map: row weights broadcast to every node, three percentiles from one pass."""
     rng = np.random.default_rng(11)
