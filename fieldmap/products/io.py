@@ -184,6 +184,12 @@ def netcdf_encoding(ds, dtype: str = "float64") -> dict:
     return enc
 
 
+def _netcdf_to(ds, tmp, dtype: str = "float64") -> None:
+    encoding = netcdf_encoding(ds, dtype)
+    with signals_deferred():
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+
+
 def _text_to(text: str, tmp) -> None:
     with open(tmp, "w", encoding="utf-8", newline="") as fh:
         fh.write(text)
@@ -218,10 +224,9 @@ def write_netcdf(ds, path, dtype: str = "float64") -> Path:
     :func:`netcdf_encoding`).
     """
     path = Path(path)
-    encoding = netcdf_encoding(ds, dtype)  # a bad dtype leaves no temporary file behind
+    netcdf_encoding(ds, dtype)  # a bad dtype fails here, before any temporary file exists
     with atomic_path(path) as tmp:
-        with signals_deferred():
-            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        _netcdf_to(ds, tmp, dtype)
     return path
 
 
@@ -277,9 +282,8 @@ class OutputBatch:
 
         ``dtype="float32"`` stores the maps in single precision (:func:`netcdf_encoding`).
         """
-        encoding = netcdf_encoding(ds, dtype)
-        with signals_deferred():
-            ds.to_netcdf(self.path(name), engine="netcdf4", encoding=encoding)
+        netcdf_encoding(ds, dtype)  # a bad dtype fails before the temporary file exists
+        _netcdf_to(ds, self.path(name), dtype)
         return self.folder / name
 
     def json(self, obj, name: str) -> Path:
