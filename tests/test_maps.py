@@ -364,16 +364,23 @@ def test_map_figures_style():
 
 
 def test_map_figure_gives_every_node_a_pixel():
-    """A 0.02° grid 1,001 nodes wide is drawn at least 1,001 pixels wide; wider ones are capped."""
+    """A 0.02° grid 1,001 nodes wide is drawn at least 1,001 pixels wide; wider ones are capped.
+
+    The figure grows (same fonts and line widths) rather than its dpi.
+    """
+    import matplotlib.pyplot as plt
+
     fine = maps.disturbance_map(lmax=30, step_deg=0.02, region=(0, 20, 0, 4), device="cpu")
     fig = plots.plot_threshold(fine, 0.05)
     fig.canvas.draw()
-    assert fig.axes[0].get_window_extent().width >= fine.sizes["longitude"]
-    import matplotlib.pyplot as plt
-
+    px = fig.axes[0].get_window_extent().width * io.PNG_DPI / fig.dpi  # as saved
+    assert px >= fine.sizes["longitude"]
     plt.close(fig)
-    assert plots.map_dpi(100, 7.4) == plots.DPI  # coarse grids: the default resolution
-    assert plots.map_dpi(7200, 7.4) * 7.4 <= plots.MAX_MAP_PIXELS + 1e-9
+    coarse = plots.plot_threshold(fine.isel(longitude=slice(None, None, 20)), 0.05)
+    assert coarse.get_figwidth() < 9.0  # the usual 8-inch map
+    plt.close(coarse)
+    assert plots.map_scale(100, 50, 8.0, 4.0) == 1.0
+    assert plots.map_scale(7200, 3201, 8.0, 3.6) * 8.0 * plots.DPI <= plots.MAX_MAP_PIXELS + 1e-6
 
 
 def test_progress_bar_on_request_or_on_a_terminal(capsys, monkeypatch):

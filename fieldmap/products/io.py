@@ -201,15 +201,13 @@ def _json_text(obj) -> str:
     return json.dumps(obj, indent=2, sort_keys=False) + "\n"
 
 
-#: Default resolution of the PNG files (dots per inch); a figure may ask for more (its dpi).
+#: Resolution of the PNG files (dots per inch); map figures grow with their grid instead.
 PNG_DPI = 130
 
 
-def _png_to(fig, tmp, dpi: int | None) -> None:
+def _png_to(fig, tmp, dpi: int) -> None:
     import matplotlib.pyplot as plt
 
-    if dpi is None:  # map figures raise their dpi so that every grid node gets a pixel
-        dpi = max(PNG_DPI, fig.dpi)
     try:
         with signals_deferred():
             fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
@@ -239,11 +237,8 @@ def write_json(obj, path) -> Path:
     return path
 
 
-def write_png(fig, path, dpi: int | None = None) -> Path:
-    """Save a matplotlib figure as PNG atomically and close it; return the final path.
-
-    ``dpi``: default :data:`PNG_DPI`, or the figure's own dpi when that is higher.
-    """
+def write_png(fig, path, dpi: int = PNG_DPI) -> Path:
+    """Save a matplotlib figure as PNG atomically and close it; return the final path."""
     import matplotlib.pyplot as plt
 
     path = Path(path)
@@ -297,8 +292,8 @@ class OutputBatch:
         _text_to(text, self.path(name))
         return self.folder / name
 
-    def png(self, fig, name: str, dpi: int | None = None) -> Path:
-        """Add a PNG of a matplotlib figure (the figure is closed; ``dpi`` as :func:`write_png`)."""
+    def png(self, fig, name: str, dpi: int = PNG_DPI) -> Path:
+        """Add a PNG of a matplotlib figure (the figure is closed)."""
         _png_to(fig, self.path(name), dpi)
         return self.folder / name
 

@@ -15,9 +15,10 @@ Every map has a labelled graticule (landmarks inland, where there is no coast).
 Maps of several heights of one sweep share one colour scale (the largest value of the sweep),
 so that they can be compared by eye.
 
-Resolution: a map figure asks for enough dots per inch that each grid node gets at least one
-pixel (:func:`fieldmap.products.io.write_png` honours a figure's dpi above its default of 130),
-up to :data:`MAX_MAP_PIXELS` across, beyond which nodes share pixels.
+Resolution: a map figure is made large enough that each grid node gets at least one pixel at
+the 130 dpi of :func:`fieldmap.products.io.write_png`, with unchanged fonts and line widths, up
+to :data:`MAX_MAP_PIXELS` across, beyond which nodes share pixels. (Raising the dpi instead
+would thicken every line in pixels and hide the detail it was meant to show.)
 """
 
 from __future__ import annotations
@@ -172,38 +173,30 @@ def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=Non
     return mesh
 
 
-def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3):
-    """Figure size in inches for ``nrows`` map panels plus a colourbar column."""
+def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3, scale=True):
+    """Figure size in inches for ``nrows`` map panels plus a colourbar column.
+
+    A map is 8 inches wide (at most 6.5 high) when that gives each grid node a pixel at
+    :data:`DPI`; a finer grid gets a larger figure, with the same fonts and line widths, so
+    that its detail is drawn (up to :data:`MAX_MAP_PIXELS` across).
+    """
     lon = ds["longitude"].values
     lat = ds["latitude"].values
     aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
     w = min(map_width, max_map_height / aspect)
-    return (w + extra_width, min(22.0, nrows * (w * aspect + 0.8) + 0.3))
+    f = map_scale(lon.size, lat.size, w, w * aspect) if scale else 1.0
+    w *= f
+    return (w + extra_width, min(22.0 * f, nrows * (w * aspect + 0.8) + 0.3))
 
 
-def _map_width_in(ds, map_width=8.0, max_map_height=6.5) -> float:
-    """Width of one map panel of :func:`_figsize`, less its tick labels. Units: inches."""
-    lon = ds["longitude"].values
-    lat = ds["latitude"].values
-    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
-    # the colour bar column and the latitude tick labels take ~0.6 inch of the panel
-    return max(1.0, min(map_width, max_map_height / aspect) - 0.6)
+def map_scale(nlon: int, nlat: int, width_in: float, height_in: float) -> float:
+    """Factor by which to enlarge a map of ``width_in`` x ``height_in`` inches (≥ 1).
 
-
-def map_dpi(nodes_across: int, width_in: float) -> int:
-    """Dots per inch giving each of ``nodes_across`` nodes one pixel on ``width_in`` inches.
-
-    At least :data:`DPI`; at most enough for :data:`MAX_MAP_PIXELS` across (a 0.05° global
-    map, 7,200 nodes, is drawn 4,000 pixels wide).
+    Enough for one pixel per node at :data:`DPI` across and up (the tick labels take about
+    0.6 inch of the width), but no more than :data:`MAX_MAP_PIXELS` across.
     """
-    need = int(np.ceil(nodes_across / width_in))
-    return int(max(DPI, min(need, MAX_MAP_PIXELS / width_in)))
-
-
-def _fit_dpi(fig, ds, width_in=None):
-    """Raise the figure's dpi so that every node of ``ds`` gets a pixel (see :func:`map_dpi`)."""
-    fig.set_dpi(map_dpi(ds.sizes["longitude"], width_in or _map_width_in(ds)))
-    return fig
+    need = max(nlon / ((width_in - 0.6) * DPI), nlat / ((height_in - 0.3) * DPI), 1.0)
+    return float(min(need, max(1.0, MAX_MAP_PIXELS / (width_in * DPI))))
 
 
 def _bands(top: float, levels) -> np.ndarray:
@@ -302,7 +295,6 @@ def plot_components(ds, which: str = "model"):
     which : {"model", "normal"}
     """
     fig, axes = plt.subplots(3, 1, figsize=_figsize(ds, 3), constrained_layout=True)
-    _fit_dpi(fig, ds)
     what = (
         f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
         if which == "model"
@@ -356,7 +348,6 @@ def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=Non
     if vmax is None:
         vmax = _modulus_top(ds["modulus_mg"].values, levels)
     fig, ax = plt.subplots(figsize=_figsize(sub), constrained_layout=True)
-    _fit_dpi(fig, sub)
     _isoline_panel(fig, ax, sub, levels, vmax)
     common = " (colour scale common to all heights)" if height_index is not None else ""
     ax.set_title(
@@ -408,7 +399,6 @@ def plot_isolines_panels(ds, height_indices, levels_mg=None):
     vmax = _modulus_top(ds["modulus_mg"].values[idx], levels)
     w, h = _figsize(ds.isel(height=0), nrows=len(idx))
     fig, axes = plt.subplots(len(idx), 1, figsize=(w, h), constrained_layout=True, squeeze=False)
-    _fit_dpi(fig, ds)
     for k, (ax, i) in enumerate(zip(axes[:, 0], idx)):
         sub = ds.isel(height=i)
         mesh = _isoline_panel(fig, ax, sub, levels, vmax, colorbar=False, legend=k == len(idx) - 1)
@@ -449,7 +439,6 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
 
         frac = float(np.sum(weights_2d(ds["latitude"].values, v.shape[1])[v > threshold_mg]))
     fig, ax = plt.subplots(figsize=_figsize(ds, extra_width=0.4), constrained_layout=True)
-    _fit_dpi(fig, ds)
     cmap = ListedColormap(["#f2f2f2", "black"])
     _mesh(ax, ds, (v > threshold_mg).astype(float), cmap=cmap, vmin=0, vmax=1)
     _map_axes(ax, ds, color="#e66100", linewidth=0.5)
@@ -524,7 +513,7 @@ def plot_truncation(ds):
     """Modulus of the J2n truncation error per order (Fig. 8), with a latitude profile."""
     orders = [int(o) for o in ds["order"].values]
     n = len(orders)
-    w, _ = _figsize(ds, extra_width=0.0)
+    w, _ = _figsize(ds, extra_width=0.0, scale=False)  # axisymmetric: no detail to resolve
     fig, axes = plt.subplots(
         n,
         2,
@@ -533,7 +522,6 @@ def plot_truncation(ds):
         gridspec_kw={"width_ratios": [3, 1]},
         constrained_layout=True,
     )
-    _fit_dpi(fig, ds, width_in=0.75 * (w + 4.2) - 1.5)
     h = float(ds["height"].values) / 1e3
     lat = ds["latitude"].values
     for k, o in enumerate(orders):
