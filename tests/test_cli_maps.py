@@ -86,6 +86,28 @@ def test_sweep_and_truncation(tmp_path, capsys):
     assert js["max_mg"]["j2"] > js["max_mg"]["j4"] > js["max_mg"]["j6"] > 0
 
 
+@pytest.mark.parametrize("command", ["map", "sweep", "truncation"])
+def test_float32_netcdf(tmp_path, command):
+    """--float32 stores the maps in single precision; statistics and coordinates stay float64."""
+    import numpy as np
+    import xarray as xr
+
+    base = ["--step-deg", "10", "--no-plots"] + (
+        ["--lmax", "40"] if command != "truncation" else []
+    )
+    for flag, sub in (([], "d"), (["--float32"], "f")):
+        assert main([command, *base, *flag, "--out", str(tmp_path / sub)]) == 0
+    (p64,) = (tmp_path / "d").glob("*.nc")
+    (p32,) = (tmp_path / "f").glob("*.nc")
+    with xr.open_dataset(p64) as a, xr.open_dataset(p32) as b:
+        assert a.modulus_mg.dtype == np.float64 and b.modulus_mg.dtype == np.float32
+        assert b.latitude.dtype == np.float64
+        x = a.modulus_mg.values
+        assert np.all(np.abs(b.modulus_mg.values - x) <= 2.0**-24 * np.abs(x))
+        if "max_mg" in a:
+            assert b.max_mg.dtype == np.float64
+
+
 @pytest.mark.parametrize(
     "args, msg",
     [
@@ -138,6 +160,7 @@ def test_console_script_help():
         "--thresholds-mg",
         "--device",
         "--out",
+        "--float32",
     ):
         assert opt in r.stdout
 

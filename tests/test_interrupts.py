@@ -102,7 +102,7 @@ def test_disk_full_while_writing(work, capsys, monkeypatch):  # noqa: F811 (fixt
 
     from fieldmap.products import io as fio
 
-    def full(ds, tmp):
+    def full(ds, tmp, *args):
         Path(tmp).write_bytes(b"CDF\x01partial")
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp))
 

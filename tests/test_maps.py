@@ -30,6 +30,94 @@ def test_weighted_percentile_simple():
     assert stats.weighted_percentile([1, 2, 3, 4], [0, 0, 0, 1], 10) == 4
 
 
+def _percentile_by_definition(values, weights, q):
+    """Smallest value whose cumulative weight reaches q % of the total: a plain Python loop."""
+    pairs = sorted(zip(np.ravel(values).tolist(), np.ravel(weights).tolist()))
+    target = q / 100.0 * sum(w for _, w in pairs)
+    acc = 0.0
+    for v, w in pairs:
+        acc += w
+        if acc >= target:
+            return v
+    return pairs[-1][0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_weighted_percentiles_one_pass_equal_the_definition(seed):
+    """All percentiles from one bucket pass pick the values a full sort picks.
+
+    Integer weights and values (ties, zero weights) keep every cumulative sum exact; random
+    ones cover the general case (no sum lands within rounding of a target).
+    """
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 5000))
+    if seed % 2:
+        v, w = rng.integers(0, 7, n).astype(float), rng.integers(0, 4, n).astype(float)
+        w[0] = 1.0
+    else:
+        v, w = rng.gamma(2.0, 0.02, n), rng.random(n)
+    qs = [0.0, 0.1, 25.0, 50.0, 90.0, 99.0, 99.9, 100.0, *(100 * rng.random(4))]
+    got = stats.weighted_percentiles(v, w, qs)
+    np.testing.assert_array_equal(got, [_percentile_by_definition(v, w, q) for q in qs])
+
+
+def test_weighted_percentiles_crowded_values_and_an_outlier():
+    """Values crowded far from an outlier fall in one bucket: refined, still the definition."""
+    rng = np.random.default_rng(5)
+    v = np.concatenate([rng.random(30000) * 1e-3, [1e6]])
+    w = rng.random(v.size)
+    qs = [0.0, 1.0, 50.0, 99.0, 99.999, 100.0]
+    got = stats.weighted_percentiles(v, w, qs)
+    np.testing.assert_array_equal(got, [_percentile_by_definition(v, w, q) for q in qs])
+
+
+def test_map_percentiles_equal_the_definition():
+    """On a map: row weights broadcast to every node, three percentiles from one pass."""
+    rng = np.random.default_rng(11)
+    lat = np.linspace(-80, 80, 33)
+    v = rng.gamma(2.0, 0.02, (33, 24))
+    s = stats.map_statistics(v, lat, percentiles=(50, 90, 99))
+    w = stats.weights_2d(lat, 24)
+    for q in (50, 90, 99):
+        assert s[f"p{q}_mg"] == _percentile_by_definition(v, w, q)
+
+
+def test_statistics_weigh_area_not_nodes():
+    """A field 1 poleward of 59.5° and 0 elsewhere: its mean is the area of the polar caps.
+
+    The rows are 1° apart from -90 to 90; the cap rows |φ| ≥ 60 stand for the bands
+    |φ| ≥ 59.5°, whose share of the sphere is 1 − sin 59.5° = 0.1384, while they are
+    62/181 = 0.343 of the nodes.
+    """
+    lat = np.arange(-90.0, 90.5, 1.0)
+    v = np.repeat((np.abs(lat) >= 60)[:, None].astype(float), 36, axis=1)
+    s = stats.map_statistics(v, lat, thresholds_mg=(0.5,))
+    cap = 1.0 - np.sin(np.radians(59.5))
+    assert s["mean_mg"] == pytest.approx(cap, rel=1e-12)
+    assert s["area_fraction_above"]["0.5"] == pytest.approx(cap, rel=1e-12)
+    assert s["rms_mg"] == pytest.approx(np.sqrt(cap), rel=1e-12)
+    assert s["p50_mg"] == 0.0 and s["p90_mg"] == 1.0  # 86 % of the area is 0
+
+
+def test_truncation_statistics_are_area_weighted():
+    """mean_mg of a truncation map weighs cells by area, like every other product's."""
+    tr = fieldmap.truncation_map(height_km=20, orders=(2,), step_deg=3.0, lat_max=90.0)
+    v = tr.modulus_mg.values[0]
+    lat = np.radians(tr.latitude.values)
+    # independent cell areas: the band between mid-latitudes, ∝ Δ sin φ (cos φ dφ integrated)
+    edges = np.concatenate([[-np.pi / 2], 0.5 * (lat[1:] + lat[:-1]), [np.pi / 2]])
+    area = np.diff(np.sin(edges))
+    expect = float(np.sum(area * v.mean(axis=1)) / area.sum())
+    assert float(tr.mean_mg[0]) == pytest.approx(expect, rel=1e-12)
+    assert float(tr.rms_mg[0]) == pytest.approx(
+        np.sqrt(np.sum(area * (v**2).mean(axis=1)) / area.sum()), rel=1e-12
+    )
+    # the J2 error grows towards the poles: a node mean would be 5 % larger
+    assert float(v.mean()) > 1.03 * expect
+    s = maps.summary(tr)
+    assert s["mean_mg"]["j2"] == float(tr.mean_mg[0]) and s["rms_mg"]["j2"] > s["mean_mg"]["j2"]
+
+
 def test_bad_thresholds():
     for bad in ([], [0], [-1], ["x"], [float("nan")]):
         with pytest.raises(InputError):
@@ -47,7 +135,8 @@ def test_disturbance_dataset_structure(small_map):
     for v in ("east", "north", "up", "modulus"):
         assert ds[v].dims == ("latitude", "longitude")
         assert ds[v].attrs["units"] == "mGal"
-    assert ds["modulus_mg"].attrs["units"] == "mg"
+    # milli-g in UDUNITS terms ("mg" would be milligram)
+    assert ds["modulus_mg"].attrs["units"] == "0.00980665 m s-2"
     a = ds.attrs
     assert a["Conventions"] == "CF-1.8"
     assert a["model"] == "EIGEN-6S" and a["model_lmax"] == 60 and a["height_m"] == 20000.0
@@ -57,7 +146,7 @@ def test_disturbance_dataset_structure(small_map):
     np.testing.assert_allclose(ds.modulus, mod, rtol=1e-14)
     np.testing.assert_allclose(ds.modulus_mg * 9.80665e-3, ds.modulus * 1e-5, rtol=1e-14)
     assert a["max_mg"] == pytest.approx(float(ds.modulus_mg.max()))
-    fr = [a[f"area_fraction_above_{k}_mg"] for k in ("0.02", "0.05", "0.06", "0.1")]
+    fr = [a[f"area_fraction_above_{k}_mg"] for k in ("0p02", "0p05", "0p06", "0p1")]
     assert all(0 <= f <= 1 for f in fr) and fr == sorted(fr, reverse=True)
 
 
@@ -201,17 +290,110 @@ def test_out_dir_checks(tmp_path):
     assert not (tmp_path / "new").exists()
 
 
-def test_plots_render(tmp_path, small_map):
-    figs = {
-        "iso": plots.plot_isolines(small_map, [0.02, 0.06, 0.1]),
-        "thr": plots.plot_threshold(small_map, 0.06),
+def _texts(fig) -> str:
+    """Every title, axis label and legend entry of a figure, one per line."""
+    out = [fig._suptitle.get_text() if fig._suptitle else ""]
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel()]
+        if ax.get_legend():
+            out += [t.get_text() for t in ax.get_legend().get_texts()]
+    return "\n".join(out)
+
+
+def test_plots_render_with_labels(tmp_path, small_map):
+    """Every figure of the products renders, names its model and height, and labels its units."""
+    sw = fieldmap.altitude_sweep(lmax=60, step_deg=6.0, height_km=[20, 50], device="cpu")
+    tr = fieldmap.truncation_map(step_deg=10.0, orders=(2, 4))
+    cm = maps.component_maps(lmax=30, step_deg=15.0, device="cpu")
+    reg = maps.disturbance_map(lmax=60, step_deg=1.0, region=(100, 112, 18, 36), device="cpu")
+    figs = {  # name: (figure, texts it must show)
+        "iso": (
+            plots.plot_isolines(small_map, [0.02, 0.06, 0.1]),
+            ["EIGEN-6S degree 60", "h = 20 km", "|δg| (mg)", "0.06 mg", "0.1 mg"],
+        ),
+        "thr": (
+            plots.plot_threshold(small_map, 0.06),
+            ["EIGEN-6S degree 60", "h = 20 km", "|δg| > 0.06 mg", "% of area", "coastline"],
+        ),
+        "region": (plots.plot_isolines(reg), ["EIGEN-6S degree 60", "|δg| (mg)", "0.05 mg"]),
+        "panels": (
+            plots.plot_isolines_panels(sw, [0, 1]),
+            ["EIGEN-6S degree 60", "h = 20 km", "h = 50 km", "|δg| (mg)"],
+        ),
+        "sweep": (plots.plot_sweep(sw), ["EIGEN-6S degree 60", "(mg)", "area fraction (%)"]),
+        "truncation": (plots.plot_truncation(tr), ["J2 minus exact", "J4 minus exact", " mg)"]),
+        "components": (
+            plots.plot_components(cm, "model"),
+            ["EIGEN-6S degree 30", "h = 20 km", "g east (mGal)", "g up (m/s²)"],
+        ),
     }
-    for name, fig in figs.items():
-        title = fig.axes[0].get_title()
-        assert "EIGEN-6S degree 60" in title and "20 km" in title
-        assert any("mg" in ax.get_ylabel() for ax in fig.axes[1:]) or name == "thr"
-        io.write_png(fig, tmp_path / f"{name}.png")
-        assert (tmp_path / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+    import matplotlib.pyplot as plt
+
+    for name, (fig, wanted) in figs.items():
+        text = _texts(fig)
+        missing = [w for w in wanted if w not in text]
+        assert not missing, f"{name}: {missing} not in {text!r}"
+        if name in ("iso", "thr"):  # rendering takes 1-5 s a figure here: two are enough
+            io.write_png(fig, tmp_path / f"{name}.png")
+            assert (tmp_path / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+        plt.close(fig)
+
+
+def test_map_figures_style():
+    """Proportional colour bar, grey coastlines, no black isoline, a labelled graticule."""
+    import matplotlib.colors as mcolors
+
+    reg = maps.disturbance_map(lmax=60, step_deg=1.0, region=(100, 112, 18, 36), device="cpu")
+    fig = plots.plot_isolines(reg, [0.02, 0.05, 0.06, 0.1], vmax=0.18)
+    ax, cax = fig.axes[0], fig.axes[1]
+    # uneven band edges (0, 0.02, 0.04, 0.05, 0.06, 0.08, ...) drawn in proportion to value
+    edges = plots._bands(0.18, [0.02, 0.05, 0.06, 0.1])
+    assert len(set(np.round(np.diff(edges), 9))) > 1
+    to_frac = cax.transData + cax.transAxes.inverted()
+    frac = [to_frac.transform((0.5, e))[1] for e in edges]
+    np.testing.assert_allclose(frac, edges / 0.18, atol=1e-9)
+    lines = [ln for ln in ax.get_lines() if ln.get_linewidth() < 0.5]  # the coastline
+    assert lines and all(mcolors.to_rgb(ln.get_color())[0] > 0.3 for ln in lines)
+    assert ax.collections  # the isolines (the colours are an image)
+    for coll in ax.collections:
+        for c in np.atleast_2d(coll.get_edgecolor()):
+            assert not np.allclose(c[:3], 0.0)
+    assert any(line.get_visible() for line in ax.get_xgridlines())
+    assert ax.xaxis.get_major_formatter()(105.0, 0) == "105°E"
+    assert ax.yaxis.get_major_formatter()(-20.0, 0) == "20°S"
+    assert ax.xaxis.get_major_formatter()(-120.0, 0) == "120°W"
+
+
+def test_map_figure_gives_every_node_a_pixel():
+    """A 0.02° grid 1,001 nodes wide is drawn at least 1,001 pixels wide; wider ones are capped.
+
+    The figure grows (same fonts and line widths) rather than its dpi.
+    """
+    import matplotlib.pyplot as plt
+
+    fine = maps.disturbance_map(lmax=30, step_deg=0.02, region=(0, 20, 0, 4), device="cpu")
+    fig = plots.plot_threshold(fine, 0.05)
+    fig.canvas.draw()
+    px = fig.axes[0].get_window_extent().width * io.PNG_DPI / fig.dpi  # as saved
+    assert px >= fine.sizes["longitude"]
+    plt.close(fig)
+    coarse = plots.plot_threshold(fine.isel(longitude=slice(None, None, 20)), 0.05)
+    assert coarse.get_figwidth() < 9.0  # the usual 8-inch map
+    plt.close(coarse)
+    assert plots.map_scale(100, 50, 8.0, 4.0) == 1.0
+    assert plots.map_scale(7200, 3201, 8.0, 3.6) * 8.0 * plots.DPI <= plots.MAX_MAP_PIXELS + 1e-6
+
+
+def test_progress_bar_on_request_or_on_a_terminal(capsys, monkeypatch):
+    """A bar over the row blocks on stderr: asked for, or by default for long grids on a tty."""
+    fieldmap.disturbance_map(lmax=10, step_deg=30.0, device="cpu", progress=True)
+    assert "synthesis" in capsys.readouterr().err
+    fieldmap.disturbance_map(lmax=10, step_deg=30.0, device="cpu")  # short, and not a tty
+    assert capsys.readouterr().err == ""
+    assert not maps.show_progress(10**8)  # pytest's stderr is not a terminal
+    monkeypatch.setattr(maps.sys.stderr, "isatty", lambda: True)
+    assert maps.show_progress(maps.PROGRESS_NODES) and not maps.show_progress(10**4)
+    assert not maps.show_progress(10**8, progress=False)  # quiet
 
 
 def test_coastline_data():

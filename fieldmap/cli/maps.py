@@ -227,15 +227,29 @@ def _preflight(args, heights_km, layers: int = 1) -> None:
 
 def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False) -> list[Path]:
     """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
+    from tqdm.auto import tqdm
+
     from fieldmap.products.io import output_batch
+    from fieldmap.products.maps import show_progress
     from fieldmap.products.maps import summary as _summary
 
     js = {**_summary(ds), **summary}
-    with output_batch(out) as batch:
+    nodes = ds.sizes["latitude"] * ds.sizes["longitude"] * ds.sizes.get("height", 1)
+    # writing a fine map (NetCDF, figures) takes longer than computing it
+    bar = tqdm(
+        total=2 + len(figures),
+        desc="writing",
+        unit="file",
+        leave=False,
+        disable=not show_progress(nodes),
+    )
+    with bar, output_batch(out) as batch:
         batch.netcdf(ds, f"{stem}.nc", dtype="float32" if float32 else "float64")
         batch.json(js, f"{stem}.json")
+        bar.update(2)
         for suffix, make in figures:
             batch.png(make(), f"{stem}_{suffix}.png")
+            bar.update(1)
         return batch.commit()
 
 

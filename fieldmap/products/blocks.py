@@ -284,8 +284,7 @@ def compute_block(job: Job, model) -> dict:
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import GridSpec
     from fieldmap.grids.synthesis import synthesize
-    from fieldmap.products.cf import UNITS
-    from fieldmap.products.stats import MG
+    from fieldmap.units import MG, get_unit
 
     _worker_threads()
     ell = get_ellipsoid(job.ellipsoid)
@@ -298,7 +297,7 @@ def compute_block(job: Job, model) -> dict:
     )
     vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
     # the expressions of fieldmap.products.cf.vector_vars, element by element the same bits
-    scale = UNITS[job.units]
+    scale = get_unit(job.units).si
     mod = np.sqrt(np.sum(vec * vec, axis=-1))
     data = {name: vec[..., k] / scale for k, name in enumerate(("east", "north", "up"))}
     data["modulus"] = mod / scale

@@ -127,37 +127,39 @@ def global_attrs(title, model, ellipsoid, grid, source) -> dict:
     return attrs
 
 
-def vector_vars(vec, dims, units, what) -> dict:
+def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
     """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
 
-    ``vec`` has the components last (any leading shape, views welcome). The five variables
-    are written into one buffer, so that a map costs one allocation instead of a dozen
-    temporaries (the map call is meant to cost little more than its synthesis).
+    ``vec`` has the components last (any leading shape, views welcome). With ``overwrite``
+    the components are converted in place and become the east/north/up variables (views of
+    ``vec``), so that a map allocates only its two moduli: on a fine grid, fresh memory costs
+    more than the arithmetic (the public map call is meant to cost little more than its
+    synthesis).
     ``units`` is any spelling :func:`fieldmap.units.get_unit` accepts.
     """
     unit = get_unit(units)
     scale, units = unit.si, unit.name
     comps = np.moveaxis(vec, -1, 0)
-    buf = np.empty((5, *comps.shape[1:]))
-    mod = buf[3]
+    if overwrite:
+        np.divide(comps, scale, out=comps)
+        buf = np.empty((2, *comps.shape[1:]))
+    else:
+        buf = np.empty((5, *comps.shape[1:]))
+        np.divide(comps, scale, out=buf[:3])
+        comps = buf[:3]
+    mod, mod_mg = buf[-2], buf[-1]
     np.einsum("k...,k...->...", comps, comps, out=mod)  # one pass, no temporaries
-    np.sqrt(mod, out=mod)
-    np.divide(mod, MG, out=buf[4])
-    np.divide(comps, scale, out=buf[:3])
-    np.divide(mod, scale, out=mod)
+    np.sqrt(mod, out=mod)  # in ``units``
+    np.multiply(mod, scale / MG, out=mod_mg)
     out = {}
     for k, name in enumerate(("east", "north", "up")):
         out[name] = (
             dims,
-            buf[k],
+            comps[k],
             {"units": cf_units(units), "long_name": f"{COMPONENTS[name]} component of the {what}"},
         )
-    out["modulus"] = (
-        dims,
-        buf[3],
-        {"units": cf_units(units), "long_name": f"modulus of the {what}"},
-    )
-    out["modulus_mg"] = (dims, buf[4], mg_attrs(f"modulus of the {what} in mg"))
+    out["modulus"] = (dims, mod, {"units": cf_units(units), "long_name": f"modulus of the {what}"})
+    out["modulus_mg"] = (dims, mod_mg, mg_attrs(f"modulus of the {what} in mg"))
     return out
 
 

@@ -34,10 +34,9 @@ def prepare(model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device
     from fieldmap.grids.spec import make_grid
     from fieldmap.grids.synthesis import resolve_device
     from fieldmap.models.registry import load_model
-    from fieldmap.products.cf import UNITS
+    from fieldmap.units import get_unit
 
-    if units not in UNITS:
-        raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+    get_unit(units)  # InputError naming the accepted spellings
     grid = make_grid(step_deg, lat_max, region, heights_m, whole_in_memory=False)
     try:
         ell = get_ellipsoid(ellipsoid)

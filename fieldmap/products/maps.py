@@ -8,6 +8,8 @@ Statistics use area weights (:mod:`fieldmap.products.stats`). Files are written 
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import xarray as xr
 
@@ -41,6 +43,23 @@ __all__ = [
     "summary",
     "truncation_map",
 ]
+
+
+#: Grids of at least this many nodes (all heights together; a 0.1° global map has 5.8e6) show
+#: a progress bar on a terminal by default: they take seconds to compute and longer to write.
+PROGRESS_NODES = 2_000_000
+
+
+def show_progress(nodes: int, progress: bool | None = None) -> bool:
+    """Whether to show a progress bar (on stderr) for a product of ``nodes`` grid nodes.
+
+    ``progress`` True or False decides; None (the default of every product) shows one for
+    grids of at least :data:`PROGRESS_NODES` nodes when stderr is a terminal, never in a pipe,
+    a file or a test.
+    """
+    if progress is not None:
+        return bool(progress)
+    return nodes >= PROGRESS_NODES and sys.stderr.isatty()
 
 
 def _check_units(units: str) -> float:
@@ -80,10 +99,12 @@ def _setup(step_deg, lat_max, region, h, ellipsoid, device):
 
 def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.Dataset:
     """Disturbance vectors on every node as a Dataset; ``stacked``: with a height dimension."""
-    vec = synthesize(mod, grid, ell, "disturbance", device, progress)
+    vec = synthesize(
+        mod, grid, ell, "disturbance", device, show_progress(int(np.prod(grid.shape)), progress)
+    )
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     return xr.Dataset(
-        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance"),
+        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance", overwrite=True),
         coords=coords(grid, stacked),
         attrs=global_attrs(
             f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in grid.heights)} km, "
@@ -146,6 +167,10 @@ def disturbance_map(
         ``"local:N"`` (a LocalCluster of N processes for this call) or a scheduler address.
     chunks : int or "auto", optional
         Return a lazy dask-backed Dataset, blocks of at most this many latitude rows.
+    progress : bool, optional
+        Progress bar over the row blocks of the synthesis, on stderr. Default: shown for
+        grids of 2e6 nodes or more when stderr is a terminal (:func:`show_progress`); False
+        keeps it quiet.
 
     Returns
     -------
@@ -353,7 +378,9 @@ def component_maps(
     mod = _model(model, lmax, epoch)
     from fieldmap.grids.synthesis import centrifugal_rows
 
-    g = synthesize(mod, grid, ell, "gravity", device, progress)[0]
+    g = synthesize(
+        mod, grid, ell, "gravity", device, show_progress(int(np.prod(grid.shape)), progress)
+    )[0]
     gam = (normal_rows(grid, ell, "exact", device) + centrifugal_rows(grid, ell))[0]
     gam = np.broadcast_to(gam[:, None, :], g.shape)
     dims = ("latitude", "longitude")
@@ -388,7 +415,8 @@ def summary(ds: xr.Dataset) -> dict:
 
     Keys: ``model``, ``lmax``, ``height_m``, ``max_mg``, ``mean_mg``, percentiles and
     ``area_fraction_above`` {threshold in mg: fraction 0..1}; for a sweep, lists per height
-    (``height_m`` is a list); for a truncation map, ``max_mg`` = {"j2": ..., ...}.
+    (``height_m`` is a list); for a truncation map, ``max_mg``, ``mean_mg`` and ``rms_mg``
+    = {"j2": ..., ...} (area-weighted, as every product's).
     """
     a = ds.attrs
     out = {

@@ -56,8 +56,9 @@ def weighted_percentiles(values, weights, qs) -> np.ndarray:
     All percentiles come from one pass instead of one sort each: the values are dealt into
     equal-width buckets whose weights are summed (:func:`numpy.bincount`); the bucket where the
     cumulative weight reaches each target is found from those sums, and only the values of
-    that bucket are sorted. The result is one of the values, the same one a full sort picks
-    (the cumulative sums differ only by rounding, ~1e-16 of the total weight).
+    that bucket are sorted (a crowded bucket is dealt into finer ones first). The result is one
+    of the values, the same one a full sort picks (the cumulative sums differ only by rounding,
+    ~1e-16 of the total weight).
 
     Parameters
     ----------
@@ -98,11 +99,37 @@ def weighted_percentiles(values, weights, qs) -> np.ndarray:
         target = q / 100.0 * cum[-1]
         b = min(int(np.searchsorted(cum, target, side="left")), nb - 1)
         sel = np.flatnonzero(idx == b)
-        order = np.argsort(v[sel])
-        cw = (cum[b - 1] if b > 0 else 0.0) + np.cumsum(w[sel][order])
-        k = min(int(np.searchsorted(cw, target, side="left")), sel.size - 1)
-        out[j] = v[sel[order[k]]]
+        out[j] = _pick(v[sel], w[sel], target, cum[b - 1] if b > 0 else 0.0)
     return out
+
+
+#: Buckets of at most this many values are sorted; larger ones are dealt into buckets again.
+_SORT_SIZE = 4096
+
+
+def _pick(v, w, target, below) -> float:
+    """Smallest of ``v`` whose cumulative weight (ascending, after ``below``) reaches ``target``.
+
+    A bucket holding many values (a field crowded near one value, far from an outlier) is dealt
+    into finer buckets again, a few times at most, before its values are sorted.
+    """
+    for _ in range(8):
+        lo, hi = float(v.min()), float(v.max())
+        scale = v.size // 8 / (hi - lo) if hi > lo else np.inf
+        if v.size <= _SORT_SIZE or not np.isfinite(scale):
+            break
+        nb = v.size // 8
+        idx = ((v - lo) * scale).astype(np.intp)
+        np.minimum(idx, nb - 1, out=idx)
+        cum = below + np.cumsum(np.bincount(idx, weights=w, minlength=nb))
+        b = min(int(np.searchsorted(cum, target, side="left")), nb - 1)
+        below = cum[b - 1] if b > 0 else below
+        sel = np.flatnonzero(idx == b)
+        v, w = v[sel], w[sel]
+    order = np.argsort(v)
+    cw = below + np.cumsum(w[order])
+    k = min(int(np.searchsorted(cw, target, side="left")), v.size - 1)
+    return float(v[order[k]])
 
 
 def weighted_percentile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
