@@ -187,7 +187,7 @@ def _stem(ds, kind: str) -> str:
     return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
 
 
-def _thresholds(args) -> tuple[float, ...]:
+def _thresholds(args) -> list[float]:
     from fieldmap.products.stats import parse_thresholds
 
     return list(

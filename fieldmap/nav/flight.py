@@ -440,29 +440,30 @@ def route_flight(
             lon.append(g["lon2"])
             az.append(g["azi2"])
             h.append(pts[k, 2] + (pts[k + 1, 2] - pts[k, 2]) * si / line.s13)
-    lat, lon, h = np.array(lat), np.degrees(np.unwrap(np.radians(lon))), np.array(h)
-    az = np.unwrap(np.radians(az))
-    if lat.size < MIN_POINTS:
+    lat_a, lon_a, h_a = np.array(lat), np.degrees(np.unwrap(np.radians(lon))), np.array(h)
+    az_a = np.unwrap(np.radians(az))
+    if lat_a.size < MIN_POINTS:
         raise InputError("the route is shorter than 6 samples: add distance or lower the speed")
-    hdot = np.gradient(h, sample_dt)
-    turn = np.max(np.abs(np.diff(az)), initial=0.0) * speed_mps  # V Δψ, m/s
+    hdot = np.gradient(h_a, sample_dt)
+    turn = np.max(np.abs(np.diff(az_a)), initial=0.0) * speed_mps  # V Δψ, m/s
     climb = np.ptp(hdot)  # largest change of climb rate, m/s (bound)
     # a step of size Δ smoothed by a Gaussian of σ seconds has a peak slope Δ/(σ√(2π))
     sigma_s = max(turn, climb) / (max_accel * np.sqrt(2.0 * np.pi))
     sigma = max(sigma_s / sample_dt, 3.0)  # in samples
-    az_s = gaussian_filter1d(az, sigma, mode="nearest")
+    az_s = gaussian_filter1d(az_a, sigma, mode="nearest")
     hdot_s = gaussian_filter1d(hdot, sigma, mode="nearest")
     # fly the smoothed heading and climb rate at constant ground speed (geodesic steps)
-    lat_f, lon_f, h_f = [lat[0]], [lon[0]], [h[0]]
-    for k in range(lat.size - 1):
+    lat_f, lon_f, h_f = [lat_a[0]], [lon_a[0]], [h_a[0]]
+    for k in range(lat_a.size - 1):
         g = geod.Direct(lat_f[-1], lon_f[-1], np.degrees(0.5 * (az_s[k] + az_s[k + 1])),
                         speed_mps * sample_dt)  # fmt: skip
         lat_f.append(g["lat2"])
         lon_f.append(g["lon2"])
         h_f.append(h_f[-1] + 0.5 * (hdot_s[k] + hdot_s[k + 1]) * sample_dt)
-    lat, lon, h = np.array(lat_f), np.degrees(np.unwrap(np.radians(lon_f))), np.array(h_f)
-    t = sample_dt * np.arange(lat.size)
-    return FlightSamples(t, lat, lon, h, None, "route", np.arange(1, t.size + 1))
+    lat_r, lon_r = np.array(lat_f), np.degrees(np.unwrap(np.radians(lon_f)))
+    h_r = np.array(h_f)
+    t = sample_dt * np.arange(lat_r.size)
+    return FlightSamples(t, lat_r, lon_r, h_r, None, "route", np.arange(1, t.size + 1))
 
 
 def parse_route(text: str) -> np.ndarray:

@@ -278,8 +278,8 @@ def run_flight(
     baro_drift0 = np.tile(baro.drift_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
     baro_state[:, 1] = baro_drift0
 
-    t_out = [0.0]
-    outs = {"lat": [], "lon": [], "h": [], "v": [], "C": []}
+    t_list: list[float] = [0.0]
+    outs: dict[str, list[np.ndarray]] = {"lat": [], "lon": [], "h": [], "v": [], "C": []}
     starts = range(0, n_total, per_block)
     if progress:
         from tqdm import tqdm
@@ -304,8 +304,8 @@ def run_flight(
         secs["propagation"] += time.perf_counter() - c1
         for k in outs:
             outs[k].append(res[k][:, 1:])
-        t_out.extend(tb + dt * every * np.arange(1, nb // every + 1))
-    t_out = np.array(t_out)
+        t_list.extend(tb + dt * every * np.arange(1, nb // every + 1))
+    t_out = np.array(t_list)
     start = {"lat": lat0, "lon": lon0, "h": h0, "v": v0, "C": C0}
     full = {
         k: np.concatenate([np.broadcast_to(start[k][None], (n_runs,) + start[k].shape)]

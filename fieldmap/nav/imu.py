@@ -207,7 +207,7 @@ def synthesize(
     t0: float = 0.0,
     batch: int = 200_000,
     progress: bool = False,
-) -> ImuIncrements:
+) -> ImuIncrements | list[ImuIncrements]:
     """Exact gyro and accelerometer increments of ``traj`` under the ``gravity`` truth.
 
     Parameters

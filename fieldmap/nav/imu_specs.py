@@ -40,6 +40,7 @@ TOML keys (all optional, unknown keys are an error; ``name`` and ``description``
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -127,7 +128,10 @@ def load_imu(name_or_path) -> tuple[str, ImuErrorSpec]:
     InputError
         Unknown name, unreadable or malformed file, unknown key or bad value.
     """
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # Python 3.10: the same parser, from PyPI
+        import tomli as tomllib
 
     key = str(name_or_path).strip()
     if key.lower() in PRESETS:

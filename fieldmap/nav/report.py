@@ -70,7 +70,7 @@ def format_table(res) -> str:
             + ("   paper |dv| |dp|" if show else "")
         )
         for r in res.rows:
-            p = PAPER_TABLE3.get(r.get("group"), ("", "")) if show else ("", "")
+            q = PAPER_TABLE3.get(r.get("group"), ("", "")) if show else ("", "")
             lines.append(
                 f"{str(r[key]):14s} {_num(r['final_velocity_error_m_s_mean'], '10.4f', 10)} "
                 f"{_num(r['final_velocity_error_m_s_rms'], '8.4f', 8)} "
@@ -79,7 +79,7 @@ def format_table(res) -> str:
                 f"{_num(r['final_position_error_m_p95'], '8.2f', 8)} "
                 f"{_num(r.get('final_horizontal_error_m_rms'), '10.2f', 10)} "
                 f"{_num(r.get('final_vertical_error_m_rms'), '10.2f', 10)}"
-                + (f"   {p[0]} {p[1]}" if show else "")
+                + (f"   {q[0]} {q[1]}" if show else "")
             )
     for d in res.meta.get("diverged", []):
         lines.append(f"DIVERGED: run {d['run']} (model {d['model']}) at t = {d['time_s']:.0f} s")
@@ -130,7 +130,7 @@ def write_outputs(res, out) -> list[str]:
 
     if not isinstance(out, OutputBatch):
         with output_batch(out) as batch:
-            paths = write_outputs(res, batch)
+            paths: list = write_outputs(res, batch)
         return paths
     base = f"navsim_{res.study}"
     buf = io.StringIO()

@@ -184,7 +184,10 @@ def _baro_struct(baro: Baro | None, b, ksd):
 
     dev, n = b.device, b.n
     aid = ksd.BaroAiding()
-    arr = lambda a, t=wp.float64: wp.array(a, dtype=t, device=dev)  # noqa: E731
+
+    def arr(a, t=wp.float64):
+        return wp.array(a, dtype=t, device=dev)
+
     if baro is None:
         aid.enabled = 0
         aid.k1 = aid.k2 = aid.k3 = wp.float64(0.0)

@@ -22,6 +22,7 @@ import signal
 import tempfile
 import threading
 from pathlib import Path
+from typing import Any
 
 from fieldmap.errors import InputError
 
@@ -172,7 +173,7 @@ def netcdf_encoding(ds, dtype: str = "float64") -> dict:
     """
     if dtype not in DTYPES:
         raise InputError(f"NetCDF dtype must be one of {', '.join(DTYPES)}, got {dtype!r}")
-    enc = {name: {"_FillValue": None} for name in ds.coords}
+    enc: dict[str, dict[str, Any]] = {name: {"_FillValue": None} for name in ds.coords}
     for name, var in ds.variables.items():
         if var.dtype.kind in "OUS":  # text as char arrays: CF has no variable-length strings
             enc.setdefault(name, {})["dtype"] = "S1"
