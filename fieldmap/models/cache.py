@@ -34,6 +34,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 from dataclasses import replace
 
@@ -223,6 +224,13 @@ def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = 
         return False
 
 
+def _regular_file(path) -> bool:
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, enabled=True):
     """Return the model of ``paths`` read to degree ``lmax``, through the cache.
 
@@ -240,7 +248,9 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
     enabled : bool
         False: parse and neither read nor write the cache.
     """
-    if not enabled:
+    if not enabled or not all(_regular_file(p) for p in paths):
+        # pipes, devices (/dev/stdin, /dev/zero): read once by the parser, which caps the input;
+        # hashing an endless stream for a key would never end
         return reader(lmax)
     full = load(paths, variant + "|all")
     if full is not None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import gzip
 import os
+import stat
 import threading
 from importlib import resources
 
@@ -62,7 +63,8 @@ def detect_format(path) -> str:
 
     ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
     first lines of ``n m C S [σC σS]`` numbers are NGA's header-less format; anything else goes
-    to the ICGEM reader, whose errors then say what is missing.
+    to the ICGEM reader, whose errors then say what is missing. A pipe or device (``--model
+    <(zcat f.gfc.gz)``) is read as ICGEM: it cannot be peeked at without consuming it.
     """
     from fieldmap.models.nga import looks_like_nga
 
@@ -70,6 +72,8 @@ def detect_format(path) -> str:
     if path.endswith(".egm.cof"):
         return "egm"
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return "icgem"  # a pipe or device cannot be peeked at without consuming it
         with open(path, "rb") as f:
             head = f.read(1 << 16)
         if head[:2] == b"\x1f\x8b":
