@@ -225,3 +225,69 @@ def test_cli_point_quantities(eigen6s):
     assert out.returncode == 1 and lines[0].startswith("ERROR:") and "h must be 0" in lines[2]
     expect = gd.geoid_height(lat[1], lon[1])
     assert float(lines[1]) == pytest.approx(float(expect), abs=1e-9)
+
+
+# --------------------------------------------------------------------------------------------
+# grids
+
+
+def _devices():
+    import warp as wp
+
+    from fieldmap import _warp
+
+    _warp.init()
+    return [str(d) for d in wp.get_devices()]
+
+
+@pytest.mark.parametrize("device", _devices())
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_grid_potential_vs_numpy_reference(eigen6s, device, symmetric):
+    """Potential from the grid kernel vs the NumPy reference summation at every node.
+
+    Degree 60, two heights, regular and irregular longitudes (FFT and direct sums), ±89.5°.
+    Relative to |V| ≈ 6e7 m²/s²: 1e-15 measured; the gradient is unchanged by the extra component.
+    """
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.grids.synthesis import synthesize
+
+    m = eigen6s.truncated(60)
+    lat = np.array([-89.5, -41.0, -7.5, 0.0, 7.5, 41.0, 89.5])
+    for lon in (np.arange(-180.0, 180.0, 20.0), np.array([-170.0, -3.3, 0.0, 12.7, 95.0])):
+        grid = GridSpec(lat=lat, lon=lon, heights=np.array([0.0, 3.0e4]), step_deg=1.0)
+        out = synthesize(
+            m, grid, quantity="gravitation", device=device, symmetric=symmetric, potential=True
+        )
+        plain = synthesize(m, grid, quantity="gravitation", device=device, symmetric=symmetric)
+        # the FFT pairs other series when there are four: rounding of g ≈ 9.8 m/s² only
+        np.testing.assert_allclose(out[..., :3], plain, rtol=0, atol=2e-13)
+        H, LA, LO = np.meshgrid(grid.heights, lat, lon, indexing="ij")
+        x, y, z = geodetic_to_ecef(LA, LO, H)
+        ref = ref_sh.potential(m, x.ravel(), y.ravel(), z.ravel()).reshape(H.shape)
+        np.testing.assert_allclose(out[..., 3], ref, rtol=5e-15, atol=0)
+
+
+@pytest.mark.parametrize("device", _devices())
+def test_grid_quantities_vs_points(eigen6s, device):
+    """T, Δg, ξ, η, N on a grid equal the point functions at the nodes.
+
+    Measured: 3e-12 m²/s², 8e-9 mGal (1e-13 m/s²), 3e-12 arcsec, 3e-13 m (summation order).
+    """
+    from fieldmap.grids.spec import GridSpec
+
+    lat = np.array([-89.0, -30.0, 0.0, 30.0, 60.0, 89.0])
+    lon = np.arange(-180.0, 180.0, 30.0)
+    grid = GridSpec(lat=lat, lon=lon, heights=np.array([0.0, 2.0e4]), step_deg=30.0)
+    H, LA, LO = np.meshgrid(grid.heights, lat, lon, indexing="ij")
+    t = gd.grid_quantities(eigen6s, grid, "potential", device=device)["potential"]
+    pt = gd.disturbing_potential(LA, LO, H, model=eigen6s, device=device)
+    np.testing.assert_allclose(t, pt, rtol=0, atol=1e-9)
+    a = gd.gravity_anomaly(LA, LO, H, model=eigen6s, device=device)
+    dg = gd.grid_quantities(eigen6s, grid, "anomaly", device=device)["anomaly"]
+    np.testing.assert_allclose(dg, a[..., 0], rtol=0, atol=5e-8)
+    de = gd.grid_quantities(eigen6s, grid, "deflection", device=device)
+    np.testing.assert_allclose(de["xi"], a[..., 1], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(de["eta"], a[..., 2], rtol=0, atol=1e-8)
+    n = gd.grid_quantities(eigen6s, grid, "geoid", device=device)["geoid"]
+    assert n.shape == (1, lat.size, lon.size)
+    np.testing.assert_allclose(n[0], gd.geoid_height(LA[0], LO[0], model=eigen6s), atol=1e-9)
