@@ -49,6 +49,17 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             default=None,
             help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
         )
+        from fieldmap.models.registry import add_model_options
+        from fieldmap.products.quantity_maps import QUANTITIES
+
+        add_model_options(p)
+        p.add_argument(
+            "--quantity",
+            choices=QUANTITIES,
+            default="disturbance",
+            help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
+            "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy",
+        )
     p.add_argument(
         "--step-deg",
         type=float,
@@ -229,14 +240,17 @@ def _print_files(files) -> None:
 
 def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
+    from fieldmap.cli.quantity import load_cli_model, run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import disturbance_map
 
+    if args.quantity != "disturbance":
+        return run_quantity(args, [args.height_km])
     thresholds = _thresholds(args)
     _preflight(args, [args.height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
-        model=args.model,
+        model=load_cli_model(args),
         lmax=args.lmax,
         height_km=args.height_km,
         step_deg=args.step_deg,
@@ -274,6 +288,7 @@ def run_map(args) -> int:
 
 def run_sweep(args) -> int:
     """``fieldmap sweep``: statistics over several heights."""
+    from fieldmap.cli.quantity import load_cli_model, run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import altitude_sweep
 
@@ -281,10 +296,12 @@ def run_sweep(args) -> int:
     heights = _numbers(args.height_km, "--height-km")
     if len(set(heights)) != len(heights):
         raise InputError(f"--height-km: repeated height in {heights}")
+    if args.quantity != "disturbance":
+        return run_quantity(args, heights)
     _preflight(args, heights)
     t0 = time.perf_counter()
     ds = altitude_sweep(
-        model=args.model,
+        model=load_cli_model(args),
         lmax=args.lmax,
         height_km=heights,
         step_deg=args.step_deg,

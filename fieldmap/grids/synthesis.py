@@ -242,6 +242,8 @@ def synthesize(
             longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
         else:
             out[items] = longitude_sums(W, grid.lon, device)
+        if potential:  # the kernel gives V/r (see kernels.grid._coefficients)
+            out[items, 3] *= geo[2].numpy()[:, None]
         bar.update(nb)
         u0 = u1
     bar.close()
