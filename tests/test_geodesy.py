@@ -365,3 +365,14 @@ def test_cli_map_quantity(tmp_path, eigen6s):
         ["map", "--quantity", "anomaly", "--step-deg", "0", "--out", str(tmp_path / "x")], ""
     )
     assert bad.returncode == 2 and not (tmp_path / "x").exists()
+
+
+def test_cli_quantity_choices_match_products():
+    """The --quantity choices spelt out in cli/maps are the products' quantities."""
+    from fieldmap.cli import build_parser
+    from fieldmap.products.quantity_maps import QUANTITIES
+
+    sub = build_parser()._subparsers._group_actions[0].choices
+    for cmd in ("map", "sweep"):
+        (act,) = [a for a in sub[cmd]._actions if a.dest == "quantity"]
+        assert tuple(act.choices) == QUANTITIES

@@ -50,12 +50,13 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
         )
         from fieldmap.models.registry import add_model_options
-        from fieldmap.products.quantity_maps import QUANTITIES
 
         add_model_options(p)
         p.add_argument(
             "--quantity",
-            choices=QUANTITIES,
+            # fieldmap.products.quantity_maps.QUANTITIES, spelt out: importing it (xarray,
+            # pandas) would cost a second at every start of every sub-command
+            choices=("disturbance", "anomaly", "deflection", "geoid", "potential"),
             default="disturbance",
             help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
             "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy",

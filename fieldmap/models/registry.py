@@ -334,7 +334,12 @@ def add_model_options(parser) -> None:
 
 
 def model_options(args) -> dict:
-    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`."""
+    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`.
+
+    ``--no-cache`` also stops the cache of recursion tables for this process.
+    """
+    if getattr(args, "no_cache", False):
+        disk_cache.disable()
     return {
         "model_dir": getattr(args, "model_dir", None),
         "gm": getattr(args, "gm", None),
