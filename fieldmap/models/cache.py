@@ -68,6 +68,15 @@ def _sha256_array(a: np.ndarray) -> str:
     return hashlib.sha256(memoryview(np.ascontiguousarray(a)).cast("B")).hexdigest()
 
 
+def _regular(path: str) -> bool:
+    import stat
+
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def content_hash(paths: list[str], root: str | None = None) -> str:
     """SHA-256 of the files' contents, through the stat index (module docstring)."""
     root = root or cache_dir()
@@ -240,7 +249,9 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
     enabled : bool
         False: parse and neither read nor write the cache.
     """
-    if not enabled or _disabled:
+    if not enabled or _disabled or not all(_regular(p) for p in paths):
+        # a device, pipe or missing file: the reader names the problem (and /dev/zero must
+        # not be hashed forever)
         return reader(lmax)
     full = load(paths, variant + "|all")
     if full is not None:

@@ -62,13 +62,22 @@ def detect_format(path) -> str:
 
     ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
     first lines of ``n m C S [σC σS]`` numbers are NGA's header-less format; anything else goes
-    to the ICGEM reader, whose errors then say what is missing.
+    to the ICGEM reader, whose errors then say what is missing. A pipe or device is read as
+    ICGEM (its head cannot be sniffed and read again).
     """
+    import stat
+
     from fieldmap.models.nga import looks_like_nga
 
     path = os.fspath(path)
     if path.endswith(".egm.cof"):
         return "egm"
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            # a pipe (``--model <(zcat f.gz)``) cannot be read twice: only ICGEM comes that way
+            return "icgem"
+    except OSError:
+        return "icgem"
     try:
         with open(path, "rb") as f:
             head = f.read(1 << 16)
