@@ -126,7 +126,11 @@ def _coefficients(
     - east:  A =  K m u^(m-1) s1,   B = -K m u^(m-1) s0  (m >= 1)
 
     and a rotation by delta about east turns geocentric (north, up) into geodetic (north, up).
-    (A, -B) is stored so that the host reads W_m = A_m - i B_m as one complex number.
+    (A, -B) is stored so that the host reads W_m = A_m - i B_m as one complex number. If
+    ``coef`` has a fourth component, it receives the potential (eq. 1 of Chen et al. 2022)
+    divided by r, A = K u^m s0, B = K u^m s1: of the size of the gravitation, because the host's
+    FFT pairs two real series per complex transform and a series 1e6 times larger would leak its
+    rounding into its partner (the host multiplies by r after the longitude sums).
     """
     k = gm / (r * r)
     hm = half_powers(u, m)
@@ -148,6 +152,8 @@ def _coefficients(
     coef[row, 0, m] = wp.vec2d(a_ea, -b_ea)
     coef[row, 1, m] = wp.vec2d(cd * a_no - sd * a_up, -(cd * b_no - sd * b_up))
     coef[row, 2, m] = wp.vec2d(cd * a_up + sd * a_no, -(cd * b_up + sd * b_no))
+    if coef.shape[1] > 3:
+        coef[row, 3, m] = wp.vec2d(k * scaled_times(s[0], hm), -k * scaled_times(s[1], hm))
 
 
 @wp.kernel

@@ -178,3 +178,29 @@ def test_cli_cache_info_and_clear(root, gfc):
     assert _entries(root) == []
     nocache = run("point", "--model", str(path), "--no-cache", stdin="10 20 0\n")
     assert nocache.stdout == first.stdout and _entries(root) == []
+
+
+def test_recursion_tables_cache(root):
+    """Degree >= 1000 tables: computed once, then verified memory maps; damage recomputes."""
+    from fieldmap.field.sh import recursion_tables
+
+    calls = []
+
+    def compute(lmax):
+        calls.append(lmax)
+        return recursion_tables(lmax)
+
+    L = cache.TABLES_MIN_DEGREE
+    first = cache.cached_tables(L, compute)
+    second = cache.cached_tables(L, compute)
+    assert calls == [L] and isinstance(second["anm"], np.memmap)
+    for k in ("anm", "bnm", "fnm", "sect"):
+        np.testing.assert_array_equal(second[k], first[k])
+    (folder,) = (root / "tables").iterdir()
+    raw = bytearray((folder / "bnm.npy").read_bytes())
+    raw[-8] ^= 0x10
+    (folder / "bnm.npy").write_bytes(bytes(raw))
+    third = cache.cached_tables(L, compute)
+    assert calls == [L, L]
+    np.testing.assert_array_equal(third["bnm"], first["bnm"])
+    assert cache.cached_tables(10, compute) and calls == [L, L, 10]  # small: never cached

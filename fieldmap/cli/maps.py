@@ -68,6 +68,18 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             default=None,
             help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
         )
+        from fieldmap.models.registry import add_model_options
+
+        add_model_options(p)
+        p.add_argument(
+            "--quantity",
+            # fieldmap.products.quantity_maps.QUANTITIES, spelt out: importing it (xarray,
+            # pandas) would cost a second at every start of every sub-command
+            choices=("disturbance", "anomaly", "deflection", "geoid", "potential"),
+            default="disturbance",
+            help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
+            "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy",
+        )
     p.add_argument(
         "--step-deg",
         type=float,
@@ -259,17 +271,20 @@ def _print_files(files) -> None:
 
 def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
+    from fieldmap.cli.quantity import load_cli_model, run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import disturbance_map
 
-    thresholds = _thresholds(args)
     (height_km,) = _heights_km(args, "map takes one height; use sweep for several")
+    if args.quantity != "disturbance":
+        return run_quantity(args, [height_km])
+    thresholds = _thresholds(args)
     if distributed.wanted(args):
         return distributed.run(args, [height_km], thresholds, stacked=False)
     _preflight(args, [height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
-        model=args.model,
+        model=load_cli_model(args),
         lmax=args.lmax,
         height_km=height_km,
         step_deg=args.step_deg,
@@ -307,17 +322,20 @@ def run_map(args) -> int:
 
 def run_sweep(args) -> int:
     """``fieldmap sweep``: statistics over several heights."""
+    from fieldmap.cli.quantity import load_cli_model, run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import altitude_sweep
 
     thresholds = _thresholds(args)
     heights = _heights_km(args)
+    if args.quantity != "disturbance":
+        return run_quantity(args, heights)
     if distributed.wanted(args):
         return distributed.run(args, heights, thresholds, stacked=True)
     _preflight(args, heights)
     t0 = time.perf_counter()
     ds = altitude_sweep(
-        model=args.model,
+        model=load_cli_model(args),
         lmax=args.lmax,
         height_km=heights,
         step_deg=args.step_deg,

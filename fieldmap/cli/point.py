@@ -23,6 +23,8 @@ QUANTITIES = ("disturbance", "gravity", "normal", "anomaly", "geoid", "potential
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
 NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
+#: model-file options of :func:`fieldmap.models.registry.model_options` left at their defaults
+_DEFAULT_MODEL_OPTIONS = {"model_dir": None, "gm": None, "radius": None, "cache": True}
 #: as GeographicLib's Gravity (no T there: 4 decimals of m²/s² are 0.01 mm of geoid height)
 _DEFAULT_DECIMALS = {
     "disturbance": 3,
@@ -213,6 +215,7 @@ def run_point(args) -> int:
     from fieldmap.errors import InputError
     from fieldmap.models.registry import model_options
 
+    opts = model_options(args)
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
         raise InputError(f"--precision must be within 0..20, got {decimals}")
@@ -255,7 +258,7 @@ def run_point(args) -> int:
             args.lmax,
             args.epoch,
             args.device,
-            model_options=model_options(args),
+            **({"model_options": opts} if opts != _DEFAULT_MODEL_OPTIONS else {}),
         )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line

@@ -47,6 +47,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.limits import check_geodetic as _points
@@ -321,3 +322,90 @@ def geoid_height(
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
     n = t / somigliana(lat, ell)
     return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)
+
+
+#: quantities of :func:`grid_quantities`
+GRID_QUANTITIES = ("potential", "anomaly", "deflection", "geoid")
+
+
+def grid_quantities(
+    model: SHModel,
+    grid,
+    quantity: str,
+    *,
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+    progress: bool | None = None,
+) -> dict[str, np.ndarray]:
+    """T, Δg, ξ, η or N on every node of a grid, from one Legendre pass per row.
+
+    The disturbing model (:func:`disturbing_model`) is synthesised with
+    :func:`fieldmap.grids.synthesis.synthesize` (potential and gradient in geodetic ENU); the
+    gradient is turned back into the geocentric frame of each row (rotation by φ − ψ) and
+    combined as in :func:`anomaly_from_t`. The geoid height is computed at h = 0 whatever the
+    grid's heights (it is a property of the surface).
+
+    Parameters
+    ----------
+    model : SHModel
+        Model (already truncated).
+    grid : fieldmap.grids.spec.GridSpec
+        Nodes.
+    quantity : {"potential", "anomaly", "deflection", "geoid"}
+        What to compute.
+    ellipsoid, degree0, device
+        As :func:`disturbing_potential`.
+    progress : bool, optional
+        Progress bar of the synthesis.
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        Arrays of shape ``grid.shape`` (``(1, nlat, nlon)`` for the geoid): ``potential``
+        (m²/s²); ``anomaly`` (mGal); ``xi``, ``eta`` (arcsec, with ``deflection``); ``geoid``
+        (m).
+    """
+    from fieldmap.field.normal import somigliana
+    from fieldmap.grids.synthesis import centrifugal_rows, normal_rows, synthesize
+
+    if quantity not in GRID_QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
+    ell = get_ellipsoid(ellipsoid)
+    if quantity == "geoid" and np.any(grid.heights != 0.0):
+        grid = replace(grid, heights=np.zeros(1))
+    dm = disturbing_model(model, ell, degree0=degree0)
+    out = synthesize(
+        dm, grid, ell, quantity="gravitation", device=device, progress=progress, potential=True
+    )
+    t = out[..., 3]
+    if quantity == "potential":
+        return {"potential": t}
+    if quantity == "geoid":
+        gam0 = somigliana(grid.lat, ell)[None, :, None]
+        n = t / gam0
+        lat2, lon2 = np.meshgrid(grid.lat, grid.lon, indexing="ij")
+        corr = correction_height(model, lat2, lon2, ellipsoid=ell, device=device)
+        return {"geoid": n + corr[None]}
+    # geocentric latitude ψ and radius r of each (height, row)
+    phi = np.radians(grid.lat)[None, :]
+    h = grid.heights[:, None]
+    nrad = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(phi) ** 2)
+    p = (nrad + h) * np.cos(phi)
+    z = (nrad * (1.0 - ell.e2) + h) * np.sin(phi)
+    r = np.hypot(p, z)
+    psi = np.arctan2(z, p)
+    cd, sd = np.cos(phi - psi)[..., None], np.sin(phi - psi)[..., None]
+    g_e, g_n, g_u = out[..., 0], out[..., 1], out[..., 2]
+    d_north = cd * g_n + sd * g_u  # geodetic -> geocentric (north, up)
+    d_up = -sd * g_n + cd * g_u
+    gam = np.linalg.norm(
+        normal_rows(grid, ell, device=device) + centrifugal_rows(grid, ell), axis=-1
+    )
+    gam = gam[..., None]
+    if quantity == "anomaly":
+        return {"anomaly": (-d_up - 2.0 * t / r[..., None]) * MGAL}
+    return {
+        "xi": -d_north / gam * ARCSEC_PER_RAD,
+        "eta": -g_e / gam * ARCSEC_PER_RAD,
+    }

@@ -147,6 +147,7 @@ def synthesize(
     device: str | None = None,
     progress: bool | None = None,
     symmetric: bool = True,
+    potential: bool = False,
 ) -> np.ndarray:
     """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
 
@@ -168,11 +169,15 @@ def synthesize(
     symmetric : bool
         Share one Legendre recursion between rows mirrored about the equator (default); False
         runs the engine's ``sh_column`` on every row (used to cross-check the two paths).
+    potential : bool
+        Also return the model potential V (eq. 1 of Chen et al. 2022, no normal part
+        subtracted, no centrifugal term) as a fourth component, from the same Legendre pass.
 
     Returns
     -------
     numpy.ndarray
-        Shape (nh, nlat, nlon, 3): east, north, up. Units: m/s².
+        Shape (nh, nlat, nlon, 3): east, north, up (m/s²); (nh, nlat, nlon, 4) with the
+        potential (m²/s²) last when ``potential``.
     """
     import warp as wp
     from tqdm.auto import tqdm
@@ -195,11 +200,12 @@ def synthesize(
     pairs = mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)]
     units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
     nper = regular_period(grid.lon) or nlon
-    per_item = nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2
+    nc = 4 if potential else 3
+    per_item = nm * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
         block = max(block, min(nitems, 2 * _warp.cpu_workers()))
-    out = np.empty((nitems, 3, nlon))
+    out = np.empty((nitems, nc, nlon))
     work = float(nitems) * nm * nm
     # tqdm: disable=None shows the bar on a terminal only
     disable = (not progress) if progress is not None else (None if work > 2e10 else True)
@@ -217,7 +223,7 @@ def synthesize(
         local = {int(it): k for k, it in enumerate(items)}
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
-        coef = wp.zeros((nb, 3, nm), dtype=wp.vec2d, device=device)
+        coef = wp.zeros((nb, nc, nm), dtype=wp.vec2d, device=device)
         if symmetric:
             loc_a = [local[a] for a, _ in blk]
             loc_b = [local[b] if b >= 0 else -1 for _, b in blk]
@@ -232,20 +238,22 @@ def synthesize(
             )
         else:
             _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
-        W = coef.numpy().view(np.complex128)[..., 0]  # (nb, 3, nm): A_m - i B_m
+        W = coef.numpy().view(np.complex128)[..., 0]  # (nb, nc, nm): A_m - i B_m
         if quantity == "disturbance":
-            W[:, :, 0] -= gamma.numpy()
+            W[:, :3, 0] -= gamma.numpy()
         elif quantity == "gravity":
-            W[:, :, 0] += cen[items]
+            W[:, :3, 0] += cen[items]
         if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
             longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
         else:
             out[items] = longitude_sums(W, grid.lon, device)
+        if potential:  # the kernel gives V/r (see kernels.grid._coefficients)
+            out[items, 3] *= geo[2].numpy()[:, None]
         bar.update(nb)
         u0 = u1
     bar.close()
     # (height, lat, component, lon) in memory; the (height, lat, lon, component) view costs nothing
-    return np.moveaxis(out.reshape(nh, nlat, 3, nlon), 2, 3)
+    return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)
 
 
 def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:

@@ -69,6 +69,14 @@ def _sha256_array(a: np.ndarray) -> str:
     return hashlib.sha256(memoryview(np.ascontiguousarray(a)).cast("B")).hexdigest()
 
 
+def _regular(path: str) -> bool:
+
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def content_hash(paths: list[str], root: str | None = None) -> str:
     """SHA-256 of the files' contents, through the stat index (module docstring)."""
     root = root or cache_dir()
@@ -224,13 +232,6 @@ def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = 
         return False
 
 
-def _regular_file(path) -> bool:
-    try:
-        return stat.S_ISREG(os.stat(path).st_mode)
-    except OSError:
-        return False
-
-
 def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, enabled=True):
     """Return the model of ``paths`` read to degree ``lmax``, through the cache.
 
@@ -248,9 +249,9 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
     enabled : bool
         False: parse and neither read nor write the cache.
     """
-    if not enabled or not all(_regular_file(p) for p in paths):
-        # pipes, devices (/dev/stdin, /dev/zero): read once by the parser, which caps the input;
-        # hashing an endless stream for a key would never end
+    if not enabled or _disabled or not all(_regular(p) for p in paths):
+        # a device, pipe or missing file: the reader names the problem (and /dev/zero must
+        # not be hashed forever)
         return reader(lmax)
     full = load(paths, variant + "|all")
     if full is not None:
@@ -279,13 +280,13 @@ def clear(root: str | None = None) -> tuple[int, int]:
     """Delete every cached model; return (entries removed, bytes freed)."""
     root = root or cache_dir()
     count = size = 0
-    for sub in ("entries", "paths"):
+    for sub in ("entries", "paths", "tables"):
         folder = os.path.join(root, sub)
         if not os.path.isdir(folder):
             continue
         for name in os.listdir(folder):
             path = os.path.join(folder, name)
-            if sub == "entries" and not name.startswith(".tmp-"):
+            if sub != "paths" and not name.startswith(".tmp-"):
                 count += 1
             for dirpath, _, files in os.walk(path):
                 for fn in files:
@@ -321,3 +322,70 @@ def info(root: str | None = None) -> list[dict]:
         files, variant = meta.get("files"), meta.get("variant")
         out.append({"entry": path, "files": files, "variant": variant, "bytes": size})
     return out
+
+
+_disabled = False
+
+
+def disable() -> None:
+    """Stop reading and writing any cache in this process (``--no-cache``)."""
+    global _disabled
+    _disabled = True
+
+
+#: smallest degree whose Legendre recursion tables are worth caching on disk (below it they
+#: take milliseconds to compute)
+TABLES_MIN_DEGREE = 1000
+
+
+def cached_tables(lmax: int, compute, *, root: str | None = None) -> dict:
+    """Recursion tables of the spherical-harmonic engine, kept on disk for high degrees.
+
+    ``compute(lmax) -> dict`` of float64 arrays (:func:`fieldmap.field.sh.recursion_tables`,
+    0.4 s at degree 2190). The key is the degree and the SHA-256 of the source code of
+    ``compute``, so a change of the formulas is a new entry; the arrays are verified by their
+    checksums as the model entries are (a bad entry is recomputed and rewritten).
+    """
+    if _disabled or lmax < TABLES_MIN_DEGREE:
+        return compute(lmax)
+    import inspect
+
+    root = root or cache_dir()
+    try:
+        code = inspect.getsource(compute)
+    except (OSError, TypeError):
+        return compute(lmax)
+    key = hashlib.sha256(code.encode()).hexdigest()[:16]
+    folder = os.path.join(root, "tables", f"L{int(lmax)}-{key}")
+    try:
+        with open(os.path.join(folder, "meta.json"), encoding="utf-8") as f:
+            meta = json.load(f)
+        out = {}
+        for name, rec in meta["arrays"].items():
+            a = np.load(os.path.join(folder, f"{name}.npy"), mmap_mode="r", allow_pickle=False)
+            if list(a.shape) != rec["shape"] or a.dtype != np.float64:
+                raise ValueError(name)
+            if _sha256_array(a) != rec["sha256"]:
+                raise ValueError(name)
+            out[name] = a
+        return out
+    except (OSError, ValueError, KeyError, TypeError):
+        shutil.rmtree(folder, ignore_errors=True)
+    tab = compute(lmax)
+    try:
+        os.makedirs(os.path.dirname(folder), exist_ok=True)
+        tmp = tempfile.mkdtemp(dir=os.path.dirname(folder), prefix=".tmp-")
+        rec = {}
+        for name, a in tab.items():
+            a = np.ascontiguousarray(a, dtype=np.float64)
+            np.save(os.path.join(tmp, f"{name}.npy"), a, allow_pickle=False)
+            rec[name] = {"shape": list(a.shape), "sha256": _sha256_array(a)}
+        with open(os.path.join(tmp, "meta.json"), "w", encoding="utf-8") as f:
+            json.dump({"format": CACHE_FORMAT, "lmax": int(lmax), "arrays": rec}, f)
+        try:
+            os.rename(tmp, folder)
+        except OSError:
+            shutil.rmtree(tmp, ignore_errors=True)
+    except OSError:
+        pass
+    return tab

@@ -63,8 +63,8 @@ def detect_format(path) -> str:
 
     ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
     first lines of ``n m C S [σC σS]`` numbers are NGA's header-less format; anything else goes
-    to the ICGEM reader, whose errors then say what is missing. A pipe or device (``--model
-    <(zcat f.gfc.gz)``) is read as ICGEM: it cannot be peeked at without consuming it.
+    to the ICGEM reader, whose errors then say what is missing. A pipe or device is read as
+    ICGEM (its head cannot be sniffed and read again).
     """
     from fieldmap.models.nga import looks_like_nga
 
@@ -73,7 +73,11 @@ def detect_format(path) -> str:
         return "egm"
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):
-            return "icgem"  # a pipe or device cannot be peeked at without consuming it
+            # a pipe (``--model <(zcat f.gz)``) cannot be read twice: only ICGEM comes that way
+            return "icgem"
+    except OSError:
+        return "icgem"
+    try:
         with open(path, "rb") as f:
             head = f.read(1 << 16)
         if head[:2] == b"\x1f\x8b":
@@ -338,7 +342,12 @@ def add_model_options(parser) -> None:
 
 
 def model_options(args) -> dict:
-    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`."""
+    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`.
+
+    ``--no-cache`` also stops the cache of recursion tables for this process.
+    """
+    if getattr(args, "no_cache", False):
+        disk_cache.disable()
     return {
         "model_dir": getattr(args, "model_dir", None),
         "gm": getattr(args, "gm", None),
