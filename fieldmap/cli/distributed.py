@@ -45,7 +45,7 @@ def wanted(args) -> bool:
 
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
-    from fieldmap.cli.maps import _region, _stem
+    from fieldmap.cli.common import region, stem
     from fieldmap.products import blockio, blocks, distributed, plots
     from fieldmap.products.io import check_out_dir, output_batch
     from fieldmap.products.maps import summary
@@ -57,7 +57,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
         [1e3 * h for h in heights_km],
         args.step_deg,
         args.lat_max,
-        _region(args),
+        region(args),
         args.ellipsoid,
         args.device,
         args.epoch,
@@ -66,7 +66,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     grid, ell, mod = prep
     check_out_dir(args.out)
     tmpl = blockio.template(mod, grid, ell, "mGal", thresholds, stacked)
-    stem = _stem(tmpl, "sweep" if stacked else "disturbance")
+    base = stem(tmpl, "sweep" if stacked else "disturbance")
     ext = "zarr" if args.format == "zarr" else "nc"
     out = Path(args.out)
     client_cm = (
@@ -74,7 +74,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     )  # connect first: an unreachable scheduler writes nothing
     t0 = time.perf_counter()
     with client_cm as client, output_batch(out) as batch:
-        final = out / f"{stem}.{ext}"
+        final = out / f"{base}.{ext}"
         with blockio.atomic_store(final) as tmp:
             info = distributed.write_disturbance(
                 tmp,
@@ -91,10 +91,10 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
             elapsed = time.perf_counter() - t0
             view = blockio.decimated(tmp, args.format)
             _report(view, info, grid, heights_km, thresholds, elapsed, stacked)
-            batch.json({**summary(view), "product_path": final.name}, f"{stem}.json")
+            batch.json({**summary(view), "product_path": final.name}, f"{base}.json")
             if not args.no_plots:
                 for suffix, make in _figures(view, thresholds, stacked, plots):
-                    batch.png(make(), f"{stem}_{suffix}.png")
+                    batch.png(make(), f"{base}_{suffix}.png")
         files = batch.commit()
     print("written: " + ", ".join(str(f) for f in [final, *files]))
     return 0

@@ -14,31 +14,18 @@ from functools import partial
 from pathlib import Path
 
 from fieldmap.cli import distributed
-from fieldmap.errors import InputError
+from fieldmap.cli.common import (
+    api_call,
+    heights_km,
+    list_values,
+    preflight,
+    print_files,
+    region,
+    stem,
+    thresholds_mg,
+)
 
 DEFAULT_THRESHOLDS = "0.02,0.05,0.06,0.10"
-
-
-def _list(values, option: str) -> list[str]:
-    """Split a list option: separate arguments and/or comma-separated (``20 30`` or ``20,30``).
-
-    The values stay text: the API converts and validates them, and its message is the one the
-    user reads (prefixed with the option's name).
-    """
-    out = []
-    for v in values if isinstance(values, (list, tuple)) else [values]:
-        out.extend(str(v).replace(",", " ").split())
-    if not out:
-        raise InputError(f"{option}: no value given")
-    return out
-
-
-def _api(option: str, check, *args, **kwargs):
-    """Run an API validation ``check``; its InputError names the option the value came from."""
-    try:
-        return check(*args, **kwargs)
-    except InputError as exc:
-        raise InputError(f"{option}: {exc}") from None
 
 
 def _list_arg(p: argparse.ArgumentParser, name: str, default: str, help: str) -> None:
@@ -182,61 +169,6 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_truncation)
 
 
-def _stem(ds, kind: str) -> str:
-    a = ds.attrs
-    parts = [kind]
-    if a.get("model"):
-        parts.append(f"{a['model'].lower()}_L{a['model_lmax']}")
-    w, e, s, n = (float(x) for x in a["region_west_east_south_north_deg"])
-    if "height" not in ds.dims:
-        parts.append(f"h{float(ds['height'].values) / 1e3:g}km")
-    if a.get("grid_kind") == "global":
-        if n != 80.0:
-            parts.append(f"latmax{n:g}")
-    else:
-        parts.append(f"region{w:g}_{e:g}_{s:g}_{n:g}")
-    parts.append(f"step{float(a['grid_step_deg']):g}")
-    return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
-
-
-def _thresholds(args) -> list[float]:
-    from fieldmap.products.stats import parse_thresholds
-
-    return list(
-        _api("--thresholds-mg", parse_thresholds, _list(args.thresholds_mg, "--thresholds-mg"))
-    )
-
-
-def _heights_km(args, one: str | None = None) -> list[float]:
-    """``--height-km`` as validated by the API (:func:`fieldmap.limits.heights_from_km`)."""
-    from fieldmap.limits import heights_from_km
-
-    tokens = _list(args.height_km, "--height-km")
-    return [h / 1e3 for h in _api("--height-km", heights_from_km, tokens, one=one)]
-
-
-def _region(args):
-    return tuple(args.region) if args.region is not None else None
-
-
-def _preflight(args, heights_km, layers: int = 1) -> None:
-    """Validate the grid, its memory, device and output folder before any computation or writing.
-
-    ``layers`` is the number of maps per height (orders of a truncation map), for the memory
-    estimate. The rules are those of the API: :func:`fieldmap.grids.spec.make_grid` and
-    :func:`fieldmap.grids.spec.check_memory`; the heights are already validated.
-    """
-    from fieldmap.grids.spec import check_memory, make_grid
-    from fieldmap.grids.synthesis import resolve_device
-    from fieldmap.products.io import check_out_dir
-
-    grid = make_grid(args.step_deg, args.lat_max, _region(args), [1e3 * h for h in heights_km])
-    check_memory(grid, layers)
-    if args.device is not None:
-        resolve_device(args.device)
-    check_out_dir(args.out)
-
-
 def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False) -> list[Path]:
     """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
     from tqdm.auto import tqdm
@@ -265,23 +197,19 @@ def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False
         return batch.commit()
 
 
-def _print_files(files) -> None:
-    print("written: " + ", ".join(str(f) for f in files))
-
-
 def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
     from fieldmap.cli.quantity import load_cli_model, run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import disturbance_map
 
-    (height_km,) = _heights_km(args, "map takes one height; use sweep for several")
+    (height_km,) = heights_km(args, "map takes one height; use sweep for several")
     if args.quantity != "disturbance":
         return run_quantity(args, [height_km])
-    thresholds = _thresholds(args)
+    thresholds = thresholds_mg(args)
     if distributed.wanted(args):
         return distributed.run(args, [height_km], thresholds, stacked=False)
-    _preflight(args, [height_km])
+    preflight(args, [height_km])
     t0 = time.perf_counter()
     ds = disturbance_map(
         model=load_cli_model(args),
@@ -289,7 +217,7 @@ def run_map(args) -> int:
         height_km=height_km,
         step_deg=args.step_deg,
         lat_max=args.lat_max,
-        region=_region(args),
+        region=region(args),
         thresholds_mg=thresholds,
         device=args.device,
         ellipsoid=args.ellipsoid,
@@ -316,7 +244,7 @@ def run_map(args) -> int:
         for t in thresholds:
             if t >= 0.05:
                 figures.append((f"above_{t:g}mg", partial(plots.plot_threshold, ds, t)))
-    _print_files(_write(ds, _stem(ds, "disturbance"), Path(args.out), figures, {}, args.float32))
+    print_files(_write(ds, stem(ds, "disturbance"), Path(args.out), figures, {}, args.float32))
     return 0
 
 
@@ -326,13 +254,13 @@ def run_sweep(args) -> int:
     from fieldmap.products import plots
     from fieldmap.products.maps import altitude_sweep
 
-    thresholds = _thresholds(args)
-    heights = _heights_km(args)
+    thresholds = thresholds_mg(args)
+    heights = heights_km(args)
     if args.quantity != "disturbance":
         return run_quantity(args, heights)
     if distributed.wanted(args):
         return distributed.run(args, heights, thresholds, stacked=True)
-    _preflight(args, heights)
+    preflight(args, heights)
     t0 = time.perf_counter()
     ds = altitude_sweep(
         model=load_cli_model(args),
@@ -340,7 +268,7 @@ def run_sweep(args) -> int:
         height_km=heights,
         step_deg=args.step_deg,
         lat_max=args.lat_max,
-        region=_region(args),
+        region=region(args),
         thresholds_mg=thresholds,
         device=args.device,
         ellipsoid=args.ellipsoid,
@@ -370,7 +298,7 @@ def run_sweep(args) -> int:
                     partial(plots.plot_isolines, ds, thresholds, height_index=k),
                 )
             )
-    _print_files(_write(ds, _stem(ds, "sweep"), Path(args.out), figures, {}, args.float32))
+    print_files(_write(ds, stem(ds, "sweep"), Path(args.out), figures, {}, args.float32))
     return 0
 
 
@@ -380,15 +308,15 @@ def run_truncation(args) -> int:
     from fieldmap.products import plots
     from fieldmap.products.maps import truncation_map
 
-    orders = _api("--orders", check_orders, _list(args.orders, "--orders"))
-    (height_km,) = _heights_km(args, "truncation takes one height")
-    _preflight(args, [height_km], layers=len(orders))
+    orders = api_call("--orders", check_orders, list_values(args.orders, "--orders"))
+    (height_km,) = heights_km(args, "truncation takes one height")
+    preflight(args, [height_km], layers=len(orders))
     ds = truncation_map(
         height_km=height_km,
         orders=orders,
         step_deg=args.step_deg,
         lat_max=args.lat_max,
-        region=_region(args),
+        region=region(args),
         device=args.device,
         ellipsoid=args.ellipsoid,
     )
@@ -397,5 +325,5 @@ def run_truncation(args) -> int:
     for o, mx, mn in zip(ds["order"].values, ds["max_mg"].values, ds["mean_mg"].values):
         print(f"  J{int(o):<5d} {mx:11.4e}   {mn:11.4e}")
     figures = [] if args.no_plots else [("maps", lambda: plots.plot_truncation(ds))]
-    _print_files(_write(ds, _stem(ds, "truncation"), Path(args.out), figures, {}, args.float32))
+    print_files(_write(ds, stem(ds, "truncation"), Path(args.out), figures, {}, args.float32))
     return 0

@@ -21,11 +21,11 @@ def load_cli_model(args):
 
 def run_quantity(args, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
-    from fieldmap.cli.maps import _preflight, _print_files, _region, _stem
+    from fieldmap.cli.common import preflight, print_files, region, stem
     from fieldmap.products import quantity_maps as qm
     from fieldmap.products.io import output_batch
 
-    _preflight(args, heights_km)
+    preflight(args, heights_km)
     t0 = time.perf_counter()
     ds = qm.quantity_map(
         args.quantity,
@@ -33,7 +33,7 @@ def run_quantity(args, heights_km: list[float]) -> int:
         height_km=heights_km if len(heights_km) > 1 else heights_km[0],
         step_deg=args.step_deg,
         lat_max=args.lat_max,
-        region=_region(args),
+        region=region(args),
         device=args.device,
         ellipsoid=args.ellipsoid,
     )
@@ -55,15 +55,15 @@ def run_quantity(args, heights_km: list[float]) -> int:
                 f"  {name} ({units}) h = {h / 1e3:g} km: min {pick(s['min']):.4f}  "
                 f"max {pick(s['max']):.4f}  mean {pick(s['mean']):.4f}  rms {pick(s['rms']):.4f}"
             )
-    stem = _stem(ds, args.quantity)
+    base = stem(ds, args.quantity)
     with output_batch(Path(args.out)) as batch:
-        batch.netcdf(ds, f"{stem}.nc")
-        batch.json(summ, f"{stem}.json")
+        batch.netcdf(ds, f"{base}.nc")
+        batch.json(summ, f"{base}.json")
         if not args.no_plots:
             for name, _, _, _ in qm.VARIABLES[args.quantity]:
                 for k, h in enumerate(heights):
                     suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
-                    batch.png(qm.plot_quantity(ds, name, height_index=k), f"{stem}_{suffix}.png")
+                    batch.png(qm.plot_quantity(ds, name, height_index=k), f"{base}_{suffix}.png")
         files = batch.commit()
-    _print_files(files)
+    print_files(files)
     return 0

@@ -1,0 +1,97 @@
+"""Helpers shared by the map sub-commands.
+
+``map``, ``sweep``, ``truncation``, their ``--quantity`` and ``--scheduler`` forms: option lists,
+the API's checks with the option named, file stems, pre-flight checks before anything is
+computed or written.
+"""
+
+from __future__ import annotations
+
+from fieldmap.errors import InputError
+
+
+def list_values(values, option: str) -> list[str]:
+    """Split a list option: separate arguments and/or comma-separated (``20 30`` or ``20,30``).
+
+    The values stay text: the API converts and validates them, and its message is the one the
+    user reads (prefixed with the option's name).
+    """
+    out = []
+    for v in values if isinstance(values, (list, tuple)) else [values]:
+        out.extend(str(v).replace(",", " ").split())
+    if not out:
+        raise InputError(f"{option}: no value given")
+    return out
+
+
+def api_call(option: str, check, *args, **kwargs):
+    """Run an API validation ``check``; its InputError names the option the value came from."""
+    try:
+        return check(*args, **kwargs)
+    except InputError as exc:
+        raise InputError(f"{option}: {exc}") from None
+
+
+def stem(ds, kind: str) -> str:
+    """File stem of a product: kind, model, degree, height(s), region, step."""
+    a = ds.attrs
+    parts = [kind]
+    if a.get("model"):
+        parts.append(f"{a['model'].lower()}_L{a['model_lmax']}")
+    w, e, s, n = (float(x) for x in a["region_west_east_south_north_deg"])
+    if "height" not in ds.dims:
+        parts.append(f"h{float(ds['height'].values) / 1e3:g}km")
+    if a.get("grid_kind") == "global":
+        if n != 80.0:
+            parts.append(f"latmax{n:g}")
+    else:
+        parts.append(f"region{w:g}_{e:g}_{s:g}_{n:g}")
+    parts.append(f"step{float(a['grid_step_deg']):g}")
+    return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
+
+
+def thresholds_mg(args) -> list[float]:
+    """``--thresholds-mg`` as validated by the API."""
+    from fieldmap.products.stats import parse_thresholds
+
+    return list(
+        api_call(
+            "--thresholds-mg", parse_thresholds, list_values(args.thresholds_mg, "--thresholds-mg")
+        )
+    )
+
+
+def heights_km(args, one: str | None = None) -> list[float]:
+    """``--height-km`` as validated by the API (:func:`fieldmap.limits.heights_from_km`)."""
+    from fieldmap.limits import heights_from_km
+
+    tokens = list_values(args.height_km, "--height-km")
+    return [h / 1e3 for h in api_call("--height-km", heights_from_km, tokens, one=one)]
+
+
+def region(args):
+    """``--region`` as a (west, east, south, north) tuple, or None."""
+    return tuple(args.region) if args.region is not None else None
+
+
+def preflight(args, heights_km, layers: int = 1) -> None:
+    """Validate the grid, its memory, device and output folder before any computation or writing.
+
+    ``layers`` is the number of maps per height (orders of a truncation map), for the memory
+    estimate. The rules are those of the API: :func:`fieldmap.grids.spec.make_grid` and
+    :func:`fieldmap.grids.spec.check_memory`; the heights are already validated.
+    """
+    from fieldmap.grids.spec import check_memory, make_grid
+    from fieldmap.grids.synthesis import resolve_device
+    from fieldmap.products.io import check_out_dir
+
+    grid = make_grid(args.step_deg, args.lat_max, region(args), [1e3 * h for h in heights_km])
+    check_memory(grid, layers)
+    if args.device is not None:
+        resolve_device(args.device)
+    check_out_dir(args.out)
+
+
+def print_files(files) -> None:
+    """Print the paths written, on one line."""
+    print("written: " + ", ".join(str(f) for f in files))
