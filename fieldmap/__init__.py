@@ -51,6 +51,10 @@ _LAZY = {
     "get_ellipsoid": "fieldmap.field.ellipsoid",
     "geodetic_to_ecef": "fieldmap.field.frames",
     "ecef_to_geodetic": "fieldmap.field.frames",
+    # geodetic quantities
+    "disturbing_potential": "fieldmap.field.geodesy",
+    "gravity_anomaly": "fieldmap.field.geodesy",
+    "geoid_height": "fieldmap.field.geodesy",
     # units and accepted ranges
     "Unit": "fieldmap.units",
     "UNITS": "fieldmap.units",
@@ -62,6 +66,7 @@ _LAZY = {
     "altitude_sweep": "fieldmap.products.maps",
     "truncation_map": "fieldmap.products.maps",
     "component_maps": "fieldmap.products.maps",
+    "write_netcdf": "fieldmap.products.io",
     # navigation
     "LaunchFrame": "fieldmap.nav.launch_frames",
     "Trajectory": "fieldmap.nav.trajectory",
@@ -71,6 +76,12 @@ _LAZY = {
     "propagate_lci": "fieldmap.nav.strapdown",
     "propagate_ned": "fieldmap.nav.strapdown_ned",
     "calc_force_ned": "fieldmap.nav.forcened",
+    # your own flight and IMU
+    "FlightTrajectory": "fieldmap.nav.flight",
+    "route_flight": "fieldmap.nav.flight",
+    "load_imu": "fieldmap.nav.imu_specs",
+    "run_flight": "fieldmap.nav.flightsim",
+    "allan_deviation": "fieldmap.nav.allan",
 }
 
 __all__ = sorted(

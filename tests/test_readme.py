@@ -15,4 +15,5 @@ def test_python_api_block_runs():
     assert env["dg"].shape == (1, 3)
     assert env["g"].shape == (1, 3)
     assert env["gam"].shape == (1, 3)
+    assert env["N"].shape == (1,) and env["dga"].shape == (1, 3)
     assert float(env["ds"]["modulus_mg"].max()) > 0

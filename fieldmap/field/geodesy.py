@@ -142,9 +142,9 @@ def _t_and_gradient(m: SHModel, ell: Ellipsoid, lat, lon, h, degree0: bool, devi
 
 
 def disturbing_potential(
-    lat,
-    lon,
-    h,
+    latitude,
+    longitude,
+    height,
     *,
     model="eigen-6s",
     lmax: int | None = None,
@@ -157,9 +157,9 @@ def disturbing_potential(
 
     Parameters
     ----------
-    lat, lon : array_like
+    latitude, longitude : array_like
         Geodetic latitude in [-90, 90] and longitude in [-540, 540). Units: degrees.
-    h : array_like
+    height : array_like
         Height above ``ellipsoid``, −10 km ≤ h ≤ 1e8 m. Units: m.
     model : SHModel or str
         A model, a bundled model name or a model file path.
@@ -180,7 +180,7 @@ def disturbing_potential(
         Broadcast shape of the inputs. Units: m²/s².
     """
     ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, h)
+    lat, lon, h = _points(latitude, longitude, height)
     m = _resolve(model, lmax, epoch)
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
     return t
@@ -228,9 +228,9 @@ def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
 
 
 def gravity_anomaly(
-    lat,
-    lon,
-    h,
+    latitude,
+    longitude,
+    height,
     *,
     model="eigen-6s",
     lmax: int | None = None,
@@ -253,11 +253,11 @@ def gravity_anomaly(
     from fieldmap.field.normal import normal_gravity
 
     ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, h)
+    lat, lon, h = _points(latitude, longitude, height)
     m = _resolve(model, lmax, epoch)
     t, grad, xyz = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
     gam = normal_gravity(
-        lat, lon, h, ellipsoid=ell, kind="exact", centrifugal=True, frame="ecef", device=device
+        lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
     )
     return anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1))
 
@@ -287,8 +287,8 @@ def correction_height(
 
 
 def geoid_height(
-    lat,
-    lon,
+    latitude,
+    longitude,
     *,
     model="eigen-6s",
     lmax: int | None = None,
@@ -304,7 +304,7 @@ def geoid_height(
 
     Parameters
     ----------
-    lat, lon : array_like
+    latitude, longitude : array_like
         Geodetic latitude and longitude. Units: degrees.
     model, lmax, ellipsoid, degree0, device, epoch
         As :func:`disturbing_potential`.
@@ -312,15 +312,15 @@ def geoid_height(
     Returns
     -------
     numpy.ndarray
-        Broadcast shape of ``lat``, ``lon``. Units: m.
+        Broadcast shape of ``latitude``, ``longitude``. Units: m.
     """
     from fieldmap.field.normal import somigliana
 
     ell = get_ellipsoid(ellipsoid)
-    lat, lon, h = _points(lat, lon, 0.0)
+    lat, lon, h = _points(latitude, longitude, 0.0)
     m = _resolve(model, lmax, epoch)
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
-    n = t / somigliana(lat, ell)
+    n = t / somigliana(lat, ellipsoid=ell)
     return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)
 
 
