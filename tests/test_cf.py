@@ -43,7 +43,8 @@ def _tables_dir() -> Path | None:
 
 def _products() -> dict:
     """One small Dataset of every kind the package writes as NetCDF."""
-    from fieldmap.cli.nav import to_dataset
+    from fieldmap.nav.report import to_dataset
+    from fieldmap.products.quantity_maps import quantity_map
 
     nav = types.SimpleNamespace(
         pos=np.linspace(0.0, 5.0, 10).reshape(2, 5),
@@ -63,6 +64,10 @@ def _products() -> dict:
         "truncation": fieldmap.truncation_map(step_deg=10.0, orders=(2, 4, 6)),
         "components": maps.component_maps(**SMALL),
         "navsim": to_dataset(nav),
+        "geoid": quantity_map("geoid", **SMALL),
+        "anomaly": quantity_map("anomaly", **SMALL, height_km=20),
+        "deflection_sweep": quantity_map("deflection", **SMALL, height_km=[20, 50]),
+        "potential": quantity_map("potential", **SMALL, height_km=20),
     }
 
 
@@ -126,6 +131,10 @@ PRODUCTS = [
     "truncation",
     "components",
     "navsim",
+    "geoid",
+    "anomaly",
+    "deflection_sweep",
+    "potential",
 ]
 
 

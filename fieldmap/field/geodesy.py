@@ -382,7 +382,7 @@ def grid_quantities(
     if quantity == "potential":
         return {"potential": t}
     if quantity == "geoid":
-        gam0 = somigliana(grid.lat, ell)[None, :, None]
+        gam0 = somigliana(grid.lat, ellipsoid=ell)[None, :, None]
         n = t / gam0
         lat2, lon2 = np.meshgrid(grid.lat, grid.lon, indexing="ij")
         corr = correction_height(model, lat2, lon2, ellipsoid=ell, device=device)

@@ -66,7 +66,7 @@ def _sha256_file(path: str) -> str:
 
 
 def _sha256_array(a: np.ndarray) -> str:
-    return hashlib.sha256(memoryview(np.ascontiguousarray(a)).cast("B")).hexdigest()
+    return hashlib.sha256(np.ascontiguousarray(a).reshape(-1).view(np.uint8).data).hexdigest()
 
 
 def _regular(path: str) -> bool:
@@ -307,7 +307,7 @@ def clear(root: str | None = None) -> tuple[int, int]:
 def info(root: str | None = None) -> list[dict]:
     """List the cached models: folder, files, variant, size in bytes."""
     root = root or cache_dir()
-    out = []
+    out: list[dict] = []
     folder = os.path.join(root, "entries")
     if not os.path.isdir(folder):
         return out

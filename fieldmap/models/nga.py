@@ -115,14 +115,15 @@ def read_nga(
     for key, val in (("gm", gm), ("radius", radius)):
         if val is not None and not (math.isfinite(val) and val > 0):
             raise InputError(f"{key} must be a positive number, got {val!r}")
-    used_gm = float(gm if gm is not None else known[1])
-    used_radius = float(radius if radius is not None else known[2])
+    kn = known or ("", math.nan, math.nan)  # known is set wherever gm or radius is missing
+    used_gm = float(gm if gm is not None else kn[1])
+    used_radius = float(radius if radius is not None else kn[2])
     how = (
         "given"
         if gm is not None and radius is not None
-        else f"{known[0]}'s published values, recognised from the file name"
+        else f"{kn[0]}'s published values, recognised from the file name"
         if gm is None and radius is None
-        else f"given, the other from {known[0]}'s published values"
+        else f"given, the other from {kn[0]}'s published values"
     )
     raw = scan.read_bytes(path)
     scan.check_text(path, raw)

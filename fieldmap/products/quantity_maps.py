@@ -10,6 +10,8 @@ diverging colour scale centred on zero (the quantities are signed). Definitions 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import xarray as xr
 
@@ -17,7 +19,7 @@ from fieldmap import __version__
 from fieldmap.errors import InputError
 
 #: quantity -> variables: (name, units, long name, CF standard name or None)
-VARIABLES = {
+VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
     "anomaly": [
         (
             "anomaly",
@@ -60,6 +62,7 @@ def _definition(degree0: bool) -> str:
 
 def quantity_map(
     quantity: str,
+    *,
     model="eigen-6s",
     lmax: int | None = None,
     height_km=20.0,
@@ -146,7 +149,7 @@ def quantity_map(
     data, extra = {}, {}
     for name, units, long_name, std in VARIABLES[quantity]:
         v = vals[name]
-        attrs = {"units": units, "long_name": long_name}
+        attrs: dict[str, Any] = {"units": units, "long_name": long_name}
         if std:
             attrs["standard_name"] = std
         per_h = [
@@ -166,12 +169,11 @@ def quantity_map(
                     {"units": units, "long_name": f"area-weighted {key} of {name}"},
                 )
         else:
-            attrs.update(
-                {
-                    f"{k} (area-weighted)" if k in ("mean", "rms") else k: val
-                    for k, val in per_h[0].items()
-                }
-            )
+            # CF attribute names: letters, digits, underscores (CF 1.8 §2.3)
+            s0 = per_h[0]
+            attrs["actual_range"] = np.array([s0["min"], s0["max"]])
+            attrs["area_weighted_mean"] = s0["mean"]
+            attrs["area_weighted_rms"] = s0["rms"]
         data[name] = (dims, v if stacked else v[0], attrs)
     heights_txt = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
     title = (
@@ -208,6 +210,7 @@ def summary(ds: xr.Dataset) -> dict:
         [float(x) for x in ds["height"].values] if stacked else float(ds["height"].values)
     )
     for name, units, _, _ in VARIABLES[a["quantity"]]:
+        stats: dict[str, Any]
         if stacked:
             stats = {
                 k: [float(x) for x in ds[f"{name}_{k}"].values]
@@ -216,10 +219,10 @@ def summary(ds: xr.Dataset) -> dict:
         else:
             v = ds[name].attrs
             stats = {
-                "min": v["min"],
-                "max": v["max"],
-                "mean": v["mean (area-weighted)"],
-                "rms": v["rms (area-weighted)"],
+                "min": float(v["actual_range"][0]),
+                "max": float(v["actual_range"][1]),
+                "mean": float(v["area_weighted_mean"]),
+                "rms": float(v["area_weighted_rms"]),
             }
         out[name] = {"units": units, **stats}
     return out
@@ -251,11 +254,12 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
 
     var = ds[name]
     values = var.values
-    height = float(ds["height"].values) if "height" not in ds.dims else None
     if "height" in ds.dims:
         k = 0 if height_index is None else int(height_index)
         values = values[k]
         height = float(ds["height"].values[k])
+    else:
+        height = float(ds["height"].values)
     lon = ds["longitude"].values
     lat = ds["latitude"].values
     top = float(np.nanmax(np.abs(values))) or 1.0
