@@ -183,20 +183,28 @@ def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -
         "sw": float(row_weights @ v.sum(axis=1)),
         "sw2": float(row_weights @ (v * v).sum(axis=1)),
         "above": [float(row_weights @ (v > t).sum(axis=1)) for t in thresholds],
-        "hist": np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS),
+        "hist": _sparse(np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS)),
     }
+
+
+def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(bins, weights) of the non-empty bins: a block touches few of them, and travels light."""
+    nz = np.flatnonzero(h)
+    return nz.astype(np.int32), h[nz]
 
 
 def merge_partials(acc: dict | None, part: dict) -> dict:
     """Fold one block's partial statistics into the running total (call in block order)."""
     if acc is None:
-        return {**part, "above": list(part["above"]), "hist": part["hist"].copy()}
+        acc = {**part, "above": list(part["above"]), "hist": np.zeros(HIST_BINS)}
+        acc["hist"][part["hist"][0]] = part["hist"][1]
+        return acc
     acc["max"] = max(acc["max"], part["max"])
     acc["min"] = min(acc["min"], part["min"])
     acc["sw"] += part["sw"]
     acc["sw2"] += part["sw2"]
     acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
-    acc["hist"] += part["hist"]
+    acc["hist"][part["hist"][0]] += part["hist"][1]  # distinct bins: no repeated index
     return acc
 
 
