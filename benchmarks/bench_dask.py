@@ -181,6 +181,7 @@ def big(out: str, fmt: str, workers: int) -> None:
             fmt,
             heights_m=[20000.0],
             step_deg=0.02,
+            lat_max=90.0,
             stacked=False,
             client=client,
             progress=True,

@@ -376,7 +376,7 @@ def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
             cluster.close()
         return
     try:
-        client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
+        client = Client(scheduler, timeout=connect_timeout)
     except (OSError, TimeoutError, ValueError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
