@@ -91,7 +91,7 @@ for i in "${!NAMES[@]}"; do
     124) st=TIMEOUT; status=1 ;;
     *) st="FAIL($rc)"; status=1 ;;
   esac
-  head_line=$(grep -E 'ratio|PASS|FAIL|passed|failed|us/point|traj-steps/s|s/|x$' \
+  head_line=$(grep -E 'checks within|ratio|FAIL|failed|traj-steps/s|x$' \
     "$LOG/${NAMES[$i]}.log" | tail -n 1 | cut -c1-90)
   printf '%-10s %-9s %8.1f  %s\n' "${NAMES[$i]}" "$st" "${SECS[$i]}" "$head_line"
 done
