@@ -375,6 +375,7 @@ def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
         finally:
             cluster.close()
         return
+    _probe(scheduler, connect_timeout)
     try:
         client = Client(scheduler, timeout=connect_timeout)
     except (OSError, TimeoutError, ValueError) as exc:
@@ -384,6 +385,27 @@ def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
         yield client
     finally:
         client.close()
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Fail in milliseconds, not after Dask's connect retries, when nothing listens (tcp)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if not isinstance(address, str) or not address.startswith("tcp://"):
+        return
+    try:
+        u = urlsplit(address)
+        host, port = u.hostname, u.port
+    except ValueError:
+        raise InputError(f"bad Dask scheduler address {address!r}") from None
+    if host is None or port is None:
+        raise InputError(f"Dask scheduler address {address!r} needs tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {why}") from None
 
 
 def _run_local(jobs, model, on_result, progress) -> None:
