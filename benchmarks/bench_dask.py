@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shutil
 import statistics
 import tempfile
 import threading
@@ -104,22 +105,40 @@ def overhead(repeat: int, quick: bool) -> None:
             "nblocks": len(plan),
             "lmax": mod.lmax,
         }
+        tmp = tempfile.mkdtemp(prefix="bench-dask-")
+        store = dict(heights_m=[20000.0], model=mod, step_deg=step, stacked=False)
+
+        def zarr(client=None):
+            distributed.write_disturbance(f"{tmp}/m.zarr", "zarr", **store, client=client)
+
+        row["zarr"] = _median_time(zarr, repeat)
         for n in (1, 2):
             with blocks.open_client(("local", n)) as client:
                 disturbance_map(**kw, client=client)  # workers load kernels
                 row[f"local:{n}"] = _median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
                 )
+                if n == 2:
+                    row["zarr:2"] = _median_time(lambda: zarr(client), repeat)
+        shutil.rmtree(tmp, ignore_errors=True)
         results[label] = row
-    print(f"\nDask overhead, medians of {repeat} (2-core machine; cluster start not timed)")
+    load = os.getloadavg()[0]
     print(
-        f"{'map':28s} {'blocks':>6s} {'pool (s)':>9s} {'engine':>8s} {'local:1':>8s} "
-        f"{'local:2':>8s} {'local:2/pool':>12s}"
+        f"\nDask overhead, medians of {repeat} (2-core machine, 1-min load average {load:.1f}; "
+        "cluster start not timed). In memory: the whole map returned to the client; zarr: "
+        "written to a store (by the workers on local:2)"
+    )
+    print(
+        f"{'map':28s} {'blocks':>6s} | in memory: {'pool':>7s} {'engine':>7s} {'local:1':>7s} "
+        f"{'local:2':>7s} {'l2/engine':>9s} {'l2/pool':>7s} | zarr: {'here':>7s} {'local:2':>7s} "
+        f"{'ratio':>6s}"
     )
     for label, r in results.items():
         print(
-            f"{label:28s} {r['nblocks']:6d} {r['pool']:9.3f} {r['blocks']:8.3f} "
-            f"{r['local:1']:8.3f} {r['local:2']:8.3f} {r['local:2'] / r['pool']:12.3f}"
+            f"{label:28s} {r['nblocks']:6d} |            {r['pool']:7.3f} {r['blocks']:7.3f} "
+            f"{r['local:1']:7.3f} {r['local:2']:7.3f} {r['local:2'] / r['blocks']:9.2f} "
+            f"{r['local:2'] / r['pool']:7.2f} |       {r['zarr']:7.3f} {r['zarr:2']:7.3f} "
+            f"{r['zarr:2'] / r['zarr']:6.2f}"
         )
     projection(results)
 

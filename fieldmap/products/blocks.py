@@ -432,12 +432,12 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
     nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     # the coefficients travel once to every worker, not once per task
     model_f = client.scatter(model, broadcast=True, hash=False)
-    window = window or 2 * nworkers
+    window = window or 4 * nworkers
     bar = tqdm(total=len(jobs), unit="block", desc="blocks (dask)", disable=_bar_off(progress))
     pending = iter(jobs)
+    # a lost worker's tasks are rescheduled by Dask itself; an exception is not retried
     futures = [
-        client.submit(compute_block, job, model_f, pure=False, retries=2)
-        for job in _take(pending, window)
+        client.submit(compute_block, job, model_f, pure=False) for job in _take(pending, window)
     ]
     seq = as_completed(futures)
     try:
@@ -448,10 +448,10 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
             del res
             bar.update(1)
             for job in _take(pending, 1):
-                seq.add(client.submit(compute_block, job, model_f, pure=False, retries=2))
+                futures.append(client.submit(compute_block, job, model_f, pure=False))
+                seq.add(futures[-1])
     except BaseException:
-        for f in futures:
-            f.cancel()
+        client.cancel(futures)
         raise
     finally:
         bar.close()
@@ -525,7 +525,7 @@ def run_blocks(
     store : blockio.ZarrTarget, optional
         Workers write their blocks straight into this zarr store.
     window : int, optional
-        Blocks in flight on the cluster (default: two per worker), which bounds the memory.
+        Blocks in flight on the cluster (default: four per worker), which bounds the memory.
 
     Returns
     -------
