@@ -122,7 +122,8 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     rows_per_block : int, optional
         Most rows per block (a mirrored pair counts two; at least 2). Default: the smaller of
         what :func:`fieldmap.grids.synthesis.synthesize` keeps in one block
-        (``BLOCK_BYTES / per_item``) and ``ceil(nlat / BLOCKS_PER_HEIGHT)``.
+        (``BLOCK_BYTES / per_item``) and ``nlat / BLOCKS_PER_HEIGHT`` rounded up to a multiple
+        of 8 rows (whole groups of the grid kernel).
 
     Returns
     -------
@@ -134,7 +135,10 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     nh, nlat, nlon = grid.shape
     if rows_per_block is None:
         per = _per_item(lmax + 1, nlon, grid.lon)
-        rows_per_block = min(BLOCK_BYTES // per, math.ceil(nlat / BLOCKS_PER_HEIGHT))
+        # whole groups of four mirror pairs (8 rows): the grid kernel runs four units per
+        # thread, and a block of 5 pairs would leave 3 of 8 lanes of its last group idle
+        want = 8 * math.ceil(nlat / BLOCKS_PER_HEIGHT / 8)
+        rows_per_block = max(1, min(BLOCK_BYTES // per, want))
     else:
         try:
             rows_per_block = int(rows_per_block)
