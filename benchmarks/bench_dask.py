@@ -22,7 +22,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import shutil
 import statistics
@@ -150,6 +149,7 @@ def projection(results: dict) -> None:
     from the degree-2190 map (Legendre recursion, shared by mirrored rows: nm**2 / 2 per row),
     c_fft per node from the degree-240 map once its Legendre part is removed.
     """
+    from fieldmap.grids.spec import make_grid
     from fieldmap.products import blocks
 
     big = [r for r in results.values() if r["lmax"] == 2190]
@@ -158,25 +158,29 @@ def projection(results: dict) -> None:
         return
     b, s = big[0], small[0]
     nm_b, nm_s = 2191, 241
-    # two unknowns, two runs (times of local:2 = both cores): t = nlat*(a*nm^2/2 + c*nlon)
+    # two unknowns, two runs (engine here, both cores): t = nlat*(a*nm^2/2 + c*nlon)
     A = [
         [b["nlat"] * nm_b**2 / 2, b["nlat"] * b["nlon"]],
         [s["nlat"] * nm_s**2 / 2, s["nlat"] * s["nlon"]],
     ]
-    y = [b["local:2"], s["local:2"]]
+    y = [b["blocks"], s["blocks"]]  # the sum of the per-block costs on this machine's 2 cores
     det = A[0][0] * A[1][1] - A[0][1] * A[1][0]
     a = (y[0] * A[1][1] - A[0][1] * y[1]) / det
     c = (A[0][0] * y[1] - y[0] * A[1][0]) / det
     nlat, nlon, nh = 10801, 21600, 5
-    t1 = nh * nlat * (a * nm_b**2 / 2 + c * nlon)  # on this 2-core machine (2 workers)
-    plan_rows = min(192 * 2**20 // (blocks.block_bytes(1, 2190, nlon)), math.ceil(nlat / 32))
-    mem = blocks.block_bytes(plan_rows, 2190, nlon) + 2 * 16 * nm_b**2 + 300 * 2**20
+    t1 = nh * nlat * (a * nm_b**2 / 2 + c * nlon)  # one worker of 2 cores
+    grid = make_grid(1 / 60, 90.0, None, [2e4], whole_in_memory=False)
+    plan_rows = max(b.rows.size for b in blocks.plan_blocks(grid, 2190))
+    # interpreter R0 = 0.21 GiB (measured by --big); model: C, S on the host, C, S and three
+    # recursion tables on the device = 7 * 8 * nm^2 bytes
+    mem = blocks.block_bytes(plan_rows, 2190, nlon) + 56 * nm_b**2 + 0.21 * 2**30
     size = nh * nlat * nlon * 5 * 8
     print("\nProjection: 1' (10,801 x 21,600) degree-2190 global map at 5 heights")
     print(
         f"  fitted costs: Legendre {a * 1e9:.3f} ns per (row, nm^2/2) term, "
         f"longitudes {c * 1e9:.2f} ns per node (2 cores)"
     )
+    print("  T = nh * nlat * (a * nm^2 / 2 + c * nlon) / N  (+ ~1 s to ship the model)")
     print(
         f"  T(N workers of 2 cores) = {t1 / 3600:.2f} h / N  (N=1: {t1 / 3600:.2f} h, "
         f"N=8: {t1 / 8 / 60:.1f} min, N=32: {t1 / 32 / 60:.1f} min)"
@@ -186,6 +190,13 @@ def projection(results: dict) -> None:
         "(block + model + interpreter)"
     )
     print(f"  output: {size / 1e9:.1f} GB uncompressed (5 variables, float64)")
+    # zarr write rate of one process: (zarr store here - engine in memory) for the 0.1 deg map
+    rate = s["nlat"] * s["nlon"] * 40 / max(1e-9, s["zarr"] - s["blocks"])
+    tw = size / rate
+    print(
+        f"  writing at {rate / 1e6:.0f} MB/s per worker (measured here): {tw / 60:.0f} min / N; "
+        f"total {(t1 + tw) / 60:.0f} min / N on N workers with their own storage bandwidth"
+    )
 
 
 def big(out: str, fmt: str, workers: int) -> None:
