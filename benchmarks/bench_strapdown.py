@@ -72,6 +72,10 @@ def bench_pyins(n_traj, ns, dt, repeat):
     return sec, numba.get_num_threads()
 
 
+#: Warp device of fieldmap's kernels (``--device``).
+DEVICE = "cpu"
+
+
 def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
     """Median seconds of one batched propagation (LCI or NED kernel) of n_traj trajectories."""
     dth, dv = _increments(ns, dt)
@@ -89,7 +93,7 @@ def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
                 gravity,
                 sh_model=sh_model,
                 output_every=max(1, n // 2),
-                device="cpu",
+                device=DEVICE,
             )
     else:
 
@@ -106,7 +110,7 @@ def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
                 gravity,
                 sh_model=sh_model,
                 output_every=n,
-                device="cpu",
+                device=DEVICE,
             )
 
     fn(4)  # compile / load
@@ -190,7 +194,10 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--sh-steps", type=int, default=100, help="LCI steps per trajectory at SH200")
     ap.add_argument("--quick", action="store_true", help="small sizes (smoke test)")
+    ap.add_argument("--device", default="cpu", help="Warp device of fieldmap's kernels")
     a = ap.parse_args(argv)
+    global DEVICE
+    DEVICE = _warp.resolve_device(a.device)
     if a.quick:
         a.samples, a.repeat, a.sh_steps = 2000, 2, 10
     _warp.init()

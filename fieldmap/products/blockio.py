@@ -150,6 +150,9 @@ class ZarrTarget:
     def _arrays(self):
         import zarr
 
+        # a cancelled task still running after a failed run must not recreate the removed store
+        if not os.path.isfile(os.path.join(self.path, "zarr.json")):
+            raise FileNotFoundError(f"zarr store {self.path} is gone (run aborted)")
         return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in VARIABLES}
 
     def write_block(self, block, data: dict) -> dict:
@@ -174,14 +177,21 @@ class ZarrTarget:
                 _put(arrays[name], block.layer, self.stacked, r0, r1, values[name])
 
 
-def create_zarr(path, tmpl: xr.Dataset, grid) -> ZarrTarget:
-    """Create the zarr store (coordinates, attributes, empty chunked variables) at ``path``."""
+def create_zarr(path, tmpl: xr.Dataset, grid, block_rows: int | None = None) -> ZarrTarget:
+    """Create the zarr store (coordinates, attributes, empty chunked variables) at ``path``.
+
+    ``block_rows``: the largest block of the plan. Chunks are then at most an eighth of it (a
+    quarter of a run of rows), so that the workers write nearly every chunk themselves and the
+    client only the few rows of chunks shared by two blocks.
+    """
     import dask.array as da
     import zarr
 
     nh, nlat, nlon = grid.shape
     stacked = "height" in tmpl.attrs["dims"]
     rows = chunk_rows(nlon)
+    if block_rows is not None:  # ... but no chunk under 128 KiB: tiny files cost more
+        rows = min(rows, max(block_rows // 8, -(-(2**17) // (8 * nlon)), 1))
     shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
     chunks = (1, rows, nlon) if stacked else (rows, nlon)
     ds = tmpl.copy()

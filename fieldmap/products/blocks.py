@@ -122,7 +122,8 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     rows_per_block : int, optional
         Most rows per block (a mirrored pair counts two; at least 2). Default: the smaller of
         what :func:`fieldmap.grids.synthesis.synthesize` keeps in one block
-        (``BLOCK_BYTES / per_item``) and ``ceil(nlat / BLOCKS_PER_HEIGHT)``.
+        (``BLOCK_BYTES / per_item``) and ``nlat / BLOCKS_PER_HEIGHT`` rounded up to a multiple
+        of 8 rows (whole groups of the grid kernel).
 
     Returns
     -------
@@ -134,7 +135,10 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     nh, nlat, nlon = grid.shape
     if rows_per_block is None:
         per = _per_item(lmax + 1, nlon, grid.lon)
-        rows_per_block = min(BLOCK_BYTES // per, math.ceil(nlat / BLOCKS_PER_HEIGHT))
+        # whole groups of four mirror pairs (8 rows): the grid kernel runs four units per
+        # thread, and a block of 5 pairs would leave 3 of 8 lanes of its last group idle
+        want = 8 * math.ceil(nlat / BLOCKS_PER_HEIGHT / 8)
+        rows_per_block = max(1, min(BLOCK_BYTES // per, want))
     else:
         try:
             rows_per_block = int(rows_per_block)
@@ -183,20 +187,28 @@ def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -
         "sw": float(row_weights @ v.sum(axis=1)),
         "sw2": float(row_weights @ (v * v).sum(axis=1)),
         "above": [float(row_weights @ (v > t).sum(axis=1)) for t in thresholds],
-        "hist": np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS),
+        "hist": _sparse(np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS)),
     }
+
+
+def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(bins, weights) of the non-empty bins: a block touches few of them, and travels light."""
+    nz = np.flatnonzero(h)
+    return nz.astype(np.int32), h[nz]
 
 
 def merge_partials(acc: dict | None, part: dict) -> dict:
     """Fold one block's partial statistics into the running total (call in block order)."""
     if acc is None:
-        return {**part, "above": list(part["above"]), "hist": part["hist"].copy()}
+        acc = {**part, "above": list(part["above"]), "hist": np.zeros(HIST_BINS)}
+        acc["hist"][part["hist"][0]] = part["hist"][1]
+        return acc
     acc["max"] = max(acc["max"], part["max"])
     acc["min"] = min(acc["min"], part["min"])
     acc["sw"] += part["sw"]
     acc["sw2"] += part["sw2"]
     acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
-    acc["hist"] += part["hist"]
+    acc["hist"][part["hist"][0]] += part["hist"][1]  # distinct bins: no repeated index
     return acc
 
 
@@ -366,8 +378,9 @@ def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
         finally:
             cluster.close()
         return
+    _probe(scheduler, connect_timeout)
     try:
-        client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
+        client = Client(scheduler, timeout=connect_timeout)
     except (OSError, TimeoutError, ValueError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
@@ -375,6 +388,27 @@ def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
         yield client
     finally:
         client.close()
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Fail in milliseconds, not after Dask's connect retries, when nothing listens (tcp)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if not isinstance(address, str) or not address.startswith("tcp://"):
+        return
+    try:
+        u = urlsplit(address)
+        host, port = u.hostname, u.port
+    except ValueError:
+        raise InputError(f"bad Dask scheduler address {address!r}") from None
+    if host is None or port is None:
+        raise InputError(f"Dask scheduler address {address!r} needs tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {why}") from None
 
 
 def _run_local(jobs, model, on_result, progress) -> None:
@@ -401,12 +435,12 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
     nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     # the coefficients travel once to every worker, not once per task
     model_f = client.scatter(model, broadcast=True, hash=False)
-    window = window or 2 * nworkers
+    window = window or 4 * nworkers
     bar = tqdm(total=len(jobs), unit="block", desc="blocks (dask)", disable=_bar_off(progress))
     pending = iter(jobs)
+    # a lost worker's tasks are rescheduled by Dask itself; an exception is not retried
     futures = [
-        client.submit(compute_block, job, model_f, pure=False, retries=2)
-        for job in _take(pending, window)
+        client.submit(compute_block, job, model_f, pure=False) for job in _take(pending, window)
     ]
     seq = as_completed(futures)
     try:
@@ -417,10 +451,10 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
             del res
             bar.update(1)
             for job in _take(pending, 1):
-                seq.add(client.submit(compute_block, job, model_f, pure=False, retries=2))
+                futures.append(client.submit(compute_block, job, model_f, pure=False))
+                seq.add(futures[-1])
     except BaseException:
-        for f in futures:
-            f.cancel()
+        client.cancel(futures)
         raise
     finally:
         bar.close()
@@ -494,7 +528,7 @@ def run_blocks(
     store : blockio.ZarrTarget, optional
         Workers write their blocks straight into this zarr store.
     window : int, optional
-        Blocks in flight on the cluster (default: two per worker), which bounds the memory.
+        Blocks in flight on the cluster (default: four per worker), which bounds the memory.
 
     Returns
     -------

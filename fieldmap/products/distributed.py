@@ -192,7 +192,8 @@ def write_disturbance(
         writer = None
         try:
             if fmt == "zarr":
-                target = blockio.create_zarr(str(tmp), tmpl, grid)
+                plan = blocks.plan_blocks(grid, mod.lmax, rows_per_block)
+                target = blockio.create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in plan))
                 sink, store = target.sink, target
             else:
                 writer = blockio.NetCDFWriter(str(tmp), tmpl, grid)

@@ -1,0 +1,311 @@
+"""Block engine and Dask scale-out: same bits everywhere, faults, atomic outputs.
+
+Small grids (degree <= 60, steps of 2-3 deg) so that each test takes seconds; the memory and
+speed figures come from ``benchmarks/bench_dask.py``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+distributed = pytest.importorskip("distributed")
+pytest.importorskip("zarr")
+
+from fieldmap.products import blockio, blocks  # noqa: E402
+from fieldmap.products import distributed as D  # noqa: E402
+from fieldmap.products.maps import altitude_sweep, disturbance_map, truncation_map  # noqa: E402
+from fieldmap.products.stats import map_statistics  # noqa: E402
+
+KW = dict(lmax=40, step_deg=3.0)
+ROWS = 8  # several blocks per height on these small grids
+VARS = blockio.VARIABLES
+
+
+@pytest.fixture(scope="module")
+def client():
+    with blocks.open_client(("local", 2)) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def local_map():
+    """Make the map here, blocks one after the other (the reference of the promises)."""
+    return D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
+
+
+def _same(a: xr.Dataset, b: xr.Dataset) -> None:
+    for v in VARS:
+        assert np.array_equal(a[v].values, b[v].values), v
+    for k in a.attrs:
+        if k != "history":
+            assert np.array_equal(np.asarray(a.attrs[k]), np.asarray(b.attrs[k])), k
+
+
+def test_plan_covers_every_row_once_with_its_mirror():
+    grid = D.prepare("eigen-6s", 40, [2e4, 5e4], 3.0, 80.0, None, "WGS84", None, None, "mGal")[0]
+    plan = blocks.plan_blocks(grid, 40, ROWS)
+    nlat = grid.lat.size
+    for layer in range(2):
+        rows = np.concatenate([b.rows for b in plan if b.layer == layer])
+        assert np.array_equal(np.sort(rows), np.arange(nlat))
+    for b in plan:
+        assert b.rows.size <= ROWS
+        lat = set(grid.lat[b.rows].tolist())
+        assert all(-x in lat for x in lat)  # mirrored rows stay together (one recursion)
+    assert [b.index for b in plan] == list(range(len(plan)))
+
+
+def test_one_block_is_bitwise_the_in_memory_map():
+    ref = disturbance_map(height_km=20, **KW)
+    one = D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=10**6)
+    for v in VARS:
+        assert np.array_equal(ref[v].values, one[v].values), v
+
+
+def test_block_statistics_match_map_statistics(local_map):
+    """Partial sums combined: exact max, 1e-14 sums; percentiles within the histogram bin."""
+    ref = map_statistics(local_map["modulus_mg"].values, local_map["latitude"].values)
+    a = local_map.attrs
+    assert a["max_mg"] == ref["max_mg"] and a["min_mg"] == ref["min_mg"]
+    for k in ("mean_mg", "rms_mg"):
+        assert a[k] == pytest.approx(ref[k], rel=1e-14, abs=0)
+    for t, f in ref["area_fraction_above"].items():
+        assert a[f"area_fraction_above_{t}_mg"] == pytest.approx(f, rel=1e-14, abs=1e-16)
+    for q in ("p50_mg", "p90_mg", "p99_mg"):
+        assert abs(a[q] / ref[q] - 1) <= blocks.PERCENTILE_RTOL
+    assert blocks.PERCENTILE_RTOL < 1.5e-4
+
+
+def test_local_cluster_is_bitwise_identical(client, local_map):
+    dist = disturbance_map(height_km=20, **KW, client=client)  # default plan
+    here = disturbance_map(height_km=20, **KW, scheduler="threads")
+    _same(here, dist)
+    on2 = D.disturbance_blocks(
+        heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS, client=client
+    )
+    _same(local_map, on2)
+
+
+def test_stores_hold_the_same_bits(client, local_map, tmp_path):
+    common = dict(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
+    D.write_disturbance(tmp_path / "a.zarr", "zarr", **common, client=client)
+    D.write_disturbance(tmp_path / "b.nc", "netcdf", **common, client=client)
+    D.write_disturbance(tmp_path / "c.nc", "netcdf", **common)  # here, no cluster
+    with (
+        xr.open_zarr(tmp_path / "a.zarr") as z,
+        xr.open_dataset(tmp_path / "b.nc") as n,
+        xr.open_dataset(tmp_path / "c.nc") as c,
+    ):
+        for ds in (z, n, c):
+            for v in VARS:
+                assert np.array_equal(ds[v].values, local_map[v].values), v
+            assert ds["modulus"].attrs["units"] == "mGal"
+            assert float(ds["height"]) == 20000.0
+            assert ds.attrs["max_mg"] == local_map.attrs["max_mg"]
+            assert ds.attrs["p99_mg"] == local_map.attrs["p99_mg"]
+        assert n["modulus"].encoding["zlib"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.zarr", "b.nc", "c.nc"]
+
+
+def test_sweep_and_truncation_on_the_cluster(client):
+    here = altitude_sweep(height_km=[20, 50], **KW, scheduler="threads")
+    dist = altitude_sweep(height_km=[20, 50], **KW, client=client)
+    for v in (*VARS, "max_mg", "mean_mg", "p99_mg", "area_fraction_above"):
+        assert np.array_equal(here[v].values, dist[v].values), v
+    ref = truncation_map(height_km=20, step_deg=3.0)
+    tr = truncation_map(height_km=20, step_deg=3.0, client=client)
+    for v in (*VARS, "max_mg"):
+        assert np.array_equal(ref[v].values, tr[v].values), v
+
+
+def test_lazy_dataset(client, local_map):
+    lazy = disturbance_map(height_km=20, **KW, chunks=ROWS, client=client)
+    assert lazy["modulus"].chunks is not None
+    got = lazy.compute()
+    for v in VARS:
+        assert np.array_equal(got[v].values, local_map[v].values), v
+    here = disturbance_map(height_km=20, **KW, chunks=ROWS)  # dask's own local scheduler
+    assert np.array_equal(here["up"].values, local_map["up"].values)
+
+
+def test_worker_killed_mid_run_still_completes_identically(client):
+    grid, _, mod = D.prepare(
+        "eigen-6s", 40, [20000.0], 3.0, 80.0, None, "WGS84", None, None, "mGal"
+    )
+    with contextlib.nullcontext(client) as c:
+        pids = list(c.run(os.getpid).values())
+        mem = blockio.MemorySink(grid, False)
+        killed = []
+
+        def sink(block, data):
+            if not killed:  # the other worker is busy with its block: kill it now
+                os.kill(pids[-1], signal.SIGKILL)
+                killed.append(pids[-1])
+            mem.sink(block, data)
+
+        stats = blocks.run_blocks(grid, mod, rows_per_block=4, client=c, sink=sink, window=8)
+        assert killed
+    ref = D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=4)
+    for v in VARS:
+        assert np.array_equal(mem.arrays[v], ref[v].values), v
+    assert stats[0]["max_mg"] == ref.attrs["max_mg"]
+    assert stats[0]["p50_mg"] == ref.attrs["p50_mg"]
+    assert stats[0]["mean_mg"] == ref.attrs["mean_mg"]
+
+
+def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
+    calls = []
+    real = blocks.compute_block
+
+    def failing(job, model):
+        calls.append(job.block.index)
+        if len(calls) == 3:
+            raise RuntimeError("disk on fire")
+        return real(job, model)
+
+    monkeypatch.setattr(blocks, "compute_block", failing)
+    for fmt, name in (("zarr", "m.zarr"), ("netcdf", "m.nc")):
+        calls.clear()
+        with pytest.raises(RuntimeError, match="disk on fire"):
+            D.write_disturbance(
+                tmp_path / name, fmt, heights_m=[2e4], **KW, stacked=False, rows_per_block=ROWS
+            )
+    assert list(tmp_path.iterdir()) == []
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _fieldmap(*args, timeout=120):
+    exe = Path(sys.executable).with_name("fieldmap")
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=timeout)
+
+
+def test_unreachable_scheduler_one_line_exit_2(tmp_path):
+    out = tmp_path / "never"
+    port = _free_port()
+    r = _fieldmap(
+        "map", "--lmax", "20", "--scheduler", f"tcp://127.0.0.1:{port}", "--out", str(out)
+    )
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert "cannot reach the Dask scheduler" in r.stderr
+    assert not out.exists()
+    with pytest.raises(D.InputError, match="local:N"):
+        blocks.parse_scheduler("local:0")
+
+
+@pytest.mark.slow
+def test_cli_cluster_started_from_the_shell_is_bitwise_identical(tmp_path):
+    """``dask scheduler`` + two ``dask worker`` processes vs the blocks run here (CLI)."""
+    port = _free_port()
+    addr = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "FIELDMAP_THREADS": "1"}
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "dask",
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--no-dashboard",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+    ]
+    try:
+        time.sleep(2)
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "dask",
+                        "worker",
+                        addr,
+                        "--nthreads",
+                        "1",
+                        "--nworkers",
+                        "1",
+                        "--host",
+                        "127.0.0.1",
+                        "--no-dashboard",
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    env=env,
+                )
+            )
+        with distributed.Client(addr, timeout=30) as c:
+            c.wait_for_workers(2, timeout=60)
+        common = [
+            "map",
+            "--lmax",
+            "40",
+            "--step-deg",
+            "3",
+            "--rows-per-block",
+            str(ROWS),
+            "--no-plots",
+        ]
+        r1 = _fieldmap(*common, "--scheduler", addr, "--out", str(tmp_path / "shell"))
+        assert r1.returncode == 0, r1.stderr
+        r2 = _fieldmap(*common, "--scheduler", "threads", "--out", str(tmp_path / "here"))
+        assert r2.returncode == 0, r2.stderr
+        r3 = _fieldmap(
+            *common, "--scheduler", "local:2", "--format", "zarr", "--out", str(tmp_path / "local2")
+        )
+        assert r3.returncode == 0, r3.stderr
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+    (a,) = (tmp_path / "shell").glob("*.nc")
+    (b,) = (tmp_path / "here").glob("*.nc")
+    (z,) = (tmp_path / "local2").glob("*.zarr")
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y, xr.open_zarr(z) as w:
+        for v in VARS:
+            assert np.array_equal(x[v].values, y[v].values), v
+            assert np.array_equal(w[v].values, y[v].values), v
+        for k in ("max_mg", "mean_mg", "p50_mg", "p99_mg", "area_fraction_above_0.05_mg"):
+            assert x.attrs[k] == y.attrs[k] == w.attrs[k], k
+
+
+def test_navigation_monte_carlo_on_the_cluster(client):
+    """Draws x models split into tasks: the single-launch result, bit for bit."""
+    from fieldmap.nav import imu_errors, studies
+    from fieldmap.nav.distributed import propagate_on
+
+    sc = studies.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    err = imu_errors.draw(imu_errors.TABLE4, 3, seed=7).repeat(2)
+    grav = ["j4"] * 3 + ["sh18"] * 3
+    ref = studies.propagate(sc, grav, errors=err)
+    got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
+    for k in ("t", "dP", "dV", "pos", "vel"):
+        assert np.array_equal(ref[k], got[k]), k
+    assert np.all(got["pos"][:, -1] > 0)
