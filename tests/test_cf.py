@@ -79,6 +79,25 @@ def files(tmp_path_factory):
         out[name] = io.write_netcdf(ds, folder / f"{name}.nc")
     ds = fieldmap.disturbance_map(**SMALL)
     out["disturbance_float32"] = io.write_netcdf(ds, folder / "f32.nc", dtype="float32")
+    # written block by block by the block engine (fieldmap map --scheduler ...)
+    from fieldmap.products.distributed import write_disturbance
+
+    for name, heights, stacked in (
+        ("streamed_map", (2e4,), False),
+        ("streamed_sweep", (2e4, 5e4), True),
+    ):
+        path = folder / f"{name}.nc"
+        write_disturbance(
+            path,
+            "netcdf",
+            lmax=30,
+            heights_m=heights,
+            step_deg=10.0,
+            device="cpu",
+            stacked=stacked,
+            rows_per_block=4,
+        )
+        out[name] = path
     return out
 
 
@@ -131,6 +150,8 @@ PRODUCTS = [
     "truncation",
     "components",
     "navsim",
+    "streamed_map",
+    "streamed_sweep",
     "geoid",
     "anomaly",
     "deflection_sweep",

@@ -19,6 +19,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from fieldmap.products import cf
+
 distributed = pytest.importorskip("distributed")
 pytest.importorskip("zarr")
 
@@ -81,7 +83,7 @@ def test_block_statistics_match_map_statistics(local_map):
     for k in ("mean_mg", "rms_mg"):
         assert a[k] == pytest.approx(ref[k], rel=1e-14, abs=0)
     for t, f in ref["area_fraction_above"].items():
-        assert a[f"area_fraction_above_{t}_mg"] == pytest.approx(f, rel=1e-14, abs=1e-16)
+        assert a[cf.fraction_attr(t)] == pytest.approx(f, rel=1e-14, abs=1e-16)
     for q in ("p50_mg", "p90_mg", "p99_mg"):
         assert abs(a[q] / ref[q] - 1) <= blocks.PERCENTILE_RTOL
     assert blocks.PERCENTILE_RTOL < 1.5e-4
@@ -292,7 +294,7 @@ def test_cli_cluster_started_from_the_shell_is_bitwise_identical(tmp_path):
         for v in VARS:
             assert np.array_equal(x[v].values, y[v].values), v
             assert np.array_equal(w[v].values, y[v].values), v
-        for k in ("max_mg", "mean_mg", "p50_mg", "p99_mg", "area_fraction_above_0.05_mg"):
+        for k in ("max_mg", "mean_mg", "p50_mg", "p99_mg", "area_fraction_above_0p05_mg"):
             assert x.attrs[k] == y.attrs[k] == w.attrs[k], k
 
 

@@ -45,7 +45,7 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
     to its attributes.
     """
     from fieldmap import __version__
-    from fieldmap.products.cf import coords, global_attrs, vector_vars
+    from fieldmap.products.cf import coords, global_attrs, mg_attrs, vector_vars
 
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
@@ -63,7 +63,7 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
         c["threshold_mg"] = xr.Variable(
             "threshold_mg",
             np.array(thresholds, dtype=np.float64),
-            {"units": "mg", "long_name": "threshold of the disturbance modulus"},
+            mg_attrs("threshold of the disturbance modulus"),
         )
     ds = xr.Dataset(coords=c, attrs=attrs)
     ds.attrs["variables"] = {name: vv[name][2] for name in VARIABLES}
@@ -73,6 +73,7 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
 
 def sweep_statistics(stats: list[dict], thresholds) -> dict:
     """Statistics variables of a sweep: {name: (dims, values, attrs)} as altitude_sweep's."""
+    from fieldmap.products.cf import mg_attrs
     from fieldmap.products.stats import threshold_key
 
     out = {}
@@ -85,7 +86,7 @@ def sweep_statistics(stats: list[dict], thresholds) -> dict:
         out[key] = (
             "height",
             np.array([s[key] for s in stats]),
-            {"units": "mg", "long_name": f"{long} of the disturbance modulus"},
+            mg_attrs(f"{long} of the disturbance modulus"),
         )
     frac = np.array(
         [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
@@ -238,14 +239,24 @@ class NetCDFWriter:
         var_attrs = ds.attrs.pop("variables")
         dims = ds.attrs.pop("dims")
         self.stacked = "height" in dims
-        ds.to_netcdf(path, engine="netcdf4", mode="w")
+        from fieldmap.products.io import COMPLEVEL, netcdf_encoding
+
+        # the same encoding as the in-memory products: no _FillValue on coordinates (CF 1.8 §5)
+        ds.to_netcdf(path, engine="netcdf4", mode="w", encoding=netcdf_encoding(ds))
         self.nc = netCDF4.Dataset(path, "a")
         rows = chunk_rows(nlon)
         chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
         self.vars = {}
         for name in VARIABLES:
             v = self.nc.createVariable(
-                name, "f8", dims, zlib=True, complevel=4, chunksizes=chunks, fill_value=np.nan
+                name,
+                "f8",
+                dims,
+                zlib=True,
+                shuffle=True,
+                complevel=COMPLEVEL,
+                chunksizes=chunks,
+                fill_value=np.nan,
             )
             v.setncatts(var_attrs[name])
             if not self.stacked:
@@ -264,8 +275,13 @@ class NetCDFWriter:
     def finish(self, attrs: dict, extra_vars: dict | None = None) -> None:
         """Write the statistics and close the file."""
         for name, (dims, values, vattrs) in (extra_vars or {}).items():
+            from fieldmap.products.io import COMPLEVEL
+
             dims = (dims,) if isinstance(dims, str) else dims
-            v = self.nc.createVariable(name, "f8", dims)
+            packed = (
+                {"zlib": True, "shuffle": True, "complevel": COMPLEVEL} if len(dims) > 1 else {}
+            )
+            v = self.nc.createVariable(name, "f8", dims, **packed)
             v[...] = values
             v.setncatts(vattrs)
         self.nc.setncatts(attrs)

@@ -296,7 +296,7 @@ def compute_block(job: Job, model) -> dict:
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import GridSpec
     from fieldmap.grids.synthesis import synthesize
-    from fieldmap.units import MG, get_unit
+    from fieldmap.products.cf import vector_vars
 
     _worker_threads()
     ell = get_ellipsoid(job.ellipsoid)
@@ -308,13 +308,9 @@ def compute_block(job: Job, model) -> dict:
         is_global=job.is_global,
     )
     vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
-    # the expressions of fieldmap.products.cf.vector_vars, element by element the same bits
-    scale = get_unit(job.units).si
-    mod = np.sqrt(np.sum(vec * vec, axis=-1))
-    data = {name: vec[..., k] / scale for k, name in enumerate(("east", "north", "up"))}
-    data["modulus"] = mod / scale
-    data["modulus_mg"] = mod / MG
-    del vec, mod
+    # the variables of the in-memory map, by the same function (the same bits)
+    data = {k: v[1] for k, v in vector_vars(vec, (), job.units, "", overwrite=True).items()}
+    del vec
     partial = block_partial(data["modulus_mg"], job.row_weights, job.thresholds)
     out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
     if job.store is not None:
