@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
@@ -72,7 +73,9 @@ def propagate_on(
         for a in range(0, n, per)
     ]
     parts = client.gather(futures)
-    out = {k: np.concatenate([p[k] for p in parts]) for k in ("dP", "dV", "pos", "vel")}
+    out: dict[str, Any] = {
+        k: np.concatenate([p[k] for p in parts]) for k in ("dP", "dV", "pos", "vel")
+    }
     out["t"] = parts[0]["t"]
     out["seconds"] = time.perf_counter() - t0
     return out

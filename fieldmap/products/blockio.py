@@ -76,7 +76,7 @@ def sweep_statistics(stats: list[dict], thresholds) -> dict:
     from fieldmap.products.cf import mg_attrs
     from fieldmap.products.stats import threshold_key
 
-    out = {}
+    out: dict[str, tuple] = {}
     for key, long in (
         ("max_mg", "maximum"),
         ("mean_mg", "area-weighted mean"),
@@ -248,7 +248,8 @@ class NetCDFWriter:
         chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
         self.vars = {}
         for name in VARIABLES:
-            v = self.nc.createVariable(
+            # netCDF4's stubs type complevel as a Literal[0..9] (COMPLEVEL is 1)
+            v = self.nc.createVariable(  # type: ignore[call-overload]
                 name,
                 "f8",
                 dims,
@@ -281,7 +282,8 @@ class NetCDFWriter:
             packed = (
                 {"zlib": True, "shuffle": True, "complevel": COMPLEVEL} if len(dims) > 1 else {}
             )
-            v = self.nc.createVariable(name, "f8", dims, **packed)
+            # netCDF4's stubs type complevel as a Literal[0..9]: COMPLEVEL is 1
+            v = self.nc.createVariable(name, "f8", dims, **packed)  # type: ignore[call-overload]
             v[...] = values
             v.setncatts(vattrs)
         self.nc.setncatts(attrs)

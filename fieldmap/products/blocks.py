@@ -35,6 +35,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -148,7 +149,7 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
             raise InputError(f"rows per block must be >= 1, got {rows_per_block}")
     size = max(2, min(nlat, rows_per_block))
     units = mirror_pairs(grid.lat)
-    blocks = []
+    blocks: list[Block] = []
     for layer in range(nh):
         u0 = 0
         while u0 < len(units):  # the grouping rule of synthesize
@@ -268,7 +269,7 @@ class Job:
     device: str | None
     units: str
     thresholds: tuple
-    store: object = None  # a blockio.ZarrTarget when workers write, else None
+    store: Any = None  # a blockio.ZarrTarget when workers write, else None
 
 
 def _worker_threads() -> None:
@@ -547,4 +548,9 @@ def run_blocks(
     else:
         _run_dask(client, jobs, model, on_result, progress, window)
     total = float(area_weights(grid.lat).sum()) * grid.lon.size
-    return [finish_statistics(a, total, thresholds, percentiles) for a in fold.acc]
+    stats = []
+    for a in fold.acc:
+        if a is None:  # every height has blocks: a missing one is a bug, never silent
+            raise RuntimeError("a height of the plan received no block")
+        stats.append(finish_statistics(a, total, thresholds, percentiles))
+    return stats

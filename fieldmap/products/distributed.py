@@ -219,6 +219,7 @@ def write_disturbance(
             if fmt == "zarr":
                 blockio.finish_zarr(str(tmp), attrs, extra)
             else:
+                assert writer is not None  # opened above for the netcdf format
                 writer.finish(attrs, extra)
         finally:
             if writer is not None:
