@@ -16,6 +16,8 @@ with its printed J2 = 1.082627e-3; centrifugal eqs. 3.7.5/3.7.6).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import warp as wp
 from numpy.typing import ArrayLike
@@ -188,7 +190,7 @@ def normal_gravity(
         return np.zeros(shape + (3,))
     dev = _warp.resolve_device(device)
     _warp.init()
-    arrs = [
+    arrs: Any = [
         wp.array(np.ascontiguousarray(np.radians(v).ravel()), dtype=wp.float64, device=dev)
         for v in (lat, lon)
     ]
@@ -268,7 +270,7 @@ def normal_gravitation_ecef(
         )
     dev = _warp.resolve_device(device)
     pts = np.ascontiguousarray(np.stack([x.ravel(), y.ravel(), z.ravel()], axis=-1))
-    p_wp = wp.array(pts, dtype=wp.vec3d, device=dev)
+    p_wp: Any = wp.array(pts, dtype=wp.vec3d, device=dev)
     out = wp.empty(x.size, dtype=wp.vec3d, device=dev)
     params = _params_for(ell, key, groves_j2)
     _warp.launch_chunked(

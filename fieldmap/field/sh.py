@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import threading
 import weakref
+from typing import Any
 
 import numpy as np
 import warp as wp
@@ -146,7 +147,7 @@ def _device_tables(L: int, device: str):
     # high degrees: verified tables from the on-disk cache (0.4 s to compute at degree 2190);
     # on the CPU the Warp arrays alias the NumPy ones (Warp keeps a reference), no copy
     tab = cached_tables(L, recursion_tables)
-    arrs = tuple(
+    arrs: Any = tuple(
         wp.array(tab[k], dtype=wp.float64, device=device, copy=device != "cpu")
         for k in ("anm", "bnm", "fnm", "sect")
     )
@@ -162,7 +163,7 @@ def _device_coefficients(model: SHModel, L: int, device: str):
         if hit is not None and hit[0]() is model and hit[1] >= L:
             return hit[2]
     # transposed to [m, n]: one column recursion then reads contiguous memory
-    arrs = tuple(
+    arrs: Any = tuple(
         wp.array(
             np.ascontiguousarray(A[: L + 1, : L + 1].T),
             dtype=wp.float64,
@@ -203,7 +204,7 @@ def _launch_points(
     device = _warp.resolve_device(device)
     km = kernel_model(model, device, lmax)
     n = columns[0][0].shape[0]
-    ins = [wp.array(np.ascontiguousarray(a), dtype=t, device=device) for a, t in columns]
+    ins: Any = [wp.array(np.ascontiguousarray(a), dtype=t, device=device) for a, t in columns]
     out = wp.zeros(n, dtype=out_dtype, device=device)
     _warp.launch_chunked(getattr(ksh, kernel), n, [km, *ins, *consts, out], device)
     return out.numpy()

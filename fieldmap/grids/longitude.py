@@ -8,6 +8,8 @@ through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_ker
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 
@@ -108,8 +110,8 @@ def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
     _warp.init()  # launch_chunked compiles the module once, before its threads launch
     nser, nm = W.shape
     ab = np.stack([W.real, -W.imag], axis=-1)
-    coef = wp.array(np.ascontiguousarray(ab), dtype=wp.vec2d, device=device)
-    lon = wp.array(np.radians(lon_deg), dtype=wp.float64, device=device)
+    coef: Any = wp.array(np.ascontiguousarray(ab), dtype=wp.vec2d, device=device)
+    lon: Any = wp.array(np.radians(lon_deg), dtype=wp.float64, device=device)
     out = wp.zeros((nser, lon_deg.size), dtype=wp.float64, device=device)
     _warp.launch_chunked(
         kgrid.longitude_sum_kernel,

@@ -12,7 +12,7 @@ longitudes). Rows are processed in blocks so memory stays bounded for any grid s
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -231,8 +231,8 @@ def synthesize(
             pad = 4 * ng - len(loc_a)
             ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, 4)
             gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, 4)
-            ra = wp.array(ga, dtype=wp.int32, device=device)
-            rb = wp.array(gb, dtype=wp.int32, device=device)
+            ra: Any = wp.array(ga, dtype=wp.int32, device=device)
+            rb: Any = wp.array(gb, dtype=wp.int32, device=device)
             _warp.launch_chunked(
                 kgrid.row_fourier_group_kernel, ng * nm, [km, *geo, ra, rb, nm, coef], device
             )
@@ -242,6 +242,7 @@ def synthesize(
         if quantity == "disturbance":
             W[:, :3, 0] -= gamma.numpy()
         elif quantity == "gravity":
+            assert cen is not None  # computed above for this quantity
             W[:, :3, 0] += cen[items]
         if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
             longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])

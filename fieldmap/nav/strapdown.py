@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import warp as wp
@@ -233,7 +234,9 @@ class _Batch:
         dev = self.device
         types = (wp.vec3d, wp.vec3d, wp.quatd)
         pos, vel, q = start
-        start_d = [wp.array(a, dtype=t, device=dev) for a, t in zip((pos, vel, _quat_in(q)), types)]
+        start_d: Any = [
+            wp.array(a, dtype=t, device=dev) for a, t in zip((pos, vel, _quat_in(q)), types)
+        ]
         outs = [wp.zeros((self.n, self.n_out), dtype=t, device=dev) for t in types]
         inputs = [
             *self.inputs,
@@ -439,8 +442,17 @@ def propagate_lci(
                 f"{frame.ellipsoid.name}: give it to the LaunchFrame"
             )
     else:
+        parts = tuple(launch)
+        if not 3 <= len(parts) <= 4:
+            raise InputError(
+                f"launch must be a LaunchFrame or (lon0, B0, A0[, h0]), got {len(parts)} values"
+            )
         frame = LaunchFrame(
-            *launch, ellipsoid=get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
+            parts[0],
+            parts[1],
+            parts[2],
+            parts[3] if len(parts) == 4 else 0.0,
+            ellipsoid=get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid),
         )
     b = prepare_batch(
         dtheta,

@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from fieldmap.errors import InputError
+from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import imu_errors
 from fieldmap.nav.imu import Gravitation, ImuIncrements, load_truth_model, synthesize
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
@@ -60,7 +62,7 @@ class Scenario:
     """Trajectory, truth model, exact IMU increments and exact states at the output times."""
 
     traj: Trajectory
-    truth_model: object
+    truth_model: SHModel
     imu: ImuIncrements
     output_every: int
     t_out: np.ndarray
@@ -132,6 +134,7 @@ def build_scenario(
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device)
     imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
+    assert isinstance(imu, ImuIncrements)  # one gravitation in, one increment set out
     steps = imu.n_samples // 2
     every = output_steps(output_dt, steps, 2.0 / float(rate_hz))
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
@@ -374,7 +377,7 @@ def table1(
     names = check_model_names(models, sc.truth_model)
     runs = names + [sc.truth_key]
     out = propagate(sc, runs, progress=progress)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for i, name in enumerate(names):
         row = {
             "model": name,
@@ -389,7 +392,7 @@ def table1(
         if timing:
             row["gravity_eval_seconds"] = gravity_eval_seconds(name, sc.truth_model)
         rows.append(row)
-    floor = {
+    floor: dict[str, Any] = {
         "nav_gravity": sc.truth_key,
         "final_position_error_m": float(out["pos"][-1, -1]),
         "final_velocity_error_m_s": float(out["vel"][-1, -1]),
@@ -426,7 +429,7 @@ def _stats(x: np.ndarray) -> dict:
 
 
 def _mc_rows(labels, out, n, extra):
-    rows = []
+    rows: list[dict[str, Any]] = []
     for j, lab in enumerate(labels):
         sl = slice(j * n, (j + 1) * n)
         row = dict(extra[j])

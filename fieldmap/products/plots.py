@@ -205,7 +205,7 @@ def _bands(top: float, levels) -> np.ndarray:
     A round edge closer than 0.3 step to an isoline level is dropped so that no band is a
     sliver.
     """
-    nice = MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, top)
+    nice = np.asarray(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, top))
     nice = np.round(nice[(nice >= 0) & (nice < top * (1 - 1e-9))], 12)
     step = nice[1] - nice[0] if nice.size > 1 else top
     lev = np.array([x for x in levels if 0 < x < top])

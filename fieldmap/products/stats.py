@@ -8,6 +8,8 @@ quote "the fraction of the total area" above a threshold: that is the area-weigh
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from fieldmap.units import MG as MG  # 1 mg = 1e-3 standard gravity (m/s²)
@@ -185,7 +187,7 @@ def map_statistics(
     # weights are constant along a row: sum each row first, then weight the row sums
     w_row = area_weights(lat_deg)
     w_row = w_row / (w_row.sum() * v.shape[1])
-    out = {
+    out: dict[str, Any] = {
         "max_mg": float(v.max()),
         "min_mg": float(v.min()),
         "mean_mg": float(w_row @ v.sum(axis=1)),
