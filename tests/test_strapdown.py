@@ -371,6 +371,18 @@ def test_lci_ellipsoid_conflicting_with_launch_frame_raises():
         propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, frame, ellipsoid=GRS80)
 
 
+def test_lci_launch_tuple_of_wrong_length_raises():
+    """A launch given as a tuple takes (lon0, B0, A0[, h0]); five values are bad input."""
+    from fieldmap.errors import InputError
+
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    z = np.zeros((2, 3))
+    with pytest.raises(InputError, match=r"\(lon0, B0, A0\[, h0\]\), got 5 values"):
+        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, (10.0, 40.0, 0.0, 0.0, "GRS80"))
+    with pytest.raises(InputError, match="got 2 values"):
+        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, (10.0, 40.0))
+
+
 def test_quat_to_dcm_zero_quaternion_raises():
     """A zero quaternion is an error, not a matrix of NaNs."""
     from fieldmap.errors import InputError
