@@ -11,6 +11,8 @@ Variable                  Meaning
                           the cores this process may run on (its CPU affinity mask).
 ``FIELDMAP_KERNEL_CACHE`` Folder of Warp's compiled-kernel cache. Default:
                           ``$XDG_CACHE_HOME/fieldmap/warp`` (``~/.cache/fieldmap/warp``).
+``FIELDMAP_MODEL_CACHE``  Folder of the parsed-model cache (:mod:`fieldmap.models.cache`).
+                          Default: ``$XDG_CACHE_HOME/fieldmap/models``.
 ``FIELDMAP_VERBOSE``      ``1``: show Warp's own start-up messages (such as its notice that no
                           CUDA driver is present), hidden by default.
 ``FIELDMAP_DEBUG``        ``1``: the CLI shows the traceback of an internal error instead of
@@ -46,6 +48,8 @@ class Config:
         ``FIELDMAP_THREADS``: threads for CPU launches; ``None`` means one per available core.
     kernel_cache : str
         ``FIELDMAP_KERNEL_CACHE``: Warp's kernel cache folder (resolved to its default if unset).
+    model_cache : str
+        ``FIELDMAP_MODEL_CACHE``: the parsed-model cache folder (resolved to its default).
     verbose : bool
         ``FIELDMAP_VERBOSE``: show Warp's start-up messages.
     debug : bool
@@ -54,6 +58,7 @@ class Config:
 
     threads: int | None
     kernel_cache: str
+    model_cache: str
     verbose: bool
     debug: bool
 
@@ -89,12 +94,13 @@ def from_environ(env: Mapping[str, str] | None = None) -> Config:
         A variable has a value it cannot take (``FIELDMAP_THREADS=abc``, ``FIELDMAP_DEBUG=maybe``).
     """
     env = os.environ if env is None else env
-    cache = env.get("FIELDMAP_KERNEL_CACHE", "").strip() or os.path.join(
-        env.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "fieldmap", "warp"
-    )
+    base = os.path.join(env.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "fieldmap")
+    cache = env.get("FIELDMAP_KERNEL_CACHE", "").strip() or os.path.join(base, "warp")
+    models = env.get("FIELDMAP_MODEL_CACHE", "").strip() or os.path.join(base, "models")
     return Config(
         threads=_threads(env),
         kernel_cache=cache,
+        model_cache=models,
         verbose=_switch(env, "FIELDMAP_VERBOSE"),
         debug=_switch(env, "FIELDMAP_DEBUG"),
     )

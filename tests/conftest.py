@@ -33,15 +33,20 @@ _tmp_key = pytest.StashKey[tuple]()
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Configure Warp once; give the child processes a temporary folder of their own."""
-    # Warp's options (kernel cache, no backward pass) before any test module defines a kernel
+    """Configure Warp once; give the child processes a temporary folder of their own.
+
+    The parsed-model cache of the tests (degree-2190 recursion tables among them, ~115 MB)
+    goes into that folder too, not into the user's cache, unless ``FIELDMAP_MODEL_CACHE`` is set.
+    """
+    if not hasattr(config, "workerinput"):  # a pytest-xdist worker: the main process owns it
+        root = tempfile.gettempdir()  # fixes this process's (and pytest's tmp_path) folder first
+        private = tempfile.mkdtemp(prefix="fieldmap-tests-", dir=root)
+        config.stash[_tmp_key] = (private, os.environ.get("TMPDIR"))
+        os.environ["TMPDIR"] = private
+        os.environ.setdefault("FIELDMAP_MODEL_CACHE", os.path.join(private, "model-cache"))
+    # Warp's options (kernel cache, no backward pass) before any test module defines a kernel;
+    # this reads the settings (fieldmap.config) once, after the folders above are set
     _warp.init()
-    if hasattr(config, "workerinput"):  # pragma: no cover - a pytest-xdist worker: main owns it
-        return
-    root = tempfile.gettempdir()  # fixes this process's (and pytest's tmp_path) folder first
-    private = tempfile.mkdtemp(prefix="fieldmap-tests-", dir=root)
-    config.stash[_tmp_key] = (private, os.environ.get("TMPDIR"))
-    os.environ["TMPDIR"] = private
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:

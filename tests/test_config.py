@@ -14,7 +14,8 @@ from fieldmap.errors import InputError
 def fresh(monkeypatch):
     """Forget the settings read so far (restored after the test) and clear the variables."""
     monkeypatch.setattr(config, "_current", None)
-    for name in ("FIELDMAP_THREADS", "FIELDMAP_KERNEL_CACHE", "FIELDMAP_VERBOSE", "FIELDMAP_DEBUG"):
+    names = ("FIELDMAP_THREADS", "FIELDMAP_KERNEL_CACHE", "FIELDMAP_VERBOSE", "FIELDMAP_DEBUG")
+    for name in names:
         monkeypatch.delenv(name, raising=False)
     return monkeypatch
 
@@ -22,8 +23,13 @@ def fresh(monkeypatch):
 def test_defaults():
     c = config.from_environ({"XDG_CACHE_HOME": "/x/cache"})
     assert c == config.Config(
-        threads=None, kernel_cache="/x/cache/fieldmap/warp", verbose=False, debug=False
+        threads=None,
+        kernel_cache="/x/cache/fieldmap/warp",
+        model_cache="/x/cache/fieldmap/models",
+        verbose=False,
+        debug=False,
     )
+    assert config.from_environ({"FIELDMAP_MODEL_CACHE": "/m"}).model_cache == "/m"
     home = os.path.expanduser("~/.cache/fieldmap/warp")
     assert config.from_environ({}).kernel_cache == home
     assert config.from_environ({"FIELDMAP_KERNEL_CACHE": "/k"}).kernel_cache == "/k"

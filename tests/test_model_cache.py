@@ -15,11 +15,22 @@ from fieldmap.models.icgem import read_icgem, write_icgem
 from fieldmap.models.registry import clear_cache, kaula_model, load_model
 
 
+def _use_model_cache(monkeypatch, folder) -> None:
+    """Point the parsed-model cache at ``folder`` for this test (the settings are read once)."""
+    import dataclasses
+
+    from fieldmap import config
+
+    monkeypatch.setattr(
+        config, "_current", dataclasses.replace(config.get(), model_cache=str(folder))
+    )
+
+
 @pytest.fixture
 def root(tmp_path, monkeypatch):
     """Return a private cache folder (and empty the in-memory cache)."""
     folder = tmp_path / "cache"
-    monkeypatch.setenv("FIELDMAP_MODEL_CACHE", str(folder))
+    _use_model_cache(monkeypatch, str(folder))
     clear_cache()
     return folder
 
@@ -136,7 +147,7 @@ def test_no_cache_and_unwritable_cache(root, gfc, tmp_path, monkeypatch):
     assert not root.exists()
     blocker = tmp_path / "file-not-folder"
     blocker.write_text("x")
-    monkeypatch.setenv("FIELDMAP_MODEL_CACHE", str(blocker / "cache"))
+    _use_model_cache(monkeypatch, str(blocker / "cache"))
     clear_cache()
     m = load_model(str(path))
     np.testing.assert_array_equal(m.S, model.S)

@@ -27,10 +27,21 @@ needs_tool = pytest.mark.skipif(
 )
 
 
+def _use_model_cache(monkeypatch, folder) -> None:
+    """Point the parsed-model cache at ``folder`` for this test (the settings are read once)."""
+    import dataclasses
+
+    from fieldmap import config
+
+    monkeypatch.setattr(
+        config, "_current", dataclasses.replace(config.get(), model_cache=str(folder))
+    )
+
+
 @pytest.fixture(autouse=True)
 def _private_cache(tmp_path, monkeypatch):
     """Keep the on-disk model cache of these tests out of the user's cache folder."""
-    monkeypatch.setenv("FIELDMAP_MODEL_CACHE", str(tmp_path / "model-cache"))
+    _use_model_cache(monkeypatch, str(tmp_path / "model-cache"))
     from fieldmap.models.registry import clear_cache
 
     clear_cache()

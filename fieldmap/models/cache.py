@@ -49,12 +49,10 @@ _CORR = ("CC", "CS")
 
 
 def cache_dir() -> str:
-    """Folder of the model cache (see the module docstring); not created here."""
-    env = os.environ.get("FIELDMAP_MODEL_CACHE")
-    if env:
-        return env
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "fieldmap", "models")
+    """Folder of the model cache (``FIELDMAP_MODEL_CACHE``, :mod:`fieldmap.config`); not created."""
+    from fieldmap import config
+
+    return config.get().model_cache
 
 
 def _sha256_file(path: str) -> str:

@@ -371,8 +371,8 @@ def register_cache_command(subparsers) -> None:
         "cache",
         help="show or clear the on-disk cache of parsed model files",
         description="The cache holds parsed coefficients of model files (verified by checksums, "
-        f"keyed by file content and reader version) under {disk_cache.cache_dir()} "
-        "($FIELDMAP_MODEL_CACHE or $XDG_CACHE_HOME/fieldmap/models).",
+        "keyed by file content and reader version) under $FIELDMAP_MODEL_CACHE (default "
+        "$XDG_CACHE_HOME/fieldmap/models, i.e. ~/.cache/fieldmap/models); 'info' prints it.",
     )
     c.add_argument("action", choices=("info", "clear"), help="list the entries, or delete them")
     c.set_defaults(func=_run_cache)
