@@ -389,3 +389,32 @@ def test_exact_vector_vs_geographiclib(ell, tmp_path):
     gamma_gl = run("-G", "15") - run("-D", "12") * 1e-5
     got = N.normal_gravity(lat, lon, h, ellipsoid=ell, frame="enu")
     _assert_vec_close(got, gamma_gl, 5e-15)  # output printed to 1e-15 m/s²
+
+
+@pytest.mark.parametrize("lat", [0.0, 45.0, 90.0])
+def test_ecef_height_range_exact_at_both_ends(lat):
+    """ECEF points are held to -10 km <= h <= 1e8 m exactly.
+
+    Also where the cheap radius test of ``normal_gravitation_ecef`` cannot decide (the pole near
+    -10 km, the equator near 1e8 m).
+    """
+    from fieldmap.errors import InputError
+    from fieldmap.field.frames import geodetic_to_ecef
+    from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT
+
+    for h, ok in (
+        (MIN_HEIGHT + 1.0, True),
+        (MIN_HEIGHT - 1.0, False),
+        (MAX_HEIGHT - 1.0, True),
+        (MAX_HEIGHT + 1e3, False),
+        (0.0, True),
+    ):
+        x, y, z = geodetic_to_ecef(np.array([lat]), np.array([30.0]), np.array([h]))
+        # with a point well inside the shell in the same call: the decision is per point
+        xs, ys, zs = (np.array([v[0], 6.4e6]) for v in (x, y, z))
+        if ok:
+            g = N.normal_gravitation_ecef(xs, ys, zs)
+            assert np.all(np.isfinite(g))
+        else:
+            with pytest.raises(InputError, match="ECEF point more than"):
+                N.normal_gravitation_ecef(xs, ys, zs)

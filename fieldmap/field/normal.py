@@ -257,7 +257,16 @@ def normal_gravitation_ecef(
             f"ECEF point more than {MAX_HEIGHT:g} m above the ellipsoid (a coordinate exceeds "
             f"{far:g} m): outside the range where an Earth gravity model is meant to be used"
         )
-    _, _, h = ecef_to_geodetic(x, y, z, ell)
+    # Geodetic height is the signed distance to the ellipsoid, whose points lie between b and a
+    # from the centre: a + MIN_HEIGHT <= |r| <= b + MAX_HEIGHT guarantees MIN_HEIGHT <= h <=
+    # MAX_HEIGHT. Only the points outside that shell (or NaN) need the geodetic conversion,
+    # which costs more than the normal gravity itself (IMU synthesis calls this per sample).
+    r = np.sqrt(x * x + y * y + z * z)
+    unsure = ~((r >= ell.a + MIN_HEIGHT) & (r <= ell.b + MAX_HEIGHT))
+    if not np.any(unsure):
+        h = np.zeros(0)
+    else:
+        _, _, h = ecef_to_geodetic(x[unsure], y[unsure], z[unsure], ell)
     if np.any(~(h >= MIN_HEIGHT)):
         raise InputError(
             f"ECEF point more than {-MIN_HEIGHT:.0f} m below the ellipsoid: outside the domain "
