@@ -257,12 +257,17 @@ def normal_gravitation_ecef(
             f"ECEF point more than {MAX_HEIGHT:g} m above the ellipsoid (a coordinate exceeds "
             f"{far:g} m): outside the range where an Earth gravity model is meant to be used"
         )
-    # Geodetic height is the signed distance to the ellipsoid, whose points lie between b and a
-    # from the centre: a + MIN_HEIGHT <= |r| <= b + MAX_HEIGHT guarantees MIN_HEIGHT <= h <=
-    # MAX_HEIGHT. Only the points outside that shell (or NaN) need the geodetic conversion,
-    # which costs more than the normal gravity itself (IMU synthesis calls this per sample).
-    r = np.sqrt(x * x + y * y + z * z)
-    unsure = ~((r >= ell.a + MIN_HEIGHT) & (r <= ell.b + MAX_HEIGHT))
+    # Geodetic height h is the signed distance to the ellipsoid. With d = |r| - R, R the
+    # ellipsoid's radius in the direction of r: inside, h >= -(R - |r|) = d (the radial surface
+    # point is at that distance); outside, 0 <= h <= d. So MIN_HEIGHT <= d <= MAX_HEIGHT
+    # guarantees MIN_HEIGHT <= h <= MAX_HEIGHT, and only the other points (none, in practice)
+    # need the geodetic conversion, which costs more than the normal gravity itself (IMU
+    # synthesis calls this for every quadrature point). d = |r| (1 - 1/sqrt(q)), with
+    # q = (x² + y²)/a² + z²/b² (R = |r|/sqrt(q)).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.sqrt(x * x + y * y + z * z)
+        d = r * (1.0 - 1.0 / np.sqrt((x * x + y * y) / ell.a**2 + z * z / ell.b**2))
+    unsure = ~((d >= MIN_HEIGHT) & (d <= MAX_HEIGHT))
     if not np.any(unsure):
         h = np.zeros(0)
     else:

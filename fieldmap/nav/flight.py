@@ -337,8 +337,8 @@ class FlightTrajectory(Trajectory):
         safe = np.where(small, 1.0, th)
         k1 = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
         k2 = np.where(small, 1.0 / 6.0 - th2 / 120.0, (safe - np.sin(safe)) / safe**3)
-        c = np.cross(phi, phid)
-        w_b = phid - k1[:, None] * c + k2[:, None] * np.cross(phi, c)
+        c = _cross(phi, phid)
+        w_b = phid - k1[:, None] * c + k2[:, None] * _cross(phi, c)
         s1 = np.where(small, 1.0 - th2 / 6.0, np.sin(safe) / safe)
         # Rodrigues with [φ×]² = φφᵀ − θ² I: E = (1 − k1 θ²) I + s1 [φ×] + k1 φφᵀ
         sk = s1[:, None] * phi
@@ -353,7 +353,7 @@ class FlightTrajectory(Trajectory):
         E[:, 1, 2] -= sk[:, 0]
         E[:, 2, 1] += sk[:, 0]
         C = np.matmul(self._knot_C[i], E)
-        return C, np.einsum("nij,nj->ni", C, w_b)
+        return C, np.matmul(C, w_b[:, :, None])[:, :, 0]
 
     def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:
         """Refuse paths deeper than ``min_height`` (m; default -11 km).
@@ -361,6 +361,15 @@ class FlightTrajectory(Trajectory):
         Ellipsoidal heights at sea level reach -106 m; the base class's 0 m is for rockets.
         """
         super().check_above_surface(n, min_height)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (n, 3) arrays (``np.cross`` without its generic set-up)."""
+    out = np.empty_like(u)
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return out
 
 
 def coordinated_attitude(v_ned, a_ned) -> np.ndarray:
