@@ -37,7 +37,8 @@ _BELOW = "the models are not meant for points this far below the ellipsoid"
 _ABOVE = "outside the range where an Earth gravity model is meant to be used"
 
 
-def _as_float(name: str, v) -> np.ndarray:
+def as_float(name: str, v) -> np.ndarray:
+    """``v`` as a float64 array, or InputError naming ``name`` (non-numeric or non-finite)."""
     try:
         arr = np.asarray(v, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -104,9 +105,9 @@ def check_geodetic(latitude, longitude, height) -> tuple[np.ndarray, np.ndarray,
     InputError
         Non-numeric, non-finite or out-of-range values, or shapes that do not broadcast.
     """
-    lat = _as_float("latitude", latitude)
-    lon = _as_float("longitude", longitude)
-    h = _as_float("height", height)
+    lat = as_float("latitude", latitude)
+    lon = as_float("longitude", longitude)
+    h = as_float("height", height)
     try:
         lat, lon, h = np.broadcast_arrays(lat, lon, h)
     except ValueError:

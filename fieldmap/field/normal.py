@@ -117,7 +117,7 @@ def _check_frame(frame: str) -> str:
 
 
 def _as_float(name: str, v) -> np.ndarray:
-    return limits._as_float(name, v)
+    return limits.as_float(name, v)
 
 
 #: 0.1 name of :func:`fieldmap.limits.check_geodetic`.

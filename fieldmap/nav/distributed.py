@@ -20,9 +20,9 @@ __all__ = ["propagate_on"]
 
 def _task(sc, gravity, sets, imu_set, errors):
     from fieldmap.nav import studies
-    from fieldmap.products.blocks import _worker_threads
+    from fieldmap.products.blocks import worker_threads
 
-    _worker_threads()
+    worker_threads()
     return studies.propagate(sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
 
 

@@ -228,7 +228,8 @@ def _band_proxy(n: int):
     )
 
 
-def _at_800(meta) -> bool:
+def at_paper_duration(meta) -> bool:
+    """Whether a study ran the paper's 800 s (only then are the paper's values shown)."""
     return abs(meta["duration_s"] - 800.0) < 0.5
 
 
@@ -273,7 +274,9 @@ def _table1(res):
                 ax, t, getattr(res, key)[groups[floor][0], 1:], FLOOR_STYLE, lab, 0, n, lw=1.3
             )
         handles.append(h)
-    paper = {m: PAPER_TABLE1[m] for m in models if m in PAPER_TABLE1} if _at_800(meta) else {}
+    paper = (
+        {m: PAPER_TABLE1[m] for m in models if m in PAPER_TABLE1} if at_paper_duration(meta) else {}
+    )
     if paper:
         for ax, col in zip(axes[0], (1, 0)):
             _paper_marks(ax, res.t[-1], {m: v[col] for m, v in paper.items()}, styles)
@@ -343,7 +346,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
     draws = max(len(v) for v in groups.values())
     if draws > 1:
         handles.append(_band_proxy(draws))
-    if paper and _at_800(meta):
+    if paper and at_paper_duration(meta):
         for ax, col in zip(axes[0], (1, 0)):
             _paper_marks(ax, res.t[-1], {c: v[col] for c, v in paper.items()}, styles)
         if ref in paper:

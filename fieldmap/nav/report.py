@@ -31,10 +31,10 @@ def format_table(res) -> str:
     Columns never overflow: values too wide for their column are printed in exponent form, missing
     or non-finite ones as ``-``; diverged runs are listed below the table.
     """
-    from fieldmap.nav.plots import _at_800
+    from fieldmap.nav.plots import at_paper_duration
     from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
 
-    paper = _at_800(res.meta)
+    paper = at_paper_duration(res.meta)
     lines = [
         f"== {res.study}: truth {res.meta['truth_model']} degree {res.meta['truth_degree']}, "
         f"{res.meta['duration_s']:g} s, IMU {res.meta['imu_rate_hz']:g} Hz =="

@@ -139,7 +139,8 @@ def _finite(name, a, shape_tail=None) -> np.ndarray:
     return a
 
 
-def _per_traj(name, a, n, tail) -> np.ndarray:
+def per_trajectory(name, a, n, tail) -> np.ndarray:
+    """Broadcast the finite ``a`` to one value per trajectory: shape ``(n, *tail)``."""
     a = _finite(name, a, tail)
     if a.ndim == len(tail):
         a = np.broadcast_to(a, (n,) + tail)
@@ -311,7 +312,7 @@ def prepare_batch(
     imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
     if imu_set.min() < 0 or imu_set.max() >= n_sets:
         raise InputError(f"imu_set indices must lie in 0..{n_sets - 1}")
-    states = {k: _per_traj(k, a, n, tail) for k, (a, tail) in states.items()}
+    states = {k: per_trajectory(k, a, n, tail) for k, (a, tail) in states.items()}
     device = _warp.resolve_device(device)
     from fieldmap.kernels import strapdown as ksd
 
@@ -320,13 +321,13 @@ def prepare_batch(
     types = {(3,): wp.vec3d, (3, 3): wp.mat33d, (): wp.float64}
     for key, tail in _ERROR_KEYS.items():
         if key == "seed":
-            seed = _per_traj("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
+            seed = per_trajectory("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
             se.seed = arr(seed, wp.int32)
         else:
             setattr(
                 se,
                 key,
-                arr(_per_traj(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail), types[tail]),
+                arr(per_trajectory(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail), types[tail]),
             )
     sh_lmax = int(kl[:, 1].max())
     if sh_lmax > 0:

@@ -180,7 +180,7 @@ def _baro_struct(baro: Baro | None, b, ksd):
     """Device struct of the baro loop (disabled with placeholder arrays when ``baro`` is None)."""
     import warp as wp
 
-    from fieldmap.nav.strapdown import _per_traj
+    from fieldmap.nav.strapdown import per_trajectory
 
     dev, n = b.device, b.n
     aid = ksd.BaroAiding()
@@ -211,10 +211,10 @@ def _baro_struct(baro: Baro | None, b, ksd):
     aid.k1, aid.k2, aid.k3 = (wp.float64(x) for x in gains)
     aid.h_ref = arr(np.ascontiguousarray(h_ref))
     for key in ("bias", "noise", "gm_sigma", "gm_tau"):
-        val = _per_traj(f"baro {key}", getattr(baro, key), n, ())
+        val = per_trajectory(f"baro {key}", getattr(baro, key), n, ())
         if key != "bias" and np.any(val < 0):
             raise InputError(f"baro {key} must be >= 0")
         setattr(aid, key, arr(val))
     state = np.zeros((n, 3)) if baro.state is None else baro.state
-    aid.state = arr(_per_traj("baro state", state, n, (3,)), wp.vec3d)
+    aid.state = arr(per_trajectory("baro state", state, n, (3,)), wp.vec3d)
     return aid

@@ -272,7 +272,7 @@ class Job:
     store: Any = None  # a blockio.ZarrTarget when workers write, else None
 
 
-def _worker_threads() -> None:
+def worker_threads() -> None:
     """Let a Dask worker's Warp launches use its share of the cores (set once per process)."""
     try:
         from distributed import get_worker
@@ -299,7 +299,7 @@ def compute_block(job: Job, model) -> dict:
     from fieldmap.grids.synthesis import synthesize
     from fieldmap.products.cf import vector_vars
 
-    _worker_threads()
+    worker_threads()
     ell = get_ellipsoid(job.ellipsoid)
     sub = GridSpec(
         lat=job.lat,

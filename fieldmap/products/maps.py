@@ -66,7 +66,7 @@ def _check_units(units: str) -> float:
     return get_unit(units).si
 
 
-def _heights_m(height_km, one: str | None = None) -> np.ndarray:
+def heights_m(height_km, one: str | None = None) -> np.ndarray:
     """Distinct heights in m from km; ``one``: the message raised unless there is one height.
 
     The rule is :func:`fieldmap.limits.heights_from_km`.
@@ -79,13 +79,13 @@ def _orders(orders) -> tuple[int, ...]:
     return limits.check_orders(orders)
 
 
-def _model(model, lmax, epoch):
+def resolve_model(model, lmax, epoch):
     from fieldmap.models.registry import load_model
 
     return load_model(model, lmax=lmax, epoch=epoch)
 
 
-def _setup(step_deg, lat_max, region, h, ellipsoid, device):
+def setup_grid(step_deg, lat_max, region, h, ellipsoid, device):
     """Return the validated (grid, ellipsoid, device) of a product."""
     from fieldmap.field.ellipsoid import get_ellipsoid
 
@@ -182,13 +182,13 @@ def disturbance_map(
     """
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
-    h = _heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
+    h = heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
     if client is not None or scheduler is not None or chunks is not None:
         from fieldmap.products import distributed
 
         return distributed.route(locals(), h, stacked=False)
-    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = _model(model, lmax, epoch)
+    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
+    mod = resolve_model(model, lmax, epoch)
     ds = _disturbance(mod, grid, ell, device, units, progress, stacked=False)
     stats = map_statistics(ds["modulus_mg"].values, grid.lat, thresholds)
     ds.attrs.update(stats_attrs(stats))
@@ -227,13 +227,13 @@ def altitude_sweep(
     """
     _check_units(units)
     thresholds = parse_thresholds(thresholds_mg)
-    h = _heights_m(height_km)
+    h = heights_m(height_km)
     if client is not None or scheduler is not None or chunks is not None:
         from fieldmap.products import distributed
 
         return distributed.route(locals(), h, stacked=True)
-    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = _model(model, lmax, epoch)
+    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
+    mod = resolve_model(model, lmax, epoch)
     ds = _disturbance(mod, grid, ell, device, units, progress, stacked=True)
     stats = [
         map_statistics(ds["modulus_mg"].values[k], grid.lat, thresholds) for k in range(h.size)
@@ -307,8 +307,8 @@ def truncation_map(
     """
     _check_units(units)
     orders = _orders(orders)
-    h = _heights_m(height_km, "truncation_map takes one height")
-    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
+    h = heights_m(height_km, "truncation_map takes one height")
+    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
     check_memory(grid, layers=len(orders))
     rows = normal_rows
     if client is not None:
@@ -373,9 +373,9 @@ def component_maps(
         ``model_east``, ``model_north``, ``model_up`` and ``normal_east``, ``normal_north``,
         ``normal_up`` on (latitude, longitude). Units: m s-2.
     """
-    h = _heights_m(height_km, "component_maps takes one height")
-    grid, ell, device = _setup(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = _model(model, lmax, epoch)
+    h = heights_m(height_km, "component_maps takes one height")
+    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
+    mod = resolve_model(model, lmax, epoch)
     from fieldmap.grids.synthesis import centrifugal_rows
 
     g = synthesize(

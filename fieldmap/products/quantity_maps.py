@@ -137,9 +137,9 @@ def quantity_map(
         return maps.altitude_sweep(height_km=list(hs), **kw)
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
-    h = maps._heights_m(list(hs))
-    grid, ell, device = maps._setup(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = maps._model(model, lmax, epoch)
+    h = maps.heights_m(list(hs))
+    grid, ell, device = maps.setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
+    mod = maps.resolve_model(model, lmax, epoch)
     vals = geodesy.grid_quantities(
         mod, grid, quantity, ellipsoid=ell, degree0=degree0, device=device, progress=progress
     )
