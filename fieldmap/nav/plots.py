@@ -145,12 +145,21 @@ def _band(ax, t, runs, style, label, k, n_lines, band_label=None):
 
 
 def _paper_marks(ax, t_end, values, styles):
-    """Hollow markers at ``t_end`` for the paper's values (``{case: value}``)."""
-    for case, v in values.items():
+    """Hollow markers for the paper's values (``{case: value}``) in a column right of ``t_end``.
+
+    Each case gets its own x position (staggered by 3.5 % of the run), so that markers of
+    nearly equal values (the paper's J4 and J6) and the ends of our curves never overlap; a
+    dotted line marks where the run ends and the paper's column begins.
+    """
+    # right of the value labels that the lower panels print at t_end
+    ax.axvline(t_end * 1.14, color="0.6", lw=0.8, ls=":", zorder=0)
+    for k, (case, v) in enumerate(values.items()):
         colour, _, marker = styles[case]
-        ax.plot(
-            [t_end], [v], ls="none", marker=marker or "o", ms=10, mfc="none", mec=colour, mew=1.8
-        )
+        x = t_end * (1.17 + 0.04 * k)
+        ax.plot([x], [v], ls="none", marker=marker or "o", ms=9, mfc="none", mec=colour, mew=1.8)
+    ax.set_xlim(right=max(ax.get_xlim()[1], t_end * (1.2 + 0.04 * len(values))))
+    # no time ticks over the paper's column: it is not a time axis there
+    ax.set_xticks([x for x in ax.get_xticks() if 0.0 <= x <= t_end * 1.001])
 
 
 def _finish(fig, axes, title, subtitle, handles, ncol, bottom=None, log_bottom=True):
@@ -234,7 +243,7 @@ def at_paper_duration(meta) -> bool:
 
 
 def _paper_proxy(table: str, extra: str = ""):
-    label = f"large hollow markers: Chen et al. (2022) {table} at 800 s (truth EIGEN-6C4{extra})"
+    label = f"right of the dotted line: Chen et al. (2022) {table}, 800 s, truth EIGEN-6C4{extra}"
     return _proxy(ls="none", marker="o", ms=9, mfc="none", mec="k", mew=1.6, label=label)
 
 
@@ -302,9 +311,9 @@ def _table1(res):
                 rel_paper = {m: abs(paper[m][col] / paper["j6"][col] - 1) for m in paper}
                 _paper_marks(ax, res.t[-1], {m: rel_paper[m] for m in rel if m in paper}, styles)
             ax.margins(x=0.0)
-            ax.set_xlim(right=t[-1] * 1.13)
+            ax.set_xlim(right=max(ax.get_xlim()[1], t[-1] * 1.13))  # shared with the top
     if paper:
-        extra = "; lower panels: relative to its J6" if rel and ref == "normal" else ""
+        extra = "; (c), (d): vs its J6" if rel and ref == "normal" else ""
         handles.append(_paper_proxy("Table 1", extra))
     title = (
         "Fig. 11 / Table 1 — navigation error caused by the navigation gravity model alone "
@@ -353,7 +362,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
             for ax, col in zip(axes[1], (1, 0)):
                 ratios = {c: v[col] / paper[ref][col] for c, v in paper.items() if c != ref}
                 _paper_marks(ax, res.t[-1], ratios, styles)
-        handles.append(_paper_proxy("Table 3", "; lower panels: ratios of its values"))
+        handles.append(_paper_proxy("Table 3", "; (c), (d): its ratios"))
     if ref:
         for ax, (key, _, _) in zip(axes[1], PANELS):
             q = "p" if key == "pos" else "v"
