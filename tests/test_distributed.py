@@ -308,6 +308,44 @@ def test_navigation_monte_carlo_on_the_cluster(client):
     grav = ["j4"] * 3 + ["sh18"] * 3
     ref = studies.propagate(sc, grav, errors=err)
     got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
-    for k in ("t", "dP", "dV", "pos", "vel"):
+    for k in ("t", "dP", "dV", "pos", "vel", "hor", "ver", "ned"):
         assert np.array_equal(ref[k], got[k]), k
+    assert ref["diverged"] == got["diverged"]
     assert np.all(got["pos"][:, -1] > 0)
+
+
+def test_navsim_study_on_the_cluster_equals_here(client):
+    """``studies.on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
+    from fieldmap.nav import studies
+
+    sc = studies.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    here = studies.table3(sc, draws=3, seed=5, nav="j4")
+    with studies.on_cluster(client):
+        there = studies.table3(sc, draws=3, seed=5, nav="j4")
+    assert np.array_equal(here.pos, there.pos) and np.array_equal(here.vel, there.vel)
+    assert here.rows == there.rows
+
+
+def test_navsim_scheduler_bad_input(tmp_path, capsys):
+    """Navsim --scheduler: unreachable scheduler and a flight study are one line, exit 2."""
+    from fieldmap import cli
+
+    out = tmp_path / "out"
+    rc = cli.main(
+        ["navsim", "--study", "table3", "--duration", "20", "--rate", "100", "--lmax", "30",
+         "--models", "j4,sh18", "--draws", "2", "--scheduler", "tcp://127.0.0.1:9",
+         "--out", str(out)]
+    )  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "scheduler" in err[0], err
+    assert not out.exists()
+    rc = cli.main(
+        ["navsim", "--route", "0,0,1000;0,1,1000", "--speed-mps", "200", "--scheduler",
+         "local:1", "--out", str(out)]
+    )  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and err == [
+        "fieldmap navsim: error: --scheduler runs the paper's studies on Dask; a flight study "
+        "(--trajectory, --route) runs here: leave --scheduler out"
+    ]
+    assert not out.exists()

@@ -15,6 +15,7 @@ so a failed run leaves nothing half-written.
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 import numpy as np
 
@@ -146,6 +147,15 @@ def register(subparsers) -> None:
     )
     p.add_argument("--no-timing", action="store_true", help="skip the gravity CPU-time measurement")
     p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="threads|local:N|ADDRESS",
+        help="run the navigation launches of the paper's studies (draws x models) on Dask: "
+        "local:N starts a LocalCluster of N worker processes, ADDRESS connects to a running "
+        "scheduler; the results are those of a local run, bit for bit (default: here). "
+        "A flight study (--trajectory, --route) runs here",
+    )
     p.add_argument(
         "--out",
         default="outputs",
@@ -299,15 +309,40 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
 
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from tqdm import tqdm
-
+    from fieldmap.errors import InputError
     from fieldmap.nav import studies as navsim
+    from fieldmap.products import blocks
     from fieldmap.products.io import output_batch
 
     device, models, nav = _check_args(args)
+    scheduler = blocks.parse_scheduler(args.scheduler)
     if is_flight(args):
+        if scheduler is not None:
+            raise InputError(
+                "--scheduler runs the paper's studies on Dask; a flight study (--trajectory, "
+                "--route) runs here: leave --scheduler out"
+            )
         return run_flight_study(args, device, models, *nav)
     studies = STUDIES if args.study == "all" else (args.study,)
+    with contextlib.ExitStack() as stack:
+        if scheduler is not None:  # connect (or start the LocalCluster) before the long work
+            stack.enter_context(
+                navsim.on_cluster(stack.enter_context(blocks.open_client(scheduler)))
+            )
+        results = _scenario_and_studies(args, device, studies, models, nav)
+    with output_batch(args.out) as batch:  # all files of all studies, or none
+        for res in results:
+            write_outputs(res, batch)
+    for res in results:
+        print(format_table(res))
+    return 1 if any(res.meta.get("diverged") for res in results) else 0
+
+
+def _scenario_and_studies(args, device, studies, models, nav) -> list:
+    from tqdm import tqdm
+
+    from fieldmap.nav import studies as navsim
+
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
         f"truth {args.model})"
@@ -322,6 +357,14 @@ def run(args) -> int:
         device=device,
         progress=True,
     )
+    return _run_studies(args, sc, studies, models, nav)
+
+
+def _run_studies(args, sc, studies, models, nav) -> list:
+    from tqdm import tqdm
+
+    from fieldmap.nav import studies as navsim
+
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):
         if study == "table1":
@@ -346,9 +389,4 @@ def run(args) -> int:
                 progress=True,
             )
         results.append(res)
-    with output_batch(args.out) as batch:  # all files of all studies, or none
-        for res in results:
-            write_outputs(res, batch)
-    for res in results:
-        print(format_table(res))
-    return 1 if any(res.meta.get("diverged") for res in results) else 0
+    return results

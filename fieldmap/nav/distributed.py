@@ -73,9 +73,11 @@ def propagate_on(
         for a in range(0, n, per)
     ]
     parts = client.gather(futures)
-    out: dict[str, Any] = {
-        k: np.concatenate([p[k] for p in parts]) for k in ("dP", "dV", "pos", "vel")
-    }
+    from fieldmap.nav.studies import divergence
+
+    runs = ("dP", "dV", "pos", "vel", "hor", "ver", "ned")  # one row per run
+    out: dict[str, Any] = {k: np.concatenate([p[k] for p in parts]) for k in runs}
     out["t"] = parts[0]["t"]
     out["seconds"] = time.perf_counter() - t0
+    out["diverged"] = divergence(out["pos"], out["t"], gravity)
     return out

@@ -16,7 +16,10 @@ errors at the cost of a cheap second synthesis instead of a degree-240 navigatio
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -164,6 +167,24 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     )
 
 
+_CLUSTER: contextvars.ContextVar = contextvars.ContextVar("fieldmap_nav_cluster", default=None)
+
+
+@contextlib.contextmanager
+def on_cluster(client) -> Iterator[None]:
+    """Run the navigation launches of the enclosed studies on a Dask cluster.
+
+    Within the block, :func:`propagate` splits its runs (draws × models) into tasks on
+    ``client`` (:func:`fieldmap.nav.distributed.propagate_on`, bit for bit the local result);
+    ``client=None`` keeps them here.
+    """
+    token = _CLUSTER.set(client)
+    try:
+        yield
+    finally:
+        _CLUSTER.reset(token)
+
+
 def propagate(
     sc: Scenario,
     gravity: list[str],
@@ -185,6 +206,11 @@ def propagate(
     """
     from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
 
+    client = _CLUSTER.get()
+    if client is not None:
+        from fieldmap.nav.distributed import propagate_on
+
+        return propagate_on(client, sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
     sets = sets or [sc.imu]
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
