@@ -315,12 +315,13 @@ def test_navigation_monte_carlo_on_the_cluster(client):
 
 
 def test_navsim_study_on_the_cluster_equals_here(client):
-    """``studies.on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
+    """``on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
     from fieldmap.nav import studies
+    from fieldmap.nav.distributed import on_cluster
 
     sc = studies.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
     here = studies.table3(sc, draws=3, seed=5, nav="j4")
-    with studies.on_cluster(client):
+    with on_cluster(client):
         there = studies.table3(sc, draws=3, seed=5, nav="j4")
     assert np.array_equal(here.pos, there.pos) and np.array_equal(here.vel, there.vel)
     assert here.rows == there.rows

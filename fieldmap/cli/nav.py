@@ -310,7 +310,7 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
     from fieldmap.errors import InputError
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav.distributed import on_cluster
     from fieldmap.products import blocks
     from fieldmap.products.io import output_batch
 
@@ -326,9 +326,7 @@ def run(args) -> int:
     studies = STUDIES if args.study == "all" else (args.study,)
     with contextlib.ExitStack() as stack:
         if scheduler is not None:  # connect (or start the LocalCluster) before the long work
-            stack.enter_context(
-                navsim.on_cluster(stack.enter_context(blocks.open_client(scheduler)))
-            )
+            stack.enter_context(on_cluster(stack.enter_context(blocks.open_client(scheduler))))
         results = _scenario_and_studies(args, device, studies, models, nav)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -9,13 +9,31 @@ Each run is one Warp thread that depends on no other run, so the result is that 
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
-__all__ = ["propagate_on"]
+__all__ = ["on_cluster", "propagate_on"]
+
+
+@contextlib.contextmanager
+def on_cluster(client) -> Iterator[None]:
+    """Run the navigation launches of the enclosed studies on a Dask cluster.
+
+    Within the block, :func:`fieldmap.nav.studies.propagate` splits its runs (draws × models)
+    into tasks on ``client`` (:func:`propagate_on`, bit for bit the local result); ``client=None``
+    keeps them here.
+    """
+    from fieldmap.nav import studies
+
+    fn = None if client is None else functools.partial(propagate_on, client)
+    with studies.propagated_by(fn):
+        yield
 
 
 def _task(sc, gravity, sets, imu_set, errors):

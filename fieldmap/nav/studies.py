@@ -167,22 +167,23 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     )
 
 
-_CLUSTER: contextvars.ContextVar = contextvars.ContextVar("fieldmap_nav_cluster", default=None)
+_PROPAGATOR: contextvars.ContextVar = contextvars.ContextVar(
+    "fieldmap_nav_propagator", default=None
+)
 
 
 @contextlib.contextmanager
-def on_cluster(client) -> Iterator[None]:
-    """Run the navigation launches of the enclosed studies on a Dask cluster.
+def propagated_by(fn) -> Iterator[None]:
+    """Within the block, :func:`propagate` hands its runs to ``fn`` (same arguments, same result).
 
-    Within the block, :func:`propagate` splits its runs (draws × models) into tasks on
-    ``client`` (:func:`fieldmap.nav.distributed.propagate_on`, bit for bit the local result);
-    ``client=None`` keeps them here.
+    :func:`fieldmap.nav.distributed.on_cluster` uses it to run the studies' launches on Dask;
+    ``fn=None`` keeps them here.
     """
-    token = _CLUSTER.set(client)
+    token = _PROPAGATOR.set(fn)
     try:
         yield
     finally:
-        _CLUSTER.reset(token)
+        _PROPAGATOR.reset(token)
 
 
 def propagate(
@@ -206,11 +207,9 @@ def propagate(
     """
     from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
 
-    client = _CLUSTER.get()
-    if client is not None:
-        from fieldmap.nav.distributed import propagate_on
-
-        return propagate_on(client, sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
+    other = _PROPAGATOR.get()
+    if other is not None:
+        return other(sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
     sets = sets or [sc.imu]
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
