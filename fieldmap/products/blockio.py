@@ -44,20 +44,11 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
     same :mod:`fieldmap.products.cf` helpers); ``attrs["variables"]`` maps each variable name
     to its attributes.
     """
-    from fieldmap import __version__
-    from fieldmap.products.cf import coords, global_attrs, mg_attrs, vector_vars
+    from fieldmap.products.cf import coords, disturbance_attrs, mg_attrs, vector_vars
 
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
-    heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
-    attrs = global_attrs(
-        f"Gravity disturbance at {heights} km, {mod.name} degree {mod.lmax}",
-        mod,
-        ell,
-        grid,
-        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-        f"normal gravitation of {ell.name}",
-    )
+    attrs = disturbance_attrs(mod, grid, ell)
     c = coords(grid, stacked)
     if stacked:
         c["threshold_mg"] = xr.Variable(

@@ -127,6 +127,19 @@ def global_attrs(title, model, ellipsoid, grid, source) -> dict:
     return attrs
 
 
+def disturbance_attrs(mod, grid, ell) -> dict:
+    """Global attributes of a gravity-disturbance product (in-memory or block by block)."""
+    heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
+    return global_attrs(
+        f"Gravity disturbance at {heights} km, {mod.name} degree {mod.lmax}",
+        mod,
+        ell,
+        grid,
+        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
+        f"normal gravitation of {ell.name}",
+    )
+
+
 def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
     """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
 

@@ -26,6 +26,7 @@ from fieldmap.products.cf import (
     COMPONENTS,
     UNITS,
     coords,
+    disturbance_attrs,
     fraction_attr,
     global_attrs,
     mg_attrs,
@@ -106,15 +107,7 @@ def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.D
     return xr.Dataset(
         vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance", overwrite=True),
         coords=coords(grid, stacked),
-        attrs=global_attrs(
-            f"Gravity disturbance at {', '.join(f'{x / 1e3:g}' for x in grid.heights)} km, "
-            f"{mod.name} degree {mod.lmax}",
-            mod,
-            ell,
-            grid,
-            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravitation minus exact "
-            f"normal gravitation of {ell.name}",
-        ),
+        attrs=disturbance_attrs(mod, grid, ell),
     )
 
 
