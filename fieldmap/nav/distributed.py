@@ -38,9 +38,9 @@ def on_cluster(client) -> Iterator[None]:
 
 def _task(sc, gravity, sets, imu_set, errors):
     from fieldmap.nav import studies
-    from fieldmap.products.blocks import worker_threads
+    from fieldmap.products.blocks import worker_setup
 
-    worker_threads()
+    worker_setup()
     return studies.propagate(sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
 
 

@@ -296,12 +296,15 @@ class MemorySink:
         self.arrays = {name: np.empty(shape) for name in VARIABLES}
 
     def sink(self, block, data: dict) -> None:
-        """Copy one block's variables into place."""
-        for name in VARIABLES:
-            if self.stacked:
-                self.arrays[name][block.layer, block.rows] = data[name]
-            else:
-                self.arrays[name][block.rows] = data[name]
+        """Copy one block's variables into place (a slice copy per run of rows)."""
+        pos = 0
+        for r0, r1 in block.runs():
+            n = r1 - r0
+            for name in VARIABLES:
+                _put(
+                    self.arrays[name], block.layer, self.stacked, r0, r1, data[name][pos : pos + n]
+                )
+            pos += n
 
 
 @contextlib.contextmanager

@@ -340,7 +340,7 @@ def route(args: dict, heights_m, *, stacked: bool) -> xr.Dataset:
 def _normal_task(grid, ell, order, device):
     from fieldmap.grids.synthesis import normal_rows
 
-    blocks.worker_threads()
+    blocks.worker_setup()
     return normal_rows(grid, ell, order, device)
 
 
