@@ -125,9 +125,7 @@ def overhead(repeat: int, quick: bool) -> None:
                 row[f"local:{n}"] = _median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
                 )
-                row[f"file:local:{n}"] = _median_time(
-                    lambda: engine_file("netcdf", client), repeat
-                )
+                row[f"file:local:{n}"] = _median_time(lambda: engine_file("netcdf", client), repeat)
                 if n == 2:
                     row["zarr:2"] = _median_time(lambda: engine_file("zarr", client), repeat)
         shutil.rmtree(tmp, ignore_errors=True)

@@ -180,9 +180,7 @@ def _hist_index(v: np.ndarray) -> np.ndarray:
 
 def _bin_centre(k: int) -> float:
     """Middle of histogram bin ``k`` (mg)."""
-    lo, hi = (np.array([k + _BITS_LO, k + 1 + _BITS_LO], dtype=np.int64) << _SHIFT).view(
-        np.float64
-    )
+    lo, hi = (np.array([k + _BITS_LO, k + 1 + _BITS_LO], dtype=np.int64) << _SHIFT).view(np.float64)
     return float(0.5 * (lo + hi))
 
 
