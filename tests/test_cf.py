@@ -98,6 +98,16 @@ def files(tmp_path_factory):
             rows_per_block=4,
         )
         out[name] = path
+    from fieldmap.products.distributed import prepare_quantity, write_quantity
+
+    for name, q, heights in (
+        ("streamed_geoid", "geoid", (0.0,)),
+        ("streamed_deflection_sweep", "deflection", (2e4, 5e4)),
+    ):
+        path = folder / f"{name}.nc"
+        setup = prepare_quantity(q, "eigen-6s", 30, heights, 10.0, 80.0, None, "WGS84", "cpu", None)
+        write_quantity(path, "netcdf", q, setup=setup, rows_per_block=4)
+        out[name] = path
     return out
 
 
@@ -156,6 +166,8 @@ PRODUCTS = [
     "anomaly",
     "deflection_sweep",
     "potential",
+    "streamed_geoid",
+    "streamed_deflection_sweep",
 ]
 
 

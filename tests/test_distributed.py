@@ -249,6 +249,76 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.parametrize(
+    ("quantity", "heights"),
+    [("anomaly", 20.0), ("deflection", [20.0, 50.0]), ("geoid", 0.0), ("potential", 20.0)],
+)
+def test_quantity_maps_on_the_cluster(client, quantity, heights):
+    """Values bitwise those of the in-memory map; statistics summed by blocks, same everywhere."""
+    from fieldmap.products.quantity_maps import quantity_map
+
+    ref = quantity_map(quantity, **KW, height_km=heights)
+    dist = quantity_map(quantity, **KW, height_km=heights, client=client)
+    hs = np.atleast_1d(heights) * 1e3
+    here = D.quantity_blocks(quantity, **KW, heights_m=hs, rows_per_block=ROWS)
+    on2 = D.quantity_blocks(quantity, **KW, heights_m=hs, rows_per_block=ROWS, client=client)
+    assert set(dist.data_vars) == set(ref.data_vars) and set(dist.attrs) == set(ref.attrs)
+    for v in ref.data_vars:
+        assert np.array_equal(ref[v].values, here[v].values) or v.endswith(("_mean", "_rms")), v
+        assert np.array_equal(here[v].values, on2[v].values), v  # statistics too
+        assert np.array_equal(ref[v].values, dist[v].values) or v.endswith(("_mean", "_rms")), v
+    for v in ref.data_vars:
+        a, b = ref[v].attrs, on2[v].attrs
+        assert a.keys() == b.keys(), v
+        if "actual_range" in a:  # one height: the statistics are attributes
+            assert np.array_equal(a["actual_range"], b["actual_range"])
+            assert b["area_weighted_rms"] == pytest.approx(a["area_weighted_rms"], rel=1e-14)
+            assert abs(b["area_weighted_mean"] - a["area_weighted_mean"]) <= (
+                1e-14 * a["area_weighted_rms"]
+            )
+        if v.endswith(("_mean", "_rms")):
+            rms = ref[v.rsplit("_", 1)[0] + "_rms"].values
+            assert np.all(np.abs(on2[v].values - ref[v].values) <= 1e-14 * rms), v
+
+
+def test_quantity_stores_hold_the_same_bits(client, tmp_path):
+    from fieldmap.products.quantity_maps import quantity_map
+
+    ref = quantity_map("deflection", **KW, height_km=[20.0, 50.0])
+    setup = D.prepare_quantity(
+        "deflection", "eigen-6s", 40, [2e4, 5e4], 3.0, 80.0, None, "WGS84", None, None
+    )
+    common = dict(setup=setup, rows_per_block=ROWS)
+    D.write_quantity(tmp_path / "a.zarr", "zarr", "deflection", **common, client=client)
+    D.write_quantity(tmp_path / "b.nc", "netcdf", "deflection", **common, client=client)
+    with xr.open_zarr(tmp_path / "a.zarr") as z, xr.open_dataset(tmp_path / "b.nc") as n:
+        for ds in (z, n):
+            for v in ("xi", "eta", "xi_max", "eta_min"):
+                assert np.array_equal(ds[v].values, ref[v].values), v
+            assert ds["xi"].attrs["units"] == "arcsec"
+            assert ds.attrs["quantity"] == "deflection"
+            np.testing.assert_array_equal(z["xi_rms"].values, n["xi_rms"].values)
+    with pytest.raises(D.InputError, match="quantity must be one of"):
+        D.prepare_quantity("gradient", "eigen-6s", 40, [2e4], 3.0, 80.0, None, "WGS84", None, None)
+
+
+def test_cli_quantity_on_local_cluster_equals_in_memory(tmp_path):
+    common = ["map", "--quantity", "anomaly", "--lmax", "30", "--step-deg", "4", "--no-plots"]
+    r1 = _fieldmap(*common, "--out", str(tmp_path / "mem"))
+    assert r1.returncode == 0, r1.stderr
+    r2 = _fieldmap(*common, "--scheduler", "local:2", "--out", str(tmp_path / "l2"))
+    assert r2.returncode == 0, r2.stderr
+    assert "(block by block)" in r2.stdout
+    (a,) = (tmp_path / "mem").glob("*.nc")
+    (b,) = (tmp_path / "l2").glob("*.nc")
+    assert a.name == b.name
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        assert np.array_equal(x["anomaly"].values, y["anomaly"].values)
+        assert np.array_equal(
+            x["anomaly"].attrs["actual_range"], y["anomaly"].attrs["actual_range"]
+        )
+
+
 def _fieldmap(*args, timeout=120):
     exe = Path(sys.executable).with_name("fieldmap")
     return subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=timeout)

@@ -10,6 +10,15 @@ from __future__ import annotations
 from fieldmap.errors import InputError
 
 
+def load_cli_model(args):
+    """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options."""
+    from fieldmap.models.registry import announce, load_model, model_options
+
+    model = load_model(args.model, lmax=args.lmax, epoch=args.epoch, **model_options(args))
+    announce(model)
+    return model
+
+
 def list_values(values, option: str) -> list[str]:
     """Split a list option: separate arguments and/or comma-separated (``20 30`` or ``20,30``).
 

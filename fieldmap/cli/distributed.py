@@ -45,7 +45,7 @@ def wanted(args) -> bool:
 
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
-    from fieldmap.cli.common import region, stem
+    from fieldmap.cli.common import load_cli_model, region, stem
     from fieldmap.products import blockio, blocks, distributed, plots
     from fieldmap.products.io import check_out_dir, output_batch
     from fieldmap.products.maps import summary
@@ -62,6 +62,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
         args.device,
         args.epoch,
         "mGal",
+        load=lambda: load_cli_model(args),
     )
     grid, ell, mod = prep
     check_out_dir(args.out)

@@ -199,7 +199,8 @@ def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False
 
 def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
-    from fieldmap.cli.quantity import load_cli_model, run_quantity
+    from fieldmap.cli.common import load_cli_model
+    from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import disturbance_map
 
@@ -250,7 +251,8 @@ def run_map(args) -> int:
 
 def run_sweep(args) -> int:
     """``fieldmap sweep``: statistics over several heights."""
-    from fieldmap.cli.quantity import load_cli_model, run_quantity
+    from fieldmap.cli.common import load_cli_model
+    from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
     from fieldmap.products.maps import altitude_sweep
 

@@ -6,25 +6,20 @@ The disturbance stays with :mod:`fieldmap.cli.maps`; this module runs the other 
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
 
-def load_cli_model(args):
-    """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options."""
-    from fieldmap.models.registry import announce, load_model, model_options
-
-    model = load_model(args.model, lmax=args.lmax, epoch=args.epoch, **model_options(args))
-    announce(model)
-    return model
-
-
 def run_quantity(args, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
-    from fieldmap.cli.common import preflight, print_files, region, stem
+    from fieldmap.cli import distributed
+    from fieldmap.cli.common import load_cli_model, preflight, print_files, region, stem
     from fieldmap.products import quantity_maps as qm
     from fieldmap.products.io import output_batch
 
+    if distributed.wanted(args):
+        return _run_blocks(args, heights_km)
     preflight(args, heights_km)
     t0 = time.perf_counter()
     ds = qm.quantity_map(
@@ -46,8 +41,25 @@ def run_quantity(args, heights_km: list[float]) -> int:
         + (f" x {ds.sizes['height']} heights" if "height" in ds.dims else "")
         + f", {elapsed:.2f} s"
     )
+    report(args.quantity, summ)
+    base = stem(ds, args.quantity)
+    with output_batch(Path(args.out)) as batch:
+        batch.netcdf(ds, f"{base}.nc")
+        batch.json(summ, f"{base}.json")
+        if not args.no_plots:
+            for suffix, make in figures(ds, args.quantity, summ):
+                batch.png(make(), f"{base}_{suffix}.png")
+        files = batch.commit()
+    print_files(files)
+    return 0
+
+
+def report(quantity: str, summ: dict) -> None:
+    """Print the statistics of a quantity map, a line per variable and height."""
+    from fieldmap.products import quantity_maps as qm
+
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    for name, units, _, _ in qm.VARIABLES[args.quantity]:
+    for name, units, _, _ in qm.VARIABLES[quantity]:
         s = summ[name]
         for k, h in enumerate(heights):
             pick = (lambda v: v[k]) if isinstance(s["max"], list) else (lambda v: v)
@@ -55,15 +67,80 @@ def run_quantity(args, heights_km: list[float]) -> int:
                 f"  {name} ({units}) h = {h / 1e3:g} km: min {pick(s['min']):.4f}  "
                 f"max {pick(s['max']):.4f}  mean {pick(s['mean']):.4f}  rms {pick(s['rms']):.4f}"
             )
-    base = stem(ds, args.quantity)
-    with output_batch(Path(args.out)) as batch:
-        batch.netcdf(ds, f"{base}.nc")
-        batch.json(summ, f"{base}.json")
-        if not args.no_plots:
-            for name, _, _, _ in qm.VARIABLES[args.quantity]:
-                for k, h in enumerate(heights):
-                    suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
-                    batch.png(qm.plot_quantity(ds, name, height_index=k), f"{base}_{suffix}.png")
+
+
+def figures(ds, quantity: str, summ: dict) -> list:
+    """(file suffix, figure maker) for every variable and height of a quantity map."""
+    from fieldmap.products import quantity_maps as qm
+
+    heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
+    out = []
+    for name, _, _, _ in qm.VARIABLES[quantity]:
+        for k, h in enumerate(heights):
+            suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
+            out.append((suffix, lambda name=name, k=k: qm.plot_quantity(ds, name, height_index=k)))
+    return out
+
+
+def _run_blocks(args, heights_km: list[float]) -> int:
+    """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
+    from fieldmap.cli.common import load_cli_model, region, stem
+    from fieldmap.products import blockio, blocks, distributed
+    from fieldmap.products import quantity_maps as qm
+    from fieldmap.products.io import check_out_dir, output_batch
+
+    scheduler = blocks.parse_scheduler(args.scheduler)
+    prep = distributed.prepare_quantity(
+        args.quantity,
+        args.model,
+        args.lmax,
+        [1e3 * h for h in heights_km],
+        args.step_deg,
+        args.lat_max,
+        region(args),
+        args.ellipsoid,
+        args.device,
+        args.epoch,
+        load=lambda: load_cli_model(args),
+    )
+    grid, ell, mod = prep
+    check_out_dir(args.out)
+    base = stem(qm.template(args.quantity, mod, grid, ell, False), args.quantity)
+    ext = "zarr" if args.format == "zarr" else "nc"
+    out = Path(args.out)
+    client_cm = (
+        blocks.open_client(scheduler) if scheduler is not None else contextlib.nullcontext()
+    )  # connect first: an unreachable scheduler writes nothing
+    t0 = time.perf_counter()
+    with client_cm as client, output_batch(out) as batch:
+        final = out / f"{base}.{ext}"
+        with blockio.atomic_store(final) as tmp:
+            distributed.write_quantity(
+                tmp,
+                args.format,
+                args.quantity,
+                device=args.device,
+                client=client,
+                rows_per_block=args.rows_per_block,
+                setup=prep,
+                atomic=False,
+            )
+            elapsed = time.perf_counter() - t0
+            view = blockio.decimated(tmp, args.format)
+            summ = qm.summary(view)
+            nh, nlat, nlon = grid.shape
+            print(
+                f"{mod.name} degree {mod.lmax}, {args.quantity}, {nlat} x {nlon} nodes"
+                + (f" x {nh} heights" if nh > 1 else "")
+                + f", {elapsed:.2f} s (block by block)"
+            )
+            report(args.quantity, summ)
+            if view.attrs.get("figure_decimation"):
+                print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
+            batch.json({**summ, "product_path": final.name}, f"{base}.json")
+            if not args.no_plots:
+                for suffix, make in figures(view, args.quantity, summ):
+                    batch.png(make(), f"{base}_{suffix}.png")
         files = batch.commit()
-    print_files(files)
+    print("written: " + ", ".join(str(f) for f in [final, *files]))
     return 0

@@ -133,11 +133,12 @@ def _put(arr, layer, stacked, r0, r1, values) -> None:
 class ZarrTarget:
     """A zarr store being filled block by block (picklable: workers open it by path)."""
 
-    def __init__(self, path, nlat: int, rows: int, stacked: bool):
+    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=VARIABLES):
         self.path = str(path)
         self.nlat = nlat
         self.rows = rows
         self.stacked = stacked
+        self.names = tuple(names)
 
     def _arrays(self):
         import zarr
@@ -145,7 +146,7 @@ class ZarrTarget:
         # a cancelled task still running after a failed run must not recreate the removed store
         if not os.path.isfile(os.path.join(self.path, "zarr.json")):
             raise FileNotFoundError(f"zarr store {self.path} is gone (run aborted)")
-        return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in VARIABLES}
+        return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in self.names}
 
     def write_block(self, block, data: dict) -> dict:
         """Write the whole chunks of ``block``; return the rows of shared chunks."""
@@ -155,17 +156,17 @@ class ZarrTarget:
         for r0, r1, whole in _slabs(block, self.nlat, self.rows):
             k0, k1 = pos[r0], pos[r1 - 1] + 1
             if whole:
-                for name in VARIABLES:
+                for name in self.names:
                     _put(arrays[name], block.layer, self.stacked, r0, r1, data[name][k0:k1])
             else:
-                edges.append((r0, r1, {name: data[name][k0:k1] for name in VARIABLES}))
+                edges.append((r0, r1, {name: data[name][k0:k1] for name in self.names}))
         return {"edges": edges}
 
     def sink(self, block, data: dict) -> None:
         """Client side: write the shared-chunk rows a worker returned."""
         arrays = self._arrays()
         for r0, r1, values in data["edges"]:
-            for name in VARIABLES:
+            for name in self.names:
                 _put(arrays[name], block.layer, self.stacked, r0, r1, values[name])
 
 
@@ -189,16 +190,21 @@ def create_zarr(path, tmpl: xr.Dataset, grid, block_rows: int | None = None) -> 
     ds = tmpl.copy()
     var_attrs = ds.attrs.pop("variables")
     dims = ds.attrs.pop("dims")
-    for name in VARIABLES:
+    for name in var_attrs:
         ds[name] = (dims, da.zeros(shape, chunks=chunks), var_attrs[name])
-    encoding = {name: {"chunks": chunks} for name in VARIABLES}
+    encoding = {name: {"chunks": chunks} for name in var_attrs}
     ds.to_zarr(path, mode="w", compute=False, encoding=encoding, consolidated=False)
     del zarr
-    return ZarrTarget(path, nlat, rows, stacked)
+    return ZarrTarget(path, nlat, rows, stacked, tuple(var_attrs))
 
 
-def finish_zarr(path, attrs: dict, extra_vars: dict | None = None) -> None:
-    """Add the statistics (attributes and small variables) and consolidate the metadata."""
+def finish_zarr(
+    path, attrs: dict, extra_vars: dict | None = None, var_attrs: dict | None = None
+) -> None:
+    """Add the statistics (attributes and small variables) and consolidate the metadata.
+
+    ``var_attrs``: {variable: attributes} added to the variables (a quantity's statistics).
+    """
     import zarr
 
     kept = dict(zarr.open_group(path, mode="r").attrs)  # appending variables resets them
@@ -206,6 +212,10 @@ def finish_zarr(path, attrs: dict, extra_vars: dict | None = None) -> None:
         xr.Dataset(extra_vars).to_zarr(path, mode="a", consolidated=False)
     g = zarr.open_group(path, mode="r+")
     g.attrs.update({**kept, **{k: _jsonable(v) for k, v in attrs.items()}})
+    for name, va in (var_attrs or {}).items():
+        if va:
+            arr = zarr.open_array(f"{path}/{name}", mode="r+")
+            arr.attrs.update({k: _jsonable(v) for k, v in va.items()})
     with warnings.catch_warnings():  # "not part of the Zarr 3 specification": xarray reads it
         warnings.simplefilter("ignore")
         zarr.consolidate_metadata(path)
@@ -238,7 +248,7 @@ class NetCDFWriter:
         rows = chunk_rows(nlon)
         chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
         self.vars = {}
-        for name in VARIABLES:
+        for name in var_attrs:
             # netCDF4's stubs type complevel as a Literal[0..9] (COMPLEVEL is 1)
             v = self.nc.createVariable(  # type: ignore[call-overload]
                 name,
@@ -260,12 +270,17 @@ class NetCDFWriter:
         pos = 0
         for r0, r1 in block.runs():
             n = r1 - r0
-            for name in VARIABLES:
-                _put(self.vars[name], block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
+            for name, var in self.vars.items():
+                _put(var, block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
             pos += n
 
-    def finish(self, attrs: dict, extra_vars: dict | None = None) -> None:
-        """Write the statistics and close the file."""
+    def finish(
+        self, attrs: dict, extra_vars: dict | None = None, var_attrs: dict | None = None
+    ) -> None:
+        """Write the statistics (global, extra variables, per-variable attributes) and close."""
+        for name, va in (var_attrs or {}).items():
+            if va:
+                self.vars[name].setncatts(va)
         for name, (dims, values, vattrs) in (extra_vars or {}).items():
             from fieldmap.products.io import COMPLEVEL
 
@@ -289,21 +304,19 @@ class NetCDFWriter:
 class MemorySink:
     """Assemble the blocks into in-memory arrays (the Python API's eager mode)."""
 
-    def __init__(self, grid, stacked: bool):
+    def __init__(self, grid, stacked: bool, names=VARIABLES):
         nh, nlat, nlon = grid.shape
         shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
         self.stacked = stacked
-        self.arrays = {name: np.empty(shape) for name in VARIABLES}
+        self.arrays = {name: np.empty(shape) for name in names}
 
     def sink(self, block, data: dict) -> None:
         """Copy one block's variables into place (a slice copy per run of rows)."""
         pos = 0
         for r0, r1 in block.runs():
             n = r1 - r0
-            for name in VARIABLES:
-                _put(
-                    self.arrays[name], block.layer, self.stacked, r0, r1, data[name][pos : pos + n]
-                )
+            for name, arr in self.arrays.items():
+                _put(arr, block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
             pos += n
 
 

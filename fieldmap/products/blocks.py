@@ -204,6 +204,18 @@ def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -
     }
 
 
+def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
+    """Partial statistics of a signed quantity on one block: extrema and weighted sums."""
+    if not np.all(np.isfinite(v)):
+        raise InputError("map holds non-finite values")
+    return {
+        "min": float(v.min()),
+        "max": float(v.max()),
+        "sw": float(row_weights @ v.sum(axis=1)),
+        "sw2": float(row_weights @ (v * v).sum(axis=1)),
+    }
+
+
 def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(bins, weights) of the non-empty bins: a block touches few of them, and travels light."""
     nz = np.flatnonzero(h)
@@ -212,6 +224,16 @@ def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def merge_partials(acc: dict | None, part: dict) -> dict:
     """Fold one block's partial statistics into the running total (call in block order)."""
+    if "vars" in part:  # signed quantities: extrema and sums per variable
+        if acc is None:
+            return {"vars": {k: dict(v) for k, v in part["vars"].items()}}
+        for k, p in part["vars"].items():
+            a = acc["vars"][k]
+            a["min"] = min(a["min"], p["min"])
+            a["max"] = max(a["max"], p["max"])
+            a["sw"] += p["sw"]
+            a["sw2"] += p["sw2"]
+        return acc
     if acc is None:
         acc = {**part, "above": list(part["above"]), "hist": np.zeros(HIST_BINS)}
         acc["hist"][part["hist"][0]] = part["hist"][1]
@@ -226,8 +248,23 @@ def merge_partials(acc: dict | None, part: dict) -> dict:
 
 
 def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -> dict:
-    """Statistics in the form of :func:`fieldmap.products.stats.map_statistics`."""
+    """Statistics in the form of :func:`fieldmap.products.stats.map_statistics`.
+
+    For the signed quantities: {variable: {"min", "max", "mean", "rms"}}, the form of
+    :func:`fieldmap.products.quantity_maps.statistics_fields`.
+    """
     from fieldmap.products.stats import threshold_key
+
+    if "vars" in acc:
+        return {
+            k: {
+                "min": a["min"],
+                "max": a["max"],
+                "mean": a["sw"] / total_weight,
+                "rms": math.sqrt(a["sw2"] / total_weight),
+            }
+            for k, a in acc["vars"].items()
+        }
 
     out = {
         "max_mg": acc["max"],
@@ -282,6 +319,8 @@ class Job:
     units: str
     thresholds: tuple
     store: Any = None  # a blockio.ZarrTarget when workers write, else None
+    quantity: str = "disturbance"  # or a quantity of fieldmap.field.geodesy.grid_quantities
+    degree0: bool = False  # keep the degree-0 term of T (quantities)
 
 
 _WORKER_READY = False
@@ -358,11 +397,20 @@ def compute_block(job: Job, model) -> dict:
         step_deg=job.step_deg,
         is_global=job.is_global,
     )
-    vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
-    # the variables of the in-memory map, by the same function (the same bits)
-    data = {k: v[1] for k, v in vector_vars(vec, (), job.units, "", overwrite=True).items()}
-    del vec
-    partial = block_partial(data["modulus_mg"], job.row_weights, job.thresholds)
+    if job.quantity == "disturbance":
+        vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
+        # the variables of the in-memory map, by the same function (the same bits)
+        data = {k: v[1] for k, v in vector_vars(vec, (), job.units, "", overwrite=True).items()}
+        del vec
+        partial = block_partial(data["modulus_mg"], job.row_weights, job.thresholds)
+    else:
+        from fieldmap.field.geodesy import grid_quantities
+
+        vals = grid_quantities(
+            model, sub, job.quantity, ellipsoid=ell, degree0=job.degree0, device=job.device
+        )
+        data = {k: v[0] for k, v in vals.items()}
+        partial = {"vars": {k: scalar_partial(v, job.row_weights) for k, v in data.items()}}
     out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
     if job.store is not None:
         data = job.store.write_block(job.block, data)
@@ -557,7 +605,17 @@ def _take(it, n):
 # ---------------------------------------------------------------------------- products
 
 
-def make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store=None) -> list[Job]:
+def make_jobs(
+    grid,
+    blocks,
+    ellipsoid,
+    device,
+    units,
+    thresholds,
+    store=None,
+    quantity: str = "disturbance",
+    degree0: bool = False,
+) -> list[Job]:
     """One :class:`Job` per block."""
     from fieldmap.products.stats import area_weights
 
@@ -576,6 +634,8 @@ def make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store=None) ->
             units=units,
             thresholds=tuple(thresholds),
             store=store,
+            quantity=quantity,
+            degree0=degree0,
         )
         for b in blocks
     ]
@@ -596,8 +656,10 @@ def run_blocks(
     store=None,
     progress: bool | None = None,
     window: int | None = None,
+    quantity: str = "disturbance",
+    degree0: bool = False,
 ) -> list[dict]:
-    """Compute every block of a disturbance product; return the statistics per height.
+    """Compute every block of a product; return the statistics per height.
 
     Parameters
     ----------
@@ -612,16 +674,20 @@ def run_blocks(
         Workers write their blocks straight into this zarr store.
     window : int, optional
         Blocks in flight on the cluster (default: four per worker), which bounds the memory.
+    quantity : str
+        ``"disturbance"`` (the vector, its modulus and the threshold statistics) or a quantity
+        of :func:`fieldmap.field.geodesy.grid_quantities` (``degree0`` as there).
 
     Returns
     -------
     list of dict
-        Per height, in the form of :func:`fieldmap.products.stats.map_statistics`.
+        Per height, in the form of :func:`fieldmap.products.stats.map_statistics` (the
+        disturbance) or {variable: {"min", "max", "mean", "rms"}} (the quantities).
     """
     from fieldmap.products.stats import area_weights
 
     blocks = plan_blocks(grid, model.lmax, rows_per_block)
-    jobs = make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store)
+    jobs = make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store, quantity, degree0)
     fold = OrderedFold(grid.heights.size)
 
     def on_result(res):

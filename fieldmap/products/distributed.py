@@ -1,10 +1,12 @@
 """Map products on the block engine: in memory, lazy (dask-backed) or streamed to a store.
 
-:func:`fieldmap.products.maps.disturbance_map`, :func:`~fieldmap.products.maps.altitude_sweep`
-and :func:`~fieldmap.products.maps.truncation_map` route here when given ``client=`` (a
+:func:`fieldmap.products.maps.disturbance_map`, :func:`~fieldmap.products.maps.altitude_sweep`,
+:func:`~fieldmap.products.maps.truncation_map` and
+:func:`fieldmap.products.quantity_maps.quantity_map` route here when given ``client=`` (a
 ``dask.distributed.Client``), ``scheduler=`` (``"local:N"`` or an address) or ``chunks=``;
-``fieldmap map|sweep --scheduler ... --format netcdf|zarr`` uses :func:`write_disturbance`,
-which streams blocks to the store so that no process holds the whole product.
+``fieldmap map|sweep --scheduler ... --format netcdf|zarr`` uses :func:`write_disturbance` and
+(with ``--quantity``) :func:`write_quantity`, which stream blocks to the store so that no
+process holds the whole product.
 """
 
 from __future__ import annotations
@@ -21,15 +23,24 @@ __all__ = [
     "disturbance_blocks",
     "lazy_disturbance",
     "normal_rows_on",
+    "prepare_quantity",
+    "quantity_blocks",
     "route",
     "write_disturbance",
+    "write_quantity",
 ]
 
 FORMATS = ("netcdf", "zarr")
 
 
-def prepare(model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units):
-    """Validate grid (not whole in memory), ellipsoid and device; load the model."""
+def prepare(
+    model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units, load=None
+):
+    """Validate grid (not whole in memory), ellipsoid and device; then load the model.
+
+    ``load``: a callable returning the model (the CLI's, with its model-file options), used
+    instead of ``load_model(model, lmax, epoch)``.
+    """
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import make_grid
     from fieldmap.grids.synthesis import resolve_device
@@ -44,7 +55,7 @@ def prepare(model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device
         raise InputError(f"unknown ellipsoid {ellipsoid!r}") from exc
     if device is not None:
         resolve_device(device)  # checked here; each worker resolves it again for itself
-    mod = load_model(model, lmax=lmax, epoch=epoch)
+    mod = load() if load is not None else load_model(model, lmax=lmax, epoch=epoch)
     return grid, ell, mod
 
 
@@ -177,54 +188,196 @@ def write_disturbance(
     """
     from fieldmap.products.stats import parse_thresholds
 
-    if fmt not in FORMATS:
-        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
     thresholds = parse_thresholds(thresholds_mg)
     if setup is None:
+        _check_format(fmt)
         setup = prepare(
             model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
         )
     grid, ell, mod = setup
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+
+    def finish(stats):
+        if stacked:
+            return {}, blockio.sweep_statistics(stats, thresholds), None
+        return blockio.map_attrs(stats[0], thresholds), None, None
+
+    stats = _write_blocks(
+        path,
+        fmt,
+        tmpl,
+        setup,
+        finish,
+        client=client,
+        scheduler=scheduler,
+        atomic=atomic,
+        device=device,
+        units=units,
+        thresholds=thresholds,
+        rows_per_block=rows_per_block,
+        progress=progress,
+        window=window,
+    )
+    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}
+
+
+def _check_format(fmt) -> None:
+    if fmt not in FORMATS:
+        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+
+
+def _write_blocks(path, fmt, tmpl, setup, finish, *, client, scheduler, atomic, **run_kw):
+    """Stream a product's blocks to ``path``; ``finish(stats)``: (attrs, extra, var attrs)."""
+    _check_format(fmt)
+    grid, ell, mod = setup
     place = blockio.atomic_store(path) if atomic else contextlib.nullcontext(path)
     # connect (or start the local cluster) before anything is written
     with _client(client, scheduler) as c, place as tmp:
         writer = None
         try:
             if fmt == "zarr":
-                plan = blocks.plan_blocks(grid, mod.lmax, rows_per_block)
+                plan = blocks.plan_blocks(grid, mod.lmax, run_kw.get("rows_per_block"))
                 target = blockio.create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in plan))
                 sink, store = target.sink, target
             else:
                 writer = blockio.NetCDFWriter(str(tmp), tmpl, grid)
                 sink, store = writer.sink, None
             stats = blocks.run_blocks(
-                grid,
-                mod,
-                ellipsoid=ell.name,
-                device=device,
-                units=units,
-                thresholds=thresholds,
-                rows_per_block=rows_per_block,
-                client=c,
-                sink=sink,
-                store=store,
-                progress=progress,
-                window=window,
+                grid, mod, ellipsoid=ell.name, client=c, sink=sink, store=store, **run_kw
             )
-            if stacked:
-                attrs, extra = {}, blockio.sweep_statistics(stats, thresholds)
-            else:
-                attrs, extra = blockio.map_attrs(stats[0], thresholds), None
+            attrs, extra, var_attrs = finish(stats)
             if fmt == "zarr":
-                blockio.finish_zarr(str(tmp), attrs, extra)
+                blockio.finish_zarr(str(tmp), attrs, extra, var_attrs)
             else:
                 assert writer is not None  # opened above for the netcdf format
-                writer.finish(attrs, extra)
+                writer.finish(attrs, extra, var_attrs)
         finally:
             if writer is not None:
                 writer.close()
-    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}
+    return stats
+
+
+def prepare_quantity(
+    quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, load=None
+):
+    """:func:`prepare` for a quantity map (the geoid is a property of the surface: h = 0)."""
+    from fieldmap.field.geodesy import GRID_QUANTITIES
+
+    if quantity not in GRID_QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
+    heights = [0.0] if quantity == "geoid" else heights_m
+    return prepare(
+        model, lmax, heights, step_deg, lat_max, region, ellipsoid, device, epoch, "mGal", load
+    )
+
+
+def _per_variable(stats: list[dict]) -> dict:
+    """[{var: s} per height] -> {var: [s per height]}."""
+    return {name: [s[name] for s in stats] for name in stats[0]}
+
+
+def quantity_blocks(
+    quantity: str,
+    model="eigen-6s",
+    lmax=None,
+    heights_m=(20000.0,),
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    device=None,
+    ellipsoid="WGS84",
+    epoch=None,
+    degree0: bool = False,
+    progress=None,
+    *,
+    client=None,
+    scheduler=None,
+    rows_per_block=None,
+) -> xr.Dataset:
+    """Compute a quantity map (as :func:`~fieldmap.products.quantity_maps.quantity_map`) in blocks.
+
+    The values are those of the in-memory map bit for bit; the statistics are summed block by
+    block in block order (the same on every executor).
+    """
+    from fieldmap.grids.spec import check_memory
+    from fieldmap.products import quantity_product as qm
+
+    setup = prepare_quantity(
+        quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch
+    )
+    grid, ell, mod = setup
+    check_memory(grid)  # the result is returned whole
+    tmpl = qm.template(quantity, mod, grid, ell, degree0)
+    mem = blockio.MemorySink(grid, True, tuple(tmpl.attrs["variables"]))
+    with _client(client, scheduler) as c:
+        stats = blocks.run_blocks(
+            grid,
+            mod,
+            ellipsoid=ell.name,
+            device=device,
+            thresholds=(),
+            rows_per_block=rows_per_block,
+            client=c,
+            sink=mem.sink,
+            progress=progress,
+            quantity=quantity,
+            degree0=degree0,
+        )
+    return qm.assemble(tmpl, mem.arrays, _per_variable(stats))
+
+
+def write_quantity(
+    path,
+    fmt: str,
+    quantity: str,
+    *,
+    degree0: bool = False,
+    device=None,
+    client=None,
+    scheduler=None,
+    rows_per_block=None,
+    progress=None,
+    window=None,
+    setup,
+    atomic: bool = True,
+) -> dict:
+    """Stream a quantity map (or sweep) block by block to ``path`` (NetCDF-4 or zarr).
+
+    ``setup``: (grid, ellipsoid, model) from :func:`prepare_quantity`. Returns ``stats``
+    ({variable: [statistics per height]}), ``grid``, ``model`` and ``path``.
+    """
+    from fieldmap.products import quantity_product as qm
+
+    grid, ell, mod = setup
+    tmpl = qm.template(quantity, mod, grid, ell, degree0)
+
+    def finish(stats):
+        per_var, extra = qm.statistics_fields(tmpl, _per_variable(stats))
+        return {}, extra or None, per_var
+
+    stats = _write_blocks(
+        path,
+        fmt,
+        tmpl,
+        setup,
+        finish,
+        client=client,
+        scheduler=scheduler,
+        atomic=atomic,
+        device=device,
+        thresholds=(),
+        rows_per_block=rows_per_block,
+        progress=progress,
+        window=window,
+        quantity=quantity,
+        degree0=degree0,
+    )
+    return {
+        "stats": _per_variable(stats),
+        "grid": grid,
+        "model": (mod.name, mod.lmax),
+        "path": path,
+    }
 
 
 def lazy_disturbance(

@@ -15,49 +15,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from fieldmap import __version__
 from fieldmap.errors import InputError
-
-#: quantity -> variables: (name, units, long name, CF standard name or None)
-VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
-    "anomaly": [
-        (
-            "anomaly",
-            "mGal",
-            "gravity anomaly, spherical approximation: -dT/dr - 2T/r",
-            None,
-        )
-    ],
-    "deflection": [
-        ("xi", "arcsec", "northerly component of the deflection of the vertical", None),
-        ("eta", "arcsec", "easterly component of the deflection of the vertical", None),
-    ],
-    "geoid": [
-        (
-            "geoid",
-            "m",
-            "geoid height above the reference ellipsoid (Bruns: T/gamma0)",
-            "geoid_height_above_reference_ellipsoid",
-        )
-    ],
-    "potential": [("potential", "m2 s-2", "disturbing potential T = W - U", None)],
-}
-QUANTITIES = ("disturbance", *VARIABLES)
-
-
-def _definition(degree0: bool) -> str:
-    zero = (
-        "the degree-0 term (GM - GM_ellipsoid)/r is included"
-        if degree0
-        else "the degree-0 term (GM - GM_ellipsoid)/r is left out, as GeographicLib's Gravity"
-    )
-    return (
-        "T = W - U, model minus level-ellipsoid normal potential; "
-        + zero
-        + "; anomaly and deflection in the spherical approximation (Heiskanen & Moritz 1967 "
-        "eq. 2-151c), gamma the normal gravity at the point; geoid N = T(h=0)/gamma0 "
-        "(Somigliana) + HeightOffset and correction terms of a GeographicLib model"
-    )
+from fieldmap.products.quantity_product import QUANTITIES, VARIABLES, assemble, template
 
 
 def quantity_map(
@@ -74,6 +33,8 @@ def quantity_map(
     epoch=None,
     degree0: bool = False,
     progress: bool | None = None,
+    client=None,
+    scheduler: str | None = None,
 ) -> xr.Dataset:
     """Map of a geodetic quantity on a global or regional grid, at one or several heights.
 
@@ -104,6 +65,12 @@ def quantity_map(
         Keep the degree-0 term of T (default False, as GeographicLib).
     progress : bool, optional
         Progress bar.
+    client : dask.distributed.Client, optional
+        Compute on this cluster, block by block (:mod:`fieldmap.products.distributed`).
+    scheduler : str, optional
+        ``"local:N"``, a scheduler address or ``"threads"`` (blocks here) instead of ``client``.
+        The values are those of the in-memory map bit for bit; the statistics are summed block
+        by block (within 1e-14 relative of the whole-map sums).
 
     Returns
     -------
@@ -114,7 +81,6 @@ def quantity_map(
     """
     from fieldmap.field import geodesy
     from fieldmap.products import maps
-    from fieldmap.products.cf import coords, global_attrs
     from fieldmap.products.stats import weights_2d
 
     if quantity not in QUANTITIES:
@@ -131,6 +97,8 @@ def quantity_map(
             ellipsoid=ellipsoid,
             epoch=epoch,
             progress=progress,
+            client=client,
+            scheduler=scheduler,
         )
         if hs.size == 1:
             return maps.disturbance_map(height_km=hs[0], **kw)
@@ -138,21 +106,33 @@ def quantity_map(
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
+    if client is not None or scheduler is not None:
+        from fieldmap.products import distributed
+
+        return distributed.quantity_blocks(
+            quantity,
+            model=model,
+            lmax=lmax,
+            heights_m=h,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            device=device,
+            ellipsoid=ellipsoid,
+            epoch=epoch,
+            degree0=degree0,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+        )
     grid, ell, device = maps.setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
     mod = maps.resolve_model(model, lmax, epoch)
     vals = geodesy.grid_quantities(
         mod, grid, quantity, ellipsoid=ell, degree0=degree0, device=device, progress=progress
     )
-    stacked = grid.heights.size > 1
-    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     w = weights_2d(grid.lat, grid.lon.size)
-    data, extra = {}, {}
-    for name, units, long_name, std in VARIABLES[quantity]:
-        v = vals[name]
-        attrs: dict[str, Any] = {"units": units, "long_name": long_name}
-        if std:
-            attrs["standard_name"] = std
-        per_h = [
+    stats = {
+        name: [
             {
                 "min": float(v[k].min()),
                 "max": float(v[k].max()),
@@ -161,36 +141,9 @@ def quantity_map(
             }
             for k in range(v.shape[0])
         ]
-        if stacked:
-            for key in ("min", "max", "mean", "rms"):
-                extra[f"{name}_{key}"] = (
-                    "height",
-                    np.array([s[key] for s in per_h]),
-                    {"units": units, "long_name": f"area-weighted {key} of {name}"},
-                )
-        else:
-            # CF attribute names: letters, digits, underscores (CF 1.8 §2.3)
-            s0 = per_h[0]
-            attrs["actual_range"] = np.array([s0["min"], s0["max"]])
-            attrs["area_weighted_mean"] = s0["mean"]
-            attrs["area_weighted_rms"] = s0["rms"]
-        data[name] = (dims, v if stacked else v[0], attrs)
-    heights_txt = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
-    title = (
-        f"{VARIABLES[quantity][0][2].split(',')[0].split(' (')[0]} at {heights_txt} km, "
-        f"{mod.name} degree {mod.lmax}"
-    )
-    attrs = global_attrs(
-        title,
-        mod,
-        ell,
-        grid,
-        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} minus the {ell.name} normal field",
-    )
-    attrs.update({"quantity": quantity, "definition": _definition(degree0)})
-    attrs["frame"] = "geocentric spherical (deflection components), values are scalars otherwise"
-    ds = xr.Dataset({**data, **extra}, coords=coords(grid, stacked), attrs=attrs)
-    return ds
+        for name, v in vals.items()
+    }
+    return assemble(template(quantity, mod, grid, ell, degree0), vals, stats)
 
 
 def summary(ds: xr.Dataset) -> dict:
