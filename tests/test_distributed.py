@@ -455,7 +455,7 @@ def test_navsim_study_on_the_cluster_equals_here(client):
 
 
 def test_navsim_scheduler_bad_input(tmp_path, capsys):
-    """Navsim --scheduler: unreachable scheduler and a flight study are one line, exit 2."""
+    """Navsim --scheduler: an unreachable scheduler is one line, exit 2, nothing written."""
     from fieldmap import cli
 
     out = tmp_path / "out"
@@ -467,13 +467,59 @@ def test_navsim_scheduler_bad_input(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "scheduler" in err[0], err
     assert not out.exists()
-    rc = cli.main(
-        ["navsim", "--route", "0,0,1000;0,1,1000", "--speed-mps", "200", "--scheduler",
-         "local:1", "--out", str(out)]
+
+
+@pytest.mark.parametrize(
+    ("frame", "aiding"), [("ned", "baro"), ("lci", "none")], ids=["ned-baro", "lci"]
+)
+def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
+    """A flight study's runs on Dask, time block by time block: the local result, bit for bit.
+
+    Three time blocks (the states, Gauss-Markov and baro states carried by the client), IMU
+    errors with white noise and bias instability, three models x three draws in groups of two.
+    """
+    import functools
+
+    from fieldmap.nav import flightsim
+    from fieldmap.nav.distributed import flight_block_on, on_cluster
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.imu_specs import load_imu
+
+    ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
+    name, imu = load_imu("tactical")
+    kw = dict(
+        imu=imu, imu_name=name, models=["j2", "j4"], draws=3, seed=11, rate_hz=50.0,
+        truth_lmax=30, output_dt=4.0, duration=60.0, block_s=24.0, frame=frame,
+        altitude_aiding=aiding, device="cpu",
     )  # fmt: skip
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and err == [
-        "fieldmap navsim: error: --scheduler runs the paper's studies on Dask; a flight study "
-        "(--trajectory, --route) runs here: leave --scheduler out"
-    ]
-    assert not out.exists()
+    here = flightsim.run_flight(ft, **kw)
+    with on_cluster(client):
+        there = flightsim.run_flight(ft, **kw)
+    blk = functools.partial(flight_block_on, client, runs_per_task=2)
+    with flightsim.blocks_propagated_by(blk):
+        pairs = flightsim.run_flight(ft, **kw)
+    for res in (there, pairs):
+        for k in ("t", "dpos", "dvel", "datt", "track"):
+            assert np.array_equal(getattr(here, k), getattr(res, k)), k
+        for m in here.dg:
+            assert np.array_equal(here.dg[m], res.dg[m]), m
+        assert res.labels == here.labels and res.diverged == here.diverged
+    assert here.dpos.shape[0] == 9 and np.all(np.isfinite(here.dpos))
+    assert np.any(here.dpos[:, -1] != 0)
+
+
+def test_cli_flight_study_with_scheduler(tmp_path):
+    """``navsim --route ... --scheduler local:2``: the numbers of the same run here."""
+    common = [
+        "navsim", "--route", "45,7,9000;45.2,7.3,9500", "--speed-mps", "200", "--duration",
+        "40", "--rate", "50", "--lmax", "30", "--models", "j4", "--draws", "2", "--imu", "tactical",
+    ]  # fmt: skip
+    r1 = _fieldmap(*common, "--out", str(tmp_path / "here"))
+    assert r1.returncode == 0, r1.stderr
+    r2 = _fieldmap(*common, "--scheduler", "local:2", "--out", str(tmp_path / "l2"))
+    assert r2.returncode == 0, r2.stderr
+    (a,) = (tmp_path / "here").glob("*.nc")
+    (b,) = (tmp_path / "l2").glob("*.nc")
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        for v in x.data_vars:
+            assert np.array_equal(x[v].values, y[v].values), v

@@ -151,10 +151,11 @@ def register(subparsers) -> None:
         "--scheduler",
         default=None,
         metavar="threads|local:N|ADDRESS",
-        help="run the navigation launches of the paper's studies (draws x models) on Dask: "
-        "local:N starts a LocalCluster of N worker processes, ADDRESS connects to a running "
-        "scheduler; the results are those of a local run, bit for bit (default: here). "
-        "A flight study (--trajectory, --route) runs here",
+        help="run the navigation launches (draws x models) on Dask: local:N starts a "
+        "LocalCluster of N worker processes, ADDRESS connects to a running scheduler; the paper's "
+        "studies and a flight study (--trajectory, --route: the IMU increments are synthesised "
+        "here, block by block, the runs propagated on the workers) give the results of a local "
+        "run, bit for bit (default: here)",
     )
     p.add_argument(
         "--out",
@@ -309,24 +310,18 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
 
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.errors import InputError
     from fieldmap.nav.distributed import on_cluster
     from fieldmap.products import blocks
     from fieldmap.products.io import output_batch
 
     device, models, nav = _check_args(args)
     scheduler = blocks.parse_scheduler(args.scheduler)
-    if is_flight(args):
-        if scheduler is not None:
-            raise InputError(
-                "--scheduler runs the paper's studies on Dask; a flight study (--trajectory, "
-                "--route) runs here: leave --scheduler out"
-            )
-        return run_flight_study(args, device, models, *nav)
     studies = STUDIES if args.study == "all" else (args.study,)
     with contextlib.ExitStack() as stack:
         if scheduler is not None:  # connect (or start the LocalCluster) before the long work
             stack.enter_context(on_cluster(stack.enter_context(blocks.open_client(scheduler))))
+        if is_flight(args):
+            return run_flight_study(args, device, models, *nav)
         results = _scenario_and_studies(args, device, studies, models, nav)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -3,8 +3,11 @@
 :func:`propagate_on` is :func:`fieldmap.nav.studies.propagate` with the runs split into groups,
 each propagated by one task on a ``dask.distributed`` worker. The scenario (trajectory, truth
 model, exact IMU increments) is shipped once per worker (``client.scatter(broadcast=True)``).
-Each run is one Warp thread that depends on no other run, so the result is that of
-:func:`~fieldmap.nav.studies.propagate` bit for bit, whatever the grouping.
+:func:`flight_block_on` does the same for each time block of the flight study
+(:func:`fieldmap.nav.flightsim.run_flight`): the client synthesises the block's exact IMU
+increments once, ships them to every worker, and the workers propagate groups of runs from the
+states the client keeps between blocks. Each run is one Warp thread that depends on no other
+run, so the results are those of a local run bit for bit, whatever the grouping.
 """
 
 from __future__ import annotations
@@ -18,21 +21,23 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["on_cluster", "propagate_on"]
+__all__ = ["flight_block_on", "on_cluster", "propagate_on"]
 
 
 @contextlib.contextmanager
 def on_cluster(client) -> Iterator[None]:
     """Run the navigation launches of the enclosed studies on a Dask cluster.
 
-    Within the block, :func:`fieldmap.nav.studies.propagate` splits its runs (draws × models)
-    into tasks on ``client`` (:func:`propagate_on`, bit for bit the local result); ``client=None``
-    keeps them here.
+    Within the block, :func:`fieldmap.nav.studies.propagate` (the paper's studies) and each time
+    block of :func:`fieldmap.nav.flightsim.run_flight` (a flight study) split their runs
+    (draws × models) into tasks on ``client`` (:func:`propagate_on`, :func:`flight_block_on`;
+    bit for bit the local result); ``client=None`` keeps them here.
     """
-    from fieldmap.nav import studies
+    from fieldmap.nav import flightsim, studies
 
     fn = None if client is None else functools.partial(propagate_on, client)
-    with studies.propagated_by(fn):
+    blk = None if client is None else functools.partial(flight_block_on, client)
+    with studies.propagated_by(fn), flightsim.blocks_propagated_by(blk):
         yield
 
 
@@ -99,3 +104,78 @@ def propagate_on(
     out["seconds"] = time.perf_counter() - t0
     out["diverged"] = divergence(out["pos"], out["t"], gravity)
     return out
+
+
+def _flight_task(traj, model, sets, args: dict):
+    from fieldmap.nav.flightsim import propagate_block
+    from fieldmap.products.blocks import worker_setup
+
+    worker_setup()
+    return propagate_block(traj=traj, model=model, sets=sets, **args)
+
+
+def _rows(value, a: int, b: int, n: int):
+    """Rows ``a:b`` of a per-run value (array, list or dict of them); anything else as is."""
+    if isinstance(value, dict):
+        return {k: _rows(v, a, b, n) for k, v in value.items()}
+    if isinstance(value, (list, tuple)) and len(value) == n:
+        return list(value[a:b])
+    if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == n:
+        return value[a:b]
+    return value
+
+
+def _stack(parts: list):
+    """Inverse of :func:`_rows` over consecutive groups."""
+    first = parts[0]
+    if isinstance(first, dict):
+        return {k: _stack([p[k] for p in parts]) for k in first}
+    if isinstance(first, np.ndarray) and first.ndim >= 1:
+        return np.concatenate(parts)
+    return first
+
+
+def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set,
+                    kerr, aiding, baro, baro_bias, baro_state, rate_hz, device,
+                    runs_per_task: int | None = None):  # fmt: skip
+    """:func:`fieldmap.nav.flightsim.propagate_block` with the runs split over ``client``.
+
+    The trajectory and the truth model travel once per worker for the whole flight, the block's
+    IMU increments once per worker and block; every per-run argument
+    (:data:`fieldmap.nav.flightsim.PER_RUN_ARGS`) is cut into groups of ``runs_per_task`` runs
+    (default: four tasks per worker), and the results are put back together in run order.
+    """
+    from fieldmap.products.blocks import scattered
+
+    n = len(grav)
+    nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+    per = runs_per_task or max(1, math.ceil(n / (4 * nworkers)))
+    traj_f, model_f = scattered(client, traj), scattered(client, model)
+    # one future for the whole list (scatter splits a list into one future per item)
+    (sets_f,) = client.scatter([sets], broadcast=True, hash=False)
+    per_run = {
+        "state": state, "grav": grav, "imu_set": imu_set, "kerr": kerr,
+        "baro_bias": baro_bias, "baro_state": baro_state,
+    }  # fmt: skip
+    common = {
+        "frame": frame, "tb": tb, "nb": nb, "dt": dt, "every": every, "aiding": aiding,
+        "baro": baro, "rate_hz": rate_hz, "device": device,
+    }  # fmt: skip
+    futures = [
+        client.submit(
+            _flight_task,
+            traj_f,
+            model_f,
+            sets_f,
+            {**common, **{k: _rows(v, a, a + per, n) for k, v in per_run.items()}},
+            pure=False,
+        )
+        for a in range(0, n, per)
+    ]
+    try:
+        parts = client.gather(futures)
+    finally:
+        sets_f.release()
+    res = _stack([p[0] for p in parts])
+    nxt = _stack([p[1] for p in parts])
+    return res, nxt

@@ -30,8 +30,11 @@ of a short flight; it neglects the Schuler feedback (−g/R δp: 8 % of the grav
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -296,7 +299,7 @@ def run_flight(
         kerr_b = dict(kerr)
         kerr_b["seed"] = ((kerr["seed"].astype(np.int64) + 7919 * b) % (2**31 - 1)).astype(np.int32)
         kerr_b["acc_gm"], kerr_b["gyro_gm"] = state["acc_gm"], state["gyro_gm"]
-        res, state = _propagate_block(
+        res, state = (_BLOCK_PROPAGATOR.get() or propagate_block)(
             traj, frame, sets, tb, nb, dt, every, state, [grav[i] for i in perm], model,
             imu_set[perm], kerr_b, aiding, baro, baro_bias, baro_state, rate_hz, device,
         )  # fmt: skip
@@ -369,11 +372,41 @@ def _initial_state(traj, frame, lat0, lon0, h0, v0, C0, n):
     return st
 
 
-def _propagate_block(
+#: Who propagates a time block of the flight study (None: here; see blocks_propagated_by).
+_BLOCK_PROPAGATOR: contextvars.ContextVar = contextvars.ContextVar(
+    "fieldmap_flight_block_propagator", default=None
+)
+
+
+@contextlib.contextmanager
+def blocks_propagated_by(fn) -> Iterator[None]:
+    """Within the block, :func:`run_flight` hands each time block to ``fn``.
+
+    ``fn`` takes the arguments of :func:`propagate_block` and returns its result;
+    :func:`fieldmap.nav.distributed.on_cluster` uses it to split the runs of every time block
+    over Dask workers (each run depends on no other run: the same bits). ``fn=None``: here.
+    """
+    token = _BLOCK_PROPAGATOR.set(fn)
+    try:
+        yield
+    finally:
+        _BLOCK_PROPAGATOR.reset(token)
+
+
+#: Arguments of propagate_block that hold one row per run (split by run groups on a cluster).
+PER_RUN_ARGS = ("state", "grav", "imu_set", "kerr", "baro_bias", "baro_state")
+
+
+def propagate_block(
     traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set, kerr, aiding, baro,
     baro_bias, baro_state, rate_hz, device,
 ):  # fmt: skip
-    """One block for every run; returns the stored geodetic states and the next start state."""
+    """Propagate one time block of every run; return the stored states and the next start state.
+
+    ``state``, ``kerr`` (dicts of per-run arrays), ``grav``, ``imu_set``, ``baro_bias`` and
+    ``baro_state`` hold one row per run (:data:`PER_RUN_ARGS`); ``sets`` are the exact IMU
+    increments of the block (truth, reference), shared by all runs.
+    """
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
     n = len(grav)
