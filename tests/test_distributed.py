@@ -198,6 +198,20 @@ def test_lazy_dataset(client, local_map):
     assert np.array_equal(here["up"].values, local_map["up"].values)
 
 
+def test_lazy_quantity_dataset(client):
+    from fieldmap.products.quantity_maps import quantity_map
+
+    ref = quantity_map("deflection", **KW, height_km=[20.0, 50.0])
+    lazy = quantity_map("deflection", **KW, height_km=[20.0, 50.0], chunks=ROWS, client=client)
+    assert lazy["xi"].chunks is not None and lazy["xi"].dims == ref["xi"].dims
+    got = lazy.compute()
+    for v in ("xi", "eta"):
+        assert np.array_equal(got[v].values, ref[v].values), v
+        assert got[v].attrs["units"] == "arcsec"
+    geoid = quantity_map("geoid", **KW, chunks={"latitude": ROWS}).compute()
+    assert np.array_equal(geoid["geoid"].values, quantity_map("geoid", **KW)["geoid"].values)
+
+
 def test_worker_killed_mid_run_still_completes_identically(client):
     grid, _, mod = D.prepare(
         "eigen-6s", 40, [20000.0], 3.0, 80.0, None, "WGS84", None, None, "mGal"

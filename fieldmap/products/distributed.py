@@ -22,6 +22,7 @@ from fieldmap.products import blockio, blocks
 __all__ = [
     "disturbance_blocks",
     "lazy_disturbance",
+    "lazy_quantity",
     "normal_rows_on",
     "prepare_quantity",
     "quantity_blocks",
@@ -404,21 +405,32 @@ def lazy_disturbance(
     runs of a block come from one task. Statistics are not in the attributes (they need the
     whole map): compute them from ``ds.modulus_mg`` or write with :func:`write_disturbance`.
     """
-    import dask
-    import dask.array as da
-
     from fieldmap.products.stats import parse_thresholds
 
-    if isinstance(chunks, dict):
-        chunks = chunks.get("latitude")
-    rows = None if chunks in (None, True, "auto") else chunks
     thresholds = parse_thresholds(thresholds_mg)
     grid, ell, mod = prepare(
         model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
     )
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    rows = _chunk_rows(chunks)
     plan = blocks.plan_blocks(grid, mod.lmax, rows)
     jobs = blocks.make_jobs(grid, plan, ell.name, device, units, thresholds)
+    ds = _lazy(tmpl, grid, mod, plan, jobs, client)
+    ds.attrs["thresholds_mg"] = np.array(thresholds)
+    return ds
+
+
+def _chunk_rows(chunks):
+    if isinstance(chunks, dict):
+        chunks = chunks.get("latitude")
+    return None if chunks in (None, True, "auto") else chunks
+
+
+def _lazy(tmpl, grid, mod, plan, jobs, client) -> xr.Dataset:
+    """Return the template's variables as dask arrays, one delayed computation per block."""
+    import dask
+    import dask.array as da
+
     model_d = client.scatter(mod, broadcast=True, hash=False) if client is not None else mod
     model_d = dask.delayed(model_d) if client is None else model_d
     results = [dask.delayed(blocks.compute_block, pure=True)(job, model_d) for job in jobs]
@@ -442,11 +454,45 @@ def lazy_disturbance(
     ds = tmpl.copy()
     var_attrs = ds.attrs.pop("variables")
     dims = ds.attrs.pop("dims")
-    for name in blockio.VARIABLES:
+    stacked = "height" in dims
+    for name, va in var_attrs.items():
         cols = [column(name, k) for k in range(nh)]
-        ds[name] = (dims, da.stack(cols) if stacked else cols[0], var_attrs[name])
-    ds.attrs["thresholds_mg"] = np.array(thresholds)
+        ds[name] = (dims, da.stack(cols) if stacked else cols[0], va)
     return ds
+
+
+def lazy_quantity(
+    quantity: str,
+    model="eigen-6s",
+    lmax=None,
+    heights_m=(20000.0,),
+    step_deg=1.0,
+    lat_max=80.0,
+    region=None,
+    device=None,
+    ellipsoid="WGS84",
+    epoch=None,
+    degree0: bool = False,
+    *,
+    chunks=None,
+    client=None,
+) -> xr.Dataset:
+    """Return a lazy, dask-backed quantity map (as :func:`lazy_disturbance`).
+
+    The values, once computed, are those of the in-memory map bit for bit; the statistics are
+    not in the attributes (compute them from the data, or write with :func:`write_quantity`).
+    """
+    from fieldmap.products import quantity_product as qm
+
+    grid, ell, mod = prepare_quantity(
+        quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch
+    )
+    tmpl = qm.template(quantity, mod, grid, ell, degree0)
+    plan = blocks.plan_blocks(grid, mod.lmax, _chunk_rows(chunks))
+    jobs = blocks.make_jobs(
+        grid, plan, ell.name, device, "mGal", (), quantity=quantity, degree0=degree0
+    )
+    return _lazy(tmpl, grid, mod, plan, jobs, client)
 
 
 def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:

@@ -35,6 +35,7 @@ def quantity_map(
     progress: bool | None = None,
     client=None,
     scheduler: str | None = None,
+    chunks=None,
 ) -> xr.Dataset:
     """Map of a geodetic quantity on a global or regional grid, at one or several heights.
 
@@ -71,6 +72,9 @@ def quantity_map(
         ``"local:N"``, a scheduler address or ``"threads"`` (blocks here) instead of ``client``.
         The values are those of the in-memory map bit for bit; the statistics are summed block
         by block (within 1e-14 relative of the whole-map sums).
+    chunks : int, dict or "auto", optional
+        Return a lazy dask-backed Dataset instead (latitude rows per block; with ``client=``
+        the blocks run on that cluster when the data is read); no statistics attributes.
 
     Returns
     -------
@@ -99,6 +103,7 @@ def quantity_map(
             progress=progress,
             client=client,
             scheduler=scheduler,
+            chunks=chunks,
         )
         if hs.size == 1:
             return maps.disturbance_map(height_km=hs[0], **kw)
@@ -106,6 +111,26 @@ def quantity_map(
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
+    if chunks is not None:
+        from fieldmap.products import distributed
+
+        if scheduler is not None:
+            raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
+        return distributed.lazy_quantity(
+            quantity,
+            model=model,
+            lmax=lmax,
+            heights_m=h,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            device=device,
+            ellipsoid=ellipsoid,
+            epoch=epoch,
+            degree0=degree0,
+            chunks=chunks,
+            client=client,
+        )
     if client is not None or scheduler is not None:
         from fieldmap.products import distributed
 
