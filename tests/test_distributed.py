@@ -188,6 +188,20 @@ def test_sweep_and_truncation_on_the_cluster(client):
         assert np.array_equal(ref[v].values, tr[v].values), v
 
 
+@pytest.mark.parametrize(("step", "rows"), [(2.5, 6), (3.0, 10), (7.0, 4), (1.5, 30)])
+def test_zarr_shared_chunks_written_once_whole(tmp_path, step, rows, monkeypatch):
+    """Odd grids and block sizes: chunks shared by two blocks, runs across two chunks."""
+    monkeypatch.setattr(blockio, "CHUNK_BYTES", 8 * 360 * 3)  # small chunks: many shared
+    kw = dict(lmax=10, step_deg=step)
+    ref = D.disturbance_blocks(heights_m=[2e4], **kw, stacked=False, rows_per_block=rows)
+    D.write_disturbance(
+        tmp_path / "m.zarr", "zarr", heights_m=[2e4], **kw, stacked=False, rows_per_block=rows
+    )
+    with xr.open_zarr(tmp_path / "m.zarr") as z:
+        for v in VARS:
+            assert np.array_equal(z[v].values, ref[v].values), v
+
+
 def test_lazy_dataset(client, local_map):
     lazy = disturbance_map(height_km=20, **KW, chunks=ROWS, client=client)
     assert lazy["modulus"].chunks is not None

@@ -4,8 +4,10 @@
   Blosc/zstd), written by the workers in parallel. A block holds two runs of rows (south rows
   and their mirrors), so a chunk may be shared by two blocks; each worker writes the chunks its
   block covers whole and returns the rows of shared chunks (fewer than ``chunk_rows`` per run
-  end), which the client writes. No chunk ever has two writers at once, without any lock.
-- **NetCDF-4** (:class:`NetCDFWriter`): zlib level 4 (as :mod:`fieldmap.products.io`), chunks of
+  end); the client gathers them and writes each shared chunk once, whole, when all its rows
+  are in. No chunk ever has two writers, without any lock, and nothing is read back.
+- **NetCDF-4** (:class:`NetCDFWriter`): zlib + shuffle at :data:`fieldmap.products.io.COMPLEVEL`
+  (as the in-memory products), chunks of
   ``chunk_rows`` rows; HDF5 has no parallel writer without MPI, so the client is the one writer
   and the workers send it their blocks (at most ``window`` in flight, which bounds the memory).
 - Both are written under a hidden temporary name next to the final one and renamed only when
@@ -131,7 +133,12 @@ def _put(arr, layer, stacked, r0, r1, values) -> None:
 
 
 class ZarrTarget:
-    """A zarr store being filled block by block (picklable: workers open it by path)."""
+    """A zarr store being filled block by block (picklable: workers open it by path).
+
+    Workers write the chunks their block covers whole; the client (:meth:`sink`) gathers the
+    rows of the chunks shared by two blocks and writes each such chunk once, whole, when all
+    its rows have arrived (no read-modify-write, no chunk with two writers).
+    """
 
     def __init__(self, path, nlat: int, rows: int, stacked: bool, names=VARIABLES):
         self.path = str(path)
@@ -139,6 +146,12 @@ class ZarrTarget:
         self.rows = rows
         self.stacked = stacked
         self.names = tuple(names)
+        self._open: dict | None = None  # client side: arrays opened once
+        self._pending: dict = {}  # client side: (layer, chunk) -> [rows filled, {name: rows}]
+
+    def __getstate__(self):
+        # the workers get the path and the layout, never the client's buffers
+        return {**self.__dict__, "_open": None, "_pending": {}}
 
     def _arrays(self):
         import zarr
@@ -163,11 +176,31 @@ class ZarrTarget:
         return {"edges": edges}
 
     def sink(self, block, data: dict) -> None:
-        """Client side: write the shared-chunk rows a worker returned."""
-        arrays = self._arrays()
+        """Client side: collect the shared-chunk rows a worker returned; write full chunks."""
+        if self._open is None:
+            self._open = self._arrays()
         for r0, r1, values in data["edges"]:
-            for name in self.names:
-                _put(arrays[name], block.layer, self.stacked, r0, r1, values[name])
+            for c in range(r0 // self.rows, (r1 - 1) // self.rows + 1):
+                c0, c1 = c * self.rows, min((c + 1) * self.rows, self.nlat)
+                a, b = max(r0, c0), min(r1, c1)
+                key = (block.layer, c)
+                entry = self._pending.get(key)
+                if entry is None:
+                    nlon = values[self.names[0]].shape[1]
+                    bufs = {name: np.empty((c1 - c0, nlon)) for name in self.names}
+                    entry = self._pending[key] = [0, bufs]
+                for name in self.names:
+                    entry[1][name][a - c0 : b - c0] = values[name][a - r0 : b - r0]
+                entry[0] += b - a
+                if entry[0] == c1 - c0:  # every row of the chunk is here: one whole write
+                    for name in self.names:
+                        _put(self._open[name], block.layer, self.stacked, c0, c1, entry[1][name])
+                    del self._pending[key]
+
+    def check_complete(self) -> None:
+        """Raise if a shared chunk is still waiting for rows (a bug, never silent)."""
+        if self._pending:
+            raise RuntimeError(f"zarr chunks left incomplete: {sorted(self._pending)[:4]}")
 
 
 def create_zarr(path, tmpl: xr.Dataset, grid, block_rows: int | None = None) -> ZarrTarget:

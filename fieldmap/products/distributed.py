@@ -248,6 +248,7 @@ def _write_blocks(path, fmt, tmpl, setup, finish, *, client, scheduler, atomic, 
             )
             attrs, extra, var_attrs = finish(stats)
             if fmt == "zarr":
+                target.check_complete()
                 blockio.finish_zarr(str(tmp), attrs, extra, var_attrs)
             else:
                 assert writer is not None  # opened above for the netcdf format
