@@ -330,6 +330,24 @@ def test_quantity_stores_hold_the_same_bits(client, tmp_path):
         D.prepare_quantity("gradient", "eigen-6s", 40, [2e4], 3.0, 80.0, None, "WGS84", None, None)
 
 
+def test_cli_truncation_on_local_cluster_equals_here(tmp_path):
+    common = ["truncation", "--step-deg", "6", "--orders", "2,4", "--no-plots"]
+    r1 = _fieldmap(*common, "--out", str(tmp_path / "here"))
+    assert r1.returncode == 0, r1.stderr
+    r2 = _fieldmap(*common, "--scheduler", "local:2", "--out", str(tmp_path / "l2"))
+    assert r2.returncode == 0, r2.stderr
+    assert r1.stdout == r2.stdout
+    (a,) = (tmp_path / "here").glob("*.nc")
+    (b,) = (tmp_path / "l2").glob("*.nc")
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        for v in x.data_vars:
+            assert np.array_equal(x[v].values, y[v].values), v
+    out = tmp_path / "never"
+    r3 = _fieldmap(*common, "--scheduler", f"tcp://127.0.0.1:{_free_port()}", "--out", str(out))
+    assert r3.returncode == 2 and len(r3.stderr.strip().splitlines()) == 1, r3.stderr
+    assert not out.exists()
+
+
 def test_cli_quantity_on_local_cluster_equals_in_memory(tmp_path):
     common = ["map", "--quantity", "anomaly", "--lmax", "30", "--step-deg", "4", "--no-plots"]
     r1 = _fieldmap(*common, "--out", str(tmp_path / "mem"))

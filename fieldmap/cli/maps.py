@@ -166,6 +166,12 @@ def register(subparsers) -> None:
     _common(p, model=False)
     _list_arg(p, "--height-km", "20", "height above the ellipsoid in km, -10 to 1e5")
     _list_arg(p, "--orders", "2,4,6", "normal models j2, j4, j6 by name or order (2, 4, 6)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="evaluate the rows on Dask: local:N (a cluster of N worker processes for this run) "
+        "or a scheduler address (tcp://host:port); the same numbers (default: here)",
+    )
     p.set_defaults(func=run_truncation)
 
 
@@ -306,22 +312,28 @@ def run_sweep(args) -> int:
 
 def run_truncation(args) -> int:
     """``fieldmap truncation``: J2n truncation-error maps."""
+    from contextlib import nullcontext
+
     from fieldmap.limits import check_orders
-    from fieldmap.products import plots
+    from fieldmap.products import blocks, plots
     from fieldmap.products.maps import truncation_map
 
     orders = api_call("--orders", check_orders, list_values(args.orders, "--orders"))
     (height_km,) = heights_km(args, "truncation takes one height")
     preflight(args, [height_km], layers=len(orders))
-    ds = truncation_map(
-        height_km=height_km,
-        orders=orders,
-        step_deg=args.step_deg,
-        lat_max=args.lat_max,
-        region=region(args),
-        device=args.device,
-        ellipsoid=args.ellipsoid,
-    )
+    scheduler = blocks.parse_scheduler(args.scheduler)
+    # connect (or start the LocalCluster) first: an unreachable scheduler writes nothing
+    with blocks.open_client(scheduler) if scheduler is not None else nullcontext() as client:
+        ds = truncation_map(
+            height_km=height_km,
+            orders=orders,
+            step_deg=args.step_deg,
+            lat_max=args.lat_max,
+            region=region(args),
+            device=args.device,
+            ellipsoid=args.ellipsoid,
+            client=client,
+        )
     print(f"J2n truncation error at h = {height_km:g} km ({ds.attrs['ellipsoid']})")
     print("  order   max (mg)      mean (mg)")
     for o, mx, mn in zip(ds["order"].values, ds["max_mg"].values, ds["mean_mg"].values):
