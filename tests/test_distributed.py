@@ -336,7 +336,8 @@ def test_cli_truncation_on_local_cluster_equals_here(tmp_path):
     assert r1.returncode == 0, r1.stderr
     r2 = _fieldmap(*common, "--scheduler", "local:2", "--out", str(tmp_path / "l2"))
     assert r2.returncode == 0, r2.stderr
-    assert r1.stdout == r2.stdout
+    table = [ln for ln in r1.stdout.splitlines() if not ln.startswith("written")]
+    assert table == [ln for ln in r2.stdout.splitlines() if not ln.startswith("written")]
     (a,) = (tmp_path / "here").glob("*.nc")
     (b,) = (tmp_path / "l2").glob("*.nc")
     with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
