@@ -81,7 +81,7 @@ class PeakRSS:
 def overhead(repeat: int, quick: bool) -> None:
     """Two tables: the map returned in memory, and the map written to a file (the CLI's job)."""
     from fieldmap.models.registry import kaula_model, load_model
-    from fieldmap.products import blocks, distributed
+    from fieldmap.products import blocks, cluster, distributed
     from fieldmap.products.io import write_netcdf
     from fieldmap.products.maps import disturbance_map
 
@@ -120,7 +120,7 @@ def overhead(repeat: int, quick: bool) -> None:
             "zarr": _median_time(lambda: engine_file("zarr"), repeat),
         }
         for n in (1, 2):
-            with blocks.open_client(("local", n)) as client:
+            with cluster.open_client(("local", n)) as client:
                 disturbance_map(**kw, client=client)  # workers load kernels and the model
                 row[f"local:{n}"] = _median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
@@ -225,11 +225,11 @@ def projection(results: dict) -> None:
 
 
 def big(out: str, fmt: str, workers: int) -> None:
-    from fieldmap.products import blocks, distributed
+    from fieldmap.products import cluster, distributed
 
     path = os.path.join(out, f"bench_big_0.02deg.{'zarr' if fmt == 'zarr' else 'nc'}")
     t0 = time.perf_counter()
-    with PeakRSS() as mon, blocks.open_client(("local", workers)) as client:
+    with PeakRSS() as mon, cluster.open_client(("local", workers)) as client:
         t1 = time.perf_counter()
         info = distributed.write_disturbance(
             path,

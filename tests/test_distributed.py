@@ -24,7 +24,7 @@ from fieldmap.products import cf
 distributed = pytest.importorskip("distributed")
 pytest.importorskip("zarr")
 
-from fieldmap.products import blockio, blocks  # noqa: E402
+from fieldmap.products import blockio, blocks, blockstats, cluster  # noqa: E402
 from fieldmap.products import distributed as D  # noqa: E402
 from fieldmap.products.maps import altitude_sweep, disturbance_map, truncation_map  # noqa: E402
 from fieldmap.products.stats import map_statistics  # noqa: E402
@@ -36,7 +36,7 @@ VARS = blockio.VARIABLES
 
 @pytest.fixture(scope="module")
 def client():
-    with blocks.open_client(("local", 2)) as c:
+    with cluster.open_client(("local", 2)) as c:
         yield c
 
 
@@ -85,14 +85,14 @@ def test_block_statistics_match_map_statistics(local_map):
     for t, f in ref["area_fraction_above"].items():
         assert a[cf.fraction_attr(t)] == pytest.approx(f, rel=1e-14, abs=1e-16)
     for q in ("p50_mg", "p90_mg", "p99_mg"):
-        assert abs(a[q] / ref[q] - 1) <= blocks.PERCENTILE_RTOL
-    assert blocks.PERCENTILE_RTOL < 1.5e-4
+        assert abs(a[q] / ref[q] - 1) <= blockstats.PERCENTILE_RTOL
+    assert blockstats.PERCENTILE_RTOL < 1.5e-4
 
 
 def test_histogram_bins_from_the_float_bits():
     """Bins are monotone in the value, at most 2**-12 wide, and their centres within rtol."""
     rng = np.random.default_rng(3)
-    lo, hi = blocks.HIST_RANGE_MG
+    lo, hi = blockstats.HIST_RANGE_MG
     x = np.concatenate(
         [
             10 ** rng.uniform(np.log10(lo), np.log10(hi), 100_000),
@@ -101,30 +101,34 @@ def test_histogram_bins_from_the_float_bits():
         ]
     )
     x.sort()
-    k = blocks._hist_index(x)
-    assert np.all(np.diff(k) >= 0) and k.min() >= 0 and k.max() < blocks.HIST_BINS
-    centres = np.array([blocks._bin_centre(int(i)) for i in k])
-    assert np.max(np.abs(centres / x - 1)) <= blocks.PERCENTILE_RTOL
+    k = blockstats._hist_index(x)
+    assert np.all(np.diff(k) >= 0) and k.min() >= 0 and k.max() < blockstats.HIST_BINS
+    centres = np.array([blockstats._bin_centre(int(i)) for i in k])
+    assert np.max(np.abs(centres / x - 1)) <= blockstats.PERCENTILE_RTOL
     # the edges: 0, below and above the range fall into the end bins
-    assert list(blocks._hist_index(np.array([0.0, lo / 3, hi * 3]))) == [0, 0, blocks.HIST_BINS - 1]
+    assert list(blockstats._hist_index(np.array([0.0, lo / 3, hi * 3]))) == [
+        0,
+        0,
+        blockstats.HIST_BINS - 1,
+    ]
 
 
 def test_workers_are_set_up_once(client):
     """Each worker: Warp threads from its share of the cores, glibc thresholds of a process."""
 
     def probe():
-        blocks.worker_setup()
-        return blocks._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
+        cluster.worker_setup()
+        return cluster._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
 
     workers = list(client.scheduler_info(n_workers=-1)["workers"])
     out = [client.submit(probe, workers=[w], pure=False).result() for w in workers]
     assert len(out) == 2
     for ready, threads in out:
         assert ready and int(threads) >= 1
-    blocks.worker_setup()  # not a worker: nothing changes here
-    assert not blocks._WORKER_READY
+    cluster.worker_setup()  # not a worker: nothing changes here
+    assert not cluster._WORKER_READY
     if "glibc" in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
-        assert blocks._glibc_thresholds(32 * 2**20)
+        assert cluster._glibc_thresholds(32 * 2**20)
 
 
 def test_model_is_shipped_once_per_client(client):
@@ -135,15 +139,15 @@ def test_model_is_shipped_once_per_client(client):
 
     m1 = load_model("eigen-6s", lmax=20)
     m2 = dataclasses.replace(m1, name="copy")  # another object, alive only here
-    f1 = blocks.scattered(client, m1)
-    assert blocks.scattered(client, m1) is f1  # reused by the next product
-    f2 = blocks.scattered(client, m2)
+    f1 = cluster.scattered(client, m1)
+    assert cluster.scattered(client, m1) is f1  # reused by the next product
+    f2 = cluster.scattered(client, m2)
     assert f2.key != f1.key
     assert client.submit(lambda m: m.name, f2).result() == "copy"
     key = f2.key
     del m2, f2
     gc.collect()  # the model is gone: its copy on the cluster is released
-    assert key not in {fut.key for _, fut in blocks._SCATTERED[client].values()}
+    assert key not in {fut.key for _, fut in cluster._SCATTERED[client].values()}
 
 
 def test_local_cluster_is_bitwise_identical(client, local_map):
@@ -382,7 +386,7 @@ def test_unreachable_scheduler_one_line_exit_2(tmp_path):
     assert "cannot reach the Dask scheduler" in r.stderr
     assert not out.exists()
     with pytest.raises(D.InputError, match="local:N"):
-        blocks.parse_scheduler("local:0")
+        cluster.parse_scheduler("local:0")
 
 
 @pytest.mark.slow

@@ -46,11 +46,11 @@ def wanted(args) -> bool:
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
     from fieldmap.cli.common import load_cli_model, region, stem
-    from fieldmap.products import blockio, blocks, distributed, plots
+    from fieldmap.products import blockio, cluster, distributed, plots
     from fieldmap.products.io import check_out_dir, output_batch
     from fieldmap.products.maps import summary
 
-    scheduler = blocks.parse_scheduler(args.scheduler)
+    scheduler = cluster.parse_scheduler(args.scheduler)
     prep = distributed.prepare(
         args.model,
         args.lmax,
@@ -71,7 +71,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     ext = "zarr" if args.format == "zarr" else "nc"
     out = Path(args.out)
     client_cm = (
-        blocks.open_client(scheduler) if scheduler is not None else _null()
+        cluster.open_client(scheduler) if scheduler is not None else _null()
     )  # connect first: an unreachable scheduler writes nothing
     t0 = time.perf_counter()
     with client_cm as client, output_batch(out) as batch:

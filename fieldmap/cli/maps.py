@@ -315,15 +315,15 @@ def run_truncation(args) -> int:
     from contextlib import nullcontext
 
     from fieldmap.limits import check_orders
-    from fieldmap.products import blocks, plots
+    from fieldmap.products import cluster, plots
     from fieldmap.products.maps import truncation_map
 
     orders = api_call("--orders", check_orders, list_values(args.orders, "--orders"))
     (height_km,) = heights_km(args, "truncation takes one height")
     preflight(args, [height_km], layers=len(orders))
-    scheduler = blocks.parse_scheduler(args.scheduler)
+    scheduler = cluster.parse_scheduler(args.scheduler)
     # connect (or start the LocalCluster) first: an unreachable scheduler writes nothing
-    with blocks.open_client(scheduler) if scheduler is not None else nullcontext() as client:
+    with cluster.open_client(scheduler) if scheduler is not None else nullcontext() as client:
         ds = truncation_map(
             height_km=height_km,
             orders=orders,

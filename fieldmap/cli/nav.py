@@ -311,15 +311,15 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
     from fieldmap.nav.distributed import on_cluster
-    from fieldmap.products import blocks
+    from fieldmap.products import cluster
     from fieldmap.products.io import output_batch
 
     device, models, nav = _check_args(args)
-    scheduler = blocks.parse_scheduler(args.scheduler)
+    scheduler = cluster.parse_scheduler(args.scheduler)
     studies = STUDIES if args.study == "all" else (args.study,)
     with contextlib.ExitStack() as stack:
         if scheduler is not None:  # connect (or start the LocalCluster) before the long work
-            stack.enter_context(on_cluster(stack.enter_context(blocks.open_client(scheduler))))
+            stack.enter_context(on_cluster(stack.enter_context(cluster.open_client(scheduler))))
         if is_flight(args):
             return run_flight_study(args, device, models, *nav)
         results = _scenario_and_studies(args, device, studies, models, nav)

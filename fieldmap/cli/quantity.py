@@ -85,11 +85,11 @@ def figures(ds, quantity: str, summ: dict) -> list:
 def _run_blocks(args, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
     from fieldmap.cli.common import load_cli_model, region, stem
-    from fieldmap.products import blockio, blocks, distributed
+    from fieldmap.products import blockio, cluster, distributed
     from fieldmap.products import quantity_maps as qm
     from fieldmap.products.io import check_out_dir, output_batch
 
-    scheduler = blocks.parse_scheduler(args.scheduler)
+    scheduler = cluster.parse_scheduler(args.scheduler)
     prep = distributed.prepare_quantity(
         args.quantity,
         args.model,
@@ -109,7 +109,7 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     ext = "zarr" if args.format == "zarr" else "nc"
     out = Path(args.out)
     client_cm = (
-        blocks.open_client(scheduler) if scheduler is not None else contextlib.nullcontext()
+        cluster.open_client(scheduler) if scheduler is not None else contextlib.nullcontext()
     )  # connect first: an unreachable scheduler writes nothing
     t0 = time.perf_counter()
     with client_cm as client, output_batch(out) as batch:

@@ -43,7 +43,7 @@ def on_cluster(client) -> Iterator[None]:
 
 def _task(sc, gravity, sets, imu_set, errors):
     from fieldmap.nav import studies
-    from fieldmap.products.blocks import worker_setup
+    from fieldmap.products.cluster import worker_setup
 
     worker_setup()
     return studies.propagate(sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
@@ -108,7 +108,7 @@ def propagate_on(
 
 def _flight_task(traj, model, sets, args: dict):
     from fieldmap.nav.flightsim import propagate_block
-    from fieldmap.products.blocks import worker_setup
+    from fieldmap.products.cluster import worker_setup
 
     worker_setup()
     return propagate_block(traj=traj, model=model, sets=sets, **args)
@@ -145,7 +145,7 @@ def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, m
     (:data:`fieldmap.nav.flightsim.PER_RUN_ARGS`) is cut into groups of ``runs_per_task`` runs
     (default: four tasks per worker), and the results are put back together in run order.
     """
-    from fieldmap.products.blocks import scattered
+    from fieldmap.products.cluster import scattered
 
     n = len(grav)
     nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))

@@ -97,7 +97,7 @@ def sweep_statistics(stats: list[dict], thresholds) -> dict:
 
 def map_attrs(stats: dict, thresholds) -> dict:
     """Global statistics attributes of a one-height map (as disturbance_map's)."""
-    from fieldmap.products.blocks import PERCENTILE_RTOL
+    from fieldmap.products.blockstats import PERCENTILE_RTOL
     from fieldmap.products.cf import stats_attrs
 
     attrs = stats_attrs(stats)

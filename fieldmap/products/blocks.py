@@ -9,14 +9,9 @@ executor, so a product is bitwise the same whether its blocks run here one after
 on every core through the Warp thread pool), on ``local:N`` worker processes, or on a remote
 cluster; a block that is run again after a worker died gives the same bits.
 
-Statistics are combined from per-block partial results in block order (so exactly the same on
-every executor): maximum, minimum, area-weighted sums for the mean and RMS, area above each
-threshold. Percentiles come from a mergeable histogram of the area weight over bins of the
-modulus read from its float64 bits: the exponent and the leading ``HIST_MANTISSA_BITS`` bits of
-the mantissa (``HIST_BINS`` bins over ``HIST_RANGE_MG``, each at most ``2**-12`` of its lower
-edge wide; a shift of the bits, no logarithm). The bin holding the percentile is exact and its
-centre is returned, within a relative ``PERCENTILE_RTOL`` (``2**-13``) of the weighted
-percentile of :func:`fieldmap.products.stats.weighted_percentile`.
+Statistics are combined from per-block partial results in block order, so exactly the same on
+every executor (:mod:`fieldmap.products.blockstats`); the Dask side (connecting, starting a
+LocalCluster, preparing the workers, shipping the model once) is :mod:`fieldmap.products.cluster`.
 
 Memory: one block of ``nb`` rows and ``nlon`` longitudes takes about ``nb * (per_item + 104 *
 nlon)`` bytes on the process computing it (``per_item`` of ``synthesize``: Fourier coefficients
@@ -32,40 +27,30 @@ without MPI). Both go to a temporary name renamed at the end.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
-import os
-import weakref
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from fieldmap.errors import InputError
+from fieldmap.products.blockstats import (
+    OrderedFold,
+    block_partial,
+    finish_statistics,
+    scalar_partial,
+)
+from fieldmap.products.cluster import scattered, worker_setup
 
 __all__ = [
-    "HIST_BINS",
-    "HIST_MANTISSA_BITS",
-    "HIST_RANGE_MG",
-    "PERCENTILE_RTOL",
     "Block",
     "block_bytes",
     "compute_block",
-    "open_client",
+    "make_jobs",
     "plan_blocks",
+    "run_blocks",
 ]
 
-#: Leading mantissa bits of the modulus that select its histogram bin (with the exponent).
-HIST_MANTISSA_BITS = 12
-_SHIFT = 52 - HIST_MANTISSA_BITS
-#: Range of the histogram of the modulus (mg), powers of two: values outside fall into the end bins.
-HIST_RANGE_MG = (2.0**-40, 2.0**14)
-_BITS_LO = int(np.array(HIST_RANGE_MG[0]).view(np.int64)) >> _SHIFT
-#: Number of histogram bins (54 octaves of 2**12 bins).
-HIST_BINS = (int(np.array(HIST_RANGE_MG[1]).view(np.int64)) >> _SHIFT) - _BITS_LO
-#: Largest relative error of a percentile: half a bin of relative width 2**-12 (1.2e-4).
-PERCENTILE_RTOL = 2.0 ** -(HIST_MANTISSA_BITS + 1)
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
 #: Variables of a disturbance block, in the order of :func:`fieldmap.products.cf.vector_vars`.
@@ -169,137 +154,6 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     return blocks
 
 
-# ---------------------------------------------------------------------------- statistics
-
-
-def _hist_index(v: np.ndarray) -> np.ndarray:
-    """Histogram bin of each (finite, non-negative) modulus: a shift of its float64 bits."""
-    k = (np.ascontiguousarray(v, dtype=np.float64).view(np.int64) >> _SHIFT) - _BITS_LO
-    return np.clip(k, 0, HIST_BINS - 1)
-
-
-def _bin_centre(k: int) -> float:
-    """Middle of histogram bin ``k`` (mg)."""
-    lo, hi = (np.array([k + _BITS_LO, k + 1 + _BITS_LO], dtype=np.int64) << _SHIFT).view(np.float64)
-    return float(0.5 * (lo + hi))
-
-
-def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -> dict:
-    """Partial statistics of one block: extrema, weighted sums, weighted histogram.
-
-    ``row_weights`` are the (unnormalised) area weights of the block's rows
-    (:func:`fieldmap.products.stats.area_weights` of the whole grid, taken at the rows).
-    """
-    v = modulus_mg
-    if not np.all(np.isfinite(v)):
-        raise InputError("map holds non-finite values")
-    w = np.repeat(row_weights, v.shape[1])
-    return {
-        "max": float(v.max()),
-        "min": float(v.min()),
-        "sw": float(row_weights @ v.sum(axis=1)),
-        "sw2": float(row_weights @ (v * v).sum(axis=1)),
-        "above": [float(row_weights @ (v > t).sum(axis=1)) for t in thresholds],
-        "hist": _sparse(np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS)),
-    }
-
-
-def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
-    """Partial statistics of a signed quantity on one block: extrema and weighted sums."""
-    if not np.all(np.isfinite(v)):
-        raise InputError("map holds non-finite values")
-    return {
-        "min": float(v.min()),
-        "max": float(v.max()),
-        "sw": float(row_weights @ v.sum(axis=1)),
-        "sw2": float(row_weights @ (v * v).sum(axis=1)),
-    }
-
-
-def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(bins, weights) of the non-empty bins: a block touches few of them, and travels light."""
-    nz = np.flatnonzero(h)
-    return nz.astype(np.int32), h[nz]
-
-
-def merge_partials(acc: dict | None, part: dict) -> dict:
-    """Fold one block's partial statistics into the running total (call in block order)."""
-    if "vars" in part:  # signed quantities: extrema and sums per variable
-        if acc is None:
-            return {"vars": {k: dict(v) for k, v in part["vars"].items()}}
-        for k, p in part["vars"].items():
-            a = acc["vars"][k]
-            a["min"] = min(a["min"], p["min"])
-            a["max"] = max(a["max"], p["max"])
-            a["sw"] += p["sw"]
-            a["sw2"] += p["sw2"]
-        return acc
-    if acc is None:
-        acc = {**part, "above": list(part["above"]), "hist": np.zeros(HIST_BINS)}
-        acc["hist"][part["hist"][0]] = part["hist"][1]
-        return acc
-    acc["max"] = max(acc["max"], part["max"])
-    acc["min"] = min(acc["min"], part["min"])
-    acc["sw"] += part["sw"]
-    acc["sw2"] += part["sw2"]
-    acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
-    acc["hist"][part["hist"][0]] += part["hist"][1]  # distinct bins: no repeated index
-    return acc
-
-
-def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -> dict:
-    """Statistics in the form of :func:`fieldmap.products.stats.map_statistics`.
-
-    For the signed quantities: {variable: {"min", "max", "mean", "rms"}}, the form of
-    :func:`fieldmap.products.quantity_maps.statistics_fields`.
-    """
-    from fieldmap.products.stats import threshold_key
-
-    if "vars" in acc:
-        return {
-            k: {
-                "min": a["min"],
-                "max": a["max"],
-                "mean": a["sw"] / total_weight,
-                "rms": math.sqrt(a["sw2"] / total_weight),
-            }
-            for k, a in acc["vars"].items()
-        }
-
-    out = {
-        "max_mg": acc["max"],
-        "min_mg": acc["min"],
-        "mean_mg": acc["sw"] / total_weight,
-        "rms_mg": math.sqrt(acc["sw2"] / total_weight),
-    }
-    cw = np.cumsum(acc["hist"])
-    for q in percentiles:
-        k = int(np.searchsorted(cw, q / 100.0 * cw[-1], side="left"))
-        k = min(k, HIST_BINS - 1)
-        out[f"p{q:g}_mg"] = _bin_centre(k)
-    out["area_fraction_above"] = {
-        threshold_key(t): a / total_weight for t, a in zip(thresholds, acc["above"])
-    }
-    return out
-
-
-class OrderedFold:
-    """Fold partial statistics in block order whatever order they arrive in."""
-
-    def __init__(self, nlayers: int):
-        self.acc: list[dict | None] = [None] * nlayers
-        self._next = 0
-        self._waiting: dict[int, tuple[int, dict]] = {}
-
-    def add(self, index: int, layer: int, part: dict) -> None:
-        """Record block ``index``'s partial; fold every block now in sequence."""
-        self._waiting[index] = (layer, part)
-        while self._next in self._waiting:
-            lay, p = self._waiting.pop(self._next)
-            self.acc[lay] = merge_partials(self.acc[lay], p)
-            self._next += 1
-
-
 # ---------------------------------------------------------------------------- one block
 
 
@@ -321,56 +175,6 @@ class Job:
     store: Any = None  # a blockio.ZarrTarget when workers write, else None
     quantity: str = "disturbance"  # or a quantity of fieldmap.field.geodesy.grid_quantities
     degree0: bool = False  # keep the degree-0 term of T (quantities)
-
-
-_WORKER_READY = False
-
-
-def worker_setup() -> None:
-    """Prepare a Dask worker process for the kernels (once per process; a no-op elsewhere).
-
-    - Warp launches use the worker's share of the cores (``FIELDMAP_THREADS`` = its threads,
-      unless set).
-    - glibc's allocator gets back the dynamic thresholds of a plain process: Dask's nanny
-      starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which freezes the mmap threshold at
-      128 KiB, so that every array of a block is a fresh ``mmap`` whose pages fault in on first
-      touch. Measured here: a block's CPU time doubled (0.56 s -> 1.17 s for the blocks of a
-      0.1 deg map). Large blocks are then served from the heap, as in the client process, and
-      at most ``2 * 32 MiB`` of freed memory is kept before it is returned to the system.
-    """
-    global _WORKER_READY
-    if _WORKER_READY:
-        return
-    try:
-        from distributed import get_worker
-
-        w = get_worker()
-    except (ImportError, ValueError):
-        return
-    if "FIELDMAP_THREADS" not in os.environ:
-        os.environ["FIELDMAP_THREADS"] = str(max(1, int(w.state.nthreads)))
-    _glibc_thresholds(mmap_bytes=32 * 2**20)
-    _WORKER_READY = True
-
-
-def _glibc_thresholds(mmap_bytes: int) -> bool:
-    """Set glibc's mmap and trim thresholds (``mallopt``); False where there is no glibc."""
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    if not name or not hasattr(os, "confstr"):
-        return False
-    try:
-        if "glibc" not in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
-            return False
-        libc = ctypes.CDLL(name)
-    except (OSError, ValueError):
-        return False
-    m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
-    ok = libc.mallopt(m_mmap_threshold, ctypes.c_int(mmap_bytes))
-    ok &= libc.mallopt(m_trim_threshold, ctypes.c_int(2 * mmap_bytes))
-    return bool(ok)
 
 
 def compute_block(job: Job, model) -> dict:
@@ -422,90 +226,6 @@ def compute_block(job: Job, model) -> dict:
 # ---------------------------------------------------------------------------- executors
 
 
-def parse_scheduler(text: str | None):
-    """``None``/"threads" (local thread pool), ``("local", N)`` or a scheduler address."""
-    if text is None or text in ("threads", "none", ""):
-        return None
-    if text.startswith("local:"):
-        try:
-            n = int(text.split(":", 1)[1])
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise InputError(f"--scheduler local:N needs a worker count N >= 1, got {text!r}")
-        return ("local", n)
-    if text == "local":
-        return ("local", max(1, os.cpu_count() or 1))
-    return text
-
-
-@contextlib.contextmanager
-def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
-    """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
-
-    ``("local", N)`` starts a LocalCluster of N single-threaded worker processes on 127.0.0.1
-    (no dashboard) and shuts it down afterwards; an address connects to a running scheduler.
-    An unreachable scheduler is an :class:`InputError` (one line, CLI exit 2).
-    """
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise InputError(
-            "Dask is not installed: pip install 'fieldmap[distributed]' (dask[distributed], zarr)"
-        ) from None
-    import logging
-
-    if isinstance(scheduler, tuple):
-        n = scheduler[1]
-        cores = max(1, os.cpu_count() or 1)
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",
-            silence_logs=logging.ERROR,
-            env={"FIELDMAP_THREADS": str(max(1, cores // n))},
-        )
-        try:
-            with Client(cluster) as client:
-                yield client
-        finally:
-            cluster.close()
-        return
-    _probe(scheduler, connect_timeout)
-    try:
-        client = Client(scheduler, timeout=connect_timeout)
-    except (OSError, TimeoutError, ValueError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
-    try:
-        yield client
-    finally:
-        client.close()
-
-
-def _probe(address: str, timeout: float) -> None:
-    """Fail in milliseconds, not after Dask's connect retries, when nothing listens (tcp)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    if not isinstance(address, str) or not address.startswith("tcp://"):
-        return
-    try:
-        u = urlsplit(address)
-        host, port = u.hostname, u.port
-    except ValueError:
-        raise InputError(f"bad Dask scheduler address {address!r}") from None
-    if host is None or port is None:
-        raise InputError(f"Dask scheduler address {address!r} needs tcp://HOST:PORT")
-    try:
-        socket.create_connection((host, port), timeout=timeout).close()
-    except OSError as exc:
-        why = exc.strerror or type(exc).__name__
-        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {why}") from None
-
-
 def _run_local(jobs, model, on_result, progress) -> None:
     from tqdm.auto import tqdm
 
@@ -553,43 +273,6 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
         raise
     finally:
         bar.close()
-
-
-#: client -> {id(model): (weak reference to the model, its future on the cluster)}
-_SCATTERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def scattered(client, model):
-    """Return the future of ``model`` broadcast to every worker of ``client``, once per client.
-
-    Products made one after the other on the same client (a notebook, a study over several
-    maps) reuse the copy the workers already hold: a degree-2190 model is 77 MB per worker.
-    The copy lives as long as the model object and the client; a model that is garbage
-    collected, or a client that is closed, releases it.
-    """
-    try:
-        per_client = _SCATTERED.setdefault(client, {})
-    except TypeError:  # a client that cannot be weakly referenced: no reuse
-        return client.scatter(model, broadcast=True, hash=False)
-    entry = per_client.get(id(model))
-    if entry is not None and entry[0]() is model and entry[1].status == "finished":
-        return entry[1]
-    fut = client.scatter(model, broadcast=True, hash=False)
-    key = id(model)
-
-    def forget(_ref, key=key, per_client=per_client):
-        old = per_client.pop(key, None)
-        if old is not None:
-            try:  # no module globals here: this may run at interpreter exit
-                old[1].release()
-            except Exception:  # the client may be closed by now
-                pass
-
-    try:
-        per_client[key] = (weakref.ref(model, forget), fut)
-    except TypeError:  # a model that cannot be weakly referenced: not kept
-        pass
-    return fut
 
 
 def _take(it, n):

@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products import blockio, blocks
+from fieldmap.products import blockio, blocks, cluster
 
 __all__ = [
     "disturbance_blocks",
@@ -65,11 +65,11 @@ def _client(client, scheduler):
     if client is not None:
         yield client
     elif scheduler is not None:
-        parsed = blocks.parse_scheduler(scheduler)
+        parsed = cluster.parse_scheduler(scheduler)
         if parsed is None:
             yield None
         else:
-            with blocks.open_client(parsed) as c:
+            with cluster.open_client(parsed) as c:
                 yield c
     else:
         yield None
@@ -98,7 +98,7 @@ def disturbance_blocks(
 
     Same Dataset as :func:`fieldmap.products.maps.disturbance_map` /
     :func:`~fieldmap.products.maps.altitude_sweep`; statistics from the block partials
-    (percentiles within :data:`fieldmap.products.blocks.PERCENTILE_RTOL`).
+    (percentiles within :data:`fieldmap.products.blockstats.PERCENTILE_RTOL`).
     """
     from fieldmap.grids.spec import check_memory
     from fieldmap.products.stats import parse_thresholds
@@ -540,7 +540,7 @@ def route(args: dict, heights_m, *, stacked: bool) -> xr.Dataset:
 def _normal_task(grid, ell, order, device):
     from fieldmap.grids.synthesis import normal_rows
 
-    blocks.worker_setup()
+    cluster.worker_setup()
     return normal_rows(grid, ell, order, device)
 
 
