@@ -160,6 +160,40 @@ def test_local_cluster_is_bitwise_identical(client, local_map):
     _same(local_map, on2)
 
 
+def test_in_memory_map_through_shared_memory_or_sockets(client, local_map, monkeypatch):
+    """Workers of this host write the map into shared memory; elsewhere it comes back by Dask."""
+    import glob
+
+    shm = blockio.SHM_DIR
+    before = set(glob.glob(os.path.join(shm, "fieldmap-blocks-*")))
+    made = []
+    create = blockio.SharedArrays.create.__func__
+
+    def spy(cls, *a, **k):
+        made.append(create(cls, *a, **k))
+        return made[-1]
+
+    monkeypatch.setattr(blockio.SharedArrays, "create", classmethod(spy))
+    kw = dict(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS, client=client)
+    shared = D.disturbance_blocks(**kw)
+    _same(local_map, shared)
+    assert os.path.isdir(shm) == (made[-1] is not None)  # shared memory used where there is one
+    shared["east"].values[0, 0] = 1e9  # copy-on-write: the caller's own array
+    monkeypatch.setattr(blockio, "SHM_DIR", "/nonexistent-shm")  # no shared memory: sockets
+    sockets = D.disturbance_blocks(**kw)
+    assert made[-1] is None
+    _same(local_map, sockets)
+    assert set(glob.glob(os.path.join(shm, "fieldmap-blocks-*"))) <= before  # nothing left
+
+
+def test_shared_memory_probe(tmp_path):
+    p = tmp_path / "probe"
+    p.write_text("abc")
+    assert blockio._probe_file(str(p), "abc")
+    assert not blockio._probe_file(str(p), "abd")
+    assert not blockio._probe_file(str(tmp_path / "missing"), "abc")
+
+
 def test_stores_hold_the_same_bits(client, local_map, tmp_path):
     common = dict(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
     D.write_disturbance(tmp_path / "a.zarr", "zarr", **common, client=client)

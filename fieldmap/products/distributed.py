@@ -109,8 +109,10 @@ def disturbance_blocks(
     )
     check_memory(grid)  # the result is returned whole
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
-    mem = blockio.MemorySink(grid, stacked)
-    with _client(client, scheduler) as c:
+    with (
+        _client(client, scheduler) as c,
+        blockio.memory_target(grid, stacked, blockio.VARIABLES, c) as (sink, store, arrays),
+    ):
         stats = blocks.run_blocks(
             grid,
             mod,
@@ -120,10 +122,12 @@ def disturbance_blocks(
             thresholds=thresholds,
             rows_per_block=rows_per_block,
             client=c,
-            sink=mem.sink,
+            sink=sink,
+            store=store,
             progress=progress,
         )
-    return _assemble(tmpl, mem.arrays, stats, thresholds, stacked)
+        values = arrays()
+    return _assemble(tmpl, values, stats, thresholds, stacked)
 
 
 def _assemble(tmpl, arrays, stats, thresholds, stacked) -> xr.Dataset:
@@ -310,8 +314,11 @@ def quantity_blocks(
     grid, ell, mod = setup
     check_memory(grid)  # the result is returned whole
     tmpl = qm.template(quantity, mod, grid, ell, degree0)
-    mem = blockio.MemorySink(grid, True, tuple(tmpl.attrs["variables"]))
-    with _client(client, scheduler) as c:
+    names = tuple(tmpl.attrs["variables"])
+    with (
+        _client(client, scheduler) as c,
+        blockio.memory_target(grid, True, names, c) as (sink, store, arrays),
+    ):
         stats = blocks.run_blocks(
             grid,
             mod,
@@ -320,12 +327,14 @@ def quantity_blocks(
             thresholds=(),
             rows_per_block=rows_per_block,
             client=c,
-            sink=mem.sink,
+            sink=sink,
+            store=store,
             progress=progress,
             quantity=quantity,
             degree0=degree0,
         )
-    return qm.assemble(tmpl, mem.arrays, _per_variable(stats))
+        values = arrays()
+    return qm.assemble(tmpl, values, _per_variable(stats))
 
 
 def write_quantity(
