@@ -1,13 +1,14 @@
 """Block engine: map products computed block by block, locally or on a Dask cluster.
 
-A product (disturbance map or altitude sweep) is split into blocks of latitude rows at one
-height. A block holds whole mirror units of :func:`fieldmap.grids.synthesis.mirror_pairs` (a row
-and its mirror at minus the latitude share one Legendre recursion), grouped exactly as
-:func:`fieldmap.grids.synthesis.synthesize` groups them, and is computed by ``synthesize`` on the
-sub-grid of its rows. The plan depends only on the grid and ``rows_per_block``, never on the
-executor, so a product is bitwise the same whether its blocks run here one after the other (each
-on every core through the Warp thread pool), on ``local:N`` worker processes, or on a remote
-cluster; a block that is run again after a worker died gives the same bits.
+A product (a disturbance or quantity map, at one height or a sweep) is split into blocks of
+latitude rows at one height. A block holds whole mirror units of
+:func:`fieldmap.grids.synthesis.mirror_pairs` (a row and its mirror at minus the latitude share
+one Legendre recursion), grouped exactly as :func:`fieldmap.grids.synthesis.synthesize` groups
+them, and is computed by ``synthesize`` on the sub-grid of its rows. The plan depends only on
+the grid and ``rows_per_block``, never on the executor, so a product is bitwise the same whether
+its blocks run here one after the other (each on every core through the Warp thread pool), on
+``local:N`` worker processes, or on a remote cluster; a block that is run again after a worker
+died gives the same bits.
 
 Statistics are combined from per-block partial results in block order, so exactly the same on
 every executor (:mod:`fieldmap.products.blockstats`); the Dask side (connecting, starting a
@@ -22,7 +23,8 @@ boundary rows and statistics (zarr). Nothing is proportional to the grid but the
 
 Writing (:mod:`fieldmap.products.blockio`): zarr stores are written by the workers in parallel;
 NetCDF-4 files by one writer, the client, as blocks arrive (HDF5 has no safe parallel writer
-without MPI). Both go to a temporary name renamed at the end.
+without MPI). Both go to a temporary name renamed at the end. A product returned in memory is
+written by workers of the client's machine into shared memory, else sent back to the client.
 """
 
 from __future__ import annotations
