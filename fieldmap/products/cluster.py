@@ -162,7 +162,9 @@ def scattered(client, model):
     Products made one after the other on the same client (a notebook, a study over several
     maps) reuse the copy the workers already hold: a degree-2190 model is 77 MB per worker.
     The copy lives as long as the model object and the client; a model that is garbage
-    collected, or a client that is closed, releases it.
+    collected, or a client that is closed, releases it. The object is taken as immutable (an
+    :class:`~fieldmap.models.shmodel.SHModel` is frozen): one changed in place is not shipped
+    again.
     """
     try:
         per_client = _SCATTERED.setdefault(client, {})

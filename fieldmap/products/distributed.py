@@ -441,7 +441,7 @@ def _lazy(tmpl, grid, mod, plan, jobs, client) -> xr.Dataset:
     import dask
     import dask.array as da
 
-    model_d = client.scatter(mod, broadcast=True, hash=False) if client is not None else mod
+    model_d = cluster.scattered(client, mod) if client is not None else mod
     model_d = dask.delayed(model_d) if client is None else model_d
     results = [dask.delayed(blocks.compute_block, pure=True)(job, model_d) for job in jobs]
     nh, nlat, nlon = grid.shape
