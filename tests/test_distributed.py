@@ -148,6 +148,11 @@ def test_model_is_shipped_once_per_client(client):
     del m2, f2
     gc.collect()  # the model is gone: its copy on the cluster is released
     assert key not in {fut.key for _, fut in cluster._SCATTERED[client].values()}
+    deadline = time.monotonic() + 10
+    while any(key in keys for keys in client.has_what().values()):
+        assert time.monotonic() < deadline, "the model's copy stayed on the workers"
+        time.sleep(0.1)
+    assert any(f1.key in keys for keys in client.has_what().values())  # m1 is alive: kept
 
 
 def test_local_cluster_is_bitwise_identical(client, local_map):

@@ -177,12 +177,9 @@ def scattered(client, model):
     key = id(model)
 
     def forget(_ref, key=key, per_client=per_client):
-        old = per_client.pop(key, None)
-        if old is not None:
-            try:  # no module globals here: this may run at interpreter exit
-                old[1].release()
-            except Exception:  # the client may be closed by now
-                pass
+        # drop the cache's reference only: a graph or a task still holding the future keeps
+        # the data on the cluster, the last reference gone releases it (Future.__del__)
+        per_client.pop(key, None)
 
     try:
         per_client[key] = (weakref.ref(model, forget), fut)
