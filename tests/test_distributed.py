@@ -392,6 +392,28 @@ def test_cli_truncation_on_local_cluster_equals_here(tmp_path):
     assert not out.exists()
 
 
+def test_cli_block_engine_honours_the_model_file_options(tmp_path):
+    """--gm/--radius (an NGA file) reach the block engine as they reach the in-memory path."""
+    from fieldmap.models.nga import write_nga
+    from fieldmap.models.registry import load_model
+
+    path = tmp_path / "model_coefficients.txt"
+    write_nga(path, load_model("eigen-6s", lmax=20))
+    common = ["map", "--model", str(path), "--step-deg", "6", "--no-plots", "--no-cache"]
+    opts = ["--gm", "3.986004418e14", "--radius", "6378137.0"]  # not the EGM2008 defaults
+    r1 = _fieldmap(*common, *opts, "--out", str(tmp_path / "mem"))
+    assert r1.returncode == 0, r1.stderr
+    r2 = _fieldmap(*common, *opts, "--scheduler", "threads", "--out", str(tmp_path / "blk"))
+    assert r2.returncode == 0, r2.stderr
+    (a,) = (tmp_path / "mem").glob("*.nc")
+    (b,) = (tmp_path / "blk").glob("*.nc")
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        assert x.attrs["model_radius"] == y.attrs["model_radius"] == 6378137.0
+        assert x.attrs["model_gm"] == y.attrs["model_gm"] == 3.986004418e14
+        # the block plan groups rows differently from the whole map: last-bit differences
+        np.testing.assert_allclose(y["up"].values, x["up"].values, rtol=1e-13, atol=1e-12)
+
+
 def test_cli_quantity_on_local_cluster_equals_in_memory(tmp_path):
     common = ["map", "--quantity", "anomaly", "--lmax", "30", "--step-deg", "4", "--no-plots"]
     r1 = _fieldmap(*common, "--out", str(tmp_path / "mem"))
