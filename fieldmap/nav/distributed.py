@@ -145,6 +145,7 @@ def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, m
     (:data:`fieldmap.nav.flightsim.PER_RUN_ARGS`) is cut into groups of ``runs_per_task`` runs
     (default: four tasks per worker), and the results are put back together in run order.
     """
+    from fieldmap.nav.flightsim import PER_RUN_ARGS
     from fieldmap.products.cluster import scattered
 
     n = len(grav)
@@ -157,6 +158,8 @@ def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, m
         "state": state, "grav": grav, "imu_set": imu_set, "kerr": kerr,
         "baro_bias": baro_bias, "baro_state": baro_state,
     }  # fmt: skip
+    if set(per_run) != set(PER_RUN_ARGS):  # propagate_block's per-run arguments changed
+        raise RuntimeError(f"per-run arguments {sorted(per_run)} != {sorted(PER_RUN_ARGS)}")
     common = {
         "frame": frame, "tb": tb, "nb": nb, "dt": dt, "every": every, "aiding": aiding,
         "baro": baro, "rate_hz": rate_hz, "device": device,
