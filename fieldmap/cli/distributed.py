@@ -70,11 +70,9 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     base = stem(tmpl, "sweep" if stacked else "disturbance")
     ext = "zarr" if args.format == "zarr" else "nc"
     out = Path(args.out)
-    client_cm = (
-        cluster.open_client(scheduler) if scheduler is not None else _null()
-    )  # connect first: an unreachable scheduler writes nothing
     t0 = time.perf_counter()
-    with client_cm as client, output_batch(out) as batch:
+    # connect first: an unreachable scheduler writes nothing
+    with cluster.open_client(scheduler) as client, output_batch(out) as batch:
         final = out / f"{base}.{ext}"
         with blockio.atomic_store(final) as tmp:
             info = distributed.write_disturbance(
@@ -99,14 +97,6 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
         files = batch.commit()
     print("written: " + ", ".join(str(f) for f in [final, *files]))
     return 0
-
-
-class _null:
-    def __enter__(self):
-        return None
-
-    def __exit__(self, *exc):
-        return False
 
 
 def _figures(view, thresholds, stacked, plots):

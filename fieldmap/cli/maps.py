@@ -312,8 +312,6 @@ def run_sweep(args) -> int:
 
 def run_truncation(args) -> int:
     """``fieldmap truncation``: J2n truncation-error maps."""
-    from contextlib import nullcontext
-
     from fieldmap.limits import check_orders
     from fieldmap.products import cluster, plots
     from fieldmap.products.maps import truncation_map
@@ -323,7 +321,7 @@ def run_truncation(args) -> int:
     preflight(args, [height_km], layers=len(orders))
     scheduler = cluster.parse_scheduler(args.scheduler)
     # connect (or start the LocalCluster) first: an unreachable scheduler writes nothing
-    with cluster.open_client(scheduler) if scheduler is not None else nullcontext() as client:
+    with cluster.open_client(scheduler) as client:
         ds = truncation_map(
             height_km=height_km,
             orders=orders,

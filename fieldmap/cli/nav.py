@@ -318,8 +318,8 @@ def run(args) -> int:
     scheduler = cluster.parse_scheduler(args.scheduler)
     studies = STUDIES if args.study == "all" else (args.study,)
     with contextlib.ExitStack() as stack:
-        if scheduler is not None:  # connect (or start the LocalCluster) before the long work
-            stack.enter_context(on_cluster(stack.enter_context(cluster.open_client(scheduler))))
+        # connect (or start the LocalCluster) before the long work; None: here
+        stack.enter_context(on_cluster(stack.enter_context(cluster.open_client(scheduler))))
         if is_flight(args):
             return run_flight_study(args, device, models, *nav)
         results = _scenario_and_studies(args, device, studies, models, nav)

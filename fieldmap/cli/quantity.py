@@ -6,7 +6,6 @@ The disturbance stays with :mod:`fieldmap.cli.maps`; this module runs the other 
 
 from __future__ import annotations
 
-import contextlib
 import time
 from pathlib import Path
 
@@ -108,11 +107,9 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     base = stem(qm.template(args.quantity, mod, grid, ell, False), args.quantity)
     ext = "zarr" if args.format == "zarr" else "nc"
     out = Path(args.out)
-    client_cm = (
-        cluster.open_client(scheduler) if scheduler is not None else contextlib.nullcontext()
-    )  # connect first: an unreachable scheduler writes nothing
     t0 = time.perf_counter()
-    with client_cm as client, output_batch(out) as batch:
+    # connect first: an unreachable scheduler writes nothing
+    with cluster.open_client(scheduler) as client, output_batch(out) as batch:
         final = out / f"{base}.{ext}"
         with blockio.atomic_store(final) as tmp:
             distributed.write_quantity(

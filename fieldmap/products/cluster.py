@@ -89,10 +89,14 @@ def parse_scheduler(text: str | None):
 def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
     """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
 
-    ``("local", N)`` starts a LocalCluster of N single-threaded worker processes on 127.0.0.1
-    (no dashboard) and shuts it down afterwards; an address connects to a running scheduler.
+    ``None`` (no scheduler: run here) yields None. ``("local", N)`` starts a LocalCluster of N
+    single-threaded worker processes on 127.0.0.1 (no dashboard) and shuts it down afterwards;
+    an address connects to a running scheduler.
     An unreachable scheduler is an :class:`InputError` (one line, CLI exit 2).
     """
+    if scheduler is None:
+        yield None
+        return
     try:
         from distributed import Client, LocalCluster
     except ImportError:

@@ -64,15 +64,9 @@ def prepare(
 def _client(client, scheduler):
     if client is not None:
         yield client
-    elif scheduler is not None:
-        parsed = cluster.parse_scheduler(scheduler)
-        if parsed is None:
-            yield None
-        else:
-            with cluster.open_client(parsed) as c:
-                yield c
     else:
-        yield None
+        with cluster.open_client(cluster.parse_scheduler(scheduler)) as c:
+            yield c
 
 
 def disturbance_blocks(
