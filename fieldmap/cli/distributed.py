@@ -47,7 +47,6 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
     from fieldmap.cli.common import load_cli_model, region, stem
     from fieldmap.products import blockio, cluster, distributed, plots
-    from fieldmap.products.io import check_out_dir, output_batch
     from fieldmap.products.maps import summary
 
     scheduler = cluster.parse_scheduler(args.scheduler)
@@ -65,35 +64,55 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
         load=lambda: load_cli_model(args),
     )
     grid, ell, mod = prep
-    check_out_dir(args.out)
     tmpl = blockio.template(mod, grid, ell, "mGal", thresholds, stacked)
-    base = stem(tmpl, "sweep" if stacked else "disturbance")
-    ext = "zarr" if args.format == "zarr" else "nc"
+
+    def write(tmp, client):
+        return distributed.write_disturbance(
+            tmp,
+            args.format,
+            thresholds_mg=thresholds,
+            device=args.device,
+            ellipsoid=args.ellipsoid,
+            stacked=stacked,
+            client=client,
+            rows_per_block=args.rows_per_block,
+            setup=prep,
+            atomic=False,
+        )
+
+    def publish(view, info, elapsed):
+        _report(view, info, grid, heights_km, thresholds, elapsed, stacked)
+        return summary(view), _figures(view, thresholds, stacked, plots)
+
+    return stream(
+        args, scheduler, stem(tmpl, "sweep" if stacked else "disturbance"), write, publish
+    )
+
+
+def stream(args, scheduler, base: str, write, publish) -> int:
+    """Write a product block by block under ``--out``, then its JSON and figures; all or none.
+
+    Connects first (an unreachable scheduler writes nothing); ``write(tmp, client)`` streams the
+    product to a temporary name and returns its information; ``publish(view, info, elapsed)``
+    prints the report from a decimated view of the store and returns the JSON summary and the
+    figures as ``(file suffix, maker)`` pairs (drawn unless ``--no-plots``).
+    """
+    from fieldmap.products import blockio, cluster
+    from fieldmap.products.io import check_out_dir, output_batch
+
+    check_out_dir(args.out)
     out = Path(args.out)
+    final = out / f"{base}.{'zarr' if args.format == 'zarr' else 'nc'}"
     t0 = time.perf_counter()
-    # connect first: an unreachable scheduler writes nothing
     with cluster.open_client(scheduler) as client, output_batch(out) as batch:
-        final = out / f"{base}.{ext}"
         with blockio.atomic_store(final) as tmp:
-            info = distributed.write_disturbance(
-                tmp,
-                args.format,
-                thresholds_mg=thresholds,
-                device=args.device,
-                ellipsoid=args.ellipsoid,
-                stacked=stacked,
-                client=client,
-                rows_per_block=args.rows_per_block,
-                setup=prep,
-                atomic=False,
-            )
+            info = write(tmp, client)
             elapsed = time.perf_counter() - t0
             view = blockio.decimated(tmp, args.format)
-            _report(view, info, grid, heights_km, thresholds, elapsed, stacked)
-            batch.json({**summary(view), "product_path": final.name}, f"{base}.json")
-            if not args.no_plots:
-                for suffix, make in _figures(view, thresholds, stacked, plots):
-                    batch.png(make(), f"{base}_{suffix}.png")
+            summ, figures = publish(view, info, elapsed)
+            batch.json({**summ, "product_path": final.name}, f"{base}.json")
+            for suffix, make in [] if args.no_plots else figures:
+                batch.png(make(), f"{base}_{suffix}.png")
         files = batch.commit()
     print("written: " + ", ".join(str(f) for f in [final, *files]))
     return 0

@@ -84,9 +84,9 @@ def figures(ds, quantity: str, summ: dict) -> list:
 def _run_blocks(args, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
     from fieldmap.cli.common import load_cli_model, region, stem
-    from fieldmap.products import blockio, cluster, distributed
+    from fieldmap.cli.distributed import stream
+    from fieldmap.products import cluster, distributed
     from fieldmap.products import quantity_maps as qm
-    from fieldmap.products.io import check_out_dir, output_batch
 
     scheduler = cluster.parse_scheduler(args.scheduler)
     prep = distributed.prepare_quantity(
@@ -103,41 +103,31 @@ def _run_blocks(args, heights_km: list[float]) -> int:
         load=lambda: load_cli_model(args),
     )
     grid, ell, mod = prep
-    check_out_dir(args.out)
+
+    def write(tmp, client):
+        return distributed.write_quantity(
+            tmp,
+            args.format,
+            args.quantity,
+            device=args.device,
+            client=client,
+            rows_per_block=args.rows_per_block,
+            setup=prep,
+            atomic=False,
+        )
+
+    def publish(view, info, elapsed):
+        summ = qm.summary(view)
+        nh, nlat, nlon = grid.shape
+        print(
+            f"{mod.name} degree {mod.lmax}, {args.quantity}, {nlat} x {nlon} nodes"
+            + (f" x {nh} heights" if nh > 1 else "")
+            + f", {elapsed:.2f} s (block by block)"
+        )
+        report(args.quantity, summ)
+        if view.attrs.get("figure_decimation"):
+            print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
+        return summ, figures(view, args.quantity, summ)
+
     base = stem(qm.template(args.quantity, mod, grid, ell, False), args.quantity)
-    ext = "zarr" if args.format == "zarr" else "nc"
-    out = Path(args.out)
-    t0 = time.perf_counter()
-    # connect first: an unreachable scheduler writes nothing
-    with cluster.open_client(scheduler) as client, output_batch(out) as batch:
-        final = out / f"{base}.{ext}"
-        with blockio.atomic_store(final) as tmp:
-            distributed.write_quantity(
-                tmp,
-                args.format,
-                args.quantity,
-                device=args.device,
-                client=client,
-                rows_per_block=args.rows_per_block,
-                setup=prep,
-                atomic=False,
-            )
-            elapsed = time.perf_counter() - t0
-            view = blockio.decimated(tmp, args.format)
-            summ = qm.summary(view)
-            nh, nlat, nlon = grid.shape
-            print(
-                f"{mod.name} degree {mod.lmax}, {args.quantity}, {nlat} x {nlon} nodes"
-                + (f" x {nh} heights" if nh > 1 else "")
-                + f", {elapsed:.2f} s (block by block)"
-            )
-            report(args.quantity, summ)
-            if view.attrs.get("figure_decimation"):
-                print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
-            batch.json({**summ, "product_path": final.name}, f"{base}.json")
-            if not args.no_plots:
-                for suffix, make in figures(view, args.quantity, summ):
-                    batch.png(make(), f"{base}_{suffix}.png")
-        files = batch.commit()
-    print("written: " + ", ".join(str(f) for f in [final, *files]))
-    return 0
+    return stream(args, scheduler, base, write, publish)
