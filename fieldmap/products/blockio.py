@@ -132,6 +132,14 @@ def _put(arr, layer, stacked, r0, r1, values) -> None:
         arr[r0:r1, :] = values
 
 
+def _put_block(arr, block, stacked, values) -> None:
+    """Write a block's rows (``values`` in the order of ``block.rows``), one slice per run."""
+    pos = 0
+    for r0, r1 in block.runs():
+        _put(arr, block.layer, stacked, r0, r1, values[pos : pos + r1 - r0])
+        pos += r1 - r0
+
+
 class ZarrTarget:
     """A zarr store being filled block by block (picklable: workers open it by path).
 
@@ -300,12 +308,8 @@ class NetCDFWriter:
 
     def sink(self, block, data: dict) -> None:
         """Write one block's variables at its rows."""
-        pos = 0
-        for r0, r1 in block.runs():
-            n = r1 - r0
-            for name, var in self.vars.items():
-                _put(var, block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
-            pos += n
+        for name, var in self.vars.items():
+            _put_block(var, block, self.stacked, data[name])
 
     def finish(
         self, attrs: dict, extra_vars: dict | None = None, var_attrs: dict | None = None
@@ -407,11 +411,7 @@ class SharedArrays:
         """Worker side: write the block's rows into the shared files; nothing travels back."""
         for name in self.names:
             mm = np.load(os.path.join(self.folder, f"{name}.npy"), mmap_mode="r+")
-            pos = 0
-            for r0, r1 in block.runs():
-                n = r1 - r0
-                _put(mm, block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
-                pos += n
+            _put_block(mm, block, self.stacked, data[name])
             del mm
         return {}
 
@@ -463,12 +463,8 @@ class MemorySink:
 
     def sink(self, block, data: dict) -> None:
         """Copy one block's variables into place (a slice copy per run of rows)."""
-        pos = 0
-        for r0, r1 in block.runs():
-            n = r1 - r0
-            for name, arr in self.arrays.items():
-                _put(arr, block.layer, self.stacked, r0, r1, data[name][pos : pos + n])
-            pos += n
+        for name, arr in self.arrays.items():
+            _put_block(arr, block, self.stacked, data[name])
 
 
 @contextlib.contextmanager

@@ -103,25 +103,32 @@ def disturbance_blocks(
     )
     check_memory(grid)  # the result is returned whole
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    stats, values = _in_memory(
+        (grid, ell, mod),
+        blockio.VARIABLES,
+        stacked,
+        client,
+        scheduler,
+        device=device,
+        units=units,
+        thresholds=thresholds,
+        rows_per_block=rows_per_block,
+        progress=progress,
+    )
+    return _assemble(tmpl, values, stats, thresholds, stacked)
+
+
+def _in_memory(setup, names, stacked, client, scheduler, **run_kw):
+    """Run every block of a product returned whole; (statistics, {name: array})."""
+    grid, ell, mod = setup
     with (
         _client(client, scheduler) as c,
-        blockio.memory_target(grid, stacked, blockio.VARIABLES, c) as (sink, store, arrays),
+        blockio.memory_target(grid, stacked, names, c) as (sink, store, arrays),
     ):
         stats = blocks.run_blocks(
-            grid,
-            mod,
-            ellipsoid=ell.name,
-            device=device,
-            units=units,
-            thresholds=thresholds,
-            rows_per_block=rows_per_block,
-            client=c,
-            sink=sink,
-            store=store,
-            progress=progress,
+            grid, mod, ellipsoid=ell.name, client=c, sink=sink, store=store, **run_kw
         )
-        values = arrays()
-    return _assemble(tmpl, values, stats, thresholds, stacked)
+        return stats, arrays()
 
 
 def _assemble(tmpl, arrays, stats, thresholds, stacked) -> xr.Dataset:
@@ -308,26 +315,19 @@ def quantity_blocks(
     grid, ell, mod = setup
     check_memory(grid)  # the result is returned whole
     tmpl = qm.template(quantity, mod, grid, ell, degree0)
-    names = tuple(tmpl.attrs["variables"])
-    with (
-        _client(client, scheduler) as c,
-        blockio.memory_target(grid, True, names, c) as (sink, store, arrays),
-    ):
-        stats = blocks.run_blocks(
-            grid,
-            mod,
-            ellipsoid=ell.name,
-            device=device,
-            thresholds=(),
-            rows_per_block=rows_per_block,
-            client=c,
-            sink=sink,
-            store=store,
-            progress=progress,
-            quantity=quantity,
-            degree0=degree0,
-        )
-        values = arrays()
+    stats, values = _in_memory(
+        setup,
+        tuple(tmpl.attrs["variables"]),
+        True,
+        client,
+        scheduler,
+        device=device,
+        thresholds=(),
+        rows_per_block=rows_per_block,
+        progress=progress,
+        quantity=quantity,
+        degree0=degree0,
+    )
     return qm.assemble(tmpl, values, _per_variable(stats))
 
 
