@@ -111,45 +111,28 @@ def quantity_map(
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
-    if chunks is not None:
+    if chunks is not None or client is not None or scheduler is not None:
         from fieldmap.products import distributed
 
+        common = dict(
+            model=model,
+            lmax=lmax,
+            heights_m=h,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            device=device,
+            ellipsoid=ellipsoid,
+            epoch=epoch,
+            degree0=degree0,
+        )
+        if chunks is None:
+            return distributed.quantity_blocks(
+                quantity, **common, progress=progress, client=client, scheduler=scheduler
+            )
         if scheduler is not None:
             raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
-        return distributed.lazy_quantity(
-            quantity,
-            model=model,
-            lmax=lmax,
-            heights_m=h,
-            step_deg=step_deg,
-            lat_max=lat_max,
-            region=region,
-            device=device,
-            ellipsoid=ellipsoid,
-            epoch=epoch,
-            degree0=degree0,
-            chunks=chunks,
-            client=client,
-        )
-    if client is not None or scheduler is not None:
-        from fieldmap.products import distributed
-
-        return distributed.quantity_blocks(
-            quantity,
-            model=model,
-            lmax=lmax,
-            heights_m=h,
-            step_deg=step_deg,
-            lat_max=lat_max,
-            region=region,
-            device=device,
-            ellipsoid=ellipsoid,
-            epoch=epoch,
-            degree0=degree0,
-            progress=progress,
-            client=client,
-            scheduler=scheduler,
-        )
+        return distributed.lazy_quantity(quantity, **common, chunks=chunks, client=client)
     grid, ell, device = maps.setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
     mod = maps.resolve_model(model, lmax, epoch)
     vals = geodesy.grid_quantities(
