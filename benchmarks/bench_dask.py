@@ -26,19 +26,11 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import statistics
 import tempfile
 import threading
 import time
 
-
-def _median_time(fn, repeat: int) -> float:
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
+from timing import median_time
 
 
 class PeakRSS:
@@ -113,21 +105,21 @@ def overhead(repeat: int, quick: bool) -> None:
             "nlon": grid.lon.size,
             "nblocks": len(plan),
             "lmax": mod.lmax,
-            "pool": _median_time(lambda: disturbance_map(**kw), repeat),
-            "blocks": _median_time(lambda: disturbance_map(**kw, scheduler="threads"), repeat),
-            "file:today": _median_time(today_file, repeat),
-            "file:here": _median_time(lambda: engine_file("netcdf"), repeat),
-            "zarr": _median_time(lambda: engine_file("zarr"), repeat),
+            "pool": median_time(lambda: disturbance_map(**kw), repeat),
+            "blocks": median_time(lambda: disturbance_map(**kw, scheduler="threads"), repeat),
+            "file:today": median_time(today_file, repeat),
+            "file:here": median_time(lambda: engine_file("netcdf"), repeat),
+            "zarr": median_time(lambda: engine_file("zarr"), repeat),
         }
         for n in (1, 2):
             with cluster.open_client(("local", n)) as client:
                 disturbance_map(**kw, client=client)  # workers load kernels and the model
-                row[f"local:{n}"] = _median_time(
+                row[f"local:{n}"] = median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
                 )
-                row[f"file:local:{n}"] = _median_time(lambda: engine_file("netcdf", client), repeat)
+                row[f"file:local:{n}"] = median_time(lambda: engine_file("netcdf", client), repeat)
                 if n == 2:
-                    row["zarr:2"] = _median_time(lambda: engine_file("zarr", client), repeat)
+                    row["zarr:2"] = median_time(lambda: engine_file("zarr", client), repeat)
         shutil.rmtree(tmp, ignore_errors=True)
         results[label] = row
     load = os.getloadavg()[0]

@@ -27,9 +27,9 @@ import shutil
 import statistics
 import subprocess
 import tempfile
-import time
 
 import numpy as np
+from timing import median_time
 
 import fieldmap
 from fieldmap import _warp
@@ -127,16 +127,6 @@ def run_circle(exe, name, folder, grid: G.GridSpec, repeat: int, out=None):
     if out:
         vals = np.fromfile(out, dtype="<f8").reshape(lat.size, lon.size, 3)
     return statistics.median(times), vals
-
-
-def median_time(fn, repeat: int) -> float:
-    """Median wall time of ``fn()`` over ``repeat`` runs. Units: s."""
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
 
 
 def paired_medians(fn_a, fn_b, repeat: int) -> tuple[float, float]:

@@ -24,20 +24,12 @@ import sys
 import time
 
 import numpy as np
+from timing import median_time
 
 ROUTE = (
     "47.0,8.0,500;47.4,9.2,11000;48.5,12.0,11000;50.0,14.0,11000;51.0,17.0,9000;"
     "52.2,21.0,11000;53.0,23.5,600"
 )
-
-
-def _median(fn, repeat):
-    out = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t)
-    return float(np.median(out))
 
 
 def bench_synthesis(traj, rate, seconds, repeat):
@@ -50,7 +42,7 @@ def bench_synthesis(traj, rate, seconds, repeat):
     g = Gravitation("j4")
     n = int(seconds * rate) // 2 * 2
     synthesize(traj, rate, g, n_gauss=3, duration=2.0)  # warm-up (kernels)
-    ours = _median(lambda: synthesize(traj, rate, g, n_gauss=3, duration=n / rate), repeat) / n
+    ours = median_time(lambda: synthesize(traj, rate, g, n_gauss=3, duration=n / rate), repeat) / n
     t = np.arange(n + 1) / rate
     lat, lon, h, v, C = geodetic_state(traj, t)
     from scipy.spatial.transform import Rotation
@@ -58,7 +50,9 @@ def bench_synthesis(traj, rate, seconds, repeat):
     ypr = Rotation.from_matrix(C).as_euler("ZYX", degrees=True)
     rph = np.stack([ypr[:, 2], ypr[:, 1], ypr[:, 0] % 360.0], -1)
     lla = np.stack([lat, lon, h], -1)
-    theirs = _median(lambda: sim.generate_imu(t, lla, rph, v, sensor_type="increment"), repeat) / n
+    theirs = (
+        median_time(lambda: sim.generate_imu(t, lla, rph, v, sensor_type="increment"), repeat) / n
+    )
     return ours, theirs
 
 

@@ -26,6 +26,7 @@ import tempfile
 import time
 
 import numpy as np
+from timing import median_time
 
 from fieldmap import _warp
 from fieldmap.field.frames import geodetic_to_ecef
@@ -33,15 +34,6 @@ from fieldmap.models.geographiclib import gravity_tool, write_egm
 from fieldmap.models.registry import load_model
 
 PAPER_US_PER_POINT_DEG200 = 4400.0  # Chen et al. (2022), degree 200, per point
-
-
-def _median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def _points(n, seed=0):
@@ -61,10 +53,10 @@ def bench_fieldmap(model, n, repeats, device):
     x, y, z = geodetic_to_ecef(lat, lon, h)
     sh_gravitation(model, x, y, z, device=device)  # warm: compile/load, tables
     fg.disturbance(lat, lon, h, model=model, device=device)
-    t_k = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
-    t_api = _median_time(lambda: fg.disturbance(lat, lon, h, model=model, device=device), repeats)
+    t_k = median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
+    t_api = median_time(lambda: fg.disturbance(lat, lon, h, model=model, device=device), repeats)
     with _warp.threads(1):  # one chunk, one core
-        t_1 = _median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
+        t_1 = median_time(lambda: sh_gravitation(model, x, y, z, device=device), repeats)
     return 1e6 * t_k / n, 1e6 * t_api / n, 1e6 * t_1 / n
 
 
@@ -83,8 +75,8 @@ def bench_geographiclib(model, n, repeats):
     def run(text):
         subprocess.run(cmd, input=text, capture_output=True, text=True, check=True)
 
-    t_many = _median_time(lambda: run(many), repeats)
-    t_one = _median_time(lambda: run(one), repeats)
+    t_many = median_time(lambda: run(many), repeats)
+    t_one = median_time(lambda: run(one), repeats)
     return 1e6 * (t_many - t_one) / (n - 1)
 
 
@@ -105,7 +97,7 @@ def bench_pyshtools(model, n, repeats):
     r = np.sqrt(x * x + y * y + z * z)
     lat_gc = np.degrees(np.arcsin(z / r))
     coeffs.expand(lat=lat_gc[:2], lon=lon[:2], r=r[:2])  # warm-up
-    t = _median_time(lambda: coeffs.expand(lat=lat_gc, lon=lon, r=r), repeats)
+    t = median_time(lambda: coeffs.expand(lat=lat_gc, lon=lon, r=r), repeats)
     return 1e6 * t / n
 
 
@@ -120,7 +112,7 @@ def bench_cli(repeats):
 
     env = dict(os.environ)
     run(env)  # make sure the user's cache is warm
-    warm = _median_time(lambda: run(env), repeats)
+    warm = median_time(lambda: run(env), repeats)
     colds = []
     for _ in range(2):
         with tempfile.TemporaryDirectory(prefix="fm_cold_cache_") as cache:

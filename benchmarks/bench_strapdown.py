@@ -20,9 +20,9 @@ import os
 import shutil
 import subprocess
 import tempfile
-import time
 
 import numpy as np
+from timing import median_time
 
 from fieldmap import _warp
 from fieldmap.nav.launch_frames import LaunchFrame
@@ -30,15 +30,6 @@ from fieldmap.nav.strapdown import propagate_lci
 from fieldmap.nav.strapdown_ned import propagate_ned
 
 FRAME = LaunchFrame(105.3, 27.1, 63.0)
-
-
-def _median_time(fn, repeat):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
 
 
 def _increments(ns, dt, seed=0):
@@ -68,7 +59,7 @@ def bench_pyins(n_traj, ns, dt, repeat):
     mat[:, 0] = np.eye(3)
     small = [np.ascontiguousarray(x[:, :11]) for x in (lla, vel, mat)]
     run_many(dts[:10].copy(), *small, dth[:10].copy(), dv[:10].copy())  # compile
-    sec = _median_time(lambda: run_many(dts, lla, vel, mat, dth, dv), repeat)
+    sec = median_time(lambda: run_many(dts, lla, vel, mat, dth, dv), repeat)
     return sec, numba.get_num_threads()
 
 
@@ -114,7 +105,7 @@ def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
             )
 
     fn(4)  # compile / load
-    return _median_time(fn, repeat)
+    return median_time(fn, repeat)
 
 
 _CPP = r"""
@@ -177,7 +168,7 @@ def bench_geographiclib(model, degree, n_points, repeat):
             pts = np.column_stack(
                 [np.linspace(20, 35, m), np.linspace(103, 109, m), np.full(m, 30e3)]
             )
-            sec = _median_time(
+            sec = median_time(
                 lambda: run_gravity_tool(pts, tmp, name, "gravity", nmax=degree), repeat
             )
             out.append((sec / m, "Gravity command line -G, point mode"))
