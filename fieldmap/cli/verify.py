@@ -338,26 +338,11 @@ def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckRe
                 rows.extend(make(device, opts))
             except SkipCheck as exc:
                 rows.append(CheckResult(module, device, note=f"skipped: {exc}", skipped=True))
-            except ImportError as exc:  # a part of fieldmap or a dependency is missing
-                rows.append(
-                    CheckResult(
-                        module,
-                        device,
-                        float("inf"),
-                        float("inf"),
-                        note=f"broken install: {type(exc).__name__}: {exc}",
-                    )
-                )
             except Exception as exc:  # report, keep going: a broken check is a failure
-                rows.append(
-                    CheckResult(
-                        module,
-                        device,
-                        float("inf"),
-                        float("inf"),
-                        note=f"error: {type(exc).__name__}: {exc}",
-                    )
-                )
+                # ImportError: a part of fieldmap or a dependency is missing
+                what = "broken install" if isinstance(exc, ImportError) else "error"
+                note = f"{what}: {type(exc).__name__}: {exc}"
+                rows.append(CheckResult(module, device, float("inf"), float("inf"), note=note))
     return rows
 
 
