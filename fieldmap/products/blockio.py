@@ -64,37 +64,6 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
     return ds
 
 
-def sweep_statistics(stats: list[dict], thresholds) -> dict:
-    """Statistics variables of a sweep: {name: (dims, values, attrs)} as altitude_sweep's."""
-    from fieldmap.products.cf import mg_attrs
-    from fieldmap.products.stats import threshold_key
-
-    out: dict[str, tuple] = {}
-    for key, long in (
-        ("max_mg", "maximum"),
-        ("mean_mg", "area-weighted mean"),
-        ("p50_mg", "area-weighted median"),
-        ("p99_mg", "area-weighted 99th percentile"),
-    ):
-        out[key] = (
-            "height",
-            np.array([s[key] for s in stats]),
-            mg_attrs(f"{long} of the disturbance modulus"),
-        )
-    frac = np.array(
-        [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
-    )
-    out["area_fraction_above"] = (
-        ("height", "threshold_mg"),
-        frac,
-        {
-            "units": "1",
-            "long_name": "fraction of the map area where the modulus exceeds the threshold",
-        },
-    )
-    return out
-
-
 def map_attrs(stats: dict, thresholds) -> dict:
     """Global statistics attributes of a one-height map (as disturbance_map's)."""
     from fieldmap.products.blockstats import PERCENTILE_RTOL

@@ -182,3 +182,34 @@ def stats_attrs(stats: dict) -> dict:
     for key, frac in stats["area_fraction_above"].items():
         attrs[fraction_attr(float(key))] = frac
     return attrs
+
+
+def sweep_statistics(stats: list[dict], thresholds) -> dict:
+    """Return the statistics variables of a sweep, {name: (dims, values, attrs)}.
+
+    ``stats``: one :func:`fieldmap.products.stats.map_statistics` dict per height.
+    """
+    out: dict[str, tuple] = {}
+    for key, long in (
+        ("max_mg", "maximum"),
+        ("mean_mg", "area-weighted mean"),
+        ("p50_mg", "area-weighted median"),
+        ("p99_mg", "area-weighted 99th percentile"),
+    ):
+        out[key] = (
+            "height",
+            np.array([s[key] for s in stats]),
+            mg_attrs(f"{long} of the disturbance modulus"),
+        )
+    frac = np.array(
+        [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
+    )
+    out["area_fraction_above"] = (
+        ("height", "threshold_mg"),
+        frac,
+        {
+            "units": "1",
+            "long_name": "fraction of the map area where the modulus exceeds the threshold",
+        },
+    )
+    return out

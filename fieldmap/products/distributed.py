@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products import blockio, blocks, cluster
+from fieldmap.products import blockio, blocks, cf, cluster
 
 __all__ = [
     "disturbance_blocks",
@@ -138,7 +138,7 @@ def _assemble(tmpl, arrays, stats, thresholds, stacked) -> xr.Dataset:
     for name in blockio.VARIABLES:
         ds[name] = (dims, arrays[name], var_attrs[name])
     if stacked:
-        for name, var in blockio.sweep_statistics(stats, thresholds).items():
+        for name, var in cf.sweep_statistics(stats, thresholds).items():
             ds[name] = var
     else:
         ds.attrs.update(blockio.map_attrs(stats[0], thresholds))
@@ -205,7 +205,7 @@ def write_disturbance(
 
     def finish(stats):
         if stacked:
-            return {}, blockio.sweep_statistics(stats, thresholds), None
+            return {}, cf.sweep_statistics(stats, thresholds), None
         return blockio.map_attrs(stats[0], thresholds), None, None
 
     stats = _write_blocks(

@@ -31,6 +31,7 @@ from fieldmap.products.cf import (
     global_attrs,
     mg_attrs,
     stats_attrs,
+    sweep_statistics,
     vector_vars,
 )
 from fieldmap.products.stats import map_statistics, parse_thresholds, threshold_key
@@ -238,28 +239,8 @@ def altitude_sweep(
             mg_attrs("threshold of the disturbance modulus"),
         )
     )
-    for key, long in (
-        ("max_mg", "maximum"),
-        ("mean_mg", "area-weighted mean"),
-        ("p50_mg", "area-weighted median"),
-        ("p99_mg", "area-weighted 99th percentile"),
-    ):
-        ds[key] = (
-            "height",
-            np.array([s[key] for s in stats]),
-            mg_attrs(f"{long} of the disturbance modulus"),
-        )
-    frac = np.array(
-        [[s["area_fraction_above"][threshold_key(t)] for t in thresholds] for s in stats]
-    )
-    ds["area_fraction_above"] = (
-        ("height", "threshold_mg"),
-        frac,
-        {
-            "units": "1",
-            "long_name": "fraction of the map area where the modulus exceeds the threshold",
-        },
-    )
+    for name, var in sweep_statistics(stats, thresholds).items():
+        ds[name] = var
     return ds
 
 
