@@ -592,7 +592,7 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     """
     import functools
 
-    from fieldmap.nav import flightsim
+    from fieldmap.nav import flightblocks, flightsim
     from fieldmap.nav.distributed import flight_block_on, on_cluster
     from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.imu_specs import load_imu
@@ -608,7 +608,7 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     with on_cluster(client):
         there = flightsim.run_flight(ft, **kw)
     blk = functools.partial(flight_block_on, client, runs_per_task=2)
-    with flightsim.blocks_propagated_by(blk):
+    with flightblocks.blocks_propagated_by(blk):
         pairs = flightsim.run_flight(ft, **kw)
     for res in (there, pairs):
         for k in ("t", "dpos", "dvel", "datt", "track"):

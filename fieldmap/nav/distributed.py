@@ -33,11 +33,11 @@ def on_cluster(client) -> Iterator[None]:
     (draws × models) into tasks on ``client`` (:func:`propagate_on`, :func:`flight_block_on`;
     bit for bit the local result); ``client=None`` keeps them here.
     """
-    from fieldmap.nav import flightsim, studies
+    from fieldmap.nav import flightblocks, studies
 
     fn = None if client is None else functools.partial(propagate_on, client)
     blk = None if client is None else functools.partial(flight_block_on, client)
-    with studies.propagated_by(fn), flightsim.blocks_propagated_by(blk):
+    with studies.propagated_by(fn), flightblocks.blocks_propagated_by(blk):
         yield
 
 
@@ -107,7 +107,7 @@ def propagate_on(
 
 
 def _flight_task(traj, model, sets, args: dict):
-    from fieldmap.nav.flightsim import propagate_block
+    from fieldmap.nav.flightblocks import propagate_block
     from fieldmap.products.cluster import worker_setup
 
     worker_setup()
@@ -138,14 +138,14 @@ def _stack(parts: list):
 def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set,
                     kerr, aiding, baro, baro_bias, baro_state, rate_hz, device,
                     runs_per_task: int | None = None):  # fmt: skip
-    """:func:`fieldmap.nav.flightsim.propagate_block` with the runs split over ``client``.
+    """:func:`fieldmap.nav.flightblocks.propagate_block` with the runs split over ``client``.
 
     The trajectory and the truth model travel once per worker for the whole flight, the block's
     IMU increments once per worker and block; every per-run argument
-    (:data:`fieldmap.nav.flightsim.PER_RUN_ARGS`) is cut into groups of ``runs_per_task`` runs
+    (:data:`fieldmap.nav.flightblocks.PER_RUN_ARGS`) is cut into groups of ``runs_per_task`` runs
     (default: four tasks per worker), and the results are put back together in run order.
     """
-    from fieldmap.nav.flightsim import PER_RUN_ARGS
+    from fieldmap.nav.flightblocks import PER_RUN_ARGS
     from fieldmap.products.cluster import scattered
 
     n = len(grav)
