@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gzip
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -493,16 +494,29 @@ def test_help_documents_units(capsys, cmd, words):
 
 
 # ----------------------------------------------------------------------------- real console script
-def _spawn(args, **kw):
+def _spawn(args, *, sigint=signal.SIG_DFL, **kw):
+    """Start the console script (``python -m fieldmap``) with SIGINT set to ``sigint``.
+
+    The child's SIGINT disposition is set here, not inherited from however pytest was started:
+    a shell that runs the suite with SIGINT ignored (``make test &``, ``nohup``, some CI
+    runners) passes SIG_IGN on, and Python then never turns Ctrl-C into KeyboardInterrupt.
+    A Python handler in the parent becomes SIG_DFL in the child at exec; SIG_IGN stays ignored.
+    """
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    return subprocess.Popen(
-        [sys.executable, "-m", "fieldmap", *args],
-        env=env,
-        text=True,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        **kw,
+    parent = signal.signal(
+        signal.SIGINT, signal.default_int_handler if sigint == signal.SIG_DFL else sigint
     )
+    try:
+        return subprocess.Popen(
+            [sys.executable, "-m", "fieldmap", *args],
+            env=env,
+            text=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            **kw,
+        )
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_DFL if parent is None else parent)
 
 
 def test_console_script_parse_errors_one_line(tmp_path):

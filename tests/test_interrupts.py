@@ -81,7 +81,12 @@ def test_signals_wait_for_the_file_being_written(sig, exc):
     """
     from fieldmap.products import io as fio
 
-    previous = signal.signal(signal.SIGTERM, cli._on_sigterm)
+    # the handlers the CLI runs under, set here: pytest started from a shell that ignores SIGINT
+    # (``make test &``, ``nohup``, some CI runners) inherits SIG_IGN, and then no Ctrl-C arrives
+    previous = {
+        signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+        signal.SIGTERM: signal.signal(signal.SIGTERM, cli._on_sigterm),
+    }
     steps = []
     try:
         with pytest.raises(exc):
@@ -90,10 +95,13 @@ def test_signals_wait_for_the_file_being_written(sig, exc):
                 time.sleep(0.05)
                 steps.append("write finished")
             steps.append("not reached")
+        # the handlers in place before the block are back
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        assert signal.getsignal(signal.SIGTERM) is cli._on_sigterm
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
     assert steps == ["write finished"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_disk_full_while_writing(work, capsys, monkeypatch):  # noqa: F811 (fixture)
@@ -148,6 +156,23 @@ def test_signal_one_line(tmp_path, sig, rc, word):
     out, err = p.communicate(timeout=60)
     assert p.returncode == rc, err
     assert err.strip().splitlines() == [f"fieldmap point: {word}"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_sigint_ignored_when_started_so(tmp_path):
+    """Started with SIGINT ignored (a background job of a script, ``nohup``), the CLI keeps it so.
+
+    Ctrl-C meant for the foreground job does not stop it; SIGTERM still ends it in one line.
+    """
+    p = _spawn(["point"], sigint=signal.SIG_IGN, stdin=subprocess.PIPE, cwd=tmp_path)
+    time.sleep(3.0)  # past start-up: blocked reading stdin inside main()
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    assert p.poll() is None  # still waiting for input
+    p.send_signal(signal.SIGTERM)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 143, err
+    assert err.strip().splitlines() == ["fieldmap point: terminated"]
     assert list(tmp_path.iterdir()) == []
 
 
