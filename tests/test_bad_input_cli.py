@@ -419,6 +419,52 @@ def test_missing_out_folder_is_created_only_on_success(work, capsys):
     assert [n.rsplit(".", 1)[1] for n in names] == ["json", "nc"], names
 
 
+# ----------------------------------------------------------------------------- optional parts
+@pytest.mark.parametrize("module", ["zarr", "dask"])
+def test_missing_optional_dependency(work, capsys, monkeypatch, module):
+    """``--format zarr`` without zarr (or dask): one line naming the module and extra, exit 2."""
+    monkeypatch.setitem(sys.modules, module, None)  # ``import zarr`` now fails as if not installed
+    for name in [m for m in sys.modules if m.startswith(module + ".")]:
+        monkeypatch.delitem(sys.modules, name)  # no submodule imported earlier is reused
+    before = _tree(work)
+    rc, _, err = _main(["map", "--format", "zarr", "--step-deg", "30", "--out", "res"], capsys)
+    want = f"fieldmap map: error: {module} is not installed: pip install 'fieldmap[distributed]'"
+    _assert_one_line(rc, err, 2, want, before, work)
+    assert err.strip() == want
+
+
+def test_missing_module_that_is_no_optional_dependency():
+    """Only the modules of an extra are a missing optional part; others stay internal errors."""
+    assert cli.missing_optional(ModuleNotFoundError("x", name="distributed.client")) == (
+        "distributed is not installed: pip install 'fieldmap[distributed]'"
+    )
+    assert cli.missing_optional(ModuleNotFoundError("x", name="numcodecs")) is None
+    assert cli.missing_optional(ModuleNotFoundError("x")) is None
+    assert cli.missing_optional(ImportError("x", name="zarr")) is None
+    assert cli.missing_optional(ValueError("zarr")) is None
+
+
+def test_optional_dependencies_match_pyproject():
+    """The CLI's table of extras is pyproject.toml's (the extras fieldmap imports from)."""
+    import re
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+
+    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    extras = tomllib.loads(pyproject.read_text())["project"]["optional-dependencies"]
+    runtime = {k: v for k, v in extras.items() if k not in ("test", "dev", "docs")}
+
+    def name(requirement):  # "dask[distributed]>=2024.1" -> "dask[distributed]"
+        return re.match(r"[A-Za-z0-9_.\-]+(\[[^\]]*\])?", requirement.replace(" ", "")).group(0)
+
+    assert {k: {name(r) for r in v} for k, v in runtime.items()} == {
+        k: set(v) for k, v in cli.OPTIONAL_DEPENDENCIES.items()
+    }
+
+
 # ----------------------------------------------------------------------------- fieldmap navsim
 NAVSIM_CASES = [
     (["--rate", "0"], "--rate must be a positive number"),

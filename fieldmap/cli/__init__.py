@@ -4,10 +4,11 @@ Each sub-command lives in its own module exposing ``register(subparsers)``; that
 the sub-parser and sets ``func`` (called with the parsed namespace, returns an exit status).
 Every :class:`fieldmap.errors.FieldmapError` (and ``OSError`` on output) becomes one line on
 stderr and exit status 2, never a traceback; so do bad option values found by argparse (no usage
-block). Exit statuses: 0 success; 1 ``fieldmap point`` with bad input lines, or ``verify`` with
-a failed check; 2 bad input; 3 an unexpected internal error (one line; set ``FIELDMAP_DEBUG=1``
-for the traceback); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM). Interrupted or
-terminated runs leave no partial output files (see :mod:`fieldmap.products.io`).
+block) and a missing optional dependency (the line names the module and the extra to install).
+Exit statuses: 0 success; 1 ``fieldmap point`` with bad input lines, or ``verify`` with a failed
+check; 2 bad input; 3 an unexpected internal error (one line; set ``FIELDMAP_DEBUG=1`` for the
+traceback); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM). Interrupted or terminated runs
+leave no partial output files (see :mod:`fieldmap.products.io`).
 """
 
 from __future__ import annotations
@@ -67,6 +68,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The optional dependencies, as in pyproject.toml's ``[project.optional-dependencies]``: extra ->
+#: requirement -> the modules it provides. Only the extras fieldmap itself imports from (not
+#: ``test``, ``dev``, ``docs``); ``tests/test_bad_input_cli.py`` checks the table against
+#: pyproject.toml.
+OPTIONAL_DEPENDENCIES = {
+    "distributed": {"dask[distributed]": ("dask", "distributed"), "zarr": ("zarr",)},
+}
+_EXTRA_OF_MODULE = {
+    module: extra
+    for extra, requirements in OPTIONAL_DEPENDENCIES.items()
+    for modules in requirements.values()
+    for module in modules
+}
+
+
+def missing_optional(exc: BaseException) -> str | None:
+    """Return the one-line message for a missing optional dependency, or None for other errors.
+
+    A ``ModuleNotFoundError`` for a module of an extra (``zarr``, ``dask``, ``distributed``) is
+    no internal error: the install lacks an optional part, and the message names the module and
+    the extra that brings it.
+    """
+    if not isinstance(exc, ModuleNotFoundError) or not exc.name:
+        return None
+    module = exc.name.partition(".")[0]
+    extra = _EXTRA_OF_MODULE.get(module)
+    if extra is None:
+        return None
+    return f"{module} is not installed: pip install 'fieldmap[{extra}]'"
+
+
 def _device_error(exc) -> bool:
     mod = sys.modules.get("fieldmap._warp")
     return mod is not None and isinstance(exc, mod.DeviceError)
@@ -121,6 +153,10 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
         if _device_error(exc):
             print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        missing = missing_optional(exc)
+        if missing is not None:
+            print(f"{prefix}: error: {missing}", file=sys.stderr)
             return 2
         if config.get().debug:
             raise
