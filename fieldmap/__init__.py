@@ -66,6 +66,7 @@ _LAZY = {
     "altitude_sweep": "fieldmap.products.maps",
     "truncation_map": "fieldmap.products.maps",
     "component_maps": "fieldmap.products.maps",
+    "quantity_map": "fieldmap.products.quantity_maps",
     "write_netcdf": "fieldmap.products.io",
     # navigation
     "LaunchFrame": "fieldmap.nav.launch_frames",
