@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav import imu_errors
+from fieldmap.nav import imu_errors, imu_specs
 from fieldmap.nav.allan import allan_deviation, allan_table
 from fieldmap.nav.imu_errors import GM_ADEV_PEAK, ImuErrorSpec, gm_allan_deviation
-from fieldmap.nav.imu_specs import PRESETS, load_imu
+from fieldmap.nav.imu_specs import PRESETS, RANGES, TOML_KEYS, load_imu, spec_from_mapping
 
 
 def test_presets_are_ordered_by_grade():
@@ -44,16 +44,103 @@ def test_toml_unit_keys(tmp_path):
     [
         ("accel_bias = 3\n", "unknown key(s) accel_bias"),
         ('gyro_bias_deg_per_h = "x"\n', "is not a number"),
-        ("gyro_bias_deg_per_h = -1\n", "must be finite and >= 0"),
-        ("bias_instability_tau_s = 0\n", "must be > 0 s"),
+        ("gyro_bias_deg_per_h = -1\n", "gyro_bias_deg_per_h = -1 is outside the allowed range 0"),
+        ("bias_instability_tau_s = 0\n", "= 0 is outside the allowed range 0.01 … 1000000 s"),
         ("gyro_bias_deg_per_h = \n", "not valid TOML"),
+        ("accel_bias_ug = 1e300\n", "accel_bias_ug = 1e+300 is outside the allowed range 0 … "),
+        ("accel_bias_ug = nan\n", "accel_bias_ug = nan is not a finite number"),
+        ("gyro_arw_deg_per_sqrt_h = inf\n", "gyro_arw_deg_per_sqrt_h = inf is not a finite"),
+        ("misalignment_arcsec = -inf\n", "misalignment_arcsec = -inf is not a finite"),
+        ("accel_bias_ug = 99999999999999999999999\n", "99999999999999999999999 is outside"),
+        ("", "sets no error terms"),
+        ('name = "x"\ndescription = "y"\n', "sets no error terms"),
+        ("bias_instability_tau_s = 100\n", "sets no error terms"),
     ],
 )
 def test_toml_bad_input(tmp_path, text, msg):
     p = tmp_path / "bad.toml"
     p.write_text(text)
-    with pytest.raises(InputError, match=msg.replace("(", r"\(").replace(")", r"\)")):
+    with pytest.raises(InputError) as exc:
         load_imu(p)
+    line = str(exc.value)
+    assert msg in line and "\n" not in line, line
+    assert line.startswith(f"{p}:") or line.startswith(f"{p} sets"), line  # names the file
+
+
+def test_empty_file_names_the_ideal_preset(tmp_path):
+    """An empty file is no ideal IMU; the message says how to ask for one."""
+    p = tmp_path / "empty.toml"
+    p.write_text("# nothing yet\n")
+    with pytest.raises(InputError, match="use the preset 'ideal' \\(--imu ideal\\)"):
+        load_imu(p)
+    assert load_imu("ideal")[1].is_ideal
+    with pytest.raises(InputError, match="IMU spec sets no error terms"):
+        spec_from_mapping({})
+    # explicit zeros are a choice, not an omission
+    assert spec_from_mapping({"accel_bias_ug": 0, "gyro_bias_deg_per_h": 0.0}).is_ideal
+
+
+def test_ranges_cover_every_key():
+    assert set(RANGES) == set(TOML_KEYS)
+    for key, (lo, hi, unit) in RANGES.items():
+        assert 0 <= lo < hi and unit, key
+        assert (lo > 0) == key.endswith("_tau_s"), key  # only correlation times must be > 0
+        assert key in imu_specs.__doc__ or key.partition("_")[2] in imu_specs.__doc__, key
+
+
+@pytest.mark.parametrize("key", sorted(RANGES))
+def test_each_key_range(key):
+    """The bounds are accepted; just past them, NaN and ±inf are refused naming key and range."""
+    lo, hi, unit = RANGES[key]
+    for ok in (lo, hi, (lo + hi) / 2):
+        spec_from_mapping({"gyro_bias_deg_per_h": 1.0, key: ok}, "my.toml")
+    for bad in (hi * 1.001, lo - 1e-9, -1.0, 1e300):
+        with pytest.raises(InputError) as exc:
+            spec_from_mapping({key: bad}, "my.toml")
+        msg = str(exc.value)
+        assert msg.startswith(f"my.toml: {key} = {bad!r} is outside the allowed range"), msg
+        assert f"{hi:.15g} {unit}" in msg, msg
+    for bad in (float("nan"), float("inf"), -float("inf")):
+        with pytest.raises(InputError, match=f"my.toml: {key} = {bad!r} is not a finite number"):
+            spec_from_mapping({key: bad}, "my.toml")
+
+
+def _preset_as_toml(spec: ImuErrorSpec) -> dict:
+    """Write the preset with the per-triad TOML keys."""
+    return {k: getattr(spec, fields[0]) for k, fields in TOML_KEYS.items() if len(fields) == 1}
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_presets_lie_within_the_ranges(tmp_path, name):
+    """Every bundled preset passes the file checks and reads back identical from a TOML file."""
+    spec = PRESETS[name]
+    data = _preset_as_toml(spec)
+    for key, value in data.items():
+        lo, hi, _ = RANGES[key]
+        assert lo <= value <= hi, (name, key, value)
+    p = tmp_path / f"{name}.toml"
+    p.write_text("".join(f"{k} = {v!r}\n" for k, v in data.items()))
+    assert load_imu(p)[1] == spec  # explicit zeros: even ``ideal`` written out is accepted
+
+
+@pytest.mark.parametrize("shared_first", [True, False])
+def test_specific_key_wins_over_shared_one(shared_first):
+    """``accel_bias_instability_tau_s`` beats ``bias_instability_tau_s`` in either order."""
+    items = [("bias_instability_tau_s", 600.0), ("accel_bias_instability_tau_s", 100.0)]
+    items += [("scale_factor_ppm", 10.0), ("gyro_scale_factor_ppm", 20.0)]
+    items += [("accel_bias_ug", 1.0)]
+    data = dict(items if shared_first else items[::-1])
+    spec = spec_from_mapping(data)
+    assert (spec.acc_bi_tau_s, spec.gyro_bi_tau_s) == (100.0, 600.0)
+    assert (spec.acc_scale_ppm, spec.gyro_scale_ppm) == (10.0, 20.0)
+
+
+def test_numpy_scalars_from_python():
+    """A mapping built in Python may hold NumPy numbers; they are checked the same way."""
+    spec = spec_from_mapping({"accel_bias_ug": np.float32(5.0), "gyro_bias_deg_per_h": np.int64(2)})
+    assert (spec.acc_bias_ug, spec.gyro_bias_deg_h) == (5.0, 2.0)
+    with pytest.raises(InputError, match=r"accel_bias_ug = 1e\+300 is outside"):
+        spec_from_mapping({"accel_bias_ug": np.float64(1e300)})
 
 
 def test_unknown_preset():
@@ -124,4 +211,25 @@ def test_cli_imu_allan(tmp_path, capsys):
     out = tmp_path / "o2"
     assert main(["imu", "allan", "--imu", str(bad), "--out", str(out)]) == 2
     assert "unknown key(s) gyro_noise" in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "text, msg",
+    [
+        ("accel_bias_ug = 1e300\n", "accel_bias_ug = 1e+300 is outside the allowed range 0 … "),
+        ("", "sets no error terms"),
+    ],
+)
+def test_cli_imu_out_of_range(tmp_path, capsys, text, msg):
+    """Through the CLI, a value out of range or an empty file: one line, exit 2, no files."""
+    from fieldmap.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    out = tmp_path / "o"
+    assert main(["imu", "allan", "--imu", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fieldmap imu: error: ") and msg in err[0], err
+    assert str(bad) in err[0]
     assert not out.exists()

@@ -29,17 +29,53 @@ and 3–13 µg, ARW 0.1–0.34 °/√h); tactical — Honeywell HG1700/HG1930 (1
 Also named: ``table2-group1`` … ``table2-group4`` and ``table4`` (Chen et al. 2022 Tables 2 and
 4, see :mod:`fieldmap.nav.imu_errors`).
 
-TOML keys (all optional, unknown keys are an error; ``name`` and ``description`` are text)::
+TOML keys (each optional, unknown keys are an error; ``name`` and ``description`` are text)::
 
     accel_bias_ug, accel_vrw_ug_per_sqrt_hz, accel_bias_instability_ug,
     accel_bias_instability_tau_s, accel_scale_factor_ppm, accel_misalignment_arcsec,
     gyro_bias_deg_per_h, gyro_arw_deg_per_sqrt_h, gyro_bias_instability_deg_per_h,
     gyro_bias_instability_tau_s, gyro_scale_factor_ppm, gyro_misalignment_arcsec,
     scale_factor_ppm, misalignment_arcsec, bias_instability_tau_s   (both sensor triads)
+
+A file must set at least one error term (a key other than the correlation times): an empty file
+is refused rather than read as a perfect IMU; the preset ``ideal`` (``--imu ideal``) asks for one.
+
+Allowed ranges (:data:`RANGES`; a value outside, NaN or infinite is refused with the key, the
+value, the file and the range). Zero means the source is absent. The upper limits lie well above
+the worst consumer MEMS part before calibration, so that no real unit is refused while a typo in
+the exponent (``1e300``, a value in the wrong unit by 10⁶) is (``*`` stands for ``accel_``,
+``gyro_`` and the shared key of both triads):
+
+==================================  ===========  =============================================
+key                                 range        upper limit
+==================================  ===========  =============================================
+accel_bias_ug                       0 … 1e5      100 mg: 5x the ±20 mg zero-g offset of an
+                                                 uncalibrated consumer part (BMI088), 20x
+                                                 ``consumer``
+accel_vrw_ug_per_sqrt_hz            0 … 1e4      10 mg/√Hz: 25x the noisiest consumer parts
+                                                 (≈ 400 µg/√Hz), 70x ``consumer``
+accel_bias_instability_ug           0 … 1e4      10 mg: 100x ``consumer``
+gyro_bias_deg_per_h                 0 … 1e5      ≈ 28 °/s: above the ±20 °/s zero-rate offset
+                                                 of an uncalibrated consumer part (MPU-6050)
+gyro_arw_deg_per_sqrt_h             0 … 30       0.5 °/s/√Hz: 10x the noisiest consumer parts
+                                                 (≈ 0.05 °/s/√Hz = 3 °/√h), 50x ``consumer``
+gyro_bias_instability_deg_per_h     0 … 1000     20x the ≈ 50 °/h of low-cost MEMS gyros,
+                                                 100x ``consumer``
+``*scale_factor_ppm``               0 … 1e5      10 %: 3x the ±3 % sensitivity tolerance of an
+                                                 uncalibrated consumer part, 20x ``consumer``
+``*misalignment_arcsec``            0 … 18000    5°: 4x the ±2 % (≈ 1.1°) cross-axis
+                                                 sensitivity of consumer parts, 10x
+                                                 ``consumer``
+``*bias_instability_tau_s``         0.01 … 1e6   > 0; below 0.01 s the Gauss–Markov bias is
+                                                 white noise (a noise-density key), above
+                                                 11.6 days a constant bias over any flight
+==================================  ===========  =============================================
 """
 
 from __future__ import annotations
 
+import math
+import numbers
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -95,9 +131,53 @@ TOML_KEYS = {
 }
 _TEXT_KEYS = ("name", "description")
 
+#: TOML key -> (lowest, highest, unit) accepted; see the module docstring for the reasons
+RANGES: dict[str, tuple[float, float, str]] = {
+    "accel_bias_ug": (0.0, 1e5, "µg"),
+    "accel_vrw_ug_per_sqrt_hz": (0.0, 1e4, "µg/√Hz"),
+    "accel_bias_instability_ug": (0.0, 1e4, "µg"),
+    "accel_bias_instability_tau_s": (0.01, 1e6, "s"),
+    "accel_scale_factor_ppm": (0.0, 1e5, "ppm"),
+    "accel_misalignment_arcsec": (0.0, 18000.0, "arcsec"),
+    "gyro_bias_deg_per_h": (0.0, 1e5, "°/h"),
+    "gyro_arw_deg_per_sqrt_h": (0.0, 30.0, "°/√h"),
+    "gyro_bias_instability_deg_per_h": (0.0, 1000.0, "°/h"),
+    "gyro_bias_instability_tau_s": (0.01, 1e6, "s"),
+    "gyro_scale_factor_ppm": (0.0, 1e5, "ppm"),
+    "gyro_misalignment_arcsec": (0.0, 18000.0, "arcsec"),
+    "scale_factor_ppm": (0.0, 1e5, "ppm"),
+    "misalignment_arcsec": (0.0, 18000.0, "arcsec"),
+    "bias_instability_tau_s": (0.01, 1e6, "s"),
+}
+_SHARED_KEYS = ("scale_factor_ppm", "misalignment_arcsec", "bias_instability_tau_s")
+
+
+def _check_value(key: str, val, source: str) -> float:
+    """Return ``val`` of ``key`` as a float, or raise the one-line InputError naming it."""
+    if isinstance(val, bool) or not isinstance(val, numbers.Real):
+        raise InputError(f"{source}: {key} = {val!r} is not a number")
+    if type(val) not in (int, float):  # a NumPy scalar (mapping from Python): shown as a number
+        val = int(val) if isinstance(val, numbers.Integral) else float(val)
+    if isinstance(val, float) and not math.isfinite(val):
+        raise InputError(f"{source}: {key} = {val!r} is not a finite number")
+    lo, hi, unit = RANGES[key]
+    if not lo <= val <= hi:
+        raise InputError(
+            f"{source}: {key} = {val!r} is outside the allowed range {lo:.15g} … {hi:.15g} {unit} "
+            "(see fieldmap.nav.imu_specs)"
+        )
+    return float(val)
+
 
 def spec_from_mapping(data: dict, source: str = "IMU spec") -> ImuErrorSpec:
-    """Build an :class:`ImuErrorSpec` from TOML-style keys (see the module docstring)."""
+    """Build an :class:`ImuErrorSpec` from TOML-style keys (see the module docstring).
+
+    Raises
+    ------
+    InputError
+        An unknown key, a value that is no number, not finite or outside its range
+        (:data:`RANGES`), or no error term at all (``{}`` is no ideal IMU: use the preset).
+    """
     unknown = sorted(k for k in data if k not in TOML_KEYS and k not in _TEXT_KEYS)
     if unknown:
         raise InputError(
@@ -107,16 +187,17 @@ def spec_from_mapping(data: dict, source: str = "IMU spec") -> ImuErrorSpec:
     for key, val in data.items():
         if key in _TEXT_KEYS:
             continue
-        if isinstance(val, bool) or not isinstance(val, (int, float)):
-            raise InputError(f"{source}: {key} = {val!r} is not a number")
-        if not (val == val and abs(val) != float("inf")) or val < 0:
-            raise InputError(f"{source}: {key} = {val!r} must be finite and >= 0")
-        if key.endswith("tau_s") and val <= 0:
-            raise InputError(f"{source}: {key} = {val!r} must be > 0 s")
+        number = _check_value(key, val, source)
         for field in TOML_KEYS[key]:
-            if field in values and key in ("scale_factor_ppm", "misalignment_arcsec"):
+            if field in values and key in _SHARED_KEYS:
                 continue  # a specific accel_/gyro_ key wins over the shared one
-            values[field] = float(val)
+            values[field] = number
+    if not any(k in data and not k.endswith("_tau_s") for k in TOML_KEYS):
+        raise InputError(
+            f"{source} sets no error terms (no key such as accel_bias_ug or "
+            "gyro_arw_deg_per_sqrt_h); for an IMU without errors use the preset 'ideal' "
+            "(--imu ideal)"
+        )
     return replace(ImuErrorSpec(), **values)
 
 
