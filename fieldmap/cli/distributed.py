@@ -39,8 +39,26 @@ def add_options(p: argparse.ArgumentParser) -> None:
 
 
 def wanted(args) -> bool:
-    """Tell whether the run goes through the block engine."""
-    return getattr(args, "scheduler", None) is not None or getattr(args, "format", None) == "zarr"
+    """Tell whether the product is streamed to its file block by block (not held in memory).
+
+    Options that need the whole map in memory are refused here with one line naming them.
+    """
+    from fieldmap.errors import InputError
+
+    scheduler, fmt = getattr(args, "scheduler", None), getattr(args, "format", None)
+    streamed = scheduler is not None or fmt == "zarr"
+    if streamed:
+        how = "--format zarr" if fmt == "zarr" else f"--scheduler {scheduler}"
+        if getattr(args, "float32", False):
+            raise InputError(
+                f"--float32 is not available with {how}: streamed maps are stored in float64"
+            )
+        if getattr(args, "percentile_method", "histogram") != "histogram":
+            raise InputError(
+                f"--percentile-method {args.percentile_method} needs the whole map in memory: "
+                f"not with {how}"
+            )
+    return streamed
 
 
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:

@@ -14,9 +14,15 @@ def run_quantity(args, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
     from fieldmap.cli import distributed
     from fieldmap.cli.common import load_cli_model, preflight, print_files, region, stem
+    from fieldmap.errors import InputError
     from fieldmap.products import quantity_maps as qm
     from fieldmap.products.io import output_batch
 
+    if getattr(args, "percentile_method", "histogram") != "histogram":
+        raise InputError(
+            f"--percentile-method applies to the disturbance modulus, not to --quantity "
+            f"{args.quantity}"
+        )
     if distributed.wanted(args):
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)
@@ -30,6 +36,7 @@ def run_quantity(args, heights_km: list[float]) -> int:
         region=region(args),
         device=args.device,
         ellipsoid=args.ellipsoid,
+        rows_per_block=args.rows_per_block,
     )
     elapsed = time.perf_counter() - t0
     summ = qm.summary(ds)
@@ -43,7 +50,7 @@ def run_quantity(args, heights_km: list[float]) -> int:
     report(args.quantity, summ)
     base = stem(ds, args.quantity)
     with output_batch(Path(args.out)) as batch:
-        batch.netcdf(ds, f"{base}.nc")
+        batch.netcdf(ds, f"{base}.nc", dtype="float32" if args.float32 else "float64")
         batch.json(summ, f"{base}.json")
         if not args.no_plots:
             for suffix, make in figures(ds, args.quantity, summ):
@@ -87,6 +94,7 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     from fieldmap.cli.distributed import stream
     from fieldmap.products import cluster, distributed
     from fieldmap.products import quantity_maps as qm
+    from fieldmap.products.quantity_product import template
 
     scheduler = cluster.parse_scheduler(args.scheduler)
     prep = distributed.prepare_quantity(
@@ -129,5 +137,5 @@ def _run_blocks(args, heights_km: list[float]) -> int:
             print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
         return summ, figures(view, args.quantity, summ)
 
-    base = stem(qm.template(args.quantity, mod, grid, ell, False), args.quantity)
+    base = stem(template(args.quantity, mod, grid, ell, False), args.quantity)
     return stream(args, scheduler, base, write, publish)

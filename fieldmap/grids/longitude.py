@@ -57,6 +57,10 @@ def longitude_sums(
     lon_deg = np.asarray(lon_deg, dtype=np.float64)
     lead, nm = W.shape[:-1], W.shape[-1]
     nlon = lon_deg.size
+    # the series of one item (the last-but-one axis: the components of one grid row) are
+    # transformed together and with nothing else, so a row's values never depend on which
+    # rows share its block: the same bits for any blocking (see the pairing below)
+    group = W.shape[-2] if W.ndim >= 2 else 1
     W = W.reshape(-1, nm)
     ns = W.shape[0]
     if out is None:
@@ -81,8 +85,10 @@ def longitude_sums(
     # zero from order nF on), z_k = Re(sum F_a w^jk) + i Re(sum F_b w^jk) is the inverse DFT of
     # Z_j = (P_j + conj M_{-j}) / 2 (indices mod L). The tail of Z holds conj M reversed.
     nF = F.shape[1]
-    if ns % 2:
-        F = np.concatenate([F, np.zeros((1, nF), dtype=F.dtype)])
+    if group % 2:  # pair the series of one item only: pad each item with a zero series
+        F3 = np.zeros((ns // group, group + 1, nF), dtype=F.dtype)
+        F3[:, :group] = F.reshape(-1, group, nF)
+        F = F3.reshape(-1, nF)
     Fa, Fb = F[0::2], F[1::2]
     Z = np.zeros((Fa.shape[0], nper), dtype=np.complex128)
     Z[:, :nF] = Fa + 1j * Fb
@@ -91,11 +97,15 @@ def longitude_sums(
     Z[:, 0] += np.conj(Fa[:, 0] - 1j * Fb[:, 0])
     Z *= 0.5
     z = scipy.fft.ifft(Z, axis=-1, norm="forward", workers=-1, overwrite_x=True)
+    g2 = group + group % 2
+    zz = np.empty((z.shape[0] * 2, nper))  # the series in the padded order, then unpadded
+    zz[0::2] = z.real
+    zz[1::2] = z.imag
+    zz = zz.reshape(-1, g2, nper)[:, :group].reshape(ns, nper)
     # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
     for k0 in range(0, nlon, nper):
         k1 = min(nlon, k0 + nper)
-        res[0::2, k0:k1] = z.real[:, : k1 - k0]
-        res[1::2, k0:k1] = z.imag[: ns // 2, : k1 - k0]
+        res[:, k0:k1] = zz[:, : k1 - k0]
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out

@@ -173,6 +173,15 @@ def load_model(
     if name_or_path is None:
         name_or_path = DEFAULT_MODEL
     if isinstance(name_or_path, SHModel):
+        if epoch is not None:  # its coefficients are fixed: an epoch cannot be applied now
+            t = parse_epoch(epoch)
+            have = name_or_path.epoch
+            if have is None or abs(t - have) > 1e-9:
+                raise InputError(
+                    f"epoch {epoch} cannot be applied to the model object {name_or_path.name!r} "
+                    f"(its coefficients are fixed, epoch {have if have is not None else 'unset'}):"
+                    " pass the model file's name or path with epoch=, or load_model(..., epoch=)"
+                )
         return _truncate(name_or_path, lmax)
     t = parse_epoch(epoch)
     if isinstance(name_or_path, bytes):

@@ -64,16 +64,24 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
     return ds
 
 
-def map_attrs(stats: dict, thresholds) -> dict:
-    """Global statistics attributes of a one-height map (as disturbance_map's)."""
+def percentile_method_text(method: str = "histogram") -> str:
+    """Return the ``percentile_method`` attribute of a product (``histogram`` or ``exact``)."""
     from fieldmap.products.blockstats import PERCENTILE_RTOL
+
+    if method == "exact":
+        return "exact area-weighted percentiles of the whole map (inverted CDF)"
+    return (
+        f"mergeable area-weighted histogram of the modulus, relative accuracy {PERCENTILE_RTOL:.1e}"
+    )
+
+
+def map_attrs(stats: dict, thresholds, method: str = "histogram") -> dict:
+    """Global statistics attributes of a one-height map (as disturbance_map's)."""
     from fieldmap.products.cf import stats_attrs
 
     attrs = stats_attrs(stats)
     attrs["thresholds_mg"] = np.array(thresholds)
-    attrs["percentile_method"] = (
-        f"mergeable area-weighted histogram of the modulus, relative accuracy {PERCENTILE_RTOL:.1e}"
-    )
+    attrs["percentile_method"] = percentile_method_text(method)
     return attrs
 
 

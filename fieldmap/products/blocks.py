@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from typing import Any
 
 import numpy as np
@@ -156,6 +157,23 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     return blocks
 
 
+#: Grids of at least this many nodes (all heights together; a 0.1° global map has 5.8e6) show
+#: a progress bar on a terminal by default: they take seconds to compute and longer to write.
+PROGRESS_NODES = 2_000_000
+
+
+def show_progress(nodes: int, progress: bool | None = None) -> bool:
+    """Whether to show a progress bar (on stderr) for a product of ``nodes`` grid nodes.
+
+    ``progress`` True or False decides; None (the default of every product) shows one for
+    grids of at least :data:`PROGRESS_NODES` nodes when stderr is a terminal, never in a pipe,
+    a file or a test.
+    """
+    if progress is not None:
+        return bool(progress)
+    return nodes >= PROGRESS_NODES and sys.stderr.isatty()
+
+
 # ---------------------------------------------------------------------------- one block
 
 
@@ -170,6 +188,7 @@ class Job:
     step_deg: float
     is_global: bool
     row_weights: np.ndarray
+    hist_weights: np.ndarray
     ellipsoid: str
     device: str | None
     units: str
@@ -208,7 +227,9 @@ def compute_block(job: Job, model) -> dict:
         # the variables of the in-memory map, by the same function (the same bits)
         data = {k: v[1] for k, v in vector_vars(vec, (), job.units, "", overwrite=True).items()}
         del vec
-        partial = block_partial(data["modulus_mg"], job.row_weights, job.thresholds)
+        partial = block_partial(
+            data["modulus_mg"], job.row_weights, job.thresholds, job.hist_weights
+        )
     else:
         from fieldmap.field.geodesy import grid_quantities
 
@@ -302,9 +323,11 @@ def make_jobs(
     degree0: bool = False,
 ) -> list[Job]:
     """One :class:`Job` per block."""
+    from fieldmap.products.blockstats import histogram_weights
     from fieldmap.products.stats import area_weights
 
     aw = area_weights(grid.lat)
+    hw = histogram_weights(aw, grid.lon.size)
     return [
         Job(
             block=b,
@@ -314,6 +337,7 @@ def make_jobs(
             step_deg=grid.step_deg,
             is_global=grid.is_global,
             row_weights=aw[b.rows],
+            hist_weights=hw[b.rows],
             ellipsoid=ellipsoid,
             device=device,
             units=units,

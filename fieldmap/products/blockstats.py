@@ -1,7 +1,10 @@
 """Statistics of the block engine: per-block partial results combined exactly, in block order.
 
 Maximum, minimum, area-weighted sums for the mean and RMS, area above each threshold, per
-block, folded in block order (:class:`OrderedFold`) so that every executor gives the same bits.
+block, folded in block order (:class:`OrderedFold`). The sums are kept per latitude row and
+added exactly at the end (``math.fsum``), and the histogram holds whole-number weights whose
+float64 sums are exact (:func:`histogram_weights`): every executor and every block size gives
+the same bits.
 Percentiles come from a mergeable histogram of the area weight over bins of the modulus read
 from its float64 bits: the exponent and the leading ``HIST_MANTISSA_BITS`` bits of the mantissa
 (``HIST_BINS`` bins over ``HIST_RANGE_MG``, each at most ``2**-12`` of its lower edge wide; a
@@ -24,10 +27,13 @@ __all__ = [
     "HIST_BINS",
     "HIST_MANTISSA_BITS",
     "HIST_RANGE_MG",
+    "PERCENTILE_METHODS",
     "PERCENTILE_RTOL",
+    "check_percentile_method",
     "OrderedFold",
     "block_partial",
     "finish_statistics",
+    "histogram_weights",
     "merge_partials",
     "scalar_partial",
 ]
@@ -44,6 +50,21 @@ HIST_BINS = (int(np.array(HIST_RANGE_MG[1]).view(np.int64)) >> _SHIFT) - _BITS_L
 PERCENTILE_RTOL = 2.0 ** -(HIST_MANTISSA_BITS + 1)
 
 
+#: How the percentiles of a map are computed (``percentile_method=``): ``"histogram"``, from
+#: per-block mergeable histograms (the default: the same bits on every executor and sink),
+#: or ``"exact"``, the weighted percentiles of the whole map (products returned in memory).
+PERCENTILE_METHODS = ("histogram", "exact")
+
+
+def check_percentile_method(method) -> str:
+    """Return ``method`` if it is one of :data:`PERCENTILE_METHODS`, else raise InputError."""
+    if method not in PERCENTILE_METHODS:
+        raise InputError(
+            f"percentile_method must be one of {', '.join(PERCENTILE_METHODS)}, got {method!r}"
+        )
+    return method
+
+
 def _hist_index(v: np.ndarray) -> np.ndarray:
     """Histogram bin of each (finite, non-negative) modulus: a shift of its float64 bits."""
     k = (np.ascontiguousarray(v, dtype=np.float64).view(np.int64) >> _SHIFT) - _BITS_LO
@@ -56,35 +77,61 @@ def _bin_centre(k: int) -> float:
     return float(0.5 * (lo + hi))
 
 
-def block_partial(modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds) -> dict:
-    """Partial statistics of one block: extrema, weighted sums, weighted histogram.
+def histogram_weights(row_weights: np.ndarray, nlon: int) -> np.ndarray:
+    """Area weights of the rows as whole numbers, for the histogram (float64 holding integers).
+
+    Each row's weight is scaled so that the weights of all ``nrows * nlon`` nodes of a layer sum
+    to at most 2**53: every sum of them in float64 is then exact, whatever the order of the
+    additions, so the histogram (and the percentiles) do not depend on how the rows are grouped
+    into blocks. The rounding changes a weight by at most half a unit, a relative 1e-8 or less
+    on a 1e8-node map (immaterial beside the bins' 2**-12).
+    """
+    w = np.asarray(row_weights, dtype=np.float64)
+    scale = float(2**53 // (max(1, w.size) * max(1, int(nlon))))
+    return np.floor(w / w.max() * scale + 0.5)
+
+
+def _rows(v: np.ndarray) -> np.ndarray:
+    """Per-row sums of a (rows, nlon) block: each row summed alone, in its own order."""
+    return np.ascontiguousarray(v, dtype=np.float64).sum(axis=1)
+
+
+def block_partial(
+    modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds, hist_weights=None
+) -> dict:
+    """Partial statistics of one block: extrema, per-row weighted sums, weighted histogram.
 
     ``row_weights`` are the (unnormalised) area weights of the block's rows
-    (:func:`fieldmap.products.stats.area_weights` of the whole grid, taken at the rows).
+    (:func:`fieldmap.products.stats.area_weights` of the whole grid, taken at the rows) and
+    ``hist_weights`` the same as whole numbers (:func:`histogram_weights`, default from
+    ``row_weights``). The sums are kept per row and added exactly (``math.fsum``) when the
+    statistics are finished, so nothing depends on the blocks' sizes or order.
     """
     v = modulus_mg
     if not np.all(np.isfinite(v)):
         raise InputError("map holds non-finite values")
-    w = np.repeat(row_weights, v.shape[1])
+    if hist_weights is None:
+        hist_weights = histogram_weights(row_weights, v.shape[1])
+    w = np.repeat(hist_weights, v.shape[1])
     return {
         "max": float(v.max()),
         "min": float(v.min()),
-        "sw": float(row_weights @ v.sum(axis=1)),
-        "sw2": float(row_weights @ (v * v).sum(axis=1)),
-        "above": [float(row_weights @ (v > t).sum(axis=1)) for t in thresholds],
+        "sw": [row_weights * _rows(v)],
+        "sw2": [row_weights * _rows(v * v)],
+        "above": [[row_weights * (v > t).sum(axis=1)] for t in thresholds],
         "hist": _sparse(np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS)),
     }
 
 
 def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
-    """Partial statistics of a signed quantity on one block: extrema and weighted sums."""
+    """Partial statistics of a signed quantity on one block: extrema and per-row weighted sums."""
     if not np.all(np.isfinite(v)):
         raise InputError("map holds non-finite values")
     return {
         "min": float(v.min()),
         "max": float(v.max()),
-        "sw": float(row_weights @ v.sum(axis=1)),
-        "sw2": float(row_weights @ (v * v).sum(axis=1)),
+        "sw": [row_weights * _rows(v)],
+        "sw2": [row_weights * _rows(v * v)],
     }
 
 
@@ -94,29 +141,35 @@ def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return nz.astype(np.int32), h[nz]
 
 
+def _fold_sums(a: dict, p: dict) -> None:
+    a["min"] = min(a["min"], p["min"])
+    a["max"] = max(a["max"], p["max"])
+    a["sw"] = a["sw"] + p["sw"]
+    a["sw2"] = a["sw2"] + p["sw2"]
+
+
 def merge_partials(acc: dict | None, part: dict) -> dict:
-    """Fold one block's partial statistics into the running total (call in block order)."""
+    """Fold one block's partial statistics into the running total (any order: exact sums)."""
     if "vars" in part:  # signed quantities: extrema and sums per variable
         if acc is None:
             return {"vars": {k: dict(v) for k, v in part["vars"].items()}}
         for k, p in part["vars"].items():
-            a = acc["vars"][k]
-            a["min"] = min(a["min"], p["min"])
-            a["max"] = max(a["max"], p["max"])
-            a["sw"] += p["sw"]
-            a["sw2"] += p["sw2"]
+            _fold_sums(acc["vars"][k], p)
         return acc
     if acc is None:
-        acc = {**part, "above": list(part["above"]), "hist": np.zeros(HIST_BINS)}
+        acc = {**part, "above": [list(a) for a in part["above"]], "hist": np.zeros(HIST_BINS)}
         acc["hist"][part["hist"][0]] = part["hist"][1]
         return acc
-    acc["max"] = max(acc["max"], part["max"])
-    acc["min"] = min(acc["min"], part["min"])
-    acc["sw"] += part["sw"]
-    acc["sw2"] += part["sw2"]
+    _fold_sums(acc, part)
     acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
+    # whole numbers below 2**53 (histogram_weights): exact in any order
     acc["hist"][part["hist"][0]] += part["hist"][1]  # distinct bins: no repeated index
     return acc
+
+
+def _fsum(parts: list) -> float:
+    """Exactly rounded sum of the per-row terms (independent of their order and grouping)."""
+    return math.fsum(np.concatenate(parts).tolist())
 
 
 def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -> dict:
@@ -132,8 +185,8 @@ def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -
             k: {
                 "min": a["min"],
                 "max": a["max"],
-                "mean": a["sw"] / total_weight,
-                "rms": math.sqrt(a["sw2"] / total_weight),
+                "mean": _fsum(a["sw"]) / total_weight,
+                "rms": math.sqrt(_fsum(a["sw2"]) / total_weight),
             }
             for k, a in acc["vars"].items()
         }
@@ -141,8 +194,8 @@ def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -
     out = {
         "max_mg": acc["max"],
         "min_mg": acc["min"],
-        "mean_mg": acc["sw"] / total_weight,
-        "rms_mg": math.sqrt(acc["sw2"] / total_weight),
+        "mean_mg": _fsum(acc["sw"]) / total_weight,
+        "rms_mg": math.sqrt(_fsum(acc["sw2"]) / total_weight),
     }
     cw = np.cumsum(acc["hist"])
     for q in percentiles:
@@ -150,7 +203,7 @@ def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -
         k = min(k, HIST_BINS - 1)
         out[f"p{q:g}_mg"] = _bin_centre(k)
     out["area_fraction_above"] = {
-        threshold_key(t): a / total_weight for t, a in zip(thresholds, acc["above"])
+        threshold_key(t): _fsum(a) / total_weight for t, a in zip(thresholds, acc["above"])
     }
     return out
 

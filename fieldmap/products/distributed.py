@@ -26,7 +26,6 @@ __all__ = [
     "normal_rows_on",
     "prepare_quantity",
     "quantity_blocks",
-    "route",
     "write_disturbance",
     "write_quantity",
 ]
@@ -87,21 +86,28 @@ def disturbance_blocks(
     client=None,
     scheduler=None,
     rows_per_block=None,
+    percentile_method: str = "histogram",
 ) -> xr.Dataset:
     """Disturbance map (``stacked=False``) or sweep computed on the block engine, in memory.
 
-    Same Dataset as :func:`fieldmap.products.maps.disturbance_map` /
+    The engine of :func:`fieldmap.products.maps.disturbance_map` and
     :func:`~fieldmap.products.maps.altitude_sweep`; statistics from the block partials
-    (percentiles within :data:`fieldmap.products.blockstats.PERCENTILE_RTOL`).
+    (``percentile_method="histogram"``: within
+    :data:`fieldmap.products.blockstats.PERCENTILE_RTOL` of the exact ones; ``"exact"``: the
+    weighted percentiles of the whole map, computed from the assembled arrays).
     """
     from fieldmap.grids.spec import check_memory
+    from fieldmap.products.blocks import show_progress
+    from fieldmap.products.blockstats import check_percentile_method
     from fieldmap.products.stats import parse_thresholds
 
+    check_percentile_method(percentile_method)
     thresholds = parse_thresholds(thresholds_mg)
     grid, ell, mod = prepare(
         model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
     )
     check_memory(grid)  # the result is returned whole
+    progress = show_progress(int(np.prod(grid.shape)), progress)
     tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
     stats, values = _in_memory(
         (grid, ell, mod),
@@ -115,7 +121,15 @@ def disturbance_blocks(
         rows_per_block=rows_per_block,
         progress=progress,
     )
-    return _assemble(tmpl, values, stats, thresholds, stacked)
+    if percentile_method == "exact":
+        from fieldmap.products.stats import DEFAULT_PERCENTILES, area_weights, weighted_percentiles
+
+        w = area_weights(grid.lat)[:, None]
+        mod_mg = values["modulus_mg"].reshape(grid.shape)
+        for k, st in enumerate(stats):
+            qs = weighted_percentiles(mod_mg[k], w, DEFAULT_PERCENTILES)
+            st.update({f"p{q:g}_mg": float(v) for q, v in zip(DEFAULT_PERCENTILES, qs)})
+    return _assemble(tmpl, values, stats, thresholds, stacked, percentile_method)
 
 
 def _in_memory(setup, names, stacked, client, scheduler, **run_kw):
@@ -131,7 +145,7 @@ def _in_memory(setup, names, stacked, client, scheduler, **run_kw):
         return stats, arrays()
 
 
-def _assemble(tmpl, arrays, stats, thresholds, stacked) -> xr.Dataset:
+def _assemble(tmpl, arrays, stats, thresholds, stacked, method="histogram") -> xr.Dataset:
     ds = tmpl.copy()
     var_attrs = ds.attrs.pop("variables")
     dims = ds.attrs.pop("dims")
@@ -140,8 +154,9 @@ def _assemble(tmpl, arrays, stats, thresholds, stacked) -> xr.Dataset:
     if stacked:
         for name, var in cf.sweep_statistics(stats, thresholds).items():
             ds[name] = var
+        ds.attrs["percentile_method"] = blockio.percentile_method_text(method)
     else:
-        ds.attrs.update(blockio.map_attrs(stats[0], thresholds))
+        ds.attrs.update(blockio.map_attrs(stats[0], thresholds, method))
     return ds
 
 
@@ -205,7 +220,8 @@ def write_disturbance(
 
     def finish(stats):
         if stacked:
-            return {}, cf.sweep_statistics(stats, thresholds), None
+            attrs = {"percentile_method": blockio.percentile_method_text()}
+            return attrs, cf.sweep_statistics(stats, thresholds), None
         return blockio.map_attrs(stats[0], thresholds), None, None
 
     stats = _write_blocks(
@@ -308,12 +324,14 @@ def quantity_blocks(
     """
     from fieldmap.grids.spec import check_memory
     from fieldmap.products import quantity_product as qm
+    from fieldmap.products.blocks import show_progress
 
     setup = prepare_quantity(
         quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch
     )
     grid, ell, mod = setup
     check_memory(grid)  # the result is returned whole
+    progress = show_progress(int(np.prod(grid.shape)), progress)
     tmpl = qm.template(quantity, mod, grid, ell, degree0)
     stats, values = _in_memory(
         setup,
@@ -501,43 +519,6 @@ def lazy_quantity(
 
 def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:
     return res["data"][name][a:b]
-
-
-def route(args: dict, heights_m, *, stacked: bool) -> xr.Dataset:
-    """Entry from :mod:`fieldmap.products.maps`: ``args`` are the caller's arguments."""
-    common = {
-        k: args[k]
-        for k in (
-            "model",
-            "lmax",
-            "step_deg",
-            "lat_max",
-            "region",
-            "thresholds_mg",
-            "device",
-            "ellipsoid",
-            "epoch",
-            "units",
-        )
-    }
-    if args.get("chunks") is not None:
-        if args.get("scheduler") is not None:
-            raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
-        return lazy_disturbance(
-            heights_m=heights_m,
-            **common,
-            stacked=stacked,
-            chunks=args["chunks"],
-            client=args.get("client"),
-        )
-    return disturbance_blocks(
-        heights_m=heights_m,
-        **common,
-        progress=args.get("progress"),
-        stacked=stacked,
-        client=args.get("client"),
-        scheduler=args.get("scheduler"),
-    )
 
 
 def _normal_task(grid, ell, order, device):

@@ -8,12 +8,10 @@ Statistics use area weights (:mod:`fieldmap.products.stats`). Files are written 
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import xarray as xr
 
-from fieldmap import __version__, limits
+from fieldmap import __version__, _compat, limits
 from fieldmap.errors import InputError
 from fieldmap.grids.synthesis import (
     check_memory,
@@ -22,22 +20,22 @@ from fieldmap.grids.synthesis import (
     resolve_device,
     synthesize,
 )
+from fieldmap.products.blocks import PROGRESS_NODES, show_progress  # noqa: F401 - public here
+from fieldmap.products.blockstats import PERCENTILE_METHODS, check_percentile_method
 from fieldmap.products.cf import (
     COMPONENTS,
     UNITS,
     coords,
-    disturbance_attrs,
     fraction_attr,
     global_attrs,
     mg_attrs,
-    stats_attrs,
-    sweep_statistics,
     vector_vars,
 )
-from fieldmap.products.stats import map_statistics, parse_thresholds, threshold_key
+from fieldmap.products.stats import map_statistics, threshold_key
 from fieldmap.units import get_unit
 
 __all__ = [
+    "PERCENTILE_METHODS",
     "UNITS",
     "altitude_sweep",
     "component_maps",
@@ -45,23 +43,6 @@ __all__ = [
     "summary",
     "truncation_map",
 ]
-
-
-#: Grids of at least this many nodes (all heights together; a 0.1° global map has 5.8e6) show
-#: a progress bar on a terminal by default: they take seconds to compute and longer to write.
-PROGRESS_NODES = 2_000_000
-
-
-def show_progress(nodes: int, progress: bool | None = None) -> bool:
-    """Whether to show a progress bar (on stderr) for a product of ``nodes`` grid nodes.
-
-    ``progress`` True or False decides; None (the default of every product) shows one for
-    grids of at least :data:`PROGRESS_NODES` nodes when stderr is a terminal, never in a pipe,
-    a file or a test.
-    """
-    if progress is not None:
-        return bool(progress)
-    return nodes >= PROGRESS_NODES and sys.stderr.isatty()
 
 
 def _check_units(units: str) -> float:
@@ -99,21 +80,27 @@ def setup_grid(step_deg, lat_max, region, h, ellipsoid, device):
     return grid, ell, resolve_device(device)
 
 
-def _disturbance(mod, grid, ell, device, units, progress, stacked: bool) -> xr.Dataset:
-    """Disturbance vectors on every node as a Dataset; ``stacked``: with a height dimension."""
-    vec = synthesize(
-        mod, grid, ell, "disturbance", device, show_progress(int(np.prod(grid.shape)), progress)
-    )
-    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
-    return xr.Dataset(
-        vector_vars(vec if stacked else vec[0], dims, units, "gravity disturbance", overwrite=True),
-        coords=coords(grid, stacked),
-        attrs=disturbance_attrs(mod, grid, ell),
-    )
+#: Options of the map products that followed ``model`` positionally in fieldmap 0.1 (now
+#: keyword-only; positional calls keep working for one release, with a DeprecationWarning).
+_OLD_ORDER = (
+    "lmax",
+    "height_km",
+    "step_deg",
+    "lat_max",
+    "region",
+    "thresholds_mg",
+    "device",
+    "ellipsoid",
+    "epoch",
+    "units",
+    "progress",
+)
 
 
+@_compat.keyword_api(1, _OLD_ORDER)
 def disturbance_map(
     model="eigen-6s",
+    *,
     lmax=None,
     height_km=20.0,
     step_deg=1.0,
@@ -125,12 +112,19 @@ def disturbance_map(
     epoch=None,
     units="mGal",
     progress=None,
-    *,
     client=None,
     scheduler=None,
     chunks=None,
+    rows_per_block=None,
+    percentile_method="histogram",
 ) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
+
+    One engine computes every map: the grid is split into blocks of latitude rows
+    (:func:`fieldmap.products.blocks.plan_blocks`), the blocks run here (default) or on a Dask
+    cluster, and the statistics are folded from per-block partial results in block order, so
+    the values and statistics are the same bits whatever runs the blocks and however many rows
+    a block holds.
 
     Parameters
     ----------
@@ -151,20 +145,29 @@ def disturbance_map(
     ellipsoid : str
         Normal field (``"WGS84"`` or ``"GRS80"``).
     epoch : float or str, optional
-        Epoch for time-variable models.
+        Epoch for time-variable models (applied to a model object too).
     units : {"mGal", "mg", "m/s2"}
         Units of east, north, up, modulus (``modulus_mg`` is always added); any spelling of
         :mod:`fieldmap.units` (``"m s-2"``, any case).
-    client : dask.distributed.Client, optional
-        Compute on this cluster, block by block (:mod:`fieldmap.products.distributed`).
-    scheduler : str, optional
-        ``"local:N"`` (a LocalCluster of N processes for this call) or a scheduler address.
-    chunks : int or "auto", optional
-        Return a lazy dask-backed Dataset, blocks of at most this many latitude rows.
     progress : bool, optional
-        Progress bar over the row blocks of the synthesis, on stderr. Default: shown for
-        grids of 2e6 nodes or more when stderr is a terminal (:func:`show_progress`); False
-        keeps it quiet.
+        Progress bar over the row blocks, on stderr. Default: shown for grids of 2e6 nodes or
+        more when stderr is a terminal (:func:`show_progress`); False keeps it quiet.
+    client : dask.distributed.Client, optional
+        Run the blocks on this cluster.
+    scheduler : str, optional
+        ``"local:N"`` (a LocalCluster of N processes for this call), a scheduler address, or
+        ``"threads"`` (here, as the default).
+    chunks : int or "auto", optional
+        Return a lazy dask-backed Dataset, blocks of at most this many latitude rows (no
+        statistics: they need the whole map).
+    rows_per_block : int, optional
+        Most latitude rows per block (default: from the memory budget and the grid). The
+        results do not depend on it.
+    percentile_method : {"histogram", "exact"}
+        ``"histogram"`` (default): percentiles from the merged per-block histograms, within a
+        relative :data:`fieldmap.products.blockstats.PERCENTILE_RTOL` of the exact ones, the
+        same on every executor and in streamed files; ``"exact"``: the weighted percentiles of
+        the whole map. Recorded in the ``percentile_method`` attribute.
 
     Returns
     -------
@@ -174,24 +177,37 @@ def disturbance_map(
         threshold written with "p" for its point, e.g. ``area_fraction_above_0p05_mg``: see
         :func:`fieldmap.products.cf.fraction_attr`) in the attributes.
     """
-    _check_units(units)
-    thresholds = parse_thresholds(thresholds_mg)
     h = heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
-    if client is not None or scheduler is not None or chunks is not None:
-        from fieldmap.products import distributed
+    return _disturbance_product(
+        dict(
+            model=model,
+            lmax=lmax,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            thresholds_mg=thresholds_mg,
+            device=device,
+            ellipsoid=ellipsoid,
+            epoch=epoch,
+            units=units,
+            progress=progress,
+        ),
+        h,
+        stacked=False,
+        engine=dict(
+            client=client,
+            scheduler=scheduler,
+            chunks=chunks,
+            rows_per_block=rows_per_block,
+            percentile_method=percentile_method,
+        ),
+    )
 
-        return distributed.route(locals(), h, stacked=False)
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = resolve_model(model, lmax, epoch)
-    ds = _disturbance(mod, grid, ell, device, units, progress, stacked=False)
-    stats = map_statistics(ds["modulus_mg"].values, grid.lat, thresholds)
-    ds.attrs.update(stats_attrs(stats))
-    ds.attrs["thresholds_mg"] = np.array(thresholds)
-    return ds
 
-
+@_compat.keyword_api(1, _OLD_ORDER)
 def altitude_sweep(
     model="eigen-6s",
+    *,
     lmax=None,
     height_km=(20.0, 30.0, 50.0, 70.0, 100.0),
     step_deg=1.0,
@@ -203,10 +219,11 @@ def altitude_sweep(
     epoch=None,
     units="mGal",
     progress=None,
-    *,
     client=None,
     scheduler=None,
     chunks=None,
+    rows_per_block=None,
+    percentile_method="histogram",
 ) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
@@ -217,31 +234,64 @@ def altitude_sweep(
     -------
     xarray.Dataset
         east, north, up, modulus, modulus_mg on (height, latitude, longitude); ``max_mg``,
-        ``mean_mg`` on (height) and ``area_fraction_above`` on (height, threshold_mg).
+        ``mean_mg``, ``p50_mg``, ``p99_mg`` on (height) and ``area_fraction_above`` on
+        (height, threshold_mg).
     """
-    _check_units(units)
-    thresholds = parse_thresholds(thresholds_mg)
     h = heights_m(height_km)
-    if client is not None or scheduler is not None or chunks is not None:
-        from fieldmap.products import distributed
-
-        return distributed.route(locals(), h, stacked=True)
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = resolve_model(model, lmax, epoch)
-    ds = _disturbance(mod, grid, ell, device, units, progress, stacked=True)
-    stats = [
-        map_statistics(ds["modulus_mg"].values[k], grid.lat, thresholds) for k in range(h.size)
-    ]
-    ds = ds.assign_coords(
-        threshold_mg=xr.Variable(
-            "threshold_mg",
-            np.array(thresholds),
-            mg_attrs("threshold of the disturbance modulus"),
-        )
+    return _disturbance_product(
+        dict(
+            model=model,
+            lmax=lmax,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            thresholds_mg=thresholds_mg,
+            device=device,
+            ellipsoid=ellipsoid,
+            epoch=epoch,
+            units=units,
+            progress=progress,
+        ),
+        h,
+        stacked=True,
+        engine=dict(
+            client=client,
+            scheduler=scheduler,
+            chunks=chunks,
+            rows_per_block=rows_per_block,
+            percentile_method=percentile_method,
+        ),
     )
-    for name, var in sweep_statistics(stats, thresholds).items():
-        ds[name] = var
-    return ds
+
+
+def _disturbance_product(opts: dict, h: np.ndarray, *, stacked: bool, engine: dict) -> xr.Dataset:
+    """Compute :func:`disturbance_map` or :func:`altitude_sweep`: the one path, the block engine."""
+    from fieldmap.products import distributed
+
+    _check_units(opts["units"])
+    method = check_percentile_method(engine["percentile_method"])
+    chunks, client, scheduler = engine["chunks"], engine["client"], engine["scheduler"]
+    rows = engine["rows_per_block"]
+    if chunks is not None:
+        if scheduler is not None:
+            raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
+        if method != "histogram":
+            raise InputError("a lazy Dataset (chunks=) carries no statistics: no percentile_method")
+        if rows is not None:
+            raise InputError("chunks= sets the rows of a lazy Dataset's blocks: no rows_per_block")
+        opts.pop("progress")
+        return distributed.lazy_disturbance(
+            heights_m=h, **opts, stacked=stacked, chunks=chunks, client=client
+        )
+    return distributed.disturbance_blocks(
+        heights_m=h,
+        **opts,
+        stacked=stacked,
+        client=client,
+        scheduler=scheduler,
+        rows_per_block=rows,
+        percentile_method=method,
+    )
 
 
 def truncation_map(
@@ -393,6 +443,11 @@ def summary(ds: xr.Dataset) -> dict:
     = {"j2": ..., ...} (area-weighted, as every product's).
     """
     a = ds.attrs
+    if "max_mg" not in a and "max_mg" not in ds:
+        raise InputError(
+            "this Dataset carries no statistics (a lazy product, chunks=): compute the map "
+            "without chunks=, or stream it with fieldmap.products.distributed.write_disturbance"
+        )
     out = {
         "product": None,
         "model": a.get("model"),
@@ -401,6 +456,8 @@ def summary(ds: xr.Dataset) -> dict:
         "grid_step_deg": a.get("grid_step_deg"),
         "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]],
     }
+    if "percentile_method" in a:
+        out["percentile_method"] = a["percentile_method"]
     if "order" in ds.dims:
         out.update(
             product="truncation",

@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products.quantity_product import QUANTITIES, VARIABLES, assemble, template
+from fieldmap.products.quantity_product import QUANTITIES, VARIABLES
 
 
 def quantity_map(
@@ -36,6 +36,7 @@ def quantity_map(
     client=None,
     scheduler: str | None = None,
     chunks=None,
+    rows_per_block: int | None = None,
 ) -> xr.Dataset:
     """Map of a geodetic quantity on a global or regional grid, at one or several heights.
 
@@ -75,6 +76,9 @@ def quantity_map(
     chunks : int, dict or "auto", optional
         Return a lazy dask-backed Dataset instead (latitude rows per block; with ``client=``
         the blocks run on that cluster when the data is read); no statistics attributes.
+    rows_per_block : int, optional
+        Most latitude rows per block (default: from the memory budget); the results do not
+        depend on it.
 
     Returns
     -------
@@ -83,14 +87,14 @@ def quantity_map(
         ``standard_name`` where CF has one), area-weighted ``min``, ``max``, ``mean``, ``rms``
         in each variable's attributes (per height for a sweep: ``<var>_max`` etc. on height).
     """
-    from fieldmap.field import geodesy
     from fieldmap.products import maps
-    from fieldmap.products.stats import weights_2d
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
     hs = np.atleast_1d(np.asarray(height_km, dtype=object)).ravel()
     if quantity == "disturbance":
+        if degree0:
+            raise InputError("degree0 applies to the potential T and its quantities, not to δg")
         kw = dict(
             model=model,
             lmax=lmax,
@@ -104,6 +108,7 @@ def quantity_map(
             client=client,
             scheduler=scheduler,
             chunks=chunks,
+            rows_per_block=rows_per_block,
         )
         if hs.size == 1:
             return maps.disturbance_map(height_km=hs[0], **kw)
@@ -111,47 +116,35 @@ def quantity_map(
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
-    if chunks is not None or client is not None or scheduler is not None:
-        from fieldmap.products import distributed
+    from fieldmap.products import distributed
 
-        common = dict(
-            model=model,
-            lmax=lmax,
-            heights_m=h,
-            step_deg=step_deg,
-            lat_max=lat_max,
-            region=region,
-            device=device,
-            ellipsoid=ellipsoid,
-            epoch=epoch,
-            degree0=degree0,
-        )
-        if chunks is None:
-            return distributed.quantity_blocks(
-                quantity, **common, progress=progress, client=client, scheduler=scheduler
-            )
-        if scheduler is not None:
-            raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
-        return distributed.lazy_quantity(quantity, **common, chunks=chunks, client=client)
-    grid, ell, device = maps.setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = maps.resolve_model(model, lmax, epoch)
-    vals = geodesy.grid_quantities(
-        mod, grid, quantity, ellipsoid=ell, degree0=degree0, device=device, progress=progress
+    # one engine: blocks of latitude rows, here or on a cluster, statistics folded per block
+    common = dict(
+        model=model,
+        lmax=lmax,
+        heights_m=h,
+        step_deg=step_deg,
+        lat_max=lat_max,
+        region=region,
+        device=device,
+        ellipsoid=ellipsoid,
+        epoch=epoch,
+        degree0=degree0,
     )
-    w = weights_2d(grid.lat, grid.lon.size)
-    stats = {
-        name: [
-            {
-                "min": float(v[k].min()),
-                "max": float(v[k].max()),
-                "mean": float(np.sum(w * v[k])),
-                "rms": float(np.sqrt(np.sum(w * v[k] ** 2))),
-            }
-            for k in range(v.shape[0])
-        ]
-        for name, v in vals.items()
-    }
-    return assemble(template(quantity, mod, grid, ell, degree0), vals, stats)
+    if chunks is None:
+        return distributed.quantity_blocks(
+            quantity,
+            **common,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+            rows_per_block=rows_per_block,
+        )
+    if scheduler is not None:
+        raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
+    if rows_per_block is not None:
+        raise InputError("chunks= sets the rows of a lazy Dataset's blocks: no rows_per_block")
+    return distributed.lazy_quantity(quantity, **common, chunks=chunks, client=client)
 
 
 def summary(ds: xr.Dataset) -> dict:
