@@ -116,7 +116,7 @@ def quantity_map(
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
-    from fieldmap.products import distributed
+    from fieldmap.products import distributed, lazy
 
     # one engine: blocks of latitude rows, here or on a cluster, statistics folded per block
     common = dict(
@@ -144,7 +144,7 @@ def quantity_map(
         raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
     if rows_per_block is not None:
         raise InputError("chunks= sets the rows of a lazy Dataset's blocks: no rows_per_block")
-    return distributed.lazy_quantity(quantity, **common, chunks=chunks, client=client)
+    return lazy.lazy_quantity(quantity, **common, chunks=chunks, client=client)
 
 
 def summary(ds: xr.Dataset) -> dict:
