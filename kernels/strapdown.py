@@ -10,6 +10,11 @@
 Each thread picks its increments set (``imu_set[i]``, sets may be shared), applies its own sensor
 errors (bias, scale/misalignment matrix, white noise), its own navigation gravity kind and SH
 degree, loops over its steps and writes every ``output_every``-th state.
+
+Random numbers are counter-based: the draws of IMU sample j come from
+``wp.rand_init(seed, sample0 + j)`` (:func:`sample_rng`), keyed on the run's seed and the sample's
+global index in the flight (``sample0`` = index of the record's first sample), so a flight
+propagated in time blocks draws the same noise whatever the blocking.
 """
 
 import warp as wp
@@ -35,12 +40,19 @@ class SensorErrors:
     """Per-thread sensor errors, all arrays indexed by trajectory.
 
     Measured increments: ``dv = M_a dv_true + (b_a + β_a) dt + σ_a √dt n``,
-    ``dθ = M_g dθ_true + (b_g + β_g) dt + σ_g √dt n`` with n ~ N(0, I) from Warp's RNG seeded
-    per thread and β a first-order Gauss–Markov bias per axis, updated once per sample:
+    ``dθ = M_g dθ_true + (b_g + β_g) dt + σ_g √dt n`` with n ~ N(0, I) and β a first-order
+    Gauss–Markov bias per axis, updated once per sample (after the sample used it):
     ``β⁺ = e^(−dt/τ) β + s √(1 − e^(−2dt/τ)) n`` (stationary σ = s; exact discretisation,
     Maybeck 1979 §4.9 / Brown & Hwang 2012 §2.9). Units: b_a, s_a m/s², b_g, s_g rad/s,
     σ_a m/s/√s, σ_g rad/√s, τ s (0: no Gauss–Markov term); M dimensionless (I + scale factor
     + misalignment).
+
+    The normals n of IMU sample j (global index in the flight) come from Warp's RNG
+    ``rand_init(seed, j)`` (:func:`sample_rng`), drawn in the order gyro noise, gyro
+    Gauss–Markov, accelerometer noise, accelerometer Gauss–Markov (then, in the NED kernel,
+    baro noise and baro drift): the same noise for a run whatever the time blocks it is
+    propagated in. ``acc_gm``, ``gyro_gm`` hold the states at the start and are overwritten with
+    those at the end.
     """
 
     acc_bias: wp.array(dtype=wp.vec3d)
@@ -88,6 +100,19 @@ def gm_coeffs(sigma: wp.float64, tau: wp.float64, dt: wp.float64):
         a = wp.exp(-dt / tau)
         return a, sigma * wp.sqrt(_ONE - a * a)
     return _ONE, _ZERO
+
+
+@wp.func
+def sample_rng(noisy: wp.int32, seed: wp.int32, index: wp.int32):
+    """RNG state of IMU sample ``index`` (global in the flight) of the run seeded ``seed``.
+
+    ``rand_init(seed, index)``: a counter-based stream, independent of how the flight is cut
+    into launches. ``noisy`` 0 (no noise source in the thread, so no draw follows): 0 without
+    hashing.
+    """
+    if noisy != 0:
+        return wp.rand_init(seed, index)
+    return wp.uint32(0)
 
 
 @wp.func
@@ -155,6 +180,7 @@ def lci_kernel(
     t0: wp.float64,
     n_steps: wp.int32,
     output_every: wp.int32,
+    sample0: wp.int32,
     P_out: wp.array2d(dtype=wp.vec3d),
     V_out: wp.array2d(dtype=wp.vec3d),
     q_out: wp.array2d(dtype=wp.quatd),
@@ -167,6 +193,8 @@ def lci_kernel(
     Δv_b = Δv + ½ Δθ×Δv + ⅔ (Δθ1×Δv2 + Δv1×Δθ2) (rotation, sculling), rotated by q_{k-1};
     g^a at P̃ = P + V T/2 (eq. 15) and t_{k-1/2}: ECEF via R_a^e(t), gravitation, back with
     eq. (20); V_k = V + Δv_a + g^a T; P_k = P + (V_{k-1} + V_k) T/2.
+    ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`); ``t0``
+    the time of global sample 0 (sample 2k is at t0 + (sample0 + 2k) dt).
     """
     i = wp.tid() + offset
     s = imu_set[i]
@@ -184,22 +212,30 @@ def lci_kernel(
     Ma = err.acc_M[i]
     bg = err.gyro_bias[i] * dt
     ba = err.acc_bias[i] * dt
-    state = wp.rand_init(err.seed[i])
+    seed = err.seed[i]
     ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
     aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+    noisy = wp.int32(0)
+    if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
+        noisy = 1
     beta_g = err.gyro_gm[i]
     beta_a = err.acc_gm[i]
     P_out[i, 0] = P
     V_out[i, 0] = V
     q_out[i, 0] = q
     for k in range(n_steps):
-        th1, state = measured(Mg, dtheta[s, 2 * k], bg + beta_g * dt, sg, state)
+        # each sample its own stream; per sensor the order of the sequential draws is kept
+        # (th1 with β_g, β_g update, th2 with the updated β_g, β_g update; likewise dv, β_a)
+        j = 2 * k
+        state = sample_rng(noisy, seed, sample0 + j)
+        th1, state = measured(Mg, dtheta[s, j], bg + beta_g * dt, sg, state)
         beta_g, state = gm_step(beta_g, ga, gb, state)
-        th2, state = measured(Mg, dtheta[s, 2 * k + 1], bg + beta_g * dt, sg, state)
-        beta_g, state = gm_step(beta_g, ga, gb, state)
-        dv1, state = measured(Ma, dvel[s, 2 * k], ba + beta_a * dt, sa, state)
+        dv1, state = measured(Ma, dvel[s, j], ba + beta_a * dt, sa, state)
         beta_a, state = gm_step(beta_a, aa, ab, state)
-        dv2, state = measured(Ma, dvel[s, 2 * k + 1], ba + beta_a * dt, sa, state)
+        state = sample_rng(noisy, seed, sample0 + j + 1)
+        th2, state = measured(Mg, dtheta[s, j + 1], bg + beta_g * dt, sg, state)
+        beta_g, state = gm_step(beta_g, ga, gb, state)
+        dv2, state = measured(Ma, dvel[s, j + 1], ba + beta_a * dt, sa, state)
         beta_a, state = gm_step(beta_a, aa, ab, state)
         th = th1 + th2
         dvb = dv1 + dv2
@@ -210,7 +246,8 @@ def lci_kernel(
             + _TWO_THIRDS * (wp.cross(th1, dv2) + wp.cross(dv1, th2))
         )
         dv_a = wp.quat_rotate(q, dvb)
-        t_mid = t0 + T * wp.float64(k) + dt
+        # mid-step time from the global index: t0 is the time of sample 0 of the whole record
+        t_mid = t0 + dt * wp.float64(sample0 + j + 1)
         # R_e^t(t) once per step: r_e = R_t^e (R_a^t P~ + r_launch), g^a = R_t^a R_e^t g^e (eq. 20)
         C_et = C_e_to_t(t_mid, lp.omega)
         r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
@@ -258,6 +295,7 @@ def ned_kernel(
     dt: wp.float64,
     n_steps: wp.int32,
     output_every: wp.int32,
+    sample0: wp.int32,
     llh_out: wp.array2d(dtype=wp.vec3d),
     v_out: wp.array2d(dtype=wp.vec3d),
     q_out: wp.array2d(dtype=wp.quatd),
@@ -272,6 +310,7 @@ def ned_kernel(
     L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
     With ``baro.enabled`` the vertical channel is damped by :class:`BaroAiding` (δh from the
     start of the sample: v_D += (k2 δh + δa) dt, h −= k1 δh dt, δa += k3 δh dt).
+    ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`).
     """
     i = wp.tid() + offset
     s = imu_set[i]
@@ -287,7 +326,7 @@ def ned_kernel(
     Ma = err.acc_M[i]
     bg = err.gyro_bias[i] * dt
     ba = err.acc_bias[i] * dt
-    state = wp.rand_init(err.seed[i])
+    seed = err.seed[i]
     ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
     aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
     beta_g = err.gyro_gm[i]
@@ -298,10 +337,16 @@ def ned_kernel(
     ba_a, ba_b = gm_coeffs(baro.gm_sigma[i], baro.gm_tau[i], dt)
     b_bias = baro.bias[i]
     b_noise = baro.noise[i]
+    noisy = wp.int32(0)
+    if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
+        noisy = 1
+    if baro.enabled != 0 and (b_noise != _ZERO or ba_b != _ZERO):
+        noisy = 1
     llh_out[i, 0] = llh
     v_out[i, 0] = v
     q_out[i, 0] = q
     for k in range(n_steps):
+        state = sample_rng(noisy, seed, sample0 + k)
         th, state = measured(Mg, dtheta[s, k], bg + beta_g * dt, sg, state)
         beta_g, state = gm_step(beta_g, ga, gb, state)
         dv, state = measured(Ma, dvel[s, k], ba + beta_a * dt, sa, state)

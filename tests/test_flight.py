@@ -150,6 +150,28 @@ def test_j4_truth_with_j4_navigation_is_the_floor():
     assert floor < 0.01 and effect > 100 * floor
 
 
+@pytest.mark.parametrize("frame", ["ned", "lci"])
+def test_grs80_flight_has_the_wgs84_floor(frame):
+    """One ellipsoid: the IMU-only truth (J4) is built on the trajectory's, the navigator's.
+
+    Ideal IMU on a GRS80 route: the IMU-only error is the replay floor, as on WGS84 (measured
+    the same to 2e-5 relative); with the J4 truth on WGS84 it was 42-48 mm (0.55 mm horizontal,
+    LCI), against a floor of 6 mm (NED) and 0.07 mm (LCI).
+    """
+    from fieldmap.field.ellipsoid import GRS80
+
+    floors = []
+    for ell in (WGS84, GRS80):
+        ft = FlightTrajectory(route_flight(ROUTE, 200.0, ellipsoid=ell), ellipsoid=ell)
+        kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0, "device": "cpu"}
+        res = run_flight(ft, models=["j4"], duration=240.0, frame=frame, **kw)
+        m = res.summary["models"]["imu_only"]
+        floors.append([m["final_position_error_m"]["max"], m["final_horizontal_error_m"]["max"]])
+    wgs, grs = np.array(floors)
+    assert wgs[0] < 0.01  # the floor
+    np.testing.assert_allclose(grs, wgs, rtol=1e-3)
+
+
 @pytest.mark.skipif(
     __import__("fieldmap.models.geographiclib", fromlist=["x"]).gravity_tool() is None,
     reason="GeographicLib's Gravity (geographiclib-tools) missing",
@@ -189,8 +211,8 @@ def test_j4_error_equals_double_integral_of_geographiclib_gravity(tmp_path):
 def test_time_blocks_do_not_change_the_result(monkeypatch):
     """Propagating in time blocks carries the whole state; no synthesis exceeds one block.
 
-    Bias + scale-factor IMU (no noise: same numbers whatever the seeds per block): 60 s blocks
-    give the 240 s block's errors to rounding.
+    Bias, scale-factor, white-noise and bias-instability IMU: the noise is keyed on the global
+    sample index, so 60 s blocks give the 240 s block's errors bit for bit.
     """
     from fieldmap.nav import flightsim
 
@@ -202,12 +224,16 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
         sizes.extend(s.n_samples for s in out)
         return out
 
-    imu = ImuErrorSpec(acc_bias_ug=100.0, gyro_bias_deg_h=1.0, acc_scale_ppm=100.0)
+    imu = ImuErrorSpec(
+        acc_bias_ug=100.0, gyro_bias_deg_h=1.0, acc_scale_ppm=100.0, acc_noise_ug_rthz=20.0,
+        gyro_arw_deg_rth=0.05, acc_bi_ug=20.0, acc_bi_tau_s=100.0, gyro_bi_deg_h=0.2,
+    )  # fmt: skip
     _, a = _ideal_study(imu=imu, draws=2, block_s=240.0)
     monkeypatch.setattr(flightsim, "synthesize", spy)
     _, b = _ideal_study(imu=imu, draws=2, block_s=60.0)
     assert max(sizes) == 6000 and len(sizes) == 8  # 4 blocks × 2 sets of 60 s at 100 Hz
-    np.testing.assert_allclose(a.dpos, b.dpos, rtol=0, atol=1e-6)  # m; errors reach ~100 m
+    np.testing.assert_array_equal(a.dpos, b.dpos)  # m; errors reach ~100 m
+    np.testing.assert_array_equal(a.datt, b.datt)
     assert np.abs(a.dpos).max() > 10.0
 
 

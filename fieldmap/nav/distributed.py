@@ -136,7 +136,7 @@ def _stack(parts: list):
 
 
 def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set,
-                    kerr, aiding, baro, baro_bias, baro_state, rate_hz, device,
+                    kerr, aiding, baro, baro_bias, baro_state, rate_hz, device, sample0=0,
                     runs_per_task: int | None = None):  # fmt: skip
     """:func:`fieldmap.nav.flightblocks.propagate_block` with the runs split over ``client``.
 
@@ -162,7 +162,7 @@ def flight_block_on(client, traj, frame, sets, tb, nb, dt, every, state, grav, m
         raise RuntimeError(f"per-run arguments {sorted(per_run)} != {sorted(PER_RUN_ARGS)}")
     common = {
         "frame": frame, "tb": tb, "nb": nb, "dt": dt, "every": every, "aiding": aiding,
-        "baro": baro, "rate_hz": rate_hz, "device": device,
+        "baro": baro, "rate_hz": rate_hz, "device": device, "sample0": sample0,
     }  # fmt: skip
     futures = [
         client.submit(

@@ -26,11 +26,11 @@ __all__ = [
 
 
 def initial_state(traj, frame, lat0, lon0, h0, v0, C0, n) -> dict:
-    """Start state of ``n`` runs at the truth's first epoch (NED: llh, v, q; LCI: P, V, q)."""
+    """Start state of ``n`` runs at the truth's first epoch (NED: llh (rad), v, q; LCI: P, V, q)."""
     st: dict = {"acc_gm": None, "gyro_gm": None}
     if frame == "ned":
         st.update(
-            llh=np.tile([lat0[0], lon0[0], h0[0]], (n, 1)),
+            llh=np.tile([np.radians(lat0[0]), np.radians(lon0[0]), h0[0]], (n, 1)),  # rad, m
             v=np.tile(v0[0], (n, 1)),
             q=np.tile(dcm_to_quat(C0[0]), (n, 1)),
         )
@@ -76,13 +76,15 @@ PER_RUN_ARGS = ("state", "grav", "imu_set", "kerr", "baro_bias", "baro_state")
 
 def propagate_block(
     traj, frame, sets, tb, nb, dt, every, state, grav, model, imu_set, kerr, aiding, baro,
-    baro_bias, baro_state, rate_hz, device,
+    baro_bias, baro_state, rate_hz, device, sample0=0,
 ):  # fmt: skip
     """Propagate one time block of every run; return the stored states and the next start state.
 
     ``state``, ``kerr`` (dicts of per-run arrays), ``grav``, ``imu_set``, ``baro_bias`` and
     ``baro_state`` hold one row per run (:data:`PER_RUN_ARGS`); ``sets`` are the exact IMU
-    increments of the block (truth, reference), shared by all runs.
+    increments of the block (truth, reference), shared by all runs. ``sample0`` is the global
+    index of the block's first IMU sample (``tb = sample0 dt``): the sensor and baro noise of
+    every sample is keyed on (run seed, global index), the same whatever the blocking.
     """
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
@@ -92,7 +94,8 @@ def propagate_block(
 
         aid = None
         if aiding == "baro":
-            _, _, h_ref = traj.geodetic(tb + dt * np.arange(nb))
+            # the times of the whole record's grid (tb + dt k rounds differently per blocking)
+            _, _, h_ref = traj.geodetic(dt * np.arange(sample0, sample0 + nb))
             k1, k2, k3 = baro_gains(baro.loop_tau_s, traj.frame.ellipsoid)
             noise = baro.noise_m * np.sqrt(rate_hz / baro.rate_hz)
             aid = Baro(
@@ -102,11 +105,12 @@ def propagate_block(
         res = propagate_ned(
             dth, dv, dt, state["llh"][:, 0], state["llh"][:, 1], state["llh"][:, 2], state["v"],
             state["q"], grav, sh_model=model, ellipsoid=traj.frame.ellipsoid, imu_set=imu_set,
-            errors=kerr, output_every=every, device=device, baro=aid,
+            errors=kerr, output_every=every, device=device, baro=aid, sample0=sample0,
+            degrees=False,
         )  # fmt: skip
         C = quat_to_dcm(res.q)
         nxt = {
-            "llh": np.stack([res.lat[:, -1], res.lon[:, -1], res.h[:, -1]], -1),
+            "llh": res.final["llh"],
             "v": res.v_ned[:, -1],
             "q": res.q[:, -1],
             "acc_gm": res.final["acc_gm"],
@@ -122,6 +126,7 @@ def propagate_block(
     res = propagate_lci(
         dth, dv, dt, state["P"], state["V"], state["q"], fr, grav, sh_model=model,
         imu_set=imu_set, errors=kerr, t0=tb, output_every=every // 2, device=device,
+        sample0=sample0,
     )  # fmt: skip
     t = res.t
     r_e, v_in = fr.a_state_to_ecef(res.P.reshape(-1, 3), res.V.reshape(-1, 3), np.tile(t, n))

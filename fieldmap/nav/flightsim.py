@@ -14,9 +14,11 @@ The same Monte Carlo draws (biases, noise seeds, Gauss–Markov states) are used
 
 Time blocks. Synthesis and propagation run in blocks of ``block_s`` seconds: the IMU record of
 one block (two increment sets) is synthesized, propagated for every run, and the final states
-(position, velocity, attitude, Gauss–Markov biases, baro loop) start the next block; the noise
-of block b is seeded with ``seed + 7919 b``. Memory is bounded by one block's increments plus
-the decimated error curves, whatever the flight length.
+(position, velocity, attitude, Gauss–Markov biases, baro loop) start the next block. The noise
+(sensor white noise, Gauss–Markov bias-instability and baro noise and drift draws) is a
+counter-based stream keyed on (run seed, global IMU sample index), so the errors do not depend
+on ``block_s``. Memory is bounded by one block's increments plus the decimated error curves,
+whatever the flight length.
 
 Errors are reported in the local level frame of the truth: north, east, down position error (m,
 from the latitude/longitude/height differences through the radii of curvature), NED velocity
@@ -265,8 +267,8 @@ def run_flight(
     inv = np.argsort(perm)
     ell = traj.frame.ellipsoid
     dt = 1.0 / float(rate_hz)
-    g_truth = Gravitation("sh", model=model, device=device)
-    g_ref = Gravitation("j4", device=device)
+    g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
+    g_ref = Gravitation("j4", device=device, ellipsoid=ell)  # the navigator's J4 (same ellipsoid)
 
     # start state (truth at t = 0)
     lat0, lon0, h0, v0, C0 = geodetic_state(traj, [0.0])
@@ -287,25 +289,28 @@ def run_flight(
 
         starts = tqdm(starts, desc="flight blocks", unit="block")
     secs = {"synthesis": 0.0, "propagation": 0.0}
-    for b, s0 in enumerate(starts):
+    for s0 in starts:
         nb = min(per_block, n_total - s0)
         tb = s0 * dt
         c0 = time.perf_counter()
-        sets = synthesize(traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, t0=tb)
+        sets = synthesize(
+            traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
+        )
         c1 = time.perf_counter()
         secs["synthesis"] += c1 - c0
         kerr_b = dict(kerr)
-        kerr_b["seed"] = ((kerr["seed"].astype(np.int64) + 7919 * b) % (2**31 - 1)).astype(np.int32)
         kerr_b["acc_gm"], kerr_b["gyro_gm"] = state["acc_gm"], state["gyro_gm"]
         res, state = block_propagator()(
             traj, frame, sets, tb, nb, dt, every, state, [grav[i] for i in perm], model,
             imu_set[perm], kerr_b, aiding, baro, baro_bias, baro_state, rate_hz, device,
+            sample0=s0,
         )  # fmt: skip
         baro_state = state.get("baro", baro_state)
         secs["propagation"] += time.perf_counter() - c1
         for k in outs:
             outs[k].append(res[k][:, 1:])
-        t_list.extend(tb + dt * every * np.arange(1, nb // every + 1))
+        # times on the whole record's grid (tb + dt k would round differently per blocking)
+        t_list.extend(dt * (s0 + every * np.arange(1, nb // every + 1)))
     t_out = np.array(t_list)
     start = {"lat": lat0, "lon": lon0, "h": h0, "v": v0, "C": C0}
     full = {
@@ -366,15 +371,16 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     r = np.stack(geodetic_to_ecef(track[:, 0], track[:, 1], track[:, 2], ell), -1)
     enu = C_e_to_enu(track[:, 0], track[:, 1])
     to_ned = lambda g: np.einsum("nij,nj->ni", enu, g)[:, [1, 0, 2]] * [1, 1, -1]  # noqa: E731
-    g_true = to_ned(Gravitation("sh", model=model, device=device)(r))
+    g_true = to_ned(Gravitation("sh", model=model, device=device, ellipsoid=ell)(r))
     dg, pred = {}, {}
     for m in names:
         if m in NORMAL_KINDS:
-            g = Gravitation(NORMAL_KINDS[m], device=device)
+            g = Gravitation(NORMAL_KINDS[m], device=device, ellipsoid=ell)
         else:
             from fieldmap.nav.strapdown import parse_gravity
 
-            g = Gravitation("sh", model=model, lmax=parse_gravity(m, model)[1], device=device)
+            lmax = parse_gravity(m, model)[1]
+            g = Gravitation("sh", model=model, lmax=lmax, device=device, ellipsoid=ell)
         dg[m] = to_ned(g(r)) - g_true
         v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
         pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)

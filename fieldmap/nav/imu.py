@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.nav.trajectory import Trajectory
 
 #: The bundled truth model.
@@ -123,14 +124,24 @@ class Gravitation:
         For ``"sh"``: truncation degree (default: the model's).
     device : str, optional
         Warp device.
+    ellipsoid : Ellipsoid or str
+        Level ellipsoid of the normal kinds (default WGS84): a trajectory's
+        ``frame.ellipsoid``, the one its navigator uses (unused by ``"sh"``).
     """
 
     def __init__(
-        self, kind: str = "sh", model=None, lmax: int | None = None, device: str | None = None
+        self,
+        kind: str = "sh",
+        model=None,
+        lmax: int | None = None,
+        device: str | None = None,
+        *,
+        ellipsoid: Ellipsoid | str = WGS84,
     ):
         from fieldmap._warp import DeviceError, resolve_device
         from fieldmap.models.icgem import as_degree
 
+        self.ellipsoid = get_ellipsoid(ellipsoid)
         self.kind = str(kind).lower()
         try:
             self.device = None if device is None else resolve_device(device)
@@ -146,7 +157,8 @@ class Gravitation:
                 )
             self.name = f"{self.model.name} (degree {self.lmax})"
         elif self.kind in ("exact", "j2", "j4", "j6"):
-            self.model, self.lmax, self.name = None, None, f"normal {self.kind} (WGS84)"
+            self.model, self.lmax = None, None
+            self.name = f"normal {self.kind} ({self.ellipsoid.name})"
         else:
             raise InputError(f"unknown gravity model kind {kind!r}")
 
@@ -159,7 +171,9 @@ class Gravitation:
             return sh_gravitation(self.model, x, y, z, lmax=self.lmax, device=self.device)
         from fieldmap.field.normal import normal_gravitation_ecef
 
-        return normal_gravitation_ecef(x, y, z, normal=self.kind, device=self.device)
+        return normal_gravitation_ecef(
+            x, y, z, normal=self.kind, ellipsoid=self.ellipsoid, device=self.device
+        )
 
 
 # --- synthesis ------------------------------------------------------------------------------------
@@ -207,6 +221,7 @@ def synthesize(
     t0: float = 0.0,
     batch: int = 200_000,
     progress: bool = False,
+    sample0: int = 0,
 ) -> ImuIncrements | list[ImuIncrements]:
     """Exact gyro and accelerometer increments of ``traj`` under the ``gravity`` truth.
 
@@ -225,11 +240,15 @@ def synthesize(
     duration : float, optional
         Covered time (default: the trajectory's). Units: s.
     t0 : float
-        Start time. Units: s.
+        Start time of sample 0. Units: s.
     batch : int
         Quadrature points per gravity launch.
     progress : bool
         Show a tqdm progress bar.
+    sample0 : int
+        Index of the first sample on the grid ``t0 + dt k``: the record starts at
+        ``t0 + dt sample0`` (a piece of a longer record: its times, hence its increments, are
+        the bits of that record's).
 
     Returns
     -------
@@ -241,10 +260,15 @@ def synthesize(
     if not gravities:
         raise InputError("synthesize needs at least one gravity model")
     duration = traj.duration if duration is None else float(duration)
-    if not np.isfinite(duration) or duration <= 0 or t0 + duration > traj.duration * (1 + 1e-12):
+    if isinstance(sample0, (bool, np.bool_)) or not isinstance(sample0, (int, np.integer)):
+        raise InputError(f"sample0 must be an integer sample index, got {sample0!r}")
+    if sample0 < 0:
+        raise InputError(f"sample0 must be >= 0, got {sample0}")
+    dt = 1.0 / float(rate_hz) if np.isfinite(rate_hz) and rate_hz > 0 else 0.0
+    start = t0 + dt * int(sample0)
+    if not np.isfinite(duration) or duration <= 0 or start + duration > traj.duration * (1 + 1e-12):
         raise InputError(f"duration {duration} s does not fit the trajectory ({traj.duration} s)")
     n = sample_count(duration, rate_hz)
-    dt = 1.0 / float(rate_hz)
     traj.check_above_surface()
     xg, wg = gauss_legendre01(n_gauss)
     # trajectories that keep the base-class kinematics: rotation-invariant ECEF path (no a-frame)
@@ -259,7 +283,7 @@ def synthesize(
         starts = tqdm(starts, desc="IMU synthesis", unit="batch")
     for s0 in starts:
         s1 = min(n, s0 + per)
-        ts = t0 + dt * np.arange(s0, s1, dtype=np.float64)
+        ts = t0 + dt * np.arange(sample0 + s0, sample0 + s1, dtype=np.float64)
         tq = (ts[:, None] + dt * xg[None, :]).ravel()
         if direct:
             w_b, f_bs = _body_ecef(traj, tq, gravities)
@@ -279,7 +303,7 @@ def synthesize(
             dtheta if j == 0 else dtheta.copy(),
             dv,
             dt,
-            float(t0),
+            float(start),
             {
                 "trajectory": traj.name,
                 "truth_gravity": getattr(g, "name", repr(g)),

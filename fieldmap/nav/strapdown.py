@@ -219,6 +219,8 @@ class _Batch:
     output_every: int
     n_out: int
     device: str
+    #: global index (in the flight) of the first IMU sample: keys the noise draws
+    sample0: int = 0
 
     @property
     def sensor_errors(self):
@@ -229,7 +231,8 @@ class _Batch:
         """Run ``kernel`` for every trajectory; return its stored states (NumPy).
 
         ``start`` = (position, velocity, scalar-first quaternion) per trajectory; ``params`` are
-        the frame structs and ``times`` the float64 inputs after ``dt``, in the kernel's order.
+        the frame structs and ``times`` the float64 inputs after ``dt``, in the kernel's order;
+        the noise is keyed on the global sample indices from :attr:`sample0` on.
         Returns (position, velocity, scalar-first quaternion), each (n, n_out, ...).
         """
         dev = self.device
@@ -249,6 +252,7 @@ class _Batch:
             *times,
             self.n_steps,
             self.output_every,
+            self.sample0,
             *outs,
         ]
         _warp.launch_chunked(kernel, self.n, inputs, dev)
@@ -256,11 +260,13 @@ class _Batch:
 
 
 def prepare_batch(
-    dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step
-):
+    dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step,
+    sample0=0,
+):  # fmt: skip
     """Validate and upload everything the LCI and NED kernels share (one row per trajectory).
 
-    Used by :func:`propagate_lci` and :func:`fieldmap.nav.strapdown_ned.propagate_ned`.
+    Used by :func:`propagate_lci` and :func:`fieldmap.nav.strapdown_ned.propagate_ned`;
+    ``sample0`` is the global index of the first sample (see :func:`propagate_lci`).
     """
     _warp.init()
     dtheta = _finite("dtheta", dtheta, (3,))
@@ -276,6 +282,7 @@ def prepare_batch(
         raise InputError(
             f"need a multiple of {per_step} IMU samples (even for LCI), got {n_samples}"
         )
+    sample0 = _sample_index(sample0, n_samples)
     dt = float(_finite("dt", dt))
     if not dt > 0:
         raise InputError(f"dt must be > 0, got {dt}")
@@ -339,6 +346,7 @@ def prepare_batch(
     wp.load_module(ksd, device=device)
     n_steps = n_samples // per_step
     return _Batch(
+        sample0=sample0,
         n=n,
         names=names,
         device=device,
@@ -361,10 +369,28 @@ def prepare_batch(
     )
 
 
+def _sample_index(sample0, n_samples: int) -> int:
+    """Check the global index of a record's first sample: an integer, >= 0, the record in int32."""
+    if isinstance(sample0, (bool, np.bool_)) or not isinstance(sample0, (int, np.integer)):
+        raise InputError(f"sample0 must be an integer sample index, got {sample0!r}")
+    sample0 = int(sample0)
+    if sample0 < 0 or sample0 + n_samples > 2**31 - 1:
+        raise InputError(
+            f"sample0 must lie in 0..{2**31 - 1 - n_samples} for {n_samples} samples, got {sample0}"
+        )
+    return sample0
+
+
 def _quat_in(q0) -> np.ndarray:
+    """Scalar-first unit quaternions -> the kernels' (x, y, z, w), normalized.
+
+    One that is unit to rounding (a kernel's output) is taken as is, so that a propagation
+    continued from the previous one's final attitude gives the bits of one propagation.
+    """
     norms = np.linalg.norm(q0, axis=1)
     if np.any(np.abs(norms - 1.0) > 1e-6):
         raise InputError("q0 must be unit quaternions")
+    norms = np.where(np.abs(norms - 1.0) <= 4 * np.finfo(np.float64).eps, 1.0, norms)
     return np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
 
 
@@ -390,6 +416,7 @@ def propagate_lci(
     t0=0.0,
     output_every=1,
     device=None,
+    sample0=0,
 ) -> LciResult:
     """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
 
@@ -423,13 +450,20 @@ def propagate_lci(
         ``acc_noise`` m/s/√s, ``gyro_noise`` rad/√s, ``seed`` int; first-order Gauss–Markov
         bias instability ``acc_gm_sigma`` m/s², ``gyro_gm_sigma`` rad/s with correlation times
         ``acc_gm_tau``, ``gyro_gm_tau`` s (0: none) and initial states ``acc_gm`` m/s²,
-        ``gyro_gm`` rad/s (n_traj, 3).
+        ``gyro_gm`` rad/s (n_traj, 3). The normals of sample j are drawn from Warp's RNG keyed
+        on (``seed``, ``sample0`` + j) (``fieldmap.kernels.strapdown.sample_rng``).
     t0 : float
-        Time of the first sample after launch (Earth rotation angle ω t0). Units: s.
+        Time of the first sample after launch (Earth rotation angle ω t0). Units: s. With
+        ``sample0``, the times are taken on the grid ``t0 − sample0 dt + dt j`` of the global
+        sample indices j (a piece of a flight at ``t0 = sample0 dt`` has the whole record's times).
     output_every : int
         Decimation of the stored states (in navigation steps).
     device : str, optional
         Warp device (default: CUDA if present, else CPU using every core).
+    sample0 : int
+        Global index (in the whole flight) of the first sample: a flight propagated in pieces,
+        each from the previous one's final state (``final``) with ``sample0`` = the samples
+        before it, draws the noise of one propagation over the whole record.
 
     Returns
     -------
@@ -467,18 +501,22 @@ def propagate_lci(
         output_every,
         device,
         per_step=2,
+        sample0=sample0,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
 
     st = b.states
+    # the kernel's time origin is global sample 0: t0 − sample0 dt (0 exactly when t0 =
+    # sample0 dt, as for the blocks of a flight: the times of one grid whatever the blocking)
+    t_base = float(t0) - b.dt * b.sample0
     P, V, q = b.launch(
         ksd.lci_kernel,
         (st["P0"], st["V0"], st["q0"]),
         [launch_params(frame), normal_params(frame.ellipsoid)],
-        [wp.float64(t0)],
+        [wp.float64(t_base)],
     )
-    t = t0 + 2.0 * b.dt * b.output_every * np.arange(b.n_out)
+    t = t_base + b.dt * (b.sample0 + 2 * b.output_every * np.arange(b.n_out))
     se = b.sensor_errors
     final = {"acc_gm": se.acc_gm.numpy(), "gyro_gm": se.gyro_gm.numpy()}
     return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names), final=final)

@@ -30,8 +30,10 @@ class NedResult:
     v_ned: np.ndarray
     q: np.ndarray
     gravity: tuple
-    #: final Gauss–Markov states (n_traj, 3) of the accelerometers and gyros and the final
-    #: baro-loop state (n_traj, 3: δa m/s², baro drift m, 0), to continue in the next block
+    #: final Gauss–Markov states (n_traj, 3) of the accelerometers and gyros, the final
+    #: baro-loop state (n_traj, 3: δa m/s², baro drift m, 0) and ``llh`` the last stored
+    #: position (n_traj, 3: lat rad, lon rad, h m; the kernel's bits, for ``degrees=False``),
+    #: to continue in the next block
     final: dict | None = None
 
 
@@ -100,6 +102,8 @@ def propagate_ned(
     output_every=1,
     device=None,
     baro: Baro | None = None,
+    sample0=0,
+    degrees: bool = True,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -114,7 +118,7 @@ def propagate_ned(
     dt : float
         Sample interval. Units: s.
     lat0, lon0, h0 : float or array_like (n_traj,)
-        Initial geodetic position. Units: degrees, degrees, m.
+        Initial geodetic position. Units: degrees (radians with ``degrees=False``), m.
     v_ned0 : array_like, shape (3,) or (n_traj, 3)
         Initial Earth-relative velocity in NED. Units: m/s.
     q0 : array_like, shape (4,) or (n_traj, 4)
@@ -123,6 +127,12 @@ def propagate_ned(
         As in :func:`fieldmap.nav.strapdown.propagate_lci`.
     baro : Baro, optional
         Altitude aiding of the vertical channel (default: free inertial).
+    sample0 : int
+        Global index of the first sample, as in :func:`~fieldmap.nav.strapdown.propagate_lci`:
+        the IMU and baro noise of sample j is keyed on (seed, ``sample0`` + j).
+    degrees : bool
+        False: ``lat0``, ``lon0`` in radians, e.g. ``final["llh"]`` of the previous piece of a
+        flight (no degree round trip: the pieces give the bits of one propagation).
 
     Returns
     -------
@@ -131,7 +141,8 @@ def propagate_ned(
     llh = np.stack(
         np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (lat0, lon0, h0))), -1
     )
-    if llh.size and np.any(np.abs(llh[..., 0]) >= 89.0):
+    lat_deg = llh[..., 0] if degrees else np.degrees(llh[..., 0])
+    if llh.size and np.any(np.abs(lat_deg) >= 89.0):
         raise InputError("the NED mechanization is not valid within 1 degree of the poles")
     b = prepare_batch(
         dtheta,
@@ -145,13 +156,15 @@ def propagate_ned(
         output_every,
         device,
         per_step=1,
+        sample0=sample0,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
 
     st = b.states
     llh_rad = st["llh0"].copy()
-    llh_rad[:, :2] = np.radians(llh_rad[:, :2])
+    if degrees:
+        llh_rad[:, :2] = np.radians(llh_rad[:, :2])
     aid = _baro_struct(baro, b, ksd)
     L, v, q = b.launch(
         ksd.ned_kernel,
@@ -163,6 +176,7 @@ def propagate_ned(
         "acc_gm": se.acc_gm.numpy(),
         "gyro_gm": se.gyro_gm.numpy(),
         "baro": aid.state.numpy(),
+        "llh": L[:, -1].copy(),
     }
     return NedResult(
         t=b.dt * b.output_every * np.arange(b.n_out),

@@ -83,7 +83,9 @@ class Scenario:
         if nav_truth is None:
             return self.imu
         if nav_truth not in self.extra_sets:
-            g = Gravitation(NORMAL_KINDS[nav_truth], device=self.device)
+            g = Gravitation(
+                NORMAL_KINDS[nav_truth], device=self.device, ellipsoid=self.traj.frame.ellipsoid
+            )
             self.extra_sets[nav_truth] = synthesize(
                 self.traj,
                 self.imu.rate_hz,
@@ -135,7 +137,7 @@ def build_scenario(
             raise InputError(f"{what} must be a positive number, got {v!r}")
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
-    g = Gravitation("sh", model=model, device=device)
+    g = Gravitation("sh", model=model, device=device, ellipsoid=traj.frame.ellipsoid)
     imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
     assert isinstance(imu, ImuIncrements)  # one gravitation in, one increment set out
     steps = imu.n_samples // 2
