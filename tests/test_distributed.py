@@ -537,6 +537,48 @@ def test_cli_cluster_started_from_the_shell_is_bitwise_identical(tmp_path):
             assert x.attrs[k] == y.attrs[k] == w.attrs[k], k
 
 
+def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
+    """The one propagator: runs in groups of two on Dask, two blocks, the local bits."""
+    from fieldmap.nav import imu_errors
+    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav.propagator import Propagator
+    from fieldmap.nav.strapdown_ned import Baro
+
+    _, spec = load_imu("tactical")
+    n, ns, dt = 5, 40, 0.02
+    kerr = imu_errors.draw(spec, n, seed=3).kernel_errors()
+    rng = np.random.default_rng(0)
+    dth = rng.normal(0.0, 1e-4, (1, 2 * ns, 3))
+    dv = np.tile([0.0, 0.0, -9.8 * dt], (1, 2 * ns, 1)) + rng.normal(0.0, 1e-3, (1, 2 * ns, 3))
+    start = {
+        "llh": np.tile([0.8, 0.1, 1000.0], (n, 1)),
+        "v": np.zeros((n, 3)),
+        "q": np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
+    }
+    baro = Baro(None, 0.03, 3e-4, 1e-6, bias=rng.normal(0, 5, n), noise=0.5, gm_sigma=2.0,
+                gm_tau=300.0)  # fmt: skip
+    outs = []
+    for c in (None, client):
+        p = Propagator(
+            "ned",
+            start,
+            ["j2", "j4", "j4", "j6", "normal"],
+            dt,
+            errors=kerr,
+            baro=baro,
+            output_every=10,
+            device="cpu",
+            client=c,
+            runs_per_task=2,
+        )
+        a = p.propagate(dth[:, :ns], dv[:, :ns], 0, np.full(ns, 1000.0))
+        b = p.propagate(dth[:, ns:], dv[:, ns:], ns, np.full(ns, 1000.0))
+        outs.append((a, b, p.get_state()))
+    for x, y in zip(outs[0], outs[1]):
+        for k in x:
+            assert np.array_equal(x[k], y[k]), k
+
+
 def test_navigation_monte_carlo_on_the_cluster(client):
     """Draws x models split into tasks: the single-launch result, bit for bit."""
     from fieldmap.nav import imu_errors, studies
@@ -572,8 +614,8 @@ def test_navsim_scheduler_bad_input(tmp_path, capsys):
 
     out = tmp_path / "out"
     rc = cli.main(
-        ["navsim", "--study", "table3", "--duration", "20", "--rate", "100", "--lmax", "30",
-         "--models", "j4,sh18", "--draws", "2", "--scheduler", "tcp://127.0.0.1:9",
+        ["navsim", "--study", "table3", "--duration", "20", "--rate", "100",
+         "--draws", "2", "--scheduler", "tcp://127.0.0.1:9",
          "--out", str(out)]
     )  # fmt: skip
     err = capsys.readouterr().err.strip().splitlines()
@@ -590,10 +632,8 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     Three time blocks (the states, Gauss-Markov and baro states carried by the client), IMU
     errors with white noise and bias instability, three models x three draws in groups of two.
     """
-    import functools
-
-    from fieldmap.nav import flightblocks, flightsim
-    from fieldmap.nav.distributed import flight_block_on, on_cluster
+    from fieldmap.nav import flightsim
+    from fieldmap.nav.distributed import on_cluster
     from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.imu_specs import load_imu
 
@@ -605,11 +645,9 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
         altitude_aiding=aiding, device="cpu",
     )  # fmt: skip
     here = flightsim.run_flight(ft, **kw)
-    with on_cluster(client):
+    with on_cluster(client):  # the deprecated spelling
         there = flightsim.run_flight(ft, **kw)
-    blk = functools.partial(flight_block_on, client, runs_per_task=2)
-    with flightblocks.blocks_propagated_by(blk):
-        pairs = flightsim.run_flight(ft, **kw)
+    pairs = flightsim.run_flight(ft, **kw, client=client)
     for res in (there, pairs):
         for k in ("t", "dpos", "dvel", "datt", "track"):
             assert np.array_equal(getattr(here, k), getattr(res, k)), k

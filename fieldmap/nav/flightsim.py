@@ -33,7 +33,6 @@ of a short flight; it neglects the Schuler feedback (−g/R δp: 8 % of the grav
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,13 +40,12 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.nav import imu_errors
 from fieldmap.nav.flight import geodetic_state
-from fieldmap.nav.flightblocks import block_propagator, initial_state
+from fieldmap.nav.flightblocks import geodetic_outputs, initial_state
 from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
+from fieldmap.nav.propagator import EARTH_RADIUS, Propagator, divergence, final_stats  # noqa: F401
 from fieldmap.nav.strapdown import NORMAL_MODELS, sh_degree
 from fieldmap.nav.trajectory import Trajectory
 
-#: an error beyond this has left physical meaning (m)
-EARTH_RADIUS = 6_371_000.0
 #: default altitude aiding switches to baro for flights longer than this (s)
 BARO_AFTER_S = 900.0
 
@@ -80,7 +78,8 @@ class FlightResult:
     ``dpos``, ``dvel``, ``datt`` (n_runs, n_out, 3) NED position (m), velocity (m/s) and
     attitude (rad) errors; ``track`` lat, lon, h (n_out, 3) of the truth; ``dg`` per model
     (n_out, 3) NED gravity error (m/s²) and ``predicted`` (n_out, 2) its double integral
-    (m, north/east); ``summary`` the JSON document; ``diverged`` (run, model, time) tuples.
+    (m, north/east); ``summary`` the JSON document; ``diverged`` one ``{"run", "model",
+    "time_s"}`` per diverged run (:func:`fieldmap.nav.propagator.divergence`).
     """
 
     t: np.ndarray
@@ -171,6 +170,7 @@ def run_flight(
     fraction: float = 0.1,
     device: str | None = None,
     progress: bool = False,
+    client=None,
 ) -> FlightResult:
     """Navigate ``traj`` with each gravity model and IMU draw; errors, δg and a recommendation.
 
@@ -213,6 +213,8 @@ def run_flight(
         Warp device.
     progress : bool
         tqdm progress bar over the blocks.
+    client : dask.distributed.Client, optional
+        Propagate groups of runs as tasks on this cluster (the same bits; default: here).
 
     Returns
     -------
@@ -270,16 +272,28 @@ def run_flight(
     g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
     g_ref = Gravitation("j4", device=device, ellipsoid=ell)  # the navigator's J4 (same ellipsoid)
 
-    # start state (truth at t = 0)
+    # start state (truth at t = 0); runs in a cost-balanced order (perm), results put back
     lat0, lon0, h0, v0, C0 = geodetic_state(traj, [0.0])
-    state = initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs)
     kerr = err.take(perm).kernel_errors()
-    state["acc_gm"], state["gyro_gm"] = kerr["acc_gm"], kerr["gyro_gm"]
-    baro_state = np.zeros((n_runs, 3))
-    rng_baro = np.random.default_rng(seed + 1)
-    baro_bias = np.tile(baro.bias_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
-    baro_drift0 = np.tile(baro.drift_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
-    baro_state[:, 1] = baro_drift0
+    aid = None
+    if aiding == "baro":
+        from fieldmap.nav.strapdown_ned import Baro, baro_gains
+
+        rng_baro = np.random.default_rng(seed + 1)
+        baro_bias = np.tile(baro.bias_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
+        baro_drift0 = np.tile(baro.drift_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
+        k1, k2, k3 = baro_gains(baro.loop_tau_s, ell)
+        aid = Baro(
+            None, k1, k2, k3, bias=baro_bias, noise=baro.noise_m * np.sqrt(rate_hz / baro.rate_hz),
+            gm_sigma=baro.drift_m, gm_tau=baro.drift_tau_s,
+            state=np.stack([np.zeros(n_runs), baro_drift0, np.zeros(n_runs)], -1),
+        )  # fmt: skip
+    prop = Propagator(
+        frame, initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs),
+        [grav[i] for i in perm], dt, launch=traj.frame if frame == "lci" else None,
+        ellipsoid=ell, sh_model=model, imu_set=imu_set[perm], errors=kerr,
+        output_every=every, baro=aid, device=device, client=client,
+    )  # fmt: skip
 
     t_list: list[float] = [0.0]
     outs: dict[str, list[np.ndarray]] = {"lat": [], "lon": [], "h": [], "v": [], "C": []}
@@ -291,21 +305,19 @@ def run_flight(
     secs = {"synthesis": 0.0, "propagation": 0.0}
     for s0 in starts:
         nb = min(per_block, n_total - s0)
-        tb = s0 * dt
         c0 = time.perf_counter()
         sets = synthesize(
             traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
         )
         c1 = time.perf_counter()
         secs["synthesis"] += c1 - c0
-        kerr_b = dict(kerr)
-        kerr_b["acc_gm"], kerr_b["gyro_gm"] = state["acc_gm"], state["gyro_gm"]
-        res, state = block_propagator()(
-            traj, frame, sets, tb, nb, dt, every, state, [grav[i] for i in perm], model,
-            imu_set[perm], kerr_b, aiding, baro, baro_bias, baro_state, rate_hz, device,
-            sample0=s0,
-        )  # fmt: skip
-        baro_state = state.get("baro", baro_state)
+        h_ref = None
+        if aid is not None:  # the times of the whole record's grid, whatever the blocking
+            _, _, h = traj.geodetic(dt * np.arange(s0, s0 + nb))
+            h_ref = np.stack([h, h])
+        dth = np.stack([x.dtheta for x in sets])
+        dvel = np.stack([x.dv for x in sets])
+        res = geodetic_outputs(traj.frame, prop.propagate(dth, dvel, s0, h_ref))
         secs["propagation"] += time.perf_counter() - c1
         for k in outs:
             outs[k].append(res[k][:, 1:])
@@ -327,7 +339,7 @@ def run_flight(
     labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
     run_models = [r for r in rows for _ in range(n_draws)]
     draw_idx = np.tile(np.arange(n_draws), len(rows))
-    diverged = _divergence(dpos, t_out, labels, run_models)
+    diverged = divergence(dpos, t_out, run_models, labels)
     summary = summarize(
         dpos, dvel, run_models, rows, n_draws, fraction, diverged,
         meta={
@@ -387,36 +399,6 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     return dg, pred
 
 
-def _divergence(dpos, t, labels, models) -> list:
-    """(label, model, time) of every run whose error leaves physical meaning; warn for each."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        size = np.linalg.norm(np.nan_to_num(dpos, nan=np.inf), axis=-1)
-    bad = ~np.isfinite(dpos).all(-1) | (size > EARTH_RADIUS)
-    out = []
-    for i in np.flatnonzero(bad.any(axis=1)):
-        k = int(np.argmax(bad[i]))
-        out.append((labels[i], models[i], float(t[k])))
-        warnings.warn(
-            f"navigation run {labels[i]} (model {models[i]}) diverged at t = {t[k]:.0f} s "
-            "(error non-finite or beyond an Earth radius)",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-    return out
-
-
-def _stats(x) -> dict:
-    x = np.asarray(x, dtype=np.float64)
-    if not np.all(np.isfinite(x)):
-        return {"mean": None, "rms": None, "p95": None, "max": None}
-    return {
-        "mean": float(np.mean(x)),
-        "rms": float(np.sqrt(np.mean(x * x))),
-        "p95": float(np.percentile(x, 95)),
-        "max": float(np.max(x)),
-    }
-
-
 def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -> dict:
     """Build the JSON document: final-error statistics per row, added errors, recommendation."""
     run_models = np.array(run_models)
@@ -424,18 +406,18 @@ def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -
     doc = {"meta": meta, "models": {}, "fraction": fraction}
     ref = fin[run_models == "imu_only"]
     imu_h = float(np.sqrt(np.mean(np.sum(ref[:, :2] ** 2, -1))))
-    bad_models = {m for _, m, _ in diverged}
+    bad_models = {d["model"] for d in diverged}
     for r in rows:
         sel = run_models == r
         f = fin[sel]
         entry = {
-            "final_position_error_m": _stats(np.linalg.norm(f, axis=-1)),
-            "final_horizontal_error_m": _stats(np.hypot(f[:, 0], f[:, 1])),
-            "final_vertical_error_m": _stats(np.abs(f[:, 2])),
-            "final_north_error_m": _stats(f[:, 0]),
-            "final_east_error_m": _stats(f[:, 1]),
-            "final_down_error_m": _stats(f[:, 2]),
-            "final_velocity_error_m_s": _stats(np.linalg.norm(dvel[sel, -1], axis=-1)),
+            "final_position_error_m": final_stats(np.linalg.norm(f, axis=-1)),
+            "final_horizontal_error_m": final_stats(np.hypot(f[:, 0], f[:, 1])),
+            "final_vertical_error_m": final_stats(np.abs(f[:, 2])),
+            "final_north_error_m": final_stats(f[:, 0]),
+            "final_east_error_m": final_stats(f[:, 1]),
+            "final_down_error_m": final_stats(f[:, 2]),
+            "final_velocity_error_m_s": final_stats(np.linalg.norm(dvel[sel, -1], axis=-1)),
             "diverged": r in bad_models,
         }
         if r != "imu_only":
@@ -464,5 +446,5 @@ def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -
             f"smallest added error is {best}'s "
             f"({doc['models'][best]['added_horizontal_error_m']:.3g} m)"
         )
-    doc["diverged"] = [{"run": a, "model": m, "time_s": t} for a, m, t in diverged]
+    doc["diverged"] = list(diverged)
     return doc

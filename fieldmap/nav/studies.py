@@ -16,10 +16,7 @@ errors at the cost of a cheap second synthesis instead of a degree-240 navigatio
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,6 +26,12 @@ from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import imu_errors
 from fieldmap.nav.imu import Gravitation, ImuIncrements, load_truth_model, synthesize
+from fieldmap.nav.propagator import (  # noqa: F401 - EARTH_RADIUS: public here in 0.2
+    EARTH_RADIUS,
+    Propagator,
+    divergence,
+    final_stats,
+)
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
@@ -169,25 +172,6 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     )
 
 
-_PROPAGATOR: contextvars.ContextVar = contextvars.ContextVar(
-    "fieldmap_nav_propagator", default=None
-)
-
-
-@contextlib.contextmanager
-def propagated_by(fn) -> Iterator[None]:
-    """Within the block, :func:`propagate` hands its runs to ``fn`` (same arguments, same result).
-
-    :func:`fieldmap.nav.distributed.on_cluster` uses it to run the studies' launches on Dask;
-    ``fn=None`` keeps them here.
-    """
-    token = _PROPAGATOR.set(fn)
-    try:
-        yield
-    finally:
-        _PROPAGATOR.reset(token)
-
-
 def propagate(
     sc: Scenario,
     gravity: list[str],
@@ -195,23 +179,26 @@ def propagate(
     imu_set=None,
     errors: imu_errors.ErrorDraws | None = None,
     progress: bool = False,
+    *,
+    client=None,
+    runs_per_task: int | None = None,
 ):
-    """All runs in one :func:`fieldmap.nav.strapdown.propagate_lci` launch; errors vs. the truth.
+    """Propagate every run over the whole record (one block, LCI); errors vs. the truth.
 
-    With ``progress`` the runs go into up to 8 launches (a tqdm bar over them) with the same
-    results.
+    The runs go to one :class:`fieldmap.nav.propagator.Propagator` (here: one Warp launch; with
+    ``client``, groups of runs as tasks on that Dask cluster); with ``progress`` the runs go into
+    up to 8 propagators in turn (a tqdm bar over them). Every run depends on no other run: the
+    same bits in every case.
 
     Returns
     -------
     dict
         ``pos`` and ``vel`` (n_runs, n_out) error norms (m, m/s), ``dP``, ``dV`` (n_runs, n_out, 3)
-        a-frame error vectors, ``t`` (n_out,), ``seconds`` wall time of the launch.
+        a-frame error vectors, ``hor``, ``ver``, ``ned`` (north, east, down), ``t`` (n_out,),
+        ``seconds`` wall time of the propagation, ``diverged``.
     """
-    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
+    from fieldmap.nav.strapdown import dcm_to_quat
 
-    other = _PROPAGATOR.get()
-    if other is not None:
-        return other(sc, gravity, sets=sets, imu_set=imu_set, errors=errors)
     sets = sets or [sc.imu]
     dth = np.stack([s.dtheta for s in sets])
     dv = np.stack([s.dv for s in sets])
@@ -224,29 +211,26 @@ def propagate(
     t0 = time.perf_counter()
 
     def launch(idx):
-        """Propagate the runs ``idx`` in one launch (balanced over the CPU chunks)."""
+        """Propagate the runs ``idx`` (balanced over the CPU chunks)."""
         perm = idx[balanced_order([gravity[i] for i in idx])]
-        res = propagate_lci(
-            dth,
-            dv,
-            sc.imu.dt,
-            k0.P_a[0],
-            k0.V_a[0],
-            dcm_to_quat(k0.C_b_to_a[0]),
-            sc.traj.frame,
-            gravity=[gravity[i] for i in perm],
-            sh_model=sc.truth_model,
-            imu_set=imu_set[perm],
+        m = perm.size
+        start = {
+            "P": np.tile(k0.P_a[0], (m, 1)),
+            "V": np.tile(k0.V_a[0], (m, 1)),
+            "q": np.tile(dcm_to_quat(k0.C_b_to_a[0]), (m, 1)),
+        }
+        prop = Propagator(
+            "lci", start, [gravity[i] for i in perm], sc.imu.dt, launch=sc.traj.frame,
+            sh_model=sc.truth_model, imu_set=imu_set[perm],
             errors=None if errors is None else errors.take(perm).kernel_errors(),
-            t0=sc.imu.t0,
-            output_every=sc.output_every,
-            device=sc.device,
-        )
-        return perm, res
+            t_start=sc.imu.t0, output_every=2 * sc.output_every, device=sc.device,
+            client=client, runs_per_task=runs_per_task,
+        )  # fmt: skip
+        return perm, prop.propagate(dth, dv, 0)
 
     if progress and n > 1:
-        # several launches, each a cost-balanced share of the runs: every run is independent
-        # (own thread, own seed), so the numbers are those of one launch
+        # several propagators, each a cost-balanced share of the runs: every run is
+        # independent (own thread, own noise stream), so the numbers are those of one launch
         from tqdm import tqdm
 
         from fieldmap.nav.strapdown import gravity_cost
@@ -255,23 +239,18 @@ def propagate(
         parts = [order[j :: min(n, 8)] for j in range(min(n, 8))]
         done = [launch(p) for p in tqdm(parts, desc="navigation runs", unit="launch")]
         perm = np.concatenate([p for p, _ in done])
-        res = type(done[0][1])(
-            t=done[0][1].t,
-            P=np.concatenate([r.P for _, r in done]),
-            V=np.concatenate([r.V for _, r in done]),
-            q=np.concatenate([r.q for _, r in done]),
-            gravity=sum((r.gravity for _, r in done), ()),
-        )
+        res = {k: np.concatenate([r[k] for _, r in done]) for k in ("P", "V")}
+        res["t"] = done[0][1]["t"]
     else:
         perm, res = launch(np.arange(n))
     secs = time.perf_counter() - t0
     inv = np.argsort(perm)
-    dP = res.P[inv] - sc.truth.P_a[None]
-    dV = res.V[inv] - sc.truth.V_a[None]
+    dP = res["P"][inv] - sc.truth.P_a[None]
+    dV = res["V"][inv] - sc.truth.V_a[None]
     with np.errstate(invalid="ignore", over="ignore"):
         d_ned = _a_to_ned(sc, dP)
         out = {
-            "t": res.t,
+            "t": res["t"],
             "dP": dP,
             "dV": dV,
             "pos": np.linalg.norm(dP, axis=-1),
@@ -281,33 +260,7 @@ def propagate(
             "ned": d_ned,
             "seconds": secs,
         }
-    out["diverged"] = divergence(out["pos"], res.t, gravity)
-    return out
-
-
-#: an error beyond an Earth radius (m) has left physical meaning
-EARTH_RADIUS = 6_371_000.0
-
-
-def divergence(pos, t, gravity, labels=None) -> list[dict]:
-    """Find runs whose position error is non-finite or beyond an Earth radius; warn for each.
-
-    Returns ``[{"run": i or label, "model": name, "time_s": first bad time}, ...]``.
-    """
-    import warnings
-
-    bad = ~np.isfinite(pos) | (np.nan_to_num(pos, nan=np.inf) > EARTH_RADIUS)
-    out = []
-    for i in np.flatnonzero(bad.any(axis=1)):
-        k = int(np.argmax(bad[i]))
-        run = labels[i] if labels is not None else int(i)
-        out.append({"run": run, "model": gravity[i], "time_s": float(t[k])})
-        warnings.warn(
-            f"navigation run {run} (model {gravity[i]}) diverged at t = {t[k]:.0f} s "
-            "(error non-finite or beyond an Earth radius)",
-            RuntimeWarning,
-            stacklevel=3,
-        )
+    out["diverged"] = divergence(out["pos"], res["t"], gravity)
     return out
 
 
@@ -394,7 +347,12 @@ class StudyResult:
 
 
 def table1(
-    sc: Scenario, models=TABLE1_MODELS, timing: bool = True, progress: bool = False
+    sc: Scenario,
+    models=TABLE1_MODELS,
+    timing: bool = True,
+    progress: bool = False,
+    *,
+    client=None,
 ) -> StudyResult:
     """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
 
@@ -403,7 +361,7 @@ def table1(
     """
     names = check_model_names(models, sc.truth_model)
     runs = names + [sc.truth_key]
-    out = propagate(sc, runs, progress=progress)
+    out = propagate(sc, runs, progress=progress, client=client)
     rows: list[dict[str, Any]] = []
     for i, name in enumerate(names):
         row = {
@@ -442,19 +400,6 @@ def table1(
     return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
-def _stats(x: np.ndarray) -> dict:
-    if not np.all(np.isfinite(x)):
-        return {k: float("nan") for k in ("mean", "rms", "p05", "p50", "p95", "max")}
-    return {
-        "mean": float(np.mean(x)),
-        "rms": float(np.sqrt(np.mean(x * x))),
-        "p05": float(np.percentile(x, 5)),
-        "p50": float(np.percentile(x, 50)),
-        "p95": float(np.percentile(x, 95)),
-        "max": float(np.max(x)),
-    }
-
-
 def _mc_rows(labels, out, n, extra):
     rows: list[dict[str, Any]] = []
     for j, lab in enumerate(labels):
@@ -466,7 +411,7 @@ def _mc_rows(labels, out, n, extra):
             ("hor", "horizontal_error_m"),
             ("ver", "vertical_error_m"),
         ):
-            for stat, v in _stats(out[key][sl, -1]).items():
+            for stat, v in final_stats(out[key][sl, -1]).items():
                 row[f"final_{unit}_{stat}"] = v
         rows.append(row)
     return rows
@@ -480,6 +425,8 @@ def table3(
     nav: str = "j4",
     mode: str = "gauss",
     progress: bool = False,
+    *,
+    client=None,
 ) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
@@ -505,7 +452,7 @@ def table3(
             }
         )
     err = imu_errors.ErrorDraws.concat(parts)
-    out = propagate(sc, [nav] * err.n, errors=err, progress=progress)
+    out = propagate(sc, [nav] * err.n, errors=err, progress=progress, client=client)
     rows, start = [], 0
     for j, n in enumerate(counts):
         sub = {
@@ -536,6 +483,8 @@ def table4(
     mode: str = "gauss",
     reference: str = "j4",
     progress: bool = False,
+    *,
+    client=None,
 ) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
@@ -556,7 +505,13 @@ def table4(
     grav = [m for m in rows_models for _ in range(err1.n)]
     imu_set = [1 if j == 0 else 0 for j in range(len(rows_models)) for _ in range(err1.n)]
     out = propagate(
-        sc, grav, sets=[sc.imu, sc.imu_set(ref)], imu_set=imu_set, errors=err, progress=progress
+        sc,
+        grav,
+        sets=[sc.imu, sc.imu_set(ref)],
+        imu_set=imu_set,
+        errors=err,
+        progress=progress,
+        client=client,
     )
     labels = ["imu_only"] + [f"imu+{m}" for m in names]
     extra = [

@@ -1,0 +1,397 @@
+"""One batched strapdown propagator for every navigation study: state in, increments in, state out.
+
+:class:`Propagator` holds the configuration of many runs (navigation gravity, increment set,
+sensor errors, baro loop: one row per run) and their state (position, velocity, attitude,
+Gauss–Markov biases, baro loop), in the spirit of pyins' ``Integrator``: each call of
+:meth:`Propagator.propagate` takes a block of IMU increments (shared by all runs) and the global
+index of its first sample, advances every run through it and returns the stored states;
+:meth:`~Propagator.get_state` / :meth:`~Propagator.set_state` expose the state between blocks.
+The paper's studies (:mod:`fieldmap.nav.studies`, the whole record in one block, LCI) and the
+flight studies (:mod:`fieldmap.nav.flightsim`, time blocks, NED or LCI) both use it.
+
+Where the runs go is said explicitly: ``client=None`` here (one Warp launch over every core),
+or a ``dask.distributed.Client`` (the runs split into groups, one task each; the block's
+increments shipped once per worker). Each run is one Warp thread that depends on no other run
+and its sensor noise is keyed on (run seed, global sample index), so the results are the same
+bits whatever the executor, the grouping of the runs and the time blocks.
+
+:func:`divergence` is the one check of runs that left physical meaning.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import dataclasses
+import math
+import warnings
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from fieldmap.errors import InputError
+
+__all__ = ["EARTH_RADIUS", "STAT_KEYS", "Propagator", "divergence", "final_stats"]
+
+#: An error beyond an Earth radius (m) has left physical meaning.
+EARTH_RADIUS = 6_371_000.0
+
+#: Client of the deprecated ``fieldmap.nav.distributed.on_cluster`` block (None: here). Pass
+#: ``client=`` instead; this default goes with ``on_cluster`` in fieldmap 0.3.
+_DEFAULT_CLIENT: contextvars.ContextVar = contextvars.ContextVar(
+    "fieldmap_nav_default_client", default=None
+)
+
+
+@contextlib.contextmanager
+def default_client(client) -> Iterator[None]:
+    """Within the block, propagators built with ``client=None`` use ``client`` (deprecated)."""
+    token = _DEFAULT_CLIENT.set(client)
+    try:
+        yield
+    finally:
+        _DEFAULT_CLIENT.reset(token)
+
+
+@dataclasses.dataclass
+class _Config:
+    """Everything of a propagation but the per-run state and the increments (picklable)."""
+
+    frame: str  # "ned" or "lci"
+    launch: Any  # the LaunchFrame (LCI) or None
+    ellipsoid: Any
+    gravity: list
+    imu_set: np.ndarray
+    errors: dict  # kernel sensor errors, one row per run (Gauss–Markov states excluded)
+    sh_model: Any
+    dt: float
+    t_start: float  # time of global sample 0 (LCI: Earth rotation angle)
+    output_every: int  # in IMU samples
+    baro: Any  # fieldmap.nav.strapdown_ned.Baro template (h_ref unset) or None
+    device: str | None
+
+    def rows(self, a: int, b: int) -> _Config:
+        """Return the configuration of runs ``a:b``."""
+        return dataclasses.replace(
+            self,
+            gravity=self.gravity[a:b],
+            imu_set=self.imu_set[a:b],
+            errors={k: _cut(v, a, b, len(self.gravity)) for k, v in self.errors.items()},
+            baro=None if self.baro is None else _baro_rows(self.baro, a, b, len(self.gravity)),
+        )
+
+
+def _cut(value, a, b, n):
+    v = np.asarray(value)
+    return v[a:b] if v.ndim >= 1 and v.shape[0] == n else value
+
+
+def _baro_rows(baro, a, b, n):
+    return dataclasses.replace(
+        baro,
+        bias=_cut(baro.bias, a, b, n),
+        noise=_cut(baro.noise, a, b, n),
+        gm_sigma=_cut(baro.gm_sigma, a, b, n),
+        gm_tau=_cut(baro.gm_tau, a, b, n),
+    )
+
+
+class Propagator:
+    """Batched NED or launch-centred inertial (LCI) strapdown propagation in blocks of samples.
+
+    Parameters
+    ----------
+    frame : {"ned", "lci"}
+        Mechanization (:func:`fieldmap.nav.strapdown_ned.propagate_ned`,
+        :func:`fieldmap.nav.strapdown.propagate_lci`).
+    start : dict
+        Start state, one row per run: NED ``llh`` (rad, rad, m), ``v`` (m/s), ``q`` (q_b^n,
+        scalar first); LCI ``P``, ``V`` (m, m/s, a-frame), ``q`` (q_b^a).
+    gravity : sequence of str
+        Navigation gravity of each run (``j2 j4 j6 normal sh shN``).
+    dt : float
+        IMU sample interval. Units: s.
+    launch : LaunchFrame, optional
+        The a-frame (LCI; its ellipsoid is the navigation ellipsoid).
+    ellipsoid : Ellipsoid, optional
+        Navigation ellipsoid (NED; default WGS84).
+    sh_model : SHModel, optional
+        Model of the ``sh`` kinds.
+    imu_set : array_like of int, optional
+        Increment set of each run (default 0).
+    errors : dict, optional
+        Kernel sensor errors (:meth:`fieldmap.nav.imu_errors.ErrorDraws.kernel_errors`), one row
+        per run; their Gauss–Markov states start the state.
+    t_start : float
+        Time of global sample 0 (LCI: Earth rotation angle ω t). Units: s.
+    output_every : int
+        Stored states every this many IMU samples (LCI: even).
+    baro : fieldmap.nav.strapdown_ned.Baro, optional
+        Baro loop (NED): gains, bias, noise, drift per run; its ``h_ref`` is given per block to
+        :meth:`propagate` and its ``state`` starts the loop state.
+    device : str, optional
+        Warp device.
+    client : dask.distributed.Client, optional
+        Run groups of runs as tasks on this cluster (default: here).
+    runs_per_task : int, optional
+        Runs per task on a cluster (default: four tasks per worker).
+    """
+
+    def __init__(
+        self,
+        frame: str,
+        start: dict,
+        gravity,
+        dt: float,
+        *,
+        launch=None,
+        ellipsoid=None,
+        sh_model=None,
+        imu_set=None,
+        errors: dict | None = None,
+        t_start: float = 0.0,
+        output_every: int = 1,
+        baro=None,
+        device: str | None = None,
+        client=None,
+        runs_per_task: int | None = None,
+    ):
+        from fieldmap.field.ellipsoid import WGS84
+
+        frame = str(frame).lower()
+        if frame not in ("ned", "lci"):
+            raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
+        if frame == "lci" and launch is None:
+            raise InputError("the LCI mechanization needs its launch frame (launch=)")
+        if frame == "lci" and output_every % 2:
+            raise InputError("the LCI mechanization stores states every even number of samples")
+        if baro is not None and frame != "ned":
+            raise InputError("baro altitude aiding needs the NED mechanization")
+        gravity = [gravity] if isinstance(gravity, str) else list(gravity)
+        n = len(gravity)
+        errors = dict(errors or {})
+        state = {k: np.array(v, dtype=np.float64) for k, v in start.items()}
+        for key in ("acc_gm", "gyro_gm"):
+            gm = errors.pop(key, None)
+            state[key] = np.zeros((n, 3)) if gm is None else np.array(gm, dtype=np.float64)
+        if baro is not None:
+            bs = baro.state
+            state["baro"] = np.zeros((n, 3)) if bs is None else np.array(bs, dtype=np.float64)
+        self._cfg = _Config(
+            frame=frame,
+            launch=launch,
+            ellipsoid=(launch.ellipsoid if launch is not None else ellipsoid) or WGS84,
+            gravity=gravity,
+            imu_set=(
+                np.zeros(n, dtype=np.int64)
+                if imu_set is None
+                else np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,)).copy()
+            ),
+            errors=errors,
+            sh_model=sh_model,
+            dt=float(dt),
+            t_start=float(t_start),
+            output_every=int(output_every),
+            baro=None if baro is None else dataclasses.replace(baro, state=None),
+            device=device,
+        )
+        self._state = state
+        self.client = client if client is not None else _DEFAULT_CLIENT.get()
+        self.runs_per_task = runs_per_task
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs."""
+        return len(self._cfg.gravity)
+
+    @property
+    def gravity(self) -> list:
+        """Navigation gravity of each run."""
+        return list(self._cfg.gravity)
+
+    def get_state(self) -> dict:
+        """Copy of the state (one row per run): position, velocity, attitude, GM and baro."""
+        return {k: v.copy() for k, v in self._state.items()}
+
+    def set_state(self, state: dict) -> None:
+        """Replace the state (the keys and shapes of :meth:`get_state`)."""
+        missing = set(self._state) - set(state)
+        if missing:
+            raise InputError(f"state lacks {sorted(missing)}")
+        for k, v in self._state.items():
+            a = np.array(state[k], dtype=np.float64)
+            if a.shape != v.shape:
+                raise InputError(f"state[{k!r}] has shape {a.shape}, expected {v.shape}")
+            self._state[k] = a
+
+    def propagate(self, dtheta, dv, sample0: int = 0, h_ref=None) -> dict:
+        """Advance every run through one block of IMU samples; return the stored states.
+
+        Parameters
+        ----------
+        dtheta, dv : array_like, shape (n_sets, n_samples, 3)
+            Body increments of the block (rad, m/s), shared by the runs (``imu_set``).
+        sample0 : int
+            Global index of the block's first sample (keys the noise; fixes the times).
+        h_ref : array_like, shape (n_sets, n_samples) or (n_samples,), optional
+            Reference heights of the baro loop (m), needed with ``baro``.
+
+        Returns
+        -------
+        dict
+            Stored states at the block's start and every ``output_every`` samples, one row per
+            run: NED ``lat``, ``lon`` (degrees), ``h`` (m), ``v`` (m/s), ``q``; LCI ``P``,
+            ``V``, ``q`` and ``t`` (the times, s).
+        """
+        cfg = self._cfg
+        if cfg.baro is not None and h_ref is None:
+            raise InputError("the baro loop needs the block's reference heights (h_ref=)")
+        n = self.n_runs
+        if self.client is None:
+            out, nxt = _propagate_runs(cfg, self._state, dtheta, dv, int(sample0), h_ref)
+        else:
+            out, nxt = self._on_cluster(dtheta, dv, int(sample0), h_ref, n)
+        self._state = nxt
+        return out
+
+    def _on_cluster(self, dtheta, dv, sample0, h_ref, n):
+        from fieldmap.products.cluster import scattered
+
+        client = self.client
+        nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+        per = self.runs_per_task or max(1, math.ceil(n / (4 * nworkers)))
+        cfg = self._cfg
+        model_f = scattered(client, cfg.sh_model) if cfg.sh_model is not None else None
+        (block_f,) = client.scatter([(dtheta, dv, h_ref)], broadcast=True, hash=False)
+        futures = [
+            client.submit(
+                _task,
+                dataclasses.replace(cfg.rows(a, a + per), sh_model=None),
+                model_f,
+                {k: v[a : a + per] for k, v in self._state.items()},
+                block_f,
+                sample0,
+                pure=False,
+            )
+            for a in range(0, n, per)
+        ]
+        try:
+            parts = client.gather(futures)
+        finally:
+            block_f.release()
+        out = {
+            k: parts[0][0][k] if k == "t" else np.concatenate([p[0][k] for p in parts])
+            for k in parts[0][0]
+        }
+        nxt = {k: np.concatenate([p[1][k] for p in parts]) for k in parts[0][1]}
+        return out, nxt
+
+
+def _task(cfg: _Config, model, state: dict, block, sample0: int):
+    from fieldmap.products.cluster import worker_setup
+
+    worker_setup()
+    dtheta, dv, h_ref = block
+    return _propagate_runs(
+        dataclasses.replace(cfg, sh_model=model), state, dtheta, dv, sample0, h_ref
+    )
+
+
+def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
+    """Propagate the runs of ``cfg`` from ``state`` through one block: (stored, next state)."""
+    errors = {**cfg.errors, "acc_gm": state["acc_gm"], "gyro_gm": state["gyro_gm"]}
+    if cfg.frame == "ned":
+        from fieldmap.nav.strapdown_ned import propagate_ned
+
+        aid = None
+        if cfg.baro is not None:
+            h = np.asarray(h_ref, dtype=np.float64)
+            h = h if h.ndim == 2 else np.broadcast_to(h, (np.shape(dtheta)[0], h.size))
+            aid = dataclasses.replace(cfg.baro, h_ref=h, state=state["baro"])
+        llh = state["llh"]
+        res = propagate_ned(
+            dtheta, dv, cfg.dt, llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"],
+            cfg.gravity, sh_model=cfg.sh_model, ellipsoid=cfg.ellipsoid, imu_set=cfg.imu_set,
+            errors=errors, output_every=cfg.output_every, device=cfg.device, baro=aid,
+            sample0=sample0, degrees=False,
+        )  # fmt: skip
+        nxt = {"llh": res.final["llh"], "v": res.v_ned[:, -1], "q": res.q[:, -1]}
+        if cfg.baro is not None:
+            nxt["baro"] = res.final["baro"]
+        out = {"lat": res.lat, "lon": res.lon, "h": res.h, "v": res.v_ned, "q": res.q}
+    else:
+        from fieldmap.nav.strapdown import propagate_lci
+
+        res = propagate_lci(
+            dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,
+            sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
+            t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
+            device=cfg.device, sample0=sample0,
+        )  # fmt: skip
+        nxt = {"P": res.P[:, -1], "V": res.V[:, -1], "q": res.q[:, -1]}
+        out = {"P": res.P, "V": res.V, "q": res.q, "t": res.t}
+    nxt["acc_gm"] = res.final["acc_gm"]
+    nxt["gyro_gm"] = res.final["gyro_gm"]
+    return out, nxt
+
+
+def divergence(err, t, models, labels=None, stacklevel: int = 3) -> list[dict]:
+    """Find the runs whose error is non-finite or beyond an Earth radius; warn for each.
+
+    Parameters
+    ----------
+    err : array_like, shape (n_runs, n_t) or (n_runs, n_t, 3)
+        Position error norms or vectors (m).
+    t : array_like (n_t,)
+        Times (s).
+    models : sequence of str
+        Navigation gravity of each run.
+    labels : sequence, optional
+        Name of each run (default its index).
+
+    Returns
+    -------
+    list of dict
+        ``{"run": label, "model": name, "time_s": first bad time}`` per diverged run.
+    """
+    e = np.asarray(err, dtype=np.float64)
+    finite = np.isfinite(e).all(-1) if e.ndim == 3 else np.isfinite(e)
+    with np.errstate(invalid="ignore", over="ignore"):
+        size = np.linalg.norm(np.where(np.isfinite(e), e, 0.0), axis=-1) if e.ndim == 3 else e
+        bad = ~finite | (np.where(finite, size, 0.0) > EARTH_RADIUS)
+    out = []
+    for i in np.flatnonzero(bad.any(axis=1)):
+        k = int(np.argmax(bad[i]))
+        run = labels[i] if labels is not None else int(i)
+        out.append({"run": run, "model": models[i], "time_s": float(t[k])})
+        warnings.warn(
+            f"navigation run {run} (model {models[i]}) diverged at t = {t[k]:.0f} s "
+            "(error non-finite or beyond an Earth radius)",
+            RuntimeWarning,
+            stacklevel=stacklevel,
+        )
+    return out
+
+
+#: The statistics of final errors over runs, in every study's summary.
+STAT_KEYS = ("mean", "rms", "p05", "p50", "p95", "max")
+
+
+def final_stats(x, keys=STAT_KEYS) -> dict:
+    """Statistics of final errors over runs; ``None`` for each when any run is not finite.
+
+    ``keys`` among mean, rms, p05, p50, p95, max (percentiles by linear interpolation).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if not np.all(np.isfinite(x)):
+        return {k: None for k in keys}
+    fns = {
+        "mean": lambda: np.mean(x),
+        "rms": lambda: np.sqrt(np.mean(x * x)),
+        "p05": lambda: np.percentile(x, 5),
+        "p50": lambda: np.percentile(x, 50),
+        "p95": lambda: np.percentile(x, 95),
+        "max": lambda: np.max(x),
+    }
+    return {k: float(fns[k]()) for k in keys}
