@@ -209,3 +209,24 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
     C = quat_to_dcm(noisy.q[:, -1]) @ quat_to_dcm(ref.q[0, -1]).T
     psi = R.from_matrix(C).as_rotvec()
     np.testing.assert_allclose(np.mean(psi**2), arw**2 * n * dt, rtol=0.12)
+
+
+def test_results_as_datasets_over_run_and_time():
+    """Flight and paper studies hand their results over as xarray Datasets with units."""
+    from fieldmap.nav import flightsim, studies
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+
+    ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
+    res = flightsim.run_flight(
+        ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0,
+        device="cpu",
+    )  # fmt: skip
+    ds = res.to_dataset()
+    assert ds["position_error"].dims == ("run", "time", "axis")
+    assert ds["position_error"].attrs["units"] == "m"
+    assert ds.sizes["run"] == len(res.labels) and ds.sizes["time"] == res.t.size
+    sc = studies.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
+    st = studies.table1(sc, models=["j2", "j4"], timing=False)
+    sd = st.to_dataset()
+    assert sd["position_error"].dims == ("run", "time")
+    assert sd["velocity_error"].attrs["units"] == "m s-1"

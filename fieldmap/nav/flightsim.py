@@ -95,6 +95,12 @@ class FlightResult:
     summary: dict
     diverged: list = field(default_factory=list)
 
+    def to_dataset(self):
+        """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
+        from fieldmap.nav.report import flight_dataset
+
+        return flight_dataset(self)
+
 
 def simplicity_order(models) -> list[str]:
     """Models from the simplest to the most complete: j2, j4, j6, normal, shN by degree, sh."""

@@ -345,6 +345,12 @@ class StudyResult:
     vel: np.ndarray
     meta: dict
 
+    def to_dataset(self):
+        """Return the error curves as an ``xarray.Dataset`` over (run, time) (CF-1.8)."""
+        from fieldmap.nav.report import to_dataset
+
+        return to_dataset(self)
+
 
 def table1(
     sc: Scenario,
