@@ -1,0 +1,504 @@
+"""Flight logs as they come (fieldmap.nav.readers): CSV layouts, GPX, NMEA 0183, IGC, tables.
+
+One synthetic flight (a great circle from 46.5° N 7° E on azimuth 60°, 230 m/s, climbing at
+10 m/s to 11 km, 1 Hz for 30 minutes, across midnight UTC) is written by each test in one
+format and read back: positions to the file's resolution, times as epoch seconds, heights after
+the height-reference conversion (MSL: h - H is fieldmap's geoid height N).
+"""
+
+import gzip
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fieldmap
+from fieldmap.errors import InputError
+from fieldmap.nav.readers import R_ISA, RawTrack, parse_columns, read_track
+
+T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
+FT = 0.3048
+DATA = Path(__file__).parent / "data" / "flights"
+TRAFFIC_SAMPLES = Path("/tmp/traffic/traffic/data/samples")
+
+
+@pytest.fixture(scope="module")
+def fl():
+    """Return the synthetic flight: t (s from T0), lat, lon (deg), H (MSL, m), N and h = H + N."""
+    t = np.arange(1800.0)
+    la0, lo0, az = np.radians(46.5), np.radians(7.0), np.radians(60.0)
+    d = 230.0 * t / 6_371_000.0
+    la = np.arcsin(np.sin(la0) * np.cos(d) + np.cos(la0) * np.sin(d) * np.cos(az))
+    lo = lo0 + np.arctan2(
+        np.sin(az) * np.sin(d) * np.cos(la0), np.cos(d) - np.sin(la0) * np.sin(la)
+    )
+    lat, lon = np.degrees(la), np.degrees(lo)
+    H = np.minimum(500.0 + 10.0 * t, 11_000.0)
+    N = fieldmap.geoid_height(lat, lon)
+    return dict(t=t, lat=lat, lon=lon, H=H, N=N, h=H + N, epoch=T0.timestamp() + t)
+
+
+def geoid(track):
+    return fieldmap.geoid_height(track.lat, track.lon)
+
+
+def write(path, lines):
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def iso(k, fmt="%Y-%m-%dT%H:%M:%SZ"):
+    return (T0 + timedelta(seconds=float(k))).strftime(fmt)
+
+
+def check_position(tr, fl, tol):
+    assert isinstance(tr, RawTrack) and len(tr) == fl["t"].size
+    np.testing.assert_allclose(tr.lat, fl["lat"], atol=tol, rtol=0)
+    np.testing.assert_allclose(tr.lon, fl["lon"], atol=tol, rtol=0)
+    assert tr.t.dtype == np.float64 and tr.lines.dtype == np.int64
+
+
+# --------------------------------------------------------------------------- CSV layouts
+
+
+def test_fieldmap_csv(tmp_path, fl):
+    rows = ["# a comment", "time_s,lat_deg,lon_deg,height_m"]
+    rows += [
+        f"{t:g},{a:.9f},{b:.9f},{h:.4f}"
+        for t, a, b, h in zip(fl["t"], fl["lat"], fl["lon"], fl["h"])
+    ]
+    tr = read_track(write(tmp_path / "f.csv", rows))
+    check_position(tr, fl, 1e-9)
+    np.testing.assert_allclose(tr.h, fl["h"], atol=1e-4)
+    np.testing.assert_array_equal(tr.t, fl["t"])
+    assert tr.height_ref == "ellipsoid" and tr.t0_utc is None
+    assert tr.lines[0] == 3 and tr.lines[-1] == 1802 and tr.source.endswith("f.csv")
+    # file order kept: a repeated and a backward time are the conditioning step's business
+    rows[5:5] = [rows[4], rows[2]]
+    tu = read_track(write(tmp_path / "u.csv", rows))
+    assert list(tu.t[:6]) == [0, 1, 2, 2, 0, 3] and list(tu.lines[:6]) == [3, 4, 5, 6, 7, 8]
+
+
+def opensky_rows(fl, geo=True, scale=1.0):
+    rows = ["time,icao24,lat,lon,velocity,heading,vertrate,baroaltitude,geoaltitude"]
+    for k in range(fl["t"].size):
+        g = f"{fl['H'][k] * scale:.2f}" if geo else ""
+        rows.append(
+            f"{int(fl['epoch'][k])},4b1815,{fl['lat'][k]:.7f},{fl['lon'][k]:.7f},230,60,10,"
+            f"{fl['H'][k] * scale:.2f},{g}"
+        )
+    return rows
+
+
+def test_opensky_csv_geo_and_baro(tmp_path, fl):
+    path = write(tmp_path / "states.csv", opensky_rows(fl))
+    tr = read_track(path)
+    check_position(tr, fl, 1e-7)
+    np.testing.assert_array_equal(tr.t, fl["epoch"])
+    assert tr.t0_utc == "2023-06-14T23:45:00Z"
+    assert tr.height_ref == "msl" and any("read as MSL" in n for n in tr.notes)
+    np.testing.assert_allclose(tr.h - fl["H"], geoid(tr), atol=0.02)
+    # the barometric column on request: ISA geopotential -> geometric height, then + N
+    tp = read_track(path, height_ref="pressure")
+    z = R_ISA * fl["H"] / (R_ISA - fl["H"])
+    np.testing.assert_allclose(tp.h - z, geoid(tp), atol=0.02)
+    assert tp.height_ref == "pressure" and any("ISA" in n and "±" in n for n in tp.notes)
+    # geoaltitude mostly empty: baroaltitude (pressure) is used
+    tb = read_track(write(tmp_path / "baro.csv", opensky_rows(fl, geo=False)))
+    assert tb.height_ref == "pressure" and len(tb) == fl["t"].size
+
+
+def traffic_rows(fl, geo=False, fmt="%Y-%m-%d %H:%M:%S+00:00"):
+    rows = ["timestamp,icao24,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    rows[0] += ",geoaltitude" if geo else ""
+    for k in range(fl["t"].size):
+        ft = fl["H"][k] / FT
+        rows.append(
+            f"{iso(k, fmt)},3c664e,{fl['lat'][k]:.6f},{fl['lon'][k]:.6f},{ft:.1f},447,60,1968"
+            + (f",{ft:.1f}" if geo else "")
+        )
+    return rows
+
+
+def test_traffic_csv_feet_and_iso_times(tmp_path, fl):
+    tr = read_track(write(tmp_path / "traffic.csv", traffic_rows(fl)))
+    check_position(tr, fl, 1e-6)
+    np.testing.assert_allclose(tr.t, fl["epoch"], atol=1e-6)
+    assert tr.height_ref == "pressure"
+    assert any("in ft" in n for n in tr.notes) and any("ISA" in n for n in tr.notes)
+    z = R_ISA * fl["H"] / (R_ISA - fl["H"])
+    np.testing.assert_allclose(tr.h - z, geoid(tr), atol=0.05)
+    # with a geoaltitude column (ft): MSL, naive ISO times are UTC
+    tg = read_track(write(tmp_path / "g.csv", traffic_rows(fl, True, "%Y-%m-%dT%H:%M:%S")))
+    assert tg.height_ref == "msl"
+    np.testing.assert_allclose(tg.t, fl["epoch"], atol=1e-6)
+    np.testing.assert_allclose(tg.h - fl["H"], geoid(tg), atol=0.05)
+
+
+def test_iso_offsets_and_epoch_ms(tmp_path, fl):
+    rows = ["2023-06-15T01:45:00.500+02:00,46.5,7.0,1000", "2023-06-14T23:45:01.5Z,46.5,7.0,1000"]
+    tr = read_track(
+        write(tmp_path / "iso.csv", ["timestamp,latitude,longitude,altitude"] + rows * 6)
+    )
+    np.testing.assert_allclose(tr.t[:2], T0.timestamp() + np.array([0.5, 1.5]))
+    rows = ["timestamp,latitude,longitude,altitude"]
+    rows += [
+        f"{int(e * 1000)},{a},{b},{h / FT:.1f}"
+        for e, a, b, h in zip(fl["epoch"], fl["lat"], fl["lon"], fl["H"])
+    ]
+    tm = read_track(write(tmp_path / "ms.csv", rows))
+    np.testing.assert_allclose(tm.t, fl["epoch"])
+    assert any("epoch milliseconds" in n for n in tm.notes)
+
+
+def test_mapping_odd_names_feet(tmp_path, fl):
+    rows = ["Zeit;Breite;Länge;Höhe [ft];Bemerkung"]
+    rows += [
+        f"{iso(k, '%d.%m.%Y %H:%M:%S')};{fl['lat'][k]:.8f};{fl['lon'][k]:.8f};"
+        f"{fl['H'][k] / FT:.3f};x"
+        for k in range(fl["t"].size)
+    ]
+    path = write(tmp_path / "odd.txt", rows)
+    cols = "time=Zeit,lat=Breite,lon=Länge,alt=Höhe [ft]"
+    tr = read_track(path, columns=cols, alt_units="ft", time_format="%d.%m.%Y %H:%M:%S")
+    check_position(tr, fl, 1e-8)
+    np.testing.assert_allclose(tr.t, fl["epoch"])
+    assert tr.height_ref == "msl" and any("column mapping" in n for n in tr.notes)
+    np.testing.assert_allclose(tr.h - fl["H"], geoid(tr), atol=0.02)
+    te = read_track(
+        path,
+        columns=parse_columns(cols),
+        alt_units="ft",
+        height_ref="ellipsoid",
+        time_format="%d.%m.%Y %H:%M:%S",
+    )
+    np.testing.assert_allclose(te.h, fl["H"], atol=1e-3)
+    assert not any("column mapping" in n for n in te.notes)
+
+
+def test_empty_cells_dropped_and_gzip(tmp_path, fl):
+    rows = opensky_rows(fl)
+    for k in (5, 6, 700):  # ADS-B exports: rows without a position or altitude
+        c = rows[k].split(",")
+        c[2 if k != 700 else 8] = "" if k != 6 else "NaN"
+        rows[k] = ",".join(c)
+    path = tmp_path / "states.csv.gz"
+    path.write_bytes(gzip.compress(("\n".join(rows) + "\n").encode()))
+    tr = read_track(path)
+    assert len(tr) == fl["t"].size - 3
+    assert any("dropped 3 of 1800" in n and "line 6" in n for n in tr.notes)
+    assert 6 not in tr.lines and tr.lines[4] == 8
+
+
+def test_parse_columns():
+    assert parse_columns(" time=ts, lat=Lat ,lon=Lon,alt=h ") == {
+        "time": "ts",
+        "lat": "Lat",
+        "lon": "Lon",
+        "alt": "h",
+    }
+    for bad, what in (
+        ("time=a,lat=b,lon=c", "missing alt"),
+        ("time=a,x=b", "not one of"),
+        ("time=a,time=b,lat=c,lon=d,alt=e", "twice"),
+        ("time", "not one of"),
+    ):
+        with pytest.raises(InputError, match=what):
+            parse_columns(bad)
+
+
+# --------------------------------------------------------------------------- GPX, NMEA, IGC
+
+
+def test_gpx_segments_msl(tmp_path, fl):
+    gpxpy = pytest.importorskip("gpxpy")
+    import gpxpy.gpx as g
+
+    gpx = g.GPX()
+    trk = g.GPXTrack()
+    gpx.tracks.append(trk)
+    for part in (slice(0, 900), slice(900, None)):
+        seg = g.GPXTrackSegment()
+        trk.segments.append(seg)
+        for k in range(fl["t"].size)[part]:
+            seg.points.append(
+                g.GPXTrackPoint(
+                    fl["lat"][k],
+                    fl["lon"][k],
+                    elevation=round(fl["H"][k], 2),
+                    time=T0 + timedelta(seconds=k),
+                )
+            )
+    tr = read_track(write(tmp_path / "flight.gpx", [gpx.to_xml()]))
+    assert gpxpy is not None
+    check_position(tr, fl, 1e-9)
+    np.testing.assert_allclose(tr.t, fl["epoch"])
+    assert tr.height_ref == "msl" and tr.t0_utc == "2023-06-14T23:45:00Z"
+    np.testing.assert_allclose(tr.h - fl["H"], geoid(tr), atol=0.02)
+    assert np.all(np.diff(tr.lines) > 0)  # the line of each <trkpt>
+
+
+def nmea(body: str) -> str:
+    """Return an NMEA 0183 sentence with its checksum: XOR of the characters between $ and *."""
+    cs = 0
+    for ch in body:
+        cs ^= ord(ch)
+    return f"${body}*{cs:02X}"
+
+
+def ddmm(v: float, hemi: str, width: int) -> tuple[str, str]:
+    a = abs(v)
+    d, m = int(a), round((abs(v) - int(a)) * 60.0, 4)
+    d, m = (d + 1, 0.0) if m >= 60.0 else (d, m)
+    return f"{d:0{width}d}{m:07.4f}", hemi[int(v < 0)]
+
+
+def nmea_lines(fl, sep=True, bad=()):
+    out = []
+    for k in range(fl["t"].size):
+        tt = T0 + timedelta(seconds=k)
+        hms, dmy = tt.strftime("%H%M%S.00"), tt.strftime("%d%m%y")
+        la, ns = ddmm(fl["lat"][k], "NS", 2)
+        lo, ew = ddmm(fl["lon"][k], "EW", 3)
+        s = f"{fl['N'][k]:.1f}" if sep else ""
+        out.append(nmea(f"GPRMC,{hms},A,{la},{ns},{lo},{ew},447.1,60.0,{dmy},,,A"))
+        gga = nmea(f"GPGGA,{hms},{la},{ns},{lo},{ew},1,09,0.8,{fl['H'][k]:.1f},M,{s},M,,")
+        out.append(gga[:-2] + "00" if k in bad else gga)
+    return out
+
+
+def test_nmea_gga_rmc_midnight(tmp_path, fl):
+    tr = read_track(write(tmp_path / "log.nmea", nmea_lines(fl, bad=(3, 4, 5))))
+    assert len(tr) == fl["t"].size - 3 and any(
+        "3 sentences with a bad checksum" in n for n in tr.notes
+    )
+    keep = np.setdiff1d(np.arange(fl["t"].size), [3, 4, 5])
+    np.testing.assert_allclose(tr.t, fl["epoch"][keep])  # across midnight: the RMC dates
+    np.testing.assert_allclose(tr.lat, fl["lat"][keep], atol=1e-6)
+    np.testing.assert_allclose(tr.lon, fl["lon"][keep], atol=1e-6)
+    assert tr.height_ref == "ellipsoid" and tr.lines[0] == 2
+    np.testing.assert_allclose(tr.h, fl["h"][keep], atol=0.1)  # altitude + separation
+    # no separation field: MSL + fieldmap's N; GGA without RMC: seconds of the day
+    tm = read_track(write(tmp_path / "nosep.txt", nmea_lines(fl, sep=False)))
+    assert tm.height_ref == "msl"
+    np.testing.assert_allclose(tm.h - np.round(fl["H"], 1), geoid(tm), atol=0.02)
+    gga_only = [s for s in nmea_lines(fl) if "GGA" in s]
+    tg = read_track(write(tmp_path / "gga.nmea", gga_only))
+    assert tg.t0_utc is None and tg.t[0] == 23 * 3600 + 45 * 60 and tg.t[-1] == 86400 + 899
+
+
+def b_record(k, fl, gnss, press=None):
+    tt = T0 + timedelta(seconds=k)
+    out = []
+    for v, w, hemi in ((fl["lat"][k], 2, "NS"), (fl["lon"][k], 3, "EW")):
+        a = abs(v)
+        d, m = int(a), round((a - int(a)) * 60000)
+        d, m = (d + 1, 0) if m >= 60000 else (d, m)
+        out.append(f"{d:0{w}d}{m:05d}{hemi[int(v < 0)]}")
+    p = round(fl["H"][k]) if press is None else press
+    return f"B{tt:%H%M%S}{out[0]}{out[1]}A{p:05d}{gnss:05d}"
+
+
+def test_igc_gnss_pressure_midnight(tmp_path, fl):
+    head = ["AXXX001 fieldmap test", "HFDTEDATE:140623,01", "HFGIDGLIDERID:D-1234", "I013638FXA"]
+    recs = [b_record(k, fl, round(fl["h"][k])) + "035" for k in range(fl["t"].size)]
+    tr = read_track(write(tmp_path / "flight.igc", head + recs + ["GABCDEF"]))
+    check_position(tr, fl, 1e-5)  # 0.001 minute
+    np.testing.assert_allclose(tr.t, fl["epoch"])  # midnight rollover
+    assert tr.height_ref == "ellipsoid" and any("HFALG" in n for n in tr.notes)
+    np.testing.assert_allclose(tr.h, np.round(fl["h"]))
+    assert tr.lines[0] == 5
+    # HFALG says GEO: GNSS altitude is MSL; the old HFDTEDDMMYY header
+    head2 = ["AXXX001", "HFDTE140623", "HFALGALTGPS:GEO"]
+    recs = [b_record(k, fl, round(fl["H"][k])) for k in range(fl["t"].size)]
+    tg = read_track(write(tmp_path / "geo.igc", head2 + recs))
+    assert tg.height_ref == "msl"
+    np.testing.assert_allclose(tg.h - np.round(fl["H"]), geoid(tg), atol=0.02)
+    # no GNSS altitude: pressure altitude (ISA)
+    recs = [b_record(k, fl, 0) for k in range(fl["t"].size)]
+    tp = read_track(write(tmp_path / "baro.igc", head2 + recs))
+    assert tp.height_ref == "pressure" and any("ISA" in n for n in tp.notes)
+    Hp = np.round(fl["H"])
+    np.testing.assert_allclose(tp.h - R_ISA * Hp / (R_ISA - Hp), geoid(tp), atol=0.02)
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def test_dataframe_dataset_dict(fl):
+    pd = pytest.importorskip("pandas")
+    xr = pytest.importorskip("xarray")
+    ts = pd.to_datetime(fl["epoch"], unit="s", utc=True)
+    df = pd.DataFrame(
+        dict(timestamp=ts, latitude=fl["lat"], longitude=fl["lon"], altitude=fl["H"] / FT)
+    )
+    tr = read_track(df)
+    np.testing.assert_allclose(tr.t, fl["epoch"])
+    assert tr.source == "DataFrame" and tr.height_ref == "pressure" and tr.lines[0] == 1
+    ds = xr.Dataset(
+        {
+            k: ("time_s", fl[v])
+            for k, v in (("lat_deg", "lat"), ("lon_deg", "lon"), ("height_m", "h"))
+        },
+        coords={"time_s": fl["t"]},
+    )
+    tx = read_track(ds)
+    assert tx.source == "Dataset" and tx.height_ref == "ellipsoid"
+    np.testing.assert_allclose(tx.h, fl["h"])
+    arrays = {"T": fl["epoch"], "y": fl["lat"], "x": fl["lon"], "z": fl["H"]}
+    ta = read_track(arrays, columns={"time": "T", "lat": "y", "lon": "x", "alt": "z"})
+    assert ta.source == "arrays" and ta.t0_utc == "2023-06-14T23:45:00Z"
+    with pytest.raises(InputError, match="arrays record 3 column y: 'north' is not a number"):
+        bad = dict(arrays, y=np.array([str(v) for v in fl["lat"]], dtype=object))
+        bad["y"][2] = "north"
+        read_track(bad, columns="time=T,lat=y,lon=x,alt=z")
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+def test_unknown_columns(tmp_path):
+    path = write(tmp_path / "x.csv", ["when,north,east,up", "0,1,2,3"])
+    with pytest.raises(InputError) as e:
+        read_track(path)
+    msg = str(e.value)
+    assert "unrecognised columns (when, north, east, up)" in msg and "--columns time=" in msg
+    assert "\n" not in msg
+    with pytest.raises(InputError, match="no column 'lat'.*columns: when, north, east, up"):
+        read_track(path, columns="time=when,lat=lat,lon=east,alt=up")
+
+
+def test_bad_time_latitude_number(tmp_path, fl):
+    rows = traffic_rows(fl)
+    rows[5] = rows[5].replace(rows[5].split(",")[0], "2023-06-14 25:99:00")
+    with pytest.raises(
+        InputError, match=r"line 6 column timestamp: '2023-06-14 25:99:00' is not a time"
+    ):
+        read_track(write(tmp_path / "t.csv", rows))
+    rows = ["time_s,lat_deg,lon_deg,height_m"] + [f"{k},46.5,7.0,1000" for k in range(20)]
+    rows[10] = "9,95.5,7.0,1000"
+    with pytest.raises(InputError, match=r"line 11 column lat_deg: 95.5 is beyond ±90°"):
+        read_track(write(tmp_path / "lat.csv", rows))
+    rows[10] = "9,46.5,7.0,1e3m"
+    with pytest.raises(InputError, match=r"line 11 column height_m: '1e3m' is not a number"):
+        read_track(write(tmp_path / "num.csv", rows))
+    rows[10] = "9,46.5,400,1000"
+    with pytest.raises(InputError, match=r"line 11 column lon_deg: 400 is beyond ±360°"):
+        read_track(write(tmp_path / "lon.csv", rows))
+    rows[10] = "9,46.5,7.0"
+    with pytest.raises(InputError, match=r"line 11: 3 fields, the header \(line 1\) has 4"):
+        read_track(write(tmp_path / "short.csv", rows))
+
+
+def test_feet_read_as_metres(tmp_path, fl):
+    path = write(tmp_path / "feet.csv", opensky_rows(fl, scale=1 / FT))
+    with pytest.raises(InputError, match=r"altitudes up to 36,\d{3} m .*feet read as metres\?"):
+        read_track(path)
+    tr = read_track(path, alt_units="ft")  # declared: no guess, converted
+    np.testing.assert_allclose(tr.h - fl["H"], geoid(tr), atol=0.05)
+    jumpy = dict(fl, H=1000.0 + 600.0 * (np.arange(fl["t"].size) % 2))
+    with pytest.raises(InputError, match=r"line \d+ column geoaltitude: vertical rate 600 m/s sus"):
+        read_track(write(tmp_path / "rate.csv", opensky_rows(jumpy)))
+    # units in the column name (fieldmap's height_m): no guess
+    rows = ["time_s,lat_deg,lon_deg,height_m"]
+    rows += [f"{k},{a},{b},{h / FT}" for k, a, b, h in zip(fl["t"], fl["lat"], fl["lon"], fl["H"])]
+    assert read_track(write(tmp_path / "balloon.csv", rows)).h.max() > 36_000
+
+
+def test_radians(tmp_path, fl):
+    rows = ["time_s,lat_deg,lon_deg,height_m"]
+    rows += [
+        f"{t:g},{np.radians(a):.9f},{np.radians(b):.9f},1000"
+        for t, a, b in zip(fl["t"], fl["lat"], fl["lon"])
+    ]
+    with pytest.raises(InputError, match="line 2 column lat_deg: .*look like radians"):
+        read_track(write(tmp_path / "rad.csv", rows))
+
+
+def test_not_a_flight(tmp_path):
+    for name, data, what in (
+        ("empty.csv", b"", "empty flight log"),
+        ("blank.csv", b"\n  \n", "empty flight log"),
+        ("comments.csv", b"# nothing\n", "empty flight log"),
+        (
+            "image.csv",
+            b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(64),
+            r"not a flight log \(a PNG image\)",
+        ),
+        ("blob.bin", b"\x01\x02\x00\x03" * 50, "binary data"),
+        ("numbers.csv", b"1,2,3\n4,5,6\n", "line 1: numbers where the header row"),
+        ("header.csv", b"time_s,lat_deg,lon_deg,height_m\n", r"a header \(line 1\) but no samples"),
+        ("x.gpx", b"<gpx><wpt lat='1' lon='2'/></gpx>", "no track or route points"),
+        ("x.igc", b"AXXX\nHFDTE010120\n", "no B record"),
+    ):
+        with pytest.raises(InputError, match=what):
+            read_track(_bytes(tmp_path / name, data))
+    with pytest.raises(InputError, match="flight log not found"):
+        read_track(tmp_path / "missing.csv")
+
+
+def _bytes(path, data):
+    path.write_bytes(data)
+    return path
+
+
+def test_nmea_bad_checksums_only(tmp_path, fl):
+    bad = [s[:-2] + ("00" if s[-2:] != "00" else "11") for s in nmea_lines(fl)[:40]]
+    with pytest.raises(InputError, match=r"no usable GGA fix .*40 sentences with a bad checksum"):
+        read_track(write(tmp_path / "bad.nmea", bad))
+    nofix = [nmea("GPGGA,120000.00,,,,,0,00,,,M,,M,,")] * 3
+    with pytest.raises(InputError, match="3 sentences without a fix"):
+        read_track(write(tmp_path / "nofix.nmea", nofix))
+
+
+def test_igc_bad_record(tmp_path, fl):
+    recs = ["AXXX", "HFDTE140623"] + [b_record(k, fl, 1000) for k in range(5)]
+    recs[4] = recs[4][:8] + "47x0000N" + recs[4][16:]
+    with pytest.raises(InputError, match=r"line 5 column latitude \(B record bytes 8-15\)"):
+        read_track(write(tmp_path / "bad.igc", recs))
+
+
+def test_options_refused(tmp_path, fl):
+    path = write(tmp_path / "s.csv", opensky_rows(fl)[:20])
+    for kw, what in (
+        ({"alt_units": "km"}, "alt_units"),
+        ({"height_ref": "agl"}, "height_ref"),
+        ({"time_format": "julian"}, "time_format"),
+    ):
+        with pytest.raises(InputError, match=what):
+            read_track(path, **kw)
+    igc = write(tmp_path / "a.igc", ["AXXX", "HFDTE140623", b_record(0, fl, 1000)])
+    with pytest.raises(InputError, match="apply to CSV"):
+        read_track(igc, columns="time=a,lat=b,lon=c,alt=d")
+
+
+# --------------------------------------------------------------------------- real ADS-B data
+
+
+def test_real_samples_in_repository():
+    files = sorted(DATA.glob("*.csv.gz"))
+    assert len(files) >= 2 and sum(f.stat().st_size for f in files) < 300_000
+    for f in files:
+        tr = read_track(f)
+        assert len(tr) > 800 and tr.t0_utc is not None
+        assert np.all(np.abs(tr.lat) <= 90) and np.all(np.isfinite(tr.h))
+        assert any("layout traffic" in n for n in tr.notes)
+    tr = read_track(DATA / "adsb_4b1815_porto_20220713.csv.gz")
+    assert len(tr) == 4500 and tr.height_ref == "pressure" and tr.t[-1] - tr.t[0] > 3600
+
+
+@pytest.mark.skipif(not TRAFFIC_SAMPLES.is_dir(), reason="traffic samples not unpacked in /tmp")
+def test_traffic_package_samples(tmp_path):
+    pd = pytest.importorskip("pandas")
+    for name in ("featured/elal747", "noisy/noisy_landing", "gliders/cevennes"):
+        df = pd.read_json(TRAFFIC_SAMPLES / f"{name}.json.gz", dtype={"icao24": str})
+        ts = pd.to_datetime(df["timestamp"], utc=True).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
+        cols = ["latitude", "longitude", "altitude", "groundspeed", "track"]
+        cols += [c for c in ("geoaltitude",) if c in df]
+        out = df[cols].assign(timestamp=ts)
+        path = tmp_path / (name.replace("/", "_") + ".csv")
+        out.to_csv(path, index=False)
+        tr = read_track(path)
+        assert len(tr) >= 0.95 * len(df) and tr.t0_utc is not None
+        assert np.nanmax(tr.h) < 15_000
