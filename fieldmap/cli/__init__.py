@@ -5,6 +5,9 @@ the sub-parser and sets ``func`` (called with the parsed namespace, returns an e
 Every :class:`fieldmap.errors.FieldmapError` (and ``OSError`` on output) becomes one line on
 stderr and exit status 2, never a traceback; so do bad option values found by argparse (no usage
 block) and a missing optional dependency (the line names the module and the extra to install).
+An option that does not apply in the context given (``navsim --block-s`` with ``--study``) is
+refused the same way, never silently ignored: :func:`given` tells an option the user typed from
+one left at its default.
 Exit statuses: 0 success; 1 ``fieldmap point`` with bad input lines, or ``verify`` with a failed
 check; 2 bad input; 3 an unexpected internal error (one line; set ``FIELDMAP_DEBUG=1`` for the
 traceback); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM). Interrupted or terminated runs
@@ -68,6 +71,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: attribute of the parsed namespace: the destinations the command line set (:func:`given`)
+_GIVEN = "_given_options"
+
+
+def given_options(argv: list[str]) -> frozenset[str]:
+    """Return the destinations (``bias_mode``, ``lat_max``...) that ``argv`` itself sets.
+
+    The command line is parsed a second time by a parser whose every default is removed
+    (``argparse.SUPPRESS``), so the namespace holds only what was typed: an option given with
+    its default value (``--bias-mode gauss``) counts as given, an option left out does not.
+    """
+    parser = build_parser()
+
+    def strip(p: argparse.ArgumentParser) -> None:
+        p._defaults.clear()  # set_defaults(func=...)
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in {id(s): s for s in action.choices.values()}.values():
+                    strip(sub)
+            else:
+                action.default = argparse.SUPPRESS
+
+    strip(parser)
+    return frozenset(vars(parser.parse_args(argv)))
+
+
+def given(args: argparse.Namespace, dest: str) -> bool:
+    """Tell whether the user gave the option of ``dest`` (not its default) on the command line.
+
+    False for a namespace not made by :func:`main` (a script calling a sub-command's function):
+    nothing is refused then for being given.
+    """
+    return dest in getattr(args, _GIVEN, ())
+
+
 #: The optional dependencies, as in pyproject.toml's ``[project.optional-dependencies]``: extra ->
 #: requirement -> the modules it provides. Only the extras fieldmap itself imports from (not
 #: ``test``, ``dev``, ``docs``); ``tests/test_bad_input_cli.py`` checks the table against
@@ -118,6 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    setattr(args, _GIVEN, given_options(sys.argv[1:] if argv is None else list(argv)))
     # Warp's notice about stale cache folders of another Warp version says nothing about the run
     warnings.filterwarnings("ignore", message="Kernel cache artifacts from a previous Warp")
     prefix = f"fieldmap {args.command}"

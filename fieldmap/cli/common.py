@@ -79,8 +79,17 @@ def heights_km(args, one: str | None = None) -> list[float]:
 
 
 def region(args):
-    """``--region`` as a (west, east, south, north) tuple, or None."""
-    return tuple(args.region) if args.region is not None else None
+    """``--region`` as a (west, east, south, north) tuple, or None.
+
+    ``--lat-max`` (the extent of a global grid) given with ``--region`` is refused.
+    """
+    from fieldmap.cli import given
+
+    if args.region is None:
+        return None
+    if given(args, "lat_max"):
+        raise InputError("--lat-max applies to global grids, not with --region")
+    return tuple(args.region)
 
 
 def preflight(args, heights_km, layers: int = 1) -> None:

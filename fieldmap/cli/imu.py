@@ -45,6 +45,7 @@ def register(subparsers) -> None:
 
 def run_allan(args) -> int:
     """Simulate, write the table, JSON and plot, print the table."""
+    from fieldmap.cli import given
     from fieldmap.nav.allan import allan_table
     from fieldmap.nav.imu_specs import load_imu
     from fieldmap.products.io import check_out_dir, output_batch, signals_deferred
@@ -55,6 +56,8 @@ def run_allan(args) -> int:
     if args.seed < 0:
         raise InputError(f"--seed must be >= 0, got {args.seed}")
     label, spec = load_imu(args.imu)
+    if spec.is_ideal and given(args, "seed"):
+        raise InputError(f"--seed: IMU {label!r} has no random errors to draw")
     check_out_dir(args.out)
     tab = allan_table(spec, args.duration, args.rate, seed=args.seed)
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", label)

@@ -5,6 +5,11 @@ path; ``--trajectory FILE`` or ``--route "lat,lon,h;..." --speed-mps V`` runs th
 :mod:`fieldmap.nav.flightsim` (``navsim_flight.*``: see
 :func:`fieldmap.nav.report.write_flight_outputs`).
 
+Each option applies to the paper's studies, to the flight study or to both (the table of
+:data:`FLIGHT_ONLY`, :data:`STUDIES_ONLY` and :data:`USED_BY`): one given where it does nothing
+(``--block-s`` with ``--study table1``, ``--bias-mode`` with ``--route``, ``--draws`` with an
+ideal IMU) is refused in one line, exit status 2, before any work.
+
 Writes, for each study, ``navsim_<study>.csv`` / ``.json`` (table rows, truth model, floor, paper
 values), ``navsim_<study>.nc`` (error curves over time, xarray/NetCDF, CF attributes) and
 ``navsim_<study>.png`` (Figs. 11-13 like curves) under ``--out`` (default ``outputs/``). Every
@@ -35,7 +40,8 @@ def register(subparsers) -> None:
         description="Boost-glide INS simulation in the launch-centred inertial frame: exact IMU "
         "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
         "each navigation gravity model and IMU error draw in one Warp launch. "
-        "Bad input: one line on stderr, exit status 2, nothing written.",
+        "Bad input, or an option given where it does nothing (a flight option with --study, "
+        "--bias-mode with --route): one line on stderr, exit status 2, nothing written.",
     )
     p.add_argument(
         "--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)"
@@ -145,7 +151,12 @@ def register(subparsers) -> None:
         help="interval of the error curves in s (paper's studies: default 1, dividing the run; "
         "flight: default about 3600 points)",
     )
-    p.add_argument("--no-timing", action="store_true", help="skip the gravity CPU-time measurement")
+    p.add_argument(
+        "--no-timing",
+        action="store_true",
+        help="table1: skip the gravity CPU-time measurement; flight: leave the wall-clock "
+        "seconds out of navsim_flight.json/.nc (null), so that two runs' files compare equal",
+    )
     p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
     p.add_argument(
         "--scheduler",
@@ -163,6 +174,81 @@ def register(subparsers) -> None:
         help="output folder, created with its parents if missing (default outputs/)",
     )
     p.set_defaults(func=run)
+
+
+#: options of the flight study (``--trajectory``/``--route``) only: dest -> option
+FLIGHT_ONLY = {
+    "imu": "--imu",
+    "frame": "--frame",
+    "altitude_aiding": "--altitude-aiding",
+    "fraction": "--fraction",
+    "block_s": "--block-s",
+}
+#: options of the paper's studies only (the flight study's IMU-only reference is J4 and its
+#: constant errors are Gaussian): dest -> option
+STUDIES_ONLY = {"study": "--study", "nav": "--nav", "bias_mode": "--bias-mode"}
+#: options that only some of the paper's studies use: dest -> (option, the studies using it)
+USED_BY = {
+    "models": ("--models", ("table1", "table4")),
+    "no_timing": ("--no-timing", ("table1",)),
+    "draws": ("--draws", ("table3", "table4")),
+    "seed": ("--seed", ("table3", "table4")),
+    "bias_mode": ("--bias-mode", ("table3", "table4")),
+    "nav": ("--nav", ("table3", "table4")),
+}
+_FLIGHT = "flight studies (--trajectory/--route)"
+
+
+def _refuse_in_studies(args, studies, models, nav) -> None:
+    """Refuse, in one line, an option given that the paper's chosen studies do not use."""
+    from fieldmap.cli import given
+
+    where = f"--study {args.study}"
+    for dest, option in FLIGHT_ONLY.items():
+        if given(args, dest):
+            raise InputError(f"{option} applies to {_FLIGHT}, not to {where}")
+    if given(args, "speed_mps"):
+        raise InputError(f"--speed-mps applies to --route, not to {where}")
+    for dest, (option, users) in USED_BY.items():
+        if given(args, dest) and not set(users) & set(studies):
+            raise InputError(
+                f"{option} applies to --study {' or '.join(users)} (or all), not to {where}"
+            )
+    if tuple(studies) == ("table4",) and given(args, "models"):
+        unused = [m for m in models if not (m.startswith("sh") or m == nav)]
+        if unused:
+            raise InputError(
+                f"--models {' '.join(unused)}: --study table4 runs the SH models of --models and "
+                f"--nav ({nav}) only"
+            )
+
+
+def _refuse_in_flight(args, imu, traj) -> None:
+    """Refuse, in one line, an option given that the flight study does not use."""
+    from fieldmap.cli import given
+    from fieldmap.nav.flightsim import BARO_AFTER_S
+
+    for dest, option in STUDIES_ONLY.items():
+        if given(args, dest):
+            studies = "the paper's studies" + ("" if option == "--study" else " (--study)")
+            raise InputError(f"{option} applies to {studies}, not to {_FLIGHT}")
+    if given(args, "speed_mps") and args.route is None:
+        raise InputError("--speed-mps applies to --route, not to --trajectory")
+    label, spec = imu
+    if spec.is_ideal:
+        if given(args, "draws"):
+            raise InputError(
+                f"--draws needs IMU errors to draw: --imu {label} flies one run per model"
+            )
+        frame = args.frame or "ned"
+        duration = traj.duration if args.duration is None else args.duration
+        baro = args.altitude_aiding == "baro" or (
+            args.altitude_aiding == "auto" and frame == "ned" and duration > BARO_AFTER_S
+        )
+        if given(args, "seed") and not baro:
+            raise InputError(
+                f"--seed: nothing is drawn with --imu {label} and no baro altitude aiding"
+            )
 
 
 #: most Monte Carlo draws per study (each draw propagates the whole flight; 10 000 draws of the
@@ -214,6 +300,7 @@ def _check_args(args):
         )
     sample_count(args.duration, args.rate)
     nav = check_model_names([args.nav], model)[0]
+    _refuse_in_studies(args, STUDIES if args.study == "all" else (args.study,), models, nav)
     check_out_dir(args.out)
     try:
         device = resolve_device(args.device)
@@ -254,6 +341,7 @@ def _check_flight_args(args, model, models):
         traj = FlightTrajectory(args.trajectory)
     else:
         traj = FlightTrajectory(route_flight(args.route, args.speed_mps))
+    _refuse_in_flight(args, imu, traj)
     check_out_dir(args.out)
     try:
         device = resolve_device(args.device)
@@ -301,6 +389,8 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
     for w in caught:
         if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
             tqdm.write(f"warning: {w.message}")
+    if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
+        res.summary["meta"].update(synthesis_seconds=None, propagation_seconds=None)
     grid = disturbance_grid(res, model, device=device)
     with output_batch(args.out) as batch:
         write_flight_outputs(res, batch, grid)

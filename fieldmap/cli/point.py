@@ -47,7 +47,8 @@ def register(subparsers) -> None:
             "in m/s², or normal gravity in m/s². Accepted: |lat| <= 90, lon in [-540, 540), "
             "h from -10 km to 1e5 km. A bad line prints 'ERROR: reason' in its place (one "
             "summary line on stderr, exit status 1); bad options: one line on stderr, exit 2. "
-            "Empty input: no output, exit 0."
+            "Empty input: no output, exit 0. An option the quantity does not use (--normal "
+            "without --quantity normal, a model option with it) is refused the same way."
         ),
     )
     p.add_argument(
@@ -215,6 +216,7 @@ def run_point(args) -> int:
     from fieldmap.errors import InputError
     from fieldmap.models.registry import model_options
 
+    _refuse_unused(args)
     opts = model_options(args)
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
@@ -273,6 +275,36 @@ def run_point(args) -> int:
         )
         return 1
     return 0
+
+
+#: options of the spherical-harmonic model, unused by ``--quantity normal``: dest -> option
+_MODEL_OPTIONS = {
+    "model": "--model",
+    "lmax": "--lmax",
+    "epoch": "--epoch",
+    "model_dir": "--model-dir",
+    "gm": "--gm",
+    "radius": "--radius",
+    "no_cache": "--no-cache",
+}
+
+
+def _refuse_unused(args) -> None:
+    """Refuse, in one line, an option given that the chosen ``--quantity`` does not use."""
+    from fieldmap.cli import given
+    from fieldmap.errors import InputError
+
+    if args.quantity == "normal":
+        for dest, option in _MODEL_OPTIONS.items():
+            if given(args, dest):
+                raise InputError(
+                    f"{option} applies to the gravity model, not to --quantity normal (the "
+                    "normal field of --normal)"
+                )
+    elif given(args, "normal"):
+        raise InputError(
+            f"--normal applies to --quantity normal, not to --quantity {args.quantity}"
+        )
 
 
 def _write_all(out, text: str) -> None:

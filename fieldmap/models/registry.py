@@ -353,8 +353,15 @@ def add_model_options(parser) -> None:
 def model_options(args) -> dict:
     """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`.
 
-    ``--no-cache`` also stops the cache of recursion tables for this process.
+    ``--no-cache`` also stops the cache of recursion tables for this process. ``--model-dir``
+    with a bundled model name (read from the package, never from that folder) is refused.
     """
+    model_dir, model = getattr(args, "model_dir", None), getattr(args, "model", None)
+    if model_dir is not None and str(model).strip().lower() in BUNDLED:
+        raise InputError(
+            f"--model-dir applies to GeographicLib model names and files, not to the bundled "
+            f"{model} (give --model NAME of a model in {model_dir})"
+        )
     if getattr(args, "no_cache", False):
         disk_cache.disable()
     return {
