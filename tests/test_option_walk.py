@@ -383,14 +383,7 @@ def _maps(cmd: str, height: tuple) -> dict:
         "--height-km": [C(ctx, "--height-km", *height)],
         "--thresholds-mg": [
             C(ctx, "--thresholds-mg", "0.03"),
-            C(
-                anomaly,
-                "--thresholds-mg",
-                "0.03",
-                expect=GAP,
-                note="ignored today with --quantity anomaly; fix pending in fieldmap/cli/maps.py "
-                "(run_map/run_sweep) or fieldmap/cli/quantity.py (run_quantity)",
-            ),
+            C(anomaly, "--thresholds-mg", "0.03", expect=REFUSED),
         ],
         # the streamed product: the same numbers; its JSON names the product file, its report
         # says "block by block"

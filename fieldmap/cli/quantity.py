@@ -23,6 +23,12 @@ def run_quantity(args, heights_km: list[float]) -> int:
             f"--percentile-method applies to the disturbance modulus, not to --quantity "
             f"{args.quantity}"
         )
+    from fieldmap.cli import given
+
+    if given(args, "thresholds_mg"):
+        raise InputError(
+            f"--thresholds-mg applies to the disturbance modulus, not to --quantity {args.quantity}"
+        )
     if distributed.wanted(args):
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)

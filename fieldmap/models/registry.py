@@ -176,7 +176,7 @@ def load_model(
         if epoch is not None:  # its coefficients are fixed: an epoch cannot be applied now
             t = parse_epoch(epoch)
             have = name_or_path.epoch
-            if have is None or abs(t - have) > 1e-9:
+            if have is None or t is None or abs(t - have) > 1e-9:
                 raise InputError(
                     f"epoch {epoch} cannot be applied to the model object {name_or_path.name!r} "
                     f"(its coefficients are fixed, epoch {have if have is not None else 'unset'}):"

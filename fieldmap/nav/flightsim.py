@@ -169,6 +169,7 @@ def run_flight(
     baro: BaroSpec = BaroSpec(),
     truth: str = "eigen-6s",
     truth_lmax: int | None = None,
+    truth_evaluation: str = "interpolated",
     n_gauss: int = 3,
     duration: float | None = None,
     output_dt: float | None = None,
@@ -203,6 +204,11 @@ def run_flight(
     baro : BaroSpec
         Baro error model and loop time constant.
     truth, truth_lmax : str, int
+    truth_evaluation : {"interpolated", "full"}
+        ``interpolated`` (default): the truth disturbance on a time grid along the path plus
+        the exact normal field at every quadrature node
+        (:class:`fieldmap.nav.trackgravity.TrackGravitation`, its measured interpolation error
+        in the summary); ``full``: the SH model at every node.
         Truth gravity model (name or ICGEM file) and degree.
     n_gauss : int
         Gauss–Legendre nodes per IMU sample in the synthesis.
@@ -228,6 +234,10 @@ def run_flight(
     """
     from fieldmap.nav.studies import check_model_names
 
+    if truth_evaluation not in ("interpolated", "full"):
+        raise InputError(
+            f"truth evaluation must be 'interpolated' or 'full', got {truth_evaluation!r}"
+        )
     frame = str(frame).lower()
     if frame not in ("ned", "lci"):
         raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
@@ -275,7 +285,12 @@ def run_flight(
     inv = np.argsort(perm)
     ell = traj.frame.ellipsoid
     dt = 1.0 / float(rate_hz)
-    g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
+    if truth_evaluation == "full":
+        g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
+    else:
+        from fieldmap.nav.trackgravity import TrackGravitation
+
+        g_truth = TrackGravitation(model, traj, ellipsoid=ell, device=device)
     g_ref = Gravitation("j4", device=device, ellipsoid=ell)  # the navigator's J4 (same ellipsoid)
 
     # start state (truth at t = 0); runs in a cost-balanced order (perm), results put back
@@ -361,6 +376,9 @@ def run_flight(
             "baro": baro.__dict__ if aiding == "baro" else None,
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
+            "truth_evaluation": truth_evaluation,
+            "truth_gravity": g_truth.name,
+            "truth_interpolation_max_error_mgal": getattr(g_truth, "max_error_mgal", 0.0),
             "n_gauss": int(n_gauss),
             "output_dt_s": float(every * dt),
             "block_s": float(per_block * dt),

@@ -286,12 +286,12 @@ def synthesize(
         ts = t0 + dt * np.arange(sample0 + s0, sample0 + s1, dtype=np.float64)
         tq = (ts[:, None] + dt * xg[None, :]).ravel()
         if direct:
-            w_b, f_bs = _body_ecef(traj, tq, gravities)
+            w_b, f_bs = _body_ecef(traj, tq, gravities)  # (_evaluate: at times where it can)
         else:
             k = traj.kinematics(tq)
             f_bs = []
             for g in gravities:
-                g_a = traj.frame.vector_e_to_a(np.asarray(g(k.r_e), dtype=np.float64), tq)
+                g_a = traj.frame.vector_e_to_a(_evaluate(g, tq, k.r_e), tq)
                 f_bs.append(np.einsum("nji,nj->ni", k.C_b_to_a, k.A_a - g_a))
             w_b = k.w_b
         wq = (dt * wg)[None, :, None]
@@ -316,6 +316,13 @@ def synthesize(
     return out if many else out[0]
 
 
+def _evaluate(g, t, r) -> np.ndarray:
+    """Gravitation ``g`` on the path: by time where it interpolates along it, else by position."""
+    if hasattr(g, "at_times"):  # fieldmap.nav.trackgravity.TrackGravitation
+        return g.at_times(t, r)
+    return np.asarray(g(r), dtype=np.float64)
+
+
 def _body_ecef(traj: Trajectory, t, gravities):
     """Body rate ω_ib^b and specific forces f^b (one per gravity) at times ``t`` from ECEF.
 
@@ -327,6 +334,6 @@ def _body_ecef(traj: Trajectory, t, gravities):
     C_b_e, w_eb_e = traj._attitude(t, r, v, a)
     w = np.array([0.0, 0.0, traj.frame.omega])
     a_in = a + 2.0 * np.cross(w, v) + np.cross(w, np.cross(w, r))
-    vecs = [w_eb_e + w] + [a_in - np.asarray(g(r), dtype=np.float64) for g in gravities]
+    vecs = [w_eb_e + w] + [a_in - _evaluate(g, t, r) for g in gravities]
     body = np.einsum("nji,nkj->nki", C_b_e, np.stack(vecs, 1))
     return body[:, 0], [body[:, 1 + j] for j in range(len(gravities))]

@@ -1,0 +1,82 @@
+"""Truth gravitation interpolated along the path vs the full SH evaluation (issue 16).
+
+The reference here is the SH model evaluated at every point, independent of the interpolation;
+the paths are the paper's boost-glide (the field changes fastest there) and an airliner route.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fieldmap.nav.flight import FlightTrajectory, route_flight
+from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
+from fieldmap.nav.trackgravity import TrackGravitation
+from fieldmap.nav.trajectory import BoostGlide
+
+MGAL = 1e-5
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_truth_model(lmax=120)
+
+
+def _paths():
+    return {
+        "boost-glide": BoostGlide(),
+        "airliner": FlightTrajectory(route_flight("47,8,500;48.5,12,11000;50,16,11000", 230.0)),
+    }
+
+
+@pytest.mark.parametrize("name", ["boost-glide", "airliner"])
+def test_interpolated_disturbance_within_its_stated_bound(model, name):
+    traj = _paths()[name]
+    tg = TrackGravitation(model, traj, device="cpu")
+    assert tg.max_error_mgal <= 1e-4
+    rng = np.random.default_rng(1)
+    t = np.sort(rng.uniform(0.0, traj.duration, 400))
+    r = traj.kinematics(t).r_e
+    sh = Gravitation("sh", model=model, device="cpu")
+    full = sh(r) - Gravitation("exact", device="cpu")(r)
+    err = np.linalg.norm(tg.disturbance_at(t) - full, axis=1) / MGAL
+    assert err.max() < 1e-3  # random points, not only the checked midpoints
+    got = tg.at_times(t, r)
+    assert np.max(np.abs(got - sh(r))) / MGAL < 1e-3
+
+
+def test_same_bits_whatever_the_pieces(model):
+    traj = _paths()["airliner"]
+    t = np.linspace(0.0, traj.duration, 3001)
+    whole = TrackGravitation(model, traj, device="cpu").disturbance_at(t)
+    tg = TrackGravitation(model, traj, device="cpu")
+    parts = np.concatenate([tg.disturbance_at(p) for p in np.array_split(t[::-1], 7)])[::-1]
+    assert np.array_equal(whole, parts)
+
+
+def test_increments_agree_with_the_full_synthesis(model):
+    traj = _paths()["boost-glide"]
+    full = synthesize(traj, 100.0, Gravitation("sh", model=model, device="cpu"), duration=200.0)
+    fast = synthesize(traj, 100.0, TrackGravitation(model, traj, device="cpu"), duration=200.0)
+    assert np.array_equal(full.dtheta, fast.dtheta)
+    # dv error / dt: the specific-force error in mGal
+    assert np.max(np.abs(full.dv - fast.dv)) / full.dt / MGAL < 1e-4
+
+
+def test_flight_study_same_answer_as_the_full_evaluation(model):
+    from fieldmap.nav import flightsim
+    from fieldmap.nav.imu_specs import load_imu
+
+    ft = _paths()["airliner"]
+    name, imu = load_imu("navigation")
+    kw = dict(
+        imu=imu, imu_name=name, models=["j4", "normal", "sh60"], draws=2, rate_hz=50.0,
+        truth_lmax=120, duration=600.0, output_dt=10.0, device="cpu",
+    )  # fmt: skip
+    fast = flightsim.run_flight(ft, **kw)
+    full = flightsim.run_flight(ft, **kw, truth_evaluation="full")
+    assert fast.summary["meta"]["truth_interpolation_max_error_mgal"] <= 1e-4
+    for m, e in full.summary["models"].items():
+        a = e["final_horizontal_error_m"]["rms"]
+        b = fast.summary["models"][m]["final_horizontal_error_m"]["rms"]
+        assert abs(a - b) <= 1e-3 * abs(a) + 1e-6, m
