@@ -37,3 +37,38 @@ def nav_gravitation_ecef(kind: int, p: wp.vec3d, ell: NormalParams, sh: SHKernel
 def nav_gravity_ecef(kind: int, p: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
     """Gravity (gravitation + centrifugal, Groves eq. 3.7.5) at ECEF ``p``. Units: m -> m/s²."""
     return nav_gravitation_ecef(kind, p, ell, sh) + centrifugal_ecef(p, ell.omega)
+
+
+@wp.func
+def held_gravitation_ecef(
+    kind: int,
+    p: wp.vec3d,
+    ell: NormalParams,
+    sh: SHKernelModel,
+    index: int,
+    every: int,
+    hold: wp.vec3d,
+    slope: wp.vec3d,
+    last: wp.vec3d,
+):
+    """Navigation gravitation with the SH disturbance updated every ``every`` samples.
+
+    As a flight computer does (normal gravity every step, the disturbance at a slower gravity
+    rate): for ``kind`` NAV_SH and ``every`` > 1 the disturbance δ = g_SH − γ_exact is evaluated
+    when ``index`` (global sample index) is ``every`` or more past the last evaluation
+    (``last[0]``; ``last[1]`` = 0 before the first), and between evaluations extrapolated
+    linearly from the last two (``slope`` per sample): g = γ_exact(p) + δ + slope (index − j).
+    Other kinds, or ``every`` ≤ 1: the full :func:`nav_gravitation_ecef`. Returns the
+    gravitation (ECEF, m/s²) and the updated (hold, slope, last).
+    """
+    if kind != NAV_SH or every <= 1:
+        return nav_gravitation_ecef(kind, p, ell, sh), hold, slope, last
+    normal = normal_field_ecef(p, ell, NAV_NORMAL_EXACT, 0)
+    j = wp.float64(index)
+    if last[1] == wp.float64(0.0) or j - last[0] >= wp.float64(every):
+        d = sh_gravitation_ecef(sh, p) - normal
+        if last[1] != wp.float64(0.0):
+            slope = (d - hold) / (j - last[0])
+        hold = d
+        last = wp.vec3d(j, wp.float64(1.0), wp.float64(0.0))
+    return normal + hold + slope * (j - last[0]), hold, slope, last

@@ -21,8 +21,8 @@ import warp as wp
 
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
-from .navgravity import nav_gravitation_ecef, nav_gravity_ecef
-from .normal import NormalParams
+from .navgravity import held_gravitation_ecef, nav_gravity_ecef
+from .normal import NormalParams, centrifugal_ecef
 from .sh import SHKernelModel
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
@@ -181,6 +181,8 @@ def lci_kernel(
     n_steps: wp.int32,
     output_every: wp.int32,
     sample0: wp.int32,
+    grav_every: wp.int32,
+    grav_hold: wp.array2d(dtype=wp.vec3d),
     P_out: wp.array2d(dtype=wp.vec3d),
     V_out: wp.array2d(dtype=wp.vec3d),
     q_out: wp.array2d(dtype=wp.quatd),
@@ -220,6 +222,9 @@ def lci_kernel(
         noisy = 1
     beta_g = err.gyro_gm[i]
     beta_a = err.acc_gm[i]
+    gh = grav_hold[i, 0]
+    gs = grav_hold[i, 1]
+    gl = grav_hold[i, 2]
     P_out[i, 0] = P
     V_out[i, 0] = V
     q_out[i, 0] = q
@@ -251,7 +256,10 @@ def lci_kernel(
         # R_e^t(t) once per step: r_e = R_t^e (R_a^t P~ + r_launch), g^a = R_t^a R_e^t g^e (eq. 20)
         C_et = C_e_to_t(t_mid, lp.omega)
         r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
-        g_a = lp.C_t_to_a * (C_et * nav_gravitation_ecef(gk, r_e, ell, model))
+        g_e, gh, gs, gl = held_gravitation_ecef(
+            gk, r_e, ell, model, sample0 + j + 1, grav_every, gh, gs, gl
+        )
+        g_a = lp.C_t_to_a * (C_et * g_e)
         V_new = V + dv_a + g_a * T
         P = P + (V + V_new) * (_HALF * T)
         V = V_new
@@ -263,6 +271,9 @@ def lci_kernel(
             q_out[i, j] = q
     err.gyro_gm[i] = beta_g
     err.acc_gm[i] = beta_a
+    grav_hold[i, 0] = gh
+    grav_hold[i, 1] = gs
+    grav_hold[i, 2] = gl
 
 
 @wp.func
@@ -296,6 +307,8 @@ def ned_kernel(
     n_steps: wp.int32,
     output_every: wp.int32,
     sample0: wp.int32,
+    grav_every: wp.int32,
+    grav_hold: wp.array2d(dtype=wp.vec3d),
     llh_out: wp.array2d(dtype=wp.vec3d),
     v_out: wp.array2d(dtype=wp.vec3d),
     q_out: wp.array2d(dtype=wp.quatd),
@@ -331,6 +344,9 @@ def ned_kernel(
     aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
     beta_g = err.gyro_gm[i]
     beta_a = err.acc_gm[i]
+    gh = grav_hold[i, 0]
+    gs = grav_hold[i, 1]
+    gl = grav_hold[i, 2]
     aid = baro.state[i]
     da = aid[0]
     drift = aid[1]
@@ -369,7 +385,11 @@ def ned_kernel(
         # navtk's calc_force_ned omits the n-frame term: without it a body at rest on the rotating
         # Earth sees a spurious ½ ω_ie × f dt (0.36 mGal at dt = 10 ms); with it rest is exact
         f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
-        g = gravity_ned(gk, llh, ell, model)
+        r_g = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
+        g_e, gh, gs, gl = held_gravitation_ecef(
+            gk, r_g, ell, model, sample0 + k, grav_every, gh, gs, gl
+        )
+        g = enu_to_ned(ecef_to_enu(g_e + centrifugal_ecef(r_g, ell.omega), llh[0], llh[1]))
         v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
         if baro.enabled != 0:
             v_new = v_new + wp.vec3d(_ZERO, _ZERO, (baro.k2 * dh + da) * dt)
@@ -385,4 +405,7 @@ def ned_kernel(
             q_out[i, j] = q
     err.gyro_gm[i] = beta_g
     err.acc_gm[i] = beta_a
+    grav_hold[i, 0] = gh
+    grav_hold[i, 1] = gs
+    grav_hold[i, 2] = gl
     baro.state[i] = wp.vec3d(da, drift, _ZERO)

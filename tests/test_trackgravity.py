@@ -80,3 +80,41 @@ def test_flight_study_same_answer_as_the_full_evaluation(model):
         a = e["final_horizontal_error_m"]["rms"]
         b = fast.summary["models"][m]["final_horizontal_error_m"]["rms"]
         assert abs(a - b) <= 1e-3 * abs(a) + 1e-6, m
+
+
+@pytest.mark.parametrize("frame", ["ned", "lci"])
+def test_navigation_gravity_rate_agrees_with_every_step(model, frame):
+    """SH navigation at the default gravity rate vs the full model every step (issue 16).
+
+    The added error of each SH model (its final error minus the normal model's: the model's
+    own effect) agrees within 1 % between the two.
+    """
+    from fieldmap.nav import flightsim
+
+    ft = _paths()["airliner"]
+    kw = dict(
+        models=["normal", "sh60", "sh"], rate_hz=50.0, truth_lmax=120, duration=900.0,
+        output_dt=10.0, device="cpu", frame=frame, altitude_aiding="none",
+    )  # fmt: skip
+    fast = flightsim.run_flight(ft, **kw)
+    full = flightsim.run_flight(ft, **kw, gravity_rate_hz="full")
+    assert fast.summary["meta"]["gravity_update_every_samples"] > 20
+    assert full.summary["meta"]["gravity_update_every_samples"] == 1
+    i_norm = fast.models.index("normal")
+    for m in ("sh60", "sh120"):
+        i = fast.models.index(m)
+        own = full.dpos[i, -1] - full.dpos[i_norm, -1]
+        diff = fast.dpos[i, -1] - full.dpos[i, -1]
+        assert np.linalg.norm(diff) <= 0.01 * np.linalg.norm(own), (m, diff, own)
+
+
+def test_gravity_rate_bad_values():
+    from fieldmap.errors import InputError
+    from fieldmap.nav.trackgravity import gravity_update_every
+
+    traj = _paths()["airliner"]
+    assert gravity_update_every(traj, 240, 200.0, "full") == 1
+    assert gravity_update_every(traj, 240, 200.0, 10.0) == 20
+    for bad in (-1.0, float("nan"), "fast"):
+        with pytest.raises(InputError, match="gravity rate"):
+            gravity_update_every(traj, 240, 200.0, bad)

@@ -170,6 +170,7 @@ def run_flight(
     truth: str = "eigen-6s",
     truth_lmax: int | None = None,
     truth_evaluation: str = "interpolated",
+    gravity_rate_hz=None,
     n_gauss: int = 3,
     duration: float | None = None,
     output_dt: float | None = None,
@@ -204,6 +205,11 @@ def run_flight(
     baro : BaroSpec
         Baro error model and loop time constant.
     truth, truth_lmax : str, int
+    gravity_rate_hz : float or "full", optional
+        SH navigation models: rate of the disturbance update (the exact normal field every
+        step; :func:`fieldmap.nav.trackgravity.gravity_update_every`). None (default): the
+        slowest rate whose extrapolation error stays below 0.1 % of the disturbance; "full":
+        the whole model every step.
     truth_evaluation : {"interpolated", "full"}
         ``interpolated`` (default): the truth disturbance on a time grid along the path plus
         the exact normal field at every quadrature node
@@ -309,11 +315,16 @@ def run_flight(
             gm_sigma=baro.drift_m, gm_tau=baro.drift_tau_s,
             state=np.stack([np.zeros(n_runs), baro_drift0, np.zeros(n_runs)], -1),
         )  # fmt: skip
+    from fieldmap.nav.strapdown import parse_gravity
+    from fieldmap.nav.trackgravity import gravity_update_every
+
+    sh_deg = max((parse_gravity(m, model)[1] for m in names), default=0)
+    g_every = gravity_update_every(traj, sh_deg, rate_hz, gravity_rate_hz) if sh_deg else 1
     prop = Propagator(
         frame, initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs),
         [grav[i] for i in perm], dt, launch=traj.frame if frame == "lci" else None,
         ellipsoid=ell, sh_model=model, imu_set=imu_set[perm], errors=kerr,
-        output_every=every, baro=aid, device=device, client=client,
+        output_every=every, baro=aid, device=device, client=client, gravity_every=g_every,
     )  # fmt: skip
 
     t_list: list[float] = [0.0]
@@ -377,6 +388,8 @@ def run_flight(
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
             "truth_evaluation": truth_evaluation,
+            "gravity_update_every_samples": int(g_every),
+            "gravity_rate_hz": float(rate_hz) / g_every,
             "truth_gravity": g_truth.name,
             "truth_interpolation_max_error_mgal": getattr(g_truth, "max_error_mgal", 0.0),
             "n_gauss": int(n_gauss),

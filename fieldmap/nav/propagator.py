@@ -70,6 +70,7 @@ class _Config:
     output_every: int  # in IMU samples
     baro: Any  # fieldmap.nav.strapdown_ned.Baro template (h_ref unset) or None
     device: str | None
+    gravity_every: int = 1  # samples between SH disturbance updates (1: every step)
 
     def rows(self, a: int, b: int) -> _Config:
         """Return the configuration of runs ``a:b``."""
@@ -132,6 +133,10 @@ class Propagator:
         :meth:`propagate` and its ``state`` starts the loop state.
     device : str, optional
         Warp device.
+    gravity_every : int
+        SH navigation models: the disturbance updated every this many samples, the exact
+        normal field every step (a flight computer's gravity rate; 1: the full model every
+        step). See :func:`fieldmap.kernels.navgravity.held_gravitation_ecef`.
     client : dask.distributed.Client, optional
         Run groups of runs as tasks on this cluster (default: here).
     runs_per_task : int, optional
@@ -156,6 +161,7 @@ class Propagator:
         device: str | None = None,
         client=None,
         runs_per_task: int | None = None,
+        gravity_every: int = 1,
     ):
         from fieldmap.field.ellipsoid import WGS84
 
@@ -178,6 +184,7 @@ class Propagator:
         if baro is not None:
             bs = baro.state
             state["baro"] = np.zeros((n, 3)) if bs is None else np.array(bs, dtype=np.float64)
+        state["gravity_hold"] = np.zeros((n, 3, 3))
         self._cfg = _Config(
             frame=frame,
             launch=launch,
@@ -195,6 +202,7 @@ class Propagator:
             output_every=int(output_every),
             baro=None if baro is None else dataclasses.replace(baro, state=None),
             device=device,
+            gravity_every=int(gravity_every),
         )
         self._state = state
         self.client = client if client is not None else _DEFAULT_CLIENT.get()
@@ -314,7 +322,8 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             dtheta, dv, cfg.dt, llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"],
             cfg.gravity, sh_model=cfg.sh_model, ellipsoid=cfg.ellipsoid, imu_set=cfg.imu_set,
             errors=errors, output_every=cfg.output_every, device=cfg.device, baro=aid,
-            sample0=sample0, degrees=False,
+            sample0=sample0, degrees=False, gravity_every=cfg.gravity_every,
+            gravity_hold=state["gravity_hold"],
         )  # fmt: skip
         nxt = {"llh": res.final["llh"], "v": res.v_ned[:, -1], "q": res.q[:, -1]}
         if cfg.baro is not None:
@@ -327,12 +336,14 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,
             sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
             t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
-            device=cfg.device, sample0=sample0,
+            device=cfg.device, sample0=sample0, gravity_every=cfg.gravity_every,
+            gravity_hold=state["gravity_hold"],
         )  # fmt: skip
         nxt = {"P": res.P[:, -1], "V": res.V[:, -1], "q": res.q[:, -1]}
         out = {"P": res.P, "V": res.V, "q": res.q, "t": res.t}
     nxt["acc_gm"] = res.final["acc_gm"]
     nxt["gyro_gm"] = res.final["gyro_gm"]
+    nxt["gravity_hold"] = res.final["gravity_hold"]
     return out, nxt
 
 

@@ -221,6 +221,10 @@ class _Batch:
     device: str
     #: global index (in the flight) of the first IMU sample: keys the noise draws
     sample0: int = 0
+    #: samples between SH disturbance updates (1: full SH every step; see held_gravitation_ecef)
+    grav_every: int = 1
+    #: per trajectory (disturbance, slope, (last index, started, 0)), read and written back
+    grav_hold: Any = None
 
     @property
     def sensor_errors(self):
@@ -253,6 +257,8 @@ class _Batch:
             self.n_steps,
             self.output_every,
             self.sample0,
+            self.grav_every,
+            self.grav_hold,
             *outs,
         ]
         _warp.launch_chunked(kernel, self.n, inputs, dev)
@@ -261,7 +267,7 @@ class _Batch:
 
 def prepare_batch(
     dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step,
-    sample0=0,
+    sample0=0, gravity_every=1, gravity_hold=None,
 ):  # fmt: skip
     """Validate and upload everything the LCI and NED kernels share (one row per trajectory).
 
@@ -345,8 +351,18 @@ def prepare_batch(
         shk = _dummy_sh(device)
     wp.load_module(ksd, device=device)
     n_steps = n_samples // per_step
+    if (
+        isinstance(gravity_every, (bool, np.bool_))
+        or not isinstance(gravity_every, (int, np.integer))
+        or gravity_every < 1
+    ):
+        raise InputError(f"gravity_every must be an integer >= 1 (samples), got {gravity_every!r}")
+    hold = np.zeros((n, 3, 3)) if gravity_hold is None else gravity_hold
+    hold = per_trajectory("gravity_hold", hold, n, (3, 3))
     return _Batch(
         sample0=sample0,
+        grav_every=int(gravity_every),
+        grav_hold=wp.array(np.ascontiguousarray(hold), dtype=wp.vec3d, device=device),
         n=n,
         names=names,
         device=device,
@@ -417,6 +433,8 @@ def propagate_lci(
     output_every=1,
     device=None,
     sample0=0,
+    gravity_every=1,
+    gravity_hold=None,
 ) -> LciResult:
     """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
 
@@ -464,6 +482,13 @@ def propagate_lci(
         Global index (in the whole flight) of the first sample: a flight propagated in pieces,
         each from the previous one's final state (``final``) with ``sample0`` = the samples
         before it, draws the noise of one propagation over the whole record.
+    gravity_every : int
+        For the ``sh`` kinds: evaluate the SH disturbance (model minus exact normal
+        gravitation) every this many samples and extrapolate it linearly in between, the exact
+        normal field every step (``fieldmap.kernels.navgravity.held_gravitation_ecef``, a
+        flight computer's gravity rate); 1 (default): the full model every step.
+    gravity_hold : array_like (n_traj, 3, 3), optional
+        State of that update (``final["gravity_hold"]`` of the previous piece); default: none yet.
 
     Returns
     -------
@@ -502,6 +527,8 @@ def propagate_lci(
         device,
         per_step=2,
         sample0=sample0,
+        gravity_every=gravity_every,
+        gravity_hold=gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
@@ -518,5 +545,9 @@ def propagate_lci(
     )
     t = t_base + b.dt * (b.sample0 + 2 * b.output_every * np.arange(b.n_out))
     se = b.sensor_errors
-    final = {"acc_gm": se.acc_gm.numpy(), "gyro_gm": se.gyro_gm.numpy()}
+    final = {
+        "acc_gm": se.acc_gm.numpy(),
+        "gyro_gm": se.gyro_gm.numpy(),
+        "gravity_hold": b.grav_hold.numpy(),
+    }
     return LciResult(t=t, P=P, V=V, q=q, gravity=tuple(b.names), final=final)

@@ -104,6 +104,8 @@ def propagate_ned(
     baro: Baro | None = None,
     sample0=0,
     degrees: bool = True,
+    gravity_every=1,
+    gravity_hold=None,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -157,6 +159,8 @@ def propagate_ned(
         device,
         per_step=1,
         sample0=sample0,
+        gravity_every=gravity_every,
+        gravity_hold=gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
@@ -177,6 +181,7 @@ def propagate_ned(
         "gyro_gm": se.gyro_gm.numpy(),
         "baro": aid.state.numpy(),
         "llh": L[:, -1].copy(),
+        "gravity_hold": b.grav_hold.numpy(),
     }
     return NedResult(
         t=b.dt * b.output_every * np.arange(b.n_out),

@@ -22,13 +22,34 @@ import numpy as np
 
 from fieldmap.errors import InputError
 
-__all__ = ["TrackGravitation"]
+__all__ = ["TrackGravitation", "gravity_update_every", "highest_frequency"]
 
 #: Grid spacing as a fraction of the shortest period of the disturbance seen along the path.
 PERIOD_FRACTION = 0.02
 #: Interval midpoints checked against the full evaluation (spread over the whole path).
 CHECKS = 64
 MGAL = 1e-5
+
+
+def _path(traj, t: np.ndarray):
+    """ECEF positions and velocities of ``traj`` at times ``t`` (m, m/s; Earth-fixed)."""
+    try:
+        r, v, _ = traj._ecef(t)
+        return r, v
+    except (AttributeError, NotImplementedError):
+        r = traj.kinematics(t).r_e
+        return r, np.gradient(r, t, axis=0)
+
+
+def highest_frequency(traj, degree: int) -> float:
+    """Highest frequency (Hz) of a degree-``degree`` field seen along ``traj``: v_max L / (2πR).
+
+    The shortest wavelength of the field is 2πR/L (R the Earth's mean radius); the path's fastest
+    Earth-relative speed v_max (from 2001 points along it) crosses it in 2πR/(L v_max) seconds.
+    """
+    t = np.linspace(0.0, float(traj.duration), 2001)
+    speed = float(np.max(np.linalg.norm(_path(traj, t)[1], axis=1)))
+    return max(speed, 1.0) * max(int(degree), 2) / (2.0 * math.pi * 6_371_000.0)
 
 
 def _lagrange6(u: np.ndarray) -> np.ndarray:
@@ -75,10 +96,7 @@ class TrackGravitation:
         self.traj = traj
         self.duration = float(traj.duration)
         if step_s is None:
-            t = np.linspace(0.0, self.duration, 2001)
-            speed = float(np.max(np.linalg.norm(self._positions(t, derivative=True), axis=1)))
-            f = max(speed, 1.0) * max(self.sh.lmax, 2) / (2.0 * math.pi * 6_371_000.0)
-            step_s = PERIOD_FRACTION / f
+            step_s = PERIOD_FRACTION / highest_frequency(traj, self.sh.lmax)
         step_s = float(step_s)
         if not (math.isfinite(step_s) and step_s > 0):
             raise InputError(
@@ -104,17 +122,8 @@ class TrackGravitation:
         self.step_s = self.duration / self.n_int
         self._cache = {}
 
-    def _positions(self, t, derivative: bool = False) -> np.ndarray:
-        t = np.asarray(t, dtype=np.float64)
-        try:
-            r, v, _ = self.traj._ecef(t)
-            return v if derivative else r
-        except (AttributeError, NotImplementedError):
-            pass
-        k = self.traj.kinematics(t)
-        if derivative:
-            return np.gradient(k.r_e, t, axis=0)
-        return k.r_e
+    def _positions(self, t) -> np.ndarray:
+        return _path(self.traj, np.asarray(t, dtype=np.float64))[0]
 
     def _disturbance(self, r: np.ndarray) -> np.ndarray:
         return np.asarray(self.sh(r), dtype=np.float64) - np.asarray(self.normal(r), np.float64)
@@ -156,3 +165,33 @@ class TrackGravitation:
         full = self._disturbance(self._positions(t))
         err = np.linalg.norm(self.disturbance_at(t) - full, axis=1)
         return float(err.max() / MGAL)
+
+
+#: Default gravity rate: (2π f T)² ≤ this, f the highest frequency of the navigation model along
+#: the path and T the update interval (the linear extrapolation's relative error is of that order).
+GRAVITY_RATE_ERROR = 1e-3
+
+
+def gravity_update_every(traj, degree: int, rate_hz: float, gravity_rate_hz=None) -> int:
+    """IMU samples between SH disturbance updates of an SH navigation model of ``degree``.
+
+    ``gravity_rate_hz`` None: the slowest rate whose linear extrapolation error stays below
+    :data:`GRAVITY_RATE_ERROR` of the disturbance (0.1 %, well below 1 % of the model's own
+    effect); ``"full"`` or 0: every sample; a number: that rate (Hz).
+    """
+    if gravity_rate_hz in ("full", 0, 0.0):
+        return 1
+    if gravity_rate_hz is None:
+        f = highest_frequency(traj, degree)
+        interval = math.sqrt(GRAVITY_RATE_ERROR) / (2.0 * math.pi * f)
+    else:
+        try:
+            g = float(gravity_rate_hz)
+        except (TypeError, ValueError):
+            g = math.nan
+        if not (math.isfinite(g) and g > 0):
+            raise InputError(
+                f"gravity rate must be a positive number of Hz, got {gravity_rate_hz!r}"
+            )
+        interval = 1.0 / g
+    return max(1, int(math.floor(interval * float(rate_hz) + 1e-9)))
