@@ -66,7 +66,12 @@ def bench_propagation(runs, ns, dt, repeat):
     return ours, theirs / (runs * ns), threads
 
 
-def bench_study(traj, minutes, rate, draws, device):
+#: Wall time of today's configuration (120 min, 200 Hz, 7 rows x 20 draws) before the truth
+#: and navigation gravity paths of issue 16 (full SH at every node and step), on these 2 cores.
+BASELINE_S = 1770.0
+
+
+def bench_study(traj, minutes, rate, draws, device, **kw):
     """Wall time of the full flight study, split into synthesis and propagation."""
     from fieldmap.nav.flightsim import run_flight
     from fieldmap.nav.imu_specs import PRESETS
@@ -84,9 +89,28 @@ def bench_study(traj, minutes, rate, draws, device):
         output_dt=10.0,
         device=device,
         progress=True,
+        **kw,
     )
     wall = time.perf_counter() - t0
     return res, wall
+
+
+def agreement(traj, minutes, rate, draws, device) -> float:
+    """Return the largest relative difference of the final horizontal errors (per model).
+
+    RMS over the draws, the fast paths (interpolated truth, gravity rate) against the full
+    evaluation (SH truth at every node, SH navigation models at every step), same draws.
+    """
+    fast, _ = bench_study(traj, minutes, rate, draws, device)
+    full, _ = bench_study(
+        traj, minutes, rate, draws, device, truth_evaluation="full", gravity_rate_hz="full"
+    )
+    worst = 0.0
+    for m, e in full.summary["models"].items():
+        a = e["final_horizontal_error_m"]["rms"]
+        b = fast.summary["models"][m]["final_horizontal_error_m"]["rms"]
+        worst = max(worst, abs(b - a) / max(abs(a), 1e-12))
+    return worst
 
 
 def main(argv=None) -> int:
@@ -100,9 +124,16 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--skip-study", action="store_true", help="only the per-sample ratios")
+    ap.add_argument(
+        "--check-minutes",
+        type=float,
+        default=2.0,
+        help="minutes of the study also run with the full evaluation (agreement; 0: skip)",
+    )
     args = ap.parse_args(argv)
     if args.quick:
         args.minutes, args.rate, args.draws, args.runs, args.repeat = 2.0, 100.0, 3, 16, 1
+        args.check_minutes = min(args.check_minutes, 1.0)
 
     from fieldmap.nav.flight import FlightTrajectory, route_flight
 
@@ -128,6 +159,19 @@ def main(argv=None) -> int:
             f" + propagation {m['propagation_seconds']:.1f} s (+ outputs/δg)"
         )
         print(res.summary["recommendation"])
+        print(
+            f"  truth disturbance every {m['truth_gravity'].split('every ')[-1].split(' +')[0]}"
+            f" (interpolation error <= {m['truth_interpolation_max_error_mgal']:.1e} mGal), "
+            f"SH navigation gravity at {m['gravity_rate_hz']:.3g} Hz"
+        )
+        if args.minutes == 120.0 and args.rate == 200.0 and args.draws == 20:
+            print(f"  today's configuration: {BASELINE_S / wall:.1f}x faster than {BASELINE_S:g} s")
+        if args.check_minutes > 0:
+            worst = agreement(traj, args.check_minutes, args.rate, args.draws, args.device)
+            print(
+                f"agreement with the full evaluation ({args.check_minutes:g} min, same draws): "
+                f"largest relative difference of the final horizontal errors {worst:.2e}"
+            )
     return 0
 
 
