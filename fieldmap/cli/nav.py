@@ -20,7 +20,6 @@ so a failed run leaves nothing half-written.
 from __future__ import annotations
 
 import argparse
-import contextlib
 
 import numpy as np
 
@@ -350,7 +349,7 @@ def _check_flight_args(args, model, models):
     return device, models, (traj, imu, model)
 
 
-def run_flight_study(args, device, models, traj, imu, model) -> int:
+def run_flight_study(args, device, models, traj, imu, model, client=None) -> int:
     """Run the flight study, write ``navsim_flight.*``, print; exit 1 if a run diverged."""
     import warnings
 
@@ -385,6 +384,7 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
             fraction=args.fraction,
             device=device,
             progress=True,
+            client=client,
         )
     for w in caught:
         if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
@@ -400,19 +400,17 @@ def run_flight_study(args, device, models, traj, imu, model) -> int:
 
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.nav.distributed import on_cluster
     from fieldmap.products import cluster
     from fieldmap.products.io import output_batch
 
     device, models, nav = _check_args(args)
     scheduler = cluster.parse_scheduler(args.scheduler)
     studies = STUDIES if args.study == "all" else (args.study,)
-    with contextlib.ExitStack() as stack:
-        # connect (or start the LocalCluster) before the long work; None: here
-        stack.enter_context(on_cluster(stack.enter_context(cluster.open_client(scheduler))))
+    # connect (or start the LocalCluster) before the long work; None: here
+    with cluster.open_client(scheduler) as client:
         if is_flight(args):
-            return run_flight_study(args, device, models, *nav)
-        results = _scenario_and_studies(args, device, studies, models, nav)
+            return run_flight_study(args, device, models, *nav, client=client)
+        results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:
             write_outputs(res, batch)
@@ -421,7 +419,7 @@ def run(args) -> int:
     return 1 if any(res.meta.get("diverged") for res in results) else 0
 
 
-def _scenario_and_studies(args, device, studies, models, nav) -> list:
+def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
     from fieldmap.nav import studies as navsim
@@ -440,10 +438,10 @@ def _scenario_and_studies(args, device, studies, models, nav) -> list:
         device=device,
         progress=True,
     )
-    return _run_studies(args, sc, studies, models, nav)
+    return _run_studies(args, sc, studies, models, nav, client)
 
 
-def _run_studies(args, sc, studies, models, nav) -> list:
+def _run_studies(args, sc, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
     from fieldmap.nav import studies as navsim
@@ -451,7 +449,7 @@ def _run_studies(args, sc, studies, models, nav) -> list:
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):
         if study == "table1":
-            res = navsim.table1(sc, models, timing=not args.no_timing, progress=True)
+            res = navsim.table1(sc, models, timing=not args.no_timing, progress=True, client=client)
         elif study == "table3":
             res = navsim.table3(
                 sc,
@@ -460,6 +458,7 @@ def _run_studies(args, sc, studies, models, nav) -> list:
                 nav=nav,
                 mode=args.bias_mode,
                 progress=True,
+                client=client,
             )
         else:
             res = navsim.table4(
@@ -470,6 +469,7 @@ def _run_studies(args, sc, studies, models, nav) -> list:
                 mode=args.bias_mode,
                 reference=nav,
                 progress=True,
+                client=client,
             )
         results.append(res)
     return results
