@@ -26,6 +26,7 @@ import warnings
 # module name -> registers these sub-commands
 _COMMAND_MODULES = (
     "fieldmap.cli.point",  # point, verify
+    "fieldmap.cli.cache",  # cache
     "fieldmap.cli.maps",  # map, sweep, truncation
     "fieldmap.cli.nav",  # navsim
     "fieldmap.cli.imu",  # imu allan

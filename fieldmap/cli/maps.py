@@ -55,7 +55,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             default=None,
             help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
         )
-        from fieldmap.models.registry import add_model_options
+        from fieldmap.cli.model_options import add_model_options
 
         add_model_options(p)
         p.add_argument(

@@ -73,7 +73,7 @@ def register(subparsers) -> None:
         help="bundled model name, model file (ICGEM .gfc[.gz], NGA coefficients, GeographicLib "
         ".egm) or GeographicLib model name (default: eigen-6s)",
     )
-    from fieldmap.models.registry import add_model_options, register_cache_command
+    from fieldmap.cli.model_options import add_model_options
 
     add_model_options(p)
     p.add_argument(
@@ -116,7 +116,6 @@ def register(subparsers) -> None:
         "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
     )
     v.set_defaults(func=run_verify)
-    register_cache_command(subparsers)
 
 
 def parse_point_line(line: str):

@@ -324,34 +324,12 @@ def kaula_model(
     )
 
 
-def add_model_options(parser) -> None:
-    """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""
-    parser.add_argument(
-        "--model-dir",
-        default=None,
-        help="folder of GeographicLib models: --model NAME reads DIR/NAME.egm (as Gravity -d)",
-    )
-    parser.add_argument(
-        "--gm",
-        type=float,
-        default=None,
-        help="GM of an NGA coefficient file, m³/s² (default: EGM96/EGM2008 values by file name)",
-    )
-    parser.add_argument(
-        "--radius",
-        type=float,
-        default=None,
-        help="reference radius of an NGA coefficient file, m (default as --gm)",
-    )
-    parser.add_argument(
-        "--no-cache",
-        action="store_true",
-        help="parse the model file, neither reading nor writing the on-disk model cache",
-    )
-
-
 def model_options(args) -> dict:
-    """Keyword arguments of :func:`load_model` from the options of :func:`add_model_options`.
+    """Keyword arguments of :func:`load_model` from the model-file options of the CLI.
+
+    ``args`` is the namespace parsed with the options of
+    ``fieldmap.cli.model_options.add_model_options`` (``--model-dir``, ``--gm``, ``--radius``,
+    ``--no-cache``); a missing attribute counts as its default.
 
     ``--no-cache`` also stops the cache of recursion tables for this process. ``--model-dir``
     with a bundled model name (read from the package, never from that folder) is refused.
@@ -381,28 +359,19 @@ def announce(model: SHModel, stream=None) -> None:
         print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
 
 
-def register_cache_command(subparsers) -> None:
-    """Add ``fieldmap cache {info,clear}`` (the on-disk cache of parsed models)."""
-    c = subparsers.add_parser(
-        "cache",
-        help="show or clear the on-disk cache of parsed model files",
-        description="The cache holds parsed coefficients of model files (verified by checksums, "
-        "keyed by file content and reader version) under $FIELDMAP_MODEL_CACHE (default "
-        "$XDG_CACHE_HOME/fieldmap/models, i.e. ~/.cache/fieldmap/models); 'info' prints it.",
-    )
-    c.add_argument("action", choices=("info", "clear"), help="list the entries, or delete them")
-    c.set_defaults(func=_run_cache)
+#: names of the command-line layer that this module once held -> (module, name) they live in now;
+#: still importable from here (:func:`__getattr__`), without importing the CLI with the library
+_MOVED_TO_CLI = {
+    "add_model_options": ("fieldmap.cli.model_options", "add_model_options"),
+    "register_cache_command": ("fieldmap.cli.cache", "register"),
+}
 
 
-def _run_cache(args) -> int:
-    if args.action == "clear":
-        count, size = disk_cache.clear()
-        where = disk_cache.cache_dir()
-        print(f"removed {count} cached models ({size / 2**20:.1f} MiB) from {where}")
-        return 0
-    rows = disk_cache.info()
-    for r in rows:
-        print(f"{r['bytes'] / 2**20:9.1f} MiB  {r['variant']}  {' '.join(r['files'] or [])}")
-    total = sum(r["bytes"] for r in rows)
-    print(f"{len(rows)} cached models, {total / 2**20:.1f} MiB in {disk_cache.cache_dir()}")
-    return 0
+def __getattr__(name: str):
+    """Resolve the argparse helpers moved to :mod:`fieldmap.cli` on first use (PEP 562)."""
+    target = _MOVED_TO_CLI.get(name)
+    if target is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(target[0]), target[1])
