@@ -25,7 +25,8 @@ import warnings
 
 # module name -> registers these sub-commands
 _COMMAND_MODULES = (
-    "fieldmap.cli.point",  # point, verify
+    "fieldmap.cli.point",  # point
+    "fieldmap.cli.verify",  # verify
     "fieldmap.cli.cache",  # cache
     "fieldmap.cli.maps",  # map, sweep, truncation
     "fieldmap.cli.nav",  # navsim

@@ -1,7 +1,7 @@
-"""Sub-commands ``fieldmap point`` (gravity at points from stdin) and ``fieldmap verify``.
+"""Sub-command ``fieldmap point``: gravity at points read from stdin.
 
-``fieldmap point`` works like GeographicLib's ``Gravity``; ``fieldmap verify`` runs the
-kernel-vs-NumPy comparisons of :mod:`fieldmap.cli.verify` on this machine.
+``fieldmap point`` works like GeographicLib's ``Gravity``. (``fieldmap verify`` lives in
+:mod:`fieldmap.cli.verify`; :func:`run_verify` is still importable from here.)
 
 ``fieldmap point`` reads lines ``lat lon [h]`` (geodetic degrees, metres above WGS84; h defaults
 to 0 as in ``Gravity``) and prints one line per input line: east north up of the disturbance in
@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+
+from fieldmap.cli.verify import run_verify  # noqa: F401 - moved there; importable from here too
 
 QUANTITIES = ("disturbance", "gravity", "normal", "anomaly", "geoid", "potential")
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
@@ -37,7 +39,7 @@ _DEFAULT_DECIMALS = {
 
 
 def register(subparsers) -> None:
-    """Add the ``point`` and ``verify`` sub-commands."""
+    """Add the ``point`` sub-command."""
     p = subparsers.add_parser(
         "point",
         help="gravity at points read from stdin (lat lon h per line)",
@@ -97,25 +99,6 @@ def register(subparsers) -> None:
     )
     p.add_argument("--input", default="-", help="read points from this file (default: stdin)")
     p.set_defaults(func=run_point)
-
-    v = subparsers.add_parser(
-        "verify",
-        help="compare the Warp kernels with their NumPy references on this machine",
-        description="Run kernel-vs-NumPy comparisons and print max differences and timings; "
-        "exit status 1 if a relative difference exceeds 1e-12, a part of fieldmap cannot be "
-        "imported, or no check passed (a check that cannot run here is shown as skipped).",
-    )
-    v.add_argument(
-        "--device",
-        action="append",
-        default=None,
-        help="device to check (repeatable; default: every device present)",
-    )
-    v.add_argument("--lmax", type=int, default=240, help="degree of the EIGEN-6S checks (≤ 240)")
-    v.add_argument(
-        "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
-    )
-    v.set_defaults(func=run_verify)
 
 
 def parse_point_line(line: str):
@@ -352,34 +335,6 @@ def _format(row, decimals: int) -> str:
     if not all(math.isfinite(v) for v in row):
         return "ERROR: result is not finite (point too close to the masses for this model)"
     return " ".join(f"{v:.{decimals}f}" for v in row)
-
-
-def run_verify(args) -> int:
-    """Run ``fieldmap verify``; return 1 if a check failed (or none passed), else 0."""
-    from fieldmap import _warp
-    from fieldmap.cli.verify import RTOL, format_table, run_checks
-    from fieldmap.errors import InputError
-
-    if not 0 <= args.lmax <= 240:
-        raise InputError(f"--lmax must be within 0..240 (EIGEN-6S), got {args.lmax}")
-    if not 5 <= args.points <= 1_000_000:
-        raise InputError(f"--points must be within 5..1000000, got {args.points}")
-    devices = None
-    if args.device:
-        try:
-            devices = [_warp.resolve_device(d) for d in args.device]
-        except _warp.DeviceError as exc:
-            raise InputError(str(exc)) from None
-    rows = run_checks(devices, lmax=args.lmax, points=args.points)
-    print(format_table(rows))
-    count = {s: sum(r.status == s for r in rows) for s in ("ok", "skipped", "FAIL")}
-    print(
-        f"\n{count['ok']} of {len(rows)} checks within {RTOL:g} relative"
-        + (f"; {count['skipped']} skipped" if count["skipped"] else "")
-        + (f"; {count['FAIL']} FAILED" if count["FAIL"] else "")
-    )
-    # a skipped check is no pass: nothing verified is a failure too
-    return 1 if count["FAIL"] or not count["ok"] else 0
 
 
 def _main(argv=None) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point

@@ -1,5 +1,7 @@
 """Kernel-vs-NumPy comparisons that a user can run on their own machine (``fieldmap verify``).
 
+The sub-command itself (:func:`register`, :func:`run_verify`) is at the end of this module.
+
 Each check evaluates one Warp kernel path and its independent NumPy reference
 (:mod:`fieldmap.reference`) on the same random inputs and reports the largest absolute and
 relative difference (relative to the largest magnitude of the reference, per output vector) and
@@ -379,3 +381,53 @@ def format_table(rows: list[CheckResult]) -> str:
     ]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+# -- the sub-command ``fieldmap verify`` --------------------------------------------------------
+def register(subparsers) -> None:
+    """Add the ``verify`` sub-command."""
+    v = subparsers.add_parser(
+        "verify",
+        help="compare the Warp kernels with their NumPy references on this machine",
+        description="Run kernel-vs-NumPy comparisons and print max differences and timings; "
+        "exit status 1 if a relative difference exceeds 1e-12, a part of fieldmap cannot be "
+        "imported, or no check passed (a check that cannot run here is shown as skipped).",
+    )
+    v.add_argument(
+        "--device",
+        action="append",
+        default=None,
+        help="device to check (repeatable; default: every device present)",
+    )
+    v.add_argument("--lmax", type=int, default=240, help="degree of the EIGEN-6S checks (≤ 240)")
+    v.add_argument(
+        "--points", type=int, default=200, help="random points per check, 5..1000000 (default 200)"
+    )
+    v.set_defaults(func=run_verify)
+
+
+def run_verify(args) -> int:
+    """Run ``fieldmap verify``; return 1 if a check failed (or none passed), else 0."""
+    from fieldmap import _warp
+    from fieldmap.errors import InputError
+
+    if not 0 <= args.lmax <= 240:
+        raise InputError(f"--lmax must be within 0..240 (EIGEN-6S), got {args.lmax}")
+    if not 5 <= args.points <= 1_000_000:
+        raise InputError(f"--points must be within 5..1000000, got {args.points}")
+    devices = None
+    if args.device:
+        try:
+            devices = [_warp.resolve_device(d) for d in args.device]
+        except _warp.DeviceError as exc:
+            raise InputError(str(exc)) from None
+    rows = run_checks(devices, lmax=args.lmax, points=args.points)
+    print(format_table(rows))
+    count = {s: sum(r.status == s for r in rows) for s in ("ok", "skipped", "FAIL")}
+    print(
+        f"\n{count['ok']} of {len(rows)} checks within {RTOL:g} relative"
+        + (f"; {count['skipped']} skipped" if count["skipped"] else "")
+        + (f"; {count['FAIL']} FAILED" if count["FAIL"] else "")
+    )
+    # a skipped check is no pass: nothing verified is a failure too
+    return 1 if count["FAIL"] or not count["ok"] else 0
