@@ -1,0 +1,430 @@
+r"""Numerical parts of flight-log conditioning: robust trends, noise, the penalised spline.
+
+Used by :mod:`fieldmap.nav.conditioning`; times ``t`` (s, strictly increasing) and values ``y``
+of shape ``(n, d)`` (m) of one segment.
+
+Robust local trend (:func:`robust_trend`). The step velocities ``Δy/Δt`` are smoothed by a
+running median (Tukey 1977); a running median of a sequence monotone over the window returns
+its middle value, so a velocity changing steadily (an acceleration, a turn entry) passes without
+bias. The positions minus the integrated robust velocity form a nearly flat series whose running
+median is the reference. A wild sample, or a burst of fewer than ``half`` samples, moves neither
+median (breakdown point 1/2; Hampel 1974). The ``half`` values at either end come from a
+Theil–Sen line (Theil 1950, Sen 1968) through the end window.
+
+Noise (:func:`loo_noise`, :func:`noise_sigma`). Each sample is predicted by the cubic through its
+two neighbours on either side (Lagrange); the error divided by ``sqrt(1 + Σ w_j²)`` has the
+standard deviation of white noise on ``y`` for any sample spacing.
+
+Penalised spline (:class:`Whittaker`, :func:`fit_path`). Grid values ``g`` minimising
+``Σ w_i |y_i − (B g)_i|² + λ Σ |Δ² g / dt²|² dt`` (``B``: cubic Lagrange interpolation to the
+sample times): the discrete cubic smoothing spline (Whittaker 1923; Reinsch 1967; Eilers 2003),
+one banded Cholesky solve per λ. λ from the discrepancy principle (Reinsch 1967; Morozov 1966)
+corrected for the fit's degrees of freedom (Buja, Hastie & Tibshirani 1989), estimated with
+Hutchinson's (1989) randomised trace; outliers by iteratively reweighted least squares with
+Tukey's bisquare (Beaton & Tukey 1974; Garcia 2010).
+
+References: Hampel, F. R. (1974) J. Amer. Statist. Assoc. 69, 383-393. Tukey, J. W. (1977)
+Exploratory Data Analysis. Theil, H. (1950) Proc. KNAW 53; Sen, P. K. (1968) J. Amer. Statist.
+Assoc. 63, 1379-1389. Whittaker, E. T. (1923) Proc. Edinburgh Math. Soc. 41, 63-75. Reinsch,
+C. H. (1967) Numer. Math. 10, 177-183. Eilers, P. H. C. (2003) Anal. Chem. 75, 3631-3636.
+Buja, A., Hastie, T. & Tibshirani, R. (1989) Ann. Statist. 17, 453-510. Hutchinson, M. F.
+(1989) Commun. Statist. Simul. 18, 1059-1076. Beaton, A. E. & Tukey, J. W. (1974)
+Technometrics 16, 147-185. Garcia, D. (2010) Comput. Statist. Data Anal. 54, 1167-1178.
+Silverman, B. W. (1984) Ann. Statist. 12, 898-916.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: normal consistency factor of the MAD (1 / Φ⁻¹(3/4))
+MAD_SCALE = 1.482602218505602
+#: heights closer than this (m) are equal (a level hold, geoid heights added along the track)
+HEIGHT_EQ = 0.05
+#: order of the differences the smoother penalises (2: acceleration, the cubic spline)
+ORDER = 2
+#: Rademacher probes of the trace estimate
+PROBES = 24
+#: robust fit: reweighting passes, bisquare constant (95 % efficiency, Beaton & Tukey 1974)
+IRLS_ITER, BISQUARE_C = 4, 4.685
+
+
+def _theil_sen_end(x: np.ndarray, m: int) -> np.ndarray:
+    """Theil–Sen line through ``x[:m]`` (index as abscissa), evaluated at 0..m-1; (m, d)."""
+    i, j = np.triu_indices(m, 1)
+    slope = np.median((x[j] - x[i]) / (j - i)[:, None], axis=0)
+    icpt = np.median(x[:m] - slope * np.arange(m)[:, None], axis=0)
+    return icpt + slope * np.arange(m)[:, None]
+
+
+def running_median(x: np.ndarray, half: int) -> np.ndarray:
+    """Centred running median over ``2 half + 1`` samples along axis 0 of ``x`` (n, d).
+
+    The ``half`` samples at either end get a Theil–Sen line through the first (last)
+    ``2 half + 1`` samples instead of a truncated window: a trend passes the ends unbiased and
+    a wild end sample does not pull it.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = x.shape[0]
+    half = min(int(half), (n - 1) // 2)
+    if half < 1:
+        return x.copy()
+    w = 2 * half + 1
+    out = np.empty_like(x)
+    win = np.lib.stride_tricks.sliding_window_view(x, w, axis=0)  # (n - w + 1, d, w)
+    out[half : n - half] = np.median(win, axis=-1)
+    out[:half] = _theil_sen_end(x, w)[:half]
+    out[n - half :] = _theil_sen_end(x[::-1], w)[:half][::-1]
+    return out
+
+
+def local_scale(off: np.ndarray, dim: int, half: int) -> np.ndarray:
+    """Robust local standard deviation per component from offset magnitudes ``off`` (n,).
+
+    Over ``± half`` samples (ends reflected): the larger of the median and the 90th percentile
+    of the magnitudes, each divided by its value under unit normal noise in ``dim`` (1 or 2)
+    components (0.6745, 1.6449; Rayleigh 1.1774, 2.1460). The two agree for Gaussian noise;
+    the percentile widens the bound for the heavy-tailed noise of real logs (timing jitter of
+    resampled ADS-B positions) while outliers, a few per window, move neither.
+    """
+    off = np.asarray(off, dtype=np.float64)
+    n = off.size
+    c50, c90 = (0.6745, 1.6449) if dim == 1 else (1.1774, 2.1460)
+    half = min(int(half), n - 1)
+    if half < 1:
+        return np.full(n, max(np.median(off) / c50, np.percentile(off, 90) / c90))
+    win = np.lib.stride_tricks.sliding_window_view(np.pad(off, half, mode="reflect"), 2 * half + 1)
+    q = np.percentile(win, [50, 90], axis=-1)
+    return np.maximum(q[0] / c50, q[1] / c90)
+
+
+def robust_trend(t: np.ndarray, y: np.ndarray, half: int) -> np.ndarray:
+    """Robust local trend of ``y`` (n, d) at the times ``t`` (see the module docstring).
+
+    Returns the trend at the samples, (n, d). Fewer than 3 samples: ``y`` itself.
+    """
+    n = t.size
+    if n < 3:
+        return y.copy()
+    dt = np.diff(t)[:, None]
+    dy = np.diff(y, axis=0)
+    v = running_median(dy / dt, half)
+    D = np.concatenate([np.zeros((1, y.shape[1])), np.cumsum(dy - v * dt, axis=0)])
+    return y - D + running_median(D, half)
+
+
+def interpolate_trend(t_ref: np.ndarray, ref: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Carry the trend known at ``t_ref`` to ``t``: cubic inside, linear beyond the ends."""
+    from scipy.interpolate import CubicSpline
+
+    if t_ref.size < 2:
+        return np.broadcast_to(ref[:1], (t.size, ref.shape[1])).copy()
+    if t_ref.size < 4:
+        return np.stack([np.interp(t, t_ref, ref[:, k]) for k in range(ref.shape[1])], -1)
+    cs = CubicSpline(t_ref, ref, bc_type="natural")
+    out = cs(np.clip(t, t_ref[0], t_ref[-1]))
+    lo, hi = t < t_ref[0], t > t_ref[-1]
+    if lo.any():
+        out[lo] += (t[lo] - t_ref[0])[:, None] * cs(t_ref[0], 1)
+    if hi.any():
+        out[hi] += (t[hi] - t_ref[-1])[:, None] * cs(t_ref[-1], 1)
+    return out
+
+
+def loo_noise(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Normalised leave-one-out cubic prediction errors of samples 2..n-3, shape (n - 4, d).
+
+    Each has the standard deviation of white noise on ``y`` whatever the sample spacing.
+    """
+    n = t.size
+    if n < 5:
+        return np.zeros((0, y.shape[1]))
+    idx = np.arange(2, n - 2)
+    nb = idx[:, None] + np.array([-2, -1, 1, 2])
+    tt = t[nb] - t[idx][:, None]
+    w = np.ones_like(tt)
+    for j in range(4):
+        for k in range(4):
+            if k != j:
+                w[:, j] *= -tt[:, k] / (tt[:, j] - tt[:, k])
+    pred = np.einsum("mj,mjd->md", w, y[nb])
+    return (y[idx] - pred) / np.sqrt(1.0 + np.sum(w * w, axis=1))[:, None]
+
+
+def mad_sigma(x: np.ndarray) -> float:
+    """1.4826 × the median absolute value of ``x`` (all entries pooled; 0 when empty)."""
+    x = np.abs(np.asarray(x)).ravel()
+    return float(MAD_SCALE * np.median(x)) if x.size else 0.0
+
+
+def noise_sigma(
+    z: np.ndarray,
+    k: float = 5.0,
+    floor: float = 0.0,
+    half: int = 25,
+    frac: float = 0.3,
+) -> tuple[float, np.ndarray]:
+    """Noise σ (m) from normalised prediction errors ``z`` ((n - 4, d), :func:`loo_noise`).
+
+    Errors beyond ``max(k MAD-σ, floor)`` are outliers, left out. Returns the RMS over the
+    segment and a local RMS per sample (padded to (n,)) over ``±half`` samples, at least
+    ``frac`` times the segment's: the noise of ADS-B positions grows with speed (timing
+    jitter). The RMS, not the MAD, is what the residual sum of a fit meets.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    m = z.shape[0]
+    if z.size == 0:
+        return 0.0, np.zeros(0)
+    z = z.reshape(m, -1)
+    ok = np.all(np.abs(z) <= max(k * mad_sigma(z), floor), axis=1)
+    z2 = np.where(ok, np.mean(z * z, axis=1), 0.0)
+    cs = np.concatenate([[0.0], np.cumsum(z2)])
+    cc = np.concatenate([[0.0], np.cumsum(ok)])
+    glob = float(np.sqrt(cs[-1] / max(cc[-1], 1.0)))
+    i = np.arange(m)
+    lo, hi = np.clip(i - half, 0, m), np.clip(i + half + 1, 0, m)
+    loc = np.sqrt((cs[hi] - cs[lo]) / np.maximum(cc[hi] - cc[lo], 1.0))
+    loc = np.maximum(loc, frac * glob)
+    return glob, np.concatenate([np.full(2, loc[0]), loc, np.full(2, loc[-1])])
+
+
+def level_runs(t: np.ndarray, h: np.ndarray, min_s: float) -> np.ndarray:
+    """Mark the samples in runs of one height (within :data:`HEIGHT_EQ`) ``min_s`` long (n,)."""
+    d = np.diff(np.concatenate([[0], (np.abs(np.diff(h)) <= HEIGHT_EQ).astype(np.int8), [0]]))
+    out = np.zeros(t.size, bool)
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        if t[b] - t[a] >= min_s:
+            out[a : b + 1] = True
+    return out
+
+
+def height_quantum(h: np.ndarray) -> float:
+    """Step of quantised heights (m), e.g. 7.62 for 25 ft, or 0 when not quantised.
+
+    Quantised: every height change over :data:`HEIGHT_EQ` is (to 1 %) a whole multiple of the
+    smallest; or, for quantised pressure altitudes converted to heights (steps that vary with
+    altitude, geoid heights added), at least a fifth of the changes are within ``HEIGHT_EQ``
+    of zero: then the 10th percentile of the others.
+    """
+    dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
+    nz = dh[dh > HEIGHT_EQ]
+    if nz.size < 10:
+        return 0.0
+    q = float(nz.min())
+    r = nz / q
+    if np.mean(np.abs(r - np.round(r)) < 0.01) > 0.98:
+        return q
+    return float(np.percentile(nz, 10)) if np.mean(dh <= HEIGHT_EQ) >= 0.2 else 0.0
+
+
+def lagrange_rows(t0: float, dt: float, ng: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic Lagrange interpolation from the grid ``t0 + dt k`` (k < ng) to the times ``t``.
+
+    Returns the first of the four nodes used for each time, (m,), and their weights, (m, 4).
+    """
+    x = (np.asarray(t, dtype=np.float64) - t0) / dt
+    k = np.clip(np.floor(x).astype(np.int64), 1, ng - 3)
+    u = x - k
+    L = np.stack(
+        [
+            -u * (u - 1.0) * (u - 2.0) / 6.0,
+            (u + 1.0) * (u - 1.0) * (u - 2.0) / 2.0,
+            -(u + 1.0) * u * (u - 2.0) / 2.0,
+            (u + 1.0) * u * (u - 1.0) / 6.0,
+        ],
+        -1,
+    )
+    return k - 1, L
+
+
+def on_grid(g: np.ndarray, rows: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Values at the times of ``rows`` (from :func:`lagrange_rows`) of grid values ``g``."""
+    k0, L = rows
+    return np.einsum("mj,mjd->md", L, g[k0[:, None] + np.arange(4)])
+
+
+class Whittaker:
+    """Penalised least-squares path on a regular grid (Whittaker 1923; Eilers 2003).
+
+    Minimises ``Σ_i w_i |y_i − (B g)_i|² + lam Σ_k |Δᵐ g_k / dtᵐ|² dt`` over the grid values
+    ``g`` (ng, d): ``B`` interpolates the grid to the sample times ``t`` (cubic Lagrange), ``Δᵐ``
+    the m-th difference (m = :data:`ORDER`; 2: the discrete cubic smoothing spline of Reinsch
+    1967). One banded Cholesky solve per λ; the data part is assembled once. With ``probes``
+    > 0 :meth:`solve` also returns ``tr(B A⁻¹ Bᵀ W)``, the equivalent degrees of freedom of the
+    fit, by Hutchinson's (1989) estimator with fixed Rademacher probes (deterministic).
+    """
+
+    def __init__(self, grid, t, y, w, probes: int = 0):
+        t0, self.dt, self.ng = grid
+        ng = self.ng
+        self.rows = k0, L = lagrange_rows(t0, self.dt, ng, t)
+        self.u = u = max(3, ORDER)
+        self.ab = np.zeros((u + 1, ng))
+        for a in range(4):
+            for b in range(a, 4):
+                self.ab[u - (b - a)] += np.bincount(k0 + b, w * L[:, a] * L[:, b], ng)
+        self.probes = probes
+        if probes:
+            self.z = np.random.default_rng(20240601).choice([-1.0, 1.0], size=(t.size, probes))
+            y = np.concatenate([y, self.z], 1)
+        self.rhs = np.zeros((ng, y.shape[1]))
+        for a in range(4):
+            wl = w * L[:, a]
+            for j in range(y.shape[1]):
+                self.rhs[:, j] += np.bincount(k0 + a, wl * y[:, j], ng)
+        self.c = np.array([(-1.0) ** (ORDER - j) * math.comb(ORDER, j) for j in range(ORDER + 1)])
+
+    def solve(self, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Grid values (ng, d), the fit at the samples (n, d) and the degrees of freedom."""
+        from scipy.linalg import solveh_banded
+
+        ab, u, c, m = self.ab.copy(), self.u, self.c, ORDER
+        lamd = lam * self.dt ** (1 - 2 * m)
+        r = np.arange(self.ng - m)
+        for a in range(m + 1):
+            for b in range(a, m + 1):
+                ab[u - (b - a), r + b] += lamd * c[a] * c[b]
+        g = solveh_banded(ab, self.rhs, lower=False, check_finite=False)
+        fit = on_grid(g, self.rows)
+        p = self.probes
+        if not p:
+            return g, fit, 0.0
+        edf = float(np.mean(np.sum(self.z * fit[:, -p:], 0)))
+        return g[:, :-p], fit[:, :-p], edf
+
+
+def _bisquare(z: np.ndarray, c: float) -> np.ndarray:
+    return np.where(z < c, (1.0 - (z / c) ** 2) ** 2, 0.0)
+
+
+def fit_path(
+    grid: tuple[float, float, int],
+    t: np.ndarray,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    dof: int,
+    *,
+    energy: np.ndarray | None = None,
+    edf_correction: bool = True,
+    floor: float = 0.0,
+    max_run: int = 7,
+) -> dict:
+    """Robust :class:`Whittaker` fit of ``y`` (n, d) with λ from the noise σ (m, per sample).
+
+    λ. Weights ``u/σ²``; λ solves ``Σ u |y − fit|² / σ² = dof Σ u (e / σ²) (1 − edf(λ) / n)``:
+    the residuals are as large as the noise energy ``e`` (default σ², then the right side is
+    ``dof (n − edf)``) leaves them once the fit has used ``edf`` degrees of freedom (Reinsch's
+    1967 criterion with the correction of Buja, Hastie & Tibshirani 1989; without it,
+    ``edf_correction=False``, Reinsch's own: a little smoother and monotone in λ). Brent's
+    method on log λ. ``dof``: noise components per sample (2 for a horizontal position in 3-D
+    coordinates, 1 for a height).
+
+    Robustness. Iteratively reweighted (Garcia 2010): Tukey's bisquare weights ``u`` of the
+    residuals in units of σ times their MAD scale (at least 1), c = 4.685 (Beaton & Tukey
+    1974). Samples with weight 0 are outliers, unless within ``floor`` (m) of the fit or in a
+    run longer than ``max_run`` samples (real motion the fit has yet to follow: weight 1).
+
+    Returns ``g`` (grid values), ``fit`` (at the samples), ``lam``, ``edf``, ``rms`` (residual
+    RMS per noise component of the inliers, m) and ``outlier`` (n,) bool.
+    """
+    from scipy.linalg import LinAlgError
+    from scipy.optimize import brentq
+
+    n = t.size
+    y0 = y.mean(axis=0)
+    yc = y - y0
+    sig = np.broadcast_to(np.asarray(sigma, dtype=np.float64), (n,))
+    w0 = 1.0 / sig**2
+    e = sig**2 if energy is None else np.asarray(energy, dtype=np.float64)
+    dtm = float(np.median(np.diff(t)))
+    scale = dtm ** (2 * ORDER - 1) * float(np.mean(w0))
+
+    def lam_of(logb: float) -> float:
+        # β = e^logb: the equivalent kernel's half-width in samples (Silverman 1984)
+        return math.exp(2 * ORDER * logb) * scale
+
+    def discrepancy(wt: Whittaker, w: np.ndarray, u: np.ndarray, lo: float, hi: float):
+        budget, neff = float(np.sum(w * e)), float(np.sum(u))
+
+        def excess(logb: float) -> float:
+            # log of (residual sum / its expected value): < 0 too rough, > 0 too smooth
+            try:
+                _, fit, edf = wt.solve(lam_of(logb))
+            except (LinAlgError, ValueError):
+                return 1.0
+            rhs = budget * (1.0 - edf / neff) if edf_correction else budget
+            lhs = float(np.sum(w[:, None] * (yc - fit) ** 2)) / dof
+            return -1.0 if rhs <= 1e-9 * budget or lhs <= 0.0 else math.log(lhs / rhs)
+
+        if excess(lo) >= 0.0:
+            return lo
+        if excess(hi) <= 0.0:
+            return hi
+        return brentq(excess, lo, hi, xtol=1e-2)
+
+    u = np.ones(n)
+    wt = Whittaker(grid, t, yc, w0, PROBES)
+    logb = discrepancy(wt, w0, u, math.log(0.01), math.log(100.0))
+    for _ in range(IRLS_ITER):  # reweighting at a fixed λ
+        _, fit, _ = wt.solve(lam_of(logb))
+        r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
+        z = r / sig
+        z = z / max(1.0, MAD_SCALE * float(np.median(z[u > 0])))
+        bad = (z >= BISQUARE_C) & (r > floor)
+        d = np.diff(np.concatenate([[0], bad.astype(np.int8), [0]]))
+        for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            if b - a > max_run:
+                z[a:b] = 0.0
+        unew = np.where(r <= floor, 1.0, _bisquare(z, BISQUARE_C))
+        done = np.max(np.abs(unew - u)) < 1e-3
+        u = unew
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
+        if done:
+            break
+    # the final fit: outliers out, every other sample at full weight, λ again
+    u = (u > 0.0).astype(np.float64)
+    if not u.all():
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
+        logb = discrepancy(wt, w0 * u, u, logb - 1.5, logb + 1.5)
+    g, fit, edf = wt.solve(lam_of(logb))
+    r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
+    outlier = u == 0.0
+    rms = float(np.sqrt(np.mean(r[~outlier] ** 2))) if (~outlier).any() else 0.0
+    return {
+        "g": g + y0,
+        "fit": fit + y0,
+        "lam": lam_of(logb),
+        "edf": edf,
+        "rms": rms,
+        "outlier": outlier,
+    }
+
+
+def refit(grid: tuple[float, float, int], t, y, sigma, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`Whittaker` fit at a given λ with weights ``1/σ²``: grid values, fit at ``t``."""
+    y0 = y.mean(axis=0)
+    g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)
+    return g + y0, fit + y0
+
+
+def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Acceleration and jerk magnitudes of the quintic interpolating grid values (ng, d).
+
+    The spline :class:`~fieldmap.nav.flight.FlightTrajectory` flies (``make_interp_spline``,
+    k = 5, not-a-knot ends); at each node the larger of its value there and at the midpoints
+    next to it. Two arrays (ng,).
+    """
+    from scipy.interpolate import make_interp_spline
+
+    t = dt * np.arange(g.shape[0])
+    sp = make_interp_spline(t, g, k=5)
+    out = []
+    for nu in (2, 3):
+        a = np.linalg.norm(sp(t, nu), axis=1)
+        mid = np.linalg.norm(sp(t[:-1] + 0.5 * dt, nu), axis=1)
+        a[:-1] = np.maximum(a[:-1], mid)
+        a[1:] = np.maximum(a[1:], mid)
+        out.append(a)
+    return out[0], out[1]

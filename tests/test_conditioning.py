@@ -1,0 +1,389 @@
+"""Conditioning of raw flight logs (fieldmap.nav.conditioning): outliers, noise, gaps, ground.
+
+The synthetic airliner here is built independently of the implementation: its own WGS84
+geodesy, its own dead reckoning and its own true kinematics (finite differences of a dense
+path); the artefacts of real ADS-B logs are added by hand and their lines recorded.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fieldmap.errors import InputError
+from fieldmap.nav.conditioning import condition, condition_segments, plot_conditioning
+from fieldmap.nav.flight import FlightTrajectory
+
+A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
+E2 = F_WGS * (2.0 - F_WGS)
+FT = 0.3048
+G = 9.80665
+
+
+@dataclass(frozen=True)
+class Track:
+    """Stand-in with the fields of fieldmap.nav.readers.RawTrack."""
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    lines: np.ndarray
+    source: str = "synthetic.csv"
+    height_ref: str = "ellipsoid"
+    notes: tuple = ()
+    t0_utc: str | None = None
+
+
+def ecef(lat, lon, h):
+    la, lo = np.radians(lat), np.radians(lon)
+    n = A_WGS / np.sqrt(1.0 - E2 * np.sin(la) ** 2)
+    return np.stack(
+        [
+            (n + h) * np.cos(la) * np.cos(lo),
+            (n + h) * np.cos(la) * np.sin(lo),
+            (n * (1.0 - E2) + h) * np.sin(la),
+        ],
+        -1,
+    )
+
+
+def enu_offsets(lat, lon, h, lat0, lon0, h0):
+    """East, north, up offsets (m) of points from reference points (same shapes)."""
+    d = ecef(lat, lon, h) - ecef(lat0, lon0, h0)
+    la, lo = np.radians(lat0), np.radians(lon0)
+    e = -np.sin(lo) * d[..., 0] + np.cos(lo) * d[..., 1]
+    n = -np.sin(la) * np.cos(lo) * d[..., 0] - np.sin(la) * np.sin(lo) * d[..., 1]
+    n = n + np.cos(la) * d[..., 2]
+    u = np.cos(la) * np.cos(lo) * d[..., 0] + np.cos(la) * np.sin(lo) * d[..., 1]
+    u = u + np.sin(la) * d[..., 2]
+    return e, n, u
+
+
+def smoothstep(t, t0, dur):
+    x = np.clip((t - t0) / dur, 0.0, 1.0)
+    return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+def airliner(duration=2400.0, dt=0.05):
+    """Dense truth of an airliner: 120 -> 230 m/s, climb at 10 m/s to ~9 km and two turns.
+
+    A standard-rate turn (3 °/s, 8 s roll-in) and a 1.5 °/s turn. Returns t, lat, lon, h and
+    the true peak acceleration (g) of the path relative to the Earth.
+    """
+    t = np.arange(0.0, duration + dt / 2, dt)
+    speed = 120.0 + 110.0 * smoothstep(t, 60.0, 600.0)
+    vz = 10.0 * (smoothstep(t, 30.0, 20.0) - smoothstep(t, 900.0, 30.0))
+    rate = np.radians(3.0) * (smoothstep(t, 300.0, 8.0) - smoothstep(t, 330.0, 8.0))
+    rate -= np.radians(1.5) * (smoothstep(t, 1500.0, 10.0) - smoothstep(t, 1560.0, 10.0))
+
+    def integral(x):
+        return np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)])
+
+    psi = np.radians(60.0) + integral(rate)
+    h = 300.0 + integral(vz)
+    vh = np.sqrt(speed**2 - vz**2)
+    lat = np.full(t.size, np.radians(47.0))
+    for _ in range(3):  # meridian radius at the running latitude
+        w = 1.0 - E2 * np.sin(lat) ** 2
+        lat = np.radians(47.0) + integral(vh * np.cos(psi) / (A_WGS * (1 - E2) / w**1.5 + h))
+    w = 1.0 - E2 * np.sin(lat) ** 2
+    lon = np.radians(8.0) + integral(vh * np.sin(psi) / ((A_WGS / np.sqrt(w) + h) * np.cos(lat)))
+    lat, lon = np.degrees(lat), np.degrees(lon)
+    r = ecef(lat, lon, h)
+    acc = np.linalg.norm(r[2:] - 2.0 * r[1:-1] + r[:-2], axis=1) / dt**2
+    return t, lat, lon, h, float(acc.max() / G)
+
+
+def adsb_log(seed=1, duration=2400.0):
+    """1 Hz ADS-B-like log of the airliner with known artefacts. Returns the track and truth."""
+    td, lat_d, lon_d, h_d, g_true = airliner(duration)
+    step = int(round(1.0 / (td[1] - td[0])))
+    t, lat, lon, h = td[::step], lat_d[::step], lon_d[::step], h_d[::step]
+    n = t.size
+    rng = np.random.default_rng(seed)
+    m_lat = math.radians(1.0) * 6.37e6
+    m_lon = m_lat * np.cos(np.radians(lat))
+    lat_n = lat + rng.normal(0.0, 5.0, n) / m_lat
+    lon_n = lon + rng.normal(0.0, 5.0, n) / m_lon
+    h_n = np.round(h / (25 * FT)) * 25 * FT  # 25 ft altitude quantisation
+    bad_h, bad_v = [], []
+    bursts = [(200, 1, 2.4), (700, 2, 1.5), (1100, 3, 3.0), (1800, 1, 1.0), (2100, 2, 2.0)]
+    bursts += [(305, 1, 1.2), (1520, 3, 1.8)]
+    for start, length, km in bursts:
+        ang = rng.uniform(0.0, 2.0 * np.pi)
+        for i in range(start, start + length):
+            lat_n[i] += km * 1e3 * np.cos(ang) / m_lat
+            lon_n[i] += km * 1e3 * np.sin(ang) / m_lon[i]
+            bad_h.append(i)
+    for start, length, dz in [
+        (400, 1, 300.0),
+        (1300, 2, -150.0),
+        (2000, 1, 5000.0),
+        (950, 1, 60.0),
+    ]:
+        h_n[start : start + length] += dz
+        bad_v.extend(range(start, start + length))
+    keep = np.ones(n, bool)
+    for a, b in [(500, 512), (1400, 1440), (1900, 1925)]:  # gaps of 12, 40 and 25 s
+        keep[a:b] = False
+    lines = np.arange(n) + 2  # a header line, then one line per sample
+    order = np.flatnonzero(keep)
+    for i in (800, 1600, 1700):  # swapped neighbours
+        j = int(np.searchsorted(order, i))
+        order[j], order[j + 1] = order[j + 1], order[j]
+    for d in (600, 1200, 2200):  # repeated samples (same time)
+        order = np.insert(order, int(np.searchsorted(order, d)), d)
+    track = Track(t[order], lat_n[order], lon_n[order], h_n[order], lines[order])
+    truth = {
+        "t": td,
+        "lat": lat_d,
+        "lon": lon_d,
+        "h": h_d,
+        "g": g_true,
+        "bad_h": set(lines[bad_h].tolist()),
+        "bad_v": set(lines[bad_v].tolist()),
+        "gaps": 3,
+        "n_in": int(order.size),
+    }
+    return track, truth
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    track, truth = adsb_log()
+    return track, truth, condition(track)
+
+
+def test_every_injected_outlier_is_rejected(synthetic):
+    _, truth, cf = synthetic
+    rej = {r["line"]: r["component"] for r in cf.report["outliers"]["samples"]}
+    missed_h = [ln for ln in truth["bad_h"] if rej.get(ln) not in ("horizontal", "both")]
+    missed_v = [ln for ln in truth["bad_v"] if rej.get(ln) not in ("vertical", "both")]
+    assert not missed_h and not missed_v
+    false = [ln for ln in rej if ln not in truth["bad_h"] | truth["bad_v"]]
+    assert len(false) < 0.01 * truth["n_in"]
+    worst = cf.report["outliers"]["worst"][0]
+    assert worst["offset_m"] > 4000.0 and worst["component"] == "vertical"  # the 5 km spike
+    # 25 ft steps are never outliers: every vertical rejection is an injected one
+    assert {ln for ln, c in rej.items() if c != "horizontal"} <= truth["bad_v"]
+
+
+def test_path_within_a_few_sigma_of_the_truth(synthetic):
+    _, truth, cf = synthetic
+    s = cf.samples
+    tt = s.t + s.t_start
+    ref = [np.interp(tt, truth["t"], truth[k]) for k in ("lat", "lon", "h")]
+    e, n, u = enu_offsets(s.lat, s.lon, s.h, *ref)
+    dh = np.hypot(e, n)
+    assert np.sqrt(np.mean(dh**2)) < 5.0 and dh.max() < 25.0
+    assert np.sqrt(np.mean(u**2)) < 5.0 and np.abs(u).max() < 20.0
+    assert s.t[0] == 0.0 and np.allclose(np.diff(s.t), 1.0)
+    assert s.attitude is None and s.lines.size == s.t.size
+
+
+def test_kinematics_close_to_the_truth(synthetic):
+    _, truth, cf = synthetic
+    k = cf.report["kinematics"]
+    assert k["peak_acceleration_g"] < 3.0
+    assert abs(k["peak_acceleration_g"] - truth["g"]) < 0.15
+    assert 2.7 < k["peak_turn_rate_deg_s"] < 3.6
+    assert 9.0 < k["peak_climb_rate_m_s"] < 11.5
+    assert 225.0 < k["max_speed_m_s"] < 235.0
+    assert k["peak_jerk_m_s3"] < 5.0
+    assert 0.9 < k["peak_specific_force_g"] < 1.6
+    FlightTrajectory(cf.samples)  # refuses paths beyond 100 g
+
+
+def test_report_counts(synthetic):
+    _, truth, cf = synthetic
+    r = cf.report
+    json.dumps(r)  # JSON-ready
+    assert r["samples"]["in"] == truth["n_in"]
+    assert r["order"]["duplicates"] == 3
+    assert r["order"]["reordered"] == 3
+    assert r["gaps"]["bridged"] >= truth["gaps"]
+    assert 39.0 <= r["gaps"]["longest_bridged_s"] <= 42.0
+    assert r["gaps"]["breaks"] == [] and r["segments"]["dropped"] == []
+    assert r["ground_trimmed"] == []
+    f = r["fit"]
+    assert f["sigma_estimated"] and 4.0 < f["sigma_h_m"] < 6.0
+    assert abs(f["height_quantum_m"] - 25 * FT) < 1e-6
+    assert 3.5 < f["residual_rms_h_m"] < 6.0
+    assert r["outliers"]["count"] == len(r["outliers"]["samples"])
+    text = cf.format_report()
+    assert "outliers rejected" in text and "peak acceleration" in text
+
+
+def test_plot(synthetic):
+    fig = plot_conditioning(synthetic[2])
+    assert len(fig.axes) == 4
+
+
+def test_given_noise_and_exact_mode(synthetic):
+    track, _, _ = synthetic
+    cf = condition(track, position_noise_m=(5.0, 2.2))
+    assert not cf.report["fit"]["sigma_estimated"]
+    assert cf.report["fit"]["sigma_h_m"] == 5.0
+    ex = condition(track, smooth=False)
+    s = ex.samples
+    assert s.t.size == track.t.size - 3  # repeated times dropped
+    assert np.all(np.diff(s.t) > 0)
+    i = int(np.flatnonzero(track.lines == 1000)[0])
+    j = int(np.flatnonzero(s.lines == 1000)[0])
+    assert s.lat[j] == track.lat[i] and s.h[j] == track.h[i]
+
+
+def quiet_track(t, lat, lon, h, source="quiet.csv"):
+    return Track(t, lat, lon, h, np.arange(t.size) + 2, source=source)
+
+
+def straight(t, v=200.0, lat0=40.0, lon0=-3.0, h0=3000.0, vz=0.0, heading=90.0):
+    m = math.radians(1.0) * 6.37e6
+    d = v * t
+    lat = lat0 + d * math.cos(math.radians(heading)) / m
+    lon = lon0 + d * math.sin(math.radians(heading)) / (m * math.cos(math.radians(lat0)))
+    return lat, lon, h0 + vz * t
+
+
+@pytest.mark.parametrize("step_ft", [25, 100])
+def test_quantised_heights_are_not_outliers(step_ft):
+    t = np.arange(0.0, 1200.0)
+    vz = 12.0 * (smoothstep(t, 100, 20) - smoothstep(t, 700, 20))
+    h = 2000.0 + np.concatenate([[0.0], np.cumsum(vz[1:])])
+    lat, lon, _ = straight(t)
+    hq = np.round(h / (step_ft * FT)) * step_ft * FT
+    cf = condition(quiet_track(t, lat, lon, hq))
+    assert cf.report["outliers"]["vertical"] == 0
+    assert cf.report["kinematics"]["peak_acceleration_g"] < 0.2
+
+
+def test_long_gap_longest_segment_refuse_and_split():
+    t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
+    tr = quiet_track(t, *straight(t), source="gappy.csv")
+    cf = condition(tr)
+    assert cf.samples.t[-1] == pytest.approx(599.0)
+    (d,) = cf.report["segments"]["dropped"]
+    assert d["samples"] == 300 and d["lines"] == [602, 901]
+    (b,) = cf.report["gaps"]["breaks"]
+    assert b["kind"] == "gap" and b["duration_s"] == 301.0 and b["lines"] == [601, 602]
+    with pytest.raises(InputError, match=r"gappy.csv lines 601\.\.602: .*301\.0 s.*max_gap_s") as e:
+        condition(tr, on_long_gap="refuse")
+    assert "\n" not in str(e.value)
+    segs = condition_segments(tr)
+    assert [round(s.samples.t[-1]) for s in segs] == [599, 299]
+    assert condition(tr, max_gap_s=400.0).samples.t[-1] == pytest.approx(1199.0)
+
+
+def test_times_going_back_refused_naming_the_line():
+    t = np.arange(0.0, 100.0)
+    t[40], t[41] = t[41], t[40]
+    tr = quiet_track(t, *straight(t), source="back.csv")
+    with pytest.raises(InputError, match=r"back.csv line 43: time 40.000 s goes back") as e:
+        condition(tr, reorder=False)
+    assert "\n" not in str(e.value)
+    assert condition(tr).report["order"]["first_reordered_line"] == 43
+
+
+def test_nothing_left():
+    t = np.arange(0.0, 600.0)
+    ground = quiet_track(t, *straight(t, v=8.0, h0=400.0), source="taxi.csv")
+    with pytest.raises(InputError, match=r"taxi.csv .*no airborne part") as e:
+        condition(ground)
+    assert "\n" not in str(e.value)
+    assert condition(ground, airborne_only=False).samples.t[-1] == pytest.approx(599.0)
+    t3 = np.arange(3.0)
+    with pytest.raises(InputError, match=r"three.csv: 3 usable samples"):
+        condition(quiet_track(t3, *straight(t3), source="three.csv"))
+
+
+def test_ground_segments_trimmed():
+    t = np.arange(0.0, 1500.0)
+    v = 5.0 + 195.0 * smoothstep(t, 300.0, 120.0) - 195.0 * smoothstep(t, 1100.0, 120.0)
+    m = math.radians(1.0) * 6.37e6
+    lat = 40.0 + np.cumsum(v) / m
+    vz = 8.0 * (smoothstep(t, 400.0, 20) - smoothstep(t, 600, 20))
+    vz -= 8.0 * (smoothstep(t, 800.0, 20) - smoothstep(t, 1000, 20))
+    h = 600.0 + np.cumsum(vz)
+    cf = condition(quiet_track(t, lat, np.full(t.size, -3.0), h))
+    lead, trail = cf.report["ground_trimmed"]
+    assert 300 < lead["samples"] < 400 and 250 < trail["samples"] < 380
+    assert cf.report["kinematics"]["max_speed_m_s"] > 190.0
+
+
+def test_speed_three_hours():
+    track, _ = adsb_log(seed=3, duration=10800.0)
+    t0 = time.perf_counter()
+    cf = condition(track)
+    elapsed = time.perf_counter() - t0
+    assert cf.samples.t.size > 10000
+    assert elapsed < 4.0, elapsed
+
+
+# -- real ADS-B logs ------------------------------------------------------------------------
+
+
+def _traffic_samples():
+    root = Path("/tmp/traffic/traffic/data/samples")
+    names = [
+        "noisy/noisy_landing.json.gz",
+        "noisy/noisy_takeoff.json.gz",
+        "noisy/noisy_time_issue.json.gz",
+        "featured/qantas747.json.gz",
+        "calibration/munich.json.gz",
+        "gliders/sisteron.json.gz",
+        "military/inflight_refuelling.json.gz",
+    ]
+    return [root / n for n in names]
+
+
+def _load_traffic(path: Path) -> Track:
+    """Read a traffic sample (pandas JSON: records or columns): epoch ms, degrees, ft."""
+    data = json.loads(gzip.open(path).read())
+    if isinstance(data, dict):
+        cols = {k: list(v.values()) if isinstance(v, dict) else list(v) for k, v in data.items()}
+    else:
+        cols = {k: [r.get(k) for r in data] for k in data[0]}
+
+    def arr(k):
+        return np.array([np.nan if v is None else float(v) for v in cols[k]])
+
+    t, lat, lon, alt = arr("timestamp") / 1e3, arr("latitude"), arr("longitude"), arr("altitude")
+    return Track(t, lat, lon, alt * FT, np.arange(t.size) + 1, source=str(path))
+
+
+@pytest.mark.parametrize("path", _traffic_samples(), ids=lambda p: p.name)
+def test_traffic_samples(path):
+    if not path.is_file():
+        pytest.skip(f"{path} not present (the traffic wheel unpacked in /tmp/traffic)")
+    cf = condition(_load_traffic(path))
+    k = cf.report["kinematics"]
+    assert k["peak_acceleration_g"] < 3.0
+    assert k["peak_jerk_m_s3"] < 15.0
+    s = cf.samples
+    assert all(np.all(np.isfinite(x)) for x in (s.t, s.lat, s.lon, s.h))
+    assert s.t.size > 100
+    FlightTrajectory(s)
+
+
+def test_flight_files_in_tests_data():
+    folder = Path(__file__).parent / "data" / "flights"
+    files = sorted(folder.glob("*.csv.gz")) if folder.is_dir() else []
+    if not files:
+        pytest.skip("no real flight logs in tests/data/flights")
+    readers = pytest.importorskip("fieldmap.nav.readers")
+    read = getattr(readers, "read_track", None) or getattr(readers, "read_raw_track", None)
+    if read is None:
+        pytest.skip("fieldmap.nav.readers has no track reader yet")
+    for f in files:
+        cf = condition(read(f))
+        assert cf.report["kinematics"]["peak_acceleration_g"] < 3.0, f
+        assert np.all(np.isfinite(cf.samples.lat)) and np.all(np.isfinite(cf.samples.h))
+        FlightTrajectory(cf.samples)
