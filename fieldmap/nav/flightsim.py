@@ -97,7 +97,7 @@ class FlightResult:
 
     def to_dataset(self):
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
-        from fieldmap.nav.report import flight_dataset
+        from fieldmap.nav.datasets import flight_dataset
 
         return flight_dataset(self)
 

@@ -347,7 +347,7 @@ class StudyResult:
 
     def to_dataset(self):
         """Return the error curves as an ``xarray.Dataset`` over (run, time) (CF-1.8)."""
-        from fieldmap.nav.report import to_dataset
+        from fieldmap.nav.datasets import to_dataset
 
         return to_dataset(self)
 
