@@ -64,7 +64,7 @@ def wanted(args) -> bool:
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
     from fieldmap.cli.common import load_cli_model, region, stem
-    from fieldmap.products import blockio, cluster, distributed, plots
+    from fieldmap.products import blockmeta, cluster, distributed, plots
     from fieldmap.products.maps import summary
 
     scheduler = cluster.parse_scheduler(args.scheduler)
@@ -82,7 +82,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
         load=lambda: load_cli_model(args),
     )
     grid, ell, mod = prep
-    tmpl = blockio.template(mod, grid, ell, "mGal", thresholds, stacked)
+    tmpl = blockmeta.template(mod, grid, ell, "mGal", thresholds, stacked)
 
     def write(tmp, client):
         return distributed.write_disturbance(
@@ -115,7 +115,7 @@ def stream(args, scheduler, base: str, write, publish) -> int:
     prints the report from a decimated view of the store and returns the JSON summary and the
     figures as ``(file suffix, maker)`` pairs (drawn unless ``--no-plots``).
     """
-    from fieldmap.products import blockio, cluster
+    from fieldmap.products import blockstore, cluster
     from fieldmap.products.io import check_out_dir, output_batch
 
     check_out_dir(args.out)
@@ -123,10 +123,10 @@ def stream(args, scheduler, base: str, write, publish) -> int:
     final = out / f"{base}.{'zarr' if args.format == 'zarr' else 'nc'}"
     t0 = time.perf_counter()
     with cluster.open_client(scheduler) as client, output_batch(out) as batch:
-        with blockio.atomic_store(final) as tmp:
+        with blockstore.atomic_store(final) as tmp:
             info = write(tmp, client)
             elapsed = time.perf_counter() - t0
-            view = blockio.decimated(tmp, args.format)
+            view = blockstore.decimated(tmp, args.format)
             summ, figures = publish(view, info, elapsed)
             batch.json({**summ, "product_path": final.name}, f"{base}.json")
             for suffix, make in [] if args.no_plots else figures:

@@ -11,8 +11,15 @@
   ``chunk_rows`` rows; HDF5 has no parallel writer without MPI, so the client is the one writer
   and the workers send it their blocks (at most ``window`` in flight, which bounds the memory).
 - Both are written under a hidden temporary name next to the final one and renamed only when
-  the whole product, statistics included, is complete (:func:`atomic_store`): a failed or
-  interrupted run leaves no partial product under the final name.
+  the whole product, statistics included, is complete
+  (:func:`fieldmap.products.blockstore.atomic_store`): a failed or interrupted run leaves no
+  partial product under the final name.
+- **in memory** (:func:`memory_target`): the workers of this host write into shared memory
+  (:class:`SharedArrays`), other workers send their blocks to the client (:class:`MemorySink`).
+
+The product's template and statistics attributes are :mod:`fieldmap.products.blockmeta`; the
+atomic placement of a finished store and its decimated view for figures,
+:mod:`fieldmap.products.blockstore`. Their names are importable from here too.
 """
 
 from __future__ import annotations
@@ -23,12 +30,17 @@ import os
 import shutil
 import tempfile
 import warnings
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
+from fieldmap.products.blockmeta import (  # noqa: F401 - moved there, importable from here
+    map_attrs,
+    percentile_method_text,
+    template,
+)
 from fieldmap.products.blocks import VARIABLES
+from fieldmap.products.blockstore import atomic_store, decimated  # noqa: F401 - moved there
 
 #: Bytes of one chunk of one variable (uncompressed), for the default ``chunk_rows``.
 CHUNK_BYTES = 2**20
@@ -37,52 +49,6 @@ CHUNK_BYTES = 2**20
 def chunk_rows(nlon: int) -> int:
     """Rows per chunk: about ``CHUNK_BYTES`` of float64 per chunk, 1..256 rows."""
     return int(min(256, max(1, CHUNK_BYTES // (8 * nlon))))
-
-
-def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Dataset:
-    """Coordinates, global and variable attributes of a disturbance product, without data.
-
-    The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
-    same :mod:`fieldmap.products.cf` helpers); ``attrs["variables"]`` maps each variable name
-    to its attributes.
-    """
-    from fieldmap.products.cf import coords, disturbance_attrs, mg_attrs, vector_vars
-
-    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
-    vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
-    attrs = disturbance_attrs(mod, grid, ell)
-    c = coords(grid, stacked)
-    if stacked:
-        c["threshold_mg"] = xr.Variable(
-            "threshold_mg",
-            np.array(thresholds, dtype=np.float64),
-            mg_attrs("threshold of the disturbance modulus"),
-        )
-    ds = xr.Dataset(coords=c, attrs=attrs)
-    ds.attrs["variables"] = {name: vv[name][2] for name in VARIABLES}
-    ds.attrs["dims"] = dims
-    return ds
-
-
-def percentile_method_text(method: str = "histogram") -> str:
-    """Return the ``percentile_method`` attribute of a product (``histogram`` or ``exact``)."""
-    from fieldmap.products.blockstats import PERCENTILE_RTOL
-
-    if method == "exact":
-        return "exact area-weighted percentiles of the whole map (inverted CDF)"
-    return (
-        f"mergeable area-weighted histogram of the modulus, relative accuracy {PERCENTILE_RTOL:.1e}"
-    )
-
-
-def map_attrs(stats: dict, thresholds, method: str = "histogram") -> dict:
-    """Global statistics attributes of a one-height map (as disturbance_map's)."""
-    from fieldmap.products.cf import stats_attrs
-
-    attrs = stats_attrs(stats)
-    attrs["thresholds_mg"] = np.array(thresholds)
-    attrs["percentile_method"] = percentile_method_text(method)
-    return attrs
 
 
 def _slabs(block, nrows_total: int, rows: int):
@@ -442,53 +408,3 @@ class MemorySink:
         """Copy one block's variables into place (a slice copy per run of rows)."""
         for name, arr in self.arrays.items():
             _put_block(arr, block, self.stacked, data[name])
-
-
-@contextlib.contextmanager
-def atomic_store(final):
-    """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
-
-    Works for a file or a folder (zarr). An existing product of the same name is replaced
-    only once the new one is complete; on any error the temporary path is removed.
-    """
-    final = Path(final)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
-    tmp.rmdir()  # the writer creates it (a file or a folder)
-    try:
-        yield tmp
-        if final.is_dir() and not final.is_symlink():
-            old = final.with_name(f".{final.name}.old-{os.getpid()}")
-            os.replace(final, old)
-            os.replace(tmp, final)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, final)
-    except BaseException:
-        if tmp.is_dir():
-            shutil.rmtree(tmp, ignore_errors=True)
-        else:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-        raise
-
-
-def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
-    """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
-
-    Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
-    the store, so that figures of huge grids never hold the full-resolution arrays.
-    """
-    opener = (
-        (lambda p: xr.open_zarr(p, consolidated=True))
-        if fmt == "zarr"
-        else (lambda p: xr.open_dataset(p, engine="netcdf4"))
-    )
-    with opener(path) as ds:
-        n = ds.sizes["latitude"] * ds.sizes["longitude"]
-        s = max(1, math.ceil(math.sqrt(n / max_nodes)))
-        view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
-    view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
-    if s > 1:
-        view.attrs["grid_step_deg"] = float(view.attrs.get("grid_step_deg", 1.0)) * s
-        view.attrs["figure_decimation"] = s
-    return view

@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products import blockio, blocks, cf, cluster
+from fieldmap.products import blockio, blockmeta, blocks, blockstore, cf, cluster
 
 __all__ = [
     "disturbance_blocks",
@@ -107,7 +107,7 @@ def disturbance_blocks(
     )
     check_memory(grid)  # the result is returned whole
     progress = show_progress(int(np.prod(grid.shape)), progress)
-    tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    tmpl = blockmeta.template(mod, grid, ell, units, thresholds, stacked)
     stats, values = _in_memory(
         (grid, ell, mod),
         blockio.VARIABLES,
@@ -153,9 +153,9 @@ def _assemble(tmpl, arrays, stats, thresholds, stacked, method="histogram") -> x
     if stacked:
         for name, var in cf.sweep_statistics(stats, thresholds).items():
             ds[name] = var
-        ds.attrs["percentile_method"] = blockio.percentile_method_text(method)
+        ds.attrs["percentile_method"] = blockmeta.percentile_method_text(method)
     else:
-        ds.attrs.update(blockio.map_attrs(stats[0], thresholds, method))
+        ds.attrs.update(blockmeta.map_attrs(stats[0], thresholds, method))
     return ds
 
 
@@ -215,13 +215,13 @@ def write_disturbance(
             model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
         )
     grid, ell, mod = setup
-    tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    tmpl = blockmeta.template(mod, grid, ell, units, thresholds, stacked)
 
     def finish(stats):
         if stacked:
-            attrs = {"percentile_method": blockio.percentile_method_text()}
+            attrs = {"percentile_method": blockmeta.percentile_method_text()}
             return attrs, cf.sweep_statistics(stats, thresholds), None
-        return blockio.map_attrs(stats[0], thresholds), None, None
+        return blockmeta.map_attrs(stats[0], thresholds), None, None
 
     stats = _write_blocks(
         path,
@@ -251,7 +251,7 @@ def _write_blocks(path, fmt, tmpl, setup, finish, *, client, scheduler, atomic, 
     """Stream a product's blocks to ``path``; ``finish(stats)``: (attrs, extra, var attrs)."""
     _check_format(fmt)
     grid, ell, mod = setup
-    place = blockio.atomic_store(path) if atomic else contextlib.nullcontext(path)
+    place = blockstore.atomic_store(path) if atomic else contextlib.nullcontext(path)
     # connect (or start the local cluster) before anything is written
     with _client(client, scheduler) as c, place as tmp:
         writer = None

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from fieldmap.products import blockio, blocks, cluster
+from fieldmap.products import blockmeta, blocks, cluster
 from fieldmap.products.distributed import prepare, prepare_quantity
 
 __all__ = ["lazy_disturbance", "lazy_quantity"]
@@ -46,7 +46,7 @@ def lazy_disturbance(
     grid, ell, mod = prepare(
         model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, units
     )
-    tmpl = blockio.template(mod, grid, ell, units, thresholds, stacked)
+    tmpl = blockmeta.template(mod, grid, ell, units, thresholds, stacked)
     rows = _chunk_rows(chunks)
     plan = blocks.plan_blocks(grid, mod.lmax, rows)
     jobs = blocks.make_jobs(grid, plan, ell.name, device, units, thresholds)
