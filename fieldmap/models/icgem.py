@@ -22,7 +22,9 @@ lines of ICGEM 1.0 and the ``icgem2.0`` piecewise variant (``format icgem2.0`` i
 * Fortran ``D`` exponents are accepted; ``.gz`` files are detected by their magic bytes.
 
 The data section is tokenised with NumPy in bulk (a degree-2190 file, 2.4 million lines, loads in
-a few seconds); a per-line pass runs only to name the line of an error.
+a few seconds, :mod:`fieldmap.models._gfc_scan`); a per-line pass runs only to name the line of an
+error. The coefficient tables, static and time-variable, are assembled by
+:mod:`fieldmap.models._gfc_terms`.
 """
 
 from __future__ import annotations
@@ -38,11 +40,14 @@ from fieldmap.errors import InputError, ModelFileError
 from fieldmap.models import _gfc_scan as scan
 from fieldmap.models._gfc_scan import decimal_year  # public here
 from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
-from fieldmap.models._gfc_scan import yyyymmdd as _yyyymmdd
+from fieldmap.models._gfc_terms import KIND_NAME as _KIND_NAME
+from fieldmap.models._gfc_terms import fail as _fail
+from fieldmap.models._gfc_terms import static_coefficients as _static
+from fieldmap.models._gfc_terms import time_variable as _time_variable
+from fieldmap.models._gfc_terms import times as _times
 from fieldmap.models.shmodel import SHModel
 
 _KEYS = {"gfc": 0, "gfct": 1, "trnd": 2, "dot": 2, "acos": 3, "asin": 4}
-_KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
 # allowed number of value fields after "key n m", per kind, for (icgem1.0, icgem2.0): C S, up to
 # four sigmas (errors "calibrated_and_formal"), then t0 (gfct), the period (acos/asin), and in
 # icgem2.0 the validity interval t0 t1 of every time-variable line
@@ -63,11 +68,6 @@ _NORMS = {
     "unnormalized": False,
     "unnormalised": False,
 }
-
-
-def _fail(path, line, msg):
-    where = f"{path}, line {line}" if line else f"{path}"
-    return ModelFileError(f"{where}: {msg}")
 
 
 # ----------------------------------------------------------------------------------- epochs
@@ -123,7 +123,6 @@ def as_degree(lmax, what: str = "lmax") -> int | None:
     return value
 
 
-# ----------------------------------------------------------------------------------- bytes
 # ----------------------------------------------------------------------------------- header
 def _parse_header(path, raw: bytes):
     """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
@@ -161,19 +160,6 @@ def _header_number(path, header, where, key, integer=False):
     if not math.isfinite(val) or val <= (-1 if integer else 0) or (integer and val != int(val)):
         raise _fail(path, where[key], f"header '{key}': invalid value {text!r}")
     return int(val) if integer else val
-
-
-def _times(path, values, lines, nhead):
-    """Decimal years of ICGEM time stamps ``yyyymmdd[.hhmm]`` (one per data line)."""
-    uniq, inv = np.unique(values, return_inverse=True)
-    out = np.empty(uniq.size)
-    for k, v in enumerate(uniq):
-        try:
-            out[k] = _yyyymmdd(float(v))
-        except (ValueError, OverflowError):
-            line = nhead + int(lines[np.flatnonzero(inv == k)[0]]) + 1
-            raise _fail(path, line, f"bad time stamp {v!r} (expected yyyymmdd[.hhmm])") from None
-    return out[inv]
 
 
 def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
@@ -344,82 +330,6 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         source=path,
         header=header,
     )
-
-
-def _duplicates(path, keys, lines, nhead, what):
-    order = np.argsort(keys, kind="stable")
-    dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
-    if dup.size:
-        later = order[dup + 1]
-        k = later[np.argmin(lines[later])]
-        first = lines[order[dup[np.argmin(lines[later])]]]
-        raise _fail(
-            path,
-            nhead + int(lines[k]) + 1,
-            f"duplicate {what} (first given on line {nhead + int(first) + 1})",
-        )
-
-
-def _static(path, lines, kind, n, m, idx, c, s, lmax, nhead):
-    """Fill C, S from gfc/gfct lines; check duplicates and gaps."""
-    st = kind <= 1
-    if st.any():
-        _duplicates(path, idx[st], lines[st], nhead, "coefficient")
-    C = np.zeros((lmax + 1, lmax + 1))
-    S = np.zeros((lmax + 1, lmax + 1))
-    C[n[st], m[st]], S[n[st], m[st]] = c[st], s[st]
-    have = np.zeros((lmax + 1, lmax + 1), bool)
-    have[n[st], m[st]] = True
-    if not have[0, 0]:
-        C[0, 0] = 1.0
-    have[:2] = True  # degrees 0 and 1 may be omitted (C00 = 1, origin at the centre of mass)
-    have[np.triu_indices(lmax + 1, 1)] = True
-    if not have.all():
-        miss_n, miss_m = (int(v[0]) for v in np.nonzero(~have))
-        midx = miss_n * (miss_n + 1) // 2 + miss_m
-        before = idx[st] < midx
-        if not before.any():
-            raise ModelFileError(f"{path}: no line for n={miss_n} m={miss_m}")
-        last = np.max(lines[st][before])
-        why = "file truncated?" if midx > idx[st].max() else "degree gap"
-        raise _fail(
-            path, nhead + int(last) + 1, f"no line for n={miss_n} m={miss_m} after this one ({why})"
-        )
-    return C, S
-
-
-def _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead):
-    """Add trend and periodic terms at epoch ``t`` (None: each coefficient's t0)."""
-    tv = kind >= 2
-    ref = np.full(int(idx.max(initial=0)) + 1, np.nan)
-    g = kind == 1
-    ref[idx[g]] = t0[g]
-    tref = t0 if v2 else ref[idx]
-    orphan = tv & np.isnan(tref)
-    if orphan.any():
-        k = np.flatnonzero(orphan)[0]
-        raise _fail(
-            path,
-            nhead + int(lines[k]) + 1,
-            f"'{_KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line",
-        )
-    for kd, what in ((2, "trend"), (3, "acos term"), (4, "asin term")):
-        sel = kind == kd
-        if sel.any():
-            keys = idx[sel] * 4096.0 + (period[sel] if kd >= 3 else 0.0)
-            _duplicates(path, keys, lines[sel], nhead, what)
-    dt = (t - tref) if t is not None else np.zeros(idx.size)
-    factor = np.select(
-        [kind == 2, kind == 3, kind == 4],
-        [dt, np.cos(2 * np.pi * dt / period), np.sin(2 * np.pi * dt / period)],
-        0.0,
-    )
-    np.add.at(C, (n[tv], m[tv]), factor[tv] * c[tv])
-    np.add.at(S, (n[tv], m[tv]), factor[tv] * s[tv])
-    if t is not None:
-        return t
-    epochs = np.unique(t0[g])
-    return float(epochs[0]) if epochs.size == 1 else None
 
 
 def write_icgem(path, model: SHModel, preamble: str = "") -> None:
