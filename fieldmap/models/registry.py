@@ -4,7 +4,7 @@
 ``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A user's file is
 recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
 plain coefficient file (:mod:`.nga`), or GeographicLib's ``.egm`` + ``.egm.cof`` pair
-(:mod:`.geographiclib`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
+(:mod:`.egm`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
 as ``Gravity -n NAME -d DIR``).
 
 Parsed models are cached in memory, keyed by the file (path, size, modification time), the
@@ -96,7 +96,7 @@ def detect_format(path) -> str:
 
 def _resolve_path(name: str, model_dir) -> str:
     """Path of a model given by path, or by GeographicLib name in ``model_dir``."""
-    from fieldmap.models.geographiclib import default_gravity_dirs, find_egm
+    from fieldmap.models.egm import default_gravity_dirs, find_egm
 
     if model_dir is not None:
         found = find_egm(name, model_dir)
@@ -231,14 +231,14 @@ def load_model(
 
 def _reader(fmt: str, path: str, t, gm, radius):
     """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format."""
-    from fieldmap.models import geographiclib, icgem, nga
+    from fieldmap.models import egm, icgem, nga
 
     if fmt == "nga":
         variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}"
         return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
     if fmt == "egm":
-        variant = f"egm-v{geographiclib.READER_VERSION}"
-        return (lambda L: geographiclib.read_egm(path, lmax=L)), variant
+        variant = f"egm-v{egm.READER_VERSION}"
+        return (lambda L: egm.read_egm(path, lmax=L)), variant
     variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
     return (lambda L: read_icgem(path, lmax=L, epoch=t)), variant
 
