@@ -322,9 +322,17 @@ def test_cli_flight_and_bad_file(tmp_path, capsys):
     bad = _csv(tmp_path, _bad(_turning_flight(), "time_s", 10, 8.0))
     out2 = tmp_path / "o2"
     capsys.readouterr()
-    assert main(["navsim", "--trajectory", str(bad), "--out", str(out2)]) == 2
+    # without conditioning (clean, simulated files): refused, naming the line
+    assert main(["navsim", "--trajectory", str(bad), "--no-smooth", "--out", str(out2)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "line 13 column time_s" in err[0] and not out2.exists()
+    assert len(err) == 1 and "line 13" in err[0] and "goes back" in err[0] and not out2.exists()
+    # conditioned (the default): sorted, and said so in the report and the JSON
+    argv = ["navsim", "--trajectory", str(bad), "--duration", "60", "--rate", "50", "--lmax", "20",
+            "--models", "j4", "--out", str(out2)]  # fmt: skip
+    assert main(argv) == 0
+    assert "sorted (first line 13)" in capsys.readouterr().out
+    doc = json.loads((out2 / "navsim_flight.json").read_text())
+    assert "conditioning" in doc and (out2 / "navsim_flight_conditioning.png").is_file()
 
 
 def test_attitude_equals_scipy_rotation_spline():

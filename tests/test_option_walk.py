@@ -89,6 +89,21 @@ def _flight_csv() -> str:
     return "\n".join(rows) + "\n"
 
 
+def _traffic_csv() -> str:
+    """Return an ADS-B log in the traffic library's layout: 20 s of taxi, a climb, a 40 s gap."""
+    t = np.arange(150.0)
+    speed = np.where(t < 20, 10.0, np.minimum(10.0 + 4.0 * (t - 20), 150.0))
+    lat = 45 + np.degrees(np.cumsum(speed) / 6.4e6)
+    alt_ft = np.where(t < 30, 1000.0, 1000.0 + 25.0 * np.round(20.0 * (t - 30) / 25.0))
+    rows = ["timestamp,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    rows += [
+        f"2024-05-01T10:{int(s) // 60:02d}:{int(s) % 60:02d}Z,{a:.6f},7.0,{h:.0f},0,0,0"
+        for s, a, h in zip(t, lat, alt_ft)
+        if not 80 <= s < 120
+    ]
+    return "\n".join(rows) + "\n"
+
+
 @pytest.fixture(scope="module")
 def fixtures(tmp_path_factory) -> Path:
     """Folder of the files the contexts name (copied into each run's working folder)."""
@@ -97,6 +112,7 @@ def fixtures(tmp_path_factory) -> Path:
     (root / "models").mkdir()
     (root / "models" / "kaula.gfc").write_text(_gfc(12, 2))  # another model, same name
     (root / "flight.csv").write_text(_flight_csv())
+    (root / "adsb.csv").write_text(_traffic_csv())
     (root / "pts.txt").write_text("-30 100 500\n")
     return root
 
@@ -324,6 +340,20 @@ CONTEXTS = {
         *_OUT,
     ),  # fmt: skip
     "flight-file": _ctx("navsim", "--trajectory", "flight.csv", *_FLIGHT, *_OUT),
+    "flight-log": _ctx("navsim", "--trajectory", "adsb.csv", *_FLIGHT, *_OUT),
+    "flight-sh": _ctx(
+        "navsim",
+        "--route",
+        ROUTE,
+        "--speed-mps",
+        "200",
+        *_FLIGHT[:-4],
+        "--models",
+        "sh8",
+        "--output-dt",
+        "1",
+        *_OUT,
+    ),  # fmt: skip
     # table1 (the default study) with the options it uses; timings off: they are noise
     "table1": _ctx("navsim", *_STUDY, "--lmax", "10", "--models", "j2", "--no-timing", *_OUT),
     "table1-timed": _ctx("navsim", *_STUDY, "--lmax", "10", "--models", "j2", *_OUT, kind="timed"),
@@ -533,6 +563,50 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--scheduler", "threads", expect=NEUTRAL),
     ],
     ("navsim", "--out"): [C("table1", expect=OUT)],
+    ("navsim", "--columns"): [
+        C("flight-log", "--columns", "time=timestamp,lat=latitude,lon=longitude,alt=altitude"),
+        C("flight", "--columns", "time=t,lat=a,lon=b,alt=c", expect=REFUSED, note="--route"),
+        C("table1", "--columns", "time=t,lat=a,lon=b,alt=c", expect=REFUSED, note="table1"),
+    ],
+    ("navsim", "--alt-units"): [
+        C("flight-log", "--alt-units", "m"),
+        C("flight", "--alt-units", "m", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--height-ref"): [
+        C("flight-log", "--height-ref", "ellipsoid"),
+        C("table1", "--height-ref", "msl", expect=REFUSED, note="table1"),
+    ],
+    ("navsim", "--time-format"): [
+        # the format the log has (ISO 8601): the same flight, as detected
+        C("flight-log", "--time-format", "iso", expect=NEUTRAL),
+        C("flight", "--time-format", "iso", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--position-noise-m"): [
+        C("flight-log", "--position-noise-m", "40,10"),
+        C("flight", "--position-noise-m", "5", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--max-gap-s"): [
+        C("flight-log", "--max-gap-s", "30"),
+        C("flight", "--max-gap-s", "30", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--keep-ground"): [
+        C("flight-log", "--keep-ground"),
+        C("flight", "--keep-ground", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--no-smooth"): [
+        C("flight-file", "--no-smooth"),
+        C("flight", "--no-smooth", expect=REFUSED, note="--route"),
+        C("table1", "--no-smooth", expect=REFUSED, note="table1"),
+    ],
+    ("navsim", "--gravity-rate-hz"): [
+        C("flight-sh", "--gravity-rate-hz", "full"),
+        C("flight", "--gravity-rate-hz", "1", expect=REFUSED, note="SH navigation"),
+        C("table1", "--gravity-rate-hz", "1", expect=REFUSED, note="table1"),
+    ],
+    ("navsim", "--truth-evaluation"): [
+        C("flight", "--truth-evaluation", "full"),
+        C("table1", "--truth-evaluation", "full", expect=REFUSED, note="table1"),
+    ],
     # --------------------------------------------------------------------------- imu allan
     ("imu allan", "--imu"): [C("allan", "--imu", "consumer")],
     ("imu allan", "--duration"): [C("allan", "--duration", "30")],

@@ -23,6 +23,7 @@ import argparse
 
 import numpy as np
 
+from fieldmap.cli import navflight
 from fieldmap.errors import InputError
 
 # the tables and files live in the library; re-exported for scripts written against 0.1
@@ -48,9 +49,12 @@ def register(subparsers) -> None:
     p.add_argument(
         "--trajectory",
         default=None,
+        nargs="+",
         metavar="FILE",
-        help="your flight: CSV (header, '#' comments) or NetCDF with time_s, lat_deg, lon_deg, "
-        "height_m [, roll_deg, pitch_deg, heading_deg]; runs the flight study",
+        help="your flight log(s), as they come: CSV (fieldmap's time_s, lat_deg, lon_deg, "
+        "height_m [, roll_deg, pitch_deg, heading_deg]; ADS-B exports; any columns with "
+        "--columns), GPX, NMEA 0183, IGC, or NetCDF; conditioned (outliers, gaps, smoothing) "
+        "unless --no-smooth; several files: one study each, one summary",
     )
     p.add_argument(
         "--route",
@@ -172,6 +176,7 @@ def register(subparsers) -> None:
         default="outputs",
         help="output folder, created with its parents if missing (default outputs/)",
     )
+    navflight.add_options(p)
     p.set_defaults(func=run)
 
 
@@ -182,6 +187,8 @@ FLIGHT_ONLY = {
     "altitude_aiding": "--altitude-aiding",
     "fraction": "--fraction",
     "block_s": "--block-s",
+    **navflight.LOG_ONLY,
+    **navflight.FLIGHT_EXTRA,
 }
 #: options of the paper's studies only (the flight study's IMU-only reference is J4 and its
 #: constant errors are Gaussian): dest -> option
@@ -321,7 +328,6 @@ def is_flight(args) -> bool:
 def _check_flight_args(args, model, models):
     """Validate the flight study's options; build the trajectory (its errors name the line)."""
     from fieldmap._warp import DeviceError, resolve_device
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.imu_specs import load_imu
     from fieldmap.products.io import check_out_dir
 
@@ -336,66 +342,23 @@ def _check_flight_args(args, model, models):
     if not 1 <= args.gauss <= 16:
         raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
     imu = load_imu(args.imu or "ideal")
-    if args.trajectory is not None:
-        traj = FlightTrajectory(args.trajectory)
-    else:
-        traj = FlightTrajectory(route_flight(args.route, args.speed_mps))
-    _refuse_in_flight(args, imu, traj)
+    if args.max_gap_s is not None and not (np.isfinite(args.max_gap_s) and args.max_gap_s > 0):
+        raise InputError(f"--max-gap-s must be a positive number, got {args.max_gap_s}")
+    from fieldmap.cli import given
+
+    if given(args, "gravity_rate_hz") and not any(m.startswith("sh") for m in models):
+        raise InputError(
+            "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
+        )
+    flights = navflight.flights(args, model)
+    for _, traj, _ in flights:
+        _refuse_in_flight(args, imu, traj)
     check_out_dir(args.out)
     try:
         device = resolve_device(args.device)
     except DeviceError as exc:
         raise InputError(str(exc)) from None
-    return device, models, (traj, imu, model)
-
-
-def run_flight_study(args, device, models, traj, imu, model, client=None) -> int:
-    """Run the flight study, write ``navsim_flight.*``, print; exit 1 if a run diverged."""
-    import warnings
-
-    from tqdm import tqdm
-
-    from fieldmap.nav.flightplots import disturbance_grid
-    from fieldmap.nav.flightsim import run_flight
-    from fieldmap.nav.report import format_flight, write_flight_outputs
-    from fieldmap.products.io import output_batch
-
-    tqdm.write(
-        f"navsim: flight of {traj.duration:g} s, IMU {imu[0]} at {args.rate:g} Hz, "
-        f"models {' '.join(models)}"
-    )
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RuntimeWarning)
-        res = run_flight(
-            traj,
-            imu=imu[1],
-            imu_name=imu[0],
-            models=models,
-            draws=args.draws or 20,
-            seed=args.seed,
-            rate_hz=args.rate,
-            frame=args.frame or "ned",
-            altitude_aiding=args.altitude_aiding,
-            truth=model,
-            n_gauss=args.gauss,
-            duration=args.duration,
-            output_dt=args.output_dt,
-            block_s=args.block_s,
-            fraction=args.fraction,
-            device=device,
-            progress=True,
-            client=client,
-        )
-    for w in caught:
-        if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
-            tqdm.write(f"warning: {w.message}")
-    if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
-        res.summary["meta"].update(synthesis_seconds=None, propagation_seconds=None)
-    grid = disturbance_grid(res, model, device=device)
-    with output_batch(args.out) as batch:
-        write_flight_outputs(res, batch, grid)
-    print(format_flight(res))
-    return 1 if res.diverged else 0
+    return device, models, (flights, imu, model)
 
 
 def run(args) -> int:
@@ -409,7 +372,7 @@ def run(args) -> int:
     # connect (or start the LocalCluster) before the long work; None: here
     with cluster.open_client(scheduler) as client:
         if is_flight(args):
-            return run_flight_study(args, device, models, *nav, client=client)
+            return navflight.run(args, device, models, *nav, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -183,18 +183,19 @@ def format_flight(res) -> str:
     return "\n".join(lines)
 
 
-def write_flight_outputs(res, out, disturbance=None) -> list[str]:
-    """``navsim_flight.{json,csv,nc,png}`` and ``navsim_flight_track.png`` of a flight study.
+def write_flight_outputs(res, out, disturbance=None, prefix: str = "navsim_flight") -> list[str]:
+    """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_track.png`` of a flight study.
 
     ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:
-    optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure.
+    optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure; ``prefix`` the file
+    names' stem (default ``navsim_flight``).
     """
     from fieldmap.nav import flightplots
     from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
 
     if not isinstance(out, OutputBatch):
         with output_batch(out) as batch:
-            return write_flight_outputs(res, batch, disturbance)
+            return write_flight_outputs(res, batch, disturbance, prefix)
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["model", "statistic", "horizontal_m", "vertical_m", "north_m", "east_m", "down_m"])
@@ -214,11 +215,11 @@ def write_flight_outputs(res, out, disturbance=None) -> list[str]:
                 ]
             )
     paths = [
-        out.text(json.dumps(res.summary, indent=2, default=float) + "\n", "navsim_flight.json"),
-        out.text(buf.getvalue(), "navsim_flight.csv"),
-        out.netcdf(flight_dataset(res), "navsim_flight.nc"),
+        out.text(json.dumps(res.summary, indent=2, default=float) + "\n", f"{prefix}.json"),
+        out.text(buf.getvalue(), f"{prefix}.csv"),
+        out.netcdf(flight_dataset(res), f"{prefix}.nc"),
     ]
     with signals_deferred():
-        paths.append(out.png(flightplots.errors_figure(res), "navsim_flight.png"))
-        paths.append(out.png(flightplots.track_figure(res, disturbance), "navsim_flight_track.png"))
+        paths.append(out.png(flightplots.errors_figure(res), f"{prefix}.png"))
+        paths.append(out.png(flightplots.track_figure(res, disturbance), f"{prefix}_track.png"))
     return [str(p) for p in paths]

@@ -1,0 +1,223 @@
+"""``fieldmap navsim --trajectory FILE [FILE ...]`` / ``--route``: the flight study of your flight.
+
+Flight logs are read as they come (:func:`fieldmap.nav.flightlog.load_flight`: CSV with any
+column names, ADS-B exports, GPX, NMEA, IGC; MSL or pressure heights), conditioned (outliers,
+gaps, ground, smoothing; ``--no-smooth`` for clean, simulated files) and flown: one summary table,
+and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` and the fit
+figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
+are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
+the kinematics that were flown.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from fieldmap.errors import InputError
+
+#: options of the flight logs (``--trajectory``) only: dest -> option
+LOG_ONLY = {
+    "columns": "--columns",
+    "alt_units": "--alt-units",
+    "height_ref": "--height-ref",
+    "time_format": "--time-format",
+    "position_noise_m": "--position-noise-m",
+    "max_gap_s": "--max-gap-s",
+    "keep_ground": "--keep-ground",
+    "no_smooth": "--no-smooth",
+}
+#: options of the flight study, logs and routes alike: dest -> option
+FLIGHT_EXTRA = {
+    "gravity_rate_hz": "--gravity-rate-hz",
+    "truth_evaluation": "--truth-evaluation",
+}
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """Add the flight-log and fast-path options of ``navsim``."""
+    g = p.add_argument_group("flight logs (--trajectory)")
+    g.add_argument(
+        "--columns",
+        default=None,
+        help="CSV columns: time=NAME,lat=NAME,lon=NAME,alt=NAME (default: recognised from the "
+        "header: fieldmap, OpenSky, traffic)",
+    )
+    g.add_argument("--alt-units", default=None, choices=("m", "ft"), help="altitude units")
+    g.add_argument(
+        "--height-ref",
+        default=None,
+        choices=("ellipsoid", "msl", "pressure"),
+        help="what the heights are: above the ellipsoid, above mean sea level (the truth "
+        "model's geoid is added), or pressure altitude (ISA, approximate)",
+    )
+    g.add_argument(
+        "--time-format",
+        default=None,
+        help="s, epoch, epoch_ms, iso or a strptime pattern (default: recognised)",
+    )
+    g.add_argument(
+        "--position-noise-m",
+        default=None,
+        help="position noise of the smoothing fit, horizontal[,vertical] in m (default: "
+        "estimated from the log)",
+    )
+    g.add_argument(
+        "--max-gap-s",
+        type=float,
+        default=60.0,
+        help="longest gap bridged by the fit; longer gaps split the log and the longest part "
+        "is flown (default 60)",
+    )
+    g.add_argument(
+        "--keep-ground",
+        action="store_true",
+        help="keep the taxi and ground segments at the ends (default: trimmed)",
+    )
+    g.add_argument(
+        "--no-smooth",
+        action="store_true",
+        help="no conditioning: interpolate the samples exactly (clean, simulated flights)",
+    )
+    p.add_argument(
+        "--gravity-rate-hz",
+        default=None,
+        help="flight study, SH navigation models: disturbance update rate in Hz, or 'full' for "
+        "the whole model every step (default: from the degree and the speed, error < 0.1 %%)",
+    )
+    p.add_argument(
+        "--truth-evaluation",
+        default="interpolated",
+        choices=("interpolated", "full"),
+        help="flight study truth: disturbance interpolated along the path plus the exact "
+        "normal field (default; error measured and reported), or the SH model at every node",
+    )
+
+
+def _noise(text):
+    if text is None:
+        return None
+    try:
+        vals = [float(x) for x in str(text).replace(",", " ").split()]
+    except ValueError:
+        vals = []
+    if len(vals) not in (1, 2):
+        raise InputError(f"--position-noise-m takes 1 or 2 numbers (m), got {text!r}")
+    return vals[0] if len(vals) == 1 else tuple(vals)
+
+
+def _rate(text):
+    if text is None or str(text).lower() == "full":
+        return None if text is None else "full"
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(
+            f"--gravity-rate-hz must be a number of Hz or 'full', got {text!r}"
+        ) from None
+
+
+def flights(args, model) -> list:
+    """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly."""
+    from fieldmap.cli import given
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.flightlog import load_flight
+
+    if args.route is not None:
+        for dest, option in LOG_ONLY.items():
+            if given(args, dest):
+                raise InputError(f"{option} applies to flight logs (--trajectory), not to --route")
+        return [("route", FlightTrajectory(route_flight(args.route, args.speed_mps)), None)]
+    out, names = [], set()
+    for path in args.trajectory:
+        traj, cf = load_flight(
+            path,
+            columns=args.columns,
+            alt_units=args.alt_units,
+            height_ref=args.height_ref,
+            time_format=args.time_format,
+            model=model,
+            smooth=not args.no_smooth,
+            position_noise_m=_noise(args.position_noise_m),
+            max_gap_s=args.max_gap_s,
+            airborne_only=not args.keep_ground,
+        )
+        name = Path(path).name.split(".")[0] or "flight"
+        base, k = name, 2
+        while name in names:
+            name, k = f"{base}_{k}", k + 1
+        names.add(name)
+        out.append((name, traj, cf))
+    return out
+
+
+def run(args, device, models, flights_, imu, model, client=None) -> int:
+    """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged."""
+    import warnings
+
+    from tqdm import tqdm
+
+    from fieldmap.nav.flightplots import disturbance_grid
+    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.products.io import output_batch
+
+    results = []
+    for name, traj, cf in flights_:
+        tqdm.write(
+            f"navsim: flight {name} of {traj.duration:g} s, IMU {imu[0]} at {args.rate:g} Hz, "
+            f"models {' '.join(models)}"
+        )
+        if cf is not None:
+            print(cf.format_report())
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            res = run_flight(
+                traj,
+                imu=imu[1],
+                imu_name=imu[0],
+                models=models,
+                draws=args.draws or 20,
+                seed=args.seed,
+                rate_hz=args.rate,
+                frame=args.frame or "ned",
+                altitude_aiding=args.altitude_aiding,
+                truth=model,
+                n_gauss=args.gauss,
+                duration=args.duration,
+                output_dt=args.output_dt,
+                block_s=args.block_s,
+                fraction=args.fraction,
+                device=device,
+                progress=True,
+                client=client,
+                truth_evaluation=args.truth_evaluation,
+                gravity_rate_hz=_rate(args.gravity_rate_hz),
+            )
+        for w in caught:
+            if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
+                tqdm.write(f"warning: {w.message}")
+        if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
+            res.summary["meta"].update(synthesis_seconds=None, propagation_seconds=None)
+        if cf is not None:
+            res.summary["conditioning"] = cf.report
+        results.append((name, res, cf, disturbance_grid(res, model, device=device)))
+    several = len(results) > 1
+    with output_batch(args.out) as batch:  # every file of every flight, or none
+        for name, res, cf, grid in results:
+            prefix = f"navsim_flight_{name}" if several else "navsim_flight"
+            write_flight_outputs(res, batch, grid, prefix=prefix)
+            if cf is not None:
+                from fieldmap.nav.conditioning import plot_conditioning
+
+                batch.png(plot_conditioning(cf), f"{prefix}_conditioning.png")
+    for name, res, _, _ in results:
+        if several:
+            print(f"== {name} ==")
+        print(format_flight(res))
+    if several:
+        print(f"{'flight':24s} {'duration s':>10s}  recommended")
+        for name, res, _, _ in results:
+            m = res.summary["meta"]
+            print(f"{name:24s} {m['duration_s']:10.0f}  {res.summary['recommended_model']}")
+    return 1 if any(res.diverged for _, res, _, _ in results) else 0
