@@ -19,18 +19,14 @@ height **above the ellipsoid** in metres, converted from the source's height ref
 
 Layouts recognised by their header when no ``columns`` mapping is given (:data:`LAYOUTS`):
 
-===========  ==============================================  =====  =====================
-layout       time, latitude, longitude, height columns        units  height reference
-===========  ==============================================  =====  =====================
-fieldmap     time_s, lat_deg, lon_deg, height_m               m      ellipsoid
-opensky      time, lat, lon, geoaltitude | baroaltitude       m      msl | pressure
-opensky-api  time_position, latitude, longitude,              m      msl | pressure
-             geo_altitude | baro_altitude
-traffic      timestamp, latitude, longitude,                  ft     msl | pressure
-             geoaltitude | altitude
-mapping      ``columns={"time": ..., "lat": ..., "lon": ...,  m      msl
-             "alt": ...}``
-===========  ==============================================  =====  =====================
+- ``fieldmap``: ``time_s, lat_deg, lon_deg, height_m``; metres above the ellipsoid.
+- ``opensky``: ``time, lat, lon`` and ``geoaltitude`` (MSL) or ``baroaltitude`` (pressure);
+  metres.
+- ``opensky-api``: ``time_position, latitude, longitude`` and ``geo_altitude`` (MSL) or
+  ``baro_altitude`` (pressure); metres.
+- ``traffic``: ``timestamp, latitude, longitude`` and ``geoaltitude`` (MSL) or ``altitude``
+  (pressure); feet.
+- a mapping ``columns={"time": ..., "lat": ..., "lon": ..., "alt": ...}``: metres, MSL.
 
 The geometric altitude of ADS-B is used when at least half the rows have one, else the
 barometric one. OpenSky documents ``geoaltitude`` only as "geometric altitude": DO-260B
