@@ -372,7 +372,8 @@ def run(args) -> int:
     # connect (or start the LocalCluster) before the long work; None: here
     with cluster.open_client(scheduler) as client:
         if is_flight(args):
-            return navflight.run(args, device, models, *nav, client=client)
+            flights, imu, model = nav
+            return navflight.run(args, device, models, flights, imu, model, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
 
@@ -291,6 +292,7 @@ def run_flight(
     inv = np.argsort(perm)
     ell = traj.frame.ellipsoid
     dt = 1.0 / float(rate_hz)
+    g_truth: Any
     if truth_evaluation == "full":
         g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
     else:
@@ -310,8 +312,9 @@ def run_flight(
         baro_bias = np.tile(baro.bias_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
         baro_drift0 = np.tile(baro.drift_m * rng_baro.standard_normal(n_draws), len(rows))[perm]
         k1, k2, k3 = baro_gains(baro.loop_tau_s, ell)
+        noise = baro.noise_m * np.sqrt(rate_hz / baro.rate_hz)
         aid = Baro(
-            None, k1, k2, k3, bias=baro_bias, noise=baro.noise_m * np.sqrt(rate_hz / baro.rate_hz),
+            np.empty((0, 0)), k1, k2, k3, bias=baro_bias, noise=noise,
             gm_sigma=baro.drift_m, gm_tau=baro.drift_tau_s,
             state=np.stack([np.zeros(n_runs), baro_drift0, np.zeros(n_runs)], -1),
         )  # fmt: skip
@@ -338,8 +341,11 @@ def run_flight(
     for s0 in starts:
         nb = min(per_block, n_total - s0)
         c0 = time.perf_counter()
-        sets = synthesize(
-            traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
+        sets = cast(
+            list,
+            synthesize(
+                traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
+            ),
         )
         c1 = time.perf_counter()
         secs["synthesis"] += c1 - c0

@@ -318,32 +318,34 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             h = h if h.ndim == 2 else np.broadcast_to(h, (np.shape(dtheta)[0], h.size))
             aid = dataclasses.replace(cfg.baro, h_ref=h, state=state["baro"])
         llh = state["llh"]
-        res = propagate_ned(
+        ned = propagate_ned(
             dtheta, dv, cfg.dt, llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"],
             cfg.gravity, sh_model=cfg.sh_model, ellipsoid=cfg.ellipsoid, imu_set=cfg.imu_set,
             errors=errors, output_every=cfg.output_every, device=cfg.device, baro=aid,
             sample0=sample0, degrees=False, gravity_every=cfg.gravity_every,
             gravity_hold=state["gravity_hold"],
         )  # fmt: skip
-        nxt = {"llh": res.final["llh"], "v": res.v_ned[:, -1], "q": res.q[:, -1]}
+        final = ned.final or {}
+        nxt = {"llh": final["llh"], "v": ned.v_ned[:, -1], "q": ned.q[:, -1]}
         if cfg.baro is not None:
-            nxt["baro"] = res.final["baro"]
-        out = {"lat": res.lat, "lon": res.lon, "h": res.h, "v": res.v_ned, "q": res.q}
+            nxt["baro"] = final["baro"]
+        out = {"lat": ned.lat, "lon": ned.lon, "h": ned.h, "v": ned.v_ned, "q": ned.q}
     else:
         from fieldmap.nav.strapdown import propagate_lci
 
-        res = propagate_lci(
+        lci = propagate_lci(
             dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,
             sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
             t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
             device=cfg.device, sample0=sample0, gravity_every=cfg.gravity_every,
             gravity_hold=state["gravity_hold"],
         )  # fmt: skip
-        nxt = {"P": res.P[:, -1], "V": res.V[:, -1], "q": res.q[:, -1]}
-        out = {"P": res.P, "V": res.V, "q": res.q, "t": res.t}
-    nxt["acc_gm"] = res.final["acc_gm"]
-    nxt["gyro_gm"] = res.final["gyro_gm"]
-    nxt["gravity_hold"] = res.final["gravity_hold"]
+        final = lci.final or {}
+        nxt = {"P": lci.P[:, -1], "V": lci.V[:, -1], "q": lci.q[:, -1]}
+        out = {"P": lci.P, "V": lci.V, "q": lci.q, "t": lci.t}
+    nxt["acc_gm"] = final["acc_gm"]
+    nxt["gyro_gm"] = final["gyro_gm"]
+    nxt["gravity_hold"] = final["gravity_hold"]
     return out, nxt
 
 
