@@ -21,7 +21,7 @@ import warp as wp
 
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
-from .navgravity import held_gravitation_ecef, nav_gravity_ecef
+from .navgravity import held_gravitation_ecef
 from .normal import NormalParams, centrifugal_ecef
 from .sh import SHKernelModel
 
@@ -280,13 +280,6 @@ def lci_kernel(
 def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
     """Specific force in NED, C_b^n (dv + ½ dθ×dv)/dt (Titterton & Weston 2004 eq. 11.64). m/s²."""
     return wp.quat_rotate(q_b_n, dv + _HALF * wp.cross(dth, dv)) / dt
-
-
-@wp.func
-def gravity_ned(kind: int, llh: wp.vec3d, ell: NormalParams, sh: SHKernelModel):
-    """Gravity (gravitation + centrifugal, Groves eq. 3.7.5) in NED at geodetic (rad, rad, m)."""
-    r = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
-    return enu_to_ned(ecef_to_enu(nav_gravity_ecef(kind, r, ell, sh), llh[0], llh[1]))
 
 
 @wp.kernel
