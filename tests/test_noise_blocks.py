@@ -38,7 +38,7 @@ def flight():
 def _study(ft, frame, block_s, seed=3):
     kw = {"altitude_aiding": "baro", "baro": BaroSpec()} if frame == "ned" else {}
     return run_flight(
-        ft, imu=NOISY, models=["j4", "normal"], draws=2, seed=seed, rate_hz=50.0,
+        ft, imu=NOISY, models=["j4", "exact"], draws=2, seed=seed, rate_hz=50.0,
         truth_lmax=30, output_dt=2.0, duration=120.0, block_s=block_s, frame=frame,
         device="cpu", **kw,
     )  # fmt: skip
@@ -230,3 +230,21 @@ def test_results_as_datasets_over_run_and_time():
     sd = st.to_dataset()
     assert sd["position_error"].dims == ("run", "time")
     assert sd["velocity_error"].attrs["units"] == "m s-1"
+
+
+def test_lci_and_ned_results_share_one_time_base():
+    """A piece of a record starting at global sample 100: both results' t start at 100 dt."""
+    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.strapdown import propagate_lci
+    from fieldmap.nav.strapdown_ned import propagate_ned
+
+    dt, n = 0.01, 40
+    dth = np.zeros((n, 3))
+    dv = np.tile([0.0, 0.0, -9.8 * dt], (n, 1))
+    q = [1.0, 0.0, 0.0, 0.0]
+    lci = propagate_lci(dth, dv, dt, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], q, LaunchFrame(7, 45, 0),
+                        t0=100 * dt, sample0=100, output_every=5, device="cpu")  # fmt: skip
+    ned = propagate_ned(dth, dv, dt, 45.0, 7.0, 0.0, [0.0, 0.0, 0.0], q, sample0=100,
+                        output_every=10, device="cpu")  # fmt: skip
+    np.testing.assert_allclose(lci.t, ned.t, rtol=0, atol=1e-12)
+    assert lci.t[0] == pytest.approx(1.0) and lci.t[-1] == pytest.approx(1.4)

@@ -19,7 +19,9 @@ from fieldmap.nav.strapdown import prepare_batch
 class NedResult:
     """Output of :func:`propagate_ned` (every ``output_every``-th sample, initial state first).
 
-    ``t`` (n_out,) s; ``lat``, ``lon`` (n_traj, n_out) degrees; ``h`` (n_traj, n_out) m;
+    ``t`` (n_out,) s, on the time base of :class:`fieldmap.nav.strapdown.LciResult` (the time of
+    each stored sample: ``t0`` of the first, default ``sample0 dt``); ``lat``, ``lon``
+    (n_traj, n_out) degrees; ``h`` (n_traj, n_out) m;
     ``v_ned`` (n_traj, n_out, 3) m/s; ``q`` (n_traj, n_out, 4) scalar-first q_b^n.
     """
 
@@ -106,6 +108,7 @@ def propagate_ned(
     degrees: bool = True,
     gravity_every=1,
     gravity_hold=None,
+    t0=None,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -129,6 +132,9 @@ def propagate_ned(
         As in :func:`fieldmap.nav.strapdown.propagate_lci`.
     baro : Baro, optional
         Altitude aiding of the vertical channel (default: free inertial).
+    t0 : float, optional
+        Time of the first sample, for ``t`` only (the mechanization does not depend on it).
+        Default ``sample0 dt``. Units: s.
     sample0 : int
         Global index of the first sample, as in :func:`~fieldmap.nav.strapdown.propagate_lci`:
         the IMU and baro noise of sample j is keyed on (seed, ``sample0`` + j).
@@ -184,7 +190,10 @@ def propagate_ned(
         "gravity_hold": b.grav_hold.numpy(),
     }
     return NedResult(
-        t=b.dt * b.output_every * np.arange(b.n_out),
+        # the time base of propagate_lci: t0 is the time of the first sample (default: the
+        # global sample index times dt, so pieces of a record share one grid)
+        t=(0.0 if t0 is None else float(t0) - b.dt * b.sample0)
+        + b.dt * (b.sample0 + b.output_every * np.arange(b.n_out)),
         lat=np.degrees(L[..., 0]),
         lon=np.degrees(L[..., 1]),
         h=L[..., 2],
