@@ -9,7 +9,7 @@ Prints, all measured in this run (medians of ``--repeat``):
    launch) vs pyins' numba NED integrator (``pyins._numba_integrate.integrate``, the loop of
    ``pyins.strapdown``) over the same trajectories from a ``numba.prange`` loop (all cores).
 3. The whole study of the issue — ``--minutes`` of flight at ``--rate`` Hz, models j2 j4 j6
-   normal sh18 sh200 + the IMU-only row, ``--draws`` tactical-IMU draws, NED, truth EIGEN-6S
+   exact sh18 sh200 + the IMU-only row, ``--draws`` tactical-IMU draws, NED, truth EIGEN-6S
    degree 200 — with its wall time split into synthesis and propagation.
 
 Usage: ``python benchmarks/bench_nav.py [--minutes 120 --rate 200 --draws 20]``;
@@ -81,7 +81,7 @@ def bench_study(traj, minutes, rate, draws, device, **kw):
         traj,
         imu=PRESETS["tactical"],
         imu_name="tactical",
-        models=["j2", "j4", "j6", "normal", "sh18", "sh200"],
+        models=["j2", "j4", "j6", "exact", "sh18", "sh200"],
         draws=draws,
         rate_hz=rate,
         truth_lmax=200,

@@ -2,8 +2,8 @@
 
 Truth: the bundled EIGEN-6S at full degree (240; the paper used EIGEN-6C4 to degree 2190). The
 boost-glide path (fieldmap.nav.trajectory.BoostGlide) is flown with exact IMU increments and
-navigated with J2, J4, J6, the exact normal field, SH degree 18 and SH degree 200, all in one
-Warp launch, plus the truth model itself (the numerical floor).
+navigated with J2, J4, J6, the exact normal field (``exact``), SH degree 18 and SH degree 200, all
+in one Warp launch, plus the truth model itself (the numerical floor).
 
     python examples/table1_gravity_models.py          # 800 s at 200 Hz (about 2 min, 2 cores)
     python examples/table1_gravity_models.py --small  # 60 s at 100 Hz (used by the tests)

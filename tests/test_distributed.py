@@ -562,7 +562,7 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
         p = Propagator(
             "ned",
             start,
-            ["j2", "j4", "j4", "j6", "normal"],
+            ["j2", "j4", "j4", "j6", "exact"],
             dt,
             errors=kerr,
             baro=baro,

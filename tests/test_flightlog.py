@@ -57,7 +57,7 @@ def _csv(path, cols):
 
 def _study(traj):
     return flightsim.run_flight(
-        traj, models=["j4", "normal"], rate_hz=50.0, truth_lmax=60, output_dt=10.0,
+        traj, models=["j4", "exact"], rate_hz=50.0, truth_lmax=60, output_dt=10.0,
         device="cpu", altitude_aiding="none",
     )  # fmt: skip
 
@@ -70,8 +70,8 @@ def test_spoilt_log_flies_like_the_clean_flight(tmp_path):
     assert rep["kinematics"]["peak_acceleration_g"] < 3.0
     ref = _study(clean)
     got = _study(traj)
-    # the same question, the same answer: the J4 and normal models' effect within a few %
-    for m in ("j4", "normal"):
+    # the same question, the same answer: the J4 and exact models' effect within a few %
+    for m in ("j4", "exact"):
         a = ref.summary["models"][m]["added_horizontal_error_m"]
         b = got.summary["models"][m]["added_horizontal_error_m"]
         assert abs(b - a) <= 0.05 * a, (m, a, b)

@@ -34,7 +34,7 @@ def test_table1_ordering_as_in_the_paper(t1):
     for e in (p, v):
         assert e["j2"] > e["j4"] > e["sh18"] > e["sh200"]
         assert abs(e["j4"] - e["j6"]) < 0.01 * e["j4"]
-        assert abs(e["j6"] - e["normal"]) < 0.01 * e["j6"]
+        assert abs(e["j6"] - e["exact"]) < 0.01 * e["j6"]
         assert e["j2"] - e["j4"] > 10 * abs(e["j4"] - e["j6"])
 
 
@@ -189,7 +189,7 @@ def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
             "--truth-degree",
             "60",
             "--models",
-            "j2,j4,j6,normal,sh18,sh40",
+            "j2,j4,j6,exact,sh18,sh40",
             "--no-timing",
             "--out",
             str(out),
@@ -201,7 +201,7 @@ def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
     files = sorted(os.listdir(out))
     assert files == [f"navsim_table1.{e}" for e in ("csv", "json", "nc", "png")]
     doc = json.loads((out / "navsim_table1.json").read_text())
-    for key in ("j2", "j4", "j6", "normal", "sh18", "sh40"):
+    for key in ("j2", "j4", "j6", "exact", "sh18", "sh40"):
         assert set(doc[key]) >= {"final_position_error_m", "final_velocity_error_m_s"}
     assert doc["truth_model"] == "EIGEN-6S" and doc["truth_degree"] == 60
     assert doc["floor"]["final_position_error_m"] < doc["sh40"]["final_position_error_m"]
@@ -209,6 +209,19 @@ def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
 
     with xr.open_dataset(out / "navsim_table1.nc") as ds:
         assert ds.position_error.shape == (7, 21) and ds.position_error.attrs["units"] == "m"
+
+
+def test_cli_normal_is_read_as_exact(tmp_path, capsys):
+    """``--models j2,normal`` (the 0.1 name) still runs: one warning line, "exact" everywhere."""
+    out = tmp_path / "o"
+    argv = ["--study", "table1", "--duration", "10", "--rate", "100", "--truth-degree", "20"]
+    code, cap = _run_cli([*argv, "--models", "j2,normal", "--no-timing", "--out", str(out)], capsys)
+    assert code == 0, cap.err
+    assert 'fieldmap navsim: warning: navigation gravity model "normal" is now "exact"' in cap.err
+    assert "\nexact " in cap.out and "normal " not in cap.out
+    doc = json.loads((out / "navsim_table1.json").read_text())
+    assert "exact" in doc and "normal" not in doc
+    assert (out / "navsim_table1.csv").read_text().splitlines()[2].startswith("exact,")
 
 
 @pytest.mark.parametrize(
@@ -281,16 +294,16 @@ def test_table1_figure(t1):
         assert axes[0, 0].get_ylabel().endswith("(m)")
         assert axes[0, 1].get_ylabel().endswith("(m/s)")
         assert all(ax.get_xlabel() == "time since launch (s)" for ax in axes[1])
-        # 6 models + floor, each with its own colour and its own marker (J4, J6 and normal
+        # 6 models + floor, each with its own colour and its own marker (J4, J6 and exact
         # coincide to the eye: colour alone would not tell them apart)
         st = _styles(axes[0, 0])
         assert len(st) == 7 and len({c for c, _ in st}) == 7
         assert len({m for _, m in st if m not in (None, "None")}) == 6
         legend = _legend(fig)
         assert sum("numerical floor" in t for t in legend) == 1
-        # lower panel: | |δp_Jn| / |δp_normal| − 1 | for J2, J4, J6, recomputed from the curves
+        # lower panel: | |δp_Jn| / |δp_exact| − 1 | for J2, J4, J6, recomputed from the curves
         by = {lab: i for i, lab in enumerate(t1.labels)}
-        ref = t1.pos[by["normal"], -1]
+        ref = t1.pos[by["exact"], -1]
         finals = [ln.get_ydata()[-1] for ln in axes[1, 0].get_lines()]
         expect = [abs(t1.pos[by[m], -1] / ref - 1) for m in ("j2", "j4", "j6")]
         np.testing.assert_allclose(finals, expect, rtol=1e-12)

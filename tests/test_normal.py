@@ -322,6 +322,16 @@ def test_bad_input(args, kw, msg):
         N.normal_gravity(*args, **kw)
 
 
+def test_normal_is_the_deprecated_name_of_exact():
+    """normal="normal" (the navigation side's 0.1 name) is "exact", with a DeprecationWarning."""
+    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
+        assert N.normal_model("normal") == "exact"
+    exact = N.normal_gravity(30.0, 10.0, 5e3, normal="exact")
+    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
+        old = N.normal_gravity(30.0, 10.0, 5e3, normal="Normal")
+    assert np.array_equal(np.asarray(old), np.asarray(exact))
+
+
 def test_bad_ecef_input():
     with pytest.raises(InputError, match="below the ellipsoid"):
         N.normal_gravitation_ecef(0.0, 0.0, 0.0)

@@ -20,7 +20,7 @@ def _g_ref(kind):
         return lambda r: rnorm.groves_j2_gravitation(
             r[:, 0], r[:, 1], r[:, 2], WGS84.GM, WGS84.J2, WGS84.a
         )
-    if kind == "normal":
+    if kind == "exact":
         return lambda r: rnorm.exact_gravitation_ecef(r[:, 0], r[:, 1], r[:, 2], WGS84)
     order = int(kind[1])
     return lambda r: rnorm.jn_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84, order)
@@ -37,7 +37,7 @@ def _random_motion(n, ns, dt, seed=0):
 
 
 def test_kernel_equals_reference(device):
-    kinds = ["j2", "j4", "j6", "normal"]
+    kinds = ["j2", "j4", "j6", "exact"]
     n, ns, dt = 8, 1200, 0.005
     dth, dv, P0, V0, q0 = _random_motion(n, ns, dt)
     sets = np.arange(n) % 4  # trajectories share increment sets
@@ -323,6 +323,26 @@ def test_input_validation():
         propagate_lci(dth, dth, gravity="sh18", **ok)
     with pytest.raises(InputError, match="unit quaternions"):
         propagate_lci(dth, dth, **{**ok, "q0": [1.0, 1.0, 0, 0]})
+
+
+def test_normal_is_the_deprecated_name_of_exact():
+    """Navigation gravity "normal" (fieldmap 0.1) flies as "exact", bit for bit, with a warning."""
+    from fieldmap.nav.strapdown import parse_gravity
+    from fieldmap.nav.studies import check_model_names
+
+    dth, dv, P0, V0, q0 = _random_motion(2, 200, 0.005)
+    run = dict(dt=0.005, P0=P0, V0=V0, q0=q0, launch=FRAME, output_every=20, device="cpu")
+    exact = propagate_lci(dth, dv, gravity=["exact", "j4"], **run)
+    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"') as rec:
+        old = propagate_lci(dth, dv, gravity=["normal", "j4"], **run)
+    assert len([w for w in rec if w.category is DeprecationWarning]) == 1  # one per call
+    assert old.gravity == ("exact", "j4")
+    for key in ("t", "P", "V", "q"):
+        assert np.array_equal(getattr(old, key), getattr(exact, key)), key
+    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
+        assert check_model_names(["j2", "Normal", "normal"], None) == ["j2", "exact", "exact"]
+    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
+        assert parse_gravity("normal", None) == parse_gravity("exact", None)
 
 
 def test_input_validation_models_and_errors():

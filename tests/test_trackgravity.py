@@ -70,7 +70,7 @@ def test_flight_study_same_answer_as_the_full_evaluation(model):
     ft = _paths()["airliner"]
     name, imu = load_imu("navigation")
     kw = dict(
-        imu=imu, imu_name=name, models=["j4", "normal", "sh60"], draws=2, rate_hz=50.0,
+        imu=imu, imu_name=name, models=["j4", "exact", "sh60"], draws=2, rate_hz=50.0,
         truth_lmax=120, duration=600.0, output_dt=10.0, device="cpu",
     )  # fmt: skip
     fast = flightsim.run_flight(ft, **kw)
@@ -93,14 +93,14 @@ def test_navigation_gravity_rate_agrees_with_every_step(model, frame):
 
     ft = _paths()["airliner"]
     kw = dict(
-        models=["normal", "sh60", "sh"], rate_hz=50.0, truth_lmax=120, duration=900.0,
+        models=["exact", "sh60", "sh"], rate_hz=50.0, truth_lmax=120, duration=900.0,
         output_dt=10.0, device="cpu", frame=frame, altitude_aiding="none",
     )  # fmt: skip
     fast = flightsim.run_flight(ft, **kw)
     full = flightsim.run_flight(ft, **kw, gravity_rate_hz="full")
     assert fast.summary["meta"]["gravity_update_every_samples"] > 20
     assert full.summary["meta"]["gravity_update_every_samples"] == 1
-    i_norm = fast.models.index("normal")
+    i_norm = fast.models.index("exact")
     for m in ("sh60", "sh120"):
         i = fast.models.index(m)
         own = full.dpos[i, -1] - full.dpos[i_norm, -1]

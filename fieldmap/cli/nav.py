@@ -20,6 +20,8 @@ so a failed run leaves nothing half-written.
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
 
 import numpy as np
 
@@ -97,9 +99,11 @@ def register(subparsers) -> None:
     p.add_argument(
         "--models",
         nargs="+",
-        default=["j2,j4,j6,normal,sh18,sh200"],
-        help="navigation gravity models, comma or space separated: j2 j4 j6 normal sh shN "
-        "(table1 and flight; table4 adds the full IMU errors to the SH ones and to --nav)",
+        default=["j2,j4,j6,exact,sh18,sh200"],
+        help="navigation gravity models, comma or space separated: j2 j4 j6 exact sh shN "
+        "(exact: the closed-form level-ellipsoid field, the --normal exact of the maps; "
+        "'normal' is its deprecated name) (table1 and flight; table4 adds the full IMU errors "
+        "to the SH ones and to --nav)",
     )
     p.add_argument(
         "--nav",
@@ -262,12 +266,33 @@ def _refuse_in_flight(args, imu, traj) -> None:
 MAX_DRAWS = 10_000
 
 
+def _model_names(args, names, model) -> list[str]:
+    """:func:`~fieldmap.nav.studies.check_model_names`, its deprecation warnings on stderr.
+
+    Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
+    (``"normal" is now "exact"``).
+    """
+    from fieldmap.nav.studies import check_model_names
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DeprecationWarning)
+        out = check_model_names(names, model)
+    for w in caught:
+        if issubclass(w.category, DeprecationWarning):
+            print(
+                f"fieldmap {getattr(args, 'command', 'navsim')}: warning: {w.message}",
+                file=sys.stderr,
+            )
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out
+
+
 def _check_args(args):
     """Validate every option (and the output folder) before any work; return the checked ones."""
     from fieldmap._warp import DeviceError, resolve_device
     from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import sample_count
-    from fieldmap.nav.studies import check_model_names
     from fieldmap.products.io import check_out_dir
 
     for name, v in (
@@ -282,7 +307,7 @@ def _check_args(args):
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
     model = load_model(args.model, lmax=args.lmax)
-    models = check_model_names(split_list(args.models), model)
+    models = _model_names(args, split_list(args.models), model)
     if is_flight(args):
         return _check_flight_args(args, model, models)
     args.duration = 800.0 if args.duration is None else args.duration
@@ -305,7 +330,7 @@ def _check_args(args):
             f"--output-dt {args.output_dt:g} s is longer than --duration {args.duration:g} s"
         )
     sample_count(args.duration, args.rate)
-    nav = check_model_names([args.nav], model)[0]
+    nav = _model_names(args, [args.nav], model)[0]
     _refuse_in_studies(args, STUDIES if args.study == "all" else (args.study,), models, nav)
     check_out_dir(args.out)
     try:

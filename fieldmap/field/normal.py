@@ -83,8 +83,9 @@ def normal_model(normal: str | int) -> str:
     ----------
     normal : str
         ``"exact"``, ``"j2"``, ``"j4"``, ``"j6"`` or ``"groves-j2"``, in any case, ``_`` for
-        ``-`` allowed. The J2n order of fieldmap 0.1's grid functions (0 for exact, 2, 4, 6) is
-        accepted with a ``DeprecationWarning``.
+        ``-`` allowed (the navigation models of :mod:`fieldmap.nav` use the same names). The J2n
+        order of fieldmap 0.1's grid functions (0 for exact, 2, 4, 6) and ``"normal"`` (fieldmap
+        0.1's navigation name of ``"exact"``) are accepted with a ``DeprecationWarning``.
 
     Returns
     -------
@@ -102,6 +103,9 @@ def normal_model(normal: str | int) -> str:
             _compat.warn(f"normal-gravity order {int(normal)} is now normal={name!r}", 4)
             return name
     key = str(normal).strip().lower().replace("_", "-")
+    if key == "normal":
+        _compat.warn('normal-gravity model "normal" is now "exact"', 4)
+        return "exact"
     if key not in NORMAL_MODELS:
         raise InputError(
             f"unknown normal-gravity model {normal!r} (known: {', '.join(NORMAL_MODELS)})"

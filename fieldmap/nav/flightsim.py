@@ -104,7 +104,7 @@ class FlightResult:
 
 
 def simplicity_order(models) -> list[str]:
-    """Models from the simplest to the most complete: j2, j4, j6, normal, shN by degree, sh."""
+    """Models from the simplest to the most complete: j2, j4, j6, exact, shN by degree, sh."""
 
     def key(m):
         if m in NORMAL_MODELS:
@@ -161,7 +161,7 @@ def run_flight(
     *,
     imu: imu_errors.ImuErrorSpec = imu_errors.ImuErrorSpec(),
     imu_name: str = "ideal",
-    models=("j2", "j4", "j6", "normal", "sh18", "sh200"),
+    models=("j2", "j4", "j6", "exact", "sh18", "sh200"),
     draws: int = 20,
     seed: int = 0,
     rate_hz: float = 200.0,
@@ -192,7 +192,8 @@ def run_flight(
     imu_name : str
         Label of the IMU in the outputs.
     models : sequence of str
-        Navigation gravity models (j2 j4 j6 normal sh shN).
+        Navigation gravity models (j2 j4 j6 exact sh shN; ``normal``, the deprecated name of
+        ``exact``, is read as ``exact`` with a ``DeprecationWarning``).
     draws : int
         Monte Carlo draws (1 for an ideal IMU).
     seed : int

@@ -8,7 +8,7 @@ Each figure has two columns (position error, velocity error) and two rows:
   draws and a shaded 5th-95th percentile band; the paper's values at 800 s are drawn as hollow
   markers where the run covers 800 s;
 - bottom: each case relative to a reference case, which makes the small differences the paper
-  discusses visible: Table 1, ``| |δx_Jn| / |δx_normal| − 1 |`` for the truncated normal models
+  discusses visible: Table 1, ``| |δx_Jn| / |δx_exact| − 1 |`` for the truncated normal models
   against the exact normal field (with the numerical floor on the same scale); Table 3, the ratio
   to group 4 (no accelerometer error); Table 4, the ratio to the IMU-only case, paired by draw.
 
@@ -25,7 +25,7 @@ MODEL_STYLE = {
     "j2": ("#D55E00", "-", "o"),
     "j4": ("#0072B2", "--", "s"),
     "j6": ("#009E73", ":", "^"),
-    "normal": ("#CC79A7", "-.", "D"),
+    "exact": ("#CC79A7", "-.", "D"),
     "sh18": ("#E69F00", "-", "v"),
     "sh200": ("#56B4E9", (0, (5, 1, 1, 1)), "P"),
 }
@@ -40,7 +40,7 @@ CYCLE = (
     ("#F0E442", "-", "X"),
 )
 FLOOR_STYLE = ("0.35", (0, (1, 1.5)), None)
-NORMAL_FAMILY = ("j2", "j4", "j6", "normal")
+NORMAL_FAMILY = ("j2", "j4", "j6", "exact")
 PANELS = (
     ("pos", "position error |δp| (m)", "m"),
     ("vel", "velocity error |δv| (m/s)", "m/s"),
@@ -50,10 +50,10 @@ NOTE = dict(xytext=(4, 0), textcoords="offset points", va="center", fontsize=8)
 
 
 def model_label(name: str, meta: dict) -> str:
-    """Display name of a navigation gravity model (``j2 j4 j6 normal shN``)."""
+    """Display name of a navigation gravity model (``j2 j4 j6 exact shN``)."""
     if name in ("j2", "j4", "j6"):
         return f"J{name[1]} normal gravity (WGS84)"
-    if name == "normal":
+    if name == "exact":
         return "exact normal gravity (WGS84, closed form)"
     if name.startswith("sh"):
         return f"{meta['truth_model']} to degree {name[2:]}"
@@ -256,7 +256,7 @@ def _table1(res):
     models = [k for k in groups if k != floor]
     styles = _assign_styles(models, MODEL_STYLE)
     family = [m for m in NORMAL_FAMILY if m in models]
-    ref = "normal" if "normal" in family else (family[-1] if family else None)
+    ref = "exact" if "exact" in family else (family[-1] if family else None)
     rel = [m for m in family if m != ref]
     fig, axes = _figure(2 if rel else 1)
     n = len(models) + 1
@@ -300,12 +300,12 @@ def _table1(res):
             # no floor here: the integration error is common to all runs (same integrator, same
             # path) and cancels in these differences, which are resolved far below it
             q = "p" if key == "pos" else "v"
-            name = "normal" if ref == "normal" else ref.upper()
+            name = "exact" if ref == "exact" else ref.upper()
             ax.set_ylabel(
                 f"relative to {model_label(ref, meta).split(' (')[0]}\n"
                 f"$|\\,|\\delta {q}| / |\\delta {q}|_{{\\rm {name}}} - 1\\,|$ (–)"
             )
-            if paper and ref == "normal" and "j6" in paper:
+            if paper and ref == "exact" and "j6" in paper:
                 # the paper has no exact normal model: its J6 (closest to it) is the reference
                 col = 1 if key == "pos" else 0
                 rel_paper = {m: abs(paper[m][col] / paper["j6"][col] - 1) for m in paper}
@@ -313,7 +313,7 @@ def _table1(res):
             ax.margins(x=0.0)
             ax.set_xlim(right=max(ax.get_xlim()[1], t[-1] * 1.13))  # shared with the top
     if paper:
-        extra = "; (c), (d): vs its J6" if rel and ref == "normal" else ""
+        extra = "; (c), (d): vs its J6" if rel and ref == "exact" else ""
         handles.append(_paper_proxy("Table 1", extra))
     title = (
         "Fig. 11 / Table 1 — navigation error caused by the navigation gravity model alone "

@@ -110,7 +110,7 @@ class Propagator:
         Start state, one row per run: NED ``llh`` (rad, rad, m), ``v`` (m/s), ``q`` (q_b^n,
         scalar first); LCI ``P``, ``V`` (m, m/s, a-frame), ``q`` (q_b^a).
     gravity : sequence of str
-        Navigation gravity of each run (``j2 j4 j6 normal sh shN``).
+        Navigation gravity of each run (``j2 j4 j6 exact sh shN``).
     dt : float
         IMU sample interval. Units: s.
     launch : LaunchFrame, optional
@@ -174,7 +174,9 @@ class Propagator:
             raise InputError("the LCI mechanization stores states every even number of samples")
         if baro is not None and frame != "ned":
             raise InputError("baro altitude aiding needs the NED mechanization")
-        gravity = [gravity] if isinstance(gravity, str) else list(gravity)
+        from fieldmap.nav.strapdown import gravity_names
+
+        gravity = gravity_names([gravity] if isinstance(gravity, str) else list(gravity))
         n = len(gravity)
         errors = dict(errors or {})
         state = {k: np.array(v, dtype=np.float64) for k, v in start.items()}

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from fieldmap import _warp
+from fieldmap import _compat, _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
@@ -26,7 +26,7 @@ def _kernel_kinds() -> dict:
     from fieldmap.kernels import navgravity as kng
 
     return {
-        "normal": int(kng.NAV_NORMAL_EXACT),
+        "exact": int(kng.NAV_NORMAL_EXACT),
         "sh": int(kng.NAV_SH),
         "j2": int(kng.NAV_J2),
         "j4": int(kng.NAV_J4),
@@ -35,11 +35,36 @@ def _kernel_kinds() -> dict:
 
 
 #: navigation gravity names -> kernel kind (the integer codes of kernels/navgravity.py);
-#: "shN" = SH to degree N
+#: "shN" = SH to degree N; "exact" is the closed-form level-ellipsoid field (the ``normal="exact"``
+#: of :func:`fieldmap.field.normal.normal_model`: one name on the map and the navigation side)
 GRAVITY_KINDS = _kernel_kinds()
 _SH_NAME = re.compile(r"^sh(\d+)?$")
 #: normal navigation models from the simplest to the most complete
-NORMAL_MODELS = ("j2", "j4", "j6", "normal")
+NORMAL_MODELS = ("j2", "j4", "j6", "exact")
+#: deprecated navigation gravity names (fieldmap 0.1) -> current name; removed in 0.3
+GRAVITY_ALIASES = {"normal": "exact"}
+
+
+def gravity_names(names, stacklevel: int = 4) -> list:
+    """``names`` with the deprecated aliases (``"normal"``) replaced by their current name.
+
+    Other names are returned as given (validation is :func:`parse_gravity`'s). One
+    ``DeprecationWarning`` per call when any alias was used (``stacklevel`` as in
+    :func:`fieldmap._compat.warn`, counted from the caller of this function).
+    """
+    out, used = [], []
+    for name in names:
+        key = str(name).strip().lower() if isinstance(name, str) else None
+        if key in GRAVITY_ALIASES:
+            used.append(key)
+            out.append(GRAVITY_ALIASES[key])
+        else:
+            out.append(name)
+    for key in dict.fromkeys(used):
+        _compat.warn(
+            f'navigation gravity model "{key}" is now "{GRAVITY_ALIASES[key]}"', stacklevel
+        )
+    return out
 
 
 @dataclass(frozen=True)
@@ -101,6 +126,7 @@ def sh_degree(name: str) -> int | None:
 def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
     """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 for the normal models."""
     key = str(name).strip().lower()
+    key = GRAVITY_ALIASES.get(key, key)
     if key in GRAVITY_KINDS and key != "sh":
         return 1.0
     deg = sh_degree(key)
@@ -110,13 +136,16 @@ def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
 
 
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
-    """Navigation gravity name (j2, j4, j6, normal, sh, shN) -> (kernel kind, SH degree)."""
-    key = str(name).strip().lower()
-    if key in ("j2", "j4", "j6", "normal"):
+    """Navigation gravity name (j2, j4, j6, exact, sh, shN) -> (kernel kind, SH degree).
+
+    The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``).
+    """
+    key = str(gravity_names([name])[0]).strip().lower()
+    if key in NORMAL_MODELS:
         return GRAVITY_KINDS[key], 0
     m = _SH_NAME.match(key)
     if not m:
-        raise InputError(f"unknown navigation gravity model {name!r} (j2, j4, j6, normal, sh, shN)")
+        raise InputError(f"unknown navigation gravity model {name!r} (j2, j4, j6, exact, sh, shN)")
     if sh_model is None:
         raise InputError(f"navigation gravity {name!r} needs an SH model (sh_model=...)")
     deg = sh_model.lmax if m.group(1) is None else int(m.group(1))
@@ -299,7 +328,7 @@ def prepare_batch(
     unknown = set(err) - set(_ERROR_KEYS)
     if unknown:
         raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
-    names = [gravity] if isinstance(gravity, str) else list(gravity)
+    names = gravity_names([gravity] if isinstance(gravity, str) else list(gravity), 5)
     # with imu_set given, the number of sets says nothing about the number of trajectories
     lens = [
         len(names),
@@ -452,8 +481,9 @@ def propagate_lci(
     launch : LaunchFrame or tuple
         The a-frame, or ``(lon0, B0, A0[, h0])`` in degrees (h0 in m).
     gravity : str or sequence of str
-        Navigation gravity per trajectory: ``j2``, ``j4``, ``j6``, ``normal`` (exact level
-        ellipsoid), ``sh`` (full ``sh_model``) or ``shN`` (degree N).
+        Navigation gravity per trajectory: ``j2``, ``j4``, ``j6``, ``exact`` (closed-form level
+        ellipsoid; ``normal`` is its deprecated 0.1 name), ``sh`` (full ``sh_model``) or ``shN``
+        (degree N).
     sh_model : SHModel, optional
         Spherical-harmonic model for the ``sh`` kinds.
     ellipsoid : Ellipsoid or str, optional

@@ -35,8 +35,9 @@ from fieldmap.nav.propagator import (  # noqa: F401 - EARTH_RADIUS: public here 
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
-TABLE1_MODELS = ("j2", "j4", "j6", "normal", "sh18", "sh200")
-#: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation.
+TABLE1_MODELS = ("j2", "j4", "j6", "exact", "sh18", "sh200")
+#: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation,
+#: keyed by our navigation model names (the paper has no exact-normal row).
 PAPER_TABLE1 = {
     "j2": (0.742, 387.18, 0.000003),
     "j4": (0.686, 351.28, 0.000003),
@@ -46,15 +47,21 @@ PAPER_TABLE1 = {
 }
 #: Paper values (Chen et al. 2022 Table 3): |δv| m/s, |δp| m per accelerometer group.
 PAPER_TABLE3 = {1: (2.033, 1019.98), 2: (0.507, 296.69), 3: (0.667, 344.29), 4: (0.686, 351.19)}
-NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "normal": "exact"}
+#: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
+#: names: the exact level-ellipsoid field is ``"exact"`` on both sides)
+NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "exact": "exact"}
 
 
 def check_model_names(names, sh_model) -> list[str]:
-    """Validate navigation gravity names (``j2 j4 j6 normal sh shN``); raise :class:`InputError`."""
-    from fieldmap.nav.strapdown import parse_gravity
+    """Validate navigation gravity names (``j2 j4 j6 exact sh shN``); raise :class:`InputError`.
+
+    Returns the names in lower case, ``sh`` as ``sh<lmax>``; the deprecated ``"normal"`` becomes
+    ``"exact"`` with one ``DeprecationWarning``.
+    """
+    from fieldmap.nav.strapdown import gravity_names, parse_gravity
 
     out = []
-    for name in names:
+    for name in gravity_names(list(names)):
         key = str(name).strip().lower()
         parse_gravity(key, sh_model)
         out.append(key if key != "sh" else f"sh{sh_model.lmax}")
@@ -311,8 +318,9 @@ def gravity_eval_seconds(
     points is returned. Units: s.
     """
     from fieldmap import _warp
+    from fieldmap.nav.strapdown import gravity_names
 
-    key = name.strip().lower()
+    key = gravity_names([name.strip().lower()])[0]
     if key in NORMAL_KINDS:
         g = Gravitation(NORMAL_KINDS[key], device=device)
         n_points = n_points or 20000
@@ -503,7 +511,7 @@ def table4(
     ref = check_model_names([reference], sc.truth_model)[0]
     if ref not in NORMAL_KINDS:
         raise InputError(
-            f"the IMU-only reference must be a normal model (j2 j4 j6 normal), got {ref!r}"
+            f"the IMU-only reference must be a normal model (j2 j4 j6 exact), got {ref!r}"
         )
     err1 = imu_errors.draw(spec, draws, seed=seed, mode=mode)
     rows_models = [ref] + names
