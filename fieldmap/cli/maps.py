@@ -160,10 +160,13 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser(
         "truncation",
-        help="J2/J4/J6 normal gravitation truncation-error maps",
+        help="J2/J4/J6 normal gravitation truncation-error maps, or SH omission maps "
+        "(--degrees) and the degree a tolerance needs (--tolerance-mgal)",
         description="Maps of the J2n normal gravitation minus the exact level-ellipsoid one "
-        "(east, north, up, modulus in mGal and mg) for each order. Bad input: one line on "
-        "stderr, exit status 2, nothing written.",
+        "(east, north, up, modulus in mGal and mg) for each order; with --degrees, of the "
+        "spherical-harmonic omission of each degree d (the model's degrees d+1..L), with "
+        "--tolerance-mgal the smallest degree whose omission stays within it. Bad input: one "
+        "line on stderr, exit status 2, nothing written.",
     )
     _common(p, model=False)
     _list_arg(p, "--height-km", "20", "height above the ellipsoid in km, -10 to 1e5")
@@ -174,6 +177,9 @@ def register(subparsers) -> None:
         help="evaluate the rows on Dask: local:N (a cluster of N worker processes for this run) "
         "or a scheduler address (tcp://host:port); the same numbers (default: here)",
     )
+    from fieldmap.cli import degree
+
+    degree.add_options(p)
     p.set_defaults(func=run_truncation)
 
 
@@ -327,7 +333,11 @@ def run_sweep(args) -> int:
 
 
 def run_truncation(args) -> int:
-    """``fieldmap truncation``: J2n truncation-error maps."""
+    """``fieldmap truncation``: J2n truncation-error maps, or SH omission (--degrees)."""
+    from fieldmap.cli import degree
+
+    if degree.wanted(args):
+        return degree.run(args)
     from fieldmap.limits import check_orders
     from fieldmap.products import cluster, plots
     from fieldmap.products.maps import truncation_map
