@@ -325,6 +325,9 @@ CONTEXTS = {
     "truncation": _ctx("truncation", "--step-deg", "30", "--no-plots", *_OUT),
     "truncation-plots": _ctx("truncation", "--step-deg", "30", *_OUT),
     "truncation-region": _ctx("truncation", *_REGION[2:], "--no-plots", *_OUT),
+    "truncation-degrees": _ctx(
+        "truncation", "--degrees", "4,8", "--lmax", "10", "--step-deg", "30", "--no-plots", *_OUT
+    ),
     "flight": _ctx("navsim", "--route", ROUTE, "--speed-mps", "200", *_FLIGHT, *_OUT),
     "flight-imu": _ctx(
         "navsim",
@@ -480,7 +483,28 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("truncation", "--float32"): [C("truncation", "--float32")],
     ("truncation", "--height-km"): [C("truncation", "--height-km", "30")],
     ("truncation", "--orders"): [C("truncation", "--orders", "2")],
-    ("truncation", "--scheduler"): [C("truncation", "--scheduler", "threads", expect=NEUTRAL)],
+    ("truncation", "--scheduler"): [
+        C("truncation", "--scheduler", "threads", expect=NEUTRAL),
+        C("truncation-degrees", "--scheduler", "threads", expect=REFUSED),
+    ],
+    ("truncation", "--degrees"): [
+        C("truncation", "--degrees", "18"),
+        C("truncation-degrees", "--degrees", "4"),
+        C("truncation-degrees", "--orders", "2", expect=REFUSED, note="--orders"),
+    ],
+    ("truncation", "--tolerance-mgal"): [
+        C("truncation", "--tolerance-mgal", "50", "--lmax", "10"),
+        C("truncation-degrees", "--tolerance-mgal", "50"),
+        C("truncation-degrees", "--tolerance-mgal", "0", expect=REFUSED),
+    ],
+    ("truncation", "--model"): [
+        C("truncation-degrees", "--model", "kaula.gfc"),
+        C("truncation", "--model", "kaula.gfc", expect=REFUSED, note="--degrees"),
+    ],
+    ("truncation", "--lmax"): [
+        C("truncation-degrees", "--lmax", "9"),
+        C("truncation", "--lmax", "9", expect=REFUSED, note="--degrees"),
+    ],
     # ----------------------------------------------------------------------------- navsim
     ("navsim", "--study"): [
         C("table3", "--study", "table4"),
