@@ -115,6 +115,8 @@ def disturbing_model(
         name=f"{model.name} - {ell.name}",
         C=C,
         S=S,
+        sigma_c=None,  # the synthesis model; σ stay on ``model`` (fieldmap.field.commission)
+        sigma_s=None,
         source=f"{model.source} minus the {ell.name} normal potential",
     )
     with _memo_lock:

@@ -3,6 +3,7 @@
 :func:`static_coefficients` fills C, S from the ``gfc``/``gfct`` lines and checks duplicates and
 gaps; :func:`time_variable` adds the trend and periodic terms (``trnd``/``dot``, ``acos``,
 ``asin``) at an epoch, by the rule of the ICGEM format quoted in :mod:`fieldmap.models.icgem`;
+:func:`static_sigmas` keeps the σ columns of the static lines (:func:`sigma_columns`);
 :func:`times` converts the lines' time stamps to decimal years. Errors name the file and the
 line (:func:`fail`).
 """
@@ -111,3 +112,38 @@ def time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, n
         return t
     epochs = np.unique(t0[g])
     return float(epochs[0]) if epochs.size == 1 else None
+
+
+# number of fields after "C S [sigmas]" per kind (gfc, gfct, trnd, acos, asin): icgem1.0, icgem2.0
+_EXTRA = (np.array([0, 1, 0, 1, 1]), np.array([0, 2, 2, 3, 3]))
+
+
+def sigma_columns(vals, off, nf, kind, v2):
+    """Return σC, σS of each data line and whether the line has them.
+
+    The first pair of σ columns is taken: the calibrated one of ``calibrated_and_formal`` files.
+    """
+    nsig = nf - 2 - _EXTRA[int(bool(v2))][kind]
+    has = nsig >= 2
+    sc = np.where(has, vals[np.minimum(off + 2, vals.size - 1)], 0.0)
+    ss = np.where(has, vals[np.minimum(off + 3, vals.size - 1)], 0.0)
+    return np.abs(sc), np.abs(ss), has
+
+
+def static_sigmas(kind, n, m, sc, ss, has, lmax, errors=""):
+    """σ tables of the static (gfc/gfct) lines, or None when the file gives none.
+
+    None when the header says ``errors no``, when no static line has σ columns or all are 0.
+    Lines without σ (degrees 0 and 1 left out of the file, for one) get σ = 0.
+    Time-variable models: σ of the static part only (the ``gfct`` line's σ; trend and periodic
+    terms' σ are not propagated).
+    """
+    st = (kind <= 1) & has
+    if (errors.split() or [""])[0].lower() == "no" or not st.any():
+        return None
+    SC = np.zeros((lmax + 1, lmax + 1))
+    SS = np.zeros((lmax + 1, lmax + 1))
+    SC[n[st], m[st]], SS[n[st], m[st]] = sc[st], ss[st]
+    if not (SC.any() or SS.any()):
+        return None
+    return SC, SS

@@ -5,7 +5,8 @@ memory-mapped, in tens of milliseconds. Layout under :func:`cache_dir`
 (``$FIELDMAP_MODEL_CACHE``, else ``$XDG_CACHE_HOME/fieldmap/models``, else
 ``~/.cache/fieldmap/models``)::
 
-    entries/<content-hash>-<variant-hash>/{C.npy, S.npy, [CC.npy, CS.npy,] meta.json}
+    entries/<content-hash>-<variant-hash>/{C.npy, S.npy, [SC.npy, SS.npy,] [CC.npy, CS.npy,]
+                                           meta.json}
     paths/<hash of the real path>.json      # stat index: path, size, mtime_ns, inode -> hash
 
 * **Key.** The SHA-256 of the model file's bytes (both files for GeographicLib's pair), plus a
@@ -36,14 +37,13 @@ import os
 import shutil
 import stat
 import tempfile
-from dataclasses import replace
 
 import numpy as np
 
 from fieldmap.models.shmodel import SHModel
 
 #: format of the entries themselves (bump when the layout changes)
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2  # 2: sigma_c, sigma_s (SC.npy, SS.npy) stored when the model has them
 _ARRAYS = ("C", "S")
 _CORR = ("CC", "CS")
 
@@ -181,6 +181,8 @@ def load(paths: list[str], variant: str, *, root: str | None = None) -> SHModel 
             epoch=m["epoch"],
             source=m["source"],
             header=header,
+            sigma_c=arrays.get("SC"),
+            sigma_s=arrays.get("SS"),
         )
     except (OSError, ValueError, KeyError, TypeError):
         shutil.rmtree(folder, ignore_errors=True)
@@ -205,6 +207,8 @@ def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = 
         corr = model.header.get("correction")
         if isinstance(corr, SHModel):
             arrays.update({"CC": corr.C, "CS": corr.S})
+        if model.sigma_c is not None and model.sigma_s is not None:
+            arrays.update({"SC": model.sigma_c, "SS": model.sigma_s})
         rec = {}
         for name, a in arrays.items():
             a = np.ascontiguousarray(a, dtype=np.float64)
@@ -267,11 +271,7 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
 
 
 def _slice(model: SHModel, lmax: int) -> SHModel:
-    return replace(
-        model,
-        C=np.ascontiguousarray(model.C[: lmax + 1, : lmax + 1]),
-        S=np.ascontiguousarray(model.S[: lmax + 1, : lmax + 1]),
-    )
+    return model.truncated(lmax)
 
 
 def clear(root: str | None = None) -> tuple[int, int]:

@@ -42,7 +42,9 @@ from fieldmap.models._gfc_scan import decimal_year  # public here
 from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
 from fieldmap.models._gfc_terms import KIND_NAME as _KIND_NAME
 from fieldmap.models._gfc_terms import fail as _fail
+from fieldmap.models._gfc_terms import sigma_columns as _sigma_columns
 from fieldmap.models._gfc_terms import static_coefficients as _static
+from fieldmap.models._gfc_terms import static_sigmas as _static_sigmas
 from fieldmap.models._gfc_terms import time_variable as _time_variable
 from fieldmap.models._gfc_terms import times as _times
 from fieldmap.models.shmodel import SHModel
@@ -59,7 +61,7 @@ _NFIELDS = {
     4: (range(3, 8), range(5, 10)),
 }
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
-READER_VERSION = 1
+READER_VERSION = 2  # 2: sigma_c, sigma_s kept
 #: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
 MAX_DEGREE = 10800
 _NORMS = {
@@ -275,6 +277,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     lines, kind, n, m, nf = li[keep], kind[keep], n[keep], m[keep], nf[keep]
     off = np.cumsum(nf) - nf
     c, s = vals[off], vals[off + 1]
+    sc, ss, has_sig = _sigma_columns(vals, off, nf, kind, v2)
     last, prev = vals[off + nf - 1], vals[off + nf - 2]
     tv = kind >= 1  # time-variable lines
     period = np.where(kind >= 3, last, 1.0)
@@ -299,8 +302,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
                 f"epoch {t:.4f} is outside the validity intervals of {path}"
                 f" ({lo:.4f} to {hi:.4f}) for some coefficients"
             )
-        lines, kind, n, m, c, s, t0, period = (
-            a[active] for a in (lines, kind, n, m, c, s, t0, period)
+        lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = (
+            a[active] for a in (lines, kind, n, m, c, s, sc, ss, has_sig, t0, period)
         )
     elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
         g = kind == 1
@@ -308,8 +311,11 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     idx = n * (n + 1) // 2 + m
     C, S = _static(path, lines, kind, n, m, idx, c, s, lmax, nhead)
     eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead)
+    sig = _static_sigmas(kind, n, m, sc, ss, has_sig, lmax, header.get("errors", ""))
     if not _NORMS[norm]:
         C, S = _unnormalized_to_full(C, S, path)
+        if sig is not None:
+            sig = _unnormalized_to_full(sig[0], sig[1], path)
     if (big := scan.first_outsize(C, S)) is not None:
         bn, bm, v = big
         raise _fail(
@@ -329,6 +335,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         epoch=eval_epoch,
         source=path,
         header=header,
+        sigma_c=None if sig is None else sig[0],
+        sigma_s=None if sig is None else sig[1],
     )
 
 
@@ -340,7 +348,8 @@ def write_icgem(path, model: SHModel, preamble: str = "") -> None:
     path : str or os.PathLike
         Output file.
     model : SHModel
-        Coefficients to write (degrees 0..model.lmax).
+        Coefficients to write (degrees 0..model.lmax); with ``model.sigma_c``/``sigma_s`` the lines
+        carry the two σ columns (header ``errors calibrated``).
     preamble : str
         Free text written before ``begin_of_head``.
     """
@@ -354,20 +363,17 @@ def write_icgem(path, model: SHModel, preamble: str = "") -> None:
         f"max_degree  {model.lmax}",
         "norm  fully_normalized",
         f"tide_system  {model.tide_system}",
-        "errors  no",
+        f"errors  {'calibrated' if model.sigma_c is not None else 'no'}",
         "end_of_head",
     ]
     nn, mm = np.tril_indices(model.lmax + 1)
     order = np.lexsort((mm, nn))
-    body = "".join(
-        f"gfc {a:5d} {b:5d} {c:+.16e} {d:+.16e}\n"
-        for a, b, c, d in zip(
-            nn[order].tolist(),
-            mm[order].tolist(),
-            model.C[nn, mm][order].tolist(),
-            model.S[nn, mm][order].tolist(),
-        )
-    )
+    cols = [nn[order].tolist(), mm[order].tolist()]
+    for a in (model.C, model.S, model.sigma_c, model.sigma_s):
+        if a is not None:
+            cols.append(a[nn, mm][order].tolist())
+    fmt = "gfc {:5d} {:5d}" + " {:+.16e}" * (len(cols) - 2) + "\n"
+    body = "".join(fmt.format(*row) for row in zip(*cols))
     text = ("\n".join(head).lstrip("\n") + "\n" + body).encode("latin-1")
     opener = gzip.open if os.fspath(path).endswith(".gz") else open
     with opener(path, "wb") as f:

@@ -37,6 +37,9 @@ class SHModel:
         Where the coefficients came from (file path, or ``"synthetic"``).
     header : dict
         The raw header key/value pairs.
+    sigma_c, sigma_s : numpy.ndarray or None
+        Calibrated standard deviations of C and S, same shape and indexing (None: the file gives
+        none). For time-variable models, σ of the static (``gfct``) part only.
     """
 
     name: str
@@ -49,6 +52,20 @@ class SHModel:
     epoch: float | None = None
     source: str = ""
     header: dict = field(default_factory=dict)
+    sigma_c: np.ndarray | None = None
+    sigma_s: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        for sig in (self.sigma_c, self.sigma_s):
+            if sig is not None and np.shape(sig) != np.shape(self.C):
+                raise ValueError("sigma_c and sigma_s must have the shape of C")
+        if (self.sigma_c is None) != (self.sigma_s is None):
+            raise ValueError("give both sigma_c and sigma_s, or neither")
+
+    @property
+    def has_sigma(self) -> bool:
+        """True when the model carries coefficient standard deviations."""
+        return self.sigma_c is not None
 
     @property
     def lmax(self) -> int:
@@ -62,8 +79,13 @@ class SHModel:
         lmax = int(lmax)
         if lmax < 0 or lmax > self.lmax:
             raise InputError(f"degree {lmax} is outside the model {self.name} (0..{self.lmax})")
-        return replace(
-            self,
-            C=np.ascontiguousarray(self.C[: lmax + 1, : lmax + 1]),
-            S=np.ascontiguousarray(self.S[: lmax + 1, : lmax + 1]),
-        )
+        return replace(self, **_sliced(self, lmax))
+
+
+def _sliced(model: SHModel, lmax: int) -> dict:
+    """C, S and (when present) sigma_c, sigma_s cut to degrees 0..lmax, for ``replace``."""
+    out = {}
+    for key in ("C", "S", "sigma_c", "sigma_s"):
+        a = getattr(model, key)
+        out[key] = None if a is None else np.ascontiguousarray(a[: lmax + 1, : lmax + 1])
+    return out

@@ -1,0 +1,215 @@
+"""Coefficient σ in the readers and the cache, and the propagated commission error (issue 18).
+
+The checks of :func:`fieldmap.commission_sigma` share no code with it: a Monte Carlo over
+coefficients drawn from their σ evaluated with the Warp point functions, finite differences of
+those functions for one coefficient, and a closed form for P̄22.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+import fieldmap
+from fieldmap.errors import InputError
+from fieldmap.field.commission import commission_sigma
+from fieldmap.models import cache
+from fieldmap.models.icgem import read_icgem, write_icgem
+from fieldmap.models.registry import kaula_model, load_model
+from fieldmap.models.shmodel import SHModel
+
+LAT = np.array([10.0, -45.0, 70.0, 0.5, -89.0])
+LON = np.array([20.0, 100.0, -60.0, 179.0, 33.0])
+H = 2000.0
+
+
+def _with_sigma(model: SHModel, seed=3) -> SHModel:
+    rng = np.random.default_rng(seed)
+    tri = np.tril(np.ones_like(model.C))
+    sc = rng.uniform(1e-12, 1e-11, model.C.shape) * tri
+    ss = rng.uniform(1e-12, 1e-11, model.C.shape) * tri
+    ss[:, 0] = 0.0
+    return dataclasses.replace(model, sigma_c=sc, sigma_s=ss)
+
+
+# ----------------------------------------------------------------------------------- readers
+def test_gfc_roundtrip_keeps_sigma(tmp_path):
+    model = _with_sigma(kaula_model(25, seed=5))
+    path = tmp_path / "s.gfc"
+    write_icgem(path, model)
+    back = read_icgem(path)
+    assert back.sigma_c is not None and back.sigma_s is not None
+    np.testing.assert_array_equal(back.sigma_c, model.sigma_c)
+    np.testing.assert_array_equal(back.sigma_s, model.sigma_s)
+    cut = back.truncated(10)
+    assert cut.sigma_c.shape == cut.C.shape == (11, 11)
+    np.testing.assert_array_equal(read_icgem(path, lmax=10).sigma_s, cut.sigma_s)
+
+
+def test_gfc_without_sigma(tmp_path):
+    path = tmp_path / "n.gfc"
+    write_icgem(path, kaula_model(8, seed=2))
+    assert read_icgem(path).sigma_c is None and read_icgem(path).sigma_s is None
+
+
+def _head(errors="formal"):
+    return (
+        "begin_of_head\nearth_gravity_constant 3.986004415e14\nradius 6378136.3\n"
+        f"max_degree 2\nerrors {errors}\nend_of_head\n"
+    )
+
+
+def test_time_variable_sigma_is_static_part(tmp_path):
+    body = (
+        "gfc 0 0 1.0 0.0 0.0 0.0\n"
+        "gfc 1 0 0.0 0.0 0.0 0.0\ngfc 1 1 0.0 0.0 0.0 0.0\n"
+        "gfct 2 0 -4.8e-4 0.0 2.0e-13 0.0 20050101\n"
+        "trnd 2 0 1.0e-11 0.0 9.0e-12 0.0\n"
+        "acos 2 0 1.0e-11 0.0 7.0e-12 0.0 1.0\n"
+        "gfc 2 1 0.0 0.0 3.0e-13 4.0e-13\n"
+        "gfc 2 2 2.4e-6 -1.4e-6 5.0e-13 6.0e-13\n"
+    )
+    path = tmp_path / "tv.gfc"
+    path.write_text(_head() + body)
+    m = read_icgem(path, epoch=2010.0)
+    assert m.sigma_c[2, 0] == 2.0e-13 and m.sigma_s[2, 2] == 6.0e-13 and m.sigma_c[2, 1] == 3e-13
+    assert m.sigma_c[0, 0] == 0.0
+    path.write_text(_head("no") + body)
+    assert read_icgem(path).sigma_c is None
+
+
+def test_bundled_eigen6s_has_sigma():
+    m = load_model("eigen-6s", lmax=30)
+    assert m.sigma_c.shape == (31, 31)
+    assert m.sigma_c[2, 0] == pytest.approx(1.9551e-13)  # the gfct line's sigma C
+
+
+def test_cache_roundtrip_sigma(tmp_path):
+    model = _with_sigma(kaula_model(12, seed=7))
+    path = tmp_path / "c.gfc"
+    write_icgem(path, model)
+    root = str(tmp_path / "cache")
+    assert cache.store([str(path)], "v|all", read_icgem(path), root=root)
+    back = cache.load([str(path)], "v|all", root=root)
+    np.testing.assert_array_equal(back.sigma_c, model.sigma_c)
+    np.testing.assert_array_equal(back.sigma_s, model.sigma_s)
+    # an entry of the old format (no sigma arrays) is dropped, not misread
+    (meta,) = (tmp_path / "cache" / "entries").glob("*/meta.json")
+    rec = json.loads(meta.read_text())
+    rec["format"] = 1
+    meta.write_text(json.dumps(rec))
+    assert cache.load([str(path)], "v|all", root=root) is None
+
+
+def test_model_without_sigma_is_refused():
+    with pytest.raises(InputError, match="no coefficient standard deviations"):
+        commission_sigma(10.0, 20.0, 0.0, model=kaula_model(10, seed=1), quantity="geoid")
+    with pytest.raises(InputError, match="quantity"):
+        commission_sigma(10.0, 20.0, 0.0, quantity="potential")
+
+
+# ---------------------------------------------------------------------- propagated sigma
+def _single(base: SHModel, n, m, which, sigma) -> SHModel:
+    sc, ss = np.zeros_like(base.C), np.zeros_like(base.C)
+    (sc if which == "C" else ss)[n, m] = sigma
+    return dataclasses.replace(base, sigma_c=sc, sigma_s=ss)
+
+
+def _wgs84_ecef_and_gamma0(lat_deg, lon_deg):
+    a, e2 = 6378137.0, 6.69437999014e-3
+    phi, lam = np.radians(lat_deg), np.radians(lon_deg)
+    nrad = a / np.sqrt(1 - e2 * np.sin(phi) ** 2)
+    x, y = nrad * np.cos(phi) * np.cos(lam), nrad * np.cos(phi) * np.sin(lam)
+    z = nrad * (1 - e2) * np.sin(phi)
+    gamma0 = (
+        9.7803253359
+        * (1 + 1.93185265241e-3 * np.sin(phi) ** 2)
+        / np.sqrt(1 - e2 * np.sin(phi) ** 2)
+    )
+    return x, y, z, gamma0
+
+
+def test_closed_form_p22():
+    """σ only on C22: σ(N) = GM/(r γ0) q² P̄22(sin ψ) |cos 2λ| σ, P̄22 = (√15/2) cos² ψ."""
+    base = kaula_model(6, seed=4)
+    sigma = 3e-10
+    model = _single(base, 2, 2, "C", sigma)
+    x, y, z, gamma0 = _wgs84_ecef_and_gamma0(LAT, LON)
+    r = np.sqrt(x * x + y * y + z * z)
+    cos_psi = np.hypot(x, y) / r
+    p22 = math.sqrt(15.0) / 2.0 * cos_psi**2
+    want = (
+        base.gm / (r * gamma0) * (base.radius / r) ** 2 * p22 * np.abs(np.cos(2 * np.radians(LON)))
+    )
+    got = commission_sigma(LAT, LON, 0.0, model=model, quantity="geoid")
+    np.testing.assert_allclose(got, want * sigma, rtol=1e-9)
+
+
+@pytest.mark.parametrize("n,m,which", [(37, 11, "S"), (20, 0, "C"), (9, 9, "C")])
+def test_single_coefficient_matches_finite_difference(n, m, which):
+    """σ only on one coefficient: |∂f/∂coef| σ, the derivative by the Warp point functions."""
+    base = load_model("eigen-6s", lmax=40)
+    sigma, step = 2e-11, 1e-8
+    model = _single(base, n, m, which, sigma)
+    bumped = dataclasses.replace(base, **{which: base.C.copy() if which == "C" else base.S.copy()})
+    getattr(bumped, which)[n, m] += step
+    for quantity, f in (
+        ("geoid", lambda mm: fieldmap.geoid_height(LAT, LON, model=mm)),
+        ("anomaly", lambda mm: fieldmap.gravity_anomaly(LAT, LON, H, model=mm)[..., 0]),
+        ("disturbance", lambda mm: fieldmap.disturbance(LAT, LON, H, model=mm)),
+    ):
+        want = np.abs(f(bumped) - f(base)) / step * sigma
+        got = commission_sigma(LAT, LON, H, model=model, quantity=quantity)
+        np.testing.assert_allclose(got, want, rtol=2e-5, atol=1e-6 * want.max(), err_msg=quantity)
+
+
+def test_monte_carlo_agrees_with_propagation():
+    """Monte Carlo: sample σ of 400 perturbed models against the propagated σ.
+
+    Within 4 standard errors (1/√(2N) = 3.5 %) at five points, for N, Δg and the three δg
+    components; the mean ratio within 2 standard errors.
+    """
+    base = load_model("eigen-6s", lmax=60)
+    ndraw = 400
+    rng = np.random.default_rng(2024)
+
+    def evaluate(mm):
+        return np.concatenate(
+            [
+                fieldmap.geoid_height(LAT, LON, model=mm)[:, None],
+                fieldmap.gravity_anomaly(LAT, LON, H, model=mm)[:, :1],
+                fieldmap.disturbance(LAT, LON, H, model=mm),
+            ],
+            axis=1,
+        )
+
+    ref = evaluate(base)
+    draws = np.empty((ndraw,) + ref.shape)
+    for k in range(ndraw):
+        dC = rng.standard_normal(base.C.shape) * base.sigma_c
+        dS = rng.standard_normal(base.C.shape) * base.sigma_s
+        draws[k] = evaluate(dataclasses.replace(base, C=base.C + dC, S=base.S + dS)) - ref
+    sample = draws.std(axis=0, ddof=1)
+    prop = np.concatenate(
+        [
+            commission_sigma(LAT, LON, 0.0, model=base, quantity="geoid")[:, None],
+            commission_sigma(LAT, LON, H, model=base, quantity="anomaly")[:, None],
+            commission_sigma(LAT, LON, H, model=base, quantity="disturbance"),
+        ],
+        axis=1,
+    )
+    tol = 4.0 / math.sqrt(2 * ndraw)
+    np.testing.assert_allclose(sample / prop, 1.0, atol=tol)
+    assert abs(np.mean(sample / prop) - 1.0) < 2.0 / math.sqrt(2 * ndraw)
+
+
+def test_shapes_and_lmax():
+    s = commission_sigma(np.zeros((2, 3)), 10.0, 0.0, quantity="disturbance", lmax=20)
+    assert s.shape == (2, 3, 3) and np.all(s > 0)
+    full = commission_sigma(30.0, 40.0, quantity="geoid", lmax=60)
+    low = commission_sigma(30.0, 40.0, quantity="geoid", lmax=20)
+    assert full.shape == () and 0 < low < full
