@@ -213,3 +213,43 @@ def test_shapes_and_lmax():
     full = commission_sigma(30.0, 40.0, quantity="geoid", lmax=60)
     low = commission_sigma(30.0, 40.0, quantity="geoid", lmax=20)
     assert full.shape == () and 0 < low < full
+
+
+# ----------------------------------------------------------------------------------- CLI
+def _point(monkeypatch, capsys, args, stdin):
+    import io
+
+    from fieldmap import cli
+
+    monkeypatch.setattr("sys.stdin", io.StringIO(stdin))
+    rc = cli.main(["point", *args])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_cli_sigma_quantities(monkeypatch, capsys):
+    pts = "45 10 1000\n-89.99 170 100000\n"
+    rc, out, _ = _point(
+        monkeypatch, capsys, ["--quantity", "disturbance-sigma", "--lmax", "50"], pts
+    )
+    assert rc == 0
+    got = np.array([[float(v) for v in line.split()] for line in out.splitlines()])
+    want = commission_sigma([45, -89.99], [10, 170], [1000, 1e5], lmax=50)
+    np.testing.assert_allclose(got, want, atol=6e-4)
+    rc, out, _ = _point(
+        monkeypatch, capsys, ["--quantity", "geoid-sigma", "--lmax", "50"], "45 10\n"
+    )
+    assert rc == 0 and float(out) == pytest.approx(
+        commission_sigma(45, 10, quantity="geoid", lmax=50), abs=6e-5
+    )
+    rc, out, _ = _point(monkeypatch, capsys, ["--quantity", "anomaly-sigma"], "45 10 0\n")
+    assert rc == 0 and len(out.split()) == 1
+
+
+def test_cli_model_without_sigma(monkeypatch, capsys, tmp_path):
+    path = tmp_path / "k.gfc"
+    write_icgem(path, kaula_model(10, seed=1))
+    args = ["--quantity", "geoid-sigma", "--model", str(path)]
+    rc, out, err = _point(monkeypatch, capsys, args, "45 10 0\n")
+    assert rc == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "no coefficient standard deviations" in err

@@ -9,6 +9,12 @@ mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in 
 cannot be used prints ``ERROR: <reason>`` in its place, the other lines are still computed (in
 one batched kernel launch) and the exit status is 1.
 
+``--quantity disturbance-sigma|anomaly-sigma|geoid-sigma`` prints the commission error instead:
+the standard deviation propagated from the model's coefficient σ
+(:func:`fieldmap.field.commission.commission_sigma`, uncorrelated coefficient errors) of δg
+east north up (mGal), of Δg (mGal) or of N (m, h must be 0). A model without σ columns is
+refused in one line (exit status 2).
+
 Heavy modules (Warp, the engine) are imported only when a command runs, so that ``fieldmap
 point`` starts quickly.
 """
@@ -21,7 +27,17 @@ import sys
 
 from fieldmap.cli.verify import run_verify  # noqa: F401 - moved there; importable from here too
 
-QUANTITIES = ("disturbance", "gravity", "normal", "anomaly", "geoid", "potential")
+QUANTITIES = (
+    "disturbance",
+    "gravity",
+    "normal",
+    "anomaly",
+    "geoid",
+    "potential",
+    "disturbance-sigma",
+    "anomaly-sigma",
+    "geoid-sigma",
+)
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
 NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
@@ -35,6 +51,9 @@ _DEFAULT_DECIMALS = {
     "anomaly": 3,
     "geoid": 4,
     "potential": 4,
+    "disturbance-sigma": 3,
+    "anomaly-sigma": 3,
+    "geoid-sigma": 4,
 }
 
 
@@ -59,7 +78,10 @@ def register(subparsers) -> None:
         default="disturbance",
         help="disturbance (mGal), gravity (m/s², incl. centrifugal), normal (m/s²); "
         "anomaly: Δg (mGal), ξ north, η east (arcsec), as Gravity -A; geoid: N (m), as "
-        "Gravity -H (h must be 0); potential: disturbing potential T (m²/s²)",
+        "Gravity -H (h must be 0); potential: disturbing potential T (m²/s²); "
+        "disturbance-sigma, anomaly-sigma, geoid-sigma: the commission error (standard "
+        "deviation propagated from the model's coefficient sigmas, uncorrelated) of δg east "
+        "north up (mGal), of Δg (mGal) or of N (m, h must be 0)",
     )
     p.add_argument(
         "--normal",
@@ -143,10 +165,11 @@ def evaluate_points(
         Geodetic latitude and longitude. Units: degrees.
     h : numpy.ndarray
         Height above WGS84. Units: m.
-    quantity : {"disturbance", "gravity", "normal", "anomaly", "geoid", "potential"}
-        Disturbance (mGal), gravity incl. centrifugal (m/s²), normal gravity (m/s²), anomaly
-        and deflection (mGal, arcsec, arcsec), geoid height (m), disturbing potential (m²/s²);
-        see :mod:`fieldmap.field.geodesy`.
+    quantity : str
+        One of :data:`QUANTITIES`: disturbance (mGal), gravity incl. centrifugal (m/s²), normal
+        gravity (m/s²), anomaly and deflection (mGal, arcsec, arcsec), geoid height (m),
+        disturbing potential (m²/s²), see :mod:`fieldmap.field.geodesy`; ``*-sigma``: their
+        commission error (:mod:`fieldmap.field.commission`).
     normal : {"exact", "j2", "j4", "j6", "groves-j2"}
         Normal model of ``quantity="normal"``.
     model, lmax, epoch, device
@@ -158,7 +181,7 @@ def evaluate_points(
     Returns
     -------
     numpy.ndarray
-        Shape ``(n, 3)``, or ``(n, 1)`` for geoid and potential.
+        Shape ``(n, 3)``, or ``(n, 1)`` for geoid, potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap import _warp
     from fieldmap.errors import InputError
@@ -178,6 +201,12 @@ def evaluate_points(
 
     sh_model = load_model(model, lmax=lmax, epoch=epoch, **(model_options or {}))
     announce(sh_model)
+    if quantity.endswith("-sigma"):
+        from fieldmap.field.commission import commission_sigma
+
+        what = quantity[: -len("-sigma")]
+        sig = commission_sigma(lat, lon, h, model=sh_model, quantity=what)
+        return sig if what == "disturbance" else sig[:, None]
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
     if quantity in ("anomaly", "geoid", "potential"):
@@ -218,7 +247,7 @@ def run_point(args) -> int:
     for line in lines:
         try:
             pt = parse_point_line(line)
-            if args.quantity == "geoid" and pt[2] != 0.0:
+            if args.quantity in ("geoid", "geoid-sigma") and pt[2] != 0.0:
                 raise ValueError("the geoid height is defined on the ellipsoid: h must be 0")
             parsed.append(pt)
             results.append(None)
