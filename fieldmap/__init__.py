@@ -55,6 +55,7 @@ _LAZY = {
     "disturbing_potential": "fieldmap.field.geodesy",
     "gravity_anomaly": "fieldmap.field.geodesy",
     "geoid_height": "fieldmap.field.geodesy",
+    "commission_sigma": "fieldmap.field.commission",
     # units and accepted ranges
     "Unit": "fieldmap.units",
     "UNITS": "fieldmap.units",
