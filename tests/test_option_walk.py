@@ -118,6 +118,16 @@ def fixtures(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(autouse=True)
+def _cache_switch_restored():
+    """``--no-cache`` switches the parsed-model cache off for the process: switch it back."""
+    from fieldmap.models import cache
+
+    before = cache._disabled
+    yield
+    cache._disabled = before
+
+
+@pytest.fixture(autouse=True)
 def _no_rendering(monkeypatch):
     """Write each PNG as a placeholder: the figure is made, not rendered."""
     import matplotlib.pyplot as plt
@@ -310,6 +320,7 @@ _POINT = "10 20 30\n"
 CONTEXTS = {
     "point": _ctx("point", stdin=_POINT),
     "point-normal": _ctx("point", "--quantity", "normal", stdin=_POINT),
+    "point-sigma": _ctx("point", "--quantity", "disturbance-sigma", "--lmax", "20", stdin=_POINT),
     "point-file": _ctx("point", "--model", "kaula.gfc", stdin=_POINT),
     "verify": _ctx("verify", "--lmax", "4", "--points", "5", kind="verify"),
     "map": _ctx("map", *_MAP, "--no-plots", *_OUT),
@@ -455,8 +466,14 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("point", "--lmax", "10"),
         C("point-normal", "--lmax", "10", expect=REFUSED, note="--quantity normal"),
     ],
-    ("point", "--epoch"): [C("point", "--epoch", "2030")],
-    ("point", "--device"): [C("point", "--device", "cpu", expect=NEUTRAL)],
+    ("point", "--epoch"): [
+        C("point", "--epoch", "2030"),
+        C("point-sigma", "--epoch", "2030", expect=REFUSED, note="sigma"),
+    ],
+    ("point", "--device"): [
+        C("point", "--device", "cpu", expect=NEUTRAL),
+        C("point-sigma", "--device", "cpu", expect=REFUSED, note="sigma"),
+    ],
     ("point", "--precision"): [C("point", "--precision", "6")],
     ("point", "--input"): [C("point", "--input", "pts.txt")],
     # ----------------------------------------------------------------------------- verify

@@ -316,6 +316,14 @@ def _refuse_unused(args) -> None:
         raise InputError(
             f"--normal applies to --quantity normal, not to --quantity {args.quantity}"
         )
+    if args.quantity.endswith("-sigma"):
+        # the commission error is a NumPy sum over the static coefficients' sigmas
+        for dest, option in (("epoch", "--epoch"), ("device", "--device")):
+            if given(args, dest):
+                raise InputError(
+                    f"{option} does not apply to --quantity {args.quantity} (the static "
+                    "coefficients' sigmas, summed with NumPy)"
+                )
 
 
 def _write_all(out, text: str) -> None:
