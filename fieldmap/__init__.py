@@ -4,7 +4,8 @@ The package is layered the way the data flows (model file → coefficients → f
 product → file), with navigation apart:
 
 - :mod:`fieldmap.models`: model file readers, the :class:`SHModel` type, bundled models;
-- :mod:`fieldmap.field`: ellipsoids, normal gravity, SH synthesis, gravity at points, frames;
+- :mod:`fieldmap.field`: ellipsoids, normal gravity, SH synthesis, gravity and its gradient
+  tensor at points, frames;
 - :mod:`fieldmap.grids`: grid specifications, row-wise synthesis, longitude sums;
 - :mod:`fieldmap.products`: maps, statistics, CF metadata, writers, plots;
 - :mod:`fieldmap.nav`: launch frames, trajectories, IMU synthesis and errors, mechanizations,
@@ -43,6 +44,7 @@ _LAZY = {
     "gravitation": "fieldmap.field.gravity",
     "gravity": "fieldmap.field.gravity",
     "disturbance": "fieldmap.field.gravity",
+    "gradient_tensor": "fieldmap.field.gradient",
     "normal_gravity": "fieldmap.field.normal",
     "normal_gravitation_ecef": "fieldmap.field.normal",
     "normal_model": "fieldmap.field.normal",

@@ -15,6 +15,10 @@ the standard deviation propagated from the model's coefficient σ
 east north up (mGal), of Δg (mGal) or of N (m, h must be 0). A model without σ columns is
 refused in one line (exit status 2).
 
+``--quantity gradient|gradient-disturbance`` prints the gradient tensor ∂g_i/∂x_j of gravity
+(incl. centrifugal) or of the disturbance δg: 9 numbers, east north up, row-major, in Eötvös
+(:func:`fieldmap.field.gradient.gradient_tensor`).
+
 Heavy modules (Warp, the engine) are imported only when a command runs, so that ``fieldmap
 point`` starts quickly.
 """
@@ -37,6 +41,8 @@ QUANTITIES = (
     "disturbance-sigma",
     "anomaly-sigma",
     "geoid-sigma",
+    "gradient",
+    "gradient-disturbance",
 )
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
@@ -54,6 +60,8 @@ _DEFAULT_DECIMALS = {
     "disturbance-sigma": 3,
     "anomaly-sigma": 3,
     "geoid-sigma": 4,
+    "gradient": 3,
+    "gradient-disturbance": 3,
 }
 
 
@@ -81,7 +89,9 @@ def register(subparsers) -> None:
         "Gravity -H (h must be 0); potential: disturbing potential T (m²/s²); "
         "disturbance-sigma, anomaly-sigma, geoid-sigma: the commission error (standard "
         "deviation propagated from the model's coefficient sigmas, uncorrelated) of δg east "
-        "north up (mGal), of Δg (mGal) or of N (m, h must be 0)",
+        "north up (mGal), of Δg (mGal) or of N (m, h must be 0); gradient, "
+        "gradient-disturbance: the 9 components dg_i/dx_j (east north up, row-major, in "
+        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance",
     )
     p.add_argument(
         "--normal",
@@ -181,7 +191,7 @@ def evaluate_points(
     Returns
     -------
     numpy.ndarray
-        Shape ``(n, 3)``, or ``(n, 1)`` for geoid, potential, anomaly-sigma and geoid-sigma.
+        Shape ``(n, 3)``, ``(n, 9)`` for the gradients (E, row-major), or ``(n, 1)`` for geoid, potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap import _warp
     from fieldmap.errors import InputError
@@ -207,6 +217,12 @@ def evaluate_points(
         what = quantity[: -len("-sigma")]
         sig = commission_sigma(lat, lon, h, model=sh_model, quantity=what)
         return sig if what == "disturbance" else sig[:, None]
+    if quantity.startswith("gradient"):
+        from fieldmap.field.gradient import gradient_tensor
+
+        what = "gravity" if quantity == "gradient" else "disturbance"
+        t = gradient_tensor(lat, lon, h, model=sh_model, quantity=what, device=device)
+        return t.reshape(-1, 9)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
     if quantity in ("anomaly", "geoid", "potential"):
