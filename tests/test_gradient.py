@@ -72,7 +72,7 @@ def test_point_mass_closed_form():
     [("gravitation", 0.0), ("disturbance", 0.0), ("gravity", TWO_OMEGA2), ("normal", TWO_OMEGA2)],
 )
 def test_laplace_and_symmetry(model60, quantity, trace):
-    """trace = 0 outside the masses (2ω² with the centrifugal term); the tensor is symmetric."""
+    """Trace = 0 outside the masses (2ω² with the centrifugal term); the tensor is symmetric."""
     lat, lon, h = _points()
     for frame in ("enu", "ned", "ecef"):
         t, asym = gradient_tensor(

@@ -191,7 +191,8 @@ def evaluate_points(
     Returns
     -------
     numpy.ndarray
-        Shape ``(n, 3)``, ``(n, 9)`` for the gradients (E, row-major), or ``(n, 1)`` for geoid, potential, anomaly-sigma and geoid-sigma.
+        Shape ``(n, 3)``, ``(n, 9)`` for the gradients (E, row-major), or ``(n, 1)`` for geoid,
+        potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap import _warp
     from fieldmap.errors import InputError

@@ -48,7 +48,7 @@ _ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 
 def _vector_ecef(quantity, model, lmax, normal, ell, device, x, y, z) -> np.ndarray:
-    """The gravity vector of ``quantity`` at ECEF points (flat arrays), ECEF. Units: m/s²."""
+    """Return the gravity vector of ``quantity`` at ECEF points (flat arrays), ECEF. Units: m/s²."""
     from fieldmap.field.normal import normal_gravitation_ecef
 
     if quantity == "normal":
