@@ -56,6 +56,7 @@ _LAZY = {
     # geodetic quantities
     "disturbing_potential": "fieldmap.field.geodesy",
     "gravity_anomaly": "fieldmap.field.geodesy",
+    "SphericalAnomaly": "fieldmap.field.geodesy",
     "geoid_height": "fieldmap.field.geodesy",
     "commission_sigma": "fieldmap.field.commission",
     # units and accepted ranges

@@ -47,8 +47,9 @@ def test_anomaly_and_geoid_vs_gravity_tool(tmp_path, eigen6s):
     tool_a = run_gravity_tool(np.c_[lat, lon, h], tmp_path, name, "anomaly", precision=12)
     ours = gd.gravity_anomaly(lat, lon, h, model=eigen6s)
     assert np.abs(tool_a).max(axis=0).min() > 10.0  # real signals: > 10 mGal, > 10 arcsec
-    np.testing.assert_allclose(ours[:, 0], tool_a[:, 0], rtol=0, atol=1e-6)  # mGal
-    np.testing.assert_allclose(ours[:, 1:], tool_a[:, 1:], rtol=0, atol=1e-6)  # arcsec
+    np.testing.assert_allclose(ours.anomaly_mgal, tool_a[:, 0], rtol=0, atol=1e-6)  # mGal
+    np.testing.assert_allclose(ours.xi_arcsec, tool_a[:, 1], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(ours.eta_arcsec, tool_a[:, 2], rtol=0, atol=1e-6)  # arcsec
     tool_n = run_gravity_tool(np.c_[lat, lon, 0 * h], tmp_path, name, "geoid", precision=12)
     n = gd.geoid_height(lat, lon, model=eigen6s)
     assert np.abs(tool_n).max() > 50.0
@@ -103,9 +104,9 @@ def test_point_mass_closed_forms():
     eta_cf = -np.sum(g_cf * east, -1) / gam * gd.ARCSEC_PER_RAD
     a = gd.gravity_anomaly(lat, lon, h, model=pm)
     assert np.abs(dg_cf).max() > 1e3 and np.abs(xi_cf).max() > 100.0
-    np.testing.assert_allclose(a[:, 0], dg_cf, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(a[:, 1], xi_cf, rtol=0, atol=1e-8)
-    np.testing.assert_allclose(a[:, 2], eta_cf, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(a.anomaly_mgal, dg_cf, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(a.xi_arcsec, xi_cf, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(a.eta_arcsec, eta_cf, rtol=0, atol=1e-8)
     # geoid: T on the ellipsoid over Somigliana's gamma, both closed forms
     lat0 = lat
     x0, y0, z0 = geodetic_to_ecef(lat0, lon, 0 * lat0)
@@ -151,11 +152,13 @@ def test_anomaly_vs_finite_differences_of_t(eigen6s):
         axis=-1,
     )
     a = gd.gravity_anomaly(lat, lon, h, model=eigen6s)
-    np.testing.assert_allclose(a[:, 0], (-deriv["up"] - 2 * t / r) * 1e5, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(a.anomaly_mgal, (-deriv["up"] - 2 * t / r) * 1e5, rtol=0, atol=1e-6)
     np.testing.assert_allclose(
-        a[:, 1], -deriv["north"] / gam * gd.ARCSEC_PER_RAD, rtol=0, atol=1e-6
+        a.xi_arcsec, -deriv["north"] / gam * gd.ARCSEC_PER_RAD, rtol=0, atol=1e-6
     )
-    np.testing.assert_allclose(a[:, 2], -deriv["east"] / gam * gd.ARCSEC_PER_RAD, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(
+        a.eta_arcsec, -deriv["east"] / gam * gd.ARCSEC_PER_RAD, rtol=0, atol=1e-6
+    )
 
 
 def test_normal_series_not_truncated_with_the_model(eigen6s):
@@ -216,7 +219,9 @@ def test_cli_point_quantities(eigen6s):
     out = _cli(["point", "--quantity", "anomaly", "--precision", "10"], text)
     assert out.returncode == 0, out.stderr
     got = np.array([[float(v) for v in ln.split()] for ln in out.stdout.splitlines()])
-    np.testing.assert_allclose(got, gd.gravity_anomaly(lat, lon, h), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        got, np.stack(gd.gravity_anomaly(lat, lon, h), axis=-1), rtol=0, atol=1e-9
+    )
     out = _cli(["point", "--quantity", "potential", "--precision", "10"], text)
     got = np.array([float(v) for v in out.stdout.split()])
     np.testing.assert_allclose(got, gd.disturbing_potential(lat, lon, h), rtol=0, atol=1e-9)
@@ -285,10 +290,10 @@ def test_grid_quantities_vs_points(eigen6s, device):
     np.testing.assert_allclose(t, pt, rtol=0, atol=1e-9)
     a = gd.gravity_anomaly(LA, LO, H, model=eigen6s, device=device)
     dg = gd.grid_quantities(eigen6s, grid, "anomaly", device=device)["anomaly"]
-    np.testing.assert_allclose(dg, a[..., 0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(dg, a.anomaly_mgal, rtol=0, atol=1e-9)
     de = gd.grid_quantities(eigen6s, grid, "deflection", device=device)
-    np.testing.assert_allclose(de["xi"], a[..., 1], rtol=0, atol=1e-9)
-    np.testing.assert_allclose(de["eta"], a[..., 2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(de["xi"], a.xi_arcsec, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(de["eta"], a.eta_arcsec, rtol=0, atol=1e-9)
     n = gd.grid_quantities(eigen6s, grid, "geoid", device=device)["geoid"]
     assert n.shape == (1, lat.size, lon.size)
     np.testing.assert_allclose(n[0], gd.geoid_height(LA[0], LO[0], model=eigen6s), atol=1e-9)
@@ -315,7 +320,7 @@ def test_quantity_map_dataset(eigen6s):
         "arcsec"
     )
     a = gd.gravity_anomaly(LA, LO, 50e3, model=eigen6s)
-    np.testing.assert_allclose(sw["eta"].values[1], a[..., 2], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(sw["eta"].values[1], a.eta_arcsec, rtol=0, atol=1e-8)
     s = summary(sw)
     assert s["height_m"] == [0.0, 50e3] and s["xi"]["max"][1] == pytest.approx(
         float(sw["xi"].values[1].max()), abs=0
@@ -356,7 +361,7 @@ def test_cli_map_quantity(tmp_path, eigen6s):
     nc = next(out.glob("*.nc"))
     with xr.open_dataset(nc) as ds:
         LA, LO = np.meshgrid(ds["latitude"].values, ds["longitude"].values, indexing="ij")
-        expect = gd.gravity_anomaly(LA, LO, 20e3, model=eigen6s)[..., 0]
+        expect = gd.gravity_anomaly(LA, LO, 20e3, model=eigen6s).anomaly_mgal
         np.testing.assert_allclose(ds["anomaly"].values, expect, rtol=0, atol=1e-9)
         assert ds["anomaly"].attrs["units"] == "mGal"
     js = json.loads(next(out.glob("*.json")).read_text())
@@ -376,3 +381,20 @@ def test_cli_quantity_choices_match_products():
     for cmd in ("map", "sweep"):
         (act,) = [a for a in sub[cmd]._actions if a.dest == "quantity"]
         assert tuple(act.choices) == QUANTITIES
+
+
+def test_gravity_anomaly_returns_one_unit_per_field(eigen6s):
+    """Δg, ξ, η come as named arrays of the points' shape; the stacked (..., 3) is deprecated."""
+    lat, lon = np.array([[10.0, 20.0], [30.0, -40.0]]), np.array([[5.0, 6.0], [7.0, 8.0]])
+    res = gd.gravity_anomaly(lat, lon, 0.0, model=eigen6s)
+    assert isinstance(res, gd.SphericalAnomaly)
+    dg, xi, eta = res
+    assert dg.shape == xi.shape == eta.shape == (2, 2)
+    assert res[0] is res.anomaly_mgal and res[1:] == (res.xi_arcsec, res.eta_arcsec)
+    with pytest.warns(DeprecationWarning, match="SphericalAnomaly"):
+        old = res[..., 0]
+    np.testing.assert_array_equal(old, dg)
+    with pytest.warns(DeprecationWarning):
+        stacked = np.asarray(res)
+    assert stacked.shape == (2, 2, 3)
+    np.testing.assert_array_equal(stacked[..., 2], eta)

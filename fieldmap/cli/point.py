@@ -207,6 +207,8 @@ def evaluate_points(
         return normal_gravity(
             lat, lon, h, normal=normal, centrifugal=True, frame="enu", device=device
         )
+    import numpy as np
+
     from fieldmap.field import gravity as fg
     from fieldmap.models.registry import announce, load_model
 
@@ -230,7 +232,9 @@ def evaluate_points(
         from fieldmap.field import geodesy
 
         if quantity == "anomaly":
-            return geodesy.gravity_anomaly(lat, lon, h, model=sh_model, device=device)
+            return np.stack(
+                geodesy.gravity_anomaly(lat, lon, h, model=sh_model, device=device), axis=-1
+            )
         if quantity == "geoid":
             return geodesy.geoid_height(lat, lon, model=sh_model, device=device)[:, None]
         return geodesy.disturbing_potential(lat, lon, h, model=sh_model, device=device)[:, None]

@@ -42,8 +42,10 @@ from __future__ import annotations
 
 import math
 import threading
+import warnings
 import weakref
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -188,6 +190,42 @@ def disturbing_potential(
     return t
 
 
+class SphericalAnomaly(NamedTuple):
+    """What :func:`gravity_anomaly` returns: three arrays of the points' shape, one unit each.
+
+    Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names. Up to fieldmap 0.2
+    the function returned one array of shape ``(..., 3)`` mixing mGal and arcsec; indexing
+    with an ndarray-style key (``result[..., 0]``, ``result[:, :1]``) and ``np.asarray(result)``
+    still give that stacked array, with a :class:`DeprecationWarning`. An integer or a slice
+    indexes the tuple.
+    """
+
+    #: Δg, gravity anomaly (spherical approximation). Units: mGal.
+    anomaly_mgal: np.ndarray
+    #: ξ, northerly deflection of the vertical. Units: arcsec.
+    xi_arcsec: np.ndarray
+    #: η, easterly deflection of the vertical. Units: arcsec.
+    eta_arcsec: np.ndarray
+
+    def _stacked(self) -> np.ndarray:
+        warnings.warn(
+            "gravity_anomaly() returns a SphericalAnomaly (anomaly_mgal, xi_arcsec, eta_arcsec); "
+            "indexing it as one (..., 3) array is deprecated",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return np.stack(tuple(self), axis=-1)
+
+    def __getitem__(self, key):
+        if isinstance(key, (int, np.integer, slice)):
+            return tuple.__getitem__(self, key)
+        return self._stacked()[key]
+
+    def __array__(self, dtype=None, copy=None):
+        out = self._stacked()
+        return out if dtype is None else out.astype(dtype)
+
+
 def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
     """Spherical-approximation anomaly and deflection from T and its ECEF gradient.
 
@@ -240,7 +278,7 @@ def gravity_anomaly(
     degree0: bool = False,
     device: str | None = None,
     epoch=None,
-) -> np.ndarray:
+) -> SphericalAnomaly:
     """Gravity anomaly Δg and deflection of the vertical ξ, η (spherical approximation).
 
     As GeographicLib's ``Gravity -A`` (``GravityModel::SphericalAnomaly``); definitions in the
@@ -248,9 +286,9 @@ def gravity_anomaly(
 
     Returns
     -------
-    numpy.ndarray
-        Shape ``broadcast(lat, lon, h).shape + (3,)``: Δg (mGal), ξ north (arcsec), η east
-        (arcsec).
+    SphericalAnomaly
+        ``(anomaly_mgal, xi_arcsec, eta_arcsec)``, each of shape ``broadcast(lat, lon, h).shape``:
+        Δg (mGal), ξ north (arcsec), η east (arcsec).
     """
     from fieldmap.field.normal import normal_gravity
 
@@ -261,7 +299,8 @@ def gravity_anomaly(
     gam = normal_gravity(
         lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
     )
-    return anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1))
+    a = anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1))
+    return SphericalAnomaly(a[..., 0], a[..., 1], a[..., 2])
 
 
 def correction_height(
