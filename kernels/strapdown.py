@@ -22,7 +22,7 @@ import warp as wp
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import held_gravitation_ecef
-from .normal import NormalParams, centrifugal_ecef
+from .normal import NormalParams, centrifugal_ecef, normal_field_ecef
 from .sh import SHKernelModel
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
@@ -162,118 +162,151 @@ def quat_from_rotvec(phi: wp.vec3d):
     return wp.quatd(k * phi[0], k * phi[1], k * phi[2], w)
 
 
-@wp.kernel
-def lci_kernel(
-    dtheta: wp.array2d(dtype=wp.vec3d),
-    dvel: wp.array2d(dtype=wp.vec3d),
-    imu_set: wp.array(dtype=wp.int32),
-    err: SensorErrors,
-    P0: wp.array(dtype=wp.vec3d),
-    V0: wp.array(dtype=wp.vec3d),
-    q0: wp.array(dtype=wp.quatd),
-    kind: wp.array(dtype=wp.int32),
-    lmax: wp.array(dtype=wp.int32),
-    lp: LaunchParams,
-    ell: NormalParams,
-    sh: SHKernelModel,
-    dt: wp.float64,
-    t0: wp.float64,
-    n_steps: wp.int32,
-    output_every: wp.int32,
-    sample0: wp.int32,
-    grav_every: wp.int32,
-    grav_hold: wp.array2d(dtype=wp.vec3d),
-    P_out: wp.array2d(dtype=wp.vec3d),
-    V_out: wp.array2d(dtype=wp.vec3d),
-    q_out: wp.array2d(dtype=wp.quatd),
-    offset: wp.int32,
-):
-    """Two-sample launch-centred inertial mechanization, Chen et al. (2022) eq. (14), Fig. 1.
+def _make_lci_kernel(errors: bool, sh_gravity: bool):
+    """Build the LCI kernel without the sensor-error code or the SH gravity path.
 
-    Per step k (T = 2 dt, samples 2k and 2k+1 of set ``imu_set[i]``):
-    φ = Δθ1 + Δθ2 + ⅔ Δθ1×Δθ2 (coning), q_k = q_{k-1} ⊗ q(φ);
-    Δv_b = Δv + ½ Δθ×Δv + ⅔ (Δθ1×Δv2 + Δv1×Δθ2) (rotation, sculling), rotated by q_{k-1};
-    g^a at P̃ = P + V T/2 (eq. 15) and t_{k-1/2}: ECEF via R_a^e(t), gravitation, back with
-    eq. (20); V_k = V + Δv_a + g^a T; P_k = P + (V_{k-1} + V_k) T/2.
-    ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`); ``t0``
-    the time of global sample 0 (sample 2k is at t0 + (sample0 + 2k) dt).
+    ``errors`` False drops the sensor errors, ``sh_gravity`` False the SH navigation gravity
+    (for launches where no trajectory needs them: runs without those sources do not pay for
+    them). Every variant gives the bits of the general one (both True) for the trajectories it
+    accepts: the skipped code would add exact zeros (``M = I``, ``b = 0``, no draws) or is a
+    branch never taken.
     """
-    i = wp.tid() + offset
-    s = imu_set[i]
-    model = sh
-    model.lmax = lmax[i]
-    gk = kind[i]
-    P = P0[i]
-    V = V0[i]
-    q = q0[i]
-    T = dt + dt
-    C_a_t = wp.transpose(lp.C_t_to_a)
-    sg = err.gyro_noise[i] * wp.sqrt(dt)
-    sa = err.acc_noise[i] * wp.sqrt(dt)
-    Mg = err.gyro_M[i]
-    Ma = err.acc_M[i]
-    bg = err.gyro_bias[i] * dt
-    ba = err.acc_bias[i] * dt
-    seed = err.seed[i]
-    ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
-    aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
-    noisy = wp.int32(0)
-    if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
-        noisy = 1
-    beta_g = err.gyro_gm[i]
-    beta_a = err.acc_gm[i]
-    gh = grav_hold[i, 0]
-    gs = grav_hold[i, 1]
-    gl = grav_hold[i, 2]
-    P_out[i, 0] = P
-    V_out[i, 0] = V
-    q_out[i, 0] = q
-    for k in range(n_steps):
-        # each sample its own stream; per sensor the order of the sequential draws is kept
-        # (th1 with β_g, β_g update, th2 with the updated β_g, β_g update; likewise dv, β_a)
-        j = 2 * k
-        state = sample_rng(noisy, seed, sample0 + j)
-        th1, state = measured(Mg, dtheta[s, j], bg + beta_g * dt, sg, state)
-        beta_g, state = gm_step(beta_g, ga, gb, state)
-        dv1, state = measured(Ma, dvel[s, j], ba + beta_a * dt, sa, state)
-        beta_a, state = gm_step(beta_a, aa, ab, state)
-        state = sample_rng(noisy, seed, sample0 + j + 1)
-        th2, state = measured(Mg, dtheta[s, j + 1], bg + beta_g * dt, sg, state)
-        beta_g, state = gm_step(beta_g, ga, gb, state)
-        dv2, state = measured(Ma, dvel[s, j + 1], ba + beta_a * dt, sa, state)
-        beta_a, state = gm_step(beta_a, aa, ab, state)
-        th = th1 + th2
-        dvb = dv1 + dv2
-        phi = th + _TWO_THIRDS * wp.cross(th1, th2)
-        dvb = (
-            dvb
-            + _HALF * wp.cross(th, dvb)
-            + _TWO_THIRDS * (wp.cross(th1, dv2) + wp.cross(dv1, th2))
-        )
-        dv_a = wp.quat_rotate(q, dvb)
-        # mid-step time from the global index: t0 is the time of sample 0 of the whole record
-        t_mid = t0 + dt * wp.float64(sample0 + j + 1)
-        # R_e^t(t) once per step: r_e = R_t^e (R_a^t P~ + r_launch), g^a = R_t^a R_e^t g^e (eq. 20)
-        C_et = C_e_to_t(t_mid, lp.omega)
-        r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
-        g_e, gh, gs, gl = held_gravitation_ecef(
-            gk, r_e, ell, model, sample0 + j + 1, grav_every, gh, gs, gl
-        )
-        g_a = lp.C_t_to_a * (C_et * g_e)
-        V_new = V + dv_a + g_a * T
-        P = P + (V + V_new) * (_HALF * T)
-        V = V_new
-        q = wp.normalize(q * quat_from_rotvec(phi))
-        if (k + 1) % output_every == 0:
-            j = (k + 1) // output_every
-            P_out[i, j] = P
-            V_out[i, j] = V
-            q_out[i, j] = q
-    err.gyro_gm[i] = beta_g
-    err.acc_gm[i] = beta_a
-    grav_hold[i, 0] = gh
-    grav_hold[i, 1] = gs
-    grav_hold[i, 2] = gl
+
+    @wp.kernel
+    def lci_kernel(
+        dtheta: wp.array2d(dtype=wp.vec3d),
+        dvel: wp.array2d(dtype=wp.vec3d),
+        imu_set: wp.array(dtype=wp.int32),
+        err: SensorErrors,
+        P0: wp.array(dtype=wp.vec3d),
+        V0: wp.array(dtype=wp.vec3d),
+        q0: wp.array(dtype=wp.quatd),
+        kind: wp.array(dtype=wp.int32),
+        lmax: wp.array(dtype=wp.int32),
+        lp: LaunchParams,
+        ell: NormalParams,
+        sh: SHKernelModel,
+        dt: wp.float64,
+        t0: wp.float64,
+        n_steps: wp.int32,
+        output_every: wp.int32,
+        sample0: wp.int32,
+        grav_every: wp.int32,
+        grav_hold: wp.array2d(dtype=wp.vec3d),
+        P_out: wp.array2d(dtype=wp.vec3d),
+        V_out: wp.array2d(dtype=wp.vec3d),
+        q_out: wp.array2d(dtype=wp.quatd),
+        offset: wp.int32,
+    ):
+        """Two-sample launch-centred inertial mechanization, Chen et al. (2022) eq. (14), Fig. 1.
+
+        Per step k (T = 2 dt, samples 2k and 2k+1 of set ``imu_set[i]``):
+        φ = Δθ1 + Δθ2 + ⅔ Δθ1×Δθ2 (coning), q_k = q_{k-1} ⊗ q(φ);
+        Δv_b = Δv + ½ Δθ×Δv + ⅔ (Δθ1×Δv2 + Δv1×Δθ2) (rotation, sculling), rotated by q_{k-1};
+        g^a at P̃ = P + V T/2 (eq. 15) and t_{k-1/2}: ECEF via R_a^e(t), gravitation, back with
+        eq. (20); V_k = V + Δv_a + g^a T; P_k = P + (V_{k-1} + V_k) T/2.
+        ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`); ``t0``
+        the time of global sample 0 (sample 2k is at t0 + (sample0 + 2k) dt).
+        """
+        i = wp.tid() + offset
+        s = imu_set[i]
+        model = sh
+        model.lmax = lmax[i]
+        gk = kind[i]
+        P = P0[i]
+        V = V0[i]
+        q = q0[i]
+        T = dt + dt
+        C_a_t = wp.transpose(lp.C_t_to_a)
+        sg = err.gyro_noise[i] * wp.sqrt(dt)
+        sa = err.acc_noise[i] * wp.sqrt(dt)
+        Mg = err.gyro_M[i]
+        Ma = err.acc_M[i]
+        bg = err.gyro_bias[i] * dt
+        ba = err.acc_bias[i] * dt
+        seed = err.seed[i]
+        ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
+        aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+        noisy = wp.int32(0)
+        if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
+            noisy = 1
+        beta_g = err.gyro_gm[i]
+        beta_a = err.acc_gm[i]
+        gh = grav_hold[i, 0]
+        gs = grav_hold[i, 1]
+        gl = grav_hold[i, 2]
+        P_out[i, 0] = P
+        V_out[i, 0] = V
+        q_out[i, 0] = q
+        for k in range(n_steps):
+            # each sample its own stream; per sensor the order of the sequential draws is kept
+            # (th1 with β_g, β_g update, th2 with the updated β_g, β_g update; likewise dv, β_a)
+            j = 2 * k
+            th1 = dtheta[s, j]
+            dv1 = dvel[s, j]
+            th2 = dtheta[s, j + 1]
+            dv2 = dvel[s, j + 1]
+            if wp.static(errors):
+                state = sample_rng(noisy, seed, sample0 + j)
+                th1, state = measured(Mg, th1, bg + beta_g * dt, sg, state)
+                beta_g, state = gm_step(beta_g, ga, gb, state)
+                dv1, state = measured(Ma, dv1, ba + beta_a * dt, sa, state)
+                beta_a, state = gm_step(beta_a, aa, ab, state)
+                state = sample_rng(noisy, seed, sample0 + j + 1)
+                th2, state = measured(Mg, th2, bg + beta_g * dt, sg, state)
+                beta_g, state = gm_step(beta_g, ga, gb, state)
+                dv2, state = measured(Ma, dv2, ba + beta_a * dt, sa, state)
+                beta_a, state = gm_step(beta_a, aa, ab, state)
+            th = th1 + th2
+            dvb = dv1 + dv2
+            phi = th + _TWO_THIRDS * wp.cross(th1, th2)
+            dvb = (
+                dvb
+                + _HALF * wp.cross(th, dvb)
+                + _TWO_THIRDS * (wp.cross(th1, dv2) + wp.cross(dv1, th2))
+            )
+            dv_a = wp.quat_rotate(q, dvb)
+            # mid-step time from the global index: t0 is the time of sample 0 of the whole record
+            t_mid = t0 + dt * wp.float64(sample0 + j + 1)
+            # R_e^t(t) once per step: r_e = R_t^e (R_a^t P~ + r_launch),
+            # g^a = R_t^a R_e^t g^e (eq. 20)
+            C_et = C_e_to_t(t_mid, lp.omega)
+            r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
+            g_e = wp.vec3d()
+            if wp.static(sh_gravity):
+                g_e, gh, gs, gl = held_gravitation_ecef(
+                    gk, r_e, ell, model, sample0 + j + 1, grav_every, gh, gs, gl
+                )
+            else:
+                g_e = normal_field_ecef(r_e, ell, gk, 0)
+            g_a = lp.C_t_to_a * (C_et * g_e)
+            V_new = V + dv_a + g_a * T
+            P = P + (V + V_new) * (_HALF * T)
+            V = V_new
+            q = wp.normalize(q * quat_from_rotvec(phi))
+            if (k + 1) % output_every == 0:
+                j = (k + 1) // output_every
+                P_out[i, j] = P
+                V_out[i, j] = V
+                q_out[i, j] = q
+        err.gyro_gm[i] = beta_g
+        err.acc_gm[i] = beta_a
+        grav_hold[i, 0] = gh
+        grav_hold[i, 1] = gs
+        grav_hold[i, 2] = gl
+
+    return lci_kernel
+
+
+#: the general kernel (any sensor errors, any navigation gravity)
+lci_kernel = _make_lci_kernel(True, True)
+#: no sensor errors, normal navigation gravity only
+lci_kernel_plain = _make_lci_kernel(False, False)
+
+
+def lci_kernel_for(errors: bool, sh_gravity: bool):
+    """Return the LCI kernel for a launch: the plain one when no trajectory needs errors or SH."""
+    return lci_kernel if errors or sh_gravity else lci_kernel_plain
 
 
 @wp.func
@@ -282,123 +315,152 @@ def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
     return wp.quat_rotate(q_b_n, dv + _HALF * wp.cross(dth, dv)) / dt
 
 
-@wp.kernel
-def ned_kernel(
-    dtheta: wp.array2d(dtype=wp.vec3d),
-    dvel: wp.array2d(dtype=wp.vec3d),
-    imu_set: wp.array(dtype=wp.int32),
-    err: SensorErrors,
-    llh0: wp.array(dtype=wp.vec3d),
-    v0: wp.array(dtype=wp.vec3d),
-    q0: wp.array(dtype=wp.quatd),
-    kind: wp.array(dtype=wp.int32),
-    lmax: wp.array(dtype=wp.int32),
-    ell: NormalParams,
-    baro: BaroAiding,
-    sh: SHKernelModel,
-    dt: wp.float64,
-    n_steps: wp.int32,
-    output_every: wp.int32,
-    sample0: wp.int32,
-    grav_every: wp.int32,
-    grav_hold: wp.array2d(dtype=wp.vec3d),
-    llh_out: wp.array2d(dtype=wp.vec3d),
-    v_out: wp.array2d(dtype=wp.vec3d),
-    q_out: wp.array2d(dtype=wp.quatd),
-    offset: wp.int32,
-):
-    """Earth-relative NED mechanization, one update per IMU sample (Titterton & Weston ch. 3, 11).
+def _make_ned_kernel(errors: bool, sh_gravity: bool):
+    """Build the NED kernel specialised as :func:`_make_lci_kernel`.
 
-    With ω_ie^n = Ω(cos L, 0, −sin L), ω_en^n = (v_E/(R_E+h), −v_N/(R_N+h), −v_E tan L/(R_E+h)) at
-    the start of the sample: f^n = C_b^n (dv + ½ dθ×dv)/dt − ½ ω_in^n × C_b^n dv (the
-    rotation correction of Titterton & Weston eq. 11.64 plus the n-frame rotation, Savage 1998);
-    v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
-    L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
-    With ``baro.enabled`` the vertical channel is damped by :class:`BaroAiding` (δh from the
-    start of the sample: v_D += (k2 δh + δa) dt, h −= k1 δh dt, δa += k3 δh dt).
-    ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`).
+    ``errors`` False drops the sensor errors and the baro aiding.
     """
-    i = wp.tid() + offset
-    s = imu_set[i]
-    model = sh
-    model.lmax = lmax[i]
-    gk = kind[i]
-    llh = llh0[i]
-    v = v0[i]
-    q = q0[i]
-    sg = err.gyro_noise[i] * wp.sqrt(dt)
-    sa = err.acc_noise[i] * wp.sqrt(dt)
-    Mg = err.gyro_M[i]
-    Ma = err.acc_M[i]
-    bg = err.gyro_bias[i] * dt
-    ba = err.acc_bias[i] * dt
-    seed = err.seed[i]
-    ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
-    aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
-    beta_g = err.gyro_gm[i]
-    beta_a = err.acc_gm[i]
-    gh = grav_hold[i, 0]
-    gs = grav_hold[i, 1]
-    gl = grav_hold[i, 2]
-    aid = baro.state[i]
-    da = aid[0]
-    drift = aid[1]
-    ba_a, ba_b = gm_coeffs(baro.gm_sigma[i], baro.gm_tau[i], dt)
-    b_bias = baro.bias[i]
-    b_noise = baro.noise[i]
-    noisy = wp.int32(0)
-    if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
-        noisy = 1
-    if baro.enabled != 0 and (b_noise != _ZERO or ba_b != _ZERO):
-        noisy = 1
-    llh_out[i, 0] = llh
-    v_out[i, 0] = v
-    q_out[i, 0] = q
-    for k in range(n_steps):
-        state = sample_rng(noisy, seed, sample0 + k)
-        th, state = measured(Mg, dtheta[s, k], bg + beta_g * dt, sg, state)
-        beta_g, state = gm_step(beta_g, ga, gb, state)
-        dv, state = measured(Ma, dvel[s, k], ba + beta_a * dt, sa, state)
-        beta_a, state = gm_step(beta_a, aa, ab, state)
-        dh = _ZERO
-        if baro.enabled != 0:
-            h_b = baro.h_ref[s, k] + b_bias + drift
-            if b_noise != _ZERO:
-                h_b = h_b + b_noise * wp.float64(wp.randn(state))
-            if ba_b != _ZERO:
-                drift = ba_a * drift + ba_b * wp.float64(wp.randn(state))
-            dh = llh[2] - h_b
-        sl = wp.sin(llh[0])
-        cl = wp.cos(llh[0])
-        w = _ONE - ell.e2 * sl * sl
-        re = ell.a / wp.sqrt(w) + llh[2]
-        rn = ell.a * (_ONE - ell.e2) / (w * wp.sqrt(w)) + llh[2]
-        w_ie = wp.vec3d(ell.omega * cl, _ZERO, -ell.omega * sl)
-        w_en = wp.vec3d(v[1] / re, -v[0] / rn, -v[1] * sl / (cl * re))
-        # navtk's calc_force_ned omits the n-frame term: without it a body at rest on the rotating
-        # Earth sees a spurious ½ ω_ie × f dt (0.36 mGal at dt = 10 ms); with it rest is exact
-        f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
-        r_g = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
-        g_e, gh, gs, gl = held_gravitation_ecef(
-            gk, r_g, ell, model, sample0 + k, grav_every, gh, gs, gl
-        )
-        g = enu_to_ned(ecef_to_enu(g_e + centrifugal_ecef(r_g, ell.omega), llh[0], llh[1]))
-        v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
-        if baro.enabled != 0:
-            v_new = v_new + wp.vec3d(_ZERO, _ZERO, (baro.k2 * dh + da) * dt)
-        vm = _HALF * (v + v_new)
-        llh = llh + wp.vec3d(vm[0] / rn, vm[1] / (re * cl), -vm[2] - baro.k1 * dh) * dt
-        da = da + baro.k3 * dh * dt
-        v = v_new
-        q = wp.normalize(quat_from_rotvec(-(w_ie + w_en) * dt) * q * quat_from_rotvec(th))
-        if (k + 1) % output_every == 0:
-            j = (k + 1) // output_every
-            llh_out[i, j] = llh
-            v_out[i, j] = v
-            q_out[i, j] = q
-    err.gyro_gm[i] = beta_g
-    err.acc_gm[i] = beta_a
-    grav_hold[i, 0] = gh
-    grav_hold[i, 1] = gs
-    grav_hold[i, 2] = gl
-    baro.state[i] = wp.vec3d(da, drift, _ZERO)
+
+    @wp.kernel
+    def ned_kernel(
+        dtheta: wp.array2d(dtype=wp.vec3d),
+        dvel: wp.array2d(dtype=wp.vec3d),
+        imu_set: wp.array(dtype=wp.int32),
+        err: SensorErrors,
+        llh0: wp.array(dtype=wp.vec3d),
+        v0: wp.array(dtype=wp.vec3d),
+        q0: wp.array(dtype=wp.quatd),
+        kind: wp.array(dtype=wp.int32),
+        lmax: wp.array(dtype=wp.int32),
+        ell: NormalParams,
+        baro: BaroAiding,
+        sh: SHKernelModel,
+        dt: wp.float64,
+        n_steps: wp.int32,
+        output_every: wp.int32,
+        sample0: wp.int32,
+        grav_every: wp.int32,
+        grav_hold: wp.array2d(dtype=wp.vec3d),
+        llh_out: wp.array2d(dtype=wp.vec3d),
+        v_out: wp.array2d(dtype=wp.vec3d),
+        q_out: wp.array2d(dtype=wp.quatd),
+        offset: wp.int32,
+    ):
+        """Earth-relative NED mechanization, one update per IMU sample (T&W ch. 3, 11).
+
+        With ω_ie^n = Ω(cos L, 0, −sin L),
+        ω_en^n = (v_E/(R_E+h), −v_N/(R_N+h), −v_E tan L/(R_E+h)) at the start of the sample:
+        f^n = C_b^n (dv + ½ dθ×dv)/dt − ½ ω_in^n × C_b^n dv (the rotation correction of
+        Titterton & Weston eq. 11.64 plus the n-frame rotation, Savage 1998);
+        v⁺ = v + [f^n + g^n − (2ω_ie^n + ω_en^n) × v] dt (gravity at the start position);
+        L, λ, h from the trapezoidal mean velocity; q_b^n⁺ = q(−ω_in^n dt) ⊗ q_b^n ⊗ q(dθ).
+        With ``baro.enabled`` the vertical channel is damped by :class:`BaroAiding` (δh from the
+        start of the sample: v_D += (k2 δh + δa) dt, h −= k1 δh dt, δa += k3 δh dt).
+        ``sample0``: global index of the first sample (keys the noise, :func:`sample_rng`).
+        """
+        i = wp.tid() + offset
+        s = imu_set[i]
+        model = sh
+        model.lmax = lmax[i]
+        gk = kind[i]
+        llh = llh0[i]
+        v = v0[i]
+        q = q0[i]
+        sg = err.gyro_noise[i] * wp.sqrt(dt)
+        sa = err.acc_noise[i] * wp.sqrt(dt)
+        Mg = err.gyro_M[i]
+        Ma = err.acc_M[i]
+        bg = err.gyro_bias[i] * dt
+        ba = err.acc_bias[i] * dt
+        seed = err.seed[i]
+        ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
+        aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+        beta_g = err.gyro_gm[i]
+        beta_a = err.acc_gm[i]
+        gh = grav_hold[i, 0]
+        gs = grav_hold[i, 1]
+        gl = grav_hold[i, 2]
+        aid = baro.state[i]
+        da = aid[0]
+        drift = aid[1]
+        ba_a, ba_b = gm_coeffs(baro.gm_sigma[i], baro.gm_tau[i], dt)
+        b_bias = baro.bias[i]
+        b_noise = baro.noise[i]
+        noisy = wp.int32(0)
+        if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
+            noisy = 1
+        if baro.enabled != 0 and (b_noise != _ZERO or ba_b != _ZERO):
+            noisy = 1
+        llh_out[i, 0] = llh
+        v_out[i, 0] = v
+        q_out[i, 0] = q
+        for k in range(n_steps):
+            th = dtheta[s, k]
+            dv = dvel[s, k]
+            dh = _ZERO
+            if wp.static(errors):
+                state = sample_rng(noisy, seed, sample0 + k)
+                th, state = measured(Mg, th, bg + beta_g * dt, sg, state)
+                beta_g, state = gm_step(beta_g, ga, gb, state)
+                dv, state = measured(Ma, dv, ba + beta_a * dt, sa, state)
+                beta_a, state = gm_step(beta_a, aa, ab, state)
+                if baro.enabled != 0:
+                    h_b = baro.h_ref[s, k] + b_bias + drift
+                    if b_noise != _ZERO:
+                        h_b = h_b + b_noise * wp.float64(wp.randn(state))
+                    if ba_b != _ZERO:
+                        drift = ba_a * drift + ba_b * wp.float64(wp.randn(state))
+                    dh = llh[2] - h_b
+            sl = wp.sin(llh[0])
+            cl = wp.cos(llh[0])
+            w = _ONE - ell.e2 * sl * sl
+            re = ell.a / wp.sqrt(w) + llh[2]
+            rn = ell.a * (_ONE - ell.e2) / (w * wp.sqrt(w)) + llh[2]
+            w_ie = wp.vec3d(ell.omega * cl, _ZERO, -ell.omega * sl)
+            w_en = wp.vec3d(v[1] / re, -v[0] / rn, -v[1] * sl / (cl * re))
+            # navtk's calc_force_ned omits the n-frame term: without it a body at rest on the
+            # rotating Earth sees a spurious ½ ω_ie × f dt (0.36 mGal at dt = 10 ms); with it
+            # rest is exact
+            f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
+            r_g = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
+            g_e = wp.vec3d()
+            if wp.static(sh_gravity):
+                g_e, gh, gs, gl = held_gravitation_ecef(
+                    gk, r_g, ell, model, sample0 + k, grav_every, gh, gs, gl
+                )
+            else:
+                g_e = normal_field_ecef(r_g, ell, gk, 0)
+            g = enu_to_ned(ecef_to_enu(g_e + centrifugal_ecef(r_g, ell.omega), llh[0], llh[1]))
+            v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
+            if wp.static(errors):
+                if baro.enabled != 0:
+                    v_new = v_new + wp.vec3d(_ZERO, _ZERO, (baro.k2 * dh + da) * dt)
+            vm = _HALF * (v + v_new)
+            llh = llh + wp.vec3d(vm[0] / rn, vm[1] / (re * cl), -vm[2] - baro.k1 * dh) * dt
+            da = da + baro.k3 * dh * dt
+            v = v_new
+            q = wp.normalize(quat_from_rotvec(-(w_ie + w_en) * dt) * q * quat_from_rotvec(th))
+            if (k + 1) % output_every == 0:
+                j = (k + 1) // output_every
+                llh_out[i, j] = llh
+                v_out[i, j] = v
+                q_out[i, j] = q
+        err.gyro_gm[i] = beta_g
+        err.acc_gm[i] = beta_a
+        grav_hold[i, 0] = gh
+        grav_hold[i, 1] = gs
+        grav_hold[i, 2] = gl
+        baro.state[i] = wp.vec3d(da, drift, _ZERO)
+
+    return ned_kernel
+
+
+#: the general kernel (any sensor errors, baro aiding, any navigation gravity)
+ned_kernel = _make_ned_kernel(True, True)
+#: no sensor errors, no baro aiding, normal navigation gravity only
+ned_kernel_plain = _make_ned_kernel(False, False)
+
+
+def ned_kernel_for(errors: bool, sh_gravity: bool):
+    """Return the NED kernel for a launch: the plain one without errors, baro and SH."""
+    return ned_kernel if errors or sh_gravity else ned_kernel_plain

@@ -409,3 +409,39 @@ def test_quat_to_dcm_zero_quaternion_raises():
 
     with pytest.raises(InputError, match="non-zero"):
         quat_to_dcm(np.zeros(4))
+
+
+def test_plain_kernels_give_the_bits_of_the_general_ones(device, monkeypatch):
+    """A launch without sensor errors, baro or SH runs a kernel stripped of that code: same bits."""
+    from fieldmap.kernels import strapdown as ksd
+
+    from fieldmap.nav.strapdown_ned import propagate_ned
+
+    n, ns, dt = 6, 400, 0.005
+    dth, dv, P0, V0, q0 = _random_motion(n, ns, dt, seed=3)
+    kinds = ["j2", "j4", "j6", "exact", "j4", "exact"]
+
+    def both():
+        lci = propagate_lci(dth, dv, dt, P0, V0, q0, FRAME, kinds, output_every=7, device=device)
+        ned = propagate_ned(
+            dth, dv, dt, 27.1 + np.arange(n), 105.3, 1000.0, V0 * 0.3, q0, kinds,
+            output_every=7, device=device,
+        )  # fmt: skip
+        return lci, ned
+
+    used = []
+    for name in ("lci_kernel_for", "ned_kernel_for"):
+        orig = getattr(ksd, name)
+        monkeypatch.setattr(
+            ksd, name, lambda e, s, orig=orig: used.append(orig(e, s)) or orig(e, s)
+        )
+    lci_p, ned_p = both()
+    assert used == [ksd.lci_kernel_plain, ksd.ned_kernel_plain]
+    monkeypatch.setattr(ksd, "lci_kernel_for", lambda e, s: ksd.lci_kernel)
+    monkeypatch.setattr(ksd, "ned_kernel_for", lambda e, s: ksd.ned_kernel)
+    lci_g, ned_g = both()
+    for a, b in ((lci_p.P, lci_g.P), (lci_p.V, lci_g.V), (lci_p.q, lci_g.q)):
+        np.testing.assert_array_equal(a, b)
+    for key in ("lat", "lon", "h", "v_ned", "q"):
+        np.testing.assert_array_equal(getattr(ned_p, key), getattr(ned_g, key))
+    assert np.ptp(lci_p.P[:, -1, 0]) > 1.0  # the runs differ: a real comparison

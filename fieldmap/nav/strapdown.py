@@ -254,6 +254,10 @@ class _Batch:
     grav_every: int = 1
     #: per trajectory (disturbance, slope, (last index, started, 0)), read and written back
     grav_hold: Any = None
+    #: some trajectory has a sensor error (bias, scale/misalignment, noise, Gauss–Markov)
+    has_errors: bool = True
+    #: some trajectory navigates with an SH model
+    has_sh: bool = True
 
     @property
     def sensor_errors(self):
@@ -361,16 +365,15 @@ def prepare_batch(
     arr = lambda a, dtype: wp.array(a, dtype=dtype, device=device)  # noqa: E731
     se = ksd.SensorErrors()
     types = {(3,): wp.vec3d, (3, 3): wp.mat33d, (): wp.float64}
+    has_errors = False
     for key, tail in _ERROR_KEYS.items():
         if key == "seed":
             seed = per_trajectory("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
             se.seed = arr(seed, wp.int32)
         else:
-            setattr(
-                se,
-                key,
-                arr(per_trajectory(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail), types[tail]),
-            )
+            a = per_trajectory(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail)
+            has_errors = has_errors or bool(np.any(a != _ERROR_DEFAULTS[key]))
+            setattr(se, key, arr(a, types[tail]))
     sh_lmax = int(kl[:, 1].max())
     if sh_lmax > 0:
         from fieldmap.field.sh import kernel_model
@@ -389,6 +392,8 @@ def prepare_batch(
     hold = np.zeros((n, 3, 3)) if gravity_hold is None else gravity_hold
     hold = per_trajectory("gravity_hold", hold, n, (3, 3))
     return _Batch(
+        has_errors=has_errors,
+        has_sh=sh_lmax > 0,
         sample0=sample0,
         grav_every=int(gravity_every),
         grav_hold=wp.array(np.ascontiguousarray(hold), dtype=wp.vec3d, device=device),
@@ -568,7 +573,7 @@ def propagate_lci(
     # sample0 dt, as for the blocks of a flight: the times of one grid whatever the blocking)
     t_base = float(t0) - b.dt * b.sample0
     P, V, q = b.launch(
-        ksd.lci_kernel,
+        ksd.lci_kernel_for(b.has_errors, b.has_sh),
         (st["P0"], st["V0"], st["q0"]),
         [launch_params(frame), normal_params(frame.ellipsoid)],
         [wp.float64(t_base)],

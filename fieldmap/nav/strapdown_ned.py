@@ -177,7 +177,7 @@ def propagate_ned(
         llh_rad[:, :2] = np.radians(llh_rad[:, :2])
     aid = _baro_struct(baro, b, ksd)
     L, v, q = b.launch(
-        ksd.ned_kernel,
+        ksd.ned_kernel_for(b.has_errors or aid.enabled != 0, b.has_sh),
         (llh_rad, st["v_ned0"], st["q0"]),
         [normal_params(get_ellipsoid(ellipsoid)), aid],
     )
