@@ -23,6 +23,14 @@ from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import held_gravitation_ecef
 from .normal import NormalParams, centrifugal_ecef, normal_field_ecef
+from .sensor_errors import (  # noqa: F401 - the structs are part of this module's API
+    BaroAiding,
+    SensorErrors,
+    gm_coeffs,
+    gm_step,
+    measured,
+    sample_rng,
+)
 from .sh import SHKernelModel
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
@@ -33,111 +41,6 @@ _ZERO = wp.constant(wp.float64(0.0))
 _HALF = wp.constant(wp.float64(0.5))
 _ONE = wp.constant(wp.float64(1.0))
 _TWO_THIRDS = wp.constant(wp.float64(2.0 / 3.0))
-
-
-@wp.struct
-class SensorErrors:
-    """Per-thread sensor errors, all arrays indexed by trajectory.
-
-    Measured increments: ``dv = M_a dv_true + (b_a + β_a) dt + σ_a √dt n``,
-    ``dθ = M_g dθ_true + (b_g + β_g) dt + σ_g √dt n`` with n ~ N(0, I) and β a first-order
-    Gauss–Markov bias per axis, updated once per sample (after the sample used it):
-    ``β⁺ = e^(−dt/τ) β + s √(1 − e^(−2dt/τ)) n`` (stationary σ = s; exact discretisation,
-    Maybeck 1979 §4.9 / Brown & Hwang 2012 §2.9). Units: b_a, s_a m/s², b_g, s_g rad/s,
-    σ_a m/s/√s, σ_g rad/√s, τ s (0: no Gauss–Markov term); M dimensionless (I + scale factor
-    + misalignment).
-
-    The normals n of IMU sample j (global index in the flight) come from Warp's RNG
-    ``rand_init(seed, j)`` (:func:`sample_rng`), drawn in the order gyro noise, gyro
-    Gauss–Markov, accelerometer noise, accelerometer Gauss–Markov (then, in the NED kernel,
-    baro noise and baro drift): the same noise for a run whatever the time blocks it is
-    propagated in. ``acc_gm``, ``gyro_gm`` hold the states at the start and are overwritten with
-    those at the end.
-    """
-
-    acc_bias: wp.array(dtype=wp.vec3d)
-    gyro_bias: wp.array(dtype=wp.vec3d)
-    acc_M: wp.array(dtype=wp.mat33d)
-    gyro_M: wp.array(dtype=wp.mat33d)
-    acc_noise: wp.array(dtype=wp.float64)
-    gyro_noise: wp.array(dtype=wp.float64)
-    seed: wp.array(dtype=wp.int32)
-    acc_gm_sigma: wp.array(dtype=wp.float64)
-    acc_gm_tau: wp.array(dtype=wp.float64)
-    gyro_gm_sigma: wp.array(dtype=wp.float64)
-    gyro_gm_tau: wp.array(dtype=wp.float64)
-    acc_gm: wp.array(dtype=wp.vec3d)
-    gyro_gm: wp.array(dtype=wp.vec3d)
-
-
-@wp.struct
-class BaroAiding:
-    """Third-order barometric altitude loop (Widnall & Sinha 1980; Titterton & Weston 2004 §5.3).
-
-    With δh = h_INS − h_baro: ḣ = −v_D − k1 δh, v̇_D += k2 δh + δa, δȧ = k3 δh. Baro
-    measurement per IMU sample: ``h_baro = h_ref + bias + γ + σ n`` with γ a Gauss–Markov
-    drift (σ_gm, τ_gm). ``enabled`` 0: free vertical channel (the loop is skipped). ``state``
-    per trajectory (δa m/s², γ m, unused) is read at the start and written at the end, so a
-    flight can be propagated in time blocks. Units: k1 1/s, k2 1/s², k3 1/s³, heights m.
-    """
-
-    enabled: wp.int32
-    k1: wp.float64
-    k2: wp.float64
-    k3: wp.float64
-    h_ref: wp.array2d(dtype=wp.float64)
-    bias: wp.array(dtype=wp.float64)
-    noise: wp.array(dtype=wp.float64)
-    gm_sigma: wp.array(dtype=wp.float64)
-    gm_tau: wp.array(dtype=wp.float64)
-    state: wp.array(dtype=wp.vec3d)
-
-
-@wp.func
-def gm_coeffs(sigma: wp.float64, tau: wp.float64, dt: wp.float64):
-    """Per-sample factors (e^(−dt/τ), s √(1 − e^(−2dt/τ))) of a Gauss–Markov process; (1, 0) off."""
-    if tau > _ZERO and sigma > _ZERO:
-        a = wp.exp(-dt / tau)
-        return a, sigma * wp.sqrt(_ONE - a * a)
-    return _ONE, _ZERO
-
-
-@wp.func
-def sample_rng(noisy: wp.int32, seed: wp.int32, index: wp.int32):
-    """RNG state of IMU sample ``index`` (global in the flight) of the run seeded ``seed``.
-
-    ``rand_init(seed, index)``: a counter-based stream, independent of how the flight is cut
-    into launches. ``noisy`` 0 (no noise source in the thread, so no draw follows): 0 without
-    hashing.
-    """
-    if noisy != 0:
-        return wp.rand_init(seed, index)
-    return wp.uint32(0)
-
-
-@wp.func
-def gm_step(beta: wp.vec3d, a: wp.float64, b: wp.float64, state: wp.uint32):
-    """One Gauss–Markov update of three axes; draws normals only when ``b`` ≠ 0."""
-    if b != _ZERO:
-        beta = a * beta + b * wp.vec3d(
-            wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state))
-        )
-    return beta, state
-
-
-@wp.func
-def measured(M: wp.mat33d, x: wp.vec3d, bias_dt: wp.vec3d, sigma: wp.float64, state: wp.uint32):
-    """One measured increment of :class:`SensorErrors`: ``M x + b dt + σ √dt n``.
-
-    ``bias_dt`` = b dt and ``sigma`` = σ √dt (hoisted per thread); n draws three normals from
-    ``state`` only when ``sigma`` ≠ 0. Returns the increment and the advanced RNG state.
-    """
-    y = M * x + bias_dt
-    if sigma != _ZERO:
-        y = y + sigma * wp.vec3d(
-            wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state))
-        )
-    return y, state
 
 
 @wp.func

@@ -121,7 +121,6 @@ LONG_MODULES_BEING_SPLIT = (
     "fieldmap/nav/plots.py",
     "fieldmap/cli/nav.py",
     "fieldmap/nav/readers_formats.py",
-    "fieldmap/nav/conditioning*.py",
 )
 
 

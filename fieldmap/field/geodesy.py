@@ -193,11 +193,10 @@ def disturbing_potential(
 class SphericalAnomaly(NamedTuple):
     """What :func:`gravity_anomaly` returns: three arrays of the points' shape, one unit each.
 
-    Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names. Up to fieldmap 0.2
-    the function returned one array of shape ``(..., 3)`` mixing mGal and arcsec; indexing
-    with an ndarray-style key (``result[..., 0]``, ``result[:, :1]``) and ``np.asarray(result)``
-    still give that stacked array, with a :class:`DeprecationWarning`. An integer or a slice
-    indexes the tuple.
+    Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names. The ``(..., 3)`` array
+    of fieldmap 0.1 (mGal and arcsec mixed) is still what an ndarray-style key (``r[..., 0]``)
+    and ``np.asarray(r)`` give, with a :class:`DeprecationWarning`; an int or slice indexes
+    the tuple.
     """
 
     #: Δg, gravity anomaly (spherical approximation). Units: mGal.
@@ -222,8 +221,7 @@ class SphericalAnomaly(NamedTuple):
         return self._stacked()[key]
 
     def __array__(self, dtype=None, copy=None):
-        out = self._stacked()
-        return out if dtype is None else out.astype(dtype)
+        return self._stacked() if dtype is None else self._stacked().astype(dtype)
 
 
 def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
