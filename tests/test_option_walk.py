@@ -114,6 +114,11 @@ def fixtures(tmp_path_factory) -> Path:
     (root / "flight.csv").write_text(_flight_csv())
     (root / "adsb.csv").write_text(_traffic_csv())
     (root / "pts.txt").write_text("-30 100 500\n")
+    from fieldmap.products.table import build_table
+    from fieldmap.products.table_io import binary_bytes
+
+    tab, _ = build_table((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0, lmax=20, check_points=10)
+    (root / "table.bin").write_bytes(binary_bytes(tab))
     return root
 
 
@@ -316,6 +321,7 @@ _FLIGHT = ("--duration", "10", "--rate", "20", "--lmax", "10", "--models", "j2",
            "--output-dt", "1")  # fmt: skip
 _STUDY = ("--duration", "2", "--rate", "20", "--output-dt", "1")
 _POINT = "10 20 30\n"
+_TABLE = ("--heights-km", "0,10", "--max-error-mgal", "2")
 
 CONTEXTS = {
     "point": _ctx("point", stdin=_POINT),
@@ -373,6 +379,9 @@ CONTEXTS = {
     "table1-timed": _ctx("navsim", *_STUDY, "--lmax", "10", "--models", "j2", *_OUT, kind="timed"),
     # only options every study takes: the default models need a truth of degree 200
     "table3": _ctx("navsim", "--study", "table3", *_STUDY, "--lmax", "200", "--draws", "2", *_OUT),
+    "point-table": _ctx("point", "--model", "table:table.bin", stdin=_POINT),
+    "table": _ctx("table", *_TABLE, "--region", "5", "6", "40", "41", *_OUT),
+    "table-corridor": _ctx("table", *_TABLE, "--corridor", "flight.csv", "--width-km", "20", *_OUT),
     "allan": _ctx("imu", "allan", "--duration", "20", "--rate", "10", *_OUT),
     "allan-ideal": _ctx(
         "imu", "allan", "--imu", "ideal", "--duration", "20", "--rate", "10", *_OUT
@@ -451,7 +460,11 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("point-normal", "--normal", "j2"),
         C("point", "--normal", "j2", expect=REFUSED, note="--quantity normal"),
     ],
-    ("point", "--model"): [C("point", "--model", "kaula.gfc")],
+    ("point", "--model"): [
+        C("point", "--model", "kaula.gfc"),
+        C("point", "--model", "table:table.bin"),
+        C("point-table", "--quantity", "gravity", expect=REFUSED, note="table:FILE"),
+    ],
     ("point", "--model-dir"): [
         C("point-file", "--model-dir", "models"),
         C("point", "--model-dir", "models", expect=REFUSED, note="bundled"),
@@ -464,6 +477,7 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ],
     ("point", "--lmax"): [
         C("point", "--lmax", "10"),
+        C("point-table", "--lmax", "10", expect=REFUSED, note="table:FILE"),
         C("point-normal", "--lmax", "10", expect=REFUSED, note="--quantity normal"),
     ],
     ("point", "--epoch"): [
@@ -472,6 +486,7 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ],
     ("point", "--device"): [
         C("point", "--device", "cpu", expect=NEUTRAL),
+        C("point-table", "--device", "cpu", expect=REFUSED, note="table:FILE"),
         C("point-sigma", "--device", "cpu", expect=REFUSED, note="sigma"),
     ],
     ("point", "--precision"): [C("point", "--precision", "6")],
@@ -648,6 +663,41 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--truth-evaluation", "full"),
         C("table1", "--truth-evaluation", "full", expect=REFUSED, note="table1"),
     ],
+    # ------------------------------------------------------------------------------ table
+    ("table", "--region"): [
+        C("table", "--region", "5", "7", "40", "41"),
+        C("table-corridor", "--region", "6", "8", "44", "45"),
+        C("table-corridor", "--region", "10", "11", "40", "41", expect=REFUSED, note="overlap"),
+        C("table", "--region", "5", "6", "41", "40", expect=REFUSED, note="south < north"),
+    ],
+    ("table", "--heights-km"): [
+        C("table", "--heights-km", "0,5"),
+        C("table", "--heights-km", "5,5", expect=REFUSED, note="MIN < MAX"),
+    ],
+    ("table", "--max-error-mgal"): [
+        C("table", "--max-error-mgal", "0.5"),
+        C("table", "--max-error-mgal", "-1", expect=REFUSED, note="positive"),
+    ],
+    ("table", "--budget-mb"): [
+        C("table", "--budget-mb", "100", expect=NEUTRAL, ignore=("budget_mb",)),
+        C("table", "--budget-mb", "0.0001", expect=REFUSED),
+    ],
+    ("table", "--corridor"): [
+        C("table-corridor", "--corridor", "adsb.csv"),
+        C("table", "--corridor", "flight.csv", expect=REFUSED, note="overlap"),
+    ],
+    ("table", "--width-km"): [
+        C("table-corridor", "--width-km", "30"),
+        C("table", "--width-km", "30", expect=REFUSED, note="--corridor"),
+    ],
+    ("table", "--model"): [C("table", "--model", "kaula.gfc")],
+    ("table", "--lmax"): [C("table", "--lmax", "60")],
+    ("table", "--model-dir"): [C("table", "--model-dir", "models", expect=REFUSED, note="bundled")],
+    ("table", "--gm"): [C("table", "--gm", "3.986e14", expect=REFUSED)],
+    ("table", "--radius"): [C("table", "--radius", "6378137", expect=REFUSED)],
+    ("table", "--no-cache"): [C("table", "--no-cache", expect=NEUTRAL)],
+    ("table", "--device"): [C("table", "--device", "cpu", expect=NEUTRAL)],
+    ("table", "--out"): [C("table", expect=OUT)],
     # --------------------------------------------------------------------------- imu allan
     ("imu allan", "--imu"): [C("allan", "--imu", "consumer")],
     ("imu allan", "--duration"): [C("allan", "--duration", "30")],

@@ -31,6 +31,7 @@ _COMMAND_MODULES = (
     "fieldmap.cli.maps",  # map, sweep, truncation
     "fieldmap.cli.nav",  # navsim
     "fieldmap.cli.imu",  # imu allan
+    "fieldmap.cli.table",  # table
 )
 
 

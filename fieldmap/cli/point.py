@@ -105,7 +105,8 @@ def register(subparsers) -> None:
         "--model",
         default="eigen-6s",
         help="bundled model name, model file (ICGEM .gfc[.gz], NGA coefficients, GeographicLib "
-        ".egm) or GeographicLib model name (default: eigen-6s)",
+        ".egm) or GeographicLib model name (default: eigen-6s); table:FILE: a compensation "
+        "table of 'fieldmap table' (table.nc or table.bin), --quantity disturbance only",
     )
     from fieldmap.cli.model_options import add_model_options
 
@@ -211,7 +212,10 @@ def evaluate_points(
 
     from fieldmap.field import gravity as fg
     from fieldmap.models.registry import announce, load_model
+    from fieldmap.products.table_model import table_path
 
+    if table_path(model) is not None:  # a compensation table: its interpolated δg (NumPy)
+        return fg.disturbance(lat, lon, h, model=model, units="mGal", frame="enu")
     sh_model = load_model(model, lmax=lmax, epoch=epoch, **(model_options or {}))
     announce(sh_model)
     if quantity.endswith("-sigma"):
@@ -247,8 +251,10 @@ def run_point(args) -> int:
 
     from fieldmap.errors import InputError
     from fieldmap.models.registry import model_options
+    from fieldmap.products.table_model import outside_message
 
     _refuse_unused(args)
+    table = _table(args)
     opts = model_options(args)
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
@@ -279,6 +285,10 @@ def run_point(args) -> int:
         for k, why in zip(where, point_errors(*zip(*parsed))):
             if why is not None:
                 results[k] = f"ERROR: {why}"
+    if parsed and table is not None:  # a point outside the compensation table: a bad line
+        for k, pt in zip(where, parsed):
+            if results[k] is None and not table.contains(*pt)[0]:
+                results[k] = f"ERROR: {outside_message(table, *pt)}"
     points = [p for p, k in zip(parsed, where) if results[k] is None] if parsed else []
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
@@ -319,6 +329,32 @@ _MODEL_OPTIONS = {
     "radius": "--radius",
     "no_cache": "--no-cache",
 }
+
+
+def _table(args):
+    """Return the table of ``--model table:FILE`` (read here: a bad file is exit 2), or None.
+
+    A table holds δg only: any other ``--quantity`` and the options of spherical-harmonic models
+    and of the Warp engine are refused in one line.
+    """
+    from fieldmap.cli import given
+    from fieldmap.errors import InputError
+    from fieldmap.products.table_model import load_table, table_path
+
+    path = table_path(args.model)
+    if path is None:
+        return None
+    if args.quantity != "disturbance":
+        raise InputError(
+            f"--model table:FILE holds the disturbance only, not --quantity {args.quantity}"
+        )
+    for dest, option in {**_MODEL_OPTIONS, "device": "--device"}.items():
+        if dest != "model" and given(args, dest):
+            raise InputError(
+                f"{option} does not apply to --model table:FILE (a compensation table, "
+                "interpolated with NumPy)"
+            )
+    return load_table(path)
 
 
 def _refuse_unused(args) -> None:

@@ -178,8 +178,12 @@ def disturbance(
     ----------
     latitude, longitude, height : array_like
         As in :func:`gravitation`. Units: degrees, degrees, m.
-    model : SHModel or str
-        A model, a bundled model name or the path of an ICGEM file.
+    model : SHModel, CompensationTable or str
+        A model, a bundled model name or the path of an ICGEM file; or a gravity compensation
+        table, ``"table:FILE"`` (``fieldmap table``'s table.nc or table.bin) or a
+        :class:`fieldmap.products.table_model.CompensationTable`: its interpolated δg (WGS84
+        only; no ``lmax`` or ``epoch``; NumPy, ``device`` unused; a point outside the table is
+        an :class:`InputError`).
     lmax : int, optional
         Truncation degree.
     ellipsoid : Ellipsoid or str
@@ -203,9 +207,42 @@ def disturbance(
     from fieldmap.units import get_unit
 
     unit = get_unit(units)
+    if _table_model(model) is not None:
+        return _table_disturbance(
+            latitude, longitude, height, model, lmax, ellipsoid, unit, frame, epoch
+        )
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
     gamma = normal_gravity(
         lat, lon, h, normal="exact", ellipsoid=ell, centrifugal=False, frame="ecef", device=device
     )
     return _to_frame(from_si(g - gamma, unit), lat, lon, f)
+
+
+def _table_model(model):
+    """Return the table of ``model`` (``"table:FILE"`` or a table object), else None."""
+    from fieldmap.products.table_model import CompensationTable, load_table, table_path
+
+    if isinstance(model, CompensationTable):
+        return model
+    path = table_path(model)
+    return None if path is None else load_table(path)
+
+
+def _table_disturbance(latitude, longitude, height, model, lmax, ellipsoid, unit, frame, epoch):
+    """δg interpolated from a compensation table, in ``frame`` and ``unit``."""
+    tab = _table_model(model)
+    if lmax is not None or epoch is not None:
+        raise InputError("a compensation table (table:FILE) takes no lmax or epoch")
+    f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
+    if ell.name != WGS84.name:
+        raise InputError(f"a compensation table holds δg of WGS84, not of {ell.name}")
+    ned = tab.interpolate(lat, lon, h).reshape(lat.shape + (3,)) * 1e-5  # mGal -> m/s²
+    enu = np.stack([ned[..., 1], ned[..., 0], -ned[..., 2]], axis=-1)
+    if f == "enu":
+        v = enu
+    elif f == "ned":
+        v = ned
+    else:
+        v = np.einsum("...ji,...j->...i", frames.C_e_to_enu(lat, lon), enu)
+    return from_si(v, unit)
