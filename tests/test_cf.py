@@ -68,6 +68,7 @@ def _products() -> dict:
         "anomaly": quantity_map("anomaly", **SMALL, height_km=20),
         "deflection_sweep": quantity_map("deflection", **SMALL, height_km=[20, 50]),
         "potential": quantity_map("potential", **SMALL, height_km=20),
+        "gradient": quantity_map("gradient", **SMALL, height_km=20),
     }
 
 
@@ -103,6 +104,7 @@ def files(tmp_path_factory):
     for name, q, heights in (
         ("streamed_geoid", "geoid", (0.0,)),
         ("streamed_deflection_sweep", "deflection", (2e4, 5e4)),
+        ("streamed_gradient_sweep", "gradient-disturbance", (2e4, 5e4)),
     ):
         path = folder / f"{name}.nc"
         setup = prepare_quantity(q, "eigen-6s", 30, heights, 10.0, 80.0, None, "WGS84", "cpu", None)
@@ -168,6 +170,8 @@ PRODUCTS = [
     "potential",
     "streamed_geoid",
     "streamed_deflection_sweep",
+    "gradient",
+    "streamed_gradient_sweep",
 ]
 
 

@@ -62,10 +62,20 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             "--quantity",
             # fieldmap.products.quantity_maps.QUANTITIES, spelt out: importing it (xarray,
             # pandas) would cost a second at every start of every sub-command
-            choices=("disturbance", "anomaly", "deflection", "geoid", "potential"),
+            choices=(
+                "disturbance",
+                "anomaly",
+                "deflection",
+                "geoid",
+                "potential",
+                "gradient",
+                "gradient-disturbance",
+            ),  # fmt: skip
             default="disturbance",
             help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
-            "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy",
+            "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy; gradient, "
+            "gradient-disturbance: the six ENU components of the gradient tensor of gravity or "
+            "of the disturbance (Eötvös)",
         )
     p.add_argument(
         "--step-deg",

@@ -75,8 +75,9 @@ def report(quantity: str, summ: dict) -> None:
         s = summ[name]
         for k, h in enumerate(heights):
             pick = (lambda v: v[k]) if isinstance(s["max"], list) else (lambda v: v)
+            shown = "E" if units == "1e-9 s-2" else units  # Eötvös
             print(
-                f"  {name} ({units}) h = {h / 1e3:g} km: min {pick(s['min']):.4f}  "
+                f"  {name} ({shown}) h = {h / 1e3:g} km: min {pick(s['min']):.4f}  "
                 f"max {pick(s['max']):.4f}  mean {pick(s['mean']):.4f}  rms {pick(s['rms']):.4f}"
             )
 

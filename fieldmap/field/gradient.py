@@ -165,3 +165,42 @@ def gradient_tensor(
         t = (t + np.swapaxes(t, -1, -2)) / 2.0  # exactly symmetric after the rotation too
     t = t.reshape(shape + (3, 3))
     return (t, asym.reshape(shape)) if return_asymmetry else t
+
+
+#: map quantity -> (gradient_tensor quantity, description); the ENU components kept (symmetric)
+GRID_QUANTITIES = {
+    "gradient": ("gravity", "gravity (model gravitation + centrifugal)"),
+    "gradient-disturbance": ("disturbance", "gravity disturbance (model - exact normal)"),
+}
+#: variable name -> (i, j) of the ENU tensor: the six independent components
+GRID_COMPONENTS = {
+    "T_ee": (0, 0),
+    "T_en": (0, 1),
+    "T_eu": (0, 2),
+    "T_nn": (1, 1),
+    "T_nu": (1, 2),
+    "T_uu": (2, 2),
+}
+
+
+def grid_gradient(
+    model: SHModel, grid, quantity: str, *, ellipsoid: Ellipsoid | str = WGS84, device=None
+) -> dict[str, np.ndarray]:
+    """Return the six ENU components of the gradient tensor on every node of a grid, in Eötvös.
+
+    :func:`gradient_tensor` at each node (every node on its own, so a block of rows gives the
+    bits of the whole grid). ``quantity``: ``"gradient"`` (gravity) or ``"gradient-disturbance"``.
+    Returns {``T_ee``, ``T_en``, ``T_eu``, ``T_nn``, ``T_nu``, ``T_uu``: array ``grid.shape``}.
+    """
+    if quantity not in GRID_QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
+    lat2, lon2 = np.meshgrid(grid.lat, grid.lon, indexing="ij")
+    out = {name: np.empty(grid.shape) for name in GRID_COMPONENTS}
+    for k, h in enumerate(np.asarray(grid.heights, dtype=np.float64)):
+        t = gradient_tensor(
+            lat2, lon2, h, model=model, quantity=GRID_QUANTITIES[quantity][0],
+            ellipsoid=ellipsoid, device=device,
+        )  # fmt: skip
+        for name, (i, j) in GRID_COMPONENTS.items():
+            out[name][k] = t[..., i, j]
+    return out

@@ -194,7 +194,7 @@ class Job:
     units: str
     thresholds: tuple
     store: Any = None  # a blockio.ZarrTarget when workers write, else None
-    quantity: str = "disturbance"  # or a quantity of fieldmap.field.geodesy.grid_quantities
+    quantity: str = "disturbance"  # or a quantity of products.quantity_product.VARIABLES
     degree0: bool = False  # keep the degree-0 term of T (quantities)
 
 
@@ -231,11 +231,16 @@ def compute_block(job: Job, model) -> dict:
             data["modulus_mg"], job.row_weights, job.thresholds, job.hist_weights
         )
     else:
-        from fieldmap.field.geodesy import grid_quantities
+        if job.quantity.startswith("gradient"):
+            from fieldmap.field.gradient import grid_gradient
 
-        vals = grid_quantities(
-            model, sub, job.quantity, ellipsoid=ell, degree0=job.degree0, device=job.device
-        )
+            vals = grid_gradient(model, sub, job.quantity, ellipsoid=ell, device=job.device)
+        else:
+            from fieldmap.field.geodesy import grid_quantities
+
+            vals = grid_quantities(
+                model, sub, job.quantity, ellipsoid=ell, degree0=job.degree0, device=job.device
+            )
         data = {k: v[0] for k, v in vals.items()}
         partial = {"vars": {k: scalar_partial(v, job.row_weights) for k, v in data.items()}}
     out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}

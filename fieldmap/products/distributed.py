@@ -283,10 +283,10 @@ def prepare_quantity(
     quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, load=None
 ):
     """:func:`prepare` for a quantity map (the geoid is a property of the surface: h = 0)."""
-    from fieldmap.field.geodesy import GRID_QUANTITIES
+    from fieldmap.products.quantity_product import VARIABLES
 
-    if quantity not in GRID_QUANTITIES:
-        raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
+    if quantity not in VARIABLES:
+        raise InputError(f"quantity must be one of {', '.join(VARIABLES)}, got {quantity!r}")
     heights = [0.0] if quantity == "geoid" else heights_m
     return prepare(
         model, lmax, heights, step_deg, lat_max, region, ellipsoid, device, epoch, "mGal", load

@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products.quantity_product import QUANTITIES, VARIABLES
+from fieldmap.products.quantity_product import GRADIENT_QUANTITIES, QUANTITIES, VARIABLES
 
 
 def quantity_map(
@@ -42,10 +42,13 @@ def quantity_map(
 
     Parameters
     ----------
-    quantity : {"disturbance", "anomaly", "deflection", "geoid", "potential"}
+    quantity : {"disturbance", "anomaly", "deflection", "geoid", "potential", "gradient", \
+"gradient-disturbance"}
         ``disturbance`` is :func:`fieldmap.products.maps.disturbance_map` (one height) or
-        :func:`fieldmap.products.maps.altitude_sweep`; the others are
-        :func:`fieldmap.field.geodesy.grid_quantities`.
+        :func:`fieldmap.products.maps.altitude_sweep`; ``gradient`` and
+        ``gradient-disturbance`` the six ENU components of the gradient tensor of gravity or
+        of the disturbance (:func:`fieldmap.field.gradient.grid_gradient`, Eötvös); the
+        others are :func:`fieldmap.field.geodesy.grid_quantities`.
     model : str, path or SHModel
         Model (bundled name, file, or object).
     lmax : int, optional
@@ -113,6 +116,10 @@ def quantity_map(
         if hs.size == 1:
             return maps.disturbance_map(height_km=hs[0], **kw)
         return maps.altitude_sweep(height_km=list(hs), **kw)
+    if degree0 and quantity in GRADIENT_QUANTITIES:
+        raise InputError(
+            f"degree0 applies to the potential T and its quantities, not to {quantity}"
+        )
     if quantity == "geoid":
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))

@@ -15,7 +15,14 @@ import xarray as xr
 
 from fieldmap import __version__
 
-__all__ = ["QUANTITIES", "VARIABLES", "assemble", "statistics_fields", "template"]
+__all__ = [
+    "GRADIENT_QUANTITIES",
+    "QUANTITIES",
+    "VARIABLES",
+    "assemble",
+    "statistics_fields",
+    "template",
+]
 
 #: quantity -> variables: (name, units, long name, CF standard name or None)
 VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
@@ -41,10 +48,30 @@ VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
     ],
     "potential": [("potential", "m2 s-2", "disturbing potential T = W - U", None)],
 }
+for _q, _what in (("gradient", "gravity"), ("gradient-disturbance", "gravity disturbance")):
+    VARIABLES[_q] = [
+        (
+            name,
+            "1e-9 s-2",
+            f"gradient tensor of {_what}, d g_{name[2]} / d {name[3]} (ENU), Eotvos",
+            None,
+        )
+        for name in ("T_ee", "T_en", "T_eu", "T_nn", "T_nu", "T_uu")
+    ]
+#: quantities of the tensor (no disturbing potential involved: degree0 does not apply)
+GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance")
 QUANTITIES = ("disturbance", *VARIABLES)
 
 
-def _definition(degree0: bool) -> str:
+def _definition(degree0: bool, quantity: str = "potential") -> str:
+    if quantity in GRADIENT_QUANTITIES:
+        what = "g" if quantity == "gradient" else "g - gamma_exact (gravitation)"
+        return (
+            f"second derivatives of the potential: d({what})_i / dx_j in the local geodetic "
+            "east-north-up frame at each node (1 E = 1e-9 s-2); g is model gravitation plus "
+            "centrifugal; central differences of the float64 gravity vector (steps 1 m and 2 m, "
+            "one Richardson step), symmetrised; the tensor is symmetric, so six components"
+        )
     zero = (
         "the degree-0 term (GM - GM_ellipsoid)/r is included"
         if degree0
@@ -79,10 +106,15 @@ def template(quantity: str, mod, grid, ell, degree0: bool) -> xr.Dataset:
         mod,
         ell,
         grid,
-        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} minus the {ell.name} normal field",
+        f"fieldmap {__version__}: {mod.name} degree {mod.lmax}"
+        + ("" if quantity == "gradient" else f" minus the {ell.name} normal field"),
     )
-    attrs.update({"quantity": quantity, "definition": _definition(degree0)})
-    attrs["frame"] = "geocentric spherical (deflection components), values are scalars otherwise"
+    attrs.update({"quantity": quantity, "definition": _definition(degree0, quantity)})
+    attrs["frame"] = (
+        "local geodetic east-north-up at each node"
+        if quantity in GRADIENT_QUANTITIES
+        else "geocentric spherical (deflection components), values are scalars otherwise"
+    )
     var_attrs = {}
     for name, units, long_name, std in VARIABLES[quantity]:
         va: dict[str, Any] = {"units": units, "long_name": long_name}

@@ -1,0 +1,88 @@
+"""Gradient-tensor maps (issue 18): ``quantity_map("gradient"...)`` and ``fieldmap map --quantity``.
+
+The grid product is the point function at every node (checked here bit for bit, and for any block
+size and executor); the point function itself is checked against closed forms in
+``tests/test_gradient.py``. Laplace's equation is checked again on the grids: trace 2ω² for
+gravity, 0 for the disturbance.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84
+from fieldmap.field.gradient import EOTVOS, GRID_COMPONENTS, gradient_tensor
+from fieldmap.models.registry import load_model
+from fieldmap.products.quantity_maps import quantity_map
+
+REGION = (100.0, 106.0, 24.0, 30.0)
+TWO_OMEGA2 = 2.0 * WGS84.omega**2 / EOTVOS
+
+
+@pytest.fixture(scope="module")
+def model60():
+    return load_model("eigen-6s", lmax=60)
+
+
+@pytest.mark.parametrize("quantity", ["gradient", "gradient-disturbance"])
+def test_gradient_map_is_the_point_tensor_at_every_node(model60, quantity):
+    ds = quantity_map(quantity, model=model60, height_km=[0, 30], region=REGION, step_deg=2.0)
+    assert set(GRID_COMPONENTS) <= set(ds.data_vars)
+    lat2, lon2 = np.meshgrid(ds.latitude.values, ds.longitude.values, indexing="ij")
+    what = "gravity" if quantity == "gradient" else "disturbance"
+    for k, h in enumerate(ds.height.values):
+        t = gradient_tensor(lat2, lon2, float(h), model=model60, quantity=what)
+        for name, (i, j) in GRID_COMPONENTS.items():
+            np.testing.assert_array_equal(ds[name].values[k], t[..., i, j], err_msg=name)
+    trace = ds["T_ee"] + ds["T_nn"] + ds["T_uu"]
+    want = TWO_OMEGA2 if quantity == "gradient" else 0.0
+    assert np.abs(trace.values - want).max() < 1e-3  # E
+    assert float(np.abs(ds["T_uu"]).max()) > (3000.0 if quantity == "gradient" else 1.0)
+    assert ds["T_uu"].attrs["units"] == "1e-9 s-2" and ds.attrs["quantity"] == quantity
+    assert "east-north-up" in ds.attrs["frame"]
+
+
+def test_gradient_map_same_bits_for_any_block_size_and_executor(model60):
+    kw = dict(model=model60, height_km=20, region=REGION, step_deg=1.0)
+    ref = quantity_map("gradient-disturbance", **kw)
+    for extra in ({"rows_per_block": 1}, {"rows_per_block": 4}, {"scheduler": "threads"}):
+        other = quantity_map("gradient-disturbance", **kw, **extra)
+        for name in ref.data_vars:
+            np.testing.assert_array_equal(ref[name].values, other[name].values, err_msg=name)
+            a, b = ref[name].attrs, other[name].attrs
+            assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a), name
+
+
+def test_gradient_map_refuses_degree0(model60):
+    with pytest.raises(InputError, match="degree0"):
+        quantity_map("gradient", model=model60, region=REGION, degree0=True)
+
+
+def test_cli_gradient_map_writes_six_components(tmp_path):
+    env = {**os.environ, "FIELDMAP_PROGRESS": "0"}
+    out = tmp_path / "o"
+    run = subprocess.run(
+        [
+            sys.executable, "-m", "fieldmap", "map", "--quantity", "gradient", "--lmax", "30",
+            "--region", "100", "104", "24", "28", "--step-deg", "2", "--no-plots",
+            "--out", str(out),
+        ],
+        capture_output=True, text=True, env=env, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "T_uu (E)" in run.stdout
+    js = json.loads(next(out.glob("*.json")).read_text())
+    assert js["product"] == "gradient"
+    import xarray as xr
+
+    with xr.open_dataset(next(out.glob("*.nc"))) as ds:
+        assert sorted(v for v in ds.data_vars) == sorted(GRID_COMPONENTS)
+        tr = ds["T_ee"] + ds["T_nn"] + ds["T_uu"]
+        assert np.abs(tr.values - TWO_OMEGA2).max() < 1e-3
