@@ -253,3 +253,45 @@ def test_cli_model_without_sigma(monkeypatch, capsys, tmp_path):
     rc, out, err = _point(monkeypatch, capsys, args, "45 10 0\n")
     assert rc == 2 and out == "" and len(err.strip().splitlines()) == 1
     assert "no coefficient standard deviations" in err
+
+
+# ------------------------------------------------------------------------------------ grids
+def test_grid_sigma_maps_equal_the_point_sigma_at_every_node():
+    """commission_grid's row folding gives commission_sigma's values at the nodes, poles too."""
+    from fieldmap.products.quantity_maps import quantity_map
+
+    model = load_model("eigen-6s", lmax=60)
+    kw = dict(model=model, step_deg=15.0, lat_max=90.0)
+    for quantity, names in (
+        ("disturbance-sigma", ("sigma_east", "sigma_north", "sigma_up")),
+        ("anomaly-sigma", ("anomaly_sigma",)),
+        ("geoid-sigma", ("geoid_sigma",)),
+    ):
+        ds = quantity_map(quantity, height_km=[0, 30], **kw)
+        assert ds.attrs["quantity"] == quantity and "diagonal propagation" in ds.attrs["definition"]
+        lat2, lon2 = np.meshgrid(ds.latitude.values, ds.longitude.values, indexing="ij")
+        heights = [0.0] if quantity == "geoid-sigma" else [0.0, 30e3]
+        what = quantity[: -len("-sigma")]
+        for k, h in enumerate(heights):
+            want = commission_sigma(lat2, lon2, h, model=model, quantity=what)
+            want = want.reshape(want.shape[:2] + (-1,))
+            for c, name in enumerate(names):
+                got = ds[name].values if "height" not in ds[name].dims else ds[name].values[k]
+                assert got.shape == lat2.shape
+                np.testing.assert_allclose(got, want[..., c], rtol=1e-12, err_msg=name)
+        assert float(ds[names[0]].min()) > 0.0
+
+
+def test_grid_sigma_same_bits_for_any_block_size_and_refuses_models_without_sigma():
+    from fieldmap.products.quantity_maps import quantity_map
+
+    kw = dict(model=load_model("eigen-6s", lmax=40), region=(0, 20, -10, 10), step_deg=2.0)
+    ref = quantity_map("disturbance-sigma", **kw)
+    for extra in ({"rows_per_block": 1}, {"scheduler": "threads"}):
+        other = quantity_map("disturbance-sigma", **kw, **extra)
+        for name in ref.data_vars:
+            np.testing.assert_array_equal(ref[name].values, other[name].values)
+    with pytest.raises(InputError, match="no coefficient standard deviations"):
+        quantity_map("geoid-sigma", model=kaula_model(10, seed=1), step_deg=30.0)
+    with pytest.raises(InputError, match="degree0"):
+        quantity_map("anomaly-sigma", step_deg=30.0, degree0=True)

@@ -235,6 +235,10 @@ def compute_block(job: Job, model) -> dict:
             from fieldmap.field.gradient import grid_gradient
 
             vals = grid_gradient(model, sub, job.quantity, ellipsoid=ell, device=job.device)
+        elif job.quantity.endswith("-sigma"):
+            from fieldmap.field.commission_grid import grid_commission
+
+            vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
         else:
             from fieldmap.field.geodesy import grid_quantities
 

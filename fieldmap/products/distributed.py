@@ -283,14 +283,21 @@ def prepare_quantity(
     quantity, model, lmax, heights_m, step_deg, lat_max, region, ellipsoid, device, epoch, load=None
 ):
     """:func:`prepare` for a quantity map (the geoid is a property of the surface: h = 0)."""
-    from fieldmap.products.quantity_product import VARIABLES
+    from fieldmap.products.quantity_product import SIGMA_QUANTITIES, SURFACE_QUANTITIES, VARIABLES
 
     if quantity not in VARIABLES:
         raise InputError(f"quantity must be one of {', '.join(VARIABLES)}, got {quantity!r}")
-    heights = [0.0] if quantity == "geoid" else heights_m
-    return prepare(
+    heights = [0.0] if quantity in SURFACE_QUANTITIES else heights_m
+    out = prepare(
         model, lmax, heights, step_deg, lat_max, region, ellipsoid, device, epoch, "mGal", load
     )
+    mod = out[-1]
+    if quantity in SIGMA_QUANTITIES and (mod.sigma_c is None or mod.sigma_s is None):
+        raise InputError(
+            f"model {mod.name} carries no coefficient standard deviations (sigma C, sigma S):"
+            f" --quantity {quantity} needs an ICGEM file with sigma columns"
+        )
+    return out
 
 
 def _per_variable(stats: list[dict]) -> dict:

@@ -16,7 +16,13 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products.quantity_product import GRADIENT_QUANTITIES, QUANTITIES, VARIABLES
+from fieldmap.products.quantity_product import (
+    GRADIENT_QUANTITIES,
+    QUANTITIES,
+    SIGMA_QUANTITIES,
+    SURFACE_QUANTITIES,
+    VARIABLES,
+)
 
 
 def quantity_map(
@@ -116,11 +122,11 @@ def quantity_map(
         if hs.size == 1:
             return maps.disturbance_map(height_km=hs[0], **kw)
         return maps.altitude_sweep(height_km=list(hs), **kw)
-    if degree0 and quantity in GRADIENT_QUANTITIES:
+    if degree0 and (quantity in GRADIENT_QUANTITIES or quantity in SIGMA_QUANTITIES):
         raise InputError(
             f"degree0 applies to the potential T and its quantities, not to {quantity}"
         )
-    if quantity == "geoid":
+    if quantity in SURFACE_QUANTITIES:
         hs = np.zeros(1, dtype=object)
     h = maps.heights_m(list(hs))
     from fieldmap.products import distributed, lazy
@@ -246,7 +252,8 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     ax.tick_params(labelsize=8)
     cb = fig.colorbar(mesh, ax=ax, shrink=0.9, pad=0.015, aspect=25, fraction=0.04)
     cb.set_label(f"{name} ({var.attrs['units']})", fontsize=9)
-    where = f"h = {height / 1e3:g} km" if ds.attrs.get("quantity") != "geoid" else "h = 0"
+    surface = ds.attrs.get("quantity") in SURFACE_QUANTITIES
+    where = "h = 0" if surface else f"h = {height / 1e3:g} km"
     ax.set_title(
         f"{var.attrs['long_name']}\n{ds.attrs.get('model')} degree "
         f"{ds.attrs.get('model_lmax')}, {where}",

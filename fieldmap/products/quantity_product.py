@@ -18,6 +18,8 @@ from fieldmap import __version__
 __all__ = [
     "GRADIENT_QUANTITIES",
     "QUANTITIES",
+    "SIGMA_QUANTITIES",
+    "SURFACE_QUANTITIES",
     "VARIABLES",
     "assemble",
     "statistics_fields",
@@ -60,10 +62,28 @@ for _q, _what in (("gradient", "gravity"), ("gradient-disturbance", "gravity dis
     ]
 #: quantities of the tensor (no disturbing potential involved: degree0 does not apply)
 GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance")
+_SIGMA = "standard deviation (commission error, diagonal propagation of the coefficient sigma)"
+VARIABLES["disturbance-sigma"] = [
+    (f"sigma_{c}", "mGal", f"{_SIGMA} of the {c} component of the gravity disturbance", None)
+    for c in ("east", "north", "up")
+]
+VARIABLES["anomaly-sigma"] = [("anomaly_sigma", "mGal", f"{_SIGMA} of the gravity anomaly", None)]
+VARIABLES["geoid-sigma"] = [("geoid_sigma", "m", f"{_SIGMA} of the geoid height", None)]
+#: commission-error quantities (fieldmap.field.commission_grid)
+SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
+#: quantities that live on the ellipsoid (h = 0)
+SURFACE_QUANTITIES = ("geoid", "geoid-sigma")
 QUANTITIES = ("disturbance", *VARIABLES)
 
 
 def _definition(degree0: bool, quantity: str = "potential") -> str:
+    if quantity in SIGMA_QUANTITIES:
+        return (
+            "standard deviation of the quantity propagated from the model's coefficient "
+            "standard deviations sigma C, sigma S, assumed uncorrelated (diagonal propagation: "
+            "the full covariance is not used); the degrees above the model's degree are not "
+            "counted (omission error); geoid at h = 0"
+        )
     if quantity in GRADIENT_QUANTITIES:
         what = "g" if quantity == "gradient" else "g - gamma_exact (gravitation)"
         return (
