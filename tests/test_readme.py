@@ -19,7 +19,7 @@ def test_python_api_block_runs():
     assert env["dg"].shape == (1, 3)
     assert env["g"].shape == (1, 3)
     assert env["gam"].shape == (1, 3)
-    assert env["N"].shape == (1,) and env["dga"].shape == (1, 3)
+    assert env["N"].shape == (1,) and env["anom"].shape == env["eta"].shape == (1,)
     assert float(env["ds"]["modulus_mg"].max()) > 0
 
 
