@@ -104,6 +104,46 @@ def row_setup_kernel(
 
 
 @wp.func
+def _coefficients_hp(
+    s: sh_vec8,
+    s6: wp.float64,
+    m: int,
+    hm: wp.vec2d,
+    h1: wp.vec2d,
+    k: wp.float64,
+    cd: wp.float64,
+    sd: wp.float64,
+    coef: wp.array3d(dtype=wp.vec2d),
+    row: int,
+):
+    """Write the Fourier coefficients of order m of one row, see :func:`_coefficients`.
+
+    ``k = GM/r^2``, ``hm = half_powers(u, m)`` and ``h1 = half_powers(u, m - 1)``
+    (``half_powers(u, 1)`` for m = 0) are given, so that a row and its mirror (same u and r)
+    share them.
+    """
+    a_up = -k * scaled_times(s[2], hm)
+    b_up = -k * scaled_times(s[3], hm)
+    a_no = wp.float64(0.0)
+    b_no = wp.float64(0.0)
+    a_ea = wp.float64(0.0)
+    b_ea = wp.float64(0.0)
+    if m >= 1:
+        fm = wp.float64(m)
+        a_no = k * scaled_times(s[4], h1)
+        b_no = k * scaled_times(s[5], h1)
+        a_ea = k * fm * scaled_times(s[1], h1)
+        b_ea = -k * fm * scaled_times(s[0], h1)
+    else:
+        a_no = k * scaled_times(s6, h1)
+    coef[row, 0, m] = wp.vec2d(a_ea, -b_ea)
+    coef[row, 1, m] = wp.vec2d(cd * a_no - sd * a_up, -(cd * b_no - sd * b_up))
+    coef[row, 2, m] = wp.vec2d(cd * a_up + sd * a_no, -(cd * b_up + sd * b_no))
+    if coef.shape[1] > 3:
+        coef[row, 3, m] = wp.vec2d(k * scaled_times(s[0], hm), -k * scaled_times(s[1], hm))
+
+
+@wp.func
 def _coefficients(
     s: sh_vec8,
     s6: wp.float64,
@@ -132,28 +172,12 @@ def _coefficients(
     FFT pairs two real series per complex transform and a series 1e6 times larger would leak its
     rounding into its partner (the host multiplies by r after the longitude sums).
     """
-    k = gm / (r * r)
-    hm = half_powers(u, m)
-    a_up = -k * scaled_times(s[2], hm)
-    b_up = -k * scaled_times(s[3], hm)
-    a_no = wp.float64(0.0)
-    b_no = wp.float64(0.0)
-    a_ea = wp.float64(0.0)
-    b_ea = wp.float64(0.0)
-    if m >= 1:
-        fm = wp.float64(m)
-        h1 = half_powers(u, m - 1)
-        a_no = k * scaled_times(s[4], h1)
-        b_no = k * scaled_times(s[5], h1)
-        a_ea = k * fm * scaled_times(s[1], h1)
-        b_ea = -k * fm * scaled_times(s[0], h1)
-    else:
-        a_no = k * scaled_times(s6, half_powers(u, 1))
-    coef[row, 0, m] = wp.vec2d(a_ea, -b_ea)
-    coef[row, 1, m] = wp.vec2d(cd * a_no - sd * a_up, -(cd * b_no - sd * b_up))
-    coef[row, 2, m] = wp.vec2d(cd * a_up + sd * a_no, -(cd * b_up + sd * b_no))
-    if coef.shape[1] > 3:
-        coef[row, 3, m] = wp.vec2d(k * scaled_times(s[0], hm), -k * scaled_times(s[1], hm))
+    m1 = m - 1
+    if m == 0:
+        m1 = 1
+    _coefficients_hp(
+        s, s6, m, half_powers(u, m), half_powers(u, m1), gm / (r * r), cd, sd, coef, row
+    )
 
 
 @wp.kernel
@@ -237,122 +261,222 @@ def longitude_sum_kernel(
     out[j, kk] = acc
 
 
-mat84d = wp.types.matrix(shape=(8, 4), dtype=wp.float64)
+vec8d = wp.types.vector(length=8, dtype=wp.float64)
+mat168d = wp.types.matrix(shape=(16, 8), dtype=wp.float64)
 
 
 @wp.func
-def sh_column_parity4(model: SHKernelModel, m: int, t: wp.vec4d, q: wp.vec4d):
-    """Sum the engine's ``sh_column`` series for four rows at once, split by the parity of n - m.
+def order_of(mi: int, lmax: int) -> int:
+    """Order m of the mi-th column in launch order 0, lmax, 1, lmax - 1, ...
 
-    Same recursion, tables and 1e-280 scaling as ``sh_column`` (Holmes & Featherstone 2002);
-    each degree's terms go to the even or the odd sums (columns k of the returned 8x4 matrices
-    ``(even, odd)``), so that the mirror row at -t follows without a second recursion
-    (:func:`_mirror`). The four recursions share every table load (a, b, C, S, f of order m)
-    and run as four independent chains, which the CPU overlaps. A row whose q^m is below ``QM_MIN``
-    gets zero sums, as in ``sh_column``.
+    Consecutive pairs of columns hold lmax + 2 degrees together, so that contiguous chunks of a
+    launch (one per CPU core) get the same work.
     """
-    ev = mat84d()
-    od = mat84d()
-    lmax = model.lmax
-    if m > lmax:
-        return ev, od
-    fm = wp.float64(m)
-    sc = SCALE * model.sect[m]
-    p1 = wp.vec4d()
-    for k in range(4):
-        qm = wp.pow(q[k], fm)
-        if qm >= QM_MIN:
-            p1[k] = sc * qm
-    tq = wp.cw_mul(t, q)
-    qq = wp.cw_mul(q, q)
-    p2 = wp.vec4d()
-    c = model.cnm[m, m]
-    s = model.snm[m, m]
-    nf1 = wp.float64(m + 1)
-    e0 = c * p1
-    e1 = s * p1
-    e2 = nf1 * e0
-    e3 = nf1 * e1
-    ed4 = wp.vec4d()
-    ed5 = wp.vec4d()
-    e6 = wp.vec4d()
-    o0 = wp.vec4d()
-    o1 = wp.vec4d()
-    o2 = wp.vec4d()
-    o3 = wp.vec4d()
-    od4 = wp.vec4d()
-    od5 = wp.vec4d()
-    o6 = wp.vec4d()
-    if m == 1:
-        e6 = (model.fnm[0, 1] * model.cnm[0, 1]) * p1
-    n = m + 1
-    while n <= lmax:
+    h = mi / 2
+    if mi - 2 * h == 0:
+        return h
+    return lmax - h
+
+
+@wp.func
+def column8(
+    rec: wp.array(dtype=vec8d),
+    s0: int,
+    nterm: int,
+    seed: vec8d,
+    tq: vec8d,
+    qq: vec8d,
+):
+    """Parity-split column sums of eight rows (lanes) along one order m (Warp, any device).
+
+    ``rec[s0 + j]`` is the packed entry of degree n = m + j (:mod:`fieldmap.grids.tables`),
+    j < ``nterm``; ``seed`` = 1e-280 q^m P̄mm / u^m per lane, ``tq`` = t q, ``qq`` = q^2 per lane
+    (the q^n fold of :func:`sh_column`). Each lane is one row's own recursion (no lane ever reads
+    another), so a row's bits do not depend on which rows share its thread.
+
+    Returns a 16 x 8 matrix (rows x lanes): rows 0-5 the sums over even n - m of
+    C Q, S Q, (n+1) C Q, (n+1) S Q, f_{n+1} C_{n+1} Q, f_{n+1} S_{n+1} Q, rows 8-13 the same
+    over odd n - m (rows 6, 7, 14, 15 zero). The f-sums of one parity of Q_n are the
+    latitude-derivative sums f_nm C_nm Q_{n-1} of the other parity of n (see the tables).
+    """
+    w = rec[s0]
+    p1 = seed
+    p2 = vec8d()
+    e0 = w[2] * p1
+    e1 = w[3] * p1
+    e2 = w[4] * p1
+    e3 = w[5] * p1
+    e4 = w[6] * p1
+    e5 = w[7] * p1
+    o0 = vec8d()
+    o1 = vec8d()
+    o2 = vec8d()
+    o3 = vec8d()
+    o4 = vec8d()
+    o5 = vec8d()
+    j = s0 + 1
+    jend = s0 + nterm
+    while j < jend:
         # n - m odd
-        pn = model.anm[m, n] * wp.cw_mul(tq, p1) - model.bnm[m, n] * wp.cw_mul(qq, p2)
-        c = model.cnm[m, n]
-        s = model.snm[m, n]
-        nf1 = nf1 + wp.float64(1.0)
-        o0 = o0 + c * pn
-        o1 = o1 + s * pn
-        o2 = o2 + (nf1 * c) * pn
-        o3 = o3 + (nf1 * s) * pn
-        f = model.fnm[m, n]
-        od4 = od4 + (c * f) * p1
-        od5 = od5 + (s * f) * p1
-        if m == 1:
-            o6 = o6 + (model.fnm[0, n] * model.cnm[0, n]) * pn
+        w = rec[j]
+        pn = wp.cw_mul(w[0] * tq, p1) - wp.cw_mul(w[1] * qq, p2)
+        o0 = o0 + w[2] * pn
+        o1 = o1 + w[3] * pn
+        o2 = o2 + w[4] * pn
+        o3 = o3 + w[5] * pn
+        o4 = o4 + w[6] * pn
+        o5 = o5 + w[7] * pn
+        p2 = p1
+        p1 = pn
+        j = j + 1
+        if j >= jend:
+            break
+        # n - m even
+        w = rec[j]
+        pn = wp.cw_mul(w[0] * tq, p1) - wp.cw_mul(w[1] * qq, p2)
+        e0 = e0 + w[2] * pn
+        e1 = e1 + w[3] * pn
+        e2 = e2 + w[4] * pn
+        e3 = e3 + w[5] * pn
+        e4 = e4 + w[6] * pn
+        e5 = e5 + w[7] * pn
+        p2 = p1
+        p1 = pn
+        j = j + 1
+    out = mat168d()
+    for k in range(8):
+        out[0, k] = e0[k]
+        out[1, k] = e1[k]
+        out[2, k] = e2[k]
+        out[3, k] = e3[k]
+        out[4, k] = e4[k]
+        out[5, k] = e5[k]
+        out[8, k] = o0[k]
+        out[9, k] = o1[k]
+        out[10, k] = o2[k]
+        out[11, k] = o3[k]
+        out[12, k] = o4[k]
+        out[13, k] = o5[k]
+    return out
+
+
+_COLUMN8_SIMD = r"""
+#if defined(__CUDA_ARCH__) || !defined(__clang__)
+    // CUDA runs the Warp version (column8); this one is never called there
+    return wp::mat_t<16, 8, wp::float64>();
+#else
+#pragma clang fp contract(fast)
+    typedef double v8 __attribute__((ext_vector_type(8)));
+    const double* w = (const double*)wp::address(rec, s0);
+    v8 p1, p2 = 0.0, tq8, qq8;
+    __builtin_memcpy(&p1, &seed, 64);
+    __builtin_memcpy(&tq8, &tq, 64);
+    __builtin_memcpy(&qq8, &qq, 64);
+    v8 e0 = w[2] * p1, e1 = w[3] * p1, e2 = w[4] * p1, e3 = w[5] * p1, e4 = w[6] * p1,
+       e5 = w[7] * p1;
+    v8 o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+    int j = 1;
+    for (; j + 1 < nterm; j += 2) {
+        const double* x = w + 8 * j;
+        v8 pn = (x[0] * tq8) * p1 - (x[1] * qq8) * p2;
+        o0 += x[2] * pn; o1 += x[3] * pn; o2 += x[4] * pn;
+        o3 += x[5] * pn; o4 += x[6] * pn; o5 += x[7] * pn;
+        p2 = p1; p1 = pn;
+        x += 8;
+        pn = (x[0] * tq8) * p1 - (x[1] * qq8) * p2;
+        e0 += x[2] * pn; e1 += x[3] * pn; e2 += x[4] * pn;
+        e3 += x[5] * pn; e4 += x[6] * pn; e5 += x[7] * pn;
+        p2 = p1; p1 = pn;
+    }
+    if (j < nterm) {
+        const double* x = w + 8 * j;
+        v8 pn = (x[0] * tq8) * p1 - (x[1] * qq8) * p2;
+        o0 += x[2] * pn; o1 += x[3] * pn; o2 += x[4] * pn;
+        o3 += x[5] * pn; o4 += x[6] * pn; o5 += x[7] * pn;
+    }
+    wp::mat_t<16, 8, wp::float64> out;
+    v8 rows[16] = {e0, e1, e2, e3, e4, e5, 0.0, 0.0, o0, o1, o2, o3, o4, o5, 0.0, 0.0};
+    __builtin_memcpy(&out, rows, sizeof(rows));
+    return out;
+#endif
+"""
+
+
+@wp.func_native(_COLUMN8_SIMD)
+def column8_simd(
+    rec: wp.array(dtype=vec8d),
+    s0: int,
+    nterm: int,
+    seed: vec8d,
+    tq: vec8d,
+    qq: vec8d,
+) -> mat168d:
+    """:func:`column8` on the CPU with explicit 8-lane SIMD vectors (clang vector extension).
+
+    The same operations in the same order per lane, written so that the compiler keeps every
+    sum in one vector register (Warp's vector types leave the choice to LLVM's SLP vectoriser,
+    which pairs the wrong operands here). FMA contraction is on inside this function only.
+    """
+    ...
+
+
+@wp.func
+def zonal_north8(
+    rec: wp.array(dtype=vec8d),
+    zon: wp.array(dtype=wp.float64),
+    s1: int,
+    lmax: int,
+    seed: vec8d,
+    tq: vec8d,
+    qq: vec8d,
+):
+    """Entry [6] of :func:`sh_column` (m = 1) for eight lanes, split by the parity of n - 1.
+
+    Sums of sqrt(n(n+1)/2) C_n0 Q_n1 (``zon[n]``) along the m = 1 column (``rec[s1 + n - 1]``),
+    the recursion of :func:`column8`; the zonal north component needs them.
+    """
+    p1 = seed
+    p2 = vec8d()
+    e6 = zon[1] * p1
+    o6 = vec8d()
+    n = int(2)
+    while n <= lmax:
+        w = rec[s1 + n - 1]
+        pn = wp.cw_mul(w[0] * tq, p1) - wp.cw_mul(w[1] * qq, p2)
+        o6 = o6 + zon[n] * pn
         p2 = p1
         p1 = pn
         n = n + 1
         if n > lmax:
             break
-        # n - m even
-        pn = model.anm[m, n] * wp.cw_mul(tq, p1) - model.bnm[m, n] * wp.cw_mul(qq, p2)
-        c = model.cnm[m, n]
-        s = model.snm[m, n]
-        nf1 = nf1 + wp.float64(1.0)
-        e0 = e0 + c * pn
-        e1 = e1 + s * pn
-        e2 = e2 + (nf1 * c) * pn
-        e3 = e3 + (nf1 * s) * pn
-        f = model.fnm[m, n]
-        ed4 = ed4 + (c * f) * p1
-        ed5 = ed5 + (s * f) * p1
-        if m == 1:
-            e6 = e6 + (model.fnm[0, n] * model.cnm[0, n]) * pn
+        w = rec[s1 + n - 1]
+        pn = wp.cw_mul(w[0] * tq, p1) - wp.cw_mul(w[1] * qq, p2)
+        e6 = e6 + zon[n] * pn
         p2 = p1
         p1 = pn
         n = n + 1
-    for k in range(4):
-        ev[0, k] = e0[k]
-        ev[1, k] = e1[k]
-        ev[2, k] = e2[k]
-        ev[3, k] = e3[k]
-        ev[6, k] = e6[k]
-        od[0, k] = o0[k]
-        od[1, k] = o1[k]
-        od[2, k] = o2[k]
-        od[3, k] = o3[k]
-        od[6, k] = o6[k]
-        if m >= 1:
-            ev[4, k] = -t[k] * (e2[k] - e0[k]) + q[k] * ed4[k]
-            ev[5, k] = -t[k] * (e3[k] - e1[k]) + q[k] * ed5[k]
-            od[4, k] = -t[k] * (o2[k] - o0[k]) + q[k] * od4[k]
-            od[5, k] = -t[k] * (o3[k] - o1[k]) + q[k] * od5[k]
-    return ev, od
+    return e6, o6
 
 
 @wp.func
-def _col(a: mat84d, k: int) -> sh_vec8:
-    out = sh_vec8()
-    for j in range(8):
-        out[j] = a[j, k]
-    return out
+def _seed8(model: SHKernelModel, m: int, q: vec8d) -> vec8d:
+    """1e-280 q^m P̄mm/u^m per lane; 0 where q^m < QM_MIN (the engine's degree cut)."""
+    fm = wp.float64(m)
+    sc = SCALE * model.sect[m]
+    p1 = vec8d()
+    for k in range(8):
+        qm = wp.pow(q[k], fm)
+        if qm >= QM_MIN:
+            p1[k] = sc * qm
+    return p1
 
 
 @wp.kernel
-def row_fourier_group_kernel(
+def row_fourier8_kernel(
     model: SHKernelModel,
+    rec: wp.array(dtype=vec8d),
+    start: wp.array(dtype=wp.int32),
+    zon: wp.array(dtype=wp.float64),
     t: wp.array(dtype=wp.float64),
     u: wp.array(dtype=wp.float64),
     r: wp.array(dtype=wp.float64),
@@ -361,56 +485,81 @@ def row_fourier_group_kernel(
     sdel: wp.array(dtype=wp.float64),
     row_a: wp.array2d(dtype=wp.int32),
     row_b: wp.array2d(dtype=wp.int32),
-    nm: int,
+    ng: int,
+    simd: int,
     coef: wp.array3d(dtype=wp.vec2d),
     offset: wp.int32,
 ):
-    """Fourier coefficients for groups of four row units per thread (grids symmetric or not).
+    """Fourier coefficients for groups of eight row units per thread, one order per thread.
 
-    One recursion at row ``row_a`` serves its mirror row ``row_b`` at -t as well (same height,
-    so same r and q), halving the Legendre work of grids symmetric about the equator such as
-    the paper's 80S-80N; four units per thread share the table loads. Thread ``i`` handles
-    group ``g = i // nm`` and order ``m = i % nm``; unit k of the group is row ``row_a[g, k]``
-    (recursion at its t) and its mirror ``row_b[g, k]`` (or -1); a padding unit has ``row_a = -1``
-    and writes nothing.
+    A unit is row ``row_a[g, k]`` (recursion at its t) and its mirror ``row_b[g, k]`` at -t
+    (same height, so same r and q; or -1): one recursion serves both, halving the Legendre work
+    of grids symmetric about the equator. Padding units have ``row_a = -1`` and write nothing.
+    The eight recursions of a group are the lanes of one vector (:func:`column8_simd` on the
+    CPU when ``simd`` is 1, else :func:`column8`), on the packed tables ``rec``/``start``/``zon``
+    of :mod:`fieldmap.grids.tables`. Thread ``i`` handles group ``g = i % ng`` of column
+    ``mi = i // ng`` (order :func:`order_of`): the groups of one order run back to back and
+    share its table while it is in cache. The zonal north term needs entry [6] of column
+    m = 1: the m = 0 thread sums it too (:func:`zonal_north8`).
     """
     i = wp.tid() + offset
-    g = i / nm
-    m = i - g * nm
-    tv = wp.vec4d()
-    qv = wp.vec4d()
-    for k in range(4):
+    mi = i / ng
+    g = i - mi * ng
+    lmax = model.lmax
+    m = order_of(mi, lmax)
+    tv = vec8d()
+    qv = vec8d()
+    for k in range(8):
         ra = row_a[g, k]
         if ra >= 0:
             tv[k] = t[ra]
             qv[k] = q[ra]
-    ev, od = sh_column_parity4(model, m, tv, qv)
-    e6 = wp.vec4d()
-    o6 = wp.vec4d()
-    if m == 0 and model.lmax >= 1:
-        ev1, od1 = sh_column_parity4(model, 1, tv, qv)
-        for k in range(4):
-            e6[k] = ev1[6, k]
-            o6[k] = od1[6, k]
-    for k in range(4):
+    tq = wp.cw_mul(tv, qv)
+    qq = wp.cw_mul(qv, qv)
+    seed = _seed8(model, m, qv)
+    cs = mat168d()
+    if simd != 0:
+        cs = column8_simd(rec, start[m], lmax + 1 - m, seed, tq, qq)
+    else:
+        cs = column8(rec, start[m], lmax + 1 - m, seed, tq, qq)
+    e6 = vec8d()
+    o6 = vec8d()
+    if m == 0 and lmax >= 1:
+        e6, o6 = zonal_north8(rec, zon, start[1], lmax, _seed8(model, 1, qv), tq, qq)
+    zero = wp.float64(0.0)
+    m1 = m - 1  # the power u^(m-1) of the east and north terms; u^1 for the zonal north term
+    if m == 0:
+        m1 = 1
+    for k in range(8):
         ra = row_a[g, k]
         if ra >= 0:
-            se = _col(ev, k)
-            so = _col(od, k)
-            _coefficients(
-                se + so, e6[k] + o6[k], m, u[ra], r[ra], cdel[ra], sdel[ra], model.gm, coef, ra
-            )
+            tk = tv[k]
+            qk = qv[k]
+            e4 = zero
+            e5 = zero
+            o4 = zero
+            o5 = zero
+            if m >= 1:
+                # the f-sums of one parity sit in the other parity's matrix (see column8)
+                e4 = -tk * (cs[2, k] - cs[0, k]) + qk * cs[12, k]
+                e5 = -tk * (cs[3, k] - cs[1, k]) + qk * cs[13, k]
+                o4 = -tk * (cs[10, k] - cs[8, k]) + qk * cs[4, k]
+                o5 = -tk * (cs[11, k] - cs[9, k]) + qk * cs[5, k]
+            se = sh_vec8(cs[0, k], cs[1, k], cs[2, k], cs[3, k], e4, e5, zero, zero)
+            so = sh_vec8(cs[8, k], cs[9, k], cs[10, k], cs[11, k], o4, o5, zero, zero)
+            ua = u[ra]
+            rra = r[ra]
+            kk = model.gm / (rra * rra)
+            hm = half_powers(ua, m)
+            h1 = half_powers(ua, m1)
+            _coefficients_hp(se + so, e6[k] + o6[k], m, hm, h1, kk, cdel[ra], sdel[ra], coef, ra)
             rb = row_b[g, k]
             if rb >= 0:
-                _coefficients(
-                    _mirror(se, so),
-                    e6[k] - o6[k],
-                    m,
-                    u[rb],
-                    r[rb],
-                    cdel[rb],
-                    sdel[rb],
-                    model.gm,
-                    coef,
-                    rb,
+                if u[rb] != ua or r[rb] != rra:
+                    rrb = r[rb]
+                    kk = model.gm / (rrb * rrb)
+                    hm = half_powers(u[rb], m)
+                    h1 = half_powers(u[rb], m1)
+                _coefficients_hp(
+                    _mirror(se, so), e6[k] - o6[k], m, hm, h1, kk, cdel[rb], sdel[rb], coef, rb
                 )

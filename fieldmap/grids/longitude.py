@@ -1,7 +1,7 @@
 """Longitude sums of a grid row: sum_m (A_m cos m lon + B_m sin m lon) at every node.
 
-Regular longitudes lon0 + k 360/L go through inverse FFTs of length L, two real series per
-complex transform (orders m >= L fold onto m mod L exactly on the nodes); any other longitudes
+Regular longitudes lon0 + k 360/L go through inverse real FFTs of length L, one per series
+(orders fold onto 0..L/2 exactly on the nodes); any other longitudes
 through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by
 :func:`fieldmap.grids.synthesis.synthesize`.
 """
@@ -57,10 +57,6 @@ def longitude_sums(
     lon_deg = np.asarray(lon_deg, dtype=np.float64)
     lead, nm = W.shape[:-1], W.shape[-1]
     nlon = lon_deg.size
-    # the series of one item (the last-but-one axis: the components of one grid row) are
-    # transformed together and with nothing else, so a row's values never depend on which
-    # rows share its block: the same bits for any blocking (see the pairing below)
-    group = W.shape[-2] if W.ndim >= 2 else 1
     W = W.reshape(-1, nm)
     ns = W.shape[0]
     if out is None:
@@ -72,40 +68,38 @@ def longitude_sums(
         return out
     import scipy.fft
 
-    # rotate so that node k sits at k * 2 pi / L, then alias orders m -> m mod L (exact there)
+    # node k sits at lon0 + k * 2 pi / L: a lon0 on the node lattice is a rotation of the
+    # output (exact), any other lon0 a phase factor on the series
+    step = 360.0 / nper
+    k0 = round(lon_deg[0] / step)
     F = W
-    if lon_deg[0] != 0.0:
+    if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
+        k0 = 0
         F = W * np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
-    if nm > nper:
-        nfold = -(-nm // nper)
-        G = np.zeros((ns, nfold * nper), dtype=np.complex128)
-        G[:, :nm] = F
-        F = G.reshape(ns, nfold, nper).sum(axis=1)
-    # Two real series per complex inverse FFT: with P = F_a + i F_b, M = F_a - i F_b (both
-    # zero from order nF on), z_k = Re(sum F_a w^jk) + i Re(sum F_b w^jk) is the inverse DFT of
-    # Z_j = (P_j + conj M_{-j}) / 2 (indices mod L). The tail of Z holds conj M reversed.
-    nF = F.shape[1]
-    if group % 2:  # pair the series of one item only: pad each item with a zero series
-        F3 = np.zeros((ns // group, group + 1, nF), dtype=F.dtype)
-        F3[:, :group] = F.reshape(-1, group, nF)
-        F = F3.reshape(-1, nF)
-    Fa, Fb = F[0::2], F[1::2]
-    Z = np.zeros((Fa.shape[0], nper), dtype=np.complex128)
-    Z[:, :nF] = Fa + 1j * Fb
-    if nF > 1:
-        Z[:, nper - nF + 1 :] += np.conj(Fa[:, :0:-1] - 1j * Fb[:, :0:-1])
-    Z[:, 0] += np.conj(Fa[:, 0] - 1j * Fb[:, 0])
-    Z *= 0.5
-    z = scipy.fft.ifft(Z, axis=-1, norm="forward", workers=-1, overwrite_x=True)
-    g2 = group + group % 2
-    zz = np.empty((z.shape[0] * 2, nper))  # the series in the padded order, then unpadded
-    zz[0::2] = z.real
-    zz[1::2] = z.imag
-    zz = zz.reshape(-1, g2, nper)[:, :group].reshape(ns, nper)
-    # nodes beyond one turn (e.g. both 0 and 360 deg) repeat earlier ones
-    for k0 in range(0, nlon, nper):
-        k1 = min(nlon, k0 + nper)
-        res[:, k0:k1] = zz[:, : k1 - k0]
+    # Re sum_m F_m e^{i m x} on x_k = 2 pi k / L is the inverse real FFT of the half spectrum
+    # H_0 = Re F_0, H_j = F_j / 2 (0 < j < L/2), H_{L/2} = F_{L/2}: orders m >= L fold onto
+    # m mod L, and m mod L = r > L/2 onto L - r conjugated (exact on the nodes). Each series is
+    # transformed on its own, so its values do not depend on which series share the block.
+    nh = nper // 2 + 1
+    H = np.zeros((ns, nh), dtype=np.complex128)
+    for m0 in range(0, nm, nper):
+        blk = F[:, m0 : min(nm, m0 + nper)]
+        nb = blk.shape[1]
+        H[:, : min(nb, nh)] += blk[:, :nh]
+        if nb > nh:  # r = nh .. nb-1 folds onto L - r (distinct targets L-nh .. L-nb+1)
+            H[:, nper - nb + 1 : nper - nh + 1] += np.conj(blk[:, nh:nb][:, ::-1])
+    H[:, 1:] *= 0.5
+    if nper % 2 == 0:
+        H[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
+    z = scipy.fft.irfft(H, n=nper, axis=-1, norm="forward", workers=-1, overwrite_x=True)
+    del H
+    # node k of the result is node k + k0 (mod L) of z; nodes beyond one turn repeat earlier ones
+    shift = int(k0) % nper
+    if shift:
+        z = np.concatenate([z[:, shift:], z[:, :shift]], axis=1)
+    for k1 in range(0, nlon, nper):
+        k2 = min(nlon, k1 + nper)
+        res[:, k1:k2] = z[:, : k2 - k1]
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out

@@ -5,7 +5,8 @@
 longitudes (degrees) at one or more heights (m above the ellipsoid). :func:`synthesize`
 evaluates, on every node, the model gravitation minus a normal gravitation (the disturbance) or
 the model gravitation alone, in the geodetic east-north-up frame, by circles of latitude: one
-Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier_kernel`, then the
+Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier8_kernel` (eight
+rows and their mirrors per thread, SIMD on the CPU), then the
 longitude sums of all nodes of the row by FFT (regular longitudes) or a direct sum kernel (any
 longitudes). Rows are processed in blocks so memory stays bounded for any grid size and degree.
 """
@@ -31,11 +32,18 @@ if TYPE_CHECKING:
     from fieldmap.field.ellipsoid import Ellipsoid
     from fieldmap.models.shmodel import SHModel
 
+#: Row units (a row and its mirror) per thread of the Legendre pass: the lanes of one vector.
+GROUP = 8
+
 #: Memory budget of one row block (bytes), for the Fourier coefficients and FFT work arrays.
 BLOCK_BYTES = 192 * 2**20
 
 
 QUANTITIES = ("disturbance", "gravitation", "gravity")
+
+#: Seconds spent in the parts of the last :func:`synthesize` call of this process ("legendre":
+#: the Legendre pass kernel, "longitude": the longitude sums, "total"), for the benchmarks.
+last_timings: dict[str, float] = {}
 
 
 def resolve_device(device: str | None) -> str:
@@ -179,12 +187,15 @@ def synthesize(
         Shape (nh, nlat, nlon, 3): east, north, up (m/s²); (nh, nlat, nlon, 4) with the
         potential (m²/s²) last when ``potential``.
     """
+    import time
+
     import warp as wp
     from tqdm.auto import tqdm
 
     from fieldmap import _warp
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.field.sh import kernel_model
+    from fieldmap.grids.tables import grid_tables
     from fieldmap.kernels import grid as kgrid
 
     if quantity not in QUANTITIES:
@@ -192,6 +203,8 @@ def synthesize(
     ellipsoid = ellipsoid or WGS84
     device = resolve_device(device)
     km = kernel_model(model, device)
+    tabs = grid_tables(model, km, device) if symmetric else ()
+    simd = int(device == "cpu")  # explicit SIMD vectors on the CPU (kernels.grid.column8_simd)
     nm = model.lmax + 1
     nh, nlat, nlon = grid.shape
     nitems = nh * nlat
@@ -211,6 +224,8 @@ def synthesize(
     disable = (not progress) if progress is not None else (None if work > 2e10 else True)
     bar = tqdm(total=nitems, unit="row", desc="synthesis", disable=disable, leave=False)
     cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
+    t_leg = t_lon = 0.0
+    t_all = time.perf_counter()
     u0 = 0
     while u0 < len(units):
         # a block of whole units (a mirrored pair of rows, or a single row)
@@ -223,21 +238,28 @@ def synthesize(
         local = {int(it): k for k, it in enumerate(items)}
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
-        coef = wp.zeros((nb, nc, nm), dtype=wp.vec2d, device=device)
+        # the group kernel writes every (row, component, order) of the block
+        coef = (wp.empty if symmetric else wp.zeros)((nb, nc, nm), dtype=wp.vec2d, device=device)
+        t0 = time.perf_counter()
         if symmetric:
             loc_a = [local[a] for a, _ in blk]
             loc_b = [local[b] if b >= 0 else -1 for _, b in blk]
-            ng = -(-len(loc_a) // 4)
-            pad = 4 * ng - len(loc_a)
-            ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, 4)
-            gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, 4)
+            ng = -(-len(loc_a) // GROUP)
+            pad = GROUP * ng - len(loc_a)
+            ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, GROUP)
+            gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, GROUP)
             ra: Any = wp.array(ga, dtype=wp.int32, device=device)
             rb: Any = wp.array(gb, dtype=wp.int32, device=device)
             _warp.launch_chunked(
-                kgrid.row_fourier_group_kernel, ng * nm, [km, *geo, ra, rb, nm, coef], device
+                kgrid.row_fourier8_kernel,
+                ng * nm,
+                [km, *tabs, *geo, ra, rb, ng, simd, coef],
+                device,
             )
         else:
             _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
+        t1 = time.perf_counter()
+        t_leg += t1 - t0
         W = coef.numpy().view(np.complex128)[..., 0]  # (nb, nc, nm): A_m - i B_m
         if quantity == "disturbance":
             W[:, :3, 0] -= gamma.numpy()
@@ -248,11 +270,13 @@ def synthesize(
             longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
         else:
             out[items] = longitude_sums(W, grid.lon, device)
+        t_lon += time.perf_counter() - t1
         if potential:  # the kernel gives V/r (see kernels.grid._coefficients)
             out[items, 3] *= geo[2].numpy()[:, None]
         bar.update(nb)
         u0 = u1
     bar.close()
+    last_timings.update(legendre=t_leg, longitude=t_lon, total=time.perf_counter() - t_all)
     # (height, lat, component, lon) in memory; the (height, lat, lon, component) view costs nothing
     return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)
 
