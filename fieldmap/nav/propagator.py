@@ -174,7 +174,7 @@ class Propagator:
             raise InputError("the LCI mechanization stores states every even number of samples")
         if baro is not None and frame != "ned":
             raise InputError("baro altitude aiding needs the NED mechanization")
-        from fieldmap.nav.strapdown import gravity_names
+        from fieldmap.nav.navgravity import gravity_names
 
         gravity = gravity_names([gravity] if isinstance(gravity, str) else list(gravity))
         n = len(gravity)

@@ -12,7 +12,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.nav.strapdown import prepare_batch
+from fieldmap.nav.batch import prepare_batch
 
 
 @dataclass(frozen=True)
@@ -208,7 +208,7 @@ def _baro_struct(baro: Baro | None, b, ksd):
     """Device struct of the baro loop (disabled with placeholder arrays when ``baro`` is None)."""
     import warp as wp
 
-    from fieldmap.nav.strapdown import per_trajectory
+    from fieldmap.nav.batch import per_trajectory
 
     dev, n = b.device, b.n
     aid = ksd.BaroAiding()
