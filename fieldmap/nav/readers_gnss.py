@@ -1,0 +1,264 @@
+"""GNSS receiver and flight-recorder logs: GPX 1.1, NMEA 0183 and IGC.
+
+Each reader returns a :class:`~fieldmap.nav.readers_parsed.Parsed` for
+:func:`fieldmap.nav.readers.read_track`.
+
+- **GPX 1.1** (Topografix, https://www.topografix.com/GPX/1/1/): ``<trkpt>`` of all tracks and
+  segments in document order (``<rtept>`` when there is no track), read with ``gpxpy``. The
+  schema calls ``<ele>`` the "elevation (in meters) of the point" and ``<geoidheight>`` the
+  "height of geoid (mean sea level) above WGS84 earth ellipsoid, as defined in NMEA GGA": ``<ele>``
+  is the height above mean sea level (MSL). With ``<geoidheight>`` on every point the file's own
+  ellipsoidal height ``ele + geoidheight`` is used.
+- **NMEA 0183** (NMEA 0183 v4.11, GGA and RMC sentences; parsed with ``pynmea2``): GGA gives
+  the UTC time of day, position, the altitude above MSL (field 9) and the geoid separation
+  (field 11, geoid above the WGS84 ellipsoid): h = altitude + separation when every fix has it.
+  RMC gives the date (field 9, ``ddmmyy``). Sentences with a wrong checksum (XOR of the bytes
+  between ``$`` and ``*``) are skipped and counted, as are fixes of quality 0 (no fix).
+- **IGC** (FAI/IGC *Technical Specification for IGC-approved GNSS Flight Recorders*, appendix
+  A): ``HFDTE`` date (``HFDTEDDMMYY`` or ``HFDTEDATE:DDMMYY,NN``), ``B`` fixes
+  ``BHHMMSSDDMMmmmNDDDMMmmmEVPPPPPGGGGG``: pressure altitude (m, ICAO ISA, 1013.25 hPa datum)
+  and GNSS altitude (m, "above the WGS84 ellipsoid" per the specification; the ``HFALG`` header
+  ``GEO`` of recent recorders says MSL). ``LAD``/``LOD`` extensions (``I`` record) add
+  decimals of minutes.
+
+Times of day roll over at midnight (a step back by more than 12 h adds a day).
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import datetime, timezone
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.nav.readers_parsed import DAY, Parsed, _days, _line_of, _utc
+
+
+def read_gpx(text: str, source: str) -> Parsed:
+    """Track (else route) points of a GPX 1.0/1.1 file, segments concatenated in order."""
+    import gpxpy
+    import gpxpy.gpx
+
+    try:
+        gpx = gpxpy.parse(text)
+    except gpxpy.gpx.GPXException as exc:
+        msg = str(exc).splitlines()[0]
+        m = re.search(r"\.\.\. (.*?) \(", msg)
+        pos = text.find(m.group(1)) if m else -1
+        at = f" line {_line_of(text, pos)}" if pos >= 0 else ""
+        raise InputError(f"{source}{at}: not a readable GPX file ({msg})") from None
+    kind = "trkpt"
+    pts: list = [p for trk in gpx.tracks for seg in trk.segments for p in seg.points]
+    if not pts:
+        kind, pts = "rtept", [p for r in gpx.routes for p in r.points]
+    if not pts:
+        raise InputError(f"{source}: no track or route points (<trkpt>, <rtept>) in the GPX file")
+    tags = [m.start() for m in re.finditer(rf"<(?:\w+:)?{kind}\b", text)]
+    if len(tags) == len(pts):
+        lines, where = np.array([_line_of(text, p) for p in tags], dtype=np.int64), "line"
+    else:
+        lines, where = np.arange(1, len(pts) + 1, dtype=np.int64), kind
+    t = np.empty(len(pts))
+    for i, p in enumerate(pts):
+        if p.time is None:
+            raise InputError(f"{source} {where} {lines[i]} column time: <{kind}> without <time>")
+        t[i] = _utc(p.time)
+    lat = np.array([p.latitude for p in pts], dtype=np.float64)
+    lon = np.array([p.longitude for p in pts], dtype=np.float64)
+    ele = np.array([np.nan if p.elevation is None else p.elevation for p in pts])
+    alts = {"msl": ("ele", ele)}
+    notes = [f"GPX: {len(pts)} <{kind}> points; <ele> read as height above mean sea level"]
+    ref = "msl"
+    if all(p.geoid_height is not None for p in pts):
+        sep = np.array([p.geoid_height for p in pts], dtype=np.float64)
+        alts["ellipsoid"] = ("ele+geoidheight", ele + sep)
+        ref = "ellipsoid"
+        notes[0] = f"GPX: {len(pts)} <{kind}> points; h = <ele> + <geoidheight> (the file's own)"
+    return Parsed(
+        t, lat, lon, alts, ref, "m", lines, source, True, ("time", "lat", "lon"), where, notes
+    )
+
+
+def _dm(s: str, hemi: str, neg: str, where: str, name: str) -> float:
+    """Degrees from NMEA ``(d)ddmm.mmmm`` and a hemisphere letter."""
+    try:
+        v = float(s)
+        if not s[:1].isdigit() or v < 0 or hemi not in ("NS" if neg == "S" else "EW"):
+            raise ValueError
+    except ValueError:
+        raise InputError(
+            f"{where} column {name}: {s + ',' + hemi!r} is not ddmm.mmmm,N|S|E|W"
+        ) from None
+    d = np.floor(v / 100.0)
+    return float((d + (v - 100.0 * d) / 60.0) * (-1.0 if hemi == neg else 1.0))
+
+
+def _tod(s: str, where: str) -> float:
+    """Seconds of the day from ``hhmmss[.ss]``."""
+    m = re.fullmatch(r"(\d{2})(\d{2})(\d{2}(?:\.\d*)?)", s)
+    if not m or int(m[1]) > 23 or int(m[2]) > 59 or float(m[3]) >= 61:
+        raise InputError(f"{where} column field 1 (UTC time): {s!r} is no hhmmss.ss")
+    return int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3])
+
+
+def read_nmea(text: str, source: str) -> Parsed:
+    """GGA fixes of an NMEA 0183 log, dated by RMC sentences (see the module docstring)."""
+    import pynmea2
+
+    stamps: list[tuple[str, int, float, object]] = []  # (GGA|RMC, line, time of day, payload)
+    skipped = {"with a bad checksum": 0, "incomplete": 0, "without a fix": 0}
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        i = raw.find("$")
+        s = raw[i:].strip() if i >= 0 else ""
+        if s[3:6] not in ("GGA", "RMC"):
+            continue
+        has_sum = bool(re.search(r"\*[0-9A-Fa-f]{2}$", s))
+        try:
+            msg = pynmea2.parse(s, check=has_sum)
+            f = list(msg.data) + [""] * 14
+        except pynmea2.ChecksumError:
+            skipped["with a bad checksum"] += 1
+            continue
+        except pynmea2.ParseError:
+            skipped["incomplete"] += 1
+            continue
+        where = f"{source} line {lineno}"
+        if s[3:6] == "RMC":
+            if re.fullmatch(r"\d{6}", f[8]) and f[0]:
+                d = (int(f[8][4:]) + 2000, int(f[8][2:4]), int(f[8][:2]))
+                try:
+                    day0 = datetime(*d, tzinfo=timezone.utc).timestamp()
+                except ValueError:
+                    raise InputError(f"{where} column RMC field 9 (date): {f[8]!r} is no ddmmyy")
+                stamps.append(("RMC", lineno, _tod(f[0], where), day0))
+            continue
+        if not has_sum and (len(msg.data) < 11 or not f[8]):
+            skipped["incomplete"] += 1
+            continue
+        if f[5] in ("", "0") or not f[1] or not f[3]:
+            skipped["without a fix"] += 1
+            continue
+        try:
+            alt = float(f[8]) if f[8] else np.nan
+            sep = float(f[10]) if f[10] else np.nan
+        except ValueError:
+            raise InputError(f"{where} column GGA field 9/11 (altitude, separation): not a number")
+        pos = (
+            _dm(f[1], f[2], "S", where, "GGA field 2 (latitude)"),
+            _dm(f[3], f[4], "W", where, "GGA field 4 (longitude)"),
+        )
+        stamps.append(("GGA", lineno, _tod(f[0], where), (*pos, alt, sep)))
+    fixes = [k for k, s in enumerate(stamps) if s[0] == "GGA"]
+    why = ", ".join(f"{n} sentences {k}" for k, n in skipped.items() if n)
+    if not fixes:
+        raise InputError(
+            f"{source}: no usable GGA fix in the NMEA log ({why or 'no GGA sentence'})"
+        )
+    days = _days([s[2] for s in stamps])
+    anchors = [(k, s[3] - days[k] * DAY) for k, s in enumerate(stamps) if s[0] == "RMC"]
+    t, lines, cols = np.empty(len(fixes)), np.empty(len(fixes), np.int64), []
+    base, a = (anchors[0][1] if anchors else 0.0), 0
+    for j, k in enumerate(fixes):
+        while a < len(anchors) and anchors[a][0] <= k:  # the latest RMC date before the fix
+            base, a = anchors[a][1], a + 1
+        t[j], lines[j] = base + days[k] * DAY + stamps[k][2], stamps[k][1]
+        cols.append(stamps[k][3])
+    lat, lon, alt, sep = np.array(cols, dtype=np.float64).T
+    notes = [f"NMEA 0183: {len(fixes)} GGA fixes" + (f"; skipped {why}" if why else "")]
+    if not anchors:
+        notes.append("no RMC date: times are seconds from 00:00 UTC of the log's first day")
+    alts = {"msl": ("GGA field 9 (altitude)", alt)}
+    ref = "msl"
+    if np.all(np.isfinite(sep[np.isfinite(alt)])):
+        alts["ellipsoid"] = ("GGA fields 9+11", alt + sep)
+        ref = "ellipsoid"
+        notes.append("h = GGA altitude (MSL) + the receiver's geoid separation (field 11)")
+    names = ("GGA field 1 (UTC time)", "GGA field 2 (latitude)", "GGA field 4 (longitude)")
+    return Parsed(t, lat, lon, alts, ref, "m", lines, source, bool(anchors), names, "line", notes)
+
+
+#: fields of an IGC B record: name, first byte, last byte (1-based, inclusive)
+_B_FIELDS = (
+    ("time", 2, 7, r"\d{6}"),
+    ("latitude", 8, 15, r"\d{7}[NS]"),
+    ("longitude", 16, 24, r"\d{8}[EW]"),
+    ("fix validity", 25, 25, r"[AV]"),
+    ("pressure altitude", 26, 30, r"-\d{4}|\d{5}"),
+    ("GNSS altitude", 31, 35, r"-\d{4}|\d{5}"),
+)
+
+
+def _igc_dm(digits: str, extra: str, deg: int) -> float:
+    minutes = float(digits[deg : deg + 2] + "." + digits[deg + 2 :] + extra)
+    return int(digits[:deg]) + minutes / 60.0
+
+
+def read_igc(text: str, source: str) -> Parsed:
+    """B fixes of an IGC flight recorder file (see the module docstring)."""
+    day0, alg, ext, rows, tods = None, None, {}, [], []
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        s = raw.rstrip()
+        if s.startswith("HFDTE") or s.startswith("HODTE"):
+            m = re.match(r"H[FO]DTE(?:[A-Z ]*:)?\s*(\d{2})(\d{2})(\d{2})", s)
+            try:
+                dd, mm, yy = (int(m[k]) for k in (1, 2, 3)) if m else (0, 0, 0)
+                day0 = datetime(yy + (2000 if yy < 80 else 1900), mm, dd, tzinfo=timezone.utc)
+            except ValueError:
+                raise InputError(f"{source} line {lineno} column HFDTE: {s!r} has no DDMMYY date")
+        elif s.startswith("HFALG"):
+            alg = s.split(":")[-1].strip().upper()[:3]
+        elif s.startswith("I") and re.fullmatch(r"I\d{2}(\d{4}[A-Z0-9]{3})*", s):
+            ext = {
+                s[k + 4 : k + 7]: (int(s[k : k + 2]), int(s[k + 2 : k + 4]))
+                for k in range(3, len(s), 7)
+            }
+        elif s.startswith("B"):
+            for name, a, b, pat in _B_FIELDS:
+                if not re.fullmatch(pat, s[a - 1 : b]):
+                    raise InputError(
+                        f"{source} line {lineno} column {name} (B record bytes {a}-{b}): "
+                        f"{s[a - 1 : b]!r} does not match the IGC B record"
+                    )
+            lad, lod = (s[ext[k][0] - 1 : ext[k][1]] if k in ext else "" for k in ("LAD", "LOD"))
+            y = _igc_dm(s[7:14], lad if lad.isdigit() else "", 2) * (-1 if s[14] == "S" else 1)
+            x = _igc_dm(s[15:23], lod if lod.isdigit() else "", 3) * (-1 if s[23] == "W" else 1)
+            rows.append(
+                (lineno, y, x, float(s[25:30]), float(s[30:35]) if s[24] == "A" else np.nan)
+            )
+            tods.append(int(s[1:3]) * 3600.0 + int(s[3:5]) * 60.0 + int(s[5:7]))
+    if not rows:
+        raise InputError(f"{source}: no B record (fix) in the IGC file")
+    lines, lat, lon, press, gnss = (np.array(c) for c in zip(*rows))
+    t = np.asarray(tods) + _days(tods) * DAY + (day0.timestamp() if day0 else 0.0)
+    gref = "msl" if alg == "GEO" else "ellipsoid"
+    alts = {"pressure": ("pressure altitude (B bytes 26-30)", press)}
+    alts[gref] = ("GNSS altitude (B bytes 31-35)", gnss)
+    notes, ref_note = [f"IGC: {len(rows)} B fixes"], None
+    if not np.any(np.nan_to_num(gnss) != 0.0):
+        ref = "pressure"
+        notes.append("no GNSS altitude (all zero or 2D fixes): pressure altitude used")
+    else:
+        ref = gref
+        if alg is None:
+            ref_note = (
+                "GNSS altitude read as height above the WGS84 ellipsoid (IGC specification; no "
+                "HFALG header): give height_ref='msl' if your recorder writes MSL"
+            )
+    if day0 is None:
+        notes.append("no HFDTE date: times are seconds from 00:00 UTC of the flight's first day")
+    return Parsed(
+        t,
+        lat,
+        lon,
+        alts,
+        ref,
+        "m",
+        lines.astype(np.int64),
+        source,
+        day0 is not None,
+        ("time (B bytes 2-7)", "latitude", "longitude"),
+        "line",
+        notes,
+        ref_note,
+    )
