@@ -4,6 +4,13 @@
 :class:`fieldmap.kernels.sh.SHKernelModel` (coefficients and recursion tables transposed to
 ``[m, n]``, see Holmes & Featherstone 2002 eqs. 11-16); :func:`sh_gravitation` and
 :func:`sh_potential` evaluate the series at ECEF points with every CPU core or on CUDA.
+
+Degree limits: the ``[m, n]`` tables and the 1e-280 scaling serve degrees up to
+:data:`MAX_DEGREE_GRID` (2700, grids and the default of :func:`kernel_model`). Points go to
+:data:`MAX_DEGREE_POINTS` (10,800): above 2700 their struct is the extended-range one
+(``xrange``: X-numbers, coefficients packed by order, recursion factors computed in the kernel
+from square-root tables; see :mod:`fieldmap.kernels.sh`). Memory at degree 10,800: the packed
+coefficients, 0.93 GB, besides the model's own C and S (1.87 GB).
 """
 
 from __future__ import annotations
@@ -70,10 +77,16 @@ def recursion_tables(lmax: int) -> dict[str, np.ndarray]:
 #: Highest degree the 1e-280-scaled recursion keeps in range at every latitude (Holmes &
 #: Featherstone 2002 give 2700; near the poles P̄nm/u^m reaches ~e^(n/2), and at degree 2800
 #: the scaled values overflow above 88.8° — checked with a Kaula model on a latitude sweep).
-MAX_DEGREE = 2700
+#: The grid kernels use that recursion, so grids refuse higher degrees.
+MAX_DEGREE_GRID = 2700
+#: Former name of :data:`MAX_DEGREE_GRID`.
+MAX_DEGREE = MAX_DEGREE_GRID
+#: Highest degree of point evaluation (the extended-range path of :mod:`fieldmap.kernels.sh`;
+#: the readers' limit, EGM2008 / XGM2019e reach 2190 / 5540 and the NGA format 10,800).
+MAX_DEGREE_POINTS = 10800
 
 
-def _check_lmax(model: SHModel, lmax) -> int:
+def _check_lmax(model: SHModel, lmax, limit: int = MAX_DEGREE_GRID) -> int:
     if lmax is None:
         lmax_i = model.lmax
     else:
@@ -83,15 +96,27 @@ def _check_lmax(model: SHModel, lmax) -> int:
             raise InputError(f"lmax must be an integer, got {lmax!r}") from None
         if lmax_i != lmax or lmax_i < 0 or lmax_i > model.lmax:
             raise InputError(f"lmax {lmax} is outside the model {model.name} (0..{model.lmax})")
-    if lmax_i > MAX_DEGREE:
+    if lmax_i > limit:
+        if limit == MAX_DEGREE_GRID:
+            raise InputError(
+                f"degree {lmax_i} is above {limit}, the limit of the scaled Legendre recursion; "
+                f"truncate the model with lmax <= {limit}"
+            )
         raise InputError(
-            f"degree {lmax_i} is above {MAX_DEGREE}, the limit of the scaled Legendre recursion; "
-            f"truncate the model with lmax <= {MAX_DEGREE}"
+            f"degree {lmax_i} is above {limit}, the highest degree of point evaluation; "
+            f"truncate the model with lmax <= {limit}"
         )
     return lmax_i
 
 
-def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = None):
+def kernel_model(
+    model: SHModel,
+    device: str | None = None,
+    lmax: int | None = None,
+    *,
+    points: bool = False,
+    xrange: bool | None = None,
+):
     """Build (or fetch from the cache) the device struct of ``model`` truncated to ``lmax``.
 
     Parameters
@@ -102,11 +127,19 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
         Warp device name (default: :func:`fieldmap._warp.resolve_device`).
     lmax : int, optional
         Truncation degree (default: the model's).
+    points : bool
+        The struct serves the point kernels only (``sh_spherical`` and what calls it): degrees
+        up to :data:`MAX_DEGREE_POINTS` are accepted. Otherwise (grids, the default) degrees
+        above :data:`MAX_DEGREE_GRID` are refused.
+    xrange : bool, optional
+        Extended-range struct (``xrange = 1``: packed coefficients and square-root tables, no
+        ``[m, n]`` tables; only the point kernels can use it). Default: above
+        :data:`MAX_DEGREE_GRID` only; True forces it at any degree (tests, benchmarks).
 
     Returns
     -------
     fieldmap.kernels.sh.SHKernelModel
-        Cached by (model identity, lmax, device); entries die with the model object. The
+        Cached by (model identity, lmax, device, xrange); entries die with the model object. The
         recursion tables are shared by all models on a device, and a truncation reuses the
         coefficient arrays of a higher one.
     """
@@ -114,27 +147,113 @@ def kernel_model(model: SHModel, device: str | None = None, lmax: int | None = N
     from fieldmap.kernels import sh as ksh
 
     device = _warp.resolve_device(device)
-    L = _check_lmax(model, lmax)
-    key = (id(model), L, device)
+    L = _check_lmax(model, lmax, MAX_DEGREE_POINTS if points else MAX_DEGREE_GRID)
+    xr = L > MAX_DEGREE_GRID if xrange is None else bool(xrange)
+    if not xr and L > MAX_DEGREE_GRID:
+        _check_lmax(model, L)  # raises: the [m, n] tables stop at MAX_DEGREE_GRID
+    key = (id(model), L, device, xr)
     with _cache_lock:
         hit = _cache.get(key)
         if hit is not None and hit[0]() is model:
             return hit[1]
-    # The kernel reads rows m <= lmax and columns n <= lmax only, so larger tables and the
-    # coefficient arrays of a higher truncation of the same model serve any smaller lmax.
-    tab = _device_tables(L, device)
-    cnm, snm = _device_coefficients(model, L, device)
     km = ksh.SHKernelModel()
-    km.cnm, km.snm = cnm, snm
-    km.anm, km.bnm, km.fnm, km.sect = tab
     km.lmax = L
     km.gm = wp.float64(model.gm)
     km.radius = wp.float64(model.radius)
+    if xr:
+        km.xrange = 1
+        km.xsq, km.xisq, km.xrn, km.xirn = _device_xtables(L, device)
+        km.xpack, km.xcs = _device_packed(model, L, device)
+    else:
+        # The kernel reads rows m <= lmax and columns n <= lmax only, so larger tables and the
+        # coefficient arrays of a higher truncation of the same model serve any smaller lmax.
+        tab = _device_tables(L, device)
+        cnm, snm = _device_coefficients(model, L, device)
+        km.cnm, km.snm = cnm, snm
+        km.anm, km.bnm, km.fnm, km.sect = tab
+        km.xrange = 0
     with _cache_lock:
         if len(_cache) >= _CACHE_MAX:
             _cache.pop(next(iter(_cache)))
         _cache[key] = (weakref.ref(model), km)
     return km
+
+
+def xrange_tables(lmax: int) -> dict[str, np.ndarray]:
+    """Square-root tables of the extended-range path (recursion factors computed from them).
+
+    ``sq[k] = sqrt(k)`` and ``isq[k] = 1/sqrt(k)`` (0 at k = 0) for k = 0..2 lmax + 2,
+    ``rn[n] = sqrt((2n−1)(2n+1))`` and ``irn[n] = 1/rn[n]`` (0 at n = 0) for n = 0..lmax; the
+    kernel forms ``a_nm = rn[n] isq[n−m] isq[n+m]``, ``1/a_nm = irn[n] sq[n−m] sq[n+m]``,
+    ``b_nm = a_nm/a_{n−1,m}`` and ``f_nm = (2n+1)/a_nm`` (Holmes & Featherstone 2002 eqs. 11-15).
+    Memory: 6 lmax float64 values (0.5 MB at degree 10,800) instead of three (lmax+1)² tables.
+    """
+    L = int(lmax)
+    k = np.arange(2 * L + 3, dtype=np.float64)
+    sq = np.sqrt(k)
+    isq = np.zeros_like(sq)
+    isq[1:] = 1.0 / sq[1:]
+    n = np.arange(L + 1, dtype=np.float64)
+    rn = np.sqrt(np.maximum((2 * n - 1) * (2 * n + 1), 0.0))
+    rn[0] = 0.0
+    irn = np.zeros_like(rn)
+    irn[1:] = 1.0 / rn[1:]
+    return {"sq": sq, "isq": isq, "rn": rn, "irn": irn}
+
+
+def pack_coefficients(model: SHModel, lmax: int) -> np.ndarray:
+    """C and S of degrees 0..lmax packed by order: shape ((lmax+1)(lmax+2)/2, 2).
+
+    Column m (n = m..lmax) starts at row ``m (2 lmax + 3 − m) / 2``: one column recursion reads
+    contiguous memory, and the zero upper triangle of the ``[n, m]`` arrays is not stored
+    (0.93 GB at degree 10,800 instead of 1.87 GB for two transposed squares).
+    """
+    L = int(lmax)
+    out = np.empty(((L + 1) * (L + 2) // 2, 2))
+    off = 0
+    step = 128  # transpose in blocks of orders: row segments stay in cache
+    for m0 in range(0, L + 1, step):
+        m1 = min(m0 + step, L + 1)
+        for k, A in enumerate((model.C, model.S)):
+            blk = np.ascontiguousarray(A[m0 : L + 1, m0:m1].T)  # [m - m0, n - m0]
+            o = off
+            for j in range(m1 - m0):
+                cnt = L + 1 - (m0 + j)
+                out[o : o + cnt, k] = blk[j, j : j + cnt]
+                o += cnt
+        off = o
+    return out
+
+
+def _device_xtables(L: int, device: str):
+    key = (device, "x")
+    with _cache_lock:
+        hit = _tables.get(key)
+        if hit is not None and hit[0] >= L:
+            return hit[1]
+    tab = xrange_tables(L)
+    arrs: Any = tuple(
+        wp.array(tab[k], dtype=wp.float64, device=device) for k in ("sq", "isq", "rn", "irn")
+    )
+    with _cache_lock:
+        _tables[key] = (L, arrs)
+    return arrs
+
+
+def _device_packed(model: SHModel, L: int, device: str):
+    key = (id(model), device, "x")
+    with _cache_lock:
+        hit = _coefs.get(key)
+        if hit is not None and hit[0]() is model and hit[1] >= L:
+            return hit[1], hit[2]
+    # on the CPU the Warp array aliases the packed NumPy copy (ours), no second copy
+    arr = wp.array(pack_coefficients(model, L), dtype=wp.vec2d, device=device, copy=device != "cpu")
+    with _cache_lock:
+        _coefs.pop(key, None)
+        while len(_coefs) >= _COEF_MAX:
+            _coefs.pop(next(iter(_coefs)))
+        _coefs[key] = (weakref.ref(model), L, arr)
+    return L, arr
 
 
 def _device_tables(L: int, device: str):
@@ -202,7 +321,7 @@ def _launch_points(
     from fieldmap.kernels import sh as ksh
 
     device = _warp.resolve_device(device)
-    km = kernel_model(model, device, lmax)
+    km = kernel_model(model, device, lmax, points=True)
     n = columns[0][0].shape[0]
     ins: Any = [wp.array(np.ascontiguousarray(a), dtype=t, device=device) for a, t in columns]
     out = wp.zeros(n, dtype=out_dtype, device=device)
