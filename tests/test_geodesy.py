@@ -326,7 +326,7 @@ def test_quantity_map_dataset(eigen6s):
         float(sw["xi"].values[1].max()), abs=0
     )
     with pytest.raises(InputError, match="quantity"):
-        quantity_map("gradient", model=eigen6s)
+        quantity_map("curvature", model=eigen6s)
 
 
 def test_cli_map_quantity(tmp_path, eigen6s):

@@ -23,16 +23,18 @@ import signal
 import sys
 import warnings
 
-# module name -> registers these sub-commands
-_COMMAND_MODULES = (
-    "fieldmap.cli.point",  # point
-    "fieldmap.cli.verify",  # verify
-    "fieldmap.cli.cache",  # cache
-    "fieldmap.cli.maps",  # map, sweep, truncation
-    "fieldmap.cli.nav",  # navsim
-    "fieldmap.cli.imu",  # imu allan
-    "fieldmap.cli.table",  # table
-)
+#: module name -> the sub-commands it registers (``main`` imports only the module of the command
+#: run: a quick ``fieldmap point`` does not import the map, navigation and verify modules)
+_COMMANDS = {
+    "fieldmap.cli.point": ("point",),
+    "fieldmap.cli.verify": ("verify",),
+    "fieldmap.cli.cache": ("cache",),
+    "fieldmap.cli.maps": ("map", "sweep", "truncation"),
+    "fieldmap.cli.nav": ("navsim",),
+    "fieldmap.cli.imu": ("imu",),
+    "fieldmap.cli.table": ("table",),
+}
+_COMMAND_MODULES = tuple(_COMMANDS)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,8 +52,12 @@ def _on_sigterm(signum, frame):
     raise _Terminated()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Return the top-level parser with every available sub-command."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Return the top-level parser with every available sub-command (or only ``command``'s).
+
+    ``command``: a sub-command name; its module alone is imported and registered (the parser
+    then knows that sub-command only). Unknown or None: every sub-command.
+    """
     parser = _Parser(
         prog="fieldmap",
         description=(
@@ -63,7 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"fieldmap {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name in _COMMAND_MODULES:
+    only = [m for m, cmds in _COMMANDS.items() if command in cmds]
+    for name in only or _COMMAND_MODULES:
         try:
             mod = importlib.import_module(name)
         except ModuleNotFoundError as exc:  # a sub-command not written yet
@@ -78,6 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
 _GIVEN = "_given_options"
 
 
+def _command_of(argv: list[str]) -> str | None:
+    """Return the sub-command named on a command line (its first argument not starting with -)."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg
+    return None
+
+
 def given_options(argv: list[str]) -> frozenset[str]:
     """Return the destinations (``bias_mode``, ``lat_max``...) that ``argv`` itself sets.
 
@@ -85,7 +100,7 @@ def given_options(argv: list[str]) -> frozenset[str]:
     (``argparse.SUPPRESS``), so the namespace holds only what was typed: an option given with
     its default value (``--bias-mode gauss``) counts as given, an option left out does not.
     """
-    parser = build_parser()
+    parser = build_parser(_command_of(argv))
 
     def strip(p: argparse.ArgumentParser) -> None:
         p._defaults.clear()  # set_defaults(func=...)
@@ -154,12 +169,13 @@ def main(argv: list[str] | None = None) -> int:
     from fieldmap import config
     from fieldmap.errors import FieldmapError
 
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    setattr(args, _GIVEN, given_options(sys.argv[1:] if argv is None else list(argv)))
+    setattr(args, _GIVEN, given_options(argv))
     # Warp's notice about stale cache folders of another Warp version says nothing about the run
     warnings.filterwarnings("ignore", message="Kernel cache artifacts from a previous Warp")
     prefix = f"fieldmap {args.command}"

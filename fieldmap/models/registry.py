@@ -198,9 +198,11 @@ def load_model(
         key: tuple = ("bundled", bundled, t)
 
         def reader():
+            # through the on-disk cache as a user's file (parsing the .gz costs ~0.1 s a start)
             ref = resources.files("fieldmap.data").joinpath(bundled)
             with resources.as_file(ref) as path:
-                model = read_icgem(path, epoch=t)
+                read, variant = _reader("icgem", str(path), t, None, None)
+                model = disk_cache.cached_read([str(path)], variant, None, read, enabled=cache)
             return _with_source(model, f"fieldmap/data/{bundled} (bundled)")
 
         return _truncate(_read_cached(key, reader), lmax)
