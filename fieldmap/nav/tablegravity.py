@@ -43,7 +43,7 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
     check_inside(table, lat, lon, h)
     device = _warp.resolve_device(device)
     out = wp.zeros(lat.size, dtype=wp.vec3d, device=device)
-    arrs = [wp.array(v, dtype=wp.float64, device=device) for v in (lat, lon, h)]
+    arrs: list = [wp.array(v, dtype=wp.float64, device=device) for v in (lat, lon, h)]
     wp.launch(
         knt.table_points_kernel,
         dim=lat.size,
