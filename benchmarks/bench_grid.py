@@ -15,8 +15,21 @@ Prints medians and ratios measured in the same run:
 3. Degree 2190 synthetic Kaula-rule model, 1° grid 80S-80N at 20 km: ours vs GeographicLib's
    circle mode. Target: ours <= 0.5x.
 
-Usage: ``python benchmarks/bench_grid.py [--repeat 5] [--quick] [--device cpu] [--cases 1 2 3]``
-(``--quick``: degree 720 instead of 2190 in case 3, fewer repeats; ``--cases``: which ones).
+4. Peers (issue 17), EIGEN-6S degree 240 on a global 0.5° grid (361 x 720, poles included) at
+   h = 20 km: fieldmap (ellipsoidal heights: synthesis, and the public ``disturbance_map``; and
+   the sphere r = a + h) against ducc0's ``sht.synthesis_2d`` + ``synthesis_2d_deriv1`` on that
+   sphere (ducc0 takes one radius for all rings: it covers the sphere case only) and CHarm's
+   ``pyharm.shs.point_grad1`` on the same nodes as ours (geocentric latitudes, one radius per
+   row: the ellipsoidal case). Times (medians of rounds run in turn), ratios from the same run,
+   agreement in mGal, the Legendre pass's flop count, GFLOP/s and fraction of the cores' peak.
+   Targets: fieldmap's public call <= ducc0's sphere time.
+5. The same for a Kaula-rule model of degree 2190 on a global 0.1° grid (1801 x 3600).
+
+ducc0 and pyharm are optional (``pip install '.[bench]'``); a missing one is skipped with a
+line saying so. ``--threads`` (default 2) applies to all codes in cases 4 and 5.
+
+Usage: ``python benchmarks/bench_grid.py [--repeat 5] [--quick] [--device cpu] [--cases 1 2 3 4 5]
+[--threads 2]`` (``--quick``: degree 720 instead of 2190 in cases 3 and 5, fewer repeats).
 """
 
 from __future__ import annotations
@@ -27,13 +40,14 @@ import shutil
 import statistics
 import subprocess
 import tempfile
+import time
 
 import numpy as np
 from timing import median_time
 
 import fieldmap
 from fieldmap import _warp
-from fieldmap.field.ellipsoid import WGS84
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.grids import synthesis as G
 from fieldmap.models.geographiclib import write_egm
 from fieldmap.models.registry import kaula_model, load_model
@@ -193,9 +207,14 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--device", default="cpu")
-    ap.add_argument("--cases", type=int, nargs="+", default=[1, 2, 3], choices=[1, 2, 3])
+    ap.add_argument(
+        "--cases", type=int, nargs="+", default=[1, 2, 3, 4, 5], choices=[1, 2, 3, 4, 5]
+    )
+    ap.add_argument("--threads", type=int, default=2, help="threads of each code in cases 4, 5")
     args = ap.parse_args()
     rep = 3 if args.quick else args.repeat
+    # CHarm (OpenMP) reads this when it is loaded; ducc0 and fieldmap take it per call
+    os.environ["OMP_NUM_THREADS"] = str(args.threads)
     _warp.init()
     dev = args.device
     print(f"device {dev}, {_warp.cpu_workers()} CPU worker threads; medians of {rep} runs")
@@ -209,6 +228,11 @@ def main() -> int:
             case2(eigen, dev, rep)
         if 3 in args.cases:
             case3(exe, tmp, dev, rep, args.quick)
+        if 4 in args.cases:
+            case_peers(4, 240, 0.5, dev, rep, args.threads)
+        if 5 in args.cases:
+            L5 = 720 if args.quick else 2190
+            case_peers(5, L5, 0.1, dev, max(3, rep // 2), args.threads)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
@@ -260,6 +284,224 @@ def case3(exe, tmp, dev, rep, quick: bool) -> None:
     line("vs GeographicLib circle mode", t_us, t_gl, 0.5)
     mine = G.synthesize(kau, grid3, device=dev)[0]
     print(f"     max |ours - GeographicLib| = {np.max(np.abs(mine - vals)) / 1e-5:.2e} mGal")
+
+
+# ----------------------------------------------------------------------------- peers (issue 17)
+def cpu_peak(threads: int) -> tuple[float, str]:
+    """Peak double-precision GFLOP/s of ``threads`` cores from lscpu flags, and the assumption.
+
+    FMA vector width (AVX-512: 8 doubles, AVX2+FMA: 4, else SSE2: 2 without FMA) x 2 flops per
+    FMA x one vector FMA per cycle (Zen 4 and most client cores: two 256-bit pipes = one 512-bit
+    FMA per cycle; Intel server cores with two 512-bit units reach twice this) x clock x cores.
+    """
+    flags, mhz = set(), 0.0
+    try:
+        with open("/proc/cpuinfo") as f:
+            for ln in f:
+                if ln.startswith("flags") and not flags:
+                    flags = set(ln.split(":", 1)[1].split())
+                elif ln.startswith("cpu MHz") and not mhz:
+                    mhz = float(ln.split(":", 1)[1])
+    except OSError:
+        pass
+    lanes, fma = (8, 2) if "avx512f" in flags else (4, 2) if "fma" in flags else (2, 1)
+    ghz = mhz / 1e3 if mhz else 2.0
+    peak = lanes * fma * ghz * threads
+    text = (
+        f"{lanes} doubles x {fma} flops x 1 vector FMA/cycle x {ghz:.2f} GHz x {threads} cores "
+        f"= {peak:.1f} GFLOP/s"
+    )
+    return peak, text
+
+
+def legendre_flops(units: int, lmax: int) -> float:
+    """Flops of fieldmap's Legendre pass (kernels.grid.column8_simd), counted per term.
+
+    Per (row unit, n, m): recursion a*tq, b*qq, two products and a difference (5 flops), then
+    six fused multiply-adds into the sums (12 flops): 17. The m = 0 thread adds the zonal north
+    recursion along m = 1 (5 + 2 flops per degree). A unit is a row and its mirror row.
+    """
+    return units * ((lmax + 1) * (lmax + 2) / 2 * 17 + lmax * 7)
+
+
+def _healpy_index(L: int):
+    ms = np.repeat(np.arange(L + 1), L + 1 - np.arange(L + 1))
+    ls = np.concatenate([np.arange(m, L + 1) for m in range(L + 1)])
+    return ls, ms
+
+
+def ducc_sphere(model, r, lat_deg, lon_deg, threads: int, up_only: bool = False):
+    """Gravitation (east, north, up; m/s²) on the sphere of radius r with ducc0.sht, CC rings.
+
+    Radial component: ``synthesis_2d`` of the (n+1)-weighted coefficients; horizontal ones:
+    ``synthesis_2d_deriv1`` of the potential's coefficients. Rows are returned south to north
+    like fieldmap's grid; fully normalised geodesy coefficients map onto ducc0's orthonormal
+    harmonics as a_n0 = sqrt(4 pi) C_n0, a_nm = (-1)^m sqrt(2 pi) (C_nm - i S_nm).
+    ``up_only``: the radial component alone (one scalar transform), shape (nlat, nlon).
+    """
+    import ducc0
+
+    L = model.lmax
+    ls, ms = _healpy_index(L)
+    q = model.radius / r
+    base = (model.C[ls, ms] - 1j * model.S[ls, ms]) * np.where(
+        ms == 0, np.sqrt(4 * np.pi), np.sqrt(2 * np.pi) * (-1.0) ** ms
+    )
+    qn = q ** ls.astype(float)
+    k = model.gm / r
+    alm_v = (k * qn * base)[None, :]
+    alm_r = (-(k / r) * (ls + 1.0) * qn * base)[None, :]
+    nt, nphi = lat_deg.size, lon_deg.size
+    kw = dict(lmax=L, geometry="CC", ntheta=nt, nphi=nphi, phi0=np.radians(lon_deg[0]))
+    up = ducc0.sht.synthesis_2d(alm=alm_r, spin=0, nthreads=threads, **kw)[0]
+    if up_only:
+        return up[::-1]
+    d = ducc0.sht.experimental.synthesis_2d_deriv1(alm=alm_v, nthreads=threads, **kw)
+    north = -d[0] / r
+    east = d[1] / r  # ducc0's phi derivative comes divided by sin(colatitude)
+    return np.stack([east, north, up], axis=-1)[::-1]
+
+
+def geocentric_rows(lat_deg: np.ndarray, h: float):
+    """Geocentric latitude (rad), radius and (cos, sin) of geodetic minus geocentric latitude."""
+    a, e2 = WGS84.a, WGS84.e2
+    phi = np.radians(lat_deg)
+    nrad = a / np.sqrt(1 - e2 * np.sin(phi) ** 2)
+    rho = (nrad + h) * np.cos(phi)
+    z = (nrad * (1 - e2) + h) * np.sin(phi)
+    psi = np.arctan2(z, rho)
+    return psi, np.hypot(rho, z), np.cos(phi - psi), np.sin(phi - psi)
+
+
+def charm_rows(model, lat_deg: np.ndarray, lon_deg: np.ndarray, h: float):
+    """Gravitation (geodetic east, north, up; m/s²) at ellipsoidal height h with CHarm.
+
+    ``pyharm.shs.point_grad1`` on a point grid of geocentric latitudes with one radius per row
+    (the same nodes as fieldmap's grid), its LNOF (x north, y west, z up) rotated into the
+    geodetic frame. CHarm sums longitudes by FFT only on grids starting at 0 deg: it runs on
+    those and the columns are rotated to ours. Threads: OMP_NUM_THREADS.
+    """
+    import pyharm as ph
+
+    L = model.lmax
+    ls, ms = _healpy_index(L)
+    shcs = ph.shc.Shc.from_arrays(
+        L,
+        np.ascontiguousarray(model.C[ls, ms]),
+        np.ascontiguousarray(model.S[ls, ms]),
+        mu=model.gm,
+        r=model.radius,
+    )
+    psi, r, cd, sd = geocentric_rows(lat_deg, h)
+    nlon = lon_deg.size
+    step = 360.0 / nlon
+    pnt = ph.crd.PointGrid.from_arrays(psi, np.radians(step * np.arange(nlon)), r)
+    fx, fy, fz = ph.shs.point_grad1(pnt, shcs, L)
+    cols = (np.arange(nlon) + int(round((lon_deg[0] % 360.0) / step))) % nlon
+    fx, fy, fz = fx[:, cols], fy[:, cols], fz[:, cols]
+    cd, sd = cd[:, None], sd[:, None]
+    return np.stack([-fy, cd * fx - sd * fz, cd * fz + sd * fx], axis=-1)
+
+
+def case_peers(case: int, L: int, step: float, dev: str, rep: int, threads: int) -> None:
+    """Time ours vs ducc0 (sphere) and CHarm (ellipsoidal heights) on a global grid, h = 20 km."""
+    h = 20e3
+    model = load_model("eigen-6s", lmax=L) if L <= 240 else kaula_model(L, seed=7)
+    grid = G.make_grid(step, 90.0, heights_m=[h])
+    nlat, nlon = grid.lat.size, grid.lon.size
+    name = "EIGEN-6S" if L <= 240 else "Kaula-rule model"
+    print(
+        f"{case}. peers: {name} degree {L}, global {step} deg grid ({nlat} x {nlon}, poles "
+        f"included), h = 20 km, {threads} threads each; medians of {rep} rounds"
+    )
+    sphere = Ellipsoid("sphere", WGS84.a + h, 1e-15, WGS84.GM, 0.0)  # f = 1e-15: a sphere
+    # CHarm's gradient with one radius per row takes minutes at degree 2190: it runs on every
+    # sub-th row (a symmetric subset) and its time is scaled to the whole grid
+    sub = 1 if L <= 720 else 10
+    gsph = G.make_grid(step, 90.0, heights_m=[0.0])
+    with _warp.threads(threads):
+        G.synthesize(model, G.make_grid(30.0, heights_m=[h]), device=dev)  # compile, tables
+
+        def ours():
+            return G.synthesize(model, grid, quantity="gravitation", device=dev)[0]
+
+        def ours_public():
+            return fieldmap.disturbance_map(
+                model, height_km=h / 1e3, step_deg=step, lat_max=90.0, device=dev
+            )
+
+        def ours_sphere():
+            return G.synthesize(model, gsph, sphere, quantity="gravitation", device=dev)[0]
+
+        peers = {}
+        try:
+            import ducc0  # noqa: F401
+
+            peers["ducc0 sht.synthesis_2d (sphere r = a + h)"] = lambda: ducc_sphere(
+                model, WGS84.a + h, grid.lat, grid.lon, threads
+            )
+            peers["ducc0, up component only (sphere)"] = lambda: ducc_sphere(
+                model, WGS84.a + h, grid.lat, grid.lon, threads, up_only=True
+            )
+        except ImportError:
+            print("  ducc0 not installed (pip install '.[bench]'): skipped")
+        try:
+            import pyharm  # noqa: F401
+
+            peers["CHarm shs.point_grad1 (ellipsoidal h)"] = lambda: charm_rows(
+                model, grid.lat[::sub], grid.lon, h
+            )
+        except ImportError:
+            print("  pyharm (CHarm) not installed (pip install '.[bench]'): skipped")
+        fns = {"ours": ours, "ours_sphere": ours_sphere, "ours_public": ours_public, **peers}
+        times: dict[str, list[float]] = {k: [] for k in fns}
+        leg: list[float] = []
+        vals: dict[str, np.ndarray] = {}
+        for rnd in range(rep):
+            for k, fn in fns.items():
+                if k.startswith("CHarm") and sub > 1 and rnd > 0:
+                    continue  # one round of CHarm on the subset
+                t0 = time.perf_counter()
+                v = fn()
+                times[k].append(time.perf_counter() - t0)
+                if k == "ours":
+                    leg.append(G.last_timings["legendre"])
+                if k != "ours_public":
+                    vals[k] = v
+                del v
+    med = {k: statistics.median(v) for k, v in times.items()}
+    nsub = grid.lat[::sub].size
+    for k in med:
+        if k.startswith("CHarm") and sub > 1:
+            med[k] *= nlat / nsub
+    t_leg = statistics.median(leg)
+    units = (nlat + 1) // 2
+    flops = legendre_flops(units, L)
+    peak, ptxt = cpu_peak(threads)
+    print(f"  fieldmap synthesize, ellipsoidal h         {med['ours']:8.3f} s")
+    print(f"  fieldmap synthesize, sphere r = a + h      {med['ours_sphere']:8.3f} s")
+    print(f"  fieldmap disturbance_map (public call)     {med['ours_public']:8.3f} s")
+    print(
+        f"  Legendre pass {t_leg:.3f} s: {flops / 1e9:.1f} GFLOP ({units} row units x 17 flops "
+        f"per (n, m)) = {flops / t_leg / 1e9:.1f} GFLOP/s, {flops / t_leg / 1e9 / peak:.0%} of "
+        f"peak ({ptxt})"
+    )
+    mask = np.abs(grid.lat) < 89.95  # on a pole "north" and "east" depend on the peer's choice
+    for k in peers:
+        ref = vals["ours_sphere"] if "sphere" in k else vals["ours"]
+        if k.startswith("CHarm") and sub > 1:
+            ref, mk = ref[::sub], mask[::sub]
+            print(f"  (CHarm: {nsub} of {nlat} rows, one round, time scaled by {nlat / nsub:.2f})")
+        else:
+            mk = mask
+        if "up component only" in k:
+            ref = ref[..., 2]
+        diff = np.max(np.abs(vals[k][mk] - ref[mk])) / 1e-5
+        print(
+            f"  {k:<42} {med[k]:8.3f} s   ours/peer: synthesis {med['ours'] / med[k]:5.2f}, "
+            f"sphere {med['ours_sphere'] / med[k]:5.2f}, public {med['ours_public'] / med[k]:5.2f}"
+            f"   max |ours - peer| {diff:.1e} mGal"
+        )
 
 
 if __name__ == "__main__":

@@ -81,25 +81,31 @@ def longitude_sums(
     # m mod L, and m mod L = r > L/2 onto L - r conjugated (exact on the nodes). Each series is
     # transformed on its own, so its values do not depend on which series share the block.
     nh = nper // 2 + 1
-    H = np.zeros((ns, nh), dtype=np.complex128)
-    for m0 in range(0, nm, nper):
-        blk = F[:, m0 : min(nm, m0 + nper)]
-        nb = blk.shape[1]
-        H[:, : min(nb, nh)] += blk[:, :nh]
-        if nb > nh:  # r = nh .. nb-1 folds onto L - r (distinct targets L-nh .. L-nb+1)
-            H[:, nper - nb + 1 : nper - nh + 1] += np.conj(blk[:, nh:nb][:, ::-1])
-    H[:, 1:] *= 0.5
-    if nper % 2 == 0:
+    if nm <= nh:
+        H = np.empty((ns, nh), dtype=np.complex128)
+        np.multiply(F, 0.5, out=H[:, :nm])
+        H[:, nm:] = 0.0
+        H[:, 0] = F[:, 0]
+    else:
+        H = np.zeros((ns, nh), dtype=np.complex128)
+        for m0 in range(0, nm, nper):
+            blk = F[:, m0 : min(nm, m0 + nper)]
+            nb = blk.shape[1]
+            H[:, : min(nb, nh)] += blk[:, :nh]
+            if nb > nh:  # r = nh .. nb-1 folds onto L - r (distinct targets L-nh .. L-nb+1)
+                H[:, nper - nb + 1 : nper - nh + 1] += np.conj(blk[:, nh:nb][:, ::-1])
+        H[:, 1:] *= 0.5
+    if nper % 2 == 0 and nm > nper // 2:
         H[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
     z = scipy.fft.irfft(H, n=nper, axis=-1, norm="forward", workers=-1, overwrite_x=True)
     del H
-    # node k of the result is node k + k0 (mod L) of z; nodes beyond one turn repeat earlier ones
-    shift = int(k0) % nper
-    if shift:
-        z = np.concatenate([z[:, shift:], z[:, :shift]], axis=1)
-    for k1 in range(0, nlon, nper):
-        k2 = min(nlon, k1 + nper)
-        res[:, k1:k2] = z[:, : k2 - k1]
+    # node k of the result is node (k + k0) mod L of z (beyond one turn the nodes repeat)
+    k, src = 0, int(k0) % nper
+    while k < nlon:
+        take = min(nlon - k, nper - src)
+        res[:, k : k + take] = z[:, src : src + take]
+        k += take
+        src = (src + take) % nper
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out
