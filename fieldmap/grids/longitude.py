@@ -86,6 +86,11 @@ def longitude_sums(
         np.multiply(F, 0.5, out=H[:, :nm])
         H[:, nm:] = 0.0
         H[:, 0] = F[:, 0]
+    elif nm <= nper:  # one fold; x 0.5 is exact, so (F_j + conj F_(L-j)) / 2 term by term
+        H = np.empty((ns, nh), dtype=np.complex128)
+        np.multiply(F[:, :nh], 0.5, out=H)
+        H[:, 0] = F[:, 0]
+        H[:, nper - nm + 1 : nper - nh + 1] += np.conj(F[:, nh:nm][:, ::-1]) * 0.5
     else:
         H = np.zeros((ns, nh), dtype=np.complex128)
         for m0 in range(0, nm, nper):
