@@ -245,7 +245,17 @@ def test_longitudes_past_one_turn_wrap(eigen):
 
 @pytest.mark.parametrize(
     "nm, nper, lon0",
-    [(5, 12, 0.0), (7, 12, -180.0), (12, 12, 3.0), (13, 11, 0.0), (40, 9, 17.5), (6, 11, 100.0)],
+    [
+        (5, 12, 0.0),
+        (7, 12, -180.0),
+        (12, 12, 3.0),
+        (13, 11, 0.0),
+        (40, 9, 17.5),
+        (6, 11, 100.0),
+        (10, 12, -180.0),
+        (9, 8, 45.0),
+        (8, 9, -40.0),
+    ],
 )
 def test_longitude_sums_match_explicit_series(nm, nper, lon0):
     """FFT path (real inverse FFT, aliasing fold, phase shift) vs the explicit cos/sin series."""
