@@ -247,7 +247,9 @@ def _device_packed(model: SHModel, L: int, device: str):
         if hit is not None and hit[0]() is model and hit[1] >= L:
             return hit[1], hit[2]
     # on the CPU the Warp array aliases the packed NumPy copy (ours), no second copy
-    arr = wp.array(pack_coefficients(model, L), dtype=wp.vec2d, device=device, copy=device != "cpu")
+    arr: Any = wp.array(
+        pack_coefficients(model, L), dtype=wp.vec2d, device=device, copy=device != "cpu"
+    )
     with _cache_lock:
         _coefs.pop(key, None)
         while len(_coefs) >= _COEF_MAX:

@@ -7,10 +7,10 @@ Written for clarity. Differences from :mod:`fieldmap.kernels.sh` on purpose:
 * the range problem near the poles is handled with **X-numbers** (Fukushima 2012, J. Geodesy
   86:271-285): every value is a float mantissa times 2^(400·k) with an integer k per point and
   order, and the powers u^m are carried the same way; nothing is scaled by a fixed 1e-280 and no
-  Horner scheme in u is used. Along a column ``P̄nm/u^m`` does not decay (it grows, by at most
-  ~sqrt(2n) per row, or oscillates), so one rescaling per row keeps it in range at any degree (checked
-  against mpmath and the kernels up to degree 10,800, equator to poles); the cost is
-  O(N·lmax²) NumPy work, ~6 s per point at degree 10,800;
+  Horner scheme in u is used. Along a column ``P̄nm/u^m`` does not decay (it grows, by at
+  most ~sqrt(2n) per row, or oscillates), so one rescaling per row keeps it in range at any
+  degree (checked against mpmath and the kernels up to degree 10,800, equator to poles); the
+  cost is O(N·lmax²) NumPy work, ~6 s per point at degree 10,800;
 * latitude derivatives come from the **m+1 identity**
 
   .. math::
