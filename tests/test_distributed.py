@@ -370,7 +370,7 @@ def test_quantity_stores_hold_the_same_bits(client, tmp_path):
             assert ds.attrs["quantity"] == "deflection"
             np.testing.assert_array_equal(z["xi_rms"].values, n["xi_rms"].values)
     with pytest.raises(D.InputError, match="quantity must be one of"):
-        D.prepare_quantity("gradient", "eigen-6s", 40, [2e4], 3.0, 80.0, None, "WGS84", None, None)
+        D.prepare_quantity("curvature", "eigen-6s", 40, [2e4], 3.0, 80.0, None, "WGS84", None, None)
 
 
 def test_cli_truncation_on_local_cluster_equals_here(tmp_path):
