@@ -22,6 +22,7 @@ import warp as wp
 from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .launch_frames import C_e_to_t, LaunchParams
 from .navgravity import held_gravitation_ecef
+from .navtable import TableKernel
 from .normal import NormalParams, centrifugal_ecef, normal_field_ecef
 from .sensor_errors import (  # noqa: F401 - the structs are part of this module's API
     BaroAiding,
@@ -89,6 +90,7 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
         lp: LaunchParams,
         ell: NormalParams,
         sh: SHKernelModel,
+        tab: TableKernel,
         dt: wp.float64,
         t0: wp.float64,
         n_steps: wp.int32,
@@ -178,7 +180,7 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
             g_e = wp.vec3d()
             if wp.static(sh_gravity):
                 g_e, gh, gs, gl = held_gravitation_ecef(
-                    gk, r_e, ell, model, sample0 + j + 1, grav_every, gh, gs, gl
+                    gk, r_e, ell, model, tab, sample0 + j + 1, grav_every, gh, gs, gl
                 )
             else:
                 g_e = normal_field_ecef(r_e, ell, gk, 0)
@@ -238,6 +240,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
         ell: NormalParams,
         baro: BaroAiding,
         sh: SHKernelModel,
+        tab: TableKernel,
         dt: wp.float64,
         n_steps: wp.int32,
         output_every: wp.int32,
@@ -329,7 +332,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
             g_e = wp.vec3d()
             if wp.static(sh_gravity):
                 g_e, gh, gs, gl = held_gravitation_ecef(
-                    gk, r_g, ell, model, sample0 + k, grav_every, gh, gs, gl
+                    gk, r_g, ell, model, tab, sample0 + k, grav_every, gh, gs, gl
                 )
             else:
                 g_e = normal_field_ecef(r_g, ell, gk, 0)

@@ -45,6 +45,7 @@ _warp.init()
 import fieldmap.kernels  # noqa: E402
 from fieldmap.kernels import launch_frames as klf  # noqa: E402
 from fieldmap.kernels import navgravity as knav  # noqa: E402
+from fieldmap.kernels import navtable as knavtable  # noqa: E402
 from fieldmap.kernels import normal as knormal  # noqa: E402
 from fieldmap.kernels import sh as ksh  # noqa: E402
 
@@ -108,10 +109,11 @@ def _navgravity_wrapper(
     p: wp.array(dtype=wp.vec3d),
     ell: knormal.NormalParams,
     model: ksh.SHKernelModel,
+    tab: knavtable.TableKernel,
     g_out: wp.array(dtype=wp.vec3d),
 ):
     i = wp.tid()
-    g_out[i] = knav.nav_gravity_ecef(kind[i], p[i], ell, model)
+    g_out[i] = knav.nav_gravity_ecef(kind[i], p[i], ell, model, tab)
 
 
 # -------------------------------------------------------------------- building

@@ -18,7 +18,7 @@ import warp as wp
 from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.navgravity import gravity_names, parse_gravity
+from fieldmap.nav.navgravity import gravity_names, parse_gravity, table_file
 
 
 def _finite(name, a, shape_tail=None) -> np.ndarray:
@@ -41,6 +41,16 @@ def per_trajectory(name, a, n, tail) -> np.ndarray:
     if a.shape != (n,) + tail:
         raise InputError(f"{name} must have shape {tail} or {(n,) + tail}, got {a.shape}")
     return np.ascontiguousarray(a)
+
+
+class _DummyTable:
+    """Lattice of a launch without a table (the kernels take the struct in any case)."""
+
+    lat0 = dlat = lon0 = dlon = h0 = dh = 1.0
+    data = np.zeros((2, 4, 4, 3))
+
+
+_DUMMY_TABLE = _DummyTable()
 
 
 def _dummy_sh(device: str):
@@ -97,6 +107,7 @@ class _Batch:
     states: dict
     kinds: list  # kind, lmax arrays
     shk: object
+    tab: object  # the compensation table of the table:FILE trajectories (or a dummy)
     dt: float
     n_steps: int
     output_every: int
@@ -110,7 +121,7 @@ class _Batch:
     grav_hold: Any = None
     #: some trajectory has a sensor error (bias, scale/misalignment, noise, Gauss–Markov)
     has_errors: bool = True
-    #: some trajectory navigates with an SH model
+    #: some trajectory navigates with an SH model or a compensation table
     has_sh: bool = True
 
     @property
@@ -139,6 +150,7 @@ class _Batch:
             *self.kinds,
             *params,
             self.shk,
+            self.tab,
             wp.float64(self.dt),
             *times,
             self.n_steps,
@@ -236,6 +248,19 @@ def prepare_batch(
         shk = kernel_model(sh_model, device, sh_lmax)
     else:
         shk = _dummy_sh(device)
+    tables = sorted({f for f in (table_file(g) for g in names) if f is not None})
+    if len(tables) > 1:
+        raise InputError(
+            f"one compensation table per launch, got {len(tables)}: {', '.join(tables)}"
+        )
+    from fieldmap.nav.tablegravity import kernel_table
+
+    if tables:
+        from fieldmap.products.table_model import load_table
+
+        tab = kernel_table(load_table(tables[0]), device)
+    else:
+        tab = kernel_table(_DUMMY_TABLE, device)
     wp.load_module(ksd, device=device)
     n_steps = n_samples // per_step
     if (
@@ -248,7 +273,8 @@ def prepare_batch(
     hold = per_trajectory("gravity_hold", hold, n, (3, 3))
     return _Batch(
         has_errors=has_errors,
-        has_sh=sh_lmax > 0,
+        has_sh=sh_lmax > 0 or bool(tables),
+        tab=tab,
         sample0=sample0,
         grav_every=int(gravity_every),
         grav_hold=wp.array(np.ascontiguousarray(hold), dtype=wp.vec3d, device=device),

@@ -1,4 +1,4 @@
-"""Navigation gravity model names: the ``j2``/``j4``/``j6``/``exact``/``sh``/``shN`` spellings.
+"""Navigation gravity model names: ``j2``/``j4``/``j6``/``exact``/``sh``/``shN``/``table:FILE``.
 
 Parse a navigation gravity name to the kernel kind and SH degree of
 :mod:`fieldmap.kernels.navgravity` (:func:`parse_gravity`), replace the deprecated 0.1 aliases
@@ -21,6 +21,7 @@ def _kernel_kinds() -> dict:
     return {
         "exact": int(kng.NAV_NORMAL_EXACT),
         "sh": int(kng.NAV_SH),
+        "table": int(kng.NAV_TABLE),
         "j2": int(kng.NAV_J2),
         "j4": int(kng.NAV_J4),
         "j6": int(kng.NAV_J6),
@@ -69,8 +70,17 @@ def sh_degree(name: str) -> int | None:
     return None if m is None or m.group(1) is None else int(m.group(1))
 
 
+def table_file(name) -> str | None:
+    """The file of a navigation name ``table:FILE`` (as given, case kept), else None."""
+    from fieldmap.products.table_model import table_path
+
+    return table_path(name) if isinstance(name, str) else None
+
+
 def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
-    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 for the normal models."""
+    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 for normal models, 64 a table."""
+    if table_file(name) is not None:
+        return 64.0  # a 4 x 4 x 4 stencil
     key = str(name).strip().lower()
     key = GRAVITY_ALIASES.get(key, key)
     if key in GRAVITY_KINDS and key != "sh":
@@ -82,16 +92,25 @@ def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
 
 
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
-    """Navigation gravity name (j2, j4, j6, exact, sh, shN) -> (kernel kind, SH degree).
+    """Navigation gravity name (j2, j4, j6, exact, sh, shN, table:FILE) -> (kernel kind, degree).
 
-    The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``).
+    The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``). A table name is
+    checked by loading the table (:func:`fieldmap.products.table_model.load_table`).
     """
+    path = table_file(name)
+    if path is not None:
+        from fieldmap.products.table_model import load_table
+
+        load_table(path)
+        return GRAVITY_KINDS["table"], 0
     key = str(gravity_names([name])[0]).strip().lower()
     if key in NORMAL_MODELS:
         return GRAVITY_KINDS[key], 0
     m = _SH_NAME.match(key)
     if not m:
-        raise InputError(f"unknown navigation gravity model {name!r} (j2, j4, j6, exact, sh, shN)")
+        raise InputError(
+            f"unknown navigation gravity model {name!r} (j2, j4, j6, exact, sh, shN, table:FILE)"
+        )
     if sh_model is None:
         raise InputError(f"navigation gravity {name!r} needs an SH model (sh_model=...)")
     deg = sh_model.lmax if m.group(1) is None else int(m.group(1))

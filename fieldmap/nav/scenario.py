@@ -32,10 +32,14 @@ def check_model_names(names, sh_model) -> list[str]:
     Returns the names in lower case, ``sh`` as ``sh<lmax>``; the deprecated ``"normal"`` becomes
     ``"exact"`` with one ``DeprecationWarning``.
     """
-    from fieldmap.nav.navgravity import gravity_names, parse_gravity
+    from fieldmap.nav.navgravity import gravity_names, parse_gravity, table_file
 
     out = []
     for name in gravity_names(list(names)):
+        if table_file(name) is not None:  # a file name keeps its case
+            parse_gravity(name, sh_model)
+            out.append(f"table:{table_file(name)}")
+            continue
         key = str(name).strip().lower()
         parse_gravity(key, sh_model)
         out.append(key if key != "sh" else f"sh{sh_model.lmax}")
