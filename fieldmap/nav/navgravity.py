@@ -71,14 +71,14 @@ def sh_degree(name: str) -> int | None:
 
 
 def table_file(name) -> str | None:
-    """The file of a navigation name ``table:FILE`` (as given, case kept), else None."""
+    """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
     from fieldmap.products.table_model import table_path
 
     return table_path(name) if isinstance(name, str) else None
 
 
 def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
-    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 for normal models, 64 a table."""
+    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 normal models, 64 a table."""
     if table_file(name) is not None:
         return 64.0  # a 4 x 4 x 4 stencil
     key = str(name).strip().lower()
