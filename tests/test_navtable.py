@@ -159,3 +159,60 @@ def test_two_tables_in_one_launch_are_refused(tmp_path):
     with pytest.raises(InputError, match="one compensation table per launch"):
         propagate_ned(dth, dv, dt, 30.0, 105.0, 1500.0, [50.0, 0, 0], [1.0, 0, 0, 0], [a, b],
                       imu_set=[0, 0])  # fmt: skip
+
+
+# ------------------------------------------------------------------------ flight studies
+ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
+
+
+@pytest.fixture(scope="module")
+def table60(tmp_path_factory):
+    from fieldmap.products.table import build_table
+    from fieldmap.products.table_io import binary_bytes
+
+    tab, rep = build_table((6.8, 8.1, 44.8, 45.5), (2.5, 5.5), 0.5, lmax=60)
+    path = tmp_path_factory.mktemp("tab") / "t60.bin"
+    path.write_bytes(binary_bytes(tab))
+    return f"table:{path}", rep
+
+
+def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table60):
+    """A table verified to ε adds at most ½ ε t² of horizontal error (truth = the table's model)."""
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.flightsim import run_flight
+
+    name, rep = table60
+    ft = FlightTrajectory(route_flight(ROUTE, 200.0))
+    t = 240.0
+    res = run_flight(
+        ft, models=["j4", name, "sh60"], duration=t, rate_hz=100.0, truth_lmax=60,
+        output_dt=2.0, device="cpu",
+    )  # fmt: skip
+    m = res.summary["models"]
+    eps = 0.5e-5  # 0.5 mGal in m/s²
+    assert m[name]["added_horizontal_error_m"] <= 0.5 * eps * t * t
+    assert m[name]["added_horizontal_error_m"] < 0.1 * m["j4"]["added_horizontal_error_m"]
+    # the table's δg error along the track is its interpolation error (same model as the truth)
+    dg = np.abs(res.dg[name]).max() * 1e5
+    assert dg <= 0.5 + 1e-3, dg
+
+
+def test_table_order_and_a_flight_outside_the_table(table60):
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.flighterrors import simplicity_order
+    from fieldmap.nav.flightsim import run_flight
+
+    name, _ = table60
+    assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]
+    far = FlightTrajectory(route_flight("46,7,3000;46.3,7.4,5000", 200.0))
+    with pytest.raises(InputError, match="does not cover the flight"):
+        run_flight(far, models=["j4", name], duration=60.0, truth_lmax=60, device="cpu")
+
+
+def test_auto_models_are_the_normal_ones_and_a_degree_ladder():
+    from fieldmap.models.registry import load_model
+    from fieldmap.nav.scenario import check_model_names
+
+    model = load_model("eigen-6s", lmax=100)
+    got = check_model_names(["auto", "sh24"], model)
+    assert got == ["j2", "j4", "j6", "exact", "sh12", "sh24", "sh36", "sh72", "sh100"]

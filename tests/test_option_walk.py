@@ -577,6 +577,9 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--models", "j4"),
         C("table3", "--models", "j4", expect=REFUSED, note="--study table3"),
         C("table3", "--study", "table4", "--models", "j2", expect=REFUSED, note="SH models"),
+        C("flight", "--models", "auto"),
+        C("flight", "--models", "j4", "table:table.bin", expect=REFUSED, note="does not cover"),
+        C("table1", "--models", "table:table.bin", expect=REFUSED, note="flight studies"),
     ],
     ("navsim", "--nav"): [
         C("table3", "--nav", "j2"),

@@ -97,6 +97,12 @@ def _check_args(args):
     models = _model_names(args, split_list(args.models), model)
     if is_flight(args):
         return _check_flight_args(args, model, models)
+    tables = [m for m in models if m.startswith("table:")]
+    if tables:
+        raise InputError(
+            f"--models {tables[0]}: compensation tables navigate flight studies (--trajectory or "
+            "--route), not the paper's boost-glide studies"
+        )
     args.duration = 800.0 if args.duration is None else args.duration
     args.output_dt = 1.0 if args.output_dt is None else args.output_dt
     if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
@@ -165,8 +171,18 @@ def _check_flight_args(args, model, models):
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
     flights = navflight.flights(args, model)
+    from fieldmap.nav.flightsim import check_tables_cover
+
     for _, traj, _ in flights:
         navoptions.refuse_in_flight(args, imu, traj)
+        try:  # before any work: a table that misses the path
+            check_tables_cover(
+                models,
+                traj,
+                traj.duration if args.duration is None else min(args.duration, traj.duration),
+            )
+        except InputError as exc:
+            raise InputError(f"--models: {exc}") from None
     check_out_dir(args.out)
     try:
         device = resolve_device(args.device)

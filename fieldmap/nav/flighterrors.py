@@ -13,18 +13,24 @@ from __future__ import annotations
 import numpy as np
 
 from fieldmap.nav.imu import Gravitation
-from fieldmap.nav.navgravity import NORMAL_MODELS, sh_degree
+from fieldmap.nav.navgravity import NORMAL_MODELS, sh_degree, table_file
 from fieldmap.nav.propagator import final_stats
 
 
 def simplicity_order(models) -> list[str]:
-    """Models from the simplest to the most complete: j2, j4, j6, exact, shN by degree, sh."""
+    """Models from the simplest to the most complete: j2, j4, j6, exact, tables, shN, sh.
+
+    A compensation table (a look-up a flight computer interpolates) counts as simpler than
+    real-time spherical harmonics; tables among themselves keep their order.
+    """
 
     def key(m):
         if m in NORMAL_MODELS:
             return (0, NORMAL_MODELS.index(m))
+        if table_file(m) is not None:
+            return (1, 0)
         d = sh_degree(m)
-        return (1, 10**9 if d is None else d)
+        return (2, 10**9 if d is None else d)
 
     return sorted(models, key=key)
 
@@ -71,6 +77,15 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     g_true = to_ned(Gravitation("sh", model=model, device=device, ellipsoid=ell)(r))
     dg, pred = {}, {}
     for m in names:
+        if table_file(m) is not None:
+            from fieldmap.nav.tablegravity import table_gravitation
+            from fieldmap.products.table_model import load_table
+
+            tab = load_table(table_file(m))
+            dg[m] = to_ned(table_gravitation(tab, *r.T, ellipsoid=ell, device=device)) - g_true
+            v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
+            pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)
+            continue
         if m in NORMAL_KINDS:
             g = Gravitation(NORMAL_KINDS[m], device=device, ellipsoid=ell)
         else:

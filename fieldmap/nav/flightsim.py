@@ -125,6 +125,32 @@ def default_output_dt(duration: float) -> float:
     return float(max(1.0, np.ceil(duration / 3600.0)))
 
 
+def check_tables_cover(names, traj, duration: float) -> None:
+    """Refuse (one line) a compensation table that does not cover the flight's path.
+
+    The path is checked every second (and at its end), with 50 m of height margin each way for
+    the navigator's own height error.
+    """
+    from fieldmap.nav.navgravity import table_file
+    from fieldmap.products.table_model import load_table, outside_message
+
+    files = [table_file(m) for m in names if table_file(m) is not None]
+    if not files:
+        return
+    t = np.unique(np.r_[np.arange(0.0, duration, 1.0), duration])
+    lat, lon, h = (np.asarray(v, dtype=np.float64) for v in traj.geodetic(t))
+    for f in files:
+        tab = load_table(f)
+        for dh in (-50.0, 50.0):
+            inside = tab.contains(lat, lon, h + dh)
+            if not np.all(inside):
+                k = int(np.flatnonzero(~inside)[0])
+                raise InputError(
+                    f"table:{f} does not cover the flight at t = {t[k]:g} s: "
+                    + outside_message(tab, lat[k], lon[k], h[k] + dh)
+                )
+
+
 def run_flight(
     traj: Trajectory,
     *,
@@ -231,6 +257,7 @@ def run_flight(
     duration = traj.duration if duration is None else float(duration)
     if not 0 < duration <= traj.duration * (1 + 1e-12):
         raise InputError(f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)")
+    check_tables_cover(names, traj, duration)
     if aiding == "auto":
         aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
     if aiding == "baro" and frame != "ned":

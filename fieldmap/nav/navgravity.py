@@ -61,6 +61,20 @@ def gravity_names(names, stacklevel: int = 4) -> list:
     return out
 
 
+#: SH degrees ``auto`` tries (those up to the model's degree, and the model's own)
+AUTO_DEGREES = (12, 24, 36, 72, 120, 180, 360, 720, 1080, 2190)
+
+
+def auto_models(sh_model: SHModel) -> list[str]:
+    """Return what ``auto`` stands for: every normal model, then SH degrees to the model's.
+
+    ``j2 j4 j6 exact`` and ``shN`` for N in :data:`AUTO_DEGREES` below the model's degree,
+    then the full model; tables are the user's (``auto,table:FILE``).
+    """
+    degrees = [d for d in AUTO_DEGREES if d < sh_model.lmax] + [sh_model.lmax]
+    return [*NORMAL_MODELS, *(f"sh{d}" for d in degrees)]
+
+
 def sh_degree(name: str) -> int | None:
     """SH degree N of a navigation name ``shN`` (None for ``sh`` or a normal model).
 

@@ -163,16 +163,17 @@ def format_flight(res) -> str:
     """Plain-text table of a flight study: final errors per model (horizontal / vertical)."""
     doc = res.summary
     m = doc["meta"]
+    w = max(10, *(len(name) for name in doc["models"]))  # a table:FILE name can be long
     lines = [
         f"== flight {m['trajectory']}: {m['duration_s']:g} s, IMU {m['imu']} at "
         f"{m['imu_rate_hz']:g} Hz, {m['draws']} draw(s), frame {m['frame']}, altitude aiding "
         f"{m['altitude_aiding']}, truth {m['truth_model']} degree {m['truth_degree']} ==",
-        f"{'model':10s} {'horiz rms m':>12s} {'p95':>10s} {'vert rms m':>11s} {'|dv| rms':>10s} "
+        f"{'model':{w}s} {'horiz rms m':>12s} {'p95':>10s} {'vert rms m':>11s} {'|dv| rms':>10s} "
         f"{'added horiz':>12s}",
     ]
     for name, e in doc["models"].items():
         lines.append(
-            f"{name:10s} {_num(e['final_horizontal_error_m']['rms'], '12.3f', 12)} "
+            f"{name:{w}s} {_num(e['final_horizontal_error_m']['rms'], '12.3f', 12)} "
             f"{_num(e['final_horizontal_error_m']['p95'], '10.3f', 10)} "
             f"{_num(e['final_vertical_error_m']['rms'], '11.3f', 11)} "
             f"{_num(e['final_velocity_error_m_s']['rms'], '10.4f', 10)} "

@@ -27,22 +27,30 @@ NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "exact": "exact"}
 
 
 def check_model_names(names, sh_model) -> list[str]:
-    """Validate navigation gravity names (``j2 j4 j6 exact sh shN``); raise :class:`InputError`.
+    """Validate navigation gravity names (``j2 j4 j6 exact sh shN table:FILE auto``).
 
-    Returns the names in lower case, ``sh`` as ``sh<lmax>``; the deprecated ``"normal"`` becomes
-    ``"exact"`` with one ``DeprecationWarning``.
+    Returns the names in lower case (a table's file name as given), ``sh`` as ``sh<lmax>``,
+    ``auto`` as :func:`fieldmap.nav.navgravity.auto_models`, each name once; the deprecated
+    ``"normal"`` becomes ``"exact"`` with one ``DeprecationWarning``. Raises
+    :class:`InputError` for an unknown name or an unreadable table.
     """
-    from fieldmap.nav.navgravity import gravity_names, parse_gravity, table_file
+    from fieldmap.nav.navgravity import auto_models, gravity_names, parse_gravity, table_file
 
+    given: list = []
+    for name in names:  # "auto": every normal model and a ladder of SH degrees
+        is_auto = isinstance(name, str) and name.strip().lower() == "auto"
+        given.extend(auto_models(sh_model) if is_auto else [name])
     out = []
-    for name in gravity_names(list(names)):
+    for name in gravity_names(given):
         if table_file(name) is not None:  # a file name keeps its case
             parse_gravity(name, sh_model)
             out.append(f"table:{table_file(name)}")
             continue
         key = str(name).strip().lower()
         parse_gravity(key, sh_model)
-        out.append(key if key != "sh" else f"sh{sh_model.lmax}")
+        key = key if key != "sh" else f"sh{sh_model.lmax}"
+        if key not in out:
+            out.append(key)
     if not out:
         raise InputError("no navigation gravity model given")
     return out
