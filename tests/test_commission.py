@@ -295,3 +295,27 @@ def test_grid_sigma_same_bits_for_any_block_size_and_refuses_models_without_sigm
         quantity_map("geoid-sigma", model=kaula_model(10, seed=1), step_deg=30.0)
     with pytest.raises(InputError, match="degree0"):
         quantity_map("anomaly-sigma", step_deg=30.0, degree0=True)
+
+
+def test_nga_files_keep_their_sigma_columns(tmp_path):
+    """NGA's 'n m C S σC σS' lines: the reader keeps σ (as ICGEM's) and the sigma follows."""
+    from fieldmap.models.nga import read_nga, write_nga
+
+    base = _with_sigma(load_model("eigen-6s", lmax=30))
+    path = tmp_path / "EGM2008_to30_TideFree"
+    write_nga(path, base)
+    got = read_nga(path)
+    tri = np.tril(np.ones_like(base.C, dtype=bool))
+    tri[:2] = False  # degrees 0 and 1 are not written
+    np.testing.assert_allclose(got.sigma_c[tri], base.sigma_c[tri], rtol=1e-9)
+    np.testing.assert_allclose(got.sigma_s[tri], base.sigma_s[tri], rtol=1e-9)
+    assert got.sigma_c[:2].max() == 0.0 and got.sigma_s[:, 0].max() == 0.0
+    a = commission_sigma(LAT, LON, H, model=got, quantity="anomaly")
+    b = commission_sigma(LAT, LON, H, model=dataclasses.replace(base, gm=got.gm, radius=got.radius,
+                         sigma_c=got.sigma_c, sigma_s=got.sigma_s), quantity="anomaly")  # fmt: skip
+    np.testing.assert_allclose(a, b, rtol=1e-12)
+    assert got.lmax == 30 and read_nga(path, lmax=10).sigma_c.shape == (11, 11)
+    bad = tmp_path / "EGM96_bad"
+    bad.write_text("2 0 -4.8e-4 0.0 -1.0e-10 0.0\n2 1 0 0 0 0\n2 2 0 0 0 0\n")
+    with pytest.raises(fieldmap.ModelFileError, match="standard deviation is negative"):
+        read_nga(bad)

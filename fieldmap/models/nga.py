@@ -28,7 +28,7 @@ from fieldmap.models import _gfc_scan as scan
 from fieldmap.models.shmodel import SHModel
 
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
-READER_VERSION = 1
+READER_VERSION = 2  # 2: the sigma columns are kept
 
 #: NGA's published constants: lower-case name found in the file name -> (name, GM m³/s², R m).
 #: EGM2008: Pavlis et al. (2012), J. Geophys. Res. 117, B04406 (GM 3986004.415e8, a 6378136.3);
@@ -178,6 +178,19 @@ def read_nga(
     if np.any(S[:, 0] != 0.0):
         k = int(np.flatnonzero((m == 0) & (vals[:, 1] != 0.0))[0])
         raise _fail(path, int(li[k]) + 1, "S̄n0 must be 0")
+    sigma_c = sigma_s = None
+    if ncol == 6:  # NGA's σC, σS columns (EGM96, EGM2008), kept as the ICGEM reader keeps them
+        bad = vals[:, 2:] < 0.0
+        if bad.any():
+            k = int(np.flatnonzero(bad.any(axis=1))[0])
+            raise _fail(path, int(li[k]) + 1, "a coefficient's standard deviation is negative")
+        sigma_c = np.zeros((N + 1, N + 1))
+        sigma_s = np.zeros((N + 1, N + 1))
+        sigma_c[n, m] = vals[:, 2]
+        sigma_s[n, m] = vals[:, 3]
+        sigma_s[:, 0] = 0.0
+        sigma_c = np.ascontiguousarray(sigma_c[: lmax + 1, : lmax + 1])
+        sigma_s = np.ascontiguousarray(sigma_s[: lmax + 1, : lmax + 1])
     big = scan.first_outsize(C, S)
     if big is not None and big[:2] != (0, 0):
         k = int(np.flatnonzero((n == big[0]) & (m == big[1]))[0])
@@ -197,11 +210,13 @@ def read_nga(
         epoch=None,
         source=path,
         header={"format": "nga", "constants": constants},
+        sigma_c=sigma_c,
+        sigma_s=sigma_s,
     )
 
 
 def _values(path, buf, starts, ends, tok_line, first, li, ncol) -> np.ndarray:
-    """Return the C, S columns of every line (sigmas dropped), shape (lines, 2)."""
+    """Return the C, S (and σC, σS) columns of every line, shape (lines, 2 or 4)."""
     pos = np.arange(starts.size) - first[tok_line]
     keep_tok = pos >= 2
     mark = np.zeros(buf.size + 1, np.int8)
@@ -221,7 +236,7 @@ def _values(path, buf, starts, ends, tok_line, first, li, ncol) -> np.ndarray:
             vals = None
     nval = ncol - 2
     if vals is not None and vals.size == li.size * nval and np.isfinite(vals).all():
-        return vals.reshape(li.size, nval)[:, :2]
+        return vals.reshape(li.size, nval)
     for t in np.flatnonzero(keep_tok):  # slow path, only to name the line
         tok = buf[starts[t] : ends[t]].tobytes()
         ok = bool(_NUMBER.match(tok))
@@ -249,15 +264,18 @@ def write_nga(path, model: SHModel, exponent: str = "D") -> None:
     keep = nn >= 2
     nn, mm = nn[keep], mm[keep]
     order = np.lexsort((mm, nn))
+    zero = np.zeros_like(model.C)
+    sc = zero if model.sigma_c is None else model.sigma_c
+    ss = zero if model.sigma_s is None else model.sigma_s
     with open(path, "w", encoding="ascii") as f:
-        for a, b, c, d in zip(
+        for a, b, c, d, e, g in zip(
             nn[order].tolist(),
             mm[order].tolist(),
             model.C[nn, mm][order].tolist(),
             model.S[nn, mm][order].tolist(),
+            sc[nn, mm][order].tolist(),
+            ss[nn, mm][order].tolist(),
         ):
             f.write(
-                f"{a:5d}{b:5d} {c:23.16E} {d:23.16E} {0.0:15.10E} {0.0:15.10E}\n".replace(
-                    "E", exponent
-                )
+                f"{a:5d}{b:5d} {c:23.16E} {d:23.16E} {e:15.10E} {g:15.10E}\n".replace("E", exponent)
             )
