@@ -56,6 +56,10 @@ __all__ = [
 
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
+#: The same, for blocks computed here into memory or a NetCDF file: each block is one
+#: synthesis (its own launches and uploads), and the grid kernel already spreads a block over
+#: the cores, so fewer, larger blocks cost less (any plan gives the same bits).
+LOCAL_BLOCKS_PER_HEIGHT = 4
 #: Variables of a disturbance block, in the order of :func:`fieldmap.products.cf.vector_vars`.
 VARIABLES = ("east", "north", "up", "modulus", "modulus_mg")
 
@@ -106,7 +110,13 @@ def block_bytes(nb: int, lmax: int, nlon: int, lon: np.ndarray | None = None) ->
     return nb * _per_item(lmax + 1, nlon, lon)
 
 
-def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Block]:
+def plan_blocks(
+    grid,
+    lmax: int,
+    rows_per_block: int | None = None,
+    *,
+    blocks_per_height: int = BLOCKS_PER_HEIGHT,
+) -> list[Block]:
     """Split a grid into blocks of whole mirror units, height by height.
 
     Parameters
@@ -117,8 +127,10 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
     rows_per_block : int, optional
         Most rows per block (a mirrored pair counts two; at least 2). Default: the smaller of
         what :func:`fieldmap.grids.synthesis.synthesize` keeps in one block
-        (``BLOCK_BYTES / per_item``) and ``nlat / BLOCKS_PER_HEIGHT`` rounded up to a multiple
+        (``BLOCK_BYTES / per_item``) and ``nlat / blocks_per_height`` rounded up to a multiple
         of 8 rows (whole groups of the grid kernel).
+    blocks_per_height : int
+        Blocks per height of the default size (:data:`BLOCKS_PER_HEIGHT`).
 
     Returns
     -------
@@ -132,7 +144,7 @@ def plan_blocks(grid, lmax: int, rows_per_block: int | None = None) -> list[Bloc
         per = _per_item(lmax + 1, nlon, grid.lon)
         # whole groups of four mirror pairs (8 rows): the grid kernel runs four units per
         # thread, and a block of 5 pairs would leave 3 of 8 lanes of its last group idle
-        want = 8 * math.ceil(nlat / BLOCKS_PER_HEIGHT / 8)
+        want = 8 * math.ceil(nlat / blocks_per_height / 8)
         rows_per_block = max(1, min(BLOCK_BYTES // per, want))
     else:
         try:
@@ -404,7 +416,13 @@ def run_blocks(
     """
     from fieldmap.products.stats import area_weights
 
-    blocks = plan_blocks(grid, model.lmax, rows_per_block)
+    local = client is None and store is None  # here, into memory or a NetCDF file
+    blocks = plan_blocks(
+        grid,
+        model.lmax,
+        rows_per_block,
+        blocks_per_height=LOCAL_BLOCKS_PER_HEIGHT if local else BLOCKS_PER_HEIGHT,
+    )
     jobs = make_jobs(grid, blocks, ellipsoid, device, units, thresholds, store, quantity, degree0)
     fold = OrderedFold(grid.heights.size)
 
