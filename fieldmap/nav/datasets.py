@@ -52,8 +52,20 @@ def flight_dataset(res):
 
     models = list(res.dg)
     axis = np.array(["north", "east", "down"])
+    sigma = {}
+    if getattr(res, "dg_sigma", None) is not None:
+        sigma["truth_gravity_sigma"] = (
+            ("time", "axis"),
+            res.dg_sigma,
+            {
+                "units": "m s-2",
+                "long_name": "standard deviation of the truth model's gravitation (commission "
+                "error from the coefficient sigma, diagonal propagation), NED",
+            },
+        )
     ds = xr.Dataset(
         {
+            **sigma,
             "position_error": (
                 ("run", "time", "axis"),
                 res.dpos,

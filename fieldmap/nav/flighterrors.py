@@ -99,6 +99,34 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     return dg, pred
 
 
+#: most track points at which the truth's commission σ is evaluated (linear in time between)
+SIGMA_POINTS = 2000
+
+
+def truth_sigma_along(track, t, model, ell):
+    """Commission σ of the truth's gravity along the track, NED (n, 3) in m/s², or None.
+
+    From the truth model's coefficient σ (:func:`fieldmap.field.commission.commission_sigma`,
+    diagonal propagation); None for a model without σ. At most :data:`SIGMA_POINTS` points
+    are evaluated, evenly spaced in the output index, and interpolated linearly in time
+    between them (σ varies on the scale of the model's shortest wavelength, tens of km).
+    """
+    if model.sigma_c is None or model.sigma_s is None:
+        return None
+    from fieldmap.field.commission import MGAL, commission_sigma
+
+    n = len(t)
+    idx = np.unique(np.linspace(0, n - 1, min(n, SIGMA_POINTS)).round().astype(int))
+    s = commission_sigma(
+        track[idx, 0], track[idx, 1], track[idx, 2], model=model, quantity="disturbance",
+        ellipsoid=ell,
+    )  # fmt: skip
+    ned = s[:, [1, 0, 2]] / MGAL  # east, north, up -> north, east, down (σ has no sign)
+    if idx.size == n:
+        return ned
+    return np.stack([np.interp(t, t[idx], ned[:, k]) for k in range(3)], axis=-1)
+
+
 def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -> dict:
     """Build the JSON document: final-error statistics per row, added errors, recommendation."""
     run_models = np.array(run_models)

@@ -46,7 +46,7 @@ from fieldmap.nav import imu_errors
 from fieldmap.nav.flight import geodetic_state
 from fieldmap.nav.flightblocks import geodetic_outputs, initial_state
 from fieldmap.nav.flighterrors import gravity_error_along as gravity_error_along
-from fieldmap.nav.flighterrors import ned_errors
+from fieldmap.nav.flighterrors import ned_errors, truth_sigma_along
 from fieldmap.nav.flighterrors import simplicity_order as simplicity_order
 from fieldmap.nav.flighterrors import summarize as summarize
 from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
@@ -101,6 +101,8 @@ class FlightResult:
     predicted: dict
     summary: dict
     diverged: list = field(default_factory=list)
+    #: commission σ of the truth gravity along the track, NED (n_out, 3) m/s²; None without σ
+    dg_sigma: Any = None
 
     def to_dataset(self):
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
@@ -371,6 +373,7 @@ def run_flight(
     )
     track = np.stack(truth_state[:3], -1)
     dg, predicted = gravity_error_along(track, t_out, names, model, ell, device)
+    dg_sigma = truth_sigma_along(track, t_out, model, ell)
     labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
     run_models = [r for r in rows for _ in range(n_draws)]
     draw_idx = np.tile(np.arange(n_draws), len(rows))
@@ -395,6 +398,10 @@ def run_flight(
             "gravity_rate_hz": float(rate_hz) / g_every,
             "truth_gravity": g_truth.name,
             "truth_interpolation_max_error_mgal": getattr(g_truth, "max_error_mgal", 0.0),
+            # the truth model's own uncertainty along the track (commission σ, diagonal)
+            "truth_commission_sigma_max_mgal": None
+            if dg_sigma is None
+            else dict(zip(("north", "east", "down"), (dg_sigma.max(axis=0) * 1e5).tolist())),
             "n_gauss": int(n_gauss),
             "output_dt_s": float(every * dt),
             "block_s": float(per_block * dt),
@@ -405,5 +412,5 @@ def run_flight(
     )  # fmt: skip
     return FlightResult(
         t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
-        diverged,
+        diverged, dg_sigma,
     )  # fmt: skip
