@@ -7,11 +7,14 @@ or latitude), differentiates the recursion itself for dP̄nm/dφ (d/dφ of ``a t
 ``a (u P_{n−1} + t dP_{n−1}/dφ)``) and carries P̄nm/u as its own recursion (seeded with
 ``u^(m−1)``) for the east component, finite on the axis. The rotation to ECEF is written out here.
 
-Cost control (pure-Python mpmath, ~1e-4 s per degree of one order): every column stops at its
-highest non-zero coefficient; near the poles a dense model is summed in increasing m until three
-orders in a row add less than 1e-24 of the sums (P̄nm falls off like (n u/2)^m/m!); elsewhere the
-models keep a few orders only (all degrees of each) and the kernel evaluates the same models.
-Results are compared with 1e-13 of |g| (and of |V|).
+Cost control (pure-Python mpmath, ~3e-5 s per degree of one order and point): one call serves
+all the points of a model, with the recursion factors and coefficients of each order made once
+and the degree sums taken as exact dot products (``mp.fdot``); every column stops at its
+highest non-zero coefficient; on the axis (u = 0) the orders above 1 are zero and skipped; near
+the poles a dense model is summed in increasing m until three orders in a row add less than
+1e-24 of the sums (P̄nm falls off like (n u/2)^m/m!); elsewhere the models keep a few orders
+only (all degrees of each) and the kernel evaluates the same models. Results are compared with
+1e-13 of |g| (and of |V|).
 """
 
 from __future__ import annotations
@@ -321,11 +324,13 @@ def test_degree2800_vs_mpmath_and_reference(device):
 
 # ---------------------------------------------------------------------------------- slow
 #
-# Cost and memory (2 CPU cores): the degree-5540 ICGEM file is read once per session and the
+# Cost and memory (~70 s on 2 CPU cores): the degree-5540 ICGEM file (15.4 M lines) is parsed
+# once per session, ~30 s and ~6 GB at the reader's peak (its per-token index arrays), and the
 # CLI finds it in the parsed-model cache; mpmath runs once per model for all its points; the
-# structs of the extended-range path (0.25 GB at degree 5540, 0.93 GB at 10,800, packed
-# coefficients) are dropped after each test (:func:`_drop_kernel_models`), and the large models
-# live only as long as the tests that use them (class-scoped fixtures).
+# structs of the extended-range path (0.25 GB at degree 5540, 0.93 GB at 10,800: packed
+# coefficients) are dropped after each test (:func:`_drop_kernel_models`), sparse models take
+# memory only for their non-zero columns (:func:`lazy_zeros`), and the dense model lives only as
+# long as the tests that use it (class-scoped fixtures).
 
 POLES = [(90.0, 0.0, 0.0, INSIDE_TOL), (-90.0, 0.0, 2e4), (89.999, 30.0, 0.0, INSIDE_TOL)]
 
@@ -384,19 +389,31 @@ end_of_head ====================================================================
 def xgm_file(tmp_path_factory):
     """Write the degree-5540 file (orders XGM_ORDERS) and read it back, for TestXGMFile.
 
-    Read through :func:`fieldmap.load_model`, which stores the parsed coefficients in the
-    session's model cache (``FIELDMAP_MODEL_CACHE``, see conftest.py): the CLI test then
-    loads them from there instead of parsing the 15.4 M lines again (~30 s, ~6 GB peak).
+    Read through :func:`fieldmap.load_model` with a model cache of its own: the parsed
+    coefficients are stored there, and the CLI test loads them from it instead of parsing the
+    15.4 M lines again (~30 s, ~6 GB peak). Yields ``(path, model, cache folder)``.
     """
+    from fieldmap import config
     from fieldmap.models.registry import load_model
 
     path = tmp_path_factory.mktemp("xgm") / "XGM2019e_like.gfc"
+    cache_root = str(tmp_path_factory.mktemp("xgm-cache"))
     written = kaula(5540, seed=2019, orders=XGM_ORDERS)
     write_xgm_like(path, written)
-    model = load_model(path)
+    saved = os.environ.get("FIELDMAP_MODEL_CACHE")
+    os.environ["FIELDMAP_MODEL_CACHE"] = cache_root
+    config.reload()
+    try:
+        model = load_model(path)
+    finally:
+        if saved is None:
+            os.environ.pop("FIELDMAP_MODEL_CACHE")
+        else:
+            os.environ["FIELDMAP_MODEL_CACHE"] = saved
+        config.reload()
     assert np.array_equal(model.C, written.C) and np.array_equal(model.S, written.S)
     del written
-    yield path, model
+    yield path, model, cache_root
     _drop_kernel_models()
 
 
@@ -406,7 +423,7 @@ class TestXGMFile:
     @pytest.mark.slow
     def test_degree5540_icgem_file_vs_mpmath(self, xgm_file, device, free_structs):
         """XGM2019e-like file read by the reader: 0°, 89°, 89.999°, ±90°, h = 0 and 20 km."""
-        _, model = xgm_file
+        _, model, _ = xgm_file
         assert model.lmax == 5540 and model.C[5540, 5540] != 0.0
         pts = [(0.0, 10.0, 0.0), (0.0, 250.0, 2e4), (89.0, 40.0, 2e4), (89.999, 200.0, 2e4)]
         pts += [(89.999, 20.0, 0.0, INSIDE_TOL), (90.0, 0.0, 0.0, INSIDE_TOL), (-90.0, 0.0, 2e4)]
@@ -417,14 +434,16 @@ class TestXGMFile:
     def test_degree5540_cli_point(self, xgm_file):
         """``fieldmap point --model FILE`` on the degree-5540 file: finite, as the Python API.
 
-        The child process shares this session's model cache, where the fixture left the parsed
-        file: it hashes the file, finds the entry and loads the coefficients (memory-mapped).
+        The child process is given the fixture's model cache, which holds the parsed file: it
+        hashes the file, finds the entry and loads the coefficients (memory-mapped); a parse
+        would have stored a second entry.
         """
         from fieldmap.models import cache as disk_cache
 
-        path, model = xgm_file
-        assert any(str(path) in (e["files"] or []) for e in disk_cache.info())
-        env = dict(os.environ, FIELDMAP_MODEL_CACHE=disk_cache.cache_dir())
+        path, _, cache_root = xgm_file
+        entries = disk_cache.info(cache_root)
+        assert len(entries) == 1 and entries[0]["files"] == [os.path.realpath(path)], entries
+        env = dict(os.environ, FIELDMAP_MODEL_CACHE=cache_root)
         res = subprocess.run(
             [sys.executable, "-m", "fieldmap", "point", "--model", str(path)]
             + ["--quantity", "gravity", "--precision", "12", "--device", "cpu"],
@@ -435,6 +454,7 @@ class TestXGMFile:
             timeout=300,
         )
         assert res.returncode == 0, res.stderr
+        assert disk_cache.info(cache_root) == entries  # read from the cache, not parsed again
         rows = np.array([[float(v) for v in line.split()] for line in res.stdout.splitlines()])
         assert rows.shape == (4, 3) and np.all(np.isfinite(rows))
         # equator and -90° at 20 km: ~9.78 m/s²; 89.999° and +90° at h = 0 lie inside the
