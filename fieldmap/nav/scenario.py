@@ -30,16 +30,21 @@ def check_model_names(names, sh_model) -> list[str]:
     """Validate navigation gravity names (``j2 j4 j6 exact sh shN table:FILE auto``).
 
     Returns the names in lower case (a table's file name as given), ``sh`` as ``sh<lmax>``,
-    ``auto`` as :func:`fieldmap.nav.navgravity.auto_models`, each name once; the deprecated
+    ``auto`` as :func:`fieldmap.nav.navgravity.auto_models` (a model ``auto`` adds appears
+    once, also when named besides); the deprecated
     ``"normal"`` becomes ``"exact"`` with one ``DeprecationWarning``. Raises
     :class:`InputError` for an unknown name or an unreadable table.
     """
     from fieldmap.nav.navgravity import auto_models, gravity_names, parse_gravity, table_file
 
     given: list = []
+    auto: set = set()  # the names "auto" stands for: once each, with the user's own
     for name in names:  # "auto": every normal model and a ladder of SH degrees
-        is_auto = isinstance(name, str) and name.strip().lower() == "auto"
-        given.extend(auto_models(sh_model) if is_auto else [name])
+        if isinstance(name, str) and name.strip().lower() == "auto":
+            given.extend(auto_models(sh_model))
+            auto.update(auto_models(sh_model))
+        else:
+            given.append(name)
     out = []
     for name in gravity_names(given):
         if table_file(name) is not None:  # a file name keeps its case
@@ -49,7 +54,7 @@ def check_model_names(names, sh_model) -> list[str]:
         key = str(name).strip().lower()
         parse_gravity(key, sh_model)
         key = key if key != "sh" else f"sh{sh_model.lmax}"
-        if key not in out:
+        if not (key in auto and key in out):
             out.append(key)
     if not out:
         raise InputError("no navigation gravity model given")
