@@ -160,3 +160,33 @@ def test_cli_gradient(model60):
     out = _run(["point", "--quantity", "gradient", "--normal", "j2"], "1 2 3\n")
     assert out.returncode == 2 and out.stdout == ""
     assert len(out.stderr.strip().splitlines()) == 1 and "--normal" in out.stderr
+
+
+@pytest.mark.skipif(
+    __import__("fieldmap.models.geographiclib", fromlist=["x"]).gravity_tool() is None,
+    reason="GeographicLib's Gravity (geographiclib-tools) missing",
+)
+def test_tensor_equals_central_differences_of_geographiclib_gravity(model60, tmp_path):
+    """T = ∂g/∂x by 1 m central differences of GeographicLib's ``Gravity -G`` vector (≲ 0.05 E)."""
+    from fieldmap.models.geographiclib import run_gravity_tool, write_egm
+
+    name = write_egm(model60, tmp_path)
+    lat = np.array([30.0, -45.0, 70.0, 0.0, 89.5])
+    lon = np.array([105.0, 20.0, -60.0, 0.0, 10.0])
+    h = np.array([1000.0, 20e3, 5000.0, 0.0, 3000.0])
+    p0 = np.stack(geodetic_to_ecef(lat, lon, h, WGS84), -1)
+    step = 1.0
+    disp = np.concatenate([p0[:, None, :] + s * step * np.eye(3)[None] for s in (1.0, -1.0)], 1)
+    pts = disp.reshape(-1, 3)  # (n * 6, 3): +x +y +z -x -y -z per point
+    from fieldmap.field.frames import ecef_to_geodetic
+
+    la, lo, hh = ecef_to_geodetic(pts[:, 0], pts[:, 1], pts[:, 2], WGS84)
+    g_enu = run_gravity_tool(np.c_[la, lo, hh], tmp_path, name, "gravity", precision=15)
+    g = np.einsum("nij,ni->nj", C_e_to_enu(la, lo), g_enu).reshape(len(lat), 6, 3)  # ECEF
+    d = (g[:, :3] - g[:, 3:]) / (2.0 * step)  # [n, j, i] = ∂g_i/∂x_j
+    t_ecef = np.swapaxes(d, 1, 2) / EOTVOS
+    c = C_e_to_enu(lat, lon)
+    want = c @ t_ecef @ np.swapaxes(c, -1, -2)
+    got = gradient_tensor(lat, lon, h, model=model60, quantity="gravity")
+    assert np.abs(want).max() > 1000.0
+    np.testing.assert_allclose(got, want, rtol=0, atol=0.05)

@@ -206,7 +206,8 @@ def run_gravity_tool(
     cmd = [exe, "-n", name, "-d", os.fspath(model_dir), flag, "-p", str(int(precision))]
     if nmax is not None:
         cmd += ["-N", str(int(nmax))]
-    text = "".join(f"{a!r} {b!r} {c!r}\n" for a, b, c in pts.tolist())
+    # fixed-point: Gravity reads coordinates as DMS, where the 'e' of 8.98e-06 is a hemisphere
+    text = "".join(f"{a:.17f} {b:.17f} {c:.17f}\n" for a, b, c in pts.tolist())
     proc = subprocess.run(cmd, input=text, capture_output=True, text=True, timeout=timeout)
     if proc.returncode != 0:
         msg = (proc.stderr or proc.stdout).strip().splitlines()
