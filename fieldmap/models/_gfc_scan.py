@@ -14,7 +14,9 @@ from __future__ import annotations
 import datetime as _dt
 import gzip
 import math
+import mmap
 import os
+import re
 import stat
 import warnings
 import zlib
@@ -27,16 +29,28 @@ from fieldmap.errors import ModelFileError
 #: degree-2190 ``.gfc`` is 0.3 GB; ``--model /dev/zero`` must not fill the memory
 MAX_STREAM_BYTES = 4 * 2**30
 _CHUNK = 16 * 2**20
+#: bytes read at a time when scanning a whole file (binary check, newline counts)
+BLOCK = 16 * 2**20
 
 
-def read_bytes(path) -> bytes:
-    """Return the bytes of a model file, gunzipped if compressed (raises ModelFileError)."""
+def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
+    """Return the bytes of a model file, gunzipped if compressed (raises ModelFileError).
+
+    With ``mapped``, a regular uncompressed file comes back as a read-only :class:`mmap.mmap`
+    (its pages are the page cache's, not this process's anonymous memory: a degree-10,800 file is
+    4 GB); gzip data and pipes still come back as bytes.
+    """
     try:
+        raw: bytes | mmap.mmap
         with open(path, "rb") as f:
-            if stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-                raw = f.read()
-            else:  # a pipe (``<(zcat ...)``) or a device
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):  # a pipe (``<(zcat ...)``) or a device
                 raw = _read_stream(f, path)
+            elif mapped and st.st_size > 0 and f.read(2) != b"\x1f\x8b":
+                raw = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+            else:
+                f.seek(0)
+                raw = f.read()
     except FileNotFoundError:
         raise ModelFileError(f"{path}: no such model file") from None
     except IsADirectoryError:
@@ -48,9 +62,22 @@ def read_bytes(path) -> bytes:
             raw = gzip.decompress(raw)
         except (EOFError, OSError, zlib.error) as exc:
             raise ModelFileError(f"{path}: truncated or corrupt gzip data ({exc})") from None
-    if not raw or raw.isspace():
+    if not len(raw) or re.search(rb"[^ \t\n\r\x0b\x0c]", raw) is None:  # bytes.isspace()
         raise ModelFileError(f"{path}: empty file")
     return raw
+
+
+def release(raw, lo: int, hi: int) -> None:
+    """Drop the pages of ``raw[lo:hi]`` from this process's memory if ``raw`` is a mapping.
+
+    The bytes stay in the page cache and are read again on the next access: only the resident
+    size goes down (a file read once, chunk by chunk, then never holds more than a chunk).
+    """
+    if isinstance(raw, mmap.mmap) and hasattr(mmap, "MADV_DONTNEED"):
+        lo -= lo % mmap.PAGESIZE
+        hi -= hi % mmap.PAGESIZE
+        if hi > lo:
+            raw.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
 
 
 def _read_stream(f, path) -> bytes:
@@ -70,24 +97,69 @@ _CONTROL = np.zeros(256, bool)
 _CONTROL[[c for c in range(32) if c not in (9, 10, 13)]] = True
 
 
-def check_text(path, raw: bytes) -> None:
-    """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine)."""
-    b = np.frombuffer(raw, np.uint8)
-    ctrl = _CONTROL[b]
-    if ctrl.any():
-        pos = int(np.argmax(ctrl))
-        line = raw.count(b"\n", 0, pos) + 1
-        raise ModelFileError(
-            f"{path}, line {line}: binary byte 0x{b[pos]:02x}: not an ICGEM text file"
-        )
+def check_text(path, raw) -> None:
+    """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine).
+
+    ``raw``: bytes or a mapping, read in blocks of ``BLOCK`` bytes (no copy of the whole).
+    """
+    size = len(raw)
+    for lo in range(0, size, BLOCK):
+        b = np.frombuffer(raw, np.uint8, count=min(BLOCK, size - lo), offset=lo)
+        low = np.flatnonzero(b < 32)  # newlines, tabs, CRs and any control byte
+        ctrl = _CONTROL[b[low]]
+        if ctrl.any():
+            pos = lo + int(low[np.argmax(ctrl)])
+            byte = int(b[pos - lo])
+            line = count_newlines(raw, 0, pos) + 1
+            raise ModelFileError(
+                f"{path}, line {line}: binary byte 0x{byte:02x}: not an ICGEM text file"
+            )
+        del b, low, ctrl
+        release(raw, lo, lo + BLOCK)
+
+
+def count_newlines(raw, lo: int, hi: int) -> int:
+    """Count the newline bytes in ``raw[lo:hi]`` (bytes or a mapping), read in blocks."""
+    total = 0
+    for a in range(lo, hi, BLOCK):
+        b = np.frombuffer(raw, np.uint8, count=min(BLOCK, hi - a), offset=a)
+        total += int(np.count_nonzero(b == 10))
+    return total
+
+
+def line_chunks(raw, offset: int, lines: int):
+    """Yield ``(lo, hi)``: ``raw[offset:]`` cut after every ``lines``-th newline.
+
+    Each piece but the last ends with a newline; the pieces cover ``raw[offset:]`` exactly (none
+    when it is empty).
+    """
+    size, pos, width = len(raw), offset, 128 * lines
+    while pos < size:
+        while True:
+            width = min(width, size - pos)
+            win = np.frombuffer(raw, np.uint8, count=width, offset=pos)
+            nl = np.flatnonzero(win == 10)
+            if nl.size >= lines:
+                hi = pos + int(nl[lines - 1]) + 1
+                break
+            if pos + width >= size:
+                hi = size
+                break
+            width *= 2
+        del win, nl
+        yield pos, hi
+        width = max(width, 2 * (hi - pos) + 64)
+        pos = hi
 
 
 _WHITESPACE = np.zeros(256, bool)
 _WHITESPACE[[9, 10, 13, 32]] = True
 
 
-def tokenise(raw: bytes, offset: int = 0):
-    """Split the data section ``raw[offset:]`` into whitespace-separated tokens (no copy of it).
+def tokenise(raw, offset: int = 0, count: int = -1):
+    """Split ``raw[offset:offset + count]`` into whitespace-separated tokens (no copy of it).
+
+    ``count`` -1: to the end. Lines are counted from ``offset``.
 
     Returns
     -------
@@ -101,7 +173,7 @@ def tokenise(raw: bytes, offset: int = 0):
         Per line: number of tokens, index of the first token. The position within its line of
         token ``t`` is ``t - first[tok_line[t]]``.
     """
-    buf = np.frombuffer(raw, np.uint8, offset=offset)
+    buf = np.frombuffer(raw, np.uint8, count=count, offset=offset)
     ws = _WHITESPACE[buf]
     edge = np.diff(ws.view(np.int8), prepend=np.int8(1), append=np.int8(1))
     starts = np.flatnonzero(edge == -1)  # whitespace -> text
@@ -184,21 +256,22 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
 
 
 def unnormalized_to_full(C, S, path):
-    """Divide by the normalisation N̄nm = sqrt((2 − δm0)(2n+1)(n−m)!/(n+m)!)."""
+    """Divide by the normalisation N̄nm = sqrt((2 − δm0)(2n+1)(n−m)!/(n+m)!), in place.
+
+    Column by column (no (L+1)² temporaries: a degree-10,800 table is 0.9 GB); returns C, S.
+    """
     nmax = C.shape[0] - 1
     n = np.arange(nmax + 1, dtype=float)
-    norm = np.zeros_like(C)
     col = np.sqrt(2.0 * n + 1.0)  # m = 0
     for m in range(nmax + 1):
         if m > 0:  # N̄n,m = N̄n,m−1 / sqrt((n+m)(n−m+1)), times sqrt(2) from m=0 to m=1
             with np.errstate(divide="ignore", invalid="ignore"):
                 col = col / np.sqrt((n + m) * (n - m + 1.0)) * (math.sqrt(2.0) if m == 1 else 1)
-        norm[m:, m] = col[m:]
-    tiny = (norm[np.tril_indices(nmax + 1)] == 0) | ~np.isfinite(norm[np.tril_indices(nmax + 1)])
-    if tiny.any():
-        raise ModelFileError(f"{path}: unnormalized coefficients beyond the float64 range")
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(norm > 0, C / norm, 0.0), np.where(norm > 0, S / norm, 0.0)
+        if ((col[m:] == 0) | ~np.isfinite(col[m:])).any():
+            raise ModelFileError(f"{path}: unnormalized coefficients beyond the float64 range")
+        C[m:, m] /= col[m:]
+        S[m:, m] /= col[m:]
+    return C, S
 
 
 def decimal_year(year: int, month: int, day: int, hour: int = 0, minute: int = 0) -> float:
@@ -222,9 +295,12 @@ def first_outsize(C, S):
     (Kaula's rule: about 1e-5/n²) and C̄00 is 1 by definition; a value beyond 1 is a unit or
     normalisation error, and one beyond 1e150 overflows the synthesis.
     """
-    big = (np.abs(C) > 1.0) | (np.abs(S) > 1.0)
-    if not big.any():
-        return None
-    n, m = (int(v[0]) for v in np.nonzero(big))
-    value = C[n, m] if abs(C[n, m]) > 1.0 else S[n, m]
-    return n, m, float(value)
+    rows = max(1, BLOCK // (8 * max(C.shape[1], 1)))  # row blocks: no full-size temporaries
+    for r in range(0, C.shape[0], rows):
+        big = (np.abs(C[r : r + rows]) > 1.0) | (np.abs(S[r : r + rows]) > 1.0)
+        if big.any():
+            n, m = (int(v[0]) for v in np.nonzero(big))
+            n += r
+            value = C[n, m] if abs(C[n, m]) > 1.0 else S[n, m]
+            return n, m, float(value)
+    return None

@@ -10,6 +10,8 @@ line (:func:`fail`).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from fieldmap.errors import ModelFileError
@@ -52,32 +54,105 @@ def duplicates(path, keys, lines, nhead, what):
         )
 
 
-def static_coefficients(path, lines, kind, n, m, idx, c, s, lmax, nhead):
-    """Fill C, S from gfc/gfct lines; check duplicates and gaps."""
-    st = kind <= 1
-    if st.any():
-        duplicates(path, idx[st], lines[st], nhead, "coefficient")
-    C = np.zeros((lmax + 1, lmax + 1))
-    S = np.zeros((lmax + 1, lmax + 1))
-    C[n[st], m[st]], S[n[st], m[st]] = c[st], s[st]
-    have = np.zeros((lmax + 1, lmax + 1), bool)
-    have[n[st], m[st]] = True
-    if not have[0, 0]:
-        C[0, 0] = 1.0
-    have[:2] = True  # degrees 0 and 1 may be omitted (C00 = 1, origin at the centre of mass)
-    have[np.triu_indices(lmax + 1, 1)] = True
-    if not have.all():
-        miss_n, miss_m = (int(v[0]) for v in np.nonzero(~have))
-        midx = miss_n * (miss_n + 1) // 2 + miss_m
-        before = idx[st] < midx
-        if not before.any():
-            raise ModelFileError(f"{path}: no line for n={miss_n} m={miss_m}")
-        last = np.max(lines[st][before])
-        why = "file truncated?" if midx > idx[st].max() else "degree gap"
-        raise fail(
-            path, nhead + int(last) + 1, f"no line for n={miss_n} m={miss_m} after this one ({why})"
-        )
-    return C, S
+class StaticTable:
+    """C, S (and σC, σS) of the static lines, filled chunk by chunk (:meth:`add`, :meth:`finish`).
+
+    Besides the (lmax+1)² tables it keeps, per coefficient (packed index n(n+1)/2 + m), the data
+    line of its first static line: the duplicate and gap checks name the same lines as a check
+    of the whole file at once would. Chunks come in line order.
+    """
+
+    def __init__(self, lmax, nbytes, sigma=True):
+        self.C = np.zeros((lmax + 1, lmax + 1))
+        self.S = np.zeros((lmax + 1, lmax + 1))
+        self.SC = self.SS = None
+        self.sigma = sigma  # False: header "errors no", σ columns ignored
+        dtype = np.uint32 if nbytes < 2**32 - 1 else np.int64  # a line index < its byte offset
+        self.none = np.iinfo(dtype).max
+        self.line = np.full((lmax + 1) * (lmax + 2) // 2, self.none, dtype)
+        self.repeat = None  # (line, key) of the first static line repeating a coefficient
+
+    def _sigmas(self, n, m, sc, ss, has):
+        if self.sigma and has.any():
+            if self.SC is None:
+                self.SC, self.SS = np.zeros_like(self.C), np.zeros_like(self.C)
+            self.SC[n[has], m[has]], self.SS[n[has], m[has]] = sc[has], ss[has]
+
+    def add(self, lines, n, m, c, s, sc, ss, has):
+        """Enter static lines (data line indices ``lines``, increasing, after earlier chunks')."""
+        idx = n * (n + 1) // 2 + m
+        self.C[n, m], self.S[n, m] = c, s
+        self._sigmas(n, m, sc, ss, has)
+        seen = self.line[idx] != self.none  # given by an earlier chunk
+        if not seen.any():
+            self.line[idx] = lines
+            if (self.line[idx] == lines).all():
+                return
+        order = np.argsort(idx, kind="stable")  # a coefficient given twice: first lines kept
+        first = np.ones(idx.size, bool)
+        first[1:] = idx[order][1:] != idx[order][:-1]
+        is_first = np.zeros(idx.size, bool)
+        is_first[order[first]] = True
+        new = is_first & ~seen
+        self.line[idx[new]] = lines[new]
+        rep = seen | ~is_first
+        if rep.any() and self.repeat is None:
+            k = int(np.flatnonzero(rep)[0])
+            self.repeat = (int(lines[k]), int(idx[k]))
+
+    def finish(self, path, nhead, lines, n, m, c, s, sc, ss, has):
+        """Enter the gfct lines (kept, active), check duplicates and gaps; return C, S, σ."""
+        idx = n * (n + 1) // 2 + m
+        rep = [self.repeat] if self.repeat is not None else []
+        if idx.size:  # a gfct line after or before gfc lines of its coefficient, or twice
+            given = np.unique(idx[self.line[idx] != self.none])
+            keys = np.concatenate([given, idx])
+            at = np.concatenate([self.line[given].astype(np.int64), lines])
+            order = np.lexsort((at, keys))
+            later = np.flatnonzero(keys[order][1:] == keys[order][:-1]) + 1
+            if later.size:
+                k = order[later[np.argmin(at[order[later]])]]
+                rep.append((int(at[k]), int(keys[k])))
+        if rep:
+            line, key = min(rep)
+            given = [int(self.line[key])] if self.line[key] != self.none else []
+            first = min(given + [int(v) for v in lines[idx == key]])
+            raise fail(
+                path,
+                nhead + line + 1,
+                f"duplicate coefficient (first given on line {nhead + first + 1})",
+            )
+        self.C[n, m], self.S[n, m] = c, s
+        self.line[idx] = lines
+        self._sigmas(n, m, sc, ss, has)
+        if self.line[0] == self.none:
+            self.C[0, 0] = 1.0
+        present = self.line != self.none
+        miss = present.size
+        if present.size > 3:  # degrees 0 and 1 may be omitted (C00 = 1, origin at the centre)
+            miss = 3 + int(np.argmin(present[3:])) if not present[3:].all() else miss
+        if miss < present.size:
+            miss_n = (math.isqrt(8 * miss + 1) - 1) // 2
+            miss_m = miss - miss_n * (miss_n + 1) // 2
+            if not present[:miss].any():
+                raise ModelFileError(f"{path}: no line for n={miss_n} m={miss_m}")
+            last = int(np.max(self.line[:miss][present[:miss]]))
+            top = present.size - 1 - int(np.argmax(present[::-1]))
+            why = "file truncated?" if miss > top else "degree gap"
+            raise fail(
+                path,
+                nhead + last + 1,
+                f"no line for n={miss_n} m={miss_m} after this one ({why})",
+            )
+        sig = None
+        if self.SC is not None and (self.SC.any() or self.SS.any()):
+            sig = (self.SC, self.SS)
+        return self.C, self.S, sig
+
+    def first_line(self, n, m):
+        """Return the data line of the static line of (n, m), or None."""
+        v = self.line[n * (n + 1) // 2 + m]
+        return None if v == self.none else int(v)
 
 
 def time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead):
@@ -128,22 +203,3 @@ def sigma_columns(vals, off, nf, kind, v2):
     sc = np.where(has, vals[np.minimum(off + 2, vals.size - 1)], 0.0)
     ss = np.where(has, vals[np.minimum(off + 3, vals.size - 1)], 0.0)
     return np.abs(sc), np.abs(ss), has
-
-
-def static_sigmas(kind, n, m, sc, ss, has, lmax, errors=""):
-    """σ tables of the static (gfc/gfct) lines, or None when the file gives none.
-
-    None when the header says ``errors no``, when no static line has σ columns or all are 0.
-    Lines without σ (degrees 0 and 1 left out of the file, for one) get σ = 0.
-    Time-variable models: σ of the static part only (the ``gfct`` line's σ; trend and periodic
-    terms' σ are not propagated).
-    """
-    st = (kind <= 1) & has
-    if (errors.split() or [""])[0].lower() == "no" or not st.any():
-        return None
-    SC = np.zeros((lmax + 1, lmax + 1))
-    SS = np.zeros((lmax + 1, lmax + 1))
-    SC[n[st], m[st]], SS[n[st], m[st]] = sc[st], ss[st]
-    if not (SC.any() or SS.any()):
-        return None
-    return SC, SS

@@ -41,10 +41,9 @@ from fieldmap.models import _gfc_scan as scan
 from fieldmap.models._gfc_scan import decimal_year  # public here
 from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
 from fieldmap.models._gfc_terms import KIND_NAME as _KIND_NAME
+from fieldmap.models._gfc_terms import StaticTable
 from fieldmap.models._gfc_terms import fail as _fail
 from fieldmap.models._gfc_terms import sigma_columns as _sigma_columns
-from fieldmap.models._gfc_terms import static_coefficients as _static
-from fieldmap.models._gfc_terms import static_sigmas as _static_sigmas
 from fieldmap.models._gfc_terms import time_variable as _time_variable
 from fieldmap.models._gfc_terms import times as _times
 from fieldmap.models.shmodel import SHModel
@@ -60,6 +59,14 @@ _NFIELDS = {
     3: (range(3, 8), range(5, 10)),
     4: (range(3, 8), range(5, 10)),
 }
+#: data lines parsed at a time (70 MB of text and some 300 MB of token tables for a dense file);
+#: the result does not depend on it
+CHUNK_LINES = 1 << 20
+# errors found chunk by chunk, by rank: 0 unknown keyword, 1 short line, 2 degree/order, 3-7
+# field count (by kind), 8 m > n, 9 n > max_degree, 10 bad number, 11 unparsed, 12 period; the
+# whole-file check order, so the first line of the lowest rank found is the error raised
+_NONE = 99
+_TV_FIELDS = ("line", "kind", "n", "m", "c", "s", "sc", "ss", "has", "last", "prev", "third")
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
 READER_VERSION = 2  # 2: sigma_c, sigma_s kept
 #: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
@@ -126,16 +133,17 @@ def as_degree(lmax, what: str = "lmax") -> int | None:
 
 
 # ----------------------------------------------------------------------------------- header
-def _parse_header(path, raw: bytes):
+def _parse_header(path, raw):
     """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
     m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
     if not m_end:
         raise ModelFileError(f"{path}: no 'end_of_head' line (not an ICGEM .gfc file?)")
-    m_beg = re.search(rb"^[ \t]*begin_of_head\b.*$", raw[: m_end.start()], re.M)
+    head = raw[: m_end.end()]  # bytes (a copy when raw is a mapping), the header and before
+    m_beg = re.search(rb"^[ \t]*begin_of_head\b.*$", head[: m_end.start()], re.M)
     head_start = m_beg.end() if m_beg else 0
-    first_line = raw.count(b"\n", 0, head_start) + 1
+    first_line = head.count(b"\n", 0, head_start) + 1
     header, where = {}, {}
-    text = raw[head_start : m_end.start()].decode("latin-1")
+    text = head[head_start : m_end.start()].decode("latin-1")
     for k, line in enumerate(text.split("\n")):
         parts = line.split(None, 1)
         if not parts:
@@ -144,10 +152,10 @@ def _parse_header(path, raw: bytes):
         if key not in header:
             header[key] = parts[1].strip() if len(parts) > 1 else ""
             where[key] = first_line + k
-    where["end_of_head"] = raw.count(b"\n", 0, m_end.start()) + 1
-    nl = raw.find(b"\n", m_end.end())
-    offset = nl + 1 if nl >= 0 else len(raw)
-    nhead = raw.count(b"\n", 0, nl + 1) if nl >= 0 else raw.count(b"\n") + 1
+    where["end_of_head"] = head.count(b"\n", 0, m_end.start()) + 1
+    # ".*$" stops at the newline ending the end_of_head line, or at the end of the file
+    offset = min(m_end.end() + 1, len(raw))
+    nhead = head.count(b"\n") + 1
     return header, where, offset, nhead
 
 
@@ -162,6 +170,97 @@ def _header_number(path, header, where, key, integer=False):
     if not math.isfinite(val) or val <= (-1 if integer else 0) or (integer and val != int(val)):
         raise _fail(path, where[key], f"header '{key}': invalid value {text!r}")
     return int(val) if integer else val
+
+
+def _scan_chunk(path, raw, lo, hi, base, ctx, best):
+    """Check and parse the data lines in ``raw[lo:hi]``, data lines ``base`` on.
+
+    Returns ``(rank, error, nlines, data)``: the first failed check of rank below ``best`` (the
+    whole-file order of the checks, each at its first line: chunks come in line order), or
+    ``_NONE``; the number of lines; and, when all checks pass, ``(content lines, static gfc
+    lines for StaticTable.add, time-variable lines as _TV_FIELDS)`` (None: nothing kept).
+    """
+    nhead, nmax, lmax, v2 = ctx
+    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, lo, hi - lo)
+    li = np.flatnonzero(ntok > 0)  # data lines with content
+    nlines, f0 = ntok.size, first[li]
+
+    def line_of(mask):
+        return nhead + base + int(li[np.flatnonzero(mask)[0]]) + 1
+
+    def text_of(t):
+        return buf[starts[t] : ends[t]].tobytes().decode("latin-1")
+
+    kind = scan.keyword_kinds(buf, starts[f0], ends[f0], _KEYS)
+    if (kind < 0).any():
+        k = np.flatnonzero(kind < 0)[0]
+        return (
+            0,
+            _fail(path, line_of(kind < 0), f"unknown keyword {text_of(f0[k])!r}"),
+            nlines,
+            None,
+        )
+    short = ntok[li] < 3
+    if best > 1 and short.any():
+        why = "expected 'key n m C S ...', line too short"
+        return 1, _fail(path, line_of(short), why), nlines, None
+    if best <= 2:
+        return _NONE, None, nlines, None
+    n, ok_n = scan.small_ints(buf, starts[f0 + 1], ends[f0 + 1])
+    m, ok_m = scan.small_ints(buf, starts[f0 + 2], ends[f0 + 2])
+    if not (ok_n & ok_m).all():
+        k = np.flatnonzero(~(ok_n & ok_m))[0]
+        what = f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}"
+        return 2, _fail(path, line_of(~(ok_n & ok_m)), what), nlines, None
+    nf = ntok[li] - 3
+    checks = [
+        (kind == kd) & ((nf < ok[v2].start) | (nf >= ok[v2].stop)) for kd, ok in _NFIELDS.items()
+    ]
+    checks += [m > n, n > nmax]
+    for rank, bad in enumerate(checks, start=3):
+        if rank >= best:
+            return _NONE, None, nlines, None
+        if bad.any():
+            k = np.flatnonzero(bad)[0]
+            if rank < 8:
+                ok = _NFIELDS[rank - 3][v2]
+                why = (
+                    f"'{_KIND_NAME[rank - 3]}' line with {nf[k]} values"
+                    f" (expected {ok.start} to {ok.stop - 1})"
+                )
+            else:
+                why = "order m > degree n" if rank == 8 else f"degree above max_degree {nmax}"
+                why += f" (n={n[k]}, m={m[k]})"
+            return rank, _fail(path, line_of(bad), why), nlines, None
+    if best <= 10:
+        return _NONE, None, nlines, None
+    keep = n <= lmax
+    if not keep.any():
+        return _NONE, None, nlines, (li.size, None, None)
+    keep_line = np.zeros(ntok.size, bool)
+    keep_line[li[keep]] = True
+    vals, bad_tok = scan.parse_values(buf, starts, ends, tok_line, first, keep_line)
+    if vals is None and bad_tok < 0:  # pragma: no cover - NumPy and float() disagree
+        return 11, ModelFileError(f"{path}: could not parse the coefficient values"), nlines, None
+    if vals is None:
+        bad_line = nhead + base + int(tok_line[bad_tok]) + 1
+        return 10, _fail(path, bad_line, f"bad number {text_of(bad_tok)!r}"), nlines, None
+    lines, kind, n, m, nf = base + li[keep], kind[keep], n[keep], m[keep], nf[keep]
+    off = np.cumsum(nf) - nf
+    c, s = vals[off], vals[off + 1]
+    sc, ss, has_sig = _sigma_columns(vals, off, nf, kind, v2)
+    last, prev = vals[off + nf - 1], vals[off + nf - 2]
+    bad = (kind >= 3) & ~(last > 0)
+    if bad.any() and best > 12:
+        at = nhead + int(lines[bad][0]) + 1
+        return 12, _fail(path, at, "period must be positive"), nlines, None
+    if best <= 12:
+        return _NONE, None, nlines, None
+    g, tv = kind == 0, kind >= 1
+    third = vals[np.maximum(off[tv] + nf[tv] - 3, 0)]
+    static = (lines[g], n[g], m[g], c[g], s[g], sc[g], ss[g], has_sig[g])
+    tvs = [a[tv] for a in (lines, kind, n, m, c, s, sc, ss, has_sig, last, prev)] + [third]
+    return _NONE, None, nlines, (li.size, static, tvs)
 
 
 def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
@@ -197,7 +296,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     except TypeError:
         raise InputError(f"model file must be a path, got {path!r}") from None
     lmax = as_degree(lmax)
-    raw = scan.read_bytes(path)
+    raw = scan.read_bytes(path, mapped=True)
     scan.check_text(path, raw)
     header, where, offset, nhead = _parse_header(path, raw)
     gm = _header_number(path, header, where, "earth_gravity_constant")
@@ -221,78 +320,37 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     if v2 and t is None:
         raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
 
-    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, offset)
-    li = np.flatnonzero(ntok > 0)  # data lines with content
-    f0 = first[li]
-
-    def line_of(mask):
-        return nhead + int(li[np.flatnonzero(mask)[0]]) + 1
-
-    def text_of(t):
-        return buf[starts[t] : ends[t]].tobytes().decode("latin-1")
-
-    if li.size == 0:
+    errors = (header.get("errors", "").split() or [""])[0].lower()
+    table = StaticTable(lmax, len(raw), sigma=errors != "no")
+    best, err, content, base, parts = _NONE, None, 0, 0, []
+    for lo, hi in scan.line_chunks(raw, offset, CHUNK_LINES):
+        ctx = (nhead, nmax, lmax, v2)
+        rank, exc, nlines, data = _scan_chunk(path, raw, lo, hi, base, ctx, best)
+        if rank < best:
+            best, err = rank, exc
+        if best == _NONE and data is not None:
+            content += data[0]
+            if data[1] is not None:
+                table.add(*data[1])
+                parts.append(data[2])
+        if best == 0:  # nothing can come before an unknown keyword
+            break
+        base += nlines
+        scan.release(raw, lo, hi)
+    if err is not None:
+        raise err
+    if content == 0:
         raise _fail(path, nhead, "no coefficient lines after end_of_head (truncated file?)")
-    kind = scan.keyword_kinds(buf, starts[f0], ends[f0], _KEYS)
-    if (kind < 0).any():
-        k = np.flatnonzero(kind < 0)[0]
-        raise _fail(path, line_of(kind < 0), f"unknown keyword {text_of(f0[k])!r}")
-    short = ntok[li] < 3
-    if short.any():
-        raise _fail(path, line_of(short), "expected 'key n m C S ...', line too short")
-    n, ok_n = scan.small_ints(buf, starts[f0 + 1], ends[f0 + 1])
-    m, ok_m = scan.small_ints(buf, starts[f0 + 2], ends[f0 + 2])
-    if not (ok_n & ok_m).all():
-        k = np.flatnonzero(~(ok_n & ok_m))[0]
-        raise _fail(
-            path,
-            line_of(~(ok_n & ok_m)),
-            f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}",
-        )
-    nf = ntok[li] - 3
-    for kd, allowed in _NFIELDS.items():
-        ok = allowed[v2]
-        bad = (kind == kd) & ((nf < ok.start) | (nf >= ok.stop))
-        if bad.any():
-            k = np.flatnonzero(bad)[0]
-            raise _fail(
-                path,
-                line_of(bad),
-                f"'{_KIND_NAME[kd]}' line with {nf[k]} values"
-                f" (expected {ok.start} to {ok.stop - 1})",
-            )
-    for bad, why in ((m > n, "order m > degree n"), (n > nmax, f"degree above max_degree {nmax}")):
-        if bad.any():
-            k = np.flatnonzero(bad)[0]
-            raise _fail(path, line_of(bad), f"{why} (n={n[k]}, m={m[k]})")
-
-    keep = n <= lmax
-    keep_line = np.zeros(ntok.size, bool)
-    keep_line[li[keep]] = True
-    vals, bad_tok = scan.parse_values(buf, starts, ends, tok_line, first, keep_line)
-    if vals is None and bad_tok < 0:  # pragma: no cover - NumPy and float() disagree
-        raise ModelFileError(f"{path}: could not parse the coefficient values")
-    if vals is None:
-        raise _fail(path, nhead + int(tok_line[bad_tok]) + 1, f"bad number {text_of(bad_tok)!r}")
-    lines, kind, n, m, nf = li[keep], kind[keep], n[keep], m[keep], nf[keep]
-    off = np.cumsum(nf) - nf
-    c, s = vals[off], vals[off + 1]
-    sc, ss, has_sig = _sigma_columns(vals, off, nf, kind, v2)
-    last, prev = vals[off + nf - 1], vals[off + nf - 2]
-    tv = kind >= 1  # time-variable lines
+    lines, kind, n, m, c, s, sc, ss, has_sig, last, prev, third = (
+        np.concatenate([p[k] for p in parts]) if parts else np.zeros(0, np.int64)
+        for k in range(len(_TV_FIELDS))
+    )
     period = np.where(kind >= 3, last, 1.0)
-    if ((kind >= 3) & ~(period > 0)).any():
-        raise _fail(
-            path, nhead + int(lines[(kind >= 3) & ~(period > 0)][0]) + 1, "period must be positive"
-        )
     t0 = np.zeros(kind.size)
     if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
-        t1 = np.zeros(kind.size)
-        stamp0 = np.where(kind >= 3, vals[off + nf - 3], prev)
-        stamp1 = np.where(kind >= 3, prev, last)
-        t0[tv] = _times(path, stamp0[tv], lines[tv], nhead)
-        t1[tv] = _times(path, stamp1[tv], lines[tv], nhead)
-        active = ~tv | ((t0 <= t) & (t < t1))
+        t0 = _times(path, np.where(kind >= 3, third, prev), lines, nhead)
+        t1 = _times(path, np.where(kind >= 3, prev, last), lines, nhead)
+        active = (t0 <= t) & (t < t1)
         gct = kind == 1
         has_gfct = np.unique(n[gct] * (n[gct] + 1) // 2 + m[gct])
         act_gfct = np.unique(n[gct & active] * (n[gct & active] + 1) // 2 + m[gct & active])
@@ -308,19 +366,24 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
         g = kind == 1
         t0[g] = _times(path, last[g], lines[g], nhead)
+    g = kind == 1
+    C, S, sig = table.finish(
+        path, nhead, lines[g], n[g], m[g], c[g], s[g], sc[g], ss[g], has_sig[g]
+    )
     idx = n * (n + 1) // 2 + m
-    C, S = _static(path, lines, kind, n, m, idx, c, s, lmax, nhead)
     eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead)
-    sig = _static_sigmas(kind, n, m, sc, ss, has_sig, lmax, header.get("errors", ""))
     if not _NORMS[norm]:
         C, S = _unnormalized_to_full(C, S, path)
         if sig is not None:
             sig = _unnormalized_to_full(sig[0], sig[1], path)
     if (big := scan.first_outsize(C, S)) is not None:
         bn, bm, v = big
+        at = [int(x) for x in lines[(n == bn) & (m == bm)]]
+        if (k := table.first_line(bn, bm)) is not None:
+            at.append(k)
         raise _fail(
             path,
-            nhead + int(lines[(n == bn) & (m == bm)][0]) + 1,
+            nhead + min(at) + 1,
             f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model",
         )
     name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
