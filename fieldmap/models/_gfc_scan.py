@@ -5,8 +5,10 @@ strings: token boundaries are found on the byte array, keywords and degree/order
 with vectorised integer arithmetic, and all coefficient values are parsed by one call of
 :func:`numpy.fromstring` on a copy of the bytes where every other token has been blanked.
 Only when that parse fails does a per-token Python pass run, to name the offending token.
-Also here: reading the bytes (gzip, pipes, binary data refused), ICGEM time stamps to decimal
-years, and unnormalised coefficients to fully normalised ones.
+:func:`line_chunks` cuts the data into pieces of whole lines for :func:`tokenise` (the ICGEM
+reader's memory stays bounded: issue 17). Also here: reading the bytes (memory-mapped, gzip,
+pipes, binary data refused), ICGEM time stamps to decimal years, and unnormalised coefficients
+to fully normalised ones (in place).
 """
 
 from __future__ import annotations
@@ -128,27 +130,27 @@ def count_newlines(raw, lo: int, hi: int) -> int:
 
 
 def line_chunks(raw, offset: int, lines: int):
-    """Yield ``(lo, hi)``: ``raw[offset:]`` cut after every ``lines``-th newline.
+    """Yield ``(lo, hi, newlines)``: ``raw[offset:]`` cut after every ``lines``-th newline.
 
     Each piece but the last ends with a newline; the pieces cover ``raw[offset:]`` exactly (none
-    when it is empty).
+    when it is empty). ``newlines``: the offsets of the piece's newlines from ``lo``.
     """
-    size, pos, width = len(raw), offset, 128 * lines
+    size, pos, width = len(raw), offset, 80 * lines + 4096
     while pos < size:
         while True:
             width = min(width, size - pos)
             win = np.frombuffer(raw, np.uint8, count=width, offset=pos)
             nl = np.flatnonzero(win == 10)
             if nl.size >= lines:
-                hi = pos + int(nl[lines - 1]) + 1
+                nl = nl[:lines].copy()
                 break
             if pos + width >= size:
-                hi = size
                 break
             width *= 2
-        del win, nl
-        yield pos, hi
-        width = max(width, 2 * (hi - pos) + 64)
+        hi = pos + int(nl[-1]) + 1 if nl.size >= lines else size
+        del win
+        yield pos, hi, nl
+        width = (hi - pos) * 17 // 16 + 4096  # lines of about the same length next
         pos = hi
 
 
@@ -156,10 +158,11 @@ _WHITESPACE = np.zeros(256, bool)
 _WHITESPACE[[9, 10, 13, 32]] = True
 
 
-def tokenise(raw, offset: int = 0, count: int = -1):
+def tokenise(raw, offset: int = 0, count: int = -1, newlines=None):
     """Split ``raw[offset:offset + count]`` into whitespace-separated tokens (no copy of it).
 
-    ``count`` -1: to the end. Lines are counted from ``offset``.
+    ``count`` -1: to the end. Lines are counted from ``offset``; ``newlines``, the offsets of its
+    newline bytes from ``offset`` when already known.
 
     Returns
     -------
@@ -179,7 +182,8 @@ def tokenise(raw, offset: int = 0, count: int = -1):
     starts = np.flatnonzero(edge == -1)  # whitespace -> text
     ends = np.flatnonzero(edge[1:] == 1) + 1  # text -> whitespace, exclusive
     del ws, edge
-    newlines = np.flatnonzero(buf == 10)
+    if newlines is None:
+        newlines = np.flatnonzero(buf == 10)
     if buf.size == 0 or buf[-1] != 10:  # last line without a newline
         newlines = np.append(newlines, buf.size)
     tok_line = np.searchsorted(newlines, starts)

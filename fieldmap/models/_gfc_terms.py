@@ -1,11 +1,10 @@
 """The coefficient tables of an ICGEM ``.gfc`` file's data lines (used by :mod:`.icgem`).
 
-:func:`static_coefficients` fills C, S from the ``gfc``/``gfct`` lines and checks duplicates and
-gaps; :func:`time_variable` adds the trend and periodic terms (``trnd``/``dot``, ``acos``,
-``asin``) at an epoch, by the rule of the ICGEM format quoted in :mod:`fieldmap.models.icgem`;
-:func:`static_sigmas` keeps the σ columns of the static lines (:func:`sigma_columns`);
-:func:`times` converts the lines' time stamps to decimal years. Errors name the file and the
-line (:func:`fail`).
+:class:`StaticTable` fills C, S (and σC, σS, :func:`sigma_columns`) from the ``gfc``/``gfct``
+lines, chunk by chunk, and checks duplicates and gaps; :func:`time_variable` adds the trend and
+periodic terms (``trnd``/``dot``, ``acos``, ``asin``) at an epoch, by the rule of the ICGEM format
+quoted in :mod:`fieldmap.models.icgem`; :func:`times` converts the lines' time stamps to decimal
+years. Errors name the file and the line (:func:`fail`).
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ import math
 
 import numpy as np
 
-from fieldmap.errors import ModelFileError
+from fieldmap.errors import InputError, ModelFileError
 from fieldmap.models._gfc_scan import yyyymmdd
 
 #: keyword of each kind of data line (the kinds of ``fieldmap.models.icgem``'s keywords)
@@ -38,6 +37,37 @@ def times(path, values, lines, nhead):
             line = nhead + int(lines[np.flatnonzero(inv == k)[0]]) + 1
             raise fail(path, line, f"bad time stamp {v!r} (expected yyyymmdd[.hhmm])") from None
     return out[inv]
+
+
+def epochs(path, nhead, v2, t, cols):
+    """Return the time-variable lines' epochs t0; in icgem2.0, only the lines valid at ``t``.
+
+    ``cols``: line, kind, n, m, c, s, σc, σs, has σ, and the last three values of each line.
+    Returns the first nine (icgem2.0: the lines valid at ``t`` only), t0 and the period.
+    """
+    lines, kind, n, m, c, s, sc, ss, has_sig, last, prev, third = cols
+    period = np.where(kind >= 3, last, 1.0)
+    t0 = np.zeros(kind.size)
+    if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
+        t0 = times(path, np.where(kind >= 3, third, prev), lines, nhead)
+        t1 = times(path, np.where(kind >= 3, prev, last), lines, nhead)
+        active = (t0 <= t) & (t < t1)
+        gct = kind == 1
+        has_gfct = np.unique(n[gct] * (n[gct] + 1) // 2 + m[gct])
+        act_gfct = np.unique(n[gct & active] * (n[gct & active] + 1) // 2 + m[gct & active])
+        if has_gfct.size != act_gfct.size:
+            lo, hi = t0[gct].min(), t1[gct].max()
+            raise InputError(
+                f"epoch {t:.4f} is outside the validity intervals of {path}"
+                f" ({lo:.4f} to {hi:.4f}) for some coefficients"
+            )
+        lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = (
+            a[active] for a in (lines, kind, n, m, c, s, sc, ss, has_sig, t0, period)
+        )
+    elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
+        g = kind == 1
+        t0[g] = times(path, last[g], lines[g], nhead)
+    return lines, kind, n, m, c, s, sc, ss, has_sig, t0, period
 
 
 def duplicates(path, keys, lines, nhead, what):

@@ -21,10 +21,14 @@ lines of ICGEM 1.0 and the ``icgem2.0`` piecewise variant (``format icgem2.0`` i
 * Times ``yyyymmdd[.hhmm]`` are converted to decimal years: year + elapsed fraction of that year.
 * Fortran ``D`` exponents are accepted; ``.gz`` files are detected by their magic bytes.
 
-The data section is tokenised with NumPy in bulk (a degree-2190 file, 2.4 million lines, loads in
-a few seconds, :mod:`fieldmap.models._gfc_scan`); a per-line pass runs only to name the line of an
-error. The coefficient tables, static and time-variable, are assembled by
-:mod:`fieldmap.models._gfc_terms`.
+The data section is tokenised with NumPy in chunks of ``CHUNK_LINES`` lines (a degree-2190 file,
+2.4 million lines, loads in a few seconds, :mod:`fieldmap.models._gfc_scan`); a per-line pass runs
+only to name the line of an error. Plain files are memory-mapped, so the memory held is the
+coefficient tables plus one chunk (a degree-5540 file: 0.9 GB, not 6 GB). Each chunk is checked
+in the order a whole-file check would take, and the error raised is the one of lowest rank, at
+its first line: the same for any chunk size. Static lines go straight into the tables
+(:class:`fieldmap.models._gfc_terms.StaticTable`); the few time-variable lines are kept and
+assembled at the end (:mod:`fieldmap.models._gfc_terms`).
 """
 
 from __future__ import annotations
@@ -42,10 +46,10 @@ from fieldmap.models._gfc_scan import decimal_year  # public here
 from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
 from fieldmap.models._gfc_terms import KIND_NAME as _KIND_NAME
 from fieldmap.models._gfc_terms import StaticTable
+from fieldmap.models._gfc_terms import epochs as _epochs
 from fieldmap.models._gfc_terms import fail as _fail
 from fieldmap.models._gfc_terms import sigma_columns as _sigma_columns
 from fieldmap.models._gfc_terms import time_variable as _time_variable
-from fieldmap.models._gfc_terms import times as _times
 from fieldmap.models.shmodel import SHModel
 
 _KEYS = {"gfc": 0, "gfct": 1, "trnd": 2, "dot": 2, "acos": 3, "asin": 4}
@@ -59,9 +63,9 @@ _NFIELDS = {
     3: (range(3, 8), range(5, 10)),
     4: (range(3, 8), range(5, 10)),
 }
-#: data lines parsed at a time (70 MB of text and some 300 MB of token tables for a dense file);
-#: the result does not depend on it
-CHUNK_LINES = 1 << 20
+#: data lines parsed at a time (35 MB of text and some 300 MB of token tables for a dense file,
+#: issue 17); the result, errors included, does not depend on it
+CHUNK_LINES = 1 << 19
 # errors found chunk by chunk, by rank: 0 unknown keyword, 1 short line, 2 degree/order, 3-7
 # field count (by kind), 8 m > n, 9 n > max_degree, 10 bad number, 11 unparsed, 12 period; the
 # whole-file check order, so the first line of the lowest rank found is the error raised
@@ -172,16 +176,18 @@ def _header_number(path, header, where, key, integer=False):
     return int(val) if integer else val
 
 
-def _scan_chunk(path, raw, lo, hi, base, ctx, best):
-    """Check and parse the data lines in ``raw[lo:hi]``, data lines ``base`` on.
+def _scan_chunk(path, raw, piece, base, ctx, best):
+    """Check and parse the data lines ``base`` on, in ``raw[lo:hi]``.
 
-    Returns ``(rank, error, nlines, data)``: the first failed check of rank below ``best`` (the
-    whole-file order of the checks, each at its first line: chunks come in line order), or
-    ``_NONE``; the number of lines; and, when all checks pass, ``(content lines, static gfc
-    lines for StaticTable.add, time-variable lines as _TV_FIELDS)`` (None: nothing kept).
+    ``piece``: lo, hi and the offsets of the newlines from lo. Returns ``(rank, error, nlines,
+    data)``: the first failed check of rank below ``best`` (the whole-file order of the checks,
+    each at its first line: chunks come in line order), or ``_NONE``; the number of lines; and,
+    when all checks pass, ``(content lines, static gfc lines for StaticTable.add, time-variable
+    lines as _TV_FIELDS)`` (None: nothing kept).
     """
     nhead, nmax, lmax, v2 = ctx
-    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, lo, hi - lo)
+    lo, hi, newlines = piece
+    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, lo, hi - lo, newlines)
     li = np.flatnonzero(ntok > 0)  # data lines with content
     nlines, f0 = ntok.size, first[li]
 
@@ -323,9 +329,9 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     errors = (header.get("errors", "").split() or [""])[0].lower()
     table = StaticTable(lmax, len(raw), sigma=errors != "no")
     best, err, content, base, parts = _NONE, None, 0, 0, []
-    for lo, hi in scan.line_chunks(raw, offset, CHUNK_LINES):
+    for lo, hi, newlines in scan.line_chunks(raw, offset, CHUNK_LINES):
         ctx = (nhead, nmax, lmax, v2)
-        rank, exc, nlines, data = _scan_chunk(path, raw, lo, hi, base, ctx, best)
+        rank, exc, nlines, data = _scan_chunk(path, raw, (lo, hi, newlines), base, ctx, best)
         if rank < best:
             best, err = rank, exc
         if best == _NONE and data is not None:
@@ -345,27 +351,9 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         np.concatenate([p[k] for p in parts]) if parts else np.zeros(0, np.int64)
         for k in range(len(_TV_FIELDS))
     )
-    period = np.where(kind >= 3, last, 1.0)
-    t0 = np.zeros(kind.size)
-    if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
-        t0 = _times(path, np.where(kind >= 3, third, prev), lines, nhead)
-        t1 = _times(path, np.where(kind >= 3, prev, last), lines, nhead)
-        active = (t0 <= t) & (t < t1)
-        gct = kind == 1
-        has_gfct = np.unique(n[gct] * (n[gct] + 1) // 2 + m[gct])
-        act_gfct = np.unique(n[gct & active] * (n[gct & active] + 1) // 2 + m[gct & active])
-        if has_gfct.size != act_gfct.size:
-            lo, hi = t0[gct].min(), t1[gct].max()
-            raise InputError(
-                f"epoch {t:.4f} is outside the validity intervals of {path}"
-                f" ({lo:.4f} to {hi:.4f}) for some coefficients"
-            )
-        lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = (
-            a[active] for a in (lines, kind, n, m, c, s, sc, ss, has_sig, t0, period)
-        )
-    elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
-        g = kind == 1
-        t0[g] = _times(path, last[g], lines[g], nhead)
+    lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = _epochs(
+        path, nhead, v2, t, (lines, kind, n, m, c, s, sc, ss, has_sig, last, prev, third)
+    )
     g = kind == 1
     C, S, sig = table.finish(
         path, nhead, lines[g], n[g], m[g], c[g], s[g], sc[g], ss[g], has_sig[g]
