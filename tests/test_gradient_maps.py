@@ -86,3 +86,20 @@ def test_cli_gradient_map_writes_six_components(tmp_path):
         assert sorted(v for v in ds.data_vars) == sorted(GRID_COMPONENTS)
         tr = ds["T_ee"] + ds["T_nn"] + ds["T_uu"]
         assert np.abs(tr.values - TWO_OMEGA2).max() < 1e-3
+
+
+def test_normal_gravity_gradient_map(model60):
+    """gradient-normal: the exact normal gravity tensor; gravity minus it is the disturbance's."""
+    kw = dict(model=model60, height_km=10, region=REGION, step_deg=2.0)
+    nor = quantity_map("gradient-normal", **kw)
+    grav = quantity_map("gradient", **kw)
+    dist = quantity_map("gradient-disturbance", **kw)
+    assert "the exact normal gravity of WGS84" in nor.attrs["source"]
+    for name in GRID_COMPONENTS:
+        np.testing.assert_allclose(
+            grav[name].values - nor[name].values, dist[name].values, rtol=0, atol=1e-4
+        )
+    trace = nor["T_ee"] + nor["T_nn"] + nor["T_uu"]
+    assert np.abs(trace.values - TWO_OMEGA2).max() < 1e-3
+    # free-air gradient: g_up (about -9.8 m/s²) grows by about 3086 E per metre of height
+    assert 3000.0 < float(nor["T_uu"].mean()) < 3200.0

@@ -70,6 +70,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
                 "potential",
                 "gradient",
                 "gradient-disturbance",
+                "gradient-normal",
                 "disturbance-sigma",
                 "anomaly-sigma",
                 "geoid-sigma",
@@ -77,8 +78,9 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             default="disturbance",
             help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
             "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy; gradient, "
-            "gradient-disturbance: the six ENU components of the gradient tensor of gravity or "
-            "of the disturbance (Eötvös); disturbance-sigma, anomaly-sigma, geoid-sigma: the "
+            "gradient-disturbance, gradient-normal: the six ENU components of the gradient "
+            "tensor of gravity, of the disturbance or of exact normal gravity (Eötvös); "
+            "disturbance-sigma, anomaly-sigma, geoid-sigma: the "
             "commission error from the model's coefficient sigma (diagonal propagation)",
         )
     p.add_argument(

@@ -171,6 +171,7 @@ def gradient_tensor(
 GRID_QUANTITIES = {
     "gradient": ("gravity", "gravity (model gravitation + centrifugal)"),
     "gradient-disturbance": ("disturbance", "gravity disturbance (model - exact normal)"),
+    "gradient-normal": ("normal", "exact normal gravity (incl. centrifugal)"),
 }
 #: variable name -> (i, j) of the ENU tensor: the six independent components
 GRID_COMPONENTS = {
@@ -189,7 +190,8 @@ def grid_gradient(
     """Return the six ENU components of the gradient tensor on every node of a grid, in Eötvös.
 
     :func:`gradient_tensor` at each node (every node on its own, so a block of rows gives the
-    bits of the whole grid). ``quantity``: ``"gradient"`` (gravity) or ``"gradient-disturbance"``.
+    bits of the whole grid). ``quantity``: ``"gradient"`` (gravity), ``"gradient-disturbance"``
+    or ``"gradient-normal"`` (the exact normal gravity of ``ellipsoid``).
     Returns {``T_ee``, ``T_en``, ``T_eu``, ``T_nn``, ``T_nu``, ``T_uu``: array ``grid.shape``}.
     """
     if quantity not in GRID_QUANTITIES:

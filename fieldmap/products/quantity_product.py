@@ -50,7 +50,11 @@ VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
     ],
     "potential": [("potential", "m2 s-2", "disturbing potential T = W - U", None)],
 }
-for _q, _what in (("gradient", "gravity"), ("gradient-disturbance", "gravity disturbance")):
+for _q, _what in (
+    ("gradient", "gravity"),
+    ("gradient-disturbance", "gravity disturbance"),
+    ("gradient-normal", "exact normal gravity"),
+):
     VARIABLES[_q] = [
         (
             name,
@@ -61,7 +65,7 @@ for _q, _what in (("gradient", "gravity"), ("gradient-disturbance", "gravity dis
         for name in ("T_ee", "T_en", "T_eu", "T_nn", "T_nu", "T_uu")
     ]
 #: quantities of the tensor (no disturbing potential involved: degree0 does not apply)
-GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance")
+GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance", "gradient-normal")
 _SIGMA = "standard deviation (commission error, diagonal propagation of the coefficient sigma)"
 VARIABLES["disturbance-sigma"] = [
     (f"sigma_{c}", "mGal", f"{_SIGMA} of the {c} component of the gravity disturbance", None)
@@ -85,7 +89,11 @@ def _definition(degree0: bool, quantity: str = "potential") -> str:
             "counted (omission error); geoid at h = 0"
         )
     if quantity in GRADIENT_QUANTITIES:
-        what = "g" if quantity == "gradient" else "g - gamma_exact (gravitation)"
+        what = {
+            "gradient": "g",
+            "gradient-disturbance": "g - gamma_exact (gravitation)",
+            "gradient-normal": "gamma_exact (with centrifugal)",
+        }[quantity]
         return (
             f"second derivatives of the potential: d({what})_i / dx_j in the local geodetic "
             "east-north-up frame at each node (1 E = 1e-9 s-2); g is model gravitation plus "
@@ -126,8 +134,11 @@ def template(quantity: str, mod, grid, ell, degree0: bool) -> xr.Dataset:
         mod,
         ell,
         grid,
-        f"fieldmap {__version__}: {mod.name} degree {mod.lmax}"
-        + ("" if quantity == "gradient" else f" minus the {ell.name} normal field"),
+        f"fieldmap {__version__}: "
+        + {
+            "gradient": f"{mod.name} degree {mod.lmax}",
+            "gradient-normal": f"the exact normal gravity of {ell.name}",
+        }.get(quantity, f"{mod.name} degree {mod.lmax} minus the {ell.name} normal field"),
     )
     attrs.update({"quantity": quantity, "definition": _definition(degree0, quantity)})
     attrs["frame"] = (
