@@ -59,6 +59,23 @@ def _sigma_model(model, lmax, epoch) -> SHModel:
     return m
 
 
+def disturbance_basis(n: int, P, PU, t, m, cd, sd):
+    """Basis values of δg at degree n, orders m = 0..n: (east factor m P̄/u, north, up).
+
+    ``P``, ``PU``: P̄nm and P̄nm/u, shape (N, n+1) (:func:`fieldmap.reference.sh.legendre_rows`);
+    ``t`` sin ψ (N,); ``m`` the orders; ``cd``, ``sd`` cos/sin of φ − ψ, shape (N, 1). North and
+    up are the geodetic components of the geocentric radial −(n+1) P̄ and dP̄/dψ (the factor
+    GM/r² q^n and cos/sin mλ left out); the east basis is ∓ m P̄/u sin/cos mλ.
+    """
+    e = np.sqrt((n - m) * (n + m + 1))
+    e[0] = np.sqrt(n * (n + 1) / 2.0)
+    P_next = np.zeros_like(P)
+    P_next[:, :n] = P[:, 1 : n + 1]
+    dP = -m * t[:, None] * PU + e * P_next
+    radial = -(n + 1.0) * P
+    return m * PU, -radial * sd + dP * cd, radial * cd + dP * sd
+
+
 def _variances(model: SHModel, x, y, z, lat_geod, quantity: str) -> np.ndarray:
     """Σ basis² σ² at ECEF points (1-D), shape (N,) or (N, 3) for the disturbance; SI units."""
     from fieldmap.reference.sh import legendre_rows
@@ -86,17 +103,9 @@ def _variances(model: SHModel, x, y, z, lat_geod, quantity: str) -> np.ndarray:
             f = (n - 1.0) if quantity == "anomaly" else 1.0
             acc[:, 0] += qn2 * f * f * np.sum(P * P * w, axis=1)
         else:
-            m = mm[k]
-            e = np.sqrt((n - m) * (n + m + 1))
-            e[0] = np.sqrt(n * (n + 1) / 2.0)
-            P_next = np.zeros_like(P)
-            P_next[:, :n] = P[:, 1 : n + 1]
-            dP = -m * t[:, None] * PU + e * P_next
-            radial = -(n + 1.0) * P
-            up = radial * cd + dP * sd
-            north = -radial * sd + dP * cd
+            east, north, up = disturbance_basis(n, P, PU, t, mm[k], cd, sd)
             we = sin2[:, k] * sc2[n, k] + cos2[:, k] * ss2[n, k]  # east: the λ-derivative
-            acc[:, 0] += qn2 * np.sum((m * PU) ** 2 * we, axis=1)
+            acc[:, 0] += qn2 * np.sum(east**2 * we, axis=1)
             acc[:, 1] += qn2 * np.sum(north * north * w, axis=1)
             acc[:, 2] += qn2 * np.sum(up * up * w, axis=1)
         qn2 = qn2 * q2

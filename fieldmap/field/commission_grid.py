@@ -22,7 +22,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field import frames
-from fieldmap.field.commission import MGAL
+from fieldmap.field.commission import MGAL, disturbance_basis
 from fieldmap.field.ellipsoid import Ellipsoid
 from fieldmap.models.shmodel import SHModel
 
@@ -101,16 +101,8 @@ def _row_variances(model: SHModel, t, u, r, phi, what: str):
             A[0, :, k] += w * sc2[n, k]
             B[0, :, k] += w * ss2[n, k]
         else:
-            m = mm[k]
-            e = np.sqrt((n - m) * (n + m + 1))
-            e[0] = np.sqrt(n * (n + 1) / 2.0)
-            P_next = np.zeros_like(P)
-            P_next[:, :n] = P[:, 1 : n + 1]
-            dP = -m * t[:, None] * PU + e * P_next
-            radial = -(n + 1.0) * P
-            up = radial * cd + dP * sd
-            north = -radial * sd + dP * cd
-            east = qn2 * (m * PU) ** 2  # basis ∓ sin mλ for C, cos mλ for S
+            east, north, up = disturbance_basis(n, P, PU, t, mm[k], cd, sd)
+            east = qn2 * east**2  # basis ∓ sin mλ for C, cos mλ for S
             A[0, :, k] += east * ss2[n, k]
             B[0, :, k] += east * sc2[n, k]
             for c, b in ((1, north), (2, up)):
