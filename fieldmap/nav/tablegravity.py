@@ -35,6 +35,7 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
     Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
     """
     from fieldmap.kernels import navtable as knt
+    from fieldmap.products.table_model import check_inside
 
     lat, lon, h = (
         np.ascontiguousarray(np.ravel(v), dtype=np.float64)
@@ -51,18 +52,6 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
         device=device,
     )
     return out.numpy()
-
-
-def check_inside(table, lat, lon, h) -> None:
-    """Raise InputError naming the first point outside the table's valid domain."""
-    from fieldmap.errors import InputError
-    from fieldmap.products.table_model import outside_message
-
-    inside = table.contains(lat, lon, h)
-    if not np.all(inside):
-        k = int(np.flatnonzero(~np.ravel(inside))[0])
-        pts = [float(np.ravel(v)[k]) for v in np.broadcast_arrays(lat, lon, h)]
-        raise InputError(outside_message(table, *pts))
 
 
 def table_gravitation(

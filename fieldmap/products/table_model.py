@@ -193,15 +193,25 @@ def interpolate(table: CompensationTable, lat, lon, h, *, outside: str = "raise"
     if outside not in ("raise", "nan"):
         raise InputError(f"outside must be 'raise' or 'nan', got {outside!r}")
     y, x, z, inside = _coordinates(table, lat, lon, h)
-    if outside == "raise" and not np.all(inside):
-        k = int(np.flatnonzero(~inside)[0])
-        raise InputError(outside_message(table, *_point(lat, lon, h, k)))
+    if outside == "raise":
+        _raise_outside(table, lat, lon, h, inside)
     out = np.full((y.size, 3), np.nan)
     for s in range(0, y.size, _CHUNK):
         sel = slice(s, s + _CHUNK)
         ok = inside[sel]
         out[s : s + ok.size][ok] = _interp(table, y[sel][ok], x[sel][ok], z[sel][ok])
     return out
+
+
+def check_inside(table: CompensationTable, lat, lon, h) -> None:
+    """Raise :class:`InputError` naming the first point outside the table's valid domain."""
+    _raise_outside(table, lat, lon, h, table.contains(lat, lon, h))
+
+
+def _raise_outside(table, lat, lon, h, inside) -> None:
+    if not np.all(inside):
+        k = int(np.flatnonzero(~inside)[0])
+        raise InputError(outside_message(table, *_point(lat, lon, h, k)))
 
 
 def _point(lat, lon, h, k):
