@@ -82,18 +82,15 @@ def gravity_error_along(track, t, names, model, ell, device=None):
             from fieldmap.products.table_model import load_table
 
             tab = load_table(table_file(m))
-            dg[m] = to_ned(table_gravitation(tab, *r.T, ellipsoid=ell, device=device)) - g_true
-            v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
-            pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)
-            continue
-        if m in NORMAL_KINDS:
-            g = Gravitation(NORMAL_KINDS[m], device=device, ellipsoid=ell)
+            g_nav = table_gravitation(tab, *r.T, ellipsoid=ell, device=device)
+        elif m in NORMAL_KINDS:
+            g_nav = Gravitation(NORMAL_KINDS[m], device=device, ellipsoid=ell)(r)
         else:
             from fieldmap.nav.navgravity import parse_gravity
 
             lmax = parse_gravity(m, model)[1]
-            g = Gravitation("sh", model=model, lmax=lmax, device=device, ellipsoid=ell)
-        dg[m] = to_ned(g(r)) - g_true
+            g_nav = Gravitation("sh", model=model, lmax=lmax, device=device, ellipsoid=ell)(r)
+        dg[m] = to_ned(g_nav) - g_true
         v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
         pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)
     return dg, pred
