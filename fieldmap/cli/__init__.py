@@ -34,7 +34,6 @@ _COMMANDS = {
     "fieldmap.cli.imu": ("imu",),
     "fieldmap.cli.table": ("table",),
 }
-_COMMAND_MODULES = tuple(_COMMANDS)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -70,7 +69,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fieldmap {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     only = [m for m, cmds in _COMMANDS.items() if command in cmds]
-    for name in only or _COMMAND_MODULES:
+    for name in only or _COMMANDS:
         try:
             mod = importlib.import_module(name)
         except ModuleNotFoundError as exc:  # a sub-command not written yet

@@ -243,11 +243,13 @@ def compute_block(job: Job, model) -> dict:
             data["modulus_mg"], job.row_weights, job.thresholds, job.hist_weights
         )
     else:
-        if job.quantity.startswith("gradient"):
+        from fieldmap.products.quantity_product import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
+
+        if job.quantity in GRADIENT_QUANTITIES:
             from fieldmap.field.gradient import grid_gradient
 
             vals = grid_gradient(model, sub, job.quantity, ellipsoid=ell, device=job.device)
-        elif job.quantity.endswith("-sigma"):
+        elif job.quantity in SIGMA_QUANTITIES:
             from fieldmap.field.commission_grid import grid_commission
 
             vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
