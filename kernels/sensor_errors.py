@@ -119,3 +119,74 @@ def measured(M: wp.mat33d, x: wp.vec3d, bias_dt: wp.vec3d, sigma: wp.float64, st
             wp.float64(wp.randn(state)), wp.float64(wp.randn(state)), wp.float64(wp.randn(state))
         )
     return y, state
+
+
+@wp.struct
+class ThreadErrors:
+    """The sensor errors of one thread, hoisted out of its loop (:func:`thread_errors`).
+
+    ``Mg``, ``Ma`` the scale/misalignment matrices; ``bg``, ``ba`` the biases times dt;
+    ``sg``, ``sa`` σ √dt of the white noise; (``ga``, ``gb``), (``aa``, ``ab``) the per-sample
+    Gauss–Markov factors of :func:`gm_coeffs`; ``seed`` the run's seed; ``noisy`` 1 when a draw
+    can follow (then every sample hashes its RNG state, :func:`sample_rng`).
+    """
+
+    Mg: wp.mat33d
+    Ma: wp.mat33d
+    bg: wp.vec3d
+    ba: wp.vec3d
+    sg: wp.float64
+    sa: wp.float64
+    ga: wp.float64
+    gb: wp.float64
+    aa: wp.float64
+    ab: wp.float64
+    seed: wp.int32
+    noisy: wp.int32
+
+
+@wp.func
+def thread_errors(err: SensorErrors, i: int, dt: wp.float64):
+    """Hoist the sensor errors of trajectory ``i`` (one IMU sample of ``dt`` s) for its loop."""
+    e = ThreadErrors()
+    e.sg = err.gyro_noise[i] * wp.sqrt(dt)
+    e.sa = err.acc_noise[i] * wp.sqrt(dt)
+    e.Mg = err.gyro_M[i]
+    e.Ma = err.acc_M[i]
+    e.bg = err.gyro_bias[i] * dt
+    e.ba = err.acc_bias[i] * dt
+    e.seed = err.seed[i]
+    ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
+    aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+    e.ga = ga
+    e.gb = gb
+    e.aa = aa
+    e.ab = ab
+    e.noisy = wp.int32(0)
+    if e.sg != _ZERO or e.sa != _ZERO or e.gb != _ZERO or e.ab != _ZERO:
+        e.noisy = 1
+    return e
+
+
+@wp.func
+def measured_sample(
+    e: ThreadErrors,
+    th: wp.vec3d,
+    dv: wp.vec3d,
+    beta_g: wp.vec3d,
+    beta_a: wp.vec3d,
+    dt: wp.float64,
+    index: wp.int32,
+):
+    """Measured increments of IMU sample ``index`` (global in the flight), and the GM updates.
+
+    The draws in their fixed order: gyro noise, gyro Gauss–Markov, accelerometer noise,
+    accelerometer Gauss–Markov (the sample's noise uses the biases β before their update).
+    Returns (dθ, dv, β_g, β_a, RNG state), the state for the baro draws that may follow.
+    """
+    state = sample_rng(e.noisy, e.seed, index)
+    th, state = measured(e.Mg, th, e.bg + beta_g * dt, e.sg, state)
+    beta_g, state = gm_step(beta_g, e.ga, e.gb, state)
+    dv, state = measured(e.Ma, dv, e.ba + beta_a * dt, e.sa, state)
+    beta_a, state = gm_step(beta_a, e.aa, e.ab, state)
+    return th, dv, beta_g, beta_a, state

@@ -28,9 +28,8 @@ from .sensor_errors import (  # noqa: F401 - the structs are part of this module
     BaroAiding,
     SensorErrors,
     gm_coeffs,
-    gm_step,
-    measured,
-    sample_rng,
+    measured_sample,
+    thread_errors,
 )
 from .sh import SHKernelModel
 
@@ -123,18 +122,7 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
         q = q0[i]
         T = dt + dt
         C_a_t = wp.transpose(lp.C_t_to_a)
-        sg = err.gyro_noise[i] * wp.sqrt(dt)
-        sa = err.acc_noise[i] * wp.sqrt(dt)
-        Mg = err.gyro_M[i]
-        Ma = err.acc_M[i]
-        bg = err.gyro_bias[i] * dt
-        ba = err.acc_bias[i] * dt
-        seed = err.seed[i]
-        ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
-        aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
-        noisy = wp.int32(0)
-        if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
-            noisy = 1
+        te = thread_errors(err, i, dt)
         beta_g = err.gyro_gm[i]
         beta_a = err.acc_gm[i]
         gh = grav_hold[i, 0]
@@ -152,16 +140,12 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
             th2 = dtheta[s, j + 1]
             dv2 = dvel[s, j + 1]
             if wp.static(errors):
-                state = sample_rng(noisy, seed, sample0 + j)
-                th1, state = measured(Mg, th1, bg + beta_g * dt, sg, state)
-                beta_g, state = gm_step(beta_g, ga, gb, state)
-                dv1, state = measured(Ma, dv1, ba + beta_a * dt, sa, state)
-                beta_a, state = gm_step(beta_a, aa, ab, state)
-                state = sample_rng(noisy, seed, sample0 + j + 1)
-                th2, state = measured(Mg, th2, bg + beta_g * dt, sg, state)
-                beta_g, state = gm_step(beta_g, ga, gb, state)
-                dv2, state = measured(Ma, dv2, ba + beta_a * dt, sa, state)
-                beta_a, state = gm_step(beta_a, aa, ab, state)
+                th1, dv1, beta_g, beta_a, _s1 = measured_sample(
+                    te, th1, dv1, beta_g, beta_a, dt, sample0 + j
+                )
+                th2, dv2, beta_g, beta_a, _s2 = measured_sample(
+                    te, th2, dv2, beta_g, beta_a, dt, sample0 + j + 1
+                )
             th = th1 + th2
             dvb = dv1 + dv2
             phi = th + _TWO_THIRDS * wp.cross(th1, th2)
@@ -272,15 +256,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
         llh = llh0[i]
         v = v0[i]
         q = q0[i]
-        sg = err.gyro_noise[i] * wp.sqrt(dt)
-        sa = err.acc_noise[i] * wp.sqrt(dt)
-        Mg = err.gyro_M[i]
-        Ma = err.acc_M[i]
-        bg = err.gyro_bias[i] * dt
-        ba = err.acc_bias[i] * dt
-        seed = err.seed[i]
-        ga, gb = gm_coeffs(err.gyro_gm_sigma[i], err.gyro_gm_tau[i], dt)
-        aa, ab = gm_coeffs(err.acc_gm_sigma[i], err.acc_gm_tau[i], dt)
+        te = thread_errors(err, i, dt)
         beta_g = err.gyro_gm[i]
         beta_a = err.acc_gm[i]
         gh = grav_hold[i, 0]
@@ -292,11 +268,8 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
         ba_a, ba_b = gm_coeffs(baro.gm_sigma[i], baro.gm_tau[i], dt)
         b_bias = baro.bias[i]
         b_noise = baro.noise[i]
-        noisy = wp.int32(0)
-        if sg != _ZERO or sa != _ZERO or gb != _ZERO or ab != _ZERO:
-            noisy = 1
         if baro.enabled != 0 and (b_noise != _ZERO or ba_b != _ZERO):
-            noisy = 1
+            te.noisy = 1
         llh_out[i, 0] = llh
         v_out[i, 0] = v
         q_out[i, 0] = q
@@ -305,11 +278,9 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
             dv = dvel[s, k]
             dh = _ZERO
             if wp.static(errors):
-                state = sample_rng(noisy, seed, sample0 + k)
-                th, state = measured(Mg, th, bg + beta_g * dt, sg, state)
-                beta_g, state = gm_step(beta_g, ga, gb, state)
-                dv, state = measured(Ma, dv, ba + beta_a * dt, sa, state)
-                beta_a, state = gm_step(beta_a, aa, ab, state)
+                th, dv, beta_g, beta_a, state = measured_sample(
+                    te, th, dv, beta_g, beta_a, dt, sample0 + k
+                )
                 if baro.enabled != 0:
                     h_b = baro.h_ref[s, k] + b_bias + drift
                     if b_noise != _ZERO:
