@@ -214,7 +214,9 @@ def prepare_batch(
         names = names * n
     if len(names) != n:
         raise InputError(f"{len(names)} gravity names for {n} trajectories")
-    kl = np.array([parse_gravity(g, sh_model) for g in names], dtype=np.int32).reshape(n, 2)
+    # once per distinct name (a table name reads or stats its file; runs repeat names per draw)
+    parsed = {g: parse_gravity(g, sh_model) for g in dict.fromkeys(names)}
+    kl = np.array([parsed[g] for g in names], dtype=np.int32).reshape(n, 2)
     if imu_set is None:
         if n_sets not in (1, n):
             raise InputError(
