@@ -36,6 +36,20 @@ def ecef_to_enu(v: wp.vec3d, lat: wp.float64, lon: wp.float64):
 
 
 @wp.func
+def enu_to_ecef(v: wp.vec3d, lat: wp.float64, lon: wp.float64):
+    """Rotate a local east-north-up vector at geodetic lat, lon (rad) into ECEF."""
+    sl = wp.sin(lat)
+    cl = wp.cos(lat)
+    so = wp.sin(lon)
+    co = wp.cos(lon)
+    return wp.vec3d(
+        -so * v[0] - sl * co * v[1] + cl * co * v[2],
+        co * v[0] - sl * so * v[1] + cl * so * v[2],
+        cl * v[1] + sl * v[2],
+    )
+
+
+@wp.func
 def enu_to_ned(v: wp.vec3d):
     """Reorder an east-north-up vector into north-east-down."""
     return wp.vec3d(v[1], v[0], -v[2])

@@ -13,7 +13,7 @@ table's δg (north, east, down, mGal) turned into ECEF at the geodetic position 
 
 import warp as wp
 
-from .frames import ecef_to_enu
+from .frames import ecef_to_enu, enu_to_ecef
 from .normal import KIND_EXACT, NormalParams, normal_field_ecef
 
 # forward kernels only: fieldmap never differentiates through them
@@ -132,17 +132,7 @@ def table_gravitation_ecef(tab: TableKernel, p: wp.vec3d, ell: NormalParams):
     """Exact normal gravitation plus the table's δg at ECEF ``p``: ECEF, m/s²."""
     llh = ecef_to_geodetic_rad(p, ell.a, ell.e2)
     d = table_ned(tab, wp.degrees(llh[0]), wp.degrees(llh[1]), llh[2]) * _MGAL
-    enu = wp.vec3d(d[1], d[0], -d[2])
-    # ENU -> ECEF: the transpose of ecef_to_enu's rotation, applied column by column
-    sl = wp.sin(llh[0])
-    cl = wp.cos(llh[0])
-    so = wp.sin(llh[1])
-    co = wp.cos(llh[1])
-    g = wp.vec3d(
-        -so * enu[0] - sl * co * enu[1] + cl * co * enu[2],
-        co * enu[0] - sl * so * enu[1] + cl * so * enu[2],
-        cl * enu[1] + sl * enu[2],
-    )
+    g = enu_to_ecef(wp.vec3d(d[1], d[0], -d[2]), llh[0], llh[1])
     return normal_field_ecef(p, ell, KIND_EXACT, 0) + g
 
 
