@@ -156,6 +156,7 @@ def synthesize(
     progress: bool | None = None,
     symmetric: bool = True,
     potential: bool = False,
+    xrange: bool | None = None,
 ) -> np.ndarray:
     """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
 
@@ -180,6 +181,10 @@ def synthesize(
     potential : bool
         Also return the model potential V (eq. 1 of Chen et al. 2022, no normal part
         subtracted, no centrifugal term) as a fourth component, from the same Legendre pass.
+    xrange : bool, optional
+        Legendre pass with extended-range X-numbers (:mod:`fieldmap.kernels.grid_xrange`).
+        Default: above degree 2700 only (:data:`fieldmap.field.sh.MAX_DEGREE_GRID`, the limit
+        of the scaled recursion); True forces it at any degree (tests, benchmarks).
 
     Returns
     -------
@@ -194,16 +199,28 @@ def synthesize(
 
     from fieldmap import _warp
     from fieldmap.field.ellipsoid import WGS84
-    from fieldmap.field.sh import kernel_model
-    from fieldmap.grids.tables import grid_tables
+    from fieldmap.field.sh import MAX_DEGREE_GRID, MAX_DEGREE_POINTS, kernel_model
+    from fieldmap.grids.tables import grid_tables, grid_tables_x
     from fieldmap.kernels import grid as kgrid
+    from fieldmap.kernels import grid_xrange as kgridx
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
     ellipsoid = ellipsoid or WGS84
     device = resolve_device(device)
-    km = kernel_model(model, device)
-    tabs = grid_tables(model, km, device) if symmetric else ()
+    xr = model.lmax > MAX_DEGREE_GRID if xrange is None else bool(xrange)
+    if model.lmax > MAX_DEGREE_POINTS:
+        raise InputError(f"degree {model.lmax} is above {MAX_DEGREE_POINTS}; truncate the model")
+    if xr and not symmetric:
+        raise InputError("symmetric=False (the engine's column path) stops at degree 2700")
+    if xr:  # the model enters the kernel as GM, lmax and the packed tables
+        head: list[Any] = [wp.float64(model.gm), int(model.lmax)]
+        tabs = grid_tables_x(model, model.lmax, device)
+        kern = kgridx.row_fourier8x_kernel
+    else:
+        head = [kernel_model(model, device)]
+        tabs = grid_tables(model, head[0], device) if symmetric else ()
+        kern = kgrid.row_fourier8_kernel
     simd = int(device == "cpu")  # explicit SIMD vectors on the CPU (kernels.grid.column8_simd)
     nm = model.lmax + 1
     nh, nlat, nlon = grid.shape
@@ -251,13 +268,13 @@ def synthesize(
             ra: Any = wp.array(ga, dtype=wp.int32, device=device)
             rb: Any = wp.array(gb, dtype=wp.int32, device=device)
             _warp.launch_chunked(
-                kgrid.row_fourier8_kernel,
+                kern,
                 ng * nm,
-                [km, *tabs, *geo, ra, rb, ng, simd, coef],
+                [*head, *tabs, *geo, ra, rb, ng, simd, coef],
                 device,
             )
         else:
-            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [km, *geo, nm, coef], device)
+            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [*head, *geo, nm, coef], device)
         t1 = time.perf_counter()
         t_leg += t1 - t0
         W = coef.numpy().view(np.complex128)[..., 0]  # (nb, nc, nm): A_m - i B_m

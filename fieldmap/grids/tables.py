@@ -12,6 +12,12 @@ f_{n+1,m} C_{n+1,m}, f_{n+1,m} S_{n+1,m})`` for m <= n <= lmax (the last two 0 a
 the latitude-derivative products shifted by one degree so that every product of a step
 multiplies the same Q_nm. ``zon[n] = f_{n0} C_{n0}`` (f_{n0} = sqrt(n(n+1)/2)) feeds the zonal
 north sum, which runs along column m = 1.
+
+Above degree 2700 the engine builds no square tables (they would hold 3 (L+1)² doubles):
+:func:`pack_columns_direct` forms the same entries order by order from the closed forms of
+:func:`fieldmap.field.sh.recursion_tables` (the same float64 operations, so the same bits) and
+:func:`grid_tables_x` serves the extended-range kernel
+(:mod:`fieldmap.kernels.grid_xrange`). Memory: 64 bytes per (m, n), 0.98 GB at degree 5540.
 """
 
 from __future__ import annotations
@@ -60,6 +66,91 @@ def pack_columns(anm, bnm, fnm, cnm, snm, lmax: int) -> tuple[np.ndarray, np.nda
         blk[:-1, 7] = snm[m, m + 1 : L + 1] * f
     zon = fnm[0, : L + 1] * cnm[0, : L + 1]
     return rec, start, np.ascontiguousarray(zon)
+
+
+def sectoral(lmax: int) -> np.ndarray:
+    """``sect[m]`` = P̄mm/u^m (s_0 = 1, s_1 = √3, s_m = s_{m−1} sqrt((2m+1)/(2m)))."""
+    L = int(lmax)
+    sect = np.ones(L + 1)
+    if L >= 1:
+        k = np.arange(2, L + 1, dtype=np.float64)
+        sect[1] = np.sqrt(3.0)
+        sect[2:] = np.sqrt(3.0) * np.cumprod(np.sqrt((2 * k + 1) / (2 * k)))
+    return sect
+
+
+def pack_columns_direct(model, lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`pack_columns` of a model without square tables (any degree); same values.
+
+    The recursion factors of each order m come from the closed forms of
+    :func:`fieldmap.field.sh.recursion_tables` evaluated on that order's degrees, the
+    coefficients from ``model.C``, ``model.S`` (``[n, m]``) read in blocks of orders.
+    """
+    L = int(lmax)
+    cnt = L + 1 - np.arange(L + 1)
+    start = np.concatenate([[0], np.cumsum(cnt)[:-1]]).astype(np.int64)
+    rec = np.empty((int(cnt.sum()), 8))
+    step = 128  # orders per block: the [n, m] -> [m, n] transposes stay in cache
+    for m0 in range(0, L + 1, step):
+        m1 = min(m0 + step, L + 1)
+        cblk = np.ascontiguousarray(model.C[m0 : L + 1, m0:m1].T)  # [m - m0, n - m0]
+        sblk = np.ascontiguousarray(model.S[m0 : L + 1, m0:m1].T)
+        for m in range(m0, m1):
+            s0 = int(start[m])
+            n = np.arange(m, L + 1, dtype=np.float64)
+            mm = np.float64(m)
+            blk = rec[s0 : s0 + n.size]
+            c = cblk[m - m0, m - m0 :]
+            s = sblk[m - m0, m - m0 :]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                a = np.sqrt((2 * n - 1) * (2 * n + 1) / ((n - mm) * (n + mm)))
+                b = np.sqrt(
+                    (2 * n + 1) * (n + mm - 1) * (n - mm - 1) / ((n - mm) * (n + mm) * (2 * n - 3))
+                )
+                f = np.sqrt((n * n - mm * mm) * (2 * n + 1) / (2 * n - 1))
+            a[0] = 0.0
+            b[:2] = 0.0
+            if m == 0:
+                f = np.sqrt(n * (n + 1) / 2.0)
+            blk[:, 0] = a
+            blk[:, 1] = b
+            blk[:, 2] = c
+            blk[:, 3] = s
+            blk[:, 4] = (n + 1.0) * c
+            blk[:, 5] = (n + 1.0) * s
+            blk[:-1, 6] = c[1:] * f[1:]
+            blk[:-1, 7] = s[1:] * f[1:]
+            blk[-1, 6:] = 0.0
+    n0 = np.arange(L + 1, dtype=np.float64)
+    zon = np.sqrt(n0 * (n0 + 1) / 2.0) * np.asarray(model.C[: L + 1, 0], dtype=np.float64)
+    return rec, start, np.ascontiguousarray(zon)
+
+
+def grid_tables_x(model, lmax: int, device: str):
+    """Warp arrays ``(rec, start, zon, sect)`` for the extended-range grid kernel, cached."""
+    import warp as wp
+
+    from fieldmap.kernels import grid as kgrid
+
+    L = int(lmax)
+    key = (id(model), L, device, "x")
+    with _lock:
+        hit = _cache.get(key)
+        if hit is not None and hit[0]() is model:
+            return hit[1]
+    rec, start, zon = pack_columns_direct(model, L)
+    out: tuple[Any, Any, Any, Any] = (
+        wp.array(rec, dtype=kgrid.vec8d, device=device, copy=device != "cpu"),
+        wp.array(start.astype(np.int32), dtype=wp.int32, device=device),
+        wp.array(zon, dtype=wp.float64, device=device),
+        wp.array(sectoral(L), dtype=wp.float64, device=device),
+    )
+    del rec
+    with _lock:
+        if len(_cache) >= _CACHE_MAX:
+            _cache.pop(next(iter(_cache)))
+        _cache[key] = (weakref.ref(model), out)
+    return out
 
 
 def grid_tables(model, km, device: str):
