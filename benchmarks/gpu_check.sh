@@ -74,6 +74,10 @@ run_step() {  # name, timeout (s), command...
 }
 
 run_step verify "$T" "${FIELDMAP[@]}" verify --device "$DEVICE" --lmax "$LMAX"
+# the kernels' own tests on this device (their device-parametrised cases), grid kernels first:
+# the eight-lane Legendre passes (scaled and extended-range) have never run on CUDA
+run_step kernels "$T" "$PY" -m pytest -q -p no:cacheprovider -m "not slow" -k "${DEVICE%%:*}" \
+  tests/test_grid_xrange.py tests/test_grid.py tests/test_any_degree.py tests/test_sh.py
 run_step grid "$T" "$PY" benchmarks/bench_grid.py --device "$DEVICE" --repeat "$REP" "${Q[@]}"
 run_step points "$T" "$PY" benchmarks/bench_points.py --device "$DEVICE" --repeats "$REP" \
   --points "$PTS" --tool-points 500 --pyshtools-points 50 --skip-cli
@@ -91,7 +95,7 @@ for i in "${!NAMES[@]}"; do
     124) st=TIMEOUT; status=1 ;;
     *) st="FAIL($rc)"; status=1 ;;
   esac
-  head_line=$(grep -E 'checks within|ratio|FAIL|failed|traj-steps/s|x$' \
+  head_line=$(grep -E 'checks within|ratio|FAIL|failed|passed|traj-steps/s|x$' \
     "$LOG/${NAMES[$i]}.log" | tail -n 1 | cut -c1-90)
   printf '%-10s %-9s %8.1f  %s\n' "${NAMES[$i]}" "$st" "${SECS[$i]}" "$head_line"
 done
