@@ -147,10 +147,20 @@ def grid_tables_x(model, lmax: int, device: str):
     )
     del rec
     with _lock:
+        # tables of this size (GB above degree 5000) are kept for one model at a time and
+        # leave with it
+        for k in [k for k in _cache if k[-1] == "x"]:
+            _cache.pop(k)
         if len(_cache) >= _CACHE_MAX:
             _cache.pop(next(iter(_cache)))
         _cache[key] = (weakref.ref(model), out)
+    weakref.finalize(model, _forget, key)
     return out
+
+
+def _forget(key) -> None:
+    with _lock:
+        _cache.pop(key, None)
 
 
 def grid_tables(model, km, device: str):
