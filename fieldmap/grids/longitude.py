@@ -8,6 +8,8 @@ through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_ker
 
 from __future__ import annotations
 
+import os
+import threading
 from typing import Any
 
 import numpy as np
@@ -66,8 +68,6 @@ def longitude_sums(
     if nper is None:
         res[...] = _direct_sums(W, lon_deg, device)
         return out
-    import scipy.fft
-
     # node k sits at lon0 + k * 2 pi / L: a lon0 on the node lattice is a rotation of the
     # output (exact), any other lon0 a phase factor on the series
     step = 360.0 / nper
@@ -76,23 +76,24 @@ def longitude_sums(
     if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
         k0 = 0
         F = W * np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
+    src = int(k0) % nper
+    direct = src == 0 and nlon == nper  # the transforms write straight into the result
+    H, z = _workspace(ns, nper, 0 if direct else ns * nper)
     # Re sum_m F_m e^{i m x} on x_k = 2 pi k / L is the inverse real FFT of the half spectrum
     # H_0 = Re F_0, H_j = F_j / 2 (0 < j < L/2), H_{L/2} = F_{L/2}: orders m >= L fold onto
     # m mod L, and m mod L = r > L/2 onto L - r conjugated (exact on the nodes). Each series is
     # transformed on its own, so its values do not depend on which series share the block.
     nh = nper // 2 + 1
     if nm <= nh:
-        H = np.empty((ns, nh), dtype=np.complex128)
         np.multiply(F, 0.5, out=H[:, :nm])
         H[:, nm:] = 0.0
         H[:, 0] = F[:, 0]
     elif nm <= nper:  # one fold; x 0.5 is exact, so (F_j + conj F_(L-j)) / 2 term by term
-        H = np.empty((ns, nh), dtype=np.complex128)
         np.multiply(F[:, :nh], 0.5, out=H)
         H[:, 0] = F[:, 0]
         H[:, nper - nm + 1 : nper - nh + 1] += np.conj(F[:, nh:nm][:, ::-1]) * 0.5
     else:
-        H = np.zeros((ns, nh), dtype=np.complex128)
+        H[...] = 0.0
         for m0 in range(0, nm, nper):
             blk = F[:, m0 : min(nm, m0 + nper)]
             nb = blk.shape[1]
@@ -102,18 +103,60 @@ def longitude_sums(
         H[:, 1:] *= 0.5
     if nper % 2 == 0 and nm > nper // 2:
         H[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
-    z = scipy.fft.irfft(H, n=nper, axis=-1, norm="forward", workers=-1, overwrite_x=True)
-    del H
-    # node k of the result is node (k + k0) mod L of z (beyond one turn the nodes repeat)
-    k, src = 0, int(k0) % nper
-    while k < nlon:
-        take = min(nlon - k, nper - src)
-        res[:, k : k + take] = z[:, src : src + take]
-        k += take
-        src = (src + take) % nper
+    if direct:
+        _irfft(H, nper, res)
+    else:
+        z = z.reshape(ns, nper)
+        _irfft(H, nper, z)
+        # node k of the result is node (k + k0) mod L of z (beyond one turn the nodes repeat)
+        k = 0
+        while k < nlon:
+            take = min(nlon - k, nper - src)
+            res[:, k : k + take] = z[:, src : src + take]
+            k += take
+            src = (src + take) % nper
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out
+
+
+#: Largest work area (bytes) of the longitude FFTs kept from one call to the next, per thread.
+#: Fresh memory costs more than the transforms on small grids (page faults: a global 0.5 deg
+#: grid of degree 240 needs 12 MB, faulted in at about twice the time of its FFTs); larger
+#: work areas are allocated for the call and freed.
+WORK_BYTES = 32 * 2**20
+
+_work = threading.local()
+
+
+def _workspace(ns: int, nper: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
+    """Half spectra (ns, nper // 2 + 1) complex and ``nz`` float64 values, uninitialised."""
+    nh = nper // 2 + 1
+    nbytes = ns * nh * 16 + nz * 8
+    buf = getattr(_work, "buf", None)
+    if buf is None or buf.size < nbytes:
+        buf = np.empty(nbytes, dtype=np.uint8)
+        if nbytes <= WORK_BYTES:
+            _work.buf = buf
+    H = buf[: ns * nh * 16].view(np.complex128).reshape(ns, nh)
+    return H, buf[ns * nh * 16 : nbytes].view(np.float64)
+
+
+def _irfft(H: np.ndarray, n: int, out: np.ndarray) -> None:
+    """``out[...] = scipy.fft.irfft(H, n, norm="forward")`` on every core, into ``out``.
+
+    SciPy's pocketfft binding writes into ``out`` (no fresh result array); without it (a SciPy
+    whose private binding differs), the public ``irfft`` and a copy give the same values.
+    """
+    import scipy.fft
+
+    workers = os.cpu_count() or 1
+    try:
+        from scipy.fft._pocketfft import pypocketfft
+
+        pypocketfft.c2r(H, (H.ndim - 1,), n, False, 0, out, workers)
+    except (ImportError, AttributeError, TypeError, RuntimeError):  # pragma: no cover
+        out[...] = scipy.fft.irfft(H, n=n, axis=-1, norm="forward", workers=workers)
 
 
 def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:

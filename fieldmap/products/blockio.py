@@ -400,11 +400,21 @@ class MemorySink:
 
     def __init__(self, grid, stacked: bool, names=VARIABLES):
         nh, nlat, nlon = grid.shape
-        shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
+        self.shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
         self.stacked = stacked
-        self.arrays = {name: np.empty(shape) for name in names}
+        self.names = tuple(names)
+        self.arrays: dict = {}
 
     def sink(self, block, data: dict) -> None:
-        """Copy one block's variables into place (a slice copy per run of rows)."""
-        for name, arr in self.arrays.items():
-            _put_block(arr, block, self.stacked, data[name])
+        """Copy one block's variables into place (a slice copy per run of rows).
+
+        A block holding every row of a single-height product is taken as it is (its arrays
+        become the product's, no copy): a small map is one block (``run_blocks``).
+        """
+        if not self.stacked and not self.arrays and block.rows.size == self.shape[0]:
+            self.arrays = {name: data[name] for name in self.names}
+            return
+        for name in self.names:
+            if name not in self.arrays:
+                self.arrays[name] = np.empty(self.shape)
+            _put_block(self.arrays[name], block, self.stacked, data[name])

@@ -57,9 +57,10 @@ __all__ = [
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
 #: The same, for blocks computed here into memory or a NetCDF file: each block is one
-#: synthesis (its own launches and uploads), and the grid kernel already spreads a block over
-#: the cores, so fewer, larger blocks cost less (any plan gives the same bits).
-LOCAL_BLOCKS_PER_HEIGHT = 4
+#: synthesis (its own launches, uploads and Python set-up), and the grid kernel and the FFTs
+#: already spread a block over the cores, so one block per height (as large as the memory
+#: budget allows) costs least; any plan gives the same bits.
+LOCAL_BLOCKS_PER_HEIGHT = 1
 #: Variables of a disturbance block, in the order of :func:`fieldmap.products.cf.vector_vars`.
 VARIABLES = ("east", "north", "up", "modulus", "modulus_mg")
 

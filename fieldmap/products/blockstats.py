@@ -107,20 +107,44 @@ def block_partial(
     ``row_weights``). The sums are kept per row and added exactly (``math.fsum``) when the
     statistics are finished, so nothing depends on the blocks' sizes or order.
     """
-    v = modulus_mg
-    if not np.all(np.isfinite(v)):
+    v = np.ascontiguousarray(modulus_mg, dtype=np.float64)
+    vmax, vmin = float(v.max()), float(v.min())  # NaN propagates, inf is caught
+    if not (math.isfinite(vmax) and math.isfinite(vmin)):
         raise InputError("map holds non-finite values")
     if hist_weights is None:
         hist_weights = histogram_weights(row_weights, v.shape[1])
-    w = np.repeat(hist_weights, v.shape[1])
+    flag = np.empty(v.shape, dtype=bool)  # one buffer for every threshold
+    above = []
+    for t in thresholds:
+        np.greater(v, t, out=flag)
+        above.append([row_weights * np.add.reduce(flag, axis=1, dtype=np.int64)])
     return {
-        "max": float(v.max()),
-        "min": float(v.min()),
+        "max": vmax,
+        "min": vmin,
         "sw": [row_weights * _rows(v)],
         "sw2": [row_weights * _rows(v * v)],
-        "above": [[row_weights * (v > t).sum(axis=1)] for t in thresholds],
-        "hist": _sparse(np.bincount(_hist_index(v.ravel()), weights=w, minlength=HIST_BINS)),
+        "above": above,
+        "hist": _histogram(v, vmin, vmax, hist_weights),
     }
+
+
+def _histogram(v: np.ndarray, vmin: float, vmax: float, row_hist_weights: np.ndarray):
+    """(bins, weights) of the non-empty histogram bins of a (rows, nlon) block.
+
+    The bins of the non-negative moduli are monotonic in their values, so only the bins from
+    the minimum's to the maximum's are counted (a few octaves, not all :data:`HIST_BINS`);
+    negative values and those below the range fall into bin 0, as in :func:`_hist_index`.
+    """
+    lo = int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
+    hi = int(_hist_index(np.array([vmax]))[0])
+    k = v.view(np.int64) >> _SHIFT
+    k -= _BITS_LO + lo
+    if vmin <= 0 or lo == 0 or hi == HIST_BINS - 1:  # values out of the range: clip them
+        np.clip(k, 0, hi - lo, out=k)
+    w = np.repeat(row_hist_weights, v.shape[1])
+    h = np.bincount(k.ravel(), weights=w, minlength=hi - lo + 1)
+    nz = np.flatnonzero(h)
+    return (nz + lo).astype(np.int32), h[nz]
 
 
 def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
@@ -133,12 +157,6 @@ def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
         "sw": [row_weights * _rows(v)],
         "sw2": [row_weights * _rows(v * v)],
     }
-
-
-def _sparse(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(bins, weights) of the non-empty bins: a block touches few of them, and travels light."""
-    nz = np.flatnonzero(h)
-    return nz.astype(np.int32), h[nz]
 
 
 def _fold_sums(a: dict, p: dict) -> None:
@@ -157,14 +175,27 @@ def merge_partials(acc: dict | None, part: dict) -> dict:
             _fold_sums(acc["vars"][k], p)
         return acc
     if acc is None:
-        acc = {**part, "above": [list(a) for a in part["above"]], "hist": np.zeros(HIST_BINS)}
-        acc["hist"][part["hist"][0]] = part["hist"][1]
-        return acc
+        return {**part, "above": [list(a) for a in part["above"]], "hist": [part["hist"]]}
     _fold_sums(acc, part)
     acc["above"] = [a + b for a, b in zip(acc["above"], part["above"])]
-    # whole numbers below 2**53 (histogram_weights): exact in any order
-    acc["hist"][part["hist"][0]] += part["hist"][1]  # distinct bins: no repeated index
+    acc["hist"] = acc["hist"] + [part["hist"]]  # added up in finish_statistics
     return acc
+
+
+def _merged_histogram(parts: list) -> tuple[np.ndarray, np.ndarray]:
+    """(bins, weights) of the non-empty bins of the sum of sparse histograms, bins ascending.
+
+    The weights are whole numbers below 2**53 (:func:`histogram_weights`): exact in any order.
+    """
+    bins = np.concatenate([p[0] for p in parts]).astype(np.int64)
+    weights = np.concatenate([p[1] for p in parts])
+    if len(parts) > 1:
+        order = np.argsort(bins, kind="stable")
+        bins, weights = bins[order], weights[order]
+        start = np.flatnonzero(np.concatenate([[True], bins[1:] != bins[:-1]]))
+        bins, weights = bins[start], np.add.reduceat(weights, start)
+    keep = weights != 0
+    return bins[keep], weights[keep]
 
 
 def _fsum(parts: list) -> float:
@@ -197,10 +228,20 @@ def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -
         "mean_mg": _fsum(acc["sw"]) / total_weight,
         "rms_mg": math.sqrt(_fsum(acc["sw2"]) / total_weight),
     }
-    cw = np.cumsum(acc["hist"])
+    # the cumulative weight of all bins steps up only at the non-empty ones: the first bin
+    # where it reaches a target > 0 is a non-empty bin (a target <= 0: bin 0)
+    bins, weights = _merged_histogram(acc["hist"])
+    cw = np.cumsum(weights)
+    total = float(cw[-1]) if cw.size else 0.0
     for q in percentiles:
-        k = int(np.searchsorted(cw, q / 100.0 * cw[-1], side="left"))
-        k = min(k, HIST_BINS - 1)
+        target = q / 100.0 * total
+        j = int(np.searchsorted(cw, target, side="left"))
+        if target <= 0:
+            k = 0
+        elif j < bins.size:
+            k = int(bins[j])
+        else:
+            k = HIST_BINS - 1
         out[f"p{q:g}_mg"] = _bin_centre(k)
     out["area_fraction_above"] = {
         threshold_key(t): _fsum(a) / total_weight for t, a in zip(thresholds, acc["above"])
