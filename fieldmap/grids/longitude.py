@@ -8,8 +8,8 @@ through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_ker
 
 from __future__ import annotations
 
-import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -72,91 +72,140 @@ def longitude_sums(
     # output (exact), any other lon0 a phase factor on the series
     step = 360.0 / nper
     k0 = round(lon_deg[0] / step)
-    F = W
+    phase = None
     if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
         k0 = 0
-        F = W * np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
-    src = int(k0) % nper
-    direct = src == 0 and nlon == nper  # the transforms write straight into the result
-    H, z = _workspace(ns, nper, 0 if direct else ns * nper)
-    # Re sum_m F_m e^{i m x} on x_k = 2 pi k / L is the inverse real FFT of the half spectrum
-    # H_0 = Re F_0, H_j = F_j / 2 (0 < j < L/2), H_{L/2} = F_{L/2}: orders m >= L fold onto
-    # m mod L, and m mod L = r > L/2 onto L - r conjugated (exact on the nodes). Each series is
-    # transformed on its own, so its values do not depend on which series share the block.
-    nh = nper // 2 + 1
-    if nm <= nh:
-        np.multiply(F, 0.5, out=H[:, :nm])
-        H[:, nm:] = 0.0
-        H[:, 0] = F[:, 0]
-    elif nm <= nper:  # one fold; x 0.5 is exact, so (F_j + conj F_(L-j)) / 2 term by term
-        np.multiply(F[:, :nh], 0.5, out=H)
-        H[:, 0] = F[:, 0]
-        H[:, nper - nm + 1 : nper - nh + 1] += np.conj(F[:, nh:nm][:, ::-1]) * 0.5
+        phase = np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
+    # contiguous parts of the series, one per thread, each transformed chunk by chunk in
+    # work arrays that stay in the core's cache (a series' values do not depend on the split)
+    nparts = max(1, min(_threads(), ns // CHUNK_MIN))
+    cuts = [ns * i // nparts for i in range(nparts + 1)]
+    tasks = [(W[a:b], phase, nper, int(k0) % nper, res[a:b]) for a, b in zip(cuts, cuts[1:])]
+    if nparts == 1:
+        _fft_rows(*tasks[0])
     else:
-        H[...] = 0.0
-        for m0 in range(0, nm, nper):
-            blk = F[:, m0 : min(nm, m0 + nper)]
-            nb = blk.shape[1]
-            H[:, : min(nb, nh)] += blk[:, :nh]
-            if nb > nh:  # r = nh .. nb-1 folds onto L - r (distinct targets L-nh .. L-nb+1)
-                H[:, nper - nb + 1 : nper - nh + 1] += np.conj(blk[:, nh:nb][:, ::-1])
-        H[:, 1:] *= 0.5
-    if nper % 2 == 0 and nm > nper // 2:
-        H[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
-    if direct:
-        _irfft(H, nper, res)
-    else:
-        z = z.reshape(ns, nper)
-        _irfft(H, nper, z)
-        # node k of the result is node (k + k0) mod L of z (beyond one turn the nodes repeat)
-        k = 0
-        while k < nlon:
-            take = min(nlon - k, nper - src)
-            res[:, k : k + take] = z[:, src : src + take]
-            k += take
-            src = (src + take) % nper
+        futs = [_pool(nparts - 1).submit(_fft_rows, *t) for t in tasks[1:]]
+        _fft_rows(*tasks[0])
+        for f in futs:
+            f.result()
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out
 
 
-#: Largest work area (bytes) of the longitude FFTs kept from one call to the next, per thread.
-#: Fresh memory costs more than the transforms on small grids (page faults: a global 0.5 deg
-#: grid of degree 240 needs 12 MB, faulted in at about twice the time of its FFTs); larger
-#: work areas are allocated for the call and freed.
-WORK_BYTES = 32 * 2**20
+#: Series per chunk of the longitude FFTs: at least this many (pocketfft transforms a few
+#: series at a time with SIMD), and as many as fit a work area of :data:`CHUNK_BYTES`.
+CHUNK_MIN = 8
+#: Bytes of one chunk's half spectra and transforms: small enough for a core's cache.
+CHUNK_BYTES = 2**19
 
 _work = threading.local()
+_pool_lock = threading.Lock()
+_pool_obj: list = [None, 0]
 
 
-def _workspace(ns: int, nper: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
-    """Half spectra (ns, nper // 2 + 1) complex and ``nz`` float64 values, uninitialised."""
+def _threads() -> int:
+    from fieldmap import _warp
+
+    return _warp.cpu_workers()
+
+
+def _pool(n: int) -> ThreadPoolExecutor:
+    """Return a pool of at least ``n`` threads for the parts of :func:`longitude_sums`."""
+    with _pool_lock:
+        if _pool_obj[1] < n:
+            if _pool_obj[0] is not None:
+                _pool_obj[0].shutdown(wait=False)
+            _pool_obj[0] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="fieldmap-fft")
+            _pool_obj[1] = n
+        return _pool_obj[0]
+
+
+def _fft_rows(W: np.ndarray, phase, nper: int, src0: int, res: np.ndarray) -> None:
+    """Longitude sums of the series ``W`` (ns, nm) into ``res`` (ns, nlon), chunk by chunk.
+
+    ``phase``: factors of the series for a lon0 off the node lattice (else None); ``src0``:
+    node of the transform at the first longitude. Re sum_m F_m e^{i m x} on x_k = 2 pi k / L is
+    the inverse real FFT of the half spectrum H_0 = Re F_0, H_j = F_j / 2 (0 < j < L/2),
+    H_{L/2} = F_{L/2}: orders m >= L fold onto m mod L, and m mod L = r > L/2 onto L - r
+    conjugated (exact on the nodes). Each series is transformed on its own.
+    """
+    ns, nm = W.shape
+    nlon = res.shape[1]
     nh = nper // 2 + 1
-    nbytes = ns * nh * 16 + nz * 8
+    direct = src0 == 0 and nlon == nper  # the transforms write straight into the result
+    rows = max(CHUNK_MIN, CHUNK_BYTES // (nh * 16 + (0 if direct else nper * 8)))
+    rows = min(rows, ns)
+    H, z = _workspace(rows, nh, 0 if direct else rows * nper)
+    z = z.reshape(-1, nper) if not direct else z
+    for c0 in range(0, ns, rows):
+        c1 = min(ns, c0 + rows)
+        F = W[c0:c1] if phase is None else W[c0:c1] * phase
+        h = H[: c1 - c0]
+        if nm <= nh:
+            np.multiply(F, 0.5, out=h[:, :nm])
+            h[:, nm:] = 0.0
+            h[:, 0] = F[:, 0]
+        elif nm <= nper:  # one fold; x 0.5 is exact, so (F_j + conj F_(L-j)) / 2 term by term
+            np.multiply(F[:, :nh], 0.5, out=h)
+            h[:, 0] = F[:, 0]
+            h[:, nper - nm + 1 : nper - nh + 1] += np.conj(F[:, nh:nm][:, ::-1]) * 0.5
+        else:
+            h[...] = 0.0
+            for m0 in range(0, nm, nper):
+                blk = F[:, m0 : min(nm, m0 + nper)]
+                nb = blk.shape[1]
+                h[:, : min(nb, nh)] += blk[:, :nh]
+                if nb > nh:  # r = nh .. nb-1 folds onto L - r (distinct targets L-nh .. L-nb+1)
+                    h[:, nper - nb + 1 : nper - nh + 1] += np.conj(blk[:, nh:nb][:, ::-1])
+            h[:, 1:] *= 0.5
+        if nper % 2 == 0 and nm > nper // 2:
+            h[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
+        if direct:
+            _irfft(h, nper, res[c0:c1])
+            continue
+        zc = z[: c1 - c0]
+        _irfft(h, nper, zc)
+        # node k of the result is node (k + k0) mod L of z (beyond one turn the nodes repeat)
+        k, src = 0, src0
+        while k < nlon:
+            take = min(nlon - k, nper - src)
+            res[c0:c1, k : k + take] = zc[:, src : src + take]
+            k += take
+            src = (src + take) % nper
+
+
+#: Largest work area (bytes) kept from one call to the next, per thread (fresh memory costs
+#: page faults, more than the transforms of a small grid); larger ones are freed after use.
+WORK_BYTES = 8 * 2**20
+
+
+def _workspace(rows: int, nh: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
+    """Half spectra (rows, nh) complex and ``nz`` float64 values, uninitialised."""
+    nbytes = rows * nh * 16 + nz * 8
     buf = getattr(_work, "buf", None)
     if buf is None or buf.size < nbytes:
         buf = np.empty(nbytes, dtype=np.uint8)
         if nbytes <= WORK_BYTES:
             _work.buf = buf
-    H = buf[: ns * nh * 16].view(np.complex128).reshape(ns, nh)
-    return H, buf[ns * nh * 16 : nbytes].view(np.float64)
+    H = buf[: rows * nh * 16].view(np.complex128).reshape(rows, nh)
+    return H, buf[rows * nh * 16 : nbytes].view(np.float64)
 
 
 def _irfft(H: np.ndarray, n: int, out: np.ndarray) -> None:
-    """``out[...] = scipy.fft.irfft(H, n, norm="forward")`` on every core, into ``out``.
+    """``out[...] = scipy.fft.irfft(H, n, norm="forward")``, written into ``out``.
 
     SciPy's pocketfft binding writes into ``out`` (no fresh result array); without it (a SciPy
     whose private binding differs), the public ``irfft`` and a copy give the same values.
     """
-    import scipy.fft
-
-    workers = os.cpu_count() or 1
     try:
         from scipy.fft._pocketfft import pypocketfft
 
-        pypocketfft.c2r(H, (H.ndim - 1,), n, False, 0, out, workers)
+        pypocketfft.c2r(H, (H.ndim - 1,), n, False, 0, out, 1)
     except (ImportError, AttributeError, TypeError, RuntimeError):  # pragma: no cover
-        out[...] = scipy.fft.irfft(H, n=n, axis=-1, norm="forward", workers=workers)
+        import scipy.fft
+
+        out[...] = scipy.fft.irfft(H, n=n, axis=-1, norm="forward")
 
 
 def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:
