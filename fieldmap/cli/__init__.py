@@ -17,6 +17,7 @@ leave no partial output files (see :mod:`fieldmap.products.io`).
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import os
 import signal
@@ -168,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     from fieldmap import config
     from fieldmap.errors import FieldmapError
 
+    program = argv is None  # this process's own command line (the ``fieldmap`` program)
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
@@ -226,6 +228,20 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if program and args.command == "point":
+            _spare_final_collections()
+
+
+def _spare_final_collections() -> None:
+    """Keep the interpreter's exit from traversing every live object again (``gc.freeze``).
+
+    Called when ``fieldmap point`` has written its output and the process is about to exit:
+    Warp's ~3,400 registered builtins and their closures make each of the garbage collections
+    that interpreter shutdown runs cost tens of milliseconds (0.2-0.3 s of a one-point run in
+    all). Objects alive now live until the exit anyway; frozen, the collections skip them.
+    Results and output are not touched: exit still flushes stdout and runs the atexit hooks.
+    """
+    gc.freeze()
 
 
 def _silence_stdout() -> None:

@@ -29,8 +29,6 @@ import argparse
 import math
 import sys
 
-from fieldmap.cli.verify import run_verify  # noqa: F401 - moved there; importable from here too
-
 QUANTITIES = (
     "disturbance",
     "gravity",
@@ -63,6 +61,15 @@ _DEFAULT_DECIMALS = {
     "gradient": 3,
     "gradient-disturbance": 3,
 }
+
+
+def __getattr__(name: str):
+    """Resolve ``run_verify`` (moved to :mod:`fieldmap.cli.verify`) lazily (PEP 562)."""
+    if name == "run_verify":
+        from fieldmap.cli.verify import run_verify
+
+        return run_verify
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register(subparsers) -> None:
@@ -195,8 +202,13 @@ def evaluate_points(
         Shape ``(n, 3)``, ``(n, 9)`` for the gradients (E, row-major), or ``(n, 1)`` for geoid,
         potential, anomaly-sigma and geoid-sigma.
     """
-    from fieldmap import _warp
+    from fieldmap.cli.startup import load_model_early
     from fieldmap.errors import InputError
+    from fieldmap.products.table_model import table_path
+
+    table = table_path(model) is not None
+    early = load_model_early(model, lmax, epoch, model_options, quantity, device, table)
+    from fieldmap import _warp
 
     try:
         device = _warp.resolve_device(device)
@@ -211,12 +223,11 @@ def evaluate_points(
     import numpy as np
 
     from fieldmap.field import gravity as fg
-    from fieldmap.models.registry import announce, load_model
-    from fieldmap.products.table_model import table_path
+    from fieldmap.models.registry import announce
 
-    if table_path(model) is not None:  # a compensation table: its interpolated δg (NumPy)
+    if table:  # a compensation table: its interpolated δg (NumPy)
         return fg.disturbance(lat, lon, h, model=model, units="mGal", frame="enu")
-    sh_model = load_model(model, lmax=lmax, epoch=epoch, **(model_options or {}))
+    sh_model = early.settle()  # loaded while Warp was imported; its error after the device's
     announce(sh_model)
     if quantity.endswith("-sigma"):
         from fieldmap.field.commission import commission_sigma

@@ -37,6 +37,7 @@ import os
 import shutil
 import stat
 import tempfile
+import threading
 
 import numpy as np
 
@@ -346,27 +347,80 @@ def cached_tables(lmax: int, compute, *, root: str | None = None) -> dict:
     """
     if _disabled or lmax < TABLES_MIN_DEGREE:
         return compute(lmax)
+    folder = _tables_folder(lmax, compute, root)
+    if folder is None:
+        return compute(lmax)
+    with _tables_lock:  # a prefetch under way (another thread): wait for it, take its result
+        tab = _prefetched.pop(folder, None)
+        _prefetched.clear()  # one of another entry (older formulas) is not kept either
+        return tab if tab is not None else _load_tables(folder, lmax, compute)
+
+
+_tables_lock = threading.Lock()
+_prefetched: dict = {}  # folder -> tables verified by prefetch_tables, for the next call only
+
+
+def prefetch_tables(lmax: int, *, root: str | None = None) -> None:
+    """Verify the cached tables of degree ``lmax`` now, for the next :func:`cached_tables` call.
+
+    For ``fieldmap point``, which verifies them while Warp is imported, before the code that
+    keys the entry (the source of ``compute``) is importable: the one entry of degree ``lmax``
+    present is verified, and the next :func:`cached_tables` call takes it if it is the entry of
+    its ``compute`` (once; later calls load and verify as usual; a call made meanwhile waits).
+    Nothing happens if there is no such entry, or several (older formulas), or it is damaged
+    (then :func:`cached_tables` rebuilds it as usual).
+    """
+    if _disabled or lmax < TABLES_MIN_DEGREE:
+        return
+    parent = os.path.join(root or cache_dir(), "tables")
+    try:
+        names = [n for n in os.listdir(parent) if n.startswith(f"L{int(lmax)}-")]
+    except OSError:
+        return
+    if len(names) != 1:
+        return
+    folder = os.path.join(parent, names[0])
+    with _tables_lock:
+        try:
+            tab = _verified_tables(folder)
+        except (OSError, ValueError, KeyError, TypeError):
+            return
+        _prefetched.clear()
+        _prefetched[folder] = tab
+
+
+def _tables_folder(lmax: int, compute, root: str | None) -> str | None:
+    """Entry of the tables of ``lmax`` made by ``compute`` (keyed by its source), or None."""
     import inspect
 
     root = root or cache_dir()
     try:
         code = inspect.getsource(compute)
     except (OSError, TypeError):
-        return compute(lmax)
+        return None
     key = hashlib.sha256(code.encode()).hexdigest()[:16]
-    folder = os.path.join(root, "tables", f"L{int(lmax)}-{key}")
+    return os.path.join(root, "tables", f"L{int(lmax)}-{key}")
+
+
+def _verified_tables(folder: str) -> dict:
+    """Memory maps of the tables in ``folder``, checked against their shapes and SHA-256."""
+    with open(os.path.join(folder, "meta.json"), encoding="utf-8") as f:
+        meta = json.load(f)
+    out = {}
+    for name, rec in meta["arrays"].items():
+        a = np.load(os.path.join(folder, f"{name}.npy"), mmap_mode="r", allow_pickle=False)
+        if list(a.shape) != rec["shape"] or a.dtype != np.float64:
+            raise ValueError(name)
+        if _sha256_array(a) != rec["sha256"]:
+            raise ValueError(name)
+        out[name] = a
+    return out
+
+
+def _load_tables(folder: str, lmax: int, compute) -> dict:
+    """Return the verified tables of ``folder``; compute and store them if absent or damaged."""
     try:
-        with open(os.path.join(folder, "meta.json"), encoding="utf-8") as f:
-            meta = json.load(f)
-        out = {}
-        for name, rec in meta["arrays"].items():
-            a = np.load(os.path.join(folder, f"{name}.npy"), mmap_mode="r", allow_pickle=False)
-            if list(a.shape) != rec["shape"] or a.dtype != np.float64:
-                raise ValueError(name)
-            if _sha256_array(a) != rec["sha256"]:
-                raise ValueError(name)
-            out[name] = a
-        return out
+        return _verified_tables(folder)
     except (OSError, ValueError, KeyError, TypeError):
         shutil.rmtree(folder, ignore_errors=True)
     tab = compute(lmax)
