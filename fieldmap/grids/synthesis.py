@@ -304,6 +304,15 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     Only exact mirrors pair up (:func:`make_grid` makes symmetric global grids exactly so);
     the equator row has no mirror other than itself.
     """
+    lat = np.asarray(lat_deg, dtype=np.float64).ravel()
+    order = np.argsort(lat, kind="stable")
+    srt = lat[order]
+    if lat.size > 1 and np.all(srt[1:] > srt[:-1]):  # distinct latitudes (any grid): at once
+        pos = np.minimum(np.searchsorted(srt, -lat), lat.size - 1)
+        mate = np.where((srt[pos] == -lat) & (lat != 0), order[pos], -1)
+        rows = np.arange(lat.size)
+        first = np.flatnonzero((mate < 0) | (mate > rows))  # a row after its mate is taken
+        return list(zip(first.tolist(), mate[first].tolist()))
     where = {float(v): i for i, v in enumerate(lat_deg)}
     used: set[int] = set()
     out = []

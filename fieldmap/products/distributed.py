@@ -148,14 +148,14 @@ def _assemble(tmpl, arrays, stats, thresholds, stacked, method="histogram") -> x
     ds = tmpl.copy()
     var_attrs = ds.attrs.pop("variables")
     dims = ds.attrs.pop("dims")
-    for name in blockio.VARIABLES:
-        ds[name] = (dims, arrays[name], var_attrs[name])
+    # one update (one alignment) for all variables, in this order
+    data = {name: xr.Variable(dims, arrays[name], var_attrs[name]) for name in blockio.VARIABLES}
     if stacked:
-        for name, var in cf.sweep_statistics(stats, thresholds).items():
-            ds[name] = var
+        data.update(cf.sweep_statistics(stats, thresholds))
         ds.attrs["percentile_method"] = blockmeta.percentile_method_text(method)
     else:
         ds.attrs.update(blockmeta.map_attrs(stats[0], thresholds, method))
+    ds.update(data)
     return ds
 
 
