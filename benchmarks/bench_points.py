@@ -12,7 +12,11 @@ Prints µs per point (medians of ``--repeats`` runs) and ratios, all measured in
 * pyshtools ``SHGravCoeffs.expand(lat=, lon=, r=)`` point mode;
 * the paper's 4.4 ms per point at degree 200 (Chen et al. 2022), a printed constant;
 * ``fieldmap point`` for one point as a user runs it: warm (kernel cache filled) and cold (a fresh
-  empty ``FIELDMAP_KERNEL_CACHE``: Warp compiles the kernels).
+  empty ``FIELDMAP_KERNEL_CACHE``: Warp compiles the kernels);
+* one point from a degree-2190 model (a Kaula model the size of EGM2008, written once to
+  ``--folder`` as ``.gfc`` and GeographicLib ``.egm``): the wall time of a fresh ``fieldmap
+  point`` process (warm model and kernel caches) beside GeographicLib's ``Gravity -D`` on the
+  same model and point (skipped, with the reason, where ``Gravity`` is not installed).
 """
 
 from __future__ import annotations
@@ -123,6 +127,64 @@ def bench_cli(repeats):
     return warm, statistics.median(colds)
 
 
+POINT_2190 = "30 105 20000\n"
+
+
+def _model_2190(folder: str, lmax: int = 2190) -> tuple[str, str]:
+    """Paths of the Kaula model of degree ``lmax`` in ``folder``: (.gfc file, .egm name)."""
+    from fieldmap.models.icgem import write_icgem
+    from fieldmap.models.registry import kaula_model
+
+    os.makedirs(folder, exist_ok=True)
+    gfc, name = os.path.join(folder, f"k{lmax}.gfc"), f"k{lmax}"
+    if not (os.path.exists(gfc) and os.path.exists(os.path.join(folder, name + ".egm.cof"))):
+        print(f"writing a Kaula model of degree {lmax} to {folder} ...", flush=True)
+        model = kaula_model(lmax, seed=7)
+        write_icgem(gfc, model)
+        write_egm(model, folder, name=name)
+    return gfc, name
+
+
+def _wall(cmd, repeats: int) -> tuple[float, float, str]:
+    """Median and min wall time of ``repeats`` fresh runs of ``cmd`` on one point; its output."""
+    times, out = [], ""
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, input=POINT_2190, capture_output=True, text=True, timeout=900)
+        times.append(time.perf_counter() - t0)
+        if proc.returncode != 0:
+            raise RuntimeError(f"{cmd[0]} failed: {proc.stderr.strip()[-300:]}")
+        out = proc.stdout.strip()
+    return statistics.median(times), min(times), out
+
+
+def bench_point_2190(repeats: int, folder: str) -> None:
+    """Print the fresh-process wall time of one point at degree 2190: fieldmap beside Gravity."""
+    gfc, name = _model_2190(folder)
+    script = os.path.join(os.path.dirname(sys.executable), "fieldmap")  # the user's command
+    cmd = [script] if os.path.exists(script) else [sys.executable, "-m", "fieldmap"]
+    cmd += ["point", "--model", gfc]
+    subprocess.run(cmd, input=POINT_2190, capture_output=True, text=True, check=True)  # warm caches
+    med, low, out = _wall(cmd, repeats)
+    print(
+        f"\none point, degree 2190, fresh process (medians of {repeats}, warm caches):\n"
+        f"  fieldmap point        {med:6.3f} s wall (min {low:.3f})  -> {out}"
+    )
+    if os.environ.get("PYTHONDONTWRITEBYTECODE"):
+        print("  (PYTHONDONTWRITEBYTECODE is set: fieldmap's modules are compiled at each start)")
+    exe = gravity_tool()
+    if exe is None:
+        print(
+            "  GeographicLib Gravity  skipped: not installed (apt-get install geographiclib-tools)"
+        )
+        return
+    g_med, g_low, g_out = _wall([exe, "-n", name, "-d", folder, "-D"], repeats)
+    print(
+        f"  GeographicLib Gravity {g_med:6.3f} s wall (min {g_low:.3f})  -> {g_out}\n"
+        f"  fieldmap / Gravity    {med / g_med:6.1f} x"
+    )
+
+
 def main(argv=None) -> int:
     """Run the benchmark and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -132,6 +194,11 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--skip-cli", action="store_true", help="skip the fieldmap point timings")
+    ap.add_argument(
+        "--folder",
+        default=os.path.join(tempfile.gettempdir(), "fieldmap-bench-2190"),
+        help="where the degree-2190 model files are kept between runs",
+    )
     args = ap.parse_args(argv)
 
     _warp.init()
@@ -166,6 +233,7 @@ def main(argv=None) -> int:
             f"\nfieldmap point, 1 point, wall: warm cache {warm:.2f} s (median of "
             f"{args.repeats}), cold cache {cold:.2f} s (median of 2)"
         )
+        bench_point_2190(args.repeats, args.folder)
     return 0
 
 

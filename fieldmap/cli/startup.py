@@ -91,13 +91,14 @@ def load_model_early(
     engine = _Engine(device, quantity)
     engine.start()
     try:
-        engine.model = load_model(model, lmax=lmax, epoch=epoch, **(options or {}))
+        sh_model = load_model(model, lmax=lmax, epoch=epoch, **(options or {}))
+        if not quantity.endswith("-sigma"):  # the commission errors are NumPy sums: no tables
+            from fieldmap.models import cache
+
+            cache.prefetch_tables(sh_model.lmax)  # still under Warp's import, GIL released
+        engine.model = sh_model  # the thread's struct then takes the prefetched tables
     except Exception as exc:  # noqa: BLE001 - raised by Early.settle after the device check
         return Early(failure=exc, engine=engine)
     finally:
         engine.ready.set()
-    if not quantity.endswith("-sigma"):  # the commission errors are NumPy sums: no tables
-        from fieldmap.models import cache
-
-        cache.prefetch_tables(engine.model.lmax)  # still under Warp's import, GIL released
-    return Early(engine.model, engine=engine)
+    return Early(sh_model, engine=engine)
