@@ -333,7 +333,9 @@ CONTEXTS = {
     "map-plots": _ctx("map", *_MAP, *_OUT),
     "map-region": _ctx("map", *_REGION, "--no-plots", *_OUT),
     "map-anomaly": _ctx("map", *_MAP, "--quantity", "anomaly", "--no-plots", *_OUT),
+    "map-geoid": _ctx("map", *_MAP, "--quantity", "geoid", "--no-plots", *_OUT),
     "sweep": _ctx("sweep", *_MAP, "--height-km", "20,50", "--no-plots", *_OUT),
+    "sweep-geoid": _ctx("sweep", *_MAP, "--quantity", "geoid", "--no-plots", *_OUT),
     "sweep-plots": _ctx("sweep", *_MAP, "--height-km", "20,50", *_OUT),
     "sweep-region": _ctx("sweep", *_REGION, "--height-km", "20,50", "--no-plots", *_OUT),
     "sweep-anomaly": _ctx(
@@ -433,7 +435,10 @@ def _maps(cmd: str, height: tuple) -> dict:
         "--out": [C(ctx, expect=OUT)],
         "--no-plots": [C(plots, "--no-plots")],
         "--float32": [C(ctx, "--float32")],
-        "--height-km": [C(ctx, "--height-km", *height)],
+        "--height-km": [
+            C(ctx, "--height-km", *height),
+            C(f"{cmd}-geoid", "--height-km", "30", expect=REFUSED, note="surface"),
+        ],
         "--thresholds-mg": [
             C(ctx, "--thresholds-mg", "0.03"),
             C(anomaly, "--thresholds-mg", "0.03", expect=REFUSED),

@@ -29,6 +29,13 @@ def run_quantity(args, heights_km: list[float]) -> int:
         raise InputError(
             f"--thresholds-mg applies to the disturbance modulus, not to --quantity {args.quantity}"
         )
+    from fieldmap.products.quantity_product import SURFACE_QUANTITIES
+
+    if args.quantity in SURFACE_QUANTITIES and given(args, "height_km"):
+        raise InputError(
+            f"--height-km: --quantity {args.quantity} is a property of the ellipsoid's surface "
+            "(h = 0); leave --height-km out"
+        )
     if distributed.wanted(args):
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)
