@@ -78,16 +78,8 @@ def longitude_sums(
         phase = np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
     # contiguous parts of the series, one per thread, each transformed chunk by chunk in
     # work arrays that stay in the core's cache (a series' values do not depend on the split)
-    nparts = max(1, min(_threads(), ns // CHUNK_MIN))
-    cuts = [ns * i // nparts for i in range(nparts + 1)]
-    tasks = [(W[a:b], phase, nper, int(k0) % nper, res[a:b]) for a, b in zip(cuts, cuts[1:])]
-    if nparts == 1:
-        _fft_rows(*tasks[0])
-    else:
-        futs = [_pool(nparts - 1).submit(_fft_rows, *t) for t in tasks[1:]]
-        _fft_rows(*tasks[0])
-        for f in futs:
-            f.result()
+    src0 = int(k0) % nper
+    map_rows(lambda a, b: _fft_rows(W[a:b], phase, nper, src0, res[a:b]), ns, CHUNK_MIN)
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)
     return out
@@ -102,6 +94,46 @@ CHUNK_BYTES = 2**19
 _work = threading.local()
 _pool_lock = threading.Lock()
 _pool_obj: list = [None, 0]
+
+
+#: Parts per CPU thread of :func:`map_rows`: the threads take the parts as they come free, so
+#: a thread that the machine's other work delays leaves its parts to the others.
+PARTS_PER_THREAD = 2
+
+
+def map_rows(fn, nrows: int, min_rows: int = 16) -> list:
+    """Return ``[fn(a, b), ...]`` over contiguous parts ``[a, b)`` of ``nrows`` rows, in order.
+
+    The parts (:data:`PARTS_PER_THREAD` per CPU thread of :func:`fieldmap._warp.cpu_workers`,
+    at least ``min_rows`` rows each; they depend only on ``nrows`` and the thread count) are
+    taken in turn by this thread and a small pool: for NumPy and pocketfft work on independent
+    rows, which release the GIL.
+    """
+    nthreads = _threads()
+    nparts = max(1, min(nthreads * PARTS_PER_THREAD, nrows // max(1, min_rows)))
+    cuts = [nrows * i // nparts for i in range(nparts + 1)]
+    parts = list(zip(cuts, cuts[1:]))
+    if nparts == 1 or nthreads == 1:
+        return [fn(a, b) for a, b in parts]
+    results: list = [None] * nparts
+    todo = iter(range(nparts))
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                i = next(todo, None)
+            if i is None:
+                return
+            results[i] = fn(*parts[i])
+
+    futs = [_pool(nthreads - 1).submit(work) for _ in range(min(nthreads, nparts) - 1)]
+    try:
+        work()
+    finally:
+        for f in futs:
+            f.result()
+    return results
 
 
 def _threads() -> int:

@@ -105,46 +105,58 @@ def block_partial(
     (:func:`fieldmap.products.stats.area_weights` of the whole grid, taken at the rows) and
     ``hist_weights`` the same as whole numbers (:func:`histogram_weights`, default from
     ``row_weights``). The sums are kept per row and added exactly (``math.fsum``) when the
-    statistics are finished, so nothing depends on the blocks' sizes or order.
+    statistics are finished, so nothing depends on the blocks' sizes or order. Parts of the
+    rows are reduced on the CPU threads and joined exactly (the same partial for any split).
     """
+    from fieldmap.grids.longitude import map_rows
+
     v = np.ascontiguousarray(modulus_mg, dtype=np.float64)
     vmax, vmin = float(v.max()), float(v.min())  # NaN propagates, inf is caught
     if not (math.isfinite(vmax) and math.isfinite(vmin)):
         raise InputError("map holds non-finite values")
     if hist_weights is None:
         hist_weights = histogram_weights(row_weights, v.shape[1])
+    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
+    # the bins of the non-negative moduli are monotonic in their values: only those from the
+    # minimum's to the maximum's are counted (negative values fall into bin 0, as in
+    # _hist_index)
+    lo = int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
+    hi = int(_hist_index(np.array([vmax]))[0])
+    parts = map_rows(
+        lambda a, b: _rows_partial(v[a:b], rw[a:b], thresholds, hw[a:b], lo, hi), len(v), 32
+    )
+    hist = parts[0][3]
+    for p in parts[1:]:
+        hist += p[3]  # whole numbers below 2**53: exact in any order
+    nz = np.flatnonzero(hist)
+
+    def joined(i, j=None):
+        return [np.concatenate([p[i] if j is None else p[i][j] for p in parts])]
+
+    return {
+        "max": vmax,
+        "min": vmin,
+        "sw": joined(0),
+        "sw2": joined(1),
+        "above": [joined(2, j) for j in range(len(thresholds))],
+        "hist": ((nz + lo).astype(np.int32), hist[nz]),
+    }
+
+
+def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights, lo: int, hi: int):
+    """Per-row sums, per-row areas above each threshold, histogram of bins lo..hi of rows ``v``."""
     flag = np.empty(v.shape, dtype=bool)  # one buffer for every threshold
     above = []
     for t in thresholds:
         np.greater(v, t, out=flag)
-        above.append([row_weights * np.add.reduce(flag, axis=1, dtype=np.int64)])
-    return {
-        "max": vmax,
-        "min": vmin,
-        "sw": [row_weights * _rows(v)],
-        "sw2": [row_weights * _rows(v * v)],
-        "above": above,
-        "hist": _histogram(v, vmin, vmax, hist_weights),
-    }
-
-
-def _histogram(v: np.ndarray, vmin: float, vmax: float, row_hist_weights: np.ndarray):
-    """(bins, weights) of the non-empty histogram bins of a (rows, nlon) block.
-
-    The bins of the non-negative moduli are monotonic in their values, so only the bins from
-    the minimum's to the maximum's are counted (a few octaves, not all :data:`HIST_BINS`);
-    negative values and those below the range fall into bin 0, as in :func:`_hist_index`.
-    """
-    lo = int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
-    hi = int(_hist_index(np.array([vmax]))[0])
+        above.append(row_weights * np.add.reduce(flag, axis=1, dtype=np.int64))
     k = v.view(np.int64) >> _SHIFT
     k -= _BITS_LO + lo
-    if vmin <= 0 or lo == 0 or hi == HIST_BINS - 1:  # values out of the range: clip them
+    if lo == 0 or hi == HIST_BINS - 1:  # values out of the range (or negative): clip them
         np.clip(k, 0, hi - lo, out=k)
-    w = np.repeat(row_hist_weights, v.shape[1])
-    h = np.bincount(k.ravel(), weights=w, minlength=hi - lo + 1)
-    nz = np.flatnonzero(h)
-    return (nz + lo).astype(np.int32), h[nz]
+    w = np.repeat(hist_weights, v.shape[1])
+    hist = np.bincount(k.ravel(), weights=w, minlength=hi - lo + 1)
+    return row_weights * _rows(v), row_weights * _rows(v * v), above, hist
 
 
 def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:
@@ -189,13 +201,12 @@ def _merged_histogram(parts: list) -> tuple[np.ndarray, np.ndarray]:
     """
     bins = np.concatenate([p[0] for p in parts]).astype(np.int64)
     weights = np.concatenate([p[1] for p in parts])
-    if len(parts) > 1:
-        order = np.argsort(bins, kind="stable")
-        bins, weights = bins[order], weights[order]
-        start = np.flatnonzero(np.concatenate([[True], bins[1:] != bins[:-1]]))
-        bins, weights = bins[start], np.add.reduceat(weights, start)
-    keep = weights != 0
-    return bins[keep], weights[keep]
+    if bins.size == 0:
+        return bins, weights
+    lo = int(bins.min())
+    h = np.bincount(bins - lo, weights=weights)
+    nz = np.flatnonzero(h)
+    return nz + lo, h[nz]
 
 
 def _fsum(parts: list) -> float:

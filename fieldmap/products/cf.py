@@ -150,20 +150,33 @@ def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
     synthesis).
     ``units`` is any spelling :func:`fieldmap.units.get_unit` accepts.
     """
+    from fieldmap.grids.longitude import map_rows
+
     unit = get_unit(units)
     scale, units = unit.si, unit.name
     comps = np.moveaxis(vec, -1, 0)
     if overwrite:
-        np.divide(comps, scale, out=comps)
         buf = np.empty((2, *comps.shape[1:]))
+        dst = comps
     else:
         buf = np.empty((5, *comps.shape[1:]))
-        np.divide(comps, scale, out=buf[:3])
-        comps = buf[:3]
+        dst = buf[:3]
+
+    def convert(a=None, b=None):
+        # element by element, on the rows [a, b) of the first axis (default: everything)
+        ix = (slice(None),) if a is None else (slice(None), slice(a, b))
+        c, d, m = comps[ix], dst[ix], buf[-2:][ix]
+        np.divide(c, scale, out=d)
+        np.einsum("k...,k...->...", d, d, out=m[0])  # one pass, no temporaries
+        np.sqrt(m[0], out=m[0])  # in ``units``
+        np.multiply(m[0], scale / MG, out=m[1])
+
+    if overwrite and comps.ndim > 2:  # rows of the grid: parts on the CPU threads
+        map_rows(convert, comps.shape[1], 32)
+    else:
+        convert()
+    comps = dst
     mod, mod_mg = buf[-2], buf[-1]
-    np.einsum("k...,k...->...", comps, comps, out=mod)  # one pass, no temporaries
-    np.sqrt(mod, out=mod)  # in ``units``
-    np.multiply(mod, scale / MG, out=mod_mg)
     out = {}
     for k, name in enumerate(("east", "north", "up")):
         out[name] = (
