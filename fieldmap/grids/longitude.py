@@ -1,7 +1,8 @@
 """Longitude sums of a grid row: sum_m (A_m cos m lon + B_m sin m lon) at every node.
 
 Regular longitudes lon0 + k 360/L go through inverse real FFTs of length L, one per series
-(orders fold onto 0..L/2 exactly on the nodes); any other longitudes
+(orders fold onto 0..L/2 exactly on the nodes), chunk by chunk in small per-thread work arrays,
+the series shared out over the CPU threads (:func:`map_rows`); any other longitudes
 through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by
 :func:`fieldmap.grids.synthesis.synthesize`.
 """
@@ -76,8 +77,8 @@ def longitude_sums(
     if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
         k0 = 0
         phase = np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
-    # contiguous parts of the series, one per thread, each transformed chunk by chunk in
-    # work arrays that stay in the core's cache (a series' values do not depend on the split)
+    # contiguous parts of the series, taken by the CPU threads, each transformed chunk by chunk
+    # in work arrays that stay in the core's cache (a series' values do not depend on the split)
     src0 = int(k0) % nper
     map_rows(lambda a, b: _fft_rows(W[a:b], phase, nper, src0, res[a:b]), ns, CHUNK_MIN)
     if not np.shares_memory(res, out):
@@ -131,8 +132,9 @@ def map_rows(fn, nrows: int, min_rows: int = 16) -> list:
     try:
         work()
     finally:
-        for f in futs:
-            f.result()
+        for f in futs:  # every part is taken: a worker that has not started is not needed
+            if not f.cancel():
+                f.result()
     return results
 
 

@@ -199,6 +199,8 @@ def _merged_histogram(parts: list) -> tuple[np.ndarray, np.ndarray]:
 
     The weights are whole numbers below 2**53 (:func:`histogram_weights`): exact in any order.
     """
+    if len(parts) == 1:  # one block's: its bins are distinct, ascending, non-empty
+        return parts[0][0].astype(np.int64), parts[0][1]
     bins = np.concatenate([p[0] for p in parts]).astype(np.int64)
     weights = np.concatenate([p[1] for p in parts])
     if bins.size == 0:
