@@ -7,9 +7,9 @@ coefficients transposed for the kernel (a NumPy copy, GIL released too). The imp
 model do not depend on each other, so :func:`load_model_early` starts a thread that imports
 Warp and the point modules while the main thread loads the model and verifies the tables
 (:func:`fieldmap.models.cache.prefetch_tables`); the thread then builds the kernel's struct
-(:func:`fieldmap.field.sh.kernel_model`, cached there) while the main thread initialises Warp,
-and :meth:`Early.settle` waits for it before anything is computed. Nothing is computed
-differently: the same modules, files, checks and struct, in another order.
+(:func:`fieldmap.field.sh.kernel_model`, cached there; on the CPU only) while the main
+thread initialises Warp, and :meth:`Early.settle` waits for it before anything is computed.
+Nothing is computed differently: the same modules, files, checks and struct, in another order.
 
 Errors stay where they were. The thread swallows its own: a failed import is raised again by
 the main thread's ``import`` (which waits for the thread's through Python's per-module import
@@ -33,7 +33,8 @@ _ENGINE_MODULES = (
     "fieldmap.field.normal",
 )
 #: quantities evaluated with the struct of the model itself (geoid, anomaly and potential use
-#: a disturbing model derived from it: their recursion tables only are loaded ahead)
+#: a disturbing model derived from it, the commission errors NumPy sums: for those, the
+#: recursion tables only are loaded ahead)
 _STRUCT_QUANTITIES = ("disturbance", "gravity", "gradient", "gradient-disturbance")
 
 
@@ -49,13 +50,14 @@ class _Engine(threading.Thread):
             for name in _ENGINE_MODULES:
                 importlib.import_module(name)
             self.ready.wait()
-            if self.model is None or self.quantity.endswith("-sigma"):  # sigmas: NumPy sums
+            if self.model is None or self.quantity not in _STRUCT_QUANTITIES:
                 return
-            if self.quantity in _STRUCT_QUANTITIES:
-                from fieldmap import _warp
-                from fieldmap.field import sh
+            from fieldmap import _warp
+            from fieldmap.field import sh
 
-                sh.kernel_model(self.model, _warp.resolve_device(self.device), points=True)
+            device = _warp.resolve_device(self.device)
+            if device == "cpu":  # a CUDA struct (device copies) is left to the main thread
+                sh.kernel_model(self.model, device, points=True)
         except BaseException:  # noqa: BLE001 - the main thread meets and reports the same error
             pass
 
