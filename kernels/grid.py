@@ -270,6 +270,28 @@ def longitude_sum_kernel(
     out[j, kk] = acc
 
 
+@wp.func
+def lane_sums(cs: mat168d, k: int, m: int, tk: wp.float64, qk: wp.float64):
+    """Column sums of lane k split by parity, as ``sh_column`` entries 0-5 (``se``, ``so``).
+
+    Entries [4], [5] (the latitude derivative, orders m >= 1) are ``-t (s2 - s0) + q f-sum``;
+    the f-sums of one parity sit in the other parity's rows of ``cs`` (see :func:`column8`).
+    """
+    zero = wp.float64(0.0)
+    e4 = zero
+    e5 = zero
+    o4 = zero
+    o5 = zero
+    if m >= 1:
+        e4 = -tk * (cs[2, k] - cs[0, k]) + qk * cs[12, k]
+        e5 = -tk * (cs[3, k] - cs[1, k]) + qk * cs[13, k]
+        o4 = -tk * (cs[10, k] - cs[8, k]) + qk * cs[4, k]
+        o5 = -tk * (cs[11, k] - cs[9, k]) + qk * cs[5, k]
+    se = sh_vec8(cs[0, k], cs[1, k], cs[2, k], cs[3, k], e4, e5, zero, zero)
+    so = sh_vec8(cs[8, k], cs[9, k], cs[10, k], cs[11, k], o4, o5, zero, zero)
+    return se, so
+
+
 @wp.kernel
 def row_fourier8_kernel(
     model: SHKernelModel,
@@ -325,27 +347,13 @@ def row_fourier8_kernel(
     o6 = vec8d()
     if m == 0 and lmax >= 1:
         e6, o6 = zonal_north8(rec, zon, start[1], lmax, seed8(model, 1, qv), tq, qq)
-    zero = wp.float64(0.0)
     m1 = m - 1  # the power u^(m-1) of the east and north terms; u^1 for the zonal north term
     if m == 0:
         m1 = 1
     for k in range(8):
         ra = row_a[g, k]
         if ra >= 0:
-            tk = tv[k]
-            qk = qv[k]
-            e4 = zero
-            e5 = zero
-            o4 = zero
-            o5 = zero
-            if m >= 1:
-                # the f-sums of one parity sit in the other parity's matrix (see column8)
-                e4 = -tk * (cs[2, k] - cs[0, k]) + qk * cs[12, k]
-                e5 = -tk * (cs[3, k] - cs[1, k]) + qk * cs[13, k]
-                o4 = -tk * (cs[10, k] - cs[8, k]) + qk * cs[4, k]
-                o5 = -tk * (cs[11, k] - cs[9, k]) + qk * cs[5, k]
-            se = sh_vec8(cs[0, k], cs[1, k], cs[2, k], cs[3, k], e4, e5, zero, zero)
-            so = sh_vec8(cs[8, k], cs[9, k], cs[10, k], cs[11, k], o4, o5, zero, zero)
+            se, so = lane_sums(cs, k, m, tv[k], qv[k])
             ua = u[ra]
             rra = r[ra]
             kk = model.gm / (rra * rra)

@@ -47,6 +47,39 @@ def order_of(mi: int, lmax: int) -> int:
 
 
 @wp.func
+def sums_matrix(
+    e0: vec8d,
+    e1: vec8d,
+    e2: vec8d,
+    e3: vec8d,
+    e4: vec8d,
+    e5: vec8d,
+    o0: vec8d,
+    o1: vec8d,
+    o2: vec8d,
+    o3: vec8d,
+    o4: vec8d,
+    o5: vec8d,
+):
+    """Return the 16 x 8 column-sum matrix: rows 0-5 even n - m, rows 8-13 odd (column8)."""
+    out = mat168d()
+    for k in range(8):
+        out[0, k] = e0[k]
+        out[1, k] = e1[k]
+        out[2, k] = e2[k]
+        out[3, k] = e3[k]
+        out[4, k] = e4[k]
+        out[5, k] = e5[k]
+        out[8, k] = o0[k]
+        out[9, k] = o1[k]
+        out[10, k] = o2[k]
+        out[11, k] = o3[k]
+        out[12, k] = o4[k]
+        out[13, k] = o5[k]
+    return out
+
+
+@wp.func
 def column8(
     rec: wp.array(dtype=vec8d),
     s0: int,
@@ -112,21 +145,7 @@ def column8(
         p2 = p1
         p1 = pn
         j = j + 1
-    out = mat168d()
-    for k in range(8):
-        out[0, k] = e0[k]
-        out[1, k] = e1[k]
-        out[2, k] = e2[k]
-        out[3, k] = e3[k]
-        out[4, k] = e4[k]
-        out[5, k] = e5[k]
-        out[8, k] = o0[k]
-        out[9, k] = o1[k]
-        out[10, k] = o2[k]
-        out[11, k] = o3[k]
-        out[12, k] = o4[k]
-        out[13, k] = o5[k]
-    return out
+    return sums_matrix(e0, e1, e2, e3, e4, e5, o0, o1, o2, o3, o4, o5)
 
 
 _COLUMN8_SIMD = r"""

@@ -31,8 +31,8 @@ forms above degree 2700, :func:`fieldmap.grids.tables.pack_columns_direct`).
 
 import warp as wp
 
-from .grid import _mirror
-from .grid_simd import mat168d, order_of, vec8d, zonal_north8
+from .grid import _mirror, lane_sums
+from .grid_simd import mat168d, order_of, sums_matrix, vec8d, zonal_north8
 from .sh_model import QM_MIN, sh_vec8
 from .sh_xrange import XBIGI, XHALF, _xnorm
 
@@ -167,21 +167,7 @@ def column8x(
             e4 = e4 + w[6] * pl
             e5 = e5 + w[7] * pl
         j = j + 1
-    out = mat168d()
-    for k in range(8):
-        out[0, k] = e0[k]
-        out[1, k] = e1[k]
-        out[2, k] = e2[k]
-        out[3, k] = e3[k]
-        out[4, k] = e4[k]
-        out[5, k] = e5[k]
-        out[8, k] = o0[k]
-        out[9, k] = o1[k]
-        out[10, k] = o2[k]
-        out[11, k] = o3[k]
-        out[12, k] = o4[k]
-        out[13, k] = o5[k]
-    return out
+    return sums_matrix(e0, e1, e2, e3, e4, e5, o0, o1, o2, o3, o4, o5)
 
 
 _COLUMN8X_SIMD = r"""
@@ -374,24 +360,10 @@ def row_fourier8x_kernel(
         for k in range(8):
             z1[k] = sect[1] * qv[k]
         e6, o6 = zonal_north8(rec, zon, start[1], lmax, z1, tq, qq)
-    zero = wp.float64(0.0)
     for k in range(8):
         ra = row_a[g, k]
         if ra >= 0:
-            tk = tv[k]
-            qk = qv[k]
-            e4 = zero
-            e5 = zero
-            o4 = zero
-            o5 = zero
-            # the f-sums of one parity sit in the other parity's matrix (see column8)
-            if m >= 1:
-                e4 = -tk * (cs[2, k] - cs[0, k]) + qk * cs[12, k]
-                e5 = -tk * (cs[3, k] - cs[1, k]) + qk * cs[13, k]
-                o4 = -tk * (cs[10, k] - cs[8, k]) + qk * cs[4, k]
-                o5 = -tk * (cs[11, k] - cs[9, k]) + qk * cs[5, k]
-            se = sh_vec8(cs[0, k], cs[1, k], cs[2, k], cs[3, k], e4, e5, zero, zero)
-            so = sh_vec8(cs[8, k], cs[9, k], cs[10, k], cs[11, k], o4, o5, zero, zero)
+            se, so = lane_sums(cs, k, m, tv[k], qv[k])
             rra = r[ra]
             _coefficients_x(
                 se + so, e6[k] + o6[k], m, uv[k], gm / (rra * rra), cdel[ra], sdel[ra], coef, ra
