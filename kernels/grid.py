@@ -23,8 +23,9 @@ The column sums carry the 1e-280 scale of Holmes & Featherstone (2002) and lack 
 :math:`u^m` (u = cos of geocentric latitude). Multiplying by :math:`u^m` directly could underflow
 (e.g. u^805 at 68 deg latitude is below 1e-308) while the column sum is huge and the product
 matters, so :math:`u^m` is applied in two halves and the 1e280 scale last:
-``((s * u^(m//2)) * u^(m - m//2)) * 1e280`` (:func:`half_powers`, one ``pow`` each). A product
-below 1e-308 after the first two factors is at most 1e-28 of GM/r^2 and is negligible.
+``((s * u^(m//2)) * u^(m - m//2)) * 1e280`` (:func:`half_powers`, one ``pow`` each; the eight-lane
+pass reads them from per-row tables, :func:`row_powers_kernel`). A product below 1e-308 after
+the first two factors is at most 1e-28 of GM/r^2 and is negligible.
 """
 
 import warp as wp
@@ -110,6 +111,49 @@ def row_setup_kernel(
     cdel_out[i] = cp * u + sp * t
     sdel_out[i] = sp * u - cp * t
     gamma_out[i] = ecef_to_enu(normal_field_ecef(p, ell, order, 0), phi, wp.float64(0.0))
+
+
+@wp.func
+def _powers_into(x: wp.float64, n: int, out: wp.array2d(dtype=wp.float64), i: int):
+    """out[k, i] = x**k for k < n: products, restarted from ``wp.pow`` every 32 powers.
+
+    At most 31 roundings separate a power from the exact one (about 4e-15 relative), and
+    u**0 = 1 also at the pole (u = 0).
+    """
+    p = wp.float64(1.0)
+    for k in range(n):
+        if k > 0:
+            if k % 32 == 0:
+                p = wp.pow(x, wp.float64(k))
+            else:
+                p = p * x
+        out[k, i] = p
+
+
+@wp.kernel
+def row_powers_kernel(
+    u: wp.array(dtype=wp.float64),
+    q: wp.array(dtype=wp.float64),
+    upow: wp.array2d(dtype=wp.float64),
+    qpow: wp.array2d(dtype=wp.float64),
+    offset: wp.int32,
+):
+    """Powers of each row's u and q for :func:`row_fourier8_kernel`, one row per thread.
+
+    ``upow[k, i] = u_i**k`` (k < upow.shape[0], the half powers of :func:`half_powers`),
+    ``qpow[m, i] = q_i**m`` (m < qpow.shape[0], the seeds): the Legendre pass reads them
+    instead of calling ``pow`` per (row, order), and the rows of a group sit side by side.
+    """
+    i = wp.tid() + offset
+    _powers_into(u[i], upow.shape[0], upow, i)
+    _powers_into(q[i], qpow.shape[0], qpow, i)
+
+
+@wp.func
+def half_powers_tab(upow: wp.array2d(dtype=wp.float64), row: int, k: int) -> wp.vec2d:
+    """(u**(k//2), u**(k - k//2)) of ``row`` from its table (see :func:`half_powers`)."""
+    k1 = k / 2
+    return wp.vec2d(upow[k1, row], upow[k - k1, row])
 
 
 @wp.func
@@ -306,6 +350,8 @@ def row_fourier8_kernel(
     sdel: wp.array(dtype=wp.float64),
     row_a: wp.array2d(dtype=wp.int32),
     row_b: wp.array2d(dtype=wp.int32),
+    upow: wp.array2d(dtype=wp.float64),
+    qpow: wp.array2d(dtype=wp.float64),
     ng: int,
     simd: int,
     coef: wp.array3d(dtype=wp.vec2d),
@@ -321,7 +367,8 @@ def row_fourier8_kernel(
     of :mod:`fieldmap.grids.tables`. Thread ``i`` handles group ``g = i % ng`` of column
     ``mi = i // ng`` (order :func:`order_of`): the groups of one order run back to back and
     share its table while it is in cache. The zonal north term needs entry [6] of column
-    m = 1: the m = 0 thread sums it too (:func:`zonal_north8`).
+    m = 1: the m = 0 thread sums it too (:func:`zonal_north8`). The powers of u and q come
+    from the tables of :func:`row_powers_kernel`.
     """
     i = wp.tid() + offset
     mi = i / ng
@@ -337,7 +384,7 @@ def row_fourier8_kernel(
             qv[k] = q[ra]
     tq = wp.cw_mul(tv, qv)
     qq = wp.cw_mul(qv, qv)
-    seed = seed8(model, m, qv)
+    seed = seed8(model, qpow, m, row_a, g)
     cs = mat168d()
     if simd != 0:
         cs = column8_simd(rec, start[m], lmax + 1 - m, seed, tq, qq)
@@ -346,7 +393,7 @@ def row_fourier8_kernel(
     e6 = vec8d()
     o6 = vec8d()
     if m == 0 and lmax >= 1:
-        e6, o6 = zonal_north8(rec, zon, start[1], lmax, seed8(model, 1, qv), tq, qq)
+        e6, o6 = zonal_north8(rec, zon, start[1], lmax, seed8(model, qpow, 1, row_a, g), tq, qq)
     m1 = m - 1  # the power u^(m-1) of the east and north terms; u^1 for the zonal north term
     if m == 0:
         m1 = 1
@@ -357,16 +404,16 @@ def row_fourier8_kernel(
             ua = u[ra]
             rra = r[ra]
             kk = model.gm / (rra * rra)
-            hm = half_powers(ua, m)
-            h1 = half_powers(ua, m1)
+            hm = half_powers_tab(upow, ra, m)
+            h1 = half_powers_tab(upow, ra, m1)
             _coefficients_hp(se + so, e6[k] + o6[k], m, hm, h1, kk, cdel[ra], sdel[ra], coef, ra)
             rb = row_b[g, k]
             if rb >= 0:
                 if u[rb] != ua or r[rb] != rra:
                     rrb = r[rb]
                     kk = model.gm / (rrb * rrb)
-                    hm = half_powers(u[rb], m)
-                    h1 = half_powers(u[rb], m1)
+                    hm = half_powers_tab(upow, rb, m)
+                    h1 = half_powers_tab(upow, rb, m1)
                 _coefficients_hp(
                     _mirror(se, so), e6[k] - o6[k], m, hm, h1, kk, cdel[rb], sdel[rb], coef, rb
                 )

@@ -247,13 +247,24 @@ def zonal_north8(
 
 
 @wp.func
-def seed8(model: SHKernelModel, m: int, q: vec8d) -> vec8d:
-    """1e-280 q^m P̄mm/u^m per lane; 0 where q^m < QM_MIN (the engine's degree cut)."""
-    fm = wp.float64(m)
+def seed8(
+    model: SHKernelModel,
+    qpow: wp.array2d(dtype=wp.float64),
+    m: int,
+    row_a: wp.array2d(dtype=wp.int32),
+    g: int,
+) -> vec8d:
+    """1e-280 q^m P̄mm/u^m for the lanes (rows ``row_a[g]``); 0 where q^m < QM_MIN.
+
+    QM_MIN is the engine's degree cut; padding lanes (row -1) get 0. q^m comes from the power
+    table ``qpow[m, row]`` (:func:`fieldmap.kernels.grid.row_powers_kernel`).
+    """
     sc = SCALE * model.sect[m]
     p1 = vec8d()
     for k in range(8):
-        qm = wp.pow(q[k], fm)
-        if qm >= QM_MIN:
-            p1[k] = sc * qm
+        ra = row_a[g, k]
+        if ra >= 0:
+            qm = qpow[m, ra]
+            if qm >= QM_MIN:
+                p1[k] = sc * qm
     return p1

@@ -48,7 +48,7 @@ def _coefficients(model, lat, h, row_a, row_b, simd, device="cpu"):
     wp.launch(
         kgrid.row_fourier8_kernel,
         dim=ng * nm,
-        inputs=[km, *tabs, *geo, ra, rb, ng, simd, coef, 0],
+        inputs=[km, *tabs, *geo, ra, rb, *G.row_powers(geo, model.lmax, device), ng, simd, coef, 0],
         device=device,
     )
     ref = wp.zeros((lat.size, 3, nm), dtype=wp.vec2d, device=device)
@@ -111,3 +111,23 @@ def test_order_of_visits_every_order_once():
         work = [lmax + 1 - m for m in got]
         pairs = [work[k] + work[k + 1] for k in range(0, lmax, 2)]
         assert len(set(pairs)) <= 1  # consecutive pairs hold the same number of degrees
+
+
+def test_row_powers_against_numpy(device):
+    # the power tables of the Legendre pass: u^k and q^m per row against NumPy's float powers
+    u = np.array([0.0, 1.0, 0.3, 0.999999, 0.01, 0.7071067811865476])
+    q = np.array([1.0, 0.99, 1.0033, 0.5, 0.95, 0.9969])
+    geo = [wp.array(x, dtype=wp.float64, device=device) for x in (u, u, u, q)]
+    lmax = 700
+    upow, qpow = G.row_powers(geo, lmax, device)
+    up, qp = upow.numpy(), qpow.numpy()
+    assert up.shape == (lmax // 2 + 2, u.size) and qp.shape == (lmax + 1, q.size)
+    for tab, x in ((up, u), (qp, q)):
+        k = np.arange(tab.shape[0])[:, None]
+        want = x[None, :] ** k
+        assert np.all(tab[0] == 1.0)  # x^0 = 1, also at the pole (u = 0)
+        assert np.array_equal(tab[1], x)
+        normal = want > 1e-300  # below, the tables may differ in the subnormal range
+        rel = np.abs(tab - want)[normal] / want[normal]
+        assert np.max(rel) <= 32 * 2.3e-16
+        assert np.all(np.abs(tab[~normal]) <= 1e-290)

@@ -80,6 +80,28 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     return outs, gamma
 
 
+def row_powers(geo: list, lmax: int, device: str) -> tuple:
+    """Power tables (u^k, k <= lmax/2 + 1; q^m, m <= lmax) of the rows of ``_row_setup``.
+
+    The inputs of :func:`fieldmap.kernels.grid.row_fourier8_kernel` after the geometry, see
+    :func:`fieldmap.kernels.grid.row_powers_kernel`.
+    """
+    import warp as wp
+
+    from fieldmap import _warp
+    from fieldmap.kernels import grid as kgrid
+
+    n = geo[1].shape[0]
+    upow = wp.empty((lmax // 2 + 2, n), dtype=wp.float64, device=device)
+    qpow = wp.empty((lmax + 1, n), dtype=wp.float64, device=device)
+    # a small table is quicker on one thread than shared out
+    parts = 1 if n * lmax < 2**20 else None
+    _warp.launch_chunked(
+        kgrid.row_powers_kernel, n, [geo[1], geo[3], upow, qpow], device, parts=parts
+    )
+    return upow, qpow
+
+
 def normal_rows(
     grid: GridSpec,
     ellipsoid: Ellipsoid | None = None,
@@ -231,7 +253,7 @@ def synthesize(
     units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
     nper = regular_period(grid.lon) or nlon
     nc = 4 if potential else 3
-    per_item = nm * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2
+    per_item = nm * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
         block = max(block, min(nitems, 2 * _warp.cpu_workers()))
@@ -267,10 +289,11 @@ def synthesize(
             gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, GROUP)
             ra: Any = wp.array(ga, dtype=wp.int32, device=device)
             rb: Any = wp.array(gb, dtype=wp.int32, device=device)
+            pows = () if xr else row_powers(geo, model.lmax, device)
             _warp.launch_chunked(
                 kern,
                 ng * nm,
-                [*head, *tabs, *geo, ra, rb, ng, simd, coef],
+                [*head, *tabs, *geo, ra, rb, *pows, ng, simd, coef],
                 device,
             )
         else:
