@@ -157,6 +157,14 @@ def half_powers_tab(upow: wp.array2d(dtype=wp.float64), row: int, k: int) -> wp.
 
 
 @wp.func
+def zero_tail(coef: wp.array3d(dtype=wp.vec2d), row: int, nm: int):
+    """Zero the columns m >= nm of ``row`` (a coefficient array padded for the FFT)."""
+    for c in range(coef.shape[1]):
+        for j in range(nm, coef.shape[2]):
+            coef[row, c, j] = wp.vec2d()
+
+
+@wp.func
 def _coefficients_hp(
     s: sh_vec8,
     s6: wp.float64,
@@ -243,6 +251,7 @@ def row_fourier_kernel(
     cdel: wp.array(dtype=wp.float64),
     sdel: wp.array(dtype=wp.float64),
     nm: int,
+    osc: wp.array(dtype=wp.float64),
     coef: wp.array3d(dtype=wp.vec2d),
     offset: wp.int32,
 ):
@@ -251,7 +260,8 @@ def row_fourier_kernel(
     Thread ``i`` handles row ``i // nm`` and order ``m = i % nm`` with the engine's
     :func:`sh_column`; see :func:`_coefficients`. The zonal north term needs entry [6] of column
     m = 1: the m = 0 thread evaluates that column too (1/(lmax/2) of the row's work), which
-    keeps every thread independent.
+    keeps every thread independent. Order m is written times ``osc[m]`` (1, or a power of two
+    with a sign: exact), and the m = nm - 1 thread zeroes the row's columns past nm.
     """
     i = wp.tid() + offset
     row = i / nm
@@ -260,7 +270,10 @@ def row_fourier_kernel(
     s6 = wp.float64(0.0)
     if m == 0 and model.lmax >= 1:
         s6 = sh_column(model, 1, t[row], q[row])[6]
-    _coefficients(s, s6, m, u[row], r[row], cdel[row], sdel[row], model.gm, coef, row)
+    gmo = model.gm * osc[m]
+    _coefficients(s, s6, m, u[row], r[row], cdel[row], sdel[row], gmo, coef, row)
+    if m == nm - 1:
+        zero_tail(coef, row, nm)
 
 
 @wp.func
@@ -354,6 +367,7 @@ def row_fourier8_kernel(
     qpow: wp.array2d(dtype=wp.float64),
     ng: int,
     simd: int,
+    osc: wp.array(dtype=wp.float64),
     coef: wp.array3d(dtype=wp.vec2d),
     offset: wp.int32,
 ):
@@ -368,7 +382,8 @@ def row_fourier8_kernel(
     ``mi = i // ng`` (order :func:`order_of`): the groups of one order run back to back and
     share its table while it is in cache. The zonal north term needs entry [6] of column
     m = 1: the m = 0 thread sums it too (:func:`zonal_north8`). The powers of u and q come
-    from the tables of :func:`row_powers_kernel`.
+    from the tables of :func:`row_powers_kernel`. Order m is written times ``osc[m]`` (see
+    :func:`row_fourier_kernel`); the order-lmax thread zeroes its rows' columns past lmax.
     """
     i = wp.tid() + offset
     mi = i / ng
@@ -403,7 +418,7 @@ def row_fourier8_kernel(
             se, so = lane_sums(cs, k, m, tv[k], qv[k])
             ua = u[ra]
             rra = r[ra]
-            kk = model.gm / (rra * rra)
+            kk = model.gm / (rra * rra) * osc[m]
             hm = half_powers_tab(upow, ra, m)
             h1 = half_powers_tab(upow, ra, m1)
             _coefficients_hp(se + so, e6[k] + o6[k], m, hm, h1, kk, cdel[ra], sdel[ra], coef, ra)
@@ -411,9 +426,13 @@ def row_fourier8_kernel(
             if rb >= 0:
                 if u[rb] != ua or r[rb] != rra:
                     rrb = r[rb]
-                    kk = model.gm / (rrb * rrb)
+                    kk = model.gm / (rrb * rrb) * osc[m]
                     hm = half_powers_tab(upow, rb, m)
                     h1 = half_powers_tab(upow, rb, m1)
                 _coefficients_hp(
                     _mirror(se, so), e6[k] - o6[k], m, hm, h1, kk, cdel[rb], sdel[rb], coef, rb
                 )
+                if m == lmax:
+                    zero_tail(coef, rb, lmax + 1)
+            if m == lmax:
+                zero_tail(coef, ra, lmax + 1)

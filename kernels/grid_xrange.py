@@ -31,7 +31,7 @@ forms above degree 2700, :func:`fieldmap.grids.tables.pack_columns_direct`).
 
 import warp as wp
 
-from .grid import _mirror, lane_sums
+from .grid import _mirror, lane_sums, zero_tail
 from .grid_simd import mat168d, order_of, sums_matrix, vec8d, zonal_north8
 from .sh_model import QM_MIN, sh_vec8
 from .sh_xrange import XBIGI, XHALF, _xnorm
@@ -319,13 +319,15 @@ def row_fourier8x_kernel(
     row_b: wp.array2d(dtype=wp.int32),
     ng: int,
     simd: int,
+    osc: wp.array(dtype=wp.float64),
     coef: wp.array3d(dtype=wp.vec2d),
     offset: wp.int32,
 ):
     """:func:`fieldmap.kernels.grid.row_fourier8_kernel` at any degree (module docstring).
 
     Same thread layout (group ``i % ng`` of column ``order_of(i // ng)``), units and outputs;
-    the model enters as ``gm``, ``lmax`` and the tables (``sect[m]`` = P̄mm/u^m).
+    the model enters as ``gm``, ``lmax`` and the tables (``sect[m]`` = P̄mm/u^m). Order m is
+    written times ``osc[m]``, and columns past lmax are zeroed, as there.
     """
     i = wp.tid() + offset
     mi = i / ng
@@ -365,9 +367,10 @@ def row_fourier8x_kernel(
         if ra >= 0:
             se, so = lane_sums(cs, k, m, tv[k], qv[k])
             rra = r[ra]
-            _coefficients_x(
-                se + so, e6[k] + o6[k], m, uv[k], gm / (rra * rra), cdel[ra], sdel[ra], coef, ra
-            )
+            ka = gm / (rra * rra) * osc[m]
+            _coefficients_x(se + so, e6[k] + o6[k], m, uv[k], ka, cdel[ra], sdel[ra], coef, ra)
+            if m == lmax:
+                zero_tail(coef, ra, lmax + 1)
             rb = row_b[g, k]
             if rb >= 0:
                 rrb = r[rb]
@@ -376,9 +379,11 @@ def row_fourier8x_kernel(
                     e6[k] - o6[k],
                     m,
                     u[rb],
-                    gm / (rrb * rrb),
+                    gm / (rrb * rrb) * osc[m],
                     cdel[rb],
                     sdel[rb],
                     coef,
                     rb,
                 )
+                if m == lmax:
+                    zero_tail(coef, rb, lmax + 1)

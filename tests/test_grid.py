@@ -269,6 +269,37 @@ def test_longitude_sums_match_explicit_series(nm, nper, lon0):
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-13 * np.abs(W).sum())
 
 
+@pytest.mark.parametrize(
+    "nm, nper, lon0, ready",
+    [
+        (5, 12, 0.0, True),
+        (7, 12, -180.0, True),
+        (7, 12, 180.0, True),
+        (7, 13, 0.0, True),
+        (7, 12, 30.0, False),
+        (8, 12, 0.0, False),
+        (4, 12, 1.0, False),
+    ],
+)
+def test_spectrum_layout_read_as_it_is(nm, nper, lon0, ready):
+    """Series written as spectrum_layout says give the explicit cos/sin sums."""
+    rng = np.random.default_rng(nm * 10 + nper)
+    W = rng.normal(size=(3, nm)) + 1j * rng.normal(size=(3, nm))
+    lon = lon0 + 360.0 / nper * np.arange(nper)
+    ncol, osc, got_ready = G.spectrum_layout(lon, nm)
+    assert got_ready == ready
+    Wl = np.zeros((3, ncol), dtype=complex)
+    Wl[:, :nm] = W * osc
+    got = G.longitude_sums(Wl, lon, ready=ready)
+    m = np.arange(nm)[:, None]
+    lam = np.radians(lon)[None, :]
+    ref = W.real @ np.cos(m * lam) - W.imag @ np.sin(m * lam)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-13 * np.abs(W).sum())
+    if not ready:
+        with pytest.raises(ValueError, match="ready layout"):
+            G.longitude_sums(W, lon, ready=True)
+
+
 def test_mirror_group_path_matches_engine_column_path(eigen, device):
     """The grouped even/odd recursion (mirror rows, 4 per thread) equals the sh_column path.
 

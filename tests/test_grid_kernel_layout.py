@@ -35,27 +35,45 @@ def test_pack_columns_against_loops():
     assert np.array_equal(zon, [fnm[0, n] * cnm[0, n] for n in range(L + 1)])
 
 
-def _coefficients(model, lat, h, row_a, row_b, simd, device="cpu"):
-    """Run row_fourier8_kernel on explicit unit groups; coefficients (nrow, 3, nm) complex."""
+def _coefficients(model, lat, h, row_a, row_b, simd, device="cpu", osc=None, ncol=None):
+    """Run row_fourier8_kernel on explicit unit groups; coefficients (nrow, 3, ncol) complex.
+
+    The engine's ``row_fourier_kernel`` gives the reference. ``osc``: the order factors of
+    both (default 1); ``ncol``: columns (default nm), the arrays start as NaN.
+    """
     km = kernel_model(model, device)
     tabs = grid_tables(model, km, device)
     geo, _ = G._row_setup(np.radians(lat), h, WGS84, model.radius, 0, device)
     nm = model.lmax + 1
-    coef = wp.zeros((lat.size, 3, nm), dtype=wp.vec2d, device=device)
+    ones = wp.array(np.ones(nm) if osc is None else osc, dtype=wp.float64, device=device)
+    nan = wp.vec2d(np.nan, np.nan)
+    coef = wp.full((lat.size, 3, ncol or nm), nan, dtype=wp.vec2d, device=device)
     ra = wp.array(np.asarray(row_a, dtype=np.int32), dtype=wp.int32, device=device)
     rb = wp.array(np.asarray(row_b, dtype=np.int32), dtype=wp.int32, device=device)
     ng = ra.shape[0]
     wp.launch(
         kgrid.row_fourier8_kernel,
         dim=ng * nm,
-        inputs=[km, *tabs, *geo, ra, rb, *G.row_powers(geo, model.lmax, device), ng, simd, coef, 0],
+        inputs=[
+            km,
+            *tabs,
+            *geo,
+            ra,
+            rb,
+            *G.row_powers(geo, model.lmax, device),
+            ng,
+            simd,
+            ones,
+            coef,
+            0,
+        ],
         device=device,
     )
-    ref = wp.zeros((lat.size, 3, nm), dtype=wp.vec2d, device=device)
+    ref = wp.full((lat.size, 3, ncol or nm), nan, dtype=wp.vec2d, device=device)
     wp.launch(
         kgrid.row_fourier_kernel,
         dim=lat.size * nm,
-        inputs=[km, *geo, nm, ref, 0],
+        inputs=[km, *geo, nm, ones, ref, 0],
         device=device,
     )
     return coef.numpy(), ref.numpy()
@@ -111,6 +129,22 @@ def test_order_of_visits_every_order_once():
         work = [lmax + 1 - m for m in got]
         pairs = [work[k] + work[k + 1] for k in range(0, lmax, 2)]
         assert len(set(pairs)) <= 1  # consecutive pairs hold the same number of degrees
+
+
+def test_order_factors_and_padding(device):
+    """Both kernels write order m times osc[m] (exactly) and zero the columns past lmax."""
+    model = kaula_model(30, seed=2)
+    lat = np.array([20.0, -20.0, 0.0, 80.0])
+    h = np.full(4, 20e3)
+    a, b = [[0, 2, 3] + [-1] * 5], [[1, -1, -1] + [-1] * 5]
+    simd = int(device == "cpu")
+    plain, plain_ref = _coefficients(model, lat, h, a, b, simd, device)
+    osc = np.where(np.arange(31) % 2 == 0, 0.5, -0.5)
+    osc[0] = 1.0
+    got, ref = _coefficients(model, lat, h, a, b, simd, device, osc=osc, ncol=40)
+    for g, p in ((got, plain), (ref, plain_ref)):
+        assert np.array_equal(g[..., :31, :], p * osc[:, None])
+        assert np.all(g[..., 31:, :] == 0.0)
 
 
 def test_row_powers_against_numpy(device):

@@ -88,19 +88,26 @@ def test_xrange_grid_equals_scaled_grid(L, device):
     assert np.max(np.abs(b[..., 3] - a[..., 3]) / np.abs(a[..., 3])) <= 1e-13
 
 
-def _coefficients_x(model, lat, h, row_a, row_b, simd):
-    """Run row_fourier8x_kernel on explicit unit groups: coefficients (nrow, 3, nm)."""
+def _coefficients_x(model, lat, h, row_a, row_b, simd, osc=None, ncol=None):
+    """Run row_fourier8x_kernel on explicit unit groups: coefficients (nrow, 3, ncol).
+
+    ``osc``: the order factors (default 1); ``ncol``: columns (default nm), the array starts
+    as NaN.
+    """
     L = model.lmax
     tabs = grid_tables_x(model, L, "cpu")
     geo, _ = G._row_setup(np.radians(lat), h, WGS84, model.radius, 0, "cpu")
-    coef = wp.zeros((lat.size, 3, L + 1), dtype=wp.vec2d, device="cpu")
+    osc = wp.array(np.ones(L + 1) if osc is None else osc, dtype=wp.float64, device="cpu")
+    coef = wp.full(
+        (lat.size, 3, ncol or L + 1), wp.vec2d(np.nan, np.nan), dtype=wp.vec2d, device="cpu"
+    )
     ra = wp.array(np.asarray(row_a, dtype=np.int32), dtype=wp.int32, device="cpu")
     rb = wp.array(np.asarray(row_b, dtype=np.int32), dtype=wp.int32, device="cpu")
     ng = ra.shape[0]
     wp.launch(
         kgx.row_fourier8x_kernel,
         dim=ng * (L + 1),
-        inputs=[wp.float64(model.gm), L, *tabs, *geo, ra, rb, ng, simd, coef, 0],
+        inputs=[wp.float64(model.gm), L, *tabs, *geo, ra, rb, ng, simd, osc, coef, 0],
         device="cpu",
     )
     return coef.numpy()
@@ -134,7 +141,9 @@ def test_xrange_lanes_do_not_mix(simd):
     ref_c = wp.zeros((lat.size, 3, 1201), dtype=wp.vec2d, device="cpu")
     from fieldmap.kernels import grid as kgrid
 
-    wp.launch(kgrid.row_fourier_kernel, dim=lat.size * 1201, inputs=[km, *geo, 1201, ref_c, 0])
+    ones = wp.array(np.ones(1201), dtype=wp.float64, device="cpu")
+    args = [km, *geo, 1201, ones, ref_c, 0]
+    wp.launch(kgrid.row_fourier_kernel, dim=lat.size * 1201, inputs=args)
     rc = ref_c.numpy()
     assert np.max(np.abs(c1 - rc)) <= 1e-13 * np.max(np.abs(rc))
 
@@ -201,3 +210,16 @@ def test_refusals():
     huge = np.broadcast_to(np.float64(0.0), (10802, 10802))
     with pytest.raises(InputError, match="10800"):
         G.synthesize(SHModel("huge", GM, R, huge, huge, 10801), grid)
+
+
+def test_xrange_order_factors_and_padding():
+    """Order m is written times osc[m] (exactly), the columns past lmax are zeroed."""
+    model = kaula_model(40, seed=3)
+    lat = np.array([10.0, -10.0, 89.0, 0.0])
+    h = np.full(4, 20e3)
+    a, b = [[0, 2, 3] + [-1] * 5], [[1, -1, -1] + [-1] * 5]
+    plain = _coefficients_x(model, lat, h, a, b, 1)
+    osc = np.where(np.arange(41) % 3 == 0, 1.0, -0.5)
+    got = _coefficients_x(model, lat, h, a, b, 1, osc=osc, ncol=47)
+    assert np.array_equal(got[..., :41, :], plain * osc[:, None])
+    assert np.all(got[..., 41:, :] == 0.0)

@@ -36,8 +36,49 @@ def regular_period(lon_deg: np.ndarray) -> int | None:
     return nper
 
 
+def _lattice(lon_deg: np.ndarray, nper: int) -> tuple[int, bool]:
+    """(node of the transform at the first longitude, whether lon0 is off the node lattice).
+
+    Node k sits at lon0 + k * 2 pi / L: a lon0 on the node lattice is a rotation of the output
+    (exact), any other lon0 a phase factor on the series.
+    """
+    step = 360.0 / nper
+    k0 = round(lon_deg[0] / step)
+    if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
+        return 0, True
+    return int(k0) % nper, False
+
+
+def spectrum_layout(lon_deg: np.ndarray, nm: int) -> tuple[int, np.ndarray, bool]:
+    """How to write a row's series of ``nm`` orders so that the FFT reads them as they are.
+
+    Returns ``(ncol, osc, ready)``. When ``ready`` (whole turns of regular longitudes starting
+    at node 0 or half a turn away, e.g. lon0 = 0 or -180, and nm <= L/2 + 1), a series
+    written as ``osc[m] W_m`` into ``ncol = L/2 + 1`` columns (zeros past nm) is the half
+    spectrum of the inverse real FFT: ``osc`` = 1 for m = 0, else 1/2 (times (-1)^m for the
+    half-turn start, which rotates the output). Pass ``ready=True`` to
+    :func:`longitude_sums` with it. Otherwise ``ncol = nm``, ``osc`` = 1: the plain series.
+    """
+    lon_deg = np.asarray(lon_deg, dtype=np.float64)
+    nper = regular_period(lon_deg)
+    osc = np.ones(nm)
+    if nper is None or lon_deg.size != nper or nm > nper // 2 + 1:
+        return nm, osc, False
+    src0, off = _lattice(lon_deg, nper)
+    if off or src0 not in (0, nper / 2):
+        return nm, osc, False
+    osc[1:] = 0.5
+    if src0:
+        osc[1::2] = -0.5
+    return nper // 2 + 1, osc, True
+
+
 def longitude_sums(
-    W: np.ndarray, lon_deg: np.ndarray, device: str = "cpu", out: np.ndarray | None = None
+    W: np.ndarray,
+    lon_deg: np.ndarray,
+    device: str = "cpu",
+    out: np.ndarray | None = None,
+    ready: bool = False,
 ) -> np.ndarray:
     """Evaluate Re(sum_m W[..., m] e^{i m lon}) at every longitude.
 
@@ -51,6 +92,9 @@ def longitude_sums(
         Warp device for the direct-sum fallback (irregular longitudes).
     out : numpy.ndarray, optional
         Real array of shape (..., nlon) to fill (may be a view into a larger buffer).
+    ready : bool
+        ``W`` is written as :func:`spectrum_layout` says for a ``ready`` layout: the inverse
+        FFTs read it as it is (its Nyquist column is doubled in place).
 
     Returns
     -------
@@ -66,20 +110,23 @@ def longitude_sums(
         out = np.empty((*lead, nlon))
     res = out.reshape(ns, nlon)  # a view for the contiguous buffers the callers pass
     nper = regular_period(lon_deg)
+    if ready:
+        ncol, _, fits = spectrum_layout(lon_deg, nm)
+        if not fits or ncol != nm or nper is None:
+            raise ValueError("longitude_sums: W is not in a ready layout for these longitudes")
+        if nper % 2 == 0:
+            W[:, -1] *= 2.0  # the Nyquist term (-1)^k enters once
+        map_rows(lambda a, b: _irfft(W[a:b], nper, res[a:b]), ns, CHUNK_MIN)
+        if not np.shares_memory(res, out):
+            out[...] = res.reshape(out.shape)
+        return out
     if nper is None:
         res[...] = _direct_sums(W, lon_deg, device)
         return out
-    # node k sits at lon0 + k * 2 pi / L: a lon0 on the node lattice is a rotation of the
-    # output (exact), any other lon0 a phase factor on the series
-    step = 360.0 / nper
-    k0 = round(lon_deg[0] / step)
-    phase = None
-    if abs(lon_deg[0] - k0 * step) > 1e-9 * max(1.0, abs(lon_deg[0])):
-        k0 = 0
-        phase = np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm))
+    src0, off = _lattice(lon_deg, nper)
+    phase = np.exp(1j * np.radians(lon_deg[0]) * np.arange(nm)) if off else None
     # contiguous parts of the series, taken by the CPU threads, each transformed chunk by chunk
     # in work arrays that stay in the core's cache (a series' values do not depend on the split)
-    src0 = int(k0) % nper
     map_rows(lambda a, b: _fft_rows(W[a:b], phase, nper, src0, res[a:b]), ns, CHUNK_MIN)
     if not np.shares_memory(res, out):
         out[...] = res.reshape(out.shape)

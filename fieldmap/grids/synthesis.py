@@ -19,7 +19,11 @@ import numpy as np
 
 from fieldmap import _compat
 from fieldmap.errors import InputError
-from fieldmap.grids.longitude import longitude_sums, regular_period
+from fieldmap.grids.longitude import (  # noqa: F401 - longitude_sums, spectrum_layout re-exported
+    longitude_sums,
+    regular_period,
+    spectrum_layout,
+)
 from fieldmap.grids.spec import (  # noqa: F401 - re-exported: the grid API lives here for users
     MAX_HEIGHT_M,
     MIN_HEIGHT_M,
@@ -253,7 +257,10 @@ def synthesize(
     units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
     nper = regular_period(grid.lon) or nlon
     nc = 4 if potential else 3
-    per_item = nm * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
+    # the coefficients as the longitude FFTs read them, where the longitudes allow
+    ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
+    osc = wp.array(osc_np, dtype=wp.float64, device=device)
+    per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
         block = max(block, min(nitems, 2 * _warp.cpu_workers()))
@@ -278,7 +285,7 @@ def synthesize(
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         # the group kernel writes every (row, component, order) of the block
-        coef = (wp.empty if symmetric else wp.zeros)((nb, nc, nm), dtype=wp.vec2d, device=device)
+        coef = (wp.empty if symmetric else wp.zeros)((nb, nc, ncol), dtype=wp.vec2d, device=device)
         t0 = time.perf_counter()
         if symmetric:
             loc_a = [local[a] for a, _ in blk]
@@ -293,11 +300,12 @@ def synthesize(
             _warp.launch_chunked(
                 kern,
                 ng * nm,
-                [*head, *tabs, *geo, ra, rb, *pows, ng, simd, coef],
+                [*head, *tabs, *geo, ra, rb, *pows, ng, simd, osc, coef],
                 device,
             )
         else:
-            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, [*head, *geo, nm, coef], device)
+            args = [*head, *geo, nm, osc, coef]
+            _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, args, device)
         t1 = time.perf_counter()
         t_leg += t1 - t0
         W = coef.numpy().view(np.complex128)[..., 0]  # (nb, nc, nm): A_m - i B_m
@@ -307,9 +315,9 @@ def synthesize(
             assert cen is not None  # computed above for this quantity
             W[:, :3, 0] += cen[items]
         if items[-1] - items[0] + 1 == nb:  # contiguous rows: sum straight into the result
-            longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1])
+            longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1], ready=ready)
         else:
-            out[items] = longitude_sums(W, grid.lon, device)
+            out[items] = longitude_sums(W, grid.lon, device, ready=ready)
         t_lon += time.perf_counter() - t1
         if potential:  # the kernel gives V/r (see kernels.grid._coefficients)
             out[items, 3] *= geo[2].numpy()[:, None]
