@@ -114,19 +114,19 @@ def row_setup_kernel(
 
 
 @wp.func
-def _powers_into(x: wp.float64, n: int, out: wp.array2d(dtype=wp.float64), i: int):
-    """out[k, i] = x**k for k < n: products, restarted from ``wp.pow`` every 32 powers.
+def _powers_block(x: wp.float64, k0: int, out: wp.array2d(dtype=wp.float64), i: int):
+    """Write x**k into out[k, i] for k0 <= k < min(k0 + 32, rows of ``out``).
 
-    At most 31 roundings separate a power from the exact one (about 4e-15 relative), and
-    u**0 = 1 also at the pole (u = 0).
+    ``wp.pow`` at k0, then products: at most 31 roundings separate a power from the exact one
+    (about 4e-15 relative); x**0 = 1 also at the pole (u = 0).
     """
     p = wp.float64(1.0)
-    for k in range(n):
-        if k > 0:
-            if k % 32 == 0:
-                p = wp.pow(x, wp.float64(k))
-            else:
-                p = p * x
+    if k0 > 0:
+        p = wp.pow(x, wp.float64(k0))
+    k1 = wp.min(k0 + 32, out.shape[0])
+    for k in range(k0, k1):
+        if k > k0:
+            p = p * x
         out[k, i] = p
 
 
@@ -138,15 +138,22 @@ def row_powers_kernel(
     qpow: wp.array2d(dtype=wp.float64),
     offset: wp.int32,
 ):
-    """Powers of each row's u and q for :func:`row_fourier8_kernel`, one row per thread.
+    """Powers of each row's u and q for :func:`row_fourier8_kernel`, 32 of one row per thread.
 
     ``upow[k, i] = u_i**k`` (k < upow.shape[0], the half powers of :func:`half_powers`),
     ``qpow[m, i] = q_i**m`` (m < qpow.shape[0], the seeds): the Legendre pass reads them
     instead of calling ``pow`` per (row, order), and the rows of a group sit side by side.
+    Thread ``i`` takes row ``i % n`` and block ``i // n`` of the powers of u, then of q.
     """
     i = wp.tid() + offset
-    _powers_into(u[i], upow.shape[0], upow, i)
-    _powers_into(q[i], qpow.shape[0], qpow, i)
+    n = u.shape[0]
+    b = i / n
+    row = i - b * n
+    nbu = (upow.shape[0] + 31) / 32
+    if b < nbu:
+        _powers_block(u[row], 32 * b, upow, row)
+    else:
+        _powers_block(q[row], 32 * (b - nbu), qpow, row)
 
 
 @wp.func

@@ -98,11 +98,8 @@ def row_powers(geo: list, lmax: int, device: str) -> tuple:
     n = geo[1].shape[0]
     upow = wp.empty((lmax // 2 + 2, n), dtype=wp.float64, device=device)
     qpow = wp.empty((lmax + 1, n), dtype=wp.float64, device=device)
-    # a small table is quicker on one thread than shared out
-    parts = 1 if n * lmax < 2**20 else None
-    _warp.launch_chunked(
-        kgrid.row_powers_kernel, n, [geo[1], geo[3], upow, qpow], device, parts=parts
-    )
+    nthreads = n * (-(-upow.shape[0] // 32) - (-qpow.shape[0] // 32))  # 32 powers a thread
+    _warp.launch_chunked(kgrid.row_powers_kernel, nthreads, [geo[1], geo[3], upow, qpow], device)
     return upow, qpow
 
 

@@ -13,18 +13,16 @@ import xarray as xr
 from fieldmap.products.blocks import VARIABLES
 
 
-def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Dataset:
-    """Coordinates, global and variable attributes of a disturbance product, without data.
+def template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dict:
+    """Return the parts of :func:`template`: ``coords``, ``attrs``, ``variables``, ``dims``.
 
-    The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
-    same :mod:`fieldmap.products.cf` helpers); ``attrs["variables"]`` maps each variable name
-    to its attributes.
+    ``coords`` maps names to ``xarray.Variable``; ``variables`` maps each variable name to its
+    attributes. A product returned in memory is built from them in one ``xarray.Dataset``.
     """
     from fieldmap.products.cf import coords, disturbance_attrs, mg_attrs, vector_vars
 
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
-    attrs = disturbance_attrs(mod, grid, ell)
     c = coords(grid, stacked)
     if stacked:
         c["threshold_mg"] = xr.Variable(
@@ -32,9 +30,25 @@ def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Datase
             np.array(thresholds, dtype=np.float64),
             mg_attrs("threshold of the disturbance modulus"),
         )
-    ds = xr.Dataset(coords=c, attrs=attrs)
-    ds.attrs["variables"] = {name: vv[name][2] for name in VARIABLES}
-    ds.attrs["dims"] = dims
+    return {
+        "coords": c,
+        "attrs": disturbance_attrs(mod, grid, ell),
+        "variables": {name: vv[name][2] for name in VARIABLES},
+        "dims": dims,
+    }
+
+
+def template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Dataset:
+    """Coordinates, global and variable attributes of a disturbance product, without data.
+
+    The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
+    same :mod:`fieldmap.products.cf` helpers); ``attrs["variables"]`` maps each variable name
+    to its attributes.
+    """
+    parts = template_parts(mod, grid, ell, units, thresholds, stacked)
+    ds = xr.Dataset(coords=parts["coords"], attrs=parts["attrs"])
+    ds.attrs["variables"] = parts["variables"]
+    ds.attrs["dims"] = parts["dims"]
     return ds
 
 

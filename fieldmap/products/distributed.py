@@ -107,7 +107,7 @@ def disturbance_blocks(
     )
     check_memory(grid)  # the result is returned whole
     progress = show_progress(int(np.prod(grid.shape)), progress)
-    tmpl = blockmeta.template(mod, grid, ell, units, thresholds, stacked)
+    tmpl = blockmeta.template_parts(mod, grid, ell, units, thresholds, stacked)
     stats, values = _in_memory(
         (grid, ell, mod),
         blockio.VARIABLES,
@@ -144,19 +144,18 @@ def _in_memory(setup, names, stacked, client, scheduler, **run_kw):
         return stats, arrays()
 
 
-def _assemble(tmpl, arrays, stats, thresholds, stacked, method="histogram") -> xr.Dataset:
-    ds = tmpl.copy()
-    var_attrs = ds.attrs.pop("variables")
-    dims = ds.attrs.pop("dims")
-    # one update (one alignment) for all variables, in this order
+def _assemble(parts, arrays, stats, thresholds, stacked, method="histogram") -> xr.Dataset:
+    """Build the product Dataset from :func:`blockmeta.template_parts` and the arrays."""
+    attrs = dict(parts["attrs"])
+    dims, var_attrs = parts["dims"], parts["variables"]
     data = {name: xr.Variable(dims, arrays[name], var_attrs[name]) for name in blockio.VARIABLES}
     if stacked:
         data.update(cf.sweep_statistics(stats, thresholds))
-        ds.attrs["percentile_method"] = blockmeta.percentile_method_text(method)
+        attrs["percentile_method"] = blockmeta.percentile_method_text(method)
     else:
-        ds.attrs.update(blockmeta.map_attrs(stats[0], thresholds, method))
-    ds.update(data)
-    return ds
+        attrs.update(blockmeta.map_attrs(stats[0], thresholds, method))
+    # one Dataset, built at once (an update would align the variables again)
+    return xr.Dataset(data, coords=parts["coords"], attrs=attrs)
 
 
 def write_disturbance(
