@@ -192,10 +192,15 @@ def launch_chunked(kernel, dim: int, inputs: list, device: str, parts: int | Non
         wp.launch(kernel, dim=dim, inputs=[*inputs, 0], device=device)
         return
     pool = _pool_get()
+    # the calling thread launches the first piece itself: one thread hand-off fewer
     futs = [
         pool.submit(wp.launch, kernel, dim=cnt, inputs=[*inputs, start], device=device)
-        for start, cnt in pieces
+        for start, cnt in pieces[1:]
     ]
-    for f in futs:
-        f.result()
+    try:
+        start, cnt = pieces[0]
+        wp.launch(kernel, dim=cnt, inputs=[*inputs, start], device=device)
+    finally:
+        for f in futs:
+            f.result()
     wp.synchronize_device(device)

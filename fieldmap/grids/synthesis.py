@@ -45,6 +45,10 @@ BLOCK_BYTES = 192 * 2**20
 
 QUANTITIES = ("disturbance", "gravitation", "gravity")
 
+#: Rows below which the row set-up runs on one CPU thread: sharing out a launch costs about
+#: 0.15 ms, more than a few thousand rows of set-up.
+SMALL_LAUNCH = 4096
+
 #: Seconds spent in the parts of the last :func:`synthesize` call of this process ("legendre":
 #: the Legendre pass kernel, "longitude": the longitude sums, "total"), for the benchmarks.
 last_timings: dict[str, float] = {}
@@ -80,6 +84,7 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
         n,
         [lat, hh, ell, wp.float64(radius), int(order), *outs, gamma],
         device,
+        parts=1 if n < SMALL_LAUNCH else None,
     )
     return outs, gamma
 
@@ -99,7 +104,9 @@ def row_powers(geo: list, lmax: int, device: str) -> tuple:
     upow = wp.empty((lmax // 2 + 2, n), dtype=wp.float64, device=device)
     qpow = wp.empty((lmax + 1, n), dtype=wp.float64, device=device)
     nthreads = n * (-(-upow.shape[0] // 32) - (-qpow.shape[0] // 32))  # 32 powers a thread
-    _warp.launch_chunked(kgrid.row_powers_kernel, nthreads, [geo[1], geo[3], upow, qpow], device)
+    parts = 1 if nthreads < 4 * SMALL_LAUNCH else None
+    args = [geo[1], geo[3], upow, qpow]
+    _warp.launch_chunked(kgrid.row_powers_kernel, nthreads, args, device, parts=parts)
     return upow, qpow
 
 
