@@ -289,7 +289,10 @@ def synthesize(
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         # the group kernel writes every (row, component, order) of the block
-        coef = (wp.empty if symmetric else wp.zeros)((nb, nc, ncol), dtype=wp.vec2d, device=device)
+        # stored order by order (coef[row, c, m] at m * nb * nc + row * nc + c): the eight
+        # lanes of a thread write side by side; the FFTs read the series with a stride
+        store = (wp.empty if symmetric else wp.zeros)((ncol, nb, nc), dtype=wp.vec2d, device=device)
+        coef = store.transpose([1, 2, 0])
         t0 = time.perf_counter()
         if symmetric:
             loc_a = [local[a] for a, _ in blk]
@@ -312,7 +315,8 @@ def synthesize(
             _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, args, device)
         t1 = time.perf_counter()
         t_leg += t1 - t0
-        W = coef.numpy().view(np.complex128)[..., 0]  # (nb, nc, nm): A_m - i B_m
+        # (nb, nc, ncol) view: A_m - i B_m
+        W = np.moveaxis(store.numpy().view(np.complex128)[..., 0], 0, -1)
         if quantity == "disturbance":
             W[:, :3, 0] -= gamma.numpy()
         elif quantity == "gravity":
