@@ -289,10 +289,17 @@ def synthesize(
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         # the group kernel writes every (row, component, order) of the block
-        # stored order by order (coef[row, c, m] at m * nb * nc + row * nc + c): the eight
-        # lanes of a thread write side by side; the FFTs read the series with a stride
-        store = (wp.empty if symmetric else wp.zeros)((ncol, nb, nc), dtype=wp.vec2d, device=device)
-        coef = store.transpose([1, 2, 0])
+        # for the FFTs that read the coefficients as they are, stored order by order
+        # (coef[row, c, m] at m * nb * nc + row * nc + c): the eight lanes of a thread write
+        # side by side, and the FFTs read the series with a stride (at degree 240 the kernel
+        # takes 30 % less time, the FFTs 10 % more); else series by series (the FFTs' copies
+        # read them faster)
+        alloc = wp.empty if symmetric else wp.zeros
+        if ready:
+            store = alloc((ncol, nb, nc), dtype=wp.vec2d, device=device)
+            coef = store.transpose([1, 2, 0])
+        else:
+            store = coef = alloc((nb, nc, ncol), dtype=wp.vec2d, device=device)
         t0 = time.perf_counter()
         if symmetric:
             loc_a = [local[a] for a, _ in blk]
@@ -315,8 +322,9 @@ def synthesize(
             _warp.launch_chunked(kgrid.row_fourier_kernel, nb * nm, args, device)
         t1 = time.perf_counter()
         t_leg += t1 - t0
-        # (nb, nc, ncol) view: A_m - i B_m
-        W = np.moveaxis(store.numpy().view(np.complex128)[..., 0], 0, -1)
+        W = store.numpy().view(np.complex128)[..., 0]  # A_m - i B_m
+        if ready:
+            W = np.moveaxis(W, 0, -1)  # (nb, nc, ncol), a view
         if quantity == "disturbance":
             W[:, :3, 0] -= gamma.numpy()
         elif quantity == "gravity":
