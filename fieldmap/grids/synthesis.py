@@ -257,8 +257,12 @@ def synthesize(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
-    pairs = mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)]
-    units = [(k * nlat + a, k * nlat + b if b >= 0 else -1) for k in range(nh) for a, b in pairs]
+    # units: a row (ua) and its mirror (ub, or -1), height by height
+    pairs = np.array(mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)])
+    layer = (np.arange(nh) * nlat)[:, None]
+    ua = (layer + pairs[:, 0]).ravel()
+    ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
+    ucum = np.cumsum(1 + (ub >= 0))  # rows in units 0..u
     nper = regular_period(grid.lon) or nlon
     nc = 4 if potential else 3
     # the coefficients as the longitude FFTs read them, where the longitudes allow
@@ -272,28 +276,29 @@ def synthesize(
     work = float(nitems) * nm * nm
     # tqdm: disable=None shows the bar on a terminal only
     disable = (not progress) if progress is not None else (None if work > 2e10 else True)
-    bar = tqdm(total=nitems, unit="row", desc="synthesis", disable=disable, leave=False)
+    bar = (
+        None
+        if disable is True
+        else tqdm(total=nitems, unit="row", desc="synthesis", leave=False, disable=disable)
+    )
     cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
     t_leg = t_lon = 0.0
     t_all = time.perf_counter()
     u0 = 0
-    while u0 < len(units):
-        # a block of whole units (a mirrored pair of rows, or a single row)
-        u1, count = u0, 0
-        while u1 < len(units) and (count == 0 or count + 1 + (units[u1][1] >= 0) <= block):
-            count += 1 if units[u1][1] < 0 else 2
-            u1 += 1
-        blk = units[u0:u1]
-        items = np.sort([i for a, b in blk for i in ((a,) if b < 0 else (a, b))])
-        local = {int(it): k for k, it in enumerate(items)}
+    while u0 < ua.size:
+        # a block of whole units (a mirrored pair of rows, or a single row): as many as fit
+        # ``block`` rows, at least one
+        done = ucum[u0 - 1] if u0 else 0
+        u1 = max(u0 + 1, int(np.searchsorted(ucum, done + block, side="right")))
+        bra, brb = ua[u0:u1], ub[u0:u1]
+        items = np.sort(np.concatenate([bra, brb[brb >= 0]]))
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
-        # the group kernel writes every (row, component, order) of the block
-        # for the FFTs that read the coefficients as they are, stored order by order
-        # (coef[row, c, m] at m * nb * nc + row * nc + c): the eight lanes of a thread write
-        # side by side, and the FFTs read the series with a stride (at degree 240 the kernel
-        # takes 30 % less time, the FFTs 10 % more); else series by series (the FFTs' copies
-        # read them faster)
+        # the kernels write every (row, component, order) of the block. For the FFTs that
+        # read the coefficients as they are, stored order by order (coef[row, c, m] at
+        # m * nb * nc + row * nc + c): the eight lanes of a thread write side by side, and the
+        # FFTs read the series with a stride (at degree 240 the kernel takes 30 % less time,
+        # the FFTs 10 % more); else series by series (the FFTs' copies read them faster)
         alloc = wp.empty if symmetric else wp.zeros
         if ready:
             store = alloc((ncol, nb, nc), dtype=wp.vec2d, device=device)
@@ -302,12 +307,13 @@ def synthesize(
             store = coef = alloc((nb, nc, ncol), dtype=wp.vec2d, device=device)
         t0 = time.perf_counter()
         if symmetric:
-            loc_a = [local[a] for a, _ in blk]
-            loc_b = [local[b] if b >= 0 else -1 for _, b in blk]
-            ng = -(-len(loc_a) // GROUP)
-            pad = GROUP * ng - len(loc_a)
-            ga = np.array(loc_a + [-1] * pad, dtype=np.int32).reshape(ng, GROUP)
-            gb = np.array(loc_b + [-1] * pad, dtype=np.int32).reshape(ng, GROUP)
+            # the units' rows as indices into the block, eight units a group, padded with -1
+            ng = -(-bra.size // GROUP)
+            ga = np.full(ng * GROUP, -1, dtype=np.int32)
+            gb = np.full(ng * GROUP, -1, dtype=np.int32)
+            ga[: bra.size] = np.searchsorted(items, bra)
+            gb[: brb.size] = np.where(brb >= 0, np.searchsorted(items, brb), -1)
+            ga, gb = ga.reshape(ng, GROUP), gb.reshape(ng, GROUP)
             ra: Any = wp.array(ga, dtype=wp.int32, device=device)
             rb: Any = wp.array(gb, dtype=wp.int32, device=device)
             pows = () if xr else row_powers(geo, model.lmax, device)
@@ -337,9 +343,11 @@ def synthesize(
         t_lon += time.perf_counter() - t1
         if potential:  # the kernel gives V/r (see kernels.grid._coefficients)
             out[items, 3] *= geo[2].numpy()[:, None]
-        bar.update(nb)
+        if bar is not None:
+            bar.update(nb)
         u0 = u1
-    bar.close()
+    if bar is not None:
+        bar.close()
     last_timings.update(legendre=t_leg, longitude=t_lon, total=time.perf_counter() - t_all)
     # (height, lat, component, lon) in memory; the (height, lat, lon, component) view costs nothing
     return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)
