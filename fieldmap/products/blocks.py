@@ -39,7 +39,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.products.blockstats import (
     OrderedFold,
-    block_partial,
+    disturbance_partial,
     finish_statistics,
     scalar_partial,
 )
@@ -224,7 +224,6 @@ def compute_block(job: Job, model) -> dict:
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import GridSpec
     from fieldmap.grids.synthesis import synthesize
-    from fieldmap.products.cf import vector_vars
 
     worker_setup()
     ell = get_ellipsoid(job.ellipsoid)
@@ -237,12 +236,11 @@ def compute_block(job: Job, model) -> dict:
     )
     if job.quantity == "disturbance":
         vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
-        # the variables of the in-memory map, by the same function (the same bits)
-        data = {k: v[1] for k, v in vector_vars(vec, (), job.units, "", overwrite=True).items()}
-        del vec
-        partial = block_partial(
-            data["modulus_mg"], job.row_weights, job.thresholds, job.hist_weights
+        # converted in place and reduced in one pass (vector_vars and block_partial, same bits)
+        data, partial = disturbance_partial(
+            vec, job.units, job.row_weights, job.thresholds, job.hist_weights
         )
+        del vec
     else:
         from fieldmap.products.quantity_product import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
 

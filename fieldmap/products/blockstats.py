@@ -30,6 +30,7 @@ __all__ = [
     "PERCENTILE_METHODS",
     "PERCENTILE_RTOL",
     "check_percentile_method",
+    "disturbance_partial",
     "OrderedFold",
     "block_partial",
     "finish_statistics",
@@ -111,23 +112,57 @@ def block_partial(
     from fieldmap.grids.longitude import map_rows
 
     v = np.ascontiguousarray(modulus_mg, dtype=np.float64)
-    vmax, vmin = float(v.max()), float(v.min())  # NaN propagates, inf is caught
-    if not (math.isfinite(vmax) and math.isfinite(vmin)):
-        raise InputError("map holds non-finite values")
     if hist_weights is None:
         hist_weights = histogram_weights(row_weights, v.shape[1])
     rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
-    # the bins of the non-negative moduli are monotonic in their values: only those from the
-    # minimum's to the maximum's are counted (negative values fall into bin 0, as in
-    # _hist_index)
-    lo = int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
-    hi = int(_hist_index(np.array([vmax]))[0])
-    parts = map_rows(
-        lambda a, b: _rows_partial(v[a:b], rw[a:b], thresholds, hw[a:b], lo, hi), len(v), 32
-    )
-    hist = parts[0][3]
-    for p in parts[1:]:
-        hist += p[3]  # whole numbers below 2**53: exact in any order
+    parts = map_rows(lambda a, b: _rows_partial(v[a:b], rw[a:b], thresholds, hw[a:b]), len(v), 32)
+    return _joined(parts, len(thresholds))
+
+
+def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
+    """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
+
+    The variables of :func:`fieldmap.products.cf.vector_vars` with ``overwrite=True`` and the
+    statistics of :func:`block_partial` of their ``modulus_mg``, the same bits: each part of
+    the rows (on the CPU threads) is converted (:func:`fieldmap.products.cf.convert_rows`) and
+    reduced while it is in the cache.
+
+    Returns
+    -------
+    (dict, dict)
+        {name: (rows, nlon) array} of east, north, up, modulus, modulus_mg, and the partial.
+    """
+    from fieldmap.grids.longitude import map_rows
+    from fieldmap.products.cf import convert_rows
+    from fieldmap.units import get_unit
+
+    scale = get_unit(units).si
+    comps = np.moveaxis(vec, -1, 0)
+    mods = np.empty((2, *comps.shape[1:]))
+    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
+
+    def part(a, b):
+        convert_rows(comps, comps, mods, scale, a, b)
+        return _rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
+
+    parts = map_rows(part, comps.shape[1], 32)
+    names = ("east", "north", "up", "modulus", "modulus_mg")
+    return dict(zip(names, (*comps, *mods))), _joined(parts, len(thresholds))
+
+
+def _joined(parts: list, nthresholds: int) -> dict:
+    """Join the partials of the parts of a block's rows (in row order) into the block's."""
+    if any(p is None for p in parts):
+        raise InputError("map holds non-finite values")
+    vmax, vmin = max(p[0] for p in parts), min(p[1] for p in parts)
+    lo = _hist_lo(vmin)
+    if len(parts) == 1:
+        hist = parts[0][6]
+    else:
+        hist = np.zeros(_hist_hi(vmax) - lo + 1)
+        for p in parts:  # whole numbers below 2**53: exact in any order
+            o = p[2] - lo
+            hist[o : o + p[6].size] += p[6]
     nz = np.flatnonzero(hist)
 
     def joined(i, j=None):
@@ -136,27 +171,50 @@ def block_partial(
     return {
         "max": vmax,
         "min": vmin,
-        "sw": joined(0),
-        "sw2": joined(1),
-        "above": [joined(2, j) for j in range(len(thresholds))],
+        "sw": joined(3),
+        "sw2": joined(4),
+        "above": [joined(5, j) for j in range(nthresholds)],
         "hist": ((nz + lo).astype(np.int32), hist[nz]),
     }
 
 
-def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights, lo: int, hi: int):
-    """Per-row sums, per-row areas above each threshold, histogram of bins lo..hi of rows ``v``."""
+def _hist_lo(vmin: float) -> int:
+    """Return the first histogram bin counted: the minimum's, or 0."""
+    # the bins of the non-negative moduli are monotonic in their values: only those from the
+    # minimum's to the maximum's are counted (negative values fall into bin 0, as in
+    # _hist_index)
+    return int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
+
+
+def _hist_hi(vmax: float) -> int:
+    """Return the histogram bin of the maximum."""
+    return int(_hist_index(np.array([vmax]))[0])
+
+
+def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
+    """Return the partial of rows ``v``, or None if a value is not finite.
+
+    (max, min, bin ``lo`` of the minimum, per-row weighted sums of v and v², per-row areas above
+    each threshold, weighted histogram of the bins ``lo`` to the maximum's).
+    """
+    vmax, vmin = float(v.max()), float(v.min())  # NaN propagates, inf is caught
+    if not (math.isfinite(vmax) and math.isfinite(vmin)):
+        return None
+    lo, hi = _hist_lo(vmin), _hist_hi(vmax)
     flag = np.empty(v.shape, dtype=bool)  # one buffer for every threshold
+    # counts of whole rows of bytes: uint16 holds them, and sums bytes faster than int64
+    count = np.uint16 if v.shape[1] < 2**16 else np.int64
     above = []
     for t in thresholds:
         np.greater(v, t, out=flag)
-        above.append(row_weights * np.add.reduce(flag, axis=1, dtype=np.int64))
+        above.append(row_weights * np.add.reduce(flag.view(np.uint8), axis=1, dtype=count))
     k = v.view(np.int64) >> _SHIFT
     k -= _BITS_LO + lo
     if lo == 0 or hi == HIST_BINS - 1:  # values out of the range (or negative): clip them
         np.clip(k, 0, hi - lo, out=k)
     w = np.repeat(hist_weights, v.shape[1])
     hist = np.bincount(k.ravel(), weights=w, minlength=hi - lo + 1)
-    return row_weights * _rows(v), row_weights * _rows(v * v), above, hist
+    return vmax, vmin, lo, row_weights * _rows(v), row_weights * _rows(v * v), above, hist
 
 
 def scalar_partial(v: np.ndarray, row_weights: np.ndarray) -> dict:

@@ -140,6 +140,23 @@ def disturbance_attrs(mod, grid, ell) -> dict:
     )
 
 
+def convert_rows(comps, dst, mods, scale: float, a=None, b=None) -> None:
+    """Convert m/s² components to a unit of size ``scale`` and take the moduli, on rows [a, b).
+
+    ``comps`` (3, rows, ...) and ``dst`` (3, rows, ...; ``comps`` itself converts in place)
+    hold the components, ``mods`` (2, rows, ...) receives the modulus in the unit and in mg;
+    element by element, on the rows ``[a, b)`` of the second axis (default: everything). The
+    one conversion of :func:`vector_vars` and of the blocks of the maps
+    (:func:`fieldmap.products.blockstats.disturbance_partial`): the same bits.
+    """
+    ix = (slice(None),) if a is None else (slice(None), slice(a, b))
+    c, d, m = comps[ix], dst[ix], mods[ix]
+    np.divide(c, scale, out=d)
+    np.einsum("k...,k...->...", d, d, out=m[0])  # one pass, no temporaries
+    np.sqrt(m[0], out=m[0])  # in ``units``
+    np.multiply(m[0], scale / MG, out=m[1])
+
+
 def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
     """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
 
@@ -161,31 +178,25 @@ def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
     else:
         buf = np.empty((5, *comps.shape[1:]))
         dst = buf[:3]
-
-    def convert(a=None, b=None):
-        # element by element, on the rows [a, b) of the first axis (default: everything)
-        ix = (slice(None),) if a is None else (slice(None), slice(a, b))
-        c, d, m = comps[ix], dst[ix], buf[-2:][ix]
-        np.divide(c, scale, out=d)
-        np.einsum("k...,k...->...", d, d, out=m[0])  # one pass, no temporaries
-        np.sqrt(m[0], out=m[0])  # in ``units``
-        np.multiply(m[0], scale / MG, out=m[1])
-
+    mods = buf[-2:]
     if overwrite and comps.ndim > 2:  # rows of the grid: parts on the CPU threads
-        map_rows(convert, comps.shape[1], 32)
+        map_rows(lambda a, b: convert_rows(comps, dst, mods, scale, a, b), comps.shape[1], 32)
     else:
-        convert()
-    comps = dst
-    mod, mod_mg = buf[-2], buf[-1]
-    out = {}
-    for k, name in enumerate(("east", "north", "up")):
-        out[name] = (
-            dims,
-            comps[k],
-            {"units": cf_units(units), "long_name": f"{COMPONENTS[name]} component of the {what}"},
-        )
-    out["modulus"] = (dims, mod, {"units": cf_units(units), "long_name": f"modulus of the {what}"})
-    out["modulus_mg"] = (dims, mod_mg, mg_attrs(f"modulus of the {what} in mg"))
+        convert_rows(comps, dst, mods, scale)
+    attrs = vector_attrs(units, what)
+    values = dict(zip(attrs, (*dst, *mods)))
+    return {name: (dims, values[name], a) for name, a in attrs.items()}
+
+
+def vector_attrs(units: str, what: str) -> dict:
+    """Attributes of east, north, up, modulus (in ``units``) and modulus_mg, by name, in order."""
+    unit = cf_units(units)
+    out = {
+        name: {"units": unit, "long_name": f"{cf} component of the {what}"}
+        for name, cf in COMPONENTS.items()
+    }
+    out["modulus"] = {"units": unit, "long_name": f"modulus of the {what}"}
+    out["modulus_mg"] = mg_attrs(f"modulus of the {what} in mg")
     return out
 
 
