@@ -11,6 +11,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.products.blocks import VARIABLES
+from fieldmap.units import get_unit
 
 
 def template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dict:
@@ -19,10 +20,10 @@ def template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dic
     ``coords`` maps names to ``xarray.Variable``; ``variables`` maps each variable name to its
     attributes. A product returned in memory is built from them in one ``xarray.Dataset``.
     """
-    from fieldmap.products.cf import coords, disturbance_attrs, mg_attrs, vector_vars
+    from fieldmap.products.cf import coords, disturbance_attrs, mg_attrs, vector_attrs
 
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
-    vv = vector_vars(np.zeros((1, 3)), dims, units, "gravity disturbance")
+    attrs = vector_attrs(get_unit(units).name, "gravity disturbance")
     c = coords(grid, stacked)
     if stacked:
         c["threshold_mg"] = xr.Variable(
@@ -33,7 +34,7 @@ def template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dic
     return {
         "coords": c,
         "attrs": disturbance_attrs(mod, grid, ell),
-        "variables": {name: vv[name][2] for name in VARIABLES},
+        "variables": {name: attrs[name] for name in VARIABLES},
         "dims": dims,
     }
 

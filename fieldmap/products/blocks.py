@@ -155,6 +155,8 @@ def plan_blocks(
         if rows_per_block < 1:
             raise InputError(f"rows per block must be >= 1, got {rows_per_block}")
     size = max(2, min(nlat, rows_per_block))
+    if size >= nlat:  # one block per height holds every row (what the grouping gives)
+        return [Block(k, k, np.arange(nlat, dtype=np.int64)) for k in range(nh)]
     units = mirror_pairs(grid.lat)
     blocks: list[Block] = []
     for layer in range(nh):
@@ -240,7 +242,6 @@ def compute_block(job: Job, model) -> dict:
         data, partial = disturbance_partial(
             vec, job.units, job.row_weights, job.thresholds, job.hist_weights
         )
-        del vec
     else:
         from fieldmap.products.quantity_product import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
 
@@ -274,6 +275,10 @@ def compute_block(job: Job, model) -> dict:
 def _run_local(jobs, model, on_result, progress) -> None:
     from tqdm.auto import tqdm
 
+    if _bar_off(progress):  # no bar object: it costs as much as a small map's statistics
+        for job in jobs:
+            on_result(compute_block(job, model))
+        return
     bar = tqdm(total=len(jobs), unit="block", desc="blocks", disable=_bar_off(progress))
     try:
         for job in jobs:

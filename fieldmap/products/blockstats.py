@@ -18,6 +18,7 @@ deflection, geoid, potential) have extrema and weighted sums per variable
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
@@ -159,7 +160,7 @@ def _joined(parts: list, nthresholds: int) -> dict:
     if len(parts) == 1:
         hist = parts[0][6]
     else:
-        hist = np.zeros(_hist_hi(vmax) - lo + 1)
+        hist = np.zeros(_bin(vmax) - lo + 1)
         for p in parts:  # whole numbers below 2**53: exact in any order
             o = p[2] - lo
             hist[o : o + p[6].size] += p[6]
@@ -178,17 +179,18 @@ def _joined(parts: list, nthresholds: int) -> dict:
     }
 
 
+def _bin(x: float) -> int:
+    """Histogram bin of one float (:func:`_hist_index` of a scalar, without an array)."""
+    k = (struct.unpack("=q", struct.pack("=d", x))[0] >> _SHIFT) - _BITS_LO
+    return min(max(k, 0), HIST_BINS - 1)
+
+
 def _hist_lo(vmin: float) -> int:
     """Return the first histogram bin counted: the minimum's, or 0."""
     # the bins of the non-negative moduli are monotonic in their values: only those from the
     # minimum's to the maximum's are counted (negative values fall into bin 0, as in
     # _hist_index)
-    return int(_hist_index(np.array([vmin]))[0]) if vmin > 0 else 0
-
-
-def _hist_hi(vmax: float) -> int:
-    """Return the histogram bin of the maximum."""
-    return int(_hist_index(np.array([vmax]))[0])
+    return _bin(vmin) if vmin > 0 else 0
 
 
 def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
@@ -200,7 +202,7 @@ def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
     vmax, vmin = float(v.max()), float(v.min())  # NaN propagates, inf is caught
     if not (math.isfinite(vmax) and math.isfinite(vmin)):
         return None
-    lo, hi = _hist_lo(vmin), _hist_hi(vmax)
+    lo, hi = _hist_lo(vmin), _bin(vmax)
     flag = np.empty(v.shape, dtype=bool)  # one buffer for every threshold
     # counts of whole rows of bytes: uint16 holds them, and sums bytes faster than int64
     count = np.uint16 if v.shape[1] < 2**16 else np.int64
