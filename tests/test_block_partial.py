@@ -95,3 +95,39 @@ def test_scalar_bin_matches_array_bins():
         [10.0 ** rng.uniform(-320, 300, 5000), -rng.random(50), [0.0, -0.0, 5e-324, lo, hi]]
     )
     assert [bs._bin(float(v)) for v in x] == bs._hist_index(x).tolist()
+
+
+@pytest.mark.parametrize("stacked", [False, True])
+def test_dataset_without_merge_is_the_constructors(stacked):
+    import xarray as xr
+
+    from fieldmap.field.ellipsoid import get_ellipsoid
+    from fieldmap.grids.spec import make_grid
+    from fieldmap.models.registry import load_model
+    from fieldmap.products import blockmeta, cf
+
+    grid = make_grid(10.0, 80.0, None, np.array([2e4, 5e4] if stacked else [2e4]))
+    parts = blockmeta.template_parts(
+        load_model("eigen-6s", lmax=4), grid, get_ellipsoid("WGS84"), "mGal", THRESHOLDS, stacked
+    )
+    rng = np.random.default_rng(3)
+    data = {
+        name: xr.Variable(parts["dims"], rng.random(grid.shape if stacked else grid.shape[1:]), a)
+        for name, a in parts["variables"].items()
+    }
+    if stacked:
+        stat = {"max_mg": 1.0, "mean_mg": 0.5, "p50_mg": 0.4, "p99_mg": 0.9}
+        stat["area_fraction_above"] = {f"{t:g}": 0.1 for t in THRESHOLDS}
+        data.update(cf.sweep_statistics([stat, stat], THRESHOLDS))
+    fast = blockmeta.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
+    want = xr.Dataset(dict(data), coords=parts["coords"], attrs=dict(parts["attrs"]))
+    xr.testing.assert_identical(fast, want)
+    xr.testing._assert_internal_invariants(fast, check_default_indexes=True)
+    assert list(fast.variables) == list(want.variables)
+    assert list(fast.xindexes) == list(want.xindexes)
+    for name in want.xindexes:
+        assert fast.xindexes[name].equals(want.xindexes[name])
+    assert fast.encoding == want.encoding
+    assert float(fast.sel(latitude=30.0)["modulus"].sum()) == float(
+        want.sel(latitude=30.0)["modulus"].sum()
+    )

@@ -155,7 +155,7 @@ def _assemble(parts, arrays, stats, thresholds, stacked, method="histogram") -> 
     else:
         attrs.update(blockmeta.map_attrs(stats[0], thresholds, method))
     # one Dataset, built at once (an update would align the variables again)
-    return xr.Dataset(data, coords=parts["coords"], attrs=attrs)
+    return blockmeta.dataset(data, parts["coords"], attrs)
 
 
 def write_disturbance(
