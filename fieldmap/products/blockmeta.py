@@ -96,4 +96,7 @@ def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
             variables.update(indexes[name].create_variables({name: var}))
         else:
             variables[name] = var
-    return direct(variables, set(coords), None, attrs, indexes)
+    try:
+        return direct(variables, set(coords), None, attrs, indexes)
+    except (TypeError, ValueError):  # a private API that changed: the public constructor
+        return xr.Dataset(data, coords=coords, attrs=attrs)
