@@ -110,6 +110,21 @@ def row_powers(geo: list, lmax: int, device: str) -> tuple:
     return upow, qpow
 
 
+def _coefficient_store(shape: tuple, written: bool, device: str) -> Any:
+    """Warp array of Fourier coefficients (vec2d): uninitialised if the kernel writes it all.
+
+    On the CPU the memory comes from NumPy, which asks the kernel for huge pages on large
+    arrays: a few page faults instead of one per 4 kB when the memory is fresh (e.g. after
+    another library returned its own to the system).
+    """
+    import warp as wp
+
+    if device != "cpu":
+        return (wp.empty if written else wp.zeros)(shape, dtype=wp.vec2d, device=device)
+    host = (np.empty if written else np.zeros)((*shape, 2))
+    return wp.array(host, dtype=wp.vec2d, device="cpu", copy=False)
+
+
 def normal_rows(
     grid: GridSpec,
     ellipsoid: Ellipsoid | None = None,
@@ -299,12 +314,9 @@ def synthesize(
         # m * nb * nc + row * nc + c): the eight lanes of a thread write side by side, and the
         # FFTs read the series with a stride (at degree 240 the kernel takes 30 % less time,
         # the FFTs 10 % more); else series by series (the FFTs' copies read them faster)
-        alloc = wp.empty if symmetric else wp.zeros
-        if ready:
-            store = alloc((ncol, nb, nc), dtype=wp.vec2d, device=device)
-            coef = store.transpose([1, 2, 0])
-        else:
-            store = coef = alloc((nb, nc, ncol), dtype=wp.vec2d, device=device)
+        shape = (ncol, nb, nc) if ready else (nb, nc, ncol)
+        store = _coefficient_store(shape, symmetric, device)
+        coef = store.transpose([1, 2, 0]) if ready else store
         t0 = time.perf_counter()
         if symmetric:
             # the units' rows as indices into the block, eight units a group, padded with -1
