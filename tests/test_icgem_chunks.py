@@ -302,3 +302,30 @@ def test_block_scans_match_whole_array_ones(tmp_path, monkeypatch):
     small[23, 4] = -2.0
     small[30, 1] = 3.0
     assert scan.first_outsize(small, small * 0) == (23, 4, -2.0)
+
+
+def test_large_gzip_files_stream_to_a_mapping(tmp_path, monkeypatch):
+    """Above GZ_IN_MEMORY a gzip file is decompressed chunk by chunk into a mapped temporary file.
+
+    The model has the same bits as one decompressed in memory, and bad gzip files give the same
+    one-line errors.
+    """
+    path = _write(tmp_path, "big.gfc.gz", _lines(6), gz=True)
+    in_memory = _read(path, 7, monkeypatch)
+    monkeypatch.setattr(scan, "GZ_IN_MEMORY", 0)
+    monkeypatch.setattr(scan, "_CHUNK", 100)  # many chunks
+    raw = scan.read_bytes(path, mapped=True)
+    assert not isinstance(raw, bytes) and raw[:] == gzip.decompress(path.read_bytes())
+    assert _read(path, 7, monkeypatch) == in_memory
+    cut = tmp_path / "cut.gfc.gz"
+    cut.write_bytes(path.read_bytes()[:-20])
+    with pytest.raises(ModelFileError, match="truncated or corrupt gzip data"):
+        scan.read_bytes(cut, mapped=True)
+    empty = tmp_path / "empty.gfc.gz"
+    empty.write_bytes(gzip.compress(b""))
+    with pytest.raises(ModelFileError, match="empty file"):
+        scan.read_bytes(empty, mapped=True)
+    binary = tmp_path / "bin.gfc.gz"
+    binary.write_bytes(gzip.compress(b"\x00" * 1000))
+    with pytest.raises(ModelFileError, match="binary byte 0x00"):
+        scan.read_bytes(binary, mapped=True)

@@ -33,6 +33,10 @@ MAX_STREAM_BYTES = 4 * 2**30
 _CHUNK = 16 * 2**20
 #: bytes read at a time when scanning a whole file (binary check, newline counts)
 BLOCK = 16 * 2**20
+#: compressed size above which a gzip model file is decompressed, chunk by chunk, into an
+#: unnamed temporary file that is then memory-mapped (a degree-5540 ``.gfc.gz`` holds 1 GB of
+#: text, a degree-10,800 one 4 GB); smaller ones are decompressed in memory
+GZ_IN_MEMORY = 64 * 2**20
 
 
 def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
@@ -40,7 +44,9 @@ def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
 
     With ``mapped``, a regular uncompressed file comes back as a read-only :class:`mmap.mmap`
     (its pages are the page cache's, not this process's anonymous memory: a degree-10,800 file is
-    4 GB); gzip data and pipes still come back as bytes.
+    4 GB), and so does a gzip file larger than :data:`GZ_IN_MEMORY`, decompressed chunk by chunk
+    into an unnamed temporary file (:func:`_gunzip_mapped`); smaller gzip data and pipes come
+    back as bytes.
     """
     try:
         raw: bytes | mmap.mmap
@@ -50,6 +56,9 @@ def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
                 raw = _read_stream(f, path)
             elif mapped and st.st_size > 0 and f.read(2) != b"\x1f\x8b":
                 raw = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+            elif mapped and st.st_size > GZ_IN_MEMORY:
+                f.seek(0)
+                raw = _gunzip_mapped(f, path)
             else:
                 f.seek(0)
                 raw = f.read()
@@ -67,6 +76,32 @@ def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
     if not len(raw) or re.search(rb"[^ \t\n\r\x0b\x0c]", raw) is None:  # bytes.isspace()
         raise ModelFileError(f"{path}: empty file")
     return raw
+
+
+def _gunzip_mapped(f, path) -> mmap.mmap:
+    """Decompress the gzip file ``f`` chunk by chunk into an unnamed temporary file; map it.
+
+    The memory used is a chunk's, whatever the size of the model; the temporary file (in the
+    system's temporary folder) disappears when the mapping is closed.
+    """
+    import tempfile
+
+    try:
+        with gzip.GzipFile(fileobj=f, mode="rb") as gz, tempfile.TemporaryFile() as tmp:
+            first = True
+            while chunk := gz.read(_CHUNK):
+                if first:
+                    check_text(path, chunk)  # binary data fails at once
+                    first = False
+                tmp.write(chunk)
+            tmp.flush()
+            if first:  # nothing inside
+                raise ModelFileError(f"{path}: empty file")
+            return mmap.mmap(tmp.fileno(), 0, access=mmap.ACCESS_READ)
+    except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
+        raise ModelFileError(f"{path}: truncated or corrupt gzip data ({exc})") from None
+    except OSError as exc:  # e.g. no space left for the decompressed text
+        raise ModelFileError(f"{path}: cannot decompress ({exc.strerror or exc})") from None
 
 
 def release(raw, lo: int, hi: int) -> None:
