@@ -64,6 +64,17 @@ def resolve_device(device: str | None) -> str:
         raise InputError(str(exc)) from None
 
 
+def to_device(a: np.ndarray, dtype, device: str) -> Any:
+    """Warp array (``wp.int32`` or ``wp.float64``) of ``a``: on the CPU its memory, else a copy.
+
+    The caller keeps ``a`` alive while the array is used (the Warp array holds a reference).
+    """
+    import warp as wp
+
+    a = np.ascontiguousarray(a, dtype=np.int32 if dtype is wp.int32 else np.float64)
+    return wp.array(a, dtype=dtype, device=device, copy=device != "cpu")
+
+
 def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
     """Per-item geometry and normal gravitation (geodetic ENU), see ``row_setup_kernel``."""
     import warp as wp
@@ -74,8 +85,8 @@ def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
 
     _warp.init()  # launch_chunked compiles the module once, before its threads launch
     n = lat_rad.size
-    lat = wp.array(lat_rad, dtype=wp.float64, device=device)
-    hh = wp.array(h_m, dtype=wp.float64, device=device)
+    lat = to_device(lat_rad, wp.float64, device)
+    hh = to_device(h_m, wp.float64, device)
     outs = [wp.zeros(n, dtype=wp.float64, device=device) for _ in range(6)]
     gamma = wp.zeros(n, dtype=wp.vec3d, device=device)
     ell = normal_params(ellipsoid)
@@ -282,7 +293,7 @@ def synthesize(
     nc = 4 if potential else 3
     # the coefficients as the longitude FFTs read them, where the longitudes allow
     ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
-    osc = wp.array(osc_np, dtype=wp.float64, device=device)
+    osc = to_device(osc_np, wp.float64, device)
     per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
     block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
     if device == "cpu" and block < nitems:
@@ -326,8 +337,7 @@ def synthesize(
             ga[: bra.size] = np.searchsorted(items, bra)
             gb[: brb.size] = np.where(brb >= 0, np.searchsorted(items, brb), -1)
             ga, gb = ga.reshape(ng, GROUP), gb.reshape(ng, GROUP)
-            ra: Any = wp.array(ga, dtype=wp.int32, device=device)
-            rb: Any = wp.array(gb, dtype=wp.int32, device=device)
+            ra, rb = to_device(ga, wp.int32, device), to_device(gb, wp.int32, device)
             pows = () if xr else row_powers(geo, model.lmax, device)
             _warp.launch_chunked(
                 kern,
