@@ -284,7 +284,10 @@ def synthesize(
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
     # units: a row (ua) and its mirror (ub, or -1), height by height
-    pairs = np.array(mirror_pairs(grid.lat) if symmetric else [(i, -1) for i in range(nlat)])
+    if symmetric:
+        pairs = mirror_pair_array(grid.lat)
+    else:
+        pairs = np.stack([np.arange(nlat), np.full(nlat, -1)], axis=1)
     layer = (np.arange(nh) * nlat)[:, None]
     ua = (layer + pairs[:, 0]).ravel()
     ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
@@ -375,6 +378,29 @@ def synthesize(
     return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)
 
 
+def mirror_pair_array(lat_deg: np.ndarray, distinct_only: bool = False) -> Any:
+    """:func:`mirror_pairs` as an (n, 2) integer array (None if ``distinct_only`` and not).
+
+    Distinct latitudes (any grid made by :func:`make_grid`) are paired at once with NumPy.
+    """
+    lat = np.asarray(lat_deg, dtype=np.float64).ravel()
+    if lat.size > 1:
+        d = np.diff(lat)
+        order = None if np.all(d > 0) else np.argsort(lat, kind="stable")
+        srt = lat if order is None else lat[order]
+        if order is None or np.all(srt[1:] > srt[:-1]):  # distinct latitudes
+            pos = np.minimum(np.searchsorted(srt, -lat), lat.size - 1)
+            mate = pos if order is None else order[pos]
+            mate = np.where((srt[pos] == -lat) & (lat != 0), mate, -1)
+            rows = np.arange(lat.size)
+            first = np.flatnonzero((mate < 0) | (mate > rows))  # a row after its mate is taken
+            return np.stack([first, mate[first]], axis=1)
+    if distinct_only:
+        return None
+    pairs = mirror_pairs(lat)
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
 def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     """Group rows into (row, mirror row at -latitude) pairs, or (row, -1) without a mirror.
 
@@ -382,14 +408,9 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     the equator row has no mirror other than itself.
     """
     lat = np.asarray(lat_deg, dtype=np.float64).ravel()
-    order = np.argsort(lat, kind="stable")
-    srt = lat[order]
-    if lat.size > 1 and np.all(srt[1:] > srt[:-1]):  # distinct latitudes (any grid): at once
-        pos = np.minimum(np.searchsorted(srt, -lat), lat.size - 1)
-        mate = np.where((srt[pos] == -lat) & (lat != 0), order[pos], -1)
-        rows = np.arange(lat.size)
-        first = np.flatnonzero((mate < 0) | (mate > rows))  # a row after its mate is taken
-        return list(zip(first.tolist(), mate[first].tolist()))
+    fast = mirror_pair_array(lat, distinct_only=True)
+    if fast is not None:
+        return list(zip(fast[:, 0].tolist(), fast[:, 1].tolist()))
     where = {float(v): i for i, v in enumerate(lat_deg)}
     used: set[int] = set()
     out = []
