@@ -367,3 +367,22 @@ def test_symmetric_grid_names_its_extent():
     """The file stem of the CLI is built from the region: step 30 now says latmax60, not 70."""
     g = G.make_grid(30.0, 80.0)
     assert g.region == (-180.0, 150.0, -60.0, 60.0)
+
+
+def test_mirror_pair_array_equals_mirror_pairs():
+    """The index array of the synthesis holds the pairs of mirror_pairs, in the same order."""
+    rng = np.random.default_rng(0)
+    cases = [
+        G.make_grid(0.5, 90.0).lat,
+        G.make_grid(1.0, 80.0).lat,
+        G.make_grid(0.25, region=(-20, 40, 30, 60)).lat,
+        np.array([10.0, -10.0, 0.0, 5.0]),
+        np.array([3.0, 3.0, -3.0]),
+        np.array([0.0]),
+        np.array([-5.0, 5.0, -5.0, 5.0]),
+        np.array([30.0, 10.0, -30.0, -10.0, 0.0]),
+    ]
+    cases += [np.round(rng.uniform(-90, 90, 12), 0) for _ in range(20)]
+    for lat in cases:
+        got = G.mirror_pair_array(lat)
+        assert [tuple(p) for p in got.tolist()] == G.mirror_pairs(lat), lat
