@@ -413,3 +413,17 @@ def test_coastline_data():
     assert np.nanmax(np.abs(np.diff(w))) < 10.0
     w2, _ = coastline.shifted(-180.0)
     assert np.nanmin(w2) >= -180 and np.nanmax(w2) < 180 and np.nanmax(np.abs(np.diff(w2))) < 10.0
+
+
+def test_maps_of_one_grid_are_independent():
+    """Maps of the same grid share their (immutable) coordinate indexes, nothing else."""
+    a = fieldmap.disturbance_map("eigen-6s", lmax=8, step_deg=30.0, device="cpu")
+    b = fieldmap.disturbance_map("eigen-6s", lmax=8, step_deg=30.0, device="cpu")
+    a["latitude"].attrs["long_name"] = "changed"
+    a["east"].values[...] = 0.0
+    shifted = a.assign_coords(latitude=a.latitude + 1.0)
+    assert b["latitude"].attrs["long_name"] == "geodetic latitude"
+    assert np.any(b["east"].values != 0.0)
+    assert np.array_equal(b.latitude.values, a.latitude.values)
+    assert np.array_equal(shifted.latitude.values, a.latitude.values + 1.0)
+    assert float(b.sel(latitude=30.0, longitude=0.0).east) != 0.0
