@@ -427,3 +427,21 @@ def test_maps_of_one_grid_are_independent():
     assert np.array_equal(b.latitude.values, a.latitude.values)
     assert np.array_equal(shifted.latitude.values, a.latitude.values + 1.0)
     assert float(b.sel(latitude=30.0, longitude=0.0).east) != 0.0
+
+
+def test_dataset_index_cache_is_bounded():
+    """The shared coordinate indexes: at most 16 kept, each Dataset indexed by its own values."""
+    import xarray as xr
+
+    from fieldmap.products import blockmeta
+
+    for k in range(20):
+        lat = xr.Variable("latitude", np.arange(3.0) + k)
+        ds = blockmeta.dataset(
+            {"v": (("latitude",), np.arange(3.0) * k, {})}, {"latitude": lat}, {}
+        )
+        assert float(ds.sel(latitude=k + 2.0).v) == 2.0 * k
+        xr.testing.assert_identical(
+            ds, xr.Dataset({"v": ("latitude", np.arange(3.0) * k)}, coords={"latitude": lat})
+        )
+    assert len(blockmeta._INDEXES) <= 16

@@ -102,8 +102,8 @@ def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
             index = _INDEXES.get(key)
             if index is None:
                 index = PandasIndex.from_variables({name: var}, options={})
-                if len(_INDEXES) >= 16:
-                    _INDEXES.pop(next(iter(_INDEXES)))
+                if len(_INDEXES) >= 16:  # the oldest goes (another thread may have taken it)
+                    _INDEXES.pop(next(iter(_INDEXES), None), None)
                 _INDEXES[key] = index
             indexes[name] = index
             variables.update(index.create_variables({name: var}))
