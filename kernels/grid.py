@@ -186,9 +186,9 @@ def _coefficients_hp(
 ):
     """Write the Fourier coefficients of order m of one row, see :func:`_coefficients`.
 
-    ``k = GM/r^2``, ``hm = half_powers(u, m)`` and ``h1 = half_powers(u, m - 1)``
-    (``half_powers(u, 1)`` for m = 0) are given, so that a row and its mirror (same u and r)
-    share them.
+    ``k = GM/r^2`` (times the order factor), ``hm`` = (u^(m//2), u^(m - m//2)) and ``h1`` the
+    same for m - 1 (for 1 when m = 0) are given, from :func:`half_powers` or the power tables
+    (:func:`half_powers_tab`), so that a row and its mirror (same u and r) share them.
     """
     a_up = -k * scaled_times(s[2], hm)
     b_up = -k * scaled_times(s[3], hm)

@@ -369,8 +369,25 @@ def test_symmetric_grid_names_its_extent():
     assert g.region == (-180.0, 150.0, -60.0, 60.0)
 
 
+def _pairs_reference(lat):
+    """Mirror pairs by a plain loop: each row, in order, takes the last unused row at -lat."""
+    where = {float(v): i for i, v in enumerate(lat)}
+    used, out = set(), []
+    for i, v in enumerate(lat):
+        if i in used:
+            continue
+        j = where.get(-float(v)) if v != 0 else None
+        if j is not None and j != i and j not in used:
+            out.append((i, j))
+            used.update((i, j))
+        else:
+            out.append((i, -1))
+            used.add(i)
+    return out
+
+
 def test_mirror_pair_array_equals_mirror_pairs():
-    """The index array of the synthesis holds the pairs of mirror_pairs, in the same order."""
+    """The index array of the synthesis and mirror_pairs hold the pairs of a plain loop."""
     rng = np.random.default_rng(0)
     cases = [
         G.make_grid(0.5, 90.0).lat,
@@ -382,7 +399,11 @@ def test_mirror_pair_array_equals_mirror_pairs():
         np.array([-5.0, 5.0, -5.0, 5.0]),
         np.array([30.0, 10.0, -30.0, -10.0, 0.0]),
     ]
-    cases += [np.round(rng.uniform(-90, 90, 12), 0) for _ in range(20)]
+    cases += [np.round(rng.uniform(-90, 90, 12), 0) for _ in range(20)]  # repeats too
+    cases += [np.sort(np.round(rng.uniform(-9, 9, 9), 0))[::-1] for _ in range(5)]
+    cases += [np.linspace(-80, 80, 17)[::-1], rng.permutation(np.linspace(-80, 80, 17))]
     for lat in cases:
+        want = _pairs_reference(lat)
         got = G.mirror_pair_array(lat)
-        assert [tuple(p) for p in got.tolist()] == G.mirror_pairs(lat), lat
+        assert [tuple(p) for p in got.tolist()] == want, lat
+        assert G.mirror_pairs(lat) == want, lat

@@ -445,3 +445,13 @@ def test_dataset_index_cache_is_bounded():
             ds, xr.Dataset({"v": ("latitude", np.arange(3.0) * k)}, coords={"latitude": lat})
         )
     assert len(blockmeta._INDEXES) <= 16
+
+
+def test_shared_coordinate_index_cannot_be_written_through():
+    """Writing into one map's index values fails instead of changing the next map's grid."""
+    a = fieldmap.disturbance_map("eigen-6s", lmax=8, step_deg=30.0, device="cpu")
+    with pytest.raises(ValueError, match="read-only"):
+        np.asarray(a.latitude.to_index())[:] = 0.0
+    b = fieldmap.disturbance_map("eigen-6s", lmax=8, step_deg=30.0, device="cpu")
+    np.testing.assert_array_equal(b.latitude.values, np.arange(-60.0, 61.0, 30.0))
+    assert float(b.sel(latitude=30.0, longitude=0.0).east) != 0.0

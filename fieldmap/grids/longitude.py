@@ -1,8 +1,9 @@
 """Longitude sums of a grid row: sum_m (A_m cos m lon + B_m sin m lon) at every node.
 
 Regular longitudes lon0 + k 360/L go through inverse real FFTs of length L, one per series
-(orders fold onto 0..L/2 exactly on the nodes), chunk by chunk in small per-thread work arrays,
-the series shared out over the CPU threads (:func:`map_rows`); any other longitudes
+(orders fold onto 0..L/2 exactly on the nodes), the series shared out over the CPU threads
+(:func:`map_rows`): straight from the coefficients where they are written as the FFT reads them
+(:func:`spectrum_layout`), else chunk by chunk in small per-thread work arrays; any other longitudes
 through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_kernel`). Used by
 :func:`fieldmap.grids.synthesis.synthesize`.
 """

@@ -81,8 +81,9 @@ def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
 def _gunzip_mapped(f, path) -> mmap.mmap:
     """Decompress the gzip file ``f`` chunk by chunk into an unnamed temporary file; map it.
 
-    The memory used is a chunk's, whatever the size of the model; the temporary file (in the
-    system's temporary folder) disappears when the mapping is closed.
+    The memory used is a chunk's, whatever the size of the model (unless the system's
+    temporary folder is itself in memory, e.g. a tmpfs); the unnamed temporary file disappears
+    when the mapping is closed.
     """
     import tempfile
 

@@ -7,6 +7,8 @@ by the same :mod:`fieldmap.products.cf` helpers, so that a product streamed to a
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import xarray as xr
 
@@ -74,8 +76,36 @@ def map_attrs(stats: dict, thresholds, method: str = "histogram") -> dict:
     return attrs
 
 
-#: pandas indexes of recent coordinates (:func:`dataset`), oldest first
+#: pandas indexes of recent coordinates (:func:`dataset`), oldest first, and their lock
 _INDEXES: dict = {}
+_INDEX_LOCK = threading.Lock()
+
+
+def _shared_index(name: str, var: xr.Variable):
+    """Return the default pandas index of coordinate ``var``, made once per values and shared.
+
+    Its values are made read-only, so that no map can change the coordinates of another.
+    Returns None where that is not possible (then each map gets its own index).
+    """
+    from xarray.indexes import PandasIndex
+
+    key = (name, var.dtype.str, var.values.tobytes())
+    with _INDEX_LOCK:
+        index = _INDEXES.get(key)
+    if index is not None:
+        return index
+    index = PandasIndex.from_variables({name: var}, options={})
+    values = np.asarray(index.index)
+    if values.dtype != var.dtype or values.tobytes() != key[2]:
+        return None
+    values.setflags(write=False)
+    if np.asarray(index.index).flags.writeable:  # pandas handed out a copy: not shareable
+        return None
+    with _INDEX_LOCK:
+        while len(_INDEXES) >= 16:  # the oldest goes
+            _INDEXES.pop(next(iter(_INDEXES)))
+        _INDEXES[key] = index
+    return index
 
 
 def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
@@ -85,7 +115,10 @@ def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
     to ``xarray.Variable`` (a dimension's own coordinate gets its default pandas index, as in
     the constructor). The parts of a product are consistent by construction (one grid), so the
     constructor's alignment and checks, ~0.3 ms a map, are skipped; the Dataset is the same
-    (tests/test_block_partial.py compares it with the constructor's).
+    (tests/test_block_partial.py compares it with the constructor's). Unlike the constructor,
+    it takes ``attrs`` and the Variables as they are (no copies): callers pass fresh ones. The
+    index of a dimension coordinate is shared between maps of the same grid, read-only
+    (:func:`_shared_index`).
     """
     from xarray.indexes import PandasIndex
 
@@ -96,15 +129,11 @@ def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
     indexes = {}
     for name, var in coords.items():
         if var.dims == (name,):
-            # a grid's latitudes and longitudes come back call after call: their (immutable)
-            # pandas indexes are made once (~0.12 ms each) and shared, as Dataset.copy does
-            key = (name, var.dtype.str, var.values.tobytes())
-            index = _INDEXES.get(key)
+            # a grid's latitudes and longitudes come back call after call: their pandas
+            # indexes are made once (~0.12 ms each) and shared, as Dataset.copy does
+            index = _shared_index(name, var)
             if index is None:
                 index = PandasIndex.from_variables({name: var}, options={})
-                if len(_INDEXES) >= 16:  # the oldest goes (another thread may have taken it)
-                    _INDEXES.pop(next(iter(_INDEXES), None), None)
-                _INDEXES[key] = index
             indexes[name] = index
             variables.update(index.create_variables({name: var}))
         else:
