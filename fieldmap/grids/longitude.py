@@ -61,7 +61,11 @@ def spectrum_layout(lon_deg: np.ndarray, nm: int) -> tuple[int, np.ndarray, bool
     :func:`longitude_sums` with it. Otherwise ``ncol = nm``, ``osc`` = 1: the plain series.
     """
     lon_deg = np.asarray(lon_deg, dtype=np.float64)
-    nper = regular_period(lon_deg)
+    return _layout(lon_deg, regular_period(lon_deg), nm)
+
+
+def _layout(lon_deg: np.ndarray, nper: int | None, nm: int) -> tuple[int, np.ndarray, bool]:
+    """:func:`spectrum_layout` with the period ``nper`` of the longitudes already known."""
     osc = np.ones(nm)
     if nper is None or lon_deg.size != nper or nm > nper // 2 + 1:
         return nm, osc, False
@@ -112,7 +116,7 @@ def longitude_sums(
     res = out.reshape(ns, nlon)  # a view for the contiguous buffers the callers pass
     nper = regular_period(lon_deg)
     if ready:
-        ncol, _, fits = spectrum_layout(lon_deg, nm)
+        ncol, _, fits = _layout(lon_deg, nper, nm)
         if not fits or ncol != nm or nper is None:
             raise ValueError("longitude_sums: W is not in a ready layout for these longitudes")
         if nper % 2 == 0:

@@ -378,15 +378,15 @@ def synthesize(
     return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)
 
 
-def mirror_pair_array(lat_deg: np.ndarray, distinct_only: bool = False) -> Any:
-    """:func:`mirror_pairs` as an (n, 2) integer array (None if ``distinct_only`` and not).
+def mirror_pair_array(lat_deg: np.ndarray) -> Any:
+    """:func:`mirror_pairs` as an (n, 2) integer array.
 
-    Distinct latitudes (any grid made by :func:`make_grid`) are paired at once with NumPy.
+    Distinct latitudes (any grid made by :func:`make_grid`) are paired at once with NumPy,
+    repeated ones row by row.
     """
     lat = np.asarray(lat_deg, dtype=np.float64).ravel()
     if lat.size > 1:
-        d = np.diff(lat)
-        order = None if np.all(d > 0) else np.argsort(lat, kind="stable")
+        order = None if np.all(np.diff(lat) > 0) else np.argsort(lat, kind="stable")
         srt = lat if order is None else lat[order]
         if order is None or np.all(srt[1:] > srt[:-1]):  # distinct latitudes
             pos = np.minimum(np.searchsorted(srt, -lat), lat.size - 1)
@@ -395,26 +395,11 @@ def mirror_pair_array(lat_deg: np.ndarray, distinct_only: bool = False) -> Any:
             rows = np.arange(lat.size)
             first = np.flatnonzero((mate < 0) | (mate > rows))  # a row after its mate is taken
             return np.stack([first, mate[first]], axis=1)
-    if distinct_only:
-        return None
-    pairs = mirror_pairs(lat)
-    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
-
-
-def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
-    """Group rows into (row, mirror row at -latitude) pairs, or (row, -1) without a mirror.
-
-    Only exact mirrors pair up (:func:`make_grid` makes symmetric global grids exactly so);
-    the equator row has no mirror other than itself.
-    """
-    lat = np.asarray(lat_deg, dtype=np.float64).ravel()
-    fast = mirror_pair_array(lat, distinct_only=True)
-    if fast is not None:
-        return list(zip(fast[:, 0].tolist(), fast[:, 1].tolist()))
-    where = {float(v): i for i, v in enumerate(lat_deg)}
+    # repeated latitudes: each row, in order, takes the last unused row at minus its latitude
+    where = {float(v): i for i, v in enumerate(lat)}
     used: set[int] = set()
     out = []
-    for i, v in enumerate(lat_deg):
+    for i, v in enumerate(lat):
         if i in used:
             continue
         j = where.get(-float(v)) if v != 0 else None
@@ -424,4 +409,14 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
         else:
             out.append((i, -1))
             used.add(i)
-    return out
+    return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
+    """Group rows into (row, mirror row at -latitude) pairs, or (row, -1) without a mirror.
+
+    Only exact mirrors pair up (:func:`make_grid` makes symmetric global grids exactly so);
+    the equator row has no mirror other than itself.
+    """
+    pairs = mirror_pair_array(lat_deg)
+    return list(zip(pairs[:, 0].tolist(), pairs[:, 1].tolist()))
