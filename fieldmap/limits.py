@@ -33,6 +33,16 @@ LON_MIN, LON_MAX = -540.0, 540.0
 #: Orders 2n of the truncated zonal normal fields J2, J4, J6 (Chen et al. 2022 eqs. 7-13).
 J2N_ORDERS = (2, 4, 6)
 
+
+def _num(x) -> str:
+    """``x`` in short form (``%g``), or in full where the short form would round it onto a limit.
+
+    "height -10000.001 m is below -10000 m", not "height -10000 m is below -10000 m".
+    """
+    text = f"{float(x):g}"
+    return text if float(text) == float(x) else repr(float(x))
+
+
 _BELOW = "the models are not meant for points this far below the ellipsoid"
 _ABOVE = "outside the range where an Earth gravity model is meant to be used"
 
@@ -64,17 +74,17 @@ def point_errors(latitude, longitude, height) -> list[str | None]:
     lat, lon, h = (np.asarray(v, dtype=np.float64).ravel() for v in (latitude, longitude, height))
     out: list[str | None] = [None] * lat.size
     checks = (
-        (h > MAX_HEIGHT, lambda k: f"height {h[k]:g} m is above {MAX_HEIGHT:g} m, {_ABOVE}"),
-        (h < MIN_HEIGHT, lambda k: f"height {h[k]:g} m is below {MIN_HEIGHT:.0f} m: {_BELOW}"),
+        (h > MAX_HEIGHT, lambda k: f"height {_num(h[k])} m is above {MAX_HEIGHT:g} m, {_ABOVE}"),
+        (h < MIN_HEIGHT, lambda k: f"height {_num(h[k])} m is below {MIN_HEIGHT:.0f} m: {_BELOW}"),
         (
             (lon < LON_MIN) | (lon >= LON_MAX),
             lambda k: (
-                f"longitude must be within [{LON_MIN:g}, {LON_MAX:g}) degrees, got {lon[k]:g}"
+                f"longitude must be within [{LON_MIN:g}, {LON_MAX:g}) degrees, got {_num(lon[k])}"
             ),
         ),
         (
             np.abs(lat) > 90.0,
-            lambda k: f"latitude must be within [-90, 90] degrees, got {lat[k]:g}",
+            lambda k: f"latitude must be within [-90, 90] degrees, got {_num(lat[k])}",
         ),
     )
     for bad, message in checks:  # the last one found is reported: latitude first
@@ -189,9 +199,9 @@ def _check_heights(values: list[float], scale: float, unit: str, distinct: bool)
         raise InputError(f"heights must be finite, got {v.tolist()} {unit}")
     lo, hi = MIN_HEIGHT / scale, MAX_HEIGHT / scale
     if np.any(v > hi):
-        raise InputError(f"height {v.max():g} {unit} is above {hi:g} {unit}, {_ABOVE}")
+        raise InputError(f"height {_num(v.max())} {unit} is above {hi:g} {unit}, {_ABOVE}")
     if np.any(v < lo):
-        raise InputError(f"height {v.min():g} {unit} is below {lo:g} {unit}: {_BELOW}")
+        raise InputError(f"height {_num(v.min())} {unit} is below {lo:g} {unit}: {_BELOW}")
     if distinct:
         values_u, counts = np.unique(v, return_counts=True)
         if np.any(counts > 1):

@@ -20,6 +20,7 @@ import argparse
 import gc
 import importlib
 import os
+import re
 import signal
 import sys
 import warnings
@@ -38,10 +39,91 @@ _COMMANDS = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line (no usage block), exit status 2."""
+    """ArgumentParser whose errors are one line (no usage block), exit status 2.
+
+    An option that takes a value may be given once only (a second ``--height-km`` would
+    silently replace the first): see :func:`_once`.
+    """
 
     def error(self, message):  # noqa: D102 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+    def _add_action(self, action):  # noqa: D102 - argparse API
+        return super()._add_action(_once(action))
+
+
+#: attribute of a namespace while it is parsed: the destinations already set by an option
+_SEEN = "_options_seen"
+
+
+def _once(action: argparse.Action) -> argparse.Action:
+    """Make a value-taking option refuse a second occurrence on one command line.
+
+    argparse keeps the last value of a repeated option and drops the others silently
+    (``--trajectory a.csv --trajectory b.csv`` would fly ``b.csv`` only). Flags (no value),
+    ``append`` and ``count`` options are left as they are.
+    """
+    if (
+        not action.option_strings
+        or action.nargs == 0
+        or isinstance(action, (argparse._AppendAction, argparse._CountAction))
+    ):
+        return action
+    base = type(action)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = namespace.__dict__.setdefault(_SEEN, {})
+        if self.dest in seen:
+            first = seen[self.dest]
+            again = "again" if first == option_string else f"after {first}"
+            parser.error(
+                f"{option_string} given {again}: give an option once (several values go "
+                "after one option)"
+            )
+        seen[self.dest] = option_string
+        base.__call__(self, parser, namespace, values, option_string)
+
+    action.__class__ = type(f"Once{base.__name__}", (base,), {"__call__": __call__})
+    return action
+
+
+def _parse(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """``parser.parse_args(argv)`` without the bookkeeping of :func:`_once`."""
+    args = parser.parse_args(_joined_negative_values(parser, argv))
+    args.__dict__.pop(_SEEN, None)
+    return args
+
+
+def _joined_negative_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """Join an option and a value list that starts with a minus sign (``--route -33.9,151.2``).
+
+    argparse reads a lone negative number as a value, but takes ``-33.9,151.2,1000;...`` or
+    ``-5,10`` for an unknown option. Such a token after an option that takes a value becomes
+    ``--option=-33.9,...``: a southern-hemisphere route or a height list starting below zero is
+    given as written.
+    """
+    takes_value: set[str] = set()
+    todo = [parser]
+    while todo:
+        p = todo.pop()
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                todo.extend(action.choices.values())
+            elif action.option_strings and action.nargs != 0:
+                takes_value.update(s for s in action.option_strings if s.startswith("--"))
+    out: list[str] = []
+    for i, arg in enumerate(argv):
+        if arg == "--":  # the rest are positional arguments
+            return out + argv[i:]
+        if out and out[-1] in takes_value and _NEGATIVE_LIST.match(arg):
+            out[-1] = f"{out[-1]}={arg}"
+        else:
+            out.append(arg)
+    return out
+
+
+#: a value list whose first item is a negative number: ``-5,10``, ``-33.9 151.2;...``
+_NEGATIVE_LIST = re.compile(r"^-(\d|\.\d)[\d.eE+-]*[,;\s]")
 
 
 class _Terminated(BaseException):
@@ -112,7 +194,7 @@ def given_options(argv: list[str]) -> frozenset[str]:
                 action.default = argparse.SUPPRESS
 
     strip(parser)
-    return frozenset(vars(parser.parse_args(argv)))
+    return frozenset(vars(_parse(parser, argv)))
 
 
 def given(args: argparse.Namespace, dest: str) -> bool:
@@ -172,9 +254,12 @@ def main(argv: list[str] | None = None) -> int:
     program = argv is None  # this process's own command line (the ``fieldmap`` program)
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_command_of(argv))
-    args = parser.parse_args(argv)
+    args = _parse(parser, argv)
     if not getattr(args, "func", None):
-        parser.print_help()
+        commands = ", ".join(c for cmds in _COMMANDS.values() for c in cmds)
+        parser.error(f"a command is needed: one of {commands}")
+    if sys.stdout is None:  # started with stdout closed (``fieldmap point >&-``)
+        print(f"fieldmap {args.command}: error: standard output is closed", file=sys.stderr)
         return 2
     setattr(args, _GIVEN, given_options(argv))
     # Warp's notice about stale cache folders of another Warp version says nothing about the run

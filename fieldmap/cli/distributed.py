@@ -116,14 +116,14 @@ def stream(args, scheduler, base: str, write, publish) -> int:
     figures as ``(file suffix, maker)`` pairs (drawn unless ``--no-plots``).
     """
     from fieldmap.products import blockstore, cluster
-    from fieldmap.products.io import check_out_dir, output_batch
+    from fieldmap.products.io import check_out_dir, output_batch, writing
 
     check_out_dir(args.out)
     out = Path(args.out)
     final = out / f"{base}.{'zarr' if args.format == 'zarr' else 'nc'}"
     t0 = time.perf_counter()
     with cluster.open_client(scheduler) as client, output_batch(out) as batch:
-        with blockstore.atomic_store(final) as tmp:
+        with writing(final), blockstore.atomic_store(final) as tmp:
             info = write(tmp, client)
             elapsed = time.perf_counter() - t0
             view = blockstore.decimated(tmp, args.format)

@@ -94,8 +94,8 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         type=float,
         default=80.0,
         help="global grid from -LAT_MAX to LAT_MAX degrees, 0 < LAT_MAX <= 90 "
-        "(default 80, as the paper); rows are whole multiples of the step, symmetric about "
-        "the equator",
+        "(default 80, as the paper); rows symmetric about the equator: -LAT_MAX..LAT_MAX when "
+        "2 LAT_MAX is a whole number of steps, else the multiples of the step within it",
     )
     p.add_argument(
         "--region",

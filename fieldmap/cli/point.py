@@ -154,7 +154,7 @@ def parse_point_line(line: str):
     vals = []
     for name, text in zip(("latitude", "longitude", "height"), fields):
         try:
-            v = float(text)
+            v = float(text.replace("_", "!"))  # float() alone would read 3_0 as 30
         except ValueError:
             raise ValueError(f"{name} {text!r} is not a number") from None
         if not math.isfinite(v):

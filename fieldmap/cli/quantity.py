@@ -36,6 +36,14 @@ def run_quantity(args, heights_km: list[float]) -> int:
             f"--height-km: --quantity {args.quantity} is a property of the ellipsoid's surface "
             "(h = 0); leave --height-km out"
         )
+    if args.quantity == "gradient-normal":
+        for dest in ("model", "lmax", "epoch", "model_dir", "gm", "radius", "no_cache"):
+            if given(args, dest):
+                option = "--" + dest.replace("_", "-")
+                raise InputError(
+                    f"{option}: --quantity gradient-normal is the exact normal gravity of the "
+                    "ellipsoid, no model enters it; leave the model options out"
+                )
     if distributed.wanted(args):
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)

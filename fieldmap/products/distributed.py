@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 
 from fieldmap.errors import InputError
-from fieldmap.products import blockio, blockmeta, blocks, blockstore, cf, cluster
+from fieldmap.products import blockio, blockmeta, blocks, blockstore, cf, cluster, io
 
 __all__ = [
     "disturbance_blocks",
@@ -252,7 +252,7 @@ def _write_blocks(path, fmt, tmpl, setup, finish, *, client, scheduler, atomic, 
     grid, ell, mod = setup
     place = blockstore.atomic_store(path) if atomic else contextlib.nullcontext(path)
     # connect (or start the local cluster) before anything is written
-    with _client(client, scheduler) as c, place as tmp:
+    with _client(client, scheduler) as c, io.writing(path), place as tmp:
         writer = None
         try:
             if fmt == "zarr":

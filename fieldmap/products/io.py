@@ -16,6 +16,7 @@ behind, that it can be.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import signal
@@ -185,6 +186,26 @@ def netcdf_encoding(ds, dtype: str = "float64") -> dict:
     return enc
 
 
+@contextlib.contextmanager
+def writing(path):
+    """Let a failed write name the file (``path``, the final name), e.g. on a full disk.
+
+    An ``OSError`` without a file name gets ``path``; the NetCDF library's own error on a
+    failed write (``RuntimeError: NetCDF: HDF error``) becomes an ``OSError`` naming ``path``.
+    The CLI prints either as one line, exit status 2.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None or str(exc.filename).endswith(".tmp"):
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise
+    except RuntimeError as exc:
+        if not str(exc).startswith("NetCDF"):
+            raise
+        raise OSError(errno.EIO, f"{exc} while writing (is the disk full?)", str(path)) from None
+
+
 def _netcdf_to(ds, tmp, dtype: str = "float64") -> None:
     encoding = netcdf_encoding(ds, dtype)
     with signals_deferred():
@@ -224,7 +245,7 @@ def write_netcdf(ds, path, dtype: str = "float64") -> Path:
     """
     path = Path(path)
     netcdf_encoding(ds, dtype)  # a bad dtype fails here, before any temporary file exists
-    with atomic_path(path) as tmp:
+    with writing(path), atomic_path(path) as tmp:
         _netcdf_to(ds, tmp, dtype)
     return path
 
@@ -233,7 +254,7 @@ def write_json(obj, path) -> Path:
     """Write ``obj`` as indented JSON (UTF-8) atomically; return the final path."""
     path = Path(path)
     text = _json_text(obj)  # serialise first: a bad value leaves no temporary file behind
-    with atomic_path(path) as tmp:
+    with writing(path), atomic_path(path) as tmp:
         _text_to(text, tmp)
     return path
 
@@ -244,7 +265,7 @@ def write_png(fig, path, dpi: int = PNG_DPI) -> Path:
 
     path = Path(path)
     try:
-        with atomic_path(path) as tmp:
+        with writing(path), atomic_path(path) as tmp:
             _png_to(fig, tmp, dpi)
     finally:
         plt.close(fig)
@@ -279,23 +300,27 @@ class OutputBatch:
         ``dtype="float32"`` stores the maps in single precision (:func:`netcdf_encoding`).
         """
         netcdf_encoding(ds, dtype)  # a bad dtype fails before the temporary file exists
-        _netcdf_to(ds, self.path(name), dtype)
+        with writing(self.folder / name):
+            _netcdf_to(ds, self.path(name), dtype)
         return self.folder / name
 
     def json(self, obj, name: str) -> Path:
         """Add an indented UTF-8 JSON file."""
         text = _json_text(obj)
-        _text_to(text, self.path(name))
+        with writing(self.folder / name):
+            _text_to(text, self.path(name))
         return self.folder / name
 
     def text(self, text: str, name: str) -> Path:
         """Add a UTF-8 text file (CSV, tables)."""
-        _text_to(text, self.path(name))
+        with writing(self.folder / name):
+            _text_to(text, self.path(name))
         return self.folder / name
 
     def png(self, fig, name: str, dpi: int = PNG_DPI) -> Path:
         """Add a PNG of a matplotlib figure (the figure is closed)."""
-        _png_to(fig, self.path(name), dpi)
+        with writing(self.folder / name):
+            _png_to(fig, self.path(name), dpi)
         return self.folder / name
 
     def commit(self) -> list[Path]:

@@ -1,0 +1,159 @@
+"""The command line as the shell hands it over, and write errors that name their file.
+
+Repeated options, value lists starting with a minus sign, a missing command, closed standard
+output.
+CLI cases run ``fieldmap.cli.main`` in this process from an empty working folder and check the
+exit status, one line on stderr and no file written (as ``test_bad_input_cli.py``); the real
+console script runs where the process itself matters (no command, stdout closed).
+"""
+
+from __future__ import annotations
+
+import errno
+import subprocess
+import sys
+
+import pytest
+
+from fieldmap import cli
+from fieldmap.products import io
+
+
+def _run(argv, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(argv)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+@pytest.mark.parametrize(
+    "argv, first",
+    [
+        (["map", "--height-km", "20", "--height-km", "50", "--step-deg", "30"], "--height-km"),
+        (["map", "--step-deg", "30", "--step-deg=20"], "--step-deg"),
+        (["navsim", "--models", "j2", "--models", "j4"], "--models"),
+        (["sweep", "--region", "0", "10", "0", "10", "--region", "5", "15", "5", "15"], "--region"),
+        (["point", "--lmax", "10", "--lmax", "240"], "--lmax"),
+    ],
+)
+def test_an_option_given_twice_is_refused(argv, first, capsys, tmp_path, monkeypatch):
+    """The second value would silently replace the first: one line, exit 2, nothing written."""
+    with pytest.raises(SystemExit) as exc:
+        _run(argv, capsys, tmp_path, monkeypatch)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{first} given again" in err and "once" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_flags_and_single_options_still_parse():
+    """Flags may repeat (nothing is dropped); every value option given once parses as before."""
+    parser = cli.build_parser("map")
+    args = cli._parse(parser, ["map", "--no-plots", "--no-plots", "--height-km", "20"])
+    assert args.no_plots is True and args.height_km == ["20"]
+    assert not hasattr(args, cli._SEEN)
+    assert cli.given_options(["map", "--height-km", "20"]) >= {"height_km"}
+
+
+@pytest.mark.parametrize(
+    "argv, joined",
+    [
+        (["navsim", "--route", "-33.9,151.2,1000;-33.8,151.3,1000"], "--route=-33.9,151.2,"),
+        (["sweep", "--height-km", "-5,10"], "--height-km=-5,10"),
+        (["map", "--thresholds-mg", "-.1,0.2"], "--thresholds-mg=-.1,0.2"),
+        (["navsim", "--route", "-33.9 151.2 1000;-33.8 151.3 1000"], "--route=-33.9 151.2"),
+    ],
+)
+def test_value_lists_starting_with_a_minus_sign(argv, joined):
+    """A list whose first number is negative is the option's value, not an unknown option."""
+    parser = cli.build_parser(argv[0])
+    out = cli._joined_negative_values(parser, argv)
+    assert len(out) == 2 and out[1].startswith(joined)
+
+
+def test_minus_tokens_that_stay_as_they_are():
+    """A lone negative number (argparse reads it), a flag, an option name, text after ``--``."""
+    parser = cli.build_parser("sweep")
+    for argv in (
+        ["sweep", "--height-km", "-5"],
+        ["sweep", "--no-plots", "-5,10"],
+        ["sweep", "--height-km", "--step-deg"],
+        ["sweep", "--", "--height-km", "-5,10"],
+    ):
+        assert cli._joined_negative_values(parser, argv) == argv
+
+
+def test_sweep_from_below_the_ellipsoid(capsys, tmp_path, monkeypatch):
+    """``--height-km -5,10`` runs (README: lists take spaces or commas)."""
+    argv = ["sweep", "--step-deg", "45", "--lmax", "4", "--height-km", "-5,10", "--no-plots"]
+    rc, out, err = _run([*argv, "--out", str(tmp_path / "o")], capsys, tmp_path, monkeypatch)
+    assert rc == 0, err
+    assert "-5" in out and len(list((tmp_path / "o").glob("sweep_*.nc"))) == 1
+
+
+def test_gradient_normal_refuses_model_options(capsys, tmp_path, monkeypatch):
+    """No model enters the exact normal gravity: --lmax (or --model...) would do nothing."""
+    argv = ["map", "--step-deg", "45", "--quantity", "gradient-normal", "--lmax", "20"]
+    rc, out, err = _run(argv, capsys, tmp_path, monkeypatch)
+    assert rc == 2 and err.count("\n") == 1
+    assert "--lmax" in err and "gradient-normal" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        ("3_0 0 0", "latitude '3_0' is not a number"),
+        ("0 0 -10000.001", "height -10000.001 m is below -10000 m"),
+        ("0 -540.0000001 0", "got -540.0000001"),
+        ("0 0 100000001", "height 100000001.0 m is above 1e+08 m"),
+    ],
+)
+def test_point_lines_named_exactly(line, words, capsys, tmp_path, monkeypatch):
+    """Underscores are no digits; a value just past a limit is not rounded onto it."""
+    monkeypatch.setattr(sys, "stdin", __import__("io").StringIO(line + "\n"))
+    rc, out, err = _run(["point", "--lmax", "2"], capsys, tmp_path, monkeypatch)
+    assert rc == 1
+    assert out.startswith("ERROR: ") and words in out and words in err  # line, summary
+
+
+def _script(*args, **kw):
+    return subprocess.run(
+        [sys.executable, "-m", "fieldmap", *args], capture_output=True, text=True, **kw
+    )
+
+
+def test_no_command_is_one_line_on_stderr():
+    proc = _script()
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "a command is needed" in proc.stderr
+
+
+def test_closed_stdout_is_one_line():
+    proc = subprocess.run(
+        f"echo '30 0 0' | {sys.executable} -m fieldmap point --lmax 2 >&-",
+        shell=True,
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == ["fieldmap point: error: standard output is closed"]
+
+
+def test_write_errors_name_the_file(tmp_path):
+    """A full disk (no file name in the error) and the NetCDF library's error name the file."""
+    final = tmp_path / "map.nc"
+    with pytest.raises(OSError) as exc, io.writing(final):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    assert exc.value.filename == str(final) and exc.value.errno == errno.ENOSPC
+    with pytest.raises(OSError) as exc, io.writing(final):
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / ".map.nc.x.tmp"))
+    assert exc.value.filename == str(final)
+    with pytest.raises(OSError) as exc, io.writing(final):
+        raise RuntimeError("NetCDF: HDF error")
+    assert exc.value.filename == str(final) and "disk full" in exc.value.strerror
+    with pytest.raises(OSError) as exc, io.writing(final):
+        raise FileNotFoundError(errno.ENOENT, "No such file or directory", "/elsewhere")
+    assert exc.value.filename == "/elsewhere"  # a file of its own: kept
+    with pytest.raises(RuntimeError, match="other"), io.writing(final):
+        raise RuntimeError("other")
