@@ -157,3 +157,26 @@ def test_write_errors_name_the_file(tmp_path):
     assert exc.value.filename == "/elsewhere"  # a file of its own: kept
     with pytest.raises(RuntimeError, match="other"), io.writing(final):
         raise RuntimeError("other")
+
+
+def test_figure_view_keeps_the_products_step(tmp_path):
+    """A thinned view for figures keeps the product's grid_step_deg (its JSON summary says it)."""
+    import numpy as np
+    import xarray as xr
+
+    from fieldmap.products import blockstore
+    from fieldmap.products.mapaxes import node_step
+
+    lat, lon = np.arange(-60.0, 60.01, 0.5), np.arange(-180.0, 180.0, 0.5)
+    ds = xr.Dataset(
+        {"up": (("latitude", "longitude"), np.zeros((lat.size, lon.size)))},
+        coords={"latitude": lat, "longitude": lon},
+        attrs={"grid_step_deg": 0.5},
+    )
+    ds.to_netcdf(tmp_path / "p.nc")
+    view = blockstore.decimated(tmp_path / "p.nc", "netcdf", max_nodes=10_000)
+    s = view.attrs["figure_decimation"]
+    assert s == 5 and view.attrs["grid_step_deg"] == 0.5  # ceil(sqrt(241 * 720 / 1e4))
+    assert node_step(view) == 2.5 == float(view["longitude"][1] - view["longitude"][0])
+    full = blockstore.decimated(tmp_path / "p.nc", "netcdf")
+    assert "figure_decimation" not in full.attrs and node_step(full) == 0.5

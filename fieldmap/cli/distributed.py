@@ -176,4 +176,4 @@ def _report(view, info, grid, heights_km, thresholds, elapsed, stacked) -> None:
         )
         print(row)
     if view.attrs.get("figure_decimation"):
-        print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
+        print(f"  figures from one row and column in {view.attrs['figure_decimation']}")

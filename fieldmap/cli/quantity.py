@@ -156,7 +156,7 @@ def _run_blocks(args, heights_km: list[float]) -> int:
         )
         report(args.quantity, summ)
         if view.attrs.get("figure_decimation"):
-            print(f"  figures from every {view.attrs['figure_decimation']}th row and column")
+            print(f"  figures from one row and column in {view.attrs['figure_decimation']}")
         return summ, figures(view, args.quantity, summ)
 
     base = stem(template(args.quantity, mod, grid, ell, False), args.quantity)

@@ -51,7 +51,9 @@ def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
     """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
 
     Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
-    the store, so that figures of huge grids never hold the full-resolution arrays.
+    the store, so that figures of huge grids never hold the full-resolution arrays. ``s`` > 1
+    is kept in ``attrs["figure_decimation"]`` (:func:`fieldmap.products.mapaxes.node_step`);
+    the other attributes are the product's.
     """
     opener = (
         (lambda p: xr.open_zarr(p, consolidated=True))
@@ -63,7 +65,6 @@ def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
         s = max(1, math.ceil(math.sqrt(n / max_nodes)))
         view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
     view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
-    if s > 1:
-        view.attrs["grid_step_deg"] = float(view.attrs.get("grid_step_deg", 1.0)) * s
+    if s > 1:  # the product's attributes stay as stored (grid_step_deg: the product's step)
         view.attrs["figure_decimation"] = s
     return view

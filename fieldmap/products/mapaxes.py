@@ -47,10 +47,15 @@ def _lat_label(y, _=None) -> str:
     return _deg_label(y, "N", "S")
 
 
+def node_step(ds) -> float:
+    """Spacing of the nodes drawn: the grid step, times the decimation of a figure's view."""
+    return float(ds.attrs.get("grid_step_deg", 1.0)) * int(ds.attrs.get("figure_decimation", 1))
+
+
 def _map_axes(ax, ds, **coast):
     lon = ds["longitude"].values
     lat = ds["latitude"].values
-    step = float(ds.attrs.get("grid_step_deg", 1.0))
+    step = node_step(ds)
     ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
     ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
     ax.set_aspect("equal")

@@ -218,6 +218,7 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     from matplotlib.colors import TwoSlopeNorm
 
     from fieldmap.products import coastline
+    from fieldmap.products.mapaxes import node_step
 
     var = ds[name]
     values = var.values
@@ -242,7 +243,7 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
         shading="nearest",
         rasterized=True,
     )
-    step = float(ds.attrs.get("grid_step_deg", 1.0))
+    step = node_step(ds)
     ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
     ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
     ax.set_aspect("equal")
