@@ -231,6 +231,22 @@ def test_sweep_and_truncation_on_the_cluster(client):
         assert np.array_equal(ref[v].values, tr[v].values), v
 
 
+def test_streamed_sweep_file_header_is_the_in_memory_files(tmp_path):
+    """The statistics variables of a streamed sweep carry the NaN fill xarray writes too."""
+    import netCDF4
+
+    from fieldmap.products.io import write_netcdf
+
+    write_netcdf(altitude_sweep(height_km=[20, 50], **KW), tmp_path / "a.nc")
+    D.write_disturbance(tmp_path / "b.nc", "netcdf", heights_m=[2e4, 5e4], **KW, stacked=True)
+    with netCDF4.Dataset(tmp_path / "a.nc") as a, netCDF4.Dataset(tmp_path / "b.nc") as b:
+        assert set(a.variables) == set(b.variables)
+        for name in ("max_mg", "mean_mg", "p99_mg", "area_fraction_above", "modulus"):
+            va, vb = a[name], b[name]
+            assert va.ncattrs() and sorted(va.ncattrs()) == sorted(vb.ncattrs()), name
+            assert np.isnan(va.getncattr("_FillValue")) and np.isnan(vb.getncattr("_FillValue"))
+
+
 @pytest.mark.parametrize(("step", "rows"), [(2.5, 6), (3.0, 10), (7.0, 4), (1.5, 30)])
 def test_zarr_shared_chunks_written_once_whole(tmp_path, step, rows, monkeypatch):
     """Odd grids and block sizes: chunks shared by two blocks, runs across two chunks."""

@@ -268,8 +268,11 @@ class NetCDFWriter:
             packed = (
                 {"zlib": True, "shuffle": True, "complevel": COMPLEVEL} if len(dims) > 1 else {}
             )
-            # netCDF4's stubs type complevel as a Literal[0..9]: COMPLEVEL is 1
-            v = self.nc.createVariable(name, "f8", dims, **packed)  # type: ignore[call-overload]
+            # netCDF4's stubs type complevel as a Literal[0..9]: COMPLEVEL is 1. NaN fill, as
+            # xarray writes float variables (the in-memory products' files)
+            v = self.nc.createVariable(  # type: ignore[call-overload]
+                name, "f8", dims, fill_value=np.nan, **packed
+            )
             v[...] = values
             v.setncatts(vattrs)
         self.nc.setncatts(attrs)
