@@ -190,8 +190,9 @@ def register(subparsers) -> None:
     p.add_argument(
         "--scheduler",
         default=None,
-        help="evaluate the rows on Dask: local:N (a cluster of N worker processes for this run) "
-        "or a scheduler address (tcp://host:port); the same numbers (default: here)",
+        help="evaluate the rows on Dask: local:N (a cluster of N worker processes for this run), "
+        "a scheduler address (tcp://host:port) or 'threads' (here); the same numbers "
+        "(default: here)",
     )
     from fieldmap.cli import degree
 
