@@ -125,7 +125,8 @@ def _static_lines(nmax, skip=()):
     for n in range(nmax + 1):
         for m in range(n + 1):
             if (n, m) not in skip:
-                out.append(f"gfc {n} {m} {1e-6 * (n + 1) + 1e-8 * m:.6e} {2e-7 * m:.6e} 0 0\n")
+                c = 1.0 if n == 0 else 1e-6 * (n + 1) + 1e-8 * m  # C00 = 1: a gravity model's
+                out.append(f"gfc {n} {m} {c:.6e} {2e-7 * m:.6e} 0 0\n")
     return out
 
 

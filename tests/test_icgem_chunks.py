@@ -37,7 +37,8 @@ def _lines(nmax, skip=(), nsig=2):
         for m in range(n + 1):
             if (n, m) not in skip:
                 sig = "".join(f" {1e-12 * (n + m + 1):.6e}" for _ in range(nsig))
-                out.append(f"gfc {n} {m} {1e-6 * (n + 1) + 1e-8 * m:.16e} {2e-7 * m:.6e}{sig}\n")
+                c = 1.0 if n == 0 else 1e-6 * (n + 1) + 1e-8 * m  # C00 = 1: a gravity model's
+                out.append(f"gfc {n} {m} {c:.16e} {2e-7 * m:.6e}{sig}\n")
     return out
 
 

@@ -7,8 +7,9 @@ with vectorised integer arithmetic, and all coefficient values are parsed by one
 Only when that parse fails does a per-token Python pass run, to name the offending token.
 :func:`line_chunks` cuts the data into pieces of whole lines for :func:`tokenise` (the ICGEM
 reader's memory stays bounded: issue 17). Also here: reading the bytes (memory-mapped, gzip,
-pipes, binary data refused), ICGEM time stamps to decimal years, and unnormalised coefficients
-to fully normalised ones (in place).
+pipes, binary data refused), ICGEM time stamps to decimal years, unnormalised coefficients
+to fully normalised ones (in place), and the checks of C̄00 and of the coefficients' size that
+the ICGEM and NGA readers share.
 """
 
 from __future__ import annotations
@@ -135,10 +136,11 @@ _CONTROL = np.zeros(256, bool)
 _CONTROL[[c for c in range(32) if c not in (9, 10, 13)]] = True
 
 
-def check_text(path, raw) -> None:
+def check_text(path, raw, what: str = "an ICGEM text file") -> None:
     """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine).
 
-    ``raw``: bytes or a mapping, read in blocks of ``BLOCK`` bytes (no copy of the whole).
+    ``raw``: bytes or a mapping, read in blocks of ``BLOCK`` bytes (no copy of the whole);
+    ``what``: the kind of file expected, for the message.
     """
     size = len(raw)
     for lo in range(0, size, BLOCK):
@@ -149,9 +151,7 @@ def check_text(path, raw) -> None:
             pos = lo + int(low[np.argmax(ctrl)])
             byte = int(b[pos - lo])
             line = count_newlines(raw, 0, pos) + 1
-            raise ModelFileError(
-                f"{path}, line {line}: binary byte 0x{byte:02x}: not an ICGEM text file"
-            )
+            raise ModelFileError(f"{path}, line {line}: binary byte 0x{byte:02x}: not {what}")
         del b, low, ctrl
         release(raw, lo, lo + BLOCK)
 
@@ -328,16 +328,38 @@ def yyyymmdd(value: float) -> float:
     return decimal_year(date // 10000, (date // 100) % 100, date % 100, hhmm // 100, hhmm % 100)
 
 
+#: accepted C̄00 of a model file: 1 ± C00_BAND. GM carries the mass, so C̄00 is 1 by definition,
+#: and real models give 1. A file with C̄00 = 0 is a residual field (one model minus another, a
+#: de-aliasing product) or lost its degree-0 term, and gives a "disturbance" of ~980,000 mGal;
+#: 2 or 0.5 are scale slips. The band is the 2 % that ``fieldmap.models.registry.EARTH_GM``
+#: allows GM (GM·C̄00 is the central term of the field): wide of any real model, and what lies
+#: outside it is no model of a body's whole field.
+C00_BAND = 0.02
+
+
+def c00_problem(C) -> str | None:
+    """Return why the C̄00 of ``C`` is no gravity model's (outside 1 ± C00_BAND), else None."""
+    c00 = float(C[0, 0])
+    if abs(c00 - 1.0) <= C00_BAND:
+        return None
+    return (
+        f"C00 is {c00:.9g}, not 1 (within {C00_BAND:g}): the degree-0 term of a gravity model is 1,"
+        " GM carrying the mass (a residual field or a lost degree-0 line?)"
+    )
+
+
 def first_outsize(C, S):
     """Return ``(n, m, value)`` of the first coefficient too large to be physical, else None.
 
     Fully normalised coefficients of a real body are far below 1 in size beyond degree 0
-    (Kaula's rule: about 1e-5/n²) and C̄00 is 1 by definition; a value beyond 1 is a unit or
-    normalisation error, and one beyond 1e150 overflows the synthesis.
+    (Kaula's rule: about 1e-5/n²); a value beyond 1 is a unit or normalisation error, and one
+    beyond 1e150 overflows the synthesis. C̄00 is not looked at (:func:`c00_problem` checks it).
     """
     rows = max(1, BLOCK // (8 * max(C.shape[1], 1)))  # row blocks: no full-size temporaries
     for r in range(0, C.shape[0], rows):
         big = (np.abs(C[r : r + rows]) > 1.0) | (np.abs(S[r : r + rows]) > 1.0)
+        if r == 0:
+            big[0, 0] = abs(S[0, 0]) > 1.0
         if big.any():
             n, m = (int(v[0]) for v in np.nonzero(big))
             n += r

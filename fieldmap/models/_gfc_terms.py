@@ -232,4 +232,18 @@ def sigma_columns(vals, off, nf, kind, v2):
     has = nsig >= 2
     sc = np.where(has, vals[np.minimum(off + 2, vals.size - 1)], 0.0)
     ss = np.where(has, vals[np.minimum(off + 3, vals.size - 1)], 0.0)
-    return np.abs(sc), np.abs(ss), has
+    return sc, ss, has
+
+
+def negative_sigma(vals, off, nf, kind, v2):
+    """Tell, per data line, whether one of its σ columns (up to four) is negative.
+
+    A standard deviation is never negative: such a file is malformed (NGA's reader refuses it
+    too), and taking its absolute value would only hide the error.
+    """
+    nsig = nf - 2 - _EXTRA[int(bool(v2))][kind]
+    bad = np.zeros(off.size, bool)
+    for j in range(int(nsig.max(initial=0))):
+        sel = nsig > j
+        bad[sel] |= vals[off[sel] + 2 + j] < 0.0
+    return bad

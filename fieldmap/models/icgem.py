@@ -34,7 +34,6 @@ assembled at the end (:mod:`fieldmap.models._gfc_terms`).
 from __future__ import annotations
 
 import gzip
-import math
 import os
 import re
 
@@ -42,12 +41,15 @@ import numpy as np
 
 from fieldmap.errors import InputError, ModelFileError
 from fieldmap.models import _gfc_scan as scan
+from fieldmap.models._gfc_header import header_number as _header_number
+from fieldmap.models._gfc_header import parse_header as _parse_header
 from fieldmap.models._gfc_scan import decimal_year  # public here
 from fieldmap.models._gfc_scan import unnormalized_to_full as _unnormalized_to_full
 from fieldmap.models._gfc_terms import KIND_NAME as _KIND_NAME
 from fieldmap.models._gfc_terms import StaticTable
 from fieldmap.models._gfc_terms import epochs as _epochs
 from fieldmap.models._gfc_terms import fail as _fail
+from fieldmap.models._gfc_terms import negative_sigma as _negative_sigma
 from fieldmap.models._gfc_terms import sigma_columns as _sigma_columns
 from fieldmap.models._gfc_terms import time_variable as _time_variable
 from fieldmap.models.shmodel import SHModel
@@ -67,12 +69,12 @@ _NFIELDS = {
 #: issue 17); the result, errors included, does not depend on it
 CHUNK_LINES = 1 << 19
 # errors found chunk by chunk, by rank: 0 unknown keyword, 1 short line, 2 degree/order, 3-7
-# field count (by kind), 8 m > n, 9 n > max_degree, 10 bad number, 11 unparsed, 12 period; the
-# whole-file check order, so the first line of the lowest rank found is the error raised
+# field count (by kind), 8 m > n, 9 n > max_degree, 10 bad number, 11 unparsed, 12 period, 13
+# negative σ; the whole-file check order, so the first line of the lowest rank found is raised
 _NONE = 99
 _TV_FIELDS = ("line", "kind", "n", "m", "c", "s", "sc", "ss", "has", "last", "prev", "third")
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
-READER_VERSION = 2  # 2: sigma_c, sigma_s kept
+READER_VERSION = 3  # 2: sigma_c, sigma_s kept; 3: C00 far from 1, negative σ refused
 #: largest degree held in memory (Earth2014 goes to 10800; C and S then take 1.9 GB)
 MAX_DEGREE = 10800
 _NORMS = {
@@ -136,46 +138,6 @@ def as_degree(lmax, what: str = "lmax") -> int | None:
     return value
 
 
-# ----------------------------------------------------------------------------------- header
-def _parse_header(path, raw):
-    """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
-    m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
-    if not m_end:
-        raise ModelFileError(f"{path}: no 'end_of_head' line (not an ICGEM .gfc file?)")
-    head = raw[: m_end.end()]  # bytes (a copy when raw is a mapping), the header and before
-    m_beg = re.search(rb"^[ \t]*begin_of_head\b.*$", head[: m_end.start()], re.M)
-    head_start = m_beg.end() if m_beg else 0
-    first_line = head.count(b"\n", 0, head_start) + 1
-    header, where = {}, {}
-    text = head[head_start : m_end.start()].decode("latin-1")
-    for k, line in enumerate(text.split("\n")):
-        parts = line.split(None, 1)
-        if not parts:
-            continue
-        key = parts[0].lower()
-        if key not in header:
-            header[key] = parts[1].strip() if len(parts) > 1 else ""
-            where[key] = first_line + k
-    where["end_of_head"] = head.count(b"\n", 0, m_end.start()) + 1
-    # ".*$" stops at the newline ending the end_of_head line, or at the end of the file
-    offset = min(m_end.end() + 1, len(raw))
-    nhead = head.count(b"\n") + 1
-    return header, where, offset, nhead
-
-
-def _header_number(path, header, where, key, integer=False):
-    if key not in header:
-        raise _fail(path, where["end_of_head"], f"header key '{key}' is missing before end_of_head")
-    text = header[key].split()[0] if header[key].split() else ""
-    try:
-        val = float(text.replace("D", "E").replace("d", "e"))
-    except ValueError:
-        raise _fail(path, where[key], f"header '{key}': bad number {text!r}") from None
-    if not math.isfinite(val) or val <= (-1 if integer else 0) or (integer and val != int(val)):
-        raise _fail(path, where[key], f"header '{key}': invalid value {text!r}")
-    return int(val) if integer else val
-
-
 def _scan_chunk(path, raw, piece, base, ctx, best):
     """Check and parse the data lines ``base`` on, in ``raw[lo:hi]``.
 
@@ -183,7 +145,8 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
     data)``: the first failed check of rank below ``best`` (the whole-file order of the checks,
     each at its first line: chunks come in line order), or ``_NONE``; the number of lines; and,
     when all checks pass, ``(content lines, static gfc lines for StaticTable.add, time-variable
-    lines as _TV_FIELDS)`` (None: nothing kept).
+    lines as _TV_FIELDS, whether the chunk has time-variable lines of any degree)`` (None:
+    nothing kept).
     """
     nhead, nmax, lmax, v2 = ctx
     lo, hi, newlines = piece
@@ -240,9 +203,9 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
             return rank, _fail(path, line_of(bad), why), nlines, None
     if best <= 10:
         return _NONE, None, nlines, None
-    keep = n <= lmax
+    keep, any_tv = n <= lmax, bool((kind >= 1).any())
     if not keep.any():
-        return _NONE, None, nlines, (li.size, None, None)
+        return _NONE, None, nlines, (li.size, None, None, any_tv)
     keep_line = np.zeros(ntok.size, bool)
     keep_line[li[keep]] = True
     vals, bad_tok = scan.parse_values(buf, starts, ends, tok_line, first, keep_line)
@@ -262,11 +225,17 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
         return 12, _fail(path, at, "period must be positive"), nlines, None
     if best <= 12:
         return _NONE, None, nlines, None
+    neg = _negative_sigma(vals, off, nf, kind, v2)
+    if neg.any() and best > 13:
+        at = nhead + int(lines[neg][0]) + 1
+        return 13, _fail(path, at, "a standard deviation (σ column) is negative"), nlines, None
+    if best <= 13:
+        return _NONE, None, nlines, None
     g, tv = kind == 0, kind >= 1
     third = vals[np.maximum(off[tv] + nf[tv] - 3, 0)]
     static = (lines[g], n[g], m[g], c[g], s[g], sc[g], ss[g], has_sig[g])
     tvs = [a[tv] for a in (lines, kind, n, m, c, s, sc, ss, has_sig, last, prev)] + [third]
-    return _NONE, None, nlines, (li.size, static, tvs)
+    return _NONE, None, nlines, (li.size, static, tvs, any_tv)
 
 
 def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
@@ -288,14 +257,16 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     SHModel
         Coefficients C, S indexed ``[n, m]``. Missing degree 0 and 1 lines default to
         C00 = 1 and zero degree-1 terms (centre of mass at the origin); any other missing
-        coefficient is an error.
+        coefficient is an error, and so is a C00 far from 1 or a negative σ.
 
     Raises
     ------
     ModelFileError
         Malformed file; the message names the file and the line.
     InputError
-        ``lmax`` above the file's ``max_degree``, or a bad or out-of-range epoch.
+        ``lmax`` above the file's ``max_degree``, a bad or out-of-range epoch, an epoch for a
+        static file (no time-variable lines: it would change nothing), or no epoch for an
+        ``icgem2.0`` file with time-variable lines.
     """
     try:
         path = os.fspath(path)
@@ -323,12 +294,10 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     lmax, t = int(lmax), parse_epoch(epoch)
     if lmax > MAX_DEGREE:
         raise InputError(f"{path}: degree {lmax} is above {MAX_DEGREE}; pass a smaller lmax")
-    if v2 and t is None:
-        raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
 
     errors = (header.get("errors", "").split() or [""])[0].lower()
     table = StaticTable(lmax, len(raw), sigma=errors != "no")
-    best, err, content, base, parts = _NONE, None, 0, 0, []
+    best, err, content, base, parts, any_tv = _NONE, None, 0, 0, [], False
     for lo, hi, newlines in scan.line_chunks(raw, offset, CHUNK_LINES):
         ctx = (nhead, nmax, lmax, v2)
         rank, exc, nlines, data = _scan_chunk(path, raw, (lo, hi, newlines), base, ctx, best)
@@ -336,6 +305,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
             best, err = rank, exc
         if best == _NONE and data is not None:
             content += data[0]
+            any_tv |= data[3]
             if data[1] is not None:
                 table.add(*data[1])
                 parts.append(data[2])
@@ -347,6 +317,14 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         raise err
     if content == 0:
         raise _fail(path, nhead, "no coefficient lines after end_of_head (truncated file?)")
+    if v2 and t is None and any_tv:
+        raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
+    if t is not None and not any_tv:  # refused, not ignored: the user expects it to act
+        raise InputError(
+            f"{path} is a static model (no time-variable gfct/trnd/acos/asin lines), so an epoch"
+            f" (--epoch {t:.10g}) changes nothing in it; leave the epoch out"
+        )
+    v2 = v2 and any_tv  # a static icgem2.0 file: no intervals to choose from
     lines, kind, n, m, c, s, sc, ss, has_sig, last, prev, third = (
         np.concatenate([p[k] for p in parts]) if parts else np.zeros(0, np.int64)
         for k in range(len(_TV_FIELDS))
@@ -364,16 +342,19 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         C, S = _unnormalized_to_full(C, S, path)
         if sig is not None:
             sig = _unnormalized_to_full(sig[0], sig[1], path)
+
+    def first_line(cn, cm):  # file line of the first data line of coefficient (cn, cm)
+        at = [int(x) for x in lines[(n == cn) & (m == cm)]]
+        if (k := table.first_line(cn, cm)) is not None:
+            at.append(k)
+        return nhead + min(at) + 1
+
+    if (why := scan.c00_problem(C)) is not None:  # not 1: C00 was given (its default is 1)
+        raise _fail(path, first_line(0, 0), why)
     if (big := scan.first_outsize(C, S)) is not None:
         bn, bm, v = big
-        at = [int(x) for x in lines[(n == bn) & (m == bm)]]
-        if (k := table.first_line(bn, bm)) is not None:
-            at.append(k)
-        raise _fail(
-            path,
-            nhead + min(at) + 1,
-            f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model",
-        )
+        why = f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model"
+        raise _fail(path, first_line(bn, bm), why)
     name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
     return SHModel(
         name=name,

@@ -6,9 +6,10 @@ NGA distributes its Earth Gravity Models as text files without a header, one coe
     n  m  C̄nm  S̄nm  [σC̄nm  σS̄nm]
 
 fully normalised, with Fortran ``D`` or ``E`` exponents, degree 0 and 1 lines usually absent
-(then C̄00 = 1 and degree 1 is zero). The files carry neither GM nor the reference radius: they are
-taken from the model's name in the file name (:data:`KNOWN`, NGA's published constants) or must
-be given (``gm``, ``radius``); the model's ``header["constants"]`` says which were used.
+(then C̄00 = 1 and degree 1 is zero; a C̄00 line far from 1 is refused). The files carry
+neither GM nor the reference radius: they are taken from the model's name in the file name
+(:data:`KNOWN`, NGA's published constants) or must be given (``gm``, ``radius``); the model's
+``header["constants"]`` says which were used.
 
 The file is tokenised in bulk with NumPy (:mod:`fieldmap.models._gfc_scan`), so EGM2008's
 2.4 million lines parse in seconds; a per-token pass runs only to name the line of an error.
@@ -28,7 +29,7 @@ from fieldmap.models import _gfc_scan as scan
 from fieldmap.models.shmodel import SHModel
 
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
-READER_VERSION = 2  # 2: the sigma columns are kept
+READER_VERSION = 3  # 2: the sigma columns are kept; 3: C00 far from 1 refused
 
 #: NGA's published constants: lower-case name found in the file name -> (name, GM m³/s², R m).
 #: EGM2008: Pavlis et al. (2012), J. Geophys. Res. 117, B04406 (GM 3986004.415e8, a 6378136.3);
@@ -126,7 +127,7 @@ def read_nga(
         else f"given, the other from {kn[0]}'s published values"
     )
     raw = scan.read_bytes(path)
-    scan.check_text(path, raw)
+    scan.check_text(path, raw, "an NGA coefficient file")
     buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, 0)
     li = np.flatnonzero(ntok > 0)
     if li.size == 0:
@@ -191,8 +192,11 @@ def read_nga(
         sigma_s[:, 0] = 0.0
         sigma_c = np.ascontiguousarray(sigma_c[: lmax + 1, : lmax + 1])
         sigma_s = np.ascontiguousarray(sigma_s[: lmax + 1, : lmax + 1])
+    if (why := scan.c00_problem(C)) is not None:  # not 1: the file has a degree-0 line
+        k = int(np.flatnonzero((n == 0) & (m == 0))[0])
+        raise _fail(path, int(li[k]) + 1, why)
     big = scan.first_outsize(C, S)
-    if big is not None and big[:2] != (0, 0):
+    if big is not None:
         k = int(np.flatnonzero((n == big[0]) & (m == big[1]))[0])
         raise _fail(path, int(li[k]) + 1, f"coefficient {big[2]:g} is not a normalised one")
     name = known[0] if known else os.path.basename(path)
