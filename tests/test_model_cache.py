@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from fieldmap.errors import InputError
 from fieldmap.models import cache
 from fieldmap.models.icgem import read_icgem, write_icgem
 from fieldmap.models.registry import clear_cache, kaula_model, load_model
@@ -79,7 +80,7 @@ def test_second_read_comes_from_the_cache(root, gfc):
 
 
 def test_stat_index_avoids_rehashing(root, gfc, monkeypatch):
-    """While size, mtime and inode are unchanged the file is not hashed again."""
+    """While size, mtime, ctime and inode are unchanged the file is not hashed again."""
     path, _ = gfc
     reader = Counting(path)
     cache.cached_read([str(path)], "v", None, reader)
@@ -140,7 +141,10 @@ def test_corrupt_entry_is_rebuilt(root, gfc, damage):
 
 
 def test_no_cache_and_unwritable_cache(root, gfc, tmp_path, monkeypatch):
-    """cache=False writes nothing; a cache folder that cannot be created still loads."""
+    """cache=False writes nothing; a cache folder that cannot be created still loads.
+
+    A cache "folder" under a file is a misconfiguration, not an unwritable folder: refused.
+    """
     path, model = gfc
     m = load_model(str(path), cache=False)
     np.testing.assert_array_equal(m.C, model.C)
@@ -148,6 +152,13 @@ def test_no_cache_and_unwritable_cache(root, gfc, tmp_path, monkeypatch):
     blocker = tmp_path / "file-not-folder"
     blocker.write_text("x")
     _use_model_cache(monkeypatch, str(blocker / "cache"))
+    clear_cache()
+    with pytest.raises(InputError, match="file-not-folder is not a folder"):
+        load_model(str(path))
+    np.testing.assert_array_equal(load_model(str(path), cache=False).S, model.S)
+    if not os.path.isdir("/proc"):
+        return
+    _use_model_cache(monkeypatch, "/proc/fieldmap-cache")  # no process can create it, not root
     clear_cache()
     m = load_model(str(path))
     np.testing.assert_array_equal(m.S, model.S)

@@ -7,7 +7,7 @@ memory-mapped, in tens of milliseconds. Layout under :func:`cache_dir`
 
     entries/<content-hash>-<variant-hash>/{C.npy, S.npy, [SC.npy, SS.npy,] [CC.npy, CS.npy,]
                                            meta.json}
-    paths/<hash of the real path>.json      # stat index: path, size, mtime_ns, inode -> hash
+    paths/<hash of the real path>.json      # stat index: path, size, m/ctime_ns, inode -> hash
 
 * **Key.** The SHA-256 of the model file's bytes (both files for GeographicLib's pair), plus a
   *variant*: the reader's name and version (:data:`fieldmap.models.icgem.READER_VERSION` etc.;
@@ -16,17 +16,18 @@ memory-mapped, in tens of milliseconds. Layout under :func:`cache_dir`
   option is a different entry; nothing is ever looked up by path alone.
 * **Fast check.** Hashing costs ~0.15 s per 200 MB from the page cache and seconds from a cold
   disk or a network file system, at every process start. So the content hash of a path is
-  remembered in a stat index together with the file's size, modification time (ns) and inode;
-  while all four are unchanged the remembered hash is used, and any change rehashes the file.
-  (A rewrite that keeps size, mtime to the nanosecond and inode is the one case this misses;
-  ``--no-cache`` or :func:`clear` handles it.)
+  remembered in a stat index together with the file's size, modification and change times (ns)
+  and inode; while all five are unchanged the remembered hash is used, and any change rehashes
+  the file. The change time is what an edit in place whose modification time was set back
+  (``touch -r``) still changes: no user process can set it.
 * **Never trusted blindly.** ``meta.json`` stores the SHA-256 of every array's bytes, its shape
   and dtype; each load verifies them (~25 ms per 38 MB array) and an entry that fails — missing
   file, bad JSON, other shape, other checksum, other format version — is deleted and rebuilt
   from the model file.
 * **Atomic.** An entry is written in a temporary folder and renamed into place; a process that
   loses the race keeps its own copy in memory and removes its temporary folder. A cache folder
-  that cannot be written only costs the speed-up (the model still loads).
+  that cannot be written only costs the speed-up (the model still loads); one that is a file is
+  refused (:mod:`fieldmap.models._cache_root`).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ import threading
 
 import numpy as np
 
+from fieldmap.models._cache_root import usable
 from fieldmap.models.shmodel import SHModel
 
 #: format of the entries themselves (bump when the layout changes)
@@ -56,6 +58,11 @@ def cache_dir() -> str:
     return config.get().model_cache
 
 
+def _root(root: str | None) -> str:
+    """``root``, else :func:`cache_dir`; an InputError if that is a file (:func:`usable`)."""
+    return usable(root or cache_dir())
+
+
 def _sha256_file(path: str) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -69,7 +76,6 @@ def _sha256_array(a: np.ndarray) -> str:
 
 
 def _regular(path: str) -> bool:
-
     try:
         return stat.S_ISREG(os.stat(path).st_mode)
     except OSError:
@@ -78,12 +84,12 @@ def _regular(path: str) -> bool:
 
 def content_hash(paths: list[str], root: str | None = None) -> str:
     """SHA-256 of the files' contents, through the stat index (module docstring)."""
-    root = root or cache_dir()
+    root = _root(root)
     parts = []
     for p in paths:
         real = os.path.realpath(p)
         st = os.stat(real)
-        stamp = [st.st_size, st.st_mtime_ns, st.st_ino]
+        stamp = [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
         idx = os.path.join(root, "paths", hashlib.sha256(real.encode()).hexdigest()[:32] + ".json")
         digest = None
         try:
@@ -138,7 +144,7 @@ def load(paths: list[str], variant: str, *, root: str | None = None) -> SHModel 
 
     An entry that fails verification is deleted.
     """
-    root = root or cache_dir()
+    root = _root(root)
     try:
         digest = content_hash(paths, root)
     except OSError:
@@ -195,7 +201,7 @@ def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = 
 
     Never raises for an unwritable cache (the caller keeps the model it has in memory).
     """
-    root = root or cache_dir()
+    root = _root(root)
     try:
         digest = content_hash(paths, root)
         folder = _entry(root, digest, variant)
@@ -261,7 +267,7 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
         if lmax is None or lmax == full.lmax:
             return full
         if lmax < full.lmax:
-            return _slice(full, lmax)
+            return full.truncated(lmax)
     if lmax is not None:
         part = load(paths, variant + f"|L{lmax}")
         if part is not None:
@@ -271,13 +277,9 @@ def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, ena
     return model
 
 
-def _slice(model: SHModel, lmax: int) -> SHModel:
-    return model.truncated(lmax)
-
-
 def clear(root: str | None = None) -> tuple[int, int]:
     """Delete every cached model; return (entries removed, bytes freed)."""
-    root = root or cache_dir()
+    root = _root(root)
     count = size = 0
     for sub in ("entries", "paths", "tables"):
         folder = os.path.join(root, sub)
@@ -305,7 +307,7 @@ def clear(root: str | None = None) -> tuple[int, int]:
 
 def info(root: str | None = None) -> list[dict]:
     """List the cached models: folder, files, variant, size in bytes."""
-    root = root or cache_dir()
+    root = _root(root)
     out: list[dict] = []
     folder = os.path.join(root, "entries")
     if not os.path.isdir(folder):
@@ -372,7 +374,7 @@ def prefetch_tables(lmax: int, *, root: str | None = None) -> None:
     """
     if _disabled or lmax < TABLES_MIN_DEGREE:
         return
-    parent = os.path.join(root or cache_dir(), "tables")
+    parent = os.path.join(_root(root), "tables")
     try:
         names = [n for n in os.listdir(parent) if n.startswith(f"L{int(lmax)}-")]
     except OSError:
@@ -393,7 +395,7 @@ def _tables_folder(lmax: int, compute, root: str | None) -> str | None:
     """Entry of the tables of ``lmax`` made by ``compute`` (keyed by its source), or None."""
     import inspect
 
-    root = root or cache_dir()
+    root = _root(root)
     try:
         code = inspect.getsource(compute)
     except (OSError, TypeError):

@@ -7,9 +7,10 @@ plain coefficient file (:mod:`.nga`), or GeographicLib's ``.egm`` + ``.egm.cof``
 (:mod:`.egm`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
 as ``Gravity -n NAME -d DIR``).
 
-Parsed models are cached in memory, keyed by the file (path, size, modification time), the
-epoch, the options and the degree read; a truncation of a cached full model is a cheap copy. A
-new process finds them in the verified on-disk cache of :mod:`.cache` (``cache=False`` skips it).
+Parsed models are cached in memory, keyed by the file (path, size, modification and change
+times), the epoch, the options and the degree read; a truncation of a cached full model is a
+cheap copy. A new process finds them in the verified on-disk cache of :mod:`.cache`
+(``cache=False`` skips it).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import gzip
 import os
 import stat
 import threading
+import zlib
 from importlib import resources
 
 import numpy as np
@@ -63,8 +65,9 @@ def detect_format(path) -> str:
 
     ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
     first lines of ``n m C S [σC σS]`` numbers are NGA's header-less format; anything else goes
-    to the ICGEM reader, whose errors then say what is missing. A pipe or device is read as
-    ICGEM (its head cannot be sniffed and read again).
+    to the reader its name suggests (``.egm``: GeographicLib's; else ICGEM's), whose errors
+    then say what is missing. A pipe or device is read as ICGEM (its head cannot be sniffed and
+    read again), and so is a broken gzip file (the ICGEM reader names the damage).
     """
     from fieldmap.models.nga import looks_like_nga
 
@@ -83,7 +86,7 @@ def detect_format(path) -> str:
         if head[:2] == b"\x1f\x8b":
             with gzip.open(path, "rb") as f:
                 head = f.read(1 << 16)
-    except (OSError, EOFError, gzip.BadGzipFile):
+    except (OSError, EOFError, zlib.error):  # gzip.BadGzipFile is an OSError
         return "icgem"  # its reader names the problem
     if head.lstrip().startswith(b"EGMF-"):
         return "egm"
@@ -91,22 +94,35 @@ def detect_format(path) -> str:
         return "icgem"
     if looks_like_nga(head):
         return "nga"
-    return "icgem"
+    return "egm" if path.endswith(".egm") else "icgem"
+
+
+def _in_model_dir(name: str, model_dir) -> str | None:
+    """Path of ``model_dir/NAME.egm``, else of ``model_dir/name`` (a relative path), or None."""
+    from fieldmap.models.egm import find_egm
+
+    found = find_egm(name, model_dir)
+    if found:
+        return found
+    if not os.path.isabs(name):
+        joined = os.path.join(os.fspath(model_dir), name)
+        if os.path.exists(joined):
+            return joined
+    return None
 
 
 def _resolve_path(name: str, model_dir) -> str:
     """Path of a model given by path, or by GeographicLib name in ``model_dir``."""
     from fieldmap.models.egm import default_gravity_dirs, find_egm
 
-    if model_dir is not None:
-        found = find_egm(name, model_dir)
-        if found:
-            return found
-        if not os.path.isabs(name):
-            joined = os.path.join(os.fspath(model_dir), name)
-            if os.path.exists(joined):
-                return joined
+    if model_dir is not None and (found := _in_model_dir(name, model_dir)):
+        return found
     if os.path.exists(name):
+        if model_dir is not None:  # refused, not ignored
+            raise InputError(
+                f"{name} is a file path, not a model in model_dir {os.fspath(model_dir)} "
+                "(which is for GeographicLib model names): read it without model_dir"
+            )
         return name
     found = None if model_dir is not None else find_egm(name)
     if found:
@@ -146,10 +162,12 @@ def load_model(
         Truncation degree; default: the model's full degree.
     epoch : float or str, optional
         Epoch of the time-variable terms (decimal year or ``'YYYY-MM-DD'``). Units: year.
-        Default: each coefficient's reference epoch.
+        Default: each coefficient's reference epoch. Refused for a static model (an NGA or
+        ``.egm`` file, an ICGEM file without time-variable lines), where it would do nothing.
     model_dir : str or os.PathLike, optional
         Folder of GeographicLib models (``Gravity -d``): ``name_or_path`` is then looked up as
-        ``model_dir/NAME.egm`` first.
+        ``model_dir/NAME.egm`` first, then as a path relative to it; refused for the path of a
+        file outside it (it would do nothing).
     gm, radius : float, optional
         Units: m³/s², m. GM and reference radius of an NGA coefficient file (which has none);
         default: NGA's values for EGM84/EGM96/EGM2008 named in the file name. Refused for
@@ -165,7 +183,7 @@ def load_model(
     ------
     InputError
         Unknown name, missing file, ``lmax`` not a non-negative integer or above the model's
-        degree, bad epoch.
+        degree, bad epoch or one given for a static model, ``model_dir`` that does nothing.
     ModelFileError
         Malformed model file.
     """
@@ -213,35 +231,53 @@ def load_model(
             f"{name}: GM and radius are given by the {fmt} file itself; --gm/--radius are for "
             "NGA coefficient files only"
         )
+    if t is not None and fmt != "icgem":  # refused, not ignored (the ICGEM reader sees its own)
+        what = "an NGA coefficient file" if fmt == "nga" else "a GeographicLib .egm model"
+        raise InputError(
+            f"{name} is {what}, static (no time-variable terms), so an epoch"
+            f" (--epoch {t:.10g}) changes nothing in it; leave the epoch out"
+        )
     paths = [name[:-4] if name.endswith(".egm.cof") else name]
     if fmt == "egm":
         paths.append(paths[0] + ".cof")
-    st = os.stat(paths[-1])
-    key = ("file", os.path.realpath(paths[0]), st.st_size, st.st_mtime_ns, t, fmt, gm, radius)
+    # read only the degrees needed (the readers skip or slice the higher degrees)
+    part = None if lmax is None else int(lmax)
+    parse, variant = _reader(fmt, paths[0], t, gm, radius)
+    try:  # the change time too: an edit in place with the modification time set back changes it
+        stamp = tuple((s.st_size, s.st_mtime_ns, s.st_ctime_ns) for s in map(os.stat, paths))
+    except OSError:  # e.g. no .egm.cof: the reader names the problem (its metadata first)
+        return _earth(parse(part))
+    key = ("file", os.path.realpath(paths[0]), stamp, t, fmt, gm, radius)
     with _cache_lock:
         full = _cache.get(key + (None,))
     if full is not None:
         return _truncate(full, lmax)
-    # read only the degrees needed (the readers skip or slice the higher degrees)
-    part = None if lmax is None else int(lmax)
-    reader, variant = _reader(fmt, paths[0], t, gm, radius)
-    return _read_cached(
-        key + (part,),
-        lambda: _earth(disk_cache.cached_read(paths, variant, part, reader, enabled=cache)),
-    )
+
+    def read():
+        model = disk_cache.cached_read(paths, variant, part, parse, enabled=cache)
+        # an entry made from a copy of the file elsewhere: this path is the source
+        return _earth(model if model.source == paths[0] else _with_source(model, paths[0]))
+
+    return _read_cached(key + (part,), read)
 
 
 def _reader(fmt: str, path: str, t, gm, radius):
-    """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format."""
+    """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format.
+
+    The variant holds the file's name: the readers take the model's name from it where the file
+    has none and, for NGA files, GM, the radius and the tide system (a copy of ``EGM96`` named
+    ``EGM2008`` or ``mine`` is another model, or none).
+    """
     from fieldmap.models import egm, icgem, nga
 
+    named = f"|file={os.path.basename(path)!r}"
     if fmt == "nga":
-        variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}"
+        variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}{named}"
         return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
     if fmt == "egm":
-        variant = f"egm-v{egm.READER_VERSION}"
+        variant = f"egm-v{egm.READER_VERSION}{named}"
         return (lambda L: egm.read_egm(path, lmax=L)), variant
-    variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
+    variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}{named}"
     return (lambda L: read_icgem(path, lmax=L, epoch=t)), variant
 
 
@@ -334,7 +370,8 @@ def model_options(args) -> dict:
     ``--no-cache``); a missing attribute counts as its default.
 
     ``--no-cache`` also stops the cache of recursion tables for this process. ``--model-dir``
-    with a bundled model name (read from the package, never from that folder) is refused.
+    with a bundled model name (read from the package, never from that folder) or with the path
+    of a file outside that folder (read from where it is) is refused: it would do nothing.
     """
     model_dir, model = getattr(args, "model_dir", None), getattr(args, "model", None)
     if model_dir is not None and str(model).strip().lower() in BUNDLED:
@@ -342,6 +379,12 @@ def model_options(args) -> dict:
             f"--model-dir applies to GeographicLib model names and files, not to the bundled "
             f"{model} (give --model NAME of a model in {model_dir})"
         )
+    if model_dir is not None and os.path.exists(str(model)):
+        if _in_model_dir(str(model), model_dir) is None:
+            raise InputError(
+                f"--model-dir {model_dir} does nothing for --model {model}: a file path, read "
+                f"where it is, not a GeographicLib model in {model_dir} (leave out --model-dir)"
+            )
     if getattr(args, "no_cache", False):
         disk_cache.disable()
     return {
