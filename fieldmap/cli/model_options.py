@@ -14,7 +14,8 @@ def add_model_options(parser) -> None:
     parser.add_argument(
         "--model-dir",
         default=None,
-        help="folder of GeographicLib models: --model NAME reads DIR/NAME.egm (as Gravity -d)",
+        help="folder of GeographicLib models: --model NAME reads DIR/NAME.egm (as Gravity -d), "
+        "or DIR/NAME; refused with the bundled model or a file path outside DIR",
     )
     parser.add_argument(
         "--gm",
