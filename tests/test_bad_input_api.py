@@ -85,7 +85,7 @@ POINT_FUNCS = [
         ((0.0, 540.0, 0.0), r"longitude .* got 540"),
         ((0.0, -540.5, 0.0), r"longitude .* got -540.5"),
         ((0.0, 0.0, 1e300), r"height 1e\+300 m is above 1e\+08 m"),
-        ((0.0, 0.0, [0.0, 1.0000001e8]), r"height 1e\+08 m is above 1e\+08 m"),
+        ((0.0, 0.0, [0.0, 1.0000001e8]), r"height 100000010.0 m is above 1e\+08 m"),
         ((91.0, 0.0, 0.0), r"latitude must be within \[-90, 90\] degrees, got 91"),
         ((0.0, 0.0, -2e4), r"height -20000 m is below -10000 m"),
         ((0.0, np.nan, 0.0), "longitude must be finite"),
