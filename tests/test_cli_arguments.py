@@ -180,3 +180,21 @@ def test_figure_view_keeps_the_products_step(tmp_path):
     assert node_step(view) == 2.5 == float(view["longitude"][1] - view["longitude"][0])
     full = blockstore.decimated(tmp_path / "p.nc", "netcdf")
     assert "figure_decimation" not in full.attrs and node_step(full) == 0.5
+
+
+def test_table_with_nan_values_is_named(tmp_path):
+    """A table.bin holding NaN: the one line names the file."""
+    import numpy as np
+
+    from fieldmap.errors import InputError
+    from fieldmap.products import table_io, table_model
+
+    good = table_model.CompensationTable(
+        0.0, 1.0, 0.0, 1.0, 0.0, 1000.0, np.zeros((2, 4, 4, 3)), {"lmax": 10}
+    )
+    raw = bytearray(table_io.binary_bytes(good))
+    raw[-4:] = np.array([np.nan], dtype="<f4").tobytes()
+    path = tmp_path / "table.bin"
+    path.write_bytes(bytes(raw))
+    with pytest.raises(InputError, match=rf"^{path}: compensation table: values not finite"):
+        table_model.load_table(path)

@@ -53,7 +53,8 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         p.add_argument(
             "--epoch",
             default=None,
-            help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD",
+            help="epoch of time-variable models: decimal year (1900..2200) or YYYY-MM-DD "
+            "(refused for a model without time-variable terms)",
         )
         from fieldmap.cli.model_options import add_model_options
 

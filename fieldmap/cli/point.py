@@ -128,7 +128,7 @@ def register(subparsers) -> None:
         "--epoch",
         default=None,
         help="epoch of time-variable terms: decimal year (1900..2200) or YYYY-MM-DD "
-        "(default: the model's reference epoch)",
+        "(default: the model's reference epoch; refused for a model without such terms)",
     )
     p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: auto)")
     p.add_argument(

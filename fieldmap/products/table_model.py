@@ -319,6 +319,15 @@ def load_table(path) -> CompensationTable:
 
 
 def _read(path: Path) -> CompensationTable:
+    try:
+        return _read_file(path)
+    except InputError as exc:  # the table's own checks (finite values...) name the file too
+        if str(path) in str(exc):
+            raise
+        raise InputError(f"{path}: {exc}") from None
+
+
+def _read_file(path: Path) -> CompensationTable:
     with open(path, "rb") as fh:
         head = fh.read(8)
     if head == MAGIC:
