@@ -189,6 +189,33 @@ def test_c00_band(tmp_path, c00, ok):
         read_nga(nga)
 
 
+@pytest.mark.parametrize(
+    "line, ok",
+    [
+        ("gfc 1 0 2e-10", True),
+        ("gfc 1 1 -1e-3", True),
+        ("gfc 1 0 0.5", False),
+        ("gfc 1 1 2e-3", False),
+    ],
+)
+def test_degree1_band(tmp_path, line, ok):
+    """|C̄1m|, |S̄11| up to 1e-3 (a centre of mass ~11 km off): read; beyond: the file's line."""
+    n, m = line.split()[1:3]
+    path = tmp_path / "d.gfc"
+    path.write_text(GOOD.replace(f"gfc {n} {m} 0.0", line))
+    nga = tmp_path / "EGM96_d"
+    value = f"{float(line.split()[3]):.6E}".replace("E", "D")
+    nga.write_text(f"    1    {m}  {value} 0.0D0 0.0D0 0.0D0\n" + NGA)
+    if ok:
+        assert read_icgem(path).C[1, int(m)] == read_nga(nga).C[1, int(m)] == float(line.split()[3])
+        return
+    k = 10 if m == "0" else 11
+    with pytest.raises(ModelFileError, match=rf"d\.gfc, line {k}: degree-1 coefficient n=1 m={m}"):
+        read_icgem(path)
+    with pytest.raises(ModelFileError, match=f"EGM96_d, line 1: degree-1 coefficient n=1 m={m}"):
+        read_nga(nga)
+
+
 def test_models_with_c00_one_still_load(tmp_path):
     """The bundled EIGEN-6S, a Kaula model written as .gfc and .egm: C̄00 = 1, read as before."""
     assert load_model("eigen-6s", lmax=2).C[0, 0] == 1.0

@@ -348,6 +348,29 @@ def c00_problem(C) -> str | None:
     )
 
 
+#: Largest accepted |C̄10|, |C̄11|, |S̄11|. The degree-1 terms are the centre of mass's offset
+#: from the origin (C̄10 = z/(√3 R)): zero in the geocentric frame of every gravity model, a
+#: few 1e-10 for a frame centred elsewhere by centimetres. 1e-3 is an offset of ~11 km; a file
+#: beyond it has its lines out of place (e.g. 0.5 at n=1 gave a "disturbance" of 842,722 mGal).
+DEGREE1_MAX = 1e-3
+
+
+def degree1_problem(C, S) -> tuple[int, int, str] | None:
+    """Return ``(n, m, why)`` if a degree-1 coefficient exceeds :data:`DEGREE1_MAX`, else None."""
+    if C.shape[0] < 2:
+        return None
+    for m, v in ((0, C[1, 0]), (1, C[1, 1]), (1, S[1, 1])):
+        if abs(v) > DEGREE1_MAX:
+            return (
+                1,
+                m,
+                f"degree-1 coefficient n=1 m={m} is {float(v):.3g}: a geocentric gravity model "
+                f"has (near) 0 there (|value| <= {DEGREE1_MAX:g}, a centre of mass within "
+                "~11 km of the origin)",
+            )
+    return None
+
+
 def first_outsize(C, S):
     """Return ``(n, m, value)`` of the first coefficient too large to be physical, else None.
 

@@ -351,6 +351,8 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
 
     if (why := scan.c00_problem(C)) is not None:  # not 1: C00 was given (its default is 1)
         raise _fail(path, first_line(0, 0), why)
+    if (one := scan.degree1_problem(C, S)) is not None:
+        raise _fail(path, first_line(one[0], one[1]), one[2])
     if (big := scan.first_outsize(C, S)) is not None:
         bn, bm, v = big
         why = f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model"

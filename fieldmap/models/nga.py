@@ -195,6 +195,9 @@ def read_nga(
     if (why := scan.c00_problem(C)) is not None:  # not 1: the file has a degree-0 line
         k = int(np.flatnonzero((n == 0) & (m == 0))[0])
         raise _fail(path, int(li[k]) + 1, why)
+    if (one := scan.degree1_problem(C, S)) is not None:
+        k = int(np.flatnonzero((n == 1) & (m == one[1]))[0])
+        raise _fail(path, int(li[k]) + 1, one[2])
     big = scan.first_outsize(C, S)
     if big is not None:
         k = int(np.flatnonzero((n == big[0]) & (m == big[1]))[0])
