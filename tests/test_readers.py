@@ -469,7 +469,7 @@ def test_options_refused(tmp_path, fl):
         with pytest.raises(InputError, match=what):
             read_track(path, **kw)
     igc = write(tmp_path / "a.igc", ["AXXX", "HFDTE140623", b_record(0, fl, 1000)])
-    with pytest.raises(InputError, match="apply to CSV"):
+    with pytest.raises(InputError, match="columns applies to CSV"):
         read_track(igc, columns="time=a,lat=b,lon=c,alt=d")
 
 

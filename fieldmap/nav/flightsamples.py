@@ -33,6 +33,8 @@ MAX_ACCEL = 100.0 * G0
 MAX_SPEED = 8000.0
 #: the quintic spline needs at least k + 1 points
 MIN_POINTS = 6
+#: heights a flight can have (m): the deepest ocean floor, the limit of fieldmap's models
+MIN_HEIGHT, MAX_HEIGHT = -11_000.0, 1.0e8
 
 
 @dataclass(frozen=True)
@@ -193,7 +195,7 @@ def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
         bad = np.flatnonzero(np.abs(v) > lim)
         if bad.size:
             raise InputError(f"{_where(name, lines, bad[0], c)}: {v[bad[0]]:g} is beyond ±{lim:g}")
-    bad = np.flatnonzero((h < -11_000.0) | (h > 1.0e8))
+    bad = np.flatnonzero((h < MIN_HEIGHT) | (h > MAX_HEIGHT))
     if bad.size:
         raise InputError(
             f"{_where(name, lines, bad[0], 'height_m')}: {h[bad[0]]:g} m is outside -11 km..1e8 m"

@@ -32,19 +32,22 @@ The geometric altitude of ADS-B is used when at least half the rows have one, el
 barometric one. OpenSky documents ``geoaltitude`` only as "geometric altitude": DO-260B
 transponders report GNSS height above the ellipsoid, older ones above MSL, so it is read as
 MSL (a note says so; ``height_ref="ellipsoid"`` reads it as ellipsoidal). Times: seconds as
-given, epoch seconds (> 1e8), epoch milliseconds (> 1e11), ISO 8601 strings (naive = UTC) or a
-``strptime`` pattern (``time_format``). Rows with an empty latitude, longitude or altitude
+given, epoch seconds (> 1e8), epoch milliseconds (> 1e11: a guess of the units, which the notes
+and any later refusal of the log mention), ISO 8601 strings (naive = UTC) or a ``strptime``
+pattern (``time_format``). Rows with an empty latitude, longitude or altitude
 (``""``, ``nan``, ``null``) are dropped and counted in the notes; anything else that is not a
 number is refused with its line and column. Text formats: see :mod:`fieldmap.nav.readers_formats`.
 
 Refused with one :class:`~fieldmap.errors.InputError` naming file, line and column: unknown
 columns (the message lists them and the ``--columns`` mapping), unparsable times or numbers,
-latitudes beyond ±90° or longitudes beyond ±360°, radians, an empty file, a file that is no
-flight log. Units are checked, not guessed, where neither ``alt_units``, the column name
-(``height_m``) nor the format's specification (GPX, NMEA, IGC: metres) fixes them: an
-aircraft-like track (median ground speed below 700 m/s) with altitudes above 30 km or a
-vertical rate above 300 m/s sustained over 5 samples is refused as feet read as metres (or a
-wrong column).
+latitudes beyond ±90° or longitudes beyond ±360°, heights outside -11 km..1e8 m, epoch times
+outside the years 1..9999, radians, a header naming a column twice, one column mapped to two
+fields, an empty file, a file that is no flight log. Units are checked, not guessed, where
+neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
+NMEA, IGC: metres) fixes them: an aircraft-like track (median ground speed below 700 m/s) with
+altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples is refused as
+feet read as metres (or a wrong column). Messages name keyword arguments, or the CLI options
+when called from ``fieldmap navsim`` (:mod:`fieldmap.nav.spelling`).
 """
 
 from __future__ import annotations
@@ -72,15 +75,19 @@ from fieldmap.nav.readers_formats import (
     read_nmea,
     times,
 )
+from fieldmap.nav.readers_heights import FT as FT
+from fieldmap.nav.readers_heights import GEOID_STEP as GEOID_STEP
+from fieldmap.nav.readers_heights import MAX_AIRCRAFT_SPEED as MAX_AIRCRAFT_SPEED
+from fieldmap.nav.readers_heights import MAX_ALTITUDE as MAX_ALTITUDE
+from fieldmap.nav.readers_heights import MAX_CLIMB as MAX_CLIMB
+from fieldmap.nav.readers_heights import MAX_HEIGHT as MAX_HEIGHT
+from fieldmap.nav.readers_heights import MIN_HEIGHT as MIN_HEIGHT
+from fieldmap.nav.readers_heights import R_ISA as R_ISA
+from fieldmap.nav.readers_heights import check_units, speeds, to_ellipsoid
+from fieldmap.nav.readers_tables import GUESS_MS
+from fieldmap.nav.spelling import advice, keyword
 
 HEIGHT_REFS = ("ellipsoid", "msl", "pressure")
-FT = 0.3048
-#: spacing along the track of the geoid-height evaluations (m)
-GEOID_STEP = 5000.0
-#: ISO 2533 earth radius for geopotential -> geometric height (m)
-R_ISA = 6_356_766.0
-#: checks of the altitude units on aircraft-like tracks
-MAX_AIRCRAFT_SPEED, MAX_ALTITUDE, MAX_CLIMB = 700.0, 30_000.0, 300.0
 _KEYS = ("time", "lat", "lon", "alt")
 #: name -> (time, lat, lon, {height reference: altitude column}, units); first match wins
 LAYOUTS = {
@@ -125,6 +132,9 @@ class RawTrack:
         Human-readable notes (layout, units, dropped rows, height conversion).
     t0_utc : str or None
         ISO 8601 time of the first sample when known.
+    time_guess : str or None
+        How the times were read where their units were guessed from their size (epoch
+        milliseconds), for messages about what follows from the guess; None otherwise.
     """
 
     t: np.ndarray
@@ -136,6 +146,7 @@ class RawTrack:
     height_ref: str
     notes: tuple[str, ...] = ()
     t0_utc: str | None = None
+    time_guess: str | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -165,6 +176,13 @@ def parse_columns(text: str) -> dict[str, str]:
     missing = [k for k in _KEYS if k not in out]
     if missing:
         raise InputError(f"--columns: missing {', '.join(missing)} ({HINT})")
+    keys: dict[str, str] = {}
+    for key, name in out.items():
+        if name in keys:
+            raise InputError(
+                f"--columns: column {name!r} given for both {keys[name]} and {key} ({HINT})"
+            )
+        keys[name] = key
     return out
 
 
@@ -219,17 +237,23 @@ def _table(header, get, lines, source, where_word, columns, time_format) -> Pars
     alts = {r: (c, numbers(get(col(c)), where, c)) for r, c in altmap.items() if col(c) is not None}
     filled = {r: float(np.mean(np.isfinite(v))) for r, (_, v) in alts.items()}
     ref = next((r for r in alts if filled[r] >= 0.5), max(filled, key=filled.__getitem__))
-    ref_note = None
+    ref_note, option = None, keyword("height_ref")
     if kind == "mapping":
-        ref_note = "heights taken as MSL (the default for a column mapping: give height_ref)"
+        ref_note = "heights taken as MSL (the default for a column mapping" + (
+            f": give {option})" if option else ")"
+        )
     elif ref == "msl":
+        tip = advice("height_ref", "ellipsoid")
         ref_note = (
-            f"{alts[ref][0]}: ADS-B geometric altitude, read as MSL (DO-260B "
-            "transponders report it above the ellipsoid: height_ref='ellipsoid')"
+            f"{alts[ref][0]}: ADS-B geometric altitude, read as MSL (DO-260B transponders "
+            "report it above the ellipsoid" + (f": {tip})" if tip else ")")
         )
     names = (tname, latname, lonname)
     p = Parsed(t, lat, lon, alts, ref, units, lines, source, absolute, names, where_word, notes)
-    return dataclasses.replace(p, ref_note=ref_note, units_fixed=kind == "fieldmap")
+    guess = tnote if tnote and GUESS_MS in tnote else None
+    return dataclasses.replace(
+        p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess
+    )
 
 
 def read_track(
@@ -275,13 +299,15 @@ def read_track(
         One line naming the source, line (or record) and column.
     """
     if alt_units not in (None, "m", "ft"):
-        raise InputError(f"alt_units: {alt_units!r} is not one of m, ft")
+        raise InputError(f"{_kw('alt_units')}: {alt_units!r} is not one of m, ft")
     if height_ref not in (None, *HEIGHT_REFS):
-        raise InputError(f"height_ref: {height_ref!r} is not one of {', '.join(HEIGHT_REFS)}")
+        raise InputError(
+            f"{_kw('height_ref')}: {height_ref!r} is not one of {', '.join(HEIGHT_REFS)}"
+        )
     if time_format not in (None, "s", "epoch", "epoch_ms", "iso") and "%" not in time_format:
         raise InputError(
-            f"time_format: {time_format!r} is not one of s, epoch, epoch_ms, iso or a strptime "
-            "pattern (%Y-%m-%d %H:%M:%S)"
+            f"{_kw('time_format')}: {time_format!r} is not one of s, epoch, epoch_ms, iso or a "
+            "strptime pattern (%Y-%m-%d %H:%M:%S)"
         )
     if isinstance(columns, str):
         columns = parse_columns(columns)
@@ -296,8 +322,10 @@ def read_track(
             header, get, lines = csv_table(text, str(path))
             p = _table(header, get, lines, str(path), "line", columns, time_format)
         else:
-            if columns is not None or time_format is not None:
-                raise InputError(f"{path}: columns and time_format apply to CSV files (a {kind})")
+            given = [_kw(k) for k, v in (("columns", columns), ("time_format", time_format)) if v]
+            if given:
+                verb = "apply" if len(given) > 1 else "applies"
+                raise InputError(f"{path}: {' and '.join(given)} {verb} to CSV files (a {kind})")
             p = {"gpx": read_gpx, "nmea": read_nmea, "igc": read_igc}[kind](text, str(path))
     else:
         name = type(source).__name__
@@ -305,22 +333,6 @@ def read_track(
         header, get, lines = object_table(source, name)
         p = _table(header, get, lines, name, "record", columns, time_format)
     return _finish(p, alt_units, height_ref, model, ellipsoid)
-
-
-def _steps(lat, lon) -> np.ndarray:
-    """Distances between consecutive samples (m; haversine on a sphere of 6371 km)."""
-    la, lo = np.radians(lat), np.radians(lon)
-    a = (
-        np.sin(np.diff(la) / 2) ** 2
-        + np.cos(la[:-1]) * np.cos(la[1:]) * np.sin(np.diff(lo) / 2) ** 2
-    )
-    return 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
-
-
-def _speed(lat, lon, t) -> np.ndarray:
-    """Ground speed between consecutive samples with increasing time (m/s)."""
-    d, dt = _steps(lat, lon), np.diff(t)
-    return d[dt > 0] / dt[dt > 0]
 
 
 def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
@@ -348,7 +360,15 @@ def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
     if units == "ft":
         a = a * FT
         notes.append(f"{aname} in ft (converted to m)")
-    v = _speed(lat, lon, t)
+    bad = np.flatnonzero((a < MIN_HEIGHT) | (a > MAX_HEIGHT))
+    if bad.size:
+        i = int(bad[0])
+        raw = f"{a[i] / FT:g} ft ({a[i]:g} m)" if units == "ft" else f"{a[i]:g} m"
+        raise InputError(
+            f"{where} {lines[i]} column {aname}: {raw} is outside the heights of a flight "
+            f"({MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m)"
+        )
+    v = speeds(lat, lon, t)
     vmed = float(np.median(v)) if v.size else 0.0
     if (
         lat.size >= 10
@@ -363,62 +383,15 @@ def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
             f"{np.degrees(vmed):.0f} m/s as radians): give degrees"
         )
     if alt_units is None and not p.units_fixed and v.size and vmed <= MAX_AIRCRAFT_SPEED:
-        _check_units(a, t, lines, units, vmed, f"{where}", aname)
+        check_units(a, t, lines, units, vmed, f"{where}", aname)
     h = a
     if ref != "ellipsoid":
-        h, note = _to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
+        h, note = to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
         notes += note
     t0 = iso_utc(float(t[0])) if p.absolute else None
-    return RawTrack(t, lat, lon, h, lines, p.source, ref, tuple(notes), t0)
+    return RawTrack(t, lat, lon, h, lines, p.source, ref, tuple(notes), t0, p.time_guess)
 
 
-def _check_units(a, t, lines, units, vmed, where, aname) -> None:
-    """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring)."""
-    hint = "use alt_units='ft' (--alt-units ft)" if units == "m" else "a wrong column?"
-    hi = float(np.percentile(a, 99))
-    if hi > MAX_ALTITUDE:
-        i = int(np.argmax(a))
-        raise InputError(
-            f"{where} {lines[i]} column {aname}: altitudes up to {hi:,.0f} m with an aircraft's "
-            f"speed (median {vmed:.0f} m/s): feet read as metres? {hint}, or alt_units='m' if "
-            "these are metres"
-        )
-    dt = np.diff(t)
-    ok = np.flatnonzero(dt > 0)
-    rate = np.abs(np.diff(a))[ok] / dt[ok]
-    if rate.size >= 5:
-        med = np.median(np.lib.stride_tricks.sliding_window_view(rate, 5), axis=1)
-        if med.max() > MAX_CLIMB:
-            i = int(np.argmax(med))
-            raise InputError(
-                f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {med[i]:,.0f} m/s "
-                f"sustained over 5 samples (an aircraft: < {MAX_CLIMB:g} m/s): altitudes in "
-                f"{units}? {hint}, or give alt_units to skip this check"
-            )
-
-
-def _to_ellipsoid(ref, lat, lon, a, model, ellipsoid) -> tuple[np.ndarray, list[str]]:
-    """Return h = H + N (a pressure altitude first carried to a geometric MSL height)."""
-    from fieldmap.field.geodesy import geoid_height
-
-    notes = []
-    if ref == "pressure":
-        a = R_ISA * a / (R_ISA - a)
-        top = float(np.max(a))
-        notes.append(
-            "pressure altitude converted with the ISA standard atmosphere (ISO 2533, ICAO Doc "
-            f"7488), taken as MSL height: approximate (±{0.04 * top + 80:.0f} m at {top:.0f} m "
-            "for 10 K or 10 hPa off the standard atmosphere)"
-        )
-    steps = _steps(lat, lon)
-    s = np.concatenate([[0.0], np.cumsum(steps)])
-    big = np.flatnonzero(steps > GEOID_STEP)  # both ends of a gap or a jump are nodes
-    nodes = np.searchsorted(s, np.arange(0.0, max(s[-1], 1.0), GEOID_STEP))
-    nodes = np.unique(np.concatenate([nodes, big, big + 1]))
-    nodes = np.append(nodes, s.size - 1) if s[-1] > s[nodes[-1]] else nodes
-    m = "eigen-6s" if model is None else model
-    n_nodes = geoid_height(lat[nodes], lon[nodes], model=m, ellipsoid=ellipsoid)
-    n = np.interp(s, s[nodes], n_nodes) if nodes.size > 1 else np.full(s.size, n_nodes[0])
-    label = m if isinstance(m, str) else getattr(m, "name", "the model")
-    notes.append(f"geoid heights N of {label} added ({n.min():.1f} .. {n.max():.1f} m)")
-    return a + n, notes
+def _kw(name: str) -> str:
+    """Return the keyword ``name`` as the reader of a message writes it (a CLI option)."""
+    return keyword(name) or name

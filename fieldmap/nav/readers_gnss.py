@@ -33,6 +33,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.nav.readers_parsed import DAY, Parsed, _days, _line_of, _utc
+from fieldmap.nav.spelling import advice
 
 
 def read_gpx(text: str, source: str) -> Parsed:
@@ -241,9 +242,10 @@ def read_igc(text: str, source: str) -> Parsed:
     else:
         ref = gref
         if alg is None:
+            tip = advice("height_ref", "msl")
             ref_note = (
                 "GNSS altitude read as height above the WGS84 ellipsoid (IGC specification; no "
-                "HFALG header): give height_ref='msl' if your recorder writes MSL"
+                "HFALG header)" + (f": {tip} if your recorder writes MSL" if tip else "")
             )
     if day0 is None:
         notes.append("no HFDTE date: times are seconds from 00:00 UTC of the flight's first day")

@@ -44,6 +44,8 @@ class Parsed:
     ref_note: str | None = None
     #: units fixed by the format's specification or the column name: no units checks
     units_fixed: bool = True
+    #: how the times were read where their units were guessed (epoch ms), else None
+    time_guess: str | None = None
 
 
 def _line_of(text: str, pos: int) -> int:

@@ -16,6 +16,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.nav.readers_parsed import _EMPTY, HINT, _utc
+from fieldmap.nav.spelling import keyword
 
 
 def numbers(cells, where, name: str) -> np.ndarray:
@@ -45,7 +46,12 @@ def _iso(s: str) -> float:
 
 
 def times(cells, where, name: str, fmt: str | None) -> tuple[np.ndarray, bool, str | None]:
-    """Return times in seconds, whether they are absolute, and a note on how they were read."""
+    """Return times in seconds, whether they are absolute, and a note on how they were read.
+
+    Numbers without ``fmt`` are seconds as given, epoch seconds above 1e8, epoch milliseconds
+    above 1e11 (the median): the last is a guess of their units, and the note says so. Epoch
+    times beyond the years 1..9999 are refused with the line, the column and how they were read.
+    """
     arr = np.asarray(cells)
     if arr.dtype.kind == "M":
         if np.isnat(arr).any():
@@ -76,10 +82,30 @@ def times(cells, where, name: str, fmt: str | None) -> tuple[np.ndarray, bool, s
         return out, True, None
     med = float(np.median(np.abs(out)))
     if fmt == "epoch_ms" or (fmt is None and med > 1e11):
-        return out * 1e-3, True, "times read as epoch milliseconds"
+        how = "epoch milliseconds" + (f" ({GUESS_MS})" if fmt is None else "")
+        _check_epoch(out * 1e-3, out, where, name, how)
+        return out * 1e-3, True, f"times read as {how}"
     if fmt == "epoch" or (fmt is None and med > 1e8):
+        _check_epoch(out, out, where, name, "epoch seconds")
         return out, True, "times read as epoch seconds (UTC)"
     return out, False, None
+
+
+#: how the guess of epoch milliseconds is said in notes and messages
+GUESS_MS = "guessed from their size: above 1e11"
+#: epoch seconds of 0001-01-01 and 10000-01-01 UTC: the years a date can name
+_EPOCH_MIN, _EPOCH_MAX = -62_135_596_800.0, 253_402_300_800.0
+
+
+def _check_epoch(t: np.ndarray, raw: np.ndarray, where, name: str, how: str) -> None:
+    """Refuse epoch times ``t`` (s) outside the years 1..9999, naming the first and the units."""
+    bad = np.flatnonzero((t < _EPOCH_MIN) | (t >= _EPOCH_MAX))
+    if bad.size:
+        i = int(bad[0])
+        when = "before the year 1" if t[i] < _EPOCH_MIN else "after the year 9999"
+        fmt = keyword("time_format")
+        tip = f": give their units with {fmt} (s, epoch, epoch_ms)" if fmt else ""
+        raise InputError(f"{where(i)} column {name}: {raw[i]:.17g} read as {how} is {when}{tip}")
 
 
 def _isnum(s: str) -> bool:
@@ -104,6 +130,7 @@ def csv_table(text: str, source: str):
             f"{source} line {hline}: numbers where the header row naming the columns should be "
             f"(a flight log needs one; {HINT})"
         )
+    _refuse_repeated(header, f"{source} line {hline}")
     for (k, _), cells in zip(body[1:], csv.reader((s for _, s in body[1:]), delimiter=delim)):
         if len(cells) != len(header):
             raise InputError(
@@ -117,6 +144,18 @@ def csv_table(text: str, source: str):
     return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64)
 
 
+def _refuse_repeated(header: list[str], where: str) -> None:
+    """Refuse a header naming a column twice: which of the two is meant is anyone's guess."""
+    first: dict[str, int] = {}
+    for j, h in enumerate(header):
+        if h and h in first:
+            raise InputError(
+                f"{where}: the header names column {h!r} twice (fields {first[h] + 1} and "
+                f"{j + 1}): rename or drop one"
+            )
+        first.setdefault(h, j)
+
+
 def object_table(obj, source: str):
     """Header, getter and record numbers of a DataFrame, Dataset or mapping of arrays."""
     if hasattr(obj, "data_vars"):
@@ -126,6 +165,7 @@ def object_table(obj, source: str):
     if not hasattr(obj, "keys"):
         raise InputError(f"{source}: not a DataFrame, Dataset or mapping of arrays")
     header = [str(k) for k in obj.keys()]
+    _refuse_repeated(header, source)
     cols = {str(k): np.asarray(obj[k]).ravel() for k in obj.keys()}
     n = max((c.size for c in cols.values()), default=0)
     if n == 0:
