@@ -45,7 +45,12 @@ the antimeridian; the heights on their own; :mod:`fieldmap.nav.conditioning_step
    raised and the path refitted, until it keeps within them: stale or late ADS-B positions and
    the corners of resampled tracks demand more than an aircraft can do.
 
-``smooth=False`` does step 1 only: today's exact interpolation of the ordered samples.
+``smooth=False`` does step 1 only: today's exact interpolation of the ordered samples. Either
+way a log whose vehicle never moves (within 30 m horizontally and 15 m vertically of one place)
+is refused: it is no flight.
+
+Messages that say what to change name the keyword arguments here, and the command-line options
+when called from ``fieldmap navsim`` (:mod:`fieldmap.nav.spelling`).
 
 The references (Hampel 1974, Tukey 1977, Theil 1950, Sen 1968, Whittaker 1923, Reinsch 1967,
 Eilers 2003, Buja et al. 1989, Hutchinson 1989, Beaton & Tukey 1974, Garcia 2010) are given in
@@ -67,6 +72,7 @@ from fieldmap.nav.conditioning_report import (
     plot_conditioning,
 )
 from fieldmap.nav.conditioning_stages import Stages
+from fieldmap.nav.spelling import keyword
 
 __all__ = [
     "STATUS_NAMES",
@@ -141,8 +147,10 @@ def condition(
     ------
     InputError
         Times going back with ``reorder=False``; more than one segment with
-        ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples),
-        each in one line naming the source and its lines; an invalid option.
+        ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples);
+        no flight (the vehicle never leaves a 30 m circle and a 15 m height band, also with
+        ``smooth=False`` or ``airborne_only=False``), each in one line naming the source and
+        its lines; an invalid option.
     """
     if on_long_gap not in ("longest", "refuse"):
         raise InputError(f"on_long_gap must be 'longest' or 'refuse', got {on_long_gap!r}")
@@ -206,7 +214,7 @@ def _options(
         if not (optional and v is None) and not (
             isinstance(v, (int, float)) and np.isfinite(v) and v > 0
         ):
-            raise InputError(f"{name} must be a positive number, got {v!r}")
+            raise InputError(f"{keyword(name) or name} must be a positive number, got {v!r}")
     sig = position_noise_m
     if sig is not None:
         try:
@@ -214,7 +222,10 @@ def _options(
         except (TypeError, ValueError):
             sig = [np.nan]
         if not all(np.isfinite(x) and x > 0 for x in sig):
-            raise InputError(f"position_noise_m must be positive metres, got {position_noise_m!r}")
+            raise InputError(
+                f"{keyword('position_noise_m') or 'position_noise_m'} must be positive metres, "
+                f"got {position_noise_m!r}"
+            )
     return {
         "position_noise_m": sig,
         "max_gap_s": float(max_gap_s),

@@ -164,9 +164,10 @@ def finish(st, fr: dict) -> ConditionedFlight:
     if st.dropped:
         notes.append(f"flew the longest of {len(st.dropped) + 1} segments (breaks: gaps, jumps)")
     if fr["softened"]:
+        limits = [f"{o[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if o[k]]
         notes.append(
-            f"the path was softened near {fr['softened']} samples to keep within "
-            f"max_accel_g = {o['max_accel_g']} g, max_jerk = {o['max_jerk']} m/s³"
+            f"the path was softened near {fr['softened']} samples to keep within the vehicle "
+            f"limits ({', '.join(limits)})"
         )
 
     def rel(d: dict) -> dict:

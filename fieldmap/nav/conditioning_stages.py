@@ -26,6 +26,7 @@ from fieldmap.nav.conditioning_report import (
     STATUS_NAMES,
 )
 from fieldmap.nav.flight import G0, MIN_POINTS, FlightSamples
+from fieldmap.nav.spelling import advice, keyword
 
 #: vehicle limits: aim below LIMIT_MARGIN × the bound; at most LIMIT_ITER softenings
 LIMIT_MARGIN, LIMIT_ITER = 0.9, 12
@@ -37,6 +38,15 @@ SIGMA_MIN = 0.05
 NOISE_HALF, NOISE_FRAC = 25, 0.3
 #: quantised heights repeated this long (s) are level flight
 LEVEL_S = 20.0
+#: a vehicle that stays within STILL_H metres horizontally and STILL_V vertically of one place
+#: never moved beyond the noise of its fixes (the outlier floors): not a flight
+STILL_H, STILL_V = steps.FLOOR_H, steps.FLOOR_V
+
+
+def _named(text: str, name: str) -> str:
+    """``text`` followed by the option that sets it, where the reader can set it."""
+    option = keyword(name)
+    return f"{text} ({option})" if option else text
 
 
 class Stages:
@@ -149,16 +159,41 @@ class Stages:
         a = int(np.flatnonzero(self.seg == ids[0])[-1])
         b = int(np.flatnonzero(self.seg == ids[1])[0])
         kind = next((k for i, j, k in self.breaks if a <= i < b or a < j <= b), "gap")
+        o, tip = self.opts, advice("on_long_gap", "longest")
         why = (
-            f"more than max_gap_s = {self.opts['max_gap_s']:g} s"
+            "more than " + _named(f"{o['max_gap_s']:g} s", "max_gap_s") + ": raise the limit"
             if kind == "gap"
-            else "a position or height jump (faster than max_speed_mps/max_climb_mps)"
+            else f"a position or height jump (faster than {o['max_speed_mps']:g} m/s "
+            f"horizontally or {o['max_climb_mps']:g} m/s vertically)"
         )
         raise InputError(
             f"{self.log.source} lines {lines[a]}..{lines[b]}: the flight breaks for "
-            f"{t[b] - t[a]:.1f} s (t = {t[a]:.1f} .. {t[b]:.1f} s), {why}: raise the limit, or "
-            "fly the longest segment (on_long_gap='longest')"
+            f"{t[b] - t[a]:.1f} s (t = {t[a]:.1f} .. {t[b]:.1f} s), {why}"
+            + (f"; {tip} to fly the longest segment" if tip else "")
         )
+
+    def refuse_still(self, idx: np.ndarray | None = None) -> None:
+        """Refuse a log (its samples ``idx``; default all) whose vehicle never moves.
+
+        Within :data:`STILL_H` m horizontally and :data:`STILL_V` m vertically of one place from
+        the first sample to the last, a vehicle moved no more than the noise of its fixes: the
+        log is no flight, whatever is trimmed or smoothed.
+        """
+        log = self.log
+        i = np.arange(log.t.size) if idx is None else np.asarray(idx)
+        if i.size < 2:
+            return
+        if log.p.shape[0] != log.t.size:
+            log.geometry()
+        p = log.p[i]
+        across = float(np.max(np.linalg.norm(p - np.median(p, axis=0), axis=1)))
+        up = float(np.ptp(log.h[i]))
+        if across < STILL_H and up < STILL_V:
+            raise InputError(
+                f"{log.source} lines {log.lines[i[0]]}..{log.lines[i[-1]]}: not a flight: the "
+                f"vehicle never moves (its {i.size} samples over {np.ptp(log.t[i]):g} s stay "
+                f"within {STILL_H:g} m horizontally and {STILL_V:g} m vertically of one place)"
+            )
 
     def nothing_left(self) -> None:
         """Raise the reason no segment can be flown."""
@@ -168,20 +203,26 @@ class Stages:
             raise InputError(
                 f"{src}: {n} usable samples (of {log.n_in}), a flight needs at least {MIN_POINTS}"
             )
+        self.refuse_still()
         counts = {STATUS_NAMES[c]: int((st == c).sum()) for c in np.unique(st)}
         where = f"{src} lines {log.lines[0]}..{log.lines[-1]}"
         if counts.get("ground", 0) >= 0.5 * n:
+            tip = advice("airborne_only", False)
             raise InputError(
-                f"{where}: no airborne part: the vehicle stays slower than min_speed_mps = "
-                f"{o['min_speed_mps']:g} m/s near its first/last height ({counts['ground']} of "
-                f"{n} samples on the ground); pass airborne_only=False to keep ground movement"
+                f"{where}: no airborne part: the vehicle stays slower than "
+                + _named(f"{o['min_speed_mps']:g} m/s", "min_speed_mps")
+                + f" near its first/last height ({counts['ground']} of {n} samples on the "
+                "ground)" + (f"; {tip} to keep ground movement" if tip else "")
             )
         what = ", ".join(f"{v} {k}" for k, v in counts.items())
-        dtm = steps.median_interval(log.t)
-        hint = f"; the samples are {dtm:g} s apart: raise max_gap_s" if dtm > o["max_gap_s"] else ""
+        dtm, gap = steps.median_interval(log.t), keyword("max_gap_s")
+        hint = ""
+        if dtm > o["max_gap_s"]:
+            hint = f"; the samples are {dtm:g} s apart" + (f": raise {gap}" if gap else "")
         raise InputError(
             f"{where}: no stretch of at least {MIN_POINTS} usable samples without a gap over "
-            f"max_gap_s = {o['max_gap_s']:g} s or a jump ({what}){hint}"
+            + _named(f"{o['max_gap_s']:g} s", "max_gap_s")
+            + f" or a jump ({what}){hint}"
         )
 
     def _noise(self, hi: np.ndarray, vi: np.ndarray):
@@ -213,6 +254,7 @@ class Stages:
         log, q = self.log, self.quantum
         m = self.seg == s
         hi, vi = np.flatnonzero(self.hv & m), np.flatnonzero(self.vv & m)
+        self.refuse_still(np.union1d(hi, vi))
         sig, loc, energy, estimated = self._noise(hi, vi)
         t_lo, t_hi = max(log.t[hi[0]], log.t[vi[0]]), min(log.t[hi[-1]], log.t[vi[-1]])
         inh, inv = ((log.t[i] >= t_lo) & (log.t[i] <= t_hi) for i in (hi, vi))
@@ -328,6 +370,7 @@ class Stages:
         log = self.log
         if log.t.size < MIN_POINTS:
             self.nothing_left()
+        self.refuse_still()
         samples = FlightSamples(
             log.t - log.t[0], log.lat, log.lon, log.h, None, log.source, log.lines, float(log.t[0])
         )

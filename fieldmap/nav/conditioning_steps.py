@@ -15,6 +15,7 @@ from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 from fieldmap.nav import conditioning_fit as cfit
+from fieldmap.nav.spelling import advice
 
 #: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX
 HALF_MAX, HALF_SPAN_S, HALF_MIN = 7, 15.0, 2
@@ -93,10 +94,11 @@ class OrderedLog:
         self.first_reordered_line = int(lines[back[0]]) if back.size else None
         if back.size:
             if not reorder:
-                i = back[0]
+                i, tip = back[0], advice("reorder", True)
                 raise InputError(
                     f"{src} line {lines[i]}: time {t[i]:.3f} s goes back from the previous "
-                    f"{t[i - 1]:.3f} s (line {lines[i - 1]}); pass reorder=True to sort the log"
+                    f"{t[i - 1]:.3f} s (line {lines[i - 1]})"
+                    + (f"; {tip} to sort the log" if tip else "")
                 )
             order = np.argsort(t, kind="stable")
             t, lat, lon, h, lines = t[order], lat[order], lon[order], h[order], lines[order]

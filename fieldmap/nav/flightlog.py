@@ -16,6 +16,7 @@ from pathlib import Path
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.nav.spelling import advice, keyword, set_by
 
 __all__ = ["load_flight"]
 
@@ -92,7 +93,7 @@ def load_flight(
         "time_format": time_format,
     }
     if _recorded_attitude(source):
-        given = [k for k, v in reader_opts.items() if v is not None]
+        given = [keyword(k) or k for k, v in reader_opts.items() if v is not None]
         if given:
             raise InputError(
                 f"{source}: a fieldmap flight file (time_s, lat_deg, lon_deg, height_m with "
@@ -103,13 +104,22 @@ def load_flight(
     from fieldmap.nav.readers import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
-    cf = condition(
-        track,
-        position_noise_m=position_noise_m,
-        max_gap_s=max_gap_s,
-        airborne_only=airborne_only,
-        smooth=smooth,
-        reorder=smooth,  # without conditioning, times going back are refused (today's rule)
-        ellipsoid=ellipsoid,
-    )
-    return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
+    try:
+        with set_by({"reorder=True": ("smooth", True)}):
+            cf = condition(
+                track,
+                position_noise_m=position_noise_m,
+                max_gap_s=max_gap_s,
+                airborne_only=airborne_only,
+                smooth=smooth,
+                reorder=smooth,  # unconditioned, times going back are refused (today's rule)
+                ellipsoid=ellipsoid,
+            )
+        return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
+    except InputError as exc:
+        if track.time_guess is None:
+            raise
+        # the guess of the time units may be what made the log fail: say it was a guess
+        tip = advice("time_format", "s")
+        tip = f": {tip} if they are seconds" if tip else ""
+        raise InputError(f"{exc}; {track.time_guess}{tip}") from None
