@@ -340,7 +340,9 @@ def test_normal_is_the_deprecated_name_of_exact():
     for key in ("t", "P", "V", "q"):
         assert np.array_equal(getattr(old, key), getattr(exact, key)), key
     with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
-        assert check_model_names(["j2", "Normal", "normal"], None) == ["j2", "exact", "exact"]
+        assert check_model_names(["j2", "Normal"], None) == ["j2", "exact"]
+    with pytest.warns(DeprecationWarning), pytest.raises(InputError, match="the same model"):
+        check_model_names(["Normal", "exact"], None)  # one model under two names
     with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
         assert parse_gravity("normal", None) == parse_gravity("exact", None)
 

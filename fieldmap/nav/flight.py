@@ -35,7 +35,9 @@ from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flightsamples import ATTITUDE as ATTITUDE
 from fieldmap.nav.flightsamples import G0 as G0
 from fieldmap.nav.flightsamples import MAX_ACCEL as MAX_ACCEL
+from fieldmap.nav.flightsamples import MAX_HEIGHT as MAX_HEIGHT
 from fieldmap.nav.flightsamples import MAX_SPEED as MAX_SPEED
+from fieldmap.nav.flightsamples import MIN_HEIGHT as MIN_HEIGHT
 from fieldmap.nav.flightsamples import MIN_POINTS as MIN_POINTS
 from fieldmap.nav.flightsamples import REQUIRED as REQUIRED
 from fieldmap.nav.flightsamples import FlightSamples as FlightSamples
@@ -97,6 +99,7 @@ class FlightTrajectory(Trajectory):
         )
         super().__init__(frame, float(s.t[-1]))
         self._check_acceleration()
+        self._check_between(ellipsoid)
 
     def _check_acceleration(self) -> None:
         s = self.samples
@@ -105,9 +108,42 @@ class FlightTrajectory(Trajectory):
         if acc.max() > MAX_ACCEL:
             j = int(np.argmax(acc))
             i = j if j < s.t.size else j - s.t.size + 1
+            if s.source == "route":  # no file: the speed flown is what the user chose
+                raise InputError(
+                    f"route: the path accelerates at {acc[j] / G0:.0f} g near t = {tt[j]:g} s "
+                    f"(more than 100 g): a ground speed of {_speed(s):.0f} m/s is too fast for "
+                    "its turns and the Earth's curvature"
+                )
             raise InputError(
                 f"{_where(s.source, s.lines, i, 'lat_deg')}: the interpolated path accelerates at "
                 f"{acc[j] / G0:.0f} g near t = {tt[j]:g} s (more than 100 g: a position jump?)"
+            )
+
+    def _check_between(self, ellipsoid: Ellipsoid) -> None:
+        """Refuse a path that leaves the heights of a flight between two samples.
+
+        The samples themselves are checked where they are read; the quintic through them can
+        still overshoot by kilometres where samples are far apart (a gap of hours in a log flown
+        with ``smooth=False``). Checked at a quarter, half and three quarters of every interval.
+        """
+        s = self.samples
+        frac = np.array([0.25, 0.5, 0.75])
+        tt = (s.t[:-1, None] + np.diff(s.t)[:, None] * frac).ravel()
+        r = self._spline(tt)
+        _, _, h = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
+        bad = np.flatnonzero((h < MIN_HEIGHT) | (h > MAX_HEIGHT))
+        if bad.size:
+            j = int(bad[0])
+            i = j // frac.size
+            where = (
+                "route"
+                if s.source == "route"
+                else f"{s.source} lines {s.lines[i]}..{s.lines[i + 1]}"
+            )
+            raise InputError(
+                f"{where}: the interpolated path reaches a height of {h[j]:.4g} m between "
+                f"t = {s.t[i]:g} s and {s.t[i + 1]:g} s ({s.t[i + 1] - s.t[i]:g} s without "
+                f"samples), outside {MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m"
             )
 
     def _ecef(self, t):
@@ -157,6 +193,17 @@ class FlightTrajectory(Trajectory):
         Ellipsoidal heights at sea level reach -106 m; the base class's 0 m is for rockets.
         """
         super().check_above_surface(n, min_height)
+
+
+def _speed(s: FlightSamples) -> float:
+    """Median ground speed between samples (m/s; on a sphere of 6371 km)."""
+    la, lo = np.radians(s.lat), np.radians(s.lon)
+    a = (
+        np.sin(np.diff(la) / 2) ** 2
+        + np.cos(la[:-1]) * np.cos(la[1:]) * np.sin(np.diff(lo) / 2) ** 2
+    )
+    d = 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
+    return float(np.median(d / np.diff(s.t)))
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -227,6 +274,12 @@ def route_flight(
         raise InputError("a route needs at least two waypoints 'lat,lon,h'")
     if not np.all(np.isfinite(pts)) or np.any(np.abs(pts[:, 0]) > 89.0):
         raise InputError("route waypoints need finite values and |lat| <= 89 degrees")
+    bad = np.flatnonzero((pts[:, 2] < MIN_HEIGHT) | (pts[:, 2] > MAX_HEIGHT))
+    if bad.size:
+        raise InputError(
+            f"route waypoint {bad[0] + 1}: height {pts[bad[0], 2]:g} m is outside the heights of "
+            f"a flight ({MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m)"
+        )
     for name, v in (("--speed-mps", speed_mps), ("max_accel", max_accel), ("dt", sample_dt)):
         if not np.isfinite(v) or v <= 0:
             raise InputError(f"{name} must be a positive number, got {v}")
@@ -236,7 +289,13 @@ def route_flight(
     for k in range(len(pts) - 1):
         line = geod.InverseLine(pts[k, 0], pts[k, 1], pts[k + 1, 0], pts[k + 1, 1])
         if line.s13 < 1.0:
-            raise InputError(f"route waypoints {k + 1} and {k + 2} coincide")
+            if pts[k, 2] == pts[k + 1, 2]:
+                raise InputError(f"route waypoints {k + 1} and {k + 2} coincide")
+            raise InputError(
+                f"route waypoints {k + 1} and {k + 2} are above the same point (heights "
+                f"{pts[k, 2]:g} m and {pts[k + 1, 2]:g} m): a route is flown at a constant ground "
+                "speed, so each leg needs a horizontal distance (climb along a leg instead)"
+            )
         s = np.arange(d_done, line.s13, speed_mps * sample_dt)
         d_done = (s[-1] + speed_mps * sample_dt - line.s13) if s.size else d_done - line.s13
         for si in s:

@@ -49,7 +49,7 @@ from fieldmap.nav.flighterrors import gravity_error_along as gravity_error_along
 from fieldmap.nav.flighterrors import ned_errors, truth_sigma_along
 from fieldmap.nav.flighterrors import simplicity_order as simplicity_order
 from fieldmap.nav.flighterrors import summarize as summarize
-from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
+from fieldmap.nav.imu import Gravitation, load_truth_model, sample_count, synthesize
 from fieldmap.nav.propagator import EARTH_RADIUS, Propagator, divergence, final_stats  # noqa: F401
 from fieldmap.nav.trajectory import Trajectory
 
@@ -127,6 +127,11 @@ def default_output_dt(duration: float) -> float:
     return float(max(1.0, np.ceil(duration / 3600.0)))
 
 
+#: a compensation table must hold the flight's path this far above and below it (m): room for
+#: the navigator's own height error
+TABLE_HEIGHT_MARGIN = 50.0
+
+
 def check_tables_cover(names, traj, duration: float) -> None:
     """Refuse (one line) a compensation table that does not cover the flight's path.
 
@@ -136,14 +141,18 @@ def check_tables_cover(names, traj, duration: float) -> None:
     from fieldmap.nav.navgravity import table_file
     from fieldmap.products.table_model import load_table, outside_message
 
-    files = [table_file(m) for m in names if table_file(m) is not None]
+    files = [f for f in (table_file(m) for m in names) if f is not None]
     if not files:
         return
+    if len(set(files)) > 1:  # as the propagator would, but before any work
+        raise InputError(
+            f"one compensation table per launch, got {len(set(files))}: {', '.join(files)}"
+        )
     t = np.unique(np.r_[np.arange(0.0, duration, 1.0), duration])
     lat, lon, h = (np.asarray(v, dtype=np.float64) for v in traj.geodetic(t))
     for f in files:
         tab = load_table(f)
-        for dh in (-50.0, 50.0):
+        for dh in (-TABLE_HEIGHT_MARGIN, TABLE_HEIGHT_MARGIN):
             inside = tab.contains(lat, lon, h + dh)
             if not np.all(inside):
                 k = int(np.flatnonzero(~inside)[0])
@@ -278,6 +287,8 @@ def run_flight(
             f"flight of {duration:g} s is shorter than one output interval ({output_dt:g} s)"
         )
     per_block = max(unit, int(block_s * rate_hz) // unit * unit)
+    # a block's IMU synthesis is bounded (sample_count): refused here, before any work
+    sample_count(min(per_block, n_total) / float(rate_hz), rate_hz)
     n_draws = 1 if imu.is_ideal else int(draws)
     err1 = imu_errors.draw(imu, n_draws, seed=seed)
     rows = ["imu_only"] + names

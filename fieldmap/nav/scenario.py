@@ -9,6 +9,7 @@ truth. The tables of :mod:`fieldmap.nav.studies` are built on these.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -17,7 +18,13 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import imu_errors
-from fieldmap.nav.imu import Gravitation, ImuIncrements, load_truth_model, synthesize
+from fieldmap.nav.imu import (
+    Gravitation,
+    ImuIncrements,
+    load_truth_model,
+    sample_count,
+    synthesize,
+)
 from fieldmap.nav.propagator import Propagator, divergence
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
@@ -33,7 +40,8 @@ def check_model_names(names, sh_model) -> list[str]:
     ``auto`` as :func:`fieldmap.nav.navgravity.auto_models` (a model ``auto`` adds appears
     once, also when named besides); the deprecated
     ``"normal"`` becomes ``"exact"`` with one ``DeprecationWarning``. Raises
-    :class:`InputError` for an unknown name or an unreadable table.
+    :class:`InputError` for an unknown name, an unreadable table, or a model named twice
+    (``j4,j4``, ``sh,sh200`` with a degree-200 model, one table file under two names).
     """
     from fieldmap.nav.navgravity import auto_models, gravity_names, parse_gravity, table_file
 
@@ -45,17 +53,29 @@ def check_model_names(names, sh_model) -> list[str]:
             auto.update(auto_models(sh_model))
         else:
             given.append(name)
-    out = []
-    for name in gravity_names(given):
-        if table_file(name) is not None:  # a file name keeps its case
+    out: list[str] = []
+    seen: dict[str, str] = {}  # what makes two names one model (a table's real path) -> name
+    for given_name, name in zip(given, gravity_names(given)):
+        path = table_file(name)
+        if path is not None:  # a file name keeps its case
             parse_gravity(name, sh_model)
-            out.append(f"table:{table_file(name)}")
-            continue
-        key = str(name).strip().lower()
-        parse_gravity(key, sh_model)
-        key = key if key != "sh" else f"sh{sh_model.lmax}"
-        if not (key in auto and key in out):
-            out.append(key)
+            key, same = f"table:{path}", os.path.realpath(path)
+        else:
+            key = str(name).strip().lower()
+            parse_gravity(key, sh_model)
+            key = same = key if key != "sh" else f"sh{sh_model.lmax}"
+        typed = str(given_name).strip()
+        if same in seen:
+            if key in auto:
+                continue
+            what = (
+                f"{typed!r} given twice"
+                if typed.lower() == seen[same].lower()
+                else f"{seen[same]!r} and {typed!r} are the same model"
+            )
+            raise InputError(f"navigation gravity model {what}: name each model once")
+        seen[same] = typed
+        out.append(key)
     if not out:
         raise InputError("no navigation gravity model given")
     return out
@@ -136,13 +156,14 @@ def build_scenario(
     for what, v in (("duration", duration), ("output interval", output_dt), ("rate", rate_hz)):
         if isinstance(v, (str, bytes, bool)) or not np.isfinite(v) or v <= 0:
             raise InputError(f"{what} must be a positive number, got {v!r}")
+    steps = sample_count(duration, rate_hz) // 2  # the synthesis's: checked before it runs
+    every = output_steps(output_dt, steps, 2.0 / float(rate_hz))
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device, ellipsoid=traj.frame.ellipsoid)
     imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
     assert isinstance(imu, ImuIncrements)  # one gravitation in, one increment set out
-    steps = imu.n_samples // 2
-    every = output_steps(output_dt, steps, 2.0 / float(rate_hz))
+    assert imu.n_samples // 2 == steps
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
     return Scenario(traj, model, imu, every, t_out, traj.kinematics(t_out), device)
 
