@@ -53,11 +53,12 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _model_names(args, names, model) -> list[str]:
-    """:func:`~fieldmap.nav.scenario.check_model_names`, its deprecation warnings on stderr.
+def _model_names(args, names, model, notes: list[str]) -> list[str]:
+    """:func:`~fieldmap.nav.scenario.check_model_names`, its deprecation warnings in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
-    (``"normal" is now "exact"``).
+    on stderr (``"normal" is now "exact"``), printed by :func:`run` once every option passed
+    its checks: a refused run prints its refusal alone.
     """
     from fieldmap.nav.scenario import check_model_names
 
@@ -66,20 +67,23 @@ def _model_names(args, names, model) -> list[str]:
         out = check_model_names(names, model)
     for w in caught:
         if issubclass(w.category, DeprecationWarning):
-            print(
-                f"fieldmap {getattr(args, 'command', 'navsim')}: warning: {w.message}",
-                file=sys.stderr,
-            )
+            note = f"fieldmap {getattr(args, 'command', 'navsim')}: warning: {w.message}"
+            if note not in notes:
+                notes.append(note)
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return out
 
 
-def _check_args(args):
-    """Validate every option (and the output folder) before any work; return the checked ones."""
+def _check_args(args, notes: list[str]):
+    """Validate every option (and the output folder) before any work; return the checked ones.
+
+    Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
+    """
     from fieldmap._warp import DeviceError, resolve_device
     from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import sample_count
+    from fieldmap.nav.scenario import output_steps
     from fieldmap.products.io import check_out_dir
 
     for name, v in (
@@ -94,7 +98,7 @@ def _check_args(args):
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
     model = load_model(args.model, lmax=args.lmax)
-    models = _model_names(args, split_list(args.models), model)
+    models = _model_names(args, split_list(args.models), model, notes)
     if is_flight(args):
         return _check_flight_args(args, model, models)
     tables = [m for m in models if m.startswith("table:")]
@@ -122,8 +126,12 @@ def _check_args(args):
         raise InputError(
             f"--output-dt {args.output_dt:g} s is longer than --duration {args.duration:g} s"
         )
-    sample_count(args.duration, args.rate)
-    nav = _model_names(args, [args.nav], model)[0]
+    steps = sample_count(args.duration, args.rate) // 2
+    try:  # before the IMU synthesis: its progress bar would come before the refusal
+        output_steps(args.output_dt, steps, 2.0 / args.rate)
+    except InputError as exc:
+        raise InputError(f"--output-dt: {exc}") from None
+    nav = _model_names(args, [args.nav], model, notes)[0]
     navoptions.refuse_in_studies(
         args, STUDIES if args.study == "all" else (args.study,), models, nav
     )
@@ -148,7 +156,8 @@ def is_flight(args) -> bool:
 def _check_flight_args(args, model, models):
     """Validate the flight study's options; build the trajectory (its errors name the line)."""
     from fieldmap._warp import DeviceError, resolve_device
-    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav.imu import MAX_SAMPLES
+    from fieldmap.nav.imu_specs import PRESETS, load_imu
     from fieldmap.products.io import check_out_dir
 
     if args.trajectory is not None and args.route is not None:
@@ -161,7 +170,11 @@ def _check_flight_args(args, model, models):
         raise InputError(f"--seed must be >= 0, got {args.seed}")
     if not 1 <= args.gauss <= 16:
         raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
-    imu = load_imu(args.imu or "ideal")
+    if args.imu is not None and not args.imu.strip():
+        raise InputError(
+            f"--imu is empty: give a preset ({', '.join(PRESETS)}) or an IMU .toml file"
+        )
+    imu = load_imu("ideal" if args.imu is None else args.imu)
     if args.max_gap_s is not None and not (np.isfinite(args.max_gap_s) and args.max_gap_s > 0):
         raise InputError(f"--max-gap-s must be a positive number, got {args.max_gap_s}")
     from fieldmap.cli import given
@@ -175,14 +188,17 @@ def _check_flight_args(args, model, models):
 
     for _, traj, _ in flights:
         navoptions.refuse_in_flight(args, imu, traj)
+        duration = traj.duration if args.duration is None else min(args.duration, traj.duration)
         try:  # before any work: a table that misses the path
-            check_tables_cover(
-                models,
-                traj,
-                traj.duration if args.duration is None else min(args.duration, traj.duration),
-            )
+            check_tables_cover(models, traj, duration)
         except InputError as exc:
             raise InputError(f"--models: {exc}") from None
+        block = min(args.block_s, duration)
+        if block * args.rate > MAX_SAMPLES:  # a block's IMU synthesis (sample_count), up front
+            raise InputError(
+                f"a block of {block:g} s at --rate {args.rate:g} Hz is {block * args.rate:.3g} "
+                f"IMU samples, more than {MAX_SAMPLES}: lower --rate or --block-s"
+            )
     check_out_dir(args.out)
     try:
         device = resolve_device(args.device)
@@ -196,8 +212,11 @@ def run(args) -> int:
     from fieldmap.products import cluster
     from fieldmap.products.io import output_batch
 
-    device, models, nav = _check_args(args)
+    notes: list[str] = []
+    device, models, nav = _check_args(args, notes)
     scheduler = cluster.parse_scheduler(args.scheduler)
+    for note in notes:
+        print(note, file=sys.stderr)
     studies = STUDIES if args.study == "all" else (args.study,)
     # connect (or start the LocalCluster) before the long work; None: here
     with cluster.open_client(scheduler) as client:

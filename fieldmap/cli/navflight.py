@@ -12,6 +12,7 @@ the kinematics that were flown.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from fieldmap.errors import InputError
@@ -26,6 +27,25 @@ LOG_ONLY = {
     "max_gap_s": "--max-gap-s",
     "keep_ground": "--keep-ground",
     "no_smooth": "--no-smooth",
+}
+#: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
+#: CSV with attitude columns, NetCDF) skip it: dest -> option
+CONDITIONING = {
+    "position_noise_m": "--position-noise-m",
+    "max_gap_s": "--max-gap-s",
+    "keep_ground": "--keep-ground",
+}
+#: how the messages of the readers and the conditioning name options here: keyword -> option,
+#: "keyword=value" -> the whole advice (:func:`fieldmap.nav.spelling.spelled`)
+SPELLING = {
+    "columns": "--columns",
+    "alt_units": "--alt-units",
+    "height_ref": "--height-ref",
+    "time_format": "--time-format",
+    "position_noise_m": "--position-noise-m",
+    "max_gap_s": "--max-gap-s",
+    "airborne_only=False": "give --keep-ground",
+    "smooth=True": "leave out --no-smooth",
 }
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
@@ -101,8 +121,11 @@ def _noise(text):
         vals = [float(x) for x in str(text).replace(",", " ").split()]
     except ValueError:
         vals = []
-    if len(vals) not in (1, 2):
-        raise InputError(f"--position-noise-m takes 1 or 2 numbers (m), got {text!r}")
+    if len(vals) not in (1, 2) or not all(math.isfinite(v) and v > 0 for v in vals):
+        raise InputError(
+            f"--position-noise-m takes 1 or 2 positive numbers (m, horizontal[,vertical]), "
+            f"got {text!r}"
+        )
     return vals[0] if len(vals) == 1 else tuple(vals)
 
 
@@ -118,37 +141,69 @@ def _rate(text):
 
 
 def flights(args, model) -> list:
-    """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly."""
+    """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly.
+
+    The conditioning options are refused (one line) where no flight is conditioned: with
+    ``--no-smooth``, and when every file is flown as recorded. The readers' and the
+    conditioning's messages name the options here (:data:`SPELLING`).
+    """
     from fieldmap.cli import given
     from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.flightlog import load_flight
+    from fieldmap.nav.spelling import spelled
 
     if args.route is not None:
         for dest, option in LOG_ONLY.items():
             if given(args, dest):
                 raise InputError(f"{option} applies to flight logs (--trajectory), not to --route")
         return [("route", FlightTrajectory(route_flight(args.route, args.speed_mps)), None)]
+    if given(args, "no_smooth"):
+        for dest, option in CONDITIONING.items():
+            if given(args, dest):
+                raise InputError(
+                    f"{option} applies to the conditioning of the log, which --no-smooth turns "
+                    "off (the samples are flown as they are)"
+                )
+    noise = _noise(args.position_noise_m)
     out, names = [], set()
-    for path in args.trajectory:
-        traj, cf = load_flight(
-            path,
-            columns=args.columns,
-            alt_units=args.alt_units,
-            height_ref=args.height_ref,
-            time_format=args.time_format,
-            model=model,
-            smooth=not args.no_smooth,
-            position_noise_m=_noise(args.position_noise_m),
-            max_gap_s=args.max_gap_s,
-            airborne_only=not args.keep_ground,
-        )
-        name = Path(path).name.split(".")[0] or "flight"
-        base, k = name, 2
-        while name in names:
-            name, k = f"{base}_{k}", k + 1
-        names.add(name)
-        out.append((name, traj, cf))
+    with spelled(SPELLING):
+        for path in args.trajectory:
+            traj, cf = load_flight(
+                path,
+                columns=args.columns,
+                alt_units=args.alt_units,
+                height_ref=args.height_ref,
+                time_format=args.time_format,
+                model=model,
+                smooth=not args.no_smooth,
+                position_noise_m=noise,
+                max_gap_s=args.max_gap_s,
+                airborne_only=not args.keep_ground,
+            )
+            name = Path(path).name.split(".")[0] or "flight"
+            base, k = name, 2
+            while name in names:
+                name, k = f"{base}_{k}", k + 1
+            names.add(name)
+            out.append((name, traj, cf))
+    _refuse_unconditioned(args, out)
     return out
+
+
+def _refuse_unconditioned(args, flights_) -> None:
+    """Refuse the conditioning options when every flight is flown as recorded (not conditioned)."""
+    from fieldmap.cli import given
+
+    if any(cf is not None for _, _, cf in flights_):
+        return
+    for dest, option in {**CONDITIONING, "no_smooth": "--no-smooth"}.items():
+        if given(args, dest):
+            files = ", ".join(str(p) for p in args.trajectory)
+            verb = "is" if len(args.trajectory) == 1 else "are"
+            raise InputError(
+                f"{option} applies to conditioned flight logs: {files} {verb} flown as recorded "
+                "(a fieldmap flight file with attitude columns, or NetCDF), not conditioned"
+            )
 
 
 def run(args, device, models, flights_, imu, model, client=None) -> int:

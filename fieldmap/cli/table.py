@@ -8,7 +8,8 @@ refined until the interpolation error, measured on a denser independent check se
 (:mod:`fieldmap.products.table`). Read it back with ``fieldmap point --model table:FILE``.
 
 ``--corridor`` alone: the track's bounding box widened by ``--width-km``; with ``--region``: the
-intersection of both (refused when they do not overlap).
+intersection of both (refused when they do not overlap). The heights must hold the track's, with
+the margin that ``navsim`` asks of a table (refused otherwise: navsim would refuse the table).
 """
 
 from __future__ import annotations
@@ -92,6 +93,39 @@ def _heights(text: str) -> list[str]:
     return parts
 
 
+def _check_corridor_heights(flight, heights_m) -> None:
+    """Refuse ``--heights-km`` that do not hold the ``--corridor`` track (navsim's margin too).
+
+    ``navsim`` refuses a table that does not cover the flight's path with
+    :data:`~fieldmap.nav.flightsim.TABLE_HEIGHT_MARGIN` above and below it; a corridor table
+    is made for its flight, so the same is asked of every sample of the track here.
+    """
+    import math
+
+    import numpy as np
+
+    from fieldmap.errors import InputError
+    from fieldmap.nav.flightsim import TABLE_HEIGHT_MARGIN as margin
+    from fieldmap.nav.readers import read_track
+
+    track = read_track(flight)
+    h = np.asarray(track.h, dtype=np.float64)
+    lo, hi = float(np.min(heights_m)), float(np.max(heights_m))
+    out = np.flatnonzero((h - margin < lo) | (h + margin > hi))
+    if out.size:
+        i = int(out[0])
+        # outward to 0.1 km, strictly beyond the margin
+        need_lo = math.floor((h.min() - margin) / 100.0 - 1e-9) / 10.0
+        need_hi = math.ceil((h.max() + margin) / 100.0 + 1e-9) / 10.0
+        raise InputError(
+            f"--heights-km {lo / 1e3:g},{hi / 1e3:g} do not hold the --corridor flight: "
+            f"{track.source} line {track.lines[i]} is at {h[i]:.0f} m (the track: "
+            f"{h.min():.0f}..{h.max():.0f} m above the ellipsoid; navsim asks ±{margin:g} m "
+            f"around it): give at least --heights-km {min(need_lo, lo / 1e3):g},"
+            f"{max(need_hi, hi / 1e3):g}"
+        )
+
+
 def run_table(args) -> int:
     """Run ``fieldmap table``; return the exit status."""
     import sys
@@ -111,15 +145,19 @@ def run_table(args) -> int:
     if args.corridor is None and args.region is None:
         raise InputError("give --region W E S N, --corridor FLIGHT, or both")
     heights = _heights(args.heights_km)
-    api_call("--heights-km", heights_from_km, heights, distinct=False)
+    metres = api_call("--heights-km", heights_from_km, heights, distinct=False)
     if args.region is not None:
         api_call("--region", check_region, args.region)
     if args.lmax is not None and args.lmax < 0:
         raise InputError(f"--lmax must be >= 0, got {args.lmax}")
     opts = model_options(args)
     if args.corridor is not None:
+        from fieldmap.nav.spelling import spelled
+
         width = 50.0 if args.width_km is None else args.width_km
-        region = corridor_region(args.corridor, width, args.region)
+        with spelled({}):  # the reader's advice names no Python keyword: table has no such option
+            region = corridor_region(args.corridor, width, args.region)
+            _check_corridor_heights(args.corridor, metres)
     else:
         region = api_call("--region", check_region, args.region)
     check_out_dir(args.out)
