@@ -357,3 +357,10 @@ def test_the_program_itself(tmp_path):
         "--no-smooth turns off (the samples are flown as they are)"
     ]
     assert run.stdout == "" and not out.exists()
+
+
+def test_corrupt_gzip_flight_log(tmp_path, capsys):
+    """A gzip header followed by no deflate stream (zlib.error) was an internal error."""
+    bad = tmp_path / "bad.csv.gz"
+    bad.write_bytes(b"\x1f\x8b\x08\x00garbagegarbage")
+    _refused(_navsim("--trajectory", str(bad)), tmp_path, capsys, "bad.csv.gz", "broken gzip")

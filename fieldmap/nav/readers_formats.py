@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import gzip
 import re
+import zlib
 from pathlib import Path
 
 from fieldmap.errors import InputError
@@ -52,7 +53,7 @@ def load_text(path: Path) -> tuple[str, str]:
     if data[:2] == b"\x1f\x8b":
         try:
             data = gzip.decompress(data)
-        except (OSError, EOFError) as exc:
+        except (OSError, EOFError, zlib.error) as exc:
             raise InputError(f"{path}: broken gzip file ({exc})") from None
     if not data.strip():
         raise InputError(f"{path}: empty flight log")
