@@ -30,20 +30,11 @@ LOG_ONLY = {
 }
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
-CONDITIONING = {
-    "position_noise_m": "--position-noise-m",
-    "max_gap_s": "--max-gap-s",
-    "keep_ground": "--keep-ground",
-}
+CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground")}
 #: how the messages of the readers and the conditioning name options here: keyword -> option,
 #: "keyword=value" -> the whole advice (:func:`fieldmap.nav.spelling.spelled`)
 SPELLING = {
-    "columns": "--columns",
-    "alt_units": "--alt-units",
-    "height_ref": "--height-ref",
-    "time_format": "--time-format",
-    "position_noise_m": "--position-noise-m",
-    "max_gap_s": "--max-gap-s",
+    **{k: v for k, v in LOG_ONLY.items() if k not in ("keep_ground", "no_smooth")},
     "airborne_only=False": "give --keep-ground",
     "smooth=True": "leave out --no-smooth",
 }
