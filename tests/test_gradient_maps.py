@@ -95,6 +95,9 @@ def test_normal_gravity_gradient_map(model60):
     grav = quantity_map("gradient", **kw)
     dist = quantity_map("gradient-disturbance", **kw)
     assert "the exact normal gravity of WGS84" in nor.attrs["source"]
+    # no model enters it, and none is named (title, attributes, file stem)
+    assert "model" not in nor.attrs and "WGS84 normal field" in nor.attrs["title"]
+    assert grav.attrs["model"] == model60.name
     for name in GRID_COMPONENTS:
         np.testing.assert_allclose(
             grav[name].values - nor[name].values, dist[name].values, rtol=0, atol=1e-4

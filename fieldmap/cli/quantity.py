@@ -62,8 +62,9 @@ def run_quantity(args, heights_km: list[float]) -> int:
     elapsed = time.perf_counter() - t0
     summ = qm.summary(ds)
     a = ds.attrs
+    source = f"{a['model']} degree {a['model_lmax']}" if "model" in a else a["ellipsoid"]
     print(
-        f"{a['model']} degree {a['model_lmax']}, {args.quantity}, {ds.sizes['latitude']} x "
+        f"{source}, {args.quantity}, {ds.sizes['latitude']} x "
         f"{ds.sizes['longitude']} nodes"
         + (f" x {ds.sizes['height']} heights" if "height" in ds.dims else "")
         + f", {elapsed:.2f} s"
@@ -149,8 +150,9 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     def publish(view, info, elapsed):
         summ = qm.summary(view)
         nh, nlat, nlon = grid.shape
+        source = view.attrs["ellipsoid"] if "model" not in view.attrs else None
         print(
-            f"{mod.name} degree {mod.lmax}, {args.quantity}, {nlat} x {nlon} nodes"
+            f"{source or f'{mod.name} degree {mod.lmax}'}, {args.quantity}, {nlat} x {nlon} nodes"
             + (f" x {nh} heights" if nh > 1 else "")
             + f", {elapsed:.2f} s (block by block)"
         )

@@ -255,9 +255,11 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     cb.set_label(f"{name} ({var.attrs['units']})", fontsize=9)
     surface = ds.attrs.get("quantity") in SURFACE_QUANTITIES
     where = "h = 0" if surface else f"h = {height / 1e3:g} km"
-    ax.set_title(
-        f"{var.attrs['long_name']}\n{ds.attrs.get('model')} degree "
-        f"{ds.attrs.get('model_lmax')}, {where}",
-        fontsize=9,
+    a = ds.attrs
+    source = (
+        f"{a['model']} degree {a.get('model_lmax')}"
+        if a.get("model")
+        else f"{a.get('ellipsoid')} normal field"
     )
+    ax.set_title(f"{var.attrs['long_name']}\n{source}, {where}", fontsize=9)
     return fig

@@ -125,13 +125,14 @@ def template(quantity: str, mod, grid, ell, degree0: bool) -> xr.Dataset:
 
     stacked = grid.heights.size > 1
     heights_txt = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
-    title = (
-        f"{VARIABLES[quantity][0][2].split(',')[0].split(' (')[0]} at {heights_txt} km, "
-        f"{mod.name} degree {mod.lmax}"
+    # no model enters the exact normal gravity: the product names none
+    model = None if quantity == "gradient-normal" else mod
+    title = f"{VARIABLES[quantity][0][2].split(',')[0].split(' (')[0]} at {heights_txt} km, " + (
+        f"{mod.name} degree {mod.lmax}" if model is not None else f"{ell.name} normal field"
     )
     attrs = global_attrs(
         title,
-        mod,
+        model,
         ell,
         grid,
         f"fieldmap {__version__}: "
