@@ -34,6 +34,7 @@ def _run(argv, capsys, tmp_path, monkeypatch):
         (["navsim", "--models", "j2", "--models", "j4"], "--models"),
         (["sweep", "--region", "0", "10", "0", "10", "--region", "5", "15", "5", "15"], "--region"),
         (["point", "--lmax", "10", "--lmax", "240"], "--lmax"),
+        (["navsim", "--alt-units", "m", "--alt-units", "ft"], "--alt-units"),  # in a group
     ],
 )
 def test_an_option_given_twice_is_refused(argv, first, capsys, tmp_path, monkeypatch):
@@ -44,6 +45,22 @@ def test_an_option_given_twice_is_refused(argv, first, capsys, tmp_path, monkeyp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{first} given again" in err and "once" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_every_value_option_of_every_command_is_given_once():
+    """Options added in argument groups too: each value option of each sub-command is wrapped."""
+    import argparse
+
+    parser = cli.build_parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    plain = []
+    for name, sub in subs.choices.items():
+        for action in sub._actions:
+            if action.option_strings and action.nargs != 0:
+                if not isinstance(action, argparse._AppendAction):
+                    if not getattr(type(action), "_once", False):
+                        plain.append(f"{name} {action.option_strings[0]}")
+    assert plain == []
 
 
 def test_flags_and_single_options_still_parse():

@@ -42,14 +42,11 @@ class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line (no usage block), exit status 2.
 
     An option that takes a value may be given once only (a second ``--height-km`` would
-    silently replace the first): see :func:`_once`.
+    silently replace the first): :func:`build_parser` applies :func:`_once` to every option.
     """
 
     def error(self, message):  # noqa: D102 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
-
-    def _add_action(self, action):  # noqa: D102 - argparse API
-        return super()._add_action(_once(action))
 
 
 #: attribute of a namespace while it is parsed: the destinations already set by an option
@@ -67,6 +64,7 @@ def _once(action: argparse.Action) -> argparse.Action:
         not action.option_strings
         or action.nargs == 0
         or isinstance(action, (argparse._AppendAction, argparse._CountAction))
+        or getattr(type(action), "_once", False)
     ):
         return action
     base = type(action)
@@ -83,8 +81,18 @@ def _once(action: argparse.Action) -> argparse.Action:
         seen[self.dest] = option_string
         base.__call__(self, parser, namespace, values, option_string)
 
-    action.__class__ = type(f"Once{base.__name__}", (base,), {"__call__": __call__})
+    action.__class__ = type(f"Once{base.__name__}", (base,), {"__call__": __call__, "_once": True})
     return action
+
+
+def _once_everywhere(parser: argparse.ArgumentParser) -> None:
+    """Apply :func:`_once` to every option of ``parser`` and its sub-parsers (groups included)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in {id(p): p for p in action.choices.values()}.values():
+                _once_everywhere(sub)
+        else:
+            _once(action)
 
 
 def _parse(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
@@ -160,6 +168,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                 continue
             raise
         mod.register(sub)
+    _once_everywhere(parser)
     return parser
 
 
