@@ -172,6 +172,14 @@ def test_write_errors_name_the_file(tmp_path):
     with pytest.raises(OSError) as exc, io.writing(final):
         raise FileNotFoundError(errno.ENOENT, "No such file or directory", "/elsewhere")
     assert exc.value.filename == "/elsewhere"  # a file of its own: kept
+    with pytest.raises(OSError) as exc, io.writing(final):  # inside a temporary zarr folder
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / ".m.zarr.x.tmp/up/0"))
+    assert exc.value.filename == str(final)
+    with pytest.raises(TimeoutError) as exc, io.writing(final):  # not a write: as it is
+        raise TimeoutError("Timed out trying to connect to tcp://10.0.0.1:8786")
+    assert exc.value.filename is None
+    with pytest.raises(ConnectionResetError), io.writing(final):
+        raise ConnectionResetError(errno.ECONNRESET, "Connection reset by peer")
     with pytest.raises(RuntimeError, match="other"), io.writing(final):
         raise RuntimeError("other")
 

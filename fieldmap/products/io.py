@@ -186,24 +186,36 @@ def netcdf_encoding(ds, dtype: str = "float64") -> dict:
     return enc
 
 
+#: errno values of a failed write to storage (full disk, quota, I/O, read-only, too big, denied)
+_STORAGE_ERRNOS = frozenset(
+    getattr(errno, n)
+    for n in ("ENOSPC", "EDQUOT", "EIO", "EROFS", "EFBIG", "EACCES", "EPERM")
+    if hasattr(errno, n)
+)
+
+
 @contextlib.contextmanager
 def writing(path):
     """Let a failed write name the file (``path``, the final name), e.g. on a full disk.
 
-    An ``OSError`` without a file name gets ``path``; the NetCDF library's own error on a
+    A storage error (:data:`_STORAGE_ERRNOS`) without a file name, or naming a hidden temporary
+    path, gets ``path`` (the same exception, re-raised); the NetCDF library's own error on a
     failed write (``RuntimeError: NetCDF: HDF error``) becomes an ``OSError`` naming ``path``.
-    The CLI prints either as one line, exit status 2.
+    Other errors (a lost worker, a timeout) pass as they are. The CLI prints either as one line,
+    exit status 2.
     """
     try:
         yield
     except OSError as exc:
-        if exc.filename is None or str(exc.filename).endswith(".tmp"):
-            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        name = exc.filename
+        temporary = name is None or any(p.endswith(".tmp") for p in Path(str(name)).parts)
+        if exc.errno in _STORAGE_ERRNOS and temporary:
+            exc.filename = str(path)
         raise
     except RuntimeError as exc:
         if not str(exc).startswith("NetCDF"):
             raise
-        raise OSError(errno.EIO, f"{exc} while writing (is the disk full?)", str(path)) from None
+        raise OSError(errno.EIO, f"{exc} while writing (is the disk full?)", str(path)) from exc
 
 
 def _netcdf_to(ds, tmp, dtype: str = "float64") -> None:
