@@ -34,7 +34,7 @@ LON_MIN, LON_MAX = -540.0, 540.0
 J2N_ORDERS = (2, 4, 6)
 
 
-def _num(x) -> str:
+def number_text(x) -> str:
     """``x`` in short form (``%g``), or in full where the short form would round it onto a limit.
 
     "height -10000.001 m is below -10000 m", not "height -10000 m is below -10000 m".
@@ -42,6 +42,8 @@ def _num(x) -> str:
     text = f"{float(x):g}"
     return text if float(text) == float(x) else repr(float(x))
 
+
+_num = number_text  # short, for the messages below
 
 _BELOW = "the models are not meant for points this far below the ellipsoid"
 _ABOVE = "outside the range where an Earth gravity model is meant to be used"

@@ -364,3 +364,12 @@ def test_corrupt_gzip_flight_log(tmp_path, capsys):
     bad = tmp_path / "bad.csv.gz"
     bad.write_bytes(b"\x1f\x8b\x08\x00garbagegarbage")
     _refused(_navsim("--trajectory", str(bad)), tmp_path, capsys, "bad.csv.gz", "broken gzip")
+
+
+def test_flight_height_limits_are_not_rounded_onto(tmp_path):
+    """A route height just past the limit is named as it is (not "-11000 m is outside -11 km")."""
+    from fieldmap.errors import InputError
+    from fieldmap.nav.flight import route_flight
+
+    with pytest.raises(InputError, match=r"height -11000.0004 m is outside"):
+        route_flight("47,8,1000;47.1,8.1,-11000.0004", 200.0)

@@ -32,6 +32,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.limits import number_text
 from fieldmap.nav.flightsamples import ATTITUDE as ATTITUDE
 from fieldmap.nav.flightsamples import G0 as G0
 from fieldmap.nav.flightsamples import MAX_ACCEL as MAX_ACCEL
@@ -141,7 +142,7 @@ class FlightTrajectory(Trajectory):
                 else f"{s.source} lines {s.lines[i]}..{s.lines[i + 1]}"
             )
             raise InputError(
-                f"{where}: the interpolated path reaches a height of {h[j]:.4g} m between "
+                f"{where}: the interpolated path reaches a height of {number_text(h[j])} m between "
                 f"t = {s.t[i]:g} s and {s.t[i + 1]:g} s ({s.t[i + 1] - s.t[i]:g} s without "
                 f"samples), outside {MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m"
             )
@@ -277,7 +278,8 @@ def route_flight(
     bad = np.flatnonzero((pts[:, 2] < MIN_HEIGHT) | (pts[:, 2] > MAX_HEIGHT))
     if bad.size:
         raise InputError(
-            f"route waypoint {bad[0] + 1}: height {pts[bad[0], 2]:g} m is outside the heights of "
+            f"route waypoint {bad[0] + 1}: height {number_text(pts[bad[0], 2])} m is outside the "
+            "heights of "
             f"a flight ({MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m)"
         )
     for name, v in (("--speed-mps", speed_mps), ("max_accel", max_accel), ("dt", sample_dt)):

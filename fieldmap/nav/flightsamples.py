@@ -23,6 +23,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import geodetic_to_ecef
+from fieldmap.limits import number_text
 
 REQUIRED = ("time_s", "lat_deg", "lon_deg", "height_m")
 ATTITUDE = ("roll_deg", "pitch_deg", "heading_deg")
@@ -198,7 +199,8 @@ def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
     bad = np.flatnonzero((h < MIN_HEIGHT) | (h > MAX_HEIGHT))
     if bad.size:
         raise InputError(
-            f"{_where(name, lines, bad[0], 'height_m')}: {h[bad[0]]:g} m is outside -11 km..1e8 m"
+            f"{_where(name, lines, bad[0], 'height_m')}: {number_text(h[bad[0]])} m is outside "
+            "-11 km..1e8 m"
         )
     lon = np.degrees(np.unwrap(np.radians(lon)))
     r = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), -1)

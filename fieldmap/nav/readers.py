@@ -62,6 +62,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.limits import number_text
 from fieldmap.nav.readers_formats import (
     HINT,
     Parsed,
@@ -363,7 +364,8 @@ def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
     bad = np.flatnonzero((a < MIN_HEIGHT) | (a > MAX_HEIGHT))
     if bad.size:
         i = int(bad[0])
-        raw = f"{a[i] / FT:g} ft ({a[i]:g} m)" if units == "ft" else f"{a[i]:g} m"
+        m = f"{number_text(a[i])} m"
+        raw = f"{number_text(a[i] / FT)} ft ({m})" if units == "ft" else m
         raise InputError(
             f"{where} {lines[i]} column {aname}: {raw} is outside the heights of a flight "
             f"({MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m)"
