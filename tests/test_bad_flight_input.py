@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main
+from fieldmap.errors import InputError
 
 HEADER = "time_s,lat_deg,lon_deg,height_m"
 ROUTE = "47,8,1000;47.1,8.1,1000"
@@ -196,11 +197,23 @@ def test_corridor_table_must_hold_its_flight(tmp_path, capsys):
         capsys,
         "--heights-km 10,20",
         "--corridor",
-        "good.csv line 2",
-        "1000..1240 m",
+        "at t = 0 s",
+        "as navsim flies it",
         "give at least --heights-km 0.9,20",
     )
     assert "height_ref" not in line
+
+
+def test_corridor_heights_are_checked_on_the_path_navsim_flies(tmp_path, capsys, monkeypatch):
+    """One altitude spike, removed by the conditioning, asks for no taller table."""
+    from fieldmap.cli import table as cli_table
+
+    h = 1000.0 + 2.0 * np.arange(121.0)
+    h[60] = 9000.0  # an ADS-B altitude glitch
+    f = _flight(tmp_path / "spike.csv", h=h)
+    cli_table._check_corridor_heights(f, [800.0, 1400.0])  # accepted, as navsim would
+    with pytest.raises(InputError, match="give at least --heights-km 0.9,1.4"):
+        cli_table._check_corridor_heights(f, [1000.0, 1400.0])
 
 
 # ------------------------------------------------------------------------------------ 4.2

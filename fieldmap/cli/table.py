@@ -94,22 +94,24 @@ def _heights(text: str) -> list[str]:
 
 
 def _check_corridor_heights(flight, heights_m) -> None:
-    """Refuse ``--heights-km`` that do not hold the ``--corridor`` track (navsim's margin too).
+    """Refuse ``--heights-km`` that do not hold the ``--corridor`` flight as navsim flies it.
 
-    ``navsim`` refuses a table that does not cover the flight's path with
-    :data:`~fieldmap.nav.flightsim.TABLE_HEIGHT_MARGIN` above and below it; a corridor table
-    is made for its flight, so the same is asked of every sample of the track here.
+    ``navsim`` refuses a table that does not cover the conditioned path (outliers removed,
+    ground segments trimmed) with :data:`~fieldmap.nav.flightsim.TABLE_HEIGHT_MARGIN` above and
+    below it, checked every second; the same path and margin are asked of the heights here,
+    so a table made for its flight is one navsim accepts.
     """
     import math
 
     import numpy as np
 
     from fieldmap.errors import InputError
+    from fieldmap.nav.flightlog import load_flight
     from fieldmap.nav.flightsim import TABLE_HEIGHT_MARGIN as margin
-    from fieldmap.nav.readers import read_track
 
-    track = read_track(flight)
-    h = np.asarray(track.h, dtype=np.float64)
+    traj, _ = load_flight(flight)
+    t = np.unique(np.r_[np.arange(0.0, traj.duration, 1.0), traj.duration])
+    h = np.asarray(traj.geodetic(t)[2], dtype=np.float64)
     lo, hi = float(np.min(heights_m)), float(np.max(heights_m))
     out = np.flatnonzero((h - margin < lo) | (h + margin > hi))
     if out.size:
@@ -118,8 +120,8 @@ def _check_corridor_heights(flight, heights_m) -> None:
         need_lo = math.floor((h.min() - margin) / 100.0 - 1e-9) / 10.0
         need_hi = math.ceil((h.max() + margin) / 100.0 + 1e-9) / 10.0
         raise InputError(
-            f"--heights-km {lo / 1e3:g},{hi / 1e3:g} do not hold the --corridor flight: "
-            f"{track.source} line {track.lines[i]} is at {h[i]:.0f} m (the track: "
+            f"--heights-km {lo / 1e3:g},{hi / 1e3:g} do not hold the --corridor flight: at "
+            f"t = {t[i]:g} s it is at {h[i]:.0f} m (its path as navsim flies it: "
             f"{h.min():.0f}..{h.max():.0f} m above the ellipsoid; navsim asks ±{margin:g} m "
             f"around it): give at least --heights-km {min(need_lo, lo / 1e3):g},"
             f"{max(need_hi, hi / 1e3):g}"
