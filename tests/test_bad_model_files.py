@@ -288,6 +288,13 @@ def test_model_dir_with_a_file_path(work):
         refused(fieldmap(work, "point", "--model", model, "--model-dir", "dir"), "--model-dir")
     with pytest.raises(InputError, match="model_dir"):
         load_model(str(work / "good.gfc"), model_dir=work / "dir", cache=False)
+    # a path to a file inside DIR, absolute or relative, is read (it is in DIR)
+    (work / "dir" / "inside.gfc").write_text(GOOD)
+    for model in (str(work / "dir" / "inside.gfc"), os.path.join("dir", "inside.gfc")):
+        run, _ = fieldmap(work, "point", "--model", model, "--model-dir", "dir")
+        assert run.returncode == 0 and len(run.stdout.split()) == 3, run.stderr
+    inside = load_model(str(work / "dir" / "inside.gfc"), model_dir=work / "dir", cache=False)
+    assert inside.source == str(work / "dir" / "inside.gfc")
 
 
 def test_model_dir_still_finds_its_models(work):
@@ -368,3 +375,14 @@ def test_cache_keeps_what_a_file_name_means(tmp_path, private_cache):
     (tmp_path / "d").mkdir()
     (tmp_path / "d" / "EGM96_a").write_text(NGA)
     assert load_model(str(tmp_path / "d" / "EGM96_a")).source == str(tmp_path / "d" / "EGM96_a")
+    # two links to one file, named EGM96 and EGM2008: two models, in memory too
+    (tmp_path / "sym").mkdir()
+    (tmp_path / "sym" / "real_coeffs").write_text(NGA)
+    for name in ("EGM96.txt", "EGM2008.txt"):
+        (tmp_path / "sym" / name).symlink_to("real_coeffs")
+    for cache in (False, True):
+        clear_cache()
+        a = load_model(str(tmp_path / "sym" / "EGM96.txt"), cache=cache)
+        b = load_model(str(tmp_path / "sym" / "EGM2008.txt"), cache=cache)
+        assert (a.name, a.gm, a.radius) == ("EGM96", 3.986004418e14, 6378137.0)
+        assert (b.name, b.gm, b.radius) == ("EGM2008", 3.986004415e14, 6378136.3)

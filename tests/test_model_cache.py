@@ -226,3 +226,37 @@ def test_recursion_tables_cache(root):
     assert calls == [L, L]
     np.testing.assert_array_equal(third["bnm"], first["bnm"])
     assert cache.cached_tables(10, compute) and calls == [L, L, 10]  # small: never cached
+
+
+def test_a_copy_named_otherwise_hits_the_entry(root, gfc, tmp_path):
+    """An ICGEM file's entry holds no file name: copies named otherwise hit one entry.
+
+    So the bundled model read from a zip import (a new temporary name each run) hits its one
+    entry. NGA files keep their name (see
+    tests/test_bad_model_files.py::test_cache_keeps_what_a_file_name_means).
+    """
+    path, model = gfc
+    load_model(str(path))
+    for i in range(2):
+        copy = tmp_path / f"tmp{i}xyzk30.gfc"
+        copy.write_bytes(path.read_bytes())
+        clear_cache()
+        np.testing.assert_array_equal(load_model(str(copy)).C, model.C)
+    assert len(_entries(root)) == 1
+
+
+def test_recursion_tables_with_a_cache_path_that_is_a_file(tmp_path, monkeypatch, gfc):
+    """The tables are computed when the cache path is a file (load_model(cache=False) runs).
+
+    A model load with the cache on still reports the path.
+    """
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    _use_model_cache(monkeypatch, str(afile))
+    clear_cache()
+    L = cache.TABLES_MIN_DEGREE
+    assert cache.cached_tables(L, lambda lmax: {"x": np.arange(3.0)})["x"].tolist() == [0, 1, 2]
+    cache.prefetch_tables(L)
+    assert afile.read_text() == ""
+    with pytest.raises(InputError, match="afile is not a folder"):
+        load_model(str(gfc[0]))

@@ -42,6 +42,7 @@ import threading
 
 import numpy as np
 
+from fieldmap.errors import InputError
 from fieldmap.models._cache_root import usable
 from fieldmap.models.shmodel import SHModel
 
@@ -349,7 +350,10 @@ def cached_tables(lmax: int, compute, *, root: str | None = None) -> dict:
     """
     if _disabled or lmax < TABLES_MIN_DEGREE:
         return compute(lmax)
-    folder = _tables_folder(lmax, compute, root)
+    try:
+        folder = _tables_folder(lmax, compute, root)
+    except InputError:  # the cache path is a file: only the speed-up is lost (the model loads
+        return compute(lmax)  # with the cache on report it; load_model(cache=False) must run)
     if folder is None:
         return compute(lmax)
     with _tables_lock:  # a prefetch under way (another thread): wait for it, take its result
@@ -374,10 +378,10 @@ def prefetch_tables(lmax: int, *, root: str | None = None) -> None:
     """
     if _disabled or lmax < TABLES_MIN_DEGREE:
         return
-    parent = os.path.join(_root(root), "tables")
     try:
+        parent = os.path.join(_root(root), "tables")
         names = [n for n in os.listdir(parent) if n.startswith(f"L{int(lmax)}-")]
-    except OSError:
+    except (OSError, InputError):  # InputError: the cache path is a file (see cached_tables)
         return
     if len(names) != 1:
         return

@@ -98,7 +98,11 @@ def detect_format(path) -> str:
 
 
 def _in_model_dir(name: str, model_dir) -> str | None:
-    """Path of ``model_dir/NAME.egm``, else of ``model_dir/name`` (a relative path), or None."""
+    """Path of ``model_dir/NAME.egm``, ``model_dir/name`` or ``name`` inside it, or None.
+
+    ``name`` is taken as it is where it is a path (absolute or relative) to a file inside
+    ``model_dir``.
+    """
     from fieldmap.models.egm import find_egm
 
     found = find_egm(name, model_dir)
@@ -108,6 +112,14 @@ def _in_model_dir(name: str, model_dir) -> str | None:
         joined = os.path.join(os.fspath(model_dir), name)
         if os.path.exists(joined):
             return joined
+    if os.path.exists(name):
+        real, top = os.path.realpath(name), os.path.realpath(os.fspath(model_dir))
+        try:
+            inside = real != top and os.path.commonpath([real, top]) == top
+        except ValueError:  # another drive (Windows)
+            inside = False
+        if inside:
+            return name
     return None
 
 
@@ -247,7 +259,9 @@ def load_model(
         stamp = tuple((s.st_size, s.st_mtime_ns, s.st_ctime_ns) for s in map(os.stat, paths))
     except OSError:  # e.g. no .egm.cof: the reader names the problem (its metadata first)
         return _earth(parse(part))
-    key = ("file", os.path.realpath(paths[0]), stamp, t, fmt, gm, radius)
+    # the variant: an NGA file's name is part of what it means (two links to one file, named
+    # EGM96 and EGM2008, are two models)
+    key = ("file", os.path.realpath(paths[0]), stamp, t, fmt, gm, radius, variant)
     with _cache_lock:
         full = _cache.get(key + (None,))
     if full is not None:
@@ -264,20 +278,21 @@ def load_model(
 def _reader(fmt: str, path: str, t, gm, radius):
     """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format.
 
-    The variant holds the file's name: the readers take the model's name from it where the file
-    has none and, for NGA files, GM, the radius and the tide system (a copy of ``EGM96`` named
-    ``EGM2008`` or ``mine`` is another model, or none).
+    An NGA file's variant holds the file's name: the reader takes GM, the radius, the tide
+    system and the name from it (a copy of ``EGM96`` named ``EGM2008`` or ``mine`` is another
+    model, or none). Other formats' variants hold no name, so the bundled model read from a
+    zip import (a new temporary name each run) keeps hitting its entry.
     """
     from fieldmap.models import egm, icgem, nga
 
-    named = f"|file={os.path.basename(path)!r}"
     if fmt == "nga":
+        named = f"|file={os.path.basename(path)!r}"
         variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}{named}"
         return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
     if fmt == "egm":
-        variant = f"egm-v{egm.READER_VERSION}{named}"
+        variant = f"egm-v{egm.READER_VERSION}"
         return (lambda L: egm.read_egm(path, lmax=L)), variant
-    variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}{named}"
+    variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
     return (lambda L: read_icgem(path, lmax=L, epoch=t)), variant
 
 
