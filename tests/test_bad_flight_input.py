@@ -174,7 +174,23 @@ def test_header_repeating_a_column_refused(tmp_path, capsys):
     """A header naming ``height_m`` twice is refused (which one is the height?)."""
     f = _flight(tmp_path / "dup.csv", extra="height_m|5000")
     argv = _navsim("--trajectory", str(f))
-    _refused(argv, tmp_path, capsys, "dup.csv line 1", "'height_m' twice", "fields 4 and 5")
+    _refused(argv, tmp_path, capsys, "dup.csv", "'height_m' more than once", "fields 4, 5")
+
+
+def test_repeated_columns_that_are_not_read_are_fine(tmp_path):
+    """Only a column read is ambiguous: ``note,note`` flies; ``lat_deg,LAT_DEG`` does not."""
+    from fieldmap.nav.readers import read_track
+
+    f = _flight(tmp_path / "notes.csv", extra="note|a")
+    text = f.read_text().splitlines()
+    text = [text[0] + ",note"] + [r + ",b" for r in text[1:]]
+    f.write_text("\n".join(text) + "\n")
+    assert read_track(f).t.size == 121
+    g = tmp_path / "lat.csv"
+    rows = f.read_text().splitlines()
+    g.write_text("\n".join([rows[0] + ",LAT_DEG"] + [r + ",1.0" for r in rows[1:]]) + "\n")
+    with pytest.raises(InputError, match="column .lat_deg. more than once .fields 2, 7."):
+        read_track(g)
 
 
 # ------------------------------------------------------------------------------------ 3.5

@@ -191,8 +191,17 @@ def _table(header, get, lines, source, where_word, columns, time_format) -> Pars
     """Recognise the layout (or apply ``columns``) and read the four columns."""
     found = {h.lower(): j for j, h in reversed(list(enumerate(header)))}
     exact = {h: j for j, h in reversed(list(enumerate(header)))}
+    fields: dict[str, list[int]] = {}
+    for j, h in enumerate(header):
+        fields.setdefault(h.lower(), []).append(j + 1)
 
     def col(name):
+        twice = fields.get(name.lower(), [])
+        if len(twice) > 1:  # a column read (or looked for) that the header names twice
+            raise InputError(
+                f"{source}: the header names column {name!r} more than once (fields "
+                f"{', '.join(map(str, twice))}): which one is meant is a guess; rename or drop one"
+            )
         return exact.get(name, found.get(name.lower()))
 
     notes: list[str] = []

@@ -130,7 +130,6 @@ def csv_table(text: str, source: str):
             f"{source} line {hline}: numbers where the header row naming the columns should be "
             f"(a flight log needs one; {HINT})"
         )
-    _refuse_repeated(header, f"{source} line {hline}")
     for (k, _), cells in zip(body[1:], csv.reader((s for _, s in body[1:]), delimiter=delim)):
         if len(cells) != len(header):
             raise InputError(
@@ -144,18 +143,6 @@ def csv_table(text: str, source: str):
     return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64)
 
 
-def _refuse_repeated(header: list[str], where: str) -> None:
-    """Refuse a header naming a column twice: which of the two is meant is anyone's guess."""
-    first: dict[str, int] = {}
-    for j, h in enumerate(header):
-        if h and h in first:
-            raise InputError(
-                f"{where}: the header names column {h!r} twice (fields {first[h] + 1} and "
-                f"{j + 1}): rename or drop one"
-            )
-        first.setdefault(h, j)
-
-
 def object_table(obj, source: str):
     """Header, getter and record numbers of a DataFrame, Dataset or mapping of arrays."""
     if hasattr(obj, "data_vars"):
@@ -165,7 +152,6 @@ def object_table(obj, source: str):
     if not hasattr(obj, "keys"):
         raise InputError(f"{source}: not a DataFrame, Dataset or mapping of arrays")
     header = [str(k) for k in obj.keys()]
-    _refuse_repeated(header, source)
     cols = {str(k): np.asarray(obj[k]).ravel() for k in obj.keys()}
     n = max((c.size for c in cols.values()), default=0)
     if n == 0:
