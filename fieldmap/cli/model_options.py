@@ -8,6 +8,18 @@
 
 from __future__ import annotations
 
+#: every option that chooses or reads the spherical-harmonic model: dest -> option (refused by
+#: the quantities no model enters: ``point --quantity normal``, ``map --quantity gradient-normal``)
+MODEL_OPTIONS = {
+    "model": "--model",
+    "lmax": "--lmax",
+    "epoch": "--epoch",
+    "model_dir": "--model-dir",
+    "gm": "--gm",
+    "radius": "--radius",
+    "no_cache": "--no-cache",
+}
+
 
 def add_model_options(parser) -> None:
     """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""

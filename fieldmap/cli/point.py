@@ -330,18 +330,6 @@ def run_point(args) -> int:
     return 0
 
 
-#: options of the spherical-harmonic model, unused by ``--quantity normal``: dest -> option
-_MODEL_OPTIONS = {
-    "model": "--model",
-    "lmax": "--lmax",
-    "epoch": "--epoch",
-    "model_dir": "--model-dir",
-    "gm": "--gm",
-    "radius": "--radius",
-    "no_cache": "--no-cache",
-}
-
-
 def _table(args):
     """Return the table of ``--model table:FILE`` (read here: a bad file is exit 2), or None.
 
@@ -349,6 +337,7 @@ def _table(args):
     and of the Warp engine are refused in one line.
     """
     from fieldmap.cli import given
+    from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
     from fieldmap.products.table_model import load_table, table_path
 
@@ -359,7 +348,7 @@ def _table(args):
         raise InputError(
             f"--model table:FILE holds the disturbance only, not --quantity {args.quantity}"
         )
-    for dest, option in {**_MODEL_OPTIONS, "device": "--device"}.items():
+    for dest, option in {**MODEL_OPTIONS, "device": "--device"}.items():
         if dest != "model" and given(args, dest):
             raise InputError(
                 f"{option} does not apply to --model table:FILE (a compensation table, "
@@ -371,10 +360,11 @@ def _table(args):
 def _refuse_unused(args) -> None:
     """Refuse, in one line, an option given that the chosen ``--quantity`` does not use."""
     from fieldmap.cli import given
+    from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
 
     if args.quantity == "normal":
-        for dest, option in _MODEL_OPTIONS.items():
+        for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):
                 raise InputError(
                     f"{option} applies to the gravity model, not to --quantity normal (the "

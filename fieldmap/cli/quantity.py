@@ -37,9 +37,10 @@ def run_quantity(args, heights_km: list[float]) -> int:
             "(h = 0); leave --height-km out"
         )
     if args.quantity == "gradient-normal":
-        for dest in ("model", "lmax", "epoch", "model_dir", "gm", "radius", "no_cache"):
+        from fieldmap.cli.model_options import MODEL_OPTIONS
+
+        for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):
-                option = "--" + dest.replace("_", "-")
                 raise InputError(
                     f"{option}: --quantity gradient-normal is the exact normal gravity of the "
                     "ellipsoid, no model enters it; leave the model options out"

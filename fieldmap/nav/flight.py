@@ -198,13 +198,9 @@ class FlightTrajectory(Trajectory):
 
 def _speed(s: FlightSamples) -> float:
     """Median ground speed between samples (m/s; on a sphere of 6371 km)."""
-    la, lo = np.radians(s.lat), np.radians(s.lon)
-    a = (
-        np.sin(np.diff(la) / 2) ** 2
-        + np.cos(la[:-1]) * np.cos(la[1:]) * np.sin(np.diff(lo) / 2) ** 2
-    )
-    d = 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
-    return float(np.median(d / np.diff(s.t)))
+    from fieldmap.nav.readers_heights import speeds
+
+    return float(np.median(speeds(s.lat, s.lon, s.t)))
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
