@@ -20,11 +20,10 @@ resolved lazily, so ``import fieldmap`` loads neither Warp, xarray nor matplotli
 from __future__ import annotations
 
 import importlib
-import importlib.abc
-import importlib.machinery
 import sys
 import types
 
+from fieldmap import _compat
 from fieldmap._version import __version__ as __version__
 from fieldmap.errors import FieldmapError as FieldmapError
 from fieldmap.errors import InputError as InputError
@@ -102,41 +101,9 @@ __all__ = sorted(
     ]
 )
 
-#: Module paths of fieldmap 0.1 (a flat package) -> where they live now. Importing an old path
-#: still works and gives the new module (with a DeprecationWarning); they go in fieldmap 0.3.
-_MOVED = {
-    "icgem": "models.icgem",
-    "_gfc_scan": "models._gfc_scan",
-    "model": "models.shmodel",
-    "geographiclib": "models.geographiclib",
-    "ellipsoid": "field.ellipsoid",
-    "normal": "field.normal",
-    "sh": "field.sh",
-    "gravity": "field.gravity",
-    "frames": "field.frames",
-    "gridspec": "grids.spec",
-    "grid": "grids.synthesis",
-    "longitude": "grids.longitude",
-    "maps": "products.maps",
-    "stats": "products.stats",
-    "cf": "products.cf",
-    "io": "products.io",
-    "plots": "products.plots",
-    "coastline": "products.coastline",
-    "launch_frames": "nav.launch_frames",
-    "strapdown": "nav.strapdown",
-    "strapdown_ned": "nav.strapdown_ned",
-    "imu": "nav.imu",
-    "imu_errors": "nav.imu_errors",
-    "trajectory": "nav.trajectory",
-    "navsim": "nav.studies",
-    "navplots": "nav.plots",
-    "forcened": "nav.forcened",
-    "cli_maps": "cli.maps",
-    "cli_nav": "cli.nav",
-    "cli_point": "cli.point",
-    "verify": "cli.verify",
-}
+#: Old module paths -> where their names live now (the deprecation map, kept in
+#: :mod:`fieldmap._compat`); importing an old path warns and gives the new module.
+_MOVED = _compat.MOVED
 
 
 def __getattr__(name: str):
@@ -154,35 +121,6 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-class _AliasLoader(importlib.abc.Loader):
-    def __init__(self, new: str):
-        self.new = new
-
-    def create_module(self, spec):
-        return importlib.import_module(self.new)
-
-    def exec_module(self, module):
-        pass
-
-
-class _MovedFinder(importlib.abc.MetaPathFinder):
-    """Import ``fieldmap.<old>`` (0.1 layout) as the module that replaced it."""
-
-    def find_spec(self, fullname, path=None, target=None):
-        head, _, leaf = fullname.partition(".")
-        if head != "fieldmap" or leaf not in _MOVED:
-            return None
-        import warnings
-
-        new = "fieldmap." + _MOVED[leaf]
-        warnings.warn(
-            f"{fullname} moved to {new} in fieldmap 0.2; the old path goes in 0.3",
-            DeprecationWarning,
-            stacklevel=3,
-        )
-        return importlib.machinery.ModuleSpec(fullname, _AliasLoader(new))
-
-
 class _Package(types.ModuleType):
     """The ``fieldmap`` module: an old module path never shadows a public function.
 
@@ -191,11 +129,10 @@ class _Package(types.ModuleType):
     """
 
     def __setattr__(self, name, value):
-        if isinstance(value, types.ModuleType) and name in _MOVED and name in _LAZY:
+        if isinstance(value, types.ModuleType) and name in _compat.MOVED and name in _LAZY:
             return
         super().__setattr__(name, value)
 
 
-if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
-    sys.meta_path.append(_MovedFinder())
+_compat.install_moved_finder()
 sys.modules[__name__].__class__ = _Package

@@ -9,6 +9,11 @@ between functions, and named the same thing differently (``unit=``/``units=``, `
 from __future__ import annotations
 
 import functools
+import importlib
+import importlib.abc
+import importlib.machinery
+import sys
+import types
 import warnings
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
@@ -74,3 +79,109 @@ def keyword_api(
         return cast(F, wrapper)
 
     return decorate
+
+
+#: Old module paths (relative to ``fieldmap``) -> the module(s) that hold their public names
+#: now. A tuple lists several new homes of one old module (it was split or merged); its names are
+#: looked up in them in order. Importing an old path warns and yields the new module (or, for a
+#: tuple, a module that forwards attribute lookups); the old paths go in fieldmap 0.3.
+MOVED: dict[str, str | tuple[str, ...]] = {
+    # fieldmap 0.1: a flat package
+    "icgem": "models.icgem",
+    "_gfc_scan": "models._gfc_scan",
+    "model": "models.shmodel",
+    "geographiclib": "models.geographiclib",
+    "ellipsoid": "field.ellipsoid",
+    "normal": "field.normal",
+    "sh": "field.sh",
+    "gravity": "field.gravity",
+    "frames": "field.frames",
+    "gridspec": "grids.spec",
+    "grid": "grids.synthesis",
+    "longitude": "grids.longitude",
+    "maps": "products.maps",
+    "stats": "products.stats",
+    "cf": "products.cf",
+    "io": "products.io",
+    "plots": "products.plots",
+    "coastline": "products.coastline",
+    "launch_frames": "nav.launch_frames",
+    "strapdown": "nav.strapdown",
+    "strapdown_ned": "nav.strapdown_ned",
+    "imu": "nav.imu",
+    "imu_errors": "nav.imu_errors",
+    "trajectory": "nav.trajectory",
+    "navsim": "nav.studies",
+    "navplots": "nav.plots",
+    "forcened": "nav.forcened",
+    "cli_maps": "cli.maps",
+    "cli_nav": "cli.nav",
+    "cli_point": "cli.point",
+    "verify": "cli.verify",
+}
+
+
+def moved_targets(old: str) -> tuple[str, ...]:
+    """Full module names that now hold the names of ``fieldmap.<old>``."""
+    new = MOVED[old]
+    return tuple("fieldmap." + n for n in ((new,) if isinstance(new, str) else new))
+
+
+class _Forward(types.ModuleType):
+    """An old module split into several: attribute lookups go to each new home in order."""
+
+    def __init__(self, name: str, targets: tuple[str, ...]):
+        super().__init__(name)
+        self.__targets = targets
+
+    def __getattr__(self, attr: str) -> Any:
+        for target in self.__targets:
+            module = importlib.import_module(target)
+            if hasattr(module, attr):
+                return getattr(module, attr)
+        raise AttributeError(f"module {self.__name__!r} has no attribute {attr!r}")
+
+    def __dir__(self) -> list[str]:
+        names: set[str] = set()
+        for target in self.__targets:
+            names.update(dir(importlib.import_module(target)))
+        return sorted(names)
+
+
+class _AliasLoader(importlib.abc.Loader):
+    def __init__(self, fullname: str, targets: tuple[str, ...]):
+        self.fullname = fullname
+        self.targets = targets
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType:
+        if len(self.targets) == 1:
+            return importlib.import_module(self.targets[0])
+        return _Forward(self.fullname, self.targets)
+
+    def exec_module(self, module: types.ModuleType) -> None:
+        pass
+
+
+class _MovedFinder(importlib.abc.MetaPathFinder):
+    """Import an old ``fieldmap.<old>`` path as the module(s) that replaced it."""
+
+    def find_spec(
+        self, fullname: str, path: Any = None, target: Any = None
+    ) -> importlib.machinery.ModuleSpec | None:
+        head, _, old = fullname.partition(".")
+        if head != "fieldmap" or old not in MOVED:
+            return None
+        targets = moved_targets(old)
+        warnings.warn(
+            f"{fullname} moved to {' and '.join(targets)} in fieldmap 0.2; "
+            "the old path goes in 0.3",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return importlib.machinery.ModuleSpec(fullname, _AliasLoader(fullname, targets))
+
+
+def install_moved_finder() -> None:
+    """Put the finder of old module paths on ``sys.meta_path`` (once; after the path finder)."""
+    if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
+        sys.meta_path.append(_MovedFinder())
