@@ -80,8 +80,8 @@ os.environ.setdefault("MPLBACKEND", "agg")
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
     "gallery_dirs": "gallery",
-    "filename_pattern": r"/(fig|section|table)\w*\.py$",  # every example runs
-    "ignore_pattern": r"(^|/)_\w*\.py$",  # _settings.py: a helper, not an example
+    "filename_pattern": fieldmap_gallery.FILENAME_PATTERN,  # every example runs
+    "ignore_pattern": fieldmap_gallery.IGNORE_PATTERN,  # _settings.py: a helper, not an example
     "image_scrapers": ("fieldmap_gallery.png_scraper",),
     "reset_argv": "fieldmap_gallery.example_argv",
     "within_subsection_order": "FileNameSortKey",  # figures in the paper's order

@@ -17,6 +17,11 @@ from pathlib import Path
 #: Where the examples write their figures during the docs build (inside the build folder).
 OUT = Path(__file__).resolve().parents[1] / "_build" / "gallery_outputs"
 
+#: sphinx-gallery's ``filename_pattern``: every script of examples/ runs in the docs build ...
+FILENAME_PATTERN = r"/(fig|section|table)\w*\.py$"
+#: ... except the helpers (``_settings.py``), which are no examples (``ignore_pattern``).
+IGNORE_PATTERN = r"(^|/)_\w*\.py$"
+
 #: Command-line arguments of the navigation examples in the gallery: the short run of the
 #: tests (60 s at 100 Hz instead of 800 s at 200 Hz), outputs into :data:`OUT`.
 NAV_ARGV = ["--small", "--out", str(OUT)]
