@@ -61,7 +61,9 @@ clean:
 
 ## The documentation: HTML in docs/_build/html (fresh environment, warnings are errors).
 .PHONY: docs
+## The examples run again each time (sphinx-gallery would keep the figures of unchanged scripts).
 docs: install $(VENV)/.docs
+	rm -rf docs/gallery docs/_build/gallery_outputs
 	$(BIN)/python -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
 	@echo "docs: docs/_build/html/index.html"
 

@@ -10,6 +10,7 @@ parser. Both are done by the local extension ``_ext/fieldmap_docs.py``.
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -30,6 +31,7 @@ extensions = [
     "numpydoc",
     "myst_parser",
     "sphinxarg.ext",
+    "sphinx_gallery.gen_gallery",
     "fieldmap_docs",  # _ext/: API lists, CLI parser, docstring escapes
 ]
 
@@ -65,6 +67,32 @@ numpydoc_validation_checks: set[str] = set()
 numpydoc_xref_param_type = False
 nitpicky = False
 
+# -- Gallery (sphinx-gallery) ----------------------------------------------------------------
+# Every script of examples/ runs in this build and is rendered with its figures in gallery/.
+# The scripts save their figures as PNG files (fieldmap.products.io.write_png closes them), so
+# the scraper of _ext/fieldmap_gallery.py collects the files written into FIELDMAP_EXAMPLE_OUT;
+# the navigation examples run short (--small) with their outputs there too. Hooks are named by
+# qualified name, which keeps this configuration picklable (no warning, so -W passes).
+import fieldmap_gallery  # noqa: E402  (docs/_ext, on sys.path above)
+
+os.environ["FIELDMAP_EXAMPLE_OUT"] = str(fieldmap_gallery.OUT)
+os.environ.setdefault("MPLBACKEND", "agg")
+sphinx_gallery_conf = {
+    "examples_dirs": "../examples",
+    "gallery_dirs": "gallery",
+    "filename_pattern": fieldmap_gallery.FILENAME_PATTERN,  # every example runs
+    "ignore_pattern": fieldmap_gallery.IGNORE_PATTERN,  # _settings.py: a helper, not an example
+    "image_scrapers": ("fieldmap_gallery.png_scraper",),
+    "reset_argv": "fieldmap_gallery.example_argv",
+    "within_subsection_order": "FileNameSortKey",  # figures in the paper's order
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "show_memory": False,
+    "plot_gallery": "True",
+    "abort_on_example_error": True,  # a failing example fails the build
+    "write_computation_times": False,  # no sg_execution_times page outside the toctree
+}
+
 # -- Markdown (MyST) -------------------------------------------------------------------------
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
@@ -72,7 +100,7 @@ myst_heading_anchors = 3
 # -- HTML ------------------------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
 html_title = f"fieldmap {version}"
-html_static_path: list[str] = []
+html_static_path: list[str] = []  # README figures in _static/ are copied as images
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,

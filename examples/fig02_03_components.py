@@ -1,4 +1,7 @@
-"""Figs. 2 and 3 of Chen et al. (2022).
+"""Figs. 2 and 3: gravity components at 20 km.
+===========================================
+
+Figs. 2 and 3 of Chen et al. (2022).
 
 Gravity components at 20 km from the model and from the exact normal (ellipsoidal) gravity of WGS84,
 80S-80N on a 1-degree grid.

@@ -1,4 +1,7 @@
-"""Figs. 4, 5 and 6 of Chen et al. (2022).
+"""Figs. 4, 5 and 6: the disturbance at 20 km.
+===========================================
+
+Figs. 4, 5 and 6 of Chen et al. (2022).
 
 Disturbance modulus at 20 km with isolines at 0.02, 0.06 and 0.10 mg, and the areas above 0.06 mg
 and 0.10 mg (in black), 80S-80N, 1-degree grid.

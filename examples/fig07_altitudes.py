@@ -1,4 +1,7 @@
-"""Fig. 7 of Chen et al. (2022).
+"""Fig. 7: the disturbance from 20 to 100 km.
+==========================================
+
+Fig. 7 of Chen et al. (2022).
 
 Disturbance isolines at 50 and 100 km (one colour scale for all heights, and a two-panel figure
 like the paper's), with the altitude sweep 20-100 km (area above thresholds and maximum versus

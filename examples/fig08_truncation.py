@@ -1,4 +1,7 @@
-"""Fig. 8 of Chen et al. (2022).
+"""Fig. 8: J2, J4 and J6 truncation errors.
+========================================
+
+Fig. 8 of Chen et al. (2022).
 
 J2 and J4 (and J6) normal gravitation minus the exact level-ellipsoid gravitation at 20 km (WGS84).
 

@@ -1,4 +1,7 @@
-"""Fig. 10 of Chen et al. (2022).
+"""Fig. 10: the region of the trajectory.
+======================================
+
+Fig. 10 of Chen et al. (2022).
 
 Disturbance at 20 km around the simulated trajectory (100-112E, 18-37N) with isolines at 0.025,
 0.05, 0.075 and 0.10 mg, the paper's trajectory box (103-109E, 20-35N) and the ground track of

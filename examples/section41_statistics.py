@@ -1,4 +1,7 @@
-"""Statistics of §4.1-4.2 of Chen et al. (2022), ours next to the paper's.
+"""Section 4.1: the statistics, ours next to the paper's.
+======================================================
+
+Statistics of §4.1-4.2 of Chen et al. (2022), ours next to the paper's.
 
 Paper: EIGEN-6C4 at degree 2190, WGS84, 80S-80N on 1 degree. Ours: the bundled EIGEN-6S at its
 full degree 240 on the same grid (or the model/degree given in FIELDMAP_EXAMPLE_LMAX).

@@ -75,3 +75,44 @@ def _check_section41_numbers(out):
             frac = 100 * w[mod > 0.05].sum() / w.sum()
             assert abs(ours["area > 0.05 mg at 20 km"] - frac) <= 5e-3 + 1e-9
             assert 0 < frac < 100  # a real threshold split
+
+
+def _gallery_hooks():
+    """docs/_ext/fieldmap_gallery.py: the patterns docs/conf.py gives sphinx-gallery."""
+    import importlib.util
+
+    path = EXAMPLES.parent / "docs" / "_ext" / "fieldmap_gallery.py"
+    spec = importlib.util.spec_from_file_location("fieldmap_gallery", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_example_is_in_the_gallery():
+    """The docs build runs every example, not the helpers, and each has a gallery title.
+
+    sphinx-gallery needs a docstring opening with a title line underlined by ``=``; it runs
+    the files matching ``filename_pattern`` and skips those matching ``ignore_pattern``.
+    """
+    import ast
+
+    hooks = _gallery_hooks()
+    scripts = sorted(EXAMPLES.glob("*.py"))
+    helpers = [p for p in scripts if p.name.startswith("_")]
+    examples = [p for p in scripts if p not in helpers]
+    assert set(SCRIPTS) < {p.name for p in examples}  # the map examples, and the others
+    assert [p.name for p in helpers] == ["_settings.py"]
+    for path in helpers:
+        assert re.search(hooks.IGNORE_PATTERN, str(path)), path.name
+    for path in examples:
+        assert re.search(hooks.FILENAME_PATTERN, str(path)), path.name
+        assert not re.search(hooks.IGNORE_PATTERN, str(path)), path.name
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")), clean=False)
+        title, underline, blank = doc.splitlines()[:3]
+        assert title.strip() and set(underline) == {"="} and len(underline) >= len(title)
+        assert not blank.strip(), path.name
+    assert (
+        hooks.example_argv({}, {"src_file": str(EXAMPLES / "table1_gravity_models.py")})[0]
+        == "--small"
+    )  # the navigation studies run short in the docs build
+    assert hooks.example_argv({}, {"src_file": str(EXAMPLES / "fig08_truncation.py")}) == []

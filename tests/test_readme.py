@@ -1,13 +1,35 @@
-"""The README's Python API block runs as written (its names, keywords and shapes are current)."""
+"""The README and the documentation pages say what is true of the code they describe.
+
+- the README's Python API block and the docs' "Flight study from Python" block run as written;
+- every ``fieldmap.X`` / dotted path named in the README or a docs page is public and imports;
+- the README's quick start is what the Makefile does, and the landing page of the docs includes
+  the README's sections (by its "begin X" / "end X" markers) instead of a copy;
+- the README's links point to files that exist; the README stays a front page (~250 lines).
+"""
 
 import importlib
 import pathlib
 import pkgutil
 import re
 
+import pytest
+
 import fieldmap
 
-README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+# the hand-written pages (docs/api/ is generated from the code, docs/_build and the gallery too)
+PAGES = sorted(
+    p
+    for p in DOCS.rglob("*.md")
+    if not {"_build", "api", "gallery", "generated"} & set(p.relative_to(DOCS).parts)
+)
+TEXTS = [README, *PAGES]
+
+
+def _python_blocks(path: pathlib.Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), re.S)
 
 
 def test_python_api_block_runs():
@@ -23,9 +45,38 @@ def test_python_api_block_runs():
     assert float(env["ds"]["modulus_mg"].max()) > 0
 
 
-def _readme_api_names() -> set[str]:
-    """Top-level names the README calls: ``fieldmap.X`` and those of the "From Python:" lists."""
-    text = README.read_text(encoding="utf-8")
+def test_flight_from_python(capsys):
+    """docs/user_guide/flight_python.md: the public flight-study call, as the page writes it.
+
+    The page's claims are checked too: J2 and J4 add more than the 10 % of the IMU-only error
+    allowed, the full SH model (``sh`` → ``sh240``) less, so it is the recommended model.
+    """
+    page = DOCS / "user_guide" / "flight_python.md"
+    (block,) = _python_blocks(page)
+    env: dict = {}
+    exec(compile(block, str(page), "exec"), env)
+    res, added, imu_only = env["res"], env["added_m"], env["imu_only_m"]
+    assert env["imu_name"] == "navigation"
+    assert 200 < env["flight"].duration < 300  # "about four minutes"
+    assert set(added) == {"j2", "j4", "sh240"}
+    assert 10 < imu_only < 25  # "about 16 m"
+    assert min(added["j2"], added["j4"]) > 0.1 * imu_only > added["sh240"]
+    assert res.summary["recommended_model"] == "sh240"
+    assert res.summary["recommendation"] in capsys.readouterr().out
+    ds = env["ds"]
+    assert {"run", "time", "axis"} <= set(ds.dims)
+    assert ds["position_error"].shape == (ds.sizes["run"], ds.sizes["time"], 3)
+
+
+@pytest.mark.parametrize("path", TEXTS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_python_blocks_compile(path):
+    """Every Python block of the README and the docs pages is valid Python."""
+    for block in _python_blocks(path):
+        compile(block, str(path), "exec")
+
+
+def _api_names(text: str) -> set[str]:
+    """Top-level names a page calls: ``fieldmap.X`` and those of the "From Python:" lists."""
     names = set(re.findall(r"\bfieldmap\.([A-Za-z_]\w*)", text))
     # "From Python: `disturbance_map(..., client=client)` (also `altitude_sweep`, ...)"
     for sentence in re.findall(r"From Python:(.*?)(?:\.\s|$)", text, re.S):
@@ -33,16 +84,18 @@ def _readme_api_names() -> set[str]:
     return names
 
 
-def test_readme_names_are_public():
-    """Every name the README uses from ``fieldmap.`` is in ``fieldmap.__all__`` and importable.
+def test_named_api_is_public():
+    """Every name the README or a docs page uses from ``fieldmap.`` is public and imports.
 
-    Module paths (``fieldmap.nav``, ``fieldmap.units``) and the 0.1 module paths the README names
-    as deprecated are modules, not names; dotted paths such as
-    ``fieldmap.nav.distributed.on_cluster`` must import.
+    A top-level name is in ``fieldmap.__all__`` and is an attribute of the package; a module
+    (``fieldmap.nav``, ``fieldmap.units``) imports; a name of the 0.1 module paths that the pages
+    name as deprecated is in the deprecation map. A dotted path such as
+    ``fieldmap.nav.distributed.on_cluster`` imports as its longest module, then its attributes.
     """
     modules = {m.name for m in pkgutil.iter_modules(fieldmap.__path__)} | {"kernels"}
-    names = _readme_api_names()
-    assert {"disturbance_map", "quantity_map"} <= names, sorted(names)
+    texts = {p: p.read_text(encoding="utf-8") for p in TEXTS}
+    names = set().union(*(_api_names(t) for t in texts.values()))
+    assert {"disturbance_map", "quantity_map", "run_flight", "load_imu"} <= names, sorted(names)
     for name in sorted(names):
         if name.startswith("__"):  # fieldmap.__all__
             continue
@@ -51,10 +104,12 @@ def test_readme_names_are_public():
         if name in modules:
             importlib.import_module(f"fieldmap.{name}")
             continue
-        assert name in fieldmap.__all__, f"README uses fieldmap.{name}, not in fieldmap.__all__"
-        assert callable(getattr(fieldmap, name)) or getattr(fieldmap, name) is not None
-    text = README.read_text(encoding="utf-8")
-    for path in sorted(set(re.findall(r"\bfieldmap(?:\.[A-Za-z_]\w*){2,}", text))):
+        assert name in fieldmap.__all__, f"the docs use fieldmap.{name}, not in fieldmap.__all__"
+        getattr(fieldmap, name)  # listed and there
+    paths = set().union(
+        *(re.findall(r"\bfieldmap(?:\.[A-Za-z_]\w*){2,}", t) for t in texts.values())
+    )
+    for path in sorted(paths):
         parts = path.split(".")
         for cut in range(len(parts), 0, -1):  # the longest importable module, then attributes
             try:
@@ -63,5 +118,56 @@ def test_readme_names_are_public():
             except ModuleNotFoundError:
                 continue
         for attr in parts[cut:]:
+            assert hasattr(obj, attr), f"the docs name {path}: {obj.__name__} has no {attr}"
             obj = getattr(obj, attr)
-        assert obj is not None, path
+
+
+def _section(text: str, name: str) -> str:
+    begin, end = f"<!-- begin {name} -->", f"<!-- end {name} -->"
+    assert text.count(begin) == 1 and text.count(end) == 1, name
+    assert text.index(begin) < text.index(end), name
+    return text[text.index(begin) + len(begin) : text.index(end)]
+
+
+def test_quick_start_is_the_makefile():
+    """The README's two quick-start commands exist, and ``make map`` runs what it says."""
+    quick = _section(README.read_text(encoding="utf-8"), "quick start")
+    lines = re.search(r"```bash\n(.*?)```", quick, re.S).group(1).splitlines()
+    assert [line.split("#")[0].strip() for line in lines] == ["make map", "make test"]
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    said = re.search(r"`make map` runs `(fieldmap map [^`]*)`", quick).group(1)
+    recipe = re.search(r"^map:.*\n\t\$\(BIN\)/(.*)$", makefile, re.M).group(1)
+    assert recipe == said
+    assert re.search(r"^test:.*\n\t\$\(BIN\)/python -m pytest -q$", makefile, re.M)
+
+
+def test_docs_landing_page_includes_the_readme():
+    """docs/index.md includes the README's sections by their markers, and opens on a figure."""
+    index = (DOCS / "index.md").read_text(encoding="utf-8")
+    readme = README.read_text(encoding="utf-8")
+    includes = re.findall(
+        r"```\{include\} \.\./README\.md\n:start-after: <!-- begin (.+?) -->\n"
+        r":end-before: <!-- end \1 -->\n",
+        index,
+    )
+    assert {"intro", "quick start", "example flight"} <= set(includes), includes
+    for name in includes:
+        _section(readme, name)  # the markers are there, once each, in order
+    first = index.split("\n## ")[0]  # before the first section: the title and a figure
+    image = re.search(r"```\{figure\} (\S+)", first).group(1)
+    assert (DOCS / image).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_readme_links_exist():
+    """Every relative link and image of the README points to a file of the repository."""
+    text = README.read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text)
+    local = [t for t in targets if not re.match(r"[a-z]+:", t)]
+    assert any(t.startswith("docs/_static/") for t in local)  # the figures
+    for target in local:
+        assert (ROOT / target).exists(), target
+
+
+def test_readme_is_a_front_page():
+    """The README stays short; the details live in the docs pages it links to."""
+    assert len(README.read_text(encoding="utf-8").splitlines()) <= 250
