@@ -55,13 +55,13 @@ last_timings: dict[str, float] = {}
 
 
 def resolve_device(device: str | None) -> str:
-    """Warp device name; an unknown device is an :class:`InputError` (one-line CLI message)."""
+    """Warp device name; an unknown device is a :class:`fieldmap._warp.DeviceError`.
+
+    A ``DeviceError`` is an :class:`InputError` (one-line CLI message, exit 2).
+    """
     from fieldmap import _warp
 
-    try:
-        return _warp.resolve_device(device)
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
+    return _warp.resolve_device(device)
 
 
 def to_device(a: np.ndarray, dtype, device: str) -> Any:
