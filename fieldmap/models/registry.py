@@ -370,7 +370,7 @@ def kaula_model(
         radius=float(radius),
         C=C,
         S=S,
-        max_degree=lmax,
+        nominal_degree=lmax,
         tide_system="unknown",
         epoch=None,
         source="synthetic",
