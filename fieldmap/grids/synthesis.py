@@ -138,7 +138,7 @@ def _coefficient_store(shape: tuple, written: bool, device: str) -> Any:
 
 def normal_rows(
     grid: GridSpec,
-    ellipsoid: Ellipsoid | None = None,
+    ellipsoid: Ellipsoid | str | None = None,
     normal: str = "exact",
     device: str | None = None,
     *,
@@ -165,7 +165,7 @@ def normal_rows(
     numpy.ndarray
         Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
     """
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
     from fieldmap.field.normal import NORMAL_MODELS, normal_model
 
     if order is not None:
@@ -175,7 +175,7 @@ def normal_rows(
     if key == "groves-j2":
         raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
     device = resolve_device(device)
-    ellipsoid = ellipsoid or WGS84
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     nh, nlat, _ = grid.shape
     lat = np.tile(np.radians(grid.lat), nh)
     h = np.repeat(grid.heights, nlat)
@@ -183,15 +183,15 @@ def normal_rows(
     return gamma.numpy().reshape(nh, nlat, 3)
 
 
-def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.ndarray:
+def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | str | None = None) -> np.ndarray:
     """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
 
     Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
     d = (N + h) cos(phi) the distance from the rotation axis.
     """
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
 
-    ell = ellipsoid or WGS84
+    ell = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     phi = np.radians(grid.lat)[None, :]
     h = grid.heights[:, None]
     nrad = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(phi) ** 2)
@@ -206,7 +206,7 @@ def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.n
 def synthesize(
     model: SHModel,
     grid: GridSpec,
-    ellipsoid: Ellipsoid | None = None,
+    ellipsoid: Ellipsoid | str | None = None,
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
@@ -254,7 +254,7 @@ def synthesize(
     from tqdm.auto import tqdm
 
     from fieldmap import _warp
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
     from fieldmap.field.sh import MAX_DEGREE_GRID, MAX_DEGREE_POINTS, kernel_model
     from fieldmap.grids.tables import grid_tables, grid_tables_x
     from fieldmap.kernels import grid as kgrid
@@ -262,7 +262,7 @@ def synthesize(
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
-    ellipsoid = ellipsoid or WGS84
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     device = resolve_device(device)
     xr = model.lmax > MAX_DEGREE_GRID if xrange is None else bool(xrange)
     if model.lmax > MAX_DEGREE_POINTS:
