@@ -54,6 +54,18 @@ SMALL_LAUNCH = 4096
 last_timings: dict[str, float] = {}
 
 
+def simd_flag(device: str) -> int:
+    """Return the ``simd`` argument of the grid kernels for ``device``: 1 on the CPU, else 0.
+
+    With 1 the kernels run the clang SIMD snippets, CPU code only
+    (:func:`fieldmap.kernels.grid_simd.column8_simd`,
+    :func:`fieldmap.kernels.grid_xrange.column8x_simd`): a CUDA build compiles them to a trap,
+    so a CUDA launch must pass 0 and runs the plain Warp recursion (``column8``, ``column8x``),
+    the same operations per lane.
+    """
+    return int(str(device) == "cpu")
+
+
 def resolve_device(device: str | None) -> str:
     """Warp device name; an unknown device is a :class:`fieldmap._warp.DeviceError`.
 
@@ -277,7 +289,7 @@ def synthesize(
         head = [kernel_model(model, device)]
         tabs = grid_tables(model, head[0], device) if symmetric else ()
         kern = kgrid.row_fourier8_kernel
-    simd = int(device == "cpu")  # explicit SIMD vectors on the CPU (kernels.grid.column8_simd)
+    simd = simd_flag(device)
     nm = model.lmax + 1
     nh, nlat, nlon = grid.shape
     nitems = nh * nlat
