@@ -332,6 +332,17 @@ def gravity_anomaly(
     SphericalAnomaly
         ``(anomaly, xi_arcsec, eta_arcsec)``, each of shape ``broadcast(lat, lon, h).shape``:
         Δg (``units``), ξ north (arcsec), η east (arcsec).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fieldmap.field.geodesy import gravity_anomaly
+    >>> dg, xi, eta = gravity_anomaly([45.0], [10.0], [0.0], lmax=36)
+    >>> np.round(dg, 2), np.round(xi, 2)  # mGal, arcsec
+    (array([17.03]), array([-1.02]))
+    >>> a = gravity_anomaly([45.0], [10.0], [0.0], lmax=36, units="m/s2")
+    >>> a.units, np.round(a.anomaly * 1e5, 2)
+    ('m/s2', array([17.03]))
     """
     from fieldmap.field.normal import normal_gravity
     from fieldmap.units import get_unit
@@ -399,6 +410,13 @@ def geoid_height(
     -------
     numpy.ndarray
         Broadcast shape of ``latitude``, ``longitude``. Units: m.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fieldmap.field.geodesy import geoid_height
+    >>> np.round(geoid_height([45.0, -30.0], [10.0, 150.0], lmax=36), 2)  # m
+    array([48.87, 32.27])
     """
     from fieldmap.field.normal import somigliana
 

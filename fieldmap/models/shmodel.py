@@ -113,6 +113,13 @@ class SHModel:
         ------
         fieldmap.errors.InputError
             ``lmax`` outside 0..``self.lmax``.
+
+        Examples
+        --------
+        >>> from fieldmap.models.registry import load_model
+        >>> low = load_model("eigen-6s").truncated(12)
+        >>> low.lmax, low.max_degree, low.nominal_degree, low.C.shape
+        (12, 12, 240, (13, 13))
         """
         from fieldmap.errors import InputError
 
