@@ -18,7 +18,7 @@ also says whether each backend gives the same bits for the rows transformed toge
 by one.
 
 Prints, from one run: (1) the transforms alone at the sizes of 1°, 0.5° and 0.1° grids
-(median of ``--repeat`` rounds, the backends in turn in each round), whether each backend
+(median CPU time of ``--repeat`` rounds, the backends in turn in each round), whether each backend
 gives pocketfft's bits and its largest difference; (2) the whole ``synthesize`` of EIGEN-6S
 degree 240 on the 0.5° grid 80S-80N at 20 km (321 x 720, disturbance), the longitude part
 (``last_timings["longitude"]``) and the total, each backend in turn, with ratios to
@@ -76,27 +76,32 @@ def _available():
 
 
 def _rounds(fns: dict, repeat: int, inner: int = 1) -> dict[str, float]:
-    """Median seconds per call of each ``fns[name]()``, the functions in turn in each round."""
+    """Median CPU seconds per call of each ``fns[name]()``, the functions in turn in each round.
+
+    CPU time of this process (one thread here): what the other work of a shared machine
+    changes least.
+    """
     times: dict[str, list[float]] = {k: [] for k in fns}
     for _ in range(repeat):
         for name, fn in fns.items():
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             for _ in range(inner):
                 fn()
-            times[name].append((time.perf_counter() - t0) / inner)
+            times[name].append((time.process_time() - t0) / inner)
     return {k: statistics.median(v) for k, v in times.items()}
 
 
 def transforms(backends: dict, repeat: int) -> None:
     """Case 1: the transforms alone, rows of the sizes the grids use."""
     rng = np.random.default_rng(0)
-    print("\n1. Inverse real FFTs alone (one thread), median per call of a chunk of rows")
+    print("\n1. Inverse real FFTs alone (one thread), median CPU time per call of a chunk of rows")
     print(
         f"{'L':>6} {'rows':>5} "
         + " ".join(f"{k:>16}" for k in backends)
         + "  bits vs pocketfft; rows one by one = together"
     )
-    for nper, rows in [(360, 129), (720, 65), (3600, 17)]:
+    # the chunks of longitude._fft_rows (CHUNK_BYTES of half spectra), odd counts of rows
+    for nper, rows in [(360, 181), (720, 91), (3600, 19)]:
         nh = nper // 2 + 1
         H = rng.standard_normal((rows, nh)) + 1j * rng.standard_normal((rows, nh))
         outs = {k: np.empty((rows, nper)) for k in backends}
