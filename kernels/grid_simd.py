@@ -10,6 +10,9 @@ same operations in the same order per lane:
 - :func:`column8`, plain Warp (any device, CUDA included);
 - :func:`column8_simd`, a ``wp.func_native`` C++ snippet with clang's 8-lane vector extension
   (the CPU; FMA contraction on inside it only), which keeps each sum in one vector register.
+  A kernel picks it at run time (``simd``, :func:`fieldmap.grids.synthesis.simd_flag`); in a
+  CUDA build it is a trap (the kernel stops: never zeros), and a host compiler other than
+  clang refuses it (``#error``).
 
 Both return the sums split by the parity of n - m (the host mirrors a row at -t with them,
 P̄nm(-t) = (-1)^(n+m) P̄nm(t)). :func:`zonal_north8` sums the m = 1 column's zonal north term,
@@ -149,9 +152,16 @@ def column8(
 
 
 _COLUMN8_SIMD = r"""
-#if defined(__CUDA_ARCH__) || !defined(__clang__)
-    // CUDA runs the Warp version (column8); this one is never called there
-    return wp::mat_t<16, 8, wp::float64>();
+#if defined(__CUDA_ARCH__)
+    // A CUDA build compiles this function (the kernel picks it at run time, ``simd``) but
+    // must never run it: the host passes simd = 0 for a CUDA device
+    // (fieldmap.grids.synthesis.simd_flag) and the kernel runs column8, the plain Warp
+    // recursion. Reached anyway, the kernel stops here (a failed launch), never returns zeros.
+    printf("fieldmap: column8_simd (CPU SIMD) called on a CUDA device: launch with simd = 0\n");
+    __trap();
+    return wp::mat_t<16, 8, wp::float64>();  // not reached
+#elif !defined(__clang__)
+#error "fieldmap column8_simd needs clang's vector extension (Warp's CPU compiler)"
 #else
 #pragma clang fp contract(fast)
     typedef double v8 __attribute__((ext_vector_type(8)));
@@ -204,6 +214,9 @@ def column8_simd(
     The same operations in the same order per lane, written so that the compiler keeps every
     sum in one vector register (Warp's vector types leave the choice to LLVM's SLP vectoriser,
     which pairs the wrong operands here). FMA contraction is on inside this function only.
+    CPU only: a trap in a CUDA build (the host passes ``simd = 0`` there, see
+    :func:`fieldmap.grids.synthesis.simd_flag`), an ``#error`` for a host compiler other than
+    clang.
     """
     ...
 

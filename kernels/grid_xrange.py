@@ -171,9 +171,16 @@ def column8x(
 
 
 _COLUMN8X_SIMD = r"""
-#if defined(__CUDA_ARCH__) || !defined(__clang__)
-    // CUDA runs the Warp version (column8x); this one is never called there
-    return wp::mat_t<16, 8, wp::float64>();
+#if defined(__CUDA_ARCH__)
+    // A CUDA build compiles this function (the kernel picks it at run time, ``simd``) but
+    // must never run it: the host passes simd = 0 for a CUDA device
+    // (fieldmap.grids.synthesis.simd_flag) and the kernel runs column8x, the plain Warp
+    // recursion. Reached anyway, the kernel stops here (a failed launch), never returns zeros.
+    printf("fieldmap: column8x_simd (CPU SIMD) called on a CUDA device: launch with simd = 0\n");
+    __trap();
+    return wp::mat_t<16, 8, wp::float64>();  // not reached
+#elif !defined(__clang__)
+#error "fieldmap column8x_simd needs clang's vector extension (Warp's CPU compiler)"
 #else
 #pragma clang fp contract(off)
     typedef double v8 __attribute__((ext_vector_type(8)));
@@ -260,7 +267,9 @@ def column8x_simd(
     """:func:`column8x` on the CPU with explicit 8-lane SIMD vectors and explicit FMAs.
 
     The masked (slow) loop and the plain loop perform the same FMAs on a lane in range, so a
-    lane's bits do not depend on when its group leaves the slow loop.
+    lane's bits do not depend on when its group leaves the slow loop. CPU only: a trap in a
+    CUDA build, an ``#error`` for a host compiler other than clang (as
+    :func:`fieldmap.kernels.grid_simd.column8_simd`).
     """
     ...
 

@@ -223,3 +223,43 @@ def test_table_with_nan_values_is_named(tmp_path):
     path.write_bytes(bytes(raw))
     with pytest.raises(InputError, match=rf"^{path}: compensation table: values not finite"):
         table_model.load_table(path)
+
+
+@pytest.mark.parametrize(
+    "argv, unknown",
+    [
+        # --height is a prefix of --height-km: once taken as 10,000 km
+        (["map", "--height", "10000", "--step-deg", "5"], "--height"),
+        # --speed is a prefix of --speed-mps
+        (["navsim", "--speed", "200"], "--speed"),
+        (["point", "--quant", "gravity"], "--quant"),
+        (["imu", "allan", "--dur", "10"], "--dur"),
+    ],
+)
+def test_an_abbreviated_option_is_refused(argv, unknown, capsys, tmp_path, monkeypatch):
+    """A prefix of an option is an unknown option: one line naming it, exit 2, nothing written."""
+    with pytest.raises(SystemExit) as exc:
+        _run(argv, capsys, tmp_path, monkeypatch)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unrecognized arguments" in err, err
+    assert f"{unknown} " in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def _all_parsers(parser):
+    import argparse
+
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in {id(p): p for p in action.choices.values()}.values():
+                yield from _all_parsers(sub)
+
+
+def test_every_parser_refuses_abbreviations():
+    """``allow_abbrev`` is False on the top parser and on every sub-command, nested ones too."""
+    parsers = list(_all_parsers(cli.build_parser()))
+    names = {p.prog for p in parsers}
+    assert {"fieldmap", "fieldmap map", "fieldmap navsim", "fieldmap imu allan"} <= names
+    assert [p.prog for p in parsers if p.allow_abbrev] == []

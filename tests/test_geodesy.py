@@ -398,3 +398,26 @@ def test_gravity_anomaly_returns_one_unit_per_field(eigen6s):
         stacked = np.asarray(res)
     assert stacked.shape == (2, 2, 3)
     np.testing.assert_array_equal(stacked[..., 2], eta)
+
+
+def test_gravity_anomaly_units(eigen6s):
+    """``units=`` as in ``disturbance``: mGal by default (same bits), mg and m/s² on request."""
+    from fieldmap.units import MG, MGAL
+
+    lat, lon, h = np.array([10.0, -45.0, 80.0]), np.array([5.0, 120.0, -60.0]), 1000.0
+    ref = gd.gravity_anomaly(lat, lon, h, model=eigen6s, lmax=60)
+    assert ref.units == "mGal"
+    same = gd.gravity_anomaly(lat, lon, h, model=eigen6s, lmax=60, units="MGAL")
+    assert same.units == "mGal"
+    for got, want in zip(same, ref):
+        np.testing.assert_array_equal(got, want)
+    for name, size in (("mg", MG), ("m/s2", 1.0), ("m s-2", 1.0)):
+        a = gd.gravity_anomaly(lat, lon, h, model=eigen6s, lmax=60, units=name)
+        assert a.units == ("mg" if name == "mg" else "m/s2")
+        np.testing.assert_allclose(a.anomaly, ref.anomaly * MGAL / size, rtol=1e-15, atol=0)
+        np.testing.assert_allclose(a.anomaly_mgal, ref.anomaly, rtol=1e-15, atol=0)
+        np.testing.assert_array_equal(a.xi_arcsec, ref.xi_arcsec)  # ξ, η stay in arcsec
+        np.testing.assert_array_equal(a.eta_arcsec, ref.eta_arcsec)
+        assert a._replace(xi_arcsec=a.eta_arcsec).units == a.units
+    with pytest.raises(InputError, match="units must be one of"):
+        gd.gravity_anomaly(lat, lon, h, model=eigen6s, lmax=60, units="gal")

@@ -63,7 +63,7 @@ def test_truncation_and_lmax_errors(eigen6s_path):
     """Truncation while reading equals slicing; lmax outside the file is an InputError."""
     full = read_icgem(eigen6s_path)
     part = read_icgem(eigen6s_path, lmax=30)
-    assert part.lmax == 30 and part.max_degree == 240
+    assert part.lmax == part.max_degree == 30 and part.nominal_degree == 240
     np.testing.assert_array_equal(part.C, full.C[:31, :31])
     np.testing.assert_array_equal(part.S, full.S[:31, :31])
     for bad in (241, -1):

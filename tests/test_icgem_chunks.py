@@ -101,7 +101,16 @@ def _read(path, chunk, monkeypatch, **kw):
         return type(exc).__name__, str(exc)
     arrays = [None if a is None else (a.shape, a.tobytes()) for a in (m.C, m.S)]
     arrays += [None if a is None else (a.shape, a.tobytes()) for a in (m.sigma_c, m.sigma_s)]
-    meta = (m.name, m.gm, m.radius, m.max_degree, m.tide_system, repr(m.epoch), m.header)
+    meta = (
+        m.name,
+        m.gm,
+        m.radius,
+        m.max_degree,
+        m.nominal_degree,
+        m.tide_system,
+        repr(m.epoch),
+        m.header,
+    )
     return meta, arrays
 
 

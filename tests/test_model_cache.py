@@ -72,9 +72,16 @@ def test_second_read_comes_from_the_cache(root, gfc):
     assert reader.calls == 1 and isinstance(b.C, np.memmap)
     np.testing.assert_array_equal(b.C, model.C)
     np.testing.assert_array_equal(b.S, a.S)
-    assert (b.gm, b.radius, b.name, b.max_degree) == (a.gm, a.radius, a.name, a.max_degree)
+    assert (b.gm, b.radius, b.name, b.max_degree, b.nominal_degree) == (
+        a.gm,
+        a.radius,
+        a.name,
+        a.max_degree,
+        a.nominal_degree,
+    )
     part = cache.cached_read([str(path)], "icgem-test", 10, reader)
-    assert reader.calls == 1 and part.lmax == 10
+    assert reader.calls == 1 and part.lmax == part.max_degree == 10
+    assert part.nominal_degree == a.nominal_degree
     np.testing.assert_array_equal(part.C, model.C[:11, :11])
     assert len(_entries(root)) == 1
 

@@ -72,3 +72,29 @@ def test_kaula_model_rule_and_determinism():
     assert abs(ratio.mean() - 1.0) < 0.02 and ratio.min() > 0.8 and ratio.max() < 1.2
     with pytest.raises(InputError):
         kaula_model(-1)
+
+
+def test_truncated_model_says_its_degree():
+    """``truncated(36)`` holds degree 36 and says so; the file's degree stays nominal_degree."""
+    full = load_model("eigen-6s")
+    t = full.truncated(36)
+    assert (t.lmax, t.max_degree, t.nominal_degree) == (36, 36, 240)
+    assert (full.lmax, full.max_degree, full.nominal_degree) == (240, 240, 240)
+    assert t.truncated(10).max_degree == 10
+    # read with lmax: the same as a truncation
+    part = load_model("eigen-6s", lmax=12)
+    assert (part.max_degree, part.nominal_degree) == (12, 240)
+
+
+def test_model_repr_is_one_short_line():
+    """Name, degree, GM, a, tide system and epoch; no coefficient arrays."""
+    m = load_model("eigen-6s").truncated(36)
+    text = repr(m)
+    assert "\n" not in text and len(text) < 160, text
+    assert text == (
+        "SHModel('EIGEN-6S', degree=36 (of 240), GM=3.986004415e+14 m3/s2, a=6378136.46 m, "
+        "tide_system=tide_free, epoch=2005.0000)"
+    )
+    k = kaula_model(8, seed=1)
+    assert repr(k).startswith(f"SHModel({k.name!r}, degree=8, ") and "epoch=static" in repr(k)
+    assert "tide_system" not in repr(k)  # unknown: not shown

@@ -43,7 +43,14 @@ class _Parser(argparse.ArgumentParser):
 
     An option that takes a value may be given once only (a second ``--height-km`` would
     silently replace the first): :func:`build_parser` applies :func:`_once` to every option.
+    Abbreviations are refused (``allow_abbrev=False``): ``--height`` is no ``--height-km``
+    (10,000 km for a user who meant 10,000 m) but an unknown option. Sub-parsers are made of
+    this class too (``add_subparsers`` takes the parent's class).
     """
+
+    def __init__(self, *args, **kwargs):
+        kwargs["allow_abbrev"] = False
+        super().__init__(*args, **kwargs)
 
     def error(self, message):  # noqa: D102 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
@@ -246,11 +253,6 @@ def missing_optional(exc: BaseException) -> str | None:
     return f"{module} is not installed: pip install 'fieldmap[{extra}]'"
 
 
-def _device_error(exc) -> bool:
-    mod = sys.modules.get("fieldmap._warp")
-    return mod is not None and isinstance(exc, mod.DeviceError)
-
-
 def _one_line(text) -> str:
     return " ".join(str(text).split())
 
@@ -307,9 +309,6 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
-        if _device_error(exc):
-            print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
-            return 2
         missing = missing_optional(exc)
         if missing is not None:
             print(f"{prefix}: error: {missing}", file=sys.stderr)

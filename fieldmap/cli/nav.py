@@ -80,7 +80,7 @@ def _check_args(args, notes: list[str]):
 
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
-    from fieldmap._warp import DeviceError, resolve_device
+    from fieldmap._warp import resolve_device
     from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import sample_count
     from fieldmap.nav.scenario import output_steps
@@ -136,10 +136,7 @@ def _check_args(args, notes: list[str]):
         args, STUDIES if args.study == "all" else (args.study,), models, nav
     )
     check_out_dir(args.out)
-    try:
-        device = resolve_device(args.device)
-    except DeviceError as exc:
-        raise InputError(str(exc)) from None
+    device = resolve_device(args.device)
     return device, models, nav
 
 
@@ -155,7 +152,7 @@ def is_flight(args) -> bool:
 
 def _check_flight_args(args, model, models):
     """Validate the flight study's options; build the trajectory (its errors name the line)."""
-    from fieldmap._warp import DeviceError, resolve_device
+    from fieldmap._warp import resolve_device
     from fieldmap.nav.imu import MAX_SAMPLES
     from fieldmap.nav.imu_specs import PRESETS, load_imu
     from fieldmap.products.io import check_out_dir
@@ -200,10 +197,7 @@ def _check_flight_args(args, model, models):
                 f"IMU samples, more than {MAX_SAMPLES}: lower --rate or --block-s"
             )
     check_out_dir(args.out)
-    try:
-        device = resolve_device(args.device)
-    except DeviceError as exc:
-        raise InputError(str(exc)) from None
+    device = resolve_device(args.device)
     return device, models, (flights, imu, model)
 
 

@@ -203,17 +203,13 @@ def evaluate_points(
         potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap.cli.startup import load_model_early
-    from fieldmap.errors import InputError
     from fieldmap.products.table_model import table_path
 
     table = table_path(model) is not None
     early = load_model_early(model, lmax, epoch, model_options, quantity, device, table)
     from fieldmap import _warp
 
-    try:
-        device = _warp.resolve_device(device)
-    except _warp.DeviceError as exc:
-        raise InputError(str(exc)) from None
+    device = _warp.resolve_device(device)
     if quantity == "normal":
         from fieldmap.field.normal import normal_gravity
 
@@ -433,7 +429,7 @@ def _format(row, decimals: int) -> str:
 
 
 def _main(argv=None) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point
-    parser = argparse.ArgumentParser(prog="fieldmap")
+    parser = argparse.ArgumentParser(prog="fieldmap", allow_abbrev=False)
     register(parser.add_subparsers(dest="command"))
     args = parser.parse_args(argv)
     return args.func(args)

@@ -23,7 +23,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.commission import MGAL, disturbance_basis
-from fieldmap.field.ellipsoid import Ellipsoid
+from fieldmap.field.ellipsoid import Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
 
 #: map quantity -> (point quantity, variables)
@@ -35,7 +35,7 @@ GRID_QUANTITIES = {
 
 
 def grid_commission(
-    model: SHModel, grid, quantity: str, *, ellipsoid: Ellipsoid
+    model: SHModel, grid, quantity: str, *, ellipsoid: Ellipsoid | str
 ) -> dict[str, np.ndarray]:
     """σ of δg (east, north, up; mGal), Δg (mGal) or N (m, at h = 0) on every node of ``grid``.
 
@@ -49,6 +49,7 @@ def grid_commission(
             f"model {model.name} carries no coefficient standard deviations (sigma C, sigma S):"
             " the commission error needs an ICGEM file with sigma columns"
         )
+    ellipsoid = get_ellipsoid(ellipsoid)
     what, names = GRID_QUANTITIES[quantity]
     heights = np.zeros(1) if what == "geoid" else np.asarray(grid.heights, dtype=np.float64)
     lam = np.radians(np.asarray(grid.lon, dtype=np.float64))

@@ -190,26 +190,57 @@ def disturbing_potential(
     return t
 
 
-class SphericalAnomaly(NamedTuple):
-    """What :func:`gravity_anomaly` returns: three arrays of the points' shape, one unit each.
-
-    Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names. The ``(..., 3)`` array
-    of fieldmap 0.1 (mGal and arcsec mixed) is still what an ndarray-style key (``r[..., 0]``)
-    and ``np.asarray(r)`` give, with a :class:`DeprecationWarning`; an int or slice indexes
-    the tuple.
-    """
-
-    #: Δg, gravity anomaly (spherical approximation). Units: mGal.
-    anomaly_mgal: np.ndarray
+class _AnomalyFields(NamedTuple):
+    #: Δg, gravity anomaly (spherical approximation). Units: :attr:`SphericalAnomaly.units`.
+    anomaly: np.ndarray
     #: ξ, northerly deflection of the vertical. Units: arcsec.
     xi_arcsec: np.ndarray
     #: η, easterly deflection of the vertical. Units: arcsec.
     eta_arcsec: np.ndarray
 
+
+class SphericalAnomaly(_AnomalyFields):
+    """What :func:`gravity_anomaly` returns: three arrays of the points' shape, one unit each.
+
+    Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names: ``anomaly`` (Δg in
+    :attr:`units`, the ``units=`` of the call, mGal by default), ``xi_arcsec``, ``eta_arcsec``;
+    ``anomaly_mgal`` is Δg in mGal whatever the unit asked. The ``(..., 3)`` array of
+    fieldmap 0.1 (mGal and arcsec mixed) is still what an ndarray-style key (``r[..., 0]``)
+    and ``np.asarray(r)`` give, with a :class:`DeprecationWarning`; an int or slice indexes
+    the tuple.
+    """
+
+    #: Canonical name of the unit of ``anomaly`` (:mod:`fieldmap.units`).
+    units: str
+
+    def __new__(cls, anomaly, xi_arcsec, eta_arcsec, units: str = "mGal"):
+        """Make the tuple; ``units``: unit of ``anomaly`` (:func:`fieldmap.units.get_unit`)."""
+        from fieldmap.units import get_unit
+
+        self = super().__new__(cls, anomaly, xi_arcsec, eta_arcsec)
+        self.units = get_unit(units).name
+        return self
+
+    def __getnewargs__(self):
+        return (*self, self.units)
+
+    def _replace(self, **changes) -> SphericalAnomaly:
+        units = changes.pop("units", self.units)
+        return SphericalAnomaly(*super()._replace(**changes), units=units)
+
+    @property
+    def anomaly_mgal(self) -> np.ndarray:
+        """Δg in mGal (``anomaly`` itself when the unit asked is mGal)."""
+        from fieldmap.units import from_si, get_unit
+
+        if self.units == "mGal":
+            return self.anomaly
+        return from_si(self.anomaly * get_unit(self.units).si, "mGal")
+
     def _stacked(self) -> np.ndarray:
         warnings.warn(
-            "gravity_anomaly() returns a SphericalAnomaly (anomaly_mgal, xi_arcsec, eta_arcsec); "
-            "indexing it as one (..., 3) array is deprecated",
+            f"gravity_anomaly() returns a SphericalAnomaly (anomaly [{self.units}], xi_arcsec, "
+            "eta_arcsec); indexing it as one (..., 3) array is deprecated",
             DeprecationWarning,
             stacklevel=3,
         )
@@ -224,7 +255,7 @@ class SphericalAnomaly(NamedTuple):
         return self._stacked() if dtype is None else self._stacked().astype(dtype)
 
 
-def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
+def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma, units="mGal"):
     """Spherical-approximation anomaly and deflection from T and its ECEF gradient.
 
     Heiskanen & Moritz (1967) eq. 2-151c for Δg; ξ, η from the horizontal gradient in the
@@ -243,12 +274,17 @@ def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
         Longitude. Units: degrees.
     gamma : numpy.ndarray
         Normal gravity magnitude at the point. Units: m/s².
+    units : str or fieldmap.units.Unit
+        Unit of Δg (:func:`fieldmap.units.get_unit`; default mGal).
 
     Returns
     -------
     numpy.ndarray
-        Shape ``t.shape + (3,)``: Δg (mGal), ξ (arcsec), η (arcsec).
+        Shape ``t.shape + (3,)``: Δg (``units``), ξ (arcsec), η (arcsec).
     """
+    from fieldmap.units import from_si, get_unit
+
+    unit = get_unit(units)
     x, y, z = xyz
     p = np.hypot(x, y)
     r = np.hypot(p, z)
@@ -262,7 +298,9 @@ def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma):
     dg = -d_up - 2.0 * t / r
     xi = -d_north / gamma
     eta = -d_east / gamma
-    return np.stack([dg * MGAL, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
+    # mGal as x 1e5 (the bits of fieldmap 0.1), any other unit as fieldmap.units.from_si
+    dg = dg * MGAL if unit.name == "mGal" else from_si(dg, unit)
+    return np.stack([dg, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
 
 
 def gravity_anomaly(
@@ -276,20 +314,40 @@ def gravity_anomaly(
     degree0: bool = False,
     device: str | None = None,
     epoch=None,
+    units: str = "mGal",
 ) -> SphericalAnomaly:
     """Gravity anomaly Δg and deflection of the vertical ξ, η (spherical approximation).
 
     As GeographicLib's ``Gravity -A`` (``GravityModel::SphericalAnomaly``); definitions in the
-    module docstring. Parameters as :func:`disturbing_potential`.
+    module docstring. Parameters as :func:`disturbing_potential`, and:
+
+    Parameters
+    ----------
+    units : {"mGal", "mg", "m/s2"}
+        Unit of Δg, as ``units=`` of :func:`fieldmap.field.gravity.disturbance` (any case,
+        aliases of :mod:`fieldmap.units`). Default mGal. ξ and η are in arcsec.
 
     Returns
     -------
     SphericalAnomaly
-        ``(anomaly_mgal, xi_arcsec, eta_arcsec)``, each of shape ``broadcast(lat, lon, h).shape``:
-        Δg (mGal), ξ north (arcsec), η east (arcsec).
+        ``(anomaly, xi_arcsec, eta_arcsec)``, each of shape ``broadcast(lat, lon, h).shape``:
+        Δg (``units``), ξ north (arcsec), η east (arcsec).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fieldmap.field.geodesy import gravity_anomaly
+    >>> dg, xi, eta = gravity_anomaly([45.0], [10.0], [0.0], lmax=36)
+    >>> np.round(dg, 2), np.round(xi, 2)  # mGal, arcsec
+    (array([17.03]), array([-1.02]))
+    >>> a = gravity_anomaly([45.0], [10.0], [0.0], lmax=36, units="m/s2")
+    >>> a.units, np.round(a.anomaly * 1e5, 2)
+    ('m/s2', array([17.03]))
     """
     from fieldmap.field.normal import normal_gravity
+    from fieldmap.units import get_unit
 
+    unit = get_unit(units)
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, height)
     m = _resolve(model, lmax, epoch)
@@ -297,8 +355,8 @@ def gravity_anomaly(
     gam = normal_gravity(
         lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
     )
-    a = anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1))
-    return SphericalAnomaly(a[..., 0], a[..., 1], a[..., 2])
+    a = anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1), unit)
+    return SphericalAnomaly(a[..., 0], a[..., 1], a[..., 2], units=unit.name)
 
 
 def correction_height(
@@ -352,6 +410,13 @@ def geoid_height(
     -------
     numpy.ndarray
         Broadcast shape of ``latitude``, ``longitude``. Units: m.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fieldmap.field.geodesy import geoid_height
+    >>> np.round(geoid_height([45.0, -30.0], [10.0, 150.0], lmax=36), 2)  # m
+    array([48.87, 32.27])
     """
     from fieldmap.field.normal import somigliana
 

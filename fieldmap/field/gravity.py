@@ -143,6 +143,18 @@ def gravity(
     -------
     numpy.ndarray
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
+
+    Examples
+    --------
+    East, north, up at 45° N, 10° E, 1 km, EIGEN-6S to degree 36:
+
+    >>> import numpy as np
+    >>> from fieldmap.field.gravity import gravity
+    >>> g = gravity(45.0, 10.0, 1000.0, lmax=36)
+    >>> g.shape
+    (3,)
+    >>> round(float(g[2]), 4)  # up; m/s²
+    -9.8034
     """
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     g, (x, y, z) = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
@@ -202,6 +214,21 @@ def disturbance(
     -------
     numpy.ndarray
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: ``units``.
+
+    Examples
+    --------
+    δg at two points on the ellipsoid (EIGEN-6S to degree 36), in mGal and in mg:
+
+    >>> import numpy as np
+    >>> from fieldmap.field.gravity import disturbance
+    >>> d = disturbance([45.0, -30.0], [10.0, 150.0], 0.0, lmax=36)
+    >>> d.shape
+    (2, 3)
+    >>> np.round(d, 1)  # east, north, up; mGal
+    array([[ -1.3,   5. , -32.1],
+           [  8.3,  26.1, -28.8]])
+    >>> np.round(disturbance(45.0, 10.0, 0.0, lmax=36, units="mg"), 4)
+    array([-0.0013,  0.0051, -0.0327])
     """
     from fieldmap.field.normal import normal_gravity
     from fieldmap.units import get_unit

@@ -183,6 +183,17 @@ def normal_gravity(
     -------
     numpy.ndarray
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
+
+    Examples
+    --------
+    The up component of normal gravity (WGS84, exact level ellipsoid) at the equator and the
+    pole, on the ellipsoid: Somigliana's γ_e and γ_p.
+
+    >>> import numpy as np
+    >>> from fieldmap.field.normal import normal_gravity
+    >>> g = normal_gravity([0.0, 90.0], 0.0, 0.0)
+    >>> np.round(g[:, 2], 6)  # m/s²
+    array([-9.780325, -9.832185])
     """
     key = normal_model(normal)
     fkey = _check_frame(frame)

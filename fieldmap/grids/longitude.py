@@ -160,8 +160,8 @@ def map_rows(fn, nrows: int, min_rows: int = 16) -> list:
 
     The parts (:data:`PARTS_PER_THREAD` per CPU thread of :func:`fieldmap._warp.cpu_workers`,
     at least ``min_rows`` rows each; they depend only on ``nrows`` and the thread count) are
-    taken in turn by this thread and a small pool: for NumPy and pocketfft work on independent
-    rows, which release the GIL.
+    taken in turn by this thread and a small pool: for NumPy work (FFTs included) on
+    independent rows, which releases the GIL.
     """
     nthreads = _threads()
     nparts = max(1, min(nthreads * PARTS_PER_THREAD, nrows // max(1, min_rows)))
@@ -279,20 +279,25 @@ def _workspace(rows: int, nh: int, nz: int) -> tuple[np.ndarray, np.ndarray]:
     return H, buf[rows * nh * 16 : nbytes].view(np.float64)
 
 
+#: NumPy's ``fft.irfft`` writes into ``out=`` from NumPy 2.0 on (its pocketfft C++ code).
+IRFFT_OUT = int(np.__version__.split(".")[0]) >= 2
+
+
 def _irfft(H: np.ndarray, n: int, out: np.ndarray) -> None:
-    """``out[...] = scipy.fft.irfft(H, n, norm="forward")``, written into ``out``.
+    """``out[...] = irfft(H, n, norm="forward")`` along the last axis, written into ``out``.
 
-    SciPy's pocketfft binding writes into ``out`` (no fresh result array); without it (a SciPy
-    whose private binding differs), the public ``irfft`` and a copy give the same values.
+    Public APIs only: ``numpy.fft.irfft(..., out=)`` (NumPy >= 2.0), else ``scipy.fft.irfft``
+    and a copy. Both run pocketfft's C++ code, as SciPy's private binding that fieldmap 0.2
+    called: the same bits (``benchmarks/bench_fft.py`` measured these against it and ducc0's
+    ``c2r``, whose bits depend on the other rows of the call), and a row's bits do not depend
+    on the rows transformed with it, so not on the threads or chunks.
     """
-    try:
-        from scipy.fft._pocketfft import pypocketfft
-
-        pypocketfft.c2r(H, (H.ndim - 1,), n, False, 0, out, 1)
-    except (ImportError, AttributeError, TypeError, RuntimeError):  # pragma: no cover
+    if IRFFT_OUT:
+        np.fft.irfft(H, n=n, axis=-1, norm="forward", out=out)
+    else:
         import scipy.fft
 
-        out[...] = scipy.fft.irfft(H, n=n, axis=-1, norm="forward")
+        out[...] = scipy.fft.irfft(H, n=n, axis=-1, norm="forward", workers=1)
 
 
 def _direct_sums(W: np.ndarray, lon_deg: np.ndarray, device: str) -> np.ndarray:

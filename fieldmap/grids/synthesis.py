@@ -54,14 +54,26 @@ SMALL_LAUNCH = 4096
 last_timings: dict[str, float] = {}
 
 
+def simd_flag(device: str) -> int:
+    """Return the ``simd`` argument of the grid kernels for ``device``: 1 on the CPU, else 0.
+
+    With 1 the kernels run the clang SIMD snippets, CPU code only
+    (:func:`fieldmap.kernels.grid_simd.column8_simd`,
+    :func:`fieldmap.kernels.grid_xrange.column8x_simd`): a CUDA build compiles them to a trap,
+    so a CUDA launch must pass 0 and runs the plain Warp recursion (``column8``, ``column8x``),
+    the same operations per lane.
+    """
+    return int(str(device) == "cpu")
+
+
 def resolve_device(device: str | None) -> str:
-    """Warp device name; an unknown device is an :class:`InputError` (one-line CLI message)."""
+    """Warp device name; an unknown device is a :class:`fieldmap._warp.DeviceError`.
+
+    A ``DeviceError`` is an :class:`InputError` (one-line CLI message, exit 2).
+    """
     from fieldmap import _warp
 
-    try:
-        return _warp.resolve_device(device)
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
+    return _warp.resolve_device(device)
 
 
 def to_device(a: np.ndarray, dtype, device: str) -> Any:
@@ -138,7 +150,7 @@ def _coefficient_store(shape: tuple, written: bool, device: str) -> Any:
 
 def normal_rows(
     grid: GridSpec,
-    ellipsoid: Ellipsoid | None = None,
+    ellipsoid: Ellipsoid | str | None = None,
     normal: str = "exact",
     device: str | None = None,
     *,
@@ -165,7 +177,7 @@ def normal_rows(
     numpy.ndarray
         Shape (nh, nlat, 3): east (zero), north, up. Units: m/s².
     """
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
     from fieldmap.field.normal import NORMAL_MODELS, normal_model
 
     if order is not None:
@@ -175,7 +187,7 @@ def normal_rows(
     if key == "groves-j2":
         raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
     device = resolve_device(device)
-    ellipsoid = ellipsoid or WGS84
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     nh, nlat, _ = grid.shape
     lat = np.tile(np.radians(grid.lat), nh)
     h = np.repeat(grid.heights, nlat)
@@ -183,15 +195,15 @@ def normal_rows(
     return gamma.numpy().reshape(nh, nlat, 3)
 
 
-def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.ndarray:
+def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | str | None = None) -> np.ndarray:
     """Centrifugal acceleration omega^2 * p_perp in geodetic ENU per (height, row).
 
     Units: m/s². Shape (nh, nlat, 3). North = -omega^2 d sin(phi), up = omega^2 d cos(phi), with
     d = (N + h) cos(phi) the distance from the rotation axis.
     """
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
 
-    ell = ellipsoid or WGS84
+    ell = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     phi = np.radians(grid.lat)[None, :]
     h = grid.heights[:, None]
     nrad = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(phi) ** 2)
@@ -206,7 +218,7 @@ def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | None = None) -> np.n
 def synthesize(
     model: SHModel,
     grid: GridSpec,
-    ellipsoid: Ellipsoid | None = None,
+    ellipsoid: Ellipsoid | str | None = None,
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
@@ -254,7 +266,7 @@ def synthesize(
     from tqdm.auto import tqdm
 
     from fieldmap import _warp
-    from fieldmap.field.ellipsoid import WGS84
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
     from fieldmap.field.sh import MAX_DEGREE_GRID, MAX_DEGREE_POINTS, kernel_model
     from fieldmap.grids.tables import grid_tables, grid_tables_x
     from fieldmap.kernels import grid as kgrid
@@ -262,7 +274,7 @@ def synthesize(
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
-    ellipsoid = ellipsoid or WGS84
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     device = resolve_device(device)
     xr = model.lmax > MAX_DEGREE_GRID if xrange is None else bool(xrange)
     if model.lmax > MAX_DEGREE_POINTS:
@@ -277,7 +289,7 @@ def synthesize(
         head = [kernel_model(model, device)]
         tabs = grid_tables(model, head[0], device) if symmetric else ()
         kern = kgrid.row_fourier8_kernel
-    simd = int(device == "cpu")  # explicit SIMD vectors on the CPU (kernels.grid.column8_simd)
+    simd = simd_flag(device)
     nm = model.lmax + 1
     nh, nlat, nlon = grid.shape
     nitems = nh * nlat

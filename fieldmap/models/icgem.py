@@ -364,7 +364,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         radius=radius,
         C=C,
         S=S,
-        max_degree=nmax,
+        nominal_degree=nmax,
         tide_system=(header.get("tide_system", "unknown").split() or ["unknown"])[0].lower(),
         epoch=eval_epoch,
         source=path,

@@ -212,7 +212,7 @@ def read_nga(
         radius=used_radius,
         C=np.ascontiguousarray(C[: lmax + 1, : lmax + 1]),
         S=np.ascontiguousarray(S[: lmax + 1, : lmax + 1]),
-        max_degree=N,
+        nominal_degree=N,
         tide_system=tide,
         epoch=None,
         source=path,

@@ -198,6 +198,15 @@ def load_model(
         degree, bad epoch or one given for a static model, ``model_dir`` that does nothing.
     ModelFileError
         Malformed model file.
+
+    Examples
+    --------
+    >>> from fieldmap.models.registry import load_model
+    >>> model = load_model("eigen-6s", lmax=36)
+    >>> model.lmax, model.nominal_degree
+    (36, 240)
+    >>> model  # doctest: +ELLIPSIS
+    SHModel('EIGEN-6S', degree=36 (of 240), GM=3.986004415e+14 m3/s2, a=6378136.46 m, ...)
     """
     lmax = as_degree(lmax)
     if name_or_path is None:
@@ -370,7 +379,7 @@ def kaula_model(
         radius=float(radius),
         C=C,
         S=S,
-        max_degree=lmax,
+        nominal_degree=lmax,
         tide_system="unknown",
         epoch=None,
         source="synthetic",

@@ -27,8 +27,9 @@ class SHModel:
         Units: m. The model's reference ``radius``.
     C, S : numpy.ndarray
         Shape ``(lmax + 1, lmax + 1)``, indexed ``[n, m]``, zero for m > n; fully normalised.
-    max_degree : int
-        Maximum degree stored in the file (``max_degree`` header key).
+    nominal_degree : int
+        Degree the model file declares (its ``max_degree`` header key), kept through
+        truncation. The degree held is :attr:`lmax` (also :attr:`max_degree`).
     tide_system : str
         ``tide_free``, ``zero_tide``, ``mean_tide`` or ``unknown``.
     epoch : float or None
@@ -47,7 +48,7 @@ class SHModel:
     radius: float
     C: np.ndarray
     S: np.ndarray
-    max_degree: int
+    nominal_degree: int
     tide_system: str = "unknown"
     epoch: float | None = None
     source: str = ""
@@ -72,8 +73,54 @@ class SHModel:
         """Degree of the coefficients held (after any truncation)."""
         return self.C.shape[0] - 1
 
+    @property
+    def max_degree(self) -> int:
+        """Maximum degree of the coefficients held: :attr:`lmax` (after any truncation).
+
+        The degree of the model file is :attr:`nominal_degree`.
+        """
+        return self.lmax
+
+    def __repr__(self) -> str:
+        """One line: name, degree held (and the file's, when truncated), GM, a, tide, epoch."""
+        degree = f"{self.lmax}"
+        if self.nominal_degree != self.lmax:
+            degree += f" (of {self.nominal_degree})"
+        epoch = "static" if self.epoch is None else f"{self.epoch:.4f}"
+        tide = "" if self.tide_system == "unknown" else f", tide_system={self.tide_system}"
+        return (
+            f"SHModel({self.name!r}, degree={degree}, GM={self.gm:.12g} m3/s2, "
+            f"a={self.radius:.12g} m{tide}, epoch={epoch})"
+        )
+
     def truncated(self, lmax: int) -> "SHModel":
-        """Return a copy holding degrees 0..lmax only."""
+        """Return a copy holding degrees 0..lmax only.
+
+        The copy's :attr:`lmax` and :attr:`max_degree` are ``lmax``; its
+        :attr:`nominal_degree` stays the file's.
+
+        Parameters
+        ----------
+        lmax : int
+            Highest degree kept, within 0..``self.lmax``.
+
+        Returns
+        -------
+        SHModel
+            A copy with C, S (and sigma_c, sigma_s) cut to degrees 0..lmax.
+
+        Raises
+        ------
+        fieldmap.errors.InputError
+            ``lmax`` outside 0..``self.lmax``.
+
+        Examples
+        --------
+        >>> from fieldmap.models.registry import load_model
+        >>> low = load_model("eigen-6s").truncated(12)
+        >>> low.lmax, low.max_degree, low.nominal_degree, low.C.shape
+        (12, 12, 240, (13, 13))
+        """
         from fieldmap.errors import InputError
 
         lmax = int(lmax)
