@@ -179,7 +179,7 @@ def test_header_repeating_a_column_refused(tmp_path, capsys):
 
 def test_repeated_columns_that_are_not_read_are_fine(tmp_path):
     """Only a column read is ambiguous: ``note,note`` flies; ``lat_deg,LAT_DEG`` does not."""
-    from fieldmap.nav.readers import read_track
+    from fieldmap.nav.logs.read import read_track
 
     f = _flight(tmp_path / "notes.csv", extra="note|a")
     text = f.read_text().splitlines()
@@ -247,7 +247,7 @@ def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
 def test_library_messages_name_its_keywords(tmp_path):
     """From Python the same refusals name the keywords of the function called."""
     from fieldmap.errors import InputError
-    from fieldmap.nav.flightlog import load_flight
+    from fieldmap.nav.logs.load import load_flight
 
     t = np.arange(121.0)
     t[[1, 2]] = t[[2, 1]]
@@ -287,9 +287,10 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
 
 def test_reader_notes_name_the_cli_options(tmp_path):
     """An IGC note said "give height_ref='msl'"; from the CLI it names --height-ref msl."""
-    from fieldmap.cli.navflight import SPELLING
     from fieldmap.nav.readers import read_track
     from fieldmap.nav.spelling import spelled
+
+    from fieldmap.cli.navflight import SPELLING
 
     rows = ["AXXX001", "HFDTE010124"]
     rows += [
