@@ -252,7 +252,7 @@ def _device_error(exc) -> bool:
 
 
 def _worded(exc: BaseException, command: str) -> str:
-    """The message of ``exc``; one about a keyword argument names the command's options."""
+    """Return the message of ``exc``, naming the command's options where it is about a keyword."""
     from fieldmap.cli.params import options_of, reword
     from fieldmap.errors import InputError
 

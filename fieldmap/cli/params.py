@@ -13,13 +13,15 @@ makes of it:
 
 - ``(name)`` after the value it sets: ``(--option)``, or left out where no option sets it;
 - an *advice*, a clause that starts with ``pass``, ``give`` or ``raise`` after ``; ``, ``: ``,
-  ``? `` or ``, or `` and runs to the next such separator, an unmatched ``)`` or the end
+  ``? `` or ``, or `` and runs to the next ``; `` or ``, or ``, an unmatched ``)`` or the end
   (``pass name=value ...``, ``give ... name ...``): ``pass name=value`` becomes the whole advice
   of :data:`ADVICE` for that setting, else ``give --option value``; a bare ``name`` becomes
   ``--option``; where the command has no option for a keyword it names, the clause is left out;
 - ``name`` anywhere else (e.g. ``max_gap_s must be a positive number``): ``--option``; without
-  one the Python name stays (bare names are reworded only where they cannot be plain words:
-  names with an underscore, and the error's own ``param``).
+  one the Python name stays.
+
+Outside ``pass name=value`` a keyword is found only where it cannot be a plain word: a name
+with an underscore, or the error's own ``param`` (``columns``).
 
 A command offers a subset of the options: ``fieldmap navsim --trajectory`` all of them
 (:func:`options_of`), ``fieldmap table --corridor`` none (it reads the flight with the
@@ -54,6 +56,8 @@ OPTIONS: dict[str, str | None] = {
     "max_jerk": None,
     "threshold": None,
     "dt_out": None,
+    "model": None,  # the truth model's geoid makes MSL heights ellipsoidal
+    "ellipsoid": None,
 }
 #: ``"name=value"`` (the value as ``repr`` writes it) -> the whole advice on the command line,
 #: for settings made by a switch rather than by an option with a value
@@ -76,8 +80,14 @@ def options_of(command: str) -> dict[str, str | None]:
     return dict(OPTIONS) if command == "navsim" else {}
 
 
-def _names() -> str:
-    return "|".join(sorted(map(re.escape, OPTIONS), key=len, reverse=True))
+def _names(param: str | None = None, *, all_names: bool = False) -> str:
+    """Regex of the keywords to find: all (``pass name=value``), else those no plain word.
+
+    A keyword with an underscore cannot be a plain word; one without (``columns``, ``smooth``)
+    is found bare only as the error's own ``param``.
+    """
+    names = [n for n in OPTIONS if all_names or "_" in n or n == param]
+    return "|".join(sorted(map(re.escape, names), key=len, reverse=True)) or "(?!)"
 
 
 def _bare(name: str) -> re.Pattern[str]:
@@ -101,9 +111,8 @@ def _clause_end(text: str, start: int) -> int:
     return i
 
 
-def _advice(clause: str, options: Mapping[str, str | None], advice: Mapping[str, str]):
-    """The clause with its keywords as options, or None where one has no option."""
-    names = _names()
+def _advice(clause: str, param, options: Mapping[str, str | None], advice: Mapping[str, str]):
+    """Return the clause with its keywords as options; None where one has no option."""
 
     def setting(m: re.Match[str]) -> str:
         name, value = m.group(1), m.group(2)
@@ -122,8 +131,8 @@ def _advice(clause: str, options: Mapping[str, str | None], advice: Mapping[str,
         return option
 
     try:
-        clause = re.sub(rf"\bpass ({names})=({_VALUE})", setting, clause)
-        return re.sub(rf"(?<![-\w])(?:{names})(?![\w=])", bare, clause)
+        clause = re.sub(rf"\bpass ({_names(all_names=True)})=({_VALUE})", setting, clause)
+        return re.sub(rf"(?<![-\w])(?:{_names(param)})(?![\w=])", bare, clause)
     except LookupError:
         return None
 
@@ -158,7 +167,7 @@ def reword(
         if m.start() < pos:
             continue
         end = _clause_end(text, m.end())
-        new = _advice(text[m.end() : end], options, advice)
+        new = _advice(text[m.end() : end], param, options, advice)
         out.append(text[pos : m.start()])
         if new is not None:
             out.append(text[m.start() : m.end()] + new)
@@ -170,7 +179,7 @@ def reword(
         option = options.get(m.group(1))
         return f" ({option})" if option else ""
 
-    text = re.sub(rf" \(({_names()})\)", label, text)
+    text = re.sub(rf" \(({_names(param)})\)", label, text)
     # bare names elsewhere: those that cannot be plain words, and the error's own keyword
     for name in OPTIONS:
         option = options.get(name)

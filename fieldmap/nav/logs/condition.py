@@ -136,8 +136,9 @@ def condition(
     ----------
     track : RawTrack
         Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
-        ellipsoid) and ``lines``, and a ``source`` string (:class:`~fieldmap.nav.logs.track.RawTrack`);
-        its ``notes``, ``height_ref`` and ``t0_utc`` go into the report.
+        ellipsoid) and ``lines``, and a ``source`` string
+        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
+        ``t0_utc`` go into the report.
     position_noise_m : float or (float, float), optional
         Position noise σ (m): one value, or (horizontal, per axis; vertical). Default:
         estimated from the data.

@@ -236,7 +236,7 @@ def read_track(
     model=None,
     ellipsoid: Ellipsoid = WGS84,
 ) -> RawTrack:
-    """Read a flight log as it comes into a :class:`~fieldmap.nav.logs.track.RawTrack` (no smoothing, no reordering).
+    """Read a flight log as it comes into a :class:`RawTrack` (no smoothing, no reordering).
 
     Parameters
     ----------
@@ -311,7 +311,7 @@ def read_track(
 
 
 def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
-    """Check, convert units and the height reference: the :class:`~fieldmap.nav.logs.track.RawTrack`."""
+    """Check, convert units and the height reference: the :class:`RawTrack`."""
     ref = height_ref or p.height_ref
     aname, alt = p.alts.get(ref, p.alts[p.height_ref])
     notes = list(p.notes) + ([p.ref_note] if p.ref_note and height_ref is None else [])
