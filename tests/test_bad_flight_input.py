@@ -232,6 +232,22 @@ def test_corridor_heights_are_checked_on_the_path_navsim_flies(tmp_path, capsys,
         cli_table._check_corridor_heights(f, [1000.0, 1400.0])
 
 
+def test_corridor_flight_refusal_advises_no_option_table_lacks(tmp_path, capsys):
+    """``table --corridor`` reads its flight with the defaults: no advice to set a keyword."""
+    k = np.arange(12.0)
+    f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
+    argv = ["table", "--lmax", "20", "--corridor", str(f), "--heights-km", "0,5"]
+    _refused(
+        [*argv, "--max-error-mgal", "5"],
+        tmp_path,
+        capsys,
+        "sparse.csv lines 2..13",
+        "without a gap over 60 s or a jump",
+        "the samples are 100 s apart",
+        absent=("max_gap_s", "--max-gap-s", "raise"),
+    )
+
+
 # ------------------------------------------------------------------------------------ 4.2
 def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
     """The advice was "pass reorder=True to sort the log": there is no such option."""
