@@ -106,28 +106,24 @@ def load_flight(
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
     try:
-        try:
-            cf = condition(
-                track,
-                position_noise_m=position_noise_m,
-                max_gap_s=max_gap_s,
-                airborne_only=airborne_only,
-                smooth=smooth,
-                reorder=smooth,  # unconditioned, times going back are refused (today's rule)
-                ellipsoid=ellipsoid,
-            )
-        except InputError as exc:
-            if exc.param != "reorder":
-                raise
-            # reorder= is set from smooth=: the caller's keyword that sorts is smooth=
-            text = str(exc).replace("pass reorder=True", "pass smooth=True")
-            raise InputError(text, param="smooth") from None
+        cf = condition(
+            track,
+            position_noise_m=position_noise_m,
+            max_gap_s=max_gap_s,
+            airborne_only=airborne_only,
+            smooth=smooth,
+            reorder=smooth,  # unconditioned, times going back are refused (today's rule)
+            ellipsoid=ellipsoid,
+        )
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
-        if track.time_guess is None:
+        text, param = str(exc), exc.param
+        if param == "reorder":  # reorder= is set from smooth=: the caller's keyword that sorts
+            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
+        if track.time_guess is not None:
+            # the guess of the time units may be what made the log fail: say it was a guess
+            text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"
+            param = param or "time_format"
+        if text == str(exc):
             raise
-        # the guess of the time units may be what made the log fail: say it was a guess
-        raise InputError(
-            f"{exc}; {track.time_guess}: pass time_format='s' if they are seconds",
-            param=exc.param or "time_format",
-        ) from None
+        raise InputError(text, param=param) from None
