@@ -118,6 +118,22 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "cli_nav": "cli.nav",
     "cli_point": "cli.point",
     "verify": "cli.verify",
+    # fieldmap 0.2: the flight logs, one module per step (fieldmap.nav.logs)
+    "nav.readers": ("nav.logs.read", "nav.logs.track"),
+    "nav.readers_parsed": ("nav.logs.track", "nav.logs.read", "nav.logs.gnss"),
+    "nav.readers_tables": "nav.logs.read",
+    "nav.readers_gnss": "nav.logs.gnss",
+    "nav.readers_formats": ("nav.logs.read", "nav.logs.gnss", "nav.logs.track"),
+    "nav.readers_heights": "nav.logs.read",
+    "nav.conditioning": ("nav.logs.condition", "nav.logs.report"),
+    "nav.conditioning_fit": "nav.logs.fit",
+    "nav.conditioning_stages": "nav.logs.condition",
+    "nav.conditioning_steps": "nav.logs.condition",
+    "nav.conditioning_report": "nav.logs.report",
+    "nav.flightlog": "nav.logs.load",
+    # the context variable of error wording is gone: errors carry their keyword (param=), and
+    # the command line rewords them from one table
+    "nav.spelling": "cli.params",
 }
 
 

@@ -179,7 +179,7 @@ def test_header_repeating_a_column_refused(tmp_path, capsys):
 
 def test_repeated_columns_that_are_not_read_are_fine(tmp_path):
     """Only a column read is ambiguous: ``note,note`` flies; ``lat_deg,LAT_DEG`` does not."""
-    from fieldmap.nav.readers import read_track
+    from fieldmap.nav.logs.read import read_track
 
     f = _flight(tmp_path / "notes.csv", extra="note|a")
     text = f.read_text().splitlines()
@@ -232,6 +232,22 @@ def test_corridor_heights_are_checked_on_the_path_navsim_flies(tmp_path, capsys,
         cli_table._check_corridor_heights(f, [1000.0, 1400.0])
 
 
+def test_corridor_flight_refusal_advises_no_option_table_lacks(tmp_path, capsys):
+    """``table --corridor`` reads its flight with the defaults: no advice to set a keyword."""
+    k = np.arange(12.0)
+    f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
+    argv = ["table", "--lmax", "20", "--corridor", str(f), "--heights-km", "0,5"]
+    _refused(
+        [*argv, "--max-error-mgal", "5"],
+        tmp_path,
+        capsys,
+        "sparse.csv lines 2..13",
+        "without a gap over 60 s or a jump",
+        "the samples are 100 s apart",
+        absent=("max_gap_s", "--max-gap-s", "raise"),
+    )
+
+
 # ------------------------------------------------------------------------------------ 4.2
 def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
     """The advice was "pass reorder=True to sort the log": there is no such option."""
@@ -247,7 +263,7 @@ def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
 def test_library_messages_name_its_keywords(tmp_path):
     """From Python the same refusals name the keywords of the function called."""
     from fieldmap.errors import InputError
-    from fieldmap.nav.flightlog import load_flight
+    from fieldmap.nav.logs.load import load_flight
 
     t = np.arange(121.0)
     t[[1, 2]] = t[[2, 1]]
@@ -287,9 +303,8 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
 
 def test_reader_notes_name_the_cli_options(tmp_path):
     """An IGC note said "give height_ref='msl'"; from the CLI it names --height-ref msl."""
-    from fieldmap.cli.navflight import SPELLING
-    from fieldmap.nav.readers import read_track
-    from fieldmap.nav.spelling import spelled
+    from fieldmap.cli.params import options_of, reword
+    from fieldmap.nav.logs.read import read_track
 
     rows = ["AXXX001", "HFDTE010124"]
     rows += [
@@ -298,10 +313,11 @@ def test_reader_notes_name_the_cli_options(tmp_path):
     igc = tmp_path / "f.igc"
     igc.write_text("\n".join(rows) + "\n")
     python = " ".join(read_track(igc).notes)
-    with spelled(SPELLING):
-        cli = " ".join(read_track(igc).notes)
+    cli = " ".join(reword(note, options=options_of("navsim")) for note in read_track(igc).notes)
+    table = " ".join(reword(note, options=options_of("table")) for note in read_track(igc).notes)
     assert "pass height_ref='msl'" in python
     assert "give --height-ref msl" in cli and "height_ref" not in cli
+    assert table.endswith("no HFALG header)") and "height_ref" not in table
 
 
 # ------------------------------------------------------------------------------------ 4.5

@@ -1,4 +1,4 @@
-"""Conditioning of raw flight logs (fieldmap.nav.conditioning): outliers, noise, gaps, ground.
+"""Conditioning of raw flight logs (fieldmap.nav.logs.condition): outliers, noise, gaps, ground.
 
 The synthetic airliner here is built independently of the implementation: its own WGS84
 geodesy, its own dead reckoning and its own true kinematics (finite differences of a dense
@@ -18,8 +18,10 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav.conditioning import condition, condition_segments, plot_conditioning
 from fieldmap.nav.flight import FlightTrajectory
+from fieldmap.nav.logs.condition import condition, condition_segments
+from fieldmap.nav.logs.read import read_track
+from fieldmap.nav.logs.report import plot_conditioning
 
 A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
 E2 = F_WGS * (2.0 - F_WGS)
@@ -29,7 +31,7 @@ G = 9.80665
 
 @dataclass(frozen=True)
 class Track:
-    """Stand-in with the fields of fieldmap.nav.readers.RawTrack."""
+    """Stand-in with the fields of fieldmap.nav.logs.track.RawTrack."""
 
     t: np.ndarray
     lat: np.ndarray
@@ -375,15 +377,10 @@ def test_traffic_samples(path):
 
 def test_flight_files_in_tests_data():
     folder = Path(__file__).parent / "data" / "flights"
-    files = sorted(folder.glob("*.csv.gz")) if folder.is_dir() else []
-    if not files:
-        pytest.skip("no real flight logs in tests/data/flights")
-    readers = pytest.importorskip("fieldmap.nav.readers")
-    read = getattr(readers, "read_track", None) or getattr(readers, "read_raw_track", None)
-    if read is None:
-        pytest.skip("fieldmap.nav.readers has no track reader yet")
+    files = sorted(folder.glob("*.csv.gz"))
+    assert files, f"no real flight logs in {folder}: they ship with the tests"
     for f in files:
-        cf = condition(read(f))
+        cf = condition(read_track(f))
         assert cf.report["kinematics"]["peak_acceleration_g"] < 3.0, f
         assert np.all(np.isfinite(cf.samples.lat)) and np.all(np.isfinite(cf.samples.h))
         FlightTrajectory(cf.samples)

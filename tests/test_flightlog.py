@@ -16,7 +16,7 @@ import pytest
 from fieldmap.cli import main
 from fieldmap.nav import flightsim
 from fieldmap.nav.flight import FlightTrajectory, geodetic_state, route_flight
-from fieldmap.nav.flightlog import load_flight
+from fieldmap.nav.logs.load import load_flight
 
 DATA = Path(__file__).parent / "data" / "flights"
 ROUTE = "46.0,7.0,9000;46.6,7.9,10000;47.0,9.0,10000"
@@ -89,6 +89,11 @@ def test_real_adsb_logs_through_the_cli(tmp_path, capsys, name):
     doc = json.loads((out / "navsim_flight.json").read_text())
     kin = doc["conditioning"]["kinematics"]
     assert kin["peak_acceleration_g"] < 3.0  # an airliner's, not the noise's
+    # the readers' notes name the options of the command line, not Python keywords
+    notes = " ".join(doc["conditioning"]["notes"])
+    assert "height_ref" not in notes and "height_ref" not in printed
+    if "geoaltitude: ADS-B geometric altitude" in notes:
+        assert "give --height-ref ellipsoid" in notes and "give --height-ref ellipsoid" in printed
     rms = doc["models"]["j4"]["final_horizontal_error_m"]["rms"]
     assert rms is not None and np.isfinite(rms)
     assert (out / "navsim_flight_conditioning.png").is_file()

@@ -1,4 +1,4 @@
-"""Flight logs as they come (fieldmap.nav.readers): CSV layouts, GPX, NMEA 0183, IGC, tables.
+"""Flight logs as they come (fieldmap.nav.logs.read): CSV layouts, GPX, NMEA 0183, IGC, tables.
 
 One synthetic flight (a great circle from 46.5° N 7° E on azimuth 60°, 230 m/s, climbing at
 10 m/s to 11 km, 1 Hz for 30 minutes, across midnight UTC) is written by each test in one
@@ -15,7 +15,8 @@ import pytest
 
 import fieldmap
 from fieldmap.errors import InputError
-from fieldmap.nav.readers import R_ISA, RawTrack, parse_columns, read_track
+from fieldmap.nav.logs.read import R_ISA, parse_columns, read_track
+from fieldmap.nav.logs.track import RawTrack
 
 T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
 FT = 0.3048

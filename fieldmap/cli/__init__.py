@@ -253,6 +253,16 @@ def missing_optional(exc: BaseException) -> str | None:
     return f"{module} is not installed: pip install 'fieldmap[{extra}]'"
 
 
+def _worded(exc: BaseException, command: str) -> str:
+    """Return the message of ``exc``, naming the command's options where it is about a keyword."""
+    from fieldmap.cli.params import options_of, reword
+    from fieldmap.errors import InputError
+
+    if isinstance(exc, InputError) and exc.param is not None:
+        return reword(str(exc), exc.param, options_of(command))
+    return str(exc)
+
+
 def _one_line(text) -> str:
     return " ".join(str(text).split())
 
@@ -288,7 +298,7 @@ def main(argv: list[str] | None = None) -> int:
         config.get()  # the FIELDMAP_* variables, read once: a bad value is bad input (exit 2)
         return int(args.func(args) or 0)
     except FieldmapError as exc:
-        print(f"{prefix}: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"{prefix}: error: {_one_line(_worded(exc, args.command))}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. ``fieldmap point < pts | head``: stop quietly
         _silence_stdout()

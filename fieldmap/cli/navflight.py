@@ -1,12 +1,13 @@
 """``fieldmap navsim --trajectory FILE [FILE ...]`` / ``--route``: the flight study of your flight.
 
-Flight logs are read as they come (:func:`fieldmap.nav.flightlog.load_flight`: CSV with any
+Flight logs are read as they come (:func:`fieldmap.nav.logs.load.load_flight`: CSV with any
 column names, ADS-B exports, GPX, NMEA, IGC; MSL or pressure heights), conditioned (outliers,
 gaps, ground, smoothing; ``--no-smooth`` for clean, simulated files) and flown: one summary table,
 and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` and the fit
 figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
 are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
-the kinematics that were flown.
+the kinematics that were flown. Its notes, like the messages of the readers and the
+conditioning, name the options here (:func:`fieldmap.cli.params.reword`).
 """
 
 from __future__ import annotations
@@ -31,13 +32,6 @@ LOG_ONLY = {
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
 CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground")}
-#: how the messages of the readers and the conditioning name options here: keyword -> option,
-#: "keyword=value" -> the whole advice (:func:`fieldmap.nav.spelling.spelled`)
-SPELLING = {
-    **{k: v for k, v in LOG_ONLY.items() if k not in ("keep_ground", "no_smooth")},
-    "airborne_only=False": "give --keep-ground",
-    "smooth=True": "leave out --no-smooth",
-}
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
     "gravity_rate_hz": "--gravity-rate-hz",
@@ -135,13 +129,14 @@ def flights(args, model) -> list:
     """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly.
 
     The conditioning options are refused (one line) where no flight is conditioned: with
-    ``--no-smooth``, and when every file is flown as recorded. The readers' and the
-    conditioning's messages name the options here (:data:`SPELLING`).
+    ``--no-smooth``, and when every file is flown as recorded. The notes of the conditioning
+    name the options here (:func:`fieldmap.cli.params.reword`; its errors are reworded where
+    they are reported, :func:`fieldmap.cli.main`).
     """
     from fieldmap.cli import given
+    from fieldmap.cli.params import reword
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flightlog import load_flight
-    from fieldmap.nav.spelling import spelled
+    from fieldmap.nav.logs.load import load_flight
 
     if args.route is not None:
         for dest, option in LOG_ONLY.items():
@@ -157,26 +152,27 @@ def flights(args, model) -> list:
                 )
     noise = _noise(args.position_noise_m)
     out, names = [], set()
-    with spelled(SPELLING):
-        for path in args.trajectory:
-            traj, cf = load_flight(
-                path,
-                columns=args.columns,
-                alt_units=args.alt_units,
-                height_ref=args.height_ref,
-                time_format=args.time_format,
-                model=model,
-                smooth=not args.no_smooth,
-                position_noise_m=noise,
-                max_gap_s=args.max_gap_s,
-                airborne_only=not args.keep_ground,
-            )
-            name = Path(path).name.split(".")[0] or "flight"
-            base, k = name, 2
-            while name in names:
-                name, k = f"{base}_{k}", k + 1
-            names.add(name)
-            out.append((name, traj, cf))
+    for path in args.trajectory:
+        traj, cf = load_flight(
+            path,
+            columns=args.columns,
+            alt_units=args.alt_units,
+            height_ref=args.height_ref,
+            time_format=args.time_format,
+            model=model,
+            smooth=not args.no_smooth,
+            position_noise_m=noise,
+            max_gap_s=args.max_gap_s,
+            airborne_only=not args.keep_ground,
+        )
+        if cf is not None:
+            cf.report["notes"] = [reword(note) for note in cf.report["notes"]]
+        name = Path(path).name.split(".")[0] or "flight"
+        base, k = name, 2
+        while name in names:
+            name, k = f"{base}_{k}", k + 1
+        names.add(name)
+        out.append((name, traj, cf))
     _refuse_unconditioned(args, out)
     return out
 
@@ -254,7 +250,7 @@ def run(args, device, models, flights_, imu, model, client=None) -> int:
             prefix = f"navsim_flight_{name}" if several else "navsim_flight"
             write_flight_outputs(res, batch, grid, prefix=prefix)
             if cf is not None:
-                from fieldmap.nav.conditioning import plot_conditioning
+                from fieldmap.nav.logs.report import plot_conditioning
 
                 batch.png(plot_conditioning(cf), f"{prefix}_conditioning.png")
     for name, res, _, _ in results:

@@ -106,8 +106,8 @@ def _check_corridor_heights(flight, heights_m) -> None:
     import numpy as np
 
     from fieldmap.errors import InputError
-    from fieldmap.nav.flightlog import load_flight
     from fieldmap.nav.flightsim import TABLE_HEIGHT_MARGIN as margin
+    from fieldmap.nav.logs.load import load_flight
 
     traj, _ = load_flight(flight)
     t = np.unique(np.r_[np.arange(0.0, traj.duration, 1.0), traj.duration])
@@ -154,12 +154,11 @@ def run_table(args) -> int:
         raise InputError(f"--lmax must be >= 0, got {args.lmax}")
     opts = model_options(args)
     if args.corridor is not None:
-        from fieldmap.nav.spelling import spelled
-
+        # the flight is read with the defaults: the readers' advice is left out where reported
+        # (table has none of their options; fieldmap.cli.params.options_of)
         width = 50.0 if args.width_km is None else args.width_km
-        with spelled({}):  # the reader's advice names no Python keyword: table has no such option
-            region = corridor_region(args.corridor, width, args.region)
-            _check_corridor_heights(args.corridor, metres)
+        region = corridor_region(args.corridor, width, args.region)
+        _check_corridor_heights(args.corridor, metres)
     else:
         region = api_call("--region", check_region, args.region)
     check_out_dir(args.out)

@@ -198,7 +198,7 @@ class FlightTrajectory(Trajectory):
 
 def _speed(s: FlightSamples) -> float:
     """Median ground speed between samples (m/s; on a sphere of 6371 km)."""
-    from fieldmap.nav.readers_heights import speeds
+    from fieldmap.nav.logs.read import speeds
 
     return float(np.median(speeds(s.lat, s.lon, s.t)))
 

@@ -74,7 +74,7 @@ def corridor_region(flight, width_km: float, region=None):
 
     With ``region`` too, the intersection of both (refused when empty).
     """
-    from fieldmap.nav.readers import read_track
+    from fieldmap.nav.logs.read import read_track
 
     width = float(width_km)
     if not math.isfinite(width) or width < 0:

@@ -33,7 +33,7 @@ METHOD = (
 
 @dataclass
 class ConditionedFlight:
-    """Result of :func:`condition`.
+    """Result of :func:`~fieldmap.nav.logs.condition.condition`.
 
     Attributes
     ----------

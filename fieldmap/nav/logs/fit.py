@@ -1,6 +1,6 @@
 r"""Numerical parts of flight-log conditioning: robust trends, noise, the penalised spline.
 
-Used by :mod:`fieldmap.nav.conditioning`; times ``t`` (s, strictly increasing) and values ``y``
+Used by :mod:`fieldmap.nav.logs.condition`; times ``t`` (s, strictly increasing) and values ``y``
 of shape ``(n, d)`` (m) of one segment.
 
 Robust local trend (:func:`robust_trend`). The step velocities ``Δy/Δt`` are smoothed by a

@@ -1,13 +1,16 @@
 """A user's flight log, as it comes, turned into a trajectory to fly (issue 16).
 
-:func:`load_flight` reads a log with :func:`fieldmap.nav.readers.read_track` (CSV with any
+:func:`load_flight` reads a log with :func:`fieldmap.nav.logs.read.read_track` (CSV with any
 column names, ADS-B exports, GPX, NMEA 0183, IGC, DataFrame/Dataset/arrays; MSL or pressure
-heights made ellipsoidal), conditions it with :func:`fieldmap.nav.conditioning.condition`
+heights made ellipsoidal), conditions it with :func:`fieldmap.nav.logs.condition.condition`
 (order, outliers, gaps, ground, smoothing: the path's acceleration and jerk are the vehicle's,
 not the noise's) and builds the :class:`fieldmap.nav.flight.FlightTrajectory` that the flight
 study flies. ``smooth=False`` keeps the exact interpolation of the samples (and its refusals)
 for clean, simulated inputs; fieldmap's own CSV with attitude columns and NetCDF files are flown
 as recorded (their attitude would be lost by the smoothing).
+
+Its messages name its own keywords: where the conditioning advises ``reorder=True``, which
+:func:`load_flight` sets from ``smooth``, the advice is ``smooth=True``.
 """
 
 from __future__ import annotations
@@ -16,9 +19,6 @@ from pathlib import Path
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
-from fieldmap.nav.spelling import advice, keyword, set_by
-
-__all__ = ["load_flight"]
 
 _EXACT_SUFFIXES = (".nc", ".nc4", ".cdf")
 
@@ -60,9 +60,9 @@ def load_flight(
     Parameters
     ----------
     source : str, Path, pandas.DataFrame, xarray.Dataset or dict
-        The log (formats of :func:`fieldmap.nav.readers.read_track`).
+        The log (formats of :func:`fieldmap.nav.logs.read.read_track`).
     columns, alt_units, height_ref, time_format, model
-        As :func:`fieldmap.nav.readers.read_track` (``model``: the truth model whose geoid
+        As :func:`fieldmap.nav.logs.read.read_track` (``model``: the truth model whose geoid
         makes MSL heights ellipsoidal).
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates and of the flight.
@@ -93,33 +93,37 @@ def load_flight(
         "time_format": time_format,
     }
     if _recorded_attitude(source):
-        given = [keyword(k) or k for k, v in reader_opts.items() if v is not None]
+        given = [k for k, v in reader_opts.items() if v is not None]
         if given:
             raise InputError(
                 f"{source}: a fieldmap flight file (time_s, lat_deg, lon_deg, height_m with "
-                f"attitude, or NetCDF) takes no {', '.join(given)}"
+                f"attitude, or NetCDF) takes no {', '.join(given)}",
+                param=given[0],
             )
         return FlightTrajectory(source, ellipsoid=ellipsoid), None
-    from fieldmap.nav.conditioning import condition
-    from fieldmap.nav.readers import read_track
+    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.read import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
     try:
-        with set_by({"reorder=True": ("smooth", True)}):
-            cf = condition(
-                track,
-                position_noise_m=position_noise_m,
-                max_gap_s=max_gap_s,
-                airborne_only=airborne_only,
-                smooth=smooth,
-                reorder=smooth,  # unconditioned, times going back are refused (today's rule)
-                ellipsoid=ellipsoid,
-            )
+        cf = condition(
+            track,
+            position_noise_m=position_noise_m,
+            max_gap_s=max_gap_s,
+            airborne_only=airborne_only,
+            smooth=smooth,
+            reorder=smooth,  # unconditioned, times going back are refused (today's rule)
+            ellipsoid=ellipsoid,
+        )
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
-        if track.time_guess is None:
+        text, param = str(exc), exc.param
+        if param == "reorder":  # reorder= is set from smooth=: the caller's keyword that sorts
+            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
+        if track.time_guess is not None:
+            # the guess of the time units may be what made the log fail: say it was a guess
+            text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"
+            param = param or "time_format"
+        if text == str(exc):
             raise
-        # the guess of the time units may be what made the log fail: say it was a guess
-        tip = advice("time_format", "s")
-        tip = f": {tip} if they are seconds" if tip else ""
-        raise InputError(f"{exc}; {track.time_guess}{tip}") from None
+        raise InputError(text, param=param) from None

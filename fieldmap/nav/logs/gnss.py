@@ -1,7 +1,7 @@
 """GNSS receiver and flight-recorder logs: GPX 1.1, NMEA 0183 and IGC.
 
-Each reader returns a :class:`~fieldmap.nav.readers_parsed.Parsed` for
-:func:`fieldmap.nav.readers.read_track`.
+Each reader returns a :class:`~fieldmap.nav.logs.track.Parsed` for
+:func:`fieldmap.nav.logs.read.read_track`, which recognises the format.
 
 - **GPX 1.1** (Topografix, https://www.topografix.com/GPX/1/1/): ``<trkpt>`` of all tracks and
   segments in document order (``<rtept>`` when there is no track), read with ``gpxpy``. The
@@ -32,8 +32,23 @@ from datetime import datetime, timezone
 import numpy as np
 
 from fieldmap.errors import InputError
-from fieldmap.nav.readers_parsed import DAY, Parsed, _days, _line_of, _utc
-from fieldmap.nav.spelling import advice
+from fieldmap.nav.logs.track import Parsed, utc_seconds
+
+DAY = 86400.0
+
+
+def _line_of(text: str, pos: int) -> int:
+    return text.count("\n", 0, pos) + 1
+
+
+def _days(tods: list[float]) -> np.ndarray:
+    """Day index of each time of day in order: a step back by more than 12 h is midnight."""
+    day, out, prev = 0, np.zeros(len(tods)), None
+    for i, x in enumerate(tods):
+        if prev is not None and x < prev - DAY / 2:
+            day += 1
+        out[i], prev = day, x
+    return out
 
 
 def read_gpx(text: str, source: str) -> Parsed:
@@ -64,7 +79,7 @@ def read_gpx(text: str, source: str) -> Parsed:
     for i, p in enumerate(pts):
         if p.time is None:
             raise InputError(f"{source} {where} {lines[i]} column time: <{kind}> without <time>")
-        t[i] = _utc(p.time)
+        t[i] = utc_seconds(p.time)
     lat = np.array([p.latitude for p in pts], dtype=np.float64)
     lon = np.array([p.longitude for p in pts], dtype=np.float64)
     ele = np.array([np.nan if p.elevation is None else p.elevation for p in pts])
@@ -242,10 +257,9 @@ def read_igc(text: str, source: str) -> Parsed:
     else:
         ref = gref
         if alg is None:
-            tip = advice("height_ref", "msl")
             ref_note = (
                 "GNSS altitude read as height above the WGS84 ellipsoid (IGC specification; no "
-                "HFALG header)" + (f": {tip} if your recorder writes MSL" if tip else "")
+                "HFALG header): pass height_ref='msl' if your recorder writes MSL"
             )
     if day0 is None:
         notes.append("no HFDTE date: times are seconds from 00:00 UTC of the flight's first day")

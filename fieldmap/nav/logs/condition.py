@@ -1,0 +1,843 @@
+r"""Real flight logs made flyable: from a raw track to samples a :class:`FlightTrajectory` flies.
+
+:class:`~fieldmap.nav.flight.FlightTrajectory` interpolates its samples exactly (a quintic
+spline), so the metre-level noise of a real log becomes tens of g and a kilometre-level outlier
+hundreds. :func:`condition` turns a raw track (an ADS-B or GNSS log as read by
+:func:`fieldmap.nav.logs.read.read_track`) into clean, smooth samples on a regular grid, with the
+vehicle's real kinematics, and a report of what it did (:attr:`ConditionedFlight.report`,
+:meth:`ConditionedFlight.format_report`, :func:`plot_conditioning`; all three in
+:mod:`fieldmap.nav.logs.report`).
+
+Steps (the positions as the ECEF of the ellipsoid-surface point, no singularity at the poles or
+the antimeridian; the heights on their own; the numerical parts in :mod:`fieldmap.nav.logs.fit`).
+:class:`Stages` runs steps 1-4 on construction and 6-7 per segment (:meth:`Stages.fit`); the
+cleaning steps are the functions below it, each on one segment of ordered samples.
+
+1. **Order.** Non-finite samples are dropped (counted). Times that go back are sorted (stable;
+   counted, the first line named) or, with ``reorder=False``, refused. Of samples sharing a
+   time the first in the file is kept. A horizontal position repeated exactly while the vehicle
+   moves is *stale* (a receiver re-sending its last position): its height is used, not it.
+2. **Outliers**, per stretch without gaps, for positions (local east/north metres) and heights
+   apart: a Hampel identifier (Hampel 1974) on the offsets from a robust local trend (running
+   medians of the step velocities and of the detrended positions; Tukey 1977), beyond
+   ``threshold`` (5) local robust standard deviations (1.4826 × MAD, widened by the 90th
+   percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
+   25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
+   motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
+   heights ``max_climb_mps``) are outliers too. A height held and then left faster than
+   50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
+3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
+   stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
+4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
+   ``min_speed_mps`` and within 30 m of the segment's first (last) height are trimmed.
+5. **Segment.** ``on_long_gap="longest"`` (default) flies the longest segment and lists the
+   others in the report; ``"refuse"`` raises an :class:`InputError` naming the first break.
+   :func:`condition_segments` conditions each.
+6. **Smoothing** on a regular grid (``dt_out``, default the median sample interval within
+   0.1..1 s, extended past the data so that the ends are no free ends): a penalised
+   least-squares path, the discrete cubic smoothing spline (Whittaker 1923, Reinsch 1967,
+   Eilers 2003), with weights ``1/σ²`` and λ from the discrepancy principle: the residuals as
+   large as the noise σ leaves them given the fit's degrees of freedom (Hutchinson's 1989
+   trace estimate). σ is ``position_noise_m`` or estimated from leave-one-out cubic predictions
+   (a local RMS: ADS-B noise grows with speed); heights quantised in ``q`` have at least
+   ``q/√12`` and no noise in level flight. Iteratively reweighted (Tukey's bisquare; Garcia
+   2010): samples beyond 4.685 robust σ are outliers. Gaps up to ``max_gap_s`` are bridged.
+7. **Vehicle limits.** Where the path as flown (the quintic through the output) exceeds
+   ``max_accel_g`` (2.5 g) or ``max_jerk`` (5 m/s³), the noise σ of the samples there is
+   raised and the path refitted, until it keeps within them: stale or late ADS-B positions and
+   the corners of resampled tracks demand more than an aircraft can do.
+
+``smooth=False`` does step 1 only: today's exact interpolation of the ordered samples. Either
+way a log whose vehicle never moves (within 30 m horizontally and 15 m vertically of one place)
+is refused: it is no flight.
+
+Messages that say what to change name the keyword arguments here; an
+:class:`~fieldmap.errors.InputError` about one carries its name as ``param`` (the command line
+rewords the message with its own options: :mod:`fieldmap.cli.params`).
+
+The references (Hampel 1974, Tukey 1977, Theil 1950, Sen 1968, Whittaker 1923, Reinsch 1967,
+Eilers 2003, Buja et al. 1989, Hutchinson 1989, Beaton & Tukey 1974, Garcia 2010) are given in
+full in :mod:`fieldmap.nav.logs.fit`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.nav.flight import G0, MIN_POINTS, FlightSamples
+from fieldmap.nav.logs import fit as cfit
+from fieldmap.nav.logs.report import (
+    DROPPED,
+    GAP,
+    GROUND,
+    KEPT,
+    OUTLIER_H,
+    OUTLIER_HV,
+    OUTLIER_V,
+    STALE,
+    STATUS_NAMES,
+    ConditionedFlight,
+    finish,
+)
+
+#: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX
+HALF_MAX, HALF_SPAN_S, HALF_MIN = 7, 15.0, 2
+#: an outlier burst lasts at most BURST_S seconds and HALF_MAX samples; longer runs are motion
+BURST_S = 10.0
+#: the outlier scale is taken over ±SCALE_HALF samples
+SCALE_HALF = 50
+#: smallest outlier offsets and jump margins (m): horizontal, vertical (or 3 height quanta)
+FLOOR_H, FLOOR_V = 30.0, 15.0
+#: a height held and then left faster than this (m/s) was not updated
+HOLD_RATE = 50.0
+#: ground: within this height (m) of the segment's first (last) height
+GROUND_DH = 30.0
+#: vehicle limits: aim below LIMIT_MARGIN × the bound; at most LIMIT_ITER softenings
+LIMIT_MARGIN, LIMIT_ITER = 0.9, 12
+#: grid nodes beyond the data at either end
+EDGE = 8
+#: smallest noise σ (m) estimated
+SIGMA_MIN = 0.05
+#: local noise: RMS over ±NOISE_HALF samples, at least NOISE_FRAC × the segment's
+NOISE_HALF, NOISE_FRAC = 25, 0.3
+#: quantised heights repeated this long (s) are level flight
+LEVEL_S = 20.0
+#: a vehicle that stays within STILL_H metres horizontally and STILL_V vertically of one place
+#: never moved beyond the noise of its fixes (the outlier floors): not a flight
+STILL_H, STILL_V = FLOOR_H, FLOOR_V
+
+
+def condition(
+    track,
+    *,
+    position_noise_m: float | tuple[float, float] | None = None,
+    max_gap_s: float = 60.0,
+    airborne_only: bool = True,
+    smooth: bool = True,
+    reorder: bool = True,
+    on_long_gap: str = "longest",
+    ellipsoid: Ellipsoid = WGS84,
+    min_speed_mps: float = 30.0,
+    max_speed_mps: float = 1200.0,
+    max_climb_mps: float = 300.0,
+    max_accel_g: float | None = 2.5,
+    max_jerk: float | None = 5.0,
+    threshold: float = 5.0,
+    dt_out: float | None = None,
+) -> ConditionedFlight:
+    """Clean, smooth samples of a raw flight log, and a report of what was done.
+
+    Parameters
+    ----------
+    track : RawTrack
+        Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
+        ellipsoid) and ``lines``, and a ``source`` string
+        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
+        ``t0_utc`` go into the report.
+    position_noise_m : float or (float, float), optional
+        Position noise σ (m): one value, or (horizontal, per axis; vertical). Default:
+        estimated from the data.
+    max_gap_s : float
+        Longest interval without samples the smoothing bridges (s); longer ones split the log.
+    airborne_only : bool
+        Trim leading and trailing ground movement (slower than ``min_speed_mps``).
+    smooth : bool
+        False: only order the samples and drop repeated times (exact interpolation).
+    reorder : bool
+        Sort times that go back; False: refuse them (:class:`InputError` naming the line).
+    on_long_gap : {"longest", "refuse"}
+        More than one segment left (gaps, jumps): fly the longest (the report lists the
+        others), or refuse naming the first break.
+    ellipsoid : Ellipsoid
+    min_speed_mps : float
+        Ground speed below which a vehicle near its first (last) height is on the ground.
+    max_speed_mps, max_climb_mps : float
+        Horizontal and vertical speeds between consecutive samples beyond which one of them is
+        wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
+    max_accel_g, max_jerk : float or None
+        Limits of the vehicle: acceleration (g, relative to the Earth) and jerk (m/s³) the
+        conditioned path keeps within (None: no limit).
+    threshold : float
+        Outlier threshold in robust standard deviations.
+    dt_out : float, optional
+        Output sample interval (s). Default: the median sample interval, within 0.1..1 s.
+
+    Returns
+    -------
+    ConditionedFlight
+
+    Raises
+    ------
+    InputError
+        Times going back with ``reorder=False``; more than one segment with
+        ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples);
+        no flight (the vehicle never leaves a 30 m circle and a 15 m height band, also with
+        ``smooth=False`` or ``airborne_only=False``), each in one line naming the source and
+        its lines; an invalid option.
+    """
+    if on_long_gap not in ("longest", "refuse"):
+        raise InputError(
+            f"on_long_gap must be 'longest' or 'refuse', got {on_long_gap!r}", param="on_long_gap"
+        )
+    opts = _options(**{k: v for k, v in locals().items() if k not in ("track", "on_long_gap")})
+    st = Stages(track, opts, reorder, ellipsoid)
+    if not smooth:
+        return finish(st, st.exact())
+    ids = st.segment_ids()
+    if on_long_gap == "refuse" and len(ids) > 1:
+        st.refuse_break(ids)
+    return finish(st, st.fit(st.longest(ids)))
+
+
+def condition_segments(track, **kw) -> list[ConditionedFlight]:
+    """Condition every segment of a log (gaps and jumps separate them), in time order.
+
+    Keywords as :func:`condition` (``on_long_gap`` and ``smooth`` excepted); segments too short
+    to fly are left out. Raises :class:`InputError` when none is left.
+    """
+    kw = {k: v for k, v in kw.items() if k not in ("on_long_gap", "smooth")}
+    reorder, ellipsoid = kw.pop("reorder", True), kw.pop("ellipsoid", WGS84)
+    st = Stages(track, _options(**kw), reorder, ellipsoid)
+    out = []
+    for s in st.segment_ids():
+        try:
+            out.append(finish(st, st.fit(s)))
+        except InputError:
+            continue
+    if not out:
+        st.nothing_left()
+    return out
+
+
+def _options(
+    *,
+    position_noise_m=None,
+    max_gap_s=60.0,
+    airborne_only=True,
+    smooth=True,
+    reorder=True,
+    ellipsoid=WGS84,
+    min_speed_mps=30.0,
+    max_speed_mps=1200.0,
+    max_climb_mps=300.0,
+    max_accel_g=2.5,
+    max_jerk=5.0,
+    threshold=5.0,
+    dt_out=None,
+) -> dict:
+    """Check the options of :func:`condition`; return them JSON-ready (for the report)."""
+    for name, v, optional in (
+        ("max_gap_s", max_gap_s, False),
+        ("min_speed_mps", min_speed_mps, False),
+        ("max_speed_mps", max_speed_mps, False),
+        ("max_climb_mps", max_climb_mps, False),
+        ("threshold", threshold, False),
+        ("max_accel_g", max_accel_g, True),
+        ("max_jerk", max_jerk, True),
+        ("dt_out", dt_out, True),
+    ):
+        if not (optional and v is None) and not (
+            isinstance(v, (int, float)) and np.isfinite(v) and v > 0
+        ):
+            raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
+    sig = position_noise_m
+    if sig is not None:
+        try:
+            sig = [float(x) for x in np.broadcast_to(np.asarray(sig, dtype=float), (2,))]
+        except (TypeError, ValueError):
+            sig = [np.nan]
+        if not all(np.isfinite(x) and x > 0 for x in sig):
+            raise InputError(
+                f"position_noise_m must be positive metres, got {position_noise_m!r}",
+                param="position_noise_m",
+            )
+    return {
+        "position_noise_m": sig,
+        "max_gap_s": float(max_gap_s),
+        "airborne_only": bool(airborne_only),
+        "smooth": bool(smooth),
+        "min_speed_mps": float(min_speed_mps),
+        "max_speed_mps": float(max_speed_mps),
+        "max_climb_mps": float(max_climb_mps),
+        "max_accel_g": None if max_accel_g is None else float(max_accel_g),
+        "max_jerk": None if max_jerk is None else float(max_jerk),
+        "threshold": float(threshold),
+        "dt_out": None if dt_out is None else float(dt_out),
+    }
+
+
+class Stages:
+    """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment."""
+
+    def __init__(self, track, opts: dict, reorder: bool, ellipsoid: Ellipsoid):
+        self.track, self.opts = track, opts
+        self.log = log = OrderedLog(track, ellipsoid, reorder)
+        n = log.t.size
+        z = np.zeros(n, bool)
+        self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
+        self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
+        self.off_h, self.off_v = np.zeros(n), np.zeros(n)
+        self.quantum = cfit.height_quantum(log.h)
+        self.breaks: list[tuple[int, int, str]] = []
+        self.dropped: list[dict] = []
+        self.seg = np.zeros(n, np.int64)
+        self.hv, self.vv = ~z, ~z
+        if not opts["smooth"] or n < 3:
+            return
+        o, q = opts, self.quantum
+        floor_v = max(3.0 * q, FLOOR_V)
+        log.geometry()
+        self.stale = log.stale_positions()
+        hv, vv = ~self.stale, ~z
+        comps = [(hv, log.p, np.inf, 0.0), (vv, log.h[:, None], np.inf, 0.0)]
+        seg, _ = segments(log.t, comps, o["max_gap_s"])
+        for s in np.unique(seg[seg >= 0]):
+            m = np.flatnonzero(seg == s)
+            en, tt, k = log.en[m], log.t[m], o["threshold"]
+            bad_h, self.off_h[m] = outliers(
+                tt,
+                log.p[m],
+                hv[m],
+                lambda e: to_en(en, e),
+                k,
+                FLOOR_H,
+                o["max_speed_mps"],
+            )
+            bad_v, self.off_v[m] = outliers(
+                tt, log.h[m, None], vv[m], lambda e: e, k, floor_v, o["max_climb_mps"]
+            )
+            self.out_h[m[bad_h]], self.out_v[m[bad_v]] = True, True
+        hv &= ~self.out_h
+        vv &= ~self.out_v
+        iv = np.flatnonzero(vv)
+        self.stale_v[iv] = stale_heights(log.t[iv], log.h[iv], floor_v)
+        vv &= ~self.stale_v
+        comps = [
+            (hv, log.p, o["max_speed_mps"], FLOOR_H),
+            (vv, log.h[:, None], o["max_climb_mps"], floor_v),
+        ]
+        seg, self.breaks = segments(log.t, comps, o["max_gap_s"])
+        self.in_gap = seg < 0
+        if o["airborne_only"]:
+            for s in np.unique(seg[seg >= 0]):
+                m = np.flatnonzero(seg == s)
+                g = ground(log.t[m], log.p[m], log.h[m], hv[m], vv[m], o["min_speed_mps"])
+                self.ground[m[g]] = True
+                seg[m[g]] = -1
+        self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
+
+    def status(self) -> np.ndarray:
+        """Each ordered sample's fate, codes of :data:`STATUS_NAMES`."""
+        st = np.full(self.log.t.size, KEPT, np.int64)
+        for mask, code in (
+            (self.dropped_mask, DROPPED),
+            (self.ground, GROUND),
+            (self.in_gap, GAP),
+            (self.stale | self.stale_v, STALE),
+            (self.out_v, OUTLIER_V),
+            (self.out_h, OUTLIER_H),
+            (self.out_h & self.out_v, OUTLIER_HV),
+        ):
+            st[mask] = code
+        return st
+
+    def segment_ids(self) -> list[int]:
+        """Segments with at least 6 usable samples of each component, in time order."""
+        out = []
+        for s in np.unique(self.seg[self.seg >= 0]):
+            m = self.seg == s
+            if (self.hv & m).sum() >= MIN_POINTS and (self.vv & m).sum() >= MIN_POINTS:
+                out.append(int(s))
+        return out
+
+    def longest(self, ids: list[int]) -> int | None:
+        """Pick the longest segment (duration); record the others as dropped."""
+        if not ids:
+            return None
+        t, lines = self.log.t, self.log.lines
+        best = ids[int(np.argmax([np.ptp(t[self.seg == s]) for s in ids]))]
+        for s in ids:
+            if s != best:
+                m = np.flatnonzero(self.seg == s)
+                self.dropped.append(
+                    {
+                        "t_start_s": float(t[m[0]]),
+                        "t_end_s": float(t[m[-1]]),
+                        "lines": [int(lines[m[0]]), int(lines[m[-1]])],
+                        "samples": int(m.size),
+                    }
+                )
+                self.dropped_mask[m] = True
+        return best
+
+    def refuse_break(self, ids: list[int]) -> None:
+        """Raise an :class:`InputError` naming the break between the first two segments."""
+        t, lines = self.log.t, self.log.lines
+        a = int(np.flatnonzero(self.seg == ids[0])[-1])
+        b = int(np.flatnonzero(self.seg == ids[1])[0])
+        kind = next((k for i, j, k in self.breaks if a <= i < b or a < j <= b), "gap")
+        o = self.opts
+        why = (
+            f"more than {o['max_gap_s']:g} s (max_gap_s): raise the limit"
+            if kind == "gap"
+            else f"a position or height jump (faster than {o['max_speed_mps']:g} m/s "
+            f"horizontally or {o['max_climb_mps']:g} m/s vertically)"
+        )
+        raise InputError(
+            f"{self.log.source} lines {lines[a]}..{lines[b]}: the flight breaks for "
+            f"{t[b] - t[a]:.1f} s (t = {t[a]:.1f} .. {t[b]:.1f} s), {why}; "
+            "pass on_long_gap='longest' to fly the longest segment",
+            param="max_gap_s" if kind == "gap" else "on_long_gap",
+        )
+
+    def refuse_still(self, idx: np.ndarray | None = None) -> None:
+        """Refuse a log (its samples ``idx``; default all) whose vehicle never moves.
+
+        Within :data:`STILL_H` m horizontally and :data:`STILL_V` m vertically of one place from
+        the first sample to the last, a vehicle moved no more than the noise of its fixes: the
+        log is no flight, whatever is trimmed or smoothed.
+        """
+        log = self.log
+        i = np.arange(log.t.size) if idx is None else np.asarray(idx)
+        if i.size < 2:
+            return
+        if log.p.shape[0] != log.t.size:
+            log.geometry()
+        p = log.p[i]
+        across = float(np.max(np.linalg.norm(p - np.median(p, axis=0), axis=1)))
+        up = float(np.ptp(log.h[i]))
+        if across < STILL_H and up < STILL_V:
+            raise InputError(
+                f"{log.source} lines {log.lines[i[0]]}..{log.lines[i[-1]]}: not a flight: the "
+                f"vehicle never moves (its {i.size} samples over {np.ptp(log.t[i]):g} s stay "
+                f"within {STILL_H:g} m horizontally and {STILL_V:g} m vertically of one place)"
+            )
+
+    def nothing_left(self) -> None:
+        """Raise the reason no segment can be flown."""
+        log, st, o = self.log, self.status(), self.opts
+        n, src = log.t.size, log.source
+        if n < MIN_POINTS:
+            raise InputError(
+                f"{src}: {n} usable samples (of {log.n_in}), a flight needs at least {MIN_POINTS}"
+            )
+        self.refuse_still()
+        counts = {STATUS_NAMES[c]: int((st == c).sum()) for c in np.unique(st)}
+        where = f"{src} lines {log.lines[0]}..{log.lines[-1]}"
+        if counts.get("ground", 0) >= 0.5 * n:
+            raise InputError(
+                f"{where}: no airborne part: the vehicle stays slower than "
+                f"{o['min_speed_mps']:g} m/s (min_speed_mps) near its first/last height "
+                f"({counts['ground']} of {n} samples on the ground); pass airborne_only=False "
+                "to keep ground movement",
+                param="airborne_only",
+            )
+        what = ", ".join(f"{v} {k}" for k, v in counts.items())
+        dtm = median_interval(log.t)
+        hint = ""
+        if dtm > o["max_gap_s"]:
+            hint = f"; the samples are {dtm:g} s apart: raise max_gap_s"
+        raise InputError(
+            f"{where}: no stretch of at least {MIN_POINTS} usable samples without a gap over "
+            f"{o['max_gap_s']:g} s (max_gap_s) or a jump ({what}){hint}",
+            param="max_gap_s",
+        )
+
+    def _noise(self, hi: np.ndarray, vi: np.ndarray):
+        """σ (horizontal, vertical), per-sample σ of each, vertical noise energies, estimated."""
+        log, q, sig = self.log, self.quantum, self.opts["position_noise_m"]
+        if sig is None:
+            k = self.opts["threshold"]
+            zh = to_en(log.en[hi[2:-2]], cfit.loo_noise(log.t[hi], log.p[hi]))
+            zv = cfit.loo_noise(log.t[vi], log.h[vi, None])
+            nh = cfit.noise_sigma(zh, k, 0.0, NOISE_HALF, NOISE_FRAC)
+            nv = cfit.noise_sigma(zv, k, 3.0 * q, NOISE_HALF, NOISE_FRAC)
+            if q > 0.0:  # quantised: q²/12 (or more) wherever not level; uniform
+                moving = ~cfit.level_runs(log.t[vi], log.h[vi], LEVEL_S)[2:-2]
+                sv = max(cfit.noise_sigma(zv[moving], k, 3.0 * q)[0], q / np.sqrt(12.0))
+                nv = (sv, np.full(vi.size, sv))
+            sig = [max(nh[0], SIGMA_MIN), max(nv[0], SIGMA_MIN)]
+            loc = [np.maximum(nh[1], SIGMA_MIN), np.maximum(nv[1], SIGMA_MIN)]
+        else:
+            loc = [np.full(hi.size, sig[0]), np.full(vi.size, sig[1])]
+        energy = loc[1] ** 2
+        if q > 0.0:  # a long run of one height is level flight: it leaves no residual
+            energy[cfit.level_runs(log.t[vi], log.h[vi], LEVEL_S)] = 0.0
+        return sig, loc, energy, self.opts["position_noise_m"] is None
+
+    def fit(self, s: int | None) -> dict:
+        """Smooth segment ``s`` and resample it (steps 6-7); the pieces for the report."""
+        if s is None:
+            self.nothing_left()
+        log, q = self.log, self.quantum
+        m = self.seg == s
+        hi, vi = np.flatnonzero(self.hv & m), np.flatnonzero(self.vv & m)
+        self.refuse_still(np.union1d(hi, vi))
+        sig, loc, energy, estimated = self._noise(hi, vi)
+        t_lo, t_hi = max(log.t[hi[0]], log.t[vi[0]]), min(log.t[hi[-1]], log.t[vi[-1]])
+        inh, inv = ((log.t[i] >= t_lo) & (log.t[i] <= t_hi) for i in (hi, vi))
+        hi, vi, loc, energy = hi[inh], vi[inv], [loc[0][inh], loc[1][inv]], energy[inv]
+        dt = self.opts["dt_out"] or float(
+            np.clip(median_interval(np.unique(log.t[np.concatenate([hi, vi])])), 0.1, 1.0)
+        )
+        ng = int(np.floor((t_hi - t_lo) / dt + 1e-9)) + 1
+        if ng < MIN_POINTS or hi.size < MIN_POINTS or vi.size < MIN_POINTS:
+            raise InputError(
+                f"{log.source} lines {log.lines[hi[0]]}..{log.lines[hi[-1]]}: the flight lasts "
+                f"{t_hi - t_lo:.1f} s, {ng} samples at {dt:g} s, fewer than {MIN_POINTS}"
+            )
+        # EDGE nodes past the data: there the penalty alone shapes the path (straight), so the
+        # first and last samples are interior nodes, not free ends
+        grid = (float(t_lo) - EDGE * dt, dt, ng + 2 * EDGE)
+        th, tv, ph, hh = log.t[hi], log.t[vi], log.p[hi], log.h[vi, None]
+        fh = cfit.fit_path(grid, th, ph, loc[0], 2, max_run=burst_length(th))
+        fv = cfit.fit_path(
+            grid,
+            tv,
+            hh,
+            loc[1],
+            1,
+            energy=energy,
+            edf_correction=q == 0.0,
+            floor=3.0 * q,
+            max_run=burst_length(tv),
+        )
+        self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
+        keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
+        hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
+        gh, gv, softened = self._limits(grid, hi, vi, loc, fh, fv)
+        tg = t_lo + dt * np.arange(ng)
+        gh, gv = gh[EDGE : EDGE + ng], gv[EDGE : EDGE + ng]
+        lat, lon, _ = ecef_to_geodetic(gh[:, 0], gh[:, 1], gh[:, 2], log.ellipsoid)
+        lon = np.degrees(np.unwrap(np.radians(lon)))
+        lon += 360.0 * np.round((log.lon[hi[0]] - lon[0]) / 360.0)
+        used = np.union1d(hi, vi)
+        near = used[np.clip(np.searchsorted(log.t[used], tg), 0, used.size - 1)]
+        samples = FlightSamples(
+            tg - t_lo, lat, lon, gv[:, 0], None, log.source, log.lines[near], float(t_lo)
+        )
+        inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
+        rows = cfit.lagrange_rows(t_lo, dt, ng, log.t[inside])
+        self.off_h[inside] = np.linalg.norm(
+            to_en(log.en[inside], log.p[inside] - cfit.on_grid(gh, rows)), axis=1
+        )
+        self.off_v[inside] = np.abs(log.h[inside] - cfit.on_grid(gv, rows)[:, 0])
+        rms = (
+            float(np.sqrt(np.mean(self.off_h[hi] ** 2) / 2.0)),
+            float(np.sqrt(np.mean(self.off_v[vi] ** 2))),
+        )
+        return {
+            "samples": samples,
+            "sigma": sig,
+            "sigma_estimated": estimated,
+            "rms": rms,
+            "lam": (fh["lam"], fv["lam"]),
+            "edf": (fh["edf"], fv["edf"]),
+            "hi": hi,
+            "vi": vi,
+            "t_lo": float(t_lo),
+            "t_hi": float(t_hi),
+            "dt_out": dt,
+            "softened": softened,
+        }
+
+    def _limits(self, grid, hi, vi, loc, fh, fv):
+        """Step 7: soften the fits where the path as flown exceeds the vehicle limits.
+
+        Where the acceleration or jerk of the quintic through the output
+        (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds
+        ``LIMIT_MARGIN × max_accel_g`` or ``× max_jerk``, the σ of the samples nearby is raised
+        (twice within two sample intervals, tapering to none at four) for the component(s)
+        carrying at least half of it; both are refitted at the same λ, up to
+        :data:`LIMIT_ITER` times. Returns the grid values and the number of samples softened.
+        """
+        log, o = self.log, self.opts
+        gh, gv = fh["g"], fv["g"]
+        a_max = np.inf if o["max_accel_g"] is None else o["max_accel_g"] * G0 * LIMIT_MARGIN
+        j_max = np.inf if o["max_jerk"] is None else o["max_jerk"] * LIMIT_MARGIN
+        if np.isinf(a_max) and np.isinf(j_max):
+            return gh, gv, 0
+        t0, dt, ng = grid
+        out = slice(EDGE, ng - EDGE)
+        tg = t0 + dt * np.arange(ng)[out]
+        touched = np.zeros(log.t.size, bool)
+        span = 2.0 * max(dt, median_interval(log.t[hi]))
+        for _ in range(LIMIT_ITER):
+            (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[out], dt) for g in (gh, gv))
+            acc, jerk = np.hypot(ah, av), np.hypot(jh, jv)
+            bad = (acc > a_max) | (jerk > j_max)
+            if not bad.any():
+                break
+            for k, (idx, a, j) in enumerate(((hi, ah, jh), (vi, av, jv))):
+                tb = tg[bad & ((a >= 0.5 * acc) | (j >= 0.5 * jerk))]
+                if tb.size:
+                    pos = np.searchsorted(tb, log.t[idx])
+                    d = np.minimum(
+                        np.abs(log.t[idx] - tb[np.clip(pos - 1, 0, tb.size - 1)]),
+                        np.abs(log.t[idx] - tb[np.clip(pos, 0, tb.size - 1)]),
+                    )
+                    f = np.clip(3.0 - d / span, 1.0, 2.0)
+                    loc[k] = loc[k] * f
+                    touched[idx[f > 1.0]] = True
+            gh = cfit.refit(grid, log.t[hi], log.p[hi], loc[0], fh["lam"])[0]
+            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"])[0]
+        return gh, gv, int(touched.sum())
+
+    def exact(self) -> dict:
+        """``smooth=False``: the ordered samples themselves."""
+        log = self.log
+        if log.t.size < MIN_POINTS:
+            self.nothing_left()
+        self.refuse_still()
+        samples = FlightSamples(
+            log.t - log.t[0], log.lat, log.lon, log.h, None, log.source, log.lines, float(log.t[0])
+        )
+        idx = np.arange(log.t.size)
+        return {
+            "samples": samples,
+            "sigma": None,
+            "sigma_estimated": False,
+            "rms": (0.0, 0.0),
+            "lam": (0.0, 0.0),
+            "edf": (0.0, 0.0),
+            "hi": idx,
+            "vi": idx,
+            "t_lo": float(log.t[0]),
+            "t_hi": float(log.t[-1]),
+            "dt_out": None,
+            "softened": 0,
+        }
+
+
+# -- the cleaning steps (1-4), each on one segment of ordered samples --------------------------
+
+
+def median_interval(t: np.ndarray) -> float:
+    """Return the median sample interval of ``t`` (s); 1 for fewer than two samples."""
+    return float(np.median(np.diff(t))) if t.size > 1 else 1.0
+
+
+def burst_length(t: np.ndarray) -> int:
+    """Longest outlier burst (samples) at the sampling of ``t``: 7 at 1 Hz, 1 at 10 s."""
+    return int(np.clip(BURST_S // max(median_interval(t), 1e-9), 1, HALF_MAX))
+
+
+def half_window(t: np.ndarray) -> int:
+    """Running-median half-window (samples) at the sampling of ``t``."""
+    return int(np.clip(round(HALF_SPAN_S / max(median_interval(t), 1e-9)), HALF_MIN, HALF_MAX))
+
+
+def to_en(en: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """ECEF vectors ``e`` (n, 3) to local east/north components (n, 2)."""
+    return np.einsum("nij,nj->ni", en, e)
+
+
+def runs(same: np.ndarray) -> Iterator[tuple[int, int]]:
+    """(first, last) index of each run of equal values; ``same[i]``: value i+1 equals value i."""
+    starts = np.flatnonzero(~np.concatenate([[False], same]))
+    ends = np.append(starts[1:], same.size + 1) - 1
+    keep = ends > starts
+    return zip(starts[keep].tolist(), ends[keep].tolist())
+
+
+class OrderedLog:
+    """The samples of a track in time order, without repeated times (step 1 of conditioning).
+
+    Attributes ``t, lat, lon, h, lines`` (longitude unwrapped), ``source``, the counts
+    ``n_in, n_invalid, n_reordered, n_duplicates`` and the first line of each kind.
+    """
+
+    def __init__(self, track, ellipsoid: Ellipsoid, reorder: bool):
+        src = self.source = str(getattr(track, "source", "flight"))
+        arrs = [
+            np.asarray(getattr(track, k), dtype=np.float64).ravel()
+            for k in ("t", "lat", "lon", "h")
+        ]
+        n = arrs[0].size
+        lines = getattr(track, "lines", None)
+        lines = np.arange(1, n + 1) if lines is None else np.asarray(lines, dtype=np.int64).ravel()
+        for name, a in zip(("lat", "lon", "h", "lines"), arrs[1:] + [lines]):
+            if a.size != n:
+                raise InputError(f"{src}: {a.size} values of {name}, {n} times")
+        finite = np.all(np.isfinite(np.stack(arrs)), axis=0)
+        self.n_in, self.n_invalid = n, int(n - finite.sum())
+        self.first_invalid_line = int(lines[~finite][0]) if self.n_invalid else None
+        t, lat, lon, h = (a[finite] for a in arrs)
+        lines = lines[finite]
+        for name, v, lim in (("latitude", lat, 90.0), ("longitude", lon, 540.0)):
+            bad = np.flatnonzero(np.abs(v) > lim)
+            if bad.size:
+                raise InputError(
+                    f"{src} line {lines[bad[0]]}: {name} {v[bad[0]]:g} is beyond ±{lim:g} degrees"
+                )
+        back = np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1]) + 1
+        self.n_reordered = int(back.size)
+        self.first_reordered_line = int(lines[back[0]]) if back.size else None
+        if back.size:
+            if not reorder:
+                i = back[0]
+                raise InputError(
+                    f"{src} line {lines[i]}: time {t[i]:.3f} s goes back from the previous "
+                    f"{t[i - 1]:.3f} s (line {lines[i - 1]}); pass reorder=True to sort the log",
+                    param="reorder",
+                )
+            order = np.argsort(t, kind="stable")
+            t, lat, lon, h, lines = t[order], lat[order], lon[order], h[order], lines[order]
+        dup = np.concatenate([[False], np.diff(t) == 0.0])
+        self.n_duplicates = int(dup.sum())
+        self.first_duplicate_line = int(lines[dup][0]) if dup.any() else None
+        self.t, self.lat, self.lon, self.h, self.lines = (a[~dup] for a in (t, lat, lon, h, lines))
+        self.lon = np.degrees(np.unwrap(np.radians(self.lon)))
+        self.ellipsoid = ellipsoid
+        self.p = self.en = np.zeros((0, 3))
+
+    def geometry(self) -> None:
+        """Surface ECEF positions ``p`` (n, 3) and the local east/north rows ``en`` (n, 2, 3)."""
+        zero = np.zeros_like(self.h)
+        self.p = np.stack(geodetic_to_ecef(self.lat, self.lon, zero, self.ellipsoid), -1)
+        self.en = C_e_to_enu(self.lat, self.lon)[:, :2, :]
+
+    def stale_positions(self) -> np.ndarray:
+        """Find samples repeating the previous horizontal position while the vehicle moves.
+
+        A run of one position is stale after its first sample when the next position is over
+        1 m/s away: a receiver re-sending its last position (ADS-B state vectors).
+        """
+        n = self.t.size
+        st = np.zeros(n, bool)
+        for s, e in runs((self.lat[1:] == self.lat[:-1]) & (self.lon[1:] == self.lon[:-1])):
+            a, b = (s, e + 1) if e + 1 < n else (max(s - 1, 0), s)
+            if b > a and np.linalg.norm(self.p[b] - self.p[a]) > self.t[b] - self.t[a]:
+                st[s + 1 : e + 1] = True
+        return st
+
+
+def stale_heights(t: np.ndarray, h: np.ndarray, dh_min: float) -> np.ndarray:
+    """Find the samples of a held height (n,): a run of one value that then jumps.
+
+    The run is stale after its first sample when the next height differs by more than
+    ``dh_min`` and faster than :data:`HOLD_RATE` from the run's last sample: the height was
+    not updated (OpenSky state vectors). Level flight holds its quantised height too, but
+    leaves it by one quantum, or slowly.
+    """
+    st = np.zeros(t.size, bool)
+    for s, e in runs(np.abs(np.diff(h)) <= cfit.HEIGHT_EQ):
+        if e + 1 < t.size:
+            dh = abs(h[e + 1] - h[e])
+            if dh > dh_min and dh > HOLD_RATE * (t[e + 1] - t[e]):
+                st[s + 1 : e + 1] = True
+    return st
+
+
+def jumps(t: np.ndarray, y: np.ndarray, max_speed: float, margin: float) -> np.ndarray:
+    """Flag steps between samples faster than ``max_speed`` beyond ``margin`` m, (n-1,)."""
+    if t.size < 2:
+        return np.zeros(0, bool)
+    return np.linalg.norm(np.diff(y, axis=0), axis=1) > max_speed * np.diff(t) + margin
+
+
+def outliers(
+    t: np.ndarray,
+    y: np.ndarray,
+    valid: np.ndarray,
+    proj: Callable[[np.ndarray], np.ndarray],
+    k: float,
+    floor: float,
+    max_speed: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Outliers (n,) and offsets (m, (n,)) of one component (``y`` (n, d)) of one segment.
+
+    Hampel identifier (Hampel 1974): offsets from the robust trend of the valid samples not
+    yet rejected (:func:`~fieldmap.nav.logs.fit.robust_trend`, ``proj`` maps them to
+    the local axes) beyond ``max(k s, floor)``, ``s`` the local robust scale
+    (:func:`~fieldmap.nav.logs.fit.local_scale`), iterated to a fixed point (a sample
+    rejected early is taken back when the cleaner trend passes near it). A run of rejections
+    longer than a burst (:func:`burst_length`) is motion the trend misses, kept. Then short runs
+    between jumps (steps faster than ``max_speed``) are rejected: bursts of any size.
+    """
+    keep = valid.copy()
+    off = np.zeros(t.size)
+    vidx = np.flatnonzero(valid)
+    if vidx.size < 3:
+        return np.zeros(t.size, bool), off
+    burst, half = burst_length(t[vidx]), half_window(t[vidx])
+    for _ in range(12):
+        idx = np.flatnonzero(keep)
+        if idx.size < 3:
+            break
+        ref = cfit.robust_trend(t[idx], y[idx], half)
+        e = proj(y - cfit.interpolate_trend(t[idx], ref, t))
+        off = np.linalg.norm(e, axis=1)
+        s = np.interp(t, t[idx], cfit.local_scale(off[idx], e.shape[1], SCALE_HALF))
+        far = valid & (off > np.maximum(k * s, floor))
+        d = np.diff(np.concatenate([[0], far[vidx].astype(np.int8), [0]]))
+        for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            if b - a > burst:
+                far[vidx[a:b]] = False
+        if np.array_equal(valid & ~far, keep):
+            break
+        keep = valid & ~far
+    idx = np.flatnonzero(keep)
+    jump = jumps(t[idx], y[idx], max_speed, floor)
+    edges = np.concatenate([[0], np.flatnonzero(jump) + 1, [idx.size]])
+    if jump.any() and (np.diff(edges) > burst).any():
+        for a, b in zip(edges[:-1], edges[1:]):
+            if b - a <= burst:
+                keep[idx[a:b]] = False
+    return valid & ~keep, off
+
+
+def segments(
+    t: np.ndarray, comps: list[tuple[np.ndarray, np.ndarray, float, float]], max_gap: float
+) -> tuple[np.ndarray, list[tuple[int, int, str]]]:
+    """Segment number of each sample (-1: inside a break of one component), and the breaks.
+
+    ``comps``: (valid mask, values (n, d), speed limit, margin) per component. A break is a gap
+    longer than ``max_gap`` or a jump (:func:`jumps`) between consecutive valid samples;
+    breaks are (index before, index after, ``"gap"`` or ``"jump"``).
+    """
+    found: dict[tuple[int, int], str] = {}
+    for mask, y, vmax, margin in comps:
+        idx = np.flatnonzero(mask)
+        dt = np.diff(t[idx])
+        jump = jumps(t[idx], y[idx], vmax, margin) & (dt <= max_gap)
+        for j in np.flatnonzero((dt > max_gap) | jump):
+            key = (int(idx[j]), int(idx[j + 1]))
+            found[key] = "jump" if jump[j] or found.get(key) == "jump" else "gap"
+    breaks = [(a, b, kind) for (a, b), kind in found.items()]
+    seg = np.zeros(t.size, np.int64)
+    inside = np.zeros(t.size, bool)
+    for a, b, _ in breaks:
+        seg[b:] += 1
+        inside[a + 1 : b] = True
+    seg[inside] = -1
+    return seg, sorted(breaks)
+
+
+def ground(
+    t: np.ndarray, p: np.ndarray, h: np.ndarray, hv: np.ndarray, vv: np.ndarray, min_speed: float
+) -> np.ndarray:
+    """Leading and trailing ground samples (n,) of one segment.
+
+    Ground: robust ground speed (running median of the step velocities) below ``min_speed``
+    and height within :data:`GROUND_DH` of the segment's first (last) height, from the start
+    (end) up to the first sample that is not: taxi, parking, the first part of a take-off run.
+    """
+    n = t.size
+    out = np.zeros(n, bool)
+    idx, vidx = np.flatnonzero(hv), np.flatnonzero(vv)
+    if idx.size < 3 or vidx.size < 1:
+        return out
+    dt = np.diff(t[idx])
+    v = cfit.running_median(np.diff(p[idx], axis=0) / dt[:, None], half_window(t[idx]))
+    speed = np.interp(t, 0.5 * (t[idx][1:] + t[idx][:-1]), np.linalg.norm(v, axis=1))
+    hk = np.interp(t, t[vidx], h[vidx])
+    for order, end in ((np.arange(n), vidx[0]), (np.arange(n)[::-1], vidx[-1])):
+        slow = (speed[order] < min_speed) & (np.abs(hk[order] - h[end]) < GROUND_DH)
+        out[order[: n if slow.all() else int(np.argmin(slow))]] = True
+    return out

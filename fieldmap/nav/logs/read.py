@@ -1,0 +1,636 @@
+r"""Flight logs as they come (CSV, GPX, NMEA, IGC, tables) read into one ``RawTrack``.
+
+:func:`read_track` reads a log *without* smoothing, sorting or outlier rejection (that is the
+conditioning step's job): samples stay in file order, repeats kept, each with the line (or
+record) it came from. What it does is give every log the same meaning: times in seconds (epoch
+seconds UTC when the source has absolute times), latitude and longitude in degrees, and the
+height **above the ellipsoid** in metres, converted from the source's height reference:
+
+- ``ellipsoid``: used as is;
+- ``msl`` (orthometric height H, above the geoid): h = H + N, N the geoid height of fieldmap's
+  own model (:func:`fieldmap.geoid_height`, ``eigen-6s`` by default), evaluated every
+  :data:`GEOID_STEP` of track (and at both ends of longer steps) and interpolated linearly
+  along it: N varies slowly (≤ 2 cm from N at every sample on the ADS-B samples of the tests);
+- ``pressure`` (pressure altitude: the height of the measured pressure in the ICAO standard
+  atmosphere, ISO 2533:1975 = ICAO Doc 7488/3, 1013.25 hPa datum): a *geopotential* height,
+  carried to a geometric one (z = r H / (r - H), r = 6 356 766 m, ISO 2533) and taken as the
+  height above MSL, then + N. Approximate: a real atmosphere 10 K warmer or 10 hPa higher
+  than the standard one puts the aircraft ~4 % of its height or ~80 m higher (a note says so).
+
+Layouts recognised by their header when no ``columns`` mapping is given (:data:`LAYOUTS`):
+
+- ``fieldmap``: ``time_s, lat_deg, lon_deg, height_m``; metres above the ellipsoid.
+- ``opensky``: ``time, lat, lon`` and ``geoaltitude`` (MSL) or ``baroaltitude`` (pressure);
+  metres.
+- ``opensky-api``: ``time_position, latitude, longitude`` and ``geo_altitude`` (MSL) or
+  ``baro_altitude`` (pressure); metres.
+- ``traffic``: ``timestamp, latitude, longitude`` and ``geoaltitude`` (MSL) or ``altitude``
+  (pressure); feet.
+- a mapping ``columns={"time": ..., "lat": ..., "lon": ..., "alt": ...}``: metres, MSL.
+
+The geometric altitude of ADS-B is used when at least half the rows have one, else the
+barometric one. OpenSky documents ``geoaltitude`` only as "geometric altitude": DO-260B
+transponders report GNSS height above the ellipsoid, older ones above MSL, so it is read as
+MSL (a note says so; ``height_ref="ellipsoid"`` reads it as ellipsoidal). Times: seconds as
+given, epoch seconds (> 1e8), epoch milliseconds (> 1e11: a guess of the units, which the notes
+and any later refusal of the log mention), ISO 8601 strings (naive = UTC) or a ``strptime``
+pattern (``time_format``). Rows with an empty latitude, longitude or altitude
+(``""``, ``nan``, ``null``) are dropped and counted in the notes; anything else that is not a
+number is refused with its line and column. GPX, NMEA 0183 and IGC: :mod:`fieldmap.nav.logs.gnss`.
+
+Refused with one :class:`~fieldmap.errors.InputError` naming file, line and column: unknown
+columns (the message lists them and the ``--columns`` mapping), unparsable times or numbers,
+latitudes beyond ±90° or longitudes beyond ±360°, heights outside -11 km..1e8 m, epoch times
+outside the years 1..9999, radians, a header naming a column twice, one column mapped to two
+fields, an empty file, a file that is no flight log. Units are checked, not guessed, where
+neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
+NMEA, IGC: metres) fixes them: an aircraft-like track (median ground speed below 700 m/s) with
+altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples is refused as
+feet read as metres (or a wrong column). Messages name keyword arguments (an
+:class:`~fieldmap.errors.InputError` about one has it as ``param``; the command line rewords
+them with its options).
+
+The format is recognised by its content (:func:`load_text`): CSV text and tables are read here
+(:func:`csv_table`, :func:`object_table`; cells by :func:`numbers` and :func:`times`), the GNSS
+formats by :mod:`fieldmap.nav.logs.gnss`; each gives a :class:`~fieldmap.nav.logs.track.Parsed`
+that :func:`read_track` checks and converts (heights: :func:`check_units`, :func:`to_ellipsoid`).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import gzip
+import os
+import re
+import zlib
+from collections.abc import Mapping
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.limits import number_text
+from fieldmap.nav.flightsamples import MAX_HEIGHT, MIN_HEIGHT
+from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
+from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
+
+#: how a column mapping is written (the messages about columns show it)
+HINT = "--columns time=...,lat=...,lon=...,alt=..."
+#: cells read as empty
+_EMPTY = frozenset({"", "nan", "na", "<na>", "n/a", "null", "none", "-"})
+FT = 0.3048
+#: spacing along the track of the geoid-height evaluations (m)
+GEOID_STEP = 5000.0
+#: ISO 2533 earth radius for geopotential -> geometric height (m)
+R_ISA = 6_356_766.0
+#: checks of the altitude units on aircraft-like tracks
+MAX_AIRCRAFT_SPEED, MAX_ALTITUDE, MAX_CLIMB = 700.0, 30_000.0, 300.0
+
+HEIGHT_REFS = ("ellipsoid", "msl", "pressure")
+_KEYS = ("time", "lat", "lon", "alt")
+#: name -> (time, lat, lon, {height reference: altitude column}, units); first match wins
+LAYOUTS = {
+    "fieldmap": ("time_s", "lat_deg", "lon_deg", {"ellipsoid": "height_m"}, "m"),
+    "opensky": ("time", "lat", "lon", {"msl": "geoaltitude", "pressure": "baroaltitude"}, "m"),
+    "opensky-api": (
+        "time_position",
+        "latitude",
+        "longitude",
+        {"msl": "geo_altitude", "pressure": "baro_altitude"},
+        "m",
+    ),
+    "traffic": (
+        "timestamp",
+        "latitude",
+        "longitude",
+        {"msl": "geoaltitude", "pressure": "altitude"},
+        "ft",
+    ),
+}
+
+
+def parse_columns(text: str) -> dict[str, str]:
+    """Parse a column mapping ``time=timestamp,lat=latitude,lon=longitude,alt=altitude``.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated ``key=column`` pairs; keys ``time``, ``lat``, ``lon``, ``alt`` (all four).
+
+    Returns
+    -------
+    dict
+        Key -> column name.
+    """
+    out: dict[str, str] = {}
+    for item in (s.strip() for s in str(text).split(",")):
+        key, eq, name = (s.strip() for s in item.partition("="))
+        if not eq or not name or key not in _KEYS:
+            raise InputError(
+                f"--columns: {item!r} is not one of time|lat|lon|alt=COLUMN ({HINT})",
+                param="columns",
+            )
+        if key in out:
+            raise InputError(f"--columns: {key} given twice ({HINT})", param="columns")
+        out[key] = name
+    missing = [k for k in _KEYS if k not in out]
+    if missing:
+        raise InputError(f"--columns: missing {', '.join(missing)} ({HINT})", param="columns")
+    keys: dict[str, str] = {}
+    for key, name in out.items():
+        if name in keys:
+            raise InputError(
+                f"--columns: column {name!r} given for both {keys[name]} and {key} ({HINT})",
+                param="columns",
+            )
+        keys[name] = key
+    return out
+
+
+def _table(header, get, lines, source, where_word, columns, time_format) -> Parsed:
+    """Recognise the layout (or apply ``columns``) and read the four columns."""
+    found = {h.lower(): j for j, h in reversed(list(enumerate(header)))}
+    exact = {h: j for j, h in reversed(list(enumerate(header)))}
+    fields: dict[str, list[int]] = {}
+    for j, h in enumerate(header):
+        fields.setdefault(h.lower(), []).append(j + 1)
+
+    def col(name):
+        twice = fields.get(name.lower(), [])
+        if len(twice) > 1:  # a column read (or looked for) that the header names twice
+            raise InputError(
+                f"{source}: the header names column {name!r} more than once (fields "
+                f"{', '.join(map(str, twice))}): which one is meant is a guess; rename or drop one"
+            )
+        return exact.get(name, found.get(name.lower()))
+
+    notes: list[str] = []
+    if columns is not None:
+        cols = [columns[k] for k in _KEYS]
+        for k, name in zip(_KEYS, cols):
+            if col(name) is None:
+                raise InputError(
+                    f"{source}: no column {name!r} (--columns {k}={name}); columns: "
+                    f"{', '.join(header)}"
+                )
+        layout: tuple | None = ("mapping", cols[0], cols[1], cols[2], {"msl": cols[3]}, "m")
+        notes.append(f"columns {', '.join(f'{k}={v}' for k, v in columns.items())}")
+    else:
+        layout = next(
+            (
+                (k, *v)
+                for k, v in LAYOUTS.items()
+                if all(col(c) is not None for c in v[:3])
+                and any(col(c) is not None for c in v[3].values())
+            ),
+            None,
+        )
+    if layout is None:
+        known = "; ".join(
+            f"{k}: {a},{b},{c},{'|'.join(d.values())}" for k, (a, b, c, d, _) in LAYOUTS.items()
+        )
+        raise InputError(
+            f"{source}: unrecognised columns ({', '.join(header)}): name them with "
+            f"{HINT} (columns={{'time': ..., 'lat': ..., 'lon': ..., 'alt': ...}}); "
+            f"known layouts: {known}"
+        )
+    notes += [] if layout[0] == "mapping" else [f"layout {layout[0]}"]
+    kind, tname, latname, lonname, altmap, units = layout
+
+    def where(i):
+        return f"{source} {where_word} {lines[i]}"
+
+    t, absolute, tnote = times(get(col(tname)), where, tname, time_format)
+    notes += [tnote] if tnote else []
+    lat = numbers(get(col(latname)), where, latname)
+    lon = numbers(get(col(lonname)), where, lonname)
+    alts = {r: (c, numbers(get(col(c)), where, c)) for r, c in altmap.items() if col(c) is not None}
+    filled = {r: float(np.mean(np.isfinite(v))) for r, (_, v) in alts.items()}
+    ref = next((r for r in alts if filled[r] >= 0.5), max(filled, key=filled.__getitem__))
+    ref_note = None
+    if kind == "mapping":
+        ref_note = "heights taken as MSL (the default for a column mapping: give height_ref)"
+    elif ref == "msl":
+        ref_note = (
+            f"{alts[ref][0]}: ADS-B geometric altitude, read as MSL (DO-260B transponders "
+            "report it above the ellipsoid: pass height_ref='ellipsoid')"
+        )
+    names = (tname, latname, lonname)
+    p = Parsed(t, lat, lon, alts, ref, units, lines, source, absolute, names, where_word, notes)
+    guess = tnote if tnote and GUESS_MS in tnote else None
+    return dataclasses.replace(
+        p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess
+    )
+
+
+def read_track(
+    source,
+    *,
+    columns: Mapping[str, str] | str | None = None,
+    alt_units: str | None = None,
+    height_ref: str | None = None,
+    time_format: str | None = None,
+    model=None,
+    ellipsoid: Ellipsoid = WGS84,
+) -> RawTrack:
+    """Read a flight log as it comes into a :class:`RawTrack` (no smoothing, no reordering).
+
+    Parameters
+    ----------
+    source : str, Path, pandas.DataFrame, xarray.Dataset or dict of arrays
+        A CSV (any delimiter of ``, ; tab``; ``#`` comments), GPX, NMEA 0183 or IGC file
+        (gzip-compressed or not; the format is recognised by its content), or a table.
+    columns : dict or str, optional
+        Mapping ``time, lat, lon, alt -> column name`` (or its text, :func:`parse_columns`) for
+        CSV files and tables whose layout is not recognised.
+    alt_units : {"m", "ft"}, optional
+        Units of the altitude column (default: the layout's; metres for a mapping). Given
+        explicitly, the units checks are skipped.
+    height_ref : {"ellipsoid", "msl", "pressure"}, optional
+        Reference of the source heights (default: the layout's; the column of that kind when
+        the source has several, e.g. ``pressure`` picks OpenSky's ``baroaltitude``).
+    time_format : str, optional
+        ``"s"`` (as given), ``"epoch"``, ``"epoch_ms"``, ``"iso"`` or a ``strptime`` pattern.
+    model : str or SHModel, optional
+        Gravity model of the geoid heights N (default ``"eigen-6s"``).
+    ellipsoid : Ellipsoid
+        Ellipsoid of the heights.
+
+    Returns
+    -------
+    RawTrack
+
+    Raises
+    ------
+    InputError
+        One line naming the source, line (or record) and column.
+    """
+    if alt_units not in (None, "m", "ft"):
+        raise InputError(f"alt_units: {alt_units!r} is not one of m, ft", param="alt_units")
+    if height_ref not in (None, *HEIGHT_REFS):
+        raise InputError(
+            f"height_ref: {height_ref!r} is not one of {', '.join(HEIGHT_REFS)}",
+            param="height_ref",
+        )
+    if time_format not in (None, "s", "epoch", "epoch_ms", "iso") and "%" not in time_format:
+        raise InputError(
+            f"time_format: {time_format!r} is not one of s, epoch, epoch_ms, iso or a "
+            "strptime pattern (%Y-%m-%d %H:%M:%S)",
+            param="time_format",
+        )
+    if isinstance(columns, str):
+        columns = parse_columns(columns)
+    elif columns is not None:
+        columns = parse_columns(",".join(f"{k}={v}" for k, v in dict(columns).items()))
+    if isinstance(source, (str, os.PathLike)):
+        path = Path(source)
+        if not path.is_file():
+            raise InputError(f"{path}: flight log not found")
+        text, kind = load_text(path)
+        if kind == "csv":
+            header, get, lines = csv_table(text, str(path))
+            p = _table(header, get, lines, str(path), "line", columns, time_format)
+        else:
+            given = [k for k, v in (("columns", columns), ("time_format", time_format)) if v]
+            if given:
+                verb = "apply" if len(given) > 1 else "applies"
+                raise InputError(
+                    f"{path}: {' and '.join(given)} {verb} to CSV files (a {kind})",
+                    param=given[0],
+                )
+            p = {"gpx": read_gpx, "nmea": read_nmea, "igc": read_igc}[kind](text, str(path))
+    else:
+        name = type(source).__name__
+        name = name if name in ("DataFrame", "Dataset") else "arrays"
+        header, get, lines = object_table(source, name)
+        p = _table(header, get, lines, name, "record", columns, time_format)
+    return _finish(p, alt_units, height_ref, model, ellipsoid)
+
+
+def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
+    """Check, convert units and the height reference: the :class:`RawTrack`."""
+    ref = height_ref or p.height_ref
+    aname, alt = p.alts.get(ref, p.alts[p.height_ref])
+    notes = list(p.notes) + ([p.ref_note] if p.ref_note and height_ref is None else [])
+    where = f"{p.source} {p.where}"
+    for name, v, lim in ((p.names[1], p.lat, 90.0), (p.names[2], p.lon, 360.0)):
+        bad = np.flatnonzero(np.abs(v) > lim)
+        if bad.size:
+            i = bad[0]
+            raise InputError(f"{where} {p.lines[i]} column {name}: {v[i]:g} is beyond ±{lim:g}°")
+    keep = np.isfinite(p.lat) & np.isfinite(p.lon) & np.isfinite(alt)
+    if not keep.any():
+        raise InputError(f"{p.source}: no sample has a latitude, longitude and {aname}")
+    if not keep.all():
+        n, first = int((~keep).sum()), int(p.lines[np.flatnonzero(~keep)[0]])
+        notes.append(
+            f"dropped {n} of {keep.size} samples with empty latitude, longitude or "
+            f"{aname} (first at {p.where} {first})"
+        )
+    t, lat, lon, a, lines = (x[keep] for x in (p.t, p.lat, p.lon, alt, p.lines))
+    units = alt_units or p.alt_units
+    if units == "ft":
+        a = a * FT
+        notes.append(f"{aname} in ft (converted to m)")
+    bad = np.flatnonzero((a < MIN_HEIGHT) | (a > MAX_HEIGHT))
+    if bad.size:
+        i = int(bad[0])
+        m = f"{number_text(a[i])} m"
+        raw = f"{number_text(a[i] / FT)} ft ({m})" if units == "ft" else m
+        raise InputError(
+            f"{where} {lines[i]} column {aname}: {raw} is outside the heights of a flight "
+            f"({MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m)"
+        )
+    v = speeds(lat, lon, t)
+    vmed = float(np.median(v)) if v.size else 0.0
+    if (
+        lat.size >= 10
+        and np.all(np.abs(lat) <= np.pi / 2)
+        and np.all(np.abs(lon) <= np.pi)
+        and vmed < 17.5
+        and 1.0 <= np.degrees(vmed) <= 1000.0
+    ):
+        raise InputError(
+            f"{where} {lines[0]} column {p.names[1]}: latitudes and longitudes look like "
+            f"radians (all within ±π/2, ±π; median speed {vmed:.2f} m/s read as degrees, "
+            f"{np.degrees(vmed):.0f} m/s as radians): give degrees"
+        )
+    if alt_units is None and not p.units_fixed and v.size and vmed <= MAX_AIRCRAFT_SPEED:
+        check_units(a, t, lines, units, vmed, f"{where}", aname)
+    h = a
+    if ref != "ellipsoid":
+        h, note = to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
+        notes += note
+    t0 = iso_utc(float(t[0])) if p.absolute else None
+    return RawTrack(t, lat, lon, h, lines, p.source, ref, tuple(notes), t0, p.time_guess)
+
+
+# -- the format of a file ------------------------------------------------------------------
+
+#: magic bytes of files that are certainly no flight log
+_MAGIC = {
+    b"\x89PNG": "a PNG image",
+    b"%PDF": "a PDF document",
+    b"PK\x03\x04": "a ZIP archive",
+    b"\xff\xd8\xff": "a JPEG image",
+    b"CDF\x01": "a NetCDF file (use fieldmap.nav.flight.read_flight)",
+    b"\x89HDF": "an HDF5/NetCDF4 file (use fieldmap.nav.flight.read_flight)",
+}
+
+
+def load_text(path: Path) -> tuple[str, str]:
+    """Text of a flight log (gzip undone) and its kind: ``csv``, ``gpx``, ``nmea`` or ``igc``."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the flight log ({exc.strerror})") from None
+    if data[:2] == b"\x1f\x8b":
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise InputError(f"{path}: broken gzip file ({exc})") from None
+    if not data.strip():
+        raise InputError(f"{path}: empty flight log")
+    for magic, what in _MAGIC.items():
+        if data.startswith(magic):
+            raise InputError(f"{path}: not a flight log ({what})")
+    if b"\x00" in data[:65536]:
+        raise InputError(f"{path}: not a text flight log (binary data)")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    suffix = "".join(s for s in path.suffixes[-2:] if s.lower() != ".gz").lower()
+    head = [s.strip() for s in text[:20000].splitlines() if s.strip()][:50]
+    if suffix == ".gpx" or head[0].startswith("<"):
+        return text, "gpx"
+    nmea = sum(1 for s in head if re.search(r"\$[A-Z]{5},", s))
+    if suffix in (".nmea", ".nma") or nmea >= max(1, len(head) // 2):
+        return text, "nmea"
+    if suffix == ".igc" or (head[0].startswith("A") and any(s.startswith("HF") for s in head)):
+        return text, "igc"
+    return text, "csv"
+
+
+# -- CSV text and tables ---------------------------------------------------------------------
+
+
+def numbers(cells, where, name: str) -> np.ndarray:
+    """Floats of a column: empty cells NaN, anything else that is no number refused."""
+    arr = np.asarray(cells)
+    try:
+        out = arr.astype(np.float64)
+    except (TypeError, ValueError):
+        out = np.empty(len(arr))
+        for i, c in enumerate(arr):
+            s = str(c).strip()
+            try:
+                out[i] = np.nan if c is None or s.lower() in _EMPTY else float(s)
+            except ValueError:
+                raise InputError(f"{where(i)} column {name}: {s!r} is not a number") from None
+    bad = np.flatnonzero(np.isinf(out))
+    if bad.size:
+        raise InputError(f"{where(bad[0])} column {name}: {out[bad[0]]} is not finite")
+    return out
+
+
+def _iso(s: str) -> float:
+    """Epoch seconds of ISO 8601 text (``Z`` and any number of decimals also on Python 3.10)."""
+    s = s[:-1] + "+00:00" if s[-1:] in "Zz" else s
+    s = re.sub(r"(\.\d+)", lambda m: (m[1] + "00000")[:7], s, count=1) if "." in s[10:] else s
+    return utc_seconds(datetime.fromisoformat(s))
+
+
+def times(cells, where, name: str, fmt: str | None) -> tuple[np.ndarray, bool, str | None]:
+    """Return times in seconds, whether they are absolute, and a note on how they were read.
+
+    Numbers without ``fmt`` are seconds as given, epoch seconds above 1e8, epoch milliseconds
+    above 1e11 (the median): the last is a guess of their units, and the note says so. Epoch
+    times beyond the years 1..9999 are refused with the line, the column and how they were read.
+    """
+    arr = np.asarray(cells)
+    if arr.dtype.kind == "M":
+        if np.isnat(arr).any():
+            raise InputError(f"{where(np.flatnonzero(np.isnat(arr))[0])} column {name}: empty time")
+        t = (arr.astype("datetime64[ns]") - np.datetime64(0, "ns")) / np.timedelta64(1, "s")
+        return t.astype(np.float64), True, None
+    kinds = {"s": 1.0, "epoch": 1.0, "epoch_ms": 1e-3}
+    first = next((str(c) for c in arr if str(c).strip().lower() not in _EMPTY), "")
+    numeric = fmt in kinds or (fmt is None and _isnum(first))
+    out = np.empty(len(arr))
+    for i, c in enumerate(arr):
+        s = str(c).strip()
+        if s.lower() in _EMPTY or s == "NaT":
+            raise InputError(f"{where(i)} column {name}: empty time")
+        try:
+            if isinstance(c, datetime):
+                out[i] = utc_seconds(c)
+            elif numeric:
+                out[i] = float(s)
+            elif fmt and "%" in fmt:
+                out[i] = utc_seconds(datetime.strptime(s, fmt))
+            else:
+                out[i] = _iso(s)
+        except ValueError:
+            what = "a number" if numeric else f"a time ({fmt or 'ISO 8601'})"
+            raise InputError(f"{where(i)} column {name}: {s!r} is not {what}") from None
+    if not numeric:
+        return out, True, None
+    med = float(np.median(np.abs(out)))
+    if fmt == "epoch_ms" or (fmt is None and med > 1e11):
+        how = "epoch milliseconds" + (f" ({GUESS_MS})" if fmt is None else "")
+        _check_epoch(out * 1e-3, out, where, name, how)
+        return out * 1e-3, True, f"times read as {how}"
+    if fmt == "epoch" or (fmt is None and med > 1e8):
+        _check_epoch(out, out, where, name, "epoch seconds")
+        return out, True, "times read as epoch seconds (UTC)"
+    return out, False, None
+
+
+#: how the guess of epoch milliseconds is said in notes and messages
+GUESS_MS = "guessed from their size: above 1e11"
+#: epoch seconds of 0001-01-01 and 10000-01-01 UTC: the years a date can name
+_EPOCH_MIN, _EPOCH_MAX = -62_135_596_800.0, 253_402_300_800.0
+
+
+def _check_epoch(t: np.ndarray, raw: np.ndarray, where, name: str, how: str) -> None:
+    """Refuse epoch times ``t`` (s) outside the years 1..9999, naming the first and the units."""
+    bad = np.flatnonzero((t < _EPOCH_MIN) | (t >= _EPOCH_MAX))
+    if bad.size:
+        i = int(bad[0])
+        when = "before the year 1" if t[i] < _EPOCH_MIN else "after the year 9999"
+        raise InputError(
+            f"{where(i)} column {name}: {raw[i]:.17g} read as {how} is {when}: give their units "
+            "with time_format (s, epoch, epoch_ms)",
+            param="time_format",
+        )
+
+
+def _isnum(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def csv_table(text: str, source: str):
+    """Header, getter of a column's cells and line numbers of a CSV text."""
+    header, hline, rows, lines = None, 0, [], []
+    body = [(k, s) for k, s in enumerate(text.splitlines(), 1) if s.strip() and s[:1] != "#"]
+    if not body:
+        raise InputError(f"{source}: empty flight log (no header, no samples)")
+    hline, first = body[0]
+    delim = next((d for d in (",", "\t", ";") if d in first), ",")
+    header = [c.strip() for c in next(csv.reader([first], delimiter=delim))]
+    if all(_isnum(c) for c in header if c):
+        raise InputError(
+            f"{source} line {hline}: numbers where the header row naming the columns should be "
+            f"(a flight log needs one; {HINT})"
+        )
+    for (k, _), cells in zip(body[1:], csv.reader((s for _, s in body[1:]), delimiter=delim)):
+        if len(cells) != len(header):
+            raise InputError(
+                f"{source} line {k}: {len(cells)} fields, the header (line {hline}) has "
+                f"{len(header)}"
+            )
+        rows.append(cells)
+        lines.append(k)
+    if not rows:
+        raise InputError(f"{source}: a header (line {hline}) but no samples")
+    return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64)
+
+
+def object_table(obj, source: str):
+    """Header, getter and record numbers of a DataFrame, Dataset or mapping of arrays."""
+    if hasattr(obj, "data_vars"):
+        obj = {str(k): obj[k].values for k in obj.variables if obj[k].ndim == 1}
+    elif hasattr(obj, "columns") and getattr(obj.index, "name", None) not in (None, *obj.columns):
+        obj = obj.reset_index()  # a DataFrame indexed by its (named) time column
+    if not hasattr(obj, "keys"):
+        raise InputError(f"{source}: not a DataFrame, Dataset or mapping of arrays")
+    header = [str(k) for k in obj.keys()]
+    cols = {str(k): np.asarray(obj[k]).ravel() for k in obj.keys()}
+    n = max((c.size for c in cols.values()), default=0)
+    if n == 0:
+        raise InputError(f"{source}: no samples")
+    for k, c in cols.items():
+        if c.size != n:
+            raise InputError(f"{source} column {k}: {c.size} values, other columns have {n}")
+    return header, lambda j: cols[header[j]], np.arange(1, n + 1, dtype=np.int64)
+
+
+# -- heights: units checked, references made ellipsoidal --------------------------------------
+
+
+def _steps(lat, lon) -> np.ndarray:
+    """Distances between consecutive samples (m; haversine on a sphere of 6371 km)."""
+    la, lo = np.radians(lat), np.radians(lon)
+    a = (
+        np.sin(np.diff(la) / 2) ** 2
+        + np.cos(la[:-1]) * np.cos(la[1:]) * np.sin(np.diff(lo) / 2) ** 2
+    )
+    return 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
+
+
+def speeds(lat, lon, t) -> np.ndarray:
+    """Ground speed between consecutive samples with increasing time (m/s)."""
+    d, dt = _steps(lat, lon), np.diff(t)
+    return d[dt > 0] / dt[dt > 0]
+
+
+def check_units(a, t, lines, units, vmed, where, aname) -> None:
+    """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring)."""
+    hint = "pass alt_units='ft'" if units == "m" else "a wrong column?"
+    hint += ", or pass alt_units='m' if these are metres"
+    hi = float(np.percentile(a, 99))
+    if hi > MAX_ALTITUDE:
+        i = int(np.argmax(a))
+        raise InputError(
+            f"{where} {lines[i]} column {aname}: altitudes up to {hi:,.0f} m with an aircraft's "
+            f"speed (median {vmed:.0f} m/s): feet read as metres? {hint}",
+            param="alt_units",
+        )
+    dt = np.diff(t)
+    ok = np.flatnonzero(dt > 0)
+    rate = np.abs(np.diff(a))[ok] / dt[ok]
+    if rate.size >= 5:
+        med = np.median(np.lib.stride_tricks.sliding_window_view(rate, 5), axis=1)
+        if med.max() > MAX_CLIMB:
+            i = int(np.argmax(med))
+            raise InputError(
+                f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {med[i]:,.0f} m/s "
+                f"sustained over 5 samples (an aircraft: < {MAX_CLIMB:g} m/s): altitudes in "
+                f"{units}? {hint}; give alt_units to skip this check",
+                param="alt_units",
+            )
+
+
+def to_ellipsoid(ref, lat, lon, a, model, ellipsoid) -> tuple[np.ndarray, list[str]]:
+    """Return h = H + N (a pressure altitude first carried to a geometric MSL height)."""
+    from fieldmap.field.geodesy import geoid_height
+
+    notes = []
+    if ref == "pressure":
+        a = R_ISA * a / (R_ISA - a)
+        top = float(np.max(a))
+        notes.append(
+            "pressure altitude converted with the ISA standard atmosphere (ISO 2533, ICAO Doc "
+            f"7488), taken as MSL height: approximate (±{0.04 * top + 80:.0f} m at {top:.0f} m "
+            "for 10 K or 10 hPa off the standard atmosphere)"
+        )
+    steps = _steps(lat, lon)
+    s = np.concatenate([[0.0], np.cumsum(steps)])
+    big = np.flatnonzero(steps > GEOID_STEP)  # both ends of a gap or a jump are nodes
+    nodes = np.searchsorted(s, np.arange(0.0, max(s[-1], 1.0), GEOID_STEP))
+    nodes = np.unique(np.concatenate([nodes, big, big + 1]))
+    nodes = np.append(nodes, s.size - 1) if s[-1] > s[nodes[-1]] else nodes
+    m = "eigen-6s" if model is None else model
+    n_nodes = geoid_height(lat[nodes], lon[nodes], model=m, ellipsoid=ellipsoid)
+    n = np.interp(s, s[nodes], n_nodes) if nodes.size > 1 else np.full(s.size, n_nodes[0])
+    label = m if isinstance(m, str) else getattr(m, "name", "the model")
+    notes.append(f"geoid heights N of {label} added ({n.min():.1f} .. {n.max():.1f} m)")
+    return a + n, notes

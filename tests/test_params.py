@@ -1,0 +1,184 @@
+"""Errors that know their keyword, and the one table the command line rewords them with.
+
+The flight-log code (:mod:`fieldmap.nav.logs`) words its messages for a Python caller and
+raises :class:`~fieldmap.errors.InputError` with ``param=``; :mod:`fieldmap.cli.params` maps
+keywords to options. A keyword a message can name but the table does not know would reach a
+command-line user as a Python keyword: the walks below fail on it.
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fieldmap.nav.logs
+from fieldmap.cli.params import ADVICE, OPTIONS, options_of, reword
+from fieldmap.errors import InputError
+
+LOGS = Path(fieldmap.nav.logs.__file__).parent
+
+
+def _param_names(tree: ast.AST) -> set[str]:
+    """Return the strings in every ``param=`` argument of a call (both arms of an ``if``)."""
+
+    def values(e: ast.expr) -> set[str]:
+        if isinstance(e, ast.IfExp):
+            return values(e.body) | values(e.orelse)
+        if isinstance(e, ast.Constant) and isinstance(e.value, str):
+            return {e.value}
+        return set()  # a variable: its keywords are checked by the signature walk below
+
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            out |= {v for kw in node.keywords if kw.arg == "param" for v in values(kw.value)}
+    return out
+
+
+def test_every_param_raised_in_logs_is_in_the_table():
+    used = set()
+    for path in sorted(LOGS.glob("*.py")):
+        used |= _param_names(ast.parse(path.read_text(encoding="utf-8")))
+    assert used, "no param= found: the walk is broken"
+    assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used
+    assert not used - set(OPTIONS), (
+        f"keywords missing from cli.params.OPTIONS: {used - set(OPTIONS)}"
+    )
+
+
+def test_every_keyword_of_the_log_functions_is_in_the_table():
+    """A new keyword of a reader or of the conditioning must be added to the table."""
+    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.load import load_flight
+    from fieldmap.nav.logs.read import read_track
+
+    for func in (read_track, condition, load_flight):
+        for p in inspect.signature(func).parameters.values():
+            if p.kind is p.KEYWORD_ONLY:
+                assert p.name in OPTIONS, f"{func.__name__}({p.name}=) missing from OPTIONS"
+
+
+def test_the_table_names_real_options_and_settings():
+    """Every option of the table is an option of ``fieldmap navsim``; advice keys are settings."""
+    from fieldmap.cli import build_parser
+
+    parser = build_parser("navsim")
+    sub = next(a for a in parser._actions if getattr(a, "choices", None) and "navsim" in a.choices)
+    navsim = {s for a in sub.choices["navsim"]._actions for s in a.option_strings}
+    assert {o for o in OPTIONS.values() if o} <= navsim
+    for key, text in ADVICE.items():
+        name, _, value = key.partition("=")
+        assert name in OPTIONS and value in ("True", "False"), key
+        assert any(o in text for o in navsim), text
+
+
+def test_input_error_param():
+    assert InputError("x").param is None
+    e = InputError("max_gap_s must be a positive number", param="max_gap_s")
+    assert e.param == "max_gap_s" and str(e) == "max_gap_s must be a positive number"
+    back = pickle.loads(pickle.dumps(e))  # through a Dask worker
+    assert back.param == "max_gap_s" and str(back) == str(e)
+
+
+class _Track:
+    def __init__(self, t, lat, h, source):
+        self.t, self.lat, self.lon, self.h = t, lat, np.full(t.size, 8.0), h
+        self.lines, self.source = np.arange(t.size) + 2, source
+
+
+def _raised(func, *args, **kw) -> InputError:
+    with pytest.raises(InputError) as e:
+        func(*args, **kw)
+    return e.value
+
+
+def test_conditioning_errors_carry_their_keyword():
+    from fieldmap.nav.logs.condition import condition
+
+    k = np.arange(121.0)
+    lat = 47.0 + k * 200.0 / 111_000.0
+    assert _raised(condition, _Track(k, lat, 1e3 + k, "x"), max_gap_s=-1.0).param == "max_gap_s"
+    t = k.copy()
+    t[[1, 2]] = t[[2, 1]]
+    e = _raised(condition, _Track(t, lat, 1e3 + k, "back.csv"), reorder=False)
+    assert e.param == "reorder" and "pass reorder=True to sort the log" in str(e)
+    taxi = _Track(k, 47.0 + k * 8.0 / 111_000.0, np.full(121, 400.0), "taxi.csv")
+    e = _raised(condition, taxi)
+    assert e.param == "airborne_only"
+    assert "30 m/s (min_speed_mps)" in str(e) and "pass airborne_only=False" in str(e)
+
+
+def test_reworded_for_navsim_and_for_table():
+    """The navsim wording names options; table (no such options) leaves the advice out."""
+    from fieldmap.nav.logs.condition import condition
+
+    k = np.arange(12.0)
+    sparse = _Track(100.0 * k, 47.0 + k * 0.18, np.full(12, 1e3), "sparse.csv")
+    e = _raised(condition, sparse)
+    python = str(e)
+    assert python.endswith(
+        "over 60 s (max_gap_s) or a jump (12 kept); the samples are 100 s apart: raise max_gap_s"
+    )
+    navsim = reword(python, e.param, options_of("navsim"))
+    assert navsim.endswith(
+        "over 60 s (--max-gap-s) or a jump (12 kept); the samples are 100 s apart: "
+        "raise --max-gap-s"
+    )
+    table = reword(python, e.param, options_of("table"))
+    assert table.endswith("over 60 s or a jump (12 kept); the samples are 100 s apart")
+
+
+@pytest.mark.parametrize(
+    "text, navsim, table",
+    [
+        # an advice by a switch (ADVICE), a label without an option
+        ("x: slower than 30 m/s (min_speed_mps) (2 of 9); pass airborne_only=False to keep it",
+         "x: slower than 30 m/s (2 of 9); give --keep-ground to keep it",
+         "x: slower than 30 m/s (2 of 9)"),
+        # a setting by an option with a value; "? " keeps its question mark
+        ("feet read as metres? pass alt_units='ft', or pass alt_units='m' if these are metres",
+         "feet read as metres? give --alt-units ft, or give --alt-units m if these are metres",
+         "feet read as metres?"),
+        # an advice inside parentheses ends at the unmatched ")"
+        ("read as MSL (it is above the ellipsoid: pass height_ref='ellipsoid')",
+         "read as MSL (it is above the ellipsoid: give --height-ref ellipsoid)",
+         "read as MSL (it is above the ellipsoid)"),
+        # balanced parentheses inside an advice; "(guessed: ...)" holds no keyword
+        ("t (guessed: above 1e11) is late: give their units with time_format (s, epoch)",
+         "t (guessed: above 1e11) is late: give their units with --time-format (s, epoch)",
+         "t (guessed: above 1e11) is late"),
+        # an advice without an option anywhere is left out; "raise the limit" names none
+        ("more than 60 s (max_gap_s): raise the limit; pass on_long_gap='longest' to fly",
+         "more than 60 s (--max-gap-s): raise the limit",
+         "more than 60 s: raise the limit"),
+        # bare names: an option where there is one, the Python name where there is none
+        ("alt_units: 'km' is not one of m, ft", "--alt-units: 'km' is not one of m, ft",
+         "alt_units: 'km' is not one of m, ft"),
+        ("threshold must be a positive number", "threshold must be a positive number",
+         "threshold must be a positive number"),
+        # an option spelled already, and column names, are left alone
+        ("--columns: missing alt (--columns t=...)", "--columns: missing alt (--columns t=...)",
+         "--columns: missing alt (--columns t=...)"),
+        ("a file (time_s, height_m with attitude, or NetCDF) takes no alt_units",
+         "a file (time_s, height_m with attitude, or NetCDF) takes no --alt-units",
+         "a file (time_s, height_m with attitude, or NetCDF) takes no alt_units"),
+    ],
+)  # fmt: skip
+def test_reword(text, navsim, table):
+    assert reword(text, options=options_of("navsim")) == navsim
+    assert reword(text, options=options_of("table")) == table
+
+
+def test_plain_words_are_reworded_only_as_the_errors_keyword():
+    text = "f.gpx: columns and time_format apply to CSV files (a gpx); unrecognised columns"
+    assert reword(text, "columns") == (
+        "f.gpx: --columns and --time-format apply to CSV files (a gpx); unrecognised --columns"
+    )
+    assert reword(text) == (
+        "f.gpx: columns and --time-format apply to CSV files (a gpx); unrecognised columns"
+    )
