@@ -20,7 +20,7 @@ from fieldmap.nav.readers import R_ISA, RawTrack, parse_columns, read_track
 T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
 FT = 0.3048
 DATA = Path(__file__).parent / "data" / "flights"
-TRAFFIC_SAMPLES = Path("/tmp/traffic/traffic/data/samples")
+ADSB = Path(__file__).parent / "data" / "adsb"
 
 
 @pytest.fixture(scope="module")
@@ -488,17 +488,22 @@ def test_real_samples_in_repository():
     assert len(tr) == 4500 and tr.height_ref == "pressure" and tr.t[-1] - tr.t[0] > 3600
 
 
-@pytest.mark.skipif(not TRAFFIC_SAMPLES.is_dir(), reason="traffic samples not unpacked in /tmp")
-def test_traffic_package_samples(tmp_path):
-    pd = pytest.importorskip("pandas")
-    for name in ("featured/elal747", "noisy/noisy_landing", "gliders/cevennes"):
-        df = pd.read_json(TRAFFIC_SAMPLES / f"{name}.json.gz", dtype={"icao24": str})
-        ts = pd.to_datetime(df["timestamp"], utc=True).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
-        cols = ["latitude", "longitude", "altitude", "groundspeed", "track"]
-        cols += [c for c in ("geoaltitude",) if c in df]
-        out = df[cols].assign(timestamp=ts)
-        path = tmp_path / (name.replace("/", "_") + ".csv")
-        out.to_csv(path, index=False)
-        tr = read_track(path)
-        assert len(tr) >= 0.95 * len(df) and tr.t0_utc is not None
-        assert np.nanmax(tr.h) < 15_000
+@pytest.mark.parametrize("name", ["elal747", "noisy_landing", "cevennes"])
+def test_traffic_package_samples(name):
+    """Real logs of the traffic package (tests/data/adsb): a 747, a landing, a glider."""
+    path = ADSB / f"{name}.csv.gz"
+    with gzip.open(path, "rt") as f:
+        rows = sum(1 for _ in f) - 1
+    tr = read_track(path)
+    assert len(tr) >= 0.95 * rows and tr.t0_utc is not None
+    assert np.nanmax(tr.h) < 15_000
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="defect: two barometric spikes within 5 samples (15850 ft -> 1150 ft, line 7443) "
+    "read as a unit error ('vertical rate 4,298 m/s sustained over 5 samples'); a valid ft log",
+)
+def test_altitude_spikes_are_not_a_unit_error():
+    tr = read_track(ADSB / "noisy_time_issue.csv.gz")
+    assert len(tr) == 8294
