@@ -2,6 +2,7 @@
 
 import ast
 import pathlib
+import re
 import subprocess
 import sys
 import warnings
@@ -527,3 +528,43 @@ def test_layout_checks_catch_planted_violations(tmp_path):
     }
     new, gone = _against({"m": {"x", "y"}}, {"m": frozenset({"x", "z"}), "n": frozenset({"w"})})
     assert new == ["m: y"] and gone == ["m: z", "n: w"]
+
+
+#: A string that names a place outside the repository (a test must read only what ships with it)
+FIXED_PATH = re.compile(
+    r"^(?:/(?:tmp|home|root|work|mnt|opt|srv|data|scratch|var)/|~/|[A-Za-z]:\\)"
+)
+
+
+def _fixed_paths(folder: pathlib.Path) -> list[str]:
+    """List the string literals of the test files that are absolute paths outside the repository.
+
+    Docstrings are prose, not reads: they are not counted.
+    """
+    out = []
+    for p in sorted(folder.rglob("*.py")):
+        tree = ast.parse(p.read_text(encoding="utf-8"))
+        docs = {
+            id(n.value)
+            for n in ast.walk(tree)
+            if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)
+        }
+        for n in ast.walk(tree):
+            if (
+                isinstance(n, ast.Constant)
+                and isinstance(n.value, str)
+                and id(n) not in docs
+                and FIXED_PATH.match(n.value)
+            ):
+                out.append(f"{p.relative_to(folder).as_posix()}:{n.lineno}: {n.value!r}")
+    return out
+
+
+def test_no_fixed_paths_outside_the_repository(tmp_path):
+    """No test reads a fixed path such as /tmp/...: its data ship under tests/data/."""
+    assert _fixed_paths(ROOT / "tests") == []
+    (tmp_path / "test_x.py").write_text(
+        '"""Docs may say /tmp/notes.md."""\nfrom pathlib import Path\n\n'
+        'DATA = Path("/tmp/traffic/samples")\n'
+    )
+    assert _fixed_paths(tmp_path) == ["test_x.py:4: '/tmp/traffic/samples'"]
