@@ -91,12 +91,21 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     metafunc.parametrize("device", _warp.devices())
 
 
-def pytest_runtest_logreport(report: pytest.TestReport) -> None:
-    """Record every skipped test (an expected failure, ``xfail``, is no skip)."""
+def _record_skip(report: pytest.TestReport | pytest.CollectReport) -> None:
+    """Record a skip (an expected failure, ``xfail``, is no skip)."""
     if report.skipped and not hasattr(report, "wasxfail"):
         reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
-        reason = reason.removeprefix("Skipped: ")
-        _SKIPS.append((report.nodeid, reason))
+        _SKIPS.append((report.nodeid, reason.removeprefix("Skipped: ")))
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Record every skipped test."""
+    _record_skip(report)
+
+
+def pytest_collectreport(report: pytest.CollectReport) -> None:
+    """Record every skipped test file (a module-level ``importorskip``)."""
+    _record_skip(report)
 
 
 #: (test id, reason) of the skips of this process's session

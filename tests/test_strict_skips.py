@@ -30,7 +30,7 @@ def test_skip_reasons_of_the_suite():
 
 
 def test_strict_session_fails_on_a_skip(tmp_path):
-    """A run with one not-allowed skip exits 1 under FIELDMAP_STRICT_SKIPS=1, 0 without it."""
+    """Skips not allowed (a test, a file) fail a run under FIELDMAP_STRICT_SKIPS=1, not without."""
     (tmp_path / "test_one.py").write_text(
         textwrap.dedent(
             """
@@ -44,6 +44,9 @@ def test_strict_session_fails_on_a_skip(tmp_path):
             """
         )
     )
+    (tmp_path / "test_two.py").write_text(
+        'import pytest\n\npytest.importorskip("no_such_peer_xyz")\n\n\ndef test_x():\n    pass\n'
+    )
     conftest = os.path.join(os.path.dirname(__file__), "conftest.py")
     (tmp_path / "conftest.py").write_text(open(conftest, encoding="utf-8").read())
     codes = {}
@@ -51,11 +54,12 @@ def test_strict_session_fails_on_a_skip(tmp_path):
         env = dict(os.environ, FIELDMAP_STRICT_SKIPS=strict)
         run = subprocess.run(
             [sys.executable, "-m", "pytest", "-q", "-p", "no:randomly", "-p", "no:cacheprovider",
-             str(tmp_path / "test_one.py")],
+             str(tmp_path / "test_one.py"), str(tmp_path / "test_two.py")],
             cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
         )  # fmt: skip
         codes[strict] = run.returncode
         assert "tests/conftest.py" not in run.stderr
         assert "test_one.py::test_tool: GeographicLib" in run.stdout, run.stdout
+        assert "test_two.py: could not import 'no_such_peer_xyz'" in run.stdout, run.stdout
     assert codes == {"0": 0, "1": 1}
-    assert "NOT ALLOWED" in run.stdout and "test_gpu: needs a CUDA device" in run.stdout
+    assert run.stdout.count("NOT ALLOWED") == 2 and "test_gpu: needs a CUDA device" in run.stdout
