@@ -64,6 +64,8 @@ def test_old_gravity_path_keeps_public_function():
 
 
 ROOT = PKG.parent
+#: kernels/ is installed as fieldmap.kernels (pyproject's package-dir)
+KERNELS = ("fieldmap", "kernels")
 
 
 def _package_modules(root: pathlib.Path) -> dict[str, pathlib.Path]:
@@ -77,9 +79,6 @@ def _package_modules(root: pathlib.Path) -> dict[str, pathlib.Path]:
             rel = p.relative_to(folder).with_suffix("").parts
             out[".".join(prefix + (rel[:-1] if rel[-1] == "__init__" else rel))] = p
     return out
-
-
-KERNELS = ("fieldmap", "kernels")
 
 
 def _imports(path: pathlib.Path, name: str):
@@ -192,20 +191,25 @@ def _private_imports(root: pathlib.Path) -> dict[str, set[str]]:
         for _, module, item, local in _imports(path, name):
             if not (module == "fieldmap" or module.startswith("fieldmap.")):
                 continue
-            target = module if item is None else f"{module}.{item}"
+            if item is None:  # import a.b.c binds a; import a.b.c as d binds a.b.c
+                target = local if local == module.split(".")[0] else module
+            else:
+                target = f"{module}.{item}"
             if target in mods:
                 bound[local] = target
             elif item is not None and _is_private(item):
                 out.setdefault(name, set()).add(target)
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if (
-                isinstance(node, ast.Attribute)
-                and isinstance(node.value, ast.Name)
-                and node.value.id in bound
-                and _is_private(node.attr)
-                and f"{bound[node.value.id]}.{node.attr}" not in mods
-            ):
-                out.setdefault(name, set()).add(f"{bound[node.value.id]}.{node.attr}")
+            if not (isinstance(node, ast.Attribute) and _is_private(node.attr)):
+                continue
+            chain, base = [], node.value  # alias.sub.mod._name: resolve alias.sub.mod
+            while isinstance(base, ast.Attribute):
+                chain.insert(0, base.attr)
+                base = base.value
+            if isinstance(base, ast.Name) and base.id in bound:
+                owner = ".".join([bound[base.id], *chain])
+                if owner in mods and f"{owner}.{node.attr}" not in mods:
+                    out.setdefault(name, set()).add(f"{owner}.{node.attr}")
     return out
 
 
@@ -506,7 +510,10 @@ def test_layout_checks_catch_planted_violations(tmp_path):
                 "from fieldmap import _warp\nfrom fieldmap.sub.a import _p\nfrom . import a\n"
                 "from .a import f as f\n__all__ = ['f', 'h']\n\n\ndef h():\n    a._p()\n"
             ),
-            "fieldmap/sub/c.py": "from ..sub import a as mod\nx = mod._q\n",
+            "fieldmap/sub/c.py": (
+                "from ..sub import a as mod\nimport fieldmap.sub.a\nimport fieldmap\n"
+                "x = mod._q\ny = fieldmap.sub.a._r\nz = fieldmap._LAZY\n"
+            ),
             "fieldmap/d.py": "def __getattr__(name):\n    return name\n",
             "kernels/k.py": "from .j import _ok\nfrom .. import sub\n",
             "kernels/j.py": "from ..sub.a import f\nimport fieldmap.kernels.k\n",
@@ -518,7 +525,7 @@ def test_layout_checks_catch_planted_violations(tmp_path):
     ]
     assert _private_imports(root) == {
         "fieldmap.sub.b": {"fieldmap.sub.a._p"},
-        "fieldmap.sub.c": {"fieldmap.sub.a._q"},
+        "fieldmap.sub.c": {"fieldmap.sub.a._q", "fieldmap.sub.a._r", "fieldmap._LAZY"},
         "fieldmap.kernels.k": {"fieldmap.kernels.j._ok"},
     }
     assert _reexports(root) == {
