@@ -16,11 +16,19 @@ Temporary files
     process that compiles kernels and does not exit through Python's clean-up (signals,
     ``os._exit``); whatever else a child leaves there goes with it. ``tmp_path`` folders are kept
     for failed tests only (``tmp_path_retention_policy`` in pyproject.toml).
+
+Skips (``FIELDMAP_STRICT_SKIPS=1``, set by ``.ci/run``)
+    Every skipped test is listed at the end of the run with its reason, and the session fails
+    (exit status 1) when a test skipped for a reason outside :data:`ALLOWED_SKIPS`: a missing
+    GPU (CUDA device or compiler), or an optional peer named there. Anything else that CI
+    installs (the ``test`` extra, GeographicLib's tools, a C compiler, the UDUNITS library) must
+    be present, and a test of the project's own code never skips.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 
@@ -30,6 +38,15 @@ from fieldmap import _warp
 
 #: (private TMPDIR, previous TMPDIR) of this session
 _tmp_key = pytest.StashKey[tuple]()
+
+#: Reasons a test may skip in CI (``FIELDMAP_STRICT_SKIPS=1``), as (what, regular expression
+#: searched in the skip reason, case-blind). A missing GPU: no CUDA device, or a Warp build
+#: without NVRTC (CUDA code cannot be compiled). No optional peer is allowed today: everything
+#: the tests compare with is installed by ``.ci/run`` (``make test`` installs the ``test`` extra:
+#: pyshtools, navtk, python-ins, boule, cfchecker, dask, zarr, mpmath; apt installs
+#: geographiclib-tools, g++ and UDUNITS-2), so a skip for one of them in CI is a broken install.
+#: Add a peer here only if CI cannot install it, with the reason next to it.
+ALLOWED_SKIPS: tuple[tuple[str, str], ...] = (("no GPU", r"\bcuda\b|\bgpu\b|nvrtc"),)
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -72,3 +89,60 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
         if "device" in names:  # the test chooses its devices itself
             return
     metafunc.parametrize("device", _warp.devices())
+
+
+def _record_skip(report: pytest.TestReport | pytest.CollectReport) -> None:
+    """Record a skip (an expected failure, ``xfail``, is no skip)."""
+    if report.skipped and not hasattr(report, "wasxfail"):
+        reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
+        _SKIPS.append((report.nodeid, reason.removeprefix("Skipped: ")))
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Record every skipped test."""
+    _record_skip(report)
+
+
+def pytest_collectreport(report: pytest.CollectReport) -> None:
+    """Record every skipped test file (a module-level ``importorskip``)."""
+    _record_skip(report)
+
+
+#: (test id, reason) of the skips of this process's session
+_SKIPS: list[tuple[str, str]] = []
+
+
+def _strict_skips() -> bool:
+    return os.environ.get("FIELDMAP_STRICT_SKIPS", "") not in ("", "0")
+
+
+def unexpected_skips(skips: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """Return the skips whose reason matches none of :data:`ALLOWED_SKIPS`."""
+    return [
+        (nodeid, reason)
+        for nodeid, reason in skips
+        if not any(re.search(rx, reason, re.IGNORECASE) for _, rx in ALLOWED_SKIPS)
+    ]
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Fail the session on an unexpected skip when ``FIELDMAP_STRICT_SKIPS=1``."""
+    if _strict_skips() and unexpected_skips(_SKIPS) and exitstatus == pytest.ExitCode.OK:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    """List the skipped tests; with ``FIELDMAP_STRICT_SKIPS=1``, say which are not allowed."""
+    if not _SKIPS:
+        return
+    bad = set(unexpected_skips(_SKIPS)) if _strict_skips() else set()
+    terminalreporter.section(f"{len(_SKIPS)} skipped tests")
+    for nodeid, reason in _SKIPS:
+        mark = "NOT ALLOWED " if (nodeid, reason) in bad else ""
+        terminalreporter.write_line(f"{mark}{nodeid}: {reason}")
+    if bad:
+        terminalreporter.write_line(
+            f"FIELDMAP_STRICT_SKIPS=1: {len(bad)} tests skipped for a reason outside "
+            "ALLOWED_SKIPS (tests/conftest.py): the session fails",
+            red=True,
+        )

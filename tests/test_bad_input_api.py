@@ -9,8 +9,6 @@ file shares).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from test_bad_input_cli import ALIEN_MODELS, BAD_MODELS, work  # noqa: F401 - ``work`` is a fixture
@@ -419,13 +417,11 @@ def test_api_imu_errors():
             ie.apply(*args, **kw)
 
 
-def test_build_scenario_long_output_interval_is_fast():
+def test_build_scenario_long_output_interval():
     """An output interval longer than the flight stores the last state (no endless search)."""
     from fieldmap.nav import studies as navsim
 
-    t0 = time.perf_counter()
     sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
-    assert time.perf_counter() - t0 < 60.0
     assert sc.t_out[-1] == pytest.approx(sc.imu.t0 + sc.imu.duration)
 
 

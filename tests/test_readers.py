@@ -21,7 +21,7 @@ from fieldmap.nav.logs.track import RawTrack
 T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
 FT = 0.3048
 DATA = Path(__file__).parent / "data" / "flights"
-TRAFFIC_SAMPLES = Path("/tmp/traffic/traffic/data/samples")
+ADSB = Path(__file__).parent / "data" / "adsb"
 
 
 @pytest.fixture(scope="module")
@@ -489,17 +489,32 @@ def test_real_samples_in_repository():
     assert len(tr) == 4500 and tr.height_ref == "pressure" and tr.t[-1] - tr.t[0] > 3600
 
 
-@pytest.mark.skipif(not TRAFFIC_SAMPLES.is_dir(), reason="traffic samples not unpacked in /tmp")
-def test_traffic_package_samples(tmp_path):
-    pd = pytest.importorskip("pandas")
-    for name in ("featured/elal747", "noisy/noisy_landing", "gliders/cevennes"):
-        df = pd.read_json(TRAFFIC_SAMPLES / f"{name}.json.gz", dtype={"icao24": str})
-        ts = pd.to_datetime(df["timestamp"], utc=True).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
-        cols = ["latitude", "longitude", "altitude", "groundspeed", "track"]
-        cols += [c for c in ("geoaltitude",) if c in df]
-        out = df[cols].assign(timestamp=ts)
-        path = tmp_path / (name.replace("/", "_") + ".csv")
-        out.to_csv(path, index=False)
-        tr = read_track(path)
-        assert len(tr) >= 0.95 * len(df) and tr.t0_utc is not None
-        assert np.nanmax(tr.h) < 15_000
+@pytest.mark.parametrize(
+    "name", ["elal747", "noisy_landing", "cevennes", "qantas747", "munich", "sisteron"]
+)
+def test_traffic_package_samples(name):
+    """Real logs of the traffic package (tests/data/adsb): 747s, a landing, gliders, a survey."""
+    path = ADSB / f"{name}.csv.gz"
+    with gzip.open(path, "rt") as f:
+        rows = sum(1 for _ in f) - 1
+    tr = read_track(path)
+    assert len(tr) >= 0.95 * rows and tr.t0_utc is not None
+    assert np.nanmax(tr.h) < 15_000
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=InputError,
+    reason="defect: isolated barometric spikes within 5 samples read as a unit error "
+    "('vertical rate ... m/s sustained over 5 samples ... altitudes in ft?') in a valid ft log",
+)
+@pytest.mark.parametrize(
+    "name, rows",
+    [
+        ("noisy_time_issue", 8294),  # line 7443: 15850 ft, 1150, 15800, 1700, 15750 (1 Hz)
+        ("noisy_takeoff", 730),  # line 86: 35975 ft twice during the take-off roll at Zurich
+    ],
+)
+def test_altitude_spikes_are_not_a_unit_error(name, rows):
+    tr = read_track(ADSB / f"{name}.csv.gz")
+    assert len(tr) >= 0.95 * rows
