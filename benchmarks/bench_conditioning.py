@@ -16,8 +16,8 @@ from pathlib import Path
 
 from timing import median_time
 
-from fieldmap.nav.conditioning import condition
-from fieldmap.nav.readers import read_track
+from fieldmap.nav.logs.condition import condition
+from fieldmap.nav.logs.read import read_track
 
 ADSB = Path(__file__).resolve().parents[1] / "tests" / "data" / "adsb"
 LOGS = ("noisy_time_issue", "elal747", "inflight_refuelling")
