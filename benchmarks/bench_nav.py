@@ -73,8 +73,8 @@ BASELINE_S = 1770.0
 
 def bench_study(traj, minutes, rate, draws, device, **kw):
     """Wall time of the full flight study, split into synthesis and propagation."""
-    from fieldmap.nav.flightsim import run_flight
-    from fieldmap.nav.imu_specs import PRESETS
+    from fieldmap.nav.sensors import PRESETS
+    from fieldmap.nav.study import run_flight
 
     t0 = time.perf_counter()
     res = run_flight(

@@ -25,9 +25,8 @@ import numpy as np
 from timing import median_time
 
 from fieldmap import _warp
-from fieldmap.nav.launch_frames import LaunchFrame
-from fieldmap.nav.strapdown import propagate_lci
-from fieldmap.nav.strapdown_ned import propagate_ned
+from fieldmap.nav.frames import LaunchFrame
+from fieldmap.nav.mechanize import propagate_lci, propagate_ned
 
 FRAME = LaunchFrame(105.3, 27.1, 63.0)
 

@@ -24,7 +24,7 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     args = ap.parse_args(argv)
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
     from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate = (60.0, 100.0) if args.small else (800.0, 200.0)

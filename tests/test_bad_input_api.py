@@ -21,7 +21,7 @@ from fieldmap.field import normal as N
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.grids import spec as gridspec
 from fieldmap.grids import synthesis as G
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.frames import LaunchFrame
 from fieldmap.products import maps, stats
 
 LMAX = 4  # small degree: these tests are about input checks, not the series
@@ -322,8 +322,8 @@ def test_api_navsim_inputs():
     """Navigation inputs: IMU arrays, dt, names, degrees, trajectories below the surface."""
     from fieldmap.models.registry import load_model
     from fieldmap.nav import imu
-    from fieldmap.nav import studies as navsim
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav import paper as navsim
+    from fieldmap.nav.frames import LaunchFrame
     from fieldmap.nav.trajectory import Stationary
 
     good = np.zeros((10, 3))
@@ -393,7 +393,7 @@ def test_api_verify():
 
 def test_api_imu_errors():
     """IMU error specs, draws and their application refuse bad values with InputError."""
-    from fieldmap.nav import imu_errors as ie
+    from fieldmap.nav import sensors as ie
 
     for value in (-1.0, float("nan"), "x", None, True):
         with pytest.raises(InputError, match="acc_bias_ug"):
@@ -421,7 +421,7 @@ def test_api_imu_errors():
 
 def test_build_scenario_long_output_interval_is_fast():
     """An output interval longer than the flight stores the last state (no endless search)."""
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
 
     t0 = time.perf_counter()
     sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)

@@ -6,8 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from fieldmap import _warp
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.strapdown import dcm_to_quat, quat_to_dcm
-from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+from fieldmap.nav.mechanize import Baro, baro_gains, dcm_to_quat, propagate_ned, quat_to_dcm
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_ned_reference
 

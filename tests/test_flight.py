@@ -9,8 +9,8 @@ import pytest
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.flight import FlightTrajectory, read_flight, route_flight
-from fieldmap.nav.flightsim import BaroSpec, run_flight
-from fieldmap.nav.imu_errors import ImuErrorSpec
+from fieldmap.nav.sensors import ImuErrorSpec
+from fieldmap.nav.study import BaroSpec, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -214,10 +214,10 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
     Bias, scale-factor, white-noise and bias-instability IMU: the noise is keyed on the global
     sample index, so 60 s blocks give the 240 s block's errors bit for bit.
     """
-    from fieldmap.nav import flightsim
+    from fieldmap.nav import study
 
     sizes = []
-    real = flightsim.synthesize
+    real = study.synthesize
 
     def spy(*args, **kw):
         out = real(*args, **kw)
@@ -229,7 +229,7 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
         gyro_arw_deg_rth=0.05, acc_bi_ug=20.0, acc_bi_tau_s=100.0, gyro_bi_deg_h=0.2,
     )  # fmt: skip
     _, a = _ideal_study(imu=imu, draws=2, block_s=240.0)
-    monkeypatch.setattr(flightsim, "synthesize", spy)
+    monkeypatch.setattr(study, "synthesize", spy)
     _, b = _ideal_study(imu=imu, draws=2, block_s=60.0)
     assert max(sizes) == 6000 and len(sizes) == 8  # 4 blocks × 2 sets of 60 s at 100 Hz
     np.testing.assert_array_equal(a.dpos, b.dpos)  # m; errors reach ~100 m
@@ -257,7 +257,7 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
     North accelerometer bias b at the equator (no Foucault coupling), baro-held vertical:
     δN = b/ω_s² (1 − cos ω_s t): ½bt² early, period 2π/ω_s = 84.4 min over 3 h.
     """
-    from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+    from fieldmap.nav.mechanize import Baro, baro_gains, propagate_ned
 
     dt, n = 0.1, 108000  # 3 h at 10 Hz
     dth, dv = _rest(n, dt, 0.0)
@@ -282,9 +282,8 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
 
 def test_arw_attitude_random_walk_grows_as_sqrt_t():
     """Gyro white noise only: heading error σ(t) = ARW √t over 64 runs (±25 %: 192 samples)."""
-    from fieldmap.nav.imu_errors import DEG_RTH
-    from fieldmap.nav.strapdown import quat_to_dcm
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_ned, quat_to_dcm
+    from fieldmap.nav.sensors import DEG_RTH
 
     dt, n, runs = 0.05, 8000, 64  # 400 s
     dth, dv = _rest(n, dt, 45.0)

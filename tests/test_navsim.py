@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main as cli_main
-from fieldmap.nav import studies as navsim
+from fieldmap.nav import paper as navsim
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +145,7 @@ def test_table4_values_against_an_independent_computation(scenario):
     one for ``imu_only``) moves the first row by the J4 gravity-model error (0.73 m here).
     """
     from fieldmap.nav.imu import synthesize
-    from fieldmap.nav.imu_errors import DEG_H, UG, ImuErrorSpec
+    from fieldmap.nav.sensors import DEG_H, UG, ImuErrorSpec
     from fieldmap.reference import normal as nref
     from fieldmap.reference.strapdown import propagate_lci_reference
 

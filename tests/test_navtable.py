@@ -17,7 +17,7 @@ from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.normal import normal_gravitation_ecef
-from fieldmap.nav.tablegravity import table_gravitation, table_points
+from fieldmap.nav.gravity import table_gravitation, table_points
 from fieldmap.products.table_model import CompensationTable, interpolate
 
 
@@ -113,8 +113,7 @@ def _motion(n=2, ns=400, dt=0.005):
 
 
 def test_a_zero_table_navigates_as_the_exact_normal_field(tmp_path, device):
-    from fieldmap.nav.strapdown import propagate_lci
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_lci, propagate_ned
 
     name = _write(tmp_path, np.zeros((3, 10, 10, 3)))
     dth, dv, dt = _motion()
@@ -124,7 +123,7 @@ def test_a_zero_table_navigates_as_the_exact_normal_field(tmp_path, device):
     )  # fmt: skip
     for key in ("lat", "lon", "h", "v_ned"):
         np.testing.assert_array_equal(getattr(ned, key)[0], getattr(ned, key)[1])
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     frame = LaunchFrame(105.0, 30.0, 0.0, h0=1500.0)
     lci = propagate_lci(
@@ -135,7 +134,7 @@ def test_a_zero_table_navigates_as_the_exact_normal_field(tmp_path, device):
 
 
 def test_a_constant_down_table_adds_half_a_t_squared(tmp_path, device):
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_ned
 
     data = np.zeros((3, 10, 10, 3))
     data[..., 2] = 100.0  # δg down, mGal: 1e-3 m/s² more gravity
@@ -151,7 +150,7 @@ def test_a_constant_down_table_adds_half_a_t_squared(tmp_path, device):
 
 
 def test_two_tables_in_one_launch_are_refused(tmp_path):
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_ned
 
     a = _write(tmp_path, np.zeros((3, 10, 10, 3)), "a.bin")
     b = _write(tmp_path, np.zeros((3, 10, 10, 3)), "b.bin")
@@ -179,7 +178,7 @@ def table60(tmp_path_factory):
 def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table60):
     """A table verified to ε adds at most ½ ε t² of horizontal error (truth = the table's model)."""
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.study import run_flight
 
     name, rep = table60
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
@@ -199,8 +198,7 @@ def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table
 
 def test_table_order_and_a_flight_outside_the_table(table60):
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flighterrors import simplicity_order
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.study import run_flight, simplicity_order
 
     name, _ = table60
     assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]
@@ -211,7 +209,7 @@ def test_table_order_and_a_flight_outside_the_table(table60):
 
 def test_auto_models_are_the_normal_ones_and_a_degree_ladder():
     from fieldmap.models.registry import load_model
-    from fieldmap.nav.scenario import check_model_names
+    from fieldmap.nav.study import check_model_names
 
     model = load_model("eigen-6s", lmax=100)
     got = check_model_names(["auto", "sh24"], model)

@@ -10,10 +10,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
-from fieldmap.nav.flightsim import BaroSpec, run_flight
-from fieldmap.nav.imu_errors import ImuErrorSpec
-from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
-from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+from fieldmap.nav.mechanize import Baro, baro_gains, dcm_to_quat, propagate_lci, propagate_ned
+from fieldmap.nav.sensors import ImuErrorSpec
+from fieldmap.nav.study import BaroSpec, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -125,7 +124,7 @@ def test_propagate_ned_in_two_halves_equals_one_call():
 
 def test_propagate_lci_in_two_halves_equals_one_call():
     """LCI: sample0 = n/2 and t0 = n/2 dt for the second half, states carried: one call's bits."""
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     n, dt, every = 2000, 0.01, 25
     dth, dv, q0 = _motion(n, dt)
@@ -204,7 +203,7 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
     )
     from scipy.spatial.transform import Rotation as R
 
-    from fieldmap.nav.strapdown import quat_to_dcm
+    from fieldmap.nav.mechanize import quat_to_dcm
 
     C = quat_to_dcm(noisy.q[:, -1]) @ quat_to_dcm(ref.q[0, -1]).T
     psi = R.from_matrix(C).as_rotvec()
@@ -213,11 +212,11 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
 
 def test_results_as_datasets_over_run_and_time():
     """Flight and paper studies hand their results over as xarray Datasets with units."""
-    from fieldmap.nav import flightsim, studies
+    from fieldmap.nav import paper, study
     from fieldmap.nav.flight import FlightTrajectory, route_flight
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
-    res = flightsim.run_flight(
+    res = study.run_flight(
         ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0,
         device="cpu",
     )  # fmt: skip
@@ -225,8 +224,8 @@ def test_results_as_datasets_over_run_and_time():
     assert ds["position_error"].dims == ("run", "time", "axis")
     assert ds["position_error"].attrs["units"] == "m"
     assert ds.sizes["run"] == len(res.labels) and ds.sizes["time"] == res.t.size
-    sc = studies.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
-    st = studies.table1(sc, models=["j2", "j4"], timing=False)
+    sc = paper.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
+    st = paper.table1(sc, models=["j2", "j4"], timing=False)
     sd = st.to_dataset()
     assert sd["position_error"].dims == ("run", "time")
     assert sd["velocity_error"].attrs["units"] == "m s-1"
@@ -234,9 +233,8 @@ def test_results_as_datasets_over_run_and_time():
 
 def test_lci_and_ned_results_share_one_time_base():
     """A piece of a record starting at global sample 100: both results' t start at 100 dt."""
-    from fieldmap.nav.launch_frames import LaunchFrame
-    from fieldmap.nav.strapdown import propagate_lci
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.frames import LaunchFrame
+    from fieldmap.nav.mechanize import propagate_lci, propagate_ned
 
     dt, n = 0.01, 40
     dth = np.zeros((n, 3))

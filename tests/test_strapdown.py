@@ -6,8 +6,8 @@ from scipy.spatial.transform import Rotation
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.launch_frames import LaunchFrame
-from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+from fieldmap.nav.frames import LaunchFrame
+from fieldmap.nav.mechanize import dcm_to_quat, propagate_lci, quat_to_dcm
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_lci_reference
 
@@ -327,8 +327,8 @@ def test_input_validation():
 
 def test_normal_is_the_deprecated_name_of_exact():
     """Navigation gravity "normal" (fieldmap 0.1) flies as "exact", bit for bit, with a warning."""
-    from fieldmap.nav.strapdown import parse_gravity
-    from fieldmap.nav.studies import check_model_names
+    from fieldmap.nav.mechanize import parse_gravity
+    from fieldmap.nav.paper import check_model_names
 
     dth, dv, P0, V0, q0 = _random_motion(2, 200, 0.005)
     run = dict(dt=0.005, P0=P0, V0=V0, q0=q0, launch=FRAME, output_every=20, device="cpu")
@@ -366,7 +366,7 @@ def test_input_validation_models_and_errors():
 def test_several_sets_without_imu_set_raise():
     """Two increment sets for three trajectories: no silent use of set 0."""
     from fieldmap.errors import InputError
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     dth = np.zeros((2, 4, 3))
     dv = np.zeros((2, 4, 3))
@@ -384,7 +384,7 @@ def test_lci_ellipsoid_conflicting_with_launch_frame_raises():
     """``ellipsoid=`` is not silently ignored when the launch frame has another one."""
     from fieldmap.errors import InputError
     from fieldmap.field.ellipsoid import GRS80
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     frame = LaunchFrame(lon0=10.0, B0=40.0, A0=0.0)
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
@@ -417,7 +417,7 @@ def test_plain_kernels_give_the_bits_of_the_general_ones(device, monkeypatch):
     """A launch without sensor errors, baro or SH runs a kernel stripped of that code: same bits."""
     from fieldmap.kernels import strapdown as ksd
 
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_ned
 
     n, ns, dt = 6, 400, 0.005
     dth, dv, P0, V0, q0 = _random_motion(n, ns, dt, seed=3)

@@ -2,7 +2,7 @@
 
 ``--study table1|table3|table4|all`` runs the studies of Chen et al. (2022) §5 on the boost-glide
 path; ``--trajectory FILE`` or ``--route "lat,lon,h;..." --speed-mps V`` runs the flight study of
-:mod:`fieldmap.nav.flightsim` (``navsim_flight.*``: see
+:mod:`fieldmap.nav.study` (``navsim_flight.*``: see
 :func:`fieldmap.nav.report.write_flight_outputs`).
 
 Each option applies to the paper's studies, to the flight study or to both (the table of
@@ -54,13 +54,13 @@ def register(subparsers) -> None:
 
 
 def _model_names(args, names, model, notes: list[str]) -> list[str]:
-    """:func:`~fieldmap.nav.scenario.check_model_names`, its deprecation warnings in ``notes``.
+    """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
     on stderr (``"normal" is now "exact"``), printed by :func:`run` once every option passed
     its checks: a refused run prints its refusal alone.
     """
-    from fieldmap.nav.scenario import check_model_names
+    from fieldmap.nav.study import check_model_names
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DeprecationWarning)
@@ -83,7 +83,7 @@ def _check_args(args, notes: list[str]):
     from fieldmap._warp import DeviceError, resolve_device
     from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import sample_count
-    from fieldmap.nav.scenario import output_steps
+    from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
 
     for name, v in (
@@ -157,7 +157,7 @@ def _check_flight_args(args, model, models):
     """Validate the flight study's options; build the trajectory (its errors name the line)."""
     from fieldmap._warp import DeviceError, resolve_device
     from fieldmap.nav.imu import MAX_SAMPLES
-    from fieldmap.nav.imu_specs import PRESETS, load_imu
+    from fieldmap.nav.sensors import PRESETS, load_imu
     from fieldmap.products.io import check_out_dir
 
     if args.trajectory is not None and args.route is not None:
@@ -184,7 +184,7 @@ def _check_flight_args(args, model, models):
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
     flights = navflight.flights(args, model)
-    from fieldmap.nav.flightsim import check_tables_cover
+    from fieldmap.nav.study import check_tables_cover
 
     for _, traj, _ in flights:
         navoptions.refuse_in_flight(args, imu, traj)
@@ -235,7 +235,7 @@ def run(args) -> int:
 def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
 
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
@@ -257,7 +257,7 @@ def _scenario_and_studies(args, device, studies, models, nav, client=None) -> li
 def _run_studies(args, sc, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
 
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):

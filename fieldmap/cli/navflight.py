@@ -203,9 +203,9 @@ def run(args, device, models, flights_, imu, model, client=None) -> int:
 
     from tqdm import tqdm
 
-    from fieldmap.nav.flightplots import disturbance_grid
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.plots import disturbance_grid
     from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.nav.study import run_flight
     from fieldmap.products.io import output_batch
 
     results = []

@@ -100,7 +100,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "--bias-mode",
         default="gauss",
         choices=("gauss", "sign", "fixed"),
-        help="how constant errors are drawn per run (see fieldmap.nav.imu_errors)",
+        help="how constant errors are drawn per run (see fieldmap.nav.sensors)",
     )
     p.add_argument("--rate", type=float, default=200.0, help="IMU sample rate in Hz (default 200)")
     p.add_argument(
@@ -214,7 +214,7 @@ def refuse_in_studies(args, studies, models, nav) -> None:
 def refuse_in_flight(args, imu, traj) -> None:
     """Refuse, in one line, an option given that the flight study does not use."""
     from fieldmap.cli import given
-    from fieldmap.nav.flightsim import BARO_AFTER_S
+    from fieldmap.nav.study import BARO_AFTER_S
 
     for dest, option in STUDIES_ONLY.items():
         if given(args, dest):

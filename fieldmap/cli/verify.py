@@ -177,8 +177,8 @@ def _grid_checks(device, lmax):
 
 def _strapdown_checks(device):
     from fieldmap.field.ellipsoid import WGS84
-    from fieldmap.nav.launch_frames import LaunchFrame
-    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+    from fieldmap.nav.frames import LaunchFrame
+    from fieldmap.nav.mechanize import dcm_to_quat, propagate_lci, quat_to_dcm
     from fieldmap.reference import normal as rnorm
     from fieldmap.reference.strapdown import propagate_lci_reference
 
@@ -223,8 +223,7 @@ def _strapdown_checks(device):
 def _strapdown_ned_checks(device):
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.field.frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
-    from fieldmap.nav.strapdown import quat_to_dcm
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import propagate_ned, quat_to_dcm
     from fieldmap.reference import normal as rnorm
     from fieldmap.reference.strapdown import propagate_ned_reference
 
@@ -283,8 +282,8 @@ CHECKS = (
     ("fieldmap.field.sh", lambda d, o: _sh_checks(d, o["lmax"], o["points"])),
     ("fieldmap.field.normal", lambda d, o: _normal_checks(d, o["points"])),
     ("fieldmap.grids.synthesis", lambda d, o: _grid_checks(d, min(o["lmax"], 120))),
-    ("fieldmap.nav.strapdown", lambda d, o: _strapdown_checks(d)),
-    ("fieldmap.nav.strapdown_ned", lambda d, o: _strapdown_ned_checks(d)),
+    ("fieldmap.nav.mechanize", lambda d, o: _strapdown_checks(d)),
+    ("fieldmap.nav.mechanize", lambda d, o: _strapdown_ned_checks(d)),
 )
 
 

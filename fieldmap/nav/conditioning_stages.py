@@ -25,8 +25,9 @@ from fieldmap.nav.conditioning_report import (
     STALE,
     STATUS_NAMES,
 )
-from fieldmap.nav.flight import G0, MIN_POINTS, FlightSamples
+from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.spelling import advice, keyword
+from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: vehicle limits: aim below LIMIT_MARGIN × the bound; at most LIMIT_ITER softenings
 LIMIT_MARGIN, LIMIT_ITER = 0.9, 12

@@ -318,7 +318,7 @@ def synthesize(
 
 def _evaluate(g, t, r) -> np.ndarray:
     """Gravitation ``g`` on the path: by time where it interpolates along it, else by position."""
-    if hasattr(g, "at_times"):  # fieldmap.nav.trackgravity.TrackGravitation
+    if hasattr(g, "at_times"):  # fieldmap.nav.gravity.TrackGravitation
         return g.at_times(t, r)
     return np.asarray(g(r), dtype=np.float64)
 

@@ -6,8 +6,8 @@ Gauss–Markov biases, baro loop), in the spirit of pyins' ``Integrator``: each 
 :meth:`Propagator.propagate` takes a block of IMU increments (shared by all runs) and the global
 index of its first sample, advances every run through it and returns the stored states;
 :meth:`~Propagator.get_state` / :meth:`~Propagator.set_state` expose the state between blocks.
-The paper's studies (:mod:`fieldmap.nav.studies`, the whole record in one block, LCI) and the
-flight studies (:mod:`fieldmap.nav.flightsim`, time blocks, NED or LCI) both use it.
+The paper's studies (:mod:`fieldmap.nav.paper`, the whole record in one block, LCI) and the
+flight studies (:mod:`fieldmap.nav.study`, time blocks, NED or LCI) both use it.
 
 Where the runs go is said explicitly: ``client=None`` here (one Warp launch over every core),
 or a ``dask.distributed.Client`` (the runs split into groups, one task each; the block's
@@ -68,7 +68,7 @@ class _Config:
     dt: float
     t_start: float  # time of global sample 0 (LCI: Earth rotation angle)
     output_every: int  # in IMU samples
-    baro: Any  # fieldmap.nav.strapdown_ned.Baro template (h_ref unset) or None
+    baro: Any  # fieldmap.nav.mechanize.Baro template (h_ref unset) or None
     device: str | None
     gravity_every: int = 1  # samples between SH disturbance updates (1: every step)
 
@@ -104,8 +104,8 @@ class Propagator:
     Parameters
     ----------
     frame : {"ned", "lci"}
-        Mechanization (:func:`fieldmap.nav.strapdown_ned.propagate_ned`,
-        :func:`fieldmap.nav.strapdown.propagate_lci`).
+        Mechanization (:func:`fieldmap.nav.mechanize.propagate_ned`,
+        :func:`fieldmap.nav.mechanize.propagate_lci`).
     start : dict
         Start state, one row per run: NED ``llh`` (rad, rad, m), ``v`` (m/s), ``q`` (q_b^n,
         scalar first); LCI ``P``, ``V`` (m, m/s, a-frame), ``q`` (q_b^a).
@@ -122,13 +122,13 @@ class Propagator:
     imu_set : array_like of int, optional
         Increment set of each run (default 0).
     errors : dict, optional
-        Kernel sensor errors (:meth:`fieldmap.nav.imu_errors.ErrorDraws.kernel_errors`), one row
+        Kernel sensor errors (:meth:`fieldmap.nav.sensors.ErrorDraws.kernel_errors`), one row
         per run; their Gauss–Markov states start the state.
     t_start : float
         Time of global sample 0 (LCI: Earth rotation angle ω t). Units: s.
     output_every : int
         Stored states every this many IMU samples (LCI: even).
-    baro : fieldmap.nav.strapdown_ned.Baro, optional
+    baro : fieldmap.nav.mechanize.Baro, optional
         Baro loop (NED): gains, bias, noise, drift per run; its ``h_ref`` is given per block to
         :meth:`propagate` and its ``state`` starts the loop state.
     device : str, optional
@@ -174,7 +174,7 @@ class Propagator:
             raise InputError("the LCI mechanization stores states every even number of samples")
         if baro is not None and frame != "ned":
             raise InputError("baro altitude aiding needs the NED mechanization")
-        from fieldmap.nav.navgravity import gravity_names
+        from fieldmap.nav.gravity import gravity_names
 
         gravity = gravity_names([gravity] if isinstance(gravity, str) else list(gravity))
         n = len(gravity)
@@ -312,7 +312,7 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
     """Propagate the runs of ``cfg`` from ``state`` through one block: (stored, next state)."""
     errors = {**cfg.errors, "acc_gm": state["acc_gm"], "gyro_gm": state["gyro_gm"]}
     if cfg.frame == "ned":
-        from fieldmap.nav.strapdown_ned import propagate_ned
+        from fieldmap.nav.mechanize import propagate_ned
 
         aid = None
         if cfg.baro is not None:
@@ -333,7 +333,7 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             nxt["baro"] = final["baro"]
         out = {"lat": ned.lat, "lon": ned.lon, "h": ned.h, "v": ned.v_ned, "q": ned.q}
     else:
-        from fieldmap.nav.strapdown import propagate_lci
+        from fieldmap.nav.mechanize import propagate_lci
 
         lci = propagate_lci(
             dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,

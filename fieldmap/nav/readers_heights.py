@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from fieldmap.errors import InputError
-from fieldmap.nav.flightsamples import MAX_HEIGHT as MAX_HEIGHT
-from fieldmap.nav.flightsamples import MIN_HEIGHT as MIN_HEIGHT
+from fieldmap.limits import MAX_HEIGHT as MAX_HEIGHT
+from fieldmap.limits import MIN_HEIGHT as MIN_HEIGHT
 from fieldmap.nav.spelling import advice, keyword
 
 FT = 0.3048
