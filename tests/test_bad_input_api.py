@@ -321,7 +321,7 @@ def test_launch_frame_fields_normalised():
 def test_api_navsim_inputs():
     """Navigation inputs: IMU arrays, dt, names, degrees, trajectories below the surface."""
     from fieldmap.models.registry import load_model
-    from fieldmap.nav import imu
+    from fieldmap.nav import imu, study
     from fieldmap.nav import paper as navsim
     from fieldmap.nav.frames import LaunchFrame
     from fieldmap.nav.trajectory import Stationary
@@ -348,7 +348,7 @@ def test_api_navsim_inputs():
     with pytest.raises(InputError, match="unknown gravity model kind"):
         imu.Gravitation("j8")
     with pytest.raises(InputError, match="output interval"):
-        navsim.build_scenario(duration=2.0, output_dt=float("nan"))
+        study.build_scenario(duration=2.0, output_dt=float("nan"))
     with pytest.raises(InputError, match="more than"):
         imu.sample_count(800.0, 1e6)
     for n in (0, -1, 2.5, 1000):
@@ -367,7 +367,7 @@ def test_api_navsim_inputs():
         imu.Gravitation("sh", model=model, lmax=2.5)
     for kw in ({"duration": "x"}, {"rate_hz": float("inf")}, {"output_dt": -1.0}):
         with pytest.raises(InputError, match="must be a positive number"):
-            navsim.build_scenario(**kw)
+            study.build_scenario(**kw)
     deep = Stationary(frame, 10.0, h=-5000.0)
     with pytest.raises(InputError, match="below the surface"):
         imu.synthesize(deep, 20.0, imu.Gravitation("j2"))
@@ -421,10 +421,10 @@ def test_api_imu_errors():
 
 def test_build_scenario_long_output_interval_is_fast():
     """An output interval longer than the flight stores the last state (no endless search)."""
-    from fieldmap.nav import paper as navsim
+    from fieldmap.nav import study
 
     t0 = time.perf_counter()
-    sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
+    sc = study.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
     assert time.perf_counter() - t0 < 60.0
     assert sc.t_out[-1] == pytest.approx(sc.imu.t0 + sc.imu.duration)
 

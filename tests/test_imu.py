@@ -153,7 +153,7 @@ def test_constant_gravity_offset_gives_half_dg_t2():
 
 def test_truth_sh_floor_is_ten_times_below_the_smallest_model_effect():
     """EIGEN-6S degree 240 truth, 30 s, 100 Hz: floor (nav = truth) ≤ 1/10 of the SH200 effect."""
-    from fieldmap.nav.paper import build_scenario, propagate
+    from fieldmap.nav.study import build_scenario, propagate
 
     sc = build_scenario(duration=30.0, rate_hz=100.0, n_gauss=2, device="cpu")
     out = propagate(sc, ["sh200", sc.truth_key])

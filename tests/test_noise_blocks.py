@@ -224,7 +224,7 @@ def test_results_as_datasets_over_run_and_time():
     assert ds["position_error"].dims == ("run", "time", "axis")
     assert ds["position_error"].attrs["units"] == "m"
     assert ds.sizes["run"] == len(res.labels) and ds.sizes["time"] == res.t.size
-    sc = paper.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
+    sc = study.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
     st = paper.table1(sc, models=["j2", "j4"], timing=False)
     sd = st.to_dataset()
     assert sd["position_error"].dims == ("run", "time")

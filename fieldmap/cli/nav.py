@@ -235,13 +235,13 @@ def run(args) -> int:
 def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
-    from fieldmap.nav import paper as navsim
+    from fieldmap.nav.study import build_scenario
 
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
         f"truth {args.model})"
     )
-    sc = navsim.build_scenario(
+    sc = build_scenario(
         duration=args.duration,
         rate_hz=args.rate,
         truth=args.model,

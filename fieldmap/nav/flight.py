@@ -48,12 +48,11 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
-from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.field.frames import ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
-from fieldmap.nav.frames import LaunchFrame
+from fieldmap.nav.frames import C_n_to_e, LaunchFrame
 from fieldmap.nav.trajectory import Trajectory
 from fieldmap.units import STANDARD_GRAVITY
-
 
 REQUIRED = ("time_s", "lat_deg", "lon_deg", "height_m")
 ATTITUDE = ("roll_deg", "pitch_deg", "heading_deg")
@@ -270,12 +269,6 @@ def _check_radians(name, lines, lat, lon, speed) -> None:
         )
 
 
-def _C_n_to_e(lat_deg, lon_deg):
-    """Columns north, east, down of the local-level frame in ECEF, (..., 3, 3)."""
-    enu = C_e_to_enu(lat_deg, lon_deg)
-    return np.stack([enu[..., 1, :], enu[..., 0, :], -enu[..., 2, :]], axis=-1)
-
-
 class FlightTrajectory(Trajectory):
     """Smooth trajectory through flight samples (see the module docstring).
 
@@ -302,7 +295,7 @@ class FlightTrajectory(Trajectory):
         self._d1 = self._spline.derivative(1)
         self._d2 = self._spline.derivative(2)
         v, a = self._d1(s.t), self._d2(s.t)
-        C_n_e = _C_n_to_e(s.lat, s.lon)
+        C_n_e = C_n_to_e(s.lat, s.lon)
         v_n = np.einsum("nji,nj->ni", C_n_e, v)
         if s.attitude is None:
             att = coordinated_attitude(v_n, np.einsum("nji,nj->ni", C_n_e, a))
@@ -575,7 +568,7 @@ def geodetic_state(traj: Trajectory, t):
     """
     k = traj.kinematics(t)
     lat, lon, h = ecef_to_geodetic(k.r_e[:, 0], k.r_e[:, 1], k.r_e[:, 2], traj.frame.ellipsoid)
-    C_n_e = _C_n_to_e(lat, lon)
+    C_n_e = C_n_to_e(lat, lon)
     C_a_e = np.swapaxes(traj.frame.C_e_to_a(k.t), -1, -2)
     C_b_e = C_a_e @ k.C_b_to_a
     v_ned = np.einsum("nji,nj->ni", C_n_e, k.v_e)

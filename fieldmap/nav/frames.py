@@ -41,8 +41,7 @@ import numpy as np
 from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.field.frames import geodetic_to_ecef
-
+from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 
 #: Accepted launch longitudes and azimuths, half-open, as GeographicLib's angle range. Units: deg.
 ANGLE_RANGE = (limits.LON_MIN, limits.LON_MAX)
@@ -130,6 +129,18 @@ def C_l_to_a(lat_gc_deg, lon_deg, t, lon0_deg, B0_deg, A0_deg, omega: float = WG
 def C_e_to_a(t, lon0_deg, B0_deg, A0_deg, omega: float = WGS84.omega):
     """Rotation ECEF -> a-frame at time t, eq. (20): ``R_e^a = R_t^a R_e^t``."""
     return C_t_to_a(lon0_deg, B0_deg, A0_deg) @ C_e_to_t(t, omega)
+
+
+def C_n_to_e(lat_deg, lon_deg) -> np.ndarray:
+    """Columns north, east, down of the local-level (NED) frame in ECEF, shape (..., 3, 3).
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like
+        Geodetic latitude and longitude. Units: degrees.
+    """
+    enu = C_e_to_enu(lat_deg, lon_deg)
+    return np.stack([enu[..., 1, :], enu[..., 0, :], -enu[..., 2, :]], axis=-1)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,6 @@ from fieldmap.nav.propagator import final_stats
 from fieldmap.nav.study import NORMAL_KINDS, Scenario, check_model_names, propagate
 from fieldmap.nav.trajectory import BoostGlide
 
-
 #: Navigation gravity models of Table 1 (keys of the JSON output).
 TABLE1_MODELS = ("j2", "j4", "j6", "exact", "sh18", "sh200")
 #: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation,

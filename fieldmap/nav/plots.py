@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 #: (colour, line style, marker) per Table 1 navigation model; Okabe-Ito colours (colour-blind safe)
 MODEL_STYLE = {
     "j2": ("#D55E00", "-", "o"),

@@ -152,7 +152,6 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.units import STANDARD_GRAVITY
 
-
 #: 1 µg in m/s² (the paper's "g" is standard gravity, Chen et al. 2022 §4.1).
 UG = STANDARD_GRAVITY * 1e-6
 DEG_H = np.pi / 180.0 / 3600.0  #: 1 °/h in rad/s.

@@ -95,7 +95,6 @@ from fieldmap.nav.propagator import (
 )
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
-
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
 #: names: the exact level-ellipsoid field is ``"exact"`` on both sides)
 NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "exact": "exact"}
@@ -354,12 +353,12 @@ def propagate(
 def _a_to_ned(sc: Scenario, dP: np.ndarray) -> np.ndarray:
     """A-frame error vectors (n, n_out, 3) -> north, east, down at the true position."""
     from fieldmap.field.frames import ecef_to_geodetic
-    from fieldmap.nav.flight import _C_n_to_e
+    from fieldmap.nav.frames import C_n_to_e
 
     r = sc.truth.r_e
     lat, lon, _ = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], sc.traj.frame.ellipsoid)
     C_a_e = np.swapaxes(sc.traj.frame.C_e_to_a(sc.t_out), -1, -2)
-    M = np.swapaxes(_C_n_to_e(lat, lon), -1, -2) @ C_a_e  # C_a^n (n_out, 3, 3)
+    M = np.swapaxes(C_n_to_e(lat, lon), -1, -2) @ C_a_e  # C_a^n (n_out, 3, 3)
     return np.einsum("tij,rtj->rti", M, dP)
 
 
@@ -419,7 +418,7 @@ def geodetic_outputs(launch, out: dict) -> dict:
             "C": quat_to_dcm(out["q"]),
         }  # fmt: skip
     from fieldmap.field.frames import ecef_to_geodetic
-    from fieldmap.nav.flight import _C_n_to_e
+    from fieldmap.nav.frames import C_n_to_e
 
     fr = launch
     t = out["t"]
@@ -427,7 +426,7 @@ def geodetic_outputs(launch, out: dict) -> dict:
     r_e, v_in = fr.a_state_to_ecef(out["P"].reshape(-1, 3), out["V"].reshape(-1, 3), np.tile(t, n))
     lat, lon, h = ecef_to_geodetic(r_e[:, 0], r_e[:, 1], r_e[:, 2], fr.ellipsoid)
     v_e = v_in - np.cross([0.0, 0.0, fr.omega], r_e)
-    C_n_e = _C_n_to_e(lat, lon)
+    C_n_e = C_n_to_e(lat, lon)
     v_ned = np.einsum("nji,nj->ni", C_n_e, v_e)
     C_b_a = quat_to_dcm(out["q"]).reshape(-1, 3, 3)
     C_a_e = np.swapaxes(fr.C_e_to_a(np.tile(t, n)), -1, -2)
