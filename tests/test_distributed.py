@@ -658,12 +658,12 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     kw = dict(
         imu=imu, imu_name=name, models=["j2", "j4"], draws=3, seed=11, rate_hz=50.0,
         truth_lmax=30, output_dt=4.0, duration=60.0, block_s=24.0, frame=frame,
-        altitude_aiding=aiding, device="cpu",
+        altitude_aiding=aiding,
     )  # fmt: skip
-    here = study.run_flight(ft, **kw)
+    here = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
     with on_cluster(client):  # the deprecated spelling
-        there = study.run_flight(ft, **kw)
-    pairs = study.run_flight(ft, **kw, client=client)
+        there = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    pairs = study.run_flight(study.FlightStudy(ft, **kw), device="cpu", client=client)
     for res in (there, pairs):
         for k in ("t", "dpos", "dvel", "datt", "track"):
             assert np.array_equal(getattr(here, k), getattr(res, k)), k

@@ -10,7 +10,7 @@ from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.flight import FlightTrajectory, read_flight, route_flight
 from fieldmap.nav.sensors import ImuErrorSpec
-from fieldmap.nav.study import BaroSpec, run_flight
+from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -134,8 +134,10 @@ def test_route_bounded_acceleration():
 
 def _ideal_study(duration=240.0, models=("j4",), **kw):
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
-    kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0, "device": "cpu"} | kw
-    return ft, run_flight(ft, models=list(models), duration=duration, **kw)
+    kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0} | kw
+    return ft, run_flight(
+        FlightStudy(ft, models=list(models), duration=duration, **kw), device="cpu"
+    )
 
 
 def test_j4_truth_with_j4_navigation_is_the_floor():
@@ -163,8 +165,10 @@ def test_grs80_flight_has_the_wgs84_floor(frame):
     floors = []
     for ell in (WGS84, GRS80):
         ft = FlightTrajectory(route_flight(ROUTE, 200.0, ellipsoid=ell), ellipsoid=ell)
-        kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0, "device": "cpu"}
-        res = run_flight(ft, models=["j4"], duration=240.0, frame=frame, **kw)
+        kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0}
+        res = run_flight(
+            FlightStudy(ft, models=["j4"], duration=240.0, frame=frame, **kw), device="cpu"
+        )
         m = res.summary["models"]["imu_only"]
         floors.append([m["final_position_error_m"]["max"], m["final_horizontal_error_m"]["max"]])
     wgs, grs = np.array(floors)

@@ -57,9 +57,16 @@ def _csv(path, cols):
 
 def _study(traj):
     return study.run_flight(
-        traj, models=["j4", "exact"], rate_hz=50.0, truth_lmax=60, output_dt=10.0,
-        device="cpu", altitude_aiding="none",
-    )  # fmt: skip
+        study.FlightStudy(
+            traj,
+            models=["j4", "exact"],
+            rate_hz=50.0,
+            truth_lmax=60,
+            output_dt=10.0,
+            altitude_aiding="none",
+        ),
+        device="cpu",
+    )
 
 
 def test_spoilt_log_flies_like_the_clean_flight(tmp_path):

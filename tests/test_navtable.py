@@ -178,15 +178,17 @@ def table60(tmp_path_factory):
 def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table60):
     """A table verified to ε adds at most ½ ε t² of horizontal error (truth = the table's model)."""
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.study import run_flight
+    from fieldmap.nav.study import FlightStudy, run_flight
 
     name, rep = table60
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
     t = 240.0
     res = run_flight(
-        ft, models=["j4", name, "sh60"], duration=t, rate_hz=100.0, truth_lmax=60,
-        output_dt=2.0, device="cpu",
-    )  # fmt: skip
+        FlightStudy(
+            ft, models=["j4", name, "sh60"], duration=t, rate_hz=100.0, truth_lmax=60, output_dt=2.0
+        ),
+        device="cpu",
+    )
     m = res.summary["models"]
     eps = 0.5e-5  # 0.5 mGal in m/s²
     assert m[name]["added_horizontal_error_m"] <= 0.5 * eps * t * t
@@ -198,13 +200,15 @@ def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table
 
 def test_table_order_and_a_flight_outside_the_table(table60):
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.study import run_flight, simplicity_order
+    from fieldmap.nav.study import FlightStudy, run_flight, simplicity_order
 
     name, _ = table60
     assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]
     far = FlightTrajectory(route_flight("46,7,3000;46.3,7.4,5000", 200.0))
     with pytest.raises(InputError, match="does not cover the flight"):
-        run_flight(far, models=["j4", name], duration=60.0, truth_lmax=60, device="cpu")
+        run_flight(
+            FlightStudy(far, models=["j4", name], duration=60.0, truth_lmax=60), device="cpu"
+        )
 
 
 def test_auto_models_are_the_normal_ones_and_a_degree_ladder():

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from fieldmap.nav.flight import FlightTrajectory, route_flight
 from fieldmap.nav.mechanize import Baro, baro_gains, dcm_to_quat, propagate_lci, propagate_ned
 from fieldmap.nav.sensors import ImuErrorSpec
-from fieldmap.nav.study import BaroSpec, run_flight
+from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -37,10 +37,22 @@ def flight():
 def _study(ft, frame, block_s, seed=3):
     kw = {"altitude_aiding": "baro", "baro": BaroSpec()} if frame == "ned" else {}
     return run_flight(
-        ft, imu=NOISY, models=["j4", "exact"], draws=2, seed=seed, rate_hz=50.0,
-        truth_lmax=30, output_dt=2.0, duration=120.0, block_s=block_s, frame=frame,
-        device="cpu", **kw,
-    )  # fmt: skip
+        FlightStudy(
+            ft,
+            imu=NOISY,
+            models=["j4", "exact"],
+            draws=2,
+            seed=seed,
+            rate_hz=50.0,
+            truth_lmax=30,
+            output_dt=2.0,
+            duration=120.0,
+            block_s=block_s,
+            frame=frame,
+            **kw,
+        ),
+        device="cpu",
+    )
 
 
 @pytest.mark.parametrize("frame", ["ned", "lci"])
@@ -217,9 +229,11 @@ def test_results_as_datasets_over_run_and_time():
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
     res = study.run_flight(
-        ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0,
+        study.FlightStudy(
+            ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0
+        ),
         device="cpu",
-    )  # fmt: skip
+    )
     ds = res.to_dataset()
     assert ds["position_error"].dims == ("run", "time", "axis")
     assert ds["position_error"].attrs["units"] == "m"

@@ -71,10 +71,10 @@ def test_flight_study_same_answer_as_the_full_evaluation(model):
     name, imu = load_imu("navigation")
     kw = dict(
         imu=imu, imu_name=name, models=["j4", "exact", "sh60"], draws=2, rate_hz=50.0,
-        truth_lmax=120, duration=600.0, output_dt=10.0, device="cpu",
+        truth_lmax=120, duration=600.0, output_dt=10.0,
     )  # fmt: skip
-    fast = study.run_flight(ft, **kw)
-    full = study.run_flight(ft, **kw, truth_evaluation="full")
+    fast = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    full = study.run_flight(study.FlightStudy(ft, **kw, truth_evaluation="full"), device="cpu")
     assert fast.summary["meta"]["truth_interpolation_max_error_mgal"] <= 1e-4
     for m, e in full.summary["models"].items():
         a = e["final_horizontal_error_m"]["rms"]
@@ -94,10 +94,10 @@ def test_navigation_gravity_rate_agrees_with_every_step(model, frame):
     ft = _paths()["airliner"]
     kw = dict(
         models=["exact", "sh60", "sh"], rate_hz=50.0, truth_lmax=120, duration=900.0,
-        output_dt=10.0, device="cpu", frame=frame, altitude_aiding="none",
+        output_dt=10.0, frame=frame, altitude_aiding="none",
     )  # fmt: skip
-    fast = study.run_flight(ft, **kw)
-    full = study.run_flight(ft, **kw, gravity_rate_hz="full")
+    fast = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    full = study.run_flight(study.FlightStudy(ft, **kw, gravity_rate_hz="full"), device="cpu")
     assert fast.summary["meta"]["gravity_update_every_samples"] > 20
     assert full.summary["meta"]["gravity_update_every_samples"] == 1
     i_norm = fast.models.index("exact")

@@ -21,18 +21,20 @@ so a failed run leaves nothing half-written.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
 from fieldmap.cli import navflight, navoptions
 from fieldmap.cli.navoptions import FLIGHT_ONLY as FLIGHT_ONLY
-from fieldmap.cli.navoptions import MAX_DRAWS as MAX_DRAWS
 from fieldmap.cli.navoptions import STUDIES as STUDIES
 from fieldmap.cli.navoptions import STUDIES_ONLY as STUDIES_ONLY
 from fieldmap.cli.navoptions import USED_BY as USED_BY
 from fieldmap.errors import InputError
+from fieldmap.limits import MAX_DRAWS
 
 # the tables and files live in the library; re-exported for scripts written against 0.1
 from fieldmap.nav.report import format_table, to_dataset, write_outputs  # noqa: F401
@@ -53,18 +55,17 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _model_names(args, names, model, notes: list[str]) -> list[str]:
-    """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``.
+@contextlib.contextmanager
+def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
+    """Collect the deprecation warnings of the block (deprecated model names) in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
     on stderr (``"normal" is now "exact"``), printed by :func:`run` once every option passed
     its checks: a refused run prints its refusal alone.
     """
-    from fieldmap.nav.study import check_model_names
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DeprecationWarning)
-        out = check_model_names(names, model)
+        yield
     for w in caught:
         if issubclass(w.category, DeprecationWarning):
             note = f"fieldmap {getattr(args, 'command', 'navsim')}: warning: {w.message}"
@@ -72,7 +73,14 @@ def _model_names(args, names, model, notes: list[str]) -> list[str]:
                 notes.append(note)
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    return out
+
+
+def _model_names(args, names, model, notes: list[str]) -> list[str]:
+    """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``."""
+    from fieldmap.nav.study import check_model_names
+
+    with _deprecation_notes(args, notes):
+        return check_model_names(names, model)
 
 
 def _check_args(args, notes: list[str]):
@@ -98,9 +106,9 @@ def _check_args(args, notes: list[str]):
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
     model = load_model(args.model, lmax=args.lmax)
-    models = _model_names(args, split_list(args.models), model, notes)
     if is_flight(args):
-        return _check_flight_args(args, model, models)
+        return _check_flight_args(args, model, notes)
+    models = _model_names(args, split_list(args.models), model, notes)
     tables = [m for m in models if m.startswith("table:")]
     if tables:
         raise InputError(
@@ -153,10 +161,14 @@ def is_flight(args) -> bool:
     return args.trajectory is not None or args.route is not None
 
 
-def _check_flight_args(args, model, models):
-    """Validate the flight study's options; build the trajectory (its errors name the line)."""
-    from fieldmap._warp import DeviceError, resolve_device
-    from fieldmap.nav.imu import MAX_SAMPLES
+def _check_flight_args(args, model, notes: list[str]):
+    """Validate the flight study's options: one :class:`~fieldmap.nav.study.FlightStudy` a flight.
+
+    The CLI checks what only it has (the choice of flight, the log options, options given
+    where they do nothing); the study checks the rest, once, when it is built (its messages
+    name the Python keywords: :func:`navflight.cli_wording` names the options instead).
+    """
+    from fieldmap._warp import resolve_device
     from fieldmap.nav.sensors import PRESETS, load_imu
     from fieldmap.products.io import check_out_dir
 
@@ -164,12 +176,6 @@ def _check_flight_args(args, model, models):
         raise InputError("give --trajectory or --route, not both")
     if args.route is not None and args.speed_mps is None:
         raise InputError("--route needs --speed-mps")
-    if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
-        raise InputError(f"--draws must be within 1..{MAX_DRAWS}, got {args.draws}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
-    if not 1 <= args.gauss <= 16:
-        raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
     if args.imu is not None and not args.imu.strip():
         raise InputError(
             f"--imu is empty: give a preset ({', '.join(PRESETS)}) or an IMU .toml file"
@@ -179,32 +185,20 @@ def _check_flight_args(args, model, models):
         raise InputError(f"--max-gap-s must be a positive number, got {args.max_gap_s}")
     from fieldmap.cli import given
 
-    if given(args, "gravity_rate_hz") and not any(m.startswith("sh") for m in models):
+    names = split_list(args.models)
+    if given(args, "gravity_rate_hz") and not any(m.startswith("sh") for m in names):
         raise InputError(
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
     flights = navflight.flights(args, model)
-    from fieldmap.nav.study import check_tables_cover
-
-    for _, traj, _ in flights:
+    studies = []
+    for name, traj, cf in flights:
         navoptions.refuse_in_flight(args, imu, traj)
-        duration = traj.duration if args.duration is None else min(args.duration, traj.duration)
-        try:  # before any work: a table that misses the path
-            check_tables_cover(models, traj, duration)
-        except InputError as exc:
-            raise InputError(f"--models: {exc}") from None
-        block = min(args.block_s, duration)
-        if block * args.rate > MAX_SAMPLES:  # a block's IMU synthesis (sample_count), up front
-            raise InputError(
-                f"a block of {block:g} s at --rate {args.rate:g} Hz is {block * args.rate:.3g} "
-                f"IMU samples, more than {MAX_SAMPLES}: lower --rate or --block-s"
-            )
+        with _deprecation_notes(args, notes):
+            studies.append((name, navflight.study(args, traj, imu, model, names), cf))
     check_out_dir(args.out)
-    try:
-        device = resolve_device(args.device)
-    except DeviceError as exc:
-        raise InputError(str(exc)) from None
-    return device, models, (flights, imu, model)
+    device = resolve_device(args.device)
+    return device, list(studies[0][1].models), studies
 
 
 def run(args) -> int:
@@ -221,8 +215,7 @@ def run(args) -> int:
     # connect (or start the LocalCluster) before the long work; None: here
     with cluster.open_client(scheduler) as client:
         if is_flight(args):
-            flights, imu, model = nav
-            return navflight.run(args, device, models, flights, imu, model, client=client)
+            return navflight.run(args, nav, device=device, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -12,12 +12,12 @@ import argparse
 
 from fieldmap.cli import navflight
 from fieldmap.errors import InputError
+from fieldmap.limits import MAX_DRAWS
 
 STUDIES = ("table1", "table3", "table4")
 
 #: most Monte Carlo draws per study (each draw propagates the whole flight; 10 000 draws of the
 #: 800 s path take hours on a CPU)
-MAX_DRAWS = 10_000
 
 
 def add_options(p: argparse.ArgumentParser) -> None:

@@ -80,6 +80,7 @@ from fieldmap.nav import sensors
 from fieldmap.nav.flight import geodetic_state
 from fieldmap.nav.gravity import NORMAL_MODELS, sh_degree, table_file
 from fieldmap.nav.imu import (
+    MAX_SAMPLES,
     Gravitation,
     ImuIncrements,
     load_truth_model,
@@ -705,48 +706,34 @@ def check_tables_cover(names, traj, duration: float) -> None:
                 )
 
 
-def run_flight(
-    traj: Trajectory,
-    *,
-    imu: sensors.ImuErrorSpec = sensors.ImuErrorSpec(),
-    imu_name: str = "ideal",
-    models=("j2", "j4", "j6", "exact", "sh18", "sh200"),
-    draws: int = 20,
-    seed: int = 0,
-    rate_hz: float = 200.0,
-    frame: str = "ned",
-    altitude_aiding: str = "auto",
-    baro: BaroSpec = BaroSpec(),
-    truth: str = "eigen-6s",
-    truth_lmax: int | None = None,
-    truth_evaluation: str = "interpolated",
-    gravity_rate_hz=None,
-    n_gauss: int = 3,
-    duration: float | None = None,
-    output_dt: float | None = None,
-    block_s: float = 600.0,
-    fraction: float = 0.1,
-    device: str | None = None,
-    progress: bool = False,
-    client=None,
-) -> FlightResult:
-    """Navigate ``traj`` with each gravity model and IMU draw; errors, δg and a recommendation.
+@dataclass(frozen=True)
+class FlightStudy:
+    """A flight study, validated once: the flight, the IMU, the navigation models and the run.
+
+    Python users and ``fieldmap navsim --trajectory/--route`` build it alike; :func:`run_flight`
+    and the layers below trust it. Construction refuses bad input in one line
+    (:class:`~fieldmap.errors.InputError`) and resolves what the options leave open (the
+    trajectory, the IMU spec, the truth model, the checked model names, the duration, the
+    altitude aiding, the output interval, the time blocks), before any work.
 
     Parameters
     ----------
-    traj : Trajectory
-        The flight (its kinematics are the truth).
-    imu : ImuErrorSpec
-        1σ sensor errors (:mod:`fieldmap.nav.sensors` has presets and TOML files).
-    imu_name : str
-        Label of the IMU in the outputs.
-    models : sequence of str
-        Navigation gravity models (j2 j4 j6 exact sh shN; ``normal``, the deprecated name of
-        ``exact``, is read as ``exact`` with a ``DeprecationWarning``).
+    flight : Trajectory, FlightSamples, str or sequence of (lat, lon, h)
+        The flight: a trajectory (e.g. :class:`~fieldmap.nav.flight.FlightTrajectory`), the
+        samples of :func:`~fieldmap.nav.flight.read_flight` or
+        :func:`~fieldmap.nav.flight.route_flight`, or a route (``"lat,lon,h;..."`` or
+        waypoints; degrees, degrees, m) flown at ``speed_mps``.
+    imu : str or ImuErrorSpec
+        A preset name (``ideal consumer industrial tactical navigation strategic
+        table2-groupN table4``), an IMU TOML file, or a spec (:mod:`fieldmap.nav.sensors`).
+    models : str or sequence of str
+        Navigation gravity models (``"j2,sh18"`` or ``["j2", "sh18"]``: j2 j4 j6 exact sh shN
+        table:FILE auto; ``normal``, the deprecated name of ``exact``, is read as ``exact``
+        with a ``DeprecationWarning``).
     draws : int
-        Monte Carlo draws (1 for an ideal IMU).
+        Monte Carlo draws, 1..:data:`fieldmap.limits.MAX_DRAWS` (an ideal IMU flies one).
     seed : int
-        Seed of the draws.
+        Seed of the draws (>= 0).
     rate_hz : float
         IMU rate. Units: Hz.
     frame : {"ned", "lci"}
@@ -755,82 +742,250 @@ def run_flight(
         Baro loop on the vertical channel (NED only); ``auto``: baro for flights over 15 min.
     baro : BaroSpec
         Baro error model and loop time constant.
-    truth, truth_lmax : str, int
-    gravity_rate_hz : float or "full", optional
-        SH navigation models: rate of the disturbance update (the exact normal field every
-        step; :func:`fieldmap.nav.gravity.gravity_update_every`). None (default): the
-        slowest rate whose extrapolation error stays below 0.1 % of the disturbance; "full":
-        the whole model every step.
+    truth : str or SHModel
+        Truth gravity model (bundled name, ICGEM file or a loaded model).
+    truth_lmax : int, optional
+        Truth degree (default: the model's).
     truth_evaluation : {"interpolated", "full"}
         ``interpolated`` (default): the truth disturbance on a time grid along the path plus
         the exact normal field at every quadrature node
-        (:class:`fieldmap.nav.gravity.TrackGravitation`, its measured interpolation error
-        in the summary); ``full``: the SH model at every node.
-        Truth gravity model (name or ICGEM file) and degree.
+        (:class:`fieldmap.nav.gravity.TrackGravitation`, its measured interpolation error in
+        the summary); ``full``: the SH model at every node.
+    gravity_rate_hz : float or "full", optional
+        SH navigation models: rate of the disturbance update (the exact normal field every
+        step; :func:`fieldmap.nav.gravity.gravity_update_every`). None (default): the slowest
+        rate whose extrapolation error stays below 0.1 % of the disturbance; "full": the
+        whole model every step.
     n_gauss : int
-        Gauss–Legendre nodes per IMU sample in the synthesis.
+        Gauss–Legendre nodes per IMU sample in the synthesis, 1..16.
     duration : float, optional
         Part of the flight to simulate (default all). Units: s.
     output_dt : float, optional
         Interval of the stored errors (default :func:`default_output_dt`). Units: s.
     block_s : float
-        Length of a synthesis/propagation block. Units: s.
+        Length of a synthesis/propagation block (memory bound). Units: s.
     fraction : float
         ``recommended_model``: the simplest model whose added horizontal error (RMS over draws)
         stays below ``fraction`` × the IMU-only horizontal error.
+    speed_mps : float, optional
+        Ground speed of a ``flight`` given as a route (flown into the trajectory: None once
+        the study is built). Units: m/s.
+    imu_name : str, optional
+        Label of the IMU in the outputs (default: the preset name, the TOML file's ``name``,
+        or ``"custom"`` for a spec).
+
+    Examples
+    --------
+    >>> study = FlightStudy(
+    ...     "49,2.55,10000;48.5,4,10000", speed_mps=230, imu="tactical",
+    ...     models="j2,sh12", draws=2, duration=300,
+    ... )  # doctest: +SKIP
+    >>> run_flight(study).summary["recommended_model"]  # doctest: +SKIP
+    """
+
+    flight: Any
+    imu: Any = "ideal"
+    models: Any = ("j2", "j4", "j6", "exact", "sh18", "sh200")
+    draws: int = 20
+    seed: int = 0
+    rate_hz: float = 200.0
+    frame: str = "ned"
+    altitude_aiding: str = "auto"
+    baro: BaroSpec = BaroSpec()
+    truth: Any = "eigen-6s"
+    truth_lmax: int | None = None
+    truth_evaluation: str = "interpolated"
+    gravity_rate_hz: float | str | None = None
+    n_gauss: int = 3
+    duration: float | None = None
+    output_dt: float | None = None
+    block_s: float = 600.0
+    fraction: float = 0.1
+    speed_mps: float | None = None
+    imu_name: str | None = None
+    # resolved at construction (read-only): the altitude aiding ("baro"/"none"), the flown
+    # duration and the stored-state interval (s), the samples per output, flown and per block,
+    # and the draws flown
+    aiding: str = field(init=False)
+    duration_s: float = field(init=False)
+    output_dt_s: float = field(init=False)
+    every: int = field(init=False)
+    n_samples: int = field(init=False)
+    per_block: int = field(init=False)
+    n_draws: int = field(init=False)
+    gravity_every: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        from fieldmap.limits import MAX_DRAWS
+        from fieldmap.nav.flight import FlightSamples, FlightTrajectory, route_flight
+
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        flight = self.flight
+        if isinstance(flight, (str, list, tuple, np.ndarray)):
+            if self.speed_mps is None:
+                raise InputError("a route flight needs its ground speed (speed_mps=)")
+            flight = route_flight(flight, self.speed_mps)
+            put("speed_mps", None)  # flown into the trajectory: dataclasses.replace works
+        elif self.speed_mps is not None:
+            raise InputError("speed_mps applies to a route flight (flight= a route)")
+        if isinstance(flight, FlightSamples):
+            flight = FlightTrajectory(flight)
+        if not isinstance(flight, Trajectory):
+            raise InputError(
+                "flight must be a Trajectory, FlightSamples or a route, got "
+                f"{type(flight).__name__}"
+            )
+        put("flight", flight)
+        if isinstance(self.imu, sensors.ImuErrorSpec):
+            label = "custom"
+        elif isinstance(self.imu, (str, os.PathLike)):
+            if not str(self.imu).strip():
+                raise InputError(
+                    f"imu is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU "
+                    ".toml file"
+                )
+            label, spec = sensors.load_imu(self.imu)
+            put("imu", spec)
+        else:
+            raise InputError(f"imu must be a preset name, a .toml file or an ImuErrorSpec, "
+                             f"got {type(self.imu).__name__}")  # fmt: skip
+        put("imu_name", label if self.imu_name is None else str(self.imu_name))
+        if self.truth_evaluation not in ("interpolated", "full"):
+            raise InputError(
+                f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}"
+            )
+        frame = str(self.frame).lower()
+        if frame not in ("ned", "lci"):
+            raise InputError(f"frame must be 'ned' or 'lci', got {self.frame!r}")
+        put("frame", frame)
+        aiding = str(self.altitude_aiding).lower()
+        if aiding not in ("auto", "none", "baro"):
+            raise InputError(
+                f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}"
+            )
+        if not 0 < self.fraction < 1:
+            raise InputError(f"fraction must be in (0, 1), got {self.fraction}")
+        for name in ("rate_hz", "block_s"):
+            v = getattr(self, name)
+            if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
+                raise InputError(f"{name} must be a positive number, got {v!r}")
+        n_draws = 1 if self.imu.is_ideal else self.draws
+        if isinstance(self.draws, bool) or not 1 <= int(self.draws) <= MAX_DRAWS:
+            raise InputError(f"draws must be within 1..{MAX_DRAWS}, got {self.draws}")
+        if isinstance(self.seed, bool) or int(self.seed) < 0:
+            raise InputError(f"seed must be >= 0, got {self.seed}")
+        if not 1 <= int(self.n_gauss) <= 16:
+            raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}")
+        put("n_draws", int(n_draws))
+        model = load_truth_model(self.truth, self.truth_lmax)
+        put("truth", model)
+        names = self.models
+        if isinstance(names, str):  # "j2,sh18" or "j2 sh18", as the CLI takes them
+            names = names.replace(",", " ").split()
+        put("models", tuple(check_model_names(names, model)))
+        traj = self.flight
+        duration = traj.duration if self.duration is None else float(self.duration)
+        if not 0 < duration <= traj.duration * (1 + 1e-12):
+            raise InputError(
+                f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)"
+            )
+        put("duration_s", duration)
+        try:
+            check_tables_cover(self.models, traj, duration)
+        except InputError as exc:
+            raise InputError(f"models: {exc}") from None
+        if aiding == "auto":
+            aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
+        if aiding == "baro" and frame != "ned":
+            raise InputError("baro altitude aiding needs frame='ned'")
+        put("aiding", aiding)
+        rate_hz = self.rate_hz
+        output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
+        put("output_dt_s", output_dt)
+        every = _steps_per_output(output_dt, rate_hz)
+        if frame == "lci" and every % 2:
+            raise InputError(
+                f"frame='lci' steps two IMU samples at a time: the output interval "
+                f"{output_dt:g} s must be an even number of samples at {rate_hz:g} Hz"
+            )
+        put("every", every)
+        unit = every * (2 if every % 2 else 1)  # whole outputs, an even number of samples
+        n_total = int(np.floor(duration * rate_hz / unit + 1e-9)) * unit
+        if n_total < unit:
+            raise InputError(
+                f"flight of {duration:g} s is shorter than one output interval ({output_dt:g} s)"
+            )
+        put("n_samples", n_total)
+        per_block = max(unit, int(self.block_s * rate_hz) // unit * unit)
+        # a block's IMU synthesis is bounded (sample_count): refused here, before any work
+        block = min(per_block, n_total) / float(rate_hz)
+        if block * rate_hz > MAX_SAMPLES:
+            raise InputError(
+                f"a block of {block:g} s at {rate_hz:g} Hz is {block * rate_hz:.3g} IMU samples, "
+                f"more than {MAX_SAMPLES}: lower rate_hz or block_s"
+            )
+        sample_count(block, rate_hz)
+        put("per_block", per_block)
+        from fieldmap.nav.gravity import gravity_update_every, parse_gravity
+
+        sh_deg = max((parse_gravity(m, model)[1] for m in self.models), default=0)
+        g_every = gravity_update_every(traj, sh_deg, rate_hz, self.gravity_rate_hz) if sh_deg else 1
+        put("gravity_every", g_every)
+
+
+def run_flight(
+    study: FlightStudy | Any,
+    *,
+    device: str | None = None,
+    client=None,
+    progress: bool = False,
+    **options,
+) -> FlightResult:
+    """Fly a :class:`FlightStudy`: each gravity model and IMU draw; errors, δg, a recommendation.
+
+    Parameters
+    ----------
+    study : FlightStudy
+        The study (validated when it was built).
     device : str, optional
         Warp device.
-    progress : bool
-        tqdm progress bar over the blocks.
     client : dask.distributed.Client, optional
         Propagate groups of runs as tasks on this cluster (the same bits; default: here).
+    progress : bool
+        tqdm progress bar over the time blocks.
+    **options
+        Deprecated (fieldmap 0.2): ``run_flight(trajectory, imu=..., models=..., ...)`` builds
+        the :class:`FlightStudy` of those keywords, with a ``DeprecationWarning``.
 
     Returns
     -------
     FlightResult
     """
-    if truth_evaluation not in ("interpolated", "full"):
-        raise InputError(
-            f"truth evaluation must be 'interpolated' or 'full', got {truth_evaluation!r}"
+    if not isinstance(study, FlightStudy):
+        from fieldmap import _compat
+
+        _compat.warn("run_flight(trajectory, **options): pass run_flight(FlightStudy(...))")
+        study = FlightStudy(study, **options)
+    elif options:
+        raise TypeError(
+            f"run_flight() got options {sorted(options)} besides a FlightStudy: set them on "
+            "the study"
         )
-    frame = str(frame).lower()
-    if frame not in ("ned", "lci"):
-        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
-    aiding = str(altitude_aiding).lower()
-    if aiding not in ("auto", "none", "baro"):
-        raise InputError(f"altitude aiding must be auto, none or baro, got {altitude_aiding!r}")
-    if not 0 < fraction < 1:
-        raise InputError(f"fraction must be in (0, 1), got {fraction}")
-    for what, v in (("IMU rate", rate_hz), ("block length", block_s)):
-        if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
-            raise InputError(f"{what} must be a positive number, got {v!r}")
-    model = load_truth_model(truth, truth_lmax)
-    names = check_model_names(models, model)
-    duration = traj.duration if duration is None else float(duration)
-    if not 0 < duration <= traj.duration * (1 + 1e-12):
-        raise InputError(f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)")
-    check_tables_cover(names, traj, duration)
-    if aiding == "auto":
-        aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
-    if aiding == "baro" and frame != "ned":
-        raise InputError("baro altitude aiding needs --frame ned")
-    output_dt = default_output_dt(duration) if output_dt is None else float(output_dt)
-    every = _steps_per_output(output_dt, rate_hz)
-    if frame == "lci" and every % 2:
-        raise InputError(
-            f"--frame lci steps two IMU samples at a time: the output interval {output_dt:g} s "
-            f"must be an even number of samples at {rate_hz:g} Hz"
-        )
-    unit = every * (2 if every % 2 else 1)  # whole outputs, an even number of samples
-    n_total = int(np.floor(duration * rate_hz / unit + 1e-9)) * unit
-    if n_total < unit:
-        raise InputError(
-            f"flight of {duration:g} s is shorter than one output interval ({output_dt:g} s)"
-        )
-    per_block = max(unit, int(block_s * rate_hz) // unit * unit)
-    # a block's IMU synthesis is bounded (sample_count): refused here, before any work
-    sample_count(min(per_block, n_total) / float(rate_hz), rate_hz)
-    n_draws = 1 if imu.is_ideal else int(draws)
+    return _fly(study, device, client, progress)
+
+
+def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
+    """Fly the study's runs block by block (``study`` is trusted: validated when built)."""
+    traj = study.flight
+    imu = study.imu
+    model = study.truth
+    names = list(study.models)
+    frame, aiding, baro = study.frame, study.aiding, study.baro
+    rate_hz, seed, n_gauss = study.rate_hz, study.seed, study.n_gauss
+    every, n_total, per_block = study.every, study.n_samples, study.per_block
+    n_draws = study.n_draws
     err1 = sensors.draw(imu, n_draws, seed=seed)
     rows = ["imu_only"] + names
     n_runs = n_draws * len(rows)
@@ -843,7 +998,7 @@ def run_flight(
     ell = traj.frame.ellipsoid
     dt = 1.0 / float(rate_hz)
     g_truth: Any
-    if truth_evaluation == "full":
+    if study.truth_evaluation == "full":
         g_truth = Gravitation("sh", model=model, device=device, ellipsoid=ell)
     else:
         from fieldmap.nav.gravity import TrackGravitation
@@ -868,10 +1023,7 @@ def run_flight(
             gm_sigma=baro.drift_m, gm_tau=baro.drift_tau_s,
             state=np.stack([np.zeros(n_runs), baro_drift0, np.zeros(n_runs)], -1),
         )  # fmt: skip
-    from fieldmap.nav.gravity import gravity_update_every, parse_gravity
-
-    sh_deg = max((parse_gravity(m, model)[1] for m in names), default=0)
-    g_every = gravity_update_every(traj, sh_deg, rate_hz, gravity_rate_hz) if sh_deg else 1
+    g_every = study.gravity_every
     prop = Propagator(
         frame, initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs),
         [grav[i] for i in perm], dt, launch=traj.frame if frame == "lci" else None,
@@ -929,11 +1081,11 @@ def run_flight(
     draw_idx = np.tile(np.arange(n_draws), len(rows))
     diverged = divergence(dpos, t_out, run_models, labels)
     summary = summarize(
-        dpos, dvel, run_models, rows, n_draws, fraction, diverged,
+        dpos, dvel, run_models, rows, n_draws, study.fraction, diverged,
         meta={
             "trajectory": traj.name,
             "duration_s": float(n_total * dt),
-            "imu": imu_name,
+            "imu": study.imu_name,
             "imu_spec": imu.__dict__,
             "imu_rate_hz": float(rate_hz),
             "draws": n_draws,
@@ -943,7 +1095,7 @@ def run_flight(
             "baro": baro.__dict__ if aiding == "baro" else None,
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
-            "truth_evaluation": truth_evaluation,
+            "truth_evaluation": study.truth_evaluation,
             "gravity_update_every_samples": int(g_every),
             "gravity_rate_hz": float(rate_hz) / g_every,
             "truth_gravity": g_truth.name,
