@@ -85,6 +85,9 @@ _LAZY = {
     "route_flight": "fieldmap.nav.flight",
     "load_imu": "fieldmap.nav.sensors",
     "run_flight": "fieldmap.nav.study",
+    "FlightStudy": "fieldmap.nav.study",
+    "BaroSpec": "fieldmap.nav.study",
+    "build_table": "fieldmap.products.table",
     "allan_deviation": "fieldmap.nav.sensors",
 }
 

@@ -604,7 +604,8 @@ def test_navigation_monte_carlo_on_the_cluster(client):
     err = sensors.draw(sensors.TABLE4, 3, seed=7).repeat(2)
     grav = ["j4"] * 3 + ["sh18"] * 3
     ref = paper.propagate(sc, grav, errors=err)
-    got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
+    with pytest.warns(DeprecationWarning, match="propagate_on"):
+        got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
     for k in ("t", "dP", "dV", "pos", "vel", "hor", "ver", "ned"):
         assert np.array_equal(ref[k], got[k]), k
     assert ref["diverged"] == got["diverged"]
@@ -618,7 +619,7 @@ def test_navsim_study_on_the_cluster_equals_here(client):
 
     sc = study.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
     here = paper.table3(sc, draws=3, seed=5, nav="j4")
-    with on_cluster(client):
+    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
         there = paper.table3(sc, draws=3, seed=5, nav="j4")
     assert np.array_equal(here.pos, there.pos) and np.array_equal(here.vel, there.vel)
     assert here.rows == there.rows
@@ -661,7 +662,7 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
         altitude_aiding=aiding,
     )  # fmt: skip
     here = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
-    with on_cluster(client):  # the deprecated spelling
+    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
         there = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
     pairs = study.run_flight(study.FlightStudy(ft, **kw), device="cpu", client=client)
     for res in (there, pairs):

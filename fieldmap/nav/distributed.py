@@ -23,14 +23,18 @@ def on_cluster(client) -> Iterator[None]:
     (the paper's studies, each time block of a flight study) uses ``client``; ``client=None``
     keeps them here.
     """
+    from fieldmap import _compat
     from fieldmap.nav.propagator import default_client
 
+    _compat.warn("fieldmap.nav.distributed.on_cluster(client): pass client= to the study")
     with default_client(client):
         yield
 
 
 def propagate_on(client, sc, gravity, sets=None, imu_set=None, errors=None, runs_per_task=None):
     """:func:`fieldmap.nav.study.propagate` on ``client`` (prefer its ``client=``)."""
+    from fieldmap import _compat
     from fieldmap.nav.study import propagate
 
+    _compat.warn("fieldmap.nav.distributed.propagate_on(client, ...): pass client= to propagate")
     return propagate(sc, gravity, sets, imu_set, errors, client=client, runs_per_task=runs_per_task)

@@ -43,6 +43,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fieldmap.products import coastline
+
 #: (colour, line style, marker) per Table 1 navigation model; Okabe-Ito colours (colour-blind safe)
 MODEL_STYLE = {
     "j2": ("#D55E00", "-", "o"),
@@ -562,8 +564,22 @@ def errors_figure(res):
     return fig
 
 
+def track_aspect(lat_limits) -> float:
+    """Axis aspect (degrees of latitude per degree of longitude on screen) of a local map.
+
+    A degree of longitude is cos φ times a degree of latitude at the map's middle latitude φ
+    (clipped at ±85° so that a polar map stays finite): equal distances look equal.
+    """
+    mid = 0.5 * (lat_limits[0] + lat_limits[1])
+    return float(1.0 / np.cos(np.radians(np.clip(mid, -85.0, 85.0))))
+
+
 def track_figure(res, disturbance=None):
-    """Ground track over the gravity disturbance (mGal) of the truth model, if given."""
+    """Ground track over the truth model's disturbance (mGal, if given), with coastlines.
+
+    Equal aspect: a kilometre east is as long as a kilometre north (:func:`track_aspect`); the
+    coastlines are the bundled Natural Earth 1:50m ones (:mod:`fieldmap.products.coastline`).
+    """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 6), layout="constrained")
     if disturbance is not None:
@@ -576,7 +592,9 @@ def track_figure(res, disturbance=None):
     ax.plot(res.track[-1, 1], res.track[-1, 0], "rs", label="end")
     ax.set_xlabel("longitude (°)")
     ax.set_ylabel("latitude (°)")
-    ax.set_aspect(1.0 / np.cos(np.radians(np.mean(res.track[:, 0]))))
+    ax.autoscale_view()
+    coastline.draw(ax, lon_min=ax.get_xlim()[0], color="0.3", linewidth=0.8)
+    ax.set_aspect(track_aspect(ax.get_ylim()))
     ax.legend()
     ax.set_title("ground track over the truth model's disturbance")
     return fig
