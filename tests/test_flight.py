@@ -261,16 +261,24 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
     North accelerometer bias b at the equator (no Foucault coupling), baro-held vertical:
     δN = b/ω_s² (1 − cos ω_s t): ½bt² early, period 2π/ω_s = 84.4 min over 3 h.
     """
-    from fieldmap.nav.mechanize import Baro, baro_gains, propagate_ned
+    from fieldmap.nav.mechanize import Baro, NavConfig, NedStart, baro_gains, propagate_ned
 
     dt, n = 0.1, 108000  # 3 h at 10 Hz
     dth, dv = _rest(n, dt, 0.0)
     b = 50e-6 * 9.80665
     res = propagate_ned(
-        dth, dv, dt, 0.0, 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0]), "j4",
-        errors={"acc_bias": np.array([b, 0.0, 0.0])}, output_every=100, device="cpu",
-        baro=Baro(np.zeros(n), *baro_gains(100.0)),
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(0.0, 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0])),
+        NavConfig(
+            "j4",
+            errors={"acc_bias": np.array([b, 0.0, 0.0])},
+            output_every=100,
+            baro=Baro(np.zeros(n), *baro_gains(100.0)),
+        ),
+        device="cpu",
+    )
     t = res.t
     dN = np.radians(res.lat[0]) * (WGS84.a * (1 - WGS84.e2))
     early = t <= 60
@@ -286,17 +294,24 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
 
 def test_arw_attitude_random_walk_grows_as_sqrt_t():
     """Gyro white noise only: heading error σ(t) = ARW √t over 64 runs (±25 %: 192 samples)."""
-    from fieldmap.nav.mechanize import propagate_ned, quat_to_dcm
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned, quat_to_dcm
     from fieldmap.nav.sensors import DEG_RTH
 
     dt, n, runs = 0.05, 8000, 64  # 400 s
     dth, dv = _rest(n, dt, 45.0)
     arw = 0.5 * DEG_RTH
     res = propagate_ned(
-        dth, dv, dt, np.full(runs, 45.0), 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0]), "j4",
-        errors={"gyro_noise": np.full(runs, arw), "seed": np.arange(runs)}, output_every=2000,
+        dth,
+        dv,
+        dt,
+        NedStart(np.full(runs, 45.0), 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0])),
+        NavConfig(
+            "j4",
+            errors={"gyro_noise": np.full(runs, arw), "seed": np.arange(runs)},
+            output_every=2000,
+        ),
         device="cpu",
-    )  # fmt: skip
+    )
     C = quat_to_dcm(res.q)  # (runs, 5, 3, 3); attitude started as identity
     psi = np.stack([C[..., 1, 0], C[..., 0, 2], C[..., 2, 1]], -1)  # small-angle heading etc.
     sd = np.sqrt(np.mean(psi[:, 1:] ** 2, axis=(0, 2)))

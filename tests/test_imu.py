@@ -100,7 +100,7 @@ def test_replay_reaches_the_floor_and_converges_at_second_order():
 
 
 def test_kernel_replay_equals_numpy_replay():
-    from fieldmap.nav.mechanize import dcm_to_quat, propagate_lci
+    from fieldmap.nav.mechanize import LciStart, NavConfig, dcm_to_quat, propagate_lci
 
     bg = BoostGlide()
     imu = synthesize(bg, 100.0, Gravitation("j2"), n_gauss=2, duration=20.0)
@@ -110,11 +110,8 @@ def test_kernel_replay_equals_numpy_replay():
         imu.dtheta,
         imu.dv,
         imu.dt,
-        k0.P_a[0],
-        k0.V_a[0],
-        dcm_to_quat(k0.C_b_to_a[0]),
-        FRAME,
-        gravity="j2",
+        LciStart(k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]), FRAME),
+        NavConfig("j2"),
         device="cpu",
     )
     # same algorithm, two code paths: rounding only (4e-12 m and 8e-13 m/s measured after 20 s)

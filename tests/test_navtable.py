@@ -113,51 +113,68 @@ def _motion(n=2, ns=400, dt=0.005):
 
 
 def test_a_zero_table_navigates_as_the_exact_normal_field(tmp_path, device):
-    from fieldmap.nav.mechanize import propagate_lci, propagate_ned
+    from fieldmap.nav.mechanize import LciStart, NavConfig, NedStart, propagate_lci, propagate_ned
 
     name = _write(tmp_path, np.zeros((3, 10, 10, 3)))
     dth, dv, dt = _motion()
     ned = propagate_ned(
-        dth, dv, dt, 30.0, 105.0, 1500.0, [100.0, 20.0, 0.0], [1.0, 0, 0, 0],
-        ["exact", name], imu_set=[0, 0], output_every=40, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(30.0, 105.0, 1500.0, [100.0, 20.0, 0.0], [1.0, 0, 0, 0]),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=40),
+        device=device,
+    )
     for key in ("lat", "lon", "h", "v_ned"):
         np.testing.assert_array_equal(getattr(ned, key)[0], getattr(ned, key)[1])
     from fieldmap.nav.frames import LaunchFrame
 
     frame = LaunchFrame(105.0, 30.0, 0.0, h0=1500.0)
     lci = propagate_lci(
-        dth, dv, dt, np.zeros(3), [100.0, 0.0, 20.0], [1.0, 0, 0, 0], frame, ["exact", name],
-        imu_set=[0, 0], output_every=20, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        LciStart(np.zeros(3), [100.0, 0.0, 20.0], [1.0, 0, 0, 0], frame),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=20),
+        device=device,
+    )
     np.testing.assert_array_equal(lci.P[0], lci.P[1])
 
 
 def test_a_constant_down_table_adds_half_a_t_squared(tmp_path, device):
-    from fieldmap.nav.mechanize import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     data = np.zeros((3, 10, 10, 3))
     data[..., 2] = 100.0  # δg down, mGal: 1e-3 m/s² more gravity
     name = _write(tmp_path, data)
     dth, dv, dt = _motion(ns=2000)
     ned = propagate_ned(
-        dth, dv, dt, 30.0, 105.0, 1500.0, [50.0, 20.0, 0.0], [1.0, 0, 0, 0],
-        ["exact", name], imu_set=[0, 0], output_every=2000, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(30.0, 105.0, 1500.0, [50.0, 20.0, 0.0], [1.0, 0, 0, 0]),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=2000),
+        device=device,
+    )
     t = 2000 * dt
     dh = ned.h[1, -1] - ned.h[0, -1]
     assert dh == pytest.approx(-0.5 * 1e-3 * t * t, rel=2e-3)
 
 
 def test_two_tables_in_one_launch_are_refused(tmp_path):
-    from fieldmap.nav.mechanize import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     a = _write(tmp_path, np.zeros((3, 10, 10, 3)), "a.bin")
     b = _write(tmp_path, np.zeros((3, 10, 10, 3)), "b.bin")
     dth, dv, dt = _motion()
     with pytest.raises(InputError, match="one compensation table per launch"):
-        propagate_ned(dth, dv, dt, 30.0, 105.0, 1500.0, [50.0, 0, 0], [1.0, 0, 0, 0], [a, b],
-                      imu_set=[0, 0])  # fmt: skip
+        propagate_ned(
+            dth,
+            dv,
+            dt,
+            NedStart(30.0, 105.0, 1500.0, [50.0, 0, 0], [1.0, 0, 0, 0]),
+            NavConfig([a, b], imu_set=[0, 0]),
+        )
 
 
 # ------------------------------------------------------------------------ flight studies

@@ -10,7 +10,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
-from fieldmap.nav.mechanize import Baro, baro_gains, dcm_to_quat, propagate_lci, propagate_ned
+from fieldmap.nav.mechanize import (
+    Baro,
+    LciStart,
+    NavConfig,
+    NedStart,
+    baro_gains,
+    dcm_to_quat,
+    propagate_lci,
+    propagate_ned,
+)
 from fieldmap.nav.sensors import ImuErrorSpec
 from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
 
@@ -109,9 +118,13 @@ def test_propagate_ned_in_two_halves_equals_one_call():
         baro = Baro(h_ref[sl], k1, k2, k3, bias=2.0, noise=0.5, gm_sigma=3.0, gm_tau=50.0,
                     state=baro_state)  # fmt: skip
         return propagate_ned(
-            dth[sl], dv[sl], dt, lat, lon, h, v, q, "j4", errors=err, output_every=every,
-            device="cpu", baro=baro, sample0=sample0, degrees=degrees,
-        )  # fmt: skip
+            dth[sl],
+            dv[sl],
+            dt,
+            NedStart(lat, lon, h, v, q, degrees=degrees),
+            NavConfig("j4", errors=err, output_every=every, baro=baro, sample0=sample0),
+            device="cpu",
+        )
 
     v0 = np.array([150.0, 80.0, -5.0])
     whole = run(slice(0, n), 30.0, 100.0, 1000.0, v0, q0, ERRORS, None, 0)
@@ -145,9 +158,13 @@ def test_propagate_lci_in_two_halves_equals_one_call():
 
     def run(sl, P, V, q, err, sample0):
         return propagate_lci(
-            dth[sl], dv[sl], dt, P, V, q, frame, "j4", errors=err, t0=sample0 * dt,
-            output_every=every, device="cpu", sample0=sample0,
-        )  # fmt: skip
+            dth[sl],
+            dv[sl],
+            dt,
+            LciStart(P, V, q, frame),
+            NavConfig("j4", errors=err, t0=sample0 * dt, output_every=every, sample0=sample0),
+            device="cpu",
+        )
 
     whole = run(slice(0, n), P0, V0, q0, ERRORS, 0)
     h = n // 2
@@ -168,10 +185,16 @@ def test_noise_free_runs_are_unchanged_by_sample0():
     dth, dv, q0 = _motion(n, dt)
     err = {"acc_bias": [1e-3, 0.0, 0.0], "gyro_bias": [0.0, 1e-6, 0.0]}
     runs = [
-        propagate_ned(dth, dv, dt, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0, "j4",
-                      errors=err, output_every=100, device="cpu", sample0=s0)
+        propagate_ned(
+            dth,
+            dv,
+            dt,
+            NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0),
+            NavConfig("j4", errors=err, output_every=100, sample0=s0),
+            device="cpu",
+        )
         for s0 in (0, 12345)
-    ]  # fmt: skip
+    ]
     assert np.array_equal(runs[0].lat, runs[1].lat) and np.array_equal(runs[0].h, runs[1].h)
 
 
@@ -248,15 +271,27 @@ def test_results_as_datasets_over_run_and_time():
 def test_lci_and_ned_results_share_one_time_base():
     """A piece of a record starting at global sample 100: both results' t start at 100 dt."""
     from fieldmap.nav.frames import LaunchFrame
-    from fieldmap.nav.mechanize import propagate_lci, propagate_ned
+    from fieldmap.nav.mechanize import LciStart, NavConfig, NedStart, propagate_lci, propagate_ned
 
     dt, n = 0.01, 40
     dth = np.zeros((n, 3))
     dv = np.tile([0.0, 0.0, -9.8 * dt], (n, 1))
     q = [1.0, 0.0, 0.0, 0.0]
-    lci = propagate_lci(dth, dv, dt, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], q, LaunchFrame(7, 45, 0),
-                        t0=100 * dt, sample0=100, output_every=5, device="cpu")  # fmt: skip
-    ned = propagate_ned(dth, dv, dt, 45.0, 7.0, 0.0, [0.0, 0.0, 0.0], q, sample0=100,
-                        output_every=10, device="cpu")  # fmt: skip
+    lci = propagate_lci(
+        dth,
+        dv,
+        dt,
+        LciStart([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], q, LaunchFrame(7, 45, 0)),
+        NavConfig(t0=100 * dt, sample0=100, output_every=5),
+        device="cpu",
+    )
+    ned = propagate_ned(
+        dth,
+        dv,
+        dt,
+        NedStart(45.0, 7.0, 0.0, [0.0, 0.0, 0.0], q),
+        NavConfig(sample0=100, output_every=10),
+        device="cpu",
+    )
     np.testing.assert_allclose(lci.t, ned.t, rtol=0, atol=1e-12)
     assert lci.t[0] == pytest.approx(1.0) and lci.t[-1] == pytest.approx(1.4)

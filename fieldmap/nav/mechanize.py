@@ -26,7 +26,7 @@ The local-level mechanization of Groves (2013) ch. 5 and NavToolKit; the kernel 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -409,51 +409,25 @@ def launch_params(frame: LaunchFrame):
     return lp
 
 
-def propagate_lci(
-    dtheta,
-    dv,
-    dt,
-    P0,
-    V0,
-    q0,
-    launch,
-    gravity="j4",
-    *,
-    sh_model=None,
-    ellipsoid: Ellipsoid | str | None = None,
-    imu_set=None,
-    errors=None,
-    t0=0.0,
-    output_every=1,
-    device=None,
-    sample0=0,
-    gravity_every=1,
-    gravity_hold=None,
-) -> LciResult:
-    """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
+@dataclass(frozen=True)
+class NavConfig:
+    """How the runs of :func:`propagate_lci` / :func:`propagate_ned` navigate.
+
+    Everything of a propagation but the increments, the start state and the device: one
+    object that the studies build once and pass down.
 
     Parameters
     ----------
-    dtheta, dv : array_like, shape (n_samples, 3) or (n_sets, n_samples, 3)
-        Gyro and accelerometer increments per IMU sample, body frame; n_samples even (two
-        samples per navigation step). Units: rad, m/s.
-    dt : float
-        IMU sample interval; the navigation step is T = 2 dt. Units: s.
-    P0, V0 : array_like, shape (3,) or (n_traj, 3)
-        Initial a-frame position and inertial velocity. Units: m, m/s.
-    q0 : array_like, shape (4,) or (n_traj, 4)
-        Initial attitude q_b^a, scalar first.
-    launch : LaunchFrame or tuple
-        The a-frame, or ``(lon0, B0, A0[, h0])`` in degrees (h0 in m).
     gravity : str or sequence of str
         Navigation gravity per trajectory: ``j2``, ``j4``, ``j6``, ``exact`` (closed-form level
-        ellipsoid; ``normal`` is its deprecated 0.1 name), ``sh`` (full ``sh_model``) or ``shN``
-        (degree N).
+        ellipsoid; ``normal`` is its deprecated 0.1 name), ``sh`` (full ``sh_model``), ``shN``
+        (degree N) or ``table:FILE``.
     sh_model : SHModel, optional
         Spherical-harmonic model for the ``sh`` kinds.
     ellipsoid : Ellipsoid or str, optional
-        Level ellipsoid of the frame and of the normal kinds (default: the frame's, WGS84 for a
-        tuple). Given with a :class:`LaunchFrame` of another ellipsoid: :class:`InputError`.
+        Level ellipsoid of the normal kinds (LCI: default the frame's, WGS84 for a tuple; given
+        with a :class:`LaunchFrame` of another ellipsoid: :class:`InputError`. NED: default
+        WGS84).
     imu_set : array_like of int, optional
         Increment set of each trajectory (default: trajectory i uses set i, or set 0 if one set;
         several sets for a different number of trajectories need ``imu_set``).
@@ -465,14 +439,9 @@ def propagate_lci(
         ``acc_gm_tau``, ``gyro_gm_tau`` s (0: none) and initial states ``acc_gm`` m/s²,
         ``gyro_gm`` rad/s (n_traj, 3). The normals of sample j are drawn from Warp's RNG keyed
         on (``seed``, ``sample0`` + j) (``fieldmap.kernels.strapdown.sample_rng``).
-    t0 : float
-        Time of the first sample after launch (Earth rotation angle ω t0). Units: s. With
-        ``sample0``, the times are taken on the grid ``t0 − sample0 dt + dt j`` of the global
-        sample indices j (a piece of a flight at ``t0 = sample0 dt`` has the whole record's times).
     output_every : int
-        Decimation of the stored states (in navigation steps).
-    device : str, optional
-        Warp device (default: CUDA if present, else CPU using every core).
+        Decimation of the stored states (LCI: in navigation steps of two samples; NED: in
+        samples).
     sample0 : int
         Global index (in the whole flight) of the first sample: a flight propagated in pieces,
         each from the previous one's final state (``final``) with ``sample0`` = the samples
@@ -484,11 +453,141 @@ def propagate_lci(
         flight computer's gravity rate); 1 (default): the full model every step.
     gravity_hold : array_like (n_traj, 3, 3), optional
         State of that update (``final["gravity_hold"]`` of the previous piece); default: none yet.
+    t0 : float, optional
+        Time of the first sample. LCI: after launch (Earth rotation angle ω t0; default 0);
+        with ``sample0``, the times are taken on the grid ``t0 − sample0 dt + dt j`` of the
+        global sample indices j (a piece of a flight at ``t0 = sample0 dt`` has the whole
+        record's times). NED: for ``t`` only (the mechanization does not depend on it; default
+        ``sample0 dt``). Units: s.
+    baro : Baro, optional
+        NED only: altitude aiding of the vertical channel (default: free inertial).
+    """
+
+    gravity: Any = "j4"
+    sh_model: Any = None
+    ellipsoid: Any = None
+    imu_set: Any = None
+    errors: dict | None = None
+    output_every: int = 1
+    sample0: int = 0
+    gravity_every: int = 1
+    gravity_hold: Any = None
+    t0: float | None = None
+    baro: Baro | None = None
+
+
+@dataclass(frozen=True)
+class LciStart:
+    """Start state of :func:`propagate_lci`: a-frame ``P`` (m), inertial ``V`` (m/s), ``q`` q_b^a.
+
+    Each (3,) / (4,) for all trajectories or (n_traj, 3) / (n_traj, 4), q scalar first, in
+    the a-frame ``launch``: a :class:`LaunchFrame`, or ``(lon0, B0, A0[, h0])`` in degrees
+    (h0 in m).
+    """
+
+    P: Any
+    V: Any
+    q: Any
+    launch: Any
+
+
+@dataclass(frozen=True)
+class NedStart:
+    """Start state of :func:`propagate_ned`: geodetic position, NED velocity, attitude q_b^n.
+
+    ``lat``, ``lon`` (degrees; radians with ``degrees=False``, e.g. ``final["llh"]`` of the
+    previous piece of a flight: no degree round trip, the pieces give the bits of one
+    propagation), ``h`` (m): floats or (n_traj,); ``v_ned`` (3,) or (n_traj, 3) m/s; ``q``
+    (4,) or (n_traj, 4), scalar first.
+    """
+
+    lat: Any
+    lon: Any
+    h: Any
+    v_ned: Any
+    q: Any
+    degrees: bool = True
+
+
+_LCI_OLD = ("P0", "V0", "q0", "launch", "gravity")
+_NED_OLD = ("lat0", "lon0", "h0", "v_ned0", "q0", "gravity")
+_START_KEYS = {"P0", "V0", "q0", "lat0", "lon0", "h0", "v_ned0", "launch", "degrees"}
+
+
+def _old_call(name: str, order: tuple[str, ...], args: tuple, kw: dict) -> dict:
+    """Bind a fieldmap 0.2 call (long parameter list) to its names; warn once."""
+    from fieldmap import _compat
+
+    while args and args[-1] is None:  # the new signature's defaults, not given
+        args = args[:-1]
+    if len(args) > len(order):
+        raise TypeError(f"{name}() takes at most {3 + len(order)} positional arguments")
+    bound = dict(zip(order, args))
+    for key in kw:
+        if key in bound:
+            raise TypeError(f"{name}() got multiple values for argument {key!r}")
+    bound.update(kw)
+    _compat.warn(
+        f"{name}(dtheta, dv, dt, <state>, ..., gravity, **options): pass the start state and "
+        f"a NavConfig",
+        stacklevel=4,
+    )
+    return bound
+
+
+def _config_of(bound: dict) -> NavConfig:
+    """Return the :class:`NavConfig` of a bound 0.2 call (unknown keywords: TypeError)."""
+    keys = {f.name for f in fields(NavConfig)}
+    extra = set(bound) - keys - _START_KEYS - {"device"}
+    if extra:
+        raise TypeError(f"unexpected keyword argument(s) {sorted(extra)}")
+    return NavConfig(**{k: v for k, v in bound.items() if k in keys})
+
+
+def propagate_lci(
+    dtheta,
+    dv,
+    dt,
+    start: LciStart | None = None,
+    config: NavConfig | None = None,
+    *old,
+    device=None,
+    **old_kw,
+) -> LciResult:
+    """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
+
+    Parameters
+    ----------
+    dtheta, dv : array_like, shape (n_samples, 3) or (n_sets, n_samples, 3)
+        Gyro and accelerometer increments per IMU sample, body frame; n_samples even (two
+        samples per navigation step). Units: rad, m/s.
+    dt : float
+        IMU sample interval; the navigation step is T = 2 dt. Units: s.
+    start : LciStart
+        Initial a-frame position, inertial velocity and attitude q_b^a, and the a-frame.
+    config : NavConfig, optional
+        Navigation gravity, sensor errors, decimation, continuation (default ``NavConfig()``:
+        J4, no errors, every step).
+    device : str, optional
+        Warp device (default: CUDA if present, else CPU using every core).
+    *old, **old_kw
+        Deprecated (fieldmap 0.2): ``propagate_lci(dtheta, dv, dt, P0, V0, q0, launch,
+        gravity, **options)`` still runs, with a ``DeprecationWarning``.
 
     Returns
     -------
     LciResult
     """
+    if not isinstance(start, LciStart) or old or old_kw:
+        bound = _old_call("propagate_lci", _LCI_OLD, (start, config, *old), old_kw)
+        if bound.get("launch") is None:
+            raise InputError("the LCI mechanization needs its launch frame (launch=)")
+        start = LciStart(bound["P0"], bound["V0"], bound["q0"], bound["launch"])
+        device = bound.get("device", device)
+        config = _config_of(bound)
+    launch = start.launch
+    cfg = NavConfig() if config is None else config
+    ellipsoid = cfg.ellipsoid
     if isinstance(launch, LaunchFrame):
         frame = launch
         if ellipsoid is not None and get_ellipsoid(ellipsoid) != frame.ellipsoid:
@@ -513,17 +612,17 @@ def propagate_lci(
         dtheta,
         dv,
         dt,
-        {"P0": (P0, (3,)), "V0": (V0, (3,)), "q0": (q0, (4,))},
-        gravity,
-        sh_model,
-        imu_set,
-        errors,
-        output_every,
+        {"P0": (start.P, (3,)), "V0": (start.V, (3,)), "q0": (start.q, (4,))},
+        cfg.gravity,
+        cfg.sh_model,
+        cfg.imu_set,
+        cfg.errors,
+        cfg.output_every,
         device,
         per_step=2,
-        sample0=sample0,
-        gravity_every=gravity_every,
-        gravity_hold=gravity_hold,
+        sample0=cfg.sample0,
+        gravity_every=cfg.gravity_every,
+        gravity_hold=cfg.gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
@@ -531,7 +630,7 @@ def propagate_lci(
     st = b.states
     # the kernel's time origin is global sample 0: t0 − sample0 dt (0 exactly when t0 =
     # sample0 dt, as for the blocks of a flight: the times of one grid whatever the blocking)
-    t_base = float(t0) - b.dt * b.sample0
+    t_base = float(0.0 if cfg.t0 is None else cfg.t0) - b.dt * b.sample0
     P, V, q = b.launch(
         ksd.lci_kernel_for(b.has_errors, b.has_sh),
         (st["P0"], st["V0"], st["q0"]),
@@ -623,25 +722,11 @@ def propagate_ned(
     dtheta,
     dv,
     dt,
-    lat0,
-    lon0,
-    h0,
-    v_ned0,
-    q0,
-    gravity="j4",
-    *,
-    sh_model=None,
-    ellipsoid: Ellipsoid | str = WGS84,
-    imu_set=None,
-    errors=None,
-    output_every=1,
+    start: NedStart | None = None,
+    config: NavConfig | None = None,
+    *old,
     device=None,
-    baro: Baro | None = None,
-    sample0=0,
-    degrees: bool = True,
-    gravity_every=1,
-    gravity_hold=None,
-    t0=None,
+    **old_kw,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -655,33 +740,35 @@ def propagate_ned(
         Body-frame increments. Units: rad, m/s.
     dt : float
         Sample interval. Units: s.
-    lat0, lon0, h0 : float or array_like (n_traj,)
-        Initial geodetic position. Units: degrees (radians with ``degrees=False``), m.
-    v_ned0 : array_like, shape (3,) or (n_traj, 3)
-        Initial Earth-relative velocity in NED. Units: m/s.
-    q0 : array_like, shape (4,) or (n_traj, 4)
-        Initial q_b^n, scalar first.
-    gravity, sh_model, ellipsoid, imu_set, errors, output_every, device
-        As in :func:`fieldmap.nav.mechanize.propagate_lci`.
-    baro : Baro, optional
-        Altitude aiding of the vertical channel (default: free inertial).
-    t0 : float, optional
-        Time of the first sample, for ``t`` only (the mechanization does not depend on it).
-        Default ``sample0 dt``. Units: s.
-    sample0 : int
-        Global index of the first sample, as in :func:`~fieldmap.nav.mechanize.propagate_lci`:
-        the IMU and baro noise of sample j is keyed on (seed, ``sample0`` + j).
-    degrees : bool
-        False: ``lat0``, ``lon0`` in radians, e.g. ``final["llh"]`` of the previous piece of a
-        flight (no degree round trip: the pieces give the bits of one propagation).
+    start : NedStart
+        Initial geodetic position, Earth-relative NED velocity and attitude q_b^n.
+    config : NavConfig, optional
+        Navigation gravity, sensor errors, baro aiding, decimation, continuation (default
+        ``NavConfig()``: J4, free inertial, no errors, every sample). Its ``sample0`` keys the
+        IMU and baro noise of sample j on (seed, ``sample0`` + j), as in :func:`propagate_lci`.
+    device : str, optional
+        Warp device (default: CUDA if present, else CPU using every core).
+    *old, **old_kw
+        Deprecated (fieldmap 0.2): ``propagate_ned(dtheta, dv, dt, lat0, lon0, h0, v_ned0, q0,
+        gravity, **options)`` still runs, with a ``DeprecationWarning``.
 
     Returns
     -------
     NedResult
     """
-    llh = np.stack(
-        np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in (lat0, lon0, h0))), -1
-    )
+    if not isinstance(start, NedStart) or old or old_kw:
+        bound = _old_call("propagate_ned", _NED_OLD, (start, config, *old), old_kw)
+        start = NedStart(
+            bound["lat0"], bound["lon0"], bound["h0"], bound["v_ned0"], bound["q0"],
+            degrees=bound.get("degrees", True),
+        )  # fmt: skip
+        device = bound.get("device", device)
+        config = _config_of(bound)
+    cfg = NavConfig() if config is None else config
+    degrees = start.degrees
+    ellipsoid = WGS84 if cfg.ellipsoid is None else cfg.ellipsoid
+    pos = (start.lat, start.lon, start.h)
+    llh = np.stack(np.broadcast_arrays(*(np.asarray(x, dtype=np.float64) for x in pos)), -1)
     lat_deg = llh[..., 0] if degrees else np.degrees(llh[..., 0])
     if llh.size and np.any(np.abs(lat_deg) >= 89.0):
         raise InputError("the NED mechanization is not valid within 1 degree of the poles")
@@ -689,17 +776,17 @@ def propagate_ned(
         dtheta,
         dv,
         dt,
-        {"llh0": (llh, (3,)), "v_ned0": (v_ned0, (3,)), "q0": (q0, (4,))},
-        gravity,
-        sh_model,
-        imu_set,
-        errors,
-        output_every,
+        {"llh0": (llh, (3,)), "v_ned0": (start.v_ned, (3,)), "q0": (start.q, (4,))},
+        cfg.gravity,
+        cfg.sh_model,
+        cfg.imu_set,
+        cfg.errors,
+        cfg.output_every,
         device,
         per_step=1,
-        sample0=sample0,
-        gravity_every=gravity_every,
-        gravity_hold=gravity_hold,
+        sample0=cfg.sample0,
+        gravity_every=cfg.gravity_every,
+        gravity_hold=cfg.gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
@@ -708,7 +795,7 @@ def propagate_ned(
     llh_rad = st["llh0"].copy()
     if degrees:
         llh_rad[:, :2] = np.radians(llh_rad[:, :2])
-    aid = _baro_struct(baro, b, ksd)
+    aid = _baro_struct(cfg.baro, b, ksd)
     L, v, q = b.launch(
         ksd.ned_kernel_for(b.has_errors or aid.enabled != 0, b.has_sh),
         (llh_rad, st["v_ned0"], st["q0"]),
@@ -725,7 +812,7 @@ def propagate_ned(
     return NedResult(
         # the time base of propagate_lci: t0 is the time of the first sample (default: the
         # global sample index times dt, so pieces of a record share one grid)
-        t=(0.0 if t0 is None else float(t0) - b.dt * b.sample0)
+        t=(0.0 if cfg.t0 is None else float(cfg.t0) - b.dt * b.sample0)
         + b.dt * (b.sample0 + b.output_every * np.arange(b.n_out)),
         lat=np.degrees(L[..., 0]),
         lon=np.degrees(L[..., 1]),

@@ -312,7 +312,7 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
     """Propagate the runs of ``cfg`` from ``state`` through one block: (stored, next state)."""
     errors = {**cfg.errors, "acc_gm": state["acc_gm"], "gyro_gm": state["gyro_gm"]}
     if cfg.frame == "ned":
-        from fieldmap.nav.mechanize import propagate_ned
+        from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
         aid = None
         if cfg.baro is not None:
@@ -320,28 +320,28 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             h = h if h.ndim == 2 else np.broadcast_to(h, (np.shape(dtheta)[0], h.size))
             aid = dataclasses.replace(cfg.baro, h_ref=h, state=state["baro"])
         llh = state["llh"]
-        ned = propagate_ned(
-            dtheta, dv, cfg.dt, llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"],
+        start = NedStart(llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"], degrees=False)
+        nav = NavConfig(
             cfg.gravity, sh_model=cfg.sh_model, ellipsoid=cfg.ellipsoid, imu_set=cfg.imu_set,
-            errors=errors, output_every=cfg.output_every, device=cfg.device, baro=aid,
-            sample0=sample0, degrees=False, gravity_every=cfg.gravity_every,
-            gravity_hold=state["gravity_hold"],
+            errors=errors, output_every=cfg.output_every, baro=aid, sample0=sample0,
+            gravity_every=cfg.gravity_every, gravity_hold=state["gravity_hold"],
         )  # fmt: skip
+        ned = propagate_ned(dtheta, dv, cfg.dt, start, nav, device=cfg.device)
         final = ned.final or {}
         nxt = {"llh": final["llh"], "v": ned.v_ned[:, -1], "q": ned.q[:, -1]}
         if cfg.baro is not None:
             nxt["baro"] = final["baro"]
         out = {"lat": ned.lat, "lon": ned.lon, "h": ned.h, "v": ned.v_ned, "q": ned.q}
     else:
-        from fieldmap.nav.mechanize import propagate_lci
+        from fieldmap.nav.mechanize import LciStart, NavConfig, propagate_lci
 
-        lci = propagate_lci(
-            dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,
-            sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
+        nav = NavConfig(
+            cfg.gravity, sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
             t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
-            device=cfg.device, sample0=sample0, gravity_every=cfg.gravity_every,
-            gravity_hold=state["gravity_hold"],
+            sample0=sample0, gravity_every=cfg.gravity_every, gravity_hold=state["gravity_hold"],
         )  # fmt: skip
+        start = LciStart(state["P"], state["V"], state["q"], cfg.launch)
+        lci = propagate_lci(dtheta, dv, cfg.dt, start, nav, device=cfg.device)
         final = lci.final or {}
         nxt = {"P": lci.P[:, -1], "V": lci.V[:, -1], "q": lci.q[:, -1]}
         out = {"P": lci.P, "V": lci.V, "q": lci.q, "t": lci.t}
