@@ -37,7 +37,7 @@ from fieldmap.errors import InputError
 from fieldmap.limits import MAX_DRAWS
 
 # the tables and files live in the library; re-exported for scripts written against 0.1
-from fieldmap.nav.report import format_table, to_dataset, write_outputs  # noqa: F401
+from fieldmap.nav.report import format_table, write_outputs
 
 
 def register(subparsers) -> None:

@@ -340,8 +340,8 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
             sample0=sample0, gravity_every=cfg.gravity_every, gravity_hold=state["gravity_hold"],
         )  # fmt: skip
-        start = LciStart(state["P"], state["V"], state["q"], cfg.launch)
-        lci = propagate_lci(dtheta, dv, cfg.dt, start, nav, device=cfg.device)
+        a_start = LciStart(state["P"], state["V"], state["q"], cfg.launch)
+        lci = propagate_lci(dtheta, dv, cfg.dt, a_start, nav, device=cfg.device)
         final = lci.final or {}
         nxt = {"P": lci.P[:, -1], "V": lci.V[:, -1], "q": lci.q[:, -1]}
         out = {"P": lci.P, "V": lci.V, "q": lci.q, "t": lci.t}

@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from fieldmap.nav.study import flight_dataset, to_dataset  # noqa: F401 - public here too
+from fieldmap.nav.study import flight_dataset, to_dataset
 
 
 def _num(x, fmt: str, width: int) -> str:

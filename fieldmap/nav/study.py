@@ -88,12 +88,7 @@ from fieldmap.nav.imu import (
     synthesize,
 )
 from fieldmap.nav.mechanize import dcm_to_quat, quat_to_dcm
-from fieldmap.nav.propagator import (
-    EARTH_RADIUS,  # noqa: F401
-    Propagator,
-    divergence,
-    final_stats,
-)
+from fieldmap.nav.propagator import Propagator, divergence, final_stats
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
@@ -838,8 +833,9 @@ class FlightStudy:
                 f"{type(flight).__name__}"
             )
         put("flight", flight)
+        spec: sensors.ImuErrorSpec
         if isinstance(self.imu, sensors.ImuErrorSpec):
-            label = "custom"
+            label, spec = "custom", self.imu
         elif isinstance(self.imu, (str, os.PathLike)):
             if not str(self.imu).strip():
                 raise InputError(
@@ -847,10 +843,10 @@ class FlightStudy:
                     ".toml file"
                 )
             label, spec = sensors.load_imu(self.imu)
-            put("imu", spec)
         else:
             raise InputError(f"imu must be a preset name, a .toml file or an ImuErrorSpec, "
                              f"got {type(self.imu).__name__}")  # fmt: skip
+        put("imu", spec)
         put("imu_name", label if self.imu_name is None else str(self.imu_name))
         if self.truth_evaluation not in ("interpolated", "full"):
             raise InputError(
@@ -871,7 +867,7 @@ class FlightStudy:
             v = getattr(self, name)
             if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
                 raise InputError(f"{name} must be a positive number, got {v!r}")
-        n_draws = 1 if self.imu.is_ideal else self.draws
+        n_draws = 1 if spec.is_ideal else self.draws
         if isinstance(self.draws, bool) or not 1 <= int(self.draws) <= MAX_DRAWS:
             raise InputError(f"draws must be within 1..{MAX_DRAWS}, got {self.draws}")
         if isinstance(self.seed, bool) or int(self.seed) < 0:
