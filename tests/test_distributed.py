@@ -556,7 +556,7 @@ def test_cli_cluster_started_from_the_shell_is_bitwise_identical(tmp_path):
 def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
     """The one propagator: runs in groups of two on Dask, two blocks, the local bits."""
     from fieldmap.nav import sensors
-    from fieldmap.nav.mechanize import Baro
+    from fieldmap.nav.mechanize import Baro, NavConfig
     from fieldmap.nav.propagator import Propagator
     from fieldmap.nav.sensors import load_imu
 
@@ -575,18 +575,9 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
                 gm_tau=300.0)  # fmt: skip
     outs = []
     for c in (None, client):
-        p = Propagator(
-            "ned",
-            start,
-            ["j2", "j4", "j4", "j6", "exact"],
-            dt,
-            errors=kerr,
-            baro=baro,
-            output_every=10,
-            device="cpu",
-            client=c,
-            runs_per_task=2,
-        )
+        nav = NavConfig(["j2", "j4", "j4", "j6", "exact"], errors=kerr, baro=baro, output_every=10)
+        p = Propagator("ned", start, dt, nav, device="cpu", client=c)
+        p.runs_per_task = 2
         a = p.propagate(dth[:, :ns], dv[:, :ns], 0, np.full(ns, 1000.0))
         b = p.propagate(dth[:, ns:], dv[:, ns:], ns, np.full(ns, 1000.0))
         outs.append((a, b, p.get_state()))

@@ -314,14 +314,14 @@ def test_input_validation():
 
 def test_normal_is_the_deprecated_name_of_exact():
     """Navigation gravity "normal" (fieldmap 0.1) flies as "exact", bit for bit, with a warning."""
-    from fieldmap.nav.mechanize import parse_gravity
-    from fieldmap.nav.paper import check_model_names
+    from fieldmap.nav.gravity import parse_gravity
+    from fieldmap.nav.study import check_model_names
 
     dth, dv, P0, V0, q0 = _random_motion(2, 200, 0.005)
-    run = dict(dt=0.005, P0=P0, V0=V0, q0=q0, launch=FRAME, output_every=20, device="cpu")
-    exact = propagate_lci(dth, dv, gravity=["exact", "j4"], **run)
+    start = LciStart(P0, V0, q0, FRAME)
+    exact = propagate_lci(dth, dv, 0.005, start, NavConfig(["exact", "j4"], output_every=20))
     with pytest.warns(DeprecationWarning, match='"normal" is now "exact"') as rec:
-        old = propagate_lci(dth, dv, gravity=["normal", "j4"], **run)
+        old = propagate_lci(dth, dv, 0.005, start, NavConfig(["normal", "j4"], output_every=20))
     assert len([w for w in rec if w.category is DeprecationWarning]) == 1  # one per call
     assert old.gravity == ("exact", "j4")
     for key in ("t", "P", "V", "q"):

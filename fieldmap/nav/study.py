@@ -87,8 +87,8 @@ from fieldmap.nav.imu import (
     sample_count,
     synthesize,
 )
-from fieldmap.nav.mechanize import dcm_to_quat, quat_to_dcm
-from fieldmap.nav.propagator import Propagator, divergence, final_stats
+from fieldmap.nav.mechanize import NavConfig, dcm_to_quat, quat_to_dcm
+from fieldmap.nav.propagator import Propagator, check_mechanization, divergence, final_stats
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
@@ -301,13 +301,15 @@ def propagate(
             "V": np.tile(k0.V_a[0], (m, 1)),
             "q": np.tile(dcm_to_quat(k0.C_b_to_a[0]), (m, 1)),
         }
-        prop = Propagator(
-            "lci", start, [gravity[i] for i in perm], sc.imu.dt, launch=sc.traj.frame,
-            sh_model=sc.truth_model, imu_set=imu_set[perm],
+        nav = NavConfig(
+            [gravity[i] for i in perm], sh_model=sc.truth_model, imu_set=imu_set[perm],
             errors=None if errors is None else errors.take(perm).kernel_errors(),
-            t_start=sc.imu.t0, output_every=2 * sc.output_every, device=sc.device,
-            client=client, runs_per_task=runs_per_task,
+            t0=sc.imu.t0, output_every=2 * sc.output_every,
         )  # fmt: skip
+        prop = Propagator(
+            "lci", start, sc.imu.dt, nav, launch=sc.traj.frame, device=sc.device, client=client
+        )
+        prop.runs_per_task = runs_per_task
         return perm, prop.propagate(dth, dv, 0)
 
     if progress and n > 1:
@@ -852,9 +854,7 @@ class FlightStudy:
             raise InputError(
                 f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}"
             )
-        frame = str(self.frame).lower()
-        if frame not in ("ned", "lci"):
-            raise InputError(f"frame must be 'ned' or 'lci', got {self.frame!r}")
+        frame = check_mechanization(self.frame)
         put("frame", frame)
         aiding = str(self.altitude_aiding).lower()
         if aiding not in ("auto", "none", "baro"):
@@ -894,8 +894,7 @@ class FlightStudy:
             raise InputError(f"models: {exc}") from None
         if aiding == "auto":
             aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
-        if aiding == "baro" and frame != "ned":
-            raise InputError("baro altitude aiding needs frame='ned'")
+        check_mechanization(frame, baro=aiding == "baro")
         put("aiding", aiding)
         rate_hz = self.rate_hz
         output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
@@ -1020,11 +1019,13 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
             state=np.stack([np.zeros(n_runs), baro_drift0, np.zeros(n_runs)], -1),
         )  # fmt: skip
     g_every = study.gravity_every
+    nav = NavConfig(
+        [grav[i] for i in perm], sh_model=model, ellipsoid=ell, imu_set=imu_set[perm],
+        errors=kerr, output_every=every, baro=aid, gravity_every=g_every,
+    )  # fmt: skip
     prop = Propagator(
-        frame, initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs),
-        [grav[i] for i in perm], dt, launch=traj.frame if frame == "lci" else None,
-        ellipsoid=ell, sh_model=model, imu_set=imu_set[perm], errors=kerr,
-        output_every=every, baro=aid, device=device, client=client, gravity_every=g_every,
+        frame, initial_state(traj, frame, lat0, lon0, h0, v0, C0, n_runs), dt, nav,
+        launch=traj.frame if frame == "lci" else None, device=device, client=client,
     )  # fmt: skip
 
     t_list: list[float] = [0.0]
