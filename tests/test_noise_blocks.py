@@ -202,10 +202,10 @@ def test_sample0_is_checked():
     from fieldmap.errors import InputError
 
     dth, dv, q0 = _motion(10, 0.01)
-    args = (dth, dv, 0.01, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0)
+    start = NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0)
     for bad, msg in ((-1, "sample0 must lie"), (2**31 - 5, "sample0 must lie"), (1.5, "integer")):
         with pytest.raises(InputError, match=msg):
-            propagate_ned(*args, sample0=bad, device="cpu")
+            propagate_ned(dth, dv, 0.01, start, NavConfig(sample0=bad), device="cpu")
 
 
 def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
@@ -224,18 +224,18 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
         "acc_gm": np.zeros((m, 3)), "seed": np.arange(m) * 7 + 1,
     }  # fmt: skip
     baro = Baro(1000.0 - 5.0 * dt * np.arange(n), 0.0, 0.0, 0.0, gm_sigma=s_b, gm_tau=tau)
-    args = (dth, dv, dt, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0, "j4")
-    res = propagate_ned(*args, errors=err, output_every=n, device="cpu", baro=baro, sample0=77)
+    args = (dth, dv, dt, NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0))
+    nav = NavConfig("j4", errors=err, output_every=n, baro=baro, sample0=77)
+    res = propagate_ned(*args, nav, device="cpu")
     shrink = 1.0 - np.exp(-2.0 * n * dt / tau)
     for key, s in (("acc_gm", s_a), ("gyro_gm", s_g)):
         np.testing.assert_allclose(np.mean(res.final[key] ** 2), s * s * shrink, rtol=0.12)
     drift = res.final["baro"][:, 1]
     np.testing.assert_allclose(np.mean(drift**2), s_b * s_b * shrink, rtol=0.2)  # 512 values
     # white gyro noise: attitude random walk against a noise-free run
-    ref = propagate_ned(*args, output_every=n, device="cpu")
-    noisy = propagate_ned(
-        *args, errors={"gyro_noise": arw, "seed": np.arange(m) + 3}, output_every=n, device="cpu"
-    )
+    ref = propagate_ned(*args, NavConfig("j4", output_every=n), device="cpu")
+    white = {"gyro_noise": arw, "seed": np.arange(m) + 3}
+    noisy = propagate_ned(*args, NavConfig("j4", errors=white, output_every=n), device="cpu")
     from scipy.spatial.transform import Rotation as R
 
     from fieldmap.nav.mechanize import quat_to_dcm

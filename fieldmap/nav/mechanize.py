@@ -2,7 +2,7 @@
 
 Validation and upload of a batch of trajectories, shared by the LCI and NED mechanizations.
 
-:func:`prepare_batch` checks the IMU increments, initial states, navigation gravity names and
+:func:`_prepare_batch` checks the IMU increments, initial states, navigation gravity names and
 sensor errors of many trajectories and uploads them to a Warp device as a ``_Batch``,
 whose ``launch`` runs :func:`fieldmap.nav.mechanize.propagate_lci`'s or
 :func:`fieldmap.nav.mechanize.propagate_ned`'s kernel. Quaternions are scalar-first
@@ -52,7 +52,7 @@ def _finite(name, a, shape_tail=None) -> np.ndarray:
     return a
 
 
-def per_trajectory(name, a, n, tail) -> np.ndarray:
+def _per_trajectory(name, a, n, tail) -> np.ndarray:
     """Broadcast the finite ``a`` to one value per trajectory: shape ``(n, *tail)``."""
     a = _finite(name, a, tail)
     if a.ndim == len(tail):
@@ -183,7 +183,7 @@ class _Batch:
         return outs[0].numpy(), outs[1].numpy(), _quat_out(outs[2])
 
 
-def prepare_batch(
+def _prepare_batch(
     dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step,
     sample0=0, gravity_every=1, gravity_hold=None,
 ):  # fmt: skip
@@ -246,7 +246,7 @@ def prepare_batch(
     imu_set = np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,))
     if imu_set.min() < 0 or imu_set.max() >= n_sets:
         raise InputError(f"imu_set indices must lie in 0..{n_sets - 1}")
-    states = {k: per_trajectory(k, a, n, tail) for k, (a, tail) in states.items()}
+    states = {k: _per_trajectory(k, a, n, tail) for k, (a, tail) in states.items()}
     device = _warp.resolve_device(device)
     from fieldmap.kernels import strapdown as ksd
 
@@ -256,10 +256,10 @@ def prepare_batch(
     has_errors = False
     for key, tail in _ERROR_KEYS.items():
         if key == "seed":
-            seed = per_trajectory("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
+            seed = _per_trajectory("seed", err.get("seed", np.arange(n)), n, ()).astype(np.int32)
             se.seed = arr(seed, wp.int32)
         else:
-            a = per_trajectory(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail)
+            a = _per_trajectory(key, err.get(key, _ERROR_DEFAULTS[key]), n, tail)
             has_errors = has_errors or bool(np.any(a != _ERROR_DEFAULTS[key]))
             setattr(se, key, arr(a, types[tail]))
     sh_lmax = int(kl[:, 1].max())
@@ -291,7 +291,7 @@ def prepare_batch(
     ):
         raise InputError(f"gravity_every must be an integer >= 1 (samples), got {gravity_every!r}")
     hold = np.zeros((n, 3, 3)) if gravity_hold is None else gravity_hold
-    hold = per_trajectory("gravity_hold", hold, n, (3, 3))
+    hold = _per_trajectory("gravity_hold", hold, n, (3, 3))
     return _Batch(
         has_errors=has_errors,
         has_sh=sh_lmax > 0 or bool(tables),
@@ -608,7 +608,7 @@ def propagate_lci(
             parts[3] if len(parts) == 4 else 0.0,
             ellipsoid=get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid),
         )
-    b = prepare_batch(
+    b = _prepare_batch(
         dtheta,
         dv,
         dt,
@@ -772,7 +772,7 @@ def propagate_ned(
     lat_deg = llh[..., 0] if degrees else np.degrees(llh[..., 0])
     if llh.size and np.any(np.abs(lat_deg) >= 89.0):
         raise InputError("the NED mechanization is not valid within 1 degree of the poles")
-    b = prepare_batch(
+    b = _prepare_batch(
         dtheta,
         dv,
         dt,
@@ -857,10 +857,10 @@ def _baro_struct(baro: Baro | None, b, ksd):
     aid.k1, aid.k2, aid.k3 = (wp.float64(x) for x in gains)
     aid.h_ref = arr(np.ascontiguousarray(h_ref))
     for key in ("bias", "noise", "gm_sigma", "gm_tau"):
-        val = per_trajectory(f"baro {key}", getattr(baro, key), n, ())
+        val = _per_trajectory(f"baro {key}", getattr(baro, key), n, ())
         if key != "bias" and np.any(val < 0):
             raise InputError(f"baro {key} must be >= 0")
         setattr(aid, key, arr(val))
     state = np.zeros((n, 3)) if baro.state is None else baro.state
-    aid.state = arr(per_trajectory("baro state", state, n, (3,)), wp.vec3d)
+    aid.state = arr(_per_trajectory("baro state", state, n, (3,)), wp.vec3d)
     return aid
