@@ -73,23 +73,25 @@ BASELINE_S = 1770.0
 
 def bench_study(traj, minutes, rate, draws, device, **kw):
     """Wall time of the full flight study, split into synthesis and propagation."""
-    from fieldmap.nav.flightsim import run_flight
-    from fieldmap.nav.imu_specs import PRESETS
+    from fieldmap.nav.sensors import PRESETS
+    from fieldmap.nav.study import FlightStudy, run_flight
 
     t0 = time.perf_counter()
     res = run_flight(
-        traj,
-        imu=PRESETS["tactical"],
-        imu_name="tactical",
-        models=["j2", "j4", "j6", "exact", "sh18", "sh200"],
-        draws=draws,
-        rate_hz=rate,
-        truth_lmax=200,
-        duration=60.0 * minutes,
-        output_dt=10.0,
+        FlightStudy(
+            traj,
+            imu=PRESETS["tactical"],
+            imu_name="tactical",
+            models=["j2", "j4", "j6", "exact", "sh18", "sh200"],
+            draws=draws,
+            rate_hz=rate,
+            truth_lmax=200,
+            duration=60.0 * minutes,
+            output_dt=10.0,
+            **kw,
+        ),
         device=device,
         progress=True,
-        **kw,
     )
     wall = time.perf_counter() - t0
     return res, wall

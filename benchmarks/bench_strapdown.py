@@ -25,9 +25,8 @@ import numpy as np
 from timing import median_time
 
 from fieldmap import _warp
-from fieldmap.nav.launch_frames import LaunchFrame
-from fieldmap.nav.strapdown import propagate_lci
-from fieldmap.nav.strapdown_ned import propagate_ned
+from fieldmap.nav.frames import LaunchFrame
+from fieldmap.nav.mechanize import LciStart, NavConfig, NedStart, propagate_lci, propagate_ned
 
 FRAME = LaunchFrame(105.3, 27.1, 63.0)
 
@@ -77,13 +76,8 @@ def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
                 dth[:n],
                 dv[:n],
                 dt,
-                np.zeros((n_traj, 3)),
-                [0.0, 7000.0, 0.0],
-                [1.0, 0, 0, 0],
-                FRAME,
-                gravity,
-                sh_model=sh_model,
-                output_every=max(1, n // 2),
+                LciStart(np.zeros((n_traj, 3)), [0.0, 7000.0, 0.0], [1.0, 0, 0, 0], FRAME),
+                NavConfig(gravity, sh_model=sh_model, output_every=max(1, n // 2)),
                 device=DEVICE,
             )
     else:
@@ -93,14 +87,8 @@ def bench_ours(n_traj, ns, dt, repeat, gravity="j4", sh_model=None, mech="lci"):
                 dth[:n],
                 dv[:n],
                 dt,
-                np.full(n_traj, 27.1),
-                105.3,
-                1000.0,
-                [100.0, 50.0, 0.0],
-                [1.0, 0, 0, 0],
-                gravity,
-                sh_model=sh_model,
-                output_every=n,
+                NedStart(np.full(n_traj, 27.1), 105.3, 1000.0, [100.0, 50.0, 0.0], [1.0, 0, 0, 0]),
+                NavConfig(gravity, sh_model=sh_model, output_every=n),
                 device=DEVICE,
             )
 

@@ -27,11 +27,12 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     args = ap.parse_args(argv)
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
+    from fieldmap.nav import study
     from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate = (60.0, 100.0) if args.small else (800.0, 200.0)
-    sc = navsim.build_scenario(
+    sc = study.build_scenario(
         duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
     )
     res = navsim.table1(sc, navsim.TABLE1_MODELS, timing=not args.small)

@@ -4,7 +4,7 @@
 Reproduce Table 3 / Fig. 12 of Chen et al. (2022): J4 navigation with Table 2 accelerometers.
 
 Monte Carlo over the accelerometer bias and white noise of each group (Table 2; bias read as µg,
-noise as µg/√Hz — see fieldmap.nav.imu_errors), every draw of every group in one Warp launch; the
+noise as µg/√Hz — see fieldmap.nav.sensors), every draw of every group in one Warp launch; the
 table gives mean, RMS and 95th percentile of the final errors over the draws. Run::
 
     python examples/table3_accel_errors.py          # 800 s at 200 Hz, 50 draws per group
@@ -28,11 +28,12 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default=None)
     args = ap.parse_args(argv)
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
+    from fieldmap.nav import study
     from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate, draws = (60.0, 100.0, 4) if args.small else (800.0, 200.0, 50)
-    sc = navsim.build_scenario(
+    sc = study.build_scenario(
         duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
     )
     res = navsim.table3(sc, draws=args.draws or draws, seed=args.seed, nav="j4")

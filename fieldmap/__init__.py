@@ -72,20 +72,23 @@ _LAZY = {
     "quantity_map": "fieldmap.products.quantity_maps",
     "write_netcdf": "fieldmap.products.io",
     # navigation
-    "LaunchFrame": "fieldmap.nav.launch_frames",
+    "LaunchFrame": "fieldmap.nav.frames",
     "Trajectory": "fieldmap.nav.trajectory",
     "BoostGlide": "fieldmap.nav.trajectory",
     "synthesize_imu": ("fieldmap.nav.imu", "synthesize"),
-    "ImuErrorSpec": "fieldmap.nav.imu_errors",
-    "propagate_lci": "fieldmap.nav.strapdown",
-    "propagate_ned": "fieldmap.nav.strapdown_ned",
-    "calc_force_ned": "fieldmap.nav.forcened",
+    "ImuErrorSpec": "fieldmap.nav.sensors",
+    "propagate_lci": "fieldmap.nav.mechanize",
+    "propagate_ned": "fieldmap.nav.mechanize",
+    "calc_force_ned": "fieldmap.nav.frames",
     # your own flight and IMU
     "FlightTrajectory": "fieldmap.nav.flight",
     "route_flight": "fieldmap.nav.flight",
-    "load_imu": "fieldmap.nav.imu_specs",
-    "run_flight": "fieldmap.nav.flightsim",
-    "allan_deviation": "fieldmap.nav.allan",
+    "load_imu": "fieldmap.nav.sensors",
+    "run_flight": "fieldmap.nav.study",
+    "FlightStudy": "fieldmap.nav.study",
+    "BaroSpec": "fieldmap.nav.study",
+    "build_table": "fieldmap.products.table",
+    "allan_deviation": "fieldmap.nav.sensors",
 }
 
 __all__ = sorted(

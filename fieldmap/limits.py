@@ -30,6 +30,8 @@ MIN_HEIGHT = -10.0e3
 MAX_HEIGHT = 1.0e8
 #: Accepted longitudes, half-open as GeographicLib's DMS::DecodeLatLon: [-540, 540). Units: deg.
 LON_MIN, LON_MAX = -540.0, 540.0
+#: Most Monte Carlo draws of one navigation study (the paper's and a flight study).
+MAX_DRAWS = 10_000
 #: Orders 2n of the truncated zonal normal fields J2, J4, J6 (Chen et al. 2022 eqs. 7-13).
 J2N_ORDERS = (2, 4, 6)
 

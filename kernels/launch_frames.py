@@ -1,6 +1,6 @@
 """Warp device functions for the launch frames of Chen et al. (2022) eqs. (16)-(20) (float64).
 
-Same conventions and misprint corrections as ``fieldmap.nav.launch_frames`` (see its docstring):
+Same conventions and misprint corrections as ``fieldmap.nav.frames`` (see its docstring):
 eq. (16) uses λ + ω t, eq. (17) uses R11 = −sin A0 sin λ0 − cos A0 sin B0 cos λ0. Angles in radians.
 """
 

@@ -65,14 +65,15 @@ def quat_from_rotvec(phi: wp.vec3d):
     return wp.quatd(k * phi[0], k * phi[1], k * phi[2], w)
 
 
-def _make_lci_kernel(errors: bool, sh_gravity: bool):
-    """Build the LCI kernel without the sensor-error code or the SH gravity path.
+def _make_lci_kernel(general: bool):
+    """Build the general LCI kernel, or the plain one without sensor errors and SH gravity.
 
-    ``errors`` False drops the sensor errors, ``sh_gravity`` False the SH navigation gravity
-    (for launches where no trajectory needs them: runs without those sources do not pay for
-    them). Every variant gives the bits of the general one (both True) for the trajectories it
-    accepts: the skipped code would add exact zeros (``M = I``, ``b = 0``, no draws) or is a
-    branch never taken.
+    ``general`` False drops the sensor errors and the SH navigation gravity (for launches where
+    no trajectory needs either: runs without those sources do not pay for them). The plain
+    kernel gives the bits of the general one for the trajectories it accepts: the skipped code
+    would add exact zeros (``M = I``, ``b = 0``, no draws) or is a branch never taken. (A kernel
+    with only one of the two was never needed: a launch with errors or SH takes the general
+    one.)
     """
 
     @wp.kernel
@@ -139,7 +140,7 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
             dv1 = dvel[s, j]
             th2 = dtheta[s, j + 1]
             dv2 = dvel[s, j + 1]
-            if wp.static(errors):
+            if wp.static(general):
                 th1, dv1, beta_g, beta_a, _s1 = measured_sample(
                     te, th1, dv1, beta_g, beta_a, dt, sample0 + j
                 )
@@ -162,7 +163,7 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
             C_et = C_e_to_t(t_mid, lp.omega)
             r_e = wp.transpose(C_et) * (C_a_t * (P + V * (_HALF * T)) + lp.r_launch)
             g_e = wp.vec3d()
-            if wp.static(sh_gravity):
+            if wp.static(general):
                 g_e, gh, gs, gl = held_gravitation_ecef(
                     gk, r_e, ell, model, tab, sample0 + j + 1, grav_every, gh, gs, gl
                 )
@@ -188,9 +189,9 @@ def _make_lci_kernel(errors: bool, sh_gravity: bool):
 
 
 #: the general kernel (any sensor errors, any navigation gravity)
-lci_kernel = _make_lci_kernel(True, True)
+lci_kernel = _make_lci_kernel(True)
 #: no sensor errors, normal navigation gravity only
-lci_kernel_plain = _make_lci_kernel(False, False)
+lci_kernel_plain = _make_lci_kernel(False)
 
 
 def lci_kernel_for(errors: bool, sh_gravity: bool):
@@ -204,10 +205,10 @@ def force_ned(q_b_n: wp.quatd, dt: wp.float64, dth: wp.vec3d, dv: wp.vec3d):
     return wp.quat_rotate(q_b_n, dv + _HALF * wp.cross(dth, dv)) / dt
 
 
-def _make_ned_kernel(errors: bool, sh_gravity: bool):
+def _make_ned_kernel(general: bool):
     """Build the NED kernel specialised as :func:`_make_lci_kernel`.
 
-    ``errors`` False drops the sensor errors and the baro aiding.
+    ``general`` False drops the sensor errors, the baro aiding and the SH navigation gravity.
     """
 
     @wp.kernel
@@ -277,7 +278,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
             th = dtheta[s, k]
             dv = dvel[s, k]
             dh = _ZERO
-            if wp.static(errors):
+            if wp.static(general):
                 th, dv, beta_g, beta_a, state = measured_sample(
                     te, th, dv, beta_g, beta_a, dt, sample0 + k
                 )
@@ -301,7 +302,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
             f = force_ned(q, dt, th, dv) - _HALF * wp.cross(w_ie + w_en, wp.quat_rotate(q, dv))
             r_g = geodetic_to_ecef(llh[0], llh[1], llh[2], ell.a, ell.e2)
             g_e = wp.vec3d()
-            if wp.static(sh_gravity):
+            if wp.static(general):
                 g_e, gh, gs, gl = held_gravitation_ecef(
                     gk, r_g, ell, model, tab, sample0 + k, grav_every, gh, gs, gl
                 )
@@ -309,7 +310,7 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
                 g_e = normal_field_ecef(r_g, ell, gk, 0)
             g = enu_to_ned(ecef_to_enu(g_e + centrifugal_ecef(r_g, ell.omega), llh[0], llh[1]))
             v_new = v + (f + g - wp.cross(w_ie + w_ie + w_en, v)) * dt
-            if wp.static(errors):
+            if wp.static(general):
                 if baro.enabled != 0:
                     v_new = v_new + wp.vec3d(_ZERO, _ZERO, (baro.k2 * dh + da) * dt)
             vm = _HALF * (v + v_new)
@@ -333,9 +334,9 @@ def _make_ned_kernel(errors: bool, sh_gravity: bool):
 
 
 #: the general kernel (any sensor errors, baro aiding, any navigation gravity)
-ned_kernel = _make_ned_kernel(True, True)
+ned_kernel = _make_ned_kernel(True)
 #: no sensor errors, no baro aiding, normal navigation gravity only
-ned_kernel_plain = _make_ned_kernel(False, False)
+ned_kernel_plain = _make_ned_kernel(False)
 
 
 def ned_kernel_for(errors: bool, sh_gravity: bool):

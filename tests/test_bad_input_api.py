@@ -19,7 +19,7 @@ from fieldmap.field import normal as N
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.grids import spec as gridspec
 from fieldmap.grids import synthesis as G
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.frames import LaunchFrame
 from fieldmap.products import maps, stats
 
 LMAX = 4  # small degree: these tests are about input checks, not the series
@@ -319,9 +319,9 @@ def test_launch_frame_fields_normalised():
 def test_api_navsim_inputs():
     """Navigation inputs: IMU arrays, dt, names, degrees, trajectories below the surface."""
     from fieldmap.models.registry import load_model
-    from fieldmap.nav import imu
-    from fieldmap.nav import studies as navsim
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav import imu, study
+    from fieldmap.nav import paper as navsim
+    from fieldmap.nav.frames import LaunchFrame
     from fieldmap.nav.trajectory import Stationary
 
     good = np.zeros((10, 3))
@@ -346,7 +346,7 @@ def test_api_navsim_inputs():
     with pytest.raises(InputError, match="unknown gravity model kind"):
         imu.Gravitation("j8")
     with pytest.raises(InputError, match="output interval"):
-        navsim.build_scenario(duration=2.0, output_dt=float("nan"))
+        study.build_scenario(duration=2.0, output_dt=float("nan"))
     with pytest.raises(InputError, match="more than"):
         imu.sample_count(800.0, 1e6)
     for n in (0, -1, 2.5, 1000):
@@ -365,7 +365,7 @@ def test_api_navsim_inputs():
         imu.Gravitation("sh", model=model, lmax=2.5)
     for kw in ({"duration": "x"}, {"rate_hz": float("inf")}, {"output_dt": -1.0}):
         with pytest.raises(InputError, match="must be a positive number"):
-            navsim.build_scenario(**kw)
+            study.build_scenario(**kw)
     deep = Stationary(frame, 10.0, h=-5000.0)
     with pytest.raises(InputError, match="below the surface"):
         imu.synthesize(deep, 20.0, imu.Gravitation("j2"))
@@ -391,7 +391,7 @@ def test_api_verify():
 
 def test_api_imu_errors():
     """IMU error specs, draws and their application refuse bad values with InputError."""
-    from fieldmap.nav import imu_errors as ie
+    from fieldmap.nav import sensors as ie
 
     for value in (-1.0, float("nan"), "x", None, True):
         with pytest.raises(InputError, match="acc_bias_ug"):
@@ -419,9 +419,9 @@ def test_api_imu_errors():
 
 def test_build_scenario_long_output_interval():
     """An output interval longer than the flight stores the last state (no endless search)."""
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import study
 
-    sc = navsim.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
+    sc = study.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
     assert sc.t_out[-1] == pytest.approx(sc.imu.t0 + sc.imu.duration)
 
 

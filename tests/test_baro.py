@@ -6,8 +6,15 @@ from scipy.spatial.transform import Rotation
 
 from fieldmap import _warp
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.strapdown import dcm_to_quat, quat_to_dcm
-from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+from fieldmap.nav.mechanize import (
+    Baro,
+    NavConfig,
+    NedStart,
+    baro_gains,
+    dcm_to_quat,
+    propagate_ned,
+    quat_to_dcm,
+)
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_ned_reference
 
@@ -38,9 +45,13 @@ def test_baro_loop_kernel_equals_reference(device):
     h_ref = 1000.0 + 5.0 * np.arange(N) * dt + 3.0 * np.sin(0.2 * np.arange(N) * dt)
     k1, k2, k3 = baro_gains(20.0)
     res = propagate_ned(
-        w * dt, f * dt, dt, 30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0), "j2",
-        output_every=100, device=device, baro=Baro(h_ref, k1, k2, k3, bias=7.0),
-    )  # fmt: skip
+        w * dt,
+        f * dt,
+        dt,
+        NedStart(30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0)),
+        NavConfig("j2", output_every=100, baro=Baro(h_ref, k1, k2, k3, bias=7.0)),
+        device=device,
+    )
     L, V, C = propagate_ned_reference(
         (w * dt)[None], (f * dt)[None], dt, LLH0[None], VNED0[None], C0[None], _g_ned_j2, WGS84,
         output_every=100, baro={"k1": k1, "k2": k2, "k3": k3, "h_ref": h_ref[None], "bias": 7.0},
@@ -52,9 +63,13 @@ def test_baro_loop_kernel_equals_reference(device):
     np.testing.assert_allclose(quat_to_dcm(res.q[0]), C[0], rtol=0, atol=1e-13)
     # the loop really acted: without it the heights differ by far more than the tolerance
     free = propagate_ned(
-        w * dt, f * dt, dt, 30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0), "j2",
-        output_every=100, device=device,
-    )  # fmt: skip
+        w * dt,
+        f * dt,
+        dt,
+        NedStart(30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0)),
+        NavConfig("j2", output_every=100),
+        device=device,
+    )
     assert np.abs(free.h[0, -1] - res.h[0, -1]) > 0.1
 
 
@@ -83,13 +98,23 @@ def test_baro_loop_absorbs_an_accelerometer_bias():
     k1, k2, k3 = baro_gains(60.0)
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     aided = propagate_ned(
-        dth, dv, dt, 45.0, 0.0, 500.0, np.zeros(3), q0, "j2", errors=errors, output_every=n,
-        device="cpu", baro=Baro(np.full(n, 500.0), k1, k2, k3, bias=4.0),
-    )  # fmt: skip
-    free = propagate_ned(
-        dth, dv, dt, 45.0, 0.0, 500.0, np.zeros(3), q0, "j2", errors=errors, output_every=n,
+        dth,
+        dv,
+        dt,
+        NedStart(45.0, 0.0, 500.0, np.zeros(3), q0),
+        NavConfig(
+            "j2", errors=errors, output_every=n, baro=Baro(np.full(n, 500.0), k1, k2, k3, bias=4.0)
+        ),
         device="cpu",
-    )  # fmt: skip
+    )
+    free = propagate_ned(
+        dth,
+        dv,
+        dt,
+        NedStart(45.0, 0.0, 500.0, np.zeros(3), q0),
+        NavConfig("j2", errors=errors, output_every=n),
+        device="cpu",
+    )
     # 20 τ after the start the triple pole has decayed to e^-20 (20³/2 e^-20 ~ 8e-6)
     assert aided.h[0, -1] - 500.0 == pytest.approx(4.0, abs=1e-3)
     # 1e-7 m/s² is 1 % of the gradient term (1.23e-5 m/s²)

@@ -43,7 +43,7 @@ def _tables_dir() -> Path | None:
 
 def _products() -> dict:
     """One small Dataset of every kind the package writes as NetCDF."""
-    from fieldmap.nav.report import to_dataset
+    from fieldmap.nav.study import to_dataset
     from fieldmap.products.quantity_maps import quantity_map
 
     nav = types.SimpleNamespace(

@@ -324,10 +324,12 @@ def test_nga_files_keep_their_sigma_columns(tmp_path):
 def test_flight_study_reports_the_truth_sigma_along_the_track():
     """Navsim's δg output carries the truth model's commission σ (NED) at the track points."""
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.study import FlightStudy, run_flight
 
     ft = FlightTrajectory(route_flight("45,7,3000;45.3,7.4,5000", 200.0))
-    res = run_flight(ft, models=["j4"], duration=60.0, rate_hz=50.0, truth_lmax=40, output_dt=2.0)
+    res = run_flight(
+        FlightStudy(ft, models=["j4"], duration=60.0, rate_hz=50.0, truth_lmax=40, output_dt=2.0)
+    )
     lat, lon, h = res.track.T
     enu = commission_sigma(lat, lon, h, model=load_model("eigen-6s", lmax=40))
     np.testing.assert_allclose(res.dg_sigma * 1e5, enu[:, [1, 0, 2]], rtol=1e-12)
@@ -337,8 +339,14 @@ def test_flight_study_reports_the_truth_sigma_along_the_track():
     ds = res.to_dataset()
     assert ds["truth_gravity_sigma"].dims == ("time", "axis")
     nosig = run_flight(
-        ft, models=["j4"], duration=10.0, rate_hz=50.0, truth=kaula_model(20, seed=2),
-        output_dt=2.0,
-    )  # fmt: skip
+        FlightStudy(
+            ft,
+            models=["j4"],
+            duration=10.0,
+            rate_hz=50.0,
+            truth=kaula_model(20, seed=2),
+            output_dt=2.0,
+        )
+    )
     assert nosig.dg_sigma is None and "truth_gravity_sigma" not in nosig.to_dataset()
     assert nosig.summary["meta"]["truth_commission_sigma_max_mgal"] is None

@@ -557,14 +557,14 @@ def test_cli_cluster_started_from_the_shell_is_bitwise_identical(tmp_path):
 
 def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
     """The one propagator: runs in groups of two on Dask, two blocks, the local bits."""
-    from fieldmap.nav import imu_errors
-    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav import sensors
+    from fieldmap.nav.mechanize import Baro, NavConfig
     from fieldmap.nav.propagator import Propagator
-    from fieldmap.nav.strapdown_ned import Baro
+    from fieldmap.nav.sensors import load_imu
 
     _, spec = load_imu("tactical")
     n, ns, dt = 5, 40, 0.02
-    kerr = imu_errors.draw(spec, n, seed=3).kernel_errors()
+    kerr = sensors.draw(spec, n, seed=3).kernel_errors()
     rng = np.random.default_rng(0)
     dth = rng.normal(0.0, 1e-4, (1, 2 * ns, 3))
     dv = np.tile([0.0, 0.0, -9.8 * dt], (1, 2 * ns, 1)) + rng.normal(0.0, 1e-3, (1, 2 * ns, 3))
@@ -577,18 +577,9 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
                 gm_tau=300.0)  # fmt: skip
     outs = []
     for c in (None, client):
-        p = Propagator(
-            "ned",
-            start,
-            ["j2", "j4", "j4", "j6", "exact"],
-            dt,
-            errors=kerr,
-            baro=baro,
-            output_every=10,
-            device="cpu",
-            client=c,
-            runs_per_task=2,
-        )
+        nav = NavConfig(["j2", "j4", "j4", "j6", "exact"], errors=kerr, baro=baro, output_every=10)
+        p = Propagator("ned", start, dt, nav, device="cpu", client=c)
+        p.runs_per_task = 2
         a = p.propagate(dth[:, :ns], dv[:, :ns], 0, np.full(ns, 1000.0))
         b = p.propagate(dth[:, ns:], dv[:, ns:], ns, np.full(ns, 1000.0))
         outs.append((a, b, p.get_state()))
@@ -599,14 +590,15 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
 
 def test_navigation_monte_carlo_on_the_cluster(client):
     """Draws x models split into tasks: the single-launch result, bit for bit."""
-    from fieldmap.nav import imu_errors, studies
+    from fieldmap.nav import paper, sensors, study
     from fieldmap.nav.distributed import propagate_on
 
-    sc = studies.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
-    err = imu_errors.draw(imu_errors.TABLE4, 3, seed=7).repeat(2)
+    sc = study.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    err = sensors.draw(sensors.TABLE4, 3, seed=7).repeat(2)
     grav = ["j4"] * 3 + ["sh18"] * 3
-    ref = studies.propagate(sc, grav, errors=err)
-    got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
+    ref = paper.propagate(sc, grav, errors=err)
+    with pytest.warns(DeprecationWarning, match="propagate_on"):
+        got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
     for k in ("t", "dP", "dV", "pos", "vel", "hor", "ver", "ned"):
         assert np.array_equal(ref[k], got[k]), k
     assert ref["diverged"] == got["diverged"]
@@ -615,13 +607,13 @@ def test_navigation_monte_carlo_on_the_cluster(client):
 
 def test_navsim_study_on_the_cluster_equals_here(client):
     """``on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
-    from fieldmap.nav import studies
+    from fieldmap.nav import paper, study
     from fieldmap.nav.distributed import on_cluster
 
-    sc = studies.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
-    here = studies.table3(sc, draws=3, seed=5, nav="j4")
-    with on_cluster(client):
-        there = studies.table3(sc, draws=3, seed=5, nav="j4")
+    sc = study.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    here = paper.table3(sc, draws=3, seed=5, nav="j4")
+    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
+        there = paper.table3(sc, draws=3, seed=5, nav="j4")
     assert np.array_equal(here.pos, there.pos) and np.array_equal(here.vel, there.vel)
     assert here.rows == there.rows
 
@@ -650,22 +642,22 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     Three time blocks (the states, Gauss-Markov and baro states carried by the client), IMU
     errors with white noise and bias instability, three models x three draws in groups of two.
     """
-    from fieldmap.nav import flightsim
+    from fieldmap.nav import study
     from fieldmap.nav.distributed import on_cluster
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav.sensors import load_imu
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
     name, imu = load_imu("tactical")
     kw = dict(
         imu=imu, imu_name=name, models=["j2", "j4"], draws=3, seed=11, rate_hz=50.0,
         truth_lmax=30, output_dt=4.0, duration=60.0, block_s=24.0, frame=frame,
-        altitude_aiding=aiding, device="cpu",
+        altitude_aiding=aiding,
     )  # fmt: skip
-    here = flightsim.run_flight(ft, **kw)
-    with on_cluster(client):  # the deprecated spelling
-        there = flightsim.run_flight(ft, **kw)
-    pairs = flightsim.run_flight(ft, **kw, client=client)
+    here = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
+        there = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    pairs = study.run_flight(study.FlightStudy(ft, **kw), device="cpu", client=client)
     for res in (there, pairs):
         for k in ("t", "dpos", "dvel", "datt", "track"):
             assert np.array_equal(getattr(here, k), getattr(res, k)), k

@@ -9,8 +9,8 @@ import pytest
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.flight import FlightTrajectory, read_flight, route_flight
-from fieldmap.nav.flightsim import BaroSpec, run_flight
-from fieldmap.nav.imu_errors import ImuErrorSpec
+from fieldmap.nav.sensors import ImuErrorSpec
+from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -134,8 +134,10 @@ def test_route_bounded_acceleration():
 
 def _ideal_study(duration=240.0, models=("j4",), **kw):
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
-    kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0, "device": "cpu"} | kw
-    return ft, run_flight(ft, models=list(models), duration=duration, **kw)
+    kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0} | kw
+    return ft, run_flight(
+        FlightStudy(ft, models=list(models), duration=duration, **kw), device="cpu"
+    )
 
 
 def test_j4_truth_with_j4_navigation_is_the_floor():
@@ -163,8 +165,10 @@ def test_grs80_flight_has_the_wgs84_floor(frame):
     floors = []
     for ell in (WGS84, GRS80):
         ft = FlightTrajectory(route_flight(ROUTE, 200.0, ellipsoid=ell), ellipsoid=ell)
-        kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0, "device": "cpu"}
-        res = run_flight(ft, models=["j4"], duration=240.0, frame=frame, **kw)
+        kw = {"rate_hz": 100.0, "truth_lmax": 60, "output_dt": 2.0}
+        res = run_flight(
+            FlightStudy(ft, models=["j4"], duration=240.0, frame=frame, **kw), device="cpu"
+        )
         m = res.summary["models"]["imu_only"]
         floors.append([m["final_position_error_m"]["max"], m["final_horizontal_error_m"]["max"]])
     wgs, grs = np.array(floors)
@@ -214,10 +218,10 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
     Bias, scale-factor, white-noise and bias-instability IMU: the noise is keyed on the global
     sample index, so 60 s blocks give the 240 s block's errors bit for bit.
     """
-    from fieldmap.nav import flightsim
+    from fieldmap.nav import study
 
     sizes = []
-    real = flightsim.synthesize
+    real = study.synthesize
 
     def spy(*args, **kw):
         out = real(*args, **kw)
@@ -229,7 +233,7 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
         gyro_arw_deg_rth=0.05, acc_bi_ug=20.0, acc_bi_tau_s=100.0, gyro_bi_deg_h=0.2,
     )  # fmt: skip
     _, a = _ideal_study(imu=imu, draws=2, block_s=240.0)
-    monkeypatch.setattr(flightsim, "synthesize", spy)
+    monkeypatch.setattr(study, "synthesize", spy)
     _, b = _ideal_study(imu=imu, draws=2, block_s=60.0)
     assert max(sizes) == 6000 and len(sizes) == 8  # 4 blocks × 2 sets of 60 s at 100 Hz
     np.testing.assert_array_equal(a.dpos, b.dpos)  # m; errors reach ~100 m
@@ -257,16 +261,24 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
     North accelerometer bias b at the equator (no Foucault coupling), baro-held vertical:
     δN = b/ω_s² (1 − cos ω_s t): ½bt² early, period 2π/ω_s = 84.4 min over 3 h.
     """
-    from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+    from fieldmap.nav.mechanize import Baro, NavConfig, NedStart, baro_gains, propagate_ned
 
     dt, n = 0.1, 108000  # 3 h at 10 Hz
     dth, dv = _rest(n, dt, 0.0)
     b = 50e-6 * 9.80665
     res = propagate_ned(
-        dth, dv, dt, 0.0, 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0]), "j4",
-        errors={"acc_bias": np.array([b, 0.0, 0.0])}, output_every=100, device="cpu",
-        baro=Baro(np.zeros(n), *baro_gains(100.0)),
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(0.0, 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0])),
+        NavConfig(
+            "j4",
+            errors={"acc_bias": np.array([b, 0.0, 0.0])},
+            output_every=100,
+            baro=Baro(np.zeros(n), *baro_gains(100.0)),
+        ),
+        device="cpu",
+    )
     t = res.t
     dN = np.radians(res.lat[0]) * (WGS84.a * (1 - WGS84.e2))
     early = t <= 60
@@ -282,18 +294,24 @@ def test_accelerometer_bias_half_b_t2_then_schuler():
 
 def test_arw_attitude_random_walk_grows_as_sqrt_t():
     """Gyro white noise only: heading error σ(t) = ARW √t over 64 runs (±25 %: 192 samples)."""
-    from fieldmap.nav.imu_errors import DEG_RTH
-    from fieldmap.nav.strapdown import quat_to_dcm
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned, quat_to_dcm
+    from fieldmap.nav.sensors import DEG_RTH
 
     dt, n, runs = 0.05, 8000, 64  # 400 s
     dth, dv = _rest(n, dt, 45.0)
     arw = 0.5 * DEG_RTH
     res = propagate_ned(
-        dth, dv, dt, np.full(runs, 45.0), 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0]), "j4",
-        errors={"gyro_noise": np.full(runs, arw), "seed": np.arange(runs)}, output_every=2000,
+        dth,
+        dv,
+        dt,
+        NedStart(np.full(runs, 45.0), 0.0, 0.0, np.zeros(3), np.array([1.0, 0, 0, 0])),
+        NavConfig(
+            "j4",
+            errors={"gyro_noise": np.full(runs, arw), "seed": np.arange(runs)},
+            output_every=2000,
+        ),
         device="cpu",
-    )  # fmt: skip
+    )
     C = quat_to_dcm(res.q)  # (runs, 5, 3, 3); attitude started as identity
     psi = np.stack([C[..., 1, 0], C[..., 0, 2], C[..., 2, 1]], -1)  # small-angle heading etc.
     sd = np.sqrt(np.mean(psi[:, 1:] ** 2, axis=(0, 2)))

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main
-from fieldmap.nav import flightsim
+from fieldmap.nav import study
 from fieldmap.nav.flight import FlightTrajectory, geodetic_state, route_flight
 from fieldmap.nav.logs.load import load_flight
 
@@ -56,10 +56,17 @@ def _csv(path, cols):
 
 
 def _study(traj):
-    return flightsim.run_flight(
-        traj, models=["j4", "exact"], rate_hz=50.0, truth_lmax=60, output_dt=10.0,
-        device="cpu", altitude_aiding="none",
-    )  # fmt: skip
+    return study.run_flight(
+        study.FlightStudy(
+            traj,
+            models=["j4", "exact"],
+            rate_hz=50.0,
+            truth_lmax=60,
+            output_dt=10.0,
+            altitude_aiding="none",
+        ),
+        device="cpu",
+    )
 
 
 def test_spoilt_log_flies_like_the_clean_flight(tmp_path):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fieldmap.nav.forcened import calc_force_ned
+from fieldmap.nav.frames import calc_force_ned
 
 navtk_inertial = pytest.importorskip("navtk.inertial")
 

@@ -9,8 +9,8 @@ import pytest
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
+from fieldmap.nav.frames import LaunchFrame
 from fieldmap.nav.imu import Gravitation, ImuIncrements, gauss_legendre01, synthesize
-from fieldmap.nav.launch_frames import LaunchFrame
 from fieldmap.nav.trajectory import BoostGlide, Stationary
 
 FRAME = LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0)
@@ -100,7 +100,7 @@ def test_replay_reaches_the_floor_and_converges_at_second_order():
 
 
 def test_kernel_replay_equals_numpy_replay():
-    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
+    from fieldmap.nav.mechanize import LciStart, NavConfig, dcm_to_quat, propagate_lci
 
     bg = BoostGlide()
     imu = synthesize(bg, 100.0, Gravitation("j2"), n_gauss=2, duration=20.0)
@@ -110,11 +110,8 @@ def test_kernel_replay_equals_numpy_replay():
         imu.dtheta,
         imu.dv,
         imu.dt,
-        k0.P_a[0],
-        k0.V_a[0],
-        dcm_to_quat(k0.C_b_to_a[0]),
-        FRAME,
-        gravity="j2",
+        LciStart(k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]), FRAME),
+        NavConfig("j2"),
         device="cpu",
     )
     # same algorithm, two code paths: rounding only (4e-12 m and 8e-13 m/s measured after 20 s)
@@ -153,7 +150,7 @@ def test_constant_gravity_offset_gives_half_dg_t2():
 
 def test_truth_sh_floor_is_ten_times_below_the_smallest_model_effect():
     """EIGEN-6S degree 240 truth, 30 s, 100 Hz: floor (nav = truth) ≤ 1/10 of the SH200 effect."""
-    from fieldmap.nav.studies import build_scenario, propagate
+    from fieldmap.nav.study import build_scenario, propagate
 
     sc = build_scenario(duration=30.0, rate_hz=100.0, n_gauss=2, device="cpu")
     out = propagate(sc, ["sh200", sc.truth_key])

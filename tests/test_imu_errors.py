@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav import imu_errors as ie
+from fieldmap.nav import sensors as ie
 
 
 def test_unit_constants():
@@ -106,10 +106,10 @@ def test_scale_factor_and_misalignment_matrix():
 
 
 def test_kernel_bias_gives_half_b_t2():
-    """The draws drive fieldmap.nav.strapdown's kernel: 100 µg fixed bias at rest -> ½ b t²."""
+    """The draws drive fieldmap.nav.mechanize's kernel: 100 µg fixed bias at rest -> ½ b t²."""
+    from fieldmap.nav.frames import LaunchFrame
     from fieldmap.nav.imu import Gravitation, synthesize
-    from fieldmap.nav.launch_frames import LaunchFrame
-    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
+    from fieldmap.nav.mechanize import LciStart, NavConfig, dcm_to_quat, propagate_lci
     from fieldmap.nav.trajectory import Stationary
 
     fr = LaunchFrame(108.2, 34.0, 195.0, 400.0)
@@ -122,12 +122,8 @@ def test_kernel_bias_gives_half_b_t2():
         imu.dtheta,
         imu.dv,
         imu.dt,
-        k0.P_a[0],
-        k0.V_a[0],
-        dcm_to_quat(k0.C_b_to_a[0]),
-        fr,
-        gravity="j2",
-        errors=d2.kernel_errors(),
+        LciStart(k0.P_a[0], k0.V_a[0], dcm_to_quat(k0.C_b_to_a[0]), fr),
+        NavConfig("j2", errors=d2.kernel_errors()),
         device="cpu",
     )
     kt = st.kinematics(res.t[-1:])

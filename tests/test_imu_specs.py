@@ -4,10 +4,19 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav import imu_errors, imu_specs
-from fieldmap.nav.allan import allan_deviation, allan_table
-from fieldmap.nav.imu_errors import GM_ADEV_PEAK, ImuErrorSpec, gm_allan_deviation
-from fieldmap.nav.imu_specs import PRESETS, RANGES, TOML_KEYS, load_imu, spec_from_mapping
+from fieldmap.nav import sensors
+from fieldmap.nav.sensors import (
+    GM_ADEV_PEAK,
+    PRESETS,
+    RANGES,
+    TOML_KEYS,
+    ImuErrorSpec,
+    allan_deviation,
+    allan_table,
+    gm_allan_deviation,
+    load_imu,
+    spec_from_mapping,
+)
 
 
 def test_presets_are_ordered_by_grade():
@@ -17,8 +26,8 @@ def test_presets_are_ordered_by_grade():
         vals = [getattr(PRESETS[g], key) for g in order]
         assert vals == sorted(vals, reverse=True), key
     assert PRESETS["ideal"].is_ideal and not PRESETS["tactical"].is_ideal
-    assert load_imu("Table4")[1] == imu_errors.TABLE4
-    assert load_imu("table2-group1")[1] == imu_errors.TABLE2_GROUPS[1]
+    assert load_imu("Table4")[1] == sensors.TABLE4
+    assert load_imu("table2-group1")[1] == sensors.TABLE2_GROUPS[1]
 
 
 def test_toml_unit_keys(tmp_path):
@@ -85,7 +94,7 @@ def test_ranges_cover_every_key():
     for key, (lo, hi, unit) in RANGES.items():
         assert 0 <= lo < hi and unit, key
         assert (lo > 0) == key.endswith("_tau_s"), key  # only correlation times must be > 0
-        assert key in imu_specs.__doc__ or key.partition("_")[2] in imu_specs.__doc__, key
+        assert key in sensors.__doc__ or key.partition("_")[2] in sensors.__doc__, key
 
 
 @pytest.mark.parametrize("key", sorted(RANGES))

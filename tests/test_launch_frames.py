@@ -6,7 +6,7 @@ import warp as wp
 
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.launch_frames import (
+from fieldmap.nav.frames import (
     C_e_to_a,
     C_e_to_t,
     C_l_to_a,

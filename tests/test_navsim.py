@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main as cli_main
-from fieldmap.nav import studies as navsim
+from fieldmap.nav import paper as navsim
+from fieldmap.nav import study
 
 
 @pytest.fixture(scope="module")
 def scenario():
     # 60 s of the boost at 100 Hz, truth EIGEN-6S degree 240 (the full bundled model)
-    return navsim.build_scenario(duration=60.0, rate_hz=100.0, n_gauss=2, device="cpu")
+    return study.build_scenario(duration=60.0, rate_hz=100.0, n_gauss=2, device="cpu")
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +101,7 @@ def test_gravity_eval_seconds_increase_with_cost(scenario):
 
 
 def test_balanced_order_spreads_expensive_runs():
-    order = navsim.balanced_order(["j2", "sh200", "sh200", "j4"], parts=2)
+    order = study.balanced_order(["j2", "sh200", "sh200", "j4"], parts=2)
     assert sorted(order.tolist()) == [0, 1, 2, 3]
     assert {int(order[0]), int(order[2])} == {1, 2}  # one SH200 run per chunk
 
@@ -145,7 +146,7 @@ def test_table4_values_against_an_independent_computation(scenario):
     one for ``imu_only``) moves the first row by the J4 gravity-model error (0.73 m here).
     """
     from fieldmap.nav.imu import synthesize
-    from fieldmap.nav.imu_errors import DEG_H, UG, ImuErrorSpec
+    from fieldmap.nav.sensors import DEG_H, UG, ImuErrorSpec
     from fieldmap.reference import normal as nref
     from fieldmap.reference.strapdown import propagate_lci_reference
 
@@ -359,8 +360,8 @@ def test_output_interval_that_does_not_divide_the_run_raises():
     from fieldmap.errors import InputError
 
     with pytest.raises(InputError, match="0.7 s is not a whole number"):
-        navsim.build_scenario(duration=2.0, rate_hz=100.0, truth_lmax=8, output_dt=0.7)
-    assert navsim.output_steps(0.5, 100, 0.02) == 25
+        study.build_scenario(duration=2.0, rate_hz=100.0, truth_lmax=8, output_dt=0.7)
+    assert study.output_steps(0.5, 100, 0.02) == 25
 
 
 def test_progress_launches_give_the_numbers_of_one_launch(scenario):

@@ -17,7 +17,7 @@ from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.normal import normal_gravitation_ecef
-from fieldmap.nav.tablegravity import table_gravitation, table_points
+from fieldmap.nav.gravity import table_gravitation, table_points
 from fieldmap.products.table_model import CompensationTable, interpolate
 
 
@@ -113,52 +113,68 @@ def _motion(n=2, ns=400, dt=0.005):
 
 
 def test_a_zero_table_navigates_as_the_exact_normal_field(tmp_path, device):
-    from fieldmap.nav.strapdown import propagate_lci
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import LciStart, NavConfig, NedStart, propagate_lci, propagate_ned
 
     name = _write(tmp_path, np.zeros((3, 10, 10, 3)))
     dth, dv, dt = _motion()
     ned = propagate_ned(
-        dth, dv, dt, 30.0, 105.0, 1500.0, [100.0, 20.0, 0.0], [1.0, 0, 0, 0],
-        ["exact", name], imu_set=[0, 0], output_every=40, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(30.0, 105.0, 1500.0, [100.0, 20.0, 0.0], [1.0, 0, 0, 0]),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=40),
+        device=device,
+    )
     for key in ("lat", "lon", "h", "v_ned"):
         np.testing.assert_array_equal(getattr(ned, key)[0], getattr(ned, key)[1])
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     frame = LaunchFrame(105.0, 30.0, 0.0, h0=1500.0)
     lci = propagate_lci(
-        dth, dv, dt, np.zeros(3), [100.0, 0.0, 20.0], [1.0, 0, 0, 0], frame, ["exact", name],
-        imu_set=[0, 0], output_every=20, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        LciStart(np.zeros(3), [100.0, 0.0, 20.0], [1.0, 0, 0, 0], frame),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=20),
+        device=device,
+    )
     np.testing.assert_array_equal(lci.P[0], lci.P[1])
 
 
 def test_a_constant_down_table_adds_half_a_t_squared(tmp_path, device):
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     data = np.zeros((3, 10, 10, 3))
     data[..., 2] = 100.0  # δg down, mGal: 1e-3 m/s² more gravity
     name = _write(tmp_path, data)
     dth, dv, dt = _motion(ns=2000)
     ned = propagate_ned(
-        dth, dv, dt, 30.0, 105.0, 1500.0, [50.0, 20.0, 0.0], [1.0, 0, 0, 0],
-        ["exact", name], imu_set=[0, 0], output_every=2000, device=device,
-    )  # fmt: skip
+        dth,
+        dv,
+        dt,
+        NedStart(30.0, 105.0, 1500.0, [50.0, 20.0, 0.0], [1.0, 0, 0, 0]),
+        NavConfig(["exact", name], imu_set=[0, 0], output_every=2000),
+        device=device,
+    )
     t = 2000 * dt
     dh = ned.h[1, -1] - ned.h[0, -1]
     assert dh == pytest.approx(-0.5 * 1e-3 * t * t, rel=2e-3)
 
 
 def test_two_tables_in_one_launch_are_refused(tmp_path):
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     a = _write(tmp_path, np.zeros((3, 10, 10, 3)), "a.bin")
     b = _write(tmp_path, np.zeros((3, 10, 10, 3)), "b.bin")
     dth, dv, dt = _motion()
     with pytest.raises(InputError, match="one compensation table per launch"):
-        propagate_ned(dth, dv, dt, 30.0, 105.0, 1500.0, [50.0, 0, 0], [1.0, 0, 0, 0], [a, b],
-                      imu_set=[0, 0])  # fmt: skip
+        propagate_ned(
+            dth,
+            dv,
+            dt,
+            NedStart(30.0, 105.0, 1500.0, [50.0, 0, 0], [1.0, 0, 0, 0]),
+            NavConfig([a, b], imu_set=[0, 0]),
+        )
 
 
 # ------------------------------------------------------------------------ flight studies
@@ -179,15 +195,17 @@ def table60(tmp_path_factory):
 def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table60):
     """A table verified to ε adds at most ½ ε t² of horizontal error (truth = the table's model)."""
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.study import FlightStudy, run_flight
 
     name, rep = table60
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
     t = 240.0
     res = run_flight(
-        ft, models=["j4", name, "sh60"], duration=t, rate_hz=100.0, truth_lmax=60,
-        output_dt=2.0, device="cpu",
-    )  # fmt: skip
+        FlightStudy(
+            ft, models=["j4", name, "sh60"], duration=t, rate_hz=100.0, truth_lmax=60, output_dt=2.0
+        ),
+        device="cpu",
+    )
     m = res.summary["models"]
     eps = 0.5e-5  # 0.5 mGal in m/s²
     assert m[name]["added_horizontal_error_m"] <= 0.5 * eps * t * t
@@ -199,19 +217,20 @@ def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table
 
 def test_table_order_and_a_flight_outside_the_table(table60):
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.flighterrors import simplicity_order
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.study import FlightStudy, run_flight, simplicity_order
 
     name, _ = table60
     assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]
     far = FlightTrajectory(route_flight("46,7,3000;46.3,7.4,5000", 200.0))
     with pytest.raises(InputError, match="does not cover the flight"):
-        run_flight(far, models=["j4", name], duration=60.0, truth_lmax=60, device="cpu")
+        run_flight(
+            FlightStudy(far, models=["j4", name], duration=60.0, truth_lmax=60), device="cpu"
+        )
 
 
 def test_auto_models_are_the_normal_ones_and_a_degree_ladder():
     from fieldmap.models.registry import load_model
-    from fieldmap.nav.scenario import check_model_names
+    from fieldmap.nav.study import check_model_names
 
     model = load_model("eigen-6s", lmax=100)
     got = check_model_names(["auto", "sh24"], model)

@@ -10,10 +10,18 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
-from fieldmap.nav.flightsim import BaroSpec, run_flight
-from fieldmap.nav.imu_errors import ImuErrorSpec
-from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci
-from fieldmap.nav.strapdown_ned import Baro, baro_gains, propagate_ned
+from fieldmap.nav.mechanize import (
+    Baro,
+    LciStart,
+    NavConfig,
+    NedStart,
+    baro_gains,
+    dcm_to_quat,
+    propagate_lci,
+    propagate_ned,
+)
+from fieldmap.nav.sensors import ImuErrorSpec
+from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -38,10 +46,22 @@ def flight():
 def _study(ft, frame, block_s, seed=3):
     kw = {"altitude_aiding": "baro", "baro": BaroSpec()} if frame == "ned" else {}
     return run_flight(
-        ft, imu=NOISY, models=["j4", "exact"], draws=2, seed=seed, rate_hz=50.0,
-        truth_lmax=30, output_dt=2.0, duration=120.0, block_s=block_s, frame=frame,
-        device="cpu", **kw,
-    )  # fmt: skip
+        FlightStudy(
+            ft,
+            imu=NOISY,
+            models=["j4", "exact"],
+            draws=2,
+            seed=seed,
+            rate_hz=50.0,
+            truth_lmax=30,
+            output_dt=2.0,
+            duration=120.0,
+            block_s=block_s,
+            frame=frame,
+            **kw,
+        ),
+        device="cpu",
+    )
 
 
 @pytest.mark.parametrize("frame", ["ned", "lci"])
@@ -98,9 +118,13 @@ def test_propagate_ned_in_two_halves_equals_one_call():
         baro = Baro(h_ref[sl], k1, k2, k3, bias=2.0, noise=0.5, gm_sigma=3.0, gm_tau=50.0,
                     state=baro_state)  # fmt: skip
         return propagate_ned(
-            dth[sl], dv[sl], dt, lat, lon, h, v, q, "j4", errors=err, output_every=every,
-            device="cpu", baro=baro, sample0=sample0, degrees=degrees,
-        )  # fmt: skip
+            dth[sl],
+            dv[sl],
+            dt,
+            NedStart(lat, lon, h, v, q, degrees=degrees),
+            NavConfig("j4", errors=err, output_every=every, baro=baro, sample0=sample0),
+            device="cpu",
+        )
 
     v0 = np.array([150.0, 80.0, -5.0])
     whole = run(slice(0, n), 30.0, 100.0, 1000.0, v0, q0, ERRORS, None, 0)
@@ -125,7 +149,7 @@ def test_propagate_ned_in_two_halves_equals_one_call():
 
 def test_propagate_lci_in_two_halves_equals_one_call():
     """LCI: sample0 = n/2 and t0 = n/2 dt for the second half, states carried: one call's bits."""
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     n, dt, every = 2000, 0.01, 25
     dth, dv, q0 = _motion(n, dt)
@@ -134,9 +158,13 @@ def test_propagate_lci_in_two_halves_equals_one_call():
 
     def run(sl, P, V, q, err, sample0):
         return propagate_lci(
-            dth[sl], dv[sl], dt, P, V, q, frame, "j4", errors=err, t0=sample0 * dt,
-            output_every=every, device="cpu", sample0=sample0,
-        )  # fmt: skip
+            dth[sl],
+            dv[sl],
+            dt,
+            LciStart(P, V, q, frame),
+            NavConfig("j4", errors=err, t0=sample0 * dt, output_every=every, sample0=sample0),
+            device="cpu",
+        )
 
     whole = run(slice(0, n), P0, V0, q0, ERRORS, 0)
     h = n // 2
@@ -157,10 +185,16 @@ def test_noise_free_runs_are_unchanged_by_sample0():
     dth, dv, q0 = _motion(n, dt)
     err = {"acc_bias": [1e-3, 0.0, 0.0], "gyro_bias": [0.0, 1e-6, 0.0]}
     runs = [
-        propagate_ned(dth, dv, dt, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0, "j4",
-                      errors=err, output_every=100, device="cpu", sample0=s0)
+        propagate_ned(
+            dth,
+            dv,
+            dt,
+            NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0),
+            NavConfig("j4", errors=err, output_every=100, sample0=s0),
+            device="cpu",
+        )
         for s0 in (0, 12345)
-    ]  # fmt: skip
+    ]
     assert np.array_equal(runs[0].lat, runs[1].lat) and np.array_equal(runs[0].h, runs[1].h)
 
 
@@ -168,10 +202,10 @@ def test_sample0_is_checked():
     from fieldmap.errors import InputError
 
     dth, dv, q0 = _motion(10, 0.01)
-    args = (dth, dv, 0.01, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0)
+    start = NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0)
     for bad, msg in ((-1, "sample0 must lie"), (2**31 - 5, "sample0 must lie"), (1.5, "integer")):
         with pytest.raises(InputError, match=msg):
-            propagate_ned(*args, sample0=bad, device="cpu")
+            propagate_ned(dth, dv, 0.01, start, NavConfig(sample0=bad), device="cpu")
 
 
 def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
@@ -190,21 +224,21 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
         "acc_gm": np.zeros((m, 3)), "seed": np.arange(m) * 7 + 1,
     }  # fmt: skip
     baro = Baro(1000.0 - 5.0 * dt * np.arange(n), 0.0, 0.0, 0.0, gm_sigma=s_b, gm_tau=tau)
-    args = (dth, dv, dt, 30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0, "j4")
-    res = propagate_ned(*args, errors=err, output_every=n, device="cpu", baro=baro, sample0=77)
+    args = (dth, dv, dt, NedStart(30.0, 100.0, 1000.0, [150.0, 80.0, -5.0], q0))
+    nav = NavConfig("j4", errors=err, output_every=n, baro=baro, sample0=77)
+    res = propagate_ned(*args, nav, device="cpu")
     shrink = 1.0 - np.exp(-2.0 * n * dt / tau)
     for key, s in (("acc_gm", s_a), ("gyro_gm", s_g)):
         np.testing.assert_allclose(np.mean(res.final[key] ** 2), s * s * shrink, rtol=0.12)
     drift = res.final["baro"][:, 1]
     np.testing.assert_allclose(np.mean(drift**2), s_b * s_b * shrink, rtol=0.2)  # 512 values
     # white gyro noise: attitude random walk against a noise-free run
-    ref = propagate_ned(*args, output_every=n, device="cpu")
-    noisy = propagate_ned(
-        *args, errors={"gyro_noise": arw, "seed": np.arange(m) + 3}, output_every=n, device="cpu"
-    )
+    ref = propagate_ned(*args, NavConfig("j4", output_every=n), device="cpu")
+    white = {"gyro_noise": arw, "seed": np.arange(m) + 3}
+    noisy = propagate_ned(*args, NavConfig("j4", errors=white, output_every=n), device="cpu")
     from scipy.spatial.transform import Rotation as R
 
-    from fieldmap.nav.strapdown import quat_to_dcm
+    from fieldmap.nav.mechanize import quat_to_dcm
 
     C = quat_to_dcm(noisy.q[:, -1]) @ quat_to_dcm(ref.q[0, -1]).T
     psi = R.from_matrix(C).as_rotvec()
@@ -213,20 +247,22 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
 
 def test_results_as_datasets_over_run_and_time():
     """Flight and paper studies hand their results over as xarray Datasets with units."""
-    from fieldmap.nav import flightsim, studies
+    from fieldmap.nav import paper, study
     from fieldmap.nav.flight import FlightTrajectory, route_flight
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
-    res = flightsim.run_flight(
-        ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0,
+    res = study.run_flight(
+        study.FlightStudy(
+            ft, models=["j4"], rate_hz=20.0, truth_lmax=10, duration=20.0, output_dt=2.0
+        ),
         device="cpu",
-    )  # fmt: skip
+    )
     ds = res.to_dataset()
     assert ds["position_error"].dims == ("run", "time", "axis")
     assert ds["position_error"].attrs["units"] == "m"
     assert ds.sizes["run"] == len(res.labels) and ds.sizes["time"] == res.t.size
-    sc = studies.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
-    st = studies.table1(sc, models=["j2", "j4"], timing=False)
+    sc = study.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
+    st = paper.table1(sc, models=["j2", "j4"], timing=False)
     sd = st.to_dataset()
     assert sd["position_error"].dims == ("run", "time")
     assert sd["velocity_error"].attrs["units"] == "m s-1"
@@ -234,17 +270,28 @@ def test_results_as_datasets_over_run_and_time():
 
 def test_lci_and_ned_results_share_one_time_base():
     """A piece of a record starting at global sample 100: both results' t start at 100 dt."""
-    from fieldmap.nav.launch_frames import LaunchFrame
-    from fieldmap.nav.strapdown import propagate_lci
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.frames import LaunchFrame
+    from fieldmap.nav.mechanize import LciStart, NavConfig, NedStart, propagate_lci, propagate_ned
 
     dt, n = 0.01, 40
     dth = np.zeros((n, 3))
     dv = np.tile([0.0, 0.0, -9.8 * dt], (n, 1))
     q = [1.0, 0.0, 0.0, 0.0]
-    lci = propagate_lci(dth, dv, dt, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], q, LaunchFrame(7, 45, 0),
-                        t0=100 * dt, sample0=100, output_every=5, device="cpu")  # fmt: skip
-    ned = propagate_ned(dth, dv, dt, 45.0, 7.0, 0.0, [0.0, 0.0, 0.0], q, sample0=100,
-                        output_every=10, device="cpu")  # fmt: skip
+    lci = propagate_lci(
+        dth,
+        dv,
+        dt,
+        LciStart([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], q, LaunchFrame(7, 45, 0)),
+        NavConfig(t0=100 * dt, sample0=100, output_every=5),
+        device="cpu",
+    )
+    ned = propagate_ned(
+        dth,
+        dv,
+        dt,
+        NedStart(45.0, 7.0, 0.0, [0.0, 0.0, 0.0], q),
+        NavConfig(sample0=100, output_every=10),
+        device="cpu",
+    )
     np.testing.assert_allclose(lci.t, ned.t, rtol=0, atol=1e-12)
     assert lci.t[0] == pytest.approx(1.0) and lci.t[-1] == pytest.approx(1.4)

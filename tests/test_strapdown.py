@@ -6,8 +6,15 @@ from scipy.spatial.transform import Rotation
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.launch_frames import LaunchFrame
-from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+from fieldmap.nav.frames import LaunchFrame
+from fieldmap.nav.mechanize import (
+    LciStart,
+    NavConfig,
+    NedStart,
+    dcm_to_quat,
+    propagate_lci,
+    quat_to_dcm,
+)
 from fieldmap.reference import normal as rnorm
 from fieldmap.reference.strapdown import propagate_lci_reference
 
@@ -45,14 +52,8 @@ def test_kernel_equals_reference(device):
         dth[:4],
         dv[:4],
         dt,
-        P0,
-        V0,
-        q0,
-        FRAME,
-        kinds * 2,
-        imu_set=sets,
-        output_every=50,
-        t0=12.5,
+        LciStart(P0, V0, q0, FRAME),
+        NavConfig(kinds * 2, imu_set=sets, output_every=50, t0=12.5),
         device=device,
     )
     for kind in kinds:
@@ -87,13 +88,8 @@ def test_sh_kind_equals_reference(device):
         dth,
         dv,
         dt,
-        P0,
-        V0,
-        q0,
-        FRAME,
-        ["sh12", "sh"],
-        sh_model=model,
-        output_every=25,
+        LciStart(P0, V0, q0, FRAME),
+        NavConfig(["sh12", "sh"], sh_model=model, output_every=25),
         device=device,
     )
     for i, L in enumerate([12, 24]):
@@ -147,13 +143,8 @@ def test_accel_bias_gives_half_b_t2(device):
         np.stack([dth, dth]),
         np.stack([dv, dv]),
         dt,
-        P0,
-        np.zeros(3),
-        dcm_to_quat(C),
-        FRAME,
-        "j4",
-        errors={"acc_bias": np.stack([np.zeros(3), b])},
-        output_every=100,
+        LciStart(P0, np.zeros(3), dcm_to_quat(C), FRAME),
+        NavConfig("j4", errors={"acc_bias": np.stack([np.zeros(3), b])}, output_every=100),
         device=device,
     )
     # no bias: the body stays put (exact increments; floor of the algorithm, 1.3e-12 m measured)
@@ -179,7 +170,12 @@ def test_constant_gravity_offset_gives_half_dg_t2(device):
     g6 = FRAME.vector_e_to_a(_g_ref("j6")(FRAME.a_to_ecef(P0, 0.0)[None])[0], 0.0)
     dg = g6 - g2
     res = propagate_lci(
-        dth, dv, dt, P0, np.zeros(3), [1.0, 0, 0, 0], FRAME, "j6", output_every=100, device=device
+        dth,
+        dv,
+        dt,
+        LciStart(P0, np.zeros(3), [1.0, 0, 0, 0], FRAME),
+        NavConfig("j6", output_every=100),
+        device=device,
     )
     t = res.t[:, None]
     G = _gradient_a(P0, "j6")
@@ -246,12 +242,8 @@ def test_coning_drift_matches_closed_form(device):
         dth,
         np.zeros_like(dth),
         dt,
-        [0, 1e5, 0],
-        np.zeros(3),
-        dcm_to_quat(C0.as_matrix()),
-        FRAME,
-        "j2",
-        output_every=1000,
+        LciStart([0, 1e5, 0], np.zeros(3), dcm_to_quat(C0.as_matrix()), FRAME),
+        NavConfig("j2", output_every=1000),
         device=device,
     )
     rate, M = _two_sample_drift_rate(alpha, Om, 2 * dt)
@@ -285,13 +277,8 @@ def test_noise_is_seeded_and_scaled(device):
             dth,
             dv,
             dt,
-            P0,
-            0.0 * P0,
-            [1.0, 0, 0, 0],
-            FRAME,
-            "j2",
-            errors=err,
-            output_every=ns // 2,
+            LciStart(P0, 0.0 * P0, [1.0, 0, 0, 0], FRAME),
+            NavConfig("j2", errors=err, output_every=ns // 2),
             device=device,
         )
         for _ in range(2)
@@ -327,14 +314,14 @@ def test_input_validation():
 
 def test_normal_is_the_deprecated_name_of_exact():
     """Navigation gravity "normal" (fieldmap 0.1) flies as "exact", bit for bit, with a warning."""
-    from fieldmap.nav.strapdown import parse_gravity
-    from fieldmap.nav.studies import check_model_names
+    from fieldmap.nav.gravity import parse_gravity
+    from fieldmap.nav.study import check_model_names
 
     dth, dv, P0, V0, q0 = _random_motion(2, 200, 0.005)
-    run = dict(dt=0.005, P0=P0, V0=V0, q0=q0, launch=FRAME, output_every=20, device="cpu")
-    exact = propagate_lci(dth, dv, gravity=["exact", "j4"], **run)
+    start = LciStart(P0, V0, q0, FRAME)
+    exact = propagate_lci(dth, dv, 0.005, start, NavConfig(["exact", "j4"], output_every=20))
     with pytest.warns(DeprecationWarning, match='"normal" is now "exact"') as rec:
-        old = propagate_lci(dth, dv, gravity=["normal", "j4"], **run)
+        old = propagate_lci(dth, dv, 0.005, start, NavConfig(["normal", "j4"], output_every=20))
     assert len([w for w in rec if w.category is DeprecationWarning]) == 1  # one per call
     assert old.gravity == ("exact", "j4")
     for key in ("t", "P", "V", "q"):
@@ -366,16 +353,26 @@ def test_input_validation_models_and_errors():
 def test_several_sets_without_imu_set_raise():
     """Two increment sets for three trajectories: no silent use of set 0."""
     from fieldmap.errors import InputError
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     dth = np.zeros((2, 4, 3))
     dv = np.zeros((2, 4, 3))
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     frame = LaunchFrame(lon0=10.0, B0=40.0, A0=0.0)
     with pytest.raises(InputError, match="2 increment sets for 3 trajectories"):
-        propagate_lci(dth, dv, 0.01, np.zeros(3), np.zeros(3), q0, frame, ["j2", "j4", "j6"])
+        propagate_lci(
+            dth,
+            dv,
+            0.01,
+            LciStart(np.zeros(3), np.zeros(3), q0, frame),
+            NavConfig(["j2", "j4", "j6"]),
+        )
     res = propagate_lci(
-        dth, dv, 0.01, np.zeros(3), np.zeros(3), q0, frame, ["j2", "j4", "j6"], imu_set=[0, 1, 1]
+        dth,
+        dv,
+        0.01,
+        LciStart(np.zeros(3), np.zeros(3), q0, frame),
+        NavConfig(["j2", "j4", "j6"], imu_set=[0, 1, 1]),
     )
     assert res.P.shape == (3, 3, 3)
 
@@ -384,13 +381,15 @@ def test_lci_ellipsoid_conflicting_with_launch_frame_raises():
     """``ellipsoid=`` is not silently ignored when the launch frame has another one."""
     from fieldmap.errors import InputError
     from fieldmap.field.ellipsoid import GRS80
-    from fieldmap.nav.launch_frames import LaunchFrame
+    from fieldmap.nav.frames import LaunchFrame
 
     frame = LaunchFrame(lon0=10.0, B0=40.0, A0=0.0)
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     z = np.zeros((2, 3))
     with pytest.raises(InputError, match="differs from the launch frame"):
-        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, frame, ellipsoid=GRS80)
+        propagate_lci(
+            z, z, 0.01, LciStart(np.zeros(3), np.zeros(3), q0, frame), NavConfig(ellipsoid=GRS80)
+        )
 
 
 def test_lci_launch_tuple_of_wrong_length_raises():
@@ -400,9 +399,11 @@ def test_lci_launch_tuple_of_wrong_length_raises():
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     z = np.zeros((2, 3))
     with pytest.raises(InputError, match=r"\(lon0, B0, A0\[, h0\]\), got 5 values"):
-        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, (10.0, 40.0, 0.0, 0.0, "GRS80"))
+        propagate_lci(
+            z, z, 0.01, LciStart(np.zeros(3), np.zeros(3), q0, (10.0, 40.0, 0.0, 0.0, "GRS80"))
+        )
     with pytest.raises(InputError, match="got 2 values"):
-        propagate_lci(z, z, 0.01, np.zeros(3), np.zeros(3), q0, (10.0, 40.0))
+        propagate_lci(z, z, 0.01, LciStart(np.zeros(3), np.zeros(3), q0, (10.0, 40.0)))
 
 
 def test_quat_to_dcm_zero_quaternion_raises():
@@ -417,18 +418,29 @@ def test_plain_kernels_give_the_bits_of_the_general_ones(device, monkeypatch):
     """A launch without sensor errors, baro or SH runs a kernel stripped of that code: same bits."""
     from fieldmap.kernels import strapdown as ksd
 
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import LciStart, NavConfig, propagate_ned
 
     n, ns, dt = 6, 400, 0.005
     dth, dv, P0, V0, q0 = _random_motion(n, ns, dt, seed=3)
     kinds = ["j2", "j4", "j6", "exact", "j4", "exact"]
 
     def both():
-        lci = propagate_lci(dth, dv, dt, P0, V0, q0, FRAME, kinds, output_every=7, device=device)
+        lci = propagate_lci(
+            dth,
+            dv,
+            dt,
+            LciStart(P0, V0, q0, FRAME),
+            NavConfig(kinds, output_every=7),
+            device=device,
+        )
         ned = propagate_ned(
-            dth, dv, dt, 27.1 + np.arange(n), 105.3, 1000.0, V0 * 0.3, q0, kinds,
-            output_every=7, device=device,
-        )  # fmt: skip
+            dth,
+            dv,
+            dt,
+            NedStart(27.1 + np.arange(n), 105.3, 1000.0, V0 * 0.3, q0),
+            NavConfig(kinds, output_every=7),
+            device=device,
+        )
         return lci, ned
 
     used = []

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.nav.strapdown import dcm_to_quat, quat_to_dcm
+from fieldmap.nav.mechanize import dcm_to_quat, quat_to_dcm
 from fieldmap.reference import normal as rnorm
 
 
@@ -35,19 +35,14 @@ VNED0 = np.array([150.0, 80.0, -5.0])
 
 def _kernel_run(dth, dv, dt, C0, output_every, device):
     """Run the NED kernel (J2 gravity) from LLH0, VNED0 and attitude C0."""
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     return propagate_ned(
         dth,
         dv,
         dt,
-        30.0,
-        100.0,
-        1000.0,
-        VNED0,
-        dcm_to_quat(C0),
-        "j2",
-        output_every=output_every,
+        NedStart(30.0, 100.0, 1000.0, VNED0, dcm_to_quat(C0)),
+        NavConfig("j2", output_every=output_every),
         device=device,
     )
 
@@ -160,7 +155,7 @@ def test_ned_body_at_rest_on_earth_stays_put(device):
     With these exact increments the mechanization keeps the body in place (Groves eq. 3.7.5
     convention, Groves 2013 §2.4.7); flipping the sign of f makes it fall at 2g.
     """
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
     lat = np.radians(34.0)
     llh = np.array([[lat, np.radians(108.0), 500.0]])
@@ -175,13 +170,8 @@ def test_ned_body_at_rest_on_earth_stays_put(device):
         np.stack([dth, dth]),
         np.stack([dv, -dv]),
         dt,
-        34.0,
-        108.0,
-        500.0,
-        np.zeros(3),
-        dcm_to_quat(C),
-        "j2",
-        output_every=N,
+        NedStart(34.0, 108.0, 500.0, np.zeros(3), dcm_to_quat(C)),
+        NavConfig("j2", output_every=N),
         device=device,
     )
     assert abs(res.h[0, -1] - 500.0) < 1e-6

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
+from fieldmap.nav.gravity import TrackGravitation
 from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
-from fieldmap.nav.trackgravity import TrackGravitation
 from fieldmap.nav.trajectory import BoostGlide
 
 MGAL = 1e-5
@@ -64,17 +64,17 @@ def test_increments_agree_with_the_full_synthesis(model):
 
 
 def test_flight_study_same_answer_as_the_full_evaluation(model):
-    from fieldmap.nav import flightsim
-    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav import study
+    from fieldmap.nav.sensors import load_imu
 
     ft = _paths()["airliner"]
     name, imu = load_imu("navigation")
     kw = dict(
         imu=imu, imu_name=name, models=["j4", "exact", "sh60"], draws=2, rate_hz=50.0,
-        truth_lmax=120, duration=600.0, output_dt=10.0, device="cpu",
+        truth_lmax=120, duration=600.0, output_dt=10.0,
     )  # fmt: skip
-    fast = flightsim.run_flight(ft, **kw)
-    full = flightsim.run_flight(ft, **kw, truth_evaluation="full")
+    fast = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    full = study.run_flight(study.FlightStudy(ft, **kw, truth_evaluation="full"), device="cpu")
     assert fast.summary["meta"]["truth_interpolation_max_error_mgal"] <= 1e-4
     for m, e in full.summary["models"].items():
         a = e["final_horizontal_error_m"]["rms"]
@@ -89,15 +89,15 @@ def test_navigation_gravity_rate_agrees_with_every_step(model, frame):
     The added error of each SH model (its final error minus the normal model's: the model's
     own effect) agrees within 1 % between the two.
     """
-    from fieldmap.nav import flightsim
+    from fieldmap.nav import study
 
     ft = _paths()["airliner"]
     kw = dict(
         models=["exact", "sh60", "sh"], rate_hz=50.0, truth_lmax=120, duration=900.0,
-        output_dt=10.0, device="cpu", frame=frame, altitude_aiding="none",
+        output_dt=10.0, frame=frame, altitude_aiding="none",
     )  # fmt: skip
-    fast = flightsim.run_flight(ft, **kw)
-    full = flightsim.run_flight(ft, **kw, gravity_rate_hz="full")
+    fast = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
+    full = study.run_flight(study.FlightStudy(ft, **kw, gravity_rate_hz="full"), device="cpu")
     assert fast.summary["meta"]["gravity_update_every_samples"] > 20
     assert full.summary["meta"]["gravity_update_every_samples"] == 1
     i_norm = fast.models.index("exact")
@@ -110,7 +110,7 @@ def test_navigation_gravity_rate_agrees_with_every_step(model, frame):
 
 def test_gravity_rate_bad_values():
     from fieldmap.errors import InputError
-    from fieldmap.nav.trackgravity import gravity_update_every
+    from fieldmap.nav.gravity import gravity_update_every
 
     traj = _paths()["airliner"]
     assert gravity_update_every(traj, 240, 200.0, "full") == 1

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.frames import LaunchFrame
 from fieldmap.nav.trajectory import BoostGlide, Coning, ConstantVelocity, Stationary
 
 FRAME = LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0)

@@ -36,8 +36,8 @@ def _run(monkeypatch, capsys, checks):
 
 def test_missing_fieldmap_module_fails(monkeypatch, capsys):
     """A part of fieldmap that cannot be imported is a failure (it was a "skipped" pass, exit 0)."""
-    monkeypatch.setitem(sys.modules, "fieldmap.nav.strapdown_ned", None)  # its import now fails
-    checks = (("fieldmap.field.sh", _passing), ("fieldmap.nav.strapdown_ned", _passing))
+    monkeypatch.setitem(sys.modules, "fieldmap.nav.mechanize", None)  # its import now fails
+    checks = (("fieldmap.field.sh", _passing), ("fieldmap.nav.mechanize", _passing))
     rc, out = _run(monkeypatch, capsys, checks)
     assert rc == 1
     rows = verify.run_checks(["cpu"], lmax=4, points=5)

@@ -46,8 +46,7 @@ def register(subparsers) -> None:
 def run_allan(args) -> int:
     """Simulate, write the table, JSON and plot, print the table."""
     from fieldmap.cli import given
-    from fieldmap.nav.allan import allan_table
-    from fieldmap.nav.imu_specs import load_imu
+    from fieldmap.nav.sensors import allan_table, load_imu
     from fieldmap.products.io import check_out_dir, output_batch, signals_deferred
 
     for name, v in (("--duration", args.duration), ("--rate", args.rate)):

@@ -2,7 +2,7 @@
 
 ``--study table1|table3|table4|all`` runs the studies of Chen et al. (2022) §5 on the boost-glide
 path; ``--trajectory FILE`` or ``--route "lat,lon,h;..." --speed-mps V`` runs the flight study of
-:mod:`fieldmap.nav.flightsim` (``navsim_flight.*``: see
+:mod:`fieldmap.nav.study` (``navsim_flight.*``: see
 :func:`fieldmap.nav.report.write_flight_outputs`).
 
 Each option applies to the paper's studies, to the flight study or to both (the table of
@@ -21,21 +21,23 @@ so a failed run leaves nothing half-written.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
 from fieldmap.cli import navflight, navoptions
 from fieldmap.cli.navoptions import FLIGHT_ONLY as FLIGHT_ONLY
-from fieldmap.cli.navoptions import MAX_DRAWS as MAX_DRAWS
 from fieldmap.cli.navoptions import STUDIES as STUDIES
 from fieldmap.cli.navoptions import STUDIES_ONLY as STUDIES_ONLY
 from fieldmap.cli.navoptions import USED_BY as USED_BY
 from fieldmap.errors import InputError
+from fieldmap.limits import MAX_DRAWS
 
 # the tables and files live in the library; re-exported for scripts written against 0.1
-from fieldmap.nav.report import format_table, to_dataset, write_outputs  # noqa: F401
+from fieldmap.nav.report import format_table, write_outputs
 
 
 def register(subparsers) -> None:
@@ -53,18 +55,17 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _model_names(args, names, model, notes: list[str]) -> list[str]:
-    """:func:`~fieldmap.nav.scenario.check_model_names`, its deprecation warnings in ``notes``.
+@contextlib.contextmanager
+def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
+    """Collect the deprecation warnings of the block (deprecated model names) in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
     on stderr (``"normal" is now "exact"``), printed by :func:`run` once every option passed
     its checks: a refused run prints its refusal alone.
     """
-    from fieldmap.nav.scenario import check_model_names
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DeprecationWarning)
-        out = check_model_names(names, model)
+        yield
     for w in caught:
         if issubclass(w.category, DeprecationWarning):
             note = f"fieldmap {getattr(args, 'command', 'navsim')}: warning: {w.message}"
@@ -72,7 +73,14 @@ def _model_names(args, names, model, notes: list[str]) -> list[str]:
                 notes.append(note)
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    return out
+
+
+def _model_names(args, names, model, notes: list[str]) -> list[str]:
+    """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``."""
+    from fieldmap.nav.study import check_model_names
+
+    with _deprecation_notes(args, notes):
+        return check_model_names(names, model)
 
 
 def _check_args(args, notes: list[str]):
@@ -83,7 +91,7 @@ def _check_args(args, notes: list[str]):
     from fieldmap._warp import resolve_device
     from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import sample_count
-    from fieldmap.nav.scenario import output_steps
+    from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
 
     for name, v in (
@@ -98,9 +106,9 @@ def _check_args(args, notes: list[str]):
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
     model = load_model(args.model, lmax=args.lmax)
-    models = _model_names(args, split_list(args.models), model, notes)
     if is_flight(args):
-        return _check_flight_args(args, model, models)
+        return _check_flight_args(args, model, notes)
+    models = _model_names(args, split_list(args.models), model, notes)
     tables = [m for m in models if m.startswith("table:")]
     if tables:
         raise InputError(
@@ -150,23 +158,21 @@ def is_flight(args) -> bool:
     return args.trajectory is not None or args.route is not None
 
 
-def _check_flight_args(args, model, models):
-    """Validate the flight study's options; build the trajectory (its errors name the line)."""
+def _check_flight_args(args, model, notes: list[str]):
+    """Validate the flight study's options: one :class:`~fieldmap.nav.study.FlightStudy` a flight.
+
+    The CLI checks what only it has (the choice of flight, the log options, options given
+    where they do nothing); the study checks the rest, once, when it is built (its messages
+    name the Python keywords: :func:`navflight.cli_wording` names the options instead).
+    """
     from fieldmap._warp import resolve_device
-    from fieldmap.nav.imu import MAX_SAMPLES
-    from fieldmap.nav.imu_specs import PRESETS, load_imu
+    from fieldmap.nav.sensors import PRESETS, load_imu
     from fieldmap.products.io import check_out_dir
 
     if args.trajectory is not None and args.route is not None:
         raise InputError("give --trajectory or --route, not both")
     if args.route is not None and args.speed_mps is None:
         raise InputError("--route needs --speed-mps")
-    if args.draws is not None and not 1 <= args.draws <= MAX_DRAWS:
-        raise InputError(f"--draws must be within 1..{MAX_DRAWS}, got {args.draws}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
-    if not 1 <= args.gauss <= 16:
-        raise InputError(f"--gauss must be in 1..16, got {args.gauss}")
     if args.imu is not None and not args.imu.strip():
         raise InputError(
             f"--imu is empty: give a preset ({', '.join(PRESETS)}) or an IMU .toml file"
@@ -176,29 +182,20 @@ def _check_flight_args(args, model, models):
         raise InputError(f"--max-gap-s must be a positive number, got {args.max_gap_s}")
     from fieldmap.cli import given
 
-    if given(args, "gravity_rate_hz") and not any(m.startswith("sh") for m in models):
+    names = split_list(args.models)
+    if given(args, "gravity_rate_hz") and not any(m.startswith("sh") for m in names):
         raise InputError(
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
     flights = navflight.flights(args, model)
-    from fieldmap.nav.flightsim import check_tables_cover
-
-    for _, traj, _ in flights:
+    studies = []
+    for name, traj, cf in flights:
         navoptions.refuse_in_flight(args, imu, traj)
-        duration = traj.duration if args.duration is None else min(args.duration, traj.duration)
-        try:  # before any work: a table that misses the path
-            check_tables_cover(models, traj, duration)
-        except InputError as exc:
-            raise InputError(f"--models: {exc}") from None
-        block = min(args.block_s, duration)
-        if block * args.rate > MAX_SAMPLES:  # a block's IMU synthesis (sample_count), up front
-            raise InputError(
-                f"a block of {block:g} s at --rate {args.rate:g} Hz is {block * args.rate:.3g} "
-                f"IMU samples, more than {MAX_SAMPLES}: lower --rate or --block-s"
-            )
+        with _deprecation_notes(args, notes):
+            studies.append((name, navflight.study(args, traj, imu, model, names), cf))
     check_out_dir(args.out)
     device = resolve_device(args.device)
-    return device, models, (flights, imu, model)
+    return device, list(studies[0][1].models), studies
 
 
 def run(args) -> int:
@@ -215,8 +212,7 @@ def run(args) -> int:
     # connect (or start the LocalCluster) before the long work; None: here
     with cluster.open_client(scheduler) as client:
         if is_flight(args):
-            flights, imu, model = nav
-            return navflight.run(args, device, models, flights, imu, model, client=client)
+            return navflight.run(args, nav, device=device, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:
@@ -229,13 +225,13 @@ def run(args) -> int:
 def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav.study import build_scenario
 
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
         f"truth {args.model})"
     )
-    sc = navsim.build_scenario(
+    sc = build_scenario(
         duration=args.duration,
         rate_hz=args.rate,
         truth=args.model,
@@ -251,7 +247,7 @@ def _scenario_and_studies(args, device, studies, models, nav, client=None) -> li
 def _run_studies(args, sc, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
-    from fieldmap.nav import studies as navsim
+    from fieldmap.nav import paper as navsim
 
     results = []
     for study in tqdm(studies, desc="navsim studies", unit="study"):

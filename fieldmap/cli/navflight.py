@@ -193,49 +193,95 @@ def _refuse_unconditioned(args, flights_) -> None:
             )
 
 
-def run(args, device, models, flights_, imu, model, client=None) -> int:
-    """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged."""
+#: the flight study's keywords -> the options that set them (:func:`cli_wording`)
+STUDY_OPTIONS = {
+    "models": "--models",
+    "draws": "--draws",
+    "seed": "--seed",
+    "rate_hz": "--rate",
+    "frame": "--frame",
+    "altitude_aiding": "--altitude-aiding",
+    "truth_evaluation": "--truth-evaluation",
+    "gravity_rate_hz": "--gravity-rate-hz",
+    "n_gauss": "--gauss",
+    "duration": "--duration",
+    "output_dt": "--output-dt",
+    "block_s": "--block-s",
+    "fraction": "--fraction",
+}
+
+
+def cli_wording(message: str) -> str:
+    """Name the options in a :class:`~fieldmap.nav.study.FlightStudy` message, not its keywords.
+
+    ``"draws must be ..."`` -> ``"--draws must be ..."``; ``"models: ..."`` ->
+    ``"--models: ..."``; ``frame='ned'`` -> ``--frame ned``; ``rate_hz`` -> ``--rate``
+    (underscored keywords are never prose).
+    """
+    import re
+
+    keys = "|".join(sorted(STUDY_OPTIONS, key=len, reverse=True))
+    underscored = "|".join(k for k in STUDY_OPTIONS if "_" in k)
+    message = re.sub(rf"^({keys})(?=[ :])", lambda m: STUDY_OPTIONS[m.group(1)], message)
+    message = re.sub(
+        rf"\b({keys})='([^']*)'", lambda m: f"{STUDY_OPTIONS[m.group(1)]} {m.group(2)}", message
+    )
+    return re.sub(rf"\b({underscored})\b", lambda m: STUDY_OPTIONS[m.group(1)], message)
+
+
+def study(args, traj, imu, model, names):
+    """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options (one line if refused)."""
+    from fieldmap.nav.study import FlightStudy
+
+    try:
+        return FlightStudy(
+            traj,
+            imu=imu[1],
+            imu_name=imu[0],
+            models=names,
+            draws=20 if args.draws is None else args.draws,
+            seed=args.seed,
+            rate_hz=args.rate,
+            frame=args.frame or "ned",
+            altitude_aiding=args.altitude_aiding,
+            truth=model,
+            truth_evaluation=args.truth_evaluation,
+            gravity_rate_hz=_rate(args.gravity_rate_hz),
+            n_gauss=args.gauss,
+            duration=args.duration,
+            output_dt=args.output_dt,
+            block_s=args.block_s,
+            fraction=args.fraction,
+        )
+    except InputError as exc:
+        raise InputError(cli_wording(str(exc))) from None
+
+
+def run(args, studies, *, device=None, client=None) -> int:
+    """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged.
+
+    ``studies``: ``[(name, FlightStudy, conditioning or None), ...]``, validated.
+    """
     import warnings
 
     from tqdm import tqdm
 
-    from fieldmap.nav.flightplots import disturbance_grid
-    from fieldmap.nav.flightsim import run_flight
+    from fieldmap.nav.plots import disturbance_grid
     from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.nav.study import run_flight
     from fieldmap.products.io import output_batch
 
     results = []
-    for name, traj, cf in flights_:
+    for name, st, cf in studies:
         tqdm.write(
-            f"navsim: flight {name} of {traj.duration:g} s, IMU {imu[0]} at {args.rate:g} Hz, "
-            f"models {' '.join(models)}"
+            f"navsim: flight {name} of {st.flight.duration:g} s, IMU {st.imu_name} at "
+            f"{st.rate_hz:g} Hz, models {' '.join(st.models)}"
         )
         if cf is not None:
             print(cf.format_report())
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
-            res = run_flight(
-                traj,
-                imu=imu[1],
-                imu_name=imu[0],
-                models=models,
-                draws=args.draws or 20,
-                seed=args.seed,
-                rate_hz=args.rate,
-                frame=args.frame or "ned",
-                altitude_aiding=args.altitude_aiding,
-                truth=model,
-                n_gauss=args.gauss,
-                duration=args.duration,
-                output_dt=args.output_dt,
-                block_s=args.block_s,
-                fraction=args.fraction,
-                device=device,
-                progress=True,
-                client=client,
-                truth_evaluation=args.truth_evaluation,
-                gravity_rate_hz=_rate(args.gravity_rate_hz),
-            )
+            res = run_flight(st, device=device, client=client, progress=True)
         for w in caught:
             if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
                 tqdm.write(f"warning: {w.message}")
@@ -243,7 +289,7 @@ def run(args, device, models, flights_, imu, model, client=None) -> int:
             res.summary["meta"].update(synthesis_seconds=None, propagation_seconds=None)
         if cf is not None:
             res.summary["conditioning"] = cf.report
-        results.append((name, res, cf, disturbance_grid(res, model, device=device)))
+        results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))
     several = len(results) > 1
     with output_batch(args.out) as batch:  # every file of every flight, or none
         for name, res, cf, grid in results:

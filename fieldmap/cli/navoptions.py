@@ -12,12 +12,12 @@ import argparse
 
 from fieldmap.cli import navflight
 from fieldmap.errors import InputError
+from fieldmap.limits import MAX_DRAWS
 
 STUDIES = ("table1", "table3", "table4")
 
 #: most Monte Carlo draws per study (each draw propagates the whole flight; 10 000 draws of the
 #: 800 s path take hours on a CPU)
-MAX_DRAWS = 10_000
 
 
 def add_options(p: argparse.ArgumentParser) -> None:
@@ -100,7 +100,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "--bias-mode",
         default="gauss",
         choices=("gauss", "sign", "fixed"),
-        help="how constant errors are drawn per run (see fieldmap.nav.imu_errors)",
+        help="how constant errors are drawn per run (see fieldmap.nav.sensors)",
     )
     p.add_argument("--rate", type=float, default=200.0, help="IMU sample rate in Hz (default 200)")
     p.add_argument(
@@ -214,7 +214,7 @@ def refuse_in_studies(args, studies, models, nav) -> None:
 def refuse_in_flight(args, imu, traj) -> None:
     """Refuse, in one line, an option given that the flight study does not use."""
     from fieldmap.cli import given
-    from fieldmap.nav.flightsim import BARO_AFTER_S
+    from fieldmap.nav.study import BARO_AFTER_S
 
     for dest, option in STUDIES_ONLY.items():
         if given(args, dest):

@@ -97,7 +97,7 @@ def _check_corridor_heights(flight, heights_m) -> None:
     """Refuse ``--heights-km`` that do not hold the ``--corridor`` flight as navsim flies it.
 
     ``navsim`` refuses a table that does not cover the conditioned path (outliers removed,
-    ground segments trimmed) with :data:`~fieldmap.nav.flightsim.TABLE_HEIGHT_MARGIN` above and
+    ground segments trimmed) with :data:`~fieldmap.nav.study.TABLE_HEIGHT_MARGIN` above and
     below it, checked every second; the same path and margin are asked of the heights here,
     so a table made for its flight is one navsim accepts.
     """
@@ -106,8 +106,8 @@ def _check_corridor_heights(flight, heights_m) -> None:
     import numpy as np
 
     from fieldmap.errors import InputError
-    from fieldmap.nav.flightsim import TABLE_HEIGHT_MARGIN as margin
     from fieldmap.nav.logs.load import load_flight
+    from fieldmap.nav.study import TABLE_HEIGHT_MARGIN as margin
 
     traj, _ = load_flight(flight)
     t = np.unique(np.r_[np.arange(0.0, traj.duration, 1.0), traj.duration])

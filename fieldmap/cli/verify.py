@@ -177,8 +177,14 @@ def _grid_checks(device, lmax):
 
 def _strapdown_checks(device):
     from fieldmap.field.ellipsoid import WGS84
-    from fieldmap.nav.launch_frames import LaunchFrame
-    from fieldmap.nav.strapdown import dcm_to_quat, propagate_lci, quat_to_dcm
+    from fieldmap.nav.frames import LaunchFrame
+    from fieldmap.nav.mechanize import (
+        LciStart,
+        NavConfig,
+        dcm_to_quat,
+        propagate_lci,
+        quat_to_dcm,
+    )
     from fieldmap.reference import normal as rnorm
     from fieldmap.reference.strapdown import propagate_lci_reference
 
@@ -193,7 +199,12 @@ def _strapdown_checks(device):
 
     def kernel():
         res = propagate_lci(
-            dth, dv, dt, P0, V0, dcm_to_quat(C0), frame, "j4", output_every=20, device=device
+            dth,
+            dv,
+            dt,
+            LciStart(P0, V0, dcm_to_quat(C0), frame),
+            NavConfig("j4", output_every=20),
+            device=device,
         )
         return res.P, res.V, quat_to_dcm(res.q)
 
@@ -223,8 +234,7 @@ def _strapdown_checks(device):
 def _strapdown_ned_checks(device):
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.field.frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
-    from fieldmap.nav.strapdown import quat_to_dcm
-    from fieldmap.nav.strapdown_ned import propagate_ned
+    from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned, quat_to_dcm
     from fieldmap.reference import normal as rnorm
     from fieldmap.reference.strapdown import propagate_ned_reference
 
@@ -246,13 +256,8 @@ def _strapdown_ned_checks(device):
             dth,
             dv,
             dt,
-            30.0,
-            100.0,
-            1000.0,
-            v0,
-            np.array([1.0, 0, 0, 0]),
-            "j2",
-            output_every=50,
+            NedStart(30.0, 100.0, 1000.0, v0, np.array([1.0, 0, 0, 0])),
+            NavConfig("j2", output_every=50),
             device=device,
         )
         return res.v_ned[0], quat_to_dcm(res.q[0])
@@ -283,8 +288,8 @@ CHECKS = (
     ("fieldmap.field.sh", lambda d, o: _sh_checks(d, o["lmax"], o["points"])),
     ("fieldmap.field.normal", lambda d, o: _normal_checks(d, o["points"])),
     ("fieldmap.grids.synthesis", lambda d, o: _grid_checks(d, min(o["lmax"], 120))),
-    ("fieldmap.nav.strapdown", lambda d, o: _strapdown_checks(d)),
-    ("fieldmap.nav.strapdown_ned", lambda d, o: _strapdown_ned_checks(d)),
+    ("fieldmap.nav.mechanize", lambda d, o: _strapdown_checks(d)),
+    ("fieldmap.nav.mechanize", lambda d, o: _strapdown_ned_checks(d)),
 )
 
 

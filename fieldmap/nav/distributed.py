@@ -1,7 +1,7 @@
 """Navigation Monte Carlo on a Dask cluster: the deprecated entry points.
 
-Pass ``client=`` to the studies instead (:func:`fieldmap.nav.studies.table1`, ``table3``,
-``table4``, :func:`~fieldmap.nav.scenario.propagate`, :func:`fieldmap.nav.flightsim.run_flight`):
+Pass ``client=`` to the studies instead (:func:`fieldmap.nav.paper.table1`, ``table3``,
+``table4``, :func:`~fieldmap.nav.study.propagate`, :func:`fieldmap.nav.study.run_flight`):
 their :class:`fieldmap.nav.propagator.Propagator` splits the runs (draws × models) into tasks on
 the cluster, the same bits as here. :func:`on_cluster` and :func:`propagate_on` keep fieldmap
 0.2's calls working until 0.3.
@@ -23,14 +23,18 @@ def on_cluster(client) -> Iterator[None]:
     (the paper's studies, each time block of a flight study) uses ``client``; ``client=None``
     keeps them here.
     """
+    from fieldmap import _compat
     from fieldmap.nav.propagator import default_client
 
+    _compat.warn("fieldmap.nav.distributed.on_cluster(client): pass client= to the study")
     with default_client(client):
         yield
 
 
 def propagate_on(client, sc, gravity, sets=None, imu_set=None, errors=None, runs_per_task=None):
-    """:func:`fieldmap.nav.scenario.propagate` on ``client`` (prefer its ``client=``)."""
-    from fieldmap.nav.scenario import propagate
+    """:func:`fieldmap.nav.study.propagate` on ``client`` (prefer its ``client=``)."""
+    from fieldmap import _compat
+    from fieldmap.nav.study import propagate
 
+    _compat.warn("fieldmap.nav.distributed.propagate_on(client, ...): pass client= to propagate")
     return propagate(sc, gravity, sets, imu_set, errors, client=client, runs_per_task=runs_per_task)

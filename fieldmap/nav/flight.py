@@ -1,4 +1,19 @@
-r"""A user's flight as a smooth :class:`~fieldmap.nav.trajectory.Trajectory`: samples and routes.
+r"""A user's flight: its samples, the smooth FlightTrajectory through them, and routes.
+
+Flight samples: read and validate a user's flight log (times, positions, attitude).
+
+Input: times (s), geodetic latitude, longitude (degrees) and height above the ellipsoid (m),
+optionally roll, pitch and heading (degrees), from a CSV file (header row, ``#`` comment lines),
+a NetCDF file, a pandas ``DataFrame``, an xarray ``Dataset`` or plain arrays. Sampling may be
+irregular (a 1 Hz GNSS log is typical). :func:`read_flight` returns them as
+:class:`FlightSamples`, the input of :class:`fieldmap.nav.flight.FlightTrajectory`.
+
+A flight is refused with one :class:`fieldmap.errors.InputError` naming the source, line and
+column when a column is missing, a value is not a finite number, times do not increase, there
+are fewer than 6 points (a quintic spline's minimum), latitude/longitude look like radians or
+the path jumps (> 8 km/s between samples).
+
+A user's flight as a smooth :class:`~fieldmap.nav.trajectory.Trajectory`: samples and routes.
 
 Input: times (s), geodetic latitude, longitude (degrees) and height above the ellipsoid (m),
 optionally roll, pitch and heading (degrees), from a CSV file (header row, ``#`` comment lines),
@@ -19,39 +34,239 @@ column when a column is missing, a value is not a finite number, times do not in
 are fewer than 6 points (a quintic spline's minimum), latitude/longitude look like radians,
 the path jumps (> 8 km/s between samples) or the spline's acceleration exceeds 100 g.
 
-Reading and validating the samples is :mod:`fieldmap.nav.flightsamples` (:func:`read_flight`,
+Reading and validating the samples is :mod:`fieldmap.nav.flight` (:func:`read_flight`,
 :class:`FlightSamples`, re-exported here); this module interpolates them and builds routes.
 """
 
 from __future__ import annotations
 
+import csv
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
-from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.limits import number_text
-from fieldmap.nav.flightsamples import ATTITUDE as ATTITUDE
-from fieldmap.nav.flightsamples import G0 as G0
-from fieldmap.nav.flightsamples import MAX_ACCEL as MAX_ACCEL
-from fieldmap.nav.flightsamples import MAX_HEIGHT as MAX_HEIGHT
-from fieldmap.nav.flightsamples import MAX_SPEED as MAX_SPEED
-from fieldmap.nav.flightsamples import MIN_HEIGHT as MIN_HEIGHT
-from fieldmap.nav.flightsamples import MIN_POINTS as MIN_POINTS
-from fieldmap.nav.flightsamples import REQUIRED as REQUIRED
-from fieldmap.nav.flightsamples import FlightSamples as FlightSamples
-from fieldmap.nav.flightsamples import _where
-from fieldmap.nav.flightsamples import read_flight as read_flight
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.field.frames import ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
+from fieldmap.nav.frames import C_n_to_e, LaunchFrame
 from fieldmap.nav.trajectory import Trajectory
+from fieldmap.units import STANDARD_GRAVITY
+
+REQUIRED = ("time_s", "lat_deg", "lon_deg", "height_m")
+ATTITUDE = ("roll_deg", "pitch_deg", "heading_deg")
+#: accelerations beyond this are refused (m/s²)
+MAX_ACCEL = 100.0 * STANDARD_GRAVITY
+#: speeds between consecutive samples beyond this are a position jump (m/s)
+MAX_SPEED = 8000.0
+#: the quintic spline needs at least k + 1 points
+MIN_POINTS = 6
 
 
-def _C_n_to_e(lat_deg, lon_deg):
-    """Columns north, east, down of the local-level frame in ECEF, (..., 3, 3)."""
-    enu = C_e_to_enu(lat_deg, lon_deg)
-    return np.stack([enu[..., 1, :], enu[..., 0, :], -enu[..., 2, :]], axis=-1)
+@dataclass(frozen=True)
+class FlightSamples:
+    """Validated samples of one flight (times relative to the first sample).
+
+    ``t`` (n,) s; ``lat``, ``lon`` (n,) degrees (longitude unwrapped); ``h`` (n,) m;
+    ``attitude`` (n, 3) roll, pitch, heading in degrees or None; ``source`` and ``lines`` (the
+    line, or record, of each sample in the source) for messages; ``t_start`` the first time.
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    attitude: np.ndarray | None
+    source: str
+    lines: np.ndarray
+    t_start: float = 0.0
+
+
+def _where(source, lines, i, column) -> str:
+    return f"{source} line {int(lines[i])} column {column}"
+
+
+def _columns_from_csv(path: Path):
+    """Columns of a CSV file as float arrays plus the line number of each row."""
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the flight file ({exc})") from None
+    rows, lines, header, hline = [], [], None, 0
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        s = raw.strip()
+        if not s or s.startswith("#"):
+            continue
+        cells = next(csv.reader([s]))
+        if header is None:
+            header, hline = [c.strip() for c in cells], lineno
+            continue
+        if len(cells) != len(header):
+            raise InputError(
+                f"{path} line {lineno}: {len(cells)} fields, the header (line {hline}) has "
+                f"{len(header)}"
+            )
+        rows.append(cells)
+        lines.append(lineno)
+    if header is None:
+        raise InputError(f"{path}: empty flight file (no header, no samples)")
+    cols = {}
+    for j, name in enumerate(header):
+        if name not in REQUIRED + ATTITUDE:
+            continue
+        vals = np.empty(len(rows))
+        for i, r in enumerate(rows):
+            try:
+                vals[i] = float(r[j])
+            except ValueError:
+                raise InputError(
+                    f"{path} line {lines[i]} column {name}: {r[j].strip()!r} is not a number"
+                ) from None
+        cols[name] = vals
+    return cols, np.array(lines, dtype=np.int64), str(path), header
+
+
+def _columns_from_mapping(data, source: str):
+    names = list(data.keys()) if hasattr(data, "keys") else []
+    cols = {}
+    for name in names:
+        if name in REQUIRED + ATTITUDE:
+            try:
+                cols[name] = np.asarray(data[name], dtype=np.float64).ravel()
+            except (TypeError, ValueError):
+                raise InputError(f"{source} column {name}: values are not numbers") from None
+    n = max((c.size for c in cols.values()), default=0)
+    for name, c in cols.items():
+        if c.size != n:
+            raise InputError(f"{source} column {name}: {c.size} values, other columns have {n}")
+    return cols, np.arange(1, n + 1), source, names
+
+
+def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
+    """Read and validate a flight from a file, DataFrame, Dataset or mapping of arrays.
+
+    Parameters
+    ----------
+    source : str, Path, pandas.DataFrame, xarray.Dataset or dict
+        CSV (``.csv``/``.txt``: header row, ``#`` comments) or NetCDF (``.nc``) file, or
+        columns ``time_s, lat_deg, lon_deg, height_m`` [``roll_deg, pitch_deg, heading_deg``].
+        Units: s, degrees, degrees, m, degrees.
+    ellipsoid : Ellipsoid
+        Ellipsoid of the geodetic coordinates (for the speed and acceleration checks).
+
+    Returns
+    -------
+    FlightSamples
+
+    Raises
+    ------
+    InputError
+        Naming the source, the line (file rows; record number for arrays) and the column.
+    """
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        if not path.is_file():
+            raise InputError(f"{path}: flight file not found")
+        if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
+            import xarray as xr
+
+            try:
+                with xr.open_dataset(path) as ds:
+                    cols, lines, name, header = _columns_from_mapping(
+                        {k: ds[k].values for k in ds.variables}, str(path)
+                    )
+            except (OSError, ValueError) as exc:
+                raise InputError(f"{path}: not a readable NetCDF file ({exc})") from None
+            name = f"{path} (record)"
+        else:
+            cols, lines, name, header = _columns_from_csv(path)
+    else:
+        kind = type(source).__name__
+        mapping = source
+        if kind == "Dataset":
+            mapping = {k: source[k].values for k in source.variables}
+        cols, lines, name, header = _columns_from_mapping(mapping, f"flight {kind} (record)")
+    missing = [c for c in REQUIRED if c not in cols]
+    if missing:
+        raise InputError(
+            f"{name}: missing column(s) {', '.join(missing)} (have: {', '.join(map(str, header))})"
+        )
+    att = [c for c in ATTITUDE if c in cols]
+    if att and len(att) != 3:
+        raise InputError(
+            f"{name}: give all of {', '.join(ATTITUDE)} or none (coordinated flight), got "
+            f"{', '.join(att)}"
+        )
+    n = cols["time_s"].size
+    if n == 0:
+        raise InputError(f"{name}: no samples")
+    for c in REQUIRED + (ATTITUDE if att else ()):
+        bad = np.flatnonzero(~np.isfinite(cols[c]))
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], c)}: {cols[c][bad[0]]} is not finite")
+    if n < MIN_POINTS:
+        raise InputError(f"{name}: {n} samples, the quintic spline needs at least {MIN_POINTS}")
+    t = cols["time_s"]
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = bad[0] + 1
+        what = "repeats" if dt[bad[0]] == 0 else "goes back from"
+        raise InputError(
+            f"{_where(name, lines, i, 'time_s')}: time {t[i]:g} s {what} the previous "
+            f"{t[i - 1]:g} s (times must increase)"
+        )
+    lat, lon, h = cols["lat_deg"], cols["lon_deg"], cols["height_m"]
+    for c, v, lim in (("lat_deg", lat, 90.0), ("lon_deg", lon, 540.0)):
+        bad = np.flatnonzero(np.abs(v) > lim)
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], c)}: {v[bad[0]]:g} is beyond ±{lim:g}")
+    bad = np.flatnonzero((h < MIN_HEIGHT) | (h > MAX_HEIGHT))
+    if bad.size:
+        raise InputError(
+            f"{_where(name, lines, bad[0], 'height_m')}: {number_text(h[bad[0]])} m is outside "
+            "-11 km..1e8 m"
+        )
+    lon = np.degrees(np.unwrap(np.radians(lon)))
+    r = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), -1)
+    speed = np.linalg.norm(np.diff(r, axis=0), axis=1) / dt
+    _check_radians(name, lines, lat, lon, speed)
+    bad = np.flatnonzero(speed > MAX_SPEED)
+    if bad.size:
+        i = bad[0] + 1
+        raise InputError(
+            f"{_where(name, lines, i, 'lat_deg')}: position jump ({speed[bad[0]]:.0f} m/s from "
+            f"the previous sample, more than {MAX_SPEED:g} m/s)"
+        )
+    attitude = None
+    if att:
+        attitude = np.stack([cols[c] for c in ATTITUDE], -1)
+        attitude[:, 2] = np.degrees(np.unwrap(np.radians(attitude[:, 2])))
+        bad = np.flatnonzero(np.abs(cols["pitch_deg"]) > 90.0)
+        if bad.size:
+            raise InputError(f"{_where(name, lines, bad[0], 'pitch_deg')}: beyond ±90 degrees")
+    return FlightSamples(t - t[0], lat, lon, h, attitude, name, lines, float(t[0]))
+
+
+def _check_radians(name, lines, lat, lon, speed) -> None:
+    """Refuse latitudes/longitudes that look like radians.
+
+    All values inside ±π/2, ±π and a path that would be an aircraft's speed (1..1000 m/s) only if
+    the numbers were radians (57.3× the distance), i.e. at most 17 m/s read as degrees.
+    """
+    v_deg = float(np.median(speed))
+    if (
+        np.all(np.abs(lat) <= np.pi / 2)
+        and np.all(np.abs(lon) <= np.pi)
+        and 1.0 <= np.degrees(v_deg) <= 1000.0
+        and v_deg < 17.5
+    ):
+        raise InputError(
+            f"{_where(name, lines, 0, 'lat_deg')}: latitudes and longitudes look like radians "
+            f"(all within ±π/2, ±π; median speed {v_deg:.2f} m/s read as degrees, "
+            f"{np.degrees(v_deg):.0f} m/s as radians): give degrees"
+        )
 
 
 class FlightTrajectory(Trajectory):
@@ -80,7 +295,7 @@ class FlightTrajectory(Trajectory):
         self._d1 = self._spline.derivative(1)
         self._d2 = self._spline.derivative(2)
         v, a = self._d1(s.t), self._d2(s.t)
-        C_n_e = _C_n_to_e(s.lat, s.lon)
+        C_n_e = C_n_to_e(s.lat, s.lon)
         v_n = np.einsum("nji,nj->ni", C_n_e, v)
         if s.attitude is None:
             att = coordinated_attitude(v_n, np.einsum("nji,nj->ni", C_n_e, a))
@@ -108,16 +323,17 @@ class FlightTrajectory(Trajectory):
         acc = np.linalg.norm(self._d2(tt), axis=1)
         if acc.max() > MAX_ACCEL:
             j = int(np.argmax(acc))
+            acc_g = acc[j] / STANDARD_GRAVITY
             i = j if j < s.t.size else j - s.t.size + 1
             if s.source == "route":  # no file: the speed flown is what the user chose
                 raise InputError(
-                    f"route: the path accelerates at {acc[j] / G0:.0f} g near t = {tt[j]:g} s "
+                    f"route: the path accelerates at {acc_g:.0f} g near t = {tt[j]:g} s "
                     f"(more than 100 g): a ground speed of {_speed(s):.0f} m/s is too fast for "
                     "its turns and the Earth's curvature"
                 )
             raise InputError(
                 f"{_where(s.source, s.lines, i, 'lat_deg')}: the interpolated path accelerates at "
-                f"{acc[j] / G0:.0f} g near t = {tt[j]:g} s (more than 100 g: a position jump?)"
+                f"{acc_g:.0f} g near t = {tt[j]:g} s (more than 100 g: a position jump?)"
             )
 
     def _check_between(self, ellipsoid: Ellipsoid) -> None:
@@ -188,8 +404,8 @@ class FlightTrajectory(Trajectory):
         C = np.matmul(self._knot_C[i], E)
         return C, np.matmul(C, w_b[:, :, None])[:, :, 0]
 
-    def check_above_surface(self, n: int = 2001, min_height: float = -11_000.0) -> None:
-        """Refuse paths deeper than ``min_height`` (m; default -11 km).
+    def check_above_surface(self, n: int = 2001, min_height: float = MIN_HEIGHT) -> None:
+        """Refuse paths deeper than ``min_height`` (m; default :data:`fieldmap.limits.MIN_HEIGHT`).
 
         Ellipsoidal heights at sea level reach -106 m; the base class's 0 m is for rockets.
         """
@@ -231,7 +447,7 @@ def coordinated_attitude(v_ned, a_ned) -> np.ndarray:
     theta = np.arctan2(-vD, vh)
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(slow, 0.0, (vN * a_ned[:, 1] - vE * a_ned[:, 0]) / np.maximum(vh, 0.5) ** 2)
-    phi = np.arctan(vh * rate / G0)
+    phi = np.arctan(vh * rate / STANDARD_GRAVITY)
     return np.stack([phi, theta, psi], -1)
 
 
@@ -352,7 +568,7 @@ def geodetic_state(traj: Trajectory, t):
     """
     k = traj.kinematics(t)
     lat, lon, h = ecef_to_geodetic(k.r_e[:, 0], k.r_e[:, 1], k.r_e[:, 2], traj.frame.ellipsoid)
-    C_n_e = _C_n_to_e(lat, lon)
+    C_n_e = C_n_to_e(lat, lon)
     C_a_e = np.swapaxes(traj.frame.C_e_to_a(k.t), -1, -2)
     C_b_e = C_a_e @ k.C_b_to_a
     v_ned = np.einsum("nji,nj->ni", C_n_e, k.v_e)

@@ -138,15 +138,13 @@ class Gravitation:
         *,
         ellipsoid: Ellipsoid | str = WGS84,
     ):
-        from fieldmap._warp import DeviceError, resolve_device
+        from fieldmap._warp import resolve_device
         from fieldmap.models.icgem import as_degree
 
         self.ellipsoid = get_ellipsoid(ellipsoid)
         self.kind = str(kind).lower()
-        try:
-            self.device = None if device is None else resolve_device(device)
-        except DeviceError as exc:
-            raise InputError(str(exc)) from None
+        # a DeviceError is an InputError already (one line, exit 2 in the CLI)
+        self.device = None if device is None else resolve_device(device)
         if self.kind == "sh":
             self.model = model if model is not None else load_truth_model()
             lmax = as_degree(lmax)
@@ -318,7 +316,7 @@ def synthesize(
 
 def _evaluate(g, t, r) -> np.ndarray:
     """Gravitation ``g`` on the path: by time where it interpolates along it, else by position."""
-    if hasattr(g, "at_times"):  # fieldmap.nav.trackgravity.TrackGravitation
+    if hasattr(g, "at_times"):  # fieldmap.nav.gravity.TrackGravitation
         return g.at_times(t, r)
     return np.asarray(g(r), dtype=np.float64)
 

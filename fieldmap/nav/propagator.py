@@ -6,8 +6,8 @@ Gauss–Markov biases, baro loop), in the spirit of pyins' ``Integrator``: each 
 :meth:`Propagator.propagate` takes a block of IMU increments (shared by all runs) and the global
 index of its first sample, advances every run through it and returns the stored states;
 :meth:`~Propagator.get_state` / :meth:`~Propagator.set_state` expose the state between blocks.
-The paper's studies (:mod:`fieldmap.nav.studies`, the whole record in one block, LCI) and the
-flight studies (:mod:`fieldmap.nav.flightsim`, time blocks, NED or LCI) both use it.
+The paper's studies (:mod:`fieldmap.nav.paper`, the whole record in one block, LCI) and the
+flight studies (:mod:`fieldmap.nav.study`, time blocks, NED or LCI) both use it.
 
 Where the runs go is said explicitly: ``client=None`` here (one Warp launch over every core),
 or a ``dask.distributed.Client`` (the runs split into groups, one task each; the block's
@@ -68,7 +68,7 @@ class _Config:
     dt: float
     t_start: float  # time of global sample 0 (LCI: Earth rotation angle)
     output_every: int  # in IMU samples
-    baro: Any  # fieldmap.nav.strapdown_ned.Baro template (h_ref unset) or None
+    baro: Any  # fieldmap.nav.mechanize.Baro template (h_ref unset) or None
     device: str | None
     gravity_every: int = 1  # samples between SH disturbance updates (1: every step)
 
@@ -98,87 +98,108 @@ def _baro_rows(baro, a, b, n):
     )
 
 
+def check_mechanization(frame, *, baro: bool = False) -> str:
+    """Check the mechanization of a study or a propagator; return it in lower case.
+
+    The one place of the rules of ``frame`` (``"ned"`` or ``"lci"``) and of baro altitude
+    aiding (NED only), for :class:`Propagator` and :class:`fieldmap.nav.study.FlightStudy`.
+    """
+    name = str(frame).lower()
+    if name not in ("ned", "lci"):
+        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
+    if baro and name != "ned":
+        raise InputError("baro altitude aiding needs frame='ned'")
+    return name
+
+
+_OLD_NAV = {
+    "ellipsoid", "sh_model", "imu_set", "errors", "output_every", "baro", "gravity_every",
+}  # fmt: skip
+
+
+def _old_config(gravity, dt, old: dict):
+    """Return the NavConfig and dt of a 0.2 call ``Propagator(frame, start, gravity, dt, ...)``."""
+    from fieldmap import _compat
+    from fieldmap.nav.mechanize import NavConfig
+
+    extra = set(old) - _OLD_NAV - {"t_start", "runs_per_task"}
+    if extra:
+        raise TypeError(f"Propagator() got unexpected keyword argument(s) {sorted(extra)}")
+    _compat.warn("Propagator(frame, start, gravity, dt, **options): pass Propagator(frame, start, "
+                 "dt, NavConfig(gravity, ...))", stacklevel=4)  # fmt: skip
+    kw = {k: v for k, v in old.items() if k in _OLD_NAV}
+    return NavConfig(gravity, t0=old.get("t_start", 0.0), **kw), dt
+
+
 class Propagator:
     """Batched NED or launch-centred inertial (LCI) strapdown propagation in blocks of samples.
 
     Parameters
     ----------
     frame : {"ned", "lci"}
-        Mechanization (:func:`fieldmap.nav.strapdown_ned.propagate_ned`,
-        :func:`fieldmap.nav.strapdown.propagate_lci`).
+        Mechanization (:func:`fieldmap.nav.mechanize.propagate_ned`,
+        :func:`fieldmap.nav.mechanize.propagate_lci`).
     start : dict
         Start state, one row per run: NED ``llh`` (rad, rad, m), ``v`` (m/s), ``q`` (q_b^n,
         scalar first); LCI ``P``, ``V`` (m, m/s, a-frame), ``q`` (q_b^a).
-    gravity : sequence of str
-        Navigation gravity of each run (``j2 j4 j6 exact sh shN``).
     dt : float
         IMU sample interval. Units: s.
+    nav : NavConfig
+        How the runs navigate (:class:`fieldmap.nav.mechanize.NavConfig`): the navigation
+        gravity of each run (``j2 j4 j6 exact sh shN``), ``sh_model``, the NED ``ellipsoid``
+        (default WGS84; LCI: the launch frame's), the increment set of each run ``imu_set``
+        (default 0), the kernel sensor ``errors``
+        (:meth:`fieldmap.nav.sensors.ErrorDraws.kernel_errors`, one row per run; their
+        Gauss–Markov states start the state), ``t0`` the time of global sample 0 (LCI: Earth
+        rotation angle ω t), ``output_every`` (stored states every this many IMU samples; LCI:
+        even), ``baro`` (NED: gains, bias, noise, drift per run; its ``h_ref`` is given per
+        block to :meth:`propagate` and its ``state`` starts the loop state) and
+        ``gravity_every`` (SH models: the disturbance updated every this many samples, the
+        exact normal field every step; see
+        :func:`fieldmap.kernels.navgravity.held_gravitation_ecef`). Its ``sample0`` and
+        ``gravity_hold`` are the propagator's own (the state).
     launch : LaunchFrame, optional
         The a-frame (LCI; its ellipsoid is the navigation ellipsoid).
-    ellipsoid : Ellipsoid, optional
-        Navigation ellipsoid (NED; default WGS84).
-    sh_model : SHModel, optional
-        Model of the ``sh`` kinds.
-    imu_set : array_like of int, optional
-        Increment set of each run (default 0).
-    errors : dict, optional
-        Kernel sensor errors (:meth:`fieldmap.nav.imu_errors.ErrorDraws.kernel_errors`), one row
-        per run; their Gauss–Markov states start the state.
-    t_start : float
-        Time of global sample 0 (LCI: Earth rotation angle ω t). Units: s.
-    output_every : int
-        Stored states every this many IMU samples (LCI: even).
-    baro : fieldmap.nav.strapdown_ned.Baro, optional
-        Baro loop (NED): gains, bias, noise, drift per run; its ``h_ref`` is given per block to
-        :meth:`propagate` and its ``state`` starts the loop state.
     device : str, optional
         Warp device.
-    gravity_every : int
-        SH navigation models: the disturbance updated every this many samples, the exact
-        normal field every step (a flight computer's gravity rate; 1: the full model every
-        step). See :func:`fieldmap.kernels.navgravity.held_gravitation_ecef`.
     client : dask.distributed.Client, optional
-        Run groups of runs as tasks on this cluster (default: here).
-    runs_per_task : int, optional
-        Runs per task on a cluster (default: four tasks per worker).
+        Run groups of runs as tasks on this cluster (default: here); ``runs_per_task`` (the
+        attribute, default four tasks per worker) sets the groups.
+    **old
+        Deprecated (fieldmap 0.2): ``Propagator(frame, start, gravity, dt, ellipsoid=...,
+        sh_model=..., ...)`` still works, with a ``DeprecationWarning``.
     """
 
     def __init__(
         self,
         frame: str,
         start: dict,
-        gravity,
         dt: float,
+        nav=None,
         *,
         launch=None,
-        ellipsoid=None,
-        sh_model=None,
-        imu_set=None,
-        errors: dict | None = None,
-        t_start: float = 0.0,
-        output_every: int = 1,
-        baro=None,
         device: str | None = None,
         client=None,
-        runs_per_task: int | None = None,
-        gravity_every: int = 1,
+        **old,
     ):
         from fieldmap.field.ellipsoid import WGS84
+        from fieldmap.nav.mechanize import NavConfig
 
-        frame = str(frame).lower()
-        if frame not in ("ned", "lci"):
-            raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
+        if not isinstance(nav, NavConfig) or old:
+            nav, dt = _old_config(dt, nav, old)
+        runs_per_task = old.get("runs_per_task")
+        frame = check_mechanization(frame, baro=nav.baro is not None)
         if frame == "lci" and launch is None:
             raise InputError("the LCI mechanization needs its launch frame (launch=)")
-        if frame == "lci" and output_every % 2:
+        if frame == "lci" and nav.output_every % 2:
             raise InputError("the LCI mechanization stores states every even number of samples")
-        if baro is not None and frame != "ned":
-            raise InputError("baro altitude aiding needs the NED mechanization")
-        from fieldmap.nav.navgravity import gravity_names
+        from fieldmap.nav.gravity import gravity_names
 
+        gravity = nav.gravity
         gravity = gravity_names([gravity] if isinstance(gravity, str) else list(gravity))
         n = len(gravity)
-        errors = dict(errors or {})
+        errors = dict(nav.errors or {})
+        baro = nav.baro
         state = {k: np.array(v, dtype=np.float64) for k, v in start.items()}
         for key in ("acc_gm", "gyro_gm"):
             gm = errors.pop(key, None)
@@ -187,10 +208,11 @@ class Propagator:
             bs = baro.state
             state["baro"] = np.zeros((n, 3)) if bs is None else np.array(bs, dtype=np.float64)
         state["gravity_hold"] = np.zeros((n, 3, 3))
+        imu_set = nav.imu_set
         self._cfg = _Config(
             frame=frame,
             launch=launch,
-            ellipsoid=(launch.ellipsoid if launch is not None else ellipsoid) or WGS84,
+            ellipsoid=(launch.ellipsoid if launch is not None else nav.ellipsoid) or WGS84,
             gravity=gravity,
             imu_set=(
                 np.zeros(n, dtype=np.int64)
@@ -198,17 +220,18 @@ class Propagator:
                 else np.broadcast_to(np.asarray(imu_set, dtype=np.int64), (n,)).copy()
             ),
             errors=errors,
-            sh_model=sh_model,
+            sh_model=nav.sh_model,
             dt=float(dt),
-            t_start=float(t_start),
-            output_every=int(output_every),
+            t_start=float(0.0 if nav.t0 is None else nav.t0),
+            output_every=int(nav.output_every),
             baro=None if baro is None else dataclasses.replace(baro, state=None),
             device=device,
-            gravity_every=int(gravity_every),
+            gravity_every=int(nav.gravity_every),
         )
         self._state = state
         self.client = client if client is not None else _DEFAULT_CLIENT.get()
-        self.runs_per_task = runs_per_task
+        #: runs per task on a cluster (None: four tasks per worker)
+        self.runs_per_task: int | None = runs_per_task
 
     @property
     def n_runs(self) -> int:
@@ -312,7 +335,7 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
     """Propagate the runs of ``cfg`` from ``state`` through one block: (stored, next state)."""
     errors = {**cfg.errors, "acc_gm": state["acc_gm"], "gyro_gm": state["gyro_gm"]}
     if cfg.frame == "ned":
-        from fieldmap.nav.strapdown_ned import propagate_ned
+        from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned
 
         aid = None
         if cfg.baro is not None:
@@ -320,28 +343,28 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
             h = h if h.ndim == 2 else np.broadcast_to(h, (np.shape(dtheta)[0], h.size))
             aid = dataclasses.replace(cfg.baro, h_ref=h, state=state["baro"])
         llh = state["llh"]
-        ned = propagate_ned(
-            dtheta, dv, cfg.dt, llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"],
+        start = NedStart(llh[:, 0], llh[:, 1], llh[:, 2], state["v"], state["q"], degrees=False)
+        nav = NavConfig(
             cfg.gravity, sh_model=cfg.sh_model, ellipsoid=cfg.ellipsoid, imu_set=cfg.imu_set,
-            errors=errors, output_every=cfg.output_every, device=cfg.device, baro=aid,
-            sample0=sample0, degrees=False, gravity_every=cfg.gravity_every,
-            gravity_hold=state["gravity_hold"],
+            errors=errors, output_every=cfg.output_every, baro=aid, sample0=sample0,
+            gravity_every=cfg.gravity_every, gravity_hold=state["gravity_hold"],
         )  # fmt: skip
+        ned = propagate_ned(dtheta, dv, cfg.dt, start, nav, device=cfg.device)
         final = ned.final or {}
         nxt = {"llh": final["llh"], "v": ned.v_ned[:, -1], "q": ned.q[:, -1]}
         if cfg.baro is not None:
             nxt["baro"] = final["baro"]
         out = {"lat": ned.lat, "lon": ned.lon, "h": ned.h, "v": ned.v_ned, "q": ned.q}
     else:
-        from fieldmap.nav.strapdown import propagate_lci
+        from fieldmap.nav.mechanize import LciStart, NavConfig, propagate_lci
 
-        lci = propagate_lci(
-            dtheta, dv, cfg.dt, state["P"], state["V"], state["q"], cfg.launch, cfg.gravity,
-            sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
+        nav = NavConfig(
+            cfg.gravity, sh_model=cfg.sh_model, imu_set=cfg.imu_set, errors=errors,
             t0=cfg.t_start + cfg.dt * sample0, output_every=cfg.output_every // 2,
-            device=cfg.device, sample0=sample0, gravity_every=cfg.gravity_every,
-            gravity_hold=state["gravity_hold"],
+            sample0=sample0, gravity_every=cfg.gravity_every, gravity_hold=state["gravity_hold"],
         )  # fmt: skip
+        a_start = LciStart(state["P"], state["V"], state["q"], cfg.launch)
+        lci = propagate_lci(dtheta, dv, cfg.dt, a_start, nav, device=cfg.device)
         final = lci.final or {}
         nxt = {"P": lci.P[:, -1], "V": lci.V[:, -1], "q": lci.q[:, -1]}
         out = {"P": lci.P, "V": lci.V, "q": lci.q, "t": lci.t}

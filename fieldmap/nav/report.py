@@ -1,8 +1,8 @@
 """Tables and output files of the navigation studies (paper's Tables 1, 3, 4 and user flights).
 
 :func:`format_table` and :func:`write_outputs` serve the paper's studies
-(:mod:`fieldmap.nav.studies`); :func:`format_flight` and :func:`write_flight_outputs` the flight
-study (:mod:`fieldmap.nav.flightsim`). Files go through :mod:`fieldmap.products.io` (all of a
+(:mod:`fieldmap.nav.paper`); :func:`format_flight` and :func:`write_flight_outputs` the flight
+study (:mod:`fieldmap.nav.study`). Files go through :mod:`fieldmap.products.io` (all of a
 batch or none).
 """
 
@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 
-from fieldmap.nav.datasets import flight_dataset, to_dataset  # noqa: F401 - public here too
+from fieldmap.nav.study import flight_dataset, to_dataset
 
 
 def _num(x, fmt: str, width: int) -> str:
@@ -33,8 +33,8 @@ def format_table(res) -> str:
     Columns never overflow: values too wide for their column are printed in exponent form, missing
     or non-finite ones as ``-``; diverged runs are listed below the table.
     """
+    from fieldmap.nav.paper import PAPER_TABLE1, PAPER_TABLE3
     from fieldmap.nav.plots import at_paper_duration
-    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
 
     paper = at_paper_duration(res.meta)
     lines = [
@@ -89,7 +89,7 @@ def format_table(res) -> str:
 
 
 def _json_doc(res) -> dict:
-    from fieldmap.nav.studies import PAPER_TABLE1, PAPER_TABLE3
+    from fieldmap.nav.paper import PAPER_TABLE1, PAPER_TABLE3
 
     doc = {
         "study": res.study,
@@ -191,7 +191,7 @@ def write_flight_outputs(res, out, disturbance=None, prefix: str = "navsim_fligh
     optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure; ``prefix`` the file
     names' stem (default ``navsim_flight``).
     """
-    from fieldmap.nav import flightplots
+    from fieldmap.nav import plots
     from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
 
     if not isinstance(out, OutputBatch):
@@ -221,6 +221,6 @@ def write_flight_outputs(res, out, disturbance=None, prefix: str = "navsim_fligh
         out.netcdf(flight_dataset(res), f"{prefix}.nc"),
     ]
     with signals_deferred():
-        paths.append(out.png(flightplots.errors_figure(res), f"{prefix}.png"))
-        paths.append(out.png(flightplots.track_figure(res, disturbance), f"{prefix}_track.png"))
+        paths.append(out.png(plots.errors_figure(res), f"{prefix}.png"))
+        paths.append(out.png(plots.track_figure(res, disturbance), f"{prefix}_track.png"))
     return [str(p) for p in paths]

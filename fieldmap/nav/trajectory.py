@@ -28,7 +28,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.frames import LaunchFrame
 
 
 @dataclass(frozen=True)

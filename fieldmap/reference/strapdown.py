@@ -2,7 +2,7 @@
 
 Written for clarity and independently of ``kernels/strapdown.py``: attitude is carried as a
 direction-cosine matrix updated with Rodrigues' formula (the kernel uses quaternions), frames
-come from :mod:`fieldmap.nav.launch_frames`, gravitation from any vectorised NumPy callable.
+come from :mod:`fieldmap.nav.frames`, gravitation from any vectorised NumPy callable.
 Loops over steps, vectorised over trajectories. Chen et al. (2022) eqs. (14), (15), (20), Fig. 1.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fieldmap.nav.launch_frames import LaunchFrame
+from fieldmap.nav.frames import LaunchFrame
 
 
 def rodrigues(phi: np.ndarray) -> np.ndarray:

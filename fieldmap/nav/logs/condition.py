@@ -69,7 +69,8 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.flight import G0, MIN_POINTS, FlightSamples
+from fieldmap.nav.flight import MIN_POINTS, FlightSamples
+from fieldmap.units import STANDARD_GRAVITY as G0
 from fieldmap.nav.logs import fit as cfit
 from fieldmap.nav.logs.report import (
     DROPPED,

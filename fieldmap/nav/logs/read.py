@@ -40,7 +40,7 @@ number is refused with its line and column. GPX, NMEA 0183 and IGC: :mod:`fieldm
 
 Refused with one :class:`~fieldmap.errors.InputError` naming file, line and column: unknown
 columns (the message lists them and the ``--columns`` mapping), unparsable times or numbers,
-latitudes beyond ±90° or longitudes beyond ±360°, heights outside -11 km..1e8 m, epoch times
+latitudes beyond ±90° or longitudes beyond ±360°, heights outside -10 km..1e8 m, epoch times
 outside the years 1..9999, radians, a header naming a column twice, one column mapped to two
 fields, an empty file, a file that is no flight log. Units are checked, not guessed, where
 neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
@@ -73,7 +73,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import number_text
-from fieldmap.nav.flightsamples import MAX_HEIGHT, MIN_HEIGHT
+from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT
 from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
 from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.nav.flight import G0, FlightSamples
+from fieldmap.nav.flight import FlightSamples
+from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: a sample's fate: the codes of ``ConditionedFlight.raw["status"]``
 KEPT, OUTLIER_H, OUTLIER_V, OUTLIER_HV, STALE, GROUND, DROPPED, GAP = range(8)

@@ -1,10 +1,12 @@
-"""Navigation-error studies of Chen et al. (2022) §5: Tables 1, 3, 4 and Figs. 11-13.
+"""Navigation-error studies of Chen et al. (2022) §5: Tables 1, 3, 4 as study configurations.
 
-A :class:`~fieldmap.nav.scenario.Scenario` holds the reference trajectory (Fig. 9 like
+Navigation-error studies of Chen et al. (2022) §5: Tables 1, 3, 4 and Figs. 11-13.
+
+A :class:`~fieldmap.nav.study.Scenario` holds the reference trajectory (Fig. 9 like
 boost-glide), its exact IMU increments under the truth gravitation (default: bundled EIGEN-6S at
 full degree) and the exact states at the output times. Each study puts all its navigation runs
 (gravity models × IMU error draws × IMU grades) into **one** call of
-:func:`fieldmap.nav.strapdown.propagate_lci` (one Warp launch, one thread per run) and reduces
+:func:`fieldmap.nav.mechanize.propagate_lci` (one Warp launch, one thread per run) and reduces
 the errors against the exact trajectory.
 
 Errors are the norms of the a-frame position and inertial-velocity differences (navigation −
@@ -14,7 +16,7 @@ truth); the paper's tables give "absolute values" of the final errors.
 navigation model itself as the truth (same trajectory, same sensor errors), which isolates the IMU
 errors at the cost of a cheap second synthesis instead of a degree-240 navigation run per draw.
 
-The scenario and the propagation of the runs live in :mod:`fieldmap.nav.scenario` (their names
+The scenario and the propagation of the runs live in :mod:`fieldmap.nav.study` (their names
 are re-exported here); this module builds the tables on them.
 """
 
@@ -27,17 +29,10 @@ from typing import Any
 import numpy as np
 
 from fieldmap.errors import InputError
-from fieldmap.nav import imu_errors
+from fieldmap.nav import sensors
 from fieldmap.nav.imu import Gravitation
-from fieldmap.nav.propagator import EARTH_RADIUS as EARTH_RADIUS  # public here in 0.2
 from fieldmap.nav.propagator import final_stats
-from fieldmap.nav.scenario import NORMAL_KINDS as NORMAL_KINDS
-from fieldmap.nav.scenario import Scenario as Scenario
-from fieldmap.nav.scenario import balanced_order as balanced_order
-from fieldmap.nav.scenario import build_scenario as build_scenario
-from fieldmap.nav.scenario import check_model_names as check_model_names
-from fieldmap.nav.scenario import output_steps as output_steps
-from fieldmap.nav.scenario import propagate as propagate
+from fieldmap.nav.study import NORMAL_KINDS, Scenario, check_model_names, propagate
 from fieldmap.nav.trajectory import BoostGlide
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
@@ -65,14 +60,14 @@ def gravity_eval_seconds(
     points is returned. Units: s.
     """
     from fieldmap import _warp
-    from fieldmap.nav.navgravity import gravity_names
+    from fieldmap.nav.gravity import gravity_names
 
     key = gravity_names([name.strip().lower()])[0]
     if key in NORMAL_KINDS:
         g = Gravitation(NORMAL_KINDS[key], device=device)
         n_points = n_points or 20000
     else:
-        from fieldmap.nav.navgravity import parse_gravity
+        from fieldmap.nav.gravity import parse_gravity
 
         lmax = parse_gravity(key, sh_model)[1]
         g = Gravitation("sh", model=sh_model, lmax=lmax, device=device)
@@ -102,7 +97,7 @@ class StudyResult:
 
     def to_dataset(self):
         """Return the error curves as an ``xarray.Dataset`` over (run, time) (CF-1.8)."""
-        from fieldmap.nav.datasets import to_dataset
+        from fieldmap.nav.study import to_dataset
 
         return to_dataset(self)
 
@@ -197,11 +192,11 @@ def table3(
     nav = check_model_names([nav], sc.truth_model)[0]
     parts, labels, extra, counts = [], [], [], []
     for gi, grp in enumerate(groups):
-        if grp not in imu_errors.TABLE2_GROUPS:
+        if grp not in sensors.TABLE2_GROUPS:
             raise InputError(f"unknown Table 2 group {grp!r} (1..4)")
-        spec = imu_errors.TABLE2_GROUPS[grp]
-        n = 1 if spec == imu_errors.ImuErrorSpec() else int(draws)
-        parts.append(imu_errors.draw(spec, n, seed=seed + 1000 * gi, mode=mode))
+        spec = sensors.TABLE2_GROUPS[grp]
+        n = 1 if spec == sensors.ImuErrorSpec() else int(draws)
+        parts.append(sensors.draw(spec, n, seed=seed + 1000 * gi, mode=mode))
         counts.append(n)
         labels.append(f"group{grp}")
         extra.append(
@@ -212,7 +207,7 @@ def table3(
                 "draws": n,
             }
         )
-    err = imu_errors.ErrorDraws.concat(parts)
+    err = sensors.ErrorDraws.concat(parts)
     out = propagate(sc, [nav] * err.n, errors=err, progress=progress, client=client)
     rows, start = [], 0
     for j, n in enumerate(counts):
@@ -240,7 +235,7 @@ def table4(
     models=("j4", "sh18", "sh200"),
     draws: int = 20,
     seed: int = 0,
-    spec: imu_errors.ImuErrorSpec = imu_errors.TABLE4,
+    spec: sensors.ImuErrorSpec = sensors.TABLE4,
     mode: str = "gauss",
     reference: str = "j4",
     progress: bool = False,
@@ -260,7 +255,7 @@ def table4(
         raise InputError(
             f"the IMU-only reference must be a normal model (j2 j4 j6 exact), got {ref!r}"
         )
-    err1 = imu_errors.draw(spec, draws, seed=seed, mode=mode)
+    err1 = sensors.draw(spec, draws, seed=seed, mode=mode)
     rows_models = [ref] + names
     err = err1.repeat(len(rows_models))
     grav = [m for m in rows_models for _ in range(err1.n)]

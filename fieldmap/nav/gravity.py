@@ -1,4 +1,19 @@
-"""Truth gravitation along a trajectory at the cost of a few SH evaluations per minute.
+"""Navigation gravity: model names, compensation tables, and the truth along a track.
+
+Navigation gravity model names: ``j2``/``j4``/``j6``/``exact``/``sh``/``shN``/``table:FILE``.
+
+Parse a navigation gravity name to the kernel kind and SH degree of
+:mod:`fieldmap.kernels.navgravity` (:func:`parse_gravity`), replace the deprecated 0.1 aliases
+(:func:`gravity_names`) and rank the models by cost (:func:`gravity_cost`). Shared by the LCI
+and NED mechanizations and the studies built on them.
+
+Compensation tables as navigation gravity: upload, and evaluation at points (Warp).
+
+A table (:class:`fieldmap.products.table_model.CompensationTable`) navigates as the exact normal
+gravitation plus the table's δg (``kernels/navtable.py``); the NumPy interpolator of
+:mod:`fieldmap.products.table_model` is its reference (``tests/test_navtable.py``).
+
+Truth gravitation along a trajectory at the cost of a few SH evaluations per minute.
 
 A spherical-harmonic model of degree L holds no wavelength shorter than 2πR/L (167 km for
 L = 240); a vehicle at speed v sees its disturbance change at most at the frequency
@@ -17,12 +32,203 @@ maximum is reported (:attr:`TrackGravitation.max_error_mgal`).
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
+import warp as wp
 
+from fieldmap import _compat, _warp
 from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.models.shmodel import SHModel
 
-__all__ = ["TrackGravitation", "gravity_update_every", "highest_frequency"]
+
+def _kernel_kinds() -> dict:
+    from fieldmap.kernels import navgravity as kng
+
+    return {
+        "exact": int(kng.NAV_NORMAL_EXACT),
+        "sh": int(kng.NAV_SH),
+        "table": int(kng.NAV_TABLE),
+        "j2": int(kng.NAV_J2),
+        "j4": int(kng.NAV_J4),
+        "j6": int(kng.NAV_J6),
+    }
+
+
+#: navigation gravity names -> kernel kind (the integer codes of kernels/navgravity.py);
+#: "shN" = SH to degree N; "exact" is the closed-form level-ellipsoid field (the ``normal="exact"``
+#: of :func:`fieldmap.field.normal.normal_model`: one name on the map and the navigation side)
+GRAVITY_KINDS = _kernel_kinds()
+_SH_NAME = re.compile(r"^sh(\d+)?$")
+#: normal navigation models from the simplest to the most complete
+NORMAL_MODELS = ("j2", "j4", "j6", "exact")
+#: deprecated navigation gravity names (fieldmap 0.1) -> current name; removed in 0.3
+GRAVITY_ALIASES = {"normal": "exact"}
+
+
+def gravity_names(names, stacklevel: int = 4) -> list:
+    """``names`` with the deprecated aliases (``"normal"``) replaced by their current name.
+
+    Other names are returned as given (validation is :func:`parse_gravity`'s). One
+    ``DeprecationWarning`` per call when any alias was used (``stacklevel`` as in
+    :func:`fieldmap._compat.warn`, counted from the caller of this function).
+    """
+    out, used = [], []
+    for name in names:
+        key = str(name).strip().lower() if isinstance(name, str) else None
+        if key in GRAVITY_ALIASES:
+            used.append(key)
+            out.append(GRAVITY_ALIASES[key])
+        else:
+            out.append(name)
+    for key in dict.fromkeys(used):
+        _compat.warn(
+            f'navigation gravity model "{key}" is now "{GRAVITY_ALIASES[key]}"', stacklevel
+        )
+    return out
+
+
+#: SH degrees ``auto`` tries (those up to the model's degree, and the model's own)
+AUTO_DEGREES = (12, 24, 36, 72, 120, 180, 360, 720, 1080, 2190)
+
+
+def auto_models(sh_model: SHModel) -> list[str]:
+    """Return what ``auto`` stands for: every normal model, then SH degrees to the model's.
+
+    ``j2 j4 j6 exact`` and ``shN`` for N in :data:`AUTO_DEGREES` below the model's degree,
+    then the full model; tables are the user's (``auto,table:FILE``).
+    """
+    degrees = [d for d in AUTO_DEGREES if d < sh_model.lmax] + [sh_model.lmax]
+    return [*NORMAL_MODELS, *(f"sh{d}" for d in degrees)]
+
+
+def sh_degree(name: str) -> int | None:
+    """SH degree N of a navigation name ``shN`` (None for ``sh`` or a normal model).
+
+    The one parser of the ``shN`` spelling; :func:`parse_gravity` validates against a model.
+    """
+    m = _SH_NAME.match(str(name).strip().lower())
+    return None if m is None or m.group(1) is None else int(m.group(1))
+
+
+def table_file(name) -> str | None:
+    """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
+    from fieldmap.products.table_model import table_path
+
+    return table_path(name) if isinstance(name, str) else None
+
+
+def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
+    """Relative cost of one evaluation: (N + 1)² for SH degree N, 1 normal models, 64 a table."""
+    if table_file(name) is not None:
+        return 64.0  # a 4 x 4 x 4 stencil
+    key = str(name).strip().lower()
+    key = GRAVITY_ALIASES.get(key, key)
+    if key in GRAVITY_KINDS and key != "sh":
+        return 1.0
+    deg = sh_degree(key)
+    if deg is None:
+        deg = sh_model.lmax if sh_model is not None else 0
+    return float((deg + 1) ** 2)
+
+
+def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
+    """Navigation gravity name (j2, j4, j6, exact, sh, shN, table:FILE) -> (kernel kind, degree).
+
+    The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``). A table name is
+    checked by loading the table (:func:`fieldmap.products.table_model.load_table`).
+    """
+    path = table_file(name)
+    if path is not None:
+        from fieldmap.products.table_model import load_table
+
+        load_table(path)
+        return GRAVITY_KINDS["table"], 0
+    key = str(gravity_names([name])[0]).strip().lower()
+    if key in NORMAL_MODELS:
+        return GRAVITY_KINDS[key], 0
+    m = _SH_NAME.match(key)
+    if not m:
+        raise InputError(
+            f"unknown navigation gravity model {name!r} (j2, j4, j6, exact, sh, shN, table:FILE)"
+        )
+    if sh_model is None:
+        raise InputError(f"navigation gravity {name!r} needs an SH model (sh_model=...)")
+    deg = sh_model.lmax if m.group(1) is None else int(m.group(1))
+    if deg < 2 or deg > sh_model.lmax:
+        raise InputError(
+            f"SH degree {deg} of {name!r} is outside 2..{sh_model.lmax} of {sh_model.name}"
+        )
+    return GRAVITY_KINDS["sh"], deg
+
+
+def kernel_table(table, device: str):
+    """Return the device struct of ``table`` (its δg values as float64)."""
+    from fieldmap.kernels.navtable import TableKernel
+
+    _warp.init()
+    kt = TableKernel()
+    data = np.ascontiguousarray(np.asarray(table.data, dtype=np.float64))
+    kt.data = wp.array(data, dtype=wp.vec3d, device=device)
+    for name in ("lat0", "dlat", "lon0", "dlon", "h0", "dh"):
+        setattr(kt, name, wp.float64(float(getattr(table, name))))
+    return kt
+
+
+def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray:
+    """δg north, east, down (mGal) at geodetic points by the kernel; shape (n, 3).
+
+    Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
+    """
+    from fieldmap.kernels import navtable as knt
+    from fieldmap.products.table_model import check_inside
+
+    lat, lon, h = (
+        np.ascontiguousarray(np.ravel(v), dtype=np.float64)
+        for v in np.broadcast_arrays(lat, lon, h)
+    )
+    check_inside(table, lat, lon, h)
+    device = _warp.resolve_device(device)
+    out = wp.zeros(lat.size, dtype=wp.vec3d, device=device)
+    arrs: list = [wp.array(v, dtype=wp.float64, device=device) for v in (lat, lon, h)]
+    wp.launch(
+        knt.table_points_kernel,
+        dim=lat.size,
+        inputs=[kernel_table(table, device), *arrs, out],
+        device=device,
+    )
+    return out.numpy()
+
+
+def table_gravitation(
+    table, x, y, z, *, ellipsoid: Ellipsoid | str = WGS84, device: str | None = None
+) -> np.ndarray:
+    """Navigation gravitation of a table at ECEF points: exact normal + δg; (n, 3) ECEF, m/s²."""
+    from fieldmap.field.normal import normal_params
+    from fieldmap.kernels import navtable as knt
+
+    ell = get_ellipsoid(ellipsoid)
+    p = np.ascontiguousarray(
+        np.stack(np.broadcast_arrays(x, y, z), axis=-1).reshape(-1, 3), dtype=np.float64
+    )
+    device = _warp.resolve_device(device)
+    out = wp.zeros(len(p), dtype=wp.vec3d, device=device)
+    enu = wp.zeros(len(p), dtype=wp.vec3d, device=device)
+    wp.launch(
+        knt.table_gravitation_kernel,
+        dim=len(p),
+        inputs=[
+            kernel_table(table, device),
+            normal_params(ell),
+            wp.array(p, dtype=wp.vec3d, device=device),
+            out,
+            enu,
+        ],
+        device=device,
+    )
+    return out.numpy()
+
 
 #: Grid spacing as a fraction of the shortest period of the disturbance seen along the path.
 PERIOD_FRACTION = 0.02

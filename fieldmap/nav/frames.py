@@ -1,4 +1,6 @@
-"""Launch frames of Chen et al. (2022) §3.2: t-, l- and launch-centred inertial a-frame (NumPy).
+"""Navigation frames: the launch frames of Chen et al. (2022) §3.2 and the NED specific force.
+
+Launch frames of Chen et al. (2022) §3.2: t-, l- and launch-centred inertial a-frame (NumPy).
 
 Frames (all right-handed):
 
@@ -23,6 +25,11 @@ Misprints found in the printed equations (checked numerically in ``tests/test_la
   printed cos B0 the matrix is not orthonormal (tested).
 
 Angles of the public API are in degrees; ω defaults to the WGS84 rotation rate.
+
+Delta-velocity to NED specific force with the rotation correction ½ dθ×dv.
+
+Same formula as NavToolKit's ``navtk::inertial::calc_force_ned`` (Titterton & Weston 2004,
+eq. 11.64 without the high-rate sculling integral).
 """
 
 from __future__ import annotations
@@ -34,7 +41,7 @@ import numpy as np
 from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.field.frames import geodetic_to_ecef
+from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 
 #: Accepted launch longitudes and azimuths, half-open, as GeographicLib's angle range. Units: deg.
 ANGLE_RANGE = (limits.LON_MIN, limits.LON_MAX)
@@ -122,6 +129,18 @@ def C_l_to_a(lat_gc_deg, lon_deg, t, lon0_deg, B0_deg, A0_deg, omega: float = WG
 def C_e_to_a(t, lon0_deg, B0_deg, A0_deg, omega: float = WGS84.omega):
     """Rotation ECEF -> a-frame at time t, eq. (20): ``R_e^a = R_t^a R_e^t``."""
     return C_t_to_a(lon0_deg, B0_deg, A0_deg) @ C_e_to_t(t, omega)
+
+
+def C_n_to_e(lat_deg, lon_deg) -> np.ndarray:
+    """Columns north, east, down of the local-level (NED) frame in ECEF, shape (..., 3, 3).
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : array_like
+        Geodetic latitude and longitude. Units: degrees.
+    """
+    enu = C_e_to_enu(lat_deg, lon_deg)
+    return np.stack([enu[..., 1, :], enu[..., 0, :], -enu[..., 2, :]], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -215,3 +234,32 @@ class LaunchFrame:
         r = self.a_to_ecef(P_a, t)
         w = np.array([0.0, 0.0, self.omega])
         return r, self.vector_a_to_e(V_a, t) - np.cross(w, r)
+
+
+def calc_force_ned(C_s_to_n, dt, dth, dv):
+    r"""Specific force in NED from one delta-velocity / delta-rotation sample.
+
+    .. math:: f^n = C_s^n\left(\delta v + \tfrac12\,\delta\theta \times \delta v\right)/\delta t
+
+    Parameters
+    ----------
+    C_s_to_n : array_like, shape (..., 3, 3)
+        DCM rotating sensor-frame vectors into NED.
+    dt : float or array_like
+        Interval over which ``dv`` and ``dth`` were collected. Units: s.
+    dth : array_like, shape (..., 3)
+        Delta rotation in the sensor frame. Units: rad.
+    dv : array_like, shape (..., 3)
+        Delta velocity in the sensor frame. Units: m/s.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        Specific force in NED. Units: m/s².
+    """
+    C = np.asarray(C_s_to_n, dtype=np.float64)
+    dth = np.asarray(dth, dtype=np.float64)
+    dv = np.asarray(dv, dtype=np.float64)
+    dt = np.asarray(dt, dtype=np.float64)
+    corrected = dv + 0.5 * np.cross(dth, dv)
+    return np.einsum("...ij,...j->...i", C, corrected) / dt[..., None]
