@@ -70,7 +70,6 @@ from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
-from fieldmap.units import STANDARD_GRAVITY as G0
 from fieldmap.nav.logs import fit as cfit
 from fieldmap.nav.logs.report import (
     DROPPED,
@@ -85,6 +84,7 @@ from fieldmap.nav.logs.report import (
     ConditionedFlight,
     finish,
 )
+from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX
 HALF_MAX, HALF_SPAN_S, HALF_MIN = 7, 15.0, 2

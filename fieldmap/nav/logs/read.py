@@ -72,8 +72,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
-from fieldmap.limits import number_text
-from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT
+from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
 from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
 from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
 
