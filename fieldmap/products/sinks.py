@@ -1,4 +1,4 @@
-"""Block-by-block outputs of :mod:`fieldmap.products.blocks`: NetCDF-4, zarr, in-memory, lazy.
+"""Where a product's blocks go: memory (shared or sent back), NetCDF-4, zarr; atomic stores.
 
 - **zarr** (:class:`ZarrTarget`): chunked along latitude (``chunk_rows`` rows of all longitudes,
   Blosc/zstd), written by the workers in parallel. A block holds two runs of rows (south rows
@@ -7,19 +7,17 @@
   end); the client gathers them and writes each shared chunk once, whole, when all its rows
   are in. No chunk ever has two writers, without any lock, and nothing is read back.
 - **NetCDF-4** (:class:`NetCDFWriter`): zlib + shuffle at :data:`fieldmap.products.io.COMPLEVEL`
-  (as the in-memory products), chunks of
-  ``chunk_rows`` rows; HDF5 has no parallel writer without MPI, so the client is the one writer
-  and the workers send it their blocks (at most ``window`` in flight, which bounds the memory).
-- Both are written under a hidden temporary name next to the final one and renamed only when
-  the whole product, statistics included, is complete
-  (:func:`fieldmap.products.blockstore.atomic_store`): a failed or interrupted run leaves no
-  partial product under the final name.
-- **in memory** (:func:`memory_target`): the workers of this host write into shared memory
-  (:class:`SharedArrays`), other workers send their blocks to the client (:class:`MemorySink`).
+  (as the in-memory products), chunks of ``chunk_rows`` rows; HDF5 has no parallel writer
+  without MPI, so the client is the one writer and the workers send it their blocks (at most
+  ``window`` in flight, which bounds the memory).
+- **memory** (:func:`memory_target`): a product returned whole is written by workers of the
+  client's machine into shared memory, else sent back to the client.
+- :func:`atomic_store` gives the writers a hidden temporary name next to the final one, renamed
+  only when the whole product, statistics included, is complete: a failed or interrupted run
+  leaves no partial product under the final name. :func:`decimated` reads a stored product
+  back at a resolution fit for figures.
 
-The product's template and statistics attributes are :mod:`fieldmap.products.blockmeta`; the
-atomic placement of a finished store and its decimated view for figures,
-:mod:`fieldmap.products.blockstore`. Their names are importable from here too.
+:func:`write_product` streams a :class:`fieldmap.products.request.MapRequest` to a store.
 """
 
 from __future__ import annotations
@@ -30,17 +28,65 @@ import os
 import shutil
 import tempfile
 import warnings
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from fieldmap.products.blockmeta import (  # noqa: F401 - moved there, importable from here
-    map_attrs,
-    percentile_method_text,
-    template,
-)
-from fieldmap.products.blocks import VARIABLES
-from fieldmap.products.blockstore import atomic_store, decimated  # noqa: F401 - moved there
+from fieldmap.errors import InputError
+from fieldmap.products.variables import DISTURBANCE_VARIABLES
+
+
+def atomic_store(final):
+    """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
+
+    Works for a file or a folder (zarr). An existing product of the same name is replaced
+    only once the new one is complete; on any error the temporary path is removed.
+    """
+    final = Path(final)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    tmp.rmdir()  # the writer creates it (a file or a folder)
+    try:
+        yield tmp
+        if final.is_dir() and not final.is_symlink():
+            old = final.with_name(f".{final.name}.old-{os.getpid()}")
+            os.replace(final, old)
+            os.replace(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    except BaseException:
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise
+
+
+def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
+    """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
+
+    Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
+    the store, so that figures of huge grids never hold the full-resolution arrays. ``s`` > 1
+    is kept in ``attrs["figure_decimation"]`` (:func:`fieldmap.products.plots.node_step`);
+    the other attributes are the product's.
+    """
+    opener = (
+        (lambda p: xr.open_zarr(p, consolidated=True))
+        if fmt == "zarr"
+        else (lambda p: xr.open_dataset(p, engine="netcdf4"))
+    )
+    with opener(path) as ds:
+        n = ds.sizes["latitude"] * ds.sizes["longitude"]
+        s = max(1, math.ceil(math.sqrt(n / max_nodes)))
+        view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
+    view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
+    if s > 1:  # the product's attributes stay as stored (grid_step_deg: the product's step)
+        view.attrs["figure_decimation"] = s
+    return view
+
 
 #: Bytes of one chunk of one variable (uncompressed), for the default ``chunk_rows``.
 CHUNK_BYTES = 2**20
@@ -91,7 +137,7 @@ class ZarrTarget:
     its rows have arrived (no read-modify-write, no chunk with two writers).
     """
 
-    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=VARIABLES):
+    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=DISTURBANCE_VARIABLES):
         self.path = str(path)
         self.nlat = nlat
         self.rows = rows
@@ -401,7 +447,7 @@ def memory_target(grid, stacked: bool, names, client):
 class MemorySink:
     """Assemble the blocks into in-memory arrays (the Python API's eager mode)."""
 
-    def __init__(self, grid, stacked: bool, names=VARIABLES):
+    def __init__(self, grid, stacked: bool, names=DISTURBANCE_VARIABLES):
         nh, nlat, nlon = grid.shape
         self.shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
         self.stacked = stacked
@@ -421,3 +467,93 @@ class MemorySink:
             if name not in self.arrays:
                 self.arrays[name] = np.empty(self.shape)
             _put_block(self.arrays[name], block, self.stacked, data[name])
+
+
+
+# ---------------------------------------------------------------------------- streamed products
+
+FORMATS = ("netcdf", "zarr")
+
+
+def check_format(fmt: Any) -> str:
+    """Return ``fmt`` if it is a store format (:data:`FORMATS`), else raise InputError."""
+    if fmt not in FORMATS:
+        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    return fmt
+
+
+def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) -> dict:
+    """Compute a request's product block by block and stream it to ``path``.
+
+    Everything the product is (model, degree, heights, grid, ellipsoid, units, thresholds,
+    quantity) comes from ``request``, validated at its construction; nothing else is taken.
+
+    Parameters
+    ----------
+    request : fieldmap.products.request.MapRequest
+        A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
+        client, ``"local:N"``, an address; none: here, one after the other), at most
+        ``execution.window`` in flight.
+    path : str or os.PathLike
+        Final name of the NetCDF file or zarr folder; it appears only when complete.
+    fmt : {"netcdf", "zarr"}
+        NetCDF-4 (zlib, one writer: the client) or zarr (written by the workers).
+    atomic : bool
+        Write to a temporary name renamed at the end (default); False when ``path`` is already
+        a temporary name of the caller's.
+
+    Returns
+    -------
+    dict
+        ``stats`` (a disturbance: a list per height in the form of
+        :func:`fieldmap.products.statistics.map_statistics`; a quantity: {variable:
+        [statistics per height]}), ``grid``, ``model`` (name, lmax) and ``path``.
+    """
+    from fieldmap.products import engine
+    from fieldmap.products import variables as v
+    from fieldmap.products.io import writing
+
+    check_format(fmt)
+    out, grid, mod = request.output, request.grid, request.model
+    if out.quantity in ("truncation", "components"):
+        raise InputError(f"a {out.quantity} map is computed in memory: it is not streamed")
+    if out.percentile_method != "histogram":
+        raise InputError(
+            f"percentile_method {out.percentile_method!r} needs the whole map in memory: "
+            "a streamed product takes the histogram percentiles"
+        )
+    tmpl = engine.template(request)
+    place = atomic_store(path) if atomic else contextlib.nullcontext(path)
+    # connect (or start the local cluster) before anything is written
+    with engine.executor_client(request) as c, writing(path), place as tmp:
+        writer = None
+        try:
+            if fmt == "zarr":
+                plan = engine.plan(request, local=False)
+                target = create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in plan))
+                sink, store = target.sink, target
+            else:
+                writer = NetCDFWriter(str(tmp), tmpl, grid)
+                sink, store = writer.sink, None
+            stats = engine.run_blocks(request, client=c, sink=sink, store=store)
+            if out.quantity != "disturbance":
+                per_var, extra = v.quantity_statistics_fields(tmpl, engine.per_variable(stats))
+                attrs, var_attrs = {}, per_var
+            elif out.stacked:
+                attrs = {"percentile_method": v.percentile_method_text()}
+                extra, var_attrs = v.sweep_statistics(stats, out.thresholds_mg), None
+            else:
+                attrs = v.map_attrs(stats[0], out.thresholds_mg)
+                extra, var_attrs = None, None
+            if fmt == "zarr":
+                target.check_complete()
+                finish_zarr(str(tmp), attrs, extra or None, var_attrs)
+            else:
+                assert writer is not None  # opened above for the netcdf format
+                writer.finish(attrs, extra or None, var_attrs)
+        finally:
+            if writer is not None:
+                writer.close()
+    if out.quantity != "disturbance":
+        stats = engine.per_variable(stats)
+    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}

@@ -1,7 +1,7 @@
 """Build a gravity compensation table whose interpolation error is verified below a bound.
 
 :func:`build_table` computes δg north, east, down (mGal) on a lat-lon-height lattice
-(:mod:`fieldmap.products.table_model` describes the lattice and the interpolation scheme) with
+(:mod:`fieldmap.products.tables.model` describes the lattice and the interpolation scheme) with
 fieldmap's grid engine (:func:`fieldmap.grids.synthesis.synthesize`, the engine of the map
 products: model gravitation minus the exact normal gravitation, geodetic frame), then chooses
 the spacings:
@@ -35,7 +35,7 @@ import numpy as np
 
 from fieldmap import limits
 from fieldmap.errors import InputError
-from fieldmap.products.table_model import COMPONENTS, CompensationTable
+from fieldmap.products.tables.model import COMPONENTS, CompensationTable
 
 #: random check points of step D (reproducible: fixed seed)
 CHECK_POINTS = 2000
@@ -133,7 +133,7 @@ class _Lattice:
 
     @property
     def nbytes(self) -> int:
-        from fieldmap.products.table_model import HEADER_BYTES
+        from fieldmap.products.tables.model import HEADER_BYTES
 
         return HEADER_BYTES + (self.ncl + 3) * (self.ncn + 3) * (self.nck + 1) * 3 * 4
 
