@@ -61,7 +61,7 @@ def stem(ds, kind: str) -> str:
 
 def thresholds_mg(args) -> list[float]:
     """``--thresholds-mg`` as validated by the API."""
-    from fieldmap.products.stats import parse_thresholds
+    from fieldmap.products.statistics import parse_thresholds
 
     return list(
         api_call(

@@ -5,7 +5,7 @@
 little-endian), ``table.h`` (its C layout and interpolation) and ``table.json`` (the
 verification report) into ``--out``: δg north, east, down (mGal) on a lattice whose spacings are
 refined until the interpolation error, measured on a denser independent check set, is within B
-(:mod:`fieldmap.products.table`). Read it back with ``fieldmap point --model table:FILE``.
+(:mod:`fieldmap.products.tables.build`). Read it back with ``fieldmap point --model table:FILE``.
 
 ``--corridor`` alone: the track's bounding box widened by ``--width-km``; with ``--region``: the
 intersection of both (refused when they do not overlap). The heights must hold the track's, with
@@ -139,8 +139,8 @@ def run_table(args) -> int:
     from fieldmap.limits import heights_from_km
     from fieldmap.models.registry import announce, load_model, model_options
     from fieldmap.products.io import check_out_dir
-    from fieldmap.products.table import build_table, check_region, corridor_region
-    from fieldmap.products.table_io import write_table
+    from fieldmap.products.tables.build import build_table, check_region, corridor_region
+    from fieldmap.products.tables.files import write_table
 
     if args.corridor is None and given(args, "width_km"):
         raise InputError("--width-km applies to --corridor (the margin around a flight track)")

@@ -221,7 +221,7 @@ def disturbance(
 
 def _table_model(model):
     """Return the table of ``model`` (``"table:FILE"`` or a table object), else None."""
-    from fieldmap.products.table_model import CompensationTable, load_table, table_path
+    from fieldmap.products.tables.model import CompensationTable, load_table, table_path
 
     if isinstance(model, CompensationTable):
         return model

@@ -79,7 +79,7 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     for m in names:
         if table_file(m) is not None:
             from fieldmap.nav.tablegravity import table_gravitation
-            from fieldmap.products.table_model import load_table
+            from fieldmap.products.tables.model import load_table
 
             tab = load_table(table_file(m))
             g_nav = table_gravitation(tab, *r.T, ellipsoid=ell, device=device)

@@ -139,7 +139,7 @@ def check_tables_cover(names, traj, duration: float) -> None:
     the navigator's own height error.
     """
     from fieldmap.nav.navgravity import table_file
-    from fieldmap.products.table_model import load_table, outside_message
+    from fieldmap.products.tables.model import load_table, outside_message
 
     files = [f for f in (table_file(m) for m in names) if f is not None]
     if not files:

@@ -86,7 +86,7 @@ def sh_degree(name: str) -> int | None:
 
 def table_file(name) -> str | None:
     """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
-    from fieldmap.products.table_model import table_path
+    from fieldmap.products.tables.model import table_path
 
     return table_path(name) if isinstance(name, str) else None
 
@@ -113,7 +113,7 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     """
     path = table_file(name)
     if path is not None:
-        from fieldmap.products.table_model import load_table
+        from fieldmap.products.tables.model import load_table
 
         load_table(path)
         return GRAVITY_KINDS["table"], 0

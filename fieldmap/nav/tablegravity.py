@@ -35,7 +35,7 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
     Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
     """
     from fieldmap.kernels import navtable as knt
-    from fieldmap.products.table_model import check_inside
+    from fieldmap.products.tables.model import check_inside
 
     lat, lon, h = (
         np.ascontiguousarray(np.ravel(v), dtype=np.float64)

@@ -21,9 +21,9 @@ import xarray as xr
 from fieldmap import __version__
 from fieldmap.errors import InputError
 from fieldmap.grids.synthesis import check_memory, synthesize
-from fieldmap.products.cf import coords, global_attrs, vector_vars
-from fieldmap.products.maps import heights_m, resolve_model, setup_grid
-from fieldmap.products.stats import map_statistics
+from fieldmap.products.request import ellipsoid_of, heights_m
+from fieldmap.products.statistics import map_statistics
+from fieldmap.products.variables import coords, global_attrs, index_height_km, mg_attrs, vector_vars
 from fieldmap.units import MGAL
 
 __all__ = ["MIN_DEGREE", "check_degrees", "check_tolerance", "degree_needed", "omission_map"]
@@ -100,9 +100,15 @@ def _max_mgal(vec) -> float:
 
 
 def _setup(model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device):
+    from fieldmap.grids.spec import make_grid
+    from fieldmap.grids.synthesis import resolve_device
+    from fieldmap.models.registry import load_model
+
     h = heights_m(height_km)
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    return grid, ell, device, resolve_model(model, lmax, epoch)
+    grid = make_grid(step_deg, lat_max, region, h)
+    ell = ellipsoid_of(ellipsoid)
+    device = resolve_device(device)
+    return grid, ell, device, load_model(model, lmax=lmax, epoch=epoch)
 
 
 def omission_map(
@@ -136,8 +142,9 @@ def omission_map(
     -------
     xarray.Dataset
         east, north, up, modulus (mGal) and modulus_mg on (degree, height, latitude,
-        longitude); ``max_mgal``, ``mean_mgal``, ``rms_mgal`` and ``p99_mgal`` of the modulus
-        (area-weighted but the max) on (degree, height).
+        longitude); ``max_mg``, ``mean_mg``, ``rms_mg`` and ``p99_mg`` of the modulus
+        (area-weighted but the max) on (degree, height), as every product's statistics, and
+        the same in mGal (``max_mgal``...), the unit of the omission's tolerance.
     """
     grid, ell, device, mod = _setup(
         model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
@@ -180,7 +187,18 @@ def _dataset(vec, degs, mod, grid, ell) -> xr.Dataset:
             np.array([[s[f"{key}_mg"] for s in row] for row in st]),
             {"units": "mGal", "long_name": f"{long} of the omission modulus"},
         )
-    return ds
+    # the statistics every product carries, of the modulus in mg (as the maps and sweeps)
+    st_mg = [
+        [map_statistics(m, grid.lat, thresholds_mg=(), percentiles=(99,)) for m in per_d]
+        for per_d in ds["modulus_mg"].values
+    ]
+    for key, long in STATS:
+        ds[f"{key}_mg"] = (
+            ("degree", "height"),
+            np.array([[s[f"{key}_mg"] for s in row] for row in st_mg]),
+            mg_attrs(f"{long} of the omission modulus"),
+        )
+    return index_height_km(ds)
 
 
 def degree_needed(

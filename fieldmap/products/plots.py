@@ -631,3 +631,32 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     )
     ax.set_title(f"{var.attrs['long_name']}\n{source}, {where}", fontsize=9)
     return fig
+
+
+#: Thresholds from which ``fieldmap map`` draws a map of the area above (below, the area is most
+#: of the map and the figure says little).
+THRESHOLD_FIGURES_FROM_MG = 0.05
+
+
+def disturbance_figures(ds, thresholds) -> list:
+    """The figures of a disturbance map or sweep, as ``(file suffix, maker)`` pairs.
+
+    A map: its isolines and, for each threshold from :data:`THRESHOLD_FIGURES_FROM_MG`, the
+    area above it (``above_<t>mg``); a sweep: its table and the isolines at each height
+    (``isolines_h<h>km``), one colour scale for all. The one list of ``fieldmap map|sweep``,
+    whether the map is held in memory or streamed to a store.
+    """
+    from functools import partial
+
+    if "height" in ds.dims:
+        figs = [("table", partial(plot_sweep, ds))]
+        for k, h in enumerate(ds["height"].values):
+            figs.append(
+                (f"isolines_h{h / 1e3:g}km", partial(plot_isolines, ds, thresholds, height_index=k))
+            )
+        return figs
+    figs = [("isolines", partial(plot_isolines, ds, thresholds))]
+    for t in thresholds:
+        if t >= THRESHOLD_FIGURES_FROM_MG:
+            figs.append((f"above_{t:g}mg", partial(plot_threshold, ds, t)))
+    return figs
