@@ -38,6 +38,7 @@ from fieldmap.errors import InputError
 from fieldmap.products.variables import DISTURBANCE_VARIABLES
 
 
+@contextlib.contextmanager
 def atomic_store(final):
     """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
 
