@@ -23,12 +23,14 @@ OUT = {}
 
 
 def digest(name, ds):
+    """Record the sha256 of every data variable of ``ds``."""
     for k, v in ds.data_vars.items():
         a = np.ascontiguousarray(np.asarray(v.values))
         OUT[f"{name}/{k}"] = hashlib.sha256(a.tobytes()).hexdigest() + f" {a.dtype}{a.shape}"
 
 
 def sig_model():
+    """Return a small Kaula model with coefficient standard deviations."""
     m = kaula_model(36, seed=5)
     rng = np.random.default_rng(3)
     tri = np.tril(np.ones_like(m.C))
@@ -61,19 +63,73 @@ fm = str(Path(sys.executable).parent / "fieldmap")
 with tempfile.TemporaryDirectory() as tmp:
     runs = {
         "cli_map": ["map", "--step-deg", "5", "--lmax", "36", "--no-plots"],
-        "cli_map_threads": ["map", "--step-deg", "5", "--lmax", "36", "--no-plots",
-                            "--scheduler", "threads", "--height-km", "30"],
-        "cli_sweep": ["sweep", "--step-deg", "5", "--lmax", "36", "--no-plots",
-                      "--height-km", "10,20"],
+        "cli_map_threads": [
+            "map",
+            "--step-deg",
+            "5",
+            "--lmax",
+            "36",
+            "--no-plots",
+            "--scheduler",
+            "threads",
+            "--height-km",
+            "30",
+        ],
+        "cli_sweep": [
+            "sweep",
+            "--step-deg",
+            "5",
+            "--lmax",
+            "36",
+            "--no-plots",
+            "--height-km",
+            "10,20",
+        ],
         "cli_trunc": ["truncation", "--step-deg", "5", "--no-plots", "--orders", "2,4"],
-        "cli_degrees": ["truncation", "--step-deg", "5", "--no-plots", "--degrees", "18,36",
-                        "--lmax", "90"],
-        "cli_geoid": ["map", "--step-deg", "5", "--lmax", "36", "--no-plots",
-                      "--quantity", "geoid"],
-        "cli_gradient": ["map", "--step-deg", "5", "--lmax", "36", "--no-plots",
-                         "--quantity", "gradient"],
-        "cli_table": ["table", "--region", "0", "4", "40", "44", "--heights-km", "5,10",
-                      "--max-error-mgal", "2", "--lmax", "36"],
+        "cli_degrees": [
+            "truncation",
+            "--step-deg",
+            "5",
+            "--no-plots",
+            "--degrees",
+            "18,36",
+            "--lmax",
+            "90",
+        ],
+        "cli_geoid": [
+            "map",
+            "--step-deg",
+            "5",
+            "--lmax",
+            "36",
+            "--no-plots",
+            "--quantity",
+            "geoid",
+        ],
+        "cli_gradient": [
+            "map",
+            "--step-deg",
+            "5",
+            "--lmax",
+            "36",
+            "--no-plots",
+            "--quantity",
+            "gradient",
+        ],
+        "cli_table": [
+            "table",
+            "--region",
+            "0",
+            "4",
+            "40",
+            "44",
+            "--heights-km",
+            "5,10",
+            "--max-error-mgal",
+            "2",
+            "--lmax",
+            "36",
+        ],
     }
     for name, argv in runs.items():
         out = Path(tmp) / name

@@ -133,8 +133,8 @@ def test_empty_imu_refused(tmp_path, capsys):
 # ------------------------------------------------------------------------------------ 2.8
 def _table(tmp_path: Path) -> Path:
     """Write a table of zeros around the flights here (45..50 N, 6..10 E, 0..4 km)."""
-    from fieldmap.products.table_io import binary_bytes
-    from fieldmap.products.table_model import CompensationTable
+    from fieldmap.products.tables.files import binary_bytes
+    from fieldmap.products.tables.model import CompensationTable
 
     tab = CompensationTable(
         lat0=45.0, dlat=1.0, lon0=6.0, dlon=1.0, h0=0.0, dh=2000.0, data=np.zeros((3, 6, 5, 3))

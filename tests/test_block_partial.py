@@ -7,9 +7,9 @@ import pytest
 
 from fieldmap import _warp
 from fieldmap.errors import InputError
-from fieldmap.products import blockstats as bs
-from fieldmap.products.cf import vector_vars
-from fieldmap.products.stats import area_weights
+from fieldmap.products import statistics as bs
+from fieldmap.products.statistics import area_weights
+from fieldmap.products.variables import vector_vars
 
 THRESHOLDS = (0.02, 0.05, 0.06, 0.10)
 
@@ -104,10 +104,10 @@ def test_dataset_without_merge_is_the_constructors(stacked):
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import make_grid
     from fieldmap.models.registry import load_model
-    from fieldmap.products import blockmeta, cf
+    from fieldmap.products import variables
 
     grid = make_grid(10.0, 80.0, None, np.array([2e4, 5e4] if stacked else [2e4]))
-    parts = blockmeta.template_parts(
+    parts = variables.disturbance_template_parts(
         load_model("eigen-6s", lmax=4), grid, get_ellipsoid("WGS84"), "mGal", THRESHOLDS, stacked
     )
     rng = np.random.default_rng(3)
@@ -118,8 +118,8 @@ def test_dataset_without_merge_is_the_constructors(stacked):
     if stacked:
         stat = {"max_mg": 1.0, "mean_mg": 0.5, "p50_mg": 0.4, "p99_mg": 0.9}
         stat["area_fraction_above"] = {f"{t:g}": 0.1 for t in THRESHOLDS}
-        data.update(cf.sweep_statistics([stat, stat], THRESHOLDS))
-    fast = blockmeta.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
+        data.update(variables.sweep_statistics([stat, stat], THRESHOLDS))
+    fast = variables.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
     want = xr.Dataset(dict(data), coords=parts["coords"], attrs=dict(parts["attrs"]))
     xr.testing.assert_identical(fast, want)
     xr.testing._assert_internal_invariants(fast, check_default_indexes=True)

@@ -114,29 +114,3 @@ def test_kernels_only_imported_by_fieldmap():
     for p in kdir.glob("*.py"):
         for dep in _module_imports(p):
             assert dep.startswith("fieldmap.kernels"), f"{p.name} imports {dep}"
-
-
-#: Most lines of one module of fieldmap/ or kernels/: a module longer than this holds more than
-#: one concern and is split (issue 15).
-MAX_MODULE_LINES = 450
-#: Modules still being split by the navigation work, paths relative to the repository (globs
-#: allowed). This list must shrink, never grow: a module leaves it once it is under the limit,
-#: and no new module is added to it.
-LONG_MODULES_BEING_SPLIT: tuple[str, ...] = ()
-
-
-def test_no_module_over_450_lines():
-    """No module of fieldmap/ or kernels/ exceeds MAX_MODULE_LINES (except the allow-list)."""
-    import fnmatch
-
-    root = PKG.parent
-    offenders = []
-    for folder in (PKG, root / "kernels"):
-        for p in sorted(folder.rglob("*.py")):
-            rel = p.relative_to(root).as_posix()
-            n = len(p.read_text(encoding="utf-8").splitlines())
-            if n > MAX_MODULE_LINES and not any(
-                fnmatch.fnmatch(rel, pattern) for pattern in LONG_MODULES_BEING_SPLIT
-            ):
-                offenders.append(f"{rel} ({n} lines)")
-    assert not offenders, f"modules over {MAX_MODULE_LINES} lines: {', '.join(offenders)}"

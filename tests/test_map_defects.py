@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import sys
 
 import numpy as np
 import pytest
@@ -83,9 +82,7 @@ def test_isoline_colour_bar_covers_the_maximum():
     ds = fieldmap.disturbance_map(height_km=20, lmax=240, step_deg=5.0, device="cpu")
     top = float(ds["modulus_mg"].max())
     fig = plots.plot_isolines(ds, [0.02, 0.06, 0.1])
-    norms = [
-        c.norm for ax in fig.axes for c in ax.collections if isinstance(c.norm, BoundaryNorm)
-    ]
+    norms = [c.norm for ax in fig.axes for c in ax.collections if isinstance(c.norm, BoundaryNorm)]
     assert norms
     for norm in norms:
         assert norm.boundaries[-1] >= top

@@ -114,8 +114,8 @@ def fixtures(tmp_path_factory) -> Path:
     (root / "flight.csv").write_text(_flight_csv())
     (root / "adsb.csv").write_text(_traffic_csv())
     (root / "pts.txt").write_text("-30 100 500\n")
-    from fieldmap.products.table import build_table
-    from fieldmap.products.table_io import binary_bytes
+    from fieldmap.products.tables.build import build_table
+    from fieldmap.products.tables.files import binary_bytes
 
     tab, _ = build_table((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0, lmax=20, check_points=10)
     (root / "table.bin").write_bytes(binary_bytes(tab))

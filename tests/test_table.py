@@ -24,7 +24,7 @@ import fieldmap
 from fieldmap import cli
 from fieldmap.errors import InputError
 from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
-from fieldmap.products.table_model import CompensationTable, interpolate, load_table
+from fieldmap.products.tables.model import CompensationTable, interpolate, load_table
 
 BOUND = 0.5  # mGal
 REGION = ("5", "10", "40", "45")

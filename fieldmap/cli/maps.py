@@ -210,7 +210,7 @@ def _percentile_option(p: argparse.ArgumentParser) -> None:
 
 
 def map_request(args, heights_km: list[float], **fixed):
-    """The :class:`~fieldmap.products.request.MapRequest` of a map sub-command's options.
+    """Build the :class:`~fieldmap.products.request.MapRequest` of a map sub-command.
 
     The model is loaded once, with ``--lmax``, ``--epoch`` and the model-file options
     (:func:`fieldmap.cli.common.load_cli_model`); ``fixed`` sets the product (``quantity``,

@@ -55,7 +55,6 @@ from fieldmap.products.statistics import (
 )
 from fieldmap.products.variables import assemble_quantity, index_height_km
 
-
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
 #: The same, for blocks computed here into memory or a NetCDF file: each block is one
@@ -362,7 +361,7 @@ def _take(it, n):
 
 
 def product_grid(request) -> GridSpec:
-    """The grid the blocks cover: the request's, with one layer per order for a truncation map.
+    """Return the grid the blocks cover: one layer per order for a truncation map.
 
     A layer is a height of the grid; the orders of a truncation map (one height) are its
     layers, each at that height.
@@ -375,7 +374,7 @@ def product_grid(request) -> GridSpec:
 
 
 def plan(request, local: bool = True) -> list[Block]:
-    """The blocks of a request's product (:func:`plan_blocks` of :func:`product_grid`).
+    """Return the blocks of a request's product (:func:`plan_blocks` of its grid).
 
     ``local``: the blocks run here into memory or a NetCDF file (the fewest blocks), else on a
     cluster or into a zarr store (:data:`BLOCKS_PER_HEIGHT` at least).
@@ -714,7 +713,6 @@ def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:
     return res["data"][name][a:b]
 
 
-
 # ---------------------------------------------------------------------------- in memory
 
 
@@ -776,10 +774,13 @@ def compute(request) -> xr.Dataset:
         tmpl = template(request)
         names = tuple(tmpl.attrs["variables"])
     stacked = out.stacked or out.quantity == "truncation" or out.quantity not in _ONE_LAYER
-    with executor_client(request) as c, memory_target(grid, stacked, names, c) as (
-        sink,
-        store,
-        arrays,
+    with (
+        executor_client(request) as c,
+        memory_target(grid, stacked, names, c) as (
+            sink,
+            store,
+            arrays,
+        ),
     ):
         stats = run_blocks(request, client=c, sink=sink, store=store, progress=progress)
         values = arrays()

@@ -235,9 +235,7 @@ def truncation_map(**options: Any) -> xr.Dataset:
     from fieldmap.products.engine import compute
 
     options.setdefault("orders", (2, 4, 6))
-    return compute(
-        _request("truncation_map", None, options, _TRUNCATION, quantity="truncation")
-    )
+    return compute(_request("truncation_map", None, options, _TRUNCATION, quantity="truncation"))
 
 
 @_compat.keyword_api(1, _COMPONENTS_ORDER)
@@ -266,9 +264,7 @@ def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
     """
     from fieldmap.products.engine import compute
 
-    return compute(
-        _request("component_maps", model, options, _COMPONENTS, quantity="components")
-    )
+    return compute(_request("component_maps", model, options, _COMPONENTS, quantity="components"))
 
 
 def quantity_map(quantity: str, /, **options: Any) -> xr.Dataset:

@@ -39,7 +39,6 @@ from fieldmap.products import coastline  # noqa: E402
 from fieldmap.products.io import PNG_DPI  # noqa: E402
 from fieldmap.products.variables import SURFACE_QUANTITIES, fraction_attr  # noqa: E402
 
-
 MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
 # isoline styles by rank of the level (lowest first): colour, width. None is black or grey, the
 # colours of the coastlines and the graticule.
@@ -564,7 +563,6 @@ def _to_mg(units: str) -> float:
     return get_unit(units).si / MG
 
 
-
 def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     """Map of one variable with coastlines and a diverging colour scale centred on zero.
 
@@ -586,7 +584,6 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
-
 
     var = ds[name]
     values = var.values
@@ -639,7 +636,7 @@ THRESHOLD_FIGURES_FROM_MG = 0.05
 
 
 def disturbance_figures(ds, thresholds) -> list:
-    """The figures of a disturbance map or sweep, as ``(file suffix, maker)`` pairs.
+    """Return the figures of a disturbance map or sweep, as ``(file suffix, maker)`` pairs.
 
     A map: its isolines and, for each threshold from :data:`THRESHOLD_FIGURES_FROM_MG`, the
     area above it (``above_<t>mg``); a sweep: its table and the isolines at each height

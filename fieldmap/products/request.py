@@ -92,11 +92,12 @@ class Output:
             )
         scalar = self.quantity not in ("disturbance", TRUNCATION)
         if self.degree0 and (
-            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS)
-            or not scalar
+            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS) or not scalar
         ):
             what = "δg" if self.quantity == "disturbance" else self.quantity
-            raise InputError(f"degree0 applies to the potential T and its quantities, not to {what}")
+            raise InputError(
+                f"degree0 applies to the potential T and its quantities, not to {what}"
+            )
         _set(
             self,
             units=get_unit(self.units).name,
@@ -268,16 +269,16 @@ class MapRequest:
         return compute(self)
 
     def replace(self, **changes: Any) -> MapRequest:
-        """A copy with some parts changed (``output``, ``execution``...), checked again."""
+        """Return a copy with some parts changed (``output``, ``execution``...), checked."""
         return dataclasses.replace(self, **changes)
 
     def executing(self, **changes: Any) -> MapRequest:
-        """A copy with some fields of :class:`Execution` changed (e.g. ``executor=client``)."""
+        """Return a copy with fields of :class:`Execution` changed (``executor=client``)."""
         return self.replace(execution=dataclasses.replace(self.execution, **changes))
 
 
 def ellipsoid_of(name_or_obj: Any) -> Ellipsoid:
-    """The ellipsoid of a name or object; an unknown one is refused with the known names."""
+    """Return the ellipsoid of a name or object; an unknown one lists the known names."""
     from fieldmap.field.ellipsoid import get_ellipsoid
 
     try:

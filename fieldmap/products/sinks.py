@@ -470,7 +470,6 @@ class MemorySink:
             _put_block(self.arrays[name], block, self.stacked, data[name])
 
 
-
 # ---------------------------------------------------------------------------- streamed products
 
 FORMATS = ("netcdf", "zarr")

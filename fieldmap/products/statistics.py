@@ -35,7 +35,6 @@ import numpy as np
 
 from fieldmap.errors import InputError
 
-
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
 DEFAULT_PERCENTILES = (50.0, 90.0, 99.0)
 
@@ -192,7 +191,6 @@ def map_statistics(
         ``max_mg``, ``min_mg``, ``mean_mg`` (area-weighted), ``rms_mg``, ``p<q>_mg``,
         ``area_fraction_above`` {threshold (str, mg): fraction 0..1}.
     """
-
     try:
         v = np.asarray(modulus_mg, dtype=np.float64)
     except (TypeError, ValueError):
@@ -232,7 +230,6 @@ def parse_thresholds(values) -> tuple[float, ...]:
 
     A repeated threshold is an error (as ``--thresholds-mg`` of the CLI), not silently dropped.
     """
-
     try:
         vals = [float(v) for v in values]
     except (TypeError, ValueError):
@@ -327,10 +324,10 @@ def block_partial(
 def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
     """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
 
-    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True`` and the
-    statistics of :func:`block_partial` of their ``modulus_mg``, the same bits: each part of
-    the rows (on the CPU threads) is converted (:func:`fieldmap.products.variables.convert_rows`) and
-    reduced while it is in the cache.
+    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
+    and the statistics of :func:`block_partial` of their ``modulus_mg``, the same bits: each
+    part of the rows (on the CPU threads) is converted
+    (:func:`fieldmap.products.variables.convert_rows`) and reduced while it is in the cache.
 
     Returns
     -------
@@ -486,7 +483,6 @@ def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -
     For the signed quantities: {variable: {"min", "max", "mean", "rms"}}, the form of
     :func:`fieldmap.products.variables.quantity_statistics_fields`.
     """
-
     if "vars" in acc:
         return {
             k: {
@@ -540,4 +536,3 @@ class OrderedFold:
             lay, p = self._waiting.pop(self._next)
             self.acc[lay] = merge_partials(self.acc[lay], p)
             self._next += 1
-

@@ -25,7 +25,6 @@ from fieldmap.errors import InputError
 from fieldmap.products.statistics import threshold_key
 from fieldmap.units import MG, get_unit
 
-
 REFERENCE = (
     "Chen K., Zeng C.-Z., Pei S.-S., Liang W.-C. (2022), Normal gravity model for inertial "
     "navigation of a hypersonic boost-glide vehicle, J. Zhejiang Univ. Sci. A, "
@@ -46,7 +45,7 @@ MG_COMMENT = (
 
 
 def cf_units(units: str) -> str:
-    """Return the ``units`` attribute (UDUNITS spelling) of an output unit of :data:`fieldmap.units.UNITS`."""
+    """Return the ``units`` attribute (UDUNITS spelling) of a unit of :data:`fieldmap.units.UNITS`."""
     return get_unit(units).udunits
 
 
@@ -227,7 +226,7 @@ def vector_attrs(units: str, what: str) -> dict:
 
 
 def stats_attrs(stats: dict) -> dict:
-    """Flatten :func:`fieldmap.products.statistics.map_statistics` into legal CF global attributes."""
+    """Flatten :func:`fieldmap.products.statistics.map_statistics` into CF global attributes."""
     attrs = {attr_name(k): v for k, v in stats.items() if k != "area_fraction_above"}
     for key, frac in stats["area_fraction_above"].items():
         attrs[fraction_attr(float(key))] = frac
@@ -249,7 +248,11 @@ def statistic_name(key: str) -> str:
     if stat in STATISTIC_NAMES:
         return STATISTIC_NAMES[stat]
     q = stat[1:]
-    suffix = {"1": "st", "2": "nd", "3": "rd"}.get(q[-1:], "th") if not q.endswith(("11", "12", "13")) else "th"
+    suffix = (
+        {"1": "st", "2": "nd", "3": "rd"}.get(q[-1:], "th")
+        if not q.endswith(("11", "12", "13"))
+        else "th"
+    )
     return "area-weighted median" if q == "50" else f"area-weighted {q}{suffix} percentile"
 
 
@@ -375,7 +378,6 @@ def quantity_template(quantity: str, mod, grid, ell, degree0: bool) -> xr.Datase
     the dimensions of the variables (shared with the block engine of
     :mod:`fieldmap.products.engine`).
     """
-
     stacked = grid.heights.size > 1
     heights_txt = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
     # no model enters the exact normal gravity: the product names none
@@ -458,12 +460,11 @@ def assemble_quantity(tmpl: xr.Dataset, vals: dict, stats: dict) -> xr.Dataset:
 
 
 def disturbance_template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dict:
-    """Return the parts of :func:`disturbance_template`: ``coords``, ``attrs``, ``variables``, ``dims``.
+    """Return the parts of :func:`disturbance_template`: coords, attrs, variables, dims.
 
     ``coords`` maps names to ``xarray.Variable``; ``variables`` maps each variable name to its
     attributes. A product returned in memory is built from them in one ``xarray.Dataset``.
     """
-
     dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
     attrs = vector_attrs(get_unit(units).name, "gravity disturbance")
     c = coords(grid, stacked)
@@ -508,7 +509,6 @@ def percentile_method_text(method: str = "histogram") -> str:
 
 def map_attrs(stats: dict, thresholds, method: str = "histogram") -> dict:
     """Global statistics attributes of a one-height map (as disturbance_map's)."""
-
     attrs = stats_attrs(stats)
     attrs["thresholds_mg"] = np.array(thresholds)
     attrs["percentile_method"] = percentile_method_text(method)
@@ -638,8 +638,7 @@ def summary(ds: xr.Dataset) -> dict:
         for k in _stack_statistics(ds, "height"):
             out[k] = [float(x) for x in ds[k].values]
         out["area_fraction_above"] = {
-            k: [float(x) for x in ds["area_fraction_above"].values[:, j]]
-            for j, k in enumerate(thr)
+            k: [float(x) for x in ds["area_fraction_above"].values[:, j]] for j, k in enumerate(thr)
         }
         return out
     out = {**_header(ds, "disturbance"), **method}
