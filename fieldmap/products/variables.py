@@ -45,7 +45,7 @@ MG_COMMENT = (
 
 
 def cf_units(units: str) -> str:
-    """Return the ``units`` attribute (UDUNITS spelling) of a unit of :data:`fieldmap.units.UNITS`."""
+    """Return the ``units`` attribute (UDUNITS spelling) of a :data:`fieldmap.units.UNITS` unit."""
     return get_unit(units).udunits
 
 

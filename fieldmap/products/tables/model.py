@@ -3,8 +3,8 @@
 A compensation table holds δg north, east, down (mGal, the local geodetic NED frame of an INS)
 on a regular latitude-longitude-height lattice: the gravity disturbance δg = g_model − γ_exact
 that an INS adds to its normal gravity. It is written by :mod:`fieldmap.products.tables.build`
-and read here, by ``fieldmap point --model table:FILE``, ``fieldmap.disturbance(..., model="table:FILE")``
-and (later) the navigation simulator.
+and read here, by ``fieldmap point --model table:FILE``,
+``fieldmap.disturbance(..., model="table:FILE")`` and (later) the navigation simulator.
 
 The lattice
     Node (k, i, j) sits at height ``h0 + k*dh`` (m above the ellipsoid), geodetic latitude
