@@ -7,6 +7,7 @@ import pytest
 
 from fieldmap import _warp
 from fieldmap.errors import InputError
+from fieldmap.products import engine
 from fieldmap.products import statistics as bs
 from fieldmap.products.statistics import area_weights
 from fieldmap.products.variables import vector_vars
@@ -67,7 +68,7 @@ def test_disturbance_partial_same_bits(threads, layout, units, shape):
     ref_vec = vec.copy(order="K")  # the same layout: the same order of the sums of squares
     ref = {k: v[1] for k, v in vector_vars(ref_vec, (), units, "", overwrite=True).items()}
     with _warp.threads(threads):
-        data, part = bs.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
+        data, part = engine.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
         again = bs.block_partial(ref["modulus_mg"], rw, THRESHOLDS, hw)
     assert list(data) == list(ref)
     for name in ref:
@@ -85,7 +86,7 @@ def test_disturbance_partial_non_finite(bad):
     vec[50, 3, 1] = bad
     rw = area_weights(np.linspace(-80, 80, 64))
     with _warp.threads(2), pytest.raises(InputError, match="map holds non-finite values"):
-        bs.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
+        engine.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
 
 
 def test_scalar_bin_matches_array_bins():

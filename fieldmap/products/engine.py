@@ -49,8 +49,9 @@ from fieldmap.grids.spec import GridSpec
 from fieldmap.products.sinks import memory_target
 from fieldmap.products.statistics import (
     OrderedFold,
-    disturbance_partial,
     finish_statistics,
+    joined_partials,
+    rows_partial,
     scalar_partial,
 )
 from fieldmap.products.variables import assemble_quantity, index_height_km
@@ -211,6 +212,37 @@ class Job:
     quantity: str = "disturbance"  # a quantity of products.request.known_quantities()
     degree0: bool = False  # keep the degree-0 term of T (quantities)
     order: int = 0  # the J2n order of a truncation map's layer
+
+
+def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
+    """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
+
+    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
+    and the statistics of :func:`~fieldmap.products.statistics.block_partial` of their
+    ``modulus_mg``, the same bits: each part of the rows (on the CPU threads) is converted
+    (:func:`fieldmap.products.variables.convert_rows`) and reduced while it is in the cache.
+
+    Returns
+    -------
+    (dict, dict)
+        {name: (rows, nlon) array} of east, north, up, modulus, modulus_mg, and the partial.
+    """
+    from fieldmap.grids.longitude import map_rows
+    from fieldmap.products.variables import convert_rows
+    from fieldmap.units import get_unit
+
+    scale = get_unit(units).si
+    comps = np.moveaxis(vec, -1, 0)
+    mods = np.empty((2, *comps.shape[1:]))
+    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
+
+    def part(a, b):
+        convert_rows(comps, comps, mods, scale, a, b)
+        return rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
+
+    parts = map_rows(part, comps.shape[1], 32)
+    names = ("east", "north", "up", "modulus", "modulus_mg")
+    return dict(zip(names, (*comps, *mods))), joined_partials(parts, len(thresholds))
 
 
 def compute_block(job: Job, model) -> dict:

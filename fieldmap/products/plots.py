@@ -89,8 +89,13 @@ def _levels(ds, levels_mg):
 
 
 def _modulus_top(v, levels) -> float:
-    """Upper end of the colour scale: the 99.9th percentile, at least 1.2 x the top isoline."""
-    raw = max(float(np.nanpercentile(v, 99.9)), max(levels) * 1.2)
+    """Upper end of the colour scale: a round value at or above the maximum of the data.
+
+    At least 1.2 x the top isoline. The colour bar covers every value of the map (a scale
+    ending at a percentile left the largest disturbances, the ones a reader looks for, off the
+    bar).
+    """
+    raw = max(float(np.nanmax(v)), max(levels) * 1.2)
     return float(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, raw)[-1])
 
 

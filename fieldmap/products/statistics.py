@@ -317,42 +317,11 @@ def block_partial(
     if hist_weights is None:
         hist_weights = histogram_weights(row_weights, v.shape[1])
     rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
-    parts = map_rows(lambda a, b: _rows_partial(v[a:b], rw[a:b], thresholds, hw[a:b]), len(v), 32)
-    return _joined(parts, len(thresholds))
+    parts = map_rows(lambda a, b: rows_partial(v[a:b], rw[a:b], thresholds, hw[a:b]), len(v), 32)
+    return joined_partials(parts, len(thresholds))
 
 
-def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
-    """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
-
-    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
-    and the statistics of :func:`block_partial` of their ``modulus_mg``, the same bits: each
-    part of the rows (on the CPU threads) is converted
-    (:func:`fieldmap.products.variables.convert_rows`) and reduced while it is in the cache.
-
-    Returns
-    -------
-    (dict, dict)
-        {name: (rows, nlon) array} of east, north, up, modulus, modulus_mg, and the partial.
-    """
-    from fieldmap.grids.longitude import map_rows
-    from fieldmap.products.variables import convert_rows
-    from fieldmap.units import get_unit
-
-    scale = get_unit(units).si
-    comps = np.moveaxis(vec, -1, 0)
-    mods = np.empty((2, *comps.shape[1:]))
-    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
-
-    def part(a, b):
-        convert_rows(comps, comps, mods, scale, a, b)
-        return _rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
-
-    parts = map_rows(part, comps.shape[1], 32)
-    names = ("east", "north", "up", "modulus", "modulus_mg")
-    return dict(zip(names, (*comps, *mods))), _joined(parts, len(thresholds))
-
-
-def _joined(parts: list, nthresholds: int) -> dict:
+def joined_partials(parts: list, nthresholds: int) -> dict:
     """Join the partials of the parts of a block's rows (in row order) into the block's."""
     if any(p is None for p in parts):
         raise InputError("map holds non-finite values")
@@ -394,7 +363,7 @@ def _hist_lo(vmin: float) -> int:
     return _bin(vmin) if vmin > 0 else 0
 
 
-def _rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
+def rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
     """Return the partial of rows ``v``, or None if a value is not finite.
 
     (max, min, bin ``lo`` of the minimum, per-row weighted sums of v and v², per-row areas above

@@ -172,7 +172,7 @@ def convert_rows(comps, dst, mods, scale: float, a=None, b=None) -> None:
     hold the components, ``mods`` (2, rows, ...) receives the modulus in the unit and in mg;
     element by element, on the rows ``[a, b)`` of the second axis (default: everything). The
     one conversion of :func:`vector_vars` and of the blocks of the maps
-    (:func:`fieldmap.products.statistics.disturbance_partial`): the same bits.
+    (:func:`fieldmap.products.engine.disturbance_partial`): the same bits.
     """
     ix = (slice(None),) if a is None else (slice(None), slice(a, b))
     c, d, m = comps[ix], dst[ix], mods[ix]
