@@ -73,7 +73,7 @@ class PeakRSS:
 def overhead(repeat: int, quick: bool) -> None:
     """Two tables: the map returned in memory, and the map written to a file (the CLI's job)."""
     from fieldmap.models.registry import kaula_model, load_model
-    from fieldmap.products import engine, sinks
+    from fieldmap.products import engine
     from fieldmap.products.io import write_netcdf
     from fieldmap.products.maps import disturbance_map
     from fieldmap.products.request import MapRequest
@@ -97,7 +97,7 @@ def overhead(repeat: int, quick: bool) -> None:
 
         def engine_file(fmt, client=None):
             ext = "zarr" if fmt == "zarr" else "nc"
-            sinks.write_product(request.executing(executor=client), f"{tmp}/m.{ext}", fmt)
+            engine.write_product(request.executing(executor=client), f"{tmp}/m.{ext}", fmt)
 
         row = {
             "nlat": grid.lat.size,
@@ -216,7 +216,7 @@ def projection(results: dict) -> None:
 
 
 def big(out: str, fmt: str, workers: int) -> None:
-    from fieldmap.products import engine, sinks
+    from fieldmap.products import engine
     from fieldmap.products.request import MapRequest
 
     path = os.path.join(out, f"bench_big_0.02deg.{'zarr' if fmt == 'zarr' else 'nc'}")
@@ -226,7 +226,7 @@ def big(out: str, fmt: str, workers: int) -> None:
         request = MapRequest.build(
             heights_m=[20000.0], step_deg=0.02, lat_max=90.0, client=client, progress=True
         )
-        info = sinks.write_product(request, path, fmt)
+        info = engine.write_product(request, path, fmt)
         t2 = time.perf_counter()
     grid = info["grid"]
     s = info["stats"][0]

@@ -82,8 +82,8 @@ def files(tmp_path_factory):
     ds = fieldmap.disturbance_map(**SMALL)
     out["disturbance_float32"] = io.write_netcdf(ds, folder / "f32.nc", dtype="float32")
     # written block by block by the block engine (fieldmap map --scheduler ...)
+    from fieldmap.products.engine import write_product
     from fieldmap.products.request import MapRequest
-    from fieldmap.products.sinks import write_product
 
     small = dict(lmax=30, step_deg=10.0, device="cpu", rows_per_block=4)
     for name, heights, stacked in (

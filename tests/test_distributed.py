@@ -43,7 +43,7 @@ def _blocks(**options):
 
 def _write(path, fmt, **options):
     """Stream the product of the request of ``options`` to ``path``."""
-    return sinks.write_product(MapRequest.build(**options), path, fmt)
+    return engine.write_product(MapRequest.build(**options), path, fmt)
 
 
 @pytest.fixture(scope="module")

@@ -66,8 +66,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     from fieldmap.cli.common import stem
     from fieldmap.cli.maps import map_request
     from fieldmap.products import plots
-    from fieldmap.products.engine import template
-    from fieldmap.products.sinks import write_product
+    from fieldmap.products.engine import template, write_product
     from fieldmap.products.variables import summary
 
     request = map_request(args, heights_km, stacked=stacked, thresholds_mg=thresholds)

@@ -110,8 +110,7 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     from fieldmap.cli.common import stem
     from fieldmap.cli.distributed import stream
     from fieldmap.cli.maps import map_request
-    from fieldmap.products.engine import template
-    from fieldmap.products.sinks import write_product
+    from fieldmap.products.engine import template, write_product
     from fieldmap.products.variables import summary
 
     request = map_request(args, heights_km, quantity=args.quantity, stacked=True)

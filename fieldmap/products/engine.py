@@ -14,7 +14,8 @@ died gives the same bits.
 
 The engine takes one :class:`fieldmap.products.request.MapRequest` (validated at its
 construction, trusted here): :func:`compute` returns the product in memory, :func:`lazy`
-a dask-backed Dataset; :mod:`fieldmap.products.sinks` streams it to a file.
+a dask-backed Dataset; :func:`write_product` streams it to a NetCDF file or zarr store
+(the targets of :mod:`fieldmap.products.sinks`).
 
 Statistics are combined from per-block partial results in block order, so exactly the same on
 every executor (:mod:`fieldmap.products.statistics`). Dask: :func:`parse_scheduler`,
@@ -700,7 +701,7 @@ def lazy(request) -> xr.Dataset:
     the blocks; both runs of a block come from one task; with a Dask client as executor the
     blocks run on that cluster. The values, once computed, are those of :func:`compute` bit
     for bit; the statistics are not in the attributes (they need the whole map): compute them
-    from the data, or stream the product with :func:`fieldmap.products.sinks.write_product`.
+    from the data, or stream the product with :func:`fieldmap.products.engine.write_product`.
     """
     import dask
     import dask.array as da
@@ -888,3 +889,92 @@ def _truncation_dataset(request, tmpl, values) -> xr.Dataset:
         long = f"{statistic_name(key)} truncation error"
         ds[key] = ("order", np.array([s[key] for s in st]), mg_attrs(long))
     return ds
+
+
+# ---------------------------------------------------------------------------- to a store
+
+FORMATS = ("netcdf", "zarr")
+
+
+def check_format(fmt: Any) -> str:
+    """Return ``fmt`` if it is a store format (:data:`FORMATS`), else raise InputError."""
+    if fmt not in FORMATS:
+        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    return fmt
+
+
+def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) -> dict:
+    """Compute a request's product block by block and stream it to ``path``.
+
+    Everything the product is (model, degree, heights, grid, ellipsoid, units, thresholds,
+    quantity) comes from ``request``, validated at its construction; nothing else is taken.
+
+    Parameters
+    ----------
+    request : fieldmap.products.request.MapRequest
+        A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
+        client, ``"local:N"``, an address; none: here, one after the other), at most
+        ``execution.window`` in flight.
+    path : str or os.PathLike
+        Final name of the NetCDF file or zarr folder; it appears only when complete.
+    fmt : {"netcdf", "zarr"}
+        NetCDF-4 (zlib, one writer: the client) or zarr (written by the workers).
+    atomic : bool
+        Write to a temporary name renamed at the end (default); False when ``path`` is already
+        a temporary name of the caller's.
+
+    Returns
+    -------
+    dict
+        ``stats`` (a disturbance: a list per height in the form of
+        :func:`fieldmap.products.statistics.map_statistics`; a quantity: {variable:
+        [statistics per height]}), ``grid``, ``model`` (name, lmax) and ``path``.
+    """
+    from fieldmap.products import sinks
+    from fieldmap.products import variables as v
+    from fieldmap.products.io import writing
+
+    check_format(fmt)
+    out, grid, mod = request.output, request.grid, request.model
+    if out.quantity in ("truncation", "components"):
+        raise InputError(f"a {out.quantity} map is computed in memory: it is not streamed")
+    if out.percentile_method != "histogram":
+        raise InputError(
+            f"percentile_method {out.percentile_method!r} needs the whole map in memory: "
+            "a streamed product takes the histogram percentiles"
+        )
+    tmpl = template(request)
+    place = sinks.atomic_store(path) if atomic else contextlib.nullcontext(path)
+    # connect (or start the local cluster) before anything is written
+    with executor_client(request) as c, writing(path), place as tmp:
+        writer = None
+        try:
+            if fmt == "zarr":
+                blocks = plan(request, local=False)
+                target = sinks.create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in blocks))
+                sink, store = target.sink, target
+            else:
+                writer = sinks.NetCDFWriter(str(tmp), tmpl, grid)
+                sink, store = writer.sink, None
+            stats = run_blocks(request, client=c, sink=sink, store=store)
+            if out.quantity != "disturbance":
+                per_var, extra = v.quantity_statistics_fields(tmpl, per_variable(stats))
+                attrs, var_attrs = {}, per_var
+            elif out.stacked:
+                attrs = {"percentile_method": v.percentile_method_text()}
+                extra, var_attrs = v.sweep_statistics(stats, out.thresholds_mg), None
+            else:
+                attrs = v.map_attrs(stats[0], out.thresholds_mg)
+                extra, var_attrs = None, None
+            if fmt == "zarr":
+                target.check_complete()
+                sinks.finish_zarr(str(tmp), attrs, extra or None, var_attrs)
+            else:
+                assert writer is not None  # opened above for the netcdf format
+                writer.finish(attrs, extra or None, var_attrs)
+        finally:
+            if writer is not None:
+                writer.close()
+    if out.quantity != "disturbance":
+        stats = per_variable(stats)
+    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}

@@ -17,7 +17,7 @@
   leaves no partial product under the final name. :func:`decimated` reads a stored product
   back at a resolution fit for figures.
 
-:func:`write_product` streams a :class:`fieldmap.products.request.MapRequest` to a store.
+:func:`fieldmap.products.engine.write_product` streams a product's blocks to these targets.
 """
 
 from __future__ import annotations
@@ -29,12 +29,10 @@ import shutil
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from fieldmap.errors import InputError
 from fieldmap.products.variables import DISTURBANCE_VARIABLES
 
 
@@ -468,92 +466,3 @@ class MemorySink:
             if name not in self.arrays:
                 self.arrays[name] = np.empty(self.shape)
             _put_block(self.arrays[name], block, self.stacked, data[name])
-
-
-# ---------------------------------------------------------------------------- streamed products
-
-FORMATS = ("netcdf", "zarr")
-
-
-def check_format(fmt: Any) -> str:
-    """Return ``fmt`` if it is a store format (:data:`FORMATS`), else raise InputError."""
-    if fmt not in FORMATS:
-        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
-    return fmt
-
-
-def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) -> dict:
-    """Compute a request's product block by block and stream it to ``path``.
-
-    Everything the product is (model, degree, heights, grid, ellipsoid, units, thresholds,
-    quantity) comes from ``request``, validated at its construction; nothing else is taken.
-
-    Parameters
-    ----------
-    request : fieldmap.products.request.MapRequest
-        A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
-        client, ``"local:N"``, an address; none: here, one after the other), at most
-        ``execution.window`` in flight.
-    path : str or os.PathLike
-        Final name of the NetCDF file or zarr folder; it appears only when complete.
-    fmt : {"netcdf", "zarr"}
-        NetCDF-4 (zlib, one writer: the client) or zarr (written by the workers).
-    atomic : bool
-        Write to a temporary name renamed at the end (default); False when ``path`` is already
-        a temporary name of the caller's.
-
-    Returns
-    -------
-    dict
-        ``stats`` (a disturbance: a list per height in the form of
-        :func:`fieldmap.products.statistics.map_statistics`; a quantity: {variable:
-        [statistics per height]}), ``grid``, ``model`` (name, lmax) and ``path``.
-    """
-    from fieldmap.products import engine
-    from fieldmap.products import variables as v
-    from fieldmap.products.io import writing
-
-    check_format(fmt)
-    out, grid, mod = request.output, request.grid, request.model
-    if out.quantity in ("truncation", "components"):
-        raise InputError(f"a {out.quantity} map is computed in memory: it is not streamed")
-    if out.percentile_method != "histogram":
-        raise InputError(
-            f"percentile_method {out.percentile_method!r} needs the whole map in memory: "
-            "a streamed product takes the histogram percentiles"
-        )
-    tmpl = engine.template(request)
-    place = atomic_store(path) if atomic else contextlib.nullcontext(path)
-    # connect (or start the local cluster) before anything is written
-    with engine.executor_client(request) as c, writing(path), place as tmp:
-        writer = None
-        try:
-            if fmt == "zarr":
-                plan = engine.plan(request, local=False)
-                target = create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in plan))
-                sink, store = target.sink, target
-            else:
-                writer = NetCDFWriter(str(tmp), tmpl, grid)
-                sink, store = writer.sink, None
-            stats = engine.run_blocks(request, client=c, sink=sink, store=store)
-            if out.quantity != "disturbance":
-                per_var, extra = v.quantity_statistics_fields(tmpl, engine.per_variable(stats))
-                attrs, var_attrs = {}, per_var
-            elif out.stacked:
-                attrs = {"percentile_method": v.percentile_method_text()}
-                extra, var_attrs = v.sweep_statistics(stats, out.thresholds_mg), None
-            else:
-                attrs = v.map_attrs(stats[0], out.thresholds_mg)
-                extra, var_attrs = None, None
-            if fmt == "zarr":
-                target.check_complete()
-                finish_zarr(str(tmp), attrs, extra or None, var_attrs)
-            else:
-                assert writer is not None  # opened above for the netcdf format
-                writer.finish(attrs, extra or None, var_attrs)
-        finally:
-            if writer is not None:
-                writer.close()
-    if out.quantity != "disturbance":
-        stats = engine.per_variable(stats)
-    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}

@@ -620,7 +620,7 @@ def summary(ds: xr.Dataset) -> dict:
     if "max_mg" not in a and "max_mg" not in ds:
         raise InputError(
             "this Dataset carries no statistics (a lazy product, chunks=): compute the map "
-            "without chunks=, or stream it with fieldmap.products.sinks.write_product"
+            "without chunks=, or stream it with fieldmap.products.engine.write_product"
         )
     if "order" in ds.dims:
         out = _header(ds, "truncation")
