@@ -63,8 +63,7 @@ def wanted(args) -> bool:
 
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
-    from fieldmap.cli.common import stem
-    from fieldmap.cli.maps import map_request
+    from fieldmap.cli.common import map_request, stem
     from fieldmap.products import plots
     from fieldmap.products.engine import template, write_product
     from fieldmap.products.variables import summary

@@ -16,9 +16,9 @@ from fieldmap.cli.common import (
     api_call,
     heights_km,
     list_values,
+    map_request,
     preflight,
     print_files,
-    region,
     stem,
     thresholds_mg,
 )
@@ -206,30 +206,6 @@ def _percentile_option(p: argparse.ArgumentParser) -> None:
         default="histogram",
         help="percentiles of the modulus: from per-block histograms (default; relative accuracy "
         "1.2e-4, the same bits on every executor and format) or exact (maps held in memory)",
-    )
-
-
-def map_request(args, heights_km: list[float], **fixed):
-    """Build the :class:`~fieldmap.products.request.MapRequest` of a map sub-command.
-
-    The model is loaded once, with ``--lmax``, ``--epoch`` and the model-file options
-    (:func:`fieldmap.cli.common.load_cli_model`); ``fixed`` sets the product (``quantity``,
-    ``stacked``, ``thresholds_mg``...).
-    """
-    from fieldmap.cli.common import load_cli_model
-    from fieldmap.products.request import MapRequest
-
-    return MapRequest.build(
-        load=(lambda: load_cli_model(args)) if hasattr(args, "model") else None,
-        height_km=heights_km,
-        step_deg=args.step_deg,
-        lat_max=args.lat_max,
-        region=region(args),
-        ellipsoid=args.ellipsoid,
-        device=args.device,
-        scheduler=getattr(args, "scheduler", None),
-        rows_per_block=getattr(args, "rows_per_block", None),
-        **fixed,
     )
 
 

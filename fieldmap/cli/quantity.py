@@ -13,8 +13,7 @@ from pathlib import Path
 def run_quantity(args, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
     from fieldmap.cli import distributed
-    from fieldmap.cli.common import preflight, print_files, stem
-    from fieldmap.cli.maps import map_request
+    from fieldmap.cli.common import map_request, preflight, print_files, stem
     from fieldmap.errors import InputError
     from fieldmap.products.engine import compute
     from fieldmap.products.io import output_batch
@@ -107,9 +106,8 @@ def figures(ds, quantity: str, summ: dict) -> list:
 
 def _run_blocks(args, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
-    from fieldmap.cli.common import stem
+    from fieldmap.cli.common import map_request, stem
     from fieldmap.cli.distributed import stream
-    from fieldmap.cli.maps import map_request
     from fieldmap.products.engine import template, write_product
     from fieldmap.products.variables import summary
 
