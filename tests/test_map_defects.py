@@ -99,3 +99,87 @@ def test_table_takes_height_km_and_warns_on_heights_km(tmp_path):
     assert "--heights-km is deprecated" in err and "--height-km" in err
     a = (tmp_path / "a" / "table.bin").read_bytes()
     assert a == (tmp_path / "b" / "table.bin").read_bytes()
+
+
+def test_streamed_product_is_the_request(tmp_path):
+    """Model, degree, heights and grid of a streamed file are the request's (not setup='s)."""
+    import xarray as xr
+
+    from fieldmap.products.engine import compute, write_product
+    from fieldmap.products.request import MapRequest
+
+    req = MapRequest.build(lmax=12, heights_m=[3e4], region=(0, 40, 0, 40), step_deg=10.0)
+    write_product(req, tmp_path / "m.nc")
+    ref = compute(req)
+    with xr.open_dataset(tmp_path / "m.nc") as ds:
+        assert ds.attrs["model_lmax"] == 12 and float(ds["height"]) == 3e4
+        assert ds.sizes["latitude"] == 5 and ds.sizes["longitude"] == 5
+        np.testing.assert_array_equal(ds["modulus"].values, ref["modulus"].values)
+    with pytest.raises(TypeError):  # no second, silently ignored, description of the product
+        write_product(req, tmp_path / "n.nc", setup=(req.grid, req.ellipsoid, req.model))
+
+
+def test_truncation_and_component_maps_run_on_the_engine(monkeypatch):
+    from fieldmap.products import engine
+
+    calls = []
+    real = engine.compute_block
+
+    def spy(job, model):
+        calls.append(job.quantity)
+        return real(job, model)
+
+    monkeypatch.setattr(engine, "compute_block", spy)
+    fieldmap.truncation_map(orders=(2, 4), step_deg=30.0)
+    fieldmap.component_maps(lmax=12, step_deg=30.0)
+    assert calls == ["truncation", "truncation", "components"]
+
+
+def test_positional_truncation_and_component_maps_warn_and_agree():
+    with pytest.warns(DeprecationWarning, match="pass height_km, orders, step_deg by keyword"):
+        old = fieldmap.truncation_map(30.0, (2, 6), 30.0)
+    new = fieldmap.truncation_map(height_km=30.0, orders=(2, 6), step_deg=30.0)
+    np.testing.assert_array_equal(old["modulus"].values, new["modulus"].values)
+    with pytest.warns(DeprecationWarning, match="pass lmax, height_km, step_deg by keyword"):
+        old = fieldmap.component_maps("eigen-6s", 12, 20.0, 30.0)
+    new = fieldmap.component_maps("eigen-6s", lmax=12, height_km=20.0, step_deg=30.0)
+    np.testing.assert_array_equal(old["model_up"].values, new["model_up"].values)
+
+
+def test_one_summary_with_one_header_for_every_product():
+    from fieldmap.products.variables import summary
+
+    header = ("product", "model", "lmax", "ellipsoid", "grid_step_deg", "region_deg", "height_m")
+    kinds = {
+        "disturbance": fieldmap.disturbance_map(**KW),
+        "sweep": fieldmap.altitude_sweep(height_km=[10, 20], **KW),
+        "anomaly": fieldmap.quantity_map("anomaly", **KW),
+        "truncation": fieldmap.truncation_map(step_deg=10.0),
+    }
+    for product, ds in kinds.items():
+        s = summary(ds)
+        assert tuple(s)[: len(header)] == header, product
+        assert s["product"] == product
+
+
+def test_one_place_for_summaries_and_figures():
+    """One summary() in the products, and the threshold figures named in one place."""
+    import pathlib
+
+    root = pathlib.Path(fieldmap.__file__).parent
+    defs = [p.name for p in (root / "products").rglob("*.py") if "\ndef summary(" in p.read_text()]
+    assert defs == ["variables.py"]
+    for p in (root / "cli").glob("*.py"):
+        assert "above_{t" not in p.read_text(), p.name
+
+
+def test_omission_statistics_in_the_common_vocabulary():
+    from fieldmap.products.degree import omission_map
+
+    ds = omission_map(degrees=(6,), height_km=[10, 20], **KW)
+    for stat in ("max", "mean", "rms", "p99"):
+        assert ds[f"{stat}_mg"].dims == ("degree", "height"), stat
+        assert ds[f"{stat}_mg"].attrs["units"] == ds["modulus_mg"].attrs["units"]
+    assert float(ds["max_mg"].sel(height_km=20)[0]) == float(
+        ds["modulus_mg"].sel(height_km=20)[0].max()
+    )
