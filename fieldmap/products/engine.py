@@ -195,24 +195,43 @@ def show_progress(nodes: int, progress: bool | None = None) -> bool:
 
 @dataclasses.dataclass(frozen=True)
 class Job:
-    """Everything a worker needs for one block except the model (shipped once per worker)."""
+    """Everything a worker needs for one block except the model (shipped once per worker).
+
+    Attributes
+    ----------
+    block : Block
+    grid : GridSpec
+        The block's rows (latitudes, all longitudes) at its one height.
+    weights : (numpy.ndarray, numpy.ndarray)
+        Area weights of its rows and their whole-number histogram weights.
+    output : fieldmap.products.request.Output
+        What the product holds (quantity, units, thresholds, degree0).
+    ellipsoid : str
+    device : str or None
+    order : int
+        The J2n order of a truncation map's layer (0 otherwise).
+    store : fieldmap.products.sinks.ZarrTarget, optional
+        Where the worker writes its block (zarr), else None.
+    """
 
     block: Block
-    lat: np.ndarray  # the block's latitudes (deg)
-    lon: np.ndarray
-    height: float
-    step_deg: float
-    is_global: bool
-    row_weights: np.ndarray
-    hist_weights: np.ndarray
+    grid: GridSpec
+    weights: tuple[np.ndarray, np.ndarray]
+    output: Any
     ellipsoid: str
     device: str | None
-    units: str
-    thresholds: tuple
-    store: Any = None  # a blockio.ZarrTarget when workers write, else None
-    quantity: str = "disturbance"  # a quantity of products.request.known_quantities()
-    degree0: bool = False  # keep the degree-0 term of T (quantities)
-    order: int = 0  # the J2n order of a truncation map's layer
+    order: int = 0
+    store: Any = None
+
+    @property
+    def quantity(self) -> str:
+        """The product's quantity (``"disturbance"``, ``"truncation"``...)."""
+        return str(self.output.quantity)
+
+    @property
+    def thresholds(self) -> tuple:
+        """Thresholds of the area fractions (mg): the disturbance's only."""
+        return tuple(self.output.thresholds_mg) if self.quantity == "disturbance" else ()
 
 
 def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
@@ -257,24 +276,17 @@ def compute_block(job: Job, model) -> dict:
         workers cannot write alone (``blockio.ZarrTarget.write_block``).
     """
     from fieldmap.field.ellipsoid import get_ellipsoid
-    from fieldmap.grids.spec import GridSpec
     from fieldmap.grids.synthesis import synthesize
 
     worker_setup()
     ell = get_ellipsoid(job.ellipsoid)
-    sub = GridSpec(
-        lat=job.lat,
-        lon=job.lon,
-        heights=np.array([job.height]),
-        step_deg=job.step_deg,
-        is_global=job.is_global,
-    )
+    sub = job.grid
+    row_weights, hist_weights = job.weights
+    units = job.output.units
     if job.quantity == "disturbance":
         vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
         # converted in place and reduced in one pass (vector_vars and block_partial, same bits)
-        data, partial = disturbance_partial(
-            vec, job.units, job.row_weights, job.thresholds, job.hist_weights
-        )
+        data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
     elif job.quantity == "truncation":
         from fieldmap.grids.synthesis import normal_rows
 
@@ -283,9 +295,7 @@ def compute_block(job: Job, model) -> dict:
         err = normal_rows(sub, ell, f"j{job.order}", job.device)[0] - exact
         vec = np.empty((err.shape[0], sub.lon.size, 3))
         vec[...] = err[:, None, :]
-        data, partial = disturbance_partial(
-            vec, job.units, job.row_weights, job.thresholds, job.hist_weights
-        )
+        data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
     elif job.quantity == "components":
         from fieldmap.grids.synthesis import centrifugal_rows, normal_rows
 
@@ -312,10 +322,15 @@ def compute_block(job: Job, model) -> dict:
             from fieldmap.field.geodesy import grid_quantities
 
             vals = grid_quantities(
-                model, sub, job.quantity, ellipsoid=ell, degree0=job.degree0, device=job.device
+                model,
+                sub,
+                job.quantity,
+                ellipsoid=ell,
+                degree0=job.output.degree0,
+                device=job.device,
             )
         data = {k: v[0] for k, v in vals.items()}
-        partial = {"vars": {k: scalar_partial(v, job.row_weights) for k, v in data.items()}}
+        partial = {"vars": {k: scalar_partial(v, row_weights) for k, v in data.items()}}
     out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
     if job.store is not None:
         data = job.store.write_block(job.block, data)
@@ -426,28 +441,21 @@ def make_jobs(request, blocks: list[Block], store: Any = None) -> list[Job]:
     from fieldmap.products.statistics import area_weights, histogram_weights
 
     grid = product_grid(request)
-    out, ex = request.output, request.execution
+    out = request.output
     aw = area_weights(grid.lat)
     hw = histogram_weights(aw, grid.lon.size)
-    thresholds = out.thresholds_mg if out.quantity == "disturbance" else ()
     return [
         Job(
             block=b,
-            lat=grid.lat[b.rows],
-            lon=grid.lon,
-            height=float(grid.heights[b.layer]),
-            step_deg=grid.step_deg,
-            is_global=grid.is_global,
-            row_weights=aw[b.rows],
-            hist_weights=hw[b.rows],
+            grid=dataclasses.replace(
+                grid, lat=grid.lat[b.rows], heights=np.array([float(grid.heights[b.layer])])
+            ),
+            weights=(aw[b.rows], hw[b.rows]),
+            output=out,
             ellipsoid=request.ellipsoid.name,
-            device=ex.device,
-            units=out.units,
-            thresholds=tuple(thresholds),
-            store=store,
-            quantity=out.quantity,
-            degree0=out.degree0,
+            device=request.execution.device,
             order=out.orders[b.layer] if out.quantity == "truncation" else 0,
+            store=store,
         )
         for b in blocks
     ]
@@ -975,6 +983,5 @@ def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) ->
         finally:
             if writer is not None:
                 writer.close()
-    if out.quantity != "disturbance":
-        stats = per_variable(stats)
-    return {"stats": stats, "grid": grid, "model": (mod.name, mod.lmax), "path": path}
+    per_layer: Any = stats if out.quantity == "disturbance" else per_variable(stats)
+    return {"stats": per_layer, "grid": grid, "model": (mod.name, mod.lmax), "path": path}

@@ -600,7 +600,8 @@ def _header(ds: xr.Dataset, product) -> dict:
 
 def _stack_statistics(ds: xr.Dataset, dim: str) -> list[str]:
     """Names of the statistics variables on ``dim`` (``<statistic>_mg``), in their order."""
-    return [k for k, v in ds.data_vars.items() if v.dims == (dim,) and k.endswith("_mg")]
+    names = [str(k) for k, v in ds.data_vars.items() if v.dims == (dim,)]
+    return [k for k in names if k.endswith("_mg")]
 
 
 def summary(ds: xr.Dataset) -> dict:
