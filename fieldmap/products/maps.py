@@ -267,7 +267,7 @@ def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
     return compute(_request("component_maps", model, options, _COMPONENTS, quantity="components"))
 
 
-def quantity_map(quantity: str, /, **options: Any) -> xr.Dataset:
+def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
     """Map of a geodetic quantity on a global or regional grid, at one or several heights.
 
     Parameters
