@@ -57,7 +57,9 @@ def test_unknown_options_are_type_errors():
 
 
 def test_parts_must_belong_together():
-    req = MapRequest.build(lmax=4, step_deg=30.0)
+    from fieldmap.models.registry import kaula_model
+
+    req = MapRequest.build(model=kaula_model(4), step_deg=30.0)  # no coefficient sigma
     with pytest.raises(InputError, match="carries no coefficient standard deviations"):
         req.replace(output=Output(quantity="anomaly-sigma", stacked=True))
     with pytest.raises(InputError, match="property of the surface"):
