@@ -59,7 +59,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         add_model_options(p)
         p.add_argument(
             "--quantity",
-            # fieldmap.products.quantity_maps.QUANTITIES, spelt out: importing it (xarray,
+            # fieldmap.products.variables.QUANTITIES, spelt out: importing it (xarray,
             # pandas) would cost a second at every start of every sub-command
             choices=(
                 "disturbance",

@@ -273,7 +273,7 @@ def compute_block(job: Job, model) -> dict:
     dict
         ``index``, ``layer``, ``rows``, ``partial`` (statistics) and ``data``: the variables
         {name: (nb, nlon) array} when the caller writes them, else only the boundary rows the
-        workers cannot write alone (``blockio.ZarrTarget.write_block``).
+        workers cannot write alone (:meth:`fieldmap.products.sinks.ZarrTarget.write_block`).
     """
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.synthesis import synthesize
