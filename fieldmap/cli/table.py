@@ -180,6 +180,8 @@ def run_table(args) -> int:
     option, text = _height_option(args)
     heights = _heights(text, option)
     metres = api_call(option, heights_from_km, heights, distinct=False)
+    if not metres[0] < metres[1]:
+        raise InputError(f"{option} needs MIN,MAX with MIN < MAX, got {','.join(heights)}")
     if args.region is not None:
         api_call("--region", check_region, args.region)
     if args.lmax is not None and args.lmax < 0:

@@ -229,7 +229,7 @@ def build_table(
     hk = limits.heights_from_km(heights_km, distinct=False)
     if hk.size != 2 or not hk[0] < hk[1]:
         raise InputError(
-            f"--heights-km needs MIN,MAX with MIN < MAX, got {','.join(f'{v / 1e3:g}' for v in hk)}"
+            f"--height-km needs MIN,MAX with MIN < MAX, got {','.join(f'{v / 1e3:g}' for v in hk)}"
         )
     if int(check_points) < 1:
         raise InputError(f"check_points must be >= 1, got {check_points!r}")
