@@ -273,6 +273,9 @@ class NetCDFWriter:
 
         # the same encoding as the in-memory products: no _FillValue on coordinates (CF 1.8 §5)
         ds.to_netcdf(path, engine="netcdf4", mode="w", encoding=netcdf_encoding(ds))
+        # the coordinates that are no dimension (height, height_km), as xarray names them in
+        # the "coordinates" attribute of each variable they apply to (a subset of its dims)
+        self.aux = {str(k): set(c.dims) for k, c in ds.coords.items() if k not in ds.dims}
         self.nc = netCDF4.Dataset(path, "a")
         rows = chunk_rows(nlon)
         chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
@@ -290,8 +293,7 @@ class NetCDFWriter:
                 fill_value=np.nan,
             )
             v.setncatts(var_attrs[name])
-            if not self.stacked:
-                v.setncattr("coordinates", "height")
+            self._coordinates(v, dims)
             self.vars[name] = v
 
     def sink(self, block, data: dict) -> None:
@@ -320,8 +322,15 @@ class NetCDFWriter:
             )
             v[...] = values
             v.setncatts(vattrs)
+            self._coordinates(v, dims)
         self.nc.setncatts(attrs)
         self.close()
+
+    def _coordinates(self, var, dims) -> None:
+        """Set the ``coordinates`` attribute of ``var`` as xarray writes it (names sorted)."""
+        names = sorted(k for k, d in self.aux.items() if d <= set(dims))
+        if names:
+            var.setncattr("coordinates", " ".join(names))
 
     def close(self) -> None:
         """Close the file (idempotent)."""
