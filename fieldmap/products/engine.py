@@ -295,7 +295,16 @@ def compute_block(job: Job, model) -> dict:
         err = normal_rows(sub, ell, f"j{job.order}", job.device)[0] - exact
         vec = np.empty((err.shape[0], sub.lon.size, 3))
         vec[...] = err[:, None, :]
-        data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
+        # converted as vector_vars converts (the same bits); its statistics are those of the
+        # whole maps (compute), so the block carries none
+        from fieldmap.products.variables import DISTURBANCE_VARIABLES, convert_rows
+        from fieldmap.units import get_unit
+
+        comps = np.moveaxis(vec, -1, 0)
+        mods = np.empty((2, *comps.shape[1:]))
+        convert_rows(comps, comps, mods, get_unit(units).si)
+        data = dict(zip(DISTURBANCE_VARIABLES, (*comps, *mods)))
+        partial = {"vars": {}}
     elif job.quantity == "components":
         from fieldmap.grids.synthesis import centrifugal_rows, normal_rows
 
