@@ -73,9 +73,10 @@ class PeakRSS:
 def overhead(repeat: int, quick: bool) -> None:
     """Two tables: the map returned in memory, and the map written to a file (the CLI's job)."""
     from fieldmap.models.registry import kaula_model, load_model
-    from fieldmap.products import blocks, cluster, distributed
+    from fieldmap.products import engine
     from fieldmap.products.io import write_netcdf
     from fieldmap.products.maps import disturbance_map
+    from fieldmap.products.request import MapRequest
 
     cases = [("0.1 deg, EIGEN-6S deg 240", load_model("eigen-6s"), 0.1)]
     if not quick:
@@ -84,21 +85,19 @@ def overhead(repeat: int, quick: bool) -> None:
         cases = [("0.5 deg, EIGEN-6S deg 240", load_model("eigen-6s"), 0.5)]
     results = {}
     for label, mod, step in cases:
-        grid = distributed.prepare(
-            mod, None, [20000.0], step, 80.0, None, "WGS84", None, None, "mGal"
-        )[0]
-        plan = blocks.plan_blocks(grid, mod.lmax)
+        request = MapRequest.build(model=mod, heights_m=[20000.0], step_deg=step)
+        grid = request.grid
+        plan = engine.plan_blocks(grid, mod.lmax)
         kw = dict(model=mod, height_km=20.0, step_deg=step, progress=False)
         disturbance_map(**kw)  # warm the kernel cache
         tmp = tempfile.mkdtemp(prefix="bench-dask-")
-        store = dict(heights_m=[20000.0], model=mod, step_deg=step, stacked=False)
 
         def today_file():  # what `fieldmap map` does: the map in memory, then the NetCDF
             write_netcdf(disturbance_map(**kw), f"{tmp}/today.nc")
 
         def engine_file(fmt, client=None):
             ext = "zarr" if fmt == "zarr" else "nc"
-            distributed.write_disturbance(f"{tmp}/m.{ext}", fmt, **store, client=client)
+            engine.write_product(request.executing(executor=client), f"{tmp}/m.{ext}", fmt)
 
         row = {
             "nlat": grid.lat.size,
@@ -112,7 +111,7 @@ def overhead(repeat: int, quick: bool) -> None:
             "zarr": median_time(lambda: engine_file("zarr"), repeat),
         }
         for n in (1, 2):
-            with cluster.open_client(("local", n)) as client:
+            with engine.open_client(("local", n)) as client:
                 disturbance_map(**kw, client=client)  # workers load kernels and the model
                 row[f"local:{n}"] = median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
@@ -167,7 +166,7 @@ def projection(results: dict) -> None:
     c_fft per node from the degree-240 map once its Legendre part is removed.
     """
     from fieldmap.grids.spec import make_grid
-    from fieldmap.products import blocks
+    from fieldmap.products import engine
 
     big = [r for r in results.values() if r["lmax"] == 2190]
     small = [r for r in results.values() if r["lmax"] == 240]
@@ -187,10 +186,10 @@ def projection(results: dict) -> None:
     nlat, nlon, nh = 10801, 21600, 5
     t1 = nh * nlat * (a * nm_b**2 / 2 + c * nlon)  # one worker of 2 cores
     grid = make_grid(1 / 60, 90.0, None, [2e4], whole_in_memory=False)
-    plan_rows = max(b.rows.size for b in blocks.plan_blocks(grid, 2190))
+    plan_rows = max(b.rows.size for b in engine.plan_blocks(grid, 2190))
     # interpreter R0 = 0.21 GiB (measured by --big); model: C, S on the host, C, S and three
     # recursion tables on the device = 7 * 8 * nm^2 bytes
-    mem = blocks.block_bytes(plan_rows, 2190, nlon) + 56 * nm_b**2 + 0.21 * 2**30
+    mem = engine.block_bytes(plan_rows, 2190, nlon) + 56 * nm_b**2 + 0.21 * 2**30
     size = nh * nlat * nlon * 5 * 8
     print("\nProjection: 1' (10,801 x 21,600) degree-2190 global map at 5 heights")
     print(
@@ -217,22 +216,17 @@ def projection(results: dict) -> None:
 
 
 def big(out: str, fmt: str, workers: int) -> None:
-    from fieldmap.products import cluster, distributed
+    from fieldmap.products import engine
+    from fieldmap.products.request import MapRequest
 
     path = os.path.join(out, f"bench_big_0.02deg.{'zarr' if fmt == 'zarr' else 'nc'}")
     t0 = time.perf_counter()
-    with PeakRSS() as mon, cluster.open_client(("local", workers)) as client:
+    with PeakRSS() as mon, engine.open_client(("local", workers)) as client:
         t1 = time.perf_counter()
-        info = distributed.write_disturbance(
-            path,
-            fmt,
-            heights_m=[20000.0],
-            step_deg=0.02,
-            lat_max=90.0,
-            stacked=False,
-            client=client,
-            progress=True,
+        request = MapRequest.build(
+            heights_m=[20000.0], step_deg=0.02, lat_max=90.0, client=client, progress=True
         )
+        info = engine.write_product(request, path, fmt)
         t2 = time.perf_counter()
     grid = info["grid"]
     s = info["stats"][0]

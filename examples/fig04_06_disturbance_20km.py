@@ -14,7 +14,7 @@ from _settings import lmax, out_dir, step
 import fieldmap
 from fieldmap.products import plots
 from fieldmap.products.io import write_png
-from fieldmap.products.maps import summary
+from fieldmap.products.variables import summary
 
 ds = fieldmap.disturbance_map(
     model="eigen-6s",

@@ -7,7 +7,8 @@ product → file), with navigation apart:
 - :mod:`fieldmap.field`: ellipsoids, normal gravity, SH synthesis, gravity and its gradient
   tensor at points, frames;
 - :mod:`fieldmap.grids`: grid specifications, row-wise synthesis, longitude sums;
-- :mod:`fieldmap.products`: maps, statistics, CF metadata, writers, plots;
+- :mod:`fieldmap.products`: map requests, the block engine, variables and statistics,
+  sinks and writers, plots, compensation tables;
 - :mod:`fieldmap.nav`: launch frames, trajectories, IMU synthesis and errors, mechanizations,
   navigation studies;
 - :mod:`fieldmap.cli`: the ``fieldmap`` command;
@@ -69,7 +70,8 @@ _LAZY = {
     "altitude_sweep": "fieldmap.products.maps",
     "truncation_map": "fieldmap.products.maps",
     "component_maps": "fieldmap.products.maps",
-    "quantity_map": "fieldmap.products.quantity_maps",
+    "quantity_map": "fieldmap.products.maps",
+    "MapRequest": "fieldmap.products.request",
     "write_netcdf": "fieldmap.products.io",
     # navigation
     "LaunchFrame": "fieldmap.nav.frames",
@@ -87,7 +89,7 @@ _LAZY = {
     "run_flight": "fieldmap.nav.study",
     "FlightStudy": "fieldmap.nav.study",
     "BaroSpec": "fieldmap.nav.study",
-    "build_table": "fieldmap.products.table",
+    "build_table": "fieldmap.products.tables.build",
     "allan_deviation": "fieldmap.nav.sensors",
 }
 

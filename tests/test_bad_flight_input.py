@@ -133,8 +133,8 @@ def test_empty_imu_refused(tmp_path, capsys):
 # ------------------------------------------------------------------------------------ 2.8
 def _table(tmp_path: Path) -> Path:
     """Write a table of zeros around the flights here (45..50 N, 6..10 E, 0..4 km)."""
-    from fieldmap.products.table_io import binary_bytes
-    from fieldmap.products.table_model import CompensationTable
+    from fieldmap.products.tables.files import binary_bytes
+    from fieldmap.products.tables.model import CompensationTable
 
     tab = CompensationTable(
         lat0=45.0, dlat=1.0, lon0=6.0, dlon=1.0, h0=0.0, dh=2000.0, data=np.zeros((3, 6, 5, 3))
@@ -206,16 +206,16 @@ def test_vehicle_that_never_moves_is_no_flight(tmp_path, capsys, option):
 def test_corridor_table_must_hold_its_flight(tmp_path, capsys):
     """A corridor table at 10..20 km for a flight at 1000..1240 m, refused later by navsim."""
     f = _flight(tmp_path / "good.csv")
-    argv = ["table", "--lmax", "20", "--corridor", str(f), "--heights-km", "10,20"]
+    argv = ["table", "--lmax", "20", "--corridor", str(f), "--height-km", "10,20"]
     line = _refused(
         [*argv, "--max-error-mgal", "5"],
         tmp_path,
         capsys,
-        "--heights-km 10,20",
+        "--height-km 10,20",
         "--corridor",
         "at t = 0 s",
         "as navsim flies it",
-        "give at least --heights-km 0.9,20",
+        "give at least --height-km 0.9,20",
     )
     assert "height_ref" not in line
 
@@ -228,7 +228,7 @@ def test_corridor_heights_are_checked_on_the_path_navsim_flies(tmp_path, capsys,
     h[60] = 9000.0  # an ADS-B altitude glitch
     f = _flight(tmp_path / "spike.csv", h=h)
     cli_table._check_corridor_heights(f, [800.0, 1400.0])  # accepted, as navsim would
-    with pytest.raises(InputError, match="give at least --heights-km 0.9,1.4"):
+    with pytest.raises(InputError, match="give at least --height-km 0.9,1.4"):
         cli_table._check_corridor_heights(f, [1000.0, 1400.0])
 
 

@@ -20,7 +20,8 @@ from fieldmap.field.ellipsoid import WGS84
 from fieldmap.grids import spec as gridspec
 from fieldmap.grids import synthesis as G
 from fieldmap.nav.frames import LaunchFrame
-from fieldmap.products import maps, stats
+from fieldmap.products import maps
+from fieldmap.products import statistics as stats
 
 LMAX = 4  # small degree: these tests are about input checks, not the series
 

@@ -7,9 +7,10 @@ import pytest
 
 from fieldmap import _warp
 from fieldmap.errors import InputError
-from fieldmap.products import blockstats as bs
-from fieldmap.products.cf import vector_vars
-from fieldmap.products.stats import area_weights
+from fieldmap.products import engine
+from fieldmap.products import statistics as bs
+from fieldmap.products.statistics import area_weights
+from fieldmap.products.variables import vector_vars
 
 THRESHOLDS = (0.02, 0.05, 0.06, 0.10)
 
@@ -67,7 +68,7 @@ def test_disturbance_partial_same_bits(threads, layout, units, shape):
     ref_vec = vec.copy(order="K")  # the same layout: the same order of the sums of squares
     ref = {k: v[1] for k, v in vector_vars(ref_vec, (), units, "", overwrite=True).items()}
     with _warp.threads(threads):
-        data, part = bs.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
+        data, part = engine.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
         again = bs.block_partial(ref["modulus_mg"], rw, THRESHOLDS, hw)
     assert list(data) == list(ref)
     for name in ref:
@@ -85,7 +86,7 @@ def test_disturbance_partial_non_finite(bad):
     vec[50, 3, 1] = bad
     rw = area_weights(np.linspace(-80, 80, 64))
     with _warp.threads(2), pytest.raises(InputError, match="map holds non-finite values"):
-        bs.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
+        engine.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
 
 
 def test_scalar_bin_matches_array_bins():
@@ -104,10 +105,10 @@ def test_dataset_without_merge_is_the_constructors(stacked):
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.spec import make_grid
     from fieldmap.models.registry import load_model
-    from fieldmap.products import blockmeta, cf
+    from fieldmap.products import variables
 
     grid = make_grid(10.0, 80.0, None, np.array([2e4, 5e4] if stacked else [2e4]))
-    parts = blockmeta.template_parts(
+    parts = variables.disturbance_template_parts(
         load_model("eigen-6s", lmax=4), grid, get_ellipsoid("WGS84"), "mGal", THRESHOLDS, stacked
     )
     rng = np.random.default_rng(3)
@@ -118,8 +119,8 @@ def test_dataset_without_merge_is_the_constructors(stacked):
     if stacked:
         stat = {"max_mg": 1.0, "mean_mg": 0.5, "p50_mg": 0.4, "p99_mg": 0.9}
         stat["area_fraction_above"] = {f"{t:g}": 0.1 for t in THRESHOLDS}
-        data.update(cf.sweep_statistics([stat, stat], THRESHOLDS))
-    fast = blockmeta.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
+        data.update(variables.sweep_statistics([stat, stat], THRESHOLDS))
+    fast = variables.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
     want = xr.Dataset(dict(data), coords=parts["coords"], attrs=dict(parts["attrs"]))
     xr.testing.assert_identical(fast, want)
     xr.testing._assert_internal_invariants(fast, check_default_indexes=True)

@@ -21,7 +21,8 @@ import xarray as xr
 
 import fieldmap
 from fieldmap.errors import InputError
-from fieldmap.products import cf, io, maps
+from fieldmap.products import io, maps, variables
+from fieldmap.units import UNITS
 
 TABLES = {
     "-s": "cf-standard-name-table.xml",
@@ -44,7 +45,7 @@ def _tables_dir() -> Path | None:
 def _products() -> dict:
     """One small Dataset of every kind the package writes as NetCDF."""
     from fieldmap.nav.study import to_dataset
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     nav = types.SimpleNamespace(
         pos=np.linspace(0.0, 5.0, 10).reshape(2, 5),
@@ -81,34 +82,25 @@ def files(tmp_path_factory):
     ds = fieldmap.disturbance_map(**SMALL)
     out["disturbance_float32"] = io.write_netcdf(ds, folder / "f32.nc", dtype="float32")
     # written block by block by the block engine (fieldmap map --scheduler ...)
-    from fieldmap.products.distributed import write_disturbance
+    from fieldmap.products.engine import write_product
+    from fieldmap.products.request import MapRequest
 
+    small = dict(lmax=30, step_deg=10.0, device="cpu", rows_per_block=4)
     for name, heights, stacked in (
         ("streamed_map", (2e4,), False),
         ("streamed_sweep", (2e4, 5e4), True),
     ):
         path = folder / f"{name}.nc"
-        write_disturbance(
-            path,
-            "netcdf",
-            lmax=30,
-            heights_m=heights,
-            step_deg=10.0,
-            device="cpu",
-            stacked=stacked,
-            rows_per_block=4,
-        )
+        write_product(MapRequest.build(heights_m=heights, stacked=stacked, **small), path)
         out[name] = path
-    from fieldmap.products.distributed import prepare_quantity, write_quantity
-
     for name, q, heights in (
         ("streamed_geoid", "geoid", (0.0,)),
         ("streamed_deflection_sweep", "deflection", (2e4, 5e4)),
         ("streamed_gradient_sweep", "gradient-disturbance", (2e4, 5e4)),
     ):
         path = folder / f"{name}.nc"
-        setup = prepare_quantity(q, "eigen-6s", 30, heights, 10.0, 80.0, None, "WGS84", "cpu", None)
-        write_quantity(path, "netcdf", q, setup=setup, rows_per_block=4)
+        kw = {} if q == "geoid" else {"heights_m": heights}
+        write_product(MapRequest.build(quantity=q, stacked=True, **kw, **small), path)
         out[name] = path
     return out
 
@@ -205,23 +197,23 @@ def test_names_units_and_coordinates_by_hand(product, files):
 def test_milli_g_units_convert_as_acceleration():
     """The units written for mg mean 9.80665e-3 m s-2 to UDUNITS (not a milligram)."""
     cfunits = pytest.importorskip("cfunits", reason="cfunits comes with cfchecker (test extra)")
-    mg = cfunits.Units(cf.MG_UNITS)
+    mg = cfunits.Units(variables.MG_UNITS)
     assert mg.isvalid and mg.equivalent(cfunits.Units("m s-2"))
     assert not cfunits.Units("mg").equivalent(cfunits.Units("m s-2"))  # why "mg" is not used
     # 1 mg = 980.665 mGal = 9.80665e-3 m s-2 (standard gravity, CGPM 1901)
     got = cfunits.Units.conform(1.0, mg, cfunits.Units("mGal"))
     assert got == pytest.approx(980.665, rel=1e-14)
-    for name in cf.UNITS:
-        assert cfunits.Units(cf.cf_units(name)).equivalent(cfunits.Units("m s-2")), name
-        assert cf.units_scale(cf.cf_units(name)) == cf.UNITS[name].si
+    for name in UNITS:
+        assert cfunits.Units(variables.cf_units(name)).equivalent(cfunits.Units("m s-2")), name
+        assert variables.units_scale(variables.cf_units(name)) == UNITS[name].si
 
 
 def test_attribute_names_keep_json_keys():
-    assert cf.fraction_attr(0.05) == "area_fraction_above_0p05_mg"
-    assert cf.fraction_attr(0.1) == "area_fraction_above_0p1_mg"
-    assert cf.attr_name("p99.9_mg") == "p99p9_mg"
+    assert variables.fraction_attr(0.05) == "area_fraction_above_0p05_mg"
+    assert variables.fraction_attr(0.1) == "area_fraction_above_0p1_mg"
+    assert variables.attr_name("p99.9_mg") == "p99p9_mg"
     ds = fieldmap.disturbance_map(**SMALL, thresholds_mg=(0.025, 0.05))
-    s = maps.summary(ds)
+    s = variables.summary(ds)
     assert set(s["area_fraction_above"]) == {"0.025", "0.05"}  # JSON keys as written
     assert s["area_fraction_above"]["0.025"] == ds.attrs["area_fraction_above_0p025_mg"]
 

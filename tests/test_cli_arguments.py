@@ -189,8 +189,8 @@ def test_figure_view_keeps_the_products_step(tmp_path):
     import numpy as np
     import xarray as xr
 
-    from fieldmap.products import blockstore
-    from fieldmap.products.mapaxes import node_step
+    from fieldmap.products import sinks
+    from fieldmap.products.plots import node_step
 
     lat, lon = np.arange(-60.0, 60.01, 0.5), np.arange(-180.0, 180.0, 0.5)
     ds = xr.Dataset(
@@ -199,11 +199,11 @@ def test_figure_view_keeps_the_products_step(tmp_path):
         attrs={"grid_step_deg": 0.5},
     )
     ds.to_netcdf(tmp_path / "p.nc")
-    view = blockstore.decimated(tmp_path / "p.nc", "netcdf", max_nodes=10_000)
+    view = sinks.decimated(tmp_path / "p.nc", "netcdf", max_nodes=10_000)
     s = view.attrs["figure_decimation"]
     assert s == 5 and view.attrs["grid_step_deg"] == 0.5  # ceil(sqrt(241 * 720 / 1e4))
     assert node_step(view) == 2.5 == float(view["longitude"][1] - view["longitude"][0])
-    full = blockstore.decimated(tmp_path / "p.nc", "netcdf")
+    full = sinks.decimated(tmp_path / "p.nc", "netcdf")
     assert "figure_decimation" not in full.attrs and node_step(full) == 0.5
 
 
@@ -212,7 +212,8 @@ def test_table_with_nan_values_is_named(tmp_path):
     import numpy as np
 
     from fieldmap.errors import InputError
-    from fieldmap.products import table_io, table_model
+    from fieldmap.products.tables import files as table_io
+    from fieldmap.products.tables import model as table_model
 
     good = table_model.CompensationTable(
         0.0, 1.0, 0.0, 1.0, 0.0, 1000.0, np.zeros((2, 4, 4, 3)), {"lmax": 10}

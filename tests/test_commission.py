@@ -258,7 +258,7 @@ def test_cli_model_without_sigma(monkeypatch, capsys, tmp_path):
 # ------------------------------------------------------------------------------------ grids
 def test_grid_sigma_maps_equal_the_point_sigma_at_every_node():
     """commission_grid's row folding gives commission_sigma's values at the nodes, poles too."""
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     model = load_model("eigen-6s", lmax=60)
     kw = dict(model=model, step_deg=15.0, lat_max=90.0)
@@ -283,7 +283,7 @@ def test_grid_sigma_maps_equal_the_point_sigma_at_every_node():
 
 
 def test_grid_sigma_same_bits_for_any_block_size_and_refuses_models_without_sigma():
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     kw = dict(model=load_model("eigen-6s", lmax=40), region=(0, 20, -10, 10), step_deg=2.0)
     ref = quantity_map("disturbance-sigma", **kw)

@@ -19,31 +19,43 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fieldmap.products import cf
+from fieldmap.errors import InputError
+from fieldmap.products import variables as cf
 
 distributed = pytest.importorskip("distributed")
 pytest.importorskip("zarr")
 
-from fieldmap.products import blockio, blocks, blockstats, cluster  # noqa: E402
-from fieldmap.products import distributed as D  # noqa: E402
+from fieldmap.products import engine, sinks  # noqa: E402
+from fieldmap.products import statistics as blockstats  # noqa: E402
 from fieldmap.products.maps import altitude_sweep, disturbance_map, truncation_map  # noqa: E402
-from fieldmap.products.stats import map_statistics  # noqa: E402
+from fieldmap.products.request import MapRequest  # noqa: E402
+from fieldmap.products.statistics import map_statistics  # noqa: E402
 
 KW = dict(lmax=40, step_deg=3.0)
 ROWS = 8  # several blocks per height on these small grids
-VARS = blockio.VARIABLES
+VARS = cf.DISTURBANCE_VARIABLES
+
+
+def _blocks(**options):
+    """Compute the product of the request of ``options`` on the engine."""
+    return engine.compute(MapRequest.build(**options))
+
+
+def _write(path, fmt, **options):
+    """Stream the product of the request of ``options`` to ``path``."""
+    return engine.write_product(MapRequest.build(**options), path, fmt)
 
 
 @pytest.fixture(scope="module")
 def client():
-    with cluster.open_client(("local", 2)) as c:
+    with engine.open_client(("local", 2)) as c:
         yield c
 
 
 @pytest.fixture(scope="module")
 def local_map():
     """Make the map here, blocks one after the other (the reference of the promises)."""
-    return D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
+    return _blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
 
 
 def _same(a: xr.Dataset, b: xr.Dataset) -> None:
@@ -55,8 +67,8 @@ def _same(a: xr.Dataset, b: xr.Dataset) -> None:
 
 
 def test_plan_covers_every_row_once_with_its_mirror():
-    grid = D.prepare("eigen-6s", 40, [2e4, 5e4], 3.0, 80.0, None, "WGS84", None, None, "mGal")[0]
-    plan = blocks.plan_blocks(grid, 40, ROWS)
+    grid = MapRequest.build(lmax=40, heights_m=[2e4, 5e4], step_deg=3.0, stacked=True).grid
+    plan = engine.plan_blocks(grid, 40, ROWS)
     nlat = grid.lat.size
     for layer in range(2):
         rows = np.concatenate([b.rows for b in plan if b.layer == layer])
@@ -70,7 +82,7 @@ def test_plan_covers_every_row_once_with_its_mirror():
 
 def test_one_block_is_bitwise_the_in_memory_map():
     ref = disturbance_map(height_km=20, **KW)
-    one = D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=10**6)
+    one = _blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=10**6)
     for v in VARS:
         assert np.array_equal(ref[v].values, one[v].values), v
 
@@ -117,18 +129,18 @@ def test_workers_are_set_up_once(client):
     """Each worker: Warp threads from its share of the cores, glibc thresholds of a process."""
 
     def probe():
-        cluster.worker_setup()
-        return cluster._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
+        engine.worker_setup()
+        return engine._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
 
     workers = list(client.scheduler_info(n_workers=-1)["workers"])
     out = [client.submit(probe, workers=[w], pure=False).result() for w in workers]
     assert len(out) == 2
     for ready, threads in out:
         assert ready and int(threads) >= 1
-    cluster.worker_setup()  # not a worker: nothing changes here
-    assert not cluster._WORKER_READY
+    engine.worker_setup()  # not a worker: nothing changes here
+    assert not engine._WORKER_READY
     if "glibc" in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
-        assert cluster._glibc_thresholds(32 * 2**20)
+        assert engine._glibc_thresholds(32 * 2**20)
 
 
 def test_model_is_shipped_once_per_client(client):
@@ -139,15 +151,15 @@ def test_model_is_shipped_once_per_client(client):
 
     m1 = load_model("eigen-6s", lmax=20)
     m2 = dataclasses.replace(m1, name="copy")  # another object, alive only here
-    f1 = cluster.scattered(client, m1)
-    assert cluster.scattered(client, m1) is f1  # reused by the next product
-    f2 = cluster.scattered(client, m2)
+    f1 = engine.scattered(client, m1)
+    assert engine.scattered(client, m1) is f1  # reused by the next product
+    f2 = engine.scattered(client, m2)
     assert f2.key != f1.key
     assert client.submit(lambda m: m.name, f2).result() == "copy"
     key = f2.key
     del m2, f2
     gc.collect()  # the model is gone: its copy on the cluster is released
-    assert key not in {fut.key for _, fut in cluster._SCATTERED[client].values()}
+    assert key not in {fut.key for _, fut in engine._SCATTERED[client].values()}
     # the release is asynchronous: wait for it, bounded only so that a lost release cannot hang
     # the run (a guard, not a speed claim: any loaded machine releases well within it)
     deadline = time.monotonic() + 120
@@ -161,9 +173,7 @@ def test_local_cluster_is_bitwise_identical(client, local_map):
     dist = disturbance_map(height_km=20, **KW, client=client)  # default plan
     here = disturbance_map(height_km=20, **KW, scheduler="threads")
     _same(here, dist)
-    on2 = D.disturbance_blocks(
-        heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS, client=client
-    )
+    on2 = _blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS, client=client)
     _same(local_map, on2)
 
 
@@ -171,23 +181,23 @@ def test_in_memory_map_through_shared_memory_or_sockets(client, local_map, monke
     """Workers of this host write the map into shared memory; elsewhere it comes back by Dask."""
     import glob
 
-    shm = blockio.SHM_DIR
+    shm = sinks.SHM_DIR
     before = set(glob.glob(os.path.join(shm, "fieldmap-blocks-*")))
     made = []
-    create = blockio.SharedArrays.create.__func__
+    create = sinks.SharedArrays.create.__func__
 
     def spy(cls, *a, **k):
         made.append(create(cls, *a, **k))
         return made[-1]
 
-    monkeypatch.setattr(blockio.SharedArrays, "create", classmethod(spy))
+    monkeypatch.setattr(sinks.SharedArrays, "create", classmethod(spy))
     kw = dict(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS, client=client)
-    shared = D.disturbance_blocks(**kw)
+    shared = _blocks(**kw)
     _same(local_map, shared)
     assert os.path.isdir(shm) == (made[-1] is not None)  # shared memory used where there is one
     shared["east"].values[0, 0] = 1e9  # copy-on-write: the caller's own array
-    monkeypatch.setattr(blockio, "SHM_DIR", "/nonexistent-shm")  # no shared memory: sockets
-    sockets = D.disturbance_blocks(**kw)
+    monkeypatch.setattr(sinks, "SHM_DIR", "/nonexistent-shm")  # no shared memory: sockets
+    sockets = _blocks(**kw)
     assert made[-1] is None
     _same(local_map, sockets)
     assert set(glob.glob(os.path.join(shm, "fieldmap-blocks-*"))) <= before  # nothing left
@@ -196,16 +206,16 @@ def test_in_memory_map_through_shared_memory_or_sockets(client, local_map, monke
 def test_shared_memory_probe(tmp_path):
     p = tmp_path / "probe"
     p.write_text("abc")
-    assert blockio._probe_file(str(p), "abc")
-    assert not blockio._probe_file(str(p), "abd")
-    assert not blockio._probe_file(str(tmp_path / "missing"), "abc")
+    assert sinks._probe_file(str(p), "abc")
+    assert not sinks._probe_file(str(p), "abd")
+    assert not sinks._probe_file(str(tmp_path / "missing"), "abc")
 
 
 def test_stores_hold_the_same_bits(client, local_map, tmp_path):
     common = dict(heights_m=[20000.0], **KW, stacked=False, rows_per_block=ROWS)
-    D.write_disturbance(tmp_path / "a.zarr", "zarr", **common, client=client)
-    D.write_disturbance(tmp_path / "b.nc", "netcdf", **common, client=client)
-    D.write_disturbance(tmp_path / "c.nc", "netcdf", **common)  # here, no cluster
+    _write(tmp_path / "a.zarr", "zarr", **common, client=client)
+    _write(tmp_path / "b.nc", "netcdf", **common, client=client)
+    _write(tmp_path / "c.nc", "netcdf", **common)  # here, no cluster
     with (
         xr.open_zarr(tmp_path / "a.zarr") as z,
         xr.open_dataset(tmp_path / "b.nc") as n,
@@ -240,7 +250,7 @@ def test_streamed_sweep_file_header_is_the_in_memory_files(tmp_path):
     from fieldmap.products.io import write_netcdf
 
     write_netcdf(altitude_sweep(height_km=[20, 50], **KW), tmp_path / "a.nc")
-    D.write_disturbance(tmp_path / "b.nc", "netcdf", heights_m=[2e4, 5e4], **KW, stacked=True)
+    _write(tmp_path / "b.nc", "netcdf", heights_m=[2e4, 5e4], **KW, stacked=True)
     with netCDF4.Dataset(tmp_path / "a.nc") as a, netCDF4.Dataset(tmp_path / "b.nc") as b:
         assert set(a.variables) == set(b.variables)
         for name in ("max_mg", "mean_mg", "p99_mg", "area_fraction_above", "modulus"):
@@ -252,12 +262,10 @@ def test_streamed_sweep_file_header_is_the_in_memory_files(tmp_path):
 @pytest.mark.parametrize(("step", "rows"), [(2.5, 6), (3.0, 10), (7.0, 4), (1.5, 30)])
 def test_zarr_shared_chunks_written_once_whole(tmp_path, step, rows, monkeypatch):
     """Odd grids and block sizes: chunks shared by two blocks, runs across two chunks."""
-    monkeypatch.setattr(blockio, "CHUNK_BYTES", 8 * 360 * 3)  # small chunks: many shared
+    monkeypatch.setattr(sinks, "CHUNK_BYTES", 8 * 360 * 3)  # small chunks: many shared
     kw = dict(lmax=10, step_deg=step)
-    ref = D.disturbance_blocks(heights_m=[2e4], **kw, stacked=False, rows_per_block=rows)
-    D.write_disturbance(
-        tmp_path / "m.zarr", "zarr", heights_m=[2e4], **kw, stacked=False, rows_per_block=rows
-    )
+    ref = _blocks(heights_m=[2e4], **kw, stacked=False, rows_per_block=rows)
+    _write(tmp_path / "m.zarr", "zarr", heights_m=[2e4], **kw, stacked=False, rows_per_block=rows)
     with xr.open_zarr(tmp_path / "m.zarr") as z:
         for v in VARS:
             assert np.array_equal(z[v].values, ref[v].values), v
@@ -274,7 +282,7 @@ def test_lazy_dataset(client, local_map):
 
 
 def test_lazy_quantity_dataset(client):
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     ref = quantity_map("deflection", **KW, height_km=[20.0, 50.0])
     lazy = quantity_map("deflection", **KW, height_km=[20.0, 50.0], chunks=ROWS, client=client)
@@ -288,12 +296,11 @@ def test_lazy_quantity_dataset(client):
 
 
 def test_worker_killed_mid_run_still_completes_identically(client):
-    grid, _, mod = D.prepare(
-        "eigen-6s", 40, [20000.0], 3.0, 80.0, None, "WGS84", None, None, "mGal"
-    )
+    req = MapRequest.build(lmax=40, heights_m=[2e4], step_deg=3.0, rows_per_block=4, window=8)
+    grid = req.grid
     with contextlib.nullcontext(client) as c:
         pids = list(c.run(os.getpid).values())
-        mem = blockio.MemorySink(grid, False)
+        mem = sinks.MemorySink(grid, False)
         killed = []
 
         def sink(block, data):
@@ -302,9 +309,9 @@ def test_worker_killed_mid_run_still_completes_identically(client):
                 killed.append(pids[-1])
             mem.sink(block, data)
 
-        stats = blocks.run_blocks(grid, mod, rows_per_block=4, client=c, sink=sink, window=8)
+        stats = engine.run_blocks(req, client=c, sink=sink)
         assert killed
-    ref = D.disturbance_blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=4)
+    ref = _blocks(heights_m=[20000.0], **KW, stacked=False, rows_per_block=4)
     for v in VARS:
         assert np.array_equal(mem.arrays[v], ref[v].values), v
     assert stats[0]["max_mg"] == ref.attrs["max_mg"]
@@ -314,7 +321,7 @@ def test_worker_killed_mid_run_still_completes_identically(client):
 
 def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
     calls = []
-    real = blocks.compute_block
+    real = engine.compute_block
 
     def failing(job, model):
         calls.append(job.block.index)
@@ -322,13 +329,11 @@ def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
             raise RuntimeError("disk on fire")
         return real(job, model)
 
-    monkeypatch.setattr(blocks, "compute_block", failing)
+    monkeypatch.setattr(engine, "compute_block", failing)
     for fmt, name in (("zarr", "m.zarr"), ("netcdf", "m.nc")):
         calls.clear()
         with pytest.raises(RuntimeError, match="disk on fire"):
-            D.write_disturbance(
-                tmp_path / name, fmt, heights_m=[2e4], **KW, stacked=False, rows_per_block=ROWS
-            )
+            _write(tmp_path / name, fmt, heights_m=[2e4], **KW, stacked=False, rows_per_block=ROWS)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -344,13 +349,15 @@ def _free_port() -> int:
 )
 def test_quantity_maps_on_the_cluster(client, quantity, heights):
     """Values bitwise those of the in-memory map; statistics summed by blocks, same everywhere."""
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     ref = quantity_map(quantity, **KW, height_km=heights)
     dist = quantity_map(quantity, **KW, height_km=heights, client=client)
     hs = np.atleast_1d(heights) * 1e3
-    here = D.quantity_blocks(quantity, **KW, heights_m=hs, rows_per_block=ROWS)
-    on2 = D.quantity_blocks(quantity, **KW, heights_m=hs, rows_per_block=ROWS, client=client)
+    here = _blocks(quantity=quantity, stacked=True, **KW, heights_m=hs, rows_per_block=ROWS)
+    on2 = _blocks(
+        quantity=quantity, stacked=True, **KW, heights_m=hs, rows_per_block=ROWS, client=client
+    )
     assert set(dist.data_vars) == set(ref.data_vars) and set(dist.attrs) == set(ref.attrs)
     for v in ref.data_vars:
         assert np.array_equal(ref[v].values, here[v].values) or v.endswith(("_mean", "_rms")), v
@@ -371,15 +378,12 @@ def test_quantity_maps_on_the_cluster(client, quantity, heights):
 
 
 def test_quantity_stores_hold_the_same_bits(client, tmp_path):
-    from fieldmap.products.quantity_maps import quantity_map
+    from fieldmap.products.maps import quantity_map
 
     ref = quantity_map("deflection", **KW, height_km=[20.0, 50.0])
-    setup = D.prepare_quantity(
-        "deflection", "eigen-6s", 40, [2e4, 5e4], 3.0, 80.0, None, "WGS84", None, None
-    )
-    common = dict(setup=setup, rows_per_block=ROWS)
-    D.write_quantity(tmp_path / "a.zarr", "zarr", "deflection", **common, client=client)
-    D.write_quantity(tmp_path / "b.nc", "netcdf", "deflection", **common, client=client)
+    common = dict(quantity="deflection", stacked=True, heights_m=[2e4, 5e4], rows_per_block=ROWS)
+    _write(tmp_path / "a.zarr", "zarr", **KW, **common, client=client)
+    _write(tmp_path / "b.nc", "netcdf", **KW, **common, client=client)
     with xr.open_zarr(tmp_path / "a.zarr") as z, xr.open_dataset(tmp_path / "b.nc") as n:
         for ds in (z, n):
             for v in ("xi", "eta", "xi_max", "eta_min"):
@@ -387,8 +391,8 @@ def test_quantity_stores_hold_the_same_bits(client, tmp_path):
             assert ds["xi"].attrs["units"] == "arcsec"
             assert ds.attrs["quantity"] == "deflection"
             np.testing.assert_array_equal(z["xi_rms"].values, n["xi_rms"].values)
-    with pytest.raises(D.InputError, match="quantity must be one of"):
-        D.prepare_quantity("curvature", "eigen-6s", 40, [2e4], 3.0, 80.0, None, "WGS84", None, None)
+    with pytest.raises(InputError, match="quantity must be one of"):
+        MapRequest.build(quantity="curvature", lmax=40, heights_m=[2e4])
 
 
 def test_cli_truncation_on_local_cluster_equals_here(tmp_path):
@@ -464,8 +468,8 @@ def test_unreachable_scheduler_one_line_exit_2(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1
     assert "cannot reach the Dask scheduler" in r.stderr
     assert not out.exists()
-    with pytest.raises(D.InputError, match="local:N"):
-        cluster.parse_scheduler("local:0")
+    with pytest.raises(InputError, match="local:N"):
+        engine.parse_scheduler("local:0")
 
 
 @pytest.mark.slow

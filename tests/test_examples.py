@@ -60,7 +60,7 @@ def _check_section41_numbers(out):
 
     from fieldmap.field.gravity import disturbance
     from fieldmap.grids.spec import make_grid
-    from fieldmap.products.stats import weights_2d
+    from fieldmap.products.statistics import weights_2d
 
     rows = (re.match(r"(.+?)\s{2,}([-+.\de]+) ", line) for line in out.splitlines())
     ours = {m[1]: float(m[2]) for m in rows if m}

@@ -305,7 +305,8 @@ def test_grid_quantities_vs_points(eigen6s, device):
 
 def test_quantity_map_dataset(eigen6s):
     """quantity_map: CF attributes, values equal to the point functions, sweeps stack heights."""
-    from fieldmap.products.quantity_maps import quantity_map, summary
+    from fieldmap.products.maps import quantity_map
+    from fieldmap.products.variables import summary
 
     ds = quantity_map("geoid", model=eigen6s, step_deg=30.0, height_km=20.0)
     assert ds.attrs["Conventions"] == "CF-1.8" and ds.attrs["quantity"] == "geoid"
@@ -375,7 +376,7 @@ def test_cli_map_quantity(tmp_path, eigen6s):
 def test_cli_quantity_choices_match_products():
     """The --quantity choices spelt out in cli/maps are the products' quantities."""
     from fieldmap.cli import build_parser
-    from fieldmap.products.quantity_maps import QUANTITIES
+    from fieldmap.products.variables import QUANTITIES
 
     sub = build_parser()._subparsers._group_actions[0].choices
     for cmd in ("map", "sweep"):

@@ -20,7 +20,7 @@ from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.gradient import EOTVOS, GRID_COMPONENTS, gradient_tensor
 from fieldmap.models.registry import load_model
-from fieldmap.products.quantity_maps import quantity_map
+from fieldmap.products.maps import quantity_map
 
 REGION = (100.0, 106.0, 24.0, 30.0)
 TWO_OMEGA2 = 2.0 * WGS84.omega**2 / EOTVOS

@@ -75,7 +75,7 @@ def test_region_across_antimeridian():
 
 def test_area_weights_closed_form():
     lat = np.linspace(-90, 90, 181)
-    from fieldmap.products.stats import area_weights
+    from fieldmap.products.statistics import area_weights
 
     w = area_weights(lat)
     assert w.sum() == pytest.approx(2.0, rel=1e-14, abs=0)  # ∫cos φ dφ over the sphere

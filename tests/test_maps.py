@@ -9,7 +9,8 @@ import pytest
 import fieldmap
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
-from fieldmap.products import io, maps, plots, stats
+from fieldmap.products import engine, io, maps, plots, variables
+from fieldmap.products import statistics as stats
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -115,7 +116,7 @@ def test_truncation_statistics_are_area_weighted():
     )
     # the J2 error grows towards the poles: a node mean would be 5 % larger
     assert float(v.mean()) > 1.03 * expect
-    s = maps.summary(tr)
+    s = variables.summary(tr)
     assert s["mean_mg"]["j2"] == float(tr.mean_mg[0]) and s["rms_mg"]["j2"] > s["mean_mg"]["j2"]
 
 
@@ -183,7 +184,7 @@ def test_sweep_consistent_with_single_maps(small_map):
     # upward continuation attenuates the field: max and mean fall with height
     assert sw.max_mg.values[1] < sw.max_mg.values[0]
     assert sw.mean_mg.values[1] < sw.mean_mg.values[0]
-    s = maps.summary(sw)
+    s = variables.summary(sw)
     assert s["height_m"] == [20000.0, 100000.0] and set(s["area_fraction_above"]) == {
         "0.02",
         "0.05",
@@ -227,7 +228,7 @@ def test_truncation_j2_error_is_the_j4_term():
     j2 = np.stack([tr.sel(order=2)[c].values[:, 0] for c in ("east", "north", "up")], axis=-1)
     expected = _j4_term_gravitation(lat, 20e3)
     assert np.max(np.abs(j2 - expected)) < 5e-3 * np.max(np.abs(expected))
-    s = maps.summary(tr)
+    s = variables.summary(tr)
     assert set(s["max_mg"]) == {"j2", "j4"}
     # magnitudes of Chen et al. 2022 §4.2: J2 ~ 0.01 mg, J4 ~ 1e-5 mg
     assert 0.005 < s["max_mg"]["j2"] < 0.02 and 5e-6 < s["max_mg"]["j4"] < 1e-4
@@ -391,10 +392,10 @@ def test_progress_bar_on_request_or_on_a_terminal(capsys, monkeypatch):
     assert "blocks" in capsys.readouterr().err
     fieldmap.disturbance_map(lmax=10, step_deg=30.0, device="cpu")  # short, and not a tty
     assert capsys.readouterr().err == ""
-    assert not maps.show_progress(10**8)  # pytest's stderr is not a terminal
+    assert not engine.show_progress(10**8)  # pytest's stderr is not a terminal
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
-    assert maps.show_progress(maps.PROGRESS_NODES) and not maps.show_progress(10**4)
-    assert not maps.show_progress(10**8, progress=False)  # quiet
+    assert engine.show_progress(engine.PROGRESS_NODES) and not engine.show_progress(10**4)
+    assert not engine.show_progress(10**8, progress=False)  # quiet
 
 
 def test_coastline_data():
@@ -433,7 +434,7 @@ def test_dataset_index_cache_is_bounded():
     """The shared coordinate indexes: at most 16 kept, each Dataset indexed by its own values."""
     import xarray as xr
 
-    from fieldmap.products import blockmeta
+    from fieldmap.products import variables as blockmeta
 
     for k in range(20):
         lat = xr.Variable("latitude", np.arange(3.0) + k)

@@ -1,6 +1,6 @@
 """Compensation tables in the kernels (issue 18): ``kernels/navtable.py`` vs the NumPy paths.
 
-The kernel interpolation is checked against :func:`fieldmap.products.table_model.interpolate`
+The kernel interpolation is checked against :func:`fieldmap.products.tables.model.interpolate`
 (the NumPy interpolator, written separately) at random points — cells next to the domain edges,
 the ghost heights, a table across the antimeridian — and the navigation gravitation against the
 exact normal gravitation of :mod:`fieldmap.field.normal` plus the interpolated δg rotated with
@@ -18,7 +18,7 @@ from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.normal import normal_gravitation_ecef
 from fieldmap.nav.gravity import table_gravitation, table_points
-from fieldmap.products.table_model import CompensationTable, interpolate
+from fieldmap.products.tables.model import CompensationTable, interpolate
 
 
 def _table(lon0=170.0, seed=4) -> CompensationTable:
@@ -97,7 +97,7 @@ def test_points_outside_are_refused():
 
 # ------------------------------------------------------------------- navigating with a table
 def _write(tmp_path, data, name="t.bin"):
-    from fieldmap.products.table_io import binary_bytes
+    from fieldmap.products.tables.files import binary_bytes
 
     tab = CompensationTable(lat0=25.0, dlat=1.0, lon0=100.0, dlon=1.0, h0=0.0, dh=2000.0, data=data)
     path = tmp_path / name
@@ -183,8 +183,8 @@ ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
 @pytest.fixture(scope="module")
 def table60(tmp_path_factory):
-    from fieldmap.products.table import build_table
-    from fieldmap.products.table_io import binary_bytes
+    from fieldmap.products.tables.build import build_table
+    from fieldmap.products.tables.files import binary_bytes
 
     tab, rep = build_table((6.8, 8.1, 44.8, 45.5), (2.5, 5.5), 0.5, lmax=60)
     path = tmp_path_factory.mktemp("tab") / "t60.bin"

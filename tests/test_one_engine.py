@@ -19,8 +19,8 @@ import xarray as xr
 
 import fieldmap
 from fieldmap.errors import InputError
-from fieldmap.products import maps
-from fieldmap.products.stats import DEFAULT_PERCENTILES, area_weights, weighted_percentiles
+from fieldmap.products import maps, variables
+from fieldmap.products.statistics import DEFAULT_PERCENTILES, area_weights, weighted_percentiles
 
 KW = dict(lmax=40, step_deg=3.0, device="cpu")
 
@@ -67,7 +67,7 @@ def test_percentile_method_is_explicit_and_recorded():
     for q, v in zip(DEFAULT_PERCENTILES, want):
         assert exact.attrs[f"p{q:g}_mg"] == v  # one of the map's values, exactly
         assert abs(hist.attrs[f"p{q:g}_mg"] / v - 1) <= 2.0**-13
-    assert maps.summary(exact)["percentile_method"] == exact.attrs["percentile_method"]
+    assert variables.summary(exact)["percentile_method"] == exact.attrs["percentile_method"]
     with pytest.raises(InputError, match="percentile_method"):
         fieldmap.disturbance_map(**KW, percentile_method="median-of-medians")
 
@@ -76,7 +76,7 @@ def test_lazy_products_say_they_have_no_statistics():
     pytest.importorskip("dask")
     lazy = fieldmap.disturbance_map(**KW, chunks=8)
     with pytest.raises(InputError, match="no statistics"):
-        maps.summary(lazy)
+        variables.summary(lazy)
     with pytest.raises(InputError, match="percentile_method"):
         fieldmap.disturbance_map(**KW, chunks=8, percentile_method="exact")
 

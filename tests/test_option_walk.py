@@ -114,8 +114,8 @@ def fixtures(tmp_path_factory) -> Path:
     (root / "flight.csv").write_text(_flight_csv())
     (root / "adsb.csv").write_text(_traffic_csv())
     (root / "pts.txt").write_text("-30 100 500\n")
-    from fieldmap.products.table import build_table
-    from fieldmap.products.table_io import binary_bytes
+    from fieldmap.products.tables.build import build_table
+    from fieldmap.products.tables.files import binary_bytes
 
     tab, _ = build_table((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0, lmax=20, check_points=10)
     (root / "table.bin").write_bytes(binary_bytes(tab))
@@ -321,7 +321,7 @@ _FLIGHT = ("--duration", "10", "--rate", "20", "--lmax", "10", "--models", "j2",
            "--output-dt", "1")  # fmt: skip
 _STUDY = ("--duration", "2", "--rate", "20", "--output-dt", "1")
 _POINT = "10 20 30\n"
-_TABLE = ("--heights-km", "0,10", "--max-error-mgal", "2")
+_TABLE = ("--height-km", "0,10", "--max-error-mgal", "2")
 
 CONTEXTS = {
     "point": _ctx("point", stdin=_POINT),
@@ -678,9 +678,13 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("table-corridor", "--region", "10", "11", "40", "41", expect=REFUSED, note="overlap"),
         C("table", "--region", "5", "6", "41", "40", expect=REFUSED, note="south < north"),
     ],
+    ("table", "--height-km"): [
+        C("table", "--height-km", "0,5"),
+        C("table", "--height-km", "5,5", expect=REFUSED, note="MIN < MAX"),
+    ],
+    # the deprecated spelling (a note on stderr) gives what --height-km gives
     ("table", "--heights-km"): [
-        C("table", "--heights-km", "0,5"),
-        C("table", "--heights-km", "5,5", expect=REFUSED, note="MIN < MAX"),
+        C("table", "--heights-km", "0,5", expect=ALIAS, note="--height-km")
     ],
     ("table", "--max-error-mgal"): [
         C("table", "--max-error-mgal", "0.5"),

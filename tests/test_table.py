@@ -24,7 +24,7 @@ import fieldmap
 from fieldmap import cli
 from fieldmap.errors import InputError
 from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
-from fieldmap.products.table_model import CompensationTable, interpolate, load_table
+from fieldmap.products.tables.model import CompensationTable, interpolate, load_table
 
 BOUND = 0.5  # mGal
 REGION = ("5", "10", "40", "45")
@@ -52,7 +52,7 @@ def run_cli(argv, stdin=""):
 def built(tmp_path_factory):
     """Build the 5° x 5°, 0-20 km, 0.5 mGal table of EIGEN-6S (degree 240) with the CLI."""
     out = tmp_path_factory.mktemp("table")
-    argv = ["table", "--region", *REGION, "--heights-km", "0,20", "--max-error-mgal", BOUND]
+    argv = ["table", "--region", *REGION, "--height-km", "0,20", "--max-error-mgal", BOUND]
     rc, stdout, err = run_cli([*argv, "--out", out])
     assert rc == 0, err
     return out, stdout
@@ -231,7 +231,7 @@ def test_point_outside_is_a_bad_line(built):
 
 def test_budget_refused(tmp_path):
     out = tmp_path / "o"
-    argv = ["table", "--region", *REGION, "--heights-km", "0,20", "--max-error-mgal", "0.5"]
+    argv = ["table", "--region", *REGION, "--height-km", "0,20", "--max-error-mgal", "0.5"]
     rc, stdout, err = run_cli([*argv, "--budget-mb", "0.02", "--out", out])
     line = err.strip().splitlines()[-1]
     assert rc == 2 and stdout == "" and not out.exists()
@@ -246,9 +246,9 @@ def test_budget_refused(tmp_path):
         (("--region", "5", "10", "nan", "45"), "finite"),
         (("--region", "5", "10", "40", "89.5"), "89"),
         (("--region", "0", "360", "40", "45"), "less than 360"),
-        (("--heights-km", "20,0"), "MIN < MAX"),
-        (("--heights-km", "0"), "MIN,MAX"),
-        (("--heights-km", "0,2e6"), "above"),
+        (("--height-km", "20,0"), "MIN < MAX"),
+        (("--height-km", "0"), "MIN,MAX"),
+        (("--height-km", "0,2e6"), "above"),
         (("--max-error-mgal", "-0.5"), "positive"),
         (("--max-error-mgal", "nan"), "positive"),
         (("--budget-mb", "0"), "positive"),
@@ -259,7 +259,7 @@ def test_budget_refused(tmp_path):
 )
 def test_bad_input(args, words, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    base = {"--region": REGION, "--heights-km": ("0,20",), "--max-error-mgal": ("0.5",)}
+    base = {"--region": REGION, "--height-km": ("0,20",), "--max-error-mgal": ("0.5",)}
     for k in range(0, len(args), 1):
         if args[k] in base:
             base[args[k]] = ()
@@ -269,7 +269,7 @@ def test_bad_input(args, words, tmp_path, monkeypatch):
             argv += [k, *v]
     argv += list(args)
     if args[0] == "--region":
-        argv = ["table", "--heights-km", "0,20", "--max-error-mgal", "0.5", *args]
+        argv = ["table", "--height-km", "0,20", "--max-error-mgal", "0.5", *args]
     rc, stdout, err = run_cli(argv)
     lines = err.strip().splitlines()
     assert rc == 2 and stdout == "" and len(lines) == 1, err
@@ -279,14 +279,14 @@ def test_bad_input(args, words, tmp_path, monkeypatch):
 
 def test_no_region_refused(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    rc, _, err = run_cli(["table", "--heights-km", "0,20", "--max-error-mgal", "1"])
+    rc, _, err = run_cli(["table", "--height-km", "0,20", "--max-error-mgal", "1"])
     assert rc == 2 and "--region" in err and list(tmp_path.iterdir()) == []
 
 
 def test_antimeridian_and_corridor(tmp_path):
     """A region across ±180 and a corridor around a flight; both within the bound."""
     out = tmp_path / "am"
-    argv = ["table", "--region", "179", "-179", "-1", "1", "--heights-km", "5,10"]
+    argv = ["table", "--region", "179", "-179", "-1", "1", "--height-km", "5,10"]
     rc, _, err = run_cli([*argv, "--max-error-mgal", "1", "--lmax", "120", "--out", out])
     assert rc == 0, err
     tab = f"table:{out / 'table.bin'}"
@@ -301,7 +301,7 @@ def test_antimeridian_and_corridor(tmp_path):
         + "".join(f"{a},{45 + 0.01 * a},7.0,3000.0\n" for a in t)
     )
     out = tmp_path / "corr"
-    argv = ["table", "--corridor", csv, "--width-km", "20", "--heights-km", "0,5"]
+    argv = ["table", "--corridor", csv, "--width-km", "20", "--height-km", "0,5"]
     rc, _, err = run_cli([*argv, "--max-error-mgal", "2", "--lmax", "60", "--out", out])
     assert rc == 0, err
     w, e, s, n, _, _ = load_table(out / "table.bin").domain

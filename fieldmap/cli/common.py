@@ -61,7 +61,7 @@ def stem(ds, kind: str) -> str:
 
 def thresholds_mg(args) -> list[float]:
     """``--thresholds-mg`` as validated by the API."""
-    from fieldmap.products.stats import parse_thresholds
+    from fieldmap.products.statistics import parse_thresholds
 
     return list(
         api_call(
@@ -113,3 +113,26 @@ def preflight(args, heights_km, layers: int = 1) -> None:
 def print_files(files) -> None:
     """Print the paths written, on one line."""
     print("written: " + ", ".join(str(f) for f in files))
+
+
+def map_request(args, heights_km: list[float], **fixed):
+    """Build the :class:`~fieldmap.products.request.MapRequest` of a map sub-command.
+
+    The model is loaded once, with ``--lmax``, ``--epoch`` and the model-file options
+    (:func:`fieldmap.cli.common.load_cli_model`); ``fixed`` sets the product (``quantity``,
+    ``stacked``, ``thresholds_mg``...).
+    """
+    from fieldmap.products.request import MapRequest
+
+    return MapRequest.build(
+        load=(lambda: load_cli_model(args)) if hasattr(args, "model") else None,
+        height_km=heights_km,
+        step_deg=args.step_deg,
+        lat_max=args.lat_max,
+        region=region(args),
+        ellipsoid=args.ellipsoid,
+        device=args.device,
+        scheduler=getattr(args, "scheduler", None),
+        rows_per_block=getattr(args, "rows_per_block", None),
+        **fixed,
+    )

@@ -1,7 +1,7 @@
 """``fieldmap map|sweep --scheduler ... --format ...``: products streamed block by block.
 
 Used by :mod:`fieldmap.cli.maps` when ``--scheduler`` is given or ``--format zarr``: the blocks
-of :mod:`fieldmap.products.blocks` run here (``--scheduler threads``), on a LocalCluster
+of :mod:`fieldmap.products.engine` run here (``--scheduler threads``), on a LocalCluster
 (``local:N``) or on a running Dask scheduler (an address), and go straight to the NetCDF file or
 zarr store; figures are drawn from a decimated view of the store. Bad input and an unreachable
 scheduler write nothing (one line, exit status 2).
@@ -63,70 +63,46 @@ def wanted(args) -> bool:
 
 def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
-    from fieldmap.cli.common import load_cli_model, region, stem
-    from fieldmap.products import blockmeta, cluster, distributed, plots
-    from fieldmap.products.maps import summary
+    from fieldmap.cli.common import map_request, stem
+    from fieldmap.products import plots
+    from fieldmap.products.engine import template, write_product
+    from fieldmap.products.variables import summary
 
-    scheduler = cluster.parse_scheduler(args.scheduler)
-    prep = distributed.prepare(
-        args.model,
-        args.lmax,
-        [1e3 * h for h in heights_km],
-        args.step_deg,
-        args.lat_max,
-        region(args),
-        args.ellipsoid,
-        args.device,
-        args.epoch,
-        "mGal",
-        load=lambda: load_cli_model(args),
-    )
-    grid, ell, mod = prep
-    tmpl = blockmeta.template(mod, grid, ell, "mGal", thresholds, stacked)
+    request = map_request(args, heights_km, stacked=stacked, thresholds_mg=thresholds)
 
     def write(tmp, client):
-        return distributed.write_disturbance(
-            tmp,
-            args.format,
-            thresholds_mg=thresholds,
-            device=args.device,
-            ellipsoid=args.ellipsoid,
-            stacked=stacked,
-            client=client,
-            rows_per_block=args.rows_per_block,
-            setup=prep,
-            atomic=False,
-        )
+        return write_product(request.executing(executor=client), tmp, args.format, atomic=False)
 
     def publish(view, info, elapsed):
-        _report(view, info, grid, heights_km, thresholds, elapsed, stacked)
-        return summary(view), _figures(view, thresholds, stacked, plots)
+        _report(view, info, request.grid, heights_km, thresholds, elapsed)
+        return summary(view), plots.disturbance_figures(view, thresholds)
 
-    return stream(
-        args, scheduler, stem(tmpl, "sweep" if stacked else "disturbance"), write, publish
-    )
+    base = stem(template(request), "sweep" if stacked else "disturbance")
+    return stream(args, request, base, write, publish)
 
 
-def stream(args, scheduler, base: str, write, publish) -> int:
+def stream(args, request, base: str, write, publish) -> int:
     """Write a product block by block under ``--out``, then its JSON and figures; all or none.
 
-    Connects first (an unreachable scheduler writes nothing); ``write(tmp, client)`` streams the
+    Connects to the request's executor first (an unreachable scheduler writes nothing);
+    ``write(tmp, client)`` streams the
     product to a temporary name and returns its information; ``publish(view, info, elapsed)``
     prints the report from a decimated view of the store and returns the JSON summary and the
     figures as ``(file suffix, maker)`` pairs (drawn unless ``--no-plots``).
     """
-    from fieldmap.products import blockstore, cluster
+    from fieldmap.products.engine import executor_client
     from fieldmap.products.io import check_out_dir, output_batch, writing
+    from fieldmap.products.sinks import atomic_store, decimated
 
     check_out_dir(args.out)
     out = Path(args.out)
     final = out / f"{base}.{'zarr' if args.format == 'zarr' else 'nc'}"
     t0 = time.perf_counter()
-    with cluster.open_client(scheduler) as client, output_batch(out) as batch:
-        with writing(final), blockstore.atomic_store(final) as tmp:
+    with executor_client(request) as client, output_batch(out) as batch:
+        with writing(final), atomic_store(final) as tmp:
             info = write(tmp, client)
             elapsed = time.perf_counter() - t0
-            view = blockstore.decimated(tmp, args.format)
+            view = decimated(tmp, args.format)
             summ, figures = publish(view, info, elapsed)
             batch.json({**summ, "product_path": final.name}, f"{base}.json")
             for suffix, make in [] if args.no_plots else figures:
@@ -136,26 +112,8 @@ def stream(args, scheduler, base: str, write, publish) -> int:
     return 0
 
 
-def _figures(view, thresholds, stacked, plots):
-    if stacked:
-        figs = [("table", lambda: plots.plot_sweep(view))]
-        for k, h in enumerate(view["height"].values):
-            figs.append(
-                (
-                    f"isolines_h{h / 1e3:g}km",
-                    lambda k=k: plots.plot_isolines(view, thresholds, height_index=k),
-                )
-            )
-        return figs
-    figs = [("isolines", lambda: plots.plot_isolines(view, thresholds))]
-    for t in thresholds:
-        if t >= 0.05:
-            figs.append((f"above_{t:g}mg", lambda t=t: plots.plot_threshold(view, t)))
-    return figs
-
-
-def _report(view, info, grid, heights_km, thresholds, elapsed, stacked) -> None:
-    from fieldmap.products.stats import threshold_key
+def _report(view, info, grid, heights_km, thresholds, elapsed) -> None:
+    from fieldmap.products.statistics import threshold_key
 
     name, lmax = info["model"]
     nh, nlat, nlon = grid.shape

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Callable
-from functools import partial
 from pathlib import Path
 
 from fieldmap.cli import distributed
@@ -18,9 +16,9 @@ from fieldmap.cli.common import (
     api_call,
     heights_km,
     list_values,
+    map_request,
     preflight,
     print_files,
-    region,
     stem,
     thresholds_mg,
 )
@@ -61,7 +59,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         add_model_options(p)
         p.add_argument(
             "--quantity",
-            # fieldmap.products.quantity_maps.QUANTITIES, spelt out: importing it (xarray,
+            # fieldmap.products.variables.QUANTITIES, spelt out: importing it (xarray,
             # pandas) would cost a second at every start of every sub-command
             choices=(
                 "disturbance",
@@ -215,9 +213,9 @@ def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False
     """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
     from tqdm.auto import tqdm
 
+    from fieldmap.products.engine import show_progress
     from fieldmap.products.io import output_batch
-    from fieldmap.products.maps import show_progress
-    from fieldmap.products.maps import summary as _summary
+    from fieldmap.products.variables import summary as _summary
 
     js = {**_summary(ds), **summary}
     nodes = ds.sizes["latitude"] * ds.sizes["longitude"] * ds.sizes.get("height", 1)
@@ -241,10 +239,10 @@ def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False
 
 def run_map(args) -> int:
     """``fieldmap map``: disturbance map at one height."""
-    from fieldmap.cli.common import load_cli_model
     from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
-    from fieldmap.products.maps import disturbance_map
+    from fieldmap.products.engine import compute
+    from fieldmap.products.variables import fraction_attr
 
     (height_km,) = heights_km(args, "map takes one height; use sweep for several")
     if args.quantity != "disturbance":
@@ -254,19 +252,13 @@ def run_map(args) -> int:
         return distributed.run(args, [height_km], thresholds, stacked=False)
     preflight(args, [height_km])
     t0 = time.perf_counter()
-    ds = disturbance_map(
-        model=load_cli_model(args),
-        lmax=args.lmax,
-        height_km=height_km,
-        step_deg=args.step_deg,
-        lat_max=args.lat_max,
-        region=region(args),
-        thresholds_mg=thresholds,
-        device=args.device,
-        ellipsoid=args.ellipsoid,
-        epoch=args.epoch,
-        rows_per_block=args.rows_per_block,
-        percentile_method=args.percentile_method,
+    ds = compute(
+        map_request(
+            args,
+            [height_km],
+            thresholds_mg=thresholds,
+            percentile_method=args.percentile_method,
+        )
     )
     elapsed = time.perf_counter() - t0
     a = ds.attrs
@@ -280,25 +272,17 @@ def run_map(args) -> int:
     )
     print("  threshold (mg)   area above (%)")
     for t in thresholds:
-        from fieldmap.products.cf import fraction_attr
-
         print(f"  {t:>14g}   {100 * a[fraction_attr(t)]:>14.2f}")
-    figures: list[tuple[str, Callable[[], object]]] = []
-    if not args.no_plots:
-        figures.append(("isolines", lambda: plots.plot_isolines(ds, thresholds)))
-        for t in thresholds:
-            if t >= 0.05:
-                figures.append((f"above_{t:g}mg", partial(plots.plot_threshold, ds, t)))
+    figures = [] if args.no_plots else plots.disturbance_figures(ds, thresholds)
     print_files(_write(ds, stem(ds, "disturbance"), Path(args.out), figures, {}, args.float32))
     return 0
 
 
 def run_sweep(args) -> int:
     """``fieldmap sweep``: statistics over several heights."""
-    from fieldmap.cli.common import load_cli_model
     from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
-    from fieldmap.products.maps import altitude_sweep
+    from fieldmap.products.engine import compute
 
     thresholds = thresholds_mg(args)
     heights = heights_km(args)
@@ -308,19 +292,14 @@ def run_sweep(args) -> int:
         return distributed.run(args, heights, thresholds, stacked=True)
     preflight(args, heights)
     t0 = time.perf_counter()
-    ds = altitude_sweep(
-        model=load_cli_model(args),
-        lmax=args.lmax,
-        height_km=heights,
-        step_deg=args.step_deg,
-        lat_max=args.lat_max,
-        region=region(args),
-        thresholds_mg=thresholds,
-        device=args.device,
-        ellipsoid=args.ellipsoid,
-        epoch=args.epoch,
-        rows_per_block=args.rows_per_block,
-        percentile_method=args.percentile_method,
+    ds = compute(
+        map_request(
+            args,
+            heights,
+            stacked=True,
+            thresholds_mg=thresholds,
+            percentile_method=args.percentile_method,
+        )
     )
     elapsed = time.perf_counter() - t0
     print(
@@ -329,23 +308,14 @@ def run_sweep(args) -> int:
     )
     head = "  h (km)   max (mg)  mean (mg)" + "".join(f"  >{t:g} mg (%)" for t in thresholds)
     print(head)
-    for k, h in enumerate(ds["height"].values):
-        row = f"  {h / 1e3:>6g}   {ds['max_mg'].values[k]:8.4f}   {ds['mean_mg'].values[k]:8.4f}"
+    for k, h in enumerate(ds["height_km"].values):
+        row = f"  {h:>6g}   {ds['max_mg'].values[k]:8.4f}   {ds['mean_mg'].values[k]:8.4f}"
         row += "".join(
             f"  {100 * f:>{len(f'>{t:g} mg (%)')}.2f}"
             for t, f in zip(thresholds, ds["area_fraction_above"].values[k])
         )
         print(row)
-    figures: list[tuple[str, Callable[[], object]]] = []
-    if not args.no_plots:
-        figures.append(("table", lambda: plots.plot_sweep(ds)))
-        for k, h in enumerate(ds["height"].values):
-            figures.append(
-                (
-                    f"isolines_h{h / 1e3:g}km",
-                    partial(plots.plot_isolines, ds, thresholds, height_index=k),
-                )
-            )
+    figures = [] if args.no_plots else plots.disturbance_figures(ds, thresholds)
     print_files(_write(ds, stem(ds, "sweep"), Path(args.out), figures, {}, args.float32))
     return 0
 
@@ -357,25 +327,14 @@ def run_truncation(args) -> int:
     if degree.wanted(args):
         return degree.run(args)
     from fieldmap.limits import check_orders
-    from fieldmap.products import cluster, plots
-    from fieldmap.products.maps import truncation_map
+    from fieldmap.products import plots
+    from fieldmap.products.engine import compute
 
     orders = api_call("--orders", check_orders, list_values(args.orders, "--orders"))
     (height_km,) = heights_km(args, "truncation takes one height")
     preflight(args, [height_km], layers=len(orders))
-    scheduler = cluster.parse_scheduler(args.scheduler)
-    # connect (or start the LocalCluster) first: an unreachable scheduler writes nothing
-    with cluster.open_client(scheduler) as client:
-        ds = truncation_map(
-            height_km=height_km,
-            orders=orders,
-            step_deg=args.step_deg,
-            lat_max=args.lat_max,
-            region=region(args),
-            device=args.device,
-            ellipsoid=args.ellipsoid,
-            client=client,
-        )
+    # the request connects to (or starts) the scheduler first: an unreachable one writes nothing
+    ds = compute(map_request(args, [height_km], quantity="truncation", orders=orders))
     print(f"J2n truncation error at h = {height_km:g} km ({ds.attrs['ellipsoid']})")
     print("  order   max (mg)      mean (mg)")
     for o, mx, mn in zip(ds["order"].values, ds["max_mg"].values, ds["mean_mg"].values):

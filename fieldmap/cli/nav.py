@@ -200,17 +200,17 @@ def _check_flight_args(args, model, notes: list[str]):
 
 def run(args) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.products import cluster
+    from fieldmap.products.engine import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
 
     notes: list[str] = []
     device, models, nav = _check_args(args, notes)
-    scheduler = cluster.parse_scheduler(args.scheduler)
+    scheduler = parse_scheduler(args.scheduler)
     for note in notes:
         print(note, file=sys.stderr)
     studies = STUDIES if args.study == "all" else (args.study,)
     # connect (or start the LocalCluster) before the long work; None: here
-    with cluster.open_client(scheduler) as client:
+    with open_client(scheduler) as client:
         if is_flight(args):
             return navflight.run(args, nav, device=device, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)

@@ -203,7 +203,8 @@ def evaluate_points(
         potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap.cli.startup import load_model_early
-    from fieldmap.products.table_model import table_path
+    from fieldmap.errors import InputError
+    from fieldmap.products.tables.model import table_path
 
     table = table_path(model) is not None
     early = load_model_early(model, lmax, epoch, model_options, quantity, device, table)
@@ -258,7 +259,7 @@ def run_point(args) -> int:
 
     from fieldmap.errors import InputError
     from fieldmap.models.registry import model_options
-    from fieldmap.products.table_model import outside_message
+    from fieldmap.products.tables.model import outside_message
 
     _refuse_unused(args)
     table = _table(args)
@@ -335,7 +336,7 @@ def _table(args):
     from fieldmap.cli import given
     from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
-    from fieldmap.products.table_model import load_table, table_path
+    from fieldmap.products.tables.model import load_table, table_path
 
     path = table_path(args.model)
     if path is None:

@@ -1,7 +1,7 @@
 """``fieldmap map|sweep --quantity anomaly|deflection|geoid|potential`` (geodetic quantity maps).
 
 The disturbance stays with :mod:`fieldmap.cli.maps`; this module runs the other quantities of
-:mod:`fieldmap.products.quantity_maps` with the same grid options, checks and atomic outputs.
+:func:`fieldmap.products.maps.quantity_map` with the same grid options, checks and atomic outputs.
 """
 
 from __future__ import annotations
@@ -13,10 +13,11 @@ from pathlib import Path
 def run_quantity(args, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
     from fieldmap.cli import distributed
-    from fieldmap.cli.common import load_cli_model, preflight, print_files, region, stem
+    from fieldmap.cli.common import map_request, preflight, print_files, stem
     from fieldmap.errors import InputError
-    from fieldmap.products import quantity_maps as qm
+    from fieldmap.products.engine import compute
     from fieldmap.products.io import output_batch
+    from fieldmap.products.variables import summary
 
     if getattr(args, "percentile_method", "histogram") != "histogram":
         raise InputError(
@@ -29,7 +30,7 @@ def run_quantity(args, heights_km: list[float]) -> int:
         raise InputError(
             f"--thresholds-mg applies to the disturbance modulus, not to --quantity {args.quantity}"
         )
-    from fieldmap.products.quantity_product import SURFACE_QUANTITIES
+    from fieldmap.products.variables import SURFACE_QUANTITIES
 
     if args.quantity in SURFACE_QUANTITIES and given(args, "height_km"):
         raise InputError(
@@ -49,19 +50,9 @@ def run_quantity(args, heights_km: list[float]) -> int:
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)
     t0 = time.perf_counter()
-    ds = qm.quantity_map(
-        args.quantity,
-        model=load_cli_model(args),
-        height_km=heights_km if len(heights_km) > 1 else heights_km[0],
-        step_deg=args.step_deg,
-        lat_max=args.lat_max,
-        region=region(args),
-        device=args.device,
-        ellipsoid=args.ellipsoid,
-        rows_per_block=args.rows_per_block,
-    )
+    ds = compute(map_request(args, heights_km, quantity=args.quantity, stacked=True))
     elapsed = time.perf_counter() - t0
-    summ = qm.summary(ds)
+    summ = summary(ds)
     a = ds.attrs
     source = f"{a['model']} degree {a['model_lmax']}" if "model" in a else a["ellipsoid"]
     print(
@@ -85,10 +76,10 @@ def run_quantity(args, heights_km: list[float]) -> int:
 
 def report(quantity: str, summ: dict) -> None:
     """Print the statistics of a quantity map, a line per variable and height."""
-    from fieldmap.products import quantity_maps as qm
+    from fieldmap.products.variables import VARIABLES
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    for name, units, _, _ in qm.VARIABLES[quantity]:
+    for name, units, _, _ in VARIABLES[quantity]:
         s = summ[name]
         for k, h in enumerate(heights):
             pick = (lambda v: v[k]) if isinstance(s["max"], list) else (lambda v: v)
@@ -101,55 +92,33 @@ def report(quantity: str, summ: dict) -> None:
 
 def figures(ds, quantity: str, summ: dict) -> list:
     """(file suffix, figure maker) for every variable and height of a quantity map."""
-    from fieldmap.products import quantity_maps as qm
+    from fieldmap.products.plots import plot_quantity
+    from fieldmap.products.variables import VARIABLES
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
     out = []
-    for name, _, _, _ in qm.VARIABLES[quantity]:
+    for name, _, _, _ in VARIABLES[quantity]:
         for k, h in enumerate(heights):
             suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
-            out.append((suffix, lambda name=name, k=k: qm.plot_quantity(ds, name, height_index=k)))
+            out.append((suffix, lambda name=name, k=k: plot_quantity(ds, name, height_index=k)))
     return out
 
 
 def _run_blocks(args, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
-    from fieldmap.cli.common import load_cli_model, region, stem
+    from fieldmap.cli.common import map_request, stem
     from fieldmap.cli.distributed import stream
-    from fieldmap.products import cluster, distributed
-    from fieldmap.products import quantity_maps as qm
-    from fieldmap.products.quantity_product import template
+    from fieldmap.products.engine import template, write_product
+    from fieldmap.products.variables import summary
 
-    scheduler = cluster.parse_scheduler(args.scheduler)
-    prep = distributed.prepare_quantity(
-        args.quantity,
-        args.model,
-        args.lmax,
-        [1e3 * h for h in heights_km],
-        args.step_deg,
-        args.lat_max,
-        region(args),
-        args.ellipsoid,
-        args.device,
-        args.epoch,
-        load=lambda: load_cli_model(args),
-    )
-    grid, ell, mod = prep
+    request = map_request(args, heights_km, quantity=args.quantity, stacked=True)
+    grid, mod = request.grid, request.model
 
     def write(tmp, client):
-        return distributed.write_quantity(
-            tmp,
-            args.format,
-            args.quantity,
-            device=args.device,
-            client=client,
-            rows_per_block=args.rows_per_block,
-            setup=prep,
-            atomic=False,
-        )
+        return write_product(request.executing(executor=client), tmp, args.format, atomic=False)
 
     def publish(view, info, elapsed):
-        summ = qm.summary(view)
+        summ = summary(view)
         nh, nlat, nlon = grid.shape
         source = view.attrs["ellipsoid"] if "model" not in view.attrs else None
         print(
@@ -162,5 +131,5 @@ def _run_blocks(args, heights_km: list[float]) -> int:
             print(f"  figures from one row and column in {view.attrs['figure_decimation']}")
         return summ, figures(view, args.quantity, summ)
 
-    base = stem(template(args.quantity, mod, grid, ell, False), args.quantity)
-    return stream(args, scheduler, base, write, publish)
+    base = stem(template(request), args.quantity)
+    return stream(args, request, base, write, publish)

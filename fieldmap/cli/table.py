@@ -1,11 +1,11 @@
 """Sub-command ``fieldmap table``: a gravity compensation table with a verified error bound.
 
-``fieldmap table --region W E S N --heights-km MIN,MAX --max-error-mgal B [--budget-mb M]
+``fieldmap table --region W E S N --height-km MIN,MAX --max-error-mgal B [--budget-mb M]
 [--corridor FLIGHT --width-km W]`` writes ``table.nc`` (CF-1.8), ``table.bin`` (flat
 little-endian), ``table.h`` (its C layout and interpolation) and ``table.json`` (the
 verification report) into ``--out``: δg north, east, down (mGal) on a lattice whose spacings are
 refined until the interpolation error, measured on a denser independent check set, is within B
-(:mod:`fieldmap.products.table`). Read it back with ``fieldmap point --model table:FILE``.
+(:mod:`fieldmap.products.tables.build`). Read it back with ``fieldmap point --model table:FILE``.
 
 ``--corridor`` alone: the track's bounding box widened by ``--width-km``; with ``--region``: the
 intersection of both (refused when they do not overlap). The heights must hold the track's, with
@@ -41,9 +41,16 @@ def register(subparsers) -> None:
         "antimeridian)",
     )
     p.add_argument(
+        "--height-km",
+        default=None,
+        help="MIN,MAX: lowest and highest height above the ellipsoid, km (MIN < MAX); "
+        "required (the option of map and sweep)",
+    )
+    p.add_argument(
         "--heights-km",
-        required=True,
-        help="MIN,MAX: lowest and highest height above the ellipsoid, km (MIN < MAX)",
+        dest="heights_km_deprecated",
+        default=None,
+        help="deprecated spelling of --height-km (removed in fieldmap 0.3)",
     )
     p.add_argument(
         "--max-error-mgal",
@@ -84,17 +91,41 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_table)
 
 
-def _heights(text: str) -> list[str]:
+def _height_option(args) -> tuple[str, str]:
+    """Return (the option given, its text): ``--height-km``, or the deprecated ``--heights-km``.
+
+    The deprecated spelling works, with a note on stderr; both, or neither, is one line.
+    """
+    import sys
+
+    from fieldmap.errors import InputError
+
+    new, old = args.height_km, args.heights_km_deprecated
+    if new is not None and old is not None:
+        raise InputError("give --height-km once (--heights-km is its deprecated spelling)")
+    if new is None and old is None:
+        raise InputError("--height-km MIN,MAX is required (lowest and highest height, km)")
+    if old is not None:
+        print(
+            "fieldmap table: --heights-km is deprecated (removed in fieldmap 0.3): use "
+            "--height-km, as map and sweep do",
+            file=sys.stderr,
+        )
+        return "--heights-km", old
+    return "--height-km", new
+
+
+def _heights(text: str, option: str = "--height-km") -> list[str]:
     from fieldmap.errors import InputError
 
     parts = [t for t in str(text).replace(",", " ").split()]
     if len(parts) != 2:
-        raise InputError(f"--heights-km needs MIN,MAX (two numbers, km), got {text!r}")
+        raise InputError(f"{option} needs MIN,MAX (two numbers, km), got {text!r}")
     return parts
 
 
-def _check_corridor_heights(flight, heights_m) -> None:
-    """Refuse ``--heights-km`` that do not hold the ``--corridor`` flight as navsim flies it.
+def _check_corridor_heights(flight, heights_m, option: str = "--height-km") -> None:
+    """Refuse heights (``option``) that do not hold the ``--corridor`` flight as navsim flies it.
 
     ``navsim`` refuses a table that does not cover the conditioned path (outliers removed,
     ground segments trimmed) with :data:`~fieldmap.nav.study.TABLE_HEIGHT_MARGIN` above and
@@ -120,10 +151,10 @@ def _check_corridor_heights(flight, heights_m) -> None:
         need_lo = math.floor((h.min() - margin) / 100.0 - 1e-9) / 10.0
         need_hi = math.ceil((h.max() + margin) / 100.0 + 1e-9) / 10.0
         raise InputError(
-            f"--heights-km {lo / 1e3:g},{hi / 1e3:g} do not hold the --corridor flight: at "
+            f"{option} {lo / 1e3:g},{hi / 1e3:g} do not hold the --corridor flight: at "
             f"t = {t[i]:g} s it is at {h[i]:.0f} m (its path as navsim flies it: "
             f"{h.min():.0f}..{h.max():.0f} m above the ellipsoid; navsim asks ±{margin:g} m "
-            f"around it): give at least --heights-km {min(need_lo, lo / 1e3):g},"
+            f"around it): give at least {option} {min(need_lo, lo / 1e3):g},"
             f"{max(need_hi, hi / 1e3):g}"
         )
 
@@ -139,15 +170,18 @@ def run_table(args) -> int:
     from fieldmap.limits import heights_from_km
     from fieldmap.models.registry import announce, load_model, model_options
     from fieldmap.products.io import check_out_dir
-    from fieldmap.products.table import build_table, check_region, corridor_region
-    from fieldmap.products.table_io import write_table
+    from fieldmap.products.tables.build import build_table, check_region, corridor_region
+    from fieldmap.products.tables.files import write_table
 
     if args.corridor is None and given(args, "width_km"):
         raise InputError("--width-km applies to --corridor (the margin around a flight track)")
     if args.corridor is None and args.region is None:
         raise InputError("give --region W E S N, --corridor FLIGHT, or both")
-    heights = _heights(args.heights_km)
-    metres = api_call("--heights-km", heights_from_km, heights, distinct=False)
+    option, text = _height_option(args)
+    heights = _heights(text, option)
+    metres = api_call(option, heights_from_km, heights, distinct=False)
+    if not metres[0] < metres[1]:
+        raise InputError(f"{option} needs MIN,MAX with MIN < MAX, got {','.join(heights)}")
     if args.region is not None:
         api_call("--region", check_region, args.region)
     if args.lmax is not None and args.lmax < 0:
@@ -158,7 +192,7 @@ def run_table(args) -> int:
         # (table has none of their options; fieldmap.cli.params.options_of)
         width = 50.0 if args.width_km is None else args.width_km
         region = corridor_region(args.corridor, width, args.region)
-        _check_corridor_heights(args.corridor, metres)
+        _check_corridor_heights(args.corridor, metres, option)
     else:
         region = api_call("--region", check_region, args.region)
     check_out_dir(args.out)

@@ -193,7 +193,7 @@ def disturbance(
     model : SHModel, CompensationTable or str
         A model, a bundled model name or the path of an ICGEM file; or a gravity compensation
         table, ``"table:FILE"`` (``fieldmap table``'s table.nc or table.bin) or a
-        :class:`fieldmap.products.table_model.CompensationTable`: its interpolated δg (WGS84
+        :class:`fieldmap.products.tables.model.CompensationTable`: its interpolated δg (WGS84
         only; no ``lmax`` or ``epoch``; NumPy, ``device`` unused; a point outside the table is
         an :class:`InputError`).
     lmax : int, optional
@@ -248,7 +248,7 @@ def disturbance(
 
 def _table_model(model):
     """Return the table of ``model`` (``"table:FILE"`` or a table object), else None."""
-    from fieldmap.products.table_model import CompensationTable, load_table, table_path
+    from fieldmap.products.tables.model import CompensationTable, load_table, table_path
 
     if isinstance(model, CompensationTable):
         return model

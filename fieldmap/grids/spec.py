@@ -160,7 +160,7 @@ def make_grid(
         Heights above the ellipsoid. Units: m (finite, -1e4 <= h <= 1e8, :mod:`fieldmap.limits`).
     whole_in_memory : bool
         Check that the whole result fits in memory (:func:`check_memory`); False for products
-        computed and written block by block (:mod:`fieldmap.products.blocks`).
+        computed and written block by block (:mod:`fieldmap.products.engine`).
 
     Raises
     ------

@@ -9,9 +9,9 @@ and NED mechanizations and the studies built on them.
 
 Compensation tables as navigation gravity: upload, and evaluation at points (Warp).
 
-A table (:class:`fieldmap.products.table_model.CompensationTable`) navigates as the exact normal
+A table (:class:`fieldmap.products.tables.model.CompensationTable`) navigates as the exact normal
 gravitation plus the table's δg (``kernels/navtable.py``); the NumPy interpolator of
-:mod:`fieldmap.products.table_model` is its reference (``tests/test_navtable.py``).
+:mod:`fieldmap.products.tables.model` is its reference (``tests/test_navtable.py``).
 
 Truth gravitation along a trajectory at the cost of a few SH evaluations per minute.
 
@@ -114,7 +114,7 @@ def sh_degree(name: str) -> int | None:
 
 def table_file(name) -> str | None:
     """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
-    from fieldmap.products.table_model import table_path
+    from fieldmap.products.tables.model import table_path
 
     return table_path(name) if isinstance(name, str) else None
 
@@ -137,11 +137,11 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     """Navigation gravity name (j2, j4, j6, exact, sh, shN, table:FILE) -> (kernel kind, degree).
 
     The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``). A table name is
-    checked by loading the table (:func:`fieldmap.products.table_model.load_table`).
+    checked by loading the table (:func:`fieldmap.products.tables.model.load_table`).
     """
     path = table_file(name)
     if path is not None:
-        from fieldmap.products.table_model import load_table
+        from fieldmap.products.tables.model import load_table
 
         load_table(path)
         return GRAVITY_KINDS["table"], 0
@@ -182,7 +182,7 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
     Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
     """
     from fieldmap.kernels import navtable as knt
-    from fieldmap.products.table_model import check_inside
+    from fieldmap.products.tables.model import check_inside
 
     lat, lon, h = (
         np.ascontiguousarray(np.ravel(v), dtype=np.float64)

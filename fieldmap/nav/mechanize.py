@@ -277,7 +277,7 @@ def _prepare_batch(
     from fieldmap.nav.gravity import kernel_table
 
     if tables:
-        from fieldmap.products.table_model import load_table
+        from fieldmap.products.tables.model import load_table
 
         tab = kernel_table(load_table(tables[0]), device)
     else:

@@ -289,7 +289,7 @@ class Propagator:
         return out
 
     def _on_cluster(self, dtheta, dv, sample0, h_ref, n):
-        from fieldmap.products.cluster import scattered
+        from fieldmap.products.engine import scattered
 
         client = self.client
         nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
@@ -322,7 +322,7 @@ class Propagator:
 
 
 def _task(cfg: _Config, model, state: dict, block, sample0: int):
-    from fieldmap.products.cluster import worker_setup
+    from fieldmap.products.engine import worker_setup
 
     worker_setup()
     dtheta, dv, h_ref = block

@@ -500,7 +500,7 @@ def gravity_error_along(track, t, names, model, ell, device=None):
     for m in names:
         if table_file(m) is not None:
             from fieldmap.nav.gravity import table_gravitation
-            from fieldmap.products.table_model import load_table
+            from fieldmap.products.tables.model import load_table
 
             tab = load_table(table_file(m))
             g_nav = table_gravitation(tab, *r.T, ellipsoid=ell, device=device)
@@ -680,7 +680,7 @@ def check_tables_cover(names, traj, duration: float) -> None:
     the navigator's own height error.
     """
     from fieldmap.nav.gravity import table_file
-    from fieldmap.products.table_model import load_table, outside_message
+    from fieldmap.products.tables.model import load_table, outside_message
 
     files = [f for f in (table_file(m) for m in names) if f is not None]
     if not files:

@@ -1,1 +1,18 @@
-"""Products built from grids: maps, statistics, CF metadata, writers, plots, coastlines."""
+"""Products built from grids, one idea per module.
+
+- :mod:`~fieldmap.products.request`: :class:`MapRequest`, what to compute, where and how,
+  validated once;
+- :mod:`~fieldmap.products.maps`: the public façades (disturbance map, sweep, truncation,
+  components, quantity maps), each building a request;
+- :mod:`~fieldmap.products.engine`: the one block engine (plan, one block, local, Dask and
+  lazy executors, the product in memory);
+- :mod:`~fieldmap.products.variables`: per-quantity variables, CF-1.8 attributes, templates and
+  the JSON summary;
+- :mod:`~fieldmap.products.statistics`: area-weighted statistics, whole and folded from blocks;
+- :mod:`~fieldmap.products.sinks`: memory, NetCDF-4 and zarr targets, atomic stores, streamed
+  products;
+- :mod:`~fieldmap.products.io`: atomic writers of NetCDF, JSON and PNG files;
+- :mod:`~fieldmap.products.degree`: SH omission maps and the degree a tolerance needs;
+- :mod:`~fieldmap.products.tables`: the gravity compensation table (model, build, files);
+- :mod:`~fieldmap.products.plots` and :mod:`~fieldmap.products.coastline`: figures.
+"""

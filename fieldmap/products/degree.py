@@ -21,9 +21,8 @@ import xarray as xr
 from fieldmap import __version__
 from fieldmap.errors import InputError
 from fieldmap.grids.synthesis import check_memory, synthesize
-from fieldmap.products.cf import coords, global_attrs, vector_vars
-from fieldmap.products.maps import heights_m, resolve_model, setup_grid
-from fieldmap.products.stats import map_statistics
+from fieldmap.products.statistics import map_statistics
+from fieldmap.products.variables import coords, global_attrs, index_height_km, mg_attrs, vector_vars
 from fieldmap.units import MGAL
 
 __all__ = ["MIN_DEGREE", "check_degrees", "check_tolerance", "degree_needed", "omission_map"]
@@ -99,25 +98,24 @@ def _max_mgal(vec) -> float:
     return float(np.sqrt(np.einsum("...k,...k->...", vec, vec)).max() / MGAL)
 
 
-def _setup(model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device):
-    h = heights_m(height_km)
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    return grid, ell, device, resolve_model(model, lmax, epoch)
+#: Options of :func:`omission_map` and :func:`degree_needed` besides ``model`` (fields of a
+#: :class:`~fieldmap.products.request.MapRequest`, validated there).
+OPTIONS = ("lmax", "epoch", "height_km", "step_deg", "lat_max", "region", "ellipsoid", "device")
 
 
-def omission_map(
-    model="eigen-6s",
-    *,
-    degrees=(18, 36, 90, 180),
-    lmax=None,
-    height_km=20.0,
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    device=None,
-    ellipsoid="WGS84",
-    epoch=None,
-) -> xr.Dataset:
+def _setup(name: str, model, options: dict):
+    """Validate the grid, ellipsoid, device and model of an omission product (one request)."""
+    from fieldmap.products.request import MapRequest
+
+    model = options.pop("model", model)  # also by keyword, as the map façades take it
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise TypeError(f"{name}() got unexpected keyword arguments: {', '.join(unknown)}")
+    req = MapRequest.build(model=model, stacked=True, **options)
+    return req.grid, req.ellipsoid, req.execution.device, req.model
+
+
+def omission_map(model="eigen-6s", /, *, degrees=(18, 36, 90, 180), **options) -> xr.Dataset:
     """Map the SH omission δg_full − δg_d of each degree d (the field of degrees d+1..L).
 
     Parameters
@@ -127,21 +125,20 @@ def omission_map(
         (the "full model" is then the truncated one), ``epoch`` as there.
     degrees : sequence of int
         Distinct integers between 2 and the model's degree L (L: omission zero).
-    height_km : float or sequence of float
-        One or several distinct heights above the ellipsoid, -10 ≤ h ≤ 1e5. Units: km.
-    step_deg, lat_max, region, device, ellipsoid
-        As in :func:`fieldmap.products.maps.disturbance_map`.
+    **options
+        ``height_km`` (one or several distinct heights above the ellipsoid, -10 ≤ h ≤ 1e5,
+        default 20. Units: km), ``lmax``, ``epoch``, ``step_deg``, ``lat_max``, ``region``,
+        ``device``, ``ellipsoid`` as in :func:`fieldmap.products.maps.disturbance_map`.
 
     Returns
     -------
     xarray.Dataset
         east, north, up, modulus (mGal) and modulus_mg on (degree, height, latitude,
-        longitude); ``max_mgal``, ``mean_mgal``, ``rms_mgal`` and ``p99_mgal`` of the modulus
-        (area-weighted but the max) on (degree, height).
+        longitude); ``max_mg``, ``mean_mg``, ``rms_mg`` and ``p99_mg`` of the modulus
+        (area-weighted but the max) on (degree, height), as every product's statistics, and
+        the same in mGal (``max_mgal``...), the unit of the omission's tolerance.
     """
-    grid, ell, device, mod = _setup(
-        model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
-    )
+    grid, ell, device, mod = _setup("omission_map", model, options)
     degs = check_degrees(degrees, mod.lmax)
     check_memory(grid, layers=len(degs))
     vec = np.stack([_omission(mod, d, grid, ell, device) for d in degs])
@@ -180,22 +177,21 @@ def _dataset(vec, degs, mod, grid, ell) -> xr.Dataset:
             np.array([[s[f"{key}_mg"] for s in row] for row in st]),
             {"units": "mGal", "long_name": f"{long} of the omission modulus"},
         )
-    return ds
+    # the statistics every product carries, of the modulus in mg (as the maps and sweeps)
+    st_mg = [
+        [map_statistics(m, grid.lat, thresholds_mg=(), percentiles=(99,)) for m in per_d]
+        for per_d in ds["modulus_mg"].values
+    ]
+    for key, long in STATS:
+        ds[f"{key}_mg"] = (
+            ("degree", "height"),
+            np.array([[s[f"{key}_mg"] for s in row] for row in st_mg]),
+            mg_attrs(f"{long} of the omission modulus"),
+        )
+    return index_height_km(ds)
 
 
-def degree_needed(
-    model="eigen-6s",
-    *,
-    tolerance_mgal,
-    lmax=None,
-    height_km=20.0,
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    device=None,
-    ellipsoid="WGS84",
-    epoch=None,
-) -> dict:
+def degree_needed(model="eigen-6s", /, *, tolerance_mgal, **options) -> dict:
     """Find the smallest degree d (2..L) whose omission max over grid and heights is ≤ tolerance.
 
     Bisection on d: the omission of L is zero (L always meets the tolerance); degree 2 is
@@ -212,9 +208,7 @@ def degree_needed(
         the degree 1 omission when the answer is 2) and ``evaluated`` {degree: omission max}.
     """
     tol = check_tolerance(tolerance_mgal)
-    grid, ell, device, mod = _setup(
-        model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
-    )
+    grid, ell, device, mod = _setup("degree_needed", model, options)
     if mod.lmax < MIN_DEGREE:
         raise InputError(f"model degree {mod.lmax} is below {MIN_DEGREE}")
     check_memory(grid)

@@ -1,84 +1,49 @@
-"""Map products of Chen et al. (2022) §4: disturbance, component, truncation maps and sweeps.
+"""The map products of Chen et al. (2022) §4 and the geodesist's quantity maps: thin façades.
 
-Every function returns an ``xarray.Dataset`` with CF-1.8 attributes on (latitude, longitude)
-(and ``height`` or ``order`` for stacks). Vectors are in the local geodetic east-north-up frame.
-Statistics use area weights (:mod:`fieldmap.products.stats`). Files are written by
-:mod:`fieldmap.cli.maps` through the atomic writers of :mod:`fieldmap.products.io`.
+Each function builds one :class:`fieldmap.products.request.MapRequest` from its keyword
+options (validated there, once) and runs it on the one block engine
+(:func:`fieldmap.products.engine.compute`): disturbance maps and sweeps, J2n truncation maps,
+model and normal gravity components, quantity maps. Every one returns an ``xarray.Dataset``
+with CF-1.8 attributes on (latitude, longitude) (and ``height`` or ``order`` for stacks);
+vectors are in the local geodetic east-north-up frame; statistics use area weights
+(:mod:`fieldmap.products.statistics`).
+
+Why ``**options``: the products share some seventeen options (model, degree, epoch, heights,
+grid, ellipsoid, units, thresholds, device, executor, block rows...), the fields of a request.
+Spelling them out in every signature wrote the same list five times and let them drift; the
+façades take them by keyword, exactly as before (``disturbance_map(lmax=36, height_km=20)``),
+and :meth:`~fieldmap.products.request.MapRequest.build` checks every name and value in one
+place. A request built once can be run again with :meth:`MapRequest.compute
+<fieldmap.products.request.MapRequest.compute>`.
+
+Examples
+--------
+>>> import fieldmap
+>>> ds = fieldmap.disturbance_map(lmax=12, height_km=20, step_deg=30.0)
+>>> sorted(ds.data_vars)
+['east', 'modulus', 'modulus_mg', 'north', 'up']
+>>> sweep = fieldmap.altitude_sweep(lmax=12, height_km=[10, 20], step_deg=30.0)
+>>> float(sweep.sel(height_km=20)["max_mg"]) == ds.attrs["max_mg"]
+True
 """
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Any
+
 import xarray as xr
 
-from fieldmap import __version__, _compat, limits
+from fieldmap import _compat
 from fieldmap.errors import InputError
-from fieldmap.grids.synthesis import (
-    check_memory,
-    make_grid,
-    normal_rows,
-    resolve_device,
-    synthesize,
-)
-from fieldmap.products.blocks import PROGRESS_NODES, show_progress  # noqa: F401 - public here
-from fieldmap.products.blockstats import PERCENTILE_METHODS, check_percentile_method
-from fieldmap.products.cf import (
-    COMPONENTS,
-    UNITS,
-    coords,
-    global_attrs,
-    mg_attrs,
-    vector_vars,
-)
-from fieldmap.products.stats import map_statistics
-from fieldmap.products.summary import summary
-from fieldmap.units import get_unit
+from fieldmap.products.request import MapRequest
 
 __all__ = [
-    "PERCENTILE_METHODS",
-    "UNITS",
     "altitude_sweep",
     "component_maps",
     "disturbance_map",
-    "summary",
+    "quantity_map",
     "truncation_map",
 ]
-
-
-def _check_units(units: str) -> float:
-    return get_unit(units).si
-
-
-def heights_m(height_km, one: str | None = None) -> np.ndarray:
-    """Distinct heights in m from km; ``one``: the message raised unless there is one height.
-
-    The rule is :func:`fieldmap.limits.heights_from_km`.
-    """
-    return limits.heights_from_km(height_km, distinct=True, one=one)
-
-
-def _orders(orders) -> tuple[int, ...]:
-    """Distinct J2n orders among 2, 4, 6 (:func:`fieldmap.limits.check_orders`)."""
-    return limits.check_orders(orders)
-
-
-def resolve_model(model, lmax, epoch):
-    from fieldmap.models.registry import load_model
-
-    return load_model(model, lmax=lmax, epoch=epoch)
-
-
-def setup_grid(step_deg, lat_max, region, h, ellipsoid, device):
-    """Return the validated (grid, ellipsoid, device) of a product."""
-    from fieldmap.field.ellipsoid import get_ellipsoid
-
-    grid = make_grid(step_deg, lat_max, region, h)
-    try:
-        ell = get_ellipsoid(ellipsoid)
-    except (KeyError, ValueError) as exc:
-        raise InputError(f"unknown ellipsoid {ellipsoid!r}") from exc
-    return grid, ell, resolve_device(device)
-
 
 #: Options of the map products that followed ``model`` positionally in fieldmap 0.1 (now
 #: keyword-only; positional calls keep working for one release, with a DeprecationWarning).
@@ -95,33 +60,57 @@ _OLD_ORDER = (
     "units",
     "progress",
 )
+#: The 0.1 positional order of :func:`truncation_map` and :func:`component_maps`.
+_TRUNCATION_ORDER = (
+    "height_km",
+    "orders",
+    "step_deg",
+    "lat_max",
+    "region",
+    "device",
+    "ellipsoid",
+    "units",
+)
+_COMPONENTS_ORDER = (
+    "lmax",
+    "height_km",
+    "step_deg",
+    "lat_max",
+    "region",
+    "device",
+    "ellipsoid",
+    "epoch",
+    "progress",
+)
+
+#: Options each façade takes (the rest of a request is set by the façade itself).
+_GRID = ("height_km", "step_deg", "lat_max", "region", "ellipsoid")
+_MODEL = ("model", "lmax", "epoch")
+_RUN = ("device", "progress", "client", "scheduler", "rows_per_block")
+_DISTURBANCE = (*_MODEL, *_GRID, *_RUN, "thresholds_mg", "units", "chunks", "percentile_method")
+_TRUNCATION = (*_GRID, *_RUN, "orders", "units")
+_COMPONENTS = (*_MODEL, *_GRID, *_RUN)
+_QUANTITY = (*_MODEL, *_GRID, *_RUN, "chunks", "degree0")
+
+
+def _request(name: str, model: Any, options: dict, allowed: tuple, **fixed: Any) -> MapRequest:
+    """Build the request of façade ``name`` from its options (refusing the ones it lacks)."""
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise TypeError(f"{name}() got unexpected keyword arguments: {', '.join(unknown)}")
+    if model is not None:
+        if "model" in options:
+            raise TypeError(f"{name}() got multiple values for argument 'model'")
+        options["model"] = model
+    return MapRequest.build(**options, **fixed)
 
 
 @_compat.keyword_api(1, _OLD_ORDER)
-def disturbance_map(
-    model="eigen-6s",
-    *,
-    lmax=None,
-    height_km=20.0,
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
-    device=None,
-    ellipsoid="WGS84",
-    epoch=None,
-    units="mGal",
-    progress=None,
-    client=None,
-    scheduler=None,
-    chunks=None,
-    rows_per_block=None,
-    percentile_method="histogram",
-) -> xr.Dataset:
+def disturbance_map(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
 
     One engine computes every map: the grid is split into blocks of latitude rows
-    (:func:`fieldmap.products.blocks.plan_blocks`), the blocks run here (default) or on a Dask
+    (:func:`fieldmap.products.engine.plan_blocks`), the blocks run here (default) or on a Dask
     cluster, and the statistics are folded from per-block partial results in block order, so
     the values and statistics are the same bits whatever runs the blocks and however many rows
     a block holds.
@@ -129,198 +118,105 @@ def disturbance_map(
     Parameters
     ----------
     model : str, path or SHModel
-        Bundled name (default ``"eigen-6s"``), ICGEM file, or a model object.
-    lmax : int, optional
-        Truncation degree (default: the model's).
-    height_km : float
-        Height above the ellipsoid, -10 ≤ h ≤ 1e5 (:mod:`fieldmap.limits`). Units: km.
-    step_deg, lat_max : float
-        Grid spacing and latitude limit of a global grid. Units: degrees.
-    region : (west, east, south, north), optional
-        Regional grid instead. Units: degrees.
-    thresholds_mg : sequence of float
-        Thresholds of the area fractions. Units: mg.
-    device : str, optional
-        Warp device.
-    ellipsoid : str
-        Normal field (``"WGS84"`` or ``"GRS80"``).
-    epoch : float or str, optional
-        Epoch for time-variable models (applied to a model object too).
-    units : {"mGal", "mg", "m/s2"}
-        Units of east, north, up, modulus (``modulus_mg`` is always added); any spelling of
-        :mod:`fieldmap.units` (``"m s-2"``, any case).
-    progress : bool, optional
-        Progress bar over the row blocks, on stderr. Default: shown for grids of 2e6 nodes or
-        more when stderr is a terminal (:func:`show_progress`); False keeps it quiet.
-    client : dask.distributed.Client, optional
-        Run the blocks on this cluster.
-    scheduler : str, optional
-        ``"local:N"`` (a LocalCluster of N processes for this call), a scheduler address, or
-        ``"threads"`` (here, as the default).
-    chunks : int or "auto", optional
-        Return a lazy dask-backed Dataset, blocks of at most this many latitude rows (no
-        statistics: they need the whole map).
-    rows_per_block : int, optional
-        Most latitude rows per block (default: from the memory budget and the grid). The
-        results do not depend on it.
-    percentile_method : {"histogram", "exact"}
-        ``"histogram"`` (default): percentiles from the merged per-block histograms, within a
-        relative :data:`fieldmap.products.blockstats.PERCENTILE_RTOL` of the exact ones, the
-        same on every executor and in streamed files; ``"exact"``: the weighted percentiles of
-        the whole map. Recorded in the ``percentile_method`` attribute.
+        Bundled name (default ``"eigen-6s"``), ICGEM file, or a model object (also by
+        keyword).
+    **options
+        Keyword options (fields of :class:`~fieldmap.products.request.MapRequest`):
+
+        - ``lmax`` (int): truncation degree (default: the model's);
+        - ``epoch`` (float or str): epoch of time-variable models;
+        - ``height_km`` (float, default 20): height above the ellipsoid,
+          -10 ≤ h ≤ 1e5 (:mod:`fieldmap.limits`). Units: km;
+        - ``step_deg``, ``lat_max`` (float, default 1 and 80): grid spacing and latitude limit
+          of a global grid. Units: degrees;
+        - ``region`` ((west, east, south, north)): a regional grid instead. Units: degrees;
+        - ``thresholds_mg`` (default 0.02, 0.05, 0.06, 0.10): thresholds of the area
+          fractions. Units: mg;
+        - ``ellipsoid`` (``"WGS84"`` default or ``"GRS80"``): the normal field;
+        - ``units`` (``"mGal"`` default, ``"mg"``, ``"m/s2"``, any spelling of
+          :mod:`fieldmap.units`): units of east, north, up, modulus (``modulus_mg`` is always
+          added);
+        - ``device`` (str): Warp device;
+        - ``progress`` (bool): progress bar over the blocks, on stderr (default: for grids
+          of 2e6 nodes or more on a terminal);
+        - ``client`` (``dask.distributed.Client``) or ``scheduler`` (``"local:N"``, an
+          address, or ``"threads"``): run the blocks on Dask;
+        - ``chunks`` (int or ``"auto"``): return a lazy dask-backed Dataset, blocks of at most
+          this many latitude rows (no statistics: they need the whole map);
+        - ``rows_per_block`` (int): most latitude rows per block (the results do not depend
+          on it);
+        - ``percentile_method`` (``"histogram"`` default, or ``"exact"``): percentiles from
+          the merged per-block histograms, within a relative
+          :data:`fieldmap.products.statistics.PERCENTILE_RTOL` of the exact ones, the same on
+          every executor and in streamed files; or the weighted percentiles of the whole map.
 
     Returns
     -------
     xarray.Dataset
         Variables east, north, up, modulus, modulus_mg on (latitude, longitude); area-weighted
-        statistics (max_mg, mean_mg, rms_mg, p50_mg, ..., area_fraction_above_<t>_mg, the
-        threshold written with "p" for its point, e.g. ``area_fraction_above_0p05_mg``: see
-        :func:`fieldmap.products.cf.fraction_attr`) in the attributes.
+        statistics of the modulus (max_mg, min_mg, mean_mg, rms_mg, p50_mg, p90_mg, p99_mg,
+        area_fraction_above_<t>_mg, the threshold written with "p" for its point, e.g.
+        ``area_fraction_above_0p05_mg``: see :func:`fieldmap.products.variables.fraction_attr`)
+        in the attributes; ``height`` (m) and ``height_km`` coordinates.
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> ds = fieldmap.disturbance_map(lmax=12, height_km=20, step_deg=30.0)
+    >>> ds["modulus_mg"].dims, float(ds["height_km"])
+    (('latitude', 'longitude'), 20.0)
     """
-    h = heights_m(height_km, "disturbance_map takes one height; use altitude_sweep for several")
-    return _disturbance_product(
-        dict(
-            model=model,
-            lmax=lmax,
-            step_deg=step_deg,
-            lat_max=lat_max,
-            region=region,
-            thresholds_mg=thresholds_mg,
-            device=device,
-            ellipsoid=ellipsoid,
-            epoch=epoch,
-            units=units,
-            progress=progress,
-        ),
-        h,
-        stacked=False,
-        engine=dict(
-            client=client,
-            scheduler=scheduler,
-            chunks=chunks,
-            rows_per_block=rows_per_block,
-            percentile_method=percentile_method,
-        ),
-    )
+    from fieldmap.products.engine import compute
+
+    return compute(_request("disturbance_map", model, options, _DISTURBANCE, stacked=False))
 
 
 @_compat.keyword_api(1, _OLD_ORDER)
-def altitude_sweep(
-    model="eigen-6s",
-    *,
-    lmax=None,
-    height_km=(20.0, 30.0, 50.0, 70.0, 100.0),
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    thresholds_mg=(0.02, 0.05, 0.06, 0.10),
-    device=None,
-    ellipsoid="WGS84",
-    epoch=None,
-    units="mGal",
-    progress=None,
-    client=None,
-    scheduler=None,
-    chunks=None,
-    rows_per_block=None,
-    percentile_method="histogram",
-) -> xr.Dataset:
+def altitude_sweep(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
-    Parameters are those of :func:`disturbance_map`; ``height_km`` is a sequence of distinct
-    heights (km).
+    The options are those of :func:`disturbance_map`; ``height_km`` is a sequence of distinct
+    heights (km; default 20, 30, 50, 70, 100).
 
     Returns
     -------
     xarray.Dataset
-        east, north, up, modulus, modulus_mg on (height, latitude, longitude); ``max_mg``,
-        ``mean_mg``, ``p50_mg``, ``p99_mg`` on (height) and ``area_fraction_above`` on
-        (height, threshold_mg).
+        east, north, up, modulus, modulus_mg on (height, latitude, longitude); the statistics
+        of a map, under the same names (``max_mg``, ``min_mg``, ``mean_mg``, ``rms_mg``,
+        ``p50_mg``, ``p90_mg``, ``p99_mg``), as variables on (height), and
+        ``area_fraction_above`` on (height, threshold_mg). ``height`` is in metres (CF) and
+        ``height_km`` indexes the same dimension: ``sweep.sel(height_km=20)``.
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> sweep = fieldmap.altitude_sweep(lmax=12, height_km=[10, 20], step_deg=30.0)
+    >>> sweep["max_mg"].dims, sweep.sel(height_km=10)["height"].item()
+    (('height',), 10000.0)
     """
-    h = heights_m(height_km)
-    return _disturbance_product(
-        dict(
-            model=model,
-            lmax=lmax,
-            step_deg=step_deg,
-            lat_max=lat_max,
-            region=region,
-            thresholds_mg=thresholds_mg,
-            device=device,
-            ellipsoid=ellipsoid,
-            epoch=epoch,
-            units=units,
-            progress=progress,
-        ),
-        h,
-        stacked=True,
-        engine=dict(
-            client=client,
-            scheduler=scheduler,
-            chunks=chunks,
-            rows_per_block=rows_per_block,
-            percentile_method=percentile_method,
-        ),
-    )
+    from fieldmap.products.engine import compute
+
+    options.setdefault("height_km", (20.0, 30.0, 50.0, 70.0, 100.0))
+    return compute(_request("altitude_sweep", model, options, _DISTURBANCE, stacked=True))
 
 
-def _disturbance_product(opts: dict, h: np.ndarray, *, stacked: bool, engine: dict) -> xr.Dataset:
-    """Compute :func:`disturbance_map` or :func:`altitude_sweep`: the one path, the block engine."""
-    from fieldmap.products import distributed, lazy
-
-    _check_units(opts["units"])
-    method = check_percentile_method(engine["percentile_method"])
-    chunks, client, scheduler = engine["chunks"], engine["client"], engine["scheduler"]
-    rows = engine["rows_per_block"]
-    if chunks is not None:
-        if scheduler is not None:
-            raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
-        if method != "histogram":
-            raise InputError("a lazy Dataset (chunks=) carries no statistics: no percentile_method")
-        if rows is not None:
-            raise InputError("chunks= sets the rows of a lazy Dataset's blocks: no rows_per_block")
-        opts.pop("progress")
-        return lazy.lazy_disturbance(
-            heights_m=h, **opts, stacked=stacked, chunks=chunks, client=client
-        )
-    return distributed.disturbance_blocks(
-        heights_m=h,
-        **opts,
-        stacked=stacked,
-        client=client,
-        scheduler=scheduler,
-        rows_per_block=rows,
-        percentile_method=method,
-    )
-
-
-def truncation_map(
-    height_km=20.0,
-    orders=(2, 4, 6),
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    device=None,
-    ellipsoid="WGS84",
-    units="mGal",
-    *,
-    client=None,
-) -> xr.Dataset:
+@_compat.keyword_api(0, _TRUNCATION_ORDER)
+def truncation_map(**options: Any) -> xr.Dataset:
     """Map the truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
 
     δg_Jn = g_Jn − γ_exact with g_Jn from eqs. (7)-(13) of Chen et al. (2022) (gradient
-    corrected) and γ_exact the closed-form level-ellipsoid gravitation.
+    corrected) and γ_exact the closed-form level-ellipsoid gravitation. Computed on the block
+    engine as every map (one layer per order).
 
     Parameters
     ----------
-    height_km : float
-        Height above the ellipsoid, -10 ≤ h ≤ 1e5. Units: km.
-    orders : sequence of int
-        Distinct orders among 2, 4, 6 (2.5 is an error, not order 2).
-    step_deg, lat_max, region, device, ellipsoid, units
-        As in :func:`disturbance_map`.
-    client : dask.distributed.Client, optional
-        Evaluate the rows on this cluster (the same numbers, bit for bit).
+    **options
+        ``height_km`` (one height, default 20. Units: km), ``orders`` (distinct orders among
+        2, 4, 6, default all; 2.5 is an error, not order 2), and ``step_deg``, ``lat_max``,
+        ``region``, ``ellipsoid``, ``units``, ``device``, ``progress``, ``client``,
+        ``scheduler``, ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional
+        order (height_km, orders, step_deg, lat_max, region, device, ellipsoid, units) still
+        works, with a DeprecationWarning.
 
     Returns
     -------
@@ -328,68 +224,37 @@ def truncation_map(
         east, north, up, modulus, modulus_mg on (order, latitude, longitude); ``max_mg`` and
         the area-weighted ``mean_mg`` and ``rms_mg`` on (order). The field is independent of
         longitude (both are axisymmetric).
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> tr = fieldmap.truncation_map(orders=(2, 4), step_deg=30.0)
+    >>> tr["max_mg"].dims, tr["order"].values.tolist()
+    (('order',), [2, 4])
     """
-    _check_units(units)
-    orders = _orders(orders)
-    h = heights_m(height_km, "truncation_map takes one height")
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    check_memory(grid, layers=len(orders))
-    rows = normal_rows
-    if client is not None:
-        from fieldmap.products.distributed import normal_rows_on
+    from fieldmap.products.engine import compute
 
-        rows = normal_rows_on(client)
-    exact = rows(grid, ell, "exact", device)[0]
-    err = np.stack([rows(grid, ell, f"j{o}", device)[0] - exact for o in orders])
-    vec = np.broadcast_to(err[:, :, None, :], (len(orders), grid.lat.size, grid.lon.size, 3))
-    ds = xr.Dataset(
-        vector_vars(
-            vec, ("order", "latitude", "longitude"), units, "normal gravitation truncation error"
-        ),
-        coords={
-            **coords(grid, False),
-            "order": xr.Variable(
-                "order",
-                np.array(orders),
-                {"long_name": "highest zonal J2n term kept", "units": "1"},
-            ),
-        },
-        attrs=global_attrs(
-            f"J-series truncation error at {h[0] / 1e3:g} km ({ell.name})",
-            None,
-            ell,
-            grid,
-            f"fieldmap {__version__}: J{'/J'.join(map(str, orders))} normal gravitation minus "
-            f"exact normal gravitation of {ell.name}",
-        ),
-    )
-    # the same area-weighted statistics as the disturbance maps (a plain node mean would
-    # over-weight the high latitudes, where the J2n errors are largest)
-    st = [map_statistics(m, grid.lat, thresholds_mg=()) for m in ds["modulus_mg"].values]
-    for key, long in (
-        ("max_mg", "maximum"),
-        ("mean_mg", "area-weighted mean"),
-        ("rms_mg", "area-weighted root mean square"),
-    ):
-        ds[key] = ("order", np.array([s[key] for s in st]), mg_attrs(f"{long} truncation error"))
-    return ds
+    options.setdefault("orders", (2, 4, 6))
+    return compute(_request("truncation_map", None, options, _TRUNCATION, quantity="truncation"))
 
 
-def component_maps(
-    model="eigen-6s",
-    lmax=None,
-    height_km=20.0,
-    step_deg=1.0,
-    lat_max=80.0,
-    region=None,
-    device=None,
-    ellipsoid="WGS84",
-    epoch=None,
-    progress=None,
-) -> xr.Dataset:
+@_compat.keyword_api(1, _COMPONENTS_ORDER)
+def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Model gravity and normal gravity components at one height (Chen et al. 2022 Figs. 2-3).
 
-    Both include the centrifugal acceleration of the ellipsoid's rotation rate.
+    Both include the centrifugal acceleration of the ellipsoid's rotation rate. Computed on the
+    block engine as every map.
+
+    Parameters
+    ----------
+    model : str, path or SHModel
+        As in :func:`disturbance_map`.
+    **options
+        ``lmax``, ``epoch``, ``height_km`` (one height), ``step_deg``, ``lat_max``,
+        ``region``, ``ellipsoid``, ``device``, ``progress``, ``client``, ``scheduler``,
+        ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional order (model,
+        lmax, height_km, step_deg, lat_max, region, device, ellipsoid, epoch, progress) still
+        works, with a DeprecationWarning.
 
     Returns
     -------
@@ -397,38 +262,61 @@ def component_maps(
         ``model_east``, ``model_north``, ``model_up`` and ``normal_east``, ``normal_north``,
         ``normal_up`` on (latitude, longitude). Units: m s-2.
     """
-    h = heights_m(height_km, "component_maps takes one height")
-    grid, ell, device = setup_grid(step_deg, lat_max, region, h, ellipsoid, device)
-    mod = resolve_model(model, lmax, epoch)
-    from fieldmap.grids.synthesis import centrifugal_rows
+    from fieldmap.products.engine import compute
 
-    g = synthesize(
-        mod, grid, ell, "gravity", device, show_progress(int(np.prod(grid.shape)), progress)
-    )[0]
-    gam = (normal_rows(grid, ell, "exact", device) + centrifugal_rows(grid, ell))[0]
-    gam = np.broadcast_to(gam[:, None, :], g.shape)
-    dims = ("latitude", "longitude")
-    data = {}
-    for k, (c, cf_name) in enumerate(COMPONENTS.items()):
-        data[f"model_{c}"] = (
-            dims,
-            g[..., k],
-            {"units": "m s-2", "long_name": f"{cf_name} component of gravity from {mod.name}"},
-        )
-        data[f"normal_{c}"] = (
-            dims,
-            np.array(gam[..., k]),
-            {"units": "m s-2", "long_name": f"{cf_name} component of normal gravity ({ell.name})"},
-        )
-    return xr.Dataset(
-        data,
-        coords=coords(grid, False),
-        attrs=global_attrs(
-            f"Gravity components at {h[0] / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
-            mod,
-            ell,
-            grid,
-            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravity and exact "
-            f"normal gravity of {ell.name}, both with centrifugal acceleration",
-        ),
+    return compute(_request("component_maps", model, options, _COMPONENTS, quantity="components"))
+
+
+def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
+    """Map of a geodetic quantity on a global or regional grid, at one or several heights.
+
+    Parameters
+    ----------
+    quantity : str
+        ``"disturbance"`` is :func:`disturbance_map` (one height) or :func:`altitude_sweep`;
+        ``"gradient"``, ``"gradient-disturbance"``, ``"gradient-normal"`` the six ENU
+        components of the gradient tensor of gravity, of the disturbance or of exact normal
+        gravity (:func:`fieldmap.field.gradient.grid_gradient`, Eötvös);
+        ``"disturbance-sigma"``, ``"anomaly-sigma"``, ``"geoid-sigma"`` the commission error
+        from the model's coefficient sigma; ``"anomaly"``, ``"deflection"``, ``"geoid"``,
+        ``"potential"`` those of :func:`fieldmap.field.geodesy.grid_quantities`.
+    **options
+        ``model``, ``lmax``, ``epoch``, ``height_km`` (one or several; ignored for the geoid,
+        a property of the surface), ``step_deg``, ``lat_max``, ``region``, ``ellipsoid``,
+        ``device``, ``progress``, ``client``, ``scheduler``, ``chunks``, ``rows_per_block`` as
+        in :func:`disturbance_map`; ``degree0`` (bool): keep the degree-0 term of T (default
+        False, as GeographicLib).
+
+    Returns
+    -------
+    xarray.Dataset
+        The quantity's variables (:data:`fieldmap.products.variables.VARIABLES`) with
+        ``units``, ``long_name`` (and ``standard_name`` where CF has one), area-weighted
+        ``min``, ``max``, ``mean``, ``rms`` in each variable's attributes (per height for a
+        sweep: ``<var>_max`` etc. on height).
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> ds = fieldmap.quantity_map("geoid", lmax=12, step_deg=30.0)
+    >>> ds["geoid"].attrs["units"]
+    'm'
+    """
+    import numpy as np
+
+    from fieldmap.products.engine import compute
+
+    if quantity == "disturbance":
+        if options.pop("degree0", False):
+            raise InputError("degree0 applies to the potential T and its quantities, not to δg")
+        hs = np.atleast_1d(np.asarray(options.pop("height_km", 20.0), dtype=object)).ravel()
+        if hs.size == 1:
+            return disturbance_map(height_km=hs[0], **options)
+        return altitude_sweep(height_km=list(hs), **options)
+    from fieldmap.products.variables import QUANTITIES
+
+    if quantity not in QUANTITIES:
+        raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    return compute(
+        _request("quantity_map", None, options, _QUANTITY, quantity=quantity, stacked=True)
     )

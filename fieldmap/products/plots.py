@@ -15,11 +15,9 @@ Every map has a labelled graticule (landmarks inland, where there is no coast).
 Maps of several heights of one sweep share one colour scale (the largest value of the sweep),
 so that they can be compared by eye.
 
-This module holds the map figures (components, isolines, threshold areas). The map panel they
-share (axes, coastlines, graticule, colour bar, figure size and resolution) is
-:mod:`fieldmap.products.mapaxes`; the figures of an altitude sweep and of the truncation study,
-:func:`plot_sweep` and :func:`plot_truncation`, are in :mod:`fieldmap.products.studyplots` and
-importable from here too.
+Sweeps and the truncation study (Figs. 7, 8) are :func:`plot_sweep` and
+:func:`plot_truncation`; the quantity maps :func:`plot_quantity`. The map panel (plate carrée,
+coastlines, size and resolution of a figure) is shared by all.
 """
 
 from __future__ import annotations
@@ -31,24 +29,15 @@ matplotlib.use("Agg")
 import matplotlib.patheffects as pe  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
+from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator  # noqa: E402
 
-from fieldmap.products.cf import fraction_attr  # noqa: E402
-from fieldmap.products.mapaxes import (  # noqa: E402, F401 - DPI, MAX_MAP_PIXELS, map_scale: API
-    DPI,
-    MAX_MAP_PIXELS,
-    _colorbar,
-    _field,
-    _figsize,
-    _map_axes,
-    _mesh,
-    _regional,
-    map_scale,
-)
-from fieldmap.products.studyplots import plot_sweep, plot_truncation  # noqa: E402, F401
+from fieldmap.products import coastline  # noqa: E402
+from fieldmap.products.io import PNG_DPI  # noqa: E402
+from fieldmap.products.variables import SURFACE_QUANTITIES, fraction_attr  # noqa: E402
 
 MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
 # isoline styles by rank of the level (lowest first): colour, width. None is black or grey, the
@@ -100,8 +89,13 @@ def _levels(ds, levels_mg):
 
 
 def _modulus_top(v, levels) -> float:
-    """Upper end of the colour scale: the 99.9th percentile, at least 1.2 x the top isoline."""
-    raw = max(float(np.nanpercentile(v, 99.9)), max(levels) * 1.2)
+    """Upper end of the colour scale: a round value at or above the maximum of the data.
+
+    At least 1.2 x the top isoline. The colour bar covers every value of the map (a scale
+    ending at a percentile left the largest disturbances, the ones a reader looks for, off the
+    bar).
+    """
+    raw = max(float(np.nanmax(v)), max(levels) * 1.2)
     return float(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, raw)[-1])
 
 
@@ -111,7 +105,7 @@ def _area_median(sub, v) -> float:
         return float(sub["p50_mg"])
     if "p50_mg" in sub.attrs:
         return float(sub.attrs["p50_mg"])
-    from fieldmap.products.stats import area_weights, weighted_percentile
+    from fieldmap.products.statistics import area_weights, weighted_percentile
 
     return weighted_percentile(v, area_weights(sub["latitude"].values)[:, None], 50.0)
 
@@ -312,7 +306,7 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
     if key in ds.attrs:
         frac = float(ds.attrs[key])
     else:
-        from fieldmap.products.stats import weights_2d
+        from fieldmap.products.statistics import weights_2d
 
         frac = float(np.sum(weights_2d(ds["latitude"].values, v.shape[1])[v > threshold_mg]))
     fig, ax = plt.subplots(figsize=_figsize(ds, extra_width=0.4), constrained_layout=True)
@@ -338,3 +332,333 @@ def plot_threshold(ds, threshold_mg: float, title: str | None = None):
         fontsize=10,
     )
     return fig
+
+
+_COAST = {"color": "0.42", "linewidth": 0.35, "zorder": 4}
+#: Widest map drawn, in pixels; finer grids than this share pixels between nodes.
+MAX_MAP_PIXELS = 4000
+DPI = PNG_DPI
+
+
+def _regional(ds) -> bool:
+    return ds.attrs.get("grid_kind", "global") != "global"
+
+
+def _deg_label(value: float, pos: str, neg: str) -> str:
+    v = float(value)
+    if abs(v) < 1e-9:
+        return "0°"
+    return f"{abs(v):g}°{pos if v > 0 else neg}"
+
+
+def _lon_label(x, _=None) -> str:
+    """120 -> 120°E, -60 or 300 -> 60°W, 180 -> 180°."""
+    x = (float(x) + 180.0) % 360.0 - 180.0
+    if abs(abs(x) - 180.0) < 1e-9:
+        return "180°"
+    return _deg_label(x, "E", "W")
+
+
+def _lat_label(y, _=None) -> str:
+    return _deg_label(y, "N", "S")
+
+
+def node_step(ds) -> float:
+    """Spacing of the nodes drawn: the grid step, times the decimation of a figure's view."""
+    return float(ds.attrs.get("grid_step_deg", 1.0)) * int(ds.attrs.get("figure_decimation", 1))
+
+
+def _map_axes(ax, ds, **coast):
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    step = node_step(ds)
+    ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
+    ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
+    ax.set_aspect("equal")
+    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9, **{**_COAST, **coast})
+    if not _regional(ds):
+        ax.set_xticks(np.arange(-180, 181, 60) if lon[0] < 0 else np.arange(0, 361, 60))
+        ax.set_yticks(np.arange(-80, 81, 20))
+    else:  # round degrees, a graticule line every few degrees
+        nice = MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10])
+        for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            axis.set_major_locator(FixedLocator(nice.tick_values(*lim)))
+    ax.xaxis.set_major_formatter(FuncFormatter(_lon_label))
+    ax.yaxis.set_major_formatter(FuncFormatter(_lat_label))
+    # the graticule: landmarks inland, above the colours, under coastlines and isolines
+    ax.grid(True, color="0.3", linewidth=0.3, linestyle=(0, (4, 4)), alpha=0.5, zorder=3)
+    ax.set_axisbelow(False)
+    ax.set_xlabel("longitude")
+    ax.set_ylabel("latitude")
+    ax.tick_params(labelsize=8)
+
+
+def _spacing(x: np.ndarray) -> float | None:
+    """Return the step of evenly spaced values (to 1e-9 of it), else None."""
+    if x.size < 2:
+        return None
+    d = np.diff(x)
+    return float(d.mean()) if np.allclose(d, d.mean(), rtol=1e-9, atol=0) else None
+
+
+def _mesh(ax, ds, values, **style):
+    """Colour every node's cell: an image on an evenly spaced grid, else a quad mesh.
+
+    The image is the same picture as ``pcolormesh(shading="nearest")``, drawn an order of
+    magnitude faster on fine grids (a 0.1° global map: 0.1 s instead of 8 s).
+    """
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    dx, dy = _spacing(lon), _spacing(lat)
+    if dx is None or dy is None:
+        return ax.pcolormesh(lon, lat, values, shading="nearest", rasterized=True, **style)
+    extent = (lon[0] - dx / 2, lon[-1] + dx / 2, lat[0] - dy / 2, lat[-1] + dy / 2)
+    return ax.imshow(
+        values, origin="lower", extent=extent, interpolation="nearest", aspect="auto", **style
+    )
+
+
+def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
+    # proportional: a band is as long as its share of the scale, even where edges are uneven
+    cb = fig.colorbar(
+        mesh,
+        ax=axes,
+        shrink=0.9,
+        pad=0.015,
+        aspect=25,
+        fraction=0.04,
+        extend=extend,
+        ticks=ticks,
+        spacing="proportional",
+    )
+    cb.set_label(label, fontsize=9)
+    cb.ax.yaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    cb.ax.tick_params(labelsize=8)
+    return cb
+
+
+def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=None, extend=None):
+    if norm is not None:
+        vmin = vmax = None
+    mesh = _mesh(ax, ds, values, cmap=cmap, norm=norm, vmin=vmin, vmax=vmax)
+    _map_axes(ax, ds)
+    if extend is None:
+        top = vmax if norm is None else norm.vmax
+        extend = "max" if top is not None and np.nanmax(values) > top else "neither"
+    _colorbar(fig or ax.figure, mesh, ax, label, extend=extend)
+    return mesh
+
+
+def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3, scale=True):
+    """Figure size in inches for ``nrows`` map panels plus a colourbar column.
+
+    A map is 8 inches wide (at most 6.5 high) when that gives each grid node a pixel at
+    :data:`DPI`; a finer grid gets a larger figure, with the same fonts and line widths, so
+    that its detail is drawn (up to :data:`MAX_MAP_PIXELS` across).
+    """
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
+    w = min(map_width, max_map_height / aspect)
+    f = map_scale(lon.size, lat.size, w, w * aspect) if scale else 1.0
+    w *= f
+    return (w + extra_width, min(22.0 * f, nrows * (w * aspect + 0.8) + 0.3))
+
+
+def map_scale(nlon: int, nlat: int, width_in: float, height_in: float) -> float:
+    """Factor by which to enlarge a map of ``width_in`` x ``height_in`` inches (≥ 1).
+
+    Enough for one pixel per node at :data:`DPI` across and up (the tick labels take about
+    0.6 inch of the width), but no more than :data:`MAX_MAP_PIXELS` across.
+    """
+    need = max(nlon / ((width_in - 0.6) * DPI), nlat / ((height_in - 0.3) * DPI), 1.0)
+    return float(min(need, max(1.0, MAX_MAP_PIXELS / (width_in * DPI))))
+
+
+def plot_sweep(ds, reference=None):
+    """Area fraction above each threshold, and max / mean modulus, versus height (Fig. 7 study).
+
+    Parameters
+    ----------
+    reference : dict, optional
+        ``{threshold_mg: (height_km, percent)}`` values of another study (e.g. the paper's
+        §4.1 fractions at 20 km) drawn as open markers. Units: mg, km, %.
+    """
+    h = ds["height"].values / 1e3
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    frac = 100 * ds["area_fraction_above"].values
+    a1.set_yscale(
+        "log" if np.all(frac > 0) else "symlog", **({} if np.all(frac > 0) else {"linthresh": 0.01})
+    )
+    for j, t in enumerate(ds["threshold_mg"].values):
+        (line,) = a1.plot(h, frac[:, j], "o-", label=f"> {t:g} mg")
+        if reference and float(t) in reference:
+            rh, rp = reference[float(t)]
+            a1.plot([rh], [rp], "D", color=line.get_color(), mfc="none", ms=9, mew=1.5)
+    if reference:
+        a1.plot([], [], "D", color="0.3", mfc="none", label="paper (EIGEN-6C4 d2190)")
+    a1.set_xlabel("height above the ellipsoid (km)")
+    a1.set_ylabel("area fraction (%)")
+    a1.grid(True, which="major", alpha=0.3)
+    a1.grid(True, which="minor", alpha=0.1)
+    a1.legend(fontsize=8)
+    a1.set_title("Area (area-weighted) with |δg| above thresholds", fontsize=10)
+    a2.plot(h, ds["max_mg"].values, "o-", label="maximum")
+    if "p99_mg" in ds:
+        a2.plot(h, ds["p99_mg"].values, "^-", label="99th percentile")
+    a2.plot(h, ds["mean_mg"].values, "s-", label="area-weighted mean")
+    a2.set_xlabel("height above the ellipsoid (km)")
+    a2.set_ylabel("|δg| (mg)")
+    a2.set_ylim(bottom=0)
+    a2.grid(True, alpha=0.3)
+    a2.legend(fontsize=8)
+    a2.set_title("Disturbance modulus versus height", fontsize=10)
+    fig.suptitle(
+        f"Altitude sweep — {ds.attrs['model']} degree {ds.attrs['model_lmax']} minus exact "
+        f"{ds.attrs.get('ellipsoid', 'WGS84')} normal gravity",
+        fontsize=11,
+    )
+    return fig
+
+
+def plot_truncation(ds):
+    """Modulus of the J2n truncation error per order (Fig. 8), with a latitude profile."""
+    orders = [int(o) for o in ds["order"].values]
+    n = len(orders)
+    w, _ = _figsize(ds, extra_width=0.0, scale=False)  # axisymmetric: no detail to resolve
+    fig, axes = plt.subplots(
+        n,
+        2,
+        figsize=(w + 4.2, 3.0 * n + 0.4),
+        squeeze=False,
+        gridspec_kw={"width_ratios": [3, 1]},
+        constrained_layout=True,
+    )
+    h = float(ds["height"].values) / 1e3
+    lat = ds["latitude"].values
+    for k, o in enumerate(orders):
+        sub = ds.isel(order=k)
+        v = sub["modulus_mg"].values
+        exp = int(np.floor(np.log10(max(float(v.max()), 1e-300))))
+        scale = 10.0**exp
+        _field(axes[k, 0], sub, v / scale, "magma_r", f"|δg| ($10^{{{exp}}}$ mg)", 0.0)
+        axes[k, 0].set_title(
+            f"({'abcdef'[k]}) J{o} minus exact normal gravitation, h = {h:g} km "
+            f"({ds.attrs['ellipsoid']}); max {float(v.max()):.3g} mg",
+            fontsize=10,
+        )
+        prof = axes[k, 1]
+        for c in ("north", "up"):
+            prof.plot(sub[c].values[:, 0] * _to_mg(sub[c].attrs["units"]) / scale, lat, label=c)
+        prof.axvline(0, color="0.5", lw=0.6)
+        prof.set_xlabel(f"δg ($10^{{{exp}}}$ mg)")
+        prof.set_ylabel("latitude (°N)")
+        prof.set_yticks(np.arange(-80, 81, 20) if not _regional(ds) else prof.get_yticks())
+        prof.set_ylim(lat[0], lat[-1])
+        prof.grid(True, alpha=0.3)
+        east0 = float(np.max(np.abs(sub["east"].values))) == 0.0
+        prof.legend(fontsize=8, title="east ≡ 0" if east0 else None, title_fontsize=7)
+        prof.set_title("zonal profile of the components", fontsize=9)
+    return fig
+
+
+def _to_mg(units: str) -> float:
+    from fieldmap.units import MG, get_unit
+
+    return get_unit(units).si / MG
+
+
+def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
+    """Map of one variable with coastlines and a diverging colour scale centred on zero.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`quantity_map`.
+    name : str
+        Variable (``anomaly``, ``xi``, ``eta``, ``geoid``, ``potential``).
+    height_index : int, optional
+        Height of a sweep (default: the first).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import TwoSlopeNorm
+
+    var = ds[name]
+    values = var.values
+    if "height" in ds.dims:
+        k = 0 if height_index is None else int(height_index)
+        values = values[k]
+        height = float(ds["height"].values[k])
+    else:
+        height = float(ds["height"].values)
+    lon = ds["longitude"].values
+    lat = ds["latitude"].values
+    top = float(np.nanmax(np.abs(values))) or 1.0
+    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
+    w = min(8.0, 6.5 / aspect)
+    fig, ax = plt.subplots(figsize=(w + 1.3, w * aspect + 1.1), constrained_layout=True)
+    mesh = ax.pcolormesh(
+        lon,
+        lat,
+        values,
+        cmap="RdBu_r",
+        norm=TwoSlopeNorm(vcenter=0.0, vmin=-top, vmax=top),
+        shading="nearest",
+        rasterized=True,
+    )
+    step = node_step(ds)
+    ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
+    ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
+    ax.set_aspect("equal")
+    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9)
+    ax.set_xlabel("longitude (°E)")
+    ax.set_ylabel("latitude (°N)")
+    ax.tick_params(labelsize=8)
+    cb = fig.colorbar(mesh, ax=ax, shrink=0.9, pad=0.015, aspect=25, fraction=0.04)
+    cb.set_label(f"{name} ({var.attrs['units']})", fontsize=9)
+    surface = ds.attrs.get("quantity") in SURFACE_QUANTITIES
+    where = "h = 0" if surface else f"h = {height / 1e3:g} km"
+    a = ds.attrs
+    source = (
+        f"{a['model']} degree {a.get('model_lmax')}"
+        if a.get("model")
+        else f"{a.get('ellipsoid')} normal field"
+    )
+    ax.set_title(f"{var.attrs['long_name']}\n{source}, {where}", fontsize=9)
+    return fig
+
+
+#: Thresholds from which ``fieldmap map`` draws a map of the area above (below, the area is most
+#: of the map and the figure says little).
+THRESHOLD_FIGURES_FROM_MG = 0.05
+
+
+def disturbance_figures(ds, thresholds) -> list:
+    """Return the figures of a disturbance map or sweep, as ``(file suffix, maker)`` pairs.
+
+    A map: its isolines and, for each threshold from :data:`THRESHOLD_FIGURES_FROM_MG`, the
+    area above it (``above_<t>mg``); a sweep: its table and the isolines at each height
+    (``isolines_h<h>km``), one colour scale for all. The one list of ``fieldmap map|sweep``,
+    whether the map is held in memory or streamed to a store.
+    """
+    from functools import partial
+
+    if "height" in ds.dims:
+        figs = [("table", partial(plot_sweep, ds))]
+        for k, h in enumerate(ds["height"].values):
+            figs.append(
+                (f"isolines_h{h / 1e3:g}km", partial(plot_isolines, ds, thresholds, height_index=k))
+            )
+        return figs
+    figs = [("isolines", partial(plot_isolines, ds, thresholds))]
+    for t in thresholds:
+        if t >= THRESHOLD_FIGURES_FROM_MG:
+            figs.append((f"above_{t:g}mg", partial(plot_threshold, ds, t)))
+    return figs

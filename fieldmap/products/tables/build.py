@@ -1,7 +1,7 @@
 """Build a gravity compensation table whose interpolation error is verified below a bound.
 
 :func:`build_table` computes δg north, east, down (mGal) on a lat-lon-height lattice
-(:mod:`fieldmap.products.table_model` describes the lattice and the interpolation scheme) with
+(:mod:`fieldmap.products.tables.model` describes the lattice and the interpolation scheme) with
 fieldmap's grid engine (:func:`fieldmap.grids.synthesis.synthesize`, the engine of the map
 products: model gravitation minus the exact normal gravitation, geodetic frame), then chooses
 the spacings:
@@ -35,7 +35,7 @@ import numpy as np
 
 from fieldmap import limits
 from fieldmap.errors import InputError
-from fieldmap.products.table_model import COMPONENTS, CompensationTable
+from fieldmap.products.tables.model import COMPONENTS, CompensationTable
 
 #: random check points of step D (reproducible: fixed seed)
 CHECK_POINTS = 2000
@@ -133,7 +133,7 @@ class _Lattice:
 
     @property
     def nbytes(self) -> int:
-        from fieldmap.products.table_model import HEADER_BYTES
+        from fieldmap.products.tables.model import HEADER_BYTES
 
         return HEADER_BYTES + (self.ncl + 3) * (self.ncn + 3) * (self.nck + 1) * 3 * 4
 
@@ -229,7 +229,7 @@ def build_table(
     hk = limits.heights_from_km(heights_km, distinct=False)
     if hk.size != 2 or not hk[0] < hk[1]:
         raise InputError(
-            f"--heights-km needs MIN,MAX with MIN < MAX, got {','.join(f'{v / 1e3:g}' for v in hk)}"
+            f"--height-km needs MIN,MAX with MIN < MAX, got {','.join(f'{v / 1e3:g}' for v in hk)}"
         )
     if int(check_points) < 1:
         raise InputError(f"check_points must be >= 1, got {check_points!r}")

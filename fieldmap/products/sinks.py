@@ -1,4 +1,4 @@
-"""Block-by-block outputs of :mod:`fieldmap.products.blocks`: NetCDF-4, zarr, in-memory, lazy.
+"""Where a product's blocks go: memory (shared or sent back), NetCDF-4, zarr; atomic stores.
 
 - **zarr** (:class:`ZarrTarget`): chunked along latitude (``chunk_rows`` rows of all longitudes,
   Blosc/zstd), written by the workers in parallel. A block holds two runs of rows (south rows
@@ -7,19 +7,17 @@
   end); the client gathers them and writes each shared chunk once, whole, when all its rows
   are in. No chunk ever has two writers, without any lock, and nothing is read back.
 - **NetCDF-4** (:class:`NetCDFWriter`): zlib + shuffle at :data:`fieldmap.products.io.COMPLEVEL`
-  (as the in-memory products), chunks of
-  ``chunk_rows`` rows; HDF5 has no parallel writer without MPI, so the client is the one writer
-  and the workers send it their blocks (at most ``window`` in flight, which bounds the memory).
-- Both are written under a hidden temporary name next to the final one and renamed only when
-  the whole product, statistics included, is complete
-  (:func:`fieldmap.products.blockstore.atomic_store`): a failed or interrupted run leaves no
-  partial product under the final name.
-- **in memory** (:func:`memory_target`): the workers of this host write into shared memory
-  (:class:`SharedArrays`), other workers send their blocks to the client (:class:`MemorySink`).
+  (as the in-memory products), chunks of ``chunk_rows`` rows; HDF5 has no parallel writer
+  without MPI, so the client is the one writer and the workers send it their blocks (at most
+  ``window`` in flight, which bounds the memory).
+- **memory** (:func:`memory_target`): a product returned whole is written by workers of the
+  client's machine into shared memory, else sent back to the client.
+- :func:`atomic_store` gives the writers a hidden temporary name next to the final one, renamed
+  only when the whole product, statistics included, is complete: a failed or interrupted run
+  leaves no partial product under the final name. :func:`decimated` reads a stored product
+  back at a resolution fit for figures.
 
-The product's template and statistics attributes are :mod:`fieldmap.products.blockmeta`; the
-atomic placement of a finished store and its decimated view for figures,
-:mod:`fieldmap.products.blockstore`. Their names are importable from here too.
+:func:`fieldmap.products.engine.write_product` streams a product's blocks to these targets.
 """
 
 from __future__ import annotations
@@ -30,17 +28,64 @@ import os
 import shutil
 import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from fieldmap.products.blockmeta import (  # noqa: F401 - moved there, importable from here
-    map_attrs,
-    percentile_method_text,
-    template,
-)
-from fieldmap.products.blocks import VARIABLES
-from fieldmap.products.blockstore import atomic_store, decimated  # noqa: F401 - moved there
+from fieldmap.products.variables import DISTURBANCE_VARIABLES
+
+
+@contextlib.contextmanager
+def atomic_store(final):
+    """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
+
+    Works for a file or a folder (zarr). An existing product of the same name is replaced
+    only once the new one is complete; on any error the temporary path is removed.
+    """
+    final = Path(final)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent))
+    tmp.rmdir()  # the writer creates it (a file or a folder)
+    try:
+        yield tmp
+        if final.is_dir() and not final.is_symlink():
+            old = final.with_name(f".{final.name}.old-{os.getpid()}")
+            os.replace(final, old)
+            os.replace(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    except BaseException:
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise
+
+
+def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
+    """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
+
+    Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
+    the store, so that figures of huge grids never hold the full-resolution arrays. ``s`` > 1
+    is kept in ``attrs["figure_decimation"]`` (:func:`fieldmap.products.plots.node_step`);
+    the other attributes are the product's.
+    """
+    opener = (
+        (lambda p: xr.open_zarr(p, consolidated=True))
+        if fmt == "zarr"
+        else (lambda p: xr.open_dataset(p, engine="netcdf4"))
+    )
+    with opener(path) as ds:
+        n = ds.sizes["latitude"] * ds.sizes["longitude"]
+        s = max(1, math.ceil(math.sqrt(n / max_nodes)))
+        view = ds.isel(latitude=slice(None, None, s), longitude=slice(None, None, s)).load()
+    view.attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in view.attrs.items()}
+    if s > 1:  # the product's attributes stay as stored (grid_step_deg: the product's step)
+        view.attrs["figure_decimation"] = s
+    return view
+
 
 #: Bytes of one chunk of one variable (uncompressed), for the default ``chunk_rows``.
 CHUNK_BYTES = 2**20
@@ -91,7 +136,7 @@ class ZarrTarget:
     its rows have arrived (no read-modify-write, no chunk with two writers).
     """
 
-    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=VARIABLES):
+    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=DISTURBANCE_VARIABLES):
         self.path = str(path)
         self.nlat = nlat
         self.rows = rows
@@ -228,6 +273,9 @@ class NetCDFWriter:
 
         # the same encoding as the in-memory products: no _FillValue on coordinates (CF 1.8 §5)
         ds.to_netcdf(path, engine="netcdf4", mode="w", encoding=netcdf_encoding(ds))
+        # the coordinates that are no dimension (height, height_km), as xarray names them in
+        # the "coordinates" attribute of each variable they apply to (a subset of its dims)
+        self.aux = {str(k): set(c.dims) for k, c in ds.coords.items() if k not in ds.dims}
         self.nc = netCDF4.Dataset(path, "a")
         rows = chunk_rows(nlon)
         chunks = (1, min(rows, nlat), nlon) if self.stacked else (min(rows, nlat), nlon)
@@ -245,8 +293,7 @@ class NetCDFWriter:
                 fill_value=np.nan,
             )
             v.setncatts(var_attrs[name])
-            if not self.stacked:
-                v.setncattr("coordinates", "height")
+            self._coordinates(v, dims)
             self.vars[name] = v
 
     def sink(self, block, data: dict) -> None:
@@ -275,8 +322,15 @@ class NetCDFWriter:
             )
             v[...] = values
             v.setncatts(vattrs)
+            self._coordinates(v, dims)
         self.nc.setncatts(attrs)
         self.close()
+
+    def _coordinates(self, var, dims) -> None:
+        """Set the ``coordinates`` attribute of ``var`` as xarray writes it (names sorted)."""
+        names = sorted(k for k, d in self.aux.items() if d <= set(dims))
+        if names:
+            var.setncattr("coordinates", " ".join(names))
 
     def close(self) -> None:
         """Close the file (idempotent)."""
@@ -401,7 +455,7 @@ def memory_target(grid, stacked: bool, names, client):
 class MemorySink:
     """Assemble the blocks into in-memory arrays (the Python API's eager mode)."""
 
-    def __init__(self, grid, stacked: bool, names=VARIABLES):
+    def __init__(self, grid, stacked: bool, names=DISTURBANCE_VARIABLES):
         nh, nlat, nlon = grid.shape
         self.shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
         self.stacked = stacked

@@ -2,7 +2,7 @@
 
 All four are written together through :func:`fieldmap.products.io.output_batch` (none appears
 unless all were written). The binary file is the header struct of ``table.h`` (168 bytes,
-:data:`fieldmap.products.table_model.HEADER_FORMAT`) followed by the values, float32
+:data:`fieldmap.products.tables.model.HEADER_FORMAT`) followed by the values, float32
 little-endian, in C order ``[nh][nlat][nlon][3]`` (height slowest, the north, east, down
 components of one node adjacent): a 4x4x4 stencil reads 16 runs of 4 nodes.
 
@@ -19,7 +19,7 @@ import struct
 
 import numpy as np
 
-from fieldmap.products.table_model import (
+from fieldmap.products.tables.model import (
     COMPONENTS,
     HEADER_BYTES,
     HEADER_FORMAT,

@@ -2,9 +2,9 @@
 
 A compensation table holds δg north, east, down (mGal, the local geodetic NED frame of an INS)
 on a regular latitude-longitude-height lattice: the gravity disturbance δg = g_model − γ_exact
-that an INS adds to its normal gravity. It is written by :mod:`fieldmap.products.table` and read
-here, by ``fieldmap point --model table:FILE``, ``fieldmap.disturbance(..., model="table:FILE")``
-and (later) the navigation simulator.
+that an INS adds to its normal gravity. It is written by :mod:`fieldmap.products.tables.build`
+and read here, by ``fieldmap point --model table:FILE``,
+``fieldmap.disturbance(..., model="table:FILE")`` and (later) the navigation simulator.
 
 The lattice
     Node (k, i, j) sits at height ``h0 + k*dh`` (m above the ellipsoid), geodetic latitude
@@ -49,7 +49,7 @@ PREFIX = "table:"
 COMPONENTS = ("dn", "de", "dd")
 #: Tolerance of the domain edges, in units of the node spacing (rounding of user coordinates).
 EDGE_TOL = 1e-9
-#: Binary layout: magic, version and the header struct (see :mod:`fieldmap.products.table_io`).
+#: Binary layout: magic, version and the header struct (see :mod:`fieldmap.products.tables.files`).
 MAGIC = b"FMGTAB\x00\x01"
 VERSION = 1
 HEADER_FORMAT = "<8s8I16d"  # 8 + 32 + 128 = 168 bytes

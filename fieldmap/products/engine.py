@@ -1,0 +1,996 @@
+"""The block engine: every map product, planned in blocks of rows, run here, on Dask or lazily.
+
+A product (a disturbance or quantity map, a truncation or component map, at one height or a
+sweep) is split into blocks of latitude rows at one layer (a height, or an order of the
+truncation map). A block holds whole mirror units of
+:func:`fieldmap.grids.synthesis.mirror_pairs` (a row and its mirror at minus the latitude share
+one Legendre recursion), grouped exactly as :func:`fieldmap.grids.synthesis.synthesize` groups
+them, and is computed by ``synthesize`` on the sub-grid of its rows (:func:`compute_block`).
+The plan (:func:`plan_blocks`) depends only on the grid and ``rows_per_block``, never on the
+executor, so a product is bitwise the same whether its blocks run here one after the other
+(each on every core through the Warp thread pool), on ``local:N`` worker processes, on a remote
+cluster, or lazily when a dask-backed Dataset is read; a block that is run again after a worker
+died gives the same bits.
+
+The engine takes one :class:`fieldmap.products.request.MapRequest` (validated at its
+construction, trusted here): :func:`compute` returns the product in memory, :func:`lazy`
+a dask-backed Dataset; :func:`write_product` streams it to a NetCDF file or zarr store
+(the targets of :mod:`fieldmap.products.sinks`).
+
+Statistics are combined from per-block partial results in block order, so exactly the same on
+every executor (:mod:`fieldmap.products.statistics`). Dask: :func:`parse_scheduler`,
+:func:`open_client` (connects or starts a LocalCluster for the run, failing in one line when
+nothing listens), :func:`worker_setup` (prepares a worker before its first task),
+:func:`scattered` (the model shipped once per worker).
+
+Memory: one block of ``nb`` rows and ``nlon`` longitudes takes about ``nb * (per_item + 104 *
+nlon)`` bytes on the process computing it (``per_item`` of ``synthesize``: Fourier coefficients
+and FFT work arrays, ``nm * 144 + nlon * 144`` bytes for ``nm = lmax + 1``; 104 = the five output
+variables and the vector), plus the model (``16 * nm**2`` bytes) and the interpreter (~0.3 GB);
+see :func:`block_bytes`. The client holds at most ``window`` blocks (NetCDF) or only their
+boundary rows and statistics (zarr). Nothing is proportional to the grid but the row weights.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+import os
+import sys
+import weakref
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from fieldmap.errors import InputError
+from fieldmap.grids.spec import GridSpec
+from fieldmap.products.sinks import memory_target
+from fieldmap.products.statistics import (
+    OrderedFold,
+    finish_statistics,
+    joined_partials,
+    rows_partial,
+    scalar_partial,
+)
+from fieldmap.products.variables import assemble_quantity, index_height_km
+
+#: Blocks per height of the default plan (at least; more where memory asks for it).
+BLOCKS_PER_HEIGHT = 32
+#: The same, for blocks computed here into memory or a NetCDF file: each block is one
+#: synthesis (its own launches, uploads and Python set-up), and the grid kernel and the FFTs
+#: already spread a block over the cores, so one block per height (as large as the memory
+#: budget allows) costs least; any plan gives the same bits.
+LOCAL_BLOCKS_PER_HEIGHT = 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """One block of a product: rows (ascending indices into the grid's latitudes) at one height.
+
+    Attributes
+    ----------
+    index : int
+        Position in the plan (statistics are folded in this order).
+    layer : int
+        Height index.
+    rows : numpy.ndarray
+        Row indices, ascending (one or two contiguous runs: south rows and their mirrors).
+    """
+
+    index: int
+    layer: int
+    rows: np.ndarray
+
+    def runs(self) -> list[tuple[int, int]]:
+        """Contiguous runs ``[r0, r1)`` of the rows."""
+        r = self.rows
+        cut = np.flatnonzero(np.diff(r) != 1) + 1
+        starts = np.concatenate([[0], cut])
+        stops = np.concatenate([cut, [r.size]])
+        return [(int(r[a]), int(r[b - 1]) + 1) for a, b in zip(starts, stops)]
+
+
+def _per_item(nm: int, nlon: int, lon: np.ndarray) -> int:
+    """Bytes per row of one ``synthesize`` block (its own formula), plus the five outputs."""
+    from fieldmap.grids.longitude import regular_period
+
+    nper = regular_period(lon) or nlon
+    return nm * 3 * 16 * 3 + nper * 3 * 16 * 2 + nlon * 3 * 8 * 2 + nlon * 8 * 8
+
+
+def block_bytes(nb: int, lmax: int, nlon: int, lon: np.ndarray | None = None) -> int:
+    """Working memory of one block of ``nb`` rows (bytes), without interpreter and model.
+
+    ``nb * (nm * 144 + nper * 96 + nlon * 112)`` with ``nm = lmax + 1`` and ``nper`` the FFT
+    length (``nlon`` for a global grid): Fourier coefficients, FFT work arrays, the vector and
+    the five output variables (east, north, up, modulus, modulus_mg).
+    """
+    lon = np.arange(nlon) * (360.0 / nlon) if lon is None else lon
+    return nb * _per_item(lmax + 1, nlon, lon)
+
+
+def plan_blocks(
+    grid,
+    lmax: int,
+    rows_per_block: int | None = None,
+    *,
+    blocks_per_height: int = BLOCKS_PER_HEIGHT,
+) -> list[Block]:
+    """Split a grid into blocks of whole mirror units, height by height.
+
+    Parameters
+    ----------
+    grid : fieldmap.grids.spec.GridSpec
+    lmax : int
+        Degree of the synthesis (for the default block size).
+    rows_per_block : int, optional
+        Most rows per block (a mirrored pair counts two; at least 2). Default: the smaller of
+        what :func:`fieldmap.grids.synthesis.synthesize` keeps in one block
+        (``BLOCK_BYTES / per_item``) and ``nlat / blocks_per_height`` rounded up to a multiple
+        of 8 rows (whole groups of the grid kernel).
+    blocks_per_height : int
+        Blocks per height of the default size (:data:`BLOCKS_PER_HEIGHT`).
+
+    Returns
+    -------
+    list of Block
+        Independent of the executor: the same grid and ``rows_per_block`` give the same plan.
+    """
+    from fieldmap.grids.synthesis import BLOCK_BYTES, mirror_pairs
+
+    nh, nlat, nlon = grid.shape
+    if rows_per_block is None:
+        per = _per_item(lmax + 1, nlon, grid.lon)
+        # whole groups of four mirror pairs (8 rows): the grid kernel runs four units per
+        # thread, and a block of 5 pairs would leave 3 of 8 lanes of its last group idle
+        want = 8 * math.ceil(nlat / blocks_per_height / 8)
+        rows_per_block = max(1, min(BLOCK_BYTES // per, want))
+    else:
+        try:
+            rows_per_block = int(rows_per_block)
+        except (TypeError, ValueError):
+            raise InputError(f"rows per block must be an integer, got {rows_per_block!r}") from None
+        if rows_per_block < 1:
+            raise InputError(f"rows per block must be >= 1, got {rows_per_block}")
+    size = max(2, min(nlat, rows_per_block))
+    if size >= nlat:  # one block per height holds every row (what the grouping gives)
+        return [Block(k, k, np.arange(nlat, dtype=np.int64)) for k in range(nh)]
+    units = mirror_pairs(grid.lat)
+    blocks: list[Block] = []
+    for layer in range(nh):
+        u0 = 0
+        while u0 < len(units):  # the grouping rule of synthesize
+            u1, count = u0, 0
+            while u1 < len(units) and (count == 0 or count + 1 + (units[u1][1] >= 0) <= size):
+                count += 1 if units[u1][1] < 0 else 2
+                u1 += 1
+            rows = np.sort([i for a, b in units[u0:u1] for i in ((a,) if b < 0 else (a, b))])
+            blocks.append(Block(len(blocks), layer, rows.astype(np.int64)))
+            u0 = u1
+    return blocks
+
+
+#: Grids of at least this many nodes (all heights together; a 0.1° global map has 5.8e6) show
+#: a progress bar on a terminal by default: they take seconds to compute and longer to write.
+PROGRESS_NODES = 2_000_000
+
+
+def show_progress(nodes: int, progress: bool | None = None) -> bool:
+    """Whether to show a progress bar (on stderr) for a product of ``nodes`` grid nodes.
+
+    ``progress`` True or False decides; None (the default of every product) shows one for
+    grids of at least :data:`PROGRESS_NODES` nodes when stderr is a terminal, never in a pipe,
+    a file or a test.
+    """
+    if progress is not None:
+        return bool(progress)
+    return nodes >= PROGRESS_NODES and sys.stderr.isatty()
+
+
+# ---------------------------------------------------------------------------- one block
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """Everything a worker needs for one block except the model (shipped once per worker).
+
+    Attributes
+    ----------
+    block : Block
+    grid : GridSpec
+        The block's rows (latitudes, all longitudes) at its one height.
+    weights : (numpy.ndarray, numpy.ndarray)
+        Area weights of its rows and their whole-number histogram weights.
+    output : fieldmap.products.request.Output
+        What the product holds (quantity, units, thresholds, degree0).
+    ellipsoid : str
+    device : str or None
+    order : int
+        The J2n order of a truncation map's layer (0 otherwise).
+    store : fieldmap.products.sinks.ZarrTarget, optional
+        Where the worker writes its block (zarr), else None.
+    """
+
+    block: Block
+    grid: GridSpec
+    weights: tuple[np.ndarray, np.ndarray]
+    output: Any
+    ellipsoid: str
+    device: str | None
+    order: int = 0
+    store: Any = None
+
+    @property
+    def quantity(self) -> str:
+        """The product's quantity (``"disturbance"``, ``"truncation"``...)."""
+        return str(self.output.quantity)
+
+    @property
+    def thresholds(self) -> tuple:
+        """Thresholds of the area fractions (mg): the disturbance's only."""
+        return tuple(self.output.thresholds_mg) if self.quantity == "disturbance" else ()
+
+
+def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
+    """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
+
+    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
+    and the statistics of :func:`~fieldmap.products.statistics.block_partial` of their
+    ``modulus_mg``, the same bits: each part of the rows (on the CPU threads) is converted
+    (:func:`fieldmap.products.variables.convert_rows`) and reduced while it is in the cache.
+
+    Returns
+    -------
+    (dict, dict)
+        {name: (rows, nlon) array} of east, north, up, modulus, modulus_mg, and the partial.
+    """
+    from fieldmap.grids.longitude import map_rows
+    from fieldmap.products.variables import convert_rows
+    from fieldmap.units import get_unit
+
+    scale = get_unit(units).si
+    comps = np.moveaxis(vec, -1, 0)
+    mods = np.empty((2, *comps.shape[1:]))
+    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
+
+    def part(a, b):
+        convert_rows(comps, comps, mods, scale, a, b)
+        return rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
+
+    parts = map_rows(part, comps.shape[1], 32)
+    names = ("east", "north", "up", "modulus", "modulus_mg")
+    return dict(zip(names, (*comps, *mods))), joined_partials(parts, len(thresholds))
+
+
+def compute_block(job: Job, model) -> dict:
+    """Synthesise one block; write it to the zarr store if ``job.store``, return the rest.
+
+    Returns
+    -------
+    dict
+        ``index``, ``layer``, ``rows``, ``partial`` (statistics) and ``data``: the variables
+        {name: (nb, nlon) array} when the caller writes them, else only the boundary rows the
+        workers cannot write alone (:meth:`fieldmap.products.sinks.ZarrTarget.write_block`).
+    """
+    from fieldmap.field.ellipsoid import get_ellipsoid
+    from fieldmap.grids.synthesis import synthesize
+
+    worker_setup()
+    ell = get_ellipsoid(job.ellipsoid)
+    sub = job.grid
+    row_weights, hist_weights = job.weights
+    units = job.output.units
+    if job.quantity == "disturbance":
+        vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
+        # converted in place and reduced in one pass (vector_vars and block_partial, same bits)
+        data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
+    elif job.quantity == "truncation":
+        from fieldmap.grids.synthesis import normal_rows
+
+        # J2n normal gravitation minus the exact one: axisymmetric, one row for every longitude
+        exact = normal_rows(sub, ell, "exact", job.device)[0]
+        err = normal_rows(sub, ell, f"j{job.order}", job.device)[0] - exact
+        vec = np.empty((err.shape[0], sub.lon.size, 3))
+        vec[...] = err[:, None, :]
+        # converted as vector_vars converts (the same bits); its statistics are those of the
+        # whole maps (compute), so the block carries none
+        from fieldmap.products.variables import DISTURBANCE_VARIABLES, convert_rows
+        from fieldmap.units import get_unit
+
+        comps = np.moveaxis(vec, -1, 0)
+        mods = np.empty((2, *comps.shape[1:]))
+        convert_rows(comps, comps, mods, get_unit(units).si)
+        data = dict(zip(DISTURBANCE_VARIABLES, (*comps, *mods)))
+        partial = {"vars": {}}
+    elif job.quantity == "components":
+        from fieldmap.grids.synthesis import centrifugal_rows, normal_rows
+
+        g = synthesize(model, sub, ell, "gravity", job.device, progress=False)[0]
+        gam = (normal_rows(sub, ell, "exact", job.device) + centrifugal_rows(sub, ell))[0]
+        gam = np.broadcast_to(gam[:, None, :], g.shape)
+        data = {}
+        for k, c in enumerate(("east", "north", "up")):
+            data[f"model_{c}"] = g[..., k]
+            data[f"normal_{c}"] = np.array(gam[..., k])
+        partial = {"vars": {}}
+    else:
+        from fieldmap.products.variables import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
+
+        if job.quantity in GRADIENT_QUANTITIES:
+            from fieldmap.field.gradient import grid_gradient
+
+            vals = grid_gradient(model, sub, job.quantity, ellipsoid=ell, device=job.device)
+        elif job.quantity in SIGMA_QUANTITIES:
+            from fieldmap.field.commission_grid import grid_commission
+
+            vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
+        else:
+            from fieldmap.field.geodesy import grid_quantities
+
+            vals = grid_quantities(
+                model,
+                sub,
+                job.quantity,
+                ellipsoid=ell,
+                degree0=job.output.degree0,
+                device=job.device,
+            )
+        data = {k: v[0] for k, v in vals.items()}
+        partial = {"vars": {k: scalar_partial(v, row_weights) for k, v in data.items()}}
+    out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
+    if job.store is not None:
+        data = job.store.write_block(job.block, data)
+    out["data"] = data
+    out["partial"] = partial
+    return out
+
+
+# ---------------------------------------------------------------------------- executors
+
+
+def _run_local(jobs, model, on_result, progress) -> None:
+    from tqdm.auto import tqdm
+
+    if _bar_off(progress):  # no bar object: it costs as much as a small map's statistics
+        for job in jobs:
+            on_result(compute_block(job, model))
+        return
+    bar = tqdm(total=len(jobs), unit="block", desc="blocks", disable=_bar_off(progress))
+    try:
+        for job in jobs:
+            on_result(compute_block(job, model))
+            bar.update(1)
+    finally:
+        bar.close()
+
+
+def _bar_off(progress):
+    return (not progress) if progress is not None else None
+
+
+def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> None:
+    """Submit the blocks to ``client`` (at most ``window`` in flight), handle results."""
+    from distributed import as_completed
+    from tqdm.auto import tqdm
+
+    nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+    # the coefficients travel once to every worker, not once per task (nor per product)
+    model_f = scattered(client, model) if model is not None else None
+    window = window or 4 * nworkers
+    bar = tqdm(total=len(jobs), unit="block", desc="blocks (dask)", disable=_bar_off(progress))
+    pending = iter(jobs)
+    # a lost worker's tasks are rescheduled by Dask itself; an exception is not retried
+    futures = [
+        client.submit(compute_block, job, model_f, pure=False) for job in _take(pending, window)
+    ]
+    seq = as_completed(futures)
+    try:
+        for fut in seq:
+            res = fut.result()
+            fut.release()
+            on_result(res)
+            del res
+            bar.update(1)
+            for job in _take(pending, 1):
+                futures.append(client.submit(compute_block, job, model_f, pure=False))
+                seq.add(futures[-1])
+    except BaseException:
+        client.cancel(futures)
+        raise
+    finally:
+        bar.close()
+
+
+def _take(it, n):
+    out = []
+    for _ in range(n):
+        try:
+            out.append(next(it))
+        except StopIteration:
+            break
+    return out
+
+
+# ---------------------------------------------------------------------------- products
+
+
+def product_grid(request) -> GridSpec:
+    """Return the grid the blocks cover: one layer per order for a truncation map.
+
+    A layer is a height of the grid; the orders of a truncation map (one height) are its
+    layers, each at that height.
+    """
+    grid = request.grid
+    if request.output.quantity == "truncation":
+        n = len(request.output.orders)
+        return dataclasses.replace(grid, heights=np.repeat(grid.heights[:1], n))
+    return grid
+
+
+def plan(request, local: bool = True) -> list[Block]:
+    """Return the blocks of a request's product (:func:`plan_blocks` of its grid).
+
+    ``local``: the blocks run here into memory or a NetCDF file (the fewest blocks), else on a
+    cluster or into a zarr store (:data:`BLOCKS_PER_HEIGHT` at least).
+    """
+    lmax = request.model.lmax if request.model is not None else 2
+    return plan_blocks(
+        product_grid(request),
+        lmax,
+        request.execution.rows_per_block,
+        blocks_per_height=LOCAL_BLOCKS_PER_HEIGHT if local else BLOCKS_PER_HEIGHT,
+    )
+
+
+def make_jobs(request, blocks: list[Block], store: Any = None) -> list[Job]:
+    """One :class:`Job` per block of a request's product (``store``: workers write there)."""
+    from fieldmap.products.statistics import area_weights, histogram_weights
+
+    grid = product_grid(request)
+    out = request.output
+    aw = area_weights(grid.lat)
+    hw = histogram_weights(aw, grid.lon.size)
+    return [
+        Job(
+            block=b,
+            grid=dataclasses.replace(
+                grid, lat=grid.lat[b.rows], heights=np.array([float(grid.heights[b.layer])])
+            ),
+            weights=(aw[b.rows], hw[b.rows]),
+            output=out,
+            ellipsoid=request.ellipsoid.name,
+            device=request.execution.device,
+            order=out.orders[b.layer] if out.quantity == "truncation" else 0,
+            store=store,
+        )
+        for b in blocks
+    ]
+
+
+def run_blocks(
+    request,
+    *,
+    client: Any = None,
+    sink: Any = None,
+    store: Any = None,
+    progress: bool | None = None,
+) -> list[dict]:
+    """Compute every block of a request's product; return the statistics per layer.
+
+    Parameters
+    ----------
+    request : fieldmap.products.request.MapRequest
+    client : dask.distributed.Client, optional
+        Run the blocks on this cluster (the request's executor, opened); default: here, one
+        after the other. At most ``request.execution.window`` blocks are in flight (default:
+        four per worker), which bounds the memory.
+    sink : callable, optional
+        ``sink(block, data)`` receives every block's variables (or, with ``store``, the
+        boundary rows the workers left), in completion order.
+    store : fieldmap.products.sinks.ZarrTarget, optional
+        Workers write their blocks straight into this zarr store.
+    progress : bool, optional
+        Progress bar (default: the request's).
+
+    Returns
+    -------
+    list of dict
+        Per layer, in the form of :func:`fieldmap.products.statistics.map_statistics` (the
+        disturbance and the truncation) or {variable: {"min", "max", "mean", "rms"}} (the
+        quantities).
+    """
+    from fieldmap.products.statistics import DEFAULT_PERCENTILES, area_weights
+
+    grid = product_grid(request)
+    model = request.model
+    local = client is None and store is None  # here, into memory or a NetCDF file
+    blocks = plan(request, local)
+    jobs = make_jobs(request, blocks, store)
+    fold = OrderedFold(grid.heights.size)
+    progress = request.execution.progress if progress is None else progress
+
+    def on_result(res):
+        if sink is not None:
+            sink(blocks[res["index"]], res["data"])
+        fold.add(res["index"], res["layer"], res["partial"])
+
+    if client is None:
+        _run_local(jobs, model, on_result, progress)
+    else:
+        _run_dask(client, jobs, model, on_result, progress, request.execution.window)
+    total = float(area_weights(grid.lat).sum()) * grid.lon.size
+    stats = []
+    for a in fold.acc:
+        if a is None:  # every height has blocks: a missing one is a bug, never silent
+            raise RuntimeError("a height of the plan received no block")
+        stats.append(finish_statistics(a, total, jobs[0].thresholds, DEFAULT_PERCENTILES))
+    return stats
+
+
+_WORKER_READY = False
+
+
+def worker_setup() -> None:
+    """Prepare a Dask worker process for the kernels (once per process; a no-op elsewhere).
+
+    - Warp launches use the worker's share of the cores (``FIELDMAP_THREADS`` = its threads,
+      unless set).
+    - glibc's allocator gets back the dynamic thresholds of a plain process: Dask's nanny
+      starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which freezes the mmap threshold at
+      128 KiB, so that every array of a block is a fresh ``mmap`` whose pages fault in on first
+      touch. Measured here: a block's CPU time doubled (0.56 s -> 1.17 s for the blocks of a
+      0.1 deg map). Large blocks are then served from the heap, as in the client process, and
+      at most ``2 * 32 MiB`` of freed memory is kept before it is returned to the system.
+    """
+    global _WORKER_READY
+    if _WORKER_READY:
+        return
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+    except (ImportError, ValueError):
+        return
+    if "FIELDMAP_THREADS" not in os.environ:
+        os.environ["FIELDMAP_THREADS"] = str(max(1, int(w.state.nthreads)))
+    _glibc_thresholds(mmap_bytes=32 * 2**20)
+    _WORKER_READY = True
+
+
+def _glibc_thresholds(mmap_bytes: int) -> bool:
+    """Set glibc's mmap and trim thresholds (``mallopt``); False where there is no glibc."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if not name or not hasattr(os, "confstr"):
+        return False
+    try:
+        if "glibc" not in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
+            return False
+        libc = ctypes.CDLL(name)
+    except (OSError, ValueError):
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
+    ok = libc.mallopt(m_mmap_threshold, ctypes.c_int(mmap_bytes))
+    ok &= libc.mallopt(m_trim_threshold, ctypes.c_int(2 * mmap_bytes))
+    return bool(ok)
+
+
+def parse_scheduler(text: str | None):
+    """``None``/"threads" (local thread pool), ``("local", N)`` or a scheduler address."""
+    if text is None or text in ("threads", "none", ""):
+        return None
+    if text.startswith("local:"):
+        try:
+            n = int(text.split(":", 1)[1])
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise InputError(f"--scheduler local:N needs a worker count N >= 1, got {text!r}")
+        return ("local", n)
+    if text == "local":
+        return ("local", max(1, os.cpu_count() or 1))
+    return text
+
+
+@contextlib.contextmanager
+def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
+    """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
+
+    ``None`` (no scheduler: run here) yields None. ``("local", N)`` starts a LocalCluster of N
+    single-threaded worker processes on 127.0.0.1 (no dashboard) and shuts it down afterwards;
+    an address connects to a running scheduler.
+    An unreachable scheduler is an :class:`InputError` (one line, CLI exit 2).
+    """
+    if scheduler is None:
+        yield None
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError(
+            "Dask is not installed: pip install 'fieldmap[distributed]' (dask[distributed], zarr)"
+        ) from None
+    import logging
+
+    if isinstance(scheduler, tuple):
+        n = scheduler[1]
+        cores = max(1, os.cpu_count() or 1)
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",
+            silence_logs=logging.ERROR,
+            env={"FIELDMAP_THREADS": str(max(1, cores // n))},
+        )
+        try:
+            with Client(cluster) as client:
+                yield client
+        finally:
+            cluster.close()
+        return
+    _probe(scheduler, connect_timeout)
+    try:
+        client = Client(scheduler, timeout=connect_timeout)
+    except (OSError, TimeoutError, ValueError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
+    try:
+        yield client
+    finally:
+        client.close()
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Fail in milliseconds, not after Dask's connect retries, when nothing listens (tcp)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if not isinstance(address, str) or not address.startswith("tcp://"):
+        return
+    try:
+        u = urlsplit(address)
+        host, port = u.hostname, u.port
+    except ValueError:
+        raise InputError(f"bad Dask scheduler address {address!r}") from None
+    if host is None or port is None:
+        raise InputError(f"Dask scheduler address {address!r} needs tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {why}") from None
+
+
+#: client -> {id(model): (weak reference to the model, its future on the cluster)}
+_SCATTERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def scattered(client, model):
+    """Return the future of ``model`` broadcast to every worker of ``client``, once per client.
+
+    Products made one after the other on the same client (a notebook, a study over several
+    maps) reuse the copy the workers already hold: a degree-2190 model is 77 MB per worker.
+    The copy lives as long as the model object and the client; a model that is garbage
+    collected, or a client that is closed, releases it. The object is taken as immutable (an
+    :class:`~fieldmap.models.shmodel.SHModel` is frozen): one changed in place is not shipped
+    again.
+    """
+    try:
+        per_client = _SCATTERED.setdefault(client, {})
+    except TypeError:  # a client that cannot be weakly referenced: no reuse
+        return client.scatter(model, broadcast=True, hash=False)
+    entry = per_client.get(id(model))
+    if entry is not None and entry[0]() is model and entry[1].status == "finished":
+        return entry[1]
+    fut = client.scatter(model, broadcast=True, hash=False)
+    key = id(model)
+
+    def forget(_ref, key=key, per_client=per_client):
+        # drop the cache's reference only: a graph or a task still holding the future keeps
+        # the data on the cluster, the last reference gone releases it (Future.__del__)
+        per_client.pop(key, None)
+
+    try:
+        per_client[key] = (weakref.ref(model, forget), fut)
+    except TypeError:  # a model that cannot be weakly referenced: not kept
+        pass
+    return fut
+
+
+def _chunk_rows(chunks):
+    if isinstance(chunks, dict):
+        chunks = chunks.get("latitude")
+    return None if chunks in (None, True, "auto") else chunks
+
+
+def lazy(request) -> xr.Dataset:
+    """Return a lazy, dask-backed Dataset of the request's product; blocks run when read.
+
+    ``request.execution.chunks``: most latitude rows per block (int, or {"latitude": n});
+    "auto"/True: the default plan. The latitude chunks of the arrays are the runs of rows of
+    the blocks; both runs of a block come from one task; with a Dask client as executor the
+    blocks run on that cluster. The values, once computed, are those of :func:`compute` bit
+    for bit; the statistics are not in the attributes (they need the whole map): compute them
+    from the data, or stream the product with :func:`fieldmap.products.engine.write_product`.
+    """
+    import dask
+    import dask.array as da
+
+    grid, mod, client = request.grid, request.model, request.execution.client
+    tmpl = template(request)
+    blocks = plan_blocks(grid, mod.lmax, _chunk_rows(request.execution.chunks))
+    jobs = make_jobs(request, blocks)
+    model_d = scattered(client, mod) if client is not None else mod
+    model_d = dask.delayed(model_d) if client is None else model_d
+    results = [dask.delayed(compute_block, pure=True)(job, model_d) for job in jobs]
+    nh, nlat, nlon = grid.shape
+    pieces = {}  # (layer, r0) -> (block result, offset in block, r1)
+    for b, res in zip(blocks, results):
+        off = 0
+        for r0, r1 in b.runs():
+            pieces[(b.layer, r0)] = (res, off, r1)
+            off += r1 - r0
+
+    def column(name, layer):
+        parts, r = [], 0
+        while r < nlat:
+            res, off, r1 = pieces[(layer, r)]
+            part = dask.delayed(_rows)(res, name, off, off + r1 - r)
+            parts.append(da.from_delayed(part, shape=(r1 - r, nlon), dtype=np.float64))
+            r = r1
+        return da.concatenate(parts, axis=0)
+
+    ds = tmpl.copy()
+    var_attrs = ds.attrs.pop("variables")
+    dims = ds.attrs.pop("dims")
+    stacked = "height" in dims
+    for name, va in var_attrs.items():
+        cols = [column(name, k) for k in range(nh)]
+        ds[name] = (dims, da.stack(cols) if stacked else cols[0], va)
+    if request.output.quantity == "disturbance":
+        ds.attrs["thresholds_mg"] = np.array(request.output.thresholds_mg)
+    return index_height_km(ds)
+
+
+def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:
+    return res["data"][name][a:b]
+
+
+# ---------------------------------------------------------------------------- in memory
+
+
+@contextlib.contextmanager
+def executor_client(request) -> Iterator[Any]:
+    """Yield the Dask client of a request's executor (None: here); close what was opened.
+
+    A scheduler string is connected (or its LocalCluster started) before anything runs: an
+    unreachable scheduler computes and writes nothing.
+    """
+    ex = request.execution
+    if ex.client is not None:
+        yield ex.client
+    else:
+        with open_client(ex.scheduler) as c:
+            yield c
+
+
+def template(request) -> xr.Dataset:
+    """Coordinates, global and variable attributes of a request's product, without data.
+
+    ``attrs["variables"]`` maps each variable name to its attributes, ``attrs["dims"]`` gives
+    the dimensions of the variables (:mod:`fieldmap.products.variables`).
+    """
+    from fieldmap.products import variables as v
+
+    out, grid, mod, ell = request.output, request.grid, request.model, request.ellipsoid
+    if out.quantity == "disturbance":
+        return v.disturbance_template(mod, grid, ell, out.units, out.thresholds_mg, out.stacked)
+    if out.quantity == "truncation":
+        return v.truncation_template(grid, ell, out.orders, out.units)
+    if out.quantity == "components":
+        return v.components_template(mod, grid, ell)
+    return v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
+
+
+def compute(request) -> xr.Dataset:
+    """Compute a request's product and return it whole, statistics included (or lazy).
+
+    The blocks run on the request's executor, into memory; with ``execution.chunks`` the
+    result is :func:`lazy`. The statistics are folded from the blocks' partial results in
+    block order (the same bits on every executor); ``percentile_method="exact"`` and the
+    truncation map take them from the whole arrays.
+    """
+    from fieldmap.grids.spec import check_memory
+
+    if request.execution.chunks is not None:
+        return lazy(request)
+    out = request.output
+    layers = len(out.orders) if out.quantity == "truncation" else 1
+    check_memory(request.grid, layers=layers)  # the result is returned whole
+    grid = product_grid(request)
+    progress = show_progress(int(np.prod(grid.shape)), request.execution.progress)
+    if out.quantity == "disturbance":  # its parts only: a map costs little more than its blocks
+        from fieldmap.products.variables import DISTURBANCE_VARIABLES
+
+        tmpl, names = None, DISTURBANCE_VARIABLES
+    else:
+        tmpl = template(request)
+        names = tuple(tmpl.attrs["variables"])
+    stacked = out.stacked or out.quantity == "truncation" or out.quantity not in _ONE_LAYER
+    with (
+        executor_client(request) as c,
+        memory_target(grid, stacked, names, c) as (
+            sink,
+            store,
+            arrays,
+        ),
+    ):
+        stats = run_blocks(request, client=c, sink=sink, store=store, progress=progress)
+        values = arrays()
+    if tmpl is None:
+        return _disturbance_dataset(request, values, stats)
+    if out.quantity == "truncation":
+        return _truncation_dataset(request, tmpl, values)
+    if out.quantity == "components":
+        return _dataset_of(tmpl, values)
+    return assemble_quantity(tmpl, values, per_variable(stats))
+
+
+#: Products whose arrays hold one layer without a height dimension unless stacked.
+_ONE_LAYER = ("disturbance", "components")
+
+
+def per_variable(stats: list[dict]) -> dict:
+    """[{var: s} per height] -> {var: [s per height]}."""
+    return {name: [s[name] for s in stats] for name in stats[0]}
+
+
+def _dataset_of(tmpl: xr.Dataset, values: dict) -> xr.Dataset:
+    ds = tmpl.copy()
+    var_attrs = ds.attrs.pop("variables")
+    dims = ds.attrs.pop("dims")
+    return xr.Dataset(
+        {name: (dims, values[name], a) for name, a in var_attrs.items()},
+        coords=ds.coords,
+        attrs=ds.attrs,
+    )
+
+
+def _disturbance_dataset(request, values, stats) -> xr.Dataset:
+    from fieldmap.products import variables as v
+
+    out, grid = request.output, request.grid
+    parts = v.disturbance_template_parts(
+        request.model, grid, request.ellipsoid, out.units, out.thresholds_mg, out.stacked
+    )
+    if out.percentile_method == "exact":
+        from fieldmap.products.statistics import (
+            DEFAULT_PERCENTILES,
+            area_weights,
+            weighted_percentiles,
+        )
+
+        w = area_weights(grid.lat)[:, None]
+        mod_mg = values["modulus_mg"].reshape(grid.shape)
+        for k, st in enumerate(stats):
+            qs = weighted_percentiles(mod_mg[k], w, DEFAULT_PERCENTILES)
+            st.update({f"p{q:g}_mg": float(x) for q, x in zip(DEFAULT_PERCENTILES, qs)})
+    attrs = dict(parts["attrs"])
+    dims, var_attrs = parts["dims"], parts["variables"]
+    data = {name: xr.Variable(dims, values[name], var_attrs[name]) for name in var_attrs}
+    if out.stacked:
+        data.update(v.sweep_statistics(stats, out.thresholds_mg))
+        attrs["percentile_method"] = v.percentile_method_text(out.percentile_method)
+    else:
+        attrs.update(v.map_attrs(stats[0], out.thresholds_mg, out.percentile_method))
+    # one Dataset, built at once (an update would align the variables again)
+    return index_height_km(v.dataset(data, parts["coords"], attrs))
+
+
+def _truncation_dataset(request, tmpl, values) -> xr.Dataset:
+    from fieldmap.products.statistics import map_statistics
+    from fieldmap.products.variables import mg_attrs, statistic_name
+
+    ds = _dataset_of(tmpl, values)
+    # the same area-weighted statistics as the disturbance maps (a plain node mean would
+    # over-weight the high latitudes, where the J2n errors are largest), from the whole maps
+    st = [map_statistics(m, request.grid.lat, thresholds_mg=()) for m in ds["modulus_mg"].values]
+    for key in ("max_mg", "mean_mg", "rms_mg"):
+        long = f"{statistic_name(key)} truncation error"
+        ds[key] = ("order", np.array([s[key] for s in st]), mg_attrs(long))
+    return ds
+
+
+# ---------------------------------------------------------------------------- to a store
+
+FORMATS = ("netcdf", "zarr")
+
+
+def check_format(fmt: Any) -> str:
+    """Return ``fmt`` if it is a store format (:data:`FORMATS`), else raise InputError."""
+    if fmt not in FORMATS:
+        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    return fmt
+
+
+def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) -> dict:
+    """Compute a request's product block by block and stream it to ``path``.
+
+    Everything the product is (model, degree, heights, grid, ellipsoid, units, thresholds,
+    quantity) comes from ``request``, validated at its construction; nothing else is taken.
+
+    Parameters
+    ----------
+    request : fieldmap.products.request.MapRequest
+        A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
+        client, ``"local:N"``, an address; none: here, one after the other), at most
+        ``execution.window`` in flight.
+    path : str or os.PathLike
+        Final name of the NetCDF file or zarr folder; it appears only when complete.
+    fmt : {"netcdf", "zarr"}
+        NetCDF-4 (zlib, one writer: the client) or zarr (written by the workers).
+    atomic : bool
+        Write to a temporary name renamed at the end (default); False when ``path`` is already
+        a temporary name of the caller's.
+
+    Returns
+    -------
+    dict
+        ``stats`` (a disturbance: a list per height in the form of
+        :func:`fieldmap.products.statistics.map_statistics`; a quantity: {variable:
+        [statistics per height]}), ``grid``, ``model`` (name, lmax) and ``path``.
+    """
+    from fieldmap.products import sinks
+    from fieldmap.products import variables as v
+    from fieldmap.products.io import writing
+
+    check_format(fmt)
+    out, grid, mod = request.output, request.grid, request.model
+    if out.quantity in ("truncation", "components"):
+        raise InputError(f"a {out.quantity} map is computed in memory: it is not streamed")
+    if out.percentile_method != "histogram":
+        raise InputError(
+            f"percentile_method {out.percentile_method!r} needs the whole map in memory: "
+            "a streamed product takes the histogram percentiles"
+        )
+    tmpl = template(request)
+    place = sinks.atomic_store(path) if atomic else contextlib.nullcontext(path)
+    # connect (or start the local cluster) before anything is written
+    with executor_client(request) as c, writing(path), place as tmp:
+        writer = None
+        try:
+            if fmt == "zarr":
+                blocks = plan(request, local=False)
+                target = sinks.create_zarr(str(tmp), tmpl, grid, max(b.rows.size for b in blocks))
+                sink, store = target.sink, target
+            else:
+                writer = sinks.NetCDFWriter(str(tmp), tmpl, grid)
+                sink, store = writer.sink, None
+            stats = run_blocks(request, client=c, sink=sink, store=store)
+            if out.quantity != "disturbance":
+                per_var, extra = v.quantity_statistics_fields(tmpl, per_variable(stats))
+                attrs, var_attrs = {}, per_var
+            elif out.stacked:
+                attrs = {"percentile_method": v.percentile_method_text()}
+                extra, var_attrs = v.sweep_statistics(stats, out.thresholds_mg), None
+            else:
+                attrs = v.map_attrs(stats[0], out.thresholds_mg)
+                extra, var_attrs = None, None
+            if fmt == "zarr":
+                target.check_complete()
+                sinks.finish_zarr(str(tmp), attrs, extra or None, var_attrs)
+            else:
+                assert writer is not None  # opened above for the netcdf format
+                writer.finish(attrs, extra or None, var_attrs)
+        finally:
+            if writer is not None:
+                writer.close()
+    per_layer: Any = stats if out.quantity == "disturbance" else per_variable(stats)
+    return {"stats": per_layer, "grid": grid, "model": (mod.name, mod.lmax), "path": path}

@@ -1,0 +1,334 @@
+"""A map product request: what to compute, where, and how to run it — validated once.
+
+Every map product (disturbance map or sweep, truncation map, component maps, quantity maps)
+is described by one frozen :class:`MapRequest`, built by the CLI and by the Python façades
+(:mod:`fieldmap.products.maps`) alike with :meth:`MapRequest.build`. Everything is checked at
+construction, in one place, each bad value refused with one line naming it; the engine
+(:mod:`fieldmap.products.engine`) and the sinks (:mod:`fieldmap.products.sinks`) trust it.
+
+A request holds the model (loaded once, with its degree and epoch applied), the grid (its
+heights in metres), the ellipsoid, what the product holds (:class:`Output`) and how its
+blocks run (:class:`Execution`: device, executor, block rows, a lazy result).
+
+Examples
+--------
+>>> from fieldmap.products.request import MapRequest
+>>> req = MapRequest.build(lmax=12, height_km=[10, 20], step_deg=30.0, stacked=True)
+>>> req.grid.heights.tolist(), req.model.lmax, req.output.stacked
+([10000.0, 20000.0], 12, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from fieldmap import limits
+from fieldmap.errors import InputError
+from fieldmap.field.ellipsoid import Ellipsoid
+from fieldmap.grids.spec import GridSpec
+
+#: Quantities of the products that are not those of :data:`fieldmap.products.variables.VARIABLES`:
+#: the J2n truncation error (no model) and the model and normal gravity components.
+TRUNCATION = "truncation"
+COMPONENTS = "components"
+DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
+
+
+def known_quantities() -> tuple[str, ...]:
+    """Every product a request can ask for."""
+    from fieldmap.products.variables import QUANTITIES
+
+    return (*QUANTITIES, TRUNCATION, COMPONENTS)
+
+
+def _set(obj, **values) -> None:
+    for k, v in values.items():
+        object.__setattr__(obj, k, v)
+
+
+@dataclasses.dataclass(frozen=True)
+class Output:
+    """What a product holds.
+
+    Attributes
+    ----------
+    quantity : str
+        ``"disturbance"`` (default), a quantity of
+        :data:`fieldmap.products.variables.VARIABLES`, ``"truncation"`` or ``"components"``.
+    units : str
+        Units of the disturbance vector (any spelling of :mod:`fieldmap.units`; kept in its
+        canonical name). ``modulus_mg`` is always added.
+    thresholds_mg : tuple of float
+        Thresholds of the area fractions (positive, distinct; sorted). Units: mg.
+    orders : tuple of int
+        J2n orders of a truncation map (distinct, among 2, 4, 6).
+    degree0 : bool
+        Keep the degree-0 term of T (the potential and its quantities only).
+    stacked : bool
+        A stack of heights (a sweep: ``height`` is a dimension) rather than one map.
+    percentile_method : {"histogram", "exact"}
+        Percentiles of the modulus from merged block histograms, or exact ones.
+    """
+
+    quantity: str = "disturbance"
+    units: str = "mGal"
+    thresholds_mg: tuple[float, ...] = DEFAULT_THRESHOLDS_MG
+    orders: tuple[int, ...] = (2, 4, 6)
+    degree0: bool = False
+    stacked: bool = False
+    percentile_method: str = "histogram"
+
+    def __post_init__(self) -> None:
+        from fieldmap.products.statistics import check_percentile_method, parse_thresholds
+        from fieldmap.products.variables import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
+        from fieldmap.units import get_unit
+
+        if self.quantity not in known_quantities():
+            raise InputError(
+                f"quantity must be one of {', '.join(known_quantities())}, got {self.quantity!r}"
+            )
+        scalar = self.quantity not in ("disturbance", TRUNCATION)
+        if self.degree0 and (
+            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS) or not scalar
+        ):
+            what = "δg" if self.quantity == "disturbance" else self.quantity
+            raise InputError(
+                f"degree0 applies to the potential T and its quantities, not to {what}"
+            )
+        _set(
+            self,
+            units=get_unit(self.units).name,
+            percentile_method=check_percentile_method(self.percentile_method),
+            thresholds_mg=parse_thresholds(self.thresholds_mg),
+            degree0=bool(self.degree0),
+            stacked=bool(self.stacked),
+        )
+        if self.quantity == TRUNCATION:
+            _set(self, orders=limits.check_orders(self.orders))
+
+
+@dataclasses.dataclass(frozen=True)
+class Execution:
+    """How the blocks of a product run; none of it changes a bit of the result.
+
+    Attributes
+    ----------
+    device : str, optional
+        Warp device (checked here; each worker resolves it again for itself).
+    executor : None, str or dask.distributed.Client
+        None: the blocks run here, one after the other (each on every core); ``"threads"``:
+        the same; ``"local:N"``: a LocalCluster of N processes for the run; a scheduler
+        address; or a ``dask.distributed.Client``.
+    chunks : int, dict or "auto", optional
+        Return a lazy dask-backed Dataset (blocks of at most this many latitude rows); it
+        carries no statistics.
+    rows_per_block : int, optional
+        Most latitude rows per block (default: from the memory budget and the grid).
+    progress : bool, optional
+        Progress bar over the blocks on stderr (None: for large grids on a terminal).
+    window : int, optional
+        Blocks in flight on a cluster (default: four per worker).
+    """
+
+    device: str | None = None
+    executor: Any = None
+    chunks: Any = None
+    rows_per_block: int | None = None
+    progress: bool | None = None
+    window: int | None = None
+
+    def __post_init__(self) -> None:
+        from fieldmap.products.engine import parse_scheduler
+
+        if isinstance(self.executor, str):
+            parse_scheduler(self.executor)  # one line for a malformed scheduler
+        if self.chunks is not None:
+            if isinstance(self.executor, str):
+                raise InputError("chunks= returns a lazy Dataset: pass client=, not scheduler=")
+            if self.rows_per_block is not None:
+                raise InputError(
+                    "chunks= sets the rows of a lazy Dataset's blocks: no rows_per_block"
+                )
+        if self.device is not None:
+            from fieldmap.grids.synthesis import resolve_device
+
+            resolve_device(self.device)
+
+    @property
+    def client(self) -> Any:
+        """The Dask client given, or None (a scheduler string is opened by the engine)."""
+        return None if self.executor is None or isinstance(self.executor, str) else self.executor
+
+    @property
+    def scheduler(self) -> Any:
+        """The parsed scheduler string (:func:`fieldmap.products.engine.parse_scheduler`)."""
+        from fieldmap.products.engine import parse_scheduler
+
+        return parse_scheduler(self.executor) if isinstance(self.executor, str) else None
+
+
+#: Keys of :meth:`MapRequest.build` that go to :class:`Output` and :class:`Execution`.
+_OUTPUT = tuple(f.name for f in dataclasses.fields(Output))
+_EXECUTION = tuple(f.name for f in dataclasses.fields(Execution))
+_WHERE = ("model", "lmax", "epoch", "height_km", "step_deg", "lat_max", "region", "ellipsoid")
+
+
+@dataclasses.dataclass(frozen=True)
+class MapRequest:
+    """One map product to compute: model, grid, ellipsoid, output and execution, all checked.
+
+    Build it with :meth:`build` from the options a user gives (the façades and the CLI do);
+    constructing it from parts checks that they belong together (a sigma quantity needs a
+    model with coefficient standard deviations, a single map one height, ...).
+
+    Attributes
+    ----------
+    model : SHModel or None
+        The model, loaded once, degree and epoch applied (None for a truncation map).
+    grid : fieldmap.grids.spec.GridSpec
+        Latitudes, longitudes and heights (m). The whole product need not fit in memory (it
+        can be streamed); :func:`fieldmap.products.engine.compute` checks that it does.
+    ellipsoid : fieldmap.field.ellipsoid.Ellipsoid
+        The normal field.
+    output : Output
+    execution : Execution
+    """
+
+    model: Any
+    grid: GridSpec
+    ellipsoid: Ellipsoid
+    output: Output = Output()
+    execution: Execution = Execution()
+
+    def __post_init__(self) -> None:
+        from fieldmap.products.variables import SIGMA_QUANTITIES, SURFACE_QUANTITIES
+
+        q = self.output.quantity
+        if self.model is None and q != TRUNCATION:
+            raise InputError(f"a {q} product needs a model")
+        if q in SURFACE_QUANTITIES and not np.array_equal(self.grid.heights, [0.0]):
+            raise InputError(f"{q} is a property of the surface: its grid has the one height 0")
+        if not self.output.stacked and self.grid.heights.size != 1:
+            raise InputError("one map takes one height; a sweep (stacked) takes several")
+        if q in SIGMA_QUANTITIES and (self.model.sigma_c is None or self.model.sigma_s is None):
+            raise InputError(
+                f"model {self.model.name} carries no coefficient standard deviations (sigma C, "
+                f"sigma S): --quantity {q} needs an ICGEM file with sigma columns"
+            )
+        if self.execution.chunks is not None and q in (TRUNCATION, COMPONENTS):
+            raise InputError(f"a {q} map is computed at once: no chunks=")
+        if self.execution.chunks is not None and self.output.percentile_method != "histogram":
+            raise InputError("a lazy Dataset (chunks=) carries no statistics: no percentile_method")
+
+    @classmethod
+    def build(cls, **options: Any) -> MapRequest:
+        """Build a request from a user's options, validating each once.
+
+        Parameters
+        ----------
+        **options
+            Where: ``model`` (bundled name, ICGEM file or SHModel; default ``"eigen-6s"``),
+            ``lmax``, ``epoch``, ``height_km`` (one or several, km) or ``heights_m``,
+            ``step_deg``, ``lat_max``, ``region`` (west, east, south, north; degrees),
+            ``ellipsoid`` (name or :class:`~fieldmap.field.ellipsoid.Ellipsoid`), ``load``
+            (a callable returning the model, the CLI's with its model-file options).
+            What: the fields of :class:`Output`. How: the fields of :class:`Execution`, with
+            ``client`` (a Dask client) and ``scheduler`` (a string) as spellings of
+            ``executor``.
+
+        Raises
+        ------
+        fieldmap.errors.InputError
+            One line naming the bad value.
+        TypeError
+            An unknown option.
+        """
+        known = {*_OUTPUT, *_EXECUTION, *_WHERE, "heights_m", "load", "client", "scheduler"}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise TypeError(f"MapRequest.build() got unexpected options: {', '.join(unknown)}")
+        client, scheduler = options.pop("client", None), options.pop("scheduler", None)
+        if client is not None and scheduler is not None:
+            raise InputError("pass client= or scheduler=, not both")
+        if client is not None or scheduler is not None:
+            options["executor"] = client if client is not None else scheduler
+        output = Output(**{k: options[k] for k in _OUTPUT if k in options})
+        execution = Execution(**{k: options[k] for k in _EXECUTION if k in options})
+        grid = _grid(output, options)
+        ell = ellipsoid_of(options.get("ellipsoid", "WGS84"))
+        model = _model(output, options)
+        return cls(model, grid, ell, output, execution)
+
+    def compute(self) -> Any:
+        """Compute the product (:func:`fieldmap.products.engine.compute`): an xarray.Dataset."""
+        from fieldmap.products.engine import compute
+
+        return compute(self)
+
+    def replace(self, **changes: Any) -> MapRequest:
+        """Return a copy with some parts changed (``output``, ``execution``...), checked."""
+        return dataclasses.replace(self, **changes)
+
+    def executing(self, **changes: Any) -> MapRequest:
+        """Return a copy with fields of :class:`Execution` changed (``executor=client``)."""
+        return self.replace(execution=dataclasses.replace(self.execution, **changes))
+
+
+def ellipsoid_of(name_or_obj: Any) -> Ellipsoid:
+    """Return the ellipsoid of a name or object; an unknown one lists the known names."""
+    from fieldmap.field.ellipsoid import get_ellipsoid
+
+    try:
+        return get_ellipsoid(name_or_obj)
+    except InputError:
+        raise
+    except (KeyError, ValueError) as exc:
+        raise InputError(f"unknown ellipsoid {name_or_obj!r}") from exc
+
+
+def heights_m(height_km: Any, one: str | None = None) -> np.ndarray:
+    """Distinct heights in m from km; ``one``: the message raised unless there is one height.
+
+    The rule is :func:`fieldmap.limits.heights_from_km`.
+    """
+    return limits.heights_from_km(height_km, distinct=True, one=one)
+
+
+def _grid(output: Output, options: dict) -> GridSpec:
+    from fieldmap.grids.spec import make_grid
+    from fieldmap.products.variables import SURFACE_QUANTITIES
+
+    if output.quantity in SURFACE_QUANTITIES:
+        h = np.zeros(1)  # the geoid is a property of the surface
+    elif "heights_m" in options:
+        if "height_km" in options:
+            raise InputError("give height_km= or heights_m=, not both")
+        h = np.asarray(options["heights_m"], dtype=np.float64).ravel()
+    else:
+        one = None if output.stacked else f"a {output.quantity} map takes one height"
+        if output.quantity == "disturbance" and not output.stacked:
+            one = "disturbance_map takes one height; use altitude_sweep for several"
+        h = heights_m(options.get("height_km", 20.0), one)
+    return make_grid(
+        options.get("step_deg", 1.0),
+        options.get("lat_max", 80.0),
+        options.get("region"),
+        h,
+        whole_in_memory=False,
+    )
+
+
+def _model(output: Output, options: dict) -> Any:
+    if output.quantity == TRUNCATION:
+        return None
+    load = options.get("load")
+    if load is not None:
+        return load()
+    from fieldmap.models.registry import load_model
+
+    return load_model(
+        options.get("model", "eigen-6s"), lmax=options.get("lmax"), epoch=options.get("epoch")
+    )
