@@ -203,7 +203,6 @@ def evaluate_points(
         potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap.cli.startup import load_model_early
-    from fieldmap.errors import InputError
     from fieldmap.products.tables.model import table_path
 
     table = table_path(model) is not None
