@@ -239,3 +239,30 @@ def install_moved_finder() -> None:
     """Put the finder of old module paths on ``sys.meta_path`` (once; after the path finder)."""
     if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
         sys.meta_path.append(_MovedFinder())
+
+
+#: Names of a package that moved into one of its modules: package (relative to ``fieldmap``) ->
+#: (module now holding them, the names). ``fieldmap.models`` was, in 0.1, the module now called
+#: ``fieldmap.models.registry``.
+MOVED_NAMES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "models": (
+        "models.registry",
+        ("load_model", "kaula_model", "clear_cache", "BUNDLED", "DEFAULT_MODEL"),
+    ),
+}
+
+
+def moved_names(package: str) -> Callable[[str], Any]:
+    """Return the module ``__getattr__`` (PEP 562) of ``fieldmap.<package>``'s moved names.
+
+    Each lookup of a moved name warns (``DeprecationWarning``) and gives the name from its home.
+    """
+    home, names = MOVED_NAMES[package]
+
+    def __getattr__(name: str) -> Any:
+        if name not in names:
+            raise AttributeError(f"module 'fieldmap.{package}' has no attribute {name!r}")
+        warn(f"fieldmap.{package}.{name} is fieldmap.{home}.{name}", stacklevel=3)
+        return getattr(importlib.import_module(f"fieldmap.{home}"), name)
+
+    return __getattr__

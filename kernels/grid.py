@@ -284,7 +284,7 @@ def row_fourier_kernel(
 
 
 @wp.func
-def _mirror(ev: sh_vec8, od: sh_vec8) -> sh_vec8:
+def mirror_rows(ev: sh_vec8, od: sh_vec8) -> sh_vec8:
     """Column sums at -t from the parts of even and odd n - m at t.
 
     Because P̄nm(-t) = (-1)^(n+m) P̄nm(t), entries [0..3] and [6] are E - O, and entries [4],
@@ -437,7 +437,7 @@ def row_fourier8_kernel(
                     hm = half_powers_tab(upow, rb, m)
                     h1 = half_powers_tab(upow, rb, m1)
                 _coefficients_hp(
-                    _mirror(se, so), e6[k] - o6[k], m, hm, h1, kk, cdel[rb], sdel[rb], coef, rb
+                    mirror_rows(se, so), e6[k] - o6[k], m, hm, h1, kk, cdel[rb], sdel[rb], coef, rb
                 )
                 if m == lmax:
                     zero_tail(coef, rb, lmax + 1)

@@ -31,10 +31,10 @@ forms above degree 2700, :func:`fieldmap.grids.tables.pack_columns_direct`).
 
 import warp as wp
 
-from .grid import _mirror, lane_sums, zero_tail
+from .grid import lane_sums, mirror_rows, zero_tail
 from .grid_simd import mat168d, order_of, sums_matrix, vec8d, zonal_north8
 from .sh_model import QM_MIN, sh_vec8
-from .sh_xrange import XBIGI, XHALF, _xnorm
+from .sh_xrange import XBIGI, XHALF, xnorm
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())
@@ -60,10 +60,10 @@ def _xpow_seed(u: wp.float64, q: wp.float64, m: int, sm: wp.float64, lmax: int):
     k = m - 1
     while k > 0:
         if k % 2 == 1:
-            x, e = _xnorm(x * b, e + be)
+            x, e = xnorm(x * b, e + be)
         k = k / 2
         if k > 0:
-            b, be = _xnorm(b * b, 2 * be)
+            b, be = xnorm(b * b, 2 * be)
     lf = wp.float64(lmax)
     gbits = lf + wp.float64(0.5) * wp.log2(wp.float64(2.0) * lf + wp.float64(1.0))
     if q > wp.float64(1.0):
@@ -384,7 +384,7 @@ def row_fourier8x_kernel(
             if rb >= 0:
                 rrb = r[rb]
                 _coefficients_x(
-                    _mirror(se, so),
+                    mirror_rows(se, so),
                     e6[k] - o6[k],
                     m,
                     u[rb],

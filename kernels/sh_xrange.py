@@ -54,7 +54,7 @@ SQRT_HALF = wp.constant(wp.float64(0.5**0.5))
 
 
 @wp.func
-def _xnorm(x: wp.float64, e: int):
+def xnorm(x: wp.float64, e: int):
     """Normalise the X-number x·2^(960 e): |x| in [2^-480, 2^480) (x = 0 is left as it is)."""
     ax = wp.abs(x)
     xx = x
@@ -204,7 +204,7 @@ def sh_spherical_x(model: SHKernelModel, p: wp.vec3d):
     while m <= lmax:
         if m > 1:
             sx = sx * uq * (model.xsq[2 * m + 1] * model.xisq[2 * m])
-            xn = _xnorm(sx, se)
+            xn = xnorm(sx, se)
             sx = xn[0]
             se = xn[1]
         if sx == wp.float64(0.0):

@@ -77,7 +77,7 @@ CASES: dict[str, list[str]] = {
         "104",
         "30",
         "33",
-        "--heights-km",
+        "--height-km",
         "0,10",
         "--max-error-mgal",
         "5",

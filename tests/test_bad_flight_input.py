@@ -236,7 +236,7 @@ def test_corridor_flight_refusal_advises_no_option_table_lacks(tmp_path, capsys)
     """``table --corridor`` reads its flight with the defaults: no advice to set a keyword."""
     k = np.arange(12.0)
     f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
-    argv = ["table", "--lmax", "20", "--corridor", str(f), "--heights-km", "0,5"]
+    argv = ["table", "--lmax", "20", "--corridor", str(f), "--height-km", "0,5"]
     _refused(
         [*argv, "--max-error-mgal", "5"],
         tmp_path,

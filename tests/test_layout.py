@@ -58,7 +58,8 @@ def test_old_gravity_path_keeps_public_function():
         warnings.simplefilter("ignore", DeprecationWarning)
         from fieldmap.gravity import disturbance  # noqa: F401  (0.1 path)
     assert callable(fieldmap.gravity) and fieldmap.gravity.__name__ == "gravity"
-    from fieldmap.models import load_model
+    with pytest.warns(DeprecationWarning, match="fieldmap.models.load_model is fieldmap.models"):
+        from fieldmap.models import load_model
 
     assert load_model is fieldmap.load_model
 
@@ -294,6 +295,18 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
         found |= _all_names(tree) - _defined_names(tree)
         if any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body):
             found.add("__getattr__")
+        for n in tree.body:  # __getattr__ = f(...): only the deprecation map's may forward
+            if isinstance(n, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "__getattr__" for t in n.targets
+            ):
+                call = n.value
+                func = call.func if isinstance(call, ast.Call) else None
+                if not (
+                    isinstance(func, ast.Attribute)
+                    and isinstance(func.value, ast.Name)
+                    and func.value.id == "_compat"
+                ):
+                    found.add("__getattr__")
         if top:
             found -= TOP_LEVEL_FACE | {"__getattr__"}
         if found:
@@ -303,167 +316,9 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
 
 #: Today's imports of a sibling's private names (module -> "defining module._name"). Must only
 #: shrink: remove an entry when the regrouping fixes it; never add one.
-PRIVATE_IMPORTS_BEING_FIXED: dict[str, frozenset[str]] = {
-    "fieldmap.kernels.grid_xrange": frozenset(
-        {"fieldmap.kernels.grid._mirror", "fieldmap.kernels.sh_xrange._xnorm"}
-    ),
-    "fieldmap.nav.flight": frozenset({"fieldmap.nav.flightsamples._where"}),
-    "fieldmap.nav.flightblocks": frozenset({"fieldmap.nav.flight._C_n_to_e"}),
-    "fieldmap.nav.plots": frozenset(
-        {
-            "fieldmap.nav.plotparts._assign_styles",
-            "fieldmap.nav.plotparts._context",
-            "fieldmap.nav.plotparts._figure",
-            "fieldmap.nav.plotparts._finish",
-            "fieldmap.nav.plotparts._groups",
-            "fieldmap.nav.plotparts._line",
-            "fieldmap.nav.plotparts._paper_marks",
-            "fieldmap.nav.plotparts._paper_proxy",
-            "fieldmap.nav.plotparts._ratio",
-            "fieldmap.nav.plots_montecarlo._table3",
-            "fieldmap.nav.plots_montecarlo._table4",
-        }
-    ),
-    "fieldmap.nav.plots_montecarlo": frozenset(
-        {
-            "fieldmap.nav.plotparts._assign_styles",
-            "fieldmap.nav.plotparts._context",
-            "fieldmap.nav.plotparts._figure",
-            "fieldmap.nav.plotparts._finish",
-            "fieldmap.nav.plotparts._groups",
-            "fieldmap.nav.plotparts._line",
-            "fieldmap.nav.plotparts._paper_marks",
-            "fieldmap.nav.plotparts._paper_proxy",
-            "fieldmap.nav.plotparts._ratio",
-        }
-    ),
-    "fieldmap.nav.readers_gnss": frozenset(
-        {
-            "fieldmap.nav.readers_parsed._days",
-            "fieldmap.nav.readers_parsed._line_of",
-            "fieldmap.nav.readers_parsed._utc",
-        }
-    ),
-    "fieldmap.nav.readers_tables": frozenset(
-        {"fieldmap.nav.readers_parsed._EMPTY", "fieldmap.nav.readers_parsed._utc"}
-    ),
-    "fieldmap.nav.scenario": frozenset({"fieldmap.nav.flight._C_n_to_e"}),
-    "fieldmap.products.plots": frozenset(
-        {
-            "fieldmap.products.mapaxes._colorbar",
-            "fieldmap.products.mapaxes._field",
-            "fieldmap.products.mapaxes._figsize",
-            "fieldmap.products.mapaxes._map_axes",
-            "fieldmap.products.mapaxes._mesh",
-            "fieldmap.products.mapaxes._regional",
-        }
-    ),
-    "fieldmap.products.studyplots": frozenset(
-        {
-            "fieldmap.products.mapaxes._field",
-            "fieldmap.products.mapaxes._figsize",
-            "fieldmap.products.mapaxes._regional",
-        }
-    ),
-}
+PRIVATE_IMPORTS_BEING_FIXED: dict[str, frozenset[str]] = {}
 #: Today's re-exports (module -> names). Must only shrink, as above.
-REEXPORTS_BEING_FIXED: dict[str, frozenset[str]] = {
-    "fieldmap.cli.nav": frozenset(
-        {"FLIGHT_ONLY", "MAX_DRAWS", "STUDIES", "STUDIES_ONLY", "USED_BY"}
-    ),
-    "fieldmap.cli.point": frozenset({"__getattr__"}),
-    "fieldmap.field.gravity": frozenset({"UNITS"}),
-    "fieldmap.models": frozenset({"__getattr__"}),
-    "fieldmap.models.registry": frozenset({"__getattr__"}),
-    "fieldmap.nav.conditioning": frozenset(
-        {"ConditionedFlight", "STATUS_NAMES", "format_report", "kinematics", "plot_conditioning"}
-    ),
-    "fieldmap.nav.flight": frozenset(
-        {
-            "ATTITUDE",
-            "FlightSamples",
-            "G0",
-            "MAX_ACCEL",
-            "MAX_HEIGHT",
-            "MAX_SPEED",
-            "MIN_HEIGHT",
-            "MIN_POINTS",
-            "REQUIRED",
-            "read_flight",
-        }
-    ),
-    "fieldmap.nav.flightsim": frozenset({"gravity_error_along", "simplicity_order", "summarize"}),
-    "fieldmap.nav.plots": frozenset(
-        {
-            "CYCLE",
-            "FLOOR_STYLE",
-            "MODEL_STYLE",
-            "NORMAL_FAMILY",
-            "NOTE",
-            "PANELS",
-            "TIME_LABEL",
-            "at_paper_duration",
-            "model_label",
-            "short_label",
-        }
-    ),
-    "fieldmap.nav.readers": frozenset(
-        {
-            "FT",
-            "GEOID_STEP",
-            "MAX_AIRCRAFT_SPEED",
-            "MAX_ALTITUDE",
-            "MAX_CLIMB",
-            "MAX_HEIGHT",
-            "MIN_HEIGHT",
-            "R_ISA",
-        }
-    ),
-    "fieldmap.nav.readers_formats": frozenset(
-        {
-            "DAY",
-            "HINT",
-            "Parsed",
-            "csv_table",
-            "iso_utc",
-            "numbers",
-            "object_table",
-            "read_gpx",
-            "read_igc",
-            "read_nmea",
-            "times",
-        }
-    ),
-    "fieldmap.nav.readers_heights": frozenset({"MAX_HEIGHT", "MIN_HEIGHT"}),
-    "fieldmap.nav.strapdown": frozenset(
-        {
-            "GRAVITY_ALIASES",
-            "GRAVITY_KINDS",
-            "NORMAL_MODELS",
-            "gravity_cost",
-            "gravity_names",
-            "parse_gravity",
-            "per_trajectory",
-            "prepare_batch",
-            "sh_degree",
-        }
-    ),
-    "fieldmap.nav.studies": frozenset(
-        {
-            "EARTH_RADIUS",
-            "NORMAL_KINDS",
-            "Scenario",
-            "balanced_order",
-            "build_scenario",
-            "check_model_names",
-            "output_steps",
-            "propagate",
-        }
-    ),
-    "fieldmap.products.cf": frozenset({"UNITS"}),
-    "fieldmap.products.maps": frozenset({"PERCENTILE_METHODS", "UNITS", "summary"}),
-    "fieldmap.products.stats": frozenset({"MG", "MGAL"}),
-}
+REEXPORTS_BEING_FIXED: dict[str, frozenset[str]] = {}
 
 
 def _against(found: dict[str, set[str]], allowed: dict[str, frozenset[str]]) -> tuple[list, list]:

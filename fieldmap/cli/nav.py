@@ -29,10 +29,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from fieldmap.cli import navflight, navoptions
-from fieldmap.cli.navoptions import FLIGHT_ONLY as FLIGHT_ONLY
-from fieldmap.cli.navoptions import STUDIES as STUDIES
-from fieldmap.cli.navoptions import STUDIES_ONLY as STUDIES_ONLY
-from fieldmap.cli.navoptions import USED_BY as USED_BY
+from fieldmap.cli.navoptions import STUDIES
 from fieldmap.errors import InputError
 from fieldmap.limits import MAX_DRAWS
 

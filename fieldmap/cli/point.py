@@ -1,7 +1,7 @@
 """Sub-command ``fieldmap point``: gravity at points read from stdin.
 
 ``fieldmap point`` works like GeographicLib's ``Gravity``. (``fieldmap verify`` lives in
-:mod:`fieldmap.cli.verify`; :func:`run_verify` is still importable from here.)
+:mod:`fieldmap.cli.verify`.)
 
 ``fieldmap point`` reads lines ``lat lon [h]`` (geodetic degrees, metres above WGS84; h defaults
 to 0 as in ``Gravity``) and prints one line per input line: east north up of the disturbance in
@@ -61,15 +61,6 @@ _DEFAULT_DECIMALS = {
     "gradient": 3,
     "gradient-disturbance": 3,
 }
-
-
-def __getattr__(name: str):
-    """Resolve ``run_verify`` (moved to :mod:`fieldmap.cli.verify`) lazily (PEP 562)."""
-    if name == "run_verify":
-        from fieldmap.cli.verify import run_verify
-
-        return run_verify
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register(subparsers) -> None:

@@ -29,14 +29,14 @@ from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.sh import sh_gravitation
 from fieldmap.models.shmodel import SHModel
-from fieldmap.units import UNITS, Unit, from_si
+from fieldmap.units import Unit, from_si
 
 #: Accepted heights above the ellipsoid (:mod:`fieldmap.limits`, one rule for points and grids).
 #: Units: m.
 MIN_HEIGHT = limits.MIN_HEIGHT
 MAX_HEIGHT = limits.MAX_HEIGHT
 
-__all__ = ["UNITS", "disturbance", "gravitation", "gravity"]
+__all__ = ["disturbance", "gravitation", "gravity"]
 
 FRAMES = ("enu", "ned", "ecef")
 _RENAMED = {"lat": "latitude", "lon": "longitude", "h": "height"}

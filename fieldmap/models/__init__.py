@@ -8,14 +8,8 @@ writes a model in GeographicLib's ``.egm`` format and runs its ``Gravity`` tool.
 
 from __future__ import annotations
 
-import importlib
+from fieldmap import _compat
 
 # fieldmap 0.1 had ``fieldmap.models`` as the module now called ``fieldmap.models.registry``;
-# its names stay importable from here.
-_REGISTRY = ("load_model", "kaula_model", "clear_cache", "BUNDLED", "DEFAULT_MODEL")
-
-
-def __getattr__(name: str):
-    if name in _REGISTRY:
-        return getattr(importlib.import_module("fieldmap.models.registry"), name)
-    raise AttributeError(f"module 'fieldmap.models' has no attribute {name!r}")
+# its names stay importable from here, with a DeprecationWarning (fieldmap._compat.MOVED_NAMES).
+__getattr__ = _compat.moved_names("models")

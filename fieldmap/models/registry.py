@@ -426,21 +426,3 @@ def announce(model: SHModel, stream=None) -> None:
     note = model.header.get("constants") if isinstance(model.header, dict) else None
     if note:
         print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
-
-
-#: names of the command-line layer that this module once held -> (module, name) they live in now;
-#: still importable from here (:func:`__getattr__`), without importing the CLI with the library
-_MOVED_TO_CLI = {
-    "add_model_options": ("fieldmap.cli.model_options", "add_model_options"),
-    "register_cache_command": ("fieldmap.cli.cache", "register"),
-}
-
-
-def __getattr__(name: str):
-    """Resolve the argparse helpers moved to :mod:`fieldmap.cli` on first use (PEP 562)."""
-    target = _MOVED_TO_CLI.get(name)
-    if target is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    return getattr(importlib.import_module(target[0]), target[1])
