@@ -1,9 +1,10 @@
 """Errors that know their keyword, and the one table the command line rewords them with.
 
-The flight-log code (:mod:`fieldmap.nav.logs`) words its messages for a Python caller and
-raises :class:`~fieldmap.errors.InputError` with ``param=``; :mod:`fieldmap.cli.params` maps
-keywords to options. A keyword a message can name but the table does not know would reach a
-command-line user as a Python keyword: the walks below fail on it.
+The flight-log code (:mod:`fieldmap.nav.logs`), the flight study and the propagator
+(:mod:`fieldmap.nav.study`, :mod:`fieldmap.nav.propagator`) word their messages for a Python
+caller and raise :class:`~fieldmap.errors.InputError` with ``param=``;
+:mod:`fieldmap.cli.params` maps keywords to options. A keyword a message can name but the table
+does not know would reach a command-line user as a Python keyword: the walks below fail on it.
 """
 
 from __future__ import annotations
@@ -16,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import fieldmap.nav.logs
+import fieldmap.nav
 from fieldmap.cli.params import ADVICE, OPTIONS, options_of, reword
 from fieldmap.errors import InputError
 
-LOGS = Path(fieldmap.nav.logs.__file__).parent
+NAV = Path(fieldmap.nav.__file__).parent
 
 
 def _param_names(tree: ast.AST) -> set[str]:
@@ -40,12 +41,19 @@ def _param_names(tree: ast.AST) -> set[str]:
     return out
 
 
-def test_every_param_raised_in_logs_is_in_the_table():
-    used = set()
-    for path in sorted(LOGS.glob("*.py")):
+def _params_used() -> set[str]:
+    """Return every keyword named by a ``param=`` in :mod:`fieldmap.nav` (its packages too)."""
+    used: set[str] = set()
+    for path in sorted(NAV.rglob("*.py")):
         used |= _param_names(ast.parse(path.read_text(encoding="utf-8")))
+    return used
+
+
+def test_every_param_raised_in_nav_is_in_the_table():
+    used = _params_used()
     assert used, "no param= found: the walk is broken"
-    assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used
+    assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used  # nav.logs
+    assert {"frame", "output_dt", "block_s", "models", "draws"} <= used  # study, propagator
     assert not used - set(OPTIONS), (
         f"keywords missing from cli.params.OPTIONS: {used - set(OPTIONS)}"
     )
@@ -61,6 +69,18 @@ def test_every_keyword_of_the_log_functions_is_in_the_table():
         for p in inspect.signature(func).parameters.values():
             if p.kind is p.KEYWORD_ONLY:
                 assert p.name in OPTIONS, f"{func.__name__}({p.name}=) missing from OPTIONS"
+
+
+def test_every_keyword_of_the_flight_study_is_in_the_table():
+    """A new keyword of :class:`~fieldmap.nav.study.FlightStudy` must be added to the table."""
+    import dataclasses
+
+    from fieldmap.nav.study import FlightStudy
+
+    names = [f.name for f in dataclasses.fields(FlightStudy) if f.init]
+    assert {"frame", "output_dt", "block_s", "models"} <= set(names)
+    missing = [n for n in names if n not in OPTIONS]
+    assert not missing, f"FlightStudy keywords missing from cli.params.OPTIONS: {missing}"
 
 
 def test_the_table_names_real_options_and_settings():
@@ -182,3 +202,57 @@ def test_plain_words_are_reworded_only_as_the_errors_keyword():
     assert reword(text) == (
         "f.gpx: columns and --time-format apply to CSV files (a gpx); unrecognised columns"
     )
+
+
+@pytest.mark.parametrize(
+    "text, param, navsim",
+    [
+        # a bare setting outside an advice
+        ("baro altitude aiding needs frame='ned'", "frame",
+         "baro altitude aiding needs --frame ned"),
+        ("frame='lci' steps two IMU samples at a time: the output interval 0.005 s must be an "
+         "even number of samples at 200 Hz", "frame",
+         "--frame lci steps two IMU samples at a time: the output interval 0.005 s must be an "
+         "even number of samples at 200 Hz"),
+        # the error's own keyword, a plain word; an option named otherwise than the keyword
+        ("draws must be within 1..10000, got 0", "draws", "--draws must be within 1..10000, got 0"),
+        ("n_gauss must be in 1..16, got 0", "n_gauss", "--gauss must be in 1..16, got 0"),
+        ("a block of 201 s at 1e+07 Hz is 2.01e+09 IMU samples, more than 2000000: lower rate_hz "
+         "or block_s", "block_s",
+         "a block of 201 s at 1e+07 Hz is 2.01e+09 IMU samples, more than 2000000: lower --rate "
+         "or --block-s"),
+        # never inside a path
+        ("models: table:/data/models/g.bin does not cover the flight", "models",
+         "--models: table:/data/models/g.bin does not cover the flight"),
+        ("models: table:models.bin does not cover the flight", "models",
+         "--models: table:models.bin does not cover the flight"),
+    ],
+)  # fmt: skip
+def test_reword_study_messages(text, param, navsim):
+    assert reword(text, param, options_of("navsim")) == navsim
+    assert reword(text, param, options_of("table")) == text
+
+
+@pytest.mark.parametrize(
+    "kw, param, navsim",
+    [
+        (dict(frame="lci", altitude_aiding="baro"), "frame",
+         "baro altitude aiding needs --frame ned"),
+        (dict(frame="x"), "frame", "--frame must be 'ned' or 'lci', got 'x'"),
+        (dict(output_dt=0.0033), "output_dt",
+         "output interval 0.0033 s is not a whole number of IMU samples at 200 Hz"),
+        (dict(rate_hz=-1.0), "rate_hz", "--rate must be a positive number, got -1.0"),
+        (dict(duration=1e9), "duration", "--duration 1e+09 s does not fit the flight (201 s)"),
+    ],
+)  # fmt: skip
+def test_flight_study_errors_carry_their_keyword(kw, param, navsim):
+    """FlightStudy words its refusals in Python; ``fieldmap navsim`` shows them with options."""
+    from fieldmap.cli import _worded
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.study import FlightStudy
+
+    traj = FlightTrajectory(route_flight("47,8,1000;47.3,8.3,1000", 200.0))
+    e = _raised(FlightStudy, traj, imu="tactical", models="j4", draws=2, truth_lmax=20, **kw)
+    assert e.param == param
+    assert _worded(e, "navsim") == navsim
+    assert _worded(e, "table") == str(e)

@@ -132,10 +132,8 @@ def _check_args(args, notes: list[str]):
             f"--output-dt {args.output_dt:g} s is longer than --duration {args.duration:g} s"
         )
     steps = sample_count(args.duration, args.rate) // 2
-    try:  # before the IMU synthesis: its progress bar would come before the refusal
-        output_steps(args.output_dt, steps, 2.0 / args.rate)
-    except InputError as exc:
-        raise InputError(f"--output-dt: {exc}") from None
+    # before the IMU synthesis: its progress bar would come before the refusal
+    output_steps(args.output_dt, steps, 2.0 / args.rate)
     nav = _model_names(args, [args.nav], model, notes)[0]
     navoptions.refuse_in_studies(
         args, STUDIES if args.study == "all" else (args.study,), models, nav
@@ -160,7 +158,7 @@ def _check_flight_args(args, model, notes: list[str]):
 
     The CLI checks what only it has (the choice of flight, the log options, options given
     where they do nothing); the study checks the rest, once, when it is built (its messages
-    name the Python keywords: :func:`navflight.cli_wording` names the options instead).
+    name the Python keywords, which :func:`fieldmap.cli.params.reword` names as options).
     """
     from fieldmap._warp import resolve_device
     from fieldmap.nav.sensors import PRESETS, load_imu

@@ -193,68 +193,33 @@ def _refuse_unconditioned(args, flights_) -> None:
             )
 
 
-#: the flight study's keywords -> the options that set them (:func:`cli_wording`)
-STUDY_OPTIONS = {
-    "models": "--models",
-    "draws": "--draws",
-    "seed": "--seed",
-    "rate_hz": "--rate",
-    "frame": "--frame",
-    "altitude_aiding": "--altitude-aiding",
-    "truth_evaluation": "--truth-evaluation",
-    "gravity_rate_hz": "--gravity-rate-hz",
-    "n_gauss": "--gauss",
-    "duration": "--duration",
-    "output_dt": "--output-dt",
-    "block_s": "--block-s",
-    "fraction": "--fraction",
-}
-
-
-def cli_wording(message: str) -> str:
-    """Name the options in a :class:`~fieldmap.nav.study.FlightStudy` message, not its keywords.
-
-    ``"draws must be ..."`` -> ``"--draws must be ..."``; ``"models: ..."`` ->
-    ``"--models: ..."``; ``frame='ned'`` -> ``--frame ned``; ``rate_hz`` -> ``--rate``
-    (underscored keywords are never prose).
-    """
-    import re
-
-    keys = "|".join(sorted(STUDY_OPTIONS, key=len, reverse=True))
-    underscored = "|".join(k for k in STUDY_OPTIONS if "_" in k)
-    message = re.sub(rf"^({keys})(?=[ :])", lambda m: STUDY_OPTIONS[m.group(1)], message)
-    message = re.sub(
-        rf"\b({keys})='([^']*)'", lambda m: f"{STUDY_OPTIONS[m.group(1)]} {m.group(2)}", message
-    )
-    return re.sub(rf"\b({underscored})\b", lambda m: STUDY_OPTIONS[m.group(1)], message)
-
-
 def study(args, traj, imu, model, names):
-    """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options (one line if refused)."""
+    """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
+
+    Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
+    names the options instead (:func:`fieldmap.cli.params.reword`).
+    """
     from fieldmap.nav.study import FlightStudy
 
-    try:
-        return FlightStudy(
-            traj,
-            imu=imu[1],
-            imu_name=imu[0],
-            models=names,
-            draws=20 if args.draws is None else args.draws,
-            seed=args.seed,
-            rate_hz=args.rate,
-            frame=args.frame or "ned",
-            altitude_aiding=args.altitude_aiding,
-            truth=model,
-            truth_evaluation=args.truth_evaluation,
-            gravity_rate_hz=_rate(args.gravity_rate_hz),
-            n_gauss=args.gauss,
-            duration=args.duration,
-            output_dt=args.output_dt,
-            block_s=args.block_s,
-            fraction=args.fraction,
-        )
-    except InputError as exc:
-        raise InputError(cli_wording(str(exc))) from None
+    return FlightStudy(
+        traj,
+        imu=imu[1],
+        imu_name=imu[0],
+        models=names,
+        draws=20 if args.draws is None else args.draws,
+        seed=args.seed,
+        rate_hz=args.rate,
+        frame=args.frame or "ned",
+        altitude_aiding=args.altitude_aiding,
+        truth=model,
+        truth_evaluation=args.truth_evaluation,
+        gravity_rate_hz=_rate(args.gravity_rate_hz),
+        n_gauss=args.gauss,
+        duration=args.duration,
+        output_dt=args.output_dt,
+        block_s=args.block_s,
+        fraction=args.fraction,
+    )
 
 
 def run(args, studies, *, device=None, client=None) -> int:

@@ -1,12 +1,14 @@
 """Keyword arguments of the library named as the command line spells them: one table.
 
-The flight-log readers and the conditioning (:mod:`fieldmap.nav.logs`) word their messages for
-a Python caller: they name keyword arguments ("no stretch ... without a gap over 60 s
-(max_gap_s)", "pass airborne_only=False to keep ground movement"), and an
-:class:`~fieldmap.errors.InputError` about one carries its name as ``param``. A user of the
-command line can only change options, so the CLI rewords such text with :data:`OPTIONS` and
-:data:`ADVICE` before it shows it (:func:`reword`; errors in :func:`fieldmap.cli.main`, the
-notes of a conditioning report in :mod:`fieldmap.cli.navflight`).
+The flight-log readers and the conditioning (:mod:`fieldmap.nav.logs`), the flight study
+(:class:`fieldmap.nav.study.FlightStudy`) and the mechanization checks of the propagator
+(:mod:`fieldmap.nav.propagator`) word their messages for a Python caller: they name keyword
+arguments ("no stretch ... without a gap over 60 s (max_gap_s)", "pass airborne_only=False to
+keep ground movement", "draws must be within 1..10000", "baro altitude aiding needs
+frame='ned'"), and an :class:`~fieldmap.errors.InputError` about one carries its name as
+``param``. A user of the command line can only change options, so the CLI rewords such text
+with :data:`OPTIONS` and :data:`ADVICE` before it shows it (:func:`reword`; errors in
+:func:`fieldmap.cli.main`, the notes of a conditioning report in :mod:`fieldmap.cli.navflight`).
 
 How a message names a keyword ``name`` (a key of :data:`OPTIONS`), and what the command line
 makes of it:
@@ -17,16 +19,20 @@ makes of it:
   (``pass name=value ...``, ``give ... name ...``): ``pass name=value`` becomes the whole advice
   of :data:`ADVICE` for that setting, else ``give --option value``; a bare ``name`` becomes
   ``--option``; where the command has no option for a keyword it names, the clause is left out;
+- ``name=value`` anywhere else (``needs frame='ned'``): ``--option value``; without an option
+  the Python setting stays;
 - ``name`` anywhere else (e.g. ``max_gap_s must be a positive number``): ``--option``; without
   one the Python name stays.
 
-Outside ``pass name=value`` a keyword is found only where it cannot be a plain word: a name
-with an underscore, or the error's own ``param`` (``columns``).
+Outside ``name=value`` a keyword is found only where it cannot be a plain word: a name with an
+underscore, or the error's own ``param`` (``columns``, ``draws``); never inside a path
+(``/data/models/x``, ``table:models.bin``).
 
-A command offers a subset of the options: ``fieldmap navsim --trajectory`` all of them
-(:func:`options_of`), ``fieldmap table --corridor`` none (it reads the flight with the
-defaults). ``tests/test_params.py`` fails when a keyword that a message in
-:mod:`fieldmap.nav.logs` is about is missing from :data:`OPTIONS`.
+A command offers a subset of the options: ``fieldmap navsim`` all of them (:func:`options_of`),
+``fieldmap table --corridor`` none (it reads the flight with the defaults).
+``tests/test_params.py`` fails when a keyword that a message in :mod:`fieldmap.nav` is about
+(``param=``), or a keyword of the log functions or of :class:`~fieldmap.nav.study.FlightStudy`,
+is missing from :data:`OPTIONS`.
 """
 
 from __future__ import annotations
@@ -34,8 +40,8 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-#: keyword argument of :mod:`fieldmap.nav.logs` -> the ``navsim`` option that sets it (None:
-#: the command line has no option for it; its advice is left out, or taken from ADVICE)
+#: keyword argument of :mod:`fieldmap.nav` -> the ``navsim`` option that sets it (None: the
+#: command line has no option for it; its advice is left out, or taken from ADVICE)
 OPTIONS: dict[str, str | None] = {
     # read_track
     "columns": "--columns",
@@ -58,6 +64,32 @@ OPTIONS: dict[str, str | None] = {
     "dt_out": None,
     "model": None,  # the truth model's geoid makes MSL heights ellipsoidal
     "ellipsoid": None,
+    # FlightStudy (fieldmap.nav.study)
+    "flight": None,  # --trajectory FILE or --route
+    "imu": "--imu",
+    "models": "--models",
+    "draws": "--draws",
+    "seed": "--seed",
+    "rate_hz": "--rate",
+    "frame": "--frame",
+    "altitude_aiding": "--altitude-aiding",
+    "baro": None,
+    "truth": "--model",
+    "truth_lmax": "--lmax",
+    "truth_evaluation": "--truth-evaluation",
+    "gravity_rate_hz": "--gravity-rate-hz",
+    "n_gauss": "--gauss",
+    "duration": "--duration",
+    "output_dt": "--output-dt",
+    "block_s": "--block-s",
+    "fraction": "--fraction",
+    "speed_mps": "--speed-mps",
+    "imu_name": None,
+    # Propagator (fieldmap.nav.propagator)
+    "launch": None,
+    "nav": None,  # its NavConfig (not navsim's --nav, the normal model of table3)
+    "state": None,
+    "h_ref": None,
 }
 #: ``"name=value"`` (the value as ``repr`` writes it) -> the whole advice on the command line,
 #: for settings made by a switch rather than by an option with a value
@@ -69,10 +101,14 @@ ADVICE: dict[str, str] = {
 #: separators before an advice clause ("? " keeps its question mark)
 _SEP = re.compile(r"; |: |(?<=\?) |, or ")
 _VALUE = r"'[^']*'|\"[^\"]*\"|[\w.+-]+"
+#: around a keyword: no word, option or path characters (``--frame``, ``/data/models/x``,
+#: ``table:models.bin``, ``frame=``); a sentence may end after it (``... columns.``)
+_BEFORE = r"(?<![-\w/\\.:])"
+_AFTER = r"(?![\w=/\\]|\.\w)"
 
 
 def options_of(command: str) -> dict[str, str | None]:
-    """Return the options of ``command`` that set keywords of :mod:`fieldmap.nav.logs`.
+    """Return the options of ``command`` that set keywords of :mod:`fieldmap.nav`.
 
     ``navsim`` has them all (:data:`OPTIONS`); any other command none: its flight logs are
     read with the defaults, and advice to change a keyword is left out.
@@ -91,7 +127,7 @@ def _names(param: str | None = None, *, all_names: bool = False) -> str:
 
 
 def _bare(name: str) -> re.Pattern[str]:
-    return re.compile(rf"(?<![-\w]){re.escape(name)}(?![\w=])")
+    return re.compile(rf"{_BEFORE}{re.escape(name)}{_AFTER}")
 
 
 def _clause_end(text: str, start: int) -> int:
@@ -132,7 +168,7 @@ def _advice(clause: str, param, options: Mapping[str, str | None], advice: Mappi
 
     try:
         clause = re.sub(rf"\bpass ({_names(all_names=True)})=({_VALUE})", setting, clause)
-        return re.sub(rf"(?<![-\w])(?:{_names(param)})(?![\w=])", bare, clause)
+        return re.sub(rf"{_BEFORE}(?:{_names(param)}){_AFTER}", bare, clause)
     except LookupError:
         return None
 
@@ -143,7 +179,7 @@ def reword(
     options: Mapping[str, str | None] = OPTIONS,
     advice: Mapping[str, str] = ADVICE,
 ) -> str:
-    """Return a message of :mod:`fieldmap.nav.logs` as the command line spells it.
+    """Return a message of :mod:`fieldmap.nav` as the command line spells it.
 
     Parameters
     ----------
@@ -173,6 +209,13 @@ def reword(
             out.append(text[m.start() : m.end()] + new)
         pos = end
     text = "".join(out) + text[pos:]
+
+    # settings "name=value" outside an advice (``needs frame='ned'``)
+    def setting(m: re.Match[str]) -> str:
+        option = options.get(m.group(1))
+        return f"{option} {m.group(2).strip(chr(39) + chr(34))}" if option else m.group(0)
+
+    text = re.sub(rf"{_BEFORE}({_names(all_names=True)})=({_VALUE})", setting, text)
 
     # labels "(name)"
     def label(m: re.Match[str]) -> str:

@@ -106,9 +106,9 @@ def check_mechanization(frame, *, baro: bool = False) -> str:
     """
     name = str(frame).lower()
     if name not in ("ned", "lci"):
-        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}")
+        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}", param="frame")
     if baro and name != "ned":
-        raise InputError("baro altitude aiding needs frame='ned'")
+        raise InputError("baro altitude aiding needs frame='ned'", param="frame")
     return name
 
 
@@ -190,9 +190,13 @@ class Propagator:
         runs_per_task = old.get("runs_per_task")
         frame = check_mechanization(frame, baro=nav.baro is not None)
         if frame == "lci" and launch is None:
-            raise InputError("the LCI mechanization needs its launch frame (launch=)")
+            raise InputError(
+                "the LCI mechanization needs its launch frame (launch=)", param="launch"
+            )
         if frame == "lci" and nav.output_every % 2:
-            raise InputError("the LCI mechanization stores states every even number of samples")
+            raise InputError(
+                "the LCI mechanization stores states every even number of samples", param="nav"
+            )
         from fieldmap.nav.gravity import gravity_names
 
         gravity = nav.gravity
@@ -251,11 +255,13 @@ class Propagator:
         """Replace the state (the keys and shapes of :meth:`get_state`)."""
         missing = set(self._state) - set(state)
         if missing:
-            raise InputError(f"state lacks {sorted(missing)}")
+            raise InputError(f"state lacks {sorted(missing)}", param="state")
         for k, v in self._state.items():
             a = np.array(state[k], dtype=np.float64)
             if a.shape != v.shape:
-                raise InputError(f"state[{k!r}] has shape {a.shape}, expected {v.shape}")
+                raise InputError(
+                    f"state[{k!r}] has shape {a.shape}, expected {v.shape}", param="state"
+                )
             self._state[k] = a
 
     def propagate(self, dtheta, dv, sample0: int = 0, h_ref=None) -> dict:
@@ -279,7 +285,9 @@ class Propagator:
         """
         cfg = self._cfg
         if cfg.baro is not None and h_ref is None:
-            raise InputError("the baro loop needs the block's reference heights (h_ref=)")
+            raise InputError(
+                "the baro loop needs the block's reference heights (h_ref=)", param="h_ref"
+            )
         n = self.n_runs
         if self.client is None:
             out, nxt = _propagate_runs(cfg, self._state, dtheta, dv, int(sample0), h_ref)

@@ -248,9 +248,10 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     lo = max([d for d in divisors if d * step_s <= output_dt] or [1])
     hi = min([d for d in divisors if d * step_s >= output_dt] or [steps])
     raise InputError(
-        f"output interval {output_dt:g} s is not a whole number of navigation steps "
+        f"output_dt: output interval {output_dt:g} s is not a whole number of navigation steps "
         f"({step_s:g} s) dividing the run ({steps * step_s:g} s): use e.g. "
-        f"{lo * step_s:g} s or {hi * step_s:g} s"
+        f"{lo * step_s:g} s or {hi * step_s:g} s",
+        param="output_dt",
     )
 
 
@@ -658,7 +659,8 @@ def _steps_per_output(output_dt: float, rate_hz: float) -> int:
     if every < 1 or abs(k - every) > 1e-9 * max(k, 1.0):
         raise InputError(
             f"output interval {output_dt:g} s is not a whole number of IMU samples at "
-            f"{rate_hz:g} Hz"
+            f"{rate_hz:g} Hz",
+            param="output_dt",
         )
     return every
 
@@ -822,17 +824,22 @@ class FlightStudy:
         flight = self.flight
         if isinstance(flight, (str, list, tuple, np.ndarray)):
             if self.speed_mps is None:
-                raise InputError("a route flight needs its ground speed (speed_mps=)")
+                raise InputError(
+                    "a route flight needs its ground speed (speed_mps=)", param="speed_mps"
+                )
             flight = route_flight(flight, self.speed_mps)
             put("speed_mps", None)  # flown into the trajectory: dataclasses.replace works
         elif self.speed_mps is not None:
-            raise InputError("speed_mps applies to a route flight (flight= a route)")
+            raise InputError(
+                "speed_mps applies to a route flight (flight= a route)", param="speed_mps"
+            )
         if isinstance(flight, FlightSamples):
             flight = FlightTrajectory(flight)
         if not isinstance(flight, Trajectory):
             raise InputError(
                 "flight must be a Trajectory, FlightSamples or a route, got "
-                f"{type(flight).__name__}"
+                f"{type(flight).__name__}",
+                param="flight",
             )
         put("flight", flight)
         spec: sensors.ImuErrorSpec
@@ -842,38 +849,43 @@ class FlightStudy:
             if not str(self.imu).strip():
                 raise InputError(
                     f"imu is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU "
-                    ".toml file"
+                    ".toml file",
+                    param="imu",
                 )
             label, spec = sensors.load_imu(self.imu)
         else:
             raise InputError(f"imu must be a preset name, a .toml file or an ImuErrorSpec, "
-                             f"got {type(self.imu).__name__}")  # fmt: skip
+                             f"got {type(self.imu).__name__}", param="imu")  # fmt: skip
         put("imu", spec)
         put("imu_name", label if self.imu_name is None else str(self.imu_name))
         if self.truth_evaluation not in ("interpolated", "full"):
             raise InputError(
-                f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}"
+                f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}",
+                param="truth_evaluation",
             )
         frame = check_mechanization(self.frame)
         put("frame", frame)
         aiding = str(self.altitude_aiding).lower()
         if aiding not in ("auto", "none", "baro"):
             raise InputError(
-                f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}"
+                f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
+                param="altitude_aiding",
             )
         if not 0 < self.fraction < 1:
-            raise InputError(f"fraction must be in (0, 1), got {self.fraction}")
+            raise InputError(f"fraction must be in (0, 1), got {self.fraction}", param="fraction")
         for name in ("rate_hz", "block_s"):
             v = getattr(self, name)
             if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
-                raise InputError(f"{name} must be a positive number, got {v!r}")
+                raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
         n_draws = 1 if spec.is_ideal else self.draws
         if isinstance(self.draws, bool) or not 1 <= int(self.draws) <= MAX_DRAWS:
-            raise InputError(f"draws must be within 1..{MAX_DRAWS}, got {self.draws}")
+            raise InputError(
+                f"draws must be within 1..{MAX_DRAWS}, got {self.draws}", param="draws"
+            )
         if isinstance(self.seed, bool) or int(self.seed) < 0:
-            raise InputError(f"seed must be >= 0, got {self.seed}")
+            raise InputError(f"seed must be >= 0, got {self.seed}", param="seed")
         if not 1 <= int(self.n_gauss) <= 16:
-            raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}")
+            raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}", param="n_gauss")
         put("n_draws", int(n_draws))
         model = load_truth_model(self.truth, self.truth_lmax)
         put("truth", model)
@@ -885,13 +897,14 @@ class FlightStudy:
         duration = traj.duration if self.duration is None else float(self.duration)
         if not 0 < duration <= traj.duration * (1 + 1e-12):
             raise InputError(
-                f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)"
+                f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)",
+                param="duration",
             )
         put("duration_s", duration)
         try:
             check_tables_cover(self.models, traj, duration)
         except InputError as exc:
-            raise InputError(f"models: {exc}") from None
+            raise InputError(f"models: {exc}", param="models") from None
         if aiding == "auto":
             aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
         check_mechanization(frame, baro=aiding == "baro")
@@ -903,7 +916,8 @@ class FlightStudy:
         if frame == "lci" and every % 2:
             raise InputError(
                 f"frame='lci' steps two IMU samples at a time: the output interval "
-                f"{output_dt:g} s must be an even number of samples at {rate_hz:g} Hz"
+                f"{output_dt:g} s must be an even number of samples at {rate_hz:g} Hz",
+                param="frame",
             )
         put("every", every)
         unit = every * (2 if every % 2 else 1)  # whole outputs, an even number of samples
@@ -919,7 +933,8 @@ class FlightStudy:
         if block * rate_hz > MAX_SAMPLES:
             raise InputError(
                 f"a block of {block:g} s at {rate_hz:g} Hz is {block * rate_hz:.3g} IMU samples, "
-                f"more than {MAX_SAMPLES}: lower rate_hz or block_s"
+                f"more than {MAX_SAMPLES}: lower rate_hz or block_s",
+                param="block_s",
             )
         sample_count(block, rate_hz)
         put("per_block", per_block)
