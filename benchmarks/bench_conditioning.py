@@ -1,4 +1,4 @@
-"""Benchmark: flight-log conditioning (:func:`fieldmap.nav.conditioning.condition`) on real logs.
+"""Benchmark: flight-log conditioning (:func:`fieldmap.nav.logs.condition.condition`) on real logs.
 
 Prints the median wall time of conditioning each real ADS-B excerpt of ``tests/data/adsb/`` (a
 2 h 21 min log with stale and jumping positions, a 5 h 51 min long-haul flight, 2 h 53 min at

@@ -1,10 +1,10 @@
 """Gravity compensation tables in the kernels: Catmull-Rom interpolation of δg (Warp, float64).
 
-The scheme is the one of :mod:`fieldmap.products.table_model` (its module docstring; the C
+The scheme is the one of :mod:`fieldmap.products.tables.model` (its module docstring; the C
 header written with every table): tensor-product Catmull-Rom cubics (Keys, a = -1/2) in latitude,
 longitude and height, one margin node on each horizontal side, linear ghost nodes beyond the
 lowest and highest heights. The host checks that every point is inside the valid domain before
-a launch (:func:`fieldmap.products.table_model.interpolate` names the first point outside); the
+a launch (:func:`fieldmap.products.tables.model.interpolate` names the first point outside); the
 kernel clamps the cells as the NumPy interpolator does.
 
 :func:`table_gravitation_ecef` is a navigation gravity: the exact normal gravitation plus the

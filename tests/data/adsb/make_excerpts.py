@@ -6,7 +6,7 @@ Usage (from the repository root, with ``pip install traffic==2.13`` in the envir
 
 Each excerpt is one whole sample flight of ``traffic/data/samples/`` (every row, in file order,
 nothing smoothed, sorted or removed), reduced to the columns the tests read and written as a
-gzip-compressed CSV in the ``traffic`` layout that ``fieldmap.nav.readers.read_track``
+gzip-compressed CSV in the ``traffic`` layout that ``fieldmap.nav.logs.read.read_track``
 recognises: ``timestamp`` as ISO 8601 UTC text (the samples hold whole seconds), the numbers as
 pandas writes them (shortest round-trip text, so every value reads back bit for bit), an empty
 cell for a missing value. The gzip header carries no file name and no time, so a rerun writes
