@@ -15,6 +15,7 @@ import pytest
 
 import fieldmap
 from fieldmap.errors import InputError
+from fieldmap.nav.logs.condition import condition
 from fieldmap.nav.logs.read import R_ISA, parse_columns, read_track
 from fieldmap.nav.logs.track import RawTrack
 
@@ -502,19 +503,69 @@ def test_traffic_package_samples(name):
     assert np.nanmax(tr.h) < 15_000
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=InputError,
-    reason="defect: isolated barometric spikes within 5 samples read as a unit error "
-    "('vertical rate ... m/s sustained over 5 samples ... altitudes in ft?') in a valid ft log",
-)
 @pytest.mark.parametrize(
-    "name, rows",
+    "name, rows, spikes",
     [
-        ("noisy_time_issue", 8294),  # line 7443: 15850 ft, 1150, 15800, 1700, 15750 (1 Hz)
-        ("noisy_takeoff", 730),  # line 86: 35975 ft twice during the take-off roll at Zurich
+        # line 7443 on: 15850 ft, 1150, 15800, 1700, 15750 (1 Hz)
+        ("noisy_time_issue", 8294, [7445, 7447]),
+        # 130 rows without an altitude; 35975 ft held during the take-off roll at Zurich (line
+        # 86 on; 1525 ft between), trimmed with the roll by the conditioning
+        ("noisy_takeoff", 600, []),
     ],
 )
-def test_altitude_spikes_are_not_a_unit_error(name, rows):
+def test_altitude_spikes_are_not_a_unit_error(name, rows, spikes):
+    """Isolated barometric spikes in a log in feet: read (kept), then removed by conditioning."""
     tr = read_track(ADSB / f"{name}.csv.gz")
-    assert len(tr) >= 0.95 * rows
+    assert len(tr) == rows
+    cf = condition(tr)
+    found = {o["line"] for o in cf.report["outliers"]["samples"] if o["component"] == "vertical"}
+    assert set(spikes) <= found
+    k = cf.report["kinematics"]
+    assert k["peak_climb_rate_m_s"] < 30 and k["peak_descent_rate_m_s"] < 30  # an airliner
+    for line in spikes:  # the conditioned height there: the trend of the neighbours
+        j = int(np.searchsorted(tr.lines, line))
+        h = np.interp(tr.t[j], cf.samples.t + cf.report["t_start_s"], cf.samples.h)
+        assert abs(h - (tr.h[j - 1] + tr.h[j + 1]) / 2) < 20
+
+
+def test_real_log_in_wrong_units_refused(tmp_path):
+    """A real log mis-declared is still refused, spikes or not; declared right it is read."""
+    path = ADSB / "noisy_time_issue.csv.gz"  # ft, with the spikes above: ft read as metres
+    with pytest.raises(InputError, match=r"altitudes up to 38,\d{3} m .*feet read as metres\?"):
+        read_track(path, columns="time=timestamp,lat=latitude,lon=longitude,alt=altitude")
+    # a real climb (noisy_takeoff 17:39:58-17:41:02, 1875 -> 5125 ft, 16 m/s) made a fighter's
+    # by 7 x its height gain (~110 m/s, < 25,000 ft), then written as feet and as metres
+    with gzip.open(ADSB / "noisy_takeoff.csv.gz", "rt") as f:
+        real = [r.split(",") for r in f.read().splitlines()[263:328] if r.split(",")[5]]
+    a0 = float(real[0][5])
+    rows = [f"{r[0]},{r[3]},{r[4]},{a0 + 7 * (float(r[5]) - a0):.1f}" for r in real]
+    ft = write(tmp_path / "ft.csv", ["timestamp,latitude,longitude,altitude"] + rows)
+    tr = read_track(ft)  # traffic layout: ft
+    assert len(tr) == len(real) and 80 < np.ptp(tr.h) / np.ptp(tr.t) < 140
+    m = write(tmp_path / "m.csv", ["time,lat,lon,baroaltitude"] + rows)  # OpenSky: metres
+    with pytest.raises(
+        InputError,
+        match=r"m.csv line \d+ column baroaltitude: vertical rate \d{3} m/s sustained over 5 "
+        r"samples \(an aircraft: < 300 m/s\): altitudes in m\? pass alt_units='ft'",
+    ):
+        read_track(m)
+
+
+def test_isolated_spikes_are_no_unit_error(tmp_path, fl):
+    """Spikes (1 or 2 samples, two within 5) and a wrong level held are no sustained rate."""
+    H = fl["H"].copy()
+    H[[300, 302]] = [1150 * FT, 1700 * FT]  # two spikes down within 5 samples
+    H[[600, 601]] = 36_000 * FT  # two samples up
+    H[900:906] = 36_000 * FT  # a wrong level held 6 s (a take-off roll's)
+    H[[1200, 1202, 1204]] = H[1200] + np.array([4000.0, -4000.0, 4000.0])  # 3 in 5, alternating
+    spiky = dict(fl, H=H)
+    tr = read_track(write(tmp_path / "spiky.csv", traffic_rows(spiky)))
+    z = R_ISA * H / (R_ISA - H)
+    np.testing.assert_allclose(tr.h - z, geoid(tr), atol=0.05)  # read as they are: not cleaned
+    # the same spikes on a fighter's climb (100 m/s to 8 km) in feet read as metres: refused
+    steep = dict(spiky, H=np.minimum(500.0 + 100.0 * fl["t"], 8000.0))
+    steep["H"][[30, 32]] = [1150 * FT, 1700 * FT]
+    steep["H"][[50, 51]] = 36_000 * FT
+    assert read_track(write(tmp_path / "m.csv", opensky_rows(steep))).h.max() > 8000
+    with pytest.raises(InputError, match=r"vertical rate 328 m/s sustained over 5 samples"):
+        read_track(write(tmp_path / "ft.csv", opensky_rows(steep, scale=1 / FT)))

@@ -45,7 +45,8 @@ outside the years 1..9999, radians, a header naming a column twice, one column m
 fields, an empty file, a file that is no flight log. Units are checked, not guessed, where
 neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
 NMEA, IGC: metres) fixes them: an aircraft-like track (median ground speed below 700 m/s) with
-altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples is refused as
+altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples (of the running
+median of 5 altitudes, so that isolated spikes are not taken for a unit error) is refused as
 feet read as metres (or a wrong column). Messages name keyword arguments (an
 :class:`~fieldmap.errors.InputError` about one has it as ``param``; the command line rewords
 them with its options).
@@ -593,11 +594,21 @@ def check_units(a, t, lines, units, vmed, where, aname) -> None:
             f"speed (median {vmed:.0f} m/s): feet read as metres? {hint}",
             param="alt_units",
         )
+    # A unit error (or a wrong column) is in every sample: the rate it makes is the track's
+    # trend, kept by a running median of 5 altitudes (the identity on a monotone climb, sample
+    # for sample, so such a climb is judged on its own rates) while it removes any run of up to
+    # 2 outlying samples in 5 (ADS-B spikes: 15850, 1150, 15800, 1700, 15750 ft at 1 Hz). Of
+    # the rates between those medians, the median of 5 then ignores up to 2 steps in 5
+    # intervals (the ends of a wrong level held for a while), which are no sustained rate
+    # either. A log that is wrong throughout (a climb x 3.28, altitudes alternating all along)
+    # is no outlier and is refused as before; the conditioning removes the outliers later.
     dt = np.diff(t)
     ok = np.flatnonzero(dt > 0)
-    rate = np.abs(np.diff(a))[ok] / dt[ok]
+    window = np.lib.stride_tricks.sliding_window_view
+    trend = np.median(window(np.pad(a, 2, mode="edge"), 5), axis=1)
+    rate = np.abs(np.diff(trend))[ok] / dt[ok]
     if rate.size >= 5:
-        med = np.median(np.lib.stride_tricks.sliding_window_view(rate, 5), axis=1)
+        med = np.median(window(rate, 5), axis=1)
         if med.max() > MAX_CLIMB:
             i = int(np.argmax(med))
             raise InputError(
