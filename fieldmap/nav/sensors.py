@@ -143,6 +143,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -624,7 +625,7 @@ def spec_from_mapping(data: dict, source: str = "IMU spec") -> ImuErrorSpec:
     return replace(ImuErrorSpec(), **values)
 
 
-def load_imu(name_or_path: str | Path) -> tuple[str, ImuErrorSpec]:
+def load_imu(name_or_path: str | os.PathLike[str]) -> tuple[str, ImuErrorSpec]:
     """Return ``(label, spec)`` for a preset name or a TOML file path.
 
     Raises
