@@ -48,7 +48,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def wanted(args) -> bool:
+def wanted(args: argparse.Namespace) -> bool:
     """Whether the run is the SH form; refuse mixed or stray options (one line each)."""
     from fieldmap.cli import given
 
@@ -66,7 +66,7 @@ def wanted(args) -> bool:
     return sh
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     """Validate everything, compute, print, then write NetCDF, JSON (and PNG)."""
     from fieldmap.models.registry import load_model
     from fieldmap.products import degree as deg

@@ -38,7 +38,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def wanted(args) -> bool:
+def wanted(args: argparse.Namespace) -> bool:
     """Tell whether the product is streamed to its file block by block (not held in memory).
 
     Options that need the whole map in memory are refused here with one line naming them.
@@ -61,7 +61,7 @@ def wanted(args) -> bool:
     return streamed
 
 
-def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
+def run(args: argparse.Namespace, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
     from fieldmap.cli.common import map_request, stem
     from fieldmap.products import plots
@@ -81,7 +81,7 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     return stream(args, request, base, write, publish)
 
 
-def stream(args, request, base: str, write, publish) -> int:
+def stream(args: argparse.Namespace, request, base: str, write, publish) -> int:
     """Write a product block by block under ``--out``, then its JSON and figures; all or none.
 
     Connects to the request's executor first (an unreachable scheduler writes nothing);

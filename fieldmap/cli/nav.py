@@ -21,6 +21,7 @@ so a failed run leaves nothing half-written.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import sys
 import warnings
@@ -37,7 +38,7 @@ from fieldmap.limits import MAX_DRAWS
 from fieldmap.nav.report import format_table, write_outputs
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``navsim`` sub-command."""
     p = subparsers.add_parser(
         "navsim",
@@ -53,7 +54,7 @@ def register(subparsers) -> None:
 
 
 @contextlib.contextmanager
-def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
+def _deprecation_notes(args: argparse.Namespace, notes: list[str]) -> Iterator[None]:
     """Collect the deprecation warnings of the block (deprecated model names) in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
@@ -72,7 +73,7 @@ def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
-def _model_names(args, names, model, notes: list[str]) -> list[str]:
+def _model_names(args: argparse.Namespace, names, model, notes: list[str]) -> list[str]:
     """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``."""
     from fieldmap.nav.study import check_model_names
 
@@ -80,7 +81,7 @@ def _model_names(args, names, model, notes: list[str]) -> list[str]:
         return check_model_names(names, model)
 
 
-def _check_args(args, notes: list[str]):
+def _check_args(args: argparse.Namespace, notes: list[str]):
     """Validate every option (and the output folder) before any work; return the checked ones.
 
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
@@ -148,12 +149,12 @@ def split_list(values) -> list[str]:
     return [m for v in values for m in str(v).replace(",", " ").split() if m]
 
 
-def is_flight(args) -> bool:
+def is_flight(args: argparse.Namespace) -> bool:
     """Tell whether ``--trajectory`` or ``--route`` asks for the flight study."""
     return args.trajectory is not None or args.route is not None
 
 
-def _check_flight_args(args, model, notes: list[str]):
+def _check_flight_args(args: argparse.Namespace, model, notes: list[str]):
     """Validate the flight study's options: one :class:`~fieldmap.nav.study.FlightStudy` a flight.
 
     The CLI checks what only it has (the choice of flight, the log options, options given
@@ -193,7 +194,7 @@ def _check_flight_args(args, model, notes: list[str]):
     return device, list(studies[0][1].models), studies
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     """Run the chosen study (or all) and write its outputs."""
     from fieldmap.products.engine import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
@@ -217,7 +218,9 @@ def run(args) -> int:
     return 1 if any(res.meta.get("diverged") for res in results) else 0
 
 
-def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
+def _scenario_and_studies(
+    args: argparse.Namespace, device, studies, models, nav, client=None
+) -> list:
     from tqdm import tqdm
 
     from fieldmap.nav.study import build_scenario
@@ -239,7 +242,7 @@ def _scenario_and_studies(args, device, studies, models, nav, client=None) -> li
     return _run_studies(args, sc, studies, models, nav, client)
 
 
-def _run_studies(args, sc, studies, models, nav, client=None) -> list:
+def _run_studies(args: argparse.Namespace, sc, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
     from fieldmap.nav import paper as navsim

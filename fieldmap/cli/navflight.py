@@ -125,7 +125,7 @@ def _rate(text):
         ) from None
 
 
-def flights(args, model) -> list:
+def flights(args: argparse.Namespace, model) -> list:
     """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly.
 
     The conditioning options are refused (one line) where no flight is conditioned: with
@@ -177,7 +177,7 @@ def flights(args, model) -> list:
     return out
 
 
-def _refuse_unconditioned(args, flights_) -> None:
+def _refuse_unconditioned(args: argparse.Namespace, flights_) -> None:
     """Refuse the conditioning options when every flight is flown as recorded (not conditioned)."""
     from fieldmap.cli import given
 
@@ -193,7 +193,7 @@ def _refuse_unconditioned(args, flights_) -> None:
             )
 
 
-def study(args, traj, imu, model, names):
+def study(args: argparse.Namespace, traj, imu, model, names):
     """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
 
     Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
@@ -222,7 +222,7 @@ def study(args, traj, imu, model, names):
     )
 
 
-def run(args, studies, *, device=None, client=None) -> int:
+def run(args: argparse.Namespace, studies, *, device=None, client=None) -> int:
     """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged.
 
     ``studies``: ``[(name, FlightStudy, conditioning or None), ...]``, validated.

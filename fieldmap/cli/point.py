@@ -63,7 +63,7 @@ _DEFAULT_DECIMALS = {
 }
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``point`` sub-command."""
     p = subparsers.add_parser(
         "point",
@@ -243,7 +243,7 @@ def evaluate_points(
     return fg.disturbance(lat, lon, h, model=sh_model, units="mGal", frame="enu", device=device)
 
 
-def run_point(args) -> int:
+def run_point(args: argparse.Namespace) -> int:
     """Run ``fieldmap point``; return the exit status (1 if any line was bad)."""
     import numpy as np
 
@@ -317,7 +317,7 @@ def run_point(args) -> int:
     return 0
 
 
-def _table(args):
+def _table(args: argparse.Namespace):
     """Return the table of ``--model table:FILE`` (read here: a bad file is exit 2), or None.
 
     A table holds δg only: any other ``--quantity`` and the options of spherical-harmonic models
@@ -344,7 +344,7 @@ def _table(args):
     return load_table(path)
 
 
-def _refuse_unused(args) -> None:
+def _refuse_unused(args: argparse.Namespace) -> None:
     """Refuse, in one line, an option given that the chosen ``--quantity`` does not use."""
     from fieldmap.cli import given
     from fieldmap.cli.model_options import MODEL_OPTIONS

@@ -6,11 +6,12 @@ The disturbance stays with :mod:`fieldmap.cli.maps`; this module runs the other 
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
 
-def run_quantity(args, heights_km: list[float]) -> int:
+def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
     from fieldmap.cli import distributed
     from fieldmap.cli.common import map_request, preflight, print_files, stem
@@ -104,7 +105,7 @@ def figures(ds, quantity: str, summ: dict) -> list:
     return out
 
 
-def _run_blocks(args, heights_km: list[float]) -> int:
+def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
     from fieldmap.cli.common import map_request, stem
     from fieldmap.cli.distributed import stream

@@ -13,6 +13,7 @@ check cannot run here and says why, :class:`SkipCheck`); a skipped check is not 
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import time
 from dataclasses import dataclass
@@ -386,7 +387,7 @@ def format_table(rows: list[CheckResult]) -> str:
 
 
 # -- the sub-command ``fieldmap verify`` --------------------------------------------------------
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``verify`` sub-command."""
     v = subparsers.add_parser(
         "verify",
@@ -408,7 +409,7 @@ def register(subparsers) -> None:
     v.set_defaults(func=run_verify)
 
 
-def run_verify(args) -> int:
+def run_verify(args: argparse.Namespace) -> int:
     """Run ``fieldmap verify``; return 1 if a check failed (or none passed), else 0."""
     from fieldmap import _warp
     from fieldmap.errors import InputError
