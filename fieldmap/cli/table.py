@@ -15,8 +15,10 @@ the margin that ``navsim`` asks of a table (refused otherwise: navsim would refu
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-import numpy.typing as npt
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
