@@ -8,7 +8,14 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from distributed import Client
+    from matplotlib.figure import Figure
 
 
 def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
@@ -91,7 +98,7 @@ def report(quantity: str, summ: dict) -> None:
             )
 
 
-def figures(ds, quantity: str, summ: dict) -> list:
+def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callable[[], Figure]]]:
     """(file suffix, figure maker) for every variable and height of a quantity map."""
     from fieldmap.products.plots import plot_quantity
     from fieldmap.products.variables import VARIABLES
@@ -115,10 +122,12 @@ def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
     request = map_request(args, heights_km, quantity=args.quantity, stacked=True)
     grid, mod = request.grid, request.model
 
-    def write(tmp, client):
+    def write(tmp: Path, client: Client | None) -> dict:
         return write_product(request.executing(executor=client), tmp, args.format, atomic=False)
 
-    def publish(view, info, elapsed):
+    def publish(
+        view: xr.Dataset, info: dict, elapsed: float
+    ) -> tuple[dict, list[tuple[str, Callable[[], Figure]]]]:
         summ = summary(view)
         nh, nlat, nlon = grid.shape
         source = view.attrs["ellipsoid"] if "model" not in view.attrs else None
