@@ -104,7 +104,7 @@ def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callab
     from fieldmap.products.variables import VARIABLES
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    out = []
+    out: list[tuple[str, Callable[[], Figure]]] = []
     for name, _, _, _ in VARIABLES[quantity]:
         for k, h in enumerate(heights):
             suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
