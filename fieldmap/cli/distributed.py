@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from fieldmap.products.request import MapRequest
 
     #: ``(file suffix, maker)`` pairs of a product's figures
-    Figures = list[tuple[str, Callable[[], Figure]]]
+    Figures = list[tuple[str, Callable[..., Figure]]]
     #: ``publish(view, info, elapsed)``: the JSON summary and the figures
     Publish = Callable[[xr.Dataset, dict, float], tuple[dict, Figures]]
 

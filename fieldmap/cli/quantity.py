@@ -98,13 +98,13 @@ def report(quantity: str, summ: dict) -> None:
             )
 
 
-def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callable[[], Figure]]]:
+def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callable[..., Figure]]]:
     """(file suffix, figure maker) for every variable and height of a quantity map."""
     from fieldmap.products.plots import plot_quantity
     from fieldmap.products.variables import VARIABLES
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    out: list[tuple[str, Callable[[], Figure]]] = []
+    out: list[tuple[str, Callable[..., Figure]]] = []
     for name, _, _, _ in VARIABLES[quantity]:
         for k, h in enumerate(heights):
             suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
@@ -127,7 +127,7 @@ def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
 
     def publish(
         view: xr.Dataset, info: dict, elapsed: float
-    ) -> tuple[dict, list[tuple[str, Callable[[], Figure]]]]:
+    ) -> tuple[dict, list[tuple[str, Callable[..., Figure]]]]:
         summ = summary(view)
         nh, nlat, nlon = grid.shape
         source = view.attrs["ellipsoid"] if "model" not in view.attrs else None
