@@ -171,7 +171,7 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     return GRAVITY_KINDS["sh"], deg
 
 
-class TableLattice(Protocol):
+class _TableLattice(Protocol):
     """What :func:`kernel_table` reads: a :class:`CompensationTable` or a placeholder lattice."""
 
     @property
@@ -190,7 +190,7 @@ class TableLattice(Protocol):
     def dh(self) -> float: ...  # noqa: D102
 
 
-def kernel_table(table: TableLattice, device: str) -> TableKernel:
+def kernel_table(table: _TableLattice, device: str) -> TableKernel:
     """Return the device struct of ``table`` (its δg values as float64)."""
     from fieldmap.kernels.navtable import TableKernel
 
