@@ -23,6 +23,7 @@ from __future__ import annotations
 import importlib
 import sys
 import types
+import typing
 
 from fieldmap import _compat
 from fieldmap._version import __version__ as __version__
@@ -111,7 +112,7 @@ __all__ = sorted(
 _MOVED = _compat.MOVED
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> typing.Any:
     """Resolve the lazily exported names on first use (PEP 562)."""
     target = _LAZY.get(name)
     if target is None:
@@ -133,7 +134,7 @@ class _Package(types.ModuleType):
     ``fieldmap.gravity`` to the module; the public function of that name is kept instead.
     """
 
-    def __setattr__(self, name, value):
+    def __setattr__(self, name: str, value: object) -> None:
         if isinstance(value, types.ModuleType) and name in _compat.MOVED and name in _LAZY:
             return
         super().__setattr__(name, value)

@@ -163,7 +163,9 @@ def chunks(n: int, parts: int) -> list[tuple[int, int]]:
     return out
 
 
-def launch_chunked(kernel, dim: int, inputs: list, device: str, parts: int | None = None) -> None:
+def launch_chunked(
+    kernel: wp.Kernel, dim: int, inputs: list, device: str, parts: int | None = None
+) -> None:
     """Launch a 1-D ``kernel`` over ``dim`` threads, using every CPU core on the CPU backend.
 
     Parameters

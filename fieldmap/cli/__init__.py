@@ -24,6 +24,9 @@ import re
 import signal
 import sys
 import warnings
+from collections.abc import Sequence
+from types import FrameType
+from typing import Any, NoReturn
 
 #: module name -> the sub-commands it registers (``main`` imports only the module of the command
 #: run: a quick ``fieldmap point`` does not import the map, navigation and verify modules)
@@ -48,11 +51,11 @@ class _Parser(argparse.ArgumentParser):
     this class too (``add_subparsers`` takes the parent's class).
     """
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs["allow_abbrev"] = False
         super().__init__(*args, **kwargs)
 
-    def error(self, message):  # noqa: D102 - argparse API
+    def error(self, message: str) -> NoReturn:  # noqa: D102 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
@@ -76,7 +79,13 @@ def _once(action: argparse.Action) -> argparse.Action:
         return action
     base = type(action)
 
-    def __call__(self, parser, namespace, values, option_string=None):
+    def __call__(
+        self: argparse.Action,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: str | Sequence[Any] | None,
+        option_string: str | None = None,
+    ) -> None:
         seen = namespace.__dict__.setdefault(_SEEN, {})
         if self.dest in seen:
             first = seen[self.dest]
@@ -145,7 +154,7 @@ class _Terminated(BaseException):
     """SIGTERM, raised as an exception so that temporary files are cleaned up."""
 
 
-def _on_sigterm(signum, frame):
+def _on_sigterm(signum: int, frame: FrameType | None) -> NoReturn:
     raise _Terminated()
 
 
@@ -263,7 +272,7 @@ def _worded(exc: BaseException, command: str) -> str:
     return str(exc)
 
 
-def _one_line(text) -> str:
+def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 

@@ -6,8 +6,10 @@ what it holds or removes.
 
 from __future__ import annotations
 
+import argparse
 
-def register(subparsers) -> None:
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``fieldmap cache {info,clear}`` (the on-disk cache of parsed models)."""
     c = subparsers.add_parser(
         "cache",
@@ -20,7 +22,7 @@ def register(subparsers) -> None:
     c.set_defaults(func=run_cache)
 
 
-def run_cache(args) -> int:
+def run_cache(args: argparse.Namespace) -> int:
     """Run ``fieldmap cache``: print the entries (``info``) or delete them (``clear``)."""
     from fieldmap.models import cache as disk_cache
 

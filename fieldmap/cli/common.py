@@ -7,10 +7,23 @@ computed or written.
 
 from __future__ import annotations
 
+import argparse
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
 from fieldmap.errors import InputError
 
+if TYPE_CHECKING:
+    import xarray as xr
 
-def load_cli_model(args):
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.products.request import MapRequest
+
+_T = TypeVar("_T")
+
+
+def load_cli_model(args: argparse.Namespace) -> SHModel:
     """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options."""
     from fieldmap.models.registry import announce, load_model, model_options
 
@@ -19,7 +32,7 @@ def load_cli_model(args):
     return model
 
 
-def list_values(values, option: str) -> list[str]:
+def list_values(values: object, option: str) -> list[str]:
     """Split a list option: separate arguments and/or comma-separated (``20 30`` or ``20,30``).
 
     The values stay text: the API converts and validates them, and its message is the one the
@@ -33,7 +46,7 @@ def list_values(values, option: str) -> list[str]:
     return out
 
 
-def api_call(option: str, check, *args, **kwargs):
+def api_call(option: str, check: Callable[..., _T], *args: Any, **kwargs: Any) -> _T:
     """Run an API validation ``check``; its InputError names the option the value came from."""
     try:
         return check(*args, **kwargs)
@@ -41,7 +54,7 @@ def api_call(option: str, check, *args, **kwargs):
         raise InputError(f"{option}: {exc}") from None
 
 
-def stem(ds, kind: str) -> str:
+def stem(ds: xr.Dataset, kind: str) -> str:
     """File stem of a product: kind, model, degree, height(s), region, step."""
     a = ds.attrs
     parts = [kind]
@@ -59,7 +72,7 @@ def stem(ds, kind: str) -> str:
     return "_".join(p.replace("/", "-").replace(" ", "") for p in parts)
 
 
-def thresholds_mg(args) -> list[float]:
+def thresholds_mg(args: argparse.Namespace) -> list[float]:
     """``--thresholds-mg`` as validated by the API."""
     from fieldmap.products.statistics import parse_thresholds
 
@@ -70,7 +83,7 @@ def thresholds_mg(args) -> list[float]:
     )
 
 
-def heights_km(args, one: str | None = None) -> list[float]:
+def heights_km(args: argparse.Namespace, one: str | None = None) -> list[float]:
     """``--height-km`` as validated by the API (:func:`fieldmap.limits.heights_from_km`)."""
     from fieldmap.limits import heights_from_km
 
@@ -78,7 +91,7 @@ def heights_km(args, one: str | None = None) -> list[float]:
     return [h / 1e3 for h in api_call("--height-km", heights_from_km, tokens, one=one)]
 
 
-def region(args):
+def region(args: argparse.Namespace) -> tuple[float, float, float, float] | None:
     """``--region`` as a (west, east, south, north) tuple, or None.
 
     ``--lat-max`` (the extent of a global grid) given with ``--region`` is refused.
@@ -92,7 +105,7 @@ def region(args):
     return tuple(args.region)
 
 
-def preflight(args, heights_km, layers: int = 1) -> None:
+def preflight(args: argparse.Namespace, heights_km: Sequence[float], layers: int = 1) -> None:
     """Validate the grid, its memory, device and output folder before any computation or writing.
 
     ``layers`` is the number of maps per height (orders of a truncation map), for the memory
@@ -110,12 +123,12 @@ def preflight(args, heights_km, layers: int = 1) -> None:
     check_out_dir(args.out)
 
 
-def print_files(files) -> None:
+def print_files(files: Iterable[str | Path]) -> None:
     """Print the paths written, on one line."""
     print("written: " + ", ".join(str(f) for f in files))
 
 
-def map_request(args, heights_km: list[float], **fixed):
+def map_request(args: argparse.Namespace, heights_km: list[float], **fixed: Any) -> MapRequest:
     """Build the :class:`~fieldmap.products.request.MapRequest` of a map sub-command.
 
     The model is loaded once, with ``--lmax``, ``--epoch`` and the model-file options

@@ -12,9 +12,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from fieldmap.cli.common import api_call, heights_km, list_values, preflight, print_files, region
 from fieldmap.errors import InputError
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.figure import Figure
 
 
 def add_options(p: argparse.ArgumentParser) -> None:
@@ -48,7 +53,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def wanted(args) -> bool:
+def wanted(args: argparse.Namespace) -> bool:
     """Whether the run is the SH form; refuse mixed or stray options (one line each)."""
     from fieldmap.cli import given
 
@@ -66,7 +71,7 @@ def wanted(args) -> bool:
     return sh
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     """Validate everything, compute, print, then write NetCDF, JSON (and PNG)."""
     from fieldmap.models.registry import load_model
     from fieldmap.products import degree as deg
@@ -107,7 +112,7 @@ def run(args) -> int:
     return 0
 
 
-def _print(ds, found) -> None:
+def _print(ds: xr.Dataset, found: dict[str, Any] | None) -> None:
     a = ds.attrs
     print(f"SH omission of {a['model']} degree {a['model_lmax']} ({a['ellipsoid']}), mGal")
     print("  degree   h (km)    max         mean        rms         p99")
@@ -124,7 +129,7 @@ def _print(ds, found) -> None:
         )
 
 
-def summary(ds, found) -> dict:
+def summary(ds: xr.Dataset, found: dict[str, Any] | None) -> dict:
     """JSON-ready statistics of an omission map, with the degree found when there is one."""
     a = ds.attrs
     out: dict = {
@@ -153,7 +158,7 @@ def summary(ds, found) -> dict:
     return out
 
 
-def _stem(ds) -> str:
+def _stem(ds: xr.Dataset) -> str:
     from fieldmap.cli.common import stem
 
     base = stem(ds, "omission")
@@ -162,7 +167,9 @@ def _stem(ds) -> str:
     return base.replace(model, f"{model}_h{hs}km".replace("/", "-").replace(" ", ""), 1)
 
 
-def _write(ds, found, out: Path, no_plots: bool, float32: bool) -> list[Path]:
+def _write(
+    ds: xr.Dataset, found: dict[str, Any] | None, out: Path, no_plots: bool, float32: bool
+) -> list[Path]:
     from fieldmap.products.io import output_batch
 
     name = _stem(ds)
@@ -174,7 +181,7 @@ def _write(ds, found, out: Path, no_plots: bool, float32: bool) -> list[Path]:
         return batch.commit()
 
 
-def _plot(ds):
+def _plot(ds: xr.Dataset) -> Figure:
     """Omission modulus per degree (rows) at the lowest height."""
     import matplotlib.pyplot as plt
 

@@ -11,7 +11,22 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from distributed import Client
+    from matplotlib.figure import Figure
+
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.products.request import MapRequest
+
+    #: ``(file suffix, maker)`` pairs of a product's figures
+    Figures = list[tuple[str, Callable[..., Figure]]]
+    #: ``publish(view, info, elapsed)``: the JSON summary and the figures
+    Publish = Callable[[xr.Dataset, dict, float], tuple[dict, Figures]]
 
 
 def add_options(p: argparse.ArgumentParser) -> None:
@@ -38,7 +53,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def wanted(args) -> bool:
+def wanted(args: argparse.Namespace) -> bool:
     """Tell whether the product is streamed to its file block by block (not held in memory).
 
     Options that need the whole map in memory are refused here with one line naming them.
@@ -61,7 +76,9 @@ def wanted(args) -> bool:
     return streamed
 
 
-def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
+def run(
+    args: argparse.Namespace, heights_km: list[float], thresholds: list[float], *, stacked: bool
+) -> int:
     """Run ``fieldmap map`` (``stacked=False``) or ``fieldmap sweep`` on the block engine."""
     from fieldmap.cli.common import map_request, stem
     from fieldmap.products import plots
@@ -70,10 +87,10 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
 
     request = map_request(args, heights_km, stacked=stacked, thresholds_mg=thresholds)
 
-    def write(tmp, client):
+    def write(tmp: Path, client: Client | None) -> dict:
         return write_product(request.executing(executor=client), tmp, args.format, atomic=False)
 
-    def publish(view, info, elapsed):
+    def publish(view: xr.Dataset, info: dict, elapsed: float) -> tuple[dict, Figures]:
         _report(view, info, request.grid, heights_km, thresholds, elapsed)
         return summary(view), plots.disturbance_figures(view, thresholds)
 
@@ -81,7 +98,13 @@ def run(args, heights_km: list[float], thresholds, *, stacked: bool) -> int:
     return stream(args, request, base, write, publish)
 
 
-def stream(args, request, base: str, write, publish) -> int:
+def stream(
+    args: argparse.Namespace,
+    request: MapRequest,
+    base: str,
+    write: Callable[[Path, Client | None], dict],
+    publish: Publish,
+) -> int:
     """Write a product block by block under ``--out``, then its JSON and figures; all or none.
 
     Connects to the request's executor first (an unreachable scheduler writes nothing);
@@ -112,7 +135,14 @@ def stream(args, request, base: str, write, publish) -> int:
     return 0
 
 
-def _report(view, info, grid, heights_km, thresholds, elapsed) -> None:
+def _report(
+    view: xr.Dataset,
+    info: dict,
+    grid: GridSpec,
+    heights_km: Sequence[float],
+    thresholds: Sequence[float],
+    elapsed: float,
+) -> None:
     from fieldmap.products.statistics import threshold_key
 
     name, lmax = info["model"]

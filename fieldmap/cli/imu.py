@@ -7,16 +7,21 @@ bias-instability floor) under ``--out``, all or nothing.
 
 from __future__ import annotations
 
+import argparse
 import io
 import json
 import re
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 import numpy as np
 
 from fieldmap.errors import InputError
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``imu`` sub-command (``imu allan``)."""
     p = subparsers.add_parser(
         "imu",
@@ -43,7 +48,7 @@ def register(subparsers) -> None:
     a.set_defaults(func=run_allan)
 
 
-def run_allan(args) -> int:
+def run_allan(args: argparse.Namespace) -> int:
     """Simulate, write the table, JSON and plot, print the table."""
     from fieldmap.cli import given
     from fieldmap.nav.sensors import allan_table, load_imu
@@ -84,7 +89,7 @@ def run_allan(args) -> int:
     return 0
 
 
-def _figure(label: str, tab: dict):
+def _figure(label: str, tab: dict) -> Figure:
     import matplotlib
 
     matplotlib.use("Agg")

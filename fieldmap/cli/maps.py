@@ -10,6 +10,10 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 from fieldmap.cli import distributed
 from fieldmap.cli.common import (
@@ -124,7 +128,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
     )
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the map, sweep and truncation sub-commands."""
     p = subparsers.add_parser(
         "map",
@@ -209,7 +213,9 @@ def _percentile_option(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False) -> list[Path]:
+def _write(
+    ds: xr.Dataset, stem: str, out: Path, figures: list, summary: dict, float32: bool = False
+) -> list[Path]:
     """Write NetCDF, JSON and figures as one batch: all files appear, or none."""
     from tqdm.auto import tqdm
 
@@ -237,7 +243,7 @@ def _write(ds, stem: str, out: Path, figures: list, summary: dict, float32=False
         return batch.commit()
 
 
-def run_map(args) -> int:
+def run_map(args: argparse.Namespace) -> int:
     """``fieldmap map``: disturbance map at one height."""
     from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
@@ -278,7 +284,7 @@ def run_map(args) -> int:
     return 0
 
 
-def run_sweep(args) -> int:
+def run_sweep(args: argparse.Namespace) -> int:
     """``fieldmap sweep``: statistics over several heights."""
     from fieldmap.cli.quantity import run_quantity
     from fieldmap.products import plots
@@ -320,7 +326,7 @@ def run_sweep(args) -> int:
     return 0
 
 
-def run_truncation(args) -> int:
+def run_truncation(args: argparse.Namespace) -> int:
     """``fieldmap truncation``: J2n truncation-error maps, or SH omission (--degrees)."""
     from fieldmap.cli import degree
 

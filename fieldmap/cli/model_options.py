@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 #: every option that chooses or reads the spherical-harmonic model: dest -> option (refused by
 #: the quantities no model enters: ``point --quantity normal``, ``map --quantity gradient-normal``)
 MODEL_OPTIONS = {
@@ -21,7 +23,7 @@ MODEL_OPTIONS = {
 }
 
 
-def add_model_options(parser) -> None:
+def add_model_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""
     parser.add_argument(
         "--model-dir",

@@ -21,10 +21,12 @@ so a failed run leaves nothing half-written.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -36,8 +38,16 @@ from fieldmap.limits import MAX_DRAWS
 # the tables and files live in the library; re-exported for scripts written against 0.1
 from fieldmap.nav.report import format_table, write_outputs
 
+if TYPE_CHECKING:
+    from distributed import Client
 
-def register(subparsers) -> None:
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.nav.logs.report import ConditionedFlight
+    from fieldmap.nav.paper import StudyResult
+    from fieldmap.nav.study import FlightStudy, Scenario
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``navsim`` sub-command."""
     p = subparsers.add_parser(
         "navsim",
@@ -53,7 +63,7 @@ def register(subparsers) -> None:
 
 
 @contextlib.contextmanager
-def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
+def _deprecation_notes(args: argparse.Namespace, notes: list[str]) -> Iterator[None]:
     """Collect the deprecation warnings of the block (deprecated model names) in ``notes``.
 
     Python hides a ``DeprecationWarning`` outside ``__main__``; a CLI user gets it as one line
@@ -72,7 +82,9 @@ def _deprecation_notes(args, notes: list[str]) -> Iterator[None]:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
-def _model_names(args, names, model, notes: list[str]) -> list[str]:
+def _model_names(
+    args: argparse.Namespace, names: list[str], model: SHModel, notes: list[str]
+) -> list[str]:
     """:func:`~fieldmap.nav.study.check_model_names`, its deprecation warnings in ``notes``."""
     from fieldmap.nav.study import check_model_names
 
@@ -80,8 +92,11 @@ def _model_names(args, names, model, notes: list[str]) -> list[str]:
         return check_model_names(names, model)
 
 
-def _check_args(args, notes: list[str]):
+def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[str], Any]:
     """Validate every option (and the output folder) before any work; return the checked ones.
+
+    ``(device, models, nav)``: the navigation model's name for the paper's studies, the
+    ``(name, FlightStudy, conditioning)`` of each flight for the flight study.
 
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
@@ -143,17 +158,19 @@ def _check_args(args, notes: list[str]):
     return device, models, nav
 
 
-def split_list(values) -> list[str]:
+def split_list(values: Iterable[object]) -> list[str]:
     """``["j2,j4", "sh18"]`` or ``["j2 j4"]`` -> ``["j2", "j4", "sh18"]`` (commas or spaces)."""
     return [m for v in values for m in str(v).replace(",", " ").split() if m]
 
 
-def is_flight(args) -> bool:
+def is_flight(args: argparse.Namespace) -> bool:
     """Tell whether ``--trajectory`` or ``--route`` asks for the flight study."""
     return args.trajectory is not None or args.route is not None
 
 
-def _check_flight_args(args, model, notes: list[str]):
+def _check_flight_args(
+    args: argparse.Namespace, model: SHModel, notes: list[str]
+) -> tuple[str, list[str], list[tuple[str, FlightStudy, ConditionedFlight | None]]]:
     """Validate the flight study's options: one :class:`~fieldmap.nav.study.FlightStudy` a flight.
 
     The CLI checks what only it has (the choice of flight, the log options, options given
@@ -193,7 +210,7 @@ def _check_flight_args(args, model, notes: list[str]):
     return device, list(studies[0][1].models), studies
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     """Run the chosen study (or all) and write its outputs."""
     from fieldmap.products.engine import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
@@ -205,7 +222,8 @@ def run(args) -> int:
         print(note, file=sys.stderr)
     studies = STUDIES if args.study == "all" else (args.study,)
     # connect (or start the LocalCluster) before the long work; None: here
-    with open_client(scheduler) as client:
+    with open_client(scheduler) as opened:
+        client = cast("Client | None", opened)  # open_client yields a Client, or None: here
         if is_flight(args):
             return navflight.run(args, nav, device=device, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
@@ -217,7 +235,14 @@ def run(args) -> int:
     return 1 if any(res.meta.get("diverged") for res in results) else 0
 
 
-def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
+def _scenario_and_studies(
+    args: argparse.Namespace,
+    device: str,
+    studies: Sequence[str],
+    models: list[str],
+    nav: str,
+    client: Client | None = None,
+) -> list[StudyResult]:
     from tqdm import tqdm
 
     from fieldmap.nav.study import build_scenario
@@ -239,7 +264,14 @@ def _scenario_and_studies(args, device, studies, models, nav, client=None) -> li
     return _run_studies(args, sc, studies, models, nav, client)
 
 
-def _run_studies(args, sc, studies, models, nav, client=None) -> list:
+def _run_studies(
+    args: argparse.Namespace,
+    sc: Scenario,
+    studies: Sequence[str],
+    models: list[str],
+    nav: str,
+    client: Client | None = None,
+) -> list[StudyResult]:
     from tqdm import tqdm
 
     from fieldmap.nav import paper as navsim

@@ -14,9 +14,23 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fieldmap.errors import InputError
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.nav.logs.report import ConditionedFlight
+    from fieldmap.nav.sensors import ImuErrorSpec
+    from fieldmap.nav.study import FlightStudy
+    from fieldmap.nav.trajectory import Trajectory
+
+    #: ``(name, trajectory, conditioning or None)`` of a flight to fly
+    Flight = tuple[str, Trajectory, ConditionedFlight | None]
 
 #: options of the flight logs (``--trajectory``) only: dest -> option
 LOG_ONLY = {
@@ -99,7 +113,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _noise(text):
+def _noise(text: str | None) -> float | tuple[float, ...] | None:
     if text is None:
         return None
     try:
@@ -114,7 +128,7 @@ def _noise(text):
     return vals[0] if len(vals) == 1 else tuple(vals)
 
 
-def _rate(text):
+def _rate(text: str | None) -> float | str | None:
     if text is None or str(text).lower() == "full":
         return None if text is None else "full"
     try:
@@ -125,7 +139,7 @@ def _rate(text):
         ) from None
 
 
-def flights(args, model) -> list:
+def flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
     """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly.
 
     The conditioning options are refused (one line) where no flight is conditioned: with
@@ -151,7 +165,8 @@ def flights(args, model) -> list:
                     "off (the samples are flown as they are)"
                 )
     noise = _noise(args.position_noise_m)
-    out, names = [], set()
+    out: list[Flight] = []
+    names: set[str] = set()
     for path in args.trajectory:
         traj, cf = load_flight(
             path,
@@ -177,7 +192,7 @@ def flights(args, model) -> list:
     return out
 
 
-def _refuse_unconditioned(args, flights_) -> None:
+def _refuse_unconditioned(args: argparse.Namespace, flights_: Sequence[Flight]) -> None:
     """Refuse the conditioning options when every flight is flown as recorded (not conditioned)."""
     from fieldmap.cli import given
 
@@ -193,7 +208,13 @@ def _refuse_unconditioned(args, flights_) -> None:
             )
 
 
-def study(args, traj, imu, model, names):
+def study(
+    args: argparse.Namespace,
+    traj: Trajectory,
+    imu: tuple[str, ImuErrorSpec],
+    model: SHModel,
+    names: list[str],
+) -> FlightStudy:
     """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
 
     Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
@@ -222,7 +243,13 @@ def study(args, traj, imu, model, names):
     )
 
 
-def run(args, studies, *, device=None, client=None) -> int:
+def run(
+    args: argparse.Namespace,
+    studies: Sequence[tuple[str, FlightStudy, ConditionedFlight | None]],
+    *,
+    device: str | None = None,
+    client: Client | None = None,
+) -> int:
     """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged.
 
     ``studies``: ``[(name, FlightStudy, conditioning or None), ...]``, validated.

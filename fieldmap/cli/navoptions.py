@@ -9,6 +9,12 @@ it does nothing. The checks of the values and the runs are :mod:`fieldmap.cli.na
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fieldmap.nav.sensors import ImuErrorSpec
+    from fieldmap.nav.trajectory import Trajectory
 
 from fieldmap.cli import navflight
 from fieldmap.errors import InputError
@@ -187,7 +193,9 @@ USED_BY = {
 _FLIGHT = "flight studies (--trajectory/--route)"
 
 
-def refuse_in_studies(args, studies, models, nav) -> None:
+def refuse_in_studies(
+    args: argparse.Namespace, studies: Sequence[str], models: Sequence[str], nav: str
+) -> None:
     """Refuse, in one line, an option given that the paper's chosen studies do not use."""
     from fieldmap.cli import given
 
@@ -211,7 +219,9 @@ def refuse_in_studies(args, studies, models, nav) -> None:
             )
 
 
-def refuse_in_flight(args, imu, traj) -> None:
+def refuse_in_flight(
+    args: argparse.Namespace, imu: tuple[str, ImuErrorSpec], traj: Trajectory
+) -> None:
     """Refuse, in one line, an option given that the flight study does not use."""
     from fieldmap.cli import given
     from fieldmap.nav.study import BARO_AFTER_S

@@ -147,7 +147,9 @@ def _clause_end(text: str, start: int) -> int:
     return i
 
 
-def _advice(clause: str, param, options: Mapping[str, str | None], advice: Mapping[str, str]):
+def _advice(
+    clause: str, param: str | None, options: Mapping[str, str | None], advice: Mapping[str, str]
+) -> str | None:
     """Return the clause with its keywords as options; None where one has no option."""
 
     def setting(m: re.Match[str]) -> str:

@@ -28,6 +28,14 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Iterable
+from typing import IO, TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
+    from fieldmap.products.tables.model import CompensationTable
 
 QUANTITIES = (
     "disturbance",
@@ -63,7 +71,7 @@ _DEFAULT_DECIMALS = {
 }
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``point`` sub-command."""
     p = subparsers.add_parser(
         "point",
@@ -132,7 +140,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_point)
 
 
-def parse_point_line(line: str):
+def parse_point_line(line: str) -> tuple[float, float, float]:
     """Return ``(lat, lon, h)`` of one input line, or raise ValueError with the reason.
 
     Only the syntax is checked here (2 or 3 finite numbers); the ranges are those of the API,
@@ -155,17 +163,17 @@ def parse_point_line(line: str):
 
 
 def evaluate_points(
-    lat,
-    lon,
-    h,
-    quantity="disturbance",
-    normal="exact",
-    model="eigen-6s",
-    lmax=None,
-    epoch=None,
-    device=None,
+    lat: npt.ArrayLike,
+    lon: npt.ArrayLike,
+    h: npt.ArrayLike,
+    quantity: str = "disturbance",
+    normal: str = "exact",
+    model: str = "eigen-6s",
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    device: str | None = None,
     model_options: dict | None = None,
-):
+) -> np.ndarray:
     """East, north, up of ``quantity`` at the points, in one batched launch.
 
     Parameters
@@ -243,7 +251,7 @@ def evaluate_points(
     return fg.disturbance(lat, lon, h, model=sh_model, units="mGal", frame="enu", device=device)
 
 
-def run_point(args) -> int:
+def run_point(args: argparse.Namespace) -> int:
     """Run ``fieldmap point``; return the exit status (1 if any line was bad)."""
     import numpy as np
 
@@ -317,7 +325,7 @@ def run_point(args) -> int:
     return 0
 
 
-def _table(args):
+def _table(args: argparse.Namespace) -> CompensationTable | None:
     """Return the table of ``--model table:FILE`` (read here: a bad file is exit 2), or None.
 
     A table holds δg only: any other ``--quantity`` and the options of spherical-harmonic models
@@ -344,7 +352,7 @@ def _table(args):
     return load_table(path)
 
 
-def _refuse_unused(args) -> None:
+def _refuse_unused(args: argparse.Namespace) -> None:
     """Refuse, in one line, an option given that the chosen ``--quantity`` does not use."""
     from fieldmap.cli import given
     from fieldmap.cli.model_options import MODEL_OPTIONS
@@ -371,7 +379,7 @@ def _refuse_unused(args) -> None:
                 )
 
 
-def _write_all(out, text: str) -> None:
+def _write_all(out: TextIO, text: str) -> None:
     """Write ``text`` whole or raise (``BrokenPipeError`` when the reader has gone).
 
     One large ``sys.stdout.write`` that the pipe takes only in part (``| head -1``) loses the rest
@@ -395,7 +403,7 @@ def _write_all(out, text: str) -> None:
 MAX_INPUT_BYTES = 2**30
 
 
-def _read_capped(stream, name: str) -> str:
+def _read_capped(stream: IO[Any], name: str) -> str:
     """Read all of ``stream`` (bytes or text) up to :data:`MAX_INPUT_BYTES`.
 
     Undecodable bytes become U+FFFD, so that their line is reported as bad.
@@ -413,13 +421,15 @@ def _read_capped(stream, name: str) -> str:
     return b"".join(parts).decode("utf-8", "replace")
 
 
-def _format(row, decimals: int) -> str:
+def _format(row: Iterable[float], decimals: int) -> str:
     if not all(math.isfinite(v) for v in row):
         return "ERROR: result is not finite (point too close to the masses for this model)"
     return " ".join(f"{v:.{decimals}f}" for v in row)
 
 
-def _main(argv=None) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point
+def _main(
+    argv: list[str] | None = None,
+) -> int:  # pragma: no cover - convenience for python -m fieldmap.cli.point
     parser = argparse.ArgumentParser(prog="fieldmap", allow_abbrev=False)
     register(parser.add_subparsers(dest="command"))
     args = parser.parse_args(argv)

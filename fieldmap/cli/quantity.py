@@ -6,11 +6,19 @@ The disturbance stays with :mod:`fieldmap.cli.maps`; this module runs the other 
 
 from __future__ import annotations
 
+import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from distributed import Client
+    from matplotlib.figure import Figure
 
 
-def run_quantity(args, heights_km: list[float]) -> int:
+def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
     from fieldmap.cli import distributed
     from fieldmap.cli.common import map_request, preflight, print_files, stem
@@ -90,13 +98,13 @@ def report(quantity: str, summ: dict) -> None:
             )
 
 
-def figures(ds, quantity: str, summ: dict) -> list:
+def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callable[..., Figure]]]:
     """(file suffix, figure maker) for every variable and height of a quantity map."""
     from fieldmap.products.plots import plot_quantity
     from fieldmap.products.variables import VARIABLES
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    out = []
+    out: list[tuple[str, Callable[..., Figure]]] = []
     for name, _, _, _ in VARIABLES[quantity]:
         for k, h in enumerate(heights):
             suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
@@ -104,7 +112,7 @@ def figures(ds, quantity: str, summ: dict) -> list:
     return out
 
 
-def _run_blocks(args, heights_km: list[float]) -> int:
+def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
     """``fieldmap map|sweep --quantity Q --scheduler ...``: a quantity map streamed to a store."""
     from fieldmap.cli.common import map_request, stem
     from fieldmap.cli.distributed import stream
@@ -114,10 +122,12 @@ def _run_blocks(args, heights_km: list[float]) -> int:
     request = map_request(args, heights_km, quantity=args.quantity, stacked=True)
     grid, mod = request.grid, request.model
 
-    def write(tmp, client):
+    def write(tmp: Path, client: Client | None) -> dict:
         return write_product(request.executing(executor=client), tmp, args.format, atomic=False)
 
-    def publish(view, info, elapsed):
+    def publish(
+        view: xr.Dataset, info: dict, elapsed: float
+    ) -> tuple[dict, list[tuple[str, Callable[..., Figure]]]]:
         summ = summary(view)
         nh, nlat, nlon = grid.shape
         source = view.attrs["ellipsoid"] if "model" not in view.attrs else None

@@ -22,7 +22,10 @@ from __future__ import annotations
 
 import importlib
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
 
 #: what the point path imports that needs Warp, heaviest first
 _ENGINE_MODULES = (
@@ -39,7 +42,7 @@ _STRUCT_QUANTITIES = ("disturbance", "gravity", "gradient", "gradient-disturbanc
 
 
 class _Engine(threading.Thread):
-    def __init__(self, device, quantity: str):
+    def __init__(self, device: str | None, quantity: str) -> None:
         super().__init__(name="fieldmap-engine", daemon=False)
         self.device, self.quantity = device, quantity
         self.model: Any = None  # an SHModel (fieldmap.models is not imported before it is needed)
@@ -65,20 +68,32 @@ class _Engine(threading.Thread):
 class Early:
     """The model loaded during Warp's import, or its error; :meth:`settle` hands it over."""
 
-    def __init__(self, model=None, failure: BaseException | None = None, engine=None):
+    def __init__(
+        self,
+        model: SHModel | None = None,
+        failure: BaseException | None = None,
+        engine: _Engine | None = None,
+    ) -> None:
         self.model, self.failure, self.engine = model, failure, engine
 
-    def settle(self):
+    def settle(self) -> SHModel:
         """Raise the model's error, or wait for the thread's struct and return the model."""
         if self.failure is not None:
             raise self.failure
         if self.engine is not None:
             self.engine.join()
-        return self.model
+        # no model only from Early() (normal gravity, a table), which is never settled
+        return cast("SHModel", self.model)
 
 
 def load_model_early(
-    model: str, lmax, epoch, options: dict | None, quantity: str, device=None, table=False
+    model: str,
+    lmax: int | None,
+    epoch: float | str | None,
+    options: dict | None,
+    quantity: str,
+    device: str | None = None,
+    table: bool = False,
 ) -> Early:
     """Load the model while Warp is imported (and the kernel's struct built) in a thread.
 

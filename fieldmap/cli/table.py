@@ -14,8 +14,14 @@ the margin that ``navsim`` asks of a table (refused otherwise: navsim would refu
 
 from __future__ import annotations
 
+import argparse
+from typing import TYPE_CHECKING
 
-def register(subparsers) -> None:
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``table`` sub-command."""
     p = subparsers.add_parser(
         "table",
@@ -91,7 +97,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_table)
 
 
-def _height_option(args) -> tuple[str, str]:
+def _height_option(args: argparse.Namespace) -> tuple[str, str]:
     """Return (the option given, its text): ``--height-km``, or the deprecated ``--heights-km``.
 
     The deprecated spelling works, with a note on stderr; both, or neither, is one line.
@@ -124,7 +130,9 @@ def _heights(text: str, option: str = "--height-km") -> list[str]:
     return parts
 
 
-def _check_corridor_heights(flight, heights_m, option: str = "--height-km") -> None:
+def _check_corridor_heights(
+    flight: str, heights_m: npt.ArrayLike, option: str = "--height-km"
+) -> None:
     """Refuse heights (``option``) that do not hold the ``--corridor`` flight as navsim flies it.
 
     ``navsim`` refuses a table that does not cover the conditioned path (outliers removed,
@@ -159,7 +167,7 @@ def _check_corridor_heights(flight, heights_m, option: str = "--height-km") -> N
         )
 
 
-def run_table(args) -> int:
+def run_table(args: argparse.Namespace) -> int:
     """Run ``fieldmap table``; return the exit status."""
     import sys
     import time

@@ -13,11 +13,15 @@ check cannot run here and says why, :class:`SkipCheck`); a skipped check is not 
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 #: default largest accepted relative difference of a kernel and its NumPy reference
 RTOL = 1e-12
@@ -52,7 +56,7 @@ class CheckResult:
         return "skipped" if self.skipped else ("ok" if self.ok else "FAIL")
 
 
-def _timed(fn, repeats: int = 1):
+def _timed(fn: Callable[[], Any], repeats: int = 1) -> tuple[Any, float]:
     """Return (result, best wall time of ``repeats`` calls)."""
     best, out = float("inf"), None
     for _ in range(repeats):
@@ -62,7 +66,7 @@ def _timed(fn, repeats: int = 1):
     return out, best
 
 
-def _diff(got, want) -> tuple[float, float]:
+def _diff(got: npt.ArrayLike, want: npt.ArrayLike) -> tuple[float, float]:
     got, want = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
     if got.shape != want.shape or not np.all(np.isfinite(got)):
         return float("inf"), float("inf")
@@ -77,7 +81,13 @@ def _diff(got, want) -> tuple[float, float]:
     return max_abs, (max_abs / ref if ref > 0 else max_abs)
 
 
-def _compare(quantity, device, kernel, numpy_ref, unit):
+def _compare(
+    quantity: str,
+    device: str,
+    kernel: Callable[..., npt.ArrayLike],
+    numpy_ref: Callable[..., npt.ArrayLike],
+    unit: str,
+) -> CheckResult:
     kernel()  # warm-up: compiles or loads the module, builds cached tables
     got, tk = _timed(kernel, repeats=3)
     want, tn = _timed(numpy_ref)
@@ -85,7 +95,9 @@ def _compare(quantity, device, kernel, numpy_ref, unit):
     return CheckResult(quantity, device, a, r, tk, tn, unit)
 
 
-def random_points(n: int, seed: int = 0, hmax: float = 100e3):
+def random_points(
+    n: int, seed: int = 0, hmax: float = 100e3
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Geodetic points uniform on the sphere, heights 0..hmax, including the poles and ±89.99°.
 
     Units: degrees, degrees, m.
@@ -99,7 +111,7 @@ def random_points(n: int, seed: int = 0, hmax: float = 100e3):
     return lat, lon, h
 
 
-def _sh_checks(device, lmax, npoints):
+def _sh_checks(device: str, lmax: int, npoints: int) -> Iterator[CheckResult]:
     from fieldmap.field.frames import geodetic_to_ecef
     from fieldmap.field.sh import sh_gravitation, sh_potential
     from fieldmap.models.registry import load_model
@@ -124,7 +136,7 @@ def _sh_checks(device, lmax, npoints):
     )
 
 
-def _normal_checks(device, npoints):
+def _normal_checks(device: str, npoints: int) -> Iterator[CheckResult]:
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.field.normal import normal_gravity
     from fieldmap.reference import normal as ref
@@ -151,7 +163,7 @@ def _normal_checks(device, npoints):
         )
 
 
-def _grid_checks(device, lmax):
+def _grid_checks(device: str, lmax: int) -> Iterator[CheckResult]:
     from fieldmap.field.frames import ecef_to_enu_vector, geodetic_to_ecef
     from fieldmap.grids.synthesis import make_grid, synthesize
     from fieldmap.models.registry import load_model
@@ -161,7 +173,7 @@ def _grid_checks(device, lmax):
     grid = make_grid(step_deg=10.0, lat_max=80.0, heights_m=(20e3, 100e3))
     H, LAT, LON = np.meshgrid(grid.heights, grid.lat, grid.lon, indexing="ij")
 
-    def numpy_ref():
+    def numpy_ref() -> np.ndarray:
         x, y, z = geodetic_to_ecef(LAT.ravel(), LON.ravel(), H.ravel())
         g = ref.gravitation_ecef(model, x, y, z)
         return ecef_to_enu_vector(g, LAT.ravel(), LON.ravel()).reshape(H.shape + (3,))
@@ -175,7 +187,7 @@ def _grid_checks(device, lmax):
     )
 
 
-def _strapdown_checks(device):
+def _strapdown_checks(device: str) -> Iterator[CheckResult]:
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.nav.frames import LaunchFrame
     from fieldmap.nav.mechanize import (
@@ -197,7 +209,7 @@ def _strapdown_checks(device):
     C0 = np.array([np.eye(3)] * n)
     frame = LaunchFrame(105.3, 27.1, 63.0, h0=0.0)
 
-    def kernel():
+    def kernel() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         res = propagate_lci(
             dth,
             dv,
@@ -208,7 +220,7 @@ def _strapdown_checks(device):
         )
         return res.P, res.V, quat_to_dcm(res.q)
 
-    def numpy_ref():
+    def numpy_ref() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         _, P, V, C = propagate_lci_reference(
             dth,
             dv,
@@ -231,7 +243,7 @@ def _strapdown_checks(device):
         yield CheckResult(f"{tag}: {what}", device, a, r, tk, tn, unit)
 
 
-def _strapdown_ned_checks(device):
+def _strapdown_ned_checks(device: str) -> Iterator[CheckResult]:
     from fieldmap.field.ellipsoid import WGS84
     from fieldmap.field.frames import C_e_to_enu, enu_to_ned, geodetic_to_ecef
     from fieldmap.nav.mechanize import NavConfig, NedStart, propagate_ned, quat_to_dcm
@@ -244,14 +256,16 @@ def _strapdown_ned_checks(device):
     dv = np.stack([2 + 0.5 * np.sin(t), 0.3 * np.cos(2 * t), -9.8 + 0.2 * np.sin(0.5 * t)], -1) * dt
     v0 = np.array([150.0, 80.0, -5.0])
 
-    def g_ned(llh):  # Groves (2013) eq. 3.7.7 J2 gravitation + centrifugal, NED
+    def g_ned(
+        llh: np.ndarray,
+    ) -> np.ndarray:  # Groves (2013) eq. 3.7.7 J2 gravitation + centrifugal, NED
         lat, lon = np.degrees(llh[:, 0]), np.degrees(llh[:, 1])
         r = np.stack(geodetic_to_ecef(lat, lon, llh[:, 2]), -1)
         g = rnorm.groves_j2_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84.GM, WGS84.J2, WGS84.a)
         g = g + WGS84.omega**2 * r * [1.0, 1.0, 0.0]
         return enu_to_ned(np.einsum("nij,nj->ni", C_e_to_enu(lat, lon), g))
 
-    def kernel():
+    def kernel() -> tuple[np.ndarray, np.ndarray]:
         res = propagate_ned(
             dth,
             dv,
@@ -262,7 +276,7 @@ def _strapdown_ned_checks(device):
         )
         return res.v_ned[0], quat_to_dcm(res.q[0])
 
-    def numpy_ref():
+    def numpy_ref() -> tuple[np.ndarray, np.ndarray]:
         _, V, C = propagate_ned_reference(
             dth[None],
             dv[None],
@@ -293,7 +307,9 @@ CHECKS = (
 )
 
 
-def run_checks(devices=None, lmax: int = 240, points: int = 200) -> list[CheckResult]:
+def run_checks(
+    devices: Sequence[str] | None = None, lmax: int = 240, points: int = 200
+) -> list[CheckResult]:
     """Run every available kernel-vs-NumPy comparison.
 
     Parameters
@@ -386,7 +402,7 @@ def format_table(rows: list[CheckResult]) -> str:
 
 
 # -- the sub-command ``fieldmap verify`` --------------------------------------------------------
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``verify`` sub-command."""
     v = subparsers.add_parser(
         "verify",
@@ -408,7 +424,7 @@ def register(subparsers) -> None:
     v.set_defaults(func=run_verify)
 
 
-def run_verify(args) -> int:
+def run_verify(args: argparse.Namespace) -> int:
     """Run ``fieldmap verify``; return 1 if a check failed (or none passed), else 0."""
     from fieldmap import _warp
     from fieldmap.errors import InputError

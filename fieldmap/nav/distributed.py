@@ -11,12 +11,22 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
+
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from fieldmap.nav.imu import ImuIncrements
+    from fieldmap.nav.sensors import ErrorDraws
+    from fieldmap.nav.study import Scenario
 
 __all__ = ["on_cluster", "propagate_on"]
 
 
 @contextlib.contextmanager
-def on_cluster(client) -> Iterator[None]:
+def on_cluster(client: Client | None) -> Iterator[None]:
     """Run the navigation of the enclosed studies on a Dask cluster (prefer ``client=``).
 
     Within the block, every :class:`fieldmap.nav.propagator.Propagator` built without a client
@@ -31,7 +41,15 @@ def on_cluster(client) -> Iterator[None]:
         yield
 
 
-def propagate_on(client, sc, gravity, sets=None, imu_set=None, errors=None, runs_per_task=None):
+def propagate_on(
+    client: Client | None,
+    sc: Scenario,
+    gravity: list[str],
+    sets: list[ImuIncrements] | None = None,
+    imu_set: npt.ArrayLike | None = None,
+    errors: ErrorDraws | None = None,
+    runs_per_task: int | None = None,
+) -> dict[str, Any]:
     """:func:`fieldmap.nav.study.propagate` on ``client`` (prefer its ``client=``)."""
     from fieldmap import _compat
     from fieldmap.nav.study import propagate

@@ -41,10 +41,13 @@ Reading and validating the samples is :mod:`fieldmap.nav.flight` (:func:`read_fl
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
@@ -53,6 +56,9 @@ from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
 from fieldmap.nav.frames import C_n_to_e, LaunchFrame
 from fieldmap.nav.trajectory import Trajectory
 from fieldmap.units import STANDARD_GRAVITY
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 REQUIRED = ("time_s", "lat_deg", "lon_deg", "height_m")
 ATTITUDE = ("roll_deg", "pitch_deg", "heading_deg")
@@ -83,11 +89,13 @@ class FlightSamples:
     t_start: float = 0.0
 
 
-def _where(source, lines, i, column) -> str:
+def _where(source: str, lines: npt.NDArray[np.int64], i: int, column: str) -> str:
     return f"{source} line {int(lines[i])} column {column}"
 
 
-def _columns_from_csv(path: Path):
+def _columns_from_csv(
+    path: Path,
+) -> tuple[dict[str, npt.NDArray[np.float64]], npt.NDArray[np.int64], str, list[str]]:
     """Columns of a CSV file as float arrays plus the line number of each row."""
     try:
         text = path.read_text()
@@ -127,7 +135,9 @@ def _columns_from_csv(path: Path):
     return cols, np.array(lines, dtype=np.int64), str(path), header
 
 
-def _columns_from_mapping(data, source: str):
+def _columns_from_mapping(
+    data: Mapping[str, Any], source: str
+) -> tuple[dict[str, npt.NDArray[np.float64]], npt.NDArray[np.int64], str, list[str]]:
     names = list(data.keys()) if hasattr(data, "keys") else []
     cols = {}
     for name in names:
@@ -143,7 +153,11 @@ def _columns_from_mapping(data, source: str):
     return cols, np.arange(1, n + 1), source, names
 
 
-def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
+def read_flight(
+    source: str | Path | xr.Dataset | Mapping[str, npt.ArrayLike],
+    *,
+    ellipsoid: Ellipsoid = WGS84,
+) -> FlightSamples:
     """Read and validate a flight from a file, DataFrame, Dataset or mapping of arrays.
 
     Parameters
@@ -183,9 +197,9 @@ def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
             cols, lines, name, header = _columns_from_csv(path)
     else:
         kind = type(source).__name__
-        mapping = source
+        mapping: Any = source  # a DataFrame, a Dataset or a mapping of columns
         if kind == "Dataset":
-            mapping = {k: source[k].values for k in source.variables}
+            mapping = {k: mapping[k].values for k in mapping.variables}
         cols, lines, name, header = _columns_from_mapping(mapping, f"flight {kind} (record)")
     missing = [c for c in REQUIRED if c not in cols]
     if missing:
@@ -249,7 +263,13 @@ def read_flight(source, *, ellipsoid: Ellipsoid = WGS84) -> FlightSamples:
     return FlightSamples(t - t[0], lat, lon, h, attitude, name, lines, float(t[0]))
 
 
-def _check_radians(name, lines, lat, lon, speed) -> None:
+def _check_radians(
+    name: str,
+    lines: npt.NDArray[np.int64],
+    lat: npt.NDArray[np.float64],
+    lon: npt.NDArray[np.float64],
+    speed: npt.NDArray[np.float64],
+) -> None:
     """Refuse latitudes/longitudes that look like radians.
 
     All values inside ±π/2, ±π and a path that would be an aircraft's speed (1..1000 m/s) only if
@@ -283,7 +303,12 @@ class FlightTrajectory(Trajectory):
 
     name = "flight"
 
-    def __init__(self, samples, *, ellipsoid: Ellipsoid = WGS84):
+    def __init__(
+        self,
+        samples: FlightSamples | str | Path | xr.Dataset | Mapping[str, npt.ArrayLike],
+        *,
+        ellipsoid: Ellipsoid = WGS84,
+    ) -> None:
         from scipy.interpolate import make_interp_spline
         from scipy.spatial.transform import Rotation, RotationSpline
 
@@ -363,10 +388,18 @@ class FlightTrajectory(Trajectory):
                 f"samples), outside {MIN_HEIGHT / 1e3:g} km .. {MAX_HEIGHT:g} m"
             )
 
-    def _ecef(self, t):
+    def _ecef(
+        self, t: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         return self._spline(t), self._d1(t), self._d2(t)
 
-    def _attitude(self, t, r, v, a):
+    def _attitude(
+        self,
+        t: npt.NDArray[np.float64],
+        r: npt.NDArray[np.float64],
+        v: npt.NDArray[np.float64],
+        a: npt.NDArray[np.float64],
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """C_b^e and ω_eb^e from the rotation spline, evaluated in NumPy.
 
         :class:`~scipy.spatial.transform.RotationSpline` stores, per interval i, a cubic
@@ -428,7 +461,9 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def coordinated_attitude(v_ned, a_ned) -> np.ndarray:
+def coordinated_attitude(
+    v_ned: npt.NDArray[np.float64], a_ned: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
     """Roll, pitch, heading (rad, (n, 3)) of a coordinated flight from NED velocity and accel.
 
     Heading ψ = atan2(v_E, v_N), pitch θ = atan2(−v_D, v_H), roll φ = atan(v_H ψ̇ / g0) with the
@@ -452,7 +487,7 @@ def coordinated_attitude(v_ned, a_ned) -> np.ndarray:
 
 
 def route_flight(
-    waypoints,
+    waypoints: str | Sequence[Sequence[float]] | npt.ArrayLike,
     speed_mps: float,
     *,
     max_accel: float = 2.0,
@@ -561,7 +596,15 @@ def parse_route(text: str) -> np.ndarray:
     return np.array(out, dtype=np.float64).reshape(-1, 3)
 
 
-def geodetic_state(traj: Trajectory, t):
+def geodetic_state(
+    traj: Trajectory, t: npt.ArrayLike
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]:
     """Truth in navigation terms at times ``t``: lat, lon (deg), h (m), v_ned (m/s), C_b^n.
 
     Derived from :meth:`Trajectory.kinematics` (ECEF state and C_b^a) for any trajectory.

@@ -35,8 +35,10 @@ eq. 11.64 without the high-rate sculling integral).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap import limits
 from fieldmap.errors import InputError
@@ -50,7 +52,7 @@ ANGLE_RANGE = (limits.LON_MIN, limits.LON_MAX)
 HEIGHT_RANGE = (limits.MIN_HEIGHT, limits.MAX_HEIGHT)
 
 
-def _checked(name: str, value, lo: float, hi: float, closed: bool, unit: str) -> float:
+def _checked(name: str, value: Any, lo: float, hi: float, closed: bool, unit: str) -> float:
     """``value`` as a float within [lo, hi] (``closed``) or [lo, hi), else :class:`InputError`."""
     try:
         v = float(value)
@@ -65,7 +67,7 @@ def _checked(name: str, value, lo: float, hi: float, closed: bool, unit: str) ->
     return v
 
 
-def C_e_to_t(t, omega: float = WGS84.omega):
+def C_e_to_t(t: npt.ArrayLike, omega: float = WGS84.omega) -> npt.NDArray[np.float64]:
     r"""Rotation ECEF -> launch Earth-centred inertial t-frame at time t after launch, eq. (19).
 
     Units: t in s, omega in rad/s. Returns shape ``(..., 3, 3)``.
@@ -82,7 +84,9 @@ def C_e_to_t(t, omega: float = WGS84.omega):
     )
 
 
-def C_l_to_t(lat_gc_deg, lon_deg, t, omega: float = WGS84.omega):
+def C_l_to_t(
+    lat_gc_deg: npt.ArrayLike, lon_deg: npt.ArrayLike, t: npt.ArrayLike, omega: float = WGS84.omega
+) -> npt.NDArray[np.float64]:
     """Rotation l-frame (geocentric east, north, up) -> t-frame, eq. (16) with the sign corrected.
 
     Units: geocentric latitude and longitude in degrees, t in s, omega in rad/s.
@@ -103,7 +107,9 @@ def C_l_to_t(lat_gc_deg, lon_deg, t, omega: float = WGS84.omega):
     )
 
 
-def C_t_to_a(lon0_deg: float, B0_deg: float, A0_deg: float, *, printed: bool = False):
+def C_t_to_a(
+    lon0_deg: float, B0_deg: float, A0_deg: float, *, printed: bool = False
+) -> npt.NDArray[np.float64]:
     """Rotation t-frame -> launch-centred inertial a-frame, eq. (17) (R11 corrected).
 
     Units: launch longitude λ0, geodetic latitude B0 and azimuth A0 (from north, clockwise) in
@@ -121,17 +127,27 @@ def C_t_to_a(lon0_deg: float, B0_deg: float, A0_deg: float, *, printed: bool = F
     )
 
 
-def C_l_to_a(lat_gc_deg, lon_deg, t, lon0_deg, B0_deg, A0_deg, omega: float = WGS84.omega):
+def C_l_to_a(
+    lat_gc_deg: npt.ArrayLike,
+    lon_deg: npt.ArrayLike,
+    t: npt.ArrayLike,
+    lon0_deg: float,
+    B0_deg: float,
+    A0_deg: float,
+    omega: float = WGS84.omega,
+) -> npt.NDArray[np.float64]:
     """Rotation l-frame -> a-frame, eq. (18): ``R_l^a = R_t^a R_l^t``."""
     return C_t_to_a(lon0_deg, B0_deg, A0_deg) @ C_l_to_t(lat_gc_deg, lon_deg, t, omega)
 
 
-def C_e_to_a(t, lon0_deg, B0_deg, A0_deg, omega: float = WGS84.omega):
+def C_e_to_a(
+    t: npt.ArrayLike, lon0_deg: float, B0_deg: float, A0_deg: float, omega: float = WGS84.omega
+) -> npt.NDArray[np.float64]:
     """Rotation ECEF -> a-frame at time t, eq. (20): ``R_e^a = R_t^a R_e^t``."""
     return C_t_to_a(lon0_deg, B0_deg, A0_deg) @ C_e_to_t(t, omega)
 
 
-def C_n_to_e(lat_deg, lon_deg) -> np.ndarray:
+def C_n_to_e(lat_deg: npt.ArrayLike, lon_deg: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Columns north, east, down of the local-level (NED) frame in ECEF, shape (..., 3, 3).
 
     Parameters
@@ -170,16 +186,18 @@ class LaunchFrame:
     h0: float = 0.0
     ellipsoid: Ellipsoid = WGS84
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         """Validate and normalise the fields (floats, an :class:`Ellipsoid`); InputError if bad."""
-        checks = (
+        checks: tuple[tuple[str, str, float, float, bool, str], ...] = (
             ("lon0", "launch longitude lon0", *ANGLE_RANGE, False, "degrees"),
             ("B0", "launch latitude B0", -90.0, 90.0, True, "degrees"),
             ("A0", "launch azimuth A0", *ANGLE_RANGE, False, "degrees"),
             ("h0", "launch height h0", *HEIGHT_RANGE, True, "m"),
         )
-        for field, *args in checks:
-            object.__setattr__(self, field, _checked(args[0], getattr(self, field), *args[1:]))
+        for field, name, lo, hi, closed, unit in checks:
+            object.__setattr__(
+                self, field, _checked(name, getattr(self, field), lo, hi, closed, unit)
+            )
         object.__setattr__(self, "ellipsoid", get_ellipsoid(self.ellipsoid))
 
     @property
@@ -188,38 +206,40 @@ class LaunchFrame:
         return self.ellipsoid.omega
 
     @property
-    def r_launch(self) -> np.ndarray:
+    def r_launch(self) -> npt.NDArray[np.float64]:
         """Launch point in the t-frame (= ECEF at t = 0). Units: m."""
         return np.array(geodetic_to_ecef(self.B0, self.lon0, self.h0, self.ellipsoid))
 
     @property
-    def C_t_to_a(self) -> np.ndarray:
+    def C_t_to_a(self) -> npt.NDArray[np.float64]:
         """Eq. (17), corrected."""
         return C_t_to_a(self.lon0, self.B0, self.A0)
 
-    def C_e_to_a(self, t) -> np.ndarray:
+    def C_e_to_a(self, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Eq. (20) at time(s) t after launch. Units: s."""
         return C_e_to_a(t, self.lon0, self.B0, self.A0, self.omega)
 
-    def ecef_to_a(self, r_ecef, t) -> np.ndarray:
+    def ecef_to_a(self, r_ecef: npt.ArrayLike, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """ECEF positions ``(..., 3)`` at times t -> a-frame positions ``P_a``. Units: m, s."""
         r_t = np.einsum("...ij,...j->...i", C_e_to_t(t, self.omega), np.asarray(r_ecef, float))
         return (r_t - self.r_launch) @ self.C_t_to_a.T
 
-    def a_to_ecef(self, P_a, t) -> np.ndarray:
+    def a_to_ecef(self, P_a: npt.ArrayLike, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """A-frame positions ``(..., 3)`` at times t -> ECEF positions. Units: m, s."""
         r_t = np.asarray(P_a, float) @ self.C_t_to_a + self.r_launch
         return np.einsum("...ji,...j->...i", C_e_to_t(t, self.omega), r_t)
 
-    def vector_e_to_a(self, v_ecef, t) -> np.ndarray:
+    def vector_e_to_a(self, v_ecef: npt.ArrayLike, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Rotate ECEF vectors (e.g. gravitation) into the a-frame at times t, eq. (20)."""
         return np.einsum("...ij,...j->...i", self.C_e_to_a(t), np.asarray(v_ecef, float))
 
-    def vector_a_to_e(self, v_a, t) -> np.ndarray:
+    def vector_a_to_e(self, v_a: npt.ArrayLike, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Rotate a-frame vectors into ECEF at times t (transpose of eq. 20)."""
         return np.einsum("...ji,...j->...i", self.C_e_to_a(t), np.asarray(v_a, float))
 
-    def ecef_state_to_a(self, r_ecef, v_ecef, t):
+    def ecef_state_to_a(
+        self, r_ecef: npt.ArrayLike, v_ecef: npt.ArrayLike, t: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """ECEF position and Earth-relative velocity -> a-frame position and inertial velocity.
 
         ``V_a = R_e^a (v_e + ω × r_e)`` (the a-frame is inertial). Units: m, m/s, s.
@@ -229,14 +249,18 @@ class LaunchFrame:
         v_inertial_e = np.asarray(v_ecef, float) + np.cross(w, r)
         return self.ecef_to_a(r, t), self.vector_e_to_a(v_inertial_e, t)
 
-    def a_state_to_ecef(self, P_a, V_a, t):
+    def a_state_to_ecef(
+        self, P_a: npt.ArrayLike, V_a: npt.ArrayLike, t: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """Inverse of :meth:`ecef_state_to_a`. Units: m, m/s, s."""
         r = self.a_to_ecef(P_a, t)
         w = np.array([0.0, 0.0, self.omega])
         return r, self.vector_a_to_e(V_a, t) - np.cross(w, r)
 
 
-def calc_force_ned(C_s_to_n, dt, dth, dv):
+def calc_force_ned(
+    C_s_to_n: npt.ArrayLike, dt: npt.ArrayLike, dth: npt.ArrayLike, dv: npt.ArrayLike
+) -> npt.NDArray[np.float64]:
     r"""Specific force in NED from one delta-velocity / delta-rotation sample.
 
     .. math:: f^n = C_s^n\left(\delta v + \tfrac12\,\delta\theta \times \delta v\right)/\delta t

@@ -33,14 +33,22 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+import numpy.typing as npt
 import warp as wp
 
 from fieldmap import _compat, _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    from fieldmap.kernels.navtable import TableKernel
+    from fieldmap.nav.trajectory import Trajectory
+    from fieldmap.products.tables.model import CompensationTable
 
 
 def _kernel_kinds() -> dict:
@@ -67,7 +75,7 @@ NORMAL_MODELS = ("j2", "j4", "j6", "exact")
 GRAVITY_ALIASES = {"normal": "exact"}
 
 
-def gravity_names(names, stacklevel: int = 4) -> list:
+def gravity_names(names: Iterable[str], stacklevel: int = 4) -> list[str]:
     """``names`` with the deprecated aliases (``"normal"``) replaced by their current name.
 
     Other names are returned as given (validation is :func:`parse_gravity`'s). One
@@ -112,7 +120,7 @@ def sh_degree(name: str) -> int | None:
     return None if m is None or m.group(1) is None else int(m.group(1))
 
 
-def table_file(name) -> str | None:
+def table_file(name: object) -> str | None:
     """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
     from fieldmap.products.tables.model import table_path
 
@@ -163,7 +171,26 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     return GRAVITY_KINDS["sh"], deg
 
 
-def kernel_table(table, device: str):
+class _TableLattice(Protocol):
+    """What :func:`kernel_table` reads: a :class:`CompensationTable` or a placeholder lattice."""
+
+    @property
+    def data(self) -> np.ndarray: ...  # noqa: D102
+    @property
+    def lat0(self) -> float: ...  # noqa: D102
+    @property
+    def dlat(self) -> float: ...  # noqa: D102
+    @property
+    def lon0(self) -> float: ...  # noqa: D102
+    @property
+    def dlon(self) -> float: ...  # noqa: D102
+    @property
+    def h0(self) -> float: ...  # noqa: D102
+    @property
+    def dh(self) -> float: ...  # noqa: D102
+
+
+def kernel_table(table: _TableLattice, device: str) -> TableKernel:
     """Return the device struct of ``table`` (its δg values as float64)."""
     from fieldmap.kernels.navtable import TableKernel
 
@@ -176,7 +203,14 @@ def kernel_table(table, device: str):
     return kt
 
 
-def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray:
+def table_points(
+    table: CompensationTable,
+    lat: npt.ArrayLike,
+    lon: npt.ArrayLike,
+    h: npt.ArrayLike,
+    *,
+    device: str | None = None,
+) -> npt.NDArray[np.float64]:
     """δg north, east, down (mGal) at geodetic points by the kernel; shape (n, 3).
 
     Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
@@ -202,8 +236,14 @@ def table_points(table, lat, lon, h, *, device: str | None = None) -> np.ndarray
 
 
 def table_gravitation(
-    table, x, y, z, *, ellipsoid: Ellipsoid | str = WGS84, device: str | None = None
-) -> np.ndarray:
+    table: CompensationTable,
+    x: npt.ArrayLike,
+    y: npt.ArrayLike,
+    z: npt.ArrayLike,
+    *,
+    ellipsoid: Ellipsoid | str = WGS84,
+    device: str | None = None,
+) -> npt.NDArray[np.float64]:
     """Navigation gravitation of a table at ECEF points: exact normal + δg; (n, 3) ECEF, m/s²."""
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import navtable as knt
@@ -237,7 +277,7 @@ CHECKS = 64
 MGAL = 1e-5
 
 
-def _path(traj, t: np.ndarray):
+def _path(traj: Trajectory, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ECEF positions and velocities of ``traj`` at times ``t`` (m, m/s; Earth-fixed)."""
     try:
         r, v, _ = traj._ecef(t)
@@ -247,7 +287,7 @@ def _path(traj, t: np.ndarray):
         return r, np.gradient(r, t, axis=0)
 
 
-def highest_frequency(traj, degree: int) -> float:
+def highest_frequency(traj: Trajectory, degree: int) -> float:
     """Highest frequency (Hz) of a degree-``degree`` field seen along ``traj``: v_max L / (2πR).
 
     The shortest wavelength of the field is 2πR/L (R the Earth's mean radius); the path's fastest
@@ -292,9 +332,10 @@ class TrackGravitation:
     """
 
     def __init__(
-        self, model, traj, *, lmax=None, ellipsoid="WGS84", device=None, step_s=None,
-        tol_mgal: float = 1e-4,
-    ):  # fmt: skip
+        self, model: SHModel, traj: Trajectory, *, lmax: int | None = None,
+        ellipsoid: Ellipsoid | str = "WGS84", device: str | None = None,
+        step_s: float | None = None, tol_mgal: float = 1e-4,
+    ) -> None:  # fmt: skip
         from fieldmap.nav.imu import Gravitation
 
         self.sh = Gravitation("sh", model=model, lmax=lmax, device=device)
@@ -328,7 +369,7 @@ class TrackGravitation:
         self.step_s = self.duration / self.n_int
         self._cache = {}
 
-    def _positions(self, t) -> np.ndarray:
+    def _positions(self, t: npt.ArrayLike) -> np.ndarray:
         return _path(self.traj, np.asarray(t, dtype=np.float64))[0]
 
     def _disturbance(self, r: np.ndarray) -> np.ndarray:
@@ -343,7 +384,7 @@ class TrackGravitation:
                 self._cache[int(k)] = v
         return np.stack([self._cache[int(k)] for k in ks])
 
-    def disturbance_at(self, t) -> np.ndarray:
+    def disturbance_at(self, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Interpolated δg (ECEF, m/s²) at times ``t`` (s) within the path."""
         t = np.asarray(t, dtype=np.float64)
         x = np.clip(t / self.step_s, 0.0, float(self.n_int))
@@ -356,7 +397,7 @@ class TrackGravitation:
         vals = self._nodes(uniq)[inv.reshape(idx.shape)]  # (n, 6, 3)
         return np.einsum("nj,njc->nc", w, vals)
 
-    def at_times(self, t, r_e) -> np.ndarray:
+    def at_times(self, t: npt.ArrayLike, r_e: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Gravitation at ECEF points ``r_e`` (on the path at times ``t``): γ_exact + δg(t)."""
         return np.asarray(self.normal(r_e), dtype=np.float64) + self.disturbance_at(t)
 
@@ -378,7 +419,9 @@ class TrackGravitation:
 GRAVITY_RATE_ERROR = 1e-3
 
 
-def gravity_update_every(traj, degree: int, rate_hz: float, gravity_rate_hz=None) -> int:
+def gravity_update_every(
+    traj: Trajectory, degree: int, rate_hz: float, gravity_rate_hz: float | str | None = None
+) -> int:
     """IMU samples between SH disturbance updates of an SH navigation model of ``degree``.
 
     ``gravity_rate_hz`` None: the slowest rate whose linear extrapolation error stays below

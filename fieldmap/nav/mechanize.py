@@ -26,10 +26,13 @@ The local-level mechanization of Groves (2013) ch. 5 and NavToolKit; the kernel 
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+import numpy.typing as npt
 import warp as wp
 
 from fieldmap import _warp
@@ -39,8 +42,14 @@ from fieldmap.nav.frames import LaunchFrame
 from fieldmap.nav.gravity import gravity_names, parse_gravity, table_file
 from fieldmap.units import STANDARD_GRAVITY
 
+if TYPE_CHECKING:
+    from fieldmap.kernels.launch_frames import LaunchParams
+    from fieldmap.kernels.sh import SHKernelModel
+    from fieldmap.kernels.strapdown import BaroAiding, SensorErrors
+    from fieldmap.models.shmodel import SHModel
 
-def _finite(name, a, shape_tail=None) -> np.ndarray:
+
+def _finite(name: str, a: npt.ArrayLike, shape_tail: tuple[int, ...] | None = None) -> np.ndarray:
     try:
         a = np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
@@ -52,7 +61,7 @@ def _finite(name, a, shape_tail=None) -> np.ndarray:
     return a
 
 
-def _per_trajectory(name, a, n, tail) -> np.ndarray:
+def _per_trajectory(name: str, a: npt.ArrayLike, n: int, tail: tuple[int, ...]) -> np.ndarray:
     """Broadcast the finite ``a`` to one value per trajectory: shape ``(n, *tail)``."""
     a = _finite(name, a, tail)
     if a.ndim == len(tail):
@@ -72,7 +81,7 @@ class _DummyTable:
 _DUMMY_TABLE = _DummyTable()
 
 
-def _dummy_sh(device: str):
+def _dummy_sh(device: str) -> SHKernelModel:
     from fieldmap.kernels import sh as ksh
 
     km = ksh.SHKernelModel()
@@ -144,11 +153,17 @@ class _Batch:
     has_sh: bool = True
 
     @property
-    def sensor_errors(self):
+    def sensor_errors(self) -> SensorErrors:
         """Uploaded :class:`fieldmap.kernels.strapdown.SensorErrors` (final GM states after use)."""
         return self.inputs[3]
 
-    def launch(self, kernel, start, params: list, times=()) -> tuple:
+    def launch(
+        self,
+        kernel: wp.Kernel,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        params: list,
+        times: Sequence[object] = (),
+    ) -> tuple:
         """Run ``kernel`` for every trajectory; return its stored states (NumPy).
 
         ``start`` = (position, velocity, scalar-first quaternion) per trajectory; ``params`` are
@@ -184,9 +199,12 @@ class _Batch:
 
 
 def _prepare_batch(
-    dtheta, dv, dt, states, gravity, sh_model, imu_set, errors, output_every, device, per_step,
-    sample0=0, gravity_every=1, gravity_hold=None,
-):  # fmt: skip
+    dtheta: npt.ArrayLike, dv: npt.ArrayLike, dt: float,
+    states: dict[str, Any], gravity: str | Sequence[str],
+    sh_model: SHModel | None, imu_set: npt.ArrayLike | None, errors: dict | None,
+    output_every: int, device: str | None, per_step: int, sample0: int = 0,
+    gravity_every: int = 1, gravity_hold: npt.ArrayLike | None = None,
+) -> _Batch:  # fmt: skip
     """Validate and upload everything the LCI and NED kernels share (one row per trajectory).
 
     Used by :func:`fieldmap.nav.mechanize.propagate_lci` and
@@ -250,7 +268,9 @@ def _prepare_batch(
     device = _warp.resolve_device(device)
     from fieldmap.kernels import strapdown as ksd
 
-    arr = lambda a, dtype: wp.array(a, dtype=dtype, device=device)  # noqa: E731
+    arr: Callable[[np.ndarray, type], wp.array] = lambda a, dtype: wp.array(  # noqa: E731
+        a, dtype=dtype, device=device
+    )
     se = ksd.SensorErrors()
     types = {(3,): wp.vec3d, (3, 3): wp.mat33d, (): wp.float64}
     has_errors = False
@@ -266,7 +286,7 @@ def _prepare_batch(
     if sh_lmax > 0:
         from fieldmap.field.sh import kernel_model
 
-        shk = kernel_model(sh_model, device, sh_lmax)
+        shk = kernel_model(cast("SHModel", sh_model), device, sh_lmax)  # parse_gravity checked it
     else:
         shk = _dummy_sh(device)
     tables = sorted({f for f in (table_file(g) for g in names) if f is not None})
@@ -321,7 +341,7 @@ def _prepare_batch(
     )
 
 
-def _sample_index(sample0, n_samples: int) -> int:
+def _sample_index(sample0: object, n_samples: int) -> int:
     """Check the global index of a record's first sample: an integer, >= 0, the record in int32."""
     if isinstance(sample0, (bool, np.bool_)) or not isinstance(sample0, (int, np.integer)):
         raise InputError(f"sample0 must be an integer sample index, got {sample0!r}")
@@ -333,7 +353,7 @@ def _sample_index(sample0, n_samples: int) -> int:
     return sample0
 
 
-def _quat_in(q0) -> np.ndarray:
+def _quat_in(q0: np.ndarray) -> np.ndarray:
     """Scalar-first unit quaternions -> the kernels' (x, y, z, w), normalized.
 
     One that is unit to rounding (a kernel's output) is taken as is, so that a propagation
@@ -346,7 +366,7 @@ def _quat_in(q0) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([q0[:, 1:], q0[:, :1]], axis=1) / norms[:, None])
 
 
-def _quat_out(q) -> np.ndarray:
+def _quat_out(q: wp.array) -> np.ndarray:
     q = q.numpy()
     return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
 
@@ -369,13 +389,13 @@ class LciResult:
     final: dict | None = None
 
 
-def quat_to_dcm(q) -> np.ndarray:
+def quat_to_dcm(q: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Scalar-first quaternions ``(..., 4)`` -> rotation matrices ``(..., 3, 3)``."""
     q = np.asarray(q, dtype=np.float64)
     norm = np.linalg.norm(q, axis=-1, keepdims=True)
     if not np.all(np.isfinite(norm)) or np.any(norm < 1e-12):
         raise InputError("quat_to_dcm needs finite, non-zero quaternions")
-    q = q / norm
+    q = np.asarray(q / norm)
     w, x, y, z = np.moveaxis(q, -1, 0)
     return np.stack(
         [
@@ -387,7 +407,7 @@ def quat_to_dcm(q) -> np.ndarray:
     )
 
 
-def dcm_to_quat(C) -> np.ndarray:
+def dcm_to_quat(C: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Rotation matrices ``(..., 3, 3)`` -> scalar-first quaternions with w >= 0."""
     from scipy.spatial.transform import Rotation
 
@@ -398,7 +418,7 @@ def dcm_to_quat(C) -> np.ndarray:
     return q.reshape(C.shape[:-2] + (4,))
 
 
-def launch_params(frame: LaunchFrame):
+def launch_params(frame: LaunchFrame) -> LaunchParams:
     """Device struct of a launch frame (R_t^a of eq. 17, launch point, Earth rate)."""
     from fieldmap.kernels.launch_frames import LaunchParams
 
@@ -545,14 +565,14 @@ def _config_of(bound: dict) -> NavConfig:
 
 
 def propagate_lci(
-    dtheta,
-    dv,
-    dt,
+    dtheta: npt.ArrayLike,
+    dv: npt.ArrayLike,
+    dt: float,
     start: LciStart | None = None,
     config: NavConfig | None = None,
-    *old,
-    device=None,
-    **old_kw,
+    *old: Any,
+    device: str | None = None,
+    **old_kw: Any,
 ) -> LciResult:
     """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
 
@@ -695,11 +715,11 @@ class Baro:
     k1: float
     k2: float
     k3: float
-    bias: object = 0.0
-    noise: object = 0.0
-    gm_sigma: object = 0.0
-    gm_tau: object = 0.0
-    state: object = None
+    bias: npt.ArrayLike = 0.0
+    noise: npt.ArrayLike = 0.0
+    gm_sigma: npt.ArrayLike = 0.0
+    gm_tau: npt.ArrayLike = 0.0
+    state: npt.ArrayLike | None = None
 
 
 def baro_gains(tau: float = 100.0, ellipsoid: Ellipsoid = WGS84) -> tuple[float, float, float]:
@@ -719,14 +739,14 @@ def baro_gains(tau: float = 100.0, ellipsoid: Ellipsoid = WGS84) -> tuple[float,
 
 
 def propagate_ned(
-    dtheta,
-    dv,
-    dt,
+    dtheta: npt.ArrayLike,
+    dv: npt.ArrayLike,
+    dt: float,
     start: NedStart | None = None,
     config: NavConfig | None = None,
-    *old,
-    device=None,
-    **old_kw,
+    *old: Any,
+    device: str | None = None,
+    **old_kw: Any,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -824,14 +844,14 @@ def propagate_ned(
     )
 
 
-def _baro_struct(baro: Baro | None, b, ksd):
+def _baro_struct(baro: Baro | None, b: _Batch, ksd: ModuleType) -> BaroAiding:
     """Device struct of the baro loop (disabled with placeholder arrays when ``baro`` is None)."""
     import warp as wp
 
     dev, n = b.device, b.n
     aid = ksd.BaroAiding()
 
-    def arr(a, t=wp.float64):
+    def arr(a: np.ndarray, t: type = wp.float64) -> wp.array:
         return wp.array(a, dtype=t, device=dev)
 
     if baro is None:

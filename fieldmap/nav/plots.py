@@ -41,9 +41,28 @@ No paper values are drawn here: a user's flight is not the paper's boost-glide p
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.products import coastline
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.nav.paper import StudyResult
+    from fieldmap.nav.study import FlightResult
+
+#: (colour, line style, marker) of a curve
+_Style = tuple[str, Any, str | None]
 
 #: (colour, line style, marker) per Table 1 navigation model; Okabe-Ito colours (colour-blind safe)
 MODEL_STYLE = {
@@ -100,7 +119,7 @@ def _context(meta: dict) -> str:
     )
 
 
-def _groups(labels) -> dict[str, list[int]]:
+def _groups(labels: Iterable[str]) -> dict[str, list[int]]:
     """Run indices by case (the part of a run label before ``/``), in order of appearance."""
     out: dict[str, list[int]] = {}
     for i, lab in enumerate(labels):
@@ -108,7 +127,16 @@ def _groups(labels) -> dict[str, list[int]]:
     return out
 
 
-def _line(ax, t, y, style, label, k, n_lines, **kw):
+def _line(
+    ax: Axes,
+    t: npt.NDArray[np.float64],
+    y: npt.ArrayLike,
+    style: _Style,
+    label: str | None,
+    k: int,
+    n_lines: int,
+    **kw: Any,
+) -> Line2D:
     """One curve; markers every ~1/8 of the run, staggered between curves so they don't overlap."""
     colour, ls, marker = style
     step = max(1, len(t) // 8)
@@ -127,7 +155,9 @@ def _line(ax, t, y, style, label, k, n_lines, **kw):
     )[0]
 
 
-def _paper_marks(ax, t_end, values, styles):
+def _paper_marks(
+    ax: Axes, t_end: float, values: Mapping[str, float], styles: Mapping[str, _Style]
+) -> None:
     """Hollow markers for the paper's values (``{case: value}``) in a column right of ``t_end``.
 
     Each case gets its own x position (staggered by 3.5 % of the run), so that markers of
@@ -145,7 +175,16 @@ def _paper_marks(ax, t_end, values, styles):
     ax.set_xticks([x for x in ax.get_xticks() if 0.0 <= x <= t_end * 1.001])
 
 
-def _finish(fig, axes, title, subtitle, handles, ncol, bottom=None, log_bottom=True):
+def _finish(
+    fig: Figure,
+    axes: np.ndarray,
+    title: str,
+    subtitle: str,
+    handles: list[Any],
+    ncol: int,
+    bottom: str | None = None,
+    log_bottom: bool = True,
+) -> None:
     """Scales, labels, panel titles ((a), (b): errors; (c), (d): ``bottom``), title, legend."""
     for ax, (_, ylab, _) in zip(axes[0], PANELS):
         ax.set_yscale("log")
@@ -164,7 +203,7 @@ def _finish(fig, axes, title, subtitle, handles, ncol, bottom=None, log_bottom=T
     fig.legend(handles=handles, loc="outside lower center", ncol=ncol, fontsize=8.5, frameon=False)
 
 
-def _figure(n_rows):
+def _figure(n_rows: int) -> tuple[Figure, np.ndarray]:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -177,7 +216,7 @@ def _figure(n_rows):
     return fig, axes
 
 
-def _assign_styles(keys, preferred) -> dict:
+def _assign_styles(keys: Sequence[str], preferred: Mapping[str, _Style]) -> dict[str, _Style]:
     """Give each key a distinct (colour, line style, marker): ``preferred[key]`` or a free one."""
     out, used = {}, set()
     for key in keys:
@@ -191,23 +230,23 @@ def _assign_styles(keys, preferred) -> dict:
     return out
 
 
-def _ratio(a, b):
+def _ratio(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Return a / b where b > 0, NaN elsewhere (the errors are 0 at launch)."""
     return np.divide(a, b, out=np.full(np.broadcast(a, b).shape, np.nan), where=b > 0)
 
 
-def _proxy(**kw):
+def _proxy(**kw: Any) -> Line2D:
     from matplotlib.lines import Line2D
 
     return Line2D([], [], **kw)
 
 
-def at_paper_duration(meta) -> bool:
+def at_paper_duration(meta: Mapping[str, Any]) -> bool:
     """Whether a study ran the paper's 800 s (only then are the paper's values shown)."""
     return abs(meta["duration_s"] - 800.0) < 0.5
 
 
-def _paper_proxy(table: str, extra: str = ""):
+def _paper_proxy(table: str, extra: str = "") -> Line2D:
     label = f"right of the dotted line: Chen et al. (2022) {table}, 800 s, truth EIGEN-6C4{extra}"
     return _proxy(ls="none", marker="o", ms=9, mfc="none", mec="k", mew=1.6, label=label)
 
@@ -237,7 +276,16 @@ def _imu_grade(spec: dict) -> str:
     )
 
 
-def _band(ax, t, runs, style, label, k, n_lines, band_label=None):
+def _band(
+    ax: Axes,
+    t: npt.NDArray[np.float64],
+    runs: npt.NDArray[np.float64],
+    style: _Style,
+    label: str | None,
+    k: int,
+    n_lines: int,
+    band_label: str | None = None,
+) -> Line2D:
     """Median line and 5th-95th percentile band of ``runs`` (draws × time); one run: the line."""
     if runs.shape[0] == 1:
         return _line(ax, t, runs[0], style, label, k, n_lines)
@@ -254,7 +302,7 @@ def _band(ax, t, runs, style, label, k, n_lines, band_label=None):
     return line
 
 
-def _plain_log_ticks(ax):
+def _plain_log_ticks(ax: Axes) -> None:
     """Log axis of ratios labelled 0.5, 1, 2, 5 instead of 5×10⁻¹, 10⁰ ..."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
@@ -264,7 +312,7 @@ def _plain_log_ticks(ax):
     ax.yaxis.set_minor_formatter(NullFormatter())
 
 
-def _band_proxy(n: int):
+def _band_proxy(n: int) -> Patch:
     from matplotlib.patches import Patch
 
     return Patch(
@@ -272,7 +320,15 @@ def _band_proxy(n: int):
     )
 
 
-def _mc(res, cases, styles, labels, ref, paper, text):
+def _mc(
+    res: StudyResult,
+    cases: Sequence[str],
+    styles: Mapping[str, _Style],
+    labels: Mapping[str, str],
+    ref: str | None,
+    paper: Mapping[str, Sequence[float]],
+    text: tuple[str, str, str, str],
+) -> Figure:
     """Monte Carlo figure: medians and bands (top), ratios to case ``ref`` (bottom).
 
     ``cases`` are the run-label prefixes in plotting order; ``paper`` maps a case to the paper's
@@ -284,7 +340,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
     groups = _groups(res.labels)
     fig, axes = _figure(2 if ref else 1)
     n = len(cases)
-    handles = []
+    handles: list[Artist] = []
     for k, c in enumerate(cases):
         for ax, (key, _, _) in zip(axes[0], PANELS):
             h = _band(ax, t, getattr(res, key)[groups[c], 1:], styles[c], labels[c], k, n)
@@ -306,7 +362,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
     if paper and at_paper_duration(meta):
         for ax, col in zip(axes[0], (1, 0)):
             _paper_marks(ax, res.t[-1], {c: v[col] for c, v in paper.items()}, styles)
-        if ref in paper:
+        if ref is not None and ref in paper:
             for ax, col in zip(axes[1], (1, 0)):
                 ratios = {c: v[col] / paper[ref][col] for c, v in paper.items() if c != ref}
                 _paper_marks(ax, res.t[-1], ratios, styles)
@@ -321,7 +377,7 @@ def _mc(res, cases, styles, labels, ref, paper, text):
     return fig
 
 
-def _table3(res):
+def _table3(res: StudyResult) -> Figure:
     from fieldmap.nav.paper import PAPER_TABLE3
 
     meta = res.meta
@@ -359,7 +415,7 @@ def _table3(res):
     return _mc(res, cases, styles, labels, ref, paper, text)
 
 
-def _table4(res):
+def _table4(res: StudyResult) -> Figure:
     meta = res.meta
     rows = {r["case"]: r for r in res.rows}
     cases = list(_groups(res.labels))
@@ -395,7 +451,7 @@ def _table4(res):
     return _mc(res, cases, styles, labels, ref, {}, text)
 
 
-def _table1(res):
+def _table1(res: StudyResult) -> Figure:
     from fieldmap.nav.paper import PAPER_TABLE1
 
     meta, t = res.meta, res.t[1:]
@@ -437,7 +493,7 @@ def _table1(res):
     if paper:
         for ax, col in zip(axes[0], (1, 0)):
             _paper_marks(ax, res.t[-1], {m: v[col] for m, v in paper.items()}, styles)
-    if rel:
+    if rel and ref is not None:  # rel is empty without a reference
         for ax, (key, _, _) in zip(axes[1], PANELS):
             data = getattr(res, key)
             e_ref = data[groups[ref][0], 1:]
@@ -476,12 +532,12 @@ def _table1(res):
 _FIGURES = {"table1": _table1, "table3": _table3, "table4": _table4}
 
 
-def make_figure(res):
+def make_figure(res: StudyResult) -> Figure:
     """Build the figure of one study result (:class:`fieldmap.nav.paper.StudyResult`)."""
     return _FIGURES[res.study](res)
 
 
-def plot(res, path: str) -> None:
+def plot(res: StudyResult, path: str) -> None:
     """Write the figure of ``res`` (Fig. 11, 12 or 13 like) to ``path`` as PNG."""
     import matplotlib.pyplot as plt
 
@@ -492,7 +548,7 @@ def plot(res, path: str) -> None:
         plt.close(fig)
 
 
-def _plt():
+def _plt() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -501,11 +557,13 @@ def _plt():
     return plt
 
 
-def _median_band(x):
+def _median_band(
+    x: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     return np.median(x, 0), np.percentile(x, 5, 0), np.percentile(x, 95, 0)
 
 
-def errors_figure(res):
+def errors_figure(res: FlightResult) -> Figure:
     """Horizontal and vertical error per model (median, 5–95 % band), δg and its prediction."""
     plt = _plt()
     t = res.t / 60.0
@@ -564,7 +622,7 @@ def errors_figure(res):
     return fig
 
 
-def track_aspect(lat_limits) -> float:
+def track_aspect(lat_limits: Sequence[float]) -> float:
     """Axis aspect (degrees of latitude per degree of longitude on screen) of a local map.
 
     A degree of longitude is cos φ times a degree of latitude at the map's middle latitude φ
@@ -574,7 +632,10 @@ def track_aspect(lat_limits) -> float:
     return float(1.0 / np.cos(np.radians(np.clip(mid, -85.0, 85.0))))
 
 
-def track_figure(res, disturbance=None):
+def track_figure(
+    res: FlightResult,
+    disturbance: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
+) -> Figure:
     """Ground track over the truth model's disturbance (mGal, if given), with coastlines.
 
     Equal aspect: a kilometre east is as long as a kilometre north (:func:`track_aspect`); the
@@ -600,7 +661,9 @@ def track_figure(res, disturbance=None):
     return fig
 
 
-def disturbance_grid(res, model, n: int = 60, device=None):
+def disturbance_grid(
+    res: FlightResult, model: SHModel, n: int = 60, device: str | None = None
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Down component of g_truth − γ_normal (mGal) on a grid around the track at mean height."""
     from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
     from fieldmap.nav.imu import Gravitation

@@ -25,12 +25,20 @@ import contextvars
 import dataclasses
 import math
 import warnings
-from collections.abc import Iterator
-from typing import Any
+from collections.abc import Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.errors import InputError
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.nav.frames import LaunchFrame
+    from fieldmap.nav.mechanize import Baro, NavConfig
 
 __all__ = ["EARTH_RADIUS", "STAT_KEYS", "Propagator", "divergence", "final_stats"]
 
@@ -45,7 +53,7 @@ _DEFAULT_CLIENT: contextvars.ContextVar = contextvars.ContextVar(
 
 
 @contextlib.contextmanager
-def default_client(client) -> Iterator[None]:
+def default_client(client: Client | None) -> Iterator[None]:
     """Within the block, propagators built with ``client=None`` use ``client`` (deprecated)."""
     token = _DEFAULT_CLIENT.set(client)
     try:
@@ -83,12 +91,12 @@ class _Config:
         )
 
 
-def _cut(value, a, b, n):
+def _cut(value: npt.ArrayLike, a: int, b: int, n: int) -> npt.ArrayLike:
     v = np.asarray(value)
     return v[a:b] if v.ndim >= 1 and v.shape[0] == n else value
 
 
-def _baro_rows(baro, a, b, n):
+def _baro_rows(baro: Baro, a: int, b: int, n: int) -> Baro:
     return dataclasses.replace(
         baro,
         bias=_cut(baro.bias, a, b, n),
@@ -98,7 +106,7 @@ def _baro_rows(baro, a, b, n):
     )
 
 
-def check_mechanization(frame, *, baro: bool = False) -> str:
+def check_mechanization(frame: str, *, baro: bool = False) -> str:
     """Check the mechanization of a study or a propagator; return it in lower case.
 
     The one place of the rules of ``frame`` (``"ned"`` or ``"lci"``) and of baro altitude
@@ -117,7 +125,7 @@ _OLD_NAV = {
 }  # fmt: skip
 
 
-def _old_config(gravity, dt, old: dict):
+def _old_config(gravity: Any, dt: Any, old: dict[str, Any]) -> tuple[NavConfig, float]:
     """Return the NavConfig and dt of a 0.2 call ``Propagator(frame, start, gravity, dt, ...)``."""
     from fieldmap import _compat
     from fieldmap.nav.mechanize import NavConfig
@@ -175,13 +183,13 @@ class Propagator:
         frame: str,
         start: dict,
         dt: float,
-        nav=None,
+        nav: NavConfig | None = None,
         *,
-        launch=None,
+        launch: LaunchFrame | None = None,
         device: str | None = None,
-        client=None,
-        **old,
-    ):
+        client: Client | None = None,
+        **old: Any,
+    ) -> None:
         from fieldmap.field.ellipsoid import WGS84
         from fieldmap.nav.mechanize import NavConfig
 
@@ -264,7 +272,13 @@ class Propagator:
                 )
             self._state[k] = a
 
-    def propagate(self, dtheta, dv, sample0: int = 0, h_ref=None) -> dict:
+    def propagate(
+        self,
+        dtheta: npt.ArrayLike,
+        dv: npt.ArrayLike,
+        sample0: int = 0,
+        h_ref: npt.ArrayLike | None = None,
+    ) -> dict:
         """Advance every run through one block of IMU samples; return the stored states.
 
         Parameters
@@ -296,7 +310,14 @@ class Propagator:
         self._state = nxt
         return out
 
-    def _on_cluster(self, dtheta, dv, sample0, h_ref, n):
+    def _on_cluster(
+        self,
+        dtheta: npt.ArrayLike,
+        dv: npt.ArrayLike,
+        sample0: int,
+        h_ref: npt.ArrayLike | None,
+        n: int,
+    ) -> tuple[dict, dict]:
         from fieldmap.products.engine import scattered
 
         client = self.client
@@ -329,7 +350,13 @@ class Propagator:
         return out, nxt
 
 
-def _task(cfg: _Config, model, state: dict, block, sample0: int):
+def _task(
+    cfg: _Config,
+    model: SHModel | None,
+    state: dict,
+    block: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike | None],
+    sample0: int,
+) -> tuple[dict, dict]:
     from fieldmap.products.engine import worker_setup
 
     worker_setup()
@@ -339,7 +366,14 @@ def _task(cfg: _Config, model, state: dict, block, sample0: int):
     )
 
 
-def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
+def _propagate_runs(
+    cfg: _Config,
+    state: dict,
+    dtheta: npt.ArrayLike,
+    dv: npt.ArrayLike,
+    sample0: int,
+    h_ref: npt.ArrayLike | None,
+) -> tuple[dict, dict]:
     """Propagate the runs of ``cfg`` from ``state`` through one block: (stored, next state)."""
     errors = {**cfg.errors, "acc_gm": state["acc_gm"], "gyro_gm": state["gyro_gm"]}
     if cfg.frame == "ned":
@@ -382,7 +416,13 @@ def _propagate_runs(cfg: _Config, state: dict, dtheta, dv, sample0: int, h_ref):
     return out, nxt
 
 
-def divergence(err, t, models, labels=None, stacklevel: int = 3) -> list[dict]:
+def divergence(
+    err: npt.ArrayLike,
+    t: Sequence[float] | npt.NDArray[np.float64],
+    models: Sequence[str],
+    labels: Sequence[object] | None = None,
+    stacklevel: int = 3,
+) -> list[dict]:
     """Find the runs whose error is non-finite or beyond an Earth radius; warn for each.
 
     Parameters
@@ -407,7 +447,7 @@ def divergence(err, t, models, labels=None, stacklevel: int = 3) -> list[dict]:
         size = np.linalg.norm(np.where(np.isfinite(e), e, 0.0), axis=-1) if e.ndim == 3 else e
         bad = ~finite | (np.where(finite, size, 0.0) > EARTH_RADIUS)
     out = []
-    for i in np.flatnonzero(bad.any(axis=1)):
+    for i in np.flatnonzero(bad.any(axis=1)).tolist():
         k = int(np.argmax(bad[i]))
         run = labels[i] if labels is not None else int(i)
         out.append({"run": run, "model": models[i], "time_s": float(t[k])})
@@ -424,7 +464,7 @@ def divergence(err, t, models, labels=None, stacklevel: int = 3) -> list[dict]:
 STAT_KEYS = ("mean", "rms", "p05", "p50", "p95", "max")
 
 
-def final_stats(x, keys=STAT_KEYS) -> dict:
+def final_stats(x: npt.ArrayLike, keys: Iterable[str] = STAT_KEYS) -> dict[str, float | None]:
     """Statistics of final errors over runs; ``None`` for each when any run is not finite.
 
     ``keys`` among mean, rms, p05, p50, p95, max (percentiles by linear interpolation).

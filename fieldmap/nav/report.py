@@ -11,13 +11,21 @@ from __future__ import annotations
 import csv
 import io
 import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.nav.study import flight_dataset, to_dataset
 
+if TYPE_CHECKING:
+    from fieldmap.nav.paper import StudyResult
+    from fieldmap.nav.study import FlightResult
+    from fieldmap.products.io import OutputBatch
 
-def _num(x, fmt: str, width: int) -> str:
+
+def _num(x: float | None, fmt: str, width: int) -> str:
     """``x`` formatted, or a dash when missing/non-finite; never wider than ``width``."""
     if x is None or not np.isfinite(x):
         return f"{'-':>{width}s}"
@@ -27,7 +35,7 @@ def _num(x, fmt: str, width: int) -> str:
     return f"{s:>{width}s}"
 
 
-def format_table(res) -> str:
+def format_table(res: StudyResult) -> str:
     """Plain-text table of a study's rows; the paper's values only for the paper's 800 s run.
 
     Columns never overflow: values too wide for their column are printed in exponent form, missing
@@ -72,7 +80,7 @@ def format_table(res) -> str:
             + ("   paper |dv| |dp|" if show else "")
         )
         for r in res.rows:
-            q = PAPER_TABLE3.get(r.get("group"), ("", "")) if show else ("", "")
+            q = PAPER_TABLE3.get(r["group"], ("", "")) if show else ("", "")
             lines.append(
                 f"{str(r[key]):14s} {_num(r['final_velocity_error_m_s_mean'], '10.4f', 10)} "
                 f"{_num(r['final_velocity_error_m_s_rms'], '8.4f', 8)} "
@@ -88,10 +96,10 @@ def format_table(res) -> str:
     return "\n".join(lines)
 
 
-def _json_doc(res) -> dict:
+def _json_doc(res: StudyResult) -> dict[str, Any]:
     from fieldmap.nav.paper import PAPER_TABLE1, PAPER_TABLE3
 
-    doc = {
+    doc: dict[str, Any] = {
         "study": res.study,
         "truth_model": res.meta["truth_model"],
         "truth_degree": res.meta["truth_degree"],
@@ -121,7 +129,7 @@ def _json_doc(res) -> dict:
     return doc
 
 
-def write_outputs(res, out) -> list[str]:
+def write_outputs(res: StudyResult, out: str | Path | OutputBatch) -> list[str]:
     """CSV, JSON, NetCDF and PNG of one study; return the paths.
 
     ``out`` is a folder (the four files are written as one
@@ -151,7 +159,7 @@ def write_outputs(res, out) -> list[str]:
     return [str(p) for p in paths]
 
 
-def plot(res, path: str) -> None:
+def plot(res: StudyResult, path: str) -> None:
     """Write the study's figure (Figs. 11-13 like; see :mod:`fieldmap.nav.plots`) as PNG."""
     from fieldmap.nav.plots import plot as _plot
 
@@ -159,7 +167,7 @@ def plot(res, path: str) -> None:
 
 
 # --- flight study ---------------------------------------------------------------------------
-def format_flight(res) -> str:
+def format_flight(res: FlightResult) -> str:
     """Plain-text table of a flight study: final errors per model (horizontal / vertical)."""
     doc = res.summary
     m = doc["meta"]
@@ -184,7 +192,12 @@ def format_flight(res) -> str:
     return "\n".join(lines)
 
 
-def write_flight_outputs(res, out, disturbance=None, prefix: str = "navsim_flight") -> list[str]:
+def write_flight_outputs(
+    res: FlightResult,
+    out: str | Path | OutputBatch,
+    disturbance: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
+    prefix: str = "navsim_flight",
+) -> list[str]:
     """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_track.png`` of a flight study.
 
     ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:

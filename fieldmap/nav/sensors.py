@@ -143,11 +143,14 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.errors import InputError
 from fieldmap.units import STANDARD_GRAVITY
@@ -205,7 +208,7 @@ class ImuErrorSpec:
     gyro_bi_deg_h: float = 0.0
     gyro_bi_tau_s: float = 3600.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             try:
@@ -291,7 +294,7 @@ class ErrorDraws:
             }
         )
 
-    def take(self, idx) -> "ErrorDraws":
+    def take(self, idx: npt.ArrayLike) -> "ErrorDraws":
         """Return the runs ``idx`` (any integer index array), in that order."""
         idx = np.asarray(idx, dtype=np.int64)
         return ErrorDraws(**{f.name: getattr(self, f.name)[idx] for f in fields(ErrorDraws)})
@@ -308,7 +311,7 @@ class ErrorDraws:
         )
 
 
-def _axes(rng, sigma: float, n: int, mode: str) -> np.ndarray:
+def _axes(rng: np.random.Generator, sigma: float, n: int, mode: str) -> np.ndarray:
     if mode == "gauss":
         return sigma * rng.standard_normal((n, 3))
     if mode == "sign":
@@ -386,7 +389,9 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
     )
 
 
-def gm_allan_deviation(T, sigma: float = 1.0, tau_c: float = 1.0):
+def gm_allan_deviation(
+    T: npt.ArrayLike, sigma: float = 1.0, tau_c: float = 1.0
+) -> npt.NDArray[np.float64]:
     """Allan deviation of a first-order Gauss–Markov process (stationary σ, correlation τ_c).
 
     σ_A(T)² = σ² (2/x)(1 − (3 − 4e^(−x) + e^(−2x))/(2x)), x = T/τ_c (IEEE Std 952-1997 Annex C;
@@ -408,7 +413,14 @@ def _gm_peak() -> float:
 GM_ADEV_PEAK = _gm_peak()
 
 
-def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
+def apply(
+    dtheta: npt.ArrayLike,
+    dv: npt.ArrayLike,
+    dt: float,
+    draws: ErrorDraws,
+    run: int = 0,
+    rng: np.random.Generator | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Corrupt exact increments with the errors of one run (NumPy; the kernel does the same).
 
     Parameters
@@ -450,7 +462,9 @@ def apply(dtheta, dv, dt: float, draws: ErrorDraws, run: int = 0, rng=None):
     return th, v
 
 
-def gauss_markov(n: int, sigma: float, tau: float, dt: float, beta0, rng) -> np.ndarray:
+def gauss_markov(
+    n: int, sigma: float, tau: float, dt: float, beta0: npt.ArrayLike, rng: np.random.Generator
+) -> np.ndarray:
     """``n`` samples (n, 3) of a first-order Gauss–Markov process, exact discretisation.
 
     β_0 = ``beta0``; β_{k+1} = a β_k + σ √(1 − a²) n_k, a = e^(−dt/τ) (Brown & Hwang 2012 §2.9).
@@ -468,7 +482,7 @@ def gauss_markov(n: int, sigma: float, tau: float, dt: float, beta0, rng) -> np.
     return out
 
 
-def _integer(value, what: str) -> int:
+def _integer(value: Any, what: str) -> int:
     """Return ``value`` as an int; raise :class:`InputError` unless it is a whole number."""
     try:
         out = int(value)
@@ -485,7 +499,16 @@ def scaled(spec: ImuErrorSpec, factor: float) -> ImuErrorSpec:
     return replace(spec, **{f.name: getattr(spec, f.name) * factor for f in fields(spec)})
 
 
-def _grade(ab, avrw, abi, gb, garw, gbi, sf, mis) -> ImuErrorSpec:
+def _grade(
+    ab: float,
+    avrw: float,
+    abi: float,
+    gb: float,
+    garw: float,
+    gbi: float,
+    sf: float,
+    mis: float,
+) -> ImuErrorSpec:
     return ImuErrorSpec(
         acc_bias_ug=ab,
         acc_noise_ug_rthz=avrw,
@@ -553,7 +576,7 @@ RANGES: dict[str, tuple[float, float, str]] = {
 _SHARED_KEYS = ("scale_factor_ppm", "misalignment_arcsec", "bias_instability_tau_s")
 
 
-def _check_value(key: str, val, source: str) -> float:
+def _check_value(key: str, val: Any, source: str) -> float:
     """Return ``val`` of ``key`` as a float, or raise the one-line InputError naming it."""
     if isinstance(val, bool) or not isinstance(val, numbers.Real):
         raise InputError(f"{source}: {key} = {val!r} is not a number")
@@ -602,7 +625,7 @@ def spec_from_mapping(data: dict, source: str = "IMU spec") -> ImuErrorSpec:
     return replace(ImuErrorSpec(), **values)
 
 
-def load_imu(name_or_path) -> tuple[str, ImuErrorSpec]:
+def load_imu(name_or_path: str | os.PathLike[str]) -> tuple[str, ImuErrorSpec]:
     """Return ``(label, spec)`` for a preset name or a TOML file path.
 
     Raises
@@ -633,7 +656,9 @@ def load_imu(name_or_path) -> tuple[str, ImuErrorSpec]:
     return str(data.get("name", path.stem)), spec
 
 
-def allan_deviation(rate, dt: float, taus=None):
+def allan_deviation(
+    rate: npt.ArrayLike, dt: float, taus: npt.ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping Allan deviation of a rate record (n,) or (n, k) sampled every ``dt`` s.
 
     Returns ``(taus, adev)`` with ``adev`` (len(taus),) or (len(taus), k), in the rate's units.
@@ -657,7 +682,9 @@ def allan_deviation(rate, dt: float, taus=None):
     return m * dt, np.array(out)
 
 
-def simulate_at_rest(spec: ImuErrorSpec, duration: float, rate_hz: float, seed: int = 0):
+def simulate_at_rest(
+    spec: ImuErrorSpec, duration: float, rate_hz: float, seed: int = 0
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], float]:
     """Sensor outputs at rest: gyro (n, 3) in °/h and accelerometer (n, 3) in µg, and dt (s).
 
     One Monte Carlo run of :func:`fieldmap.nav.sensors.apply` on zero true increments.

@@ -23,12 +23,16 @@ Classes: :class:`BoostGlide` (Fig. 9 of Chen et al. 2022), :class:`Stationary`,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap.errors import InputError
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.frames import LaunchFrame
+
+_F64 = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -60,7 +64,7 @@ class Kinematics:
     w_b: np.ndarray
 
 
-def _number(value, what: str) -> float:
+def _number(value: Any, what: str) -> float:
     """Return ``value`` as a float; raise :class:`InputError` if it is not a real number."""
     try:
         if isinstance(value, (str, bytes, bool)):
@@ -70,12 +74,12 @@ def _number(value, what: str) -> float:
         raise InputError(f"{what} must be a number, got {value!r}") from None
 
 
-def _rows(M, v):
+def _rows(M: _F64, v: _F64) -> _F64:
     """Apply matrices ``M`` (3,3) or (N,3,3) to row vectors ``v`` (N,3)."""
     return np.einsum("...ij,...j->...i", M, v)
 
 
-def _unit_and_rate(w, wdot):
+def _unit_and_rate(w: _F64, wdot: _F64) -> tuple[_F64, _F64]:
     """Return the unit vector of ``w`` and its time derivative (ẇ − (ŵ·ẇ)ŵ)/|w|."""
     n = np.linalg.norm(w, axis=-1, keepdims=True)
     u = w / n
@@ -97,7 +101,7 @@ class Trajectory:
 
     name = "trajectory"
 
-    def __init__(self, frame: LaunchFrame, duration: float):
+    def __init__(self, frame: LaunchFrame, duration: float) -> None:
         duration = _number(duration, "trajectory duration")
         if not np.isfinite(duration) or duration <= 0:
             raise InputError(
@@ -107,11 +111,11 @@ class Trajectory:
         self.duration = float(duration)
 
     # -- to be provided by subclasses ---------------------------------------------------------
-    def _ecef(self, t):
+    def _ecef(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         """Return ECEF ``r, ṙ, r̈`` at times ``t`` (each (N, 3)). Units: m, m/s, m/s²."""
         raise NotImplementedError
 
-    def _attitude(self, t, r, v, a):
+    def _attitude(self, t: _F64, r: _F64, v: _F64, a: _F64) -> tuple[_F64, _F64]:
         """Return ``(C_b_to_e, w_eb_e)``: body axes in ECEF and body rate w.r.t. ECEF in ECEF.
 
         Default: velocity-aligned forward-right-down frame, zero roll w.r.t. the geocentric up.
@@ -127,7 +131,7 @@ class Trajectory:
         return np.stack([x, y, z], axis=-1), omega
 
     # -- public -------------------------------------------------------------------------------
-    def kinematics(self, t) -> Kinematics:
+    def kinematics(self, t: npt.ArrayLike) -> Kinematics:
         """Exact state at times ``t`` (s after launch); see :class:`Kinematics`."""
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         fr = self.frame
@@ -141,13 +145,13 @@ class Trajectory:
         C_b_a, w_b = self._attitude_a(t, C_e_a, C_b_e, w_eb_e)
         return Kinematics(t, r, v, a, P_a, _rows(C_e_a, v_in), _rows(C_e_a, a_in), C_b_a, w_b)
 
-    def _attitude_a(self, t, C_e_a, C_b_e, w_eb_e):
+    def _attitude_a(self, t: _F64, C_e_a: _F64, C_b_e: _F64, w_eb_e: _F64) -> tuple[_F64, _F64]:
         """C_b^a = C_e^a C_b^e and ω_ab^b = C_e^b (ω_eb^e + ω_ie^e)."""
         w_ib_e = w_eb_e + np.array([0.0, 0.0, self.frame.omega])
         w_b = np.einsum("...ji,...j->...i", C_b_e, w_ib_e)
         return C_e_a @ C_b_e, w_b
 
-    def geodetic(self, t):
+    def geodetic(self, t: npt.ArrayLike) -> tuple[_F64, _F64, _F64]:
         """Geodetic latitude, longitude (degrees) and height (m) at times ``t`` (s)."""
         r, _, _ = self._ecef(np.atleast_1d(np.asarray(t, dtype=np.float64)))
         return ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], self.frame.ellipsoid)
@@ -162,12 +166,12 @@ class Trajectory:
 
 
 # --- smooth building blocks --------------------------------------------------------------------
-def _logcosh(x):
+def _logcosh(x: _F64 | float) -> _F64:
     ax = np.abs(x)
     return ax + np.log1p(np.exp(-2.0 * ax)) - np.log(2.0)
 
 
-def smooth_step(t, t0, w):
+def smooth_step(t: _F64 | float, t0: float, w: float) -> tuple[_F64, _F64, _F64, _F64]:
     """Logistic step S = ½(1 + tanh((t − t0)/w)), its first two derivatives and ∫₀ᵗ S.
 
     Units: t, t0, w in s. Returns ``(S, S', S'', I)``.
@@ -233,7 +237,7 @@ class BoostGlide(Trajectory):
         frame: LaunchFrame | None = None,
         duration: float = 800.0,
         profile: BoostGlideProfile = BoostGlideProfile(),
-    ):
+    ) -> None:
         super().__init__(frame or LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0), duration)
         self.profile = profile
         fr = self.frame
@@ -249,7 +253,7 @@ class BoostGlide(Trajectory):
         h_start = float(np.linalg.norm(r0) - self._r_ell(e1[2])[0])
         self._h0 = h_start - float(self.height_profile(np.zeros(1))[0][0])
 
-    def _r_ell(self, z):
+    def _r_ell(self, z: _F64 | float) -> tuple[_F64, _F64, _F64]:
         """Ellipsoid radius at sin(geocentric latitude) = z and its first two z-derivatives."""
         a, b = self.frame.ellipsoid.a, self.frame.ellipsoid.b
         k = a * a - b * b
@@ -259,7 +263,7 @@ class BoostGlide(Trajectory):
         f2 = -a * b * k * (D**-1.5 - 3.0 * k * z * z * D**-2.5)
         return f, f1, f2
 
-    def height_profile(self, t):
+    def height_profile(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         """Height above the ellipsoid along the radius and its derivatives. Units: m, m/s, m/s²."""
         p = self.profile
         sb, sb1, sb2, _ = smooth_step(t, p.t_boost, p.w_boost)
@@ -276,7 +280,7 @@ class BoostGlide(Trajectory):
         )
         return h, h1, h2
 
-    def ground_profile(self, t):
+    def ground_profile(self, t: _F64) -> tuple[tuple[_F64, _F64, _F64], tuple[_F64, _F64, _F64]]:
         """Along-track ``s`` and cross-track ``c`` arc lengths (at R̄) with two derivatives each."""
         p = self.profile
         sa, sa1, _, ia = smooth_step(t, p.t_accel, p.w_accel)
@@ -288,7 +292,7 @@ class BoostGlide(Trajectory):
         st0 = smooth_step(0.0, p.t_turn, p.w_turn)[0]  # start on the launch point: c(0) = 0
         return (s, s1, s2), (p.c_turn * (st - st0), p.c_turn * st1, p.c_turn * st2)
 
-    def _ecef(self, t):
+    def _ecef(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         e1, e2, e3 = self._e
         R = self.profile.mean_radius
         (s, s1, s2), (c, c1, c2) = self.ground_profile(t)
@@ -334,7 +338,14 @@ class Stationary(Trajectory):
 
     name = "stationary"
 
-    def __init__(self, frame: LaunchFrame, duration: float, lat=None, lon=None, h=None):
+    def __init__(
+        self,
+        frame: LaunchFrame,
+        duration: float,
+        lat: float | None = None,
+        lon: float | None = None,
+        h: float | None = None,
+    ) -> None:
         super().__init__(frame, duration)
         lat = frame.B0 if lat is None else _number(lat, "latitude")
         lon = frame.lon0 if lon is None else _number(lon, "longitude")
@@ -347,11 +358,11 @@ class Stationary(Trajectory):
         enu = C_e_to_enu(lat, lon)  # rows E, N, U in ECEF
         self.C_b_e = np.stack([enu[1], enu[0], -enu[2]], axis=-1)  # columns N, E, D
 
-    def _ecef(self, t):
+    def _ecef(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         r = np.broadcast_to(self.r0, (t.size, 3)).copy()
         return r, np.zeros_like(r), np.zeros_like(r)
 
-    def _attitude(self, t, r, v, a):
+    def _attitude(self, t: _F64, r: _F64, v: _F64, a: _F64) -> tuple[_F64, _F64]:
         return np.broadcast_to(self.C_b_e, (t.size, 3, 3)).copy(), np.zeros_like(r)
 
 
@@ -371,12 +382,14 @@ class ConstantVelocity(Trajectory):
 
     name = "constant-velocity"
 
-    def __init__(self, frame: LaunchFrame, duration: float, v_enu=(150.0, 200.0, 5.0)):
+    def __init__(
+        self, frame: LaunchFrame, duration: float, v_enu: npt.ArrayLike = (150.0, 200.0, 5.0)
+    ) -> None:
         super().__init__(frame, duration)
         self.r0 = frame.r_launch
         self.v0 = C_e_to_enu(frame.B0, frame.lon0).T @ np.asarray(v_enu, dtype=np.float64)
 
-    def _ecef(self, t):
+    def _ecef(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         r = self.r0 + t[:, None] * self.v0
         return r, np.broadcast_to(self.v0, r.shape).copy(), np.zeros_like(r)
 
@@ -407,19 +420,19 @@ class Coning(Trajectory):
         duration: float,
         half_angle: float = 0.01,
         rate: float = 2.0 * np.pi,
-    ):
+    ) -> None:
         super().__init__(frame, duration)
         self.half_angle, self.rate = float(half_angle), float(rate)
         self._base = Stationary(frame, duration)
         self.C0 = frame.C_e_to_a(0.0) @ self._base.C_b_e
 
-    def _ecef(self, t):
+    def _ecef(self, t: _F64) -> tuple[_F64, _F64, _F64]:
         return self._base._ecef(t)
 
-    def _attitude(self, t, r, v, a):
+    def _attitude(self, t: _F64, r: _F64, v: _F64, a: _F64) -> tuple[_F64, _F64]:
         return self._base._attitude(t, r, v, a)
 
-    def kinematics(self, t) -> Kinematics:
+    def kinematics(self, t: npt.ArrayLike) -> Kinematics:
         """Exact state at times ``t``; attitude and body rate from the closed form above."""
         k = Trajectory.kinematics(self, t)
         wt, al, W = self.rate * k.t, self.half_angle, self.rate
