@@ -12,7 +12,7 @@ executor, so a product is bitwise the same whether its blocks run here one after
 cluster, or lazily when a dask-backed Dataset is read; a block that is run again after a worker
 died gives the same bits.
 
-The engine takes one :class:`fieldmap.products.request.MapRequest` (validated at its
+The engine takes one :class:`fieldmap.products.request._Request` (validated at its
 construction, trusted here): :func:`compute` returns the product in memory, :func:`lazy`
 a dask-backed Dataset; :func:`write_product` streams it to a NetCDF file or zarr store
 (the targets of :mod:`fieldmap.products.sinks`).
@@ -40,7 +40,7 @@ import os
 import sys
 import weakref
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import xarray as xr
@@ -58,8 +58,8 @@ from fieldmap.products.statistics import (
 from fieldmap.products.variables import assemble_quantity, index_height_km
 
 if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
     from fieldmap.models.shmodel import SHModel
-    from fieldmap.products.request import MapRequest
 
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
@@ -68,6 +68,24 @@ BLOCKS_PER_HEIGHT = 32
 #: already spread a block over the cores, so one block per height (as large as the memory
 #: budget allows) costs least; any plan gives the same bits.
 LOCAL_BLOCKS_PER_HEIGHT = 1
+
+
+class _Request(Protocol):
+    """What the engine reads of a :class:`fieldmap.products.request.MapRequest`.
+
+    (A protocol, not that class: the request module imports the engine.)
+    """
+
+    @property
+    def model(self) -> Any: ...
+    @property
+    def grid(self) -> GridSpec: ...
+    @property
+    def ellipsoid(self) -> Ellipsoid: ...
+    @property
+    def output(self) -> Any: ...
+    @property
+    def execution(self) -> Any: ...
 
 
 @dataclasses.dataclass(frozen=True)
@@ -444,7 +462,7 @@ def _take(it: Iterator[Job], n: int) -> list[Job]:
 # ---------------------------------------------------------------------------- products
 
 
-def product_grid(request: MapRequest) -> GridSpec:
+def product_grid(request: _Request) -> GridSpec:
     """Return the grid the blocks cover: one layer per order for a truncation map.
 
     A layer is a height of the grid; the orders of a truncation map (one height) are its
@@ -457,7 +475,7 @@ def product_grid(request: MapRequest) -> GridSpec:
     return grid
 
 
-def plan(request: MapRequest, local: bool = True) -> list[Block]:
+def plan(request: _Request, local: bool = True) -> list[Block]:
     """Return the blocks of a request's product (:func:`plan_blocks` of its grid).
 
     ``local``: the blocks run here into memory or a NetCDF file (the fewest blocks), else on a
@@ -472,7 +490,7 @@ def plan(request: MapRequest, local: bool = True) -> list[Block]:
     )
 
 
-def make_jobs(request: MapRequest, blocks: list[Block], store: Any = None) -> list[Job]:
+def make_jobs(request: _Request, blocks: list[Block], store: Any = None) -> list[Job]:
     """One :class:`Job` per block of a request's product (``store``: workers write there)."""
     from fieldmap.products.statistics import area_weights, histogram_weights
 
@@ -498,7 +516,7 @@ def make_jobs(request: MapRequest, blocks: list[Block], store: Any = None) -> li
 
 
 def run_blocks(
-    request: MapRequest,
+    request: _Request,
     *,
     client: Any = None,
     sink: Any = None,
@@ -509,7 +527,7 @@ def run_blocks(
 
     Parameters
     ----------
-    request : fieldmap.products.request.MapRequest
+    request : fieldmap.products.request._Request
     client : dask.distributed.Client, optional
         Run the blocks on this cluster (the request's executor, opened); default: here, one
         after the other. At most ``request.execution.window`` blocks are in flight (default:
@@ -741,7 +759,7 @@ def _chunk_rows(chunks: Any) -> Any:
     return None if chunks in (None, True, "auto") else chunks
 
 
-def lazy(request: MapRequest) -> xr.Dataset:
+def lazy(request: _Request) -> xr.Dataset:
     """Return a lazy, dask-backed Dataset of the request's product; blocks run when read.
 
     ``request.execution.chunks``: most latitude rows per block (int, or {"latitude": n});
@@ -798,7 +816,7 @@ def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def executor_client(request: MapRequest) -> Iterator[Any]:
+def executor_client(request: _Request) -> Iterator[Any]:
     """Yield the Dask client of a request's executor (None: here); close what was opened.
 
     A scheduler string is connected (or its LocalCluster started) before anything runs: an
@@ -812,7 +830,7 @@ def executor_client(request: MapRequest) -> Iterator[Any]:
             yield c
 
 
-def template(request: MapRequest) -> xr.Dataset:
+def template(request: _Request) -> xr.Dataset:
     """Coordinates, global and variable attributes of a request's product, without data.
 
     ``attrs["variables"]`` maps each variable name to its attributes, ``attrs["dims"]`` gives
@@ -830,7 +848,7 @@ def template(request: MapRequest) -> xr.Dataset:
     return v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
 
 
-def compute(request: MapRequest) -> xr.Dataset:
+def compute(request: _Request) -> xr.Dataset:
     """Compute a request's product and return it whole, statistics included (or lazy).
 
     The blocks run on the request's executor, into memory; with ``execution.chunks`` the
@@ -895,7 +913,7 @@ def _dataset_of(tmpl: xr.Dataset, values: dict) -> xr.Dataset:
 
 
 def _disturbance_dataset(
-    request: MapRequest, values: dict[str, np.ndarray], stats: list[dict[str, Any]]
+    request: _Request, values: dict[str, np.ndarray], stats: list[dict[str, Any]]
 ) -> xr.Dataset:
     from fieldmap.products import variables as v
 
@@ -928,7 +946,7 @@ def _disturbance_dataset(
 
 
 def _truncation_dataset(
-    request: MapRequest, tmpl: xr.Dataset, values: dict[str, np.ndarray]
+    request: _Request, tmpl: xr.Dataset, values: dict[str, np.ndarray]
 ) -> xr.Dataset:
     from fieldmap.products.statistics import map_statistics
     from fieldmap.products.variables import mg_attrs, statistic_name
@@ -956,7 +974,7 @@ def check_format(fmt: Any) -> str:
 
 
 def write_product(
-    request: MapRequest, path: str | os.PathLike[str], fmt: str = "netcdf", *, atomic: bool = True
+    request: _Request, path: str | os.PathLike[str], fmt: str = "netcdf", *, atomic: bool = True
 ) -> dict[str, Any]:
     """Compute a request's product block by block and stream it to ``path``.
 
@@ -965,7 +983,7 @@ def write_product(
 
     Parameters
     ----------
-    request : fieldmap.products.request.MapRequest
+    request : fieldmap.products.request._Request
         A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
         client, ``"local:N"``, an address; none: here, one after the other), at most
         ``execution.window`` in flight.

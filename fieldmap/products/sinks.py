@@ -30,7 +30,7 @@ import tempfile
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import xarray as xr
@@ -39,7 +39,16 @@ from fieldmap.products.variables import DISTURBANCE_VARIABLES
 
 if TYPE_CHECKING:
     from fieldmap.grids.spec import GridSpec
-    from fieldmap.products.engine import Block
+
+
+class _Block(Protocol):
+    """What a sink reads of a :class:`fieldmap.products.engine.Block` (the engine imports us)."""
+
+    @property
+    def layer(self) -> int: ...
+    @property
+    def rows(self) -> np.ndarray: ...
+    def runs(self) -> list[tuple[int, int]]: ...
 
 
 @contextlib.contextmanager
@@ -102,7 +111,7 @@ def chunk_rows(nlon: int) -> int:
     return int(min(256, max(1, CHUNK_BYTES // (8 * nlon))))
 
 
-def _slabs(block: Block, nrows_total: int, rows: int) -> list[tuple[int, int, bool]]:
+def _slabs(block: _Block, nrows_total: int, rows: int) -> list[tuple[int, int, bool]]:
     """Split each run of a block into chunk-aligned parts: (r0, r1, whole_chunks)."""
     out = []
     for r0, r1 in block.runs():
@@ -126,7 +135,7 @@ def _put(arr: Any, layer: int, stacked: bool, r0: int, r1: int, values: np.ndarr
         arr[r0:r1, :] = values
 
 
-def _put_block(arr: Any, block: Block, stacked: bool, values: np.ndarray) -> None:
+def _put_block(arr: Any, block: _Block, stacked: bool, values: np.ndarray) -> None:
     """Write a block's rows (``values`` in the order of ``block.rows``), one slice per run."""
     pos = 0
     for r0, r1 in block.runs():
@@ -170,7 +179,7 @@ class ZarrTarget:
             raise FileNotFoundError(f"zarr store {self.path} is gone (run aborted)")
         return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in self.names}
 
-    def write_block(self, block: Block, data: dict[str, Any]) -> dict[str, Any]:
+    def write_block(self, block: _Block, data: dict[str, Any]) -> dict[str, Any]:
         """Write the whole chunks of ``block``; return the rows of shared chunks."""
         arrays = self._arrays()
         pos = {int(r): k for k, r in enumerate(block.rows)}
@@ -184,7 +193,7 @@ class ZarrTarget:
                 edges.append((r0, r1, {name: data[name][k0:k1] for name in self.names}))
         return {"edges": edges}
 
-    def sink(self, block: Block, data: dict[str, Any]) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Client side: collect the shared-chunk rows a worker returned; write full chunks."""
         if self._open is None:
             self._open = self._arrays()
@@ -314,7 +323,7 @@ class NetCDFWriter:
             self._coordinates(v, dims)
             self.vars[name] = v
 
-    def sink(self, block: Block, data: dict[str, Any]) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Write one block's variables at its rows."""
         for name, var in self.vars.items():
             _put_block(var, block, self.stacked, data[name])
@@ -429,7 +438,7 @@ class SharedArrays:
             os.unlink(probe)
         return bool(seen) and all(seen.values())
 
-    def write_block(self, block: Block, data: dict[str, Any]) -> dict[str, Any]:
+    def write_block(self, block: _Block, data: dict[str, Any]) -> dict[str, Any]:
         """Worker side: write the block's rows into the shared files; nothing travels back."""
         for name in self.names:
             mm = np.load(os.path.join(self.folder, f"{name}.npy"), mmap_mode="r+")
@@ -437,7 +446,7 @@ class SharedArrays:
             del mm
         return {}
 
-    def sink(self, block: Block, data: dict[str, Any]) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Client side: nothing to do, the workers wrote the rows."""
 
     def arrays(self) -> dict:
@@ -457,7 +466,7 @@ def memory_target(
     grid: GridSpec, stacked: bool, names: Iterable[str], client: Any
 ) -> Iterator[
     tuple[
-        Callable[[Block, dict[str, Any]], None],
+        Callable[[_Block, dict[str, Any]], None],
         SharedArrays | None,
         Callable[[], dict[str, np.ndarray]],
     ]
@@ -494,7 +503,7 @@ class MemorySink:
         self.names = tuple(names)
         self.arrays: dict = {}
 
-    def sink(self, block: Block, data: dict[str, Any]) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Copy one block's variables into place (a slice copy per run of rows).
 
         A block holding every row of a single-height product is taken as it is (its arrays
