@@ -19,8 +19,10 @@ Heights: one range for points and grids, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT``
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import SupportsFloat
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.errors import InputError
 
@@ -36,7 +38,7 @@ MAX_DRAWS = 10_000
 J2N_ORDERS = (2, 4, 6)
 
 
-def number_text(x) -> str:
+def number_text(x: SupportsFloat | str) -> str:
     """``x`` in short form (``%g``), or in full where the short form would round it onto a limit.
 
     "height -10000.001 m is below -10000 m", not "height -10000 m is below -10000 m".
@@ -51,7 +53,7 @@ _BELOW = "the models are not meant for points this far below the ellipsoid"
 _ABOVE = "outside the range where an Earth gravity model is meant to be used"
 
 
-def as_float(name: str, v) -> np.ndarray:
+def as_float(name: str, v: ArrayLike) -> np.ndarray:
     """``v`` as a float64 array, or InputError naming ``name`` (non-numeric or non-finite)."""
     try:
         arr = np.asarray(v, dtype=np.float64)
@@ -62,7 +64,7 @@ def as_float(name: str, v) -> np.ndarray:
     return arr
 
 
-def point_errors(latitude, longitude, height) -> list[str | None]:
+def point_errors(latitude: ArrayLike, longitude: ArrayLike, height: ArrayLike) -> list[str | None]:
     """Say what is wrong with each of a batch of finite geodetic points.
 
     Parameters
@@ -97,7 +99,9 @@ def point_errors(latitude, longitude, height) -> list[str | None]:
     return out
 
 
-def check_geodetic(latitude, longitude, height) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def check_geodetic(
+    latitude: ArrayLike, longitude: ArrayLike, height: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Validate geodetic points and broadcast them together.
 
     Parameters
@@ -140,7 +144,7 @@ def check_geodetic(latitude, longitude, height) -> tuple[np.ndarray, np.ndarray,
     return lat, lon, h
 
 
-def _numbers(values, what: str, unit: str) -> list[float]:
+def _numbers(values: object, what: str, unit: str) -> list[float]:
     """Numbers of a scalar or a sequence (strings of numbers allowed: the CLI passes them)."""
     items = values if isinstance(values, Iterable) and not isinstance(values, str) else [values]
     out = []
@@ -154,7 +158,9 @@ def _numbers(values, what: str, unit: str) -> list[float]:
     return out
 
 
-def check_heights(height, *, distinct: bool = False) -> np.ndarray:
+def check_heights(
+    height: float | str | Iterable[float | str], *, distinct: bool = False
+) -> np.ndarray:
     """Validate the heights of a grid.
 
     Parameters
@@ -172,7 +178,9 @@ def check_heights(height, *, distinct: bool = False) -> np.ndarray:
     return _check_heights(_numbers(height, "heights", "m"), 1.0, "m", distinct)
 
 
-def heights_from_km(height_km, *, distinct: bool = True, one: str | None = None) -> np.ndarray:
+def heights_from_km(
+    height_km: float | str | Iterable[float | str], *, distinct: bool = True, one: str | None = None
+) -> np.ndarray:
     """Validate heights given in km (map products, ``--height-km``) and convert them to m.
 
     Checked in km, so that 1e306 km is "above 100000 km" rather than an overflow to inf.
@@ -216,7 +224,7 @@ def _check_heights(values: list[float], scale: float, unit: str, distinct: bool)
     return v
 
 
-def check_orders(orders) -> tuple[int, ...]:
+def check_orders(orders: int | str | Iterable[int | str]) -> tuple[int, ...]:
     """Validate the J2n orders of a truncation map: distinct values among 2, 4, 6.
 
     Parameters

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.errors import InputError
 
@@ -108,7 +109,7 @@ def get_unit(units: str | Unit) -> Unit:
     return UNITS[name]
 
 
-def from_si(values, units: str | Unit) -> np.ndarray:
+def from_si(values: ArrayLike, units: str | Unit) -> np.ndarray:
     """Convert accelerations from m/s² to ``units``.
 
     Parameters
