@@ -9,13 +9,14 @@ writes a model in GeographicLib's ``.egm`` format and runs its ``Gravity`` tool.
 from __future__ import annotations
 
 import importlib
+from typing import Any
 
 # fieldmap 0.1 had ``fieldmap.models`` as the module now called ``fieldmap.models.registry``;
 # its names stay importable from here.
 _REGISTRY = ("load_model", "kaula_model", "clear_cache", "BUNDLED", "DEFAULT_MODEL")
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     if name in _REGISTRY:
         return getattr(importlib.import_module("fieldmap.models.registry"), name)
     raise AttributeError(f"module 'fieldmap.models' has no attribute {name!r}")
