@@ -33,7 +33,10 @@ in chunks of points (a degree-240 model at a few thousand points takes seconds).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from fieldmap.errors import InputError
 from fieldmap.field import frames
@@ -47,7 +50,9 @@ MGAL = 1.0e5  # mGal per m/s²
 _CHUNK = 2048  # points per pass (memory: a few (chunk, lmax+1) float arrays)
 
 
-def _sigma_model(model, lmax, epoch) -> SHModel:
+def _sigma_model(
+    model: SHModel | str | os.PathLike[str], lmax: int | None, epoch: float | str | None
+) -> SHModel:
     from fieldmap.models.registry import load_model
 
     m = load_model(model, lmax=lmax, epoch=epoch)
@@ -59,7 +64,15 @@ def _sigma_model(model, lmax, epoch) -> SHModel:
     return m
 
 
-def disturbance_basis(n: int, P, PU, t, m, cd, sd):
+def disturbance_basis(
+    n: int,
+    P: NDArray[np.float64],
+    PU: NDArray[np.float64],
+    t: NDArray[np.float64],
+    m: NDArray[np.float64],
+    cd: NDArray[np.float64],
+    sd: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Basis values of δg at degree n, orders m = 0..n: (east factor m P̄/u, north, up).
 
     ``P``, ``PU``: P̄nm and P̄nm/u, shape (N, n+1) (:func:`fieldmap.reference.sh.legendre_rows`);
@@ -76,7 +89,14 @@ def disturbance_basis(n: int, P, PU, t, m, cd, sd):
     return m * PU, -radial * sd + dP * cd, radial * cd + dP * sd
 
 
-def _variances(model: SHModel, x, y, z, lat_geod, quantity: str) -> np.ndarray:
+def _variances(
+    model: SHModel,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+    lat_geod: NDArray[np.float64],
+    quantity: str,
+) -> np.ndarray:
     """Σ basis² σ² at ECEF points (1-D), shape (N,) or (N, 3) for the disturbance; SI units."""
     from fieldmap.reference.sh import legendre_rows
 
@@ -116,15 +136,15 @@ def _variances(model: SHModel, x, y, z, lat_geod, quantity: str) -> np.ndarray:
 
 
 def commission_sigma(
-    latitude,
-    longitude,
-    height=0.0,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike = 0.0,
     *,
-    model="eigen-6s",
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
     quantity: str = "disturbance",
     lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
-    epoch=None,
+    epoch: float | str | None = None,
 ) -> np.ndarray:
     """Propagated standard deviation (commission error) of a quantity at geodetic points.
 

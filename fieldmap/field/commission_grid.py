@@ -18,13 +18,19 @@ function; ``tests/test_commission.py`` checks the two against each other at the 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import NDArray
 
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.commission import MGAL, disturbance_basis
 from fieldmap.field.ellipsoid import Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    from fieldmap.grids.spec import GridSpec
 
 #: map quantity -> (point quantity, variables)
 GRID_QUANTITIES = {
@@ -35,7 +41,7 @@ GRID_QUANTITIES = {
 
 
 def grid_commission(
-    model: SHModel, grid, quantity: str, *, ellipsoid: Ellipsoid | str
+    model: SHModel, grid: GridSpec, quantity: str, *, ellipsoid: Ellipsoid | str
 ) -> dict[str, np.ndarray]:
     """σ of δg (east, north, up; mGal), Δg (mGal) or N (m, at h = 0) on every node of ``grid``.
 
@@ -78,7 +84,14 @@ def grid_commission(
     return out
 
 
-def _row_variances(model: SHModel, t, u, r, phi, what: str):
+def _row_variances(
+    model: SHModel,
+    t: NDArray[np.float64],
+    u: NDArray[np.float64],
+    r: NDArray[np.float64],
+    phi: NDArray[np.float64],
+    what: str,
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """Return [(A, B) per component]: weights of cos² mλ and sin² mλ per row and order."""
     from fieldmap.reference.sh import legendre_rows
 

@@ -59,7 +59,7 @@ class Ellipsoid:
     omega: float
     reference: str = ""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for key in ("a", "f", "GM", "omega"):
             val = getattr(self, key)
             if not math.isfinite(val):
@@ -175,7 +175,7 @@ GRS80 = Ellipsoid(
 ELLIPSOIDS = {"WGS84": WGS84, "GRS80": GRS80}
 
 
-def get_ellipsoid(name_or_obj) -> Ellipsoid:
+def get_ellipsoid(name_or_obj: Ellipsoid | str) -> Ellipsoid:
     """Return an :class:`Ellipsoid` from a name (``"WGS84"``, ``"GRS80"``) or pass one through."""
     if isinstance(name_or_obj, Ellipsoid):
         return name_or_obj

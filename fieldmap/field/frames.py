@@ -8,11 +8,14 @@ east-north-up frame at a geodetic position; NED is (north, east, -up).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 
 
-def geodetic_to_ecef(lat_deg, lon_deg, h, ellipsoid: Ellipsoid = WGS84):
+def geodetic_to_ecef(
+    lat_deg: ArrayLike, lon_deg: ArrayLike, h: ArrayLike, ellipsoid: Ellipsoid = WGS84
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Geodetic latitude, longitude (degrees) and height (m) to ECEF x, y, z (m).
 
     Units: degrees, degrees, m -> m.
@@ -28,7 +31,9 @@ def geodetic_to_ecef(lat_deg, lon_deg, h, ellipsoid: Ellipsoid = WGS84):
     return x, y, z
 
 
-def ecef_to_geodetic(x, y, z, ellipsoid: Ellipsoid = WGS84):
+def ecef_to_geodetic(
+    x: ArrayLike, y: ArrayLike, z: ArrayLike, ellipsoid: Ellipsoid = WGS84
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """ECEF x, y, z (m) to geodetic latitude, longitude (degrees) and height (m).
 
     Bowring's parametric-latitude iteration, run to convergence (3 passes reach 1e-12 m for
@@ -49,7 +54,7 @@ def ecef_to_geodetic(x, y, z, ellipsoid: Ellipsoid = WGS84):
     return np.degrees(lat), np.degrees(lon), h
 
 
-def C_e_to_enu(lat_deg, lon_deg):
+def C_e_to_enu(lat_deg: ArrayLike, lon_deg: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrices ECEF -> local ENU at geodetic latitude/longitude (degrees).
 
     Returns an array of shape ``(..., 3, 3)`` whose rows are the east, north and up unit vectors
@@ -65,18 +70,22 @@ def C_e_to_enu(lat_deg, lon_deg):
     return np.stack([east, north, up], axis=-2)
 
 
-def ecef_to_enu_vector(v_ecef, lat_deg, lon_deg):
+def ecef_to_enu_vector(
+    v_ecef: ArrayLike, lat_deg: ArrayLike, lon_deg: ArrayLike
+) -> NDArray[np.float64]:
     """Rotate ECEF vectors ``(..., 3)`` into ENU at the given geodetic position."""
     return np.einsum("...ij,...j->...i", C_e_to_enu(lat_deg, lon_deg), np.asarray(v_ecef))
 
 
-def enu_to_ned(v_enu):
+def enu_to_ned(v_enu: ArrayLike) -> NDArray[np.float64]:
     """Reorder ENU components ``(..., 3)`` to NED."""
     v = np.asarray(v_enu)
     return np.stack([v[..., 1], v[..., 0], -v[..., 2]], axis=-1)
 
 
-def centrifugal_ecef(x, y, z, omega: float = WGS84.omega):
+def centrifugal_ecef(
+    x: ArrayLike, y: ArrayLike, z: ArrayLike, omega: float = WGS84.omega
+) -> NDArray[np.float64]:
     """Centrifugal acceleration ω²(x, y, 0) (Groves 2013 eq. 3.7.5 second term). Units: m/s²."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
     return np.stack([omega**2 * x, omega**2 * y, np.zeros_like(z)], axis=-1)

@@ -41,19 +41,26 @@ The series are summed by the engine of :mod:`fieldmap.field.sh` (Warp kernels), 
 from __future__ import annotations
 
 import math
+import os
 import threading
 import warnings
 import weakref
 from dataclasses import replace
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
+from numpy.typing import ArrayLike, NDArray
 
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.limits import check_geodetic as _points
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.units import Unit
 
 #: Highest degree of the ellipsoid's zonal series subtracted from the model. |J_n| falls like
 #: e^n (e² = 0.0067 for WGS84): J_40 ~ 1e-44, far below the float64 rounding of the central term.
@@ -128,13 +135,24 @@ def disturbing_model(
     return out
 
 
-def _resolve(model, lmax, epoch) -> SHModel:
+def _resolve(
+    model: SHModel | str | os.PathLike[str], lmax: int | None, epoch: float | str | None
+) -> SHModel:
     from fieldmap.models.registry import load_model
 
     return load_model(model, lmax=lmax, epoch=epoch)
 
 
-def _t_and_gradient(m: SHModel, ell: Ellipsoid, lat, lon, h, degree0: bool, device, grad=True):
+def _t_and_gradient(
+    m: SHModel,
+    ell: Ellipsoid,
+    lat: NDArray[np.float64],
+    lon: NDArray[np.float64],
+    h: NDArray[np.float64],
+    degree0: bool,
+    device: str | None,
+    grad: bool = True,
+) -> tuple[np.ndarray, np.ndarray | None, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """T (m²/s²), its ECEF gradient (m/s², None unless ``grad``) and the ECEF position."""
     from fieldmap.field.sh import sh_gravitation, sh_potential
 
@@ -146,16 +164,16 @@ def _t_and_gradient(m: SHModel, ell: Ellipsoid, lat, lon, h, degree0: bool, devi
 
 
 def disturbing_potential(
-    latitude,
-    longitude,
-    height,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
     *,
-    model="eigen-6s",
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
     lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     degree0: bool = False,
     device: str | None = None,
-    epoch=None,
+    epoch: float | str | None = None,
 ) -> np.ndarray:
     """Disturbing potential T = W − U at geodetic points (see the module docstring).
 
@@ -213,7 +231,9 @@ class SphericalAnomaly(_AnomalyFields):
     #: Canonical name of the unit of ``anomaly`` (:mod:`fieldmap.units`).
     units: str
 
-    def __new__(cls, anomaly, xi_arcsec, eta_arcsec, units: str = "mGal"):
+    def __new__(
+        cls, anomaly: np.ndarray, xi_arcsec: np.ndarray, eta_arcsec: np.ndarray, units: str = "mGal"
+    ) -> SphericalAnomaly:
         """Make the tuple; ``units``: unit of ``anomaly`` (:func:`fieldmap.units.get_unit`)."""
         from fieldmap.units import get_unit
 
@@ -221,10 +241,10 @@ class SphericalAnomaly(_AnomalyFields):
         self.units = get_unit(units).name
         return self
 
-    def __getnewargs__(self):
+    def __getnewargs__(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
         return (*self, self.units)
 
-    def _replace(self, **changes) -> SphericalAnomaly:
+    def _replace(self, **changes: Any) -> SphericalAnomaly:
         units = changes.pop("units", self.units)
         return SphericalAnomaly(*super()._replace(**changes), units=units)
 
@@ -246,16 +266,23 @@ class SphericalAnomaly(_AnomalyFields):
         )
         return np.stack(tuple(self), axis=-1)
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: Any) -> Any:
         if isinstance(key, (int, np.integer, slice)):
             return tuple.__getitem__(self, key)
         return self._stacked()[key]
 
-    def __array__(self, dtype=None, copy=None):
+    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
         return self._stacked() if dtype is None else self._stacked().astype(dtype)
 
 
-def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma, units="mGal"):
+def anomaly_from_t(
+    t: np.ndarray,
+    grad_ecef: np.ndarray,
+    xyz: tuple[np.ndarray, np.ndarray, np.ndarray],
+    lon_deg: ArrayLike,
+    gamma: ArrayLike,
+    units: str | Unit = "mGal",
+) -> np.ndarray:
     """Spherical-approximation anomaly and deflection from T and its ECEF gradient.
 
     Heiskanen & Moritz (1967) eq. 2-151c for Δg; ξ, η from the horizontal gradient in the
@@ -304,16 +331,16 @@ def anomaly_from_t(t, grad_ecef, xyz, lon_deg, gamma, units="mGal"):
 
 
 def gravity_anomaly(
-    latitude,
-    longitude,
-    height,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
     *,
-    model="eigen-6s",
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
     lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     degree0: bool = False,
     device: str | None = None,
-    epoch=None,
+    epoch: float | str | None = None,
     units: str = "mGal",
 ) -> SphericalAnomaly:
     """Gravity anomaly Δg and deflection of the vertical ξ, η (spherical approximation).
@@ -355,12 +382,19 @@ def gravity_anomaly(
     gam = normal_gravity(
         lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
     )
+    assert grad is not None  # asked for (grad=True)
     a = anomaly_from_t(t, grad, xyz, lon, np.linalg.norm(gam, axis=-1), unit)
     return SphericalAnomaly(a[..., 0], a[..., 1], a[..., 2], units=unit.name)
 
 
 def correction_height(
-    model: SHModel, lat, lon, *, lmax: int | None = None, ellipsoid=WGS84, device=None
+    model: SHModel,
+    lat: ArrayLike,
+    lon: ArrayLike,
+    *,
+    lmax: int | None = None,
+    ellipsoid: Ellipsoid | str = WGS84,
+    device: str | None = None,
 ) -> np.ndarray:
     """ζ0 + the correction series of a GeographicLib model at geodetic points (m; 0 if none).
 
@@ -384,15 +418,15 @@ def correction_height(
 
 
 def geoid_height(
-    latitude,
-    longitude,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
     *,
-    model="eigen-6s",
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
     lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     degree0: bool = False,
     device: str | None = None,
-    epoch=None,
+    epoch: float | str | None = None,
 ) -> np.ndarray:
     """Geoid height N above the ellipsoid by Bruns' formula, as GeographicLib's ``Gravity -H``.
 
@@ -434,7 +468,7 @@ GRID_QUANTITIES = ("potential", "anomaly", "deflection", "geoid")
 
 def grid_quantities(
     model: SHModel,
-    grid,
+    grid: GridSpec,
     quantity: str,
     *,
     ellipsoid: Ellipsoid | str = WGS84,

@@ -26,14 +26,19 @@ Checks (tests/test_gradient.py): the point-mass closed form GM (3 x_i x_j − r�
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Literal, overload
+
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    from fieldmap.grids.spec import GridSpec
 
 __all__ = ["EOTVOS", "QUANTITIES", "STEP", "gradient_tensor"]
 
@@ -47,7 +52,17 @@ FRAMES = ("enu", "ned", "ecef")
 _ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 
-def _vector_ecef(quantity, model, lmax, normal, ell, device, x, y, z) -> np.ndarray:
+def _vector_ecef(
+    quantity: str,
+    model: SHModel | None,
+    lmax: int | None,
+    normal: str,
+    ell: Ellipsoid,
+    device: str | None,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+) -> np.ndarray:
     """Return the gravity vector of ``quantity`` at ECEF points (flat arrays), ECEF. Units: m/s²."""
     from fieldmap.field.normal import normal_gravitation_ecef
 
@@ -56,12 +71,49 @@ def _vector_ecef(quantity, model, lmax, normal, ell, device, x, y, z) -> np.ndar
     else:
         from fieldmap.field.sh import sh_gravitation
 
+        assert model is not None  # loaded for every quantity but normal
         g = sh_gravitation(model, x, y, z, lmax=lmax, device=device)
         if quantity == "disturbance":
             g = g - normal_gravitation_ecef(x, y, z, normal=normal, ellipsoid=ell, device=device)
     if quantity in ("gravity", "normal"):
         g = g + frames.centrifugal_ecef(x, y, z, ell.omega)
     return g
+
+
+@overload
+def gradient_tensor(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str = "eigen-6s",
+    lmax: int | None = None,
+    quantity: str = "gravity",
+    normal: str = "exact",
+    ellipsoid: Ellipsoid | str = WGS84,
+    frame: str = "enu",
+    epoch: float | str | None = None,
+    device: str | None = None,
+    return_asymmetry: Literal[False] = False,
+) -> NDArray[np.float64]: ...
+
+
+@overload
+def gradient_tensor(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str = "eigen-6s",
+    lmax: int | None = None,
+    quantity: str = "gravity",
+    normal: str = "exact",
+    ellipsoid: Ellipsoid | str = WGS84,
+    frame: str = "enu",
+    epoch: float | str | None = None,
+    device: str | None = None,
+    return_asymmetry: Literal[True],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 
 
 def gradient_tensor(
@@ -78,7 +130,7 @@ def gradient_tensor(
     epoch: float | str | None = None,
     device: str | None = None,
     return_asymmetry: bool = False,
-):
+) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Gradient tensor ∂g_i/∂x_j of gravity, gravitation, disturbance or normal gravity.
 
     Central differences (steps 1 m and 2 m, one Richardson step) of fieldmap's float64 gravity
@@ -185,7 +237,12 @@ GRID_COMPONENTS = {
 
 
 def grid_gradient(
-    model: SHModel, grid, quantity: str, *, ellipsoid: Ellipsoid | str = WGS84, device=None
+    model: SHModel,
+    grid: GridSpec,
+    quantity: str,
+    *,
+    ellipsoid: Ellipsoid | str = WGS84,
+    device: str | None = None,
 ) -> dict[str, np.ndarray]:
     """Return the six ENU components of the gradient tensor on every node of a grid, in Eötvös.
 

@@ -20,6 +20,9 @@ looked up in :mod:`fieldmap.units`.
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -30,6 +33,9 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.sh import sh_gravitation
 from fieldmap.models.shmodel import SHModel
 from fieldmap.units import Unit, from_si
+
+if TYPE_CHECKING:
+    from fieldmap.products.tables.model import CompensationTable
 
 #: Accepted heights above the ellipsoid (:mod:`fieldmap.limits`, one rule for points and grids).
 #: Units: m.
@@ -42,7 +48,7 @@ FRAMES = ("enu", "ned", "ecef")
 _RENAMED = {"lat": "latitude", "lon": "longitude", "h": "height"}
 
 
-def _model(model, epoch) -> SHModel:
+def _model(model: SHModel | str | os.PathLike[str], epoch: float | str | None) -> SHModel:
     if isinstance(model, SHModel):
         return model
     from fieldmap.models.registry import load_model
@@ -50,7 +56,13 @@ def _model(model, epoch) -> SHModel:
     return load_model(model, epoch=epoch)
 
 
-def _inputs(latitude, longitude, height, frame: str, ellipsoid):
+def _inputs(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    frame: str,
+    ellipsoid: Ellipsoid | str,
+) -> tuple[str, Ellipsoid, np.ndarray, np.ndarray, np.ndarray]:
     """Return the validated (frame, ellipsoid, lat, lon, h) of the public calls."""
     f = str(frame).lower()
     if f not in FRAMES:
@@ -58,14 +70,23 @@ def _inputs(latitude, longitude, height, frame: str, ellipsoid):
     return (f, get_ellipsoid(ellipsoid), *limits.check_geodetic(latitude, longitude, height))
 
 
-def _to_frame(v_ecef: np.ndarray, lat, lon, frame: str) -> np.ndarray:
+def _to_frame(v_ecef: np.ndarray, lat: ArrayLike, lon: ArrayLike, frame: str) -> np.ndarray:
     if frame == "ecef":
         return v_ecef
     v_enu = frames.ecef_to_enu_vector(v_ecef, lat, lon)
     return v_enu if frame == "enu" else frames.enu_to_ned(v_enu)
 
 
-def _gravitation_ecef(model, lat, lon, h, lmax, ellipsoid, device, epoch):
+def _gravitation_ecef(
+    model: SHModel | str | os.PathLike[str],
+    lat: np.ndarray,
+    lon: np.ndarray,
+    h: np.ndarray,
+    lmax: int | None,
+    ellipsoid: Ellipsoid,
+    device: str | None,
+    epoch: float | str | None,
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     m = _model(model, epoch)
     x, y, z = frames.geodetic_to_ecef(lat, lon, h, ellipsoid)
     return sh_gravitation(m, x, y, z, lmax=lmax, device=device), (x, y, z)
@@ -246,7 +267,7 @@ def disturbance(
     return _to_frame(from_si(g - gamma, unit), lat, lon, f)
 
 
-def _table_model(model):
+def _table_model(model: object) -> CompensationTable | None:
     """Return the table of ``model`` (``"table:FILE"`` or a table object), else None."""
     from fieldmap.products.tables.model import CompensationTable, load_table, table_path
 
@@ -256,7 +277,17 @@ def _table_model(model):
     return None if path is None else load_table(path)
 
 
-def _table_disturbance(latitude, longitude, height, model, lmax, ellipsoid, unit, frame, epoch):
+def _table_disturbance(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    model: object,
+    lmax: int | None,
+    ellipsoid: Ellipsoid | str,
+    unit: str | Unit,
+    frame: str,
+    epoch: float | str | None,
+) -> np.ndarray:
     """δg interpolated from a compensation table, in ``frame`` and ``unit``."""
     tab = _table_model(model)
     if lmax is not None or epoch is not None:
@@ -264,6 +295,7 @@ def _table_disturbance(latitude, longitude, height, model, lmax, ellipsoid, unit
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     if ell.name != WGS84.name:
         raise InputError(f"a compensation table holds δg of WGS84, not of {ell.name}")
+    assert tab is not None  # _table_disturbance serves table models only
     ned = tab.interpolate(lat, lon, h).reshape(lat.shape + (3,)) * 1e-5  # mGal -> m/s²
     enu = np.stack([ned[..., 1], ned[..., 0], -ned[..., 2]], axis=-1)
     if f == "enu":

@@ -120,7 +120,7 @@ def _check_frame(frame: str) -> str:
     return key
 
 
-def _as_float(name: str, v) -> np.ndarray:
+def _as_float(name: str, v: ArrayLike) -> np.ndarray:
     return limits.as_float(name, v)
 
 

@@ -10,6 +10,7 @@ Degree limits: the ``[m, n]`` tables and the 1e-280 scaling serve degrees up to
 :data:`MAX_DEGREE_POINTS` (10,800): above 2700 their struct is the extended-range one
 (``xrange``: X-numbers, coefficients packed by order, recursion factors computed in the kernel
 from square-root tables; see :mod:`fieldmap.kernels.sh`). Memory at degree 10,800: the packed
+
 coefficients, 0.93 GB, besides the model's own C and S (1.87 GB).
 """
 
@@ -17,14 +18,18 @@ from __future__ import annotations
 
 import threading
 import weakref
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import warp as wp
+from numpy.typing import ArrayLike
 
 from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
 
 _cache_lock = threading.Lock()
 _cache: dict = {}  # (id(model), lmax, device) -> (weakref(model), SHKernelModel)
@@ -86,7 +91,7 @@ MAX_DEGREE = MAX_DEGREE_GRID
 MAX_DEGREE_POINTS = 10800
 
 
-def _check_lmax(model: SHModel, lmax, limit: int = MAX_DEGREE_GRID) -> int:
+def _check_lmax(model: SHModel, lmax: int | None, limit: int = MAX_DEGREE_GRID) -> int:
     if lmax is None:
         lmax_i = model.lmax
     else:
@@ -116,7 +121,7 @@ def kernel_model(
     *,
     points: bool = False,
     xrange: bool | None = None,
-):
+) -> Any:
     """Build (or fetch from the cache) the device struct of ``model`` truncated to ``lmax``.
 
     Parameters
@@ -225,7 +230,7 @@ def pack_coefficients(model: SHModel, lmax: int) -> np.ndarray:
     return out
 
 
-def _device_xtables(L: int, device: str):
+def _device_xtables(L: int, device: str) -> Any:
     key = (device, "x")
     with _cache_lock:
         hit = _tables.get(key)
@@ -240,7 +245,7 @@ def _device_xtables(L: int, device: str):
     return arrs
 
 
-def _device_packed(model: SHModel, L: int, device: str):
+def _device_packed(model: SHModel, L: int, device: str) -> tuple[int, Any]:
     key = (id(model), device, "x")
     with _cache_lock:
         hit = _coefs.get(key)
@@ -258,7 +263,7 @@ def _device_packed(model: SHModel, L: int, device: str):
     return L, arr
 
 
-def _device_tables(L: int, device: str):
+def _device_tables(L: int, device: str) -> Any:
     with _cache_lock:
         hit = _tables.get(device)
         if hit is not None and hit[0] >= L:
@@ -277,7 +282,7 @@ def _device_tables(L: int, device: str):
     return arrs
 
 
-def _device_coefficients(model: SHModel, L: int, device: str):
+def _device_coefficients(model: SHModel, L: int, device: str) -> Any:
     key = (id(model), device)
     with _cache_lock:
         hit = _coefs.get(key)
@@ -301,7 +306,7 @@ def _device_coefficients(model: SHModel, L: int, device: str):
     return arrs
 
 
-def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
+def _positions(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> tuple[np.ndarray, tuple[int, ...]]:
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
     shape = x.shape
     pos = np.ascontiguousarray(np.stack([x.ravel(), y.ravel(), z.ravel()], axis=-1))
@@ -313,7 +318,13 @@ def _positions(x, y, z) -> tuple[np.ndarray, tuple]:
 
 
 def _launch_points(
-    kernel: str, model: SHModel, lmax, device, columns: list, consts=(), out_dtype=wp.vec3d
+    kernel: str,
+    model: SHModel,
+    lmax: int | None,
+    device: str | None,
+    columns: list[tuple[np.ndarray, Any]],
+    consts: tuple[Any, ...] = (),
+    out_dtype: Any = wp.vec3d,
 ) -> np.ndarray:
     """Run the point kernel ``kernel`` of :mod:`fieldmap.kernels.sh`, one thread per point.
 
@@ -331,7 +342,14 @@ def _launch_points(
     return out.numpy()
 
 
-def sh_gravitation(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
+def sh_gravitation(
+    model: SHModel,
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    lmax: int | None = None,
+    device: str | None = None,
+) -> np.ndarray:
     """Gravitation (gradient of the potential, no centrifugal term) at ECEF points.
 
     Chen et al. (2022) eqs. 2-3, evaluated with the Warp kernel ``sh_points_ecef_kernel``.
@@ -357,7 +375,14 @@ def sh_gravitation(model: SHModel, x, y, z, lmax: int | None = None, device: str
     return g.reshape(*shape, 3)
 
 
-def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str | None = None):
+def sh_potential(
+    model: SHModel,
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    lmax: int | None = None,
+    device: str | None = None,
+) -> np.ndarray:
     """Gravitational potential at ECEF points (Chen et al. 2022 eq. 1).
 
     Parameters
@@ -385,13 +410,13 @@ def sh_potential(model: SHModel, x, y, z, lmax: int | None = None, device: str |
 
 def sh_gravitation_geodetic(
     model: SHModel,
-    lat_deg,
-    lon_deg,
-    h_m,
-    ellipsoid=None,
+    lat_deg: ArrayLike,
+    lon_deg: ArrayLike,
+    h_m: ArrayLike,
+    ellipsoid: Ellipsoid | None = None,
     lmax: int | None = None,
     device: str | None = None,
-):
+) -> np.ndarray:
     """Gravitation at geodetic points, ECEF components (kernel ``sh_points_geodetic_kernel``).
 
     The geodetic → ECEF conversion runs inside the kernel (``kernels.frames.geodetic_to_ecef``).

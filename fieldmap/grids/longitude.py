@@ -11,10 +11,13 @@ through a direct-sum Warp kernel (:func:`fieldmap.kernels.grid.longitude_sum_ker
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
+
+_T = TypeVar("_T")
 
 
 def regular_period(lon_deg: np.ndarray) -> int | None:
@@ -155,7 +158,7 @@ _pool_obj: list = [None, 0]
 PARTS_PER_THREAD = 1
 
 
-def map_rows(fn, nrows: int, min_rows: int = 16) -> list:
+def map_rows(fn: Callable[[int, int], _T], nrows: int, min_rows: int = 16) -> list[_T]:
     """Return ``[fn(a, b), ...]`` over contiguous parts ``[a, b)`` of ``nrows`` rows, in order.
 
     The parts (:data:`PARTS_PER_THREAD` per CPU thread of :func:`fieldmap._warp.cpu_workers`,
@@ -208,7 +211,9 @@ def _pool(n: int) -> ThreadPoolExecutor:
         return _pool_obj[0]
 
 
-def _fft_rows(W: np.ndarray, phase, nper: int, src0: int, res: np.ndarray) -> None:
+def _fft_rows(
+    W: np.ndarray, phase: np.ndarray | None, nper: int, src0: int, res: np.ndarray
+) -> None:
     """Longitude sums of the series ``W`` (ns, nm) into ``res`` (ns, nlon), chunk by chunk.
 
     ``phase``: factors of the series for a lon0 off the node lattice (else None); ``src0``:

@@ -10,7 +10,9 @@ and re-exports both names.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import SupportsFloat
 
 import numpy as np
 
@@ -79,7 +81,7 @@ def _axis(start: float, stop: float, step: float) -> np.ndarray:
     return start + step * np.arange(n, dtype=np.float64)
 
 
-def _number(value, what: str) -> float:
+def _number(value: SupportsFloat | str, what: str) -> float:
     try:
         return float(value)
     except (TypeError, ValueError):
@@ -134,7 +136,7 @@ def make_grid(
     step_deg: float = 1.0,
     lat_max: float = 80.0,
     region: tuple[float, float, float, float] | None = None,
-    heights_m=(20000.0,),
+    heights_m: float | Sequence[float] | np.ndarray = (20000.0,),
     *,
     whole_in_memory: bool = True,
 ) -> GridSpec:

@@ -76,7 +76,7 @@ def resolve_device(device: str | None) -> str:
     return _warp.resolve_device(device)
 
 
-def to_device(a: np.ndarray, dtype, device: str) -> Any:
+def to_device(a: np.ndarray, dtype: Any, device: str) -> Any:
     """Warp array (``wp.int32`` or ``wp.float64``) of ``a``: on the CPU its memory, else a copy.
 
     The caller keeps ``a`` alive while the array is used (the Warp array holds a reference).
@@ -87,7 +87,14 @@ def to_device(a: np.ndarray, dtype, device: str) -> Any:
     return wp.array(a, dtype=dtype, device=device, copy=device != "cpu")
 
 
-def _row_setup(lat_rad, h_m, ellipsoid, radius, order, device):
+def _row_setup(
+    lat_rad: np.ndarray,
+    h_m: np.ndarray,
+    ellipsoid: Ellipsoid,
+    radius: float,
+    order: int,
+    device: str,
+) -> tuple[list[Any], Any]:
     """Per-item geometry and normal gravitation (geodetic ENU), see ``row_setup_kernel``."""
     import warp as wp
 

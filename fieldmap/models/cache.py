@@ -39,6 +39,8 @@ import shutil
 import stat
 import tempfile
 import threading
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -109,7 +111,7 @@ def content_hash(paths: list[str], root: str | None = None) -> str:
     return hashlib.sha256("".join(parts).encode()).hexdigest()
 
 
-def _write_json(path: str, obj) -> None:
+def _write_json(path: str, obj: Any) -> None:
     """Write ``obj`` atomically; silently give up where the cache folder is not writable."""
     try:
         os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -242,7 +244,14 @@ def store(paths: list[str], variant: str, model: SHModel, *, root: str | None = 
         return False
 
 
-def cached_read(paths: list[str], variant: str, lmax: int | None, reader, *, enabled=True):
+def cached_read(
+    paths: list[str],
+    variant: str,
+    lmax: int | None,
+    reader: Callable[[int | None], SHModel],
+    *,
+    enabled: bool = True,
+) -> SHModel:
     """Return the model of ``paths`` read to degree ``lmax``, through the cache.
 
     Parameters
@@ -340,7 +349,9 @@ def disable() -> None:
 TABLES_MIN_DEGREE = 1000
 
 
-def cached_tables(lmax: int, compute, *, root: str | None = None) -> dict:
+def cached_tables(
+    lmax: int, compute: Callable[[int], dict[str, np.ndarray]], *, root: str | None = None
+) -> dict[str, np.ndarray]:
     """Recursion tables of the spherical-harmonic engine, kept on disk for high degrees.
 
     ``compute(lmax) -> dict`` of float64 arrays (:func:`fieldmap.field.sh.recursion_tables`,
@@ -395,7 +406,9 @@ def prefetch_tables(lmax: int, *, root: str | None = None) -> None:
         _prefetched[folder] = tab
 
 
-def _tables_folder(lmax: int, compute, root: str | None) -> str | None:
+def _tables_folder(
+    lmax: int, compute: Callable[[int], dict[str, np.ndarray]], root: str | None
+) -> str | None:
     """Entry of the tables of ``lmax`` made by ``compute`` (keyed by its source), or None."""
     import inspect
 
@@ -423,7 +436,9 @@ def _verified_tables(folder: str) -> dict:
     return out
 
 
-def _load_tables(folder: str, lmax: int, compute) -> dict:
+def _load_tables(
+    folder: str, lmax: int, compute: Callable[[int], dict[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
     """Return the verified tables of ``folder``; compute and store them if absent or damaged."""
     try:
         return _verified_tables(folder)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import re
 import struct
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +58,7 @@ def default_gravity_dirs() -> list[str]:
     return out
 
 
-def find_egm(name: str, model_dir=None) -> str | None:
+def find_egm(name: str, model_dir: str | os.PathLike[str] | None = None) -> str | None:
     """Path of ``NAME.egm`` in ``model_dir`` (or, if None, in :func:`default_gravity_dirs`)."""
     if not re.fullmatch(r"[A-Za-z0-9_.+-]+", str(name)):
         return None
@@ -69,7 +70,7 @@ def find_egm(name: str, model_dir=None) -> str | None:
     return None
 
 
-def _number(path, line, key, text) -> float:
+def _number(path: str | os.PathLike[str], line: int, key: str, text: str) -> float:
     from fieldmap.errors import ModelFileError
 
     try:
@@ -85,7 +86,7 @@ def _number(path, line, key, text) -> float:
     return val
 
 
-def read_egm_metadata(path) -> dict:
+def read_egm_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Parse a GeographicLib ``.egm`` metadata file (``EGMF-1`` then ``key value`` lines).
 
     Returns
@@ -148,7 +149,9 @@ def read_egm_metadata(path) -> dict:
     return meta
 
 
-def _read_block(cof, raw: bytes, pos: int, what: str, allow_empty: bool):
+def _read_block(
+    cof: str | os.PathLike[str], raw: bytes, pos: int, what: str, allow_empty: bool
+) -> tuple[np.ndarray | None, np.ndarray | None, int, int, int]:
     """Read ``N M C S`` at byte ``pos``; return (C, S, N, M, new pos); (None, ...) if N = -1."""
     from fieldmap.errors import ModelFileError
 
@@ -187,13 +190,13 @@ def _read_block(cof, raw: bytes, pos: int, what: str, allow_empty: bool):
     return C, S, N, M, end
 
 
-def _schmidt_to_full(C, S):
+def _schmidt_to_full(C: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Schmidt semi-normalised -> fully normalised: divide degree n by sqrt(2n+1)."""
     f = np.sqrt(2.0 * np.arange(C.shape[0]) + 1.0)[:, None]
     return C / f, S / f
 
 
-def read_egm(path, lmax: int | None = None) -> SHModel:
+def read_egm(path: str | os.PathLike[str], lmax: int | None = None) -> SHModel:
     """Read a GeographicLib gravity model (``NAME.egm`` and ``NAME.egm.cof``).
 
     Parameters
@@ -237,6 +240,7 @@ def read_egm(path, lmax: int | None = None) -> SHModel:
             f"{cof}, byte 0: ID {raw[:8]!r} does not match ID {meta['ID']} of {path}"
         )
     C, S, N, M, pos = _read_block(cof, raw, 8, "model", allow_empty=False)
+    assert C is not None and S is not None  # allow_empty=False
     if C[0, 0] != 0.0:
         raise ModelFileError(
             f"{cof}, byte 16: C00 must be 0 (GeographicLib adds the central term), got {C[0, 0]!r}"
@@ -256,6 +260,7 @@ def read_egm(path, lmax: int | None = None) -> SHModel:
     header = {k: v for k, v in meta.items() if k != "_line"}
     header.update({"format": "egm", "N": N, "M": M})
     if CC is not None:
+        assert CS is not None  # read together with CC
         if schmidt:
             CC, CS = _schmidt_to_full(CC, CS)
         header["correction"] = SHModel(

@@ -32,6 +32,7 @@ import struct
 import subprocess
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.errors import FieldmapError, InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
@@ -66,7 +67,7 @@ def egm_id(name: str) -> str:
 
 def write_egm(
     model: SHModel,
-    folder,
+    folder: str | os.PathLike[str],
     name: str | None = None,
     reference: Ellipsoid = WGS84,
     description: str | None = None,
@@ -143,7 +144,7 @@ def write_egm(
     return name
 
 
-def _cof_block(C, S, N: int, M: int) -> bytes:
+def _cof_block(C: np.ndarray, S: np.ndarray, N: int, M: int) -> bytes:
     """int32 N, M, then C column-major (m = 0..M, n = m..N), then S likewise for m = 1..M."""
     c_cols = np.concatenate([C[m : N + 1, m] for m in range(M + 1)])
     s_cols = np.concatenate([S[m : N + 1, m] for m in range(1, M + 1)]) if M else np.zeros(0)
@@ -160,8 +161,8 @@ def gravity_tool() -> str | None:
 
 
 def run_gravity_tool(
-    points,
-    model_dir,
+    points: ArrayLike,
+    model_dir: str | os.PathLike[str],
     name: str,
     mode: str = "disturbance",
     nmax: int | None = None,

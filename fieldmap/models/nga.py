@@ -61,7 +61,7 @@ def looks_like_nga(head: bytes) -> bool:
     return True
 
 
-def known_constants(path) -> tuple[str, float, float] | None:
+def known_constants(path: str | os.PathLike[str]) -> tuple[str, float, float] | None:
     """``(name, GM, radius)`` of a known NGA model named in the file name, else None."""
     base = os.path.basename(os.fspath(path)).lower().replace("-", "").replace("_", "")
     for key, val in KNOWN.items():
@@ -70,12 +70,12 @@ def known_constants(path) -> tuple[str, float, float] | None:
     return None
 
 
-def _fail(path, line, msg):
+def _fail(path: str | os.PathLike[str], line: int | None, msg: str) -> ModelFileError:
     return ModelFileError(f"{path}, line {line}: {msg}" if line else f"{path}: {msg}")
 
 
 def read_nga(
-    path,
+    path: str | os.PathLike[str],
     lmax: int | None = None,
     *,
     gm: float | None = None,
@@ -222,7 +222,16 @@ def read_nga(
     )
 
 
-def _values(path, buf, starts, ends, tok_line, first, li, ncol) -> np.ndarray:
+def _values(
+    path: str | os.PathLike[str],
+    buf: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    tok_line: np.ndarray,
+    first: np.ndarray,
+    li: np.ndarray,
+    ncol: int,
+) -> np.ndarray:
     """Return the C, S (and σC, σS) columns of every line, shape (lines, 2 or 4)."""
     pos = np.arange(starts.size) - first[tok_line]
     keep_tok = pos >= 2
@@ -250,12 +259,12 @@ def _values(path, buf, starts, ends, tok_line, first, li, ncol) -> np.ndarray:
         if ok:
             ok = math.isfinite(float(tok.replace(b"D", b"E").replace(b"d", b"e")))
         if not ok:
-            text = tok.decode("latin-1")
-            raise _fail(path, int(tok_line[t]) + 1, f"{text!r} is not a finite number")
+            shown = tok.decode("latin-1")
+            raise _fail(path, int(tok_line[t]) + 1, f"{shown!r} is not a finite number")
     raise _fail(path, 0, "could not parse the coefficient values")  # pragma: no cover
 
 
-def write_nga(path, model: SHModel, exponent: str = "D") -> None:
+def write_nga(path: str | os.PathLike[str], model: SHModel, exponent: str = "D") -> None:
     """Write ``model`` (degrees 2..lmax) as an NGA plain coefficient file, for tests.
 
     Parameters

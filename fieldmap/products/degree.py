@@ -12,8 +12,11 @@ degree whose omission stays within a tolerance over a region and heights.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Iterable
 from dataclasses import replace
 from numbers import Integral
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import xarray as xr
@@ -24,6 +27,11 @@ from fieldmap.grids.synthesis import check_memory, synthesize
 from fieldmap.products.statistics import map_statistics
 from fieldmap.products.variables import coords, global_attrs, index_height_km, mg_attrs, vector_vars
 from fieldmap.units import MGAL
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.models.shmodel import SHModel
 
 __all__ = ["MIN_DEGREE", "check_degrees", "check_tolerance", "degree_needed", "omission_map"]
 
@@ -38,7 +46,7 @@ STATS = (
 )
 
 
-def _integer(v) -> int:
+def _integer(v: object) -> int:
     if isinstance(v, bool):
         raise InputError(f"degree {v!r} is not an integer")
     if isinstance(v, Integral):
@@ -51,9 +59,13 @@ def _integer(v) -> int:
     raise InputError(f"degree {v!r} is not an integer")
 
 
-def check_degrees(degrees, lmax: int) -> tuple[int, ...]:
+def check_degrees(degrees: int | str | Iterable[int | str], lmax: int) -> tuple[int, ...]:
     """Return distinct integer degrees between :data:`MIN_DEGREE` and ``lmax``, ascending."""
-    values = [degrees] if isinstance(degrees, (str, Integral)) else list(degrees)
+    values = (
+        [degrees]
+        if isinstance(degrees, (str, Integral))
+        else list(cast(Iterable[int | str], degrees))
+    )
     if not values:
         raise InputError("no degree given")
     out = [_integer(v) for v in values]
@@ -68,7 +80,7 @@ def check_degrees(degrees, lmax: int) -> tuple[int, ...]:
     return tuple(sorted(out))
 
 
-def check_tolerance(tolerance_mgal) -> float:
+def check_tolerance(tolerance_mgal: float | str) -> float:
     """Return a tolerance in mGal, refusing one that is not finite and > 0."""
     try:
         t = float(tolerance_mgal)
@@ -79,7 +91,7 @@ def check_tolerance(tolerance_mgal) -> float:
     return t
 
 
-def omission_model(model, degree: int):
+def omission_model(model: SHModel, degree: int) -> SHModel:
     """Return the model with every coefficient of degree ≤ ``degree`` zeroed (d+1..L kept)."""
     C, S = model.C.copy(), model.S.copy()
     C[: degree + 1] = 0.0
@@ -87,14 +99,16 @@ def omission_model(model, degree: int):
     return replace(model, C=C, S=S)
 
 
-def _omission(mod, degree, grid, ell, device) -> np.ndarray:
+def _omission(
+    mod: SHModel, degree: int, grid: GridSpec, ell: Ellipsoid, device: str | None
+) -> np.ndarray:
     """Omission vector (nh, nlat, nlon, 3) in m/s²; exactly zero at the model's degree."""
     if degree >= mod.lmax:
         return np.zeros((*grid.shape, 3))
     return synthesize(omission_model(mod, degree), grid, ell, "gravitation", device)
 
 
-def _max_mgal(vec) -> float:
+def _max_mgal(vec: np.ndarray) -> float:
     return float(np.sqrt(np.einsum("...k,...k->...", vec, vec)).max() / MGAL)
 
 
@@ -103,7 +117,9 @@ def _max_mgal(vec) -> float:
 OPTIONS = ("lmax", "epoch", "height_km", "step_deg", "lat_max", "region", "ellipsoid", "device")
 
 
-def _setup(name: str, model, options: dict):
+def _setup(
+    name: str, model: SHModel | str | os.PathLike[str], options: dict[str, Any]
+) -> tuple[GridSpec, Ellipsoid, str | None, SHModel]:
     """Validate the grid, ellipsoid, device and model of an omission product (one request)."""
     from fieldmap.products.request import MapRequest
 
@@ -115,7 +131,13 @@ def _setup(name: str, model, options: dict):
     return req.grid, req.ellipsoid, req.execution.device, req.model
 
 
-def omission_map(model="eigen-6s", /, *, degrees=(18, 36, 90, 180), **options) -> xr.Dataset:
+def omission_map(
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    /,
+    *,
+    degrees: int | str | Iterable[int | str] = (18, 36, 90, 180),
+    **options: Any,
+) -> xr.Dataset:
     """Map the SH omission δg_full − δg_d of each degree d (the field of degrees d+1..L).
 
     Parameters
@@ -145,7 +167,9 @@ def omission_map(model="eigen-6s", /, *, degrees=(18, 36, 90, 180), **options) -
     return _dataset(vec, degs, mod, grid, ell)
 
 
-def _dataset(vec, degs, mod, grid, ell) -> xr.Dataset:
+def _dataset(
+    vec: np.ndarray, degs: tuple[int, ...], mod: SHModel, grid: GridSpec, ell: Ellipsoid
+) -> xr.Dataset:
     dims = ("degree", "height", "latitude", "longitude")
     heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
     ds = xr.Dataset(
@@ -191,7 +215,13 @@ def _dataset(vec, degs, mod, grid, ell) -> xr.Dataset:
     return index_height_km(ds)
 
 
-def degree_needed(model="eigen-6s", /, *, tolerance_mgal, **options) -> dict:
+def degree_needed(
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    /,
+    *,
+    tolerance_mgal: float | str,
+    **options: Any,
+) -> dict[str, Any]:
     """Find the smallest degree d (2..L) whose omission max over grid and heights is ≤ tolerance.
 
     Bisection on d: the omission of L is zero (L always meets the tolerance); degree 2 is

@@ -12,7 +12,7 @@ executor, so a product is bitwise the same whether its blocks run here one after
 cluster, or lazily when a dask-backed Dataset is read; a block that is run again after a worker
 died gives the same bits.
 
-The engine takes one :class:`fieldmap.products.request.MapRequest` (validated at its
+The engine takes one :class:`fieldmap.products.request._Request` (validated at its
 construction, trusted here): :func:`compute` returns the product in memory, :func:`lazy`
 a dask-backed Dataset; :func:`write_product` streams it to a NetCDF file or zarr store
 (the targets of :mod:`fieldmap.products.sinks`).
@@ -39,8 +39,8 @@ import math
 import os
 import sys
 import weakref
-from collections.abc import Iterator
-from typing import Any
+from collections.abc import Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import xarray as xr
@@ -57,6 +57,10 @@ from fieldmap.products.statistics import (
 )
 from fieldmap.products.variables import assemble_quantity, index_height_km
 
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.models.shmodel import SHModel
+
 #: Blocks per height of the default plan (at least; more where memory asks for it).
 BLOCKS_PER_HEIGHT = 32
 #: The same, for blocks computed here into memory or a NetCDF file: each block is one
@@ -64,6 +68,24 @@ BLOCKS_PER_HEIGHT = 32
 #: already spread a block over the cores, so one block per height (as large as the memory
 #: budget allows) costs least; any plan gives the same bits.
 LOCAL_BLOCKS_PER_HEIGHT = 1
+
+
+class _Request(Protocol):
+    """What the engine reads of a :class:`fieldmap.products.request.MapRequest`.
+
+    (A protocol, not that class: the request module imports the engine.)
+    """
+
+    @property
+    def model(self) -> Any: ...
+    @property
+    def grid(self) -> GridSpec: ...
+    @property
+    def ellipsoid(self) -> Ellipsoid: ...
+    @property
+    def output(self) -> Any: ...
+    @property
+    def execution(self) -> Any: ...
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,7 +135,7 @@ def block_bytes(nb: int, lmax: int, nlon: int, lon: np.ndarray | None = None) ->
 
 
 def plan_blocks(
-    grid,
+    grid: GridSpec,
     lmax: int,
     rows_per_block: int | None = None,
     *,
@@ -234,7 +256,13 @@ class Job:
         return tuple(self.output.thresholds_mg) if self.quantity == "disturbance" else ()
 
 
-def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hist_weights):
+def disturbance_partial(
+    vec: np.ndarray,
+    units: str,
+    row_weights: np.ndarray,
+    thresholds: Sequence[float],
+    hist_weights: np.ndarray,
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
 
     The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
@@ -256,7 +284,9 @@ def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hi
     mods = np.empty((2, *comps.shape[1:]))
     rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
 
-    def part(a, b):
+    def part(
+        a: int, b: int
+    ) -> tuple[float, float, int, np.ndarray, np.ndarray, list[np.ndarray], np.ndarray] | None:
         convert_rows(comps, comps, mods, scale, a, b)
         return rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
 
@@ -265,7 +295,7 @@ def disturbance_partial(vec: np.ndarray, units: str, row_weights, thresholds, hi
     return dict(zip(names, (*comps, *mods))), joined_partials(parts, len(thresholds))
 
 
-def compute_block(job: Job, model) -> dict:
+def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
     """Synthesise one block; write it to the zarr store if ``job.store``, return the rest.
 
     Returns
@@ -284,6 +314,7 @@ def compute_block(job: Job, model) -> dict:
     row_weights, hist_weights = job.weights
     units = job.output.units
     if job.quantity == "disturbance":
+        assert model is not None  # None for truncation maps only
         vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
         # converted in place and reduced in one pass (vector_vars and block_partial, same bits)
         data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
@@ -308,6 +339,7 @@ def compute_block(job: Job, model) -> dict:
     elif job.quantity == "components":
         from fieldmap.grids.synthesis import centrifugal_rows, normal_rows
 
+        assert model is not None
         g = synthesize(model, sub, ell, "gravity", job.device, progress=False)[0]
         gam = (normal_rows(sub, ell, "exact", job.device) + centrifugal_rows(sub, ell))[0]
         gam = np.broadcast_to(gam[:, None, :], g.shape)
@@ -319,6 +351,7 @@ def compute_block(job: Job, model) -> dict:
     else:
         from fieldmap.products.variables import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
 
+        assert model is not None
         if job.quantity in GRADIENT_QUANTITIES:
             from fieldmap.field.gradient import grid_gradient
 
@@ -351,7 +384,12 @@ def compute_block(job: Job, model) -> dict:
 # ---------------------------------------------------------------------------- executors
 
 
-def _run_local(jobs, model, on_result, progress) -> None:
+def _run_local(
+    jobs: list[Job],
+    model: SHModel | None,
+    on_result: Callable[[dict[str, Any]], None],
+    progress: bool | None,
+) -> None:
     from tqdm.auto import tqdm
 
     if _bar_off(progress):  # no bar object: it costs as much as a small map's statistics
@@ -367,11 +405,18 @@ def _run_local(jobs, model, on_result, progress) -> None:
         bar.close()
 
 
-def _bar_off(progress):
+def _bar_off(progress: bool | None) -> bool | None:
     return (not progress) if progress is not None else None
 
 
-def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> None:
+def _run_dask(
+    client: Any,
+    jobs: list[Job],
+    model: SHModel | None,
+    on_result: Callable[[dict[str, Any]], None],
+    progress: bool | None,
+    window: int | None,
+) -> None:
     """Submit the blocks to ``client`` (at most ``window`` in flight), handle results."""
     from distributed import as_completed
     from tqdm.auto import tqdm
@@ -404,7 +449,7 @@ def _run_dask(client, jobs, model, on_result, progress, window: int | None) -> N
         bar.close()
 
 
-def _take(it, n):
+def _take(it: Iterator[Job], n: int) -> list[Job]:
     out = []
     for _ in range(n):
         try:
@@ -417,7 +462,7 @@ def _take(it, n):
 # ---------------------------------------------------------------------------- products
 
 
-def product_grid(request) -> GridSpec:
+def product_grid(request: _Request) -> GridSpec:
     """Return the grid the blocks cover: one layer per order for a truncation map.
 
     A layer is a height of the grid; the orders of a truncation map (one height) are its
@@ -430,7 +475,7 @@ def product_grid(request) -> GridSpec:
     return grid
 
 
-def plan(request, local: bool = True) -> list[Block]:
+def plan(request: _Request, local: bool = True) -> list[Block]:
     """Return the blocks of a request's product (:func:`plan_blocks` of its grid).
 
     ``local``: the blocks run here into memory or a NetCDF file (the fewest blocks), else on a
@@ -445,7 +490,7 @@ def plan(request, local: bool = True) -> list[Block]:
     )
 
 
-def make_jobs(request, blocks: list[Block], store: Any = None) -> list[Job]:
+def make_jobs(request: _Request, blocks: list[Block], store: Any = None) -> list[Job]:
     """One :class:`Job` per block of a request's product (``store``: workers write there)."""
     from fieldmap.products.statistics import area_weights, histogram_weights
 
@@ -471,18 +516,18 @@ def make_jobs(request, blocks: list[Block], store: Any = None) -> list[Job]:
 
 
 def run_blocks(
-    request,
+    request: _Request,
     *,
     client: Any = None,
     sink: Any = None,
     store: Any = None,
     progress: bool | None = None,
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Compute every block of a request's product; return the statistics per layer.
 
     Parameters
     ----------
-    request : fieldmap.products.request.MapRequest
+    request : fieldmap.products.request._Request
     client : dask.distributed.Client, optional
         Run the blocks on this cluster (the request's executor, opened); default: here, one
         after the other. At most ``request.execution.window`` blocks are in flight (default:
@@ -512,7 +557,7 @@ def run_blocks(
     fold = OrderedFold(grid.heights.size)
     progress = request.execution.progress if progress is None else progress
 
-    def on_result(res):
+    def on_result(res: dict[str, Any]) -> None:
         if sink is not None:
             sink(blocks[res["index"]], res["data"])
         fold.add(res["index"], res["layer"], res["partial"])
@@ -580,7 +625,7 @@ def _glibc_thresholds(mmap_bytes: int) -> bool:
     return bool(ok)
 
 
-def parse_scheduler(text: str | None):
+def parse_scheduler(text: str | None) -> tuple[str, int] | str | None:
     """``None``/"threads" (local thread pool), ``("local", N)`` or a scheduler address."""
     if text is None or text in ("threads", "none", ""):
         return None
@@ -598,7 +643,9 @@ def parse_scheduler(text: str | None):
 
 
 @contextlib.contextmanager
-def open_client(scheduler, connect_timeout: float = 5.0) -> Iterator[object]:
+def open_client(
+    scheduler: tuple[str, int] | str | None, connect_timeout: float = 5.0
+) -> Iterator[Any]:
     """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
 
     ``None`` (no scheduler: run here) yields None. ``("local", N)`` starts a LocalCluster of N
@@ -672,7 +719,7 @@ def _probe(address: str, timeout: float) -> None:
 _SCATTERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def scattered(client, model):
+def scattered(client: Any, model: SHModel) -> Any:
     """Return the future of ``model`` broadcast to every worker of ``client``, once per client.
 
     Products made one after the other on the same client (a notebook, a study over several
@@ -692,7 +739,9 @@ def scattered(client, model):
     fut = client.scatter(model, broadcast=True, hash=False)
     key = id(model)
 
-    def forget(_ref, key=key, per_client=per_client):
+    def forget(
+        _ref: weakref.ref[SHModel], key: int = key, per_client: dict[int, Any] = per_client
+    ) -> None:
         # drop the cache's reference only: a graph or a task still holding the future keeps
         # the data on the cluster, the last reference gone releases it (Future.__del__)
         per_client.pop(key, None)
@@ -704,13 +753,13 @@ def scattered(client, model):
     return fut
 
 
-def _chunk_rows(chunks):
+def _chunk_rows(chunks: Any) -> Any:
     if isinstance(chunks, dict):
         chunks = chunks.get("latitude")
     return None if chunks in (None, True, "auto") else chunks
 
 
-def lazy(request) -> xr.Dataset:
+def lazy(request: _Request) -> xr.Dataset:
     """Return a lazy, dask-backed Dataset of the request's product; blocks run when read.
 
     ``request.execution.chunks``: most latitude rows per block (int, or {"latitude": n});
@@ -738,7 +787,7 @@ def lazy(request) -> xr.Dataset:
             pieces[(b.layer, r0)] = (res, off, r1)
             off += r1 - r0
 
-    def column(name, layer):
+    def column(name: str, layer: int) -> Any:
         parts, r = [], 0
         while r < nlat:
             res, off, r1 = pieces[(layer, r)]
@@ -767,7 +816,7 @@ def _rows(res: dict, name: str, a: int, b: int) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def executor_client(request) -> Iterator[Any]:
+def executor_client(request: _Request) -> Iterator[Any]:
     """Yield the Dask client of a request's executor (None: here); close what was opened.
 
     A scheduler string is connected (or its LocalCluster started) before anything runs: an
@@ -781,7 +830,7 @@ def executor_client(request) -> Iterator[Any]:
             yield c
 
 
-def template(request) -> xr.Dataset:
+def template(request: _Request) -> xr.Dataset:
     """Coordinates, global and variable attributes of a request's product, without data.
 
     ``attrs["variables"]`` maps each variable name to its attributes, ``attrs["dims"]`` gives
@@ -799,7 +848,7 @@ def template(request) -> xr.Dataset:
     return v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
 
 
-def compute(request) -> xr.Dataset:
+def compute(request: _Request) -> xr.Dataset:
     """Compute a request's product and return it whole, statistics included (or lazy).
 
     The blocks run on the request's executor, into memory; with ``execution.chunks`` the
@@ -863,7 +912,9 @@ def _dataset_of(tmpl: xr.Dataset, values: dict) -> xr.Dataset:
     )
 
 
-def _disturbance_dataset(request, values, stats) -> xr.Dataset:
+def _disturbance_dataset(
+    request: _Request, values: dict[str, np.ndarray], stats: list[dict[str, Any]]
+) -> xr.Dataset:
     from fieldmap.products import variables as v
 
     out, grid = request.output, request.grid
@@ -894,7 +945,9 @@ def _disturbance_dataset(request, values, stats) -> xr.Dataset:
     return index_height_km(v.dataset(data, parts["coords"], attrs))
 
 
-def _truncation_dataset(request, tmpl, values) -> xr.Dataset:
+def _truncation_dataset(
+    request: _Request, tmpl: xr.Dataset, values: dict[str, np.ndarray]
+) -> xr.Dataset:
     from fieldmap.products.statistics import map_statistics
     from fieldmap.products.variables import mg_attrs, statistic_name
 
@@ -920,7 +973,9 @@ def check_format(fmt: Any) -> str:
     return fmt
 
 
-def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) -> dict:
+def write_product(
+    request: _Request, path: str | os.PathLike[str], fmt: str = "netcdf", *, atomic: bool = True
+) -> dict[str, Any]:
     """Compute a request's product block by block and stream it to ``path``.
 
     Everything the product is (model, degree, heights, grid, ellipsoid, units, thresholds,
@@ -928,7 +983,7 @@ def write_product(request, path, fmt: str = "netcdf", *, atomic: bool = True) ->
 
     Parameters
     ----------
-    request : fieldmap.products.request.MapRequest
+    request : fieldmap.products.request._Request
         A disturbance map or sweep, or a quantity map; its executor runs the blocks (a Dask
         client, ``"local:N"``, an address; none: here, one after the other), at most
         ``execution.window`` in flight.

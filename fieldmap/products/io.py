@@ -22,13 +22,18 @@ import os
 import signal
 import tempfile
 import threading
+from collections.abc import Hashable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fieldmap.errors import InputError
 
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.figure import Figure
 
-def prepare_out_dir(out) -> Path:
+
+def prepare_out_dir(out: str | os.PathLike[str]) -> Path:
     """Create (if needed) and check the output folder; raise :class:`InputError` if unusable.
 
     Call this only after every other input has been validated, so that bad input writes nothing.
@@ -49,13 +54,13 @@ def prepare_out_dir(out) -> Path:
     return path
 
 
-def _folder(out) -> Path:
+def _folder(out: str | os.PathLike[str]) -> Path:
     if not str(out).strip():
         raise InputError("output folder name is empty")
     return Path(out).expanduser()
 
 
-def check_out_dir(out) -> None:
+def check_out_dir(out: str | os.PathLike[str]) -> None:
     """Validate an output folder without leaving anything behind (raises :class:`InputError`).
 
     The folder must exist and be writable, or be creatable under an existing ancestor folder.
@@ -106,7 +111,7 @@ def _probe_mkdir(path: Path, parent: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path):
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success rename it to ``path``."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -122,7 +127,7 @@ def atomic_path(path):
 
 
 @contextlib.contextmanager
-def signals_deferred():
+def signals_deferred() -> Iterator[None]:
     """Hold SIGINT and SIGTERM until the block ends, then deliver them (main thread only).
 
     A ``KeyboardInterrupt`` raised inside the NetCDF/HDF5 writer can leave one of its locks
@@ -142,8 +147,8 @@ def signals_deferred():
     finally:
         for sig, handler in old.items():
             signal.signal(sig, signal.SIG_DFL if handler is None else handler)
-        for sig in dict.fromkeys(caught):
-            signal.raise_signal(sig)  # the restored handler runs now
+        for signum in dict.fromkeys(caught):
+            signal.raise_signal(signum)  # the restored handler runs now
 
 
 #: zlib level of the NetCDF variables. On double-precision maps, whose low mantissa bytes are
@@ -154,7 +159,7 @@ COMPLEVEL = 1
 DTYPES = ("float64", "float32")
 
 
-def netcdf_encoding(ds, dtype: str = "float64") -> dict:
+def netcdf_encoding(ds: xr.Dataset, dtype: str = "float64") -> dict[Hashable, dict[str, Any]]:
     """Return the NetCDF-4 encoding of ``ds``: compressed maps, coordinates without fill values.
 
     Float variables of two or more dimensions are compressed with zlib (level
@@ -174,14 +179,14 @@ def netcdf_encoding(ds, dtype: str = "float64") -> dict:
     """
     if dtype not in DTYPES:
         raise InputError(f"NetCDF dtype must be one of {', '.join(DTYPES)}, got {dtype!r}")
-    enc: dict[str, dict[str, Any]] = {name: {"_FillValue": None} for name in ds.coords}
+    enc: dict[Hashable, dict[str, Any]] = {name: {"_FillValue": None} for name in ds.coords}
     for name, var in ds.variables.items():
         if var.dtype.kind in "OUS":  # text as char arrays: CF has no variable-length strings
             enc.setdefault(name, {})["dtype"] = "S1"
-    for name, var in ds.data_vars.items():
-        if var.dtype.kind == "f" and var.ndim >= 2:
+    for name, arr in ds.data_vars.items():
+        if arr.dtype.kind == "f" and arr.ndim >= 2:
             enc[name] = {"zlib": True, "shuffle": True, "complevel": COMPLEVEL}
-            if dtype != "float64" and {"latitude", "longitude"} <= set(var.dims):
+            if dtype != "float64" and {"latitude", "longitude"} <= set(arr.dims):
                 enc[name]["dtype"] = dtype
     return enc
 
@@ -195,7 +200,7 @@ _STORAGE_ERRNOS = frozenset(
 
 
 @contextlib.contextmanager
-def writing(path):
+def writing(path: str | os.PathLike[str]) -> Iterator[None]:
     """Let a failed write name the file (``path``, the final name), e.g. on a full disk.
 
     A storage error (:data:`_STORAGE_ERRNOS`) without a file name, or naming a hidden temporary
@@ -218,20 +223,20 @@ def writing(path):
         raise OSError(errno.EIO, f"{exc} while writing (is the disk full?)", str(path)) from exc
 
 
-def _netcdf_to(ds, tmp, dtype: str = "float64") -> None:
+def _netcdf_to(ds: xr.Dataset, tmp: str | os.PathLike[str], dtype: str = "float64") -> None:
     encoding = netcdf_encoding(ds, dtype)
     with signals_deferred():
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
 
 
-def _text_to(text: str, tmp) -> None:
+def _text_to(text: str, tmp: str | os.PathLike[str]) -> None:
     with open(tmp, "w", encoding="utf-8", newline="") as fh:
         fh.write(text)
         fh.flush()
         os.fsync(fh.fileno())
 
 
-def _json_text(obj) -> str:
+def _json_text(obj: Any) -> str:
     return json.dumps(obj, indent=2, sort_keys=False) + "\n"
 
 
@@ -239,7 +244,7 @@ def _json_text(obj) -> str:
 PNG_DPI = 130
 
 
-def _png_to(fig, tmp, dpi: int) -> None:
+def _png_to(fig: Figure, tmp: str | os.PathLike[str], dpi: int) -> None:
     import matplotlib.pyplot as plt
 
     try:
@@ -249,7 +254,7 @@ def _png_to(fig, tmp, dpi: int) -> None:
         plt.close(fig)
 
 
-def write_netcdf(ds, path, dtype: str = "float64") -> Path:
+def write_netcdf(ds: xr.Dataset, path: str | os.PathLike[str], dtype: str = "float64") -> Path:
     """Write an ``xarray.Dataset`` as compressed NetCDF-4 atomically; return the final path.
 
     ``dtype="float32"`` stores the maps in single precision (relative error ≤ 6e-8, see
@@ -262,7 +267,7 @@ def write_netcdf(ds, path, dtype: str = "float64") -> Path:
     return path
 
 
-def write_json(obj, path) -> Path:
+def write_json(obj: Any, path: str | os.PathLike[str]) -> Path:
     """Write ``obj`` as indented JSON (UTF-8) atomically; return the final path."""
     path = Path(path)
     text = _json_text(obj)  # serialise first: a bad value leaves no temporary file behind
@@ -271,7 +276,7 @@ def write_json(obj, path) -> Path:
     return path
 
 
-def write_png(fig, path, dpi: int = PNG_DPI) -> Path:
+def write_png(fig: Figure, path: str | os.PathLike[str], dpi: int = PNG_DPI) -> Path:
     """Save a matplotlib figure as PNG atomically and close it; return the final path."""
     import matplotlib.pyplot as plt
 
@@ -294,7 +299,7 @@ class OutputBatch:
     that a failure while making the last figure does not leave the first files behind.
     """
 
-    def __init__(self, folder):
+    def __init__(self, folder: str | os.PathLike[str]) -> None:
         self.folder = Path(folder)
         self._pending: list[tuple[Path, Path]] = []
 
@@ -306,7 +311,7 @@ class OutputBatch:
         self._pending.append((Path(tmp), final))
         return Path(tmp)
 
-    def netcdf(self, ds, name: str, dtype: str = "float64") -> Path:
+    def netcdf(self, ds: xr.Dataset, name: str, dtype: str = "float64") -> Path:
         """Add a compressed NetCDF-4 file of an ``xarray.Dataset`` (``dtype``: see below).
 
         ``dtype="float32"`` stores the maps in single precision (:func:`netcdf_encoding`).
@@ -316,7 +321,7 @@ class OutputBatch:
             _netcdf_to(ds, self.path(name), dtype)
         return self.folder / name
 
-    def json(self, obj, name: str) -> Path:
+    def json(self, obj: Any, name: str) -> Path:
         """Add an indented UTF-8 JSON file."""
         text = _json_text(obj)
         with writing(self.folder / name):
@@ -329,7 +334,7 @@ class OutputBatch:
             _text_to(text, self.path(name))
         return self.folder / name
 
-    def png(self, fig, name: str, dpi: int = PNG_DPI) -> Path:
+    def png(self, fig: Figure, name: str, dpi: int = PNG_DPI) -> Path:
         """Add a PNG of a matplotlib figure (the figure is closed)."""
         with writing(self.folder / name):
             _png_to(fig, self.path(name), dpi)
@@ -356,7 +361,7 @@ class OutputBatch:
 
 
 @contextlib.contextmanager
-def output_batch(folder):
+def output_batch(folder: str | os.PathLike[str]) -> Iterator[OutputBatch]:
     """Yield an :class:`OutputBatch` for ``folder`` (created if missing); commit on success.
 
     On any error the temporary files, and the folders this call created, are removed.
@@ -380,7 +385,7 @@ def output_batch(folder):
         raise
 
 
-def _missing_folders(folder) -> list[Path]:
+def _missing_folders(folder: str | os.PathLike[str]) -> list[Path]:
     """Return the folders of ``folder`` that do not exist yet, deepest first."""
     path = Path(folder).expanduser().absolute()
     missing = []

@@ -22,6 +22,9 @@ coastlines, size and resolution of a figure) is shared by all.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Literal
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -34,10 +37,21 @@ from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator  # noqa: E402
+from numpy.typing import ArrayLike  # noqa: E402
 
 from fieldmap.products import coastline  # noqa: E402
 from fieldmap.products.io import PNG_DPI  # noqa: E402
 from fieldmap.products.variables import SURFACE_QUANTITIES, fraction_attr  # noqa: E402
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.collections import QuadMesh
+    from matplotlib.colorbar import Colorbar
+    from matplotlib.colors import Colormap, Normalize
+    from matplotlib.figure import Figure, SubFigure
+    from matplotlib.image import AxesImage
+    from matplotlib.patheffects import AbstractPathEffect
 
 MG_NOTE = "1 mg = 9.80665×10⁻³ m/s²"
 # isoline styles by rank of the level (lowest first): colour, width. None is black or grey, the
@@ -51,11 +65,11 @@ _ISO = [
 _FAINT = ("#5b9bd5", 0.5, ":")  # isolines below the area median of the map
 
 
-def _halo(lw):
+def _halo(lw: float) -> list[AbstractPathEffect]:
     return [pe.withStroke(linewidth=lw + 1.3, foreground="white", alpha=0.85)]
 
 
-def describe(ds, height_m=None) -> str:
+def describe(ds: xr.Dataset, height_m: float | None = None) -> str:
     """'EIGEN-6S degree 240, h = 20 km' from a Dataset's attributes."""
     h = float(ds["height"].values) if height_m is None else float(height_m)
     parts = []
@@ -65,7 +79,7 @@ def describe(ds, height_m=None) -> str:
     return ", ".join(parts)
 
 
-def _bands(top: float, levels) -> np.ndarray:
+def _bands(top: float, levels: Sequence[float]) -> np.ndarray:
     """Colour-band edges from 0 to ``top``: round steps plus every isoline level.
 
     A round edge closer than 0.3 step to an isoline level is dropped so that no band is a
@@ -79,7 +93,7 @@ def _bands(top: float, levels) -> np.ndarray:
     return np.union1d(np.union1d(keep, lev), [0.0, top])
 
 
-def _levels(ds, levels_mg):
+def _levels(ds: xr.Dataset, levels_mg: Iterable[float] | None) -> list[float]:
     """Isoline levels: those given, else the thresholds of the map or sweep, else Fig. 4's."""
     if levels_mg is None and "threshold_mg" in ds.coords:
         levels_mg = ds["threshold_mg"].values
@@ -88,7 +102,7 @@ def _levels(ds, levels_mg):
     return sorted(float(x) for x in levels_mg)
 
 
-def _modulus_top(v, levels) -> float:
+def _modulus_top(v: np.ndarray, levels: Sequence[float]) -> float:
     """Upper end of the colour scale: a round value at or above the maximum of the data.
 
     At least 1.2 x the top isoline. The colour bar covers every value of the map (a scale
@@ -99,7 +113,7 @@ def _modulus_top(v, levels) -> float:
     return float(MaxNLocator(nbins=12, steps=[1, 2, 2.5, 5, 10]).tick_values(0.0, raw)[-1])
 
 
-def _area_median(sub, v) -> float:
+def _area_median(sub: xr.Dataset, v: np.ndarray) -> float:
     """Area-weighted median of the modulus map ``v`` (mg): from the Dataset when it has it."""
     if "p50_mg" in sub.data_vars and sub["p50_mg"].ndim == 0:
         return float(sub["p50_mg"])
@@ -110,7 +124,9 @@ def _area_median(sub, v) -> float:
     return weighted_percentile(v, area_weights(sub["latitude"].values)[:, None], 50.0)
 
 
-def _isolines(ax, ds, v, levels, labels: bool):
+def _isolines(
+    ax: Axes, ds: xr.Dataset, v: np.ndarray, levels: Sequence[float], labels: bool
+) -> list[Line2D]:
     """Draw one isoline per level; return legend handles.
 
     A level below the area median of the map encloses most of it in scattered loops (the
@@ -153,7 +169,7 @@ def _isolines(ax, ds, v, levels, labels: bool):
     return handles
 
 
-def plot_components(ds, which: str = "model"):
+def plot_components(ds: xr.Dataset, which: str = "model") -> Figure:
     """Three panels (east, north, up) of model or normal gravity (Figs. 2 and 3).
 
     Horizontal components are in mGal on a symmetric scale clipped at the 99.5th percentile of
@@ -207,7 +223,13 @@ def plot_components(ds, which: str = "model"):
     return fig
 
 
-def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=None, vmax=None):
+def plot_isolines(
+    ds: xr.Dataset,
+    levels_mg: Iterable[float] | None = None,
+    title: str | None = None,
+    height_index: int | None = None,
+    vmax: float | None = None,
+) -> Figure:
     """Modulus of the disturbance (mg) in colour with isolines at ``levels_mg`` (Figs. 4, 7, 10).
 
     With ``height_index`` (one height of an altitude sweep) the colour scale is common to all
@@ -230,7 +252,15 @@ def plot_isolines(ds, levels_mg=None, title: str | None = None, height_index=Non
     return fig
 
 
-def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
+def _isoline_panel(
+    fig: Figure,
+    ax: Axes,
+    sub: xr.Dataset,
+    levels: Sequence[float],
+    vmax: float,
+    colorbar: bool = True,
+    legend: bool = True,
+) -> QuadMesh | AxesImage:
     v = sub["modulus_mg"].values
     edges = _bands(vmax, levels)
     cmap = plt.get_cmap("YlOrRd", len(edges) - 1)
@@ -263,7 +293,9 @@ def _isoline_panel(fig, ax, sub, levels, vmax, colorbar=True, legend=True):
     return mesh
 
 
-def plot_isolines_panels(ds, height_indices, levels_mg=None):
+def plot_isolines_panels(
+    ds: xr.Dataset, height_indices: Sequence[int], levels_mg: Iterable[float] | None = None
+) -> Figure:
     """Stacked disturbance maps at several heights of a sweep with ONE colour scale (Fig. 7)."""
     levels = _levels(ds, levels_mg)
     idx = list(height_indices)
@@ -299,7 +331,7 @@ def plot_isolines_panels(ds, height_indices, levels_mg=None):
     return fig
 
 
-def plot_threshold(ds, threshold_mg: float, title: str | None = None):
+def plot_threshold(ds: xr.Dataset, threshold_mg: float, title: str | None = None) -> Figure:
     """Area where the modulus exceeds ``threshold_mg`` in black (Figs. 5 and 6)."""
     v = ds["modulus_mg"].values
     key = fraction_attr(threshold_mg)
@@ -340,7 +372,7 @@ MAX_MAP_PIXELS = 4000
 DPI = PNG_DPI
 
 
-def _regional(ds) -> bool:
+def _regional(ds: xr.Dataset) -> bool:
     return ds.attrs.get("grid_kind", "global") != "global"
 
 
@@ -351,7 +383,7 @@ def _deg_label(value: float, pos: str, neg: str) -> str:
     return f"{abs(v):g}°{pos if v > 0 else neg}"
 
 
-def _lon_label(x, _=None) -> str:
+def _lon_label(x: float, _: object = None) -> str:
     """120 -> 120°E, -60 or 300 -> 60°W, 180 -> 180°."""
     x = (float(x) + 180.0) % 360.0 - 180.0
     if abs(abs(x) - 180.0) < 1e-9:
@@ -359,16 +391,16 @@ def _lon_label(x, _=None) -> str:
     return _deg_label(x, "E", "W")
 
 
-def _lat_label(y, _=None) -> str:
+def _lat_label(y: float, _: object = None) -> str:
     return _deg_label(y, "N", "S")
 
 
-def node_step(ds) -> float:
+def node_step(ds: xr.Dataset) -> float:
     """Spacing of the nodes drawn: the grid step, times the decimation of a figure's view."""
     return float(ds.attrs.get("grid_step_deg", 1.0)) * int(ds.attrs.get("figure_decimation", 1))
 
 
-def _map_axes(ax, ds, **coast):
+def _map_axes(ax: Axes, ds: xr.Dataset, **coast: Any) -> None:
     lon = ds["longitude"].values
     lat = ds["latitude"].values
     step = node_step(ds)
@@ -401,7 +433,7 @@ def _spacing(x: np.ndarray) -> float | None:
     return float(d.mean()) if np.allclose(d, d.mean(), rtol=1e-9, atol=0) else None
 
 
-def _mesh(ax, ds, values, **style):
+def _mesh(ax: Axes, ds: xr.Dataset, values: np.ndarray, **style: Any) -> QuadMesh | AxesImage:
     """Colour every node's cell: an image on an evenly spaced grid, else a quad mesh.
 
     The image is the same picture as ``pcolormesh(shading="nearest")``, drawn an order of
@@ -418,7 +450,14 @@ def _mesh(ax, ds, values, **style):
     )
 
 
-def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
+def _colorbar(
+    fig: Figure | SubFigure,
+    mesh: ScalarMappable,
+    axes: Axes | Sequence[Axes] | np.ndarray,
+    label: str,
+    extend: Literal["neither", "both", "min", "max"] = "neither",
+    ticks: ArrayLike | None = None,
+) -> Colorbar:
     # proportional: a band is as long as its share of the scale, even where edges are uneven
     cb = fig.colorbar(
         mesh,
@@ -437,7 +476,18 @@ def _colorbar(fig, mesh, axes, label, extend="neither", ticks=None):
     return cb
 
 
-def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=None, extend=None):
+def _field(
+    ax: Axes,
+    ds: xr.Dataset,
+    values: np.ndarray,
+    cmap: str | Colormap,
+    label: str,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    fig: Figure | None = None,
+    norm: Normalize | None = None,
+    extend: Literal["neither", "both", "min", "max"] | None = None,
+) -> QuadMesh | AxesImage:
     if norm is not None:
         vmin = vmax = None
     mesh = _mesh(ax, ds, values, cmap=cmap, norm=norm, vmin=vmin, vmax=vmax)
@@ -449,7 +499,14 @@ def _field(ax, ds, values, cmap, label, vmin=None, vmax=None, fig=None, norm=Non
     return mesh
 
 
-def _figsize(ds, nrows=1, map_width=8.0, max_map_height=6.5, extra_width=1.3, scale=True):
+def _figsize(
+    ds: xr.Dataset,
+    nrows: int = 1,
+    map_width: float = 8.0,
+    max_map_height: float = 6.5,
+    extra_width: float = 1.3,
+    scale: bool = True,
+) -> tuple[float, float]:
     """Figure size in inches for ``nrows`` map panels plus a colourbar column.
 
     A map is 8 inches wide (at most 6.5 high) when that gives each grid node a pixel at
@@ -475,7 +532,9 @@ def map_scale(nlon: int, nlat: int, width_in: float, height_in: float) -> float:
     return float(min(need, max(1.0, MAX_MAP_PIXELS / (width_in * DPI))))
 
 
-def plot_sweep(ds, reference=None):
+def plot_sweep(
+    ds: xr.Dataset, reference: Mapping[float, tuple[float, float]] | None = None
+) -> Figure:
     """Area fraction above each threshold, and max / mean modulus, versus height (Fig. 7 study).
 
     Parameters
@@ -521,7 +580,7 @@ def plot_sweep(ds, reference=None):
     return fig
 
 
-def plot_truncation(ds):
+def plot_truncation(ds: xr.Dataset) -> Figure:
     """Modulus of the J2n truncation error per order (Fig. 8), with a latitude profile."""
     orders = [int(o) for o in ds["order"].values]
     n = len(orders)
@@ -568,7 +627,7 @@ def _to_mg(units: str) -> float:
     return get_unit(units).si / MG
 
 
-def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
+def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None) -> Figure:
     """Map of one variable with coastlines and a diverging colour scale centred on zero.
 
     Parameters
@@ -640,7 +699,9 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None):
 THRESHOLD_FIGURES_FROM_MG = 0.05
 
 
-def disturbance_figures(ds, thresholds) -> list:
+def disturbance_figures(
+    ds: xr.Dataset, thresholds: Sequence[float]
+) -> list[tuple[str, Callable[[], Figure]]]:
     """Return the figures of a disturbance map or sweep, as ``(file suffix, maker)`` pairs.
 
     A map: its isolines and, for each threshold from :data:`THRESHOLD_FIGURES_FROM_MG`, the
@@ -651,7 +712,7 @@ def disturbance_figures(ds, thresholds) -> list:
     from functools import partial
 
     if "height" in ds.dims:
-        figs = [("table", partial(plot_sweep, ds))]
+        figs: list[tuple[str, Callable[[], Figure]]] = [("table", partial(plot_sweep, ds))]
         for k, h in enumerate(ds["height"].values):
             figs.append(
                 (f"isolines_h{h / 1e3:g}km", partial(plot_isolines, ds, thresholds, height_index=k))

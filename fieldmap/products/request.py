@@ -44,7 +44,7 @@ def known_quantities() -> tuple[str, ...]:
     return (*QUANTITIES, TRUNCATION, COMPONENTS)
 
 
-def _set(obj, **values) -> None:
+def _set(obj: object, **values: Any) -> None:
     for k, v in values.items():
         object.__setattr__(obj, k, v)
 

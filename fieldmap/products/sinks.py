@@ -28,16 +28,31 @@ import os
 import shutil
 import tempfile
 import warnings
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import xarray as xr
 
 from fieldmap.products.variables import DISTURBANCE_VARIABLES
 
+if TYPE_CHECKING:
+    from fieldmap.grids.spec import GridSpec
+
+
+class _Block(Protocol):
+    """What a sink reads of a :class:`fieldmap.products.engine.Block` (the engine imports us)."""
+
+    @property
+    def layer(self) -> int: ...
+    @property
+    def rows(self) -> np.ndarray: ...
+    def runs(self) -> list[tuple[int, int]]: ...
+
 
 @contextlib.contextmanager
-def atomic_store(final):
+def atomic_store(final: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a hidden temporary path next to ``final``; on success rename it to ``final``.
 
     Works for a file or a folder (zarr). An existing product of the same name is replaced
@@ -64,7 +79,7 @@ def atomic_store(final):
         raise
 
 
-def decimated(path, fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
+def decimated(path: str | os.PathLike[str], fmt: str, max_nodes: int = 2_000_000) -> xr.Dataset:
     """Return a view of a stored product with at most about ``max_nodes`` nodes per map, in memory.
 
     Every ``s``-th row and column (``s = ceil(sqrt(nodes / max_nodes))``), read lazily from
@@ -96,7 +111,7 @@ def chunk_rows(nlon: int) -> int:
     return int(min(256, max(1, CHUNK_BYTES // (8 * nlon))))
 
 
-def _slabs(block, nrows_total: int, rows: int):
+def _slabs(block: _Block, nrows_total: int, rows: int) -> list[tuple[int, int, bool]]:
     """Split each run of a block into chunk-aligned parts: (r0, r1, whole_chunks)."""
     out = []
     for r0, r1 in block.runs():
@@ -113,14 +128,14 @@ def _slabs(block, nrows_total: int, rows: int):
     return out
 
 
-def _put(arr, layer, stacked, r0, r1, values) -> None:
+def _put(arr: Any, layer: int, stacked: bool, r0: int, r1: int, values: np.ndarray) -> None:
     if stacked:
         arr[layer, r0:r1, :] = values
     else:
         arr[r0:r1, :] = values
 
 
-def _put_block(arr, block, stacked, values) -> None:
+def _put_block(arr: Any, block: _Block, stacked: bool, values: np.ndarray) -> None:
     """Write a block's rows (``values`` in the order of ``block.rows``), one slice per run."""
     pos = 0
     for r0, r1 in block.runs():
@@ -136,7 +151,14 @@ class ZarrTarget:
     its rows have arrived (no read-modify-write, no chunk with two writers).
     """
 
-    def __init__(self, path, nlat: int, rows: int, stacked: bool, names=DISTURBANCE_VARIABLES):
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        nlat: int,
+        rows: int,
+        stacked: bool,
+        names: Iterable[str] = DISTURBANCE_VARIABLES,
+    ) -> None:
         self.path = str(path)
         self.nlat = nlat
         self.rows = rows
@@ -145,11 +167,11 @@ class ZarrTarget:
         self._open: dict | None = None  # client side: arrays opened once
         self._pending: dict = {}  # client side: (layer, chunk) -> [rows filled, {name: rows}]
 
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         # the workers get the path and the layout, never the client's buffers
         return {**self.__dict__, "_open": None, "_pending": {}}
 
-    def _arrays(self):
+    def _arrays(self) -> dict[str, Any]:
         import zarr
 
         # a cancelled task still running after a failed run must not recreate the removed store
@@ -157,7 +179,7 @@ class ZarrTarget:
             raise FileNotFoundError(f"zarr store {self.path} is gone (run aborted)")
         return {name: zarr.open_array(f"{self.path}/{name}", mode="r+") for name in self.names}
 
-    def write_block(self, block, data: dict) -> dict:
+    def write_block(self, block: _Block, data: dict[str, Any]) -> dict[str, Any]:
         """Write the whole chunks of ``block``; return the rows of shared chunks."""
         arrays = self._arrays()
         pos = {int(r): k for k, r in enumerate(block.rows)}
@@ -171,7 +193,7 @@ class ZarrTarget:
                 edges.append((r0, r1, {name: data[name][k0:k1] for name in self.names}))
         return {"edges": edges}
 
-    def sink(self, block, data: dict) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Client side: collect the shared-chunk rows a worker returned; write full chunks."""
         if self._open is None:
             self._open = self._arrays()
@@ -199,7 +221,9 @@ class ZarrTarget:
             raise RuntimeError(f"zarr chunks left incomplete: {sorted(self._pending)[:4]}")
 
 
-def create_zarr(path, tmpl: xr.Dataset, grid, block_rows: int | None = None) -> ZarrTarget:
+def create_zarr(
+    path: str | os.PathLike[str], tmpl: xr.Dataset, grid: GridSpec, block_rows: int | None = None
+) -> ZarrTarget:
     """Create the zarr store (coordinates, attributes, empty chunked variables) at ``path``.
 
     ``block_rows``: the largest block of the plan. Chunks are then at most an eighth of it (a
@@ -228,7 +252,10 @@ def create_zarr(path, tmpl: xr.Dataset, grid, block_rows: int | None = None) -> 
 
 
 def finish_zarr(
-    path, attrs: dict, extra_vars: dict | None = None, var_attrs: dict | None = None
+    path: str | os.PathLike[str],
+    attrs: dict[str, Any],
+    extra_vars: dict[str, Any] | None = None,
+    var_attrs: dict[str, Any] | None = None,
 ) -> None:
     """Add the statistics (attributes and small variables) and consolidate the metadata.
 
@@ -250,7 +277,7 @@ def finish_zarr(
         zarr.consolidate_metadata(path)
 
 
-def _jsonable(v):
+def _jsonable(v: Any) -> Any:
     if isinstance(v, np.ndarray):
         return v.tolist()
     if isinstance(v, np.generic):
@@ -261,7 +288,7 @@ def _jsonable(v):
 class NetCDFWriter:
     """A NetCDF-4 file written block by block by one writer (the client)."""
 
-    def __init__(self, path, tmpl: xr.Dataset, grid):
+    def __init__(self, path: str | os.PathLike[str], tmpl: xr.Dataset, grid: GridSpec) -> None:
         import netCDF4
 
         nh, nlat, nlon = grid.shape
@@ -296,7 +323,7 @@ class NetCDFWriter:
             self._coordinates(v, dims)
             self.vars[name] = v
 
-    def sink(self, block, data: dict) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Write one block's variables at its rows."""
         for name, var in self.vars.items():
             _put_block(var, block, self.stacked, data[name])
@@ -326,7 +353,7 @@ class NetCDFWriter:
         self.nc.setncatts(attrs)
         self.close()
 
-    def _coordinates(self, var, dims) -> None:
+    def _coordinates(self, var: Any, dims: Iterable[str]) -> None:
         """Set the ``coordinates`` attribute of ``var`` as xarray writes it (names sorted)."""
         names = sorted(k for k, d in self.aux.items() if d <= set(dims))
         if names:
@@ -363,14 +390,18 @@ class SharedArrays:
     folder (:meth:`visible_from`); otherwise the blocks come back through Dask.
     """
 
-    def __init__(self, folder: str, names, shape: tuple, stacked: bool):
+    def __init__(
+        self, folder: str, names: Iterable[str], shape: tuple[int, ...], stacked: bool
+    ) -> None:
         self.folder = folder
         self.names = tuple(names)
         self.shape = shape
         self.stacked = stacked
 
     @classmethod
-    def create(cls, names, grid, stacked: bool, shm_dir: str | None = None) -> SharedArrays | None:
+    def create(
+        cls, names: Iterable[str], grid: GridSpec, stacked: bool, shm_dir: str | None = None
+    ) -> SharedArrays | None:
         """Create the files; None without a shared-memory folder or room for twice the product."""
         nh, nlat, nlon = grid.shape
         shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
@@ -393,7 +424,7 @@ class SharedArrays:
             return None
         return cls(folder, names, shape, stacked)
 
-    def visible_from(self, client) -> bool:
+    def visible_from(self, client: Any) -> bool:
         """Tell whether every worker of ``client`` reads this folder (the same machine)."""
         token = os.urandom(8).hex()
         probe = os.path.join(self.folder, "probe")
@@ -407,7 +438,7 @@ class SharedArrays:
             os.unlink(probe)
         return bool(seen) and all(seen.values())
 
-    def write_block(self, block, data: dict) -> dict:
+    def write_block(self, block: _Block, data: dict[str, Any]) -> dict[str, Any]:
         """Worker side: write the block's rows into the shared files; nothing travels back."""
         for name in self.names:
             mm = np.load(os.path.join(self.folder, f"{name}.npy"), mmap_mode="r+")
@@ -415,7 +446,7 @@ class SharedArrays:
             del mm
         return {}
 
-    def sink(self, block, data: dict) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Client side: nothing to do, the workers wrote the rows."""
 
     def arrays(self) -> dict:
@@ -431,7 +462,15 @@ class SharedArrays:
 
 
 @contextlib.contextmanager
-def memory_target(grid, stacked: bool, names, client):
+def memory_target(
+    grid: GridSpec, stacked: bool, names: Iterable[str], client: Any
+) -> Iterator[
+    tuple[
+        Callable[[_Block, dict[str, Any]], None],
+        SharedArrays | None,
+        Callable[[], dict[str, np.ndarray]],
+    ]
+]:
     """Yield ``(sink, store, arrays)`` for a product returned in memory.
 
     ``arrays()`` gives the variables once every block is in. Shared memory
@@ -455,14 +494,16 @@ def memory_target(grid, stacked: bool, names, client):
 class MemorySink:
     """Assemble the blocks into in-memory arrays (the Python API's eager mode)."""
 
-    def __init__(self, grid, stacked: bool, names=DISTURBANCE_VARIABLES):
+    def __init__(
+        self, grid: GridSpec, stacked: bool, names: Iterable[str] = DISTURBANCE_VARIABLES
+    ) -> None:
         nh, nlat, nlon = grid.shape
         self.shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
         self.stacked = stacked
         self.names = tuple(names)
         self.arrays: dict = {}
 
-    def sink(self, block, data: dict) -> None:
+    def sink(self, block: _Block, data: dict[str, Any]) -> None:
         """Copy one block's variables into place (a slice copy per run of rows).
 
         A block holding every row of a single-height product is taken as it is (its arrays

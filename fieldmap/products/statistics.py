@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.errors import InputError
 
@@ -68,7 +70,7 @@ def weights_2d(lat_deg: np.ndarray, nlon: int) -> np.ndarray:
     return w / w.sum()
 
 
-def weighted_percentiles(values, weights, qs) -> np.ndarray:
+def weighted_percentiles(values: ArrayLike, weights: ArrayLike, qs: ArrayLike) -> np.ndarray:
     r"""Weighted percentiles: for each q, the smallest value whose cumulative weight reaches q %.
 
     With the values sorted ascending, :math:`v_{(1)} \le \dots \le v_{(n)}`, and
@@ -129,7 +131,7 @@ def weighted_percentiles(values, weights, qs) -> np.ndarray:
 _SORT_SIZE = 4096
 
 
-def _pick(v, w, target, below) -> float:
+def _pick(v: np.ndarray, w: np.ndarray, target: float, below: float) -> float:
     """Smallest of ``v`` whose cumulative weight (ascending, after ``below``) reaches ``target``.
 
     A bucket holding many values (a field crowded near one value, far from an outlier) is dealt
@@ -165,9 +167,9 @@ def weighted_percentile(values: np.ndarray, weights: np.ndarray, q: float) -> fl
 def map_statistics(
     modulus_mg: np.ndarray,
     lat_deg: np.ndarray,
-    thresholds_mg=DEFAULT_THRESHOLDS_MG,
-    percentiles=DEFAULT_PERCENTILES,
-) -> dict:
+    thresholds_mg: Sequence[float] = DEFAULT_THRESHOLDS_MG,
+    percentiles: Sequence[float] = DEFAULT_PERCENTILES,
+) -> dict[str, Any]:
     """Statistics of a modulus map with area weights.
 
     Every statistic but the extremes weights each node by the area of its cell
@@ -225,7 +227,7 @@ def threshold_key(t: float) -> str:
     return f"{float(t):g}"
 
 
-def parse_thresholds(values) -> tuple[float, ...]:
+def parse_thresholds(values: Iterable[float | str]) -> tuple[float, ...]:
     """Validate thresholds (mg): finite, positive, distinct; returned sorted.
 
     A repeated threshold is an error (as ``--thresholds-mg`` of the CLI), not silently dropped.
@@ -259,7 +261,7 @@ PERCENTILE_RTOL = 2.0 ** -(HIST_MANTISSA_BITS + 1)
 PERCENTILE_METHODS = ("histogram", "exact")
 
 
-def check_percentile_method(method) -> str:
+def check_percentile_method(method: str) -> str:
     """Return ``method`` if it is one of :data:`PERCENTILE_METHODS`, else raise InputError."""
     if method not in PERCENTILE_METHODS:
         raise InputError(
@@ -300,8 +302,11 @@ def _rows(v: np.ndarray) -> np.ndarray:
 
 
 def block_partial(
-    modulus_mg: np.ndarray, row_weights: np.ndarray, thresholds, hist_weights=None
-) -> dict:
+    modulus_mg: np.ndarray,
+    row_weights: np.ndarray,
+    thresholds: Sequence[float],
+    hist_weights: np.ndarray | None = None,
+) -> dict[str, Any]:
     """Partial statistics of one block: extrema, per-row weighted sums, weighted histogram.
 
     ``row_weights`` are the (unnormalised) area weights of the block's rows
@@ -336,7 +341,7 @@ def joined_partials(parts: list, nthresholds: int) -> dict:
             hist[o : o + p[6].size] += p[6]
     nz = np.flatnonzero(hist)
 
-    def joined(i, j=None):
+    def joined(i: int, j: int | None = None) -> list[np.ndarray]:
         return [np.concatenate([p[i] if j is None else p[i][j] for p in parts])]
 
     return {
@@ -363,7 +368,9 @@ def _hist_lo(vmin: float) -> int:
     return _bin(vmin) if vmin > 0 else 0
 
 
-def rows_partial(v: np.ndarray, row_weights, thresholds, hist_weights):
+def rows_partial(
+    v: np.ndarray, row_weights: np.ndarray, thresholds: Sequence[float], hist_weights: np.ndarray
+) -> tuple[float, float, int, np.ndarray, np.ndarray, list[np.ndarray], np.ndarray] | None:
     """Return the partial of rows ``v``, or None if a value is not finite.
 
     (max, min, bin ``lo`` of the minimum, per-row weighted sums of v and v², per-row areas above
@@ -446,7 +453,12 @@ def _fsum(parts: list) -> float:
     return math.fsum(np.concatenate(parts).tolist())
 
 
-def finish_statistics(acc: dict, total_weight: float, thresholds, percentiles) -> dict:
+def finish_statistics(
+    acc: dict[str, Any],
+    total_weight: float,
+    thresholds: Sequence[float],
+    percentiles: Sequence[float],
+) -> dict[str, Any]:
     """Statistics in the form of :func:`map_statistics`.
 
     For the signed quantities: {variable: {"min", "max", "mean", "rms"}}, the form of

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import datetime as _dt
 import threading
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -24,6 +25,14 @@ from fieldmap import __version__
 from fieldmap.errors import InputError
 from fieldmap.products.statistics import threshold_key
 from fieldmap.units import MG, get_unit
+
+if TYPE_CHECKING:
+    from xarray.indexes import PandasIndex
+
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.grids.spec import GridSpec
+    from fieldmap.models.shmodel import SHModel
+    from fieldmap.units import Unit
 
 REFERENCE = (
     "Chen K., Zeng C.-Z., Pei S.-S., Liang W.-C. (2022), Normal gravity model for inertial "
@@ -80,7 +89,7 @@ def fraction_attr(threshold_mg: float) -> str:
     return attr_name(f"area_fraction_above_{threshold_key(threshold_mg)}_mg")
 
 
-def coords(grid, stacked_heights: bool) -> dict:
+def coords(grid: GridSpec, stacked_heights: bool) -> dict[str, xr.Variable]:
     """Latitude, longitude and height coordinates of ``grid`` (height a dimension if stacked)."""
     lat = xr.Variable(
         "latitude",
@@ -119,7 +128,9 @@ def index_height_km(ds: xr.Dataset) -> xr.Dataset:
     return ds
 
 
-def global_attrs(title, model, ellipsoid, grid, source) -> dict:
+def global_attrs(
+    title: str, model: SHModel | None, ellipsoid: Ellipsoid, grid: GridSpec, source: str
+) -> dict[str, Any]:
     """Global attributes: conventions, provenance, grid, and the model's when ``model`` is given."""
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     attrs = {
@@ -152,7 +163,7 @@ def global_attrs(title, model, ellipsoid, grid, source) -> dict:
     return attrs
 
 
-def disturbance_attrs(mod, grid, ell) -> dict:
+def disturbance_attrs(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> dict[str, Any]:
     """Global attributes of a gravity-disturbance product (in-memory or block by block)."""
     heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
     return global_attrs(
@@ -165,7 +176,14 @@ def disturbance_attrs(mod, grid, ell) -> dict:
     )
 
 
-def convert_rows(comps, dst, mods, scale: float, a=None, b=None) -> None:
+def convert_rows(
+    comps: np.ndarray,
+    dst: np.ndarray,
+    mods: np.ndarray,
+    scale: float,
+    a: int | None = None,
+    b: int | None = None,
+) -> None:
     """Convert m/s² components to a unit of size ``scale`` and take the moduli, on rows [a, b).
 
     ``comps`` (3, rows, ...) and ``dst`` (3, rows, ...; ``comps`` itself converts in place)
@@ -182,7 +200,9 @@ def convert_rows(comps, dst, mods, scale: float, a=None, b=None) -> None:
     np.multiply(m[0], scale / MG, out=m[1])
 
 
-def vector_vars(vec, dims, units, what, overwrite: bool = False) -> dict:
+def vector_vars(
+    vec: np.ndarray, dims: tuple[str, ...], units: str | Unit, what: str, overwrite: bool = False
+) -> dict[str, Any]:
     """east/north/up/modulus variables (in ``units``) plus modulus_mg, from m/s² ``vec``.
 
     ``vec`` has the components last (any leading shape, views welcome). With ``overwrite``
@@ -256,7 +276,7 @@ def statistic_name(key: str) -> str:
     return "area-weighted median" if q == "50" else f"area-weighted {q}{suffix} percentile"
 
 
-def sweep_statistics(stats: list[dict], thresholds) -> dict:
+def sweep_statistics(stats: list[dict[str, Any]], thresholds: Sequence[float]) -> dict[str, Any]:
     """Return the statistics variables of a sweep, {name: (dims, values, attrs)}.
 
     ``stats``: one :func:`fieldmap.products.statistics.map_statistics` dict per height.
@@ -371,7 +391,9 @@ def _definition(degree0: bool, quantity: str = "potential") -> str:
     )
 
 
-def quantity_template(quantity: str, mod, grid, ell, degree0: bool) -> xr.Dataset:
+def quantity_template(
+    quantity: str, mod: SHModel, grid: GridSpec, ell: Ellipsoid, degree0: bool
+) -> xr.Dataset:
     """Coordinates and attributes of a quantity map, without data.
 
     ``attrs["variables"]`` maps each variable to its attributes and ``attrs["dims"]`` holds
@@ -459,7 +481,14 @@ def assemble_quantity(tmpl: xr.Dataset, vals: dict, stats: dict) -> xr.Dataset:
     return xr.Dataset({**data, **extra}, coords=ds.coords, attrs=ds.attrs)
 
 
-def disturbance_template_parts(mod, grid, ell, units: str, thresholds, stacked: bool) -> dict:
+def disturbance_template_parts(
+    mod: SHModel,
+    grid: GridSpec,
+    ell: Ellipsoid,
+    units: str,
+    thresholds: Sequence[float],
+    stacked: bool,
+) -> dict[str, Any]:
     """Return the parts of :func:`disturbance_template`: coords, attrs, variables, dims.
 
     ``coords`` maps names to ``xarray.Variable``; ``variables`` maps each variable name to its
@@ -482,7 +511,14 @@ def disturbance_template_parts(mod, grid, ell, units: str, thresholds, stacked: 
     }
 
 
-def disturbance_template(mod, grid, ell, units: str, thresholds, stacked: bool) -> xr.Dataset:
+def disturbance_template(
+    mod: SHModel,
+    grid: GridSpec,
+    ell: Ellipsoid,
+    units: str,
+    thresholds: Sequence[float],
+    stacked: bool,
+) -> xr.Dataset:
     """Coordinates, global and variable attributes of a disturbance product, without data.
 
     The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
@@ -507,7 +543,9 @@ def percentile_method_text(method: str = "histogram") -> str:
     )
 
 
-def map_attrs(stats: dict, thresholds, method: str = "histogram") -> dict:
+def map_attrs(
+    stats: dict[str, Any], thresholds: Sequence[float], method: str = "histogram"
+) -> dict[str, Any]:
     """Global statistics attributes of a one-height map (as disturbance_map's)."""
     attrs = stats_attrs(stats)
     attrs["thresholds_mg"] = np.array(thresholds)
@@ -520,7 +558,7 @@ _INDEXES: dict = {}
 _INDEX_LOCK = threading.Lock()
 
 
-def _shared_index(name: str, var: xr.Variable):
+def _shared_index(name: str, var: xr.Variable) -> PandasIndex | None:
     """Return the default pandas index of coordinate ``var``, made once per values and shared.
 
     Its values are made read-only, so that no map can change the coordinates of another.
@@ -583,7 +621,7 @@ def dataset(data: dict, coords: dict, attrs: dict) -> xr.Dataset:
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def _header(ds: xr.Dataset, product) -> dict:
+def _header(ds: xr.Dataset, product: str) -> dict[str, Any]:
     a = ds.attrs
     out = {
         "product": product,
@@ -676,7 +714,9 @@ def _quantity_summary(ds: xr.Dataset) -> dict:
     return out
 
 
-def truncation_template(grid, ell, orders, units: str) -> xr.Dataset:
+def truncation_template(
+    grid: GridSpec, ell: Ellipsoid, orders: Sequence[int], units: str
+) -> xr.Dataset:
     """Template of a truncation map: the J2n normal gravitation minus the exact one, per order.
 
     Variables east, north, up, modulus (in ``units``), modulus_mg on (order, latitude,
@@ -705,7 +745,7 @@ def truncation_template(grid, ell, orders, units: str) -> xr.Dataset:
     return ds
 
 
-def components_template(mod, grid, ell) -> xr.Dataset:
+def components_template(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> xr.Dataset:
     """Template of the component maps: model and normal gravity, east, north, up (m s-2)."""
     h = float(grid.heights[0])
     ds = xr.Dataset(

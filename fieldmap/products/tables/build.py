@@ -30,12 +30,19 @@ region exactly (the valid domain is the region), plus one margin node on each ho
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.products.tables.model import COMPONENTS, CompensationTable
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
 
 #: random check points of step D (reproducible: fixed seed)
 CHECK_POINTS = 2000
@@ -45,7 +52,7 @@ MAX_REFINEMENTS = 14
 MAX_ABS_LAT = 89.0
 
 
-def check_region(region) -> tuple[float, float, float, float]:
+def check_region(region: Iterable[float | str]) -> tuple[float, float, float, float]:
     """Validate (west, east, south, north); return it with east > west (east += 360 across ±180)."""
     try:
         w, e, s, n = (float(v) for v in region)
@@ -69,7 +76,11 @@ def check_region(region) -> tuple[float, float, float, float]:
     return w, e, s, n
 
 
-def corridor_region(flight, width_km: float, region=None):
+def corridor_region(
+    flight: str | os.PathLike[str],
+    width_km: float,
+    region: Iterable[float | str] | None = None,
+) -> tuple[float, float, float, float]:
     """(west, east, south, north) of a flight track's bounding box widened by ``width_km``.
 
     With ``region`` too, the intersection of both (refused when empty).
@@ -102,7 +113,13 @@ def corridor_region(flight, width_km: float, region=None):
     return w, e, s, n
 
 
-def _synth(model, lat, lon, heights, device) -> np.ndarray:
+def _synth(
+    model: SHModel,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    heights: ArrayLike,
+    device: str | None,
+) -> np.ndarray:
     """δg north, east, down (mGal, float64) on a grid: (nh, nlat, nlon, 3)."""
     from fieldmap.grids.synthesis import GridSpec, check_memory, synthesize
 
@@ -124,7 +141,15 @@ def _stats(err: np.ndarray) -> dict:
 class _Lattice:
     """Spacings of one candidate: cells in latitude, longitude and height."""
 
-    def __init__(self, region, hmin, hmax, ncl, ncn, nck):
+    def __init__(
+        self,
+        region: tuple[float, float, float, float],
+        hmin: float,
+        hmax: float,
+        ncl: int,
+        ncn: int,
+        nck: int,
+    ) -> None:
         self.w, self.e, self.s, self.n = region
         self.hmin, self.hmax = hmin, hmax
         self.ncl, self.ncn, self.nck = ncl, ncn, nck
@@ -137,7 +162,7 @@ class _Lattice:
 
         return HEADER_BYTES + (self.ncl + 3) * (self.ncn + 3) * (self.nck + 1) * 3 * 4
 
-    def axes(self):
+    def axes(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         lat = self.s + self.dlat * np.arange(-1, self.ncl + 2, dtype=np.float64)
         lon = self.w + self.dlon * np.arange(-1, self.ncn + 2, dtype=np.float64)
         h = self.hmin + self.dh * np.arange(self.nck + 1, dtype=np.float64)
@@ -147,7 +172,14 @@ class _Lattice:
         return {"dlat_deg": self.dlat, "dlon_deg": self.dlon, "dh_m": self.dh}
 
 
-def _evaluate(lat_ax, model, lat_rng, tab: CompensationTable, device, check_points):
+def _evaluate(
+    lat_ax: np.ndarray,
+    model: SHModel,
+    lat_rng: np.random.Generator,
+    tab: CompensationTable,
+    device: str | None,
+    check_points: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Errors of ``tab`` on the check sets A-D (see the module docstring)."""
     from fieldmap.field.gravity import disturbance
 
@@ -155,7 +187,7 @@ def _evaluate(lat_ax, model, lat_rng, tab: CompensationTable, device, check_poin
     mlat, mlon = 0.5 * (lat[1:-2] + lat[2:-1]), 0.5 * (lon[1:-2] + lon[2:-1])
     mh = 0.5 * (h[:-1] + h[1:])
 
-    def err(la, lo, hh):
+    def err(la: np.ndarray, lo: np.ndarray, hh: np.ndarray) -> np.ndarray:
         truth = _synth(model, la, lo, hh, device)
         g = np.meshgrid(hh, la, lo, indexing="ij")
         return tab.interpolate(g[1], g[2], g[0]).reshape(truth.shape) - truth
@@ -175,18 +207,18 @@ def _evaluate(lat_ax, model, lat_rng, tab: CompensationTable, device, check_poin
 
 
 def build_table(
-    region,
-    heights_km,
+    region: Iterable[float | str],
+    heights_km: Iterable[float | str],
     max_error_mgal: float,
     *,
     budget_mb: float = 8.0,
-    model="eigen-6s",
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
     lmax: int | None = None,
     device: str | None = None,
     check_points: int = CHECK_POINTS,
     seed: int = 0,
-    log=None,
-) -> tuple[CompensationTable, dict]:
+    log: Callable[[str], object] | None = None,
+) -> tuple[CompensationTable, dict[str, Any]]:
     """Build a compensation table whose verified interpolation error is within a bound.
 
     Parameters
@@ -298,7 +330,7 @@ def build_table(
     return tab, report
 
 
-def _over_budget(bound, budget, history, cand) -> str:
+def _over_budget(bound: float, budget: float, history: list[dict[str, Any]], cand: _Lattice) -> str:
     if not history:
         return (
             f"the coarsest table for this region already needs {cand.nbytes / 1e6:.3g} MB, more "
@@ -314,7 +346,16 @@ def _over_budget(bound, budget, history, cand) -> str:
     )
 
 
-def _report(tab, m, region, hrange, bound, budget, history, errs) -> dict:
+def _report(
+    tab: CompensationTable,
+    m: SHModel,
+    region: tuple[float, float, float, float],
+    hrange: tuple[float, float],
+    bound: float,
+    budget: float,
+    history: list[dict[str, Any]],
+    errs: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> dict[str, Any]:
     a, b, c, d = errs
     h = tab.heights
     mh = 0.5 * (h[:-1] + h[1:])

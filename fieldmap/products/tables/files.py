@@ -15,7 +15,10 @@ errors.
 from __future__ import annotations
 
 import json
+import os
 import struct
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +30,9 @@ from fieldmap.products.tables.model import (
     VERSION,
     CompensationTable,
 )
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 _LONG = {"dn": "northward", "de": "eastward", "dd": "downward"}
 
@@ -66,7 +72,7 @@ def binary_bytes(tab: CompensationTable) -> bytes:
     return header_bytes(tab) + np.ascontiguousarray(tab.data, dtype="<f4").tobytes()
 
 
-def to_dataset(tab: CompensationTable):
+def to_dataset(tab: CompensationTable) -> xr.Dataset:
     """CF-1.8 ``xarray.Dataset`` of the table: dn, de, dd on (height, latitude, longitude)."""
     import xarray as xr
 
@@ -253,7 +259,9 @@ static inline int fm_table_interp(const fm_table_header *hd, const float *data, 
 """
 
 
-def write_table(tab: CompensationTable, report: dict, out) -> list:
+def write_table(
+    tab: CompensationTable, report: dict[str, Any], out: str | os.PathLike[str]
+) -> list[Path]:
     """Write table.nc, table.bin, table.h and table.json into ``out``, all or none.
 
     Returns the final paths.

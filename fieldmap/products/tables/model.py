@@ -35,11 +35,13 @@ as inside; others are outside: an error, or NaN with ``outside="nan"``.
 
 from __future__ import annotations
 
+import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.errors import InputError
 
@@ -86,7 +88,7 @@ class CompensationTable:
     data: np.ndarray
     meta: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         d = np.asarray(self.data)
         if d.ndim != 4 or d.shape[3] != 3 or d.shape[1] < 4 or d.shape[2] < 4 or d.shape[0] < 2:
             raise InputError(
@@ -134,11 +136,13 @@ class CompensationTable:
             self.h0 + (nh - 1) * self.dh,
         )
 
-    def contains(self, lat, lon, h) -> np.ndarray:
+    def contains(self, lat: ArrayLike, lon: ArrayLike, h: ArrayLike) -> np.ndarray:
         """Boolean mask of the points inside the valid domain."""
         return _coordinates(self, lat, lon, h)[3]
 
-    def interpolate(self, lat, lon, h, *, outside: str = "raise") -> np.ndarray:
+    def interpolate(
+        self, lat: ArrayLike, lon: ArrayLike, h: ArrayLike, *, outside: str = "raise"
+    ) -> np.ndarray:
         """δg north, east, down (mGal) at the points: :func:`interpolate`."""
         return interpolate(self, lat, lon, h, outside=outside)
 
@@ -159,7 +163,9 @@ def _cell(u: np.ndarray, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
     return i, np.clip(u - i, 0.0, 1.0)
 
 
-def _coordinates(tab: CompensationTable, lat, lon, h):
+def _coordinates(
+    tab: CompensationTable, lat: ArrayLike, lon: ArrayLike, h: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     from fieldmap import limits
 
     lat, lon, h = (np.ravel(v) for v in limits.check_geodetic(lat, lon, h))
@@ -173,7 +179,14 @@ def _coordinates(tab: CompensationTable, lat, lon, h):
     return y, x, z, inside
 
 
-def interpolate(table: CompensationTable, lat, lon, h, *, outside: str = "raise") -> np.ndarray:
+def interpolate(
+    table: CompensationTable,
+    lat: ArrayLike,
+    lon: ArrayLike,
+    h: ArrayLike,
+    *,
+    outside: str = "raise",
+) -> np.ndarray:
     """Interpolate a compensation table at geodetic points (the scheme of the module docstring).
 
     Parameters
@@ -203,18 +216,20 @@ def interpolate(table: CompensationTable, lat, lon, h, *, outside: str = "raise"
     return out
 
 
-def check_inside(table: CompensationTable, lat, lon, h) -> None:
+def check_inside(table: CompensationTable, lat: ArrayLike, lon: ArrayLike, h: ArrayLike) -> None:
     """Raise :class:`InputError` naming the first point outside the table's valid domain."""
     _raise_outside(table, lat, lon, h, table.contains(lat, lon, h))
 
 
-def _raise_outside(table, lat, lon, h, inside) -> None:
+def _raise_outside(
+    table: CompensationTable, lat: ArrayLike, lon: ArrayLike, h: ArrayLike, inside: np.ndarray
+) -> None:
     if not np.all(inside):
         k = int(np.flatnonzero(~inside)[0])
         raise InputError(outside_message(table, *_point(lat, lon, h, k)))
 
 
-def _point(lat, lon, h, k):
+def _point(lat: ArrayLike, lon: ArrayLike, h: ArrayLike, k: int) -> tuple[float, float, float]:
     lat, lon, h = (np.ravel(v) for v in np.broadcast_arrays(lat, lon, h))
     return float(lat[k]), float(lon[k]), float(h[k])
 
@@ -228,7 +243,7 @@ def outside_message(table: CompensationTable, lat: float, lon: float, h: float) 
     )
 
 
-def _interp(tab: CompensationTable, y, x, z) -> np.ndarray:
+def _interp(tab: CompensationTable, y: np.ndarray, x: np.ndarray, z: np.ndarray) -> np.ndarray:
     nh, nlat, nlon = tab.shape
     i, ty = _cell(y, 1, nlat - 3)
     j, tx = _cell(x, 1, nlon - 3)
@@ -238,7 +253,7 @@ def _interp(tab: CompensationTable, y, x, z) -> np.ndarray:
     rows = (i[:, None] + off)[:, :, None]
     cols = (j[:, None] + off)[:, None, :]
 
-    def level(kk):  # horizontal bicubic at height node kk: (n, 3)
+    def level(kk: np.ndarray) -> np.ndarray:  # horizontal bicubic at height node kk: (n, 3)
         block = tab.data[kk[:, None, None], rows, cols].astype(np.float64)  # (n, 4, 4, 3)
         return np.einsum("na,nb,nabc->nc", wy, wx, block)
 
@@ -251,7 +266,7 @@ def _interp(tab: CompensationTable, y, x, z) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------- reading
-def read_binary(path) -> CompensationTable:
+def read_binary(path: str | os.PathLike[str]) -> CompensationTable:
     """Read a table written as ``table.bin`` (layout: the C header, ``table.h``)."""
     path = Path(path)
     raw = path.read_bytes()
@@ -276,7 +291,7 @@ def read_binary(path) -> CompensationTable:
     return CompensationTable(lat0, dlat, lon0, dlon, h0, dh, data, meta)
 
 
-def read_netcdf(path) -> CompensationTable:
+def read_netcdf(path: str | os.PathLike[str]) -> CompensationTable:
     """Read a table written as ``table.nc`` (the lattice from its ``lattice_*`` attributes)."""
     import xarray as xr
 
@@ -301,7 +316,7 @@ def read_netcdf(path) -> CompensationTable:
 _LOADED: dict = {}
 
 
-def load_table(path) -> CompensationTable:
+def load_table(path: str | os.PathLike[str]) -> CompensationTable:
     """Read a table from its NetCDF or binary file (recognised by content).
 
     A file read before and unchanged since (same modification time and size) is not read again.
@@ -337,7 +352,7 @@ def _read_file(path: Path) -> CompensationTable:
     raise InputError(f"{path}: not a compensation table (neither table.bin nor NetCDF)")
 
 
-def table_path(model) -> str | None:
+def table_path(model: object) -> str | None:
     """Return the FILE of a ``"table:FILE"`` model name, else None."""
     if isinstance(model, str) and model.strip().lower().startswith(PREFIX):
         name = model.strip()[len(PREFIX) :]
