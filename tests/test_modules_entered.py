@@ -20,10 +20,11 @@ import subprocess
 import sys
 import textwrap
 
-# Target after the regrouping (issue 25): MAP_CEILING = 40, FLIGHT_CEILING = 50. Lower these
-# as the count falls; never raise them.
-MAP_CEILING = 64
-FLIGHT_CEILING = 81
+# After the regrouping of nav/ and products/ (issue 25): 55 and 75 (from 64 and 81). The issue's
+# target, 40 and 50, is not reached yet: the rest sits in models/ (ICGEM reading in four modules,
+# every reader probed), cli/ and the kernels. Lower these as the count falls; never raise them.
+MAP_CEILING = 55
+FLIGHT_CEILING = 75
 
 _RUN = textwrap.dedent(
     """
