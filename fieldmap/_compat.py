@@ -83,15 +83,12 @@ def keyword_api(
     return decorate
 
 
-
-def options_api(
-    param: str, options_type: type, first_field: str | None = None
-) -> Callable[[F], F]:
+def options_api(param: str, options_type: type, first_field: str | None = None) -> Callable[[F], F]:
     """Accept the 0.1 keyword calls of a function whose options now travel as one object.
 
     Keywords that name fields of ``options_type`` (a frozen dataclass) are folded into the
     function's ``param`` argument (``dataclasses.replace`` of the one given, or of the
-    default ``options_type()``), with a ``DeprecationWarning``.
+    ``options_type(**keywords)``), with a ``DeprecationWarning``.
 
     Parameters
     ----------
@@ -120,8 +117,9 @@ def options_api(
                 old[first_field] = given
                 given = None
             if old:
-                base = options_type() if given is None else given
-                bound.arguments[param] = dataclasses.replace(base, **old)
+                bound.arguments[param] = (
+                    options_type(**old) if given is None else dataclasses.replace(given, **old)
+                )
                 keys = ", ".join(f"{k}=" for k in old)
                 warn(f"{name}(): pass {keys} in {param}={options_type.__name__}(...)")
             return func(*bound.args, **bound.kwargs)
@@ -129,6 +127,7 @@ def options_api(
         return cast(F, wrapper)
 
     return decorate
+
 
 #: Old module paths (relative to ``fieldmap``) -> the module(s) that hold their public names
 #: now. A tuple lists several new homes of one old module (it was split or merged); its names are

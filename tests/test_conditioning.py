@@ -324,7 +324,9 @@ def test_nothing_left():
     with pytest.raises(InputError, match=r"taxi.csv .*no airborne part") as e:
         condition(ground)
     assert "\n" not in str(e.value)
-    assert condition(ground, Conditioning(airborne_only=False)).samples.t[-1] == pytest.approx(599.0)
+    assert condition(ground, Conditioning(airborne_only=False)).samples.t[-1] == pytest.approx(
+        599.0
+    )
     t3 = np.arange(3.0)
     with pytest.raises(InputError, match=r"three.csv: 3 usable samples"):
         condition(quiet_track(t3, *straight(t3), source="three.csv"))

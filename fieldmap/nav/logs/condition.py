@@ -202,7 +202,7 @@ class Conditioning:
         self.noise_m()
 
     def noise_m(self) -> list[float] | None:
-        """The position noise σ (m) as [horizontal, vertical], or None (estimated)."""
+        """Return the position noise σ (m) as [horizontal, vertical], or None (estimated)."""
         noise = self.position_noise_m
         if noise is None:
             return None
@@ -218,7 +218,7 @@ class Conditioning:
         return sig
 
     def report_options(self) -> dict[str, Any]:
-        """The options as the report gives them (JSON-ready)."""
+        """Return the options as the report gives them (JSON-ready)."""
         return {
             "position_noise_m": self.noise_m(),
             "max_gap_s": float(self.max_gap_s),
@@ -517,18 +517,11 @@ class Stages:
         # first and last samples are interior nodes, not free ends
         grid = (float(t_lo) - EDGE * dt, dt, ng + 2 * EDGE)
         th, tv, ph, hh = log.t[hi], log.t[vi], log.p[hi], log.h[vi, None]
-        fh = cfit.fit_path(grid, th, ph, loc[0], 2, max_run=burst_length(th))
-        fv = cfit.fit_path(
-            grid,
-            tv,
-            hh,
-            loc[1],
-            1,
-            energy=energy,
-            edf_correction=q == 0.0,
-            floor=3.0 * q,
-            max_run=burst_length(tv),
+        fh = cfit.fit_path(grid, th, ph, loc[0], cfit.PathFit(2, max_run=burst_length(th)))
+        height_fit = cfit.PathFit(
+            1, edf_correction=q == 0.0, floor=3.0 * q, max_run=burst_length(tv)
         )
+        fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
