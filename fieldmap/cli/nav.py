@@ -220,6 +220,7 @@ def run(args) -> int:
 def _scenario_and_studies(args, device, studies, models, nav, client=None) -> list:
     from tqdm import tqdm
 
+    from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
     tqdm.write(
@@ -228,10 +229,9 @@ def _scenario_and_studies(args, device, studies, models, nav, client=None) -> li
     )
     sc = build_scenario(
         duration=args.duration,
-        rate_hz=args.rate,
+        sampling=ImuSampling(args.rate, args.gauss),
         truth=args.model,
         truth_lmax=args.lmax,
-        n_gauss=args.gauss,
         output_dt=args.output_dt,
         device=device,
         progress=True,
@@ -262,9 +262,7 @@ def _run_studies(args, sc, studies, models, nav, client=None) -> list:
             res = navsim.table4(
                 sc,
                 [m for m in models if m.startswith("sh") or m == nav] or [nav],
-                draws=args.draws or 20,
-                seed=args.seed,
-                mode=args.bias_mode,
+                navsim.MonteCarlo(args.draws or 20, args.seed, args.bias_mode),
                 reference=nav,
                 progress=True,
                 client=client,

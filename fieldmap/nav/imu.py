@@ -20,9 +20,11 @@ quadrature points per Warp launch (:func:`fieldmap.field.sh.sh_gravitation`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.nav.trajectory import Trajectory
@@ -210,11 +212,41 @@ def sample_count(duration: float, rate_hz: float) -> int:
     return n
 
 
+@dataclass(frozen=True)
+class ImuSampling:
+    """How the IMU samples its increments: the rate and the quadrature nodes per sample.
+
+    Parameters
+    ----------
+    rate_hz : float
+        IMU sample rate (a navigation step is two samples). Units: Hz.
+    n_gauss : int
+        Gauss–Legendre nodes per sample (1..64).
+
+    Raises
+    ------
+    InputError
+        A rate that is no positive number, or a node count out of 1..64 (on construction).
+    """
+
+    rate_hz: float = 200.0
+    n_gauss: int = 3
+
+    def __post_init__(self) -> None:
+        r = self.rate_hz
+        if isinstance(r, (str, bytes, bool)) or not isinstance(r, (int, float, np.number)):
+            raise InputError(f"rate must be a positive number, got {r!r}", param="rate_hz")
+        if not np.isfinite(r) or r <= 0:
+            raise InputError(f"rate must be a positive number, got {r!r}", param="rate_hz")
+        gauss_legendre01(self.n_gauss)
+
+
+@options_api("sampling", ImuSampling, first_field="rate_hz")
 def synthesize(
     traj: Trajectory,
-    rate_hz: float = 200.0,
-    gravity=None,
-    n_gauss: int = 3,
+    sampling: ImuSampling | None = None,
+    gravity: Any = None,
+    *,
     duration: float | None = None,
     t0: float = 0.0,
     batch: int = 200_000,
@@ -227,14 +259,14 @@ def synthesize(
     ----------
     traj : Trajectory
         Reference trajectory (closed form).
-    rate_hz : float
-        IMU sample rate. Units: Hz.
+    sampling : ImuSampling, optional
+        IMU rate and Gauss–Legendre nodes per sample (default ``ImuSampling()``: 200 Hz, 3
+        nodes). The 0.1 call ``synthesize(traj, rate_hz, gravity, n_gauss=...)`` still works,
+        with a ``DeprecationWarning``.
     gravity : callable or list of callables, optional
         ECEF gravitation ``γ_e(r_e)`` (N, 3) -> (N, 3), e.g. :class:`Gravitation`; default
         EIGEN-6S at full degree. A list gives one increment set per model from one evaluation
         of the kinematics (the gyro increments are shared).
-    n_gauss : int
-        Gauss–Legendre nodes per sample.
     duration : float, optional
         Covered time (default: the trajectory's). Units: s.
     t0 : float
@@ -252,6 +284,8 @@ def synthesize(
     -------
     ImuIncrements, or a list of them for a list of gravities
     """
+    sampling = ImuSampling() if sampling is None else sampling
+    rate_hz, n_gauss = sampling.rate_hz, sampling.n_gauss
     gravity = Gravitation() if gravity is None else gravity
     many = isinstance(gravity, (list, tuple))
     gravities = list(gravity) if many else [gravity]

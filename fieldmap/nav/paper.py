@@ -23,11 +23,13 @@ are re-exported here); this module builds the tables on them.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.nav import sensors
 from fieldmap.nav.imu import Gravitation
@@ -230,25 +232,66 @@ def table3(
     return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
 
 
+@dataclass(frozen=True)
+class MonteCarlo:
+    """The Monte Carlo draws of the sensor errors of a study, validated on construction.
+
+    Parameters
+    ----------
+    draws : int
+        Runs per row (the same draws in every row).
+    seed : int
+        Seed of the draws (:func:`fieldmap.nav.sensors.draw`).
+    mode : {"gauss", "sign", "fixed"}
+        How bias, scale factor and misalignment are drawn (:mod:`fieldmap.nav.sensors`).
+    spec : ImuErrorSpec
+        The 1σ sensor errors (default: the paper's Table 4).
+    """
+
+    draws: int = 20
+    seed: int = 0
+    mode: str = "gauss"
+    spec: sensors.ImuErrorSpec = sensors.TABLE4
+
+    def __post_init__(self) -> None:
+        for name, what, low in (("draws", "number of Monte Carlo draws", 1), ("seed", "seed", 0)):
+            v = getattr(self, name)
+            try:
+                whole = not isinstance(v, (bool, np.bool_)) and float(v) == int(v)
+            except (TypeError, ValueError, OverflowError):
+                whole = False
+            if not whole:
+                raise InputError(f"{what} must be an integer, got {v!r}", param=name)
+            if v < low:
+                raise InputError(f"{what} must be >= {low}, got {v}", param=name)
+        if self.mode not in sensors.MODES:
+            raise InputError(
+                f"unknown bias mode {self.mode!r} (known: {', '.join(sensors.MODES)})",
+                param="mode",
+            )
+
+
+@options_api("monte_carlo", MonteCarlo, first_field="draws")
 def table4(
     sc: Scenario,
-    models=("j4", "sh18", "sh200"),
-    draws: int = 20,
-    seed: int = 0,
-    spec: sensors.ImuErrorSpec = sensors.TABLE4,
-    mode: str = "gauss",
+    models: Sequence[str] = ("j4", "sh18", "sh200"),
+    monte_carlo: MonteCarlo | None = None,
     reference: str = "j4",
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
     Rows: ``imu_only`` (navigation with ``reference`` on increments synthesized with
     ``reference`` as truth: no gravity-model error) and one row per navigation model in ``models``
-    on the truth increments (IMU + gravity-model error). The same ``draws`` error draws are used
-    in every row; all runs go into one launch.
+    on the truth increments (IMU + gravity-model error). The same draws of ``monte_carlo``
+    (default ``MonteCarlo()``: 20 draws of the Table 4 errors, seed 0) are used in every row;
+    all runs go into one launch. The 0.1 keywords ``draws=``, ``seed=``, ``spec=``, ``mode=``
+    still work, with a ``DeprecationWarning``.
     """
+    mc = MonteCarlo() if monte_carlo is None else monte_carlo
+    draws, seed, mode, spec = mc.draws, mc.seed, mc.mode, mc.spec
     names = check_model_names(models, sc.truth_model)
     ref = check_model_names([reference], sc.truth_model)[0]
     if ref not in NORMAL_KINDS:

@@ -74,6 +74,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
@@ -83,6 +84,7 @@ from fieldmap.nav.imu import (
     MAX_SAMPLES,
     Gravitation,
     ImuIncrements,
+    ImuSampling,
     load_truth_model,
     sample_count,
     synthesize,
@@ -170,22 +172,19 @@ class Scenario:
             g = Gravitation(
                 NORMAL_KINDS[nav_truth], device=self.device, ellipsoid=self.traj.frame.ellipsoid
             )
+            sampling = ImuSampling(self.imu.rate_hz, self.imu.meta["n_gauss"])
             self.extra_sets[nav_truth] = synthesize(
-                self.traj,
-                self.imu.rate_hz,
-                g,
-                n_gauss=self.imu.meta["n_gauss"],
-                duration=self.imu.duration,
+                self.traj, sampling, g, duration=self.imu.duration
             )
         return self.extra_sets[nav_truth]
 
 
+@options_api("sampling", ImuSampling, first_field="rate_hz")
 def build_scenario(
     duration: float = 800.0,
-    rate_hz: float = 200.0,
+    sampling: ImuSampling | None = None,
     truth: str = "eigen-6s",
     truth_lmax: int | None = None,
-    n_gauss: int = 3,
     output_dt: float = 1.0,
     trajectory: Trajectory | None = None,
     device: str | None = None,
@@ -197,14 +196,14 @@ def build_scenario(
     ----------
     duration : float
         Flight time simulated. Units: s.
-    rate_hz : float
-        IMU sample rate (navigation step 2/rate). Units: Hz.
+    sampling : ImuSampling, optional
+        IMU rate (navigation step 2/rate) and Gauss–Legendre nodes per sample (default
+        ``ImuSampling()``: 200 Hz, 3 nodes). The 0.1 keywords ``rate_hz=``, ``n_gauss=`` still
+        work, with a ``DeprecationWarning``.
     truth : str
         Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``).
     truth_lmax : int, optional
         Truth degree (default: full).
-    n_gauss : int
-        Gauss–Legendre nodes per IMU sample.
     output_dt : float
         Interval of the stored error curves; a whole number of navigation steps (2/rate) that
         divides the run (else :class:`InputError`), or at least ``duration`` (the end state
@@ -216,7 +215,9 @@ def build_scenario(
     progress : bool
         tqdm progress bars.
     """
-    for what, v in (("duration", duration), ("output interval", output_dt), ("rate", rate_hz)):
+    sampling = ImuSampling() if sampling is None else sampling
+    rate_hz = sampling.rate_hz
+    for what, v in (("duration", duration), ("output interval", output_dt)):
         if isinstance(v, (str, bytes, bool)) or not np.isfinite(v) or v <= 0:
             raise InputError(f"{what} must be a positive number, got {v!r}")
     steps = sample_count(duration, rate_hz) // 2  # the synthesis's: checked before it runs
@@ -224,7 +225,7 @@ def build_scenario(
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device, ellipsoid=traj.frame.ellipsoid)
-    imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
+    imu = synthesize(traj, sampling, g, duration=duration, progress=progress)
     assert isinstance(imu, ImuIncrements)  # one gravitation in, one increment set out
     assert imu.n_samples // 2 == steps
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
@@ -994,6 +995,7 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
     names = list(study.models)
     frame, aiding, baro = study.frame, study.aiding, study.baro
     rate_hz, seed, n_gauss = study.rate_hz, study.seed, study.n_gauss
+    sampling = ImuSampling(rate_hz, n_gauss)
     every, n_total, per_block = study.every, study.n_samples, study.per_block
     n_draws = study.n_draws
     err1 = sensors.draw(imu, n_draws, seed=seed)
@@ -1056,9 +1058,7 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
         c0 = time.perf_counter()
         sets = cast(
             list,
-            synthesize(
-                traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
-            ),
+            synthesize(traj, sampling, [g_truth, g_ref], duration=nb * dt, sample0=s0),
         )
         c1 = time.perf_counter()
         secs["synthesis"] += c1 - c0
