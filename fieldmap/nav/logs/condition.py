@@ -470,7 +470,9 @@ class Stages:
             param="max_gap_s",
         )
 
-    def _noise(self, hi: np.ndarray, vi: np.ndarray):
+    def _noise(
+        self, hi: np.ndarray, vi: np.ndarray
+    ) -> tuple[Any, list[np.ndarray], np.ndarray, bool]:
         """σ (horizontal, vertical), per-sample σ of each, vertical noise energies, estimated."""
         log, q, sig = self.log, self.quantum, self.opts["position_noise_m"]
         if sig is None:
@@ -561,7 +563,15 @@ class Stages:
             "softened": softened,
         }
 
-    def _limits(self, grid, hi, vi, loc, fh, fv):
+    def _limits(
+        self,
+        grid: tuple[float, float, int],
+        hi: np.ndarray,
+        vi: np.ndarray,
+        loc: list[np.ndarray],
+        fh: dict[str, Any],
+        fv: dict[str, Any],
+    ) -> tuple[np.ndarray, np.ndarray, int]:
         """Step 7: soften the fits where the path as flown exceeds the vehicle limits.
 
         Where the acceleration or jerk of the quintic through the output
@@ -667,7 +677,7 @@ class OrderedLog:
     ``n_in, n_invalid, n_reordered, n_duplicates`` and the first line of each kind.
     """
 
-    def __init__(self, track, ellipsoid: Ellipsoid, reorder: bool):
+    def __init__(self, track: Any, ellipsoid: Ellipsoid, reorder: bool) -> None:
         src = self.source = str(getattr(track, "source", "flight"))
         arrs = [
             np.asarray(getattr(track, k), dtype=np.float64).ravel()

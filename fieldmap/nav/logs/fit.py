@@ -261,7 +261,14 @@ class Whittaker:
     fit, by Hutchinson's (1989) estimator with fixed Rademacher probes (deterministic).
     """
 
-    def __init__(self, grid, t, y, w, probes: int = 0):
+    def __init__(
+        self,
+        grid: tuple[float, float, int],
+        t: np.ndarray,
+        y: np.ndarray,
+        w: np.ndarray,
+        probes: int = 0,
+    ) -> None:
         t0, self.dt, self.ng = grid
         ng = self.ng
         self.rows = k0, L = lagrange_rows(t0, self.dt, ng, t)
@@ -389,7 +396,7 @@ def fit_path(
         # β = e^logb: the equivalent kernel's half-width in samples (Silverman 1984)
         return math.exp(2 * ORDER * logb) * scale
 
-    def discrepancy(wt: Whittaker, w: np.ndarray, u: np.ndarray, lo: float, hi: float):
+    def discrepancy(wt: Whittaker, w: np.ndarray, u: np.ndarray, lo: float, hi: float) -> float:
         budget, neff = float(np.sum(w * e)), float(np.sum(u))
 
         def excess(logb: float) -> float:
@@ -446,7 +453,9 @@ def fit_path(
     }
 
 
-def refit(grid: tuple[float, float, int], t, y, sigma, lam: float) -> tuple[np.ndarray, np.ndarray]:
+def refit(
+    grid: tuple[float, float, int], t: np.ndarray, y: np.ndarray, sigma: np.ndarray, lam: float
+) -> tuple[np.ndarray, np.ndarray]:
     """:class:`Whittaker` fit at a given λ with weights ``1/σ²``: grid values, fit at ``t``."""
     y0 = y.mean(axis=0)
     g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)
