@@ -118,7 +118,9 @@ def options_api(param: str, options_type: type, first_field: str | None = None) 
                 given = None
             if old:
                 bound.arguments[param] = (
-                    options_type(**old) if given is None else dataclasses.replace(cast(Any, given), **old)
+                    options_type(**old)
+                    if given is None
+                    else dataclasses.replace(cast(Any, given), **old)
                 )
                 keys = ", ".join(f"{k}=" for k in old)
                 warn(f"{name}(): pass {keys} in {param}={options_type.__name__}(...)")
