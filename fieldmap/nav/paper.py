@@ -25,7 +25,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,6 +36,11 @@ from fieldmap.nav.imu import Gravitation
 from fieldmap.nav.propagator import final_stats
 from fieldmap.nav.study import NORMAL_KINDS, Scenario, check_model_names, propagate
 from fieldmap.nav.trajectory import BoostGlide
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from fieldmap.models.shmodel import SHModel
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
 TABLE1_MODELS = ("j2", "j4", "j6", "exact", "sh18", "sh200")
@@ -53,7 +58,11 @@ PAPER_TABLE3 = {1: (2.033, 1019.98), 2: (0.507, 296.69), 3: (0.667, 344.29), 4: 
 
 
 def gravity_eval_seconds(
-    name: str, sh_model, n_points: int | None = None, device: str = "cpu", repeats: int = 3
+    name: str,
+    sh_model: SHModel,
+    n_points: int | None = None,
+    device: str = "cpu",
+    repeats: int = 3,
 ) -> float:
     """Measured cost of one gravity evaluation of navigation model ``name`` (one CPU thread).
 
@@ -97,7 +106,7 @@ class StudyResult:
     vel: np.ndarray
     meta: dict
 
-    def to_dataset(self):
+    def to_dataset(self) -> xr.Dataset:
         """Return the error curves as an ``xarray.Dataset`` over (run, time) (CF-1.8)."""
         from fieldmap.nav.study import to_dataset
 
@@ -106,11 +115,11 @@ class StudyResult:
 
 def table1(
     sc: Scenario,
-    models=TABLE1_MODELS,
+    models: Sequence[str] = TABLE1_MODELS,
     timing: bool = True,
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
 
@@ -158,7 +167,9 @@ def table1(
     return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
-def _mc_rows(labels, out, n, extra):
+def _mc_rows(
+    labels: list[str], out: dict[str, Any], n: int, extra: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for j, lab in enumerate(labels):
         sl = slice(j * n, (j + 1) * n)
@@ -177,14 +188,14 @@ def _mc_rows(labels, out, n, extra):
 
 def table3(
     sc: Scenario,
-    groups=(1, 2, 3, 4),
+    groups: Sequence[int] = (1, 2, 3, 4),
     draws: int = 50,
     seed: int = 0,
     nav: str = "j4",
     mode: str = "gauss",
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
