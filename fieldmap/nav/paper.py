@@ -276,10 +276,7 @@ class MonteCarlo:
             if v < low:
                 raise InputError(f"{what} must be >= {low}, got {v}", param=name)
         if self.mode not in sensors.MODES:
-            raise InputError(
-                f"unknown bias mode {self.mode!r} (known: {', '.join(sensors.MODES)})",
-                param="mode",
-            )
+            raise InputError(f"unknown bias mode {self.mode!r} (known: {', '.join(sensors.MODES)})")
 
 
 @options_api("monte_carlo", MonteCarlo, first_field="draws")

@@ -340,11 +340,11 @@ class PathFit:
             or not isinstance(self.dof, (int, np.integer))
             or self.dof < 1
         ):
-            raise InputError(f"dof must be a positive integer, got {self.dof!r}", param="dof")
+            raise InputError(f"dof must be a positive integer, got {self.dof!r}")
         if not (math.isfinite(self.floor) and self.floor >= 0.0):
-            raise InputError(f"floor must be >= 0 metres, got {self.floor!r}", param="floor")
+            raise InputError(f"floor must be >= 0 metres, got {self.floor!r}")
         if isinstance(self.max_run, bool) or not isinstance(self.max_run, (int, np.integer)):
-            raise InputError(f"max_run must be an integer, got {self.max_run!r}", param="max_run")
+            raise InputError(f"max_run must be an integer, got {self.max_run!r}")
 
 
 @options_api("settings", PathFit, first_field="dof")
