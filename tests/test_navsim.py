@@ -368,3 +368,17 @@ def test_progress_launches_give_the_numbers_of_one_launch(scenario):
     b = navsim.table4(scenario, ["j4", "sh18"], navsim.MonteCarlo(draws=3, seed=2), progress=True)
     np.testing.assert_array_equal(a.pos, b.pos)
     assert a.rows == b.rows
+
+
+def test_table4_monte_carlo_object_and_old_keywords(scenario):
+    """The draws travel as one MonteCarlo, checked when built; the 0.1 keywords warn, same bits."""
+    from fieldmap.errors import InputError
+
+    for bad in ({"draws": 0}, {"draws": 2.5}, {"seed": -1}, {"mode": "uniform"}):
+        with pytest.raises(InputError):
+            navsim.MonteCarlo(**bad)
+    new = navsim.table4(scenario, ["j4"], navsim.MonteCarlo(draws=1, seed=4))
+    with pytest.warns(DeprecationWarning, match=r"monte_carlo=MonteCarlo"):
+        old = navsim.table4(scenario, ["j4"], draws=1, seed=4)
+    np.testing.assert_array_equal(old.pos, new.pos)
+    assert old.meta["draws"] == 1 and old.meta["seed"] == 4
