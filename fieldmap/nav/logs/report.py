@@ -24,8 +24,6 @@ from fieldmap.units import STANDARD_GRAVITY as G0
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from fieldmap.nav.logs.condition import Stages
-
 #: a sample's fate: the codes of ``ConditionedFlight.raw["status"]``
 KEPT, OUTLIER_H, OUTLIER_V, OUTLIER_HV, STALE, GROUND, DROPPED, GAP = range(8)
 STATUS_NAMES = ("kept", "outlier_h", "outlier_v", "outlier_hv", "stale", "ground", "dropped", "gap")
@@ -142,8 +140,12 @@ def _intervals(t: np.ndarray, dtm: float) -> tuple[int, float]:
     return int(np.sum(d > 2.5 * dtm)), float(d.max())
 
 
-def finish(st: Stages, fr: dict[str, Any]) -> ConditionedFlight:
-    """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``."""
+def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
+    """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``.
+
+    ``st``: a :class:`fieldmap.nav.logs.condition.Stages` (not imported: condition imports this
+    module).
+    """
     log, o, track = st.log, st.opts, st.track
     samples, status = fr["samples"], st.status()
     t0 = samples.t_start
