@@ -37,12 +37,13 @@ def bench_synthesis(traj, rate, seconds, repeat):
     from pyins import sim
 
     from fieldmap.nav.flight import geodetic_state
-    from fieldmap.nav.imu import Gravitation, synthesize
+    from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
 
     g = Gravitation("j4")
     n = int(seconds * rate) // 2 * 2
-    synthesize(traj, rate, g, n_gauss=3, duration=2.0)  # warm-up (kernels)
-    ours = median_time(lambda: synthesize(traj, rate, g, n_gauss=3, duration=n / rate), repeat) / n
+    sampling = ImuSampling(rate, 3)
+    synthesize(traj, sampling, g, duration=2.0)  # warm-up (kernels)
+    ours = median_time(lambda: synthesize(traj, sampling, g, duration=n / rate), repeat) / n
     t = np.arange(n + 1) / rate
     lat, lon, h, v, C = geodetic_state(traj, t)
     from scipy.spatial.transform import Rotation

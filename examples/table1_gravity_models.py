@@ -29,11 +29,15 @@ def main(argv=None) -> int:
 
     from fieldmap.nav import paper as navsim
     from fieldmap.nav import study
+    from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate = (60.0, 100.0) if args.small else (800.0, 200.0)
     sc = study.build_scenario(
-        duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
+        duration=duration,
+        sampling=ImuSampling(rate, 2),
+        device=args.device,
+        progress=not args.small,
     )
     res = navsim.table1(sc, navsim.TABLE1_MODELS, timing=not args.small)
     print(format_table(res))

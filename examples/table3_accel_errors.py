@@ -30,11 +30,15 @@ def main(argv=None) -> int:
 
     from fieldmap.nav import paper as navsim
     from fieldmap.nav import study
+    from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.report import format_table, write_outputs
 
     duration, rate, draws = (60.0, 100.0, 4) if args.small else (800.0, 200.0, 50)
     sc = study.build_scenario(
-        duration=duration, rate_hz=rate, n_gauss=2, device=args.device, progress=not args.small
+        duration=duration,
+        sampling=ImuSampling(rate, 2),
+        device=args.device,
+        progress=not args.small,
     )
     res = navsim.table3(sc, draws=args.draws or draws, seed=args.seed, nav="j4")
     print(format_table(res))

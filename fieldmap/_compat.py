@@ -8,10 +8,12 @@ between functions, and named the same thing differently (``unit=``/``units=``, `
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import importlib.abc
 import importlib.machinery
+import inspect
 import sys
 import types
 import warnings
@@ -75,6 +77,54 @@ def keyword_api(
             if notes:
                 warn(f"{name}(): {'; '.join(notes)}", stacklevel=3)
             return func(*args, **kwargs)
+
+        return cast(F, wrapper)
+
+    return decorate
+
+
+def options_api(param: str, options_type: type, first_field: str | None = None) -> Callable[[F], F]:
+    """Accept the 0.1 keyword calls of a function whose options now travel as one object.
+
+    Keywords that name fields of ``options_type`` (a frozen dataclass) are folded into the
+    function's ``param`` argument (``dataclasses.replace`` of the one given, or of the
+    ``options_type(**keywords)``), with a ``DeprecationWarning``.
+
+    Parameters
+    ----------
+    param : str
+        Name of the function's options argument.
+    options_type : type
+        The frozen dataclass of the options.
+    first_field : str, optional
+        A value in the place of ``param`` that is no ``options_type`` is the 0.1 value of this
+        field (``synthesize(traj, 100.0, ...)``: the rate where the sampling is now).
+    """
+    names = {f.name for f in dataclasses.fields(options_type)}
+
+    def decorate(func: F) -> F:
+        name = func.__name__
+        sig = inspect.signature(func)
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            old = {k: kwargs.pop(k) for k in list(kwargs) if k in names and k not in sig.parameters}
+            bound = sig.bind_partial(*args, **kwargs)
+            given = bound.arguments.get(param)
+            if given is not None and not isinstance(given, options_type):
+                if first_field is None or first_field in old:
+                    raise TypeError(f"{name}() takes {param}={options_type.__name__}(...)")
+                old[first_field] = given
+                given = None
+            if old:
+                bound.arguments[param] = (
+                    options_type(**old)
+                    if given is None
+                    else dataclasses.replace(cast(Any, given), **old)
+                )
+                keys = ", ".join(f"{k}=" for k in old)
+                warn(f"{name}(): pass {keys} in {param}={options_type.__name__}(...)")
+            return func(*bound.args, **bound.kwargs)
 
         return cast(F, wrapper)
 

@@ -263,13 +263,14 @@ def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
 def test_library_messages_name_its_keywords(tmp_path):
     """From Python the same refusals name the keywords of the function called."""
     from fieldmap.errors import InputError
+    from fieldmap.nav.logs.condition import Conditioning
     from fieldmap.nav.logs.load import load_flight
 
     t = np.arange(121.0)
     t[[1, 2]] = t[[2, 1]]
     f = _flight(tmp_path / "back.csv", t=t)
     with pytest.raises(InputError, match=r"back.csv line 4: .*; pass smooth=True to sort"):
-        load_flight(f, smooth=False)  # load_flight has no reorder=: its smooth= sorts
+        load_flight(f, Conditioning(smooth=False))  # unsmoothed, reorder= is off: smooth= sorts
     k = np.arange(121.0)
     taxi = _flight(tmp_path / "taxi.csv", lat=47.0 + k * 8.0 / 111_000.0, h=np.full(121, 400.0))
     with pytest.raises(InputError, match=r"30 m/s \(min_speed_mps\).*pass airborne_only=False"):

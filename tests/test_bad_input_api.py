@@ -364,12 +364,14 @@ def test_api_navsim_inputs():
         imu.Gravitation("j2", device="cuda:7")
     with pytest.raises(InputError, match="integer degree"):
         imu.Gravitation("sh", model=model, lmax=2.5)
-    for kw in ({"duration": "x"}, {"rate_hz": float("inf")}, {"output_dt": -1.0}):
+    for kw in ({"duration": "x"}, {"output_dt": -1.0}):
         with pytest.raises(InputError, match="must be a positive number"):
             study.build_scenario(**kw)
+    with pytest.raises(InputError, match="must be a positive number"):
+        imu.ImuSampling(float("inf"))
     deep = Stationary(frame, 10.0, h=-5000.0)
     with pytest.raises(InputError, match="below the surface"):
-        imu.synthesize(deep, 20.0, imu.Gravitation("j2"))
+        imu.synthesize(deep, imu.ImuSampling(20.0), imu.Gravitation("j2"))
 
 
 def test_api_verify():
@@ -421,8 +423,9 @@ def test_api_imu_errors():
 def test_build_scenario_long_output_interval():
     """An output interval longer than the flight stores the last state (no endless search)."""
     from fieldmap.nav import study
+    from fieldmap.nav.imu import ImuSampling
 
-    sc = study.build_scenario(duration=2.0, rate_hz=50.0, truth_lmax=8, output_dt=1e9)
+    sc = study.build_scenario(duration=2.0, sampling=ImuSampling(50.0), truth_lmax=8, output_dt=1e9)
     assert sc.t_out[-1] == pytest.approx(sc.imu.t0 + sc.imu.duration)
 
 

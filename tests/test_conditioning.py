@@ -20,7 +20,7 @@ import pytest
 
 from fieldmap.errors import InputError
 from fieldmap.nav.flight import FlightTrajectory
-from fieldmap.nav.logs.condition import condition, condition_segments
+from fieldmap.nav.logs.condition import Conditioning, condition, condition_segments
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.logs.report import plot_conditioning
 
@@ -232,10 +232,10 @@ def test_plot(synthetic):
 
 def test_given_noise_and_exact_mode(synthetic):
     track, _, _ = synthetic
-    cf = condition(track, position_noise_m=(5.0, 2.2))
+    cf = condition(track, Conditioning(position_noise_m=(5.0, 2.2)))
     assert not cf.report["fit"]["sigma_estimated"]
     assert cf.report["fit"]["sigma_h_m"] == 5.0
-    ex = condition(track, smooth=False)
+    ex = condition(track, Conditioning(smooth=False))
     s = ex.samples
     assert s.t.size == track.t.size - 3  # repeated times dropped
     assert np.all(np.diff(s.t) > 0)
@@ -268,6 +268,29 @@ def test_quantised_heights_are_not_outliers(step_ft):
     assert cf.report["kinematics"]["peak_acceleration_g"] < 0.2
 
 
+def test_conditioning_options_validated_once_and_old_keywords_warn():
+    """Options are one frozen Conditioning, checked on construction; 0.1 keywords still work."""
+    import dataclasses
+
+    for bad in ({"max_gap_s": 0.0}, {"on_long_gap": "all"}, {"position_noise_m": (1.0, -2.0)}):
+        with pytest.raises(InputError) as e:
+            Conditioning(**bad)
+        assert e.value.param == next(iter(bad))
+    opts = Conditioning(max_gap_s=400.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        opts.max_gap_s = 1.0  # type: ignore[misc]
+    t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
+    tr = quiet_track(t, *straight(t), source="gappy.csv")
+    new = condition(tr, opts)
+    with pytest.warns(DeprecationWarning, match=r"max_gap_s= in options=Conditioning"):
+        old = condition(tr, max_gap_s=400.0)
+    assert np.array_equal(old.samples.lat, new.samples.lat)
+    assert old.report["options"] == new.report["options"] == opts.report_options()
+    with pytest.warns(DeprecationWarning):
+        segs = condition_segments(tr, max_gap_s=400.0, on_long_gap="refuse")
+    assert [round(s.samples.t[-1]) for s in segs] == [1199]
+
+
 def test_long_gap_longest_segment_refuse_and_split():
     t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
     tr = quiet_track(t, *straight(t), source="gappy.csv")
@@ -278,11 +301,11 @@ def test_long_gap_longest_segment_refuse_and_split():
     (b,) = cf.report["gaps"]["breaks"]
     assert b["kind"] == "gap" and b["duration_s"] == 301.0 and b["lines"] == [601, 602]
     with pytest.raises(InputError, match=r"gappy.csv lines 601\.\.602: .*301\.0 s.*max_gap_s") as e:
-        condition(tr, on_long_gap="refuse")
+        condition(tr, Conditioning(on_long_gap="refuse"))
     assert "\n" not in str(e.value)
     segs = condition_segments(tr)
     assert [round(s.samples.t[-1]) for s in segs] == [599, 299]
-    assert condition(tr, max_gap_s=400.0).samples.t[-1] == pytest.approx(1199.0)
+    assert condition(tr, Conditioning(max_gap_s=400.0)).samples.t[-1] == pytest.approx(1199.0)
 
 
 def test_times_going_back_refused_naming_the_line():
@@ -290,7 +313,7 @@ def test_times_going_back_refused_naming_the_line():
     t[40], t[41] = t[41], t[40]
     tr = quiet_track(t, *straight(t), source="back.csv")
     with pytest.raises(InputError, match=r"back.csv line 43: time 40.000 s goes back") as e:
-        condition(tr, reorder=False)
+        condition(tr, Conditioning(reorder=False))
     assert "\n" not in str(e.value)
     assert condition(tr).report["order"]["first_reordered_line"] == 43
 
@@ -301,7 +324,9 @@ def test_nothing_left():
     with pytest.raises(InputError, match=r"taxi.csv .*no airborne part") as e:
         condition(ground)
     assert "\n" not in str(e.value)
-    assert condition(ground, airborne_only=False).samples.t[-1] == pytest.approx(599.0)
+    assert condition(ground, Conditioning(airborne_only=False)).samples.t[-1] == pytest.approx(
+        599.0
+    )
     t3 = np.arange(3.0)
     with pytest.raises(InputError, match=r"three.csv: 3 usable samples"):
         condition(quiet_track(t3, *straight(t3), source="three.csv"))

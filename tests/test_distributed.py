@@ -594,10 +594,10 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
 
 def test_navigation_monte_carlo_on_the_cluster(client):
     """Draws x models split into tasks: the single-launch result, bit for bit."""
-    from fieldmap.nav import paper, sensors, study
+    from fieldmap.nav import imu, paper, sensors, study
     from fieldmap.nav.distributed import propagate_on
 
-    sc = study.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    sc = study.build_scenario(duration=20.0, sampling=imu.ImuSampling(100.0), truth_lmax=30)
     err = sensors.draw(sensors.TABLE4, 3, seed=7).repeat(2)
     grav = ["j4"] * 3 + ["sh18"] * 3
     ref = paper.propagate(sc, grav, errors=err)
@@ -611,10 +611,10 @@ def test_navigation_monte_carlo_on_the_cluster(client):
 
 def test_navsim_study_on_the_cluster_equals_here(client):
     """``on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
-    from fieldmap.nav import paper, study
+    from fieldmap.nav import imu, paper, study
     from fieldmap.nav.distributed import on_cluster
 
-    sc = study.build_scenario(duration=20.0, rate_hz=100.0, truth_lmax=30)
+    sc = study.build_scenario(duration=20.0, sampling=imu.ImuSampling(100.0), truth_lmax=30)
     here = paper.table3(sc, draws=3, seed=5, nav="j4")
     with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
         there = paper.table3(sc, draws=3, seed=5, nav="j4")

@@ -376,13 +376,13 @@ def test_lci_and_ned_mechanizations_agree_on_the_gravity_effect():
 
 def test_two_gravities_in_one_synthesis_equal_two_syntheses():
     """A list of gravities shares the kinematics: same increments as separate calls."""
-    from fieldmap.nav.imu import Gravitation, synthesize
+    from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
 
     ft = FlightTrajectory(_turning_flight())
     g2, g4 = Gravitation("j2"), Gravitation("j4")
-    a, b = synthesize(ft, 100.0, [g2, g4], n_gauss=2, duration=4.0, t0=10.0)
+    a, b = synthesize(ft, ImuSampling(100.0, 2), [g2, g4], duration=4.0, t0=10.0)
     for got, g in ((a, g2), (b, g4)):
-        ref = synthesize(ft, 100.0, g, n_gauss=2, duration=4.0, t0=10.0)
+        ref = synthesize(ft, ImuSampling(100.0, 2), g, duration=4.0, t0=10.0)
         np.testing.assert_allclose(got.dtheta, ref.dtheta, rtol=0, atol=1e-18)
         np.testing.assert_allclose(got.dv, ref.dv, rtol=0, atol=1e-15)  # ~0.1 m/s values
     assert np.abs(a.dv - b.dv).max() > 1e-7  # the two models really differ (J4 term)

@@ -10,7 +10,13 @@ import pytest
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.nav.frames import LaunchFrame
-from fieldmap.nav.imu import Gravitation, ImuIncrements, gauss_legendre01, synthesize
+from fieldmap.nav.imu import (
+    Gravitation,
+    ImuIncrements,
+    ImuSampling,
+    gauss_legendre01,
+    synthesize,
+)
 from fieldmap.nav.trajectory import BoostGlide, Stationary
 
 FRAME = LaunchFrame(lon0=108.2, B0=34.0, A0=195.0, h0=400.0)
@@ -67,7 +73,7 @@ def test_gauss_legendre_integrates_polynomials_exactly():
 def test_stationary_increments_equal_reaction_to_gravity():
     """At rest: dv/dt = −C_n^b (γ + centrifugal) (up: Groves 2013 §2.4.7), dθ/dt = C_e^b ω_ie."""
     st = Stationary(FRAME, 1.0)
-    imu = synthesize(st, 100.0, j2_gravitation, n_gauss=2)
+    imu = synthesize(st, ImuSampling(100.0, 2), j2_gravitation)
     r = FRAME.r_launch
     g_e = j2_gravitation(r)[0] + WGS84.omega**2 * np.array([r[0], r[1], 0.0])
     f_b = -st.C_b_e.T @ g_e  # body = NED
@@ -85,7 +91,7 @@ def test_replay_reaches_the_floor_and_converges_at_second_order():
     bg = BoostGlide()
     finals = {}
     for rate in (100.0, 200.0):
-        imu = synthesize(bg, rate, j2_gravitation, n_gauss=3, duration=40.0)
+        imu = synthesize(bg, ImuSampling(rate, 3), j2_gravitation, duration=40.0)
         P, V, C = replay(imu, bg, j2_gravitation)
         kt = bg.kinematics([imu.duration])
         finals[rate] = (
@@ -103,7 +109,7 @@ def test_kernel_replay_equals_numpy_replay():
     from fieldmap.nav.mechanize import LciStart, NavConfig, dcm_to_quat, propagate_lci
 
     bg = BoostGlide()
-    imu = synthesize(bg, 100.0, Gravitation("j2"), n_gauss=2, duration=20.0)
+    imu = synthesize(bg, ImuSampling(100.0, 2), Gravitation("j2"), duration=20.0)
     P_ref, V_ref, _ = replay(imu, bg, j2_gravitation)
     k0 = bg.kinematics([0.0])
     res = propagate_lci(
@@ -130,10 +136,10 @@ def test_constant_gravity_offset_gives_half_dg_t2():
 
     bg = BoostGlide()
     tend = 10.0
-    imu = synthesize(bg, 100.0, truth, n_gauss=2, duration=tend)
+    imu = synthesize(bg, ImuSampling(100.0, 2), truth, duration=tend)
     P, V, _ = replay(imu, bg, j2_gravitation)
     # subtract the run without offset (the mechanization's own floor, ~1e-4 m in the boost)
-    imu0 = synthesize(bg, 100.0, j2_gravitation, n_gauss=2, duration=tend)
+    imu0 = synthesize(bg, ImuSampling(100.0, 2), j2_gravitation, duration=tend)
     P0, V0, _ = replay(imu0, bg, j2_gravitation)
     kt = bg.kinematics([tend])
     assert np.linalg.norm(P0 - kt.P_a[0]) < 5e-4
@@ -152,7 +158,7 @@ def test_truth_sh_floor_is_ten_times_below_the_smallest_model_effect():
     """EIGEN-6S degree 240 truth, 30 s, 100 Hz: floor (nav = truth) ≤ 1/10 of the SH200 effect."""
     from fieldmap.nav.study import build_scenario, propagate
 
-    sc = build_scenario(duration=30.0, rate_hz=100.0, n_gauss=2, device="cpu")
+    sc = build_scenario(duration=30.0, sampling=ImuSampling(100.0, 2), device="cpu")
     out = propagate(sc, ["sh200", sc.truth_key])
     assert sc.truth_key == "sh240"
     effect, floor = out["pos"][0, -1], out["pos"][1, -1]
@@ -179,10 +185,26 @@ def test_bad_increments_are_rejected(dth, dv, dt, msg):
 def test_bad_synthesis_requests():
     bg = BoostGlide()
     with pytest.raises(InputError):
-        synthesize(bg, -100.0, j2_gravitation)
+        ImuSampling(-100.0)
     with pytest.raises(InputError):
-        synthesize(bg, 100.0, j2_gravitation, duration=5000.0)
+        synthesize(bg, ImuSampling(100.0), j2_gravitation, duration=5000.0)
     with pytest.raises(InputError, match="beyond"):
         Gravitation("sh", lmax=999)
     with pytest.raises(InputError, match="unknown"):
         Gravitation("j3")
+
+
+def test_imu_sampling_is_one_validated_object_and_old_keywords_warn():
+    """Rate and Gauss nodes travel as one ImuSampling; the 0.1 call warns, same bits."""
+    for bad in ({"rate_hz": 0.0}, {"rate_hz": "200"}, {"n_gauss": 0}, {"n_gauss": 2.5}):
+        with pytest.raises(InputError):
+            ImuSampling(**bad)
+    bg = BoostGlide()
+    g = Gravitation("j2")
+    new = synthesize(bg, ImuSampling(100.0, 2), g, duration=4.0)
+    with pytest.warns(DeprecationWarning, match=r"sampling=ImuSampling"):
+        old = synthesize(bg, 100.0, g, n_gauss=2, duration=4.0)
+    assert isinstance(new, ImuIncrements) and isinstance(old, ImuIncrements)
+    np.testing.assert_array_equal(old.dtheta, new.dtheta)
+    np.testing.assert_array_equal(old.dv, new.dv)
+    assert old.meta == new.meta == {**new.meta, "rate_hz": 100.0, "n_gauss": 2}

@@ -108,13 +108,13 @@ def test_scale_factor_and_misalignment_matrix():
 def test_kernel_bias_gives_half_b_t2():
     """The draws drive fieldmap.nav.mechanize's kernel: 100 µg fixed bias at rest -> ½ b t²."""
     from fieldmap.nav.frames import LaunchFrame
-    from fieldmap.nav.imu import Gravitation, synthesize
+    from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
     from fieldmap.nav.mechanize import LciStart, NavConfig, dcm_to_quat, propagate_lci
     from fieldmap.nav.trajectory import Stationary
 
     fr = LaunchFrame(108.2, 34.0, 195.0, 400.0)
     st = Stationary(fr, 20.0)
-    imu = synthesize(st, 100.0, Gravitation("j2"), n_gauss=1)
+    imu = synthesize(st, ImuSampling(100.0, 1), Gravitation("j2"))
     d = ie.draw(ie.ImuErrorSpec(acc_bias_ug=100.0), 2, seed=0, mode="fixed")
     d2 = ie.ErrorDraws.concat([d, ie.draw(ie.ImuErrorSpec(), 1)])
     k0 = st.kinematics([0.0])

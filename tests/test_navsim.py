@@ -15,12 +15,13 @@ import pytest
 from fieldmap.cli import main as cli_main
 from fieldmap.nav import paper as navsim
 from fieldmap.nav import study
+from fieldmap.nav.imu import ImuSampling
 
 
 @pytest.fixture(scope="module")
 def scenario():
     # 60 s of the boost at 100 Hz, truth EIGEN-6S degree 240 (the full bundled model)
-    return study.build_scenario(duration=60.0, rate_hz=100.0, n_gauss=2, device="cpu")
+    return study.build_scenario(duration=60.0, sampling=ImuSampling(100.0, 2), device="cpu")
 
 
 @pytest.fixture(scope="module")
@@ -131,7 +132,7 @@ def test_table3_statistics_and_determinism(scenario, t1):
 
 
 def test_table4_rows(scenario):
-    res = navsim.table4(scenario, ["j4", "sh200"], draws=3, seed=1)
+    res = navsim.table4(scenario, ["j4", "sh200"], navsim.MonteCarlo(draws=3, seed=1))
     assert [r["case"] for r in res.rows] == ["imu_only", "imu+j4", "imu+sh200"]
     assert res.pos.shape[0] == 9
     assert not res.rows[0]["gravity_model_error"] and res.rows[1]["gravity_model_error"]
@@ -151,13 +152,10 @@ def test_table4_values_against_an_independent_computation(scenario):
     from fieldmap.reference.strapdown import propagate_lci_reference
 
     spec = ImuErrorSpec(acc_bias_ug=10.0, gyro_bias_deg_h=0.003)
-    res = navsim.table4(scenario, ["j4"], draws=1, spec=spec, mode="fixed")
+    res = navsim.table4(scenario, ["j4"], navsim.MonteCarlo(draws=1, spec=spec, mode="fixed"))
     sc, fr = scenario, scenario.traj.frame
     j4 = lambda r: nref.jn_gravitation(*np.asarray(r).T, fr.ellipsoid, 4)  # noqa: E731
-    imu_j4 = synthesize(
-        sc.traj, sc.imu.rate_hz, j4, n_gauss=2,
-        duration=sc.imu.duration,
-    )  # fmt: skip
+    imu_j4 = synthesize(sc.traj, ImuSampling(sc.imu.rate_hz, 2), j4, duration=sc.imu.duration)
     k0 = sc.traj.kinematics([0.0])
     bias = {"acc_bias": np.full((1, 3), 10.0 * UG), "gyro_bias": np.full((1, 3), 0.003 * DEG_H)}
     finals = []
@@ -318,7 +316,7 @@ def test_monte_carlo_figures(scenario, tmp_path):
     from fieldmap.nav import plots as navplots
 
     res3 = navsim.table3(scenario, draws=3, seed=2)
-    res4 = navsim.table4(scenario, ["j4", "sh200"], draws=3, seed=2)
+    res4 = navsim.table4(scenario, ["j4", "sh200"], navsim.MonteCarlo(draws=3, seed=2))
     for res, words in (
         (res3, ("Table 3", "Table 2", "3 Monte Carlo draws", "IMU 100 Hz", "J4")),
         (res4, ("Table 4", "gyro bias 0.003 °/h", "accelerometer bias 10 µg", "3 Monte Carlo")),
@@ -360,13 +358,27 @@ def test_output_interval_that_does_not_divide_the_run_raises():
     from fieldmap.errors import InputError
 
     with pytest.raises(InputError, match="0.7 s is not a whole number"):
-        study.build_scenario(duration=2.0, rate_hz=100.0, truth_lmax=8, output_dt=0.7)
+        study.build_scenario(duration=2.0, sampling=ImuSampling(100.0), truth_lmax=8, output_dt=0.7)
     assert study.output_steps(0.5, 100, 0.02) == 25
 
 
 def test_progress_launches_give_the_numbers_of_one_launch(scenario):
     """Table 4 with the progress bar (several launches) = one launch, bit for bit."""
-    a = navsim.table4(scenario, ["j4", "sh18"], draws=3, seed=2)
-    b = navsim.table4(scenario, ["j4", "sh18"], draws=3, seed=2, progress=True)
+    a = navsim.table4(scenario, ["j4", "sh18"], navsim.MonteCarlo(draws=3, seed=2))
+    b = navsim.table4(scenario, ["j4", "sh18"], navsim.MonteCarlo(draws=3, seed=2), progress=True)
     np.testing.assert_array_equal(a.pos, b.pos)
     assert a.rows == b.rows
+
+
+def test_table4_monte_carlo_object_and_old_keywords(scenario):
+    """The draws travel as one MonteCarlo, checked when built; the 0.1 keywords warn, same bits."""
+    from fieldmap.errors import InputError
+
+    for bad in ({"draws": 0}, {"draws": 2.5}, {"seed": -1}, {"mode": "uniform"}):
+        with pytest.raises(InputError):
+            navsim.MonteCarlo(**bad)
+    new = navsim.table4(scenario, ["j4"], navsim.MonteCarlo(draws=1, seed=4))
+    with pytest.warns(DeprecationWarning, match=r"monte_carlo=MonteCarlo"):
+        old = navsim.table4(scenario, ["j4"], draws=1, seed=4)
+    np.testing.assert_array_equal(old.pos, new.pos)
+    assert old.meta["draws"] == 1 and old.meta["seed"] == 4

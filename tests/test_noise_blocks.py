@@ -10,6 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
+from fieldmap.nav.imu import ImuSampling
 from fieldmap.nav.mechanize import (
     Baro,
     LciStart,
@@ -261,7 +262,9 @@ def test_results_as_datasets_over_run_and_time():
     assert ds["position_error"].dims == ("run", "time", "axis")
     assert ds["position_error"].attrs["units"] == "m"
     assert ds.sizes["run"] == len(res.labels) and ds.sizes["time"] == res.t.size
-    sc = study.build_scenario(truth_lmax=10, duration=10.0, rate_hz=50.0, device="cpu")
+    sc = study.build_scenario(
+        truth_lmax=10, duration=10.0, sampling=ImuSampling(50.0), device="cpu"
+    )
     st = paper.table1(sc, models=["j2", "j4"], timing=False)
     sd = st.to_dataset()
     assert sd["position_error"].dims == ("run", "time")

@@ -118,14 +118,14 @@ def _raised(func, *args, **kw) -> InputError:
 
 
 def test_conditioning_errors_carry_their_keyword():
-    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.condition import Conditioning, condition
 
     k = np.arange(121.0)
     lat = 47.0 + k * 200.0 / 111_000.0
-    assert _raised(condition, _Track(k, lat, 1e3 + k, "x"), max_gap_s=-1.0).param == "max_gap_s"
+    assert _raised(Conditioning, max_gap_s=-1.0).param == "max_gap_s"
     t = k.copy()
     t[[1, 2]] = t[[2, 1]]
-    e = _raised(condition, _Track(t, lat, 1e3 + k, "back.csv"), reorder=False)
+    e = _raised(condition, _Track(t, lat, 1e3 + k, "back.csv"), Conditioning(reorder=False))
     assert e.param == "reorder" and "pass reorder=True to sort the log" in str(e)
     taxi = _Track(k, 47.0 + k * 8.0 / 111_000.0, np.full(121, 400.0), "taxi.csv")
     e = _raised(condition, taxi)

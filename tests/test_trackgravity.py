@@ -11,7 +11,7 @@ import pytest
 
 from fieldmap.nav.flight import FlightTrajectory, route_flight
 from fieldmap.nav.gravity import TrackGravitation
-from fieldmap.nav.imu import Gravitation, load_truth_model, synthesize
+from fieldmap.nav.imu import Gravitation, ImuSampling, load_truth_model, synthesize
 from fieldmap.nav.trajectory import BoostGlide
 
 MGAL = 1e-5
@@ -56,8 +56,12 @@ def test_same_bits_whatever_the_pieces(model):
 
 def test_increments_agree_with_the_full_synthesis(model):
     traj = _paths()["boost-glide"]
-    full = synthesize(traj, 100.0, Gravitation("sh", model=model, device="cpu"), duration=200.0)
-    fast = synthesize(traj, 100.0, TrackGravitation(model, traj, device="cpu"), duration=200.0)
+    full = synthesize(
+        traj, ImuSampling(100.0), Gravitation("sh", model=model, device="cpu"), duration=200.0
+    )
+    fast = synthesize(
+        traj, ImuSampling(100.0), TrackGravitation(model, traj, device="cpu"), duration=200.0
+    )
     assert np.array_equal(full.dtheta, fast.dtheta)
     # dv error / dt: the specific-force error in mGal
     assert np.max(np.abs(full.dv - fast.dv)) / full.dt / MGAL < 1e-4

@@ -245,6 +245,7 @@ def _scenario_and_studies(
 ) -> list[StudyResult]:
     from tqdm import tqdm
 
+    from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
     tqdm.write(
@@ -253,10 +254,9 @@ def _scenario_and_studies(
     )
     sc = build_scenario(
         duration=args.duration,
-        rate_hz=args.rate,
+        sampling=ImuSampling(args.rate, args.gauss),
         truth=args.model,
         truth_lmax=args.lmax,
-        n_gauss=args.gauss,
         output_dt=args.output_dt,
         device=device,
         progress=True,
@@ -294,9 +294,7 @@ def _run_studies(
             res = navsim.table4(
                 sc,
                 [m for m in models if m.startswith("sh") or m == nav] or [nav],
-                draws=args.draws or 20,
-                seed=args.seed,
-                mode=args.bias_mode,
+                navsim.MonteCarlo(args.draws or 20, args.seed, args.bias_mode),
                 reference=nav,
                 progress=True,
                 client=client,

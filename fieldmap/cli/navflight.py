@@ -150,6 +150,7 @@ def flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
     from fieldmap.cli import given
     from fieldmap.cli.params import reword
     from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.logs.condition import Conditioning
     from fieldmap.nav.logs.load import load_flight
 
     if args.route is not None:
@@ -164,21 +165,23 @@ def flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
                     f"{option} applies to the conditioning of the log, which --no-smooth turns "
                     "off (the samples are flown as they are)"
                 )
-    noise = _noise(args.position_noise_m)
+    conditioning = Conditioning(
+        position_noise_m=_noise(args.position_noise_m),
+        max_gap_s=args.max_gap_s,
+        airborne_only=not args.keep_ground,
+        smooth=not args.no_smooth,
+    )
     out: list[Flight] = []
     names: set[str] = set()
     for path in args.trajectory:
         traj, cf = load_flight(
             path,
+            conditioning,
             columns=args.columns,
             alt_units=args.alt_units,
             height_ref=args.height_ref,
             time_format=args.time_format,
             model=model,
-            smooth=not args.no_smooth,
-            position_noise_m=noise,
-            max_gap_s=args.max_gap_s,
-            airborne_only=not args.keep_ground,
         )
         if cf is not None:
             cf.report["notes"] = [reword(note) for note in cf.report["notes"]]

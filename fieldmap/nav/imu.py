@@ -20,12 +20,17 @@ quadrature points per Warp launch (:func:`fieldmap.field.sh.sh_gravitation`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.nav.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
 
 #: The bundled truth model.
 DEFAULT_TRUTH = "eigen-6s"
@@ -55,7 +60,7 @@ class ImuIncrements:
     t0: float = 0.0
     meta: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         validate_increments(self.dtheta, self.dv, self.dt)
 
     @property
@@ -74,7 +79,7 @@ class ImuIncrements:
         return self.n_samples * self.dt
 
 
-def validate_increments(dtheta, dv, dt) -> None:
+def validate_increments(dtheta: Any, dv: Any, dt: Any) -> None:
     """Raise :class:`InputError` for mismatched or non-finite increments or a bad interval."""
     try:
         dt_value = float(dt)
@@ -104,7 +109,7 @@ def validate_increments(dtheta, dv, dt) -> None:
 
 
 # --- truth gravitation --------------------------------------------------------------------------
-def load_truth_model(name: str = DEFAULT_TRUTH, lmax: int | None = None):
+def load_truth_model(name: str = DEFAULT_TRUTH, lmax: int | None = None) -> SHModel:
     """Load a gravity model by name or path via :func:`fieldmap.models.registry.load_model`."""
     from fieldmap.models.registry import load_model
 
@@ -132,28 +137,28 @@ class Gravitation:
     def __init__(
         self,
         kind: str = "sh",
-        model=None,
+        model: SHModel | None = None,
         lmax: int | None = None,
         device: str | None = None,
         *,
         ellipsoid: Ellipsoid | str = WGS84,
-    ):
+    ) -> None:
         from fieldmap._warp import resolve_device
         from fieldmap.models.icgem import as_degree
 
         self.ellipsoid = get_ellipsoid(ellipsoid)
         self.kind = str(kind).lower()
+        self.model: SHModel | None  # None for the normal kinds, as the degree:
+        self.lmax: Any  # an int for "sh" (callers read it as one)
         # a DeviceError is an InputError already (one line, exit 2 in the CLI)
         self.device = None if device is None else resolve_device(device)
         if self.kind == "sh":
-            self.model = model if model is not None else load_truth_model()
+            sh = self.model = model if model is not None else load_truth_model()
             lmax = as_degree(lmax)
-            self.lmax = self.model.lmax if lmax is None else lmax
-            if not 0 <= self.lmax <= self.model.lmax:
-                raise InputError(
-                    f"degree {lmax} is beyond the model {self.model.name} (max {self.model.lmax})"
-                )
-            self.name = f"{self.model.name} (degree {self.lmax})"
+            self.lmax = degree = sh.lmax if lmax is None else lmax
+            if not 0 <= degree <= sh.lmax:
+                raise InputError(f"degree {lmax} is beyond the model {sh.name} (max {sh.lmax})")
+            self.name = f"{sh.name} (degree {degree})"
         elif self.kind in ("exact", "j2", "j4", "j6"):
             self.model, self.lmax = None, None
             self.name = f"normal {self.kind} ({self.ellipsoid.name})"
@@ -166,6 +171,7 @@ class Gravitation:
         if self.kind == "sh":
             from fieldmap.field.sh import sh_gravitation
 
+            assert self.model is not None  # set with kind "sh"
             return sh_gravitation(self.model, x, y, z, lmax=self.lmax, device=self.device)
         from fieldmap.field.normal import normal_gravitation_ecef
 
@@ -175,7 +181,7 @@ class Gravitation:
 
 
 # --- synthesis ------------------------------------------------------------------------------------
-def gauss_legendre01(n: int):
+def gauss_legendre01(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre nodes and weights on [0, 1] (1 ≤ n ≤ 64)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 64:
         raise InputError(f"number of Gauss-Legendre nodes must be an integer in 1..64, got {n!r}")
@@ -210,11 +216,41 @@ def sample_count(duration: float, rate_hz: float) -> int:
     return n
 
 
+@dataclass(frozen=True)
+class ImuSampling:
+    """How the IMU samples its increments: the rate and the quadrature nodes per sample.
+
+    Parameters
+    ----------
+    rate_hz : float
+        IMU sample rate (a navigation step is two samples). Units: Hz.
+    n_gauss : int
+        Gauss–Legendre nodes per sample (1..64).
+
+    Raises
+    ------
+    InputError
+        A rate that is no positive number, or a node count out of 1..64 (on construction).
+    """
+
+    rate_hz: float = 200.0
+    n_gauss: int = 3
+
+    def __post_init__(self) -> None:
+        r = self.rate_hz
+        if isinstance(r, (str, bytes, bool)) or not isinstance(r, (int, float, np.number)):
+            raise InputError(f"rate must be a positive number, got {r!r}", param="rate_hz")
+        if not np.isfinite(r) or r <= 0:
+            raise InputError(f"rate must be a positive number, got {r!r}", param="rate_hz")
+        gauss_legendre01(self.n_gauss)
+
+
+@options_api("sampling", ImuSampling, first_field="rate_hz")
 def synthesize(
     traj: Trajectory,
-    rate_hz: float = 200.0,
-    gravity=None,
-    n_gauss: int = 3,
+    sampling: ImuSampling | None = None,
+    gravity: Any = None,
+    *,
     duration: float | None = None,
     t0: float = 0.0,
     batch: int = 200_000,
@@ -227,14 +263,14 @@ def synthesize(
     ----------
     traj : Trajectory
         Reference trajectory (closed form).
-    rate_hz : float
-        IMU sample rate. Units: Hz.
+    sampling : ImuSampling, optional
+        IMU rate and Gauss–Legendre nodes per sample (default ``ImuSampling()``: 200 Hz, 3
+        nodes). The 0.1 call ``synthesize(traj, rate_hz, gravity, n_gauss=...)`` still works,
+        with a ``DeprecationWarning``.
     gravity : callable or list of callables, optional
         ECEF gravitation ``γ_e(r_e)`` (N, 3) -> (N, 3), e.g. :class:`Gravitation`; default
         EIGEN-6S at full degree. A list gives one increment set per model from one evaluation
         of the kinematics (the gyro increments are shared).
-    n_gauss : int
-        Gauss–Legendre nodes per sample.
     duration : float, optional
         Covered time (default: the trajectory's). Units: s.
     t0 : float
@@ -252,6 +288,8 @@ def synthesize(
     -------
     ImuIncrements, or a list of them for a list of gravities
     """
+    sampling = ImuSampling() if sampling is None else sampling
+    rate_hz, n_gauss = sampling.rate_hz, sampling.n_gauss
     gravity = Gravitation() if gravity is None else gravity
     many = isinstance(gravity, (list, tuple))
     gravities = list(gravity) if many else [gravity]
@@ -314,14 +352,16 @@ def synthesize(
     return out if many else out[0]
 
 
-def _evaluate(g, t, r) -> np.ndarray:
+def _evaluate(g: Any, t: np.ndarray, r: np.ndarray) -> np.ndarray:
     """Gravitation ``g`` on the path: by time where it interpolates along it, else by position."""
     if hasattr(g, "at_times"):  # fieldmap.nav.gravity.TrackGravitation
         return g.at_times(t, r)
     return np.asarray(g(r), dtype=np.float64)
 
 
-def _body_ecef(traj: Trajectory, t, gravities):
+def _body_ecef(
+    traj: Trajectory, t: np.ndarray, gravities: list[Any]
+) -> tuple[np.ndarray, list[np.ndarray]]:
     """Body rate ω_ib^b and specific forces f^b (one per gravity) at times ``t`` from ECEF.
 
     f^b = C_e^b (r̈ + 2ω×ṙ + ω×(ω×r) − γ(r)) and ω_ib^b = C_e^b (ω_eb^e + ω_ie^e): the same

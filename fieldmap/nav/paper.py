@@ -23,17 +23,24 @@ are re-exported here); this module builds the tables on them.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.nav import sensors
 from fieldmap.nav.imu import Gravitation
 from fieldmap.nav.propagator import final_stats
 from fieldmap.nav.study import NORMAL_KINDS, Scenario, check_model_names, propagate
 from fieldmap.nav.trajectory import BoostGlide
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from fieldmap.models.shmodel import SHModel
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
 TABLE1_MODELS = ("j2", "j4", "j6", "exact", "sh18", "sh200")
@@ -51,7 +58,11 @@ PAPER_TABLE3 = {1: (2.033, 1019.98), 2: (0.507, 296.69), 3: (0.667, 344.29), 4: 
 
 
 def gravity_eval_seconds(
-    name: str, sh_model, n_points: int | None = None, device: str = "cpu", repeats: int = 3
+    name: str,
+    sh_model: SHModel,
+    n_points: int | None = None,
+    device: str = "cpu",
+    repeats: int = 3,
 ) -> float:
     """Measured cost of one gravity evaluation of navigation model ``name`` (one CPU thread).
 
@@ -95,7 +106,7 @@ class StudyResult:
     vel: np.ndarray
     meta: dict
 
-    def to_dataset(self):
+    def to_dataset(self) -> xr.Dataset:
         """Return the error curves as an ``xarray.Dataset`` over (run, time) (CF-1.8)."""
         from fieldmap.nav.study import to_dataset
 
@@ -104,11 +115,11 @@ class StudyResult:
 
 def table1(
     sc: Scenario,
-    models=TABLE1_MODELS,
+    models: Sequence[str] = TABLE1_MODELS,
     timing: bool = True,
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 1 / Fig. 11: navigation errors with only the gravity-model error.
 
@@ -156,7 +167,9 @@ def table1(
     return StudyResult("table1", rows, out["t"], labels, out["pos"], out["vel"], meta)
 
 
-def _mc_rows(labels, out, n, extra):
+def _mc_rows(
+    labels: list[str], out: dict[str, Any], n: int, extra: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for j, lab in enumerate(labels):
         sl = slice(j * n, (j + 1) * n)
@@ -175,14 +188,14 @@ def _mc_rows(labels, out, n, extra):
 
 def table3(
     sc: Scenario,
-    groups=(1, 2, 3, 4),
+    groups: Sequence[int] = (1, 2, 3, 4),
     draws: int = 50,
     seed: int = 0,
     nav: str = "j4",
     mode: str = "gauss",
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 3 / Fig. 12: ``nav`` gravity with the accelerometer error groups of Table 2.
 
@@ -230,25 +243,63 @@ def table3(
     return StudyResult("table3", rows, out["t"], run_labels, out["pos"], out["vel"], meta)
 
 
+@dataclass(frozen=True)
+class MonteCarlo:
+    """The Monte Carlo draws of the sensor errors of a study, validated on construction.
+
+    Parameters
+    ----------
+    draws : int
+        Runs per row (the same draws in every row).
+    seed : int
+        Seed of the draws (:func:`fieldmap.nav.sensors.draw`).
+    mode : {"gauss", "sign", "fixed"}
+        How bias, scale factor and misalignment are drawn (:mod:`fieldmap.nav.sensors`).
+    spec : ImuErrorSpec
+        The 1σ sensor errors (default: the paper's Table 4).
+    """
+
+    draws: int = 20
+    seed: int = 0
+    mode: str = "gauss"
+    spec: sensors.ImuErrorSpec = sensors.TABLE4
+
+    def __post_init__(self) -> None:
+        for name, what, low in (("draws", "number of Monte Carlo draws", 1), ("seed", "seed", 0)):
+            v = getattr(self, name)
+            try:
+                whole = not isinstance(v, (bool, np.bool_)) and float(v) == int(v)
+            except (TypeError, ValueError, OverflowError):
+                whole = False
+            if not whole:
+                raise InputError(f"{what} must be an integer, got {v!r}", param=name)
+            if v < low:
+                raise InputError(f"{what} must be >= {low}, got {v}", param=name)
+        if self.mode not in sensors.MODES:
+            raise InputError(f"unknown bias mode {self.mode!r} (known: {', '.join(sensors.MODES)})")
+
+
+@options_api("monte_carlo", MonteCarlo, first_field="draws")
 def table4(
     sc: Scenario,
-    models=("j4", "sh18", "sh200"),
-    draws: int = 20,
-    seed: int = 0,
-    spec: sensors.ImuErrorSpec = sensors.TABLE4,
-    mode: str = "gauss",
+    models: Sequence[str] = ("j4", "sh18", "sh200"),
+    monte_carlo: MonteCarlo | None = None,
     reference: str = "j4",
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
 ) -> StudyResult:
     """Table 4 / Fig. 13: full IMU error model with and without the gravity-model error.
 
     Rows: ``imu_only`` (navigation with ``reference`` on increments synthesized with
     ``reference`` as truth: no gravity-model error) and one row per navigation model in ``models``
-    on the truth increments (IMU + gravity-model error). The same ``draws`` error draws are used
-    in every row; all runs go into one launch.
+    on the truth increments (IMU + gravity-model error). The same draws of ``monte_carlo``
+    (default ``MonteCarlo()``: 20 draws of the Table 4 errors, seed 0) are used in every row;
+    all runs go into one launch. The 0.1 keywords ``draws=``, ``seed=``, ``spec=``, ``mode=``
+    still work, with a ``DeprecationWarning``.
     """
+    mc = MonteCarlo() if monte_carlo is None else monte_carlo
+    draws, seed, mode, spec = mc.draws, mc.seed, mc.mode, mc.spec
     names = check_model_names(models, sc.truth_model)
     ref = check_model_names([reference], sc.truth_model)[0]
     if ref not in NORMAL_KINDS:

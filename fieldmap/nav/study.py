@@ -70,10 +70,11 @@ import json
 import os
 import time
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
@@ -83,6 +84,7 @@ from fieldmap.nav.imu import (
     MAX_SAMPLES,
     Gravitation,
     ImuIncrements,
+    ImuSampling,
     load_truth_model,
     sample_count,
     synthesize,
@@ -91,12 +93,17 @@ from fieldmap.nav.mechanize import NavConfig, dcm_to_quat, quat_to_dcm
 from fieldmap.nav.propagator import Propagator, check_mechanization, divergence, final_stats
 from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
 
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from fieldmap.field.ellipsoid import Ellipsoid
+
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
 #: names: the exact level-ellipsoid field is ``"exact"`` on both sides)
 NORMAL_KINDS = {"j2": "j2", "j4": "j4", "j6": "j6", "exact": "exact"}
 
 
-def check_model_names(names, sh_model) -> list[str]:
+def check_model_names(names: Any, sh_model: SHModel) -> list[str]:
     """Validate navigation gravity names (``j2 j4 j6 exact sh shN table:FILE auto``).
 
     Returns the names in lower case (a table's file name as given), ``sh`` as ``sh<lmax>``,
@@ -170,22 +177,19 @@ class Scenario:
             g = Gravitation(
                 NORMAL_KINDS[nav_truth], device=self.device, ellipsoid=self.traj.frame.ellipsoid
             )
+            sampling = ImuSampling(self.imu.rate_hz, self.imu.meta["n_gauss"])
             self.extra_sets[nav_truth] = synthesize(
-                self.traj,
-                self.imu.rate_hz,
-                g,
-                n_gauss=self.imu.meta["n_gauss"],
-                duration=self.imu.duration,
+                self.traj, sampling, g, duration=self.imu.duration
             )
         return self.extra_sets[nav_truth]
 
 
+@options_api("sampling", ImuSampling, first_field="rate_hz")
 def build_scenario(
     duration: float = 800.0,
-    rate_hz: float = 200.0,
+    sampling: ImuSampling | None = None,
     truth: str = "eigen-6s",
     truth_lmax: int | None = None,
-    n_gauss: int = 3,
     output_dt: float = 1.0,
     trajectory: Trajectory | None = None,
     device: str | None = None,
@@ -197,14 +201,14 @@ def build_scenario(
     ----------
     duration : float
         Flight time simulated. Units: s.
-    rate_hz : float
-        IMU sample rate (navigation step 2/rate). Units: Hz.
+    sampling : ImuSampling, optional
+        IMU rate (navigation step 2/rate) and Gauss–Legendre nodes per sample (default
+        ``ImuSampling()``: 200 Hz, 3 nodes). The 0.1 keywords ``rate_hz=``, ``n_gauss=`` still
+        work, with a ``DeprecationWarning``.
     truth : str
         Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``).
     truth_lmax : int, optional
         Truth degree (default: full).
-    n_gauss : int
-        Gauss–Legendre nodes per IMU sample.
     output_dt : float
         Interval of the stored error curves; a whole number of navigation steps (2/rate) that
         divides the run (else :class:`InputError`), or at least ``duration`` (the end state
@@ -216,7 +220,9 @@ def build_scenario(
     progress : bool
         tqdm progress bars.
     """
-    for what, v in (("duration", duration), ("output interval", output_dt), ("rate", rate_hz)):
+    sampling = ImuSampling() if sampling is None else sampling
+    rate_hz = sampling.rate_hz
+    for what, v in (("duration", duration), ("output interval", output_dt)):
         if isinstance(v, (str, bytes, bool)) or not np.isfinite(v) or v <= 0:
             raise InputError(f"{what} must be a positive number, got {v!r}")
     steps = sample_count(duration, rate_hz) // 2  # the synthesis's: checked before it runs
@@ -224,7 +230,7 @@ def build_scenario(
     traj = trajectory or BoostGlide(duration=max(float(duration), 1.0))
     model = load_truth_model(truth, truth_lmax)
     g = Gravitation("sh", model=model, device=device, ellipsoid=traj.frame.ellipsoid)
-    imu = synthesize(traj, rate_hz, g, n_gauss=n_gauss, duration=duration, progress=progress)
+    imu = synthesize(traj, sampling, g, duration=duration, progress=progress)
     assert isinstance(imu, ImuIncrements)  # one gravitation in, one increment set out
     assert imu.n_samples // 2 == steps
     t_out = imu.t0 + 2.0 * imu.dt * every * np.arange(steps // every + 1)
@@ -259,13 +265,13 @@ def propagate(
     sc: Scenario,
     gravity: list[str],
     sets: list[ImuIncrements] | None = None,
-    imu_set=None,
+    imu_set: Any = None,
     errors: sensors.ErrorDraws | None = None,
     progress: bool = False,
     *,
-    client=None,
+    client: Any = None,
     runs_per_task: int | None = None,
-):
+) -> dict[str, Any]:
     """Propagate every run over the whole record (one block, LCI); errors vs. the truth.
 
     The runs go to one :class:`fieldmap.nav.propagator.Propagator` (here: one Warp launch; with
@@ -293,7 +299,7 @@ def propagate(
     k0 = sc.traj.kinematics([sc.imu.t0])
     t0 = time.perf_counter()
 
-    def launch(idx):
+    def launch(idx: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
         """Propagate the runs ``idx`` (balanced over the CPU chunks)."""
         perm = idx[balanced_order([gravity[i] for i in idx])]
         m = perm.size
@@ -324,7 +330,7 @@ def propagate(
         parts = [order[j :: min(n, 8)] for j in range(min(n, 8))]
         done = [launch(p) for p in tqdm(parts, desc="navigation runs", unit="launch")]
         perm = np.concatenate([p for p, _ in done])
-        res = {k: np.concatenate([r[k] for _, r in done]) for k in ("P", "V")}
+        res: dict[str, Any] = {k: np.concatenate([r[k] for _, r in done]) for k in ("P", "V")}
         res["t"] = done[0][1]["t"]
     else:
         perm, res = launch(np.arange(n))
@@ -386,9 +392,18 @@ def balanced_order(gravity: list[str], parts: int | None = None) -> np.ndarray:
     return np.array([i for b in buckets for i in b], dtype=np.int64)
 
 
-def initial_state(traj, frame, lat0, lon0, h0, v0, C0, n) -> dict:
+def initial_state(
+    traj: Trajectory,
+    frame: str,
+    lat0: np.ndarray,
+    lon0: np.ndarray,
+    h0: np.ndarray,
+    v0: np.ndarray,
+    C0: np.ndarray,
+    n: int,
+) -> dict[str, np.ndarray]:
     """Start state of ``n`` runs at the truth's first epoch (NED: llh (rad), v, q; LCI: P, V, q)."""
-    st: dict = {}
+    st: dict[str, np.ndarray] = {}
     if frame == "ned":
         st.update(
             llh=np.tile([np.radians(lat0[0]), np.radians(lon0[0]), h0[0]], (n, 1)),  # rad, m
@@ -405,7 +420,7 @@ def initial_state(traj, frame, lat0, lon0, h0, v0, C0, n) -> dict:
     return st
 
 
-def geodetic_outputs(launch, out: dict) -> dict:
+def geodetic_outputs(launch: Any, out: dict[str, Any]) -> dict[str, Any]:
     """Turn the stored states of :meth:`~fieldmap.nav.propagator.Propagator.propagate` into NED.
 
     Returns ``lat``, ``lon`` (degrees), ``h`` (m), ``v`` (NED, m/s) and ``C`` (C_b^n), one row
@@ -440,14 +455,14 @@ def geodetic_outputs(launch, out: dict) -> dict:
     }
 
 
-def simplicity_order(models) -> list[str]:
+def simplicity_order(models: Any) -> list[str]:
     """Models from the simplest to the most complete: j2, j4, j6, exact, tables, shN, sh.
 
     A compensation table (a look-up a flight computer interpolates) counts as simpler than
     real-time spherical harmonics; tables among themselves keep their order.
     """
 
-    def key(m):
+    def key(m: str) -> tuple[int, int]:
         if m in NORMAL_MODELS:
             return (0, NORMAL_MODELS.index(m))
         if table_file(m) is not None:
@@ -458,7 +473,15 @@ def simplicity_order(models) -> list[str]:
     return sorted(models, key=key)
 
 
-def ned_errors(lat, lon, h, v, C, truth, ell):
+def ned_errors(
+    lat: np.ndarray,
+    lon: np.ndarray,
+    h: np.ndarray,
+    v: np.ndarray,
+    C: np.ndarray,
+    truth: tuple[np.ndarray, ...],
+    ell: Ellipsoid,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """NED position, velocity and small-angle attitude errors against the truth tuple."""
     tl, tn, th, tv, tC = truth
     la = np.radians(tl)
@@ -483,7 +506,14 @@ def ned_errors(lat, lon, h, v, C, truth, ell):
     return dpos, dvel, -datt
 
 
-def gravity_error_along(track, t, names, model, ell, device=None):
+def gravity_error_along(
+    track: Any,
+    t: np.ndarray,
+    names: list[str],
+    model: SHModel,
+    ell: Ellipsoid,
+    device: str | None = None,
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """δg = g_model − g_truth (NED, m/s²) at the track points and its double time integral.
 
     Returns two dicts keyed by model: δg (n, 3) and the predicted north/east position error
@@ -522,7 +552,9 @@ def gravity_error_along(track, t, names, model, ell, device=None):
 SIGMA_POINTS = 2000
 
 
-def truth_sigma_along(track, t, model, ell):
+def truth_sigma_along(
+    track: Any, t: np.ndarray, model: SHModel, ell: Ellipsoid
+) -> np.ndarray | None:
     """Commission σ of the truth's gravity along the track, NED (n, 3) in m/s², or None.
 
     From the truth model's coefficient σ (:func:`fieldmap.field.commission.commission_sigma`,
@@ -546,7 +578,16 @@ def truth_sigma_along(track, t, model, ell):
     return np.stack([np.interp(t, t[idx], ned[:, k]) for k in range(3)], axis=-1)
 
 
-def summarize(dpos, dvel, run_models, rows, n_draws, fraction, diverged, meta) -> dict:
+def summarize(
+    dpos: np.ndarray,
+    dvel: np.ndarray,
+    run_models: Any,
+    rows: list[str],
+    n_draws: int,
+    fraction: Any,
+    diverged: list[dict[str, Any]],
+    meta: dict[str, Any],
+) -> dict[str, Any]:
     """Build the JSON document: final-error statistics per row, added errors, recommendation."""
     run_models = np.array(run_models)
     fin = dpos[:, -1]
@@ -648,7 +689,7 @@ class FlightResult:
     #: commission σ of the truth gravity along the track, NED (n_out, 3) m/s²; None without σ
     dg_sigma: Any = None
 
-    def to_dataset(self):
+    def to_dataset(self) -> xr.Dataset:
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
         return flight_dataset(self)
 
@@ -675,7 +716,7 @@ def default_output_dt(duration: float) -> float:
 TABLE_HEIGHT_MARGIN = 50.0
 
 
-def check_tables_cover(names, traj, duration: float) -> None:
+def check_tables_cover(names: Any, traj: Any, duration: float) -> None:
     """Refuse (one line) a compensation table that does not cover the flight's path.
 
     The path is checked every second (and at its end), with 50 m of height margin each way for
@@ -818,7 +859,7 @@ class FlightStudy:
         from fieldmap.limits import MAX_DRAWS
         from fieldmap.nav.flight import FlightSamples, FlightTrajectory, route_flight
 
-        def put(name, value):
+        def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
         flight = self.flight
@@ -949,9 +990,9 @@ def run_flight(
     study: FlightStudy | Any,
     *,
     device: str | None = None,
-    client=None,
+    client: Any = None,
     progress: bool = False,
-    **options,
+    **options: Any,
 ) -> FlightResult:
     """Fly a :class:`FlightStudy`: each gravity model and IMU draw; errors, δg, a recommendation.
 
@@ -986,7 +1027,7 @@ def run_flight(
     return _fly(study, device, client, progress)
 
 
-def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
+def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) -> FlightResult:
     """Fly the study's runs block by block (``study`` is trusted: validated when built)."""
     traj = study.flight
     imu = study.imu
@@ -994,6 +1035,7 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
     names = list(study.models)
     frame, aiding, baro = study.frame, study.aiding, study.baro
     rate_hz, seed, n_gauss = study.rate_hz, study.seed, study.n_gauss
+    sampling = ImuSampling(rate_hz, n_gauss)
     every, n_total, per_block = study.every, study.n_samples, study.per_block
     n_draws = study.n_draws
     err1 = sensors.draw(imu, n_draws, seed=seed)
@@ -1056,9 +1098,7 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
         c0 = time.perf_counter()
         sets = cast(
             list,
-            synthesize(
-                traj, rate_hz, [g_truth, g_ref], n_gauss=n_gauss, duration=nb * dt, sample0=s0
-            ),
+            synthesize(traj, sampling, [g_truth, g_ref], duration=nb * dt, sample0=s0),
         )
         c1 = time.perf_counter()
         secs["synthesis"] += c1 - c0
@@ -1130,7 +1170,7 @@ def _fly(study: FlightStudy, device, client, progress: bool) -> FlightResult:
     )  # fmt: skip
 
 
-def to_dataset(res):
+def to_dataset(res: Any) -> xr.Dataset:
     """Error curves of a study as an ``xarray.Dataset`` (dims run, time; CF-1.8 attributes)."""
     import xarray as xr
 
@@ -1162,7 +1202,7 @@ def to_dataset(res):
     return ds
 
 
-def flight_dataset(res):
+def flight_dataset(res: FlightResult) -> xr.Dataset:
     """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8)."""
     import xarray as xr
 

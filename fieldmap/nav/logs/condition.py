@@ -51,9 +51,10 @@ cleaning steps are the functions below it, each on one segment of ordered sample
 way a log whose vehicle never moves (within 30 m horizontally and 15 m vertically of one place)
 is refused: it is no flight.
 
-Messages that say what to change name the keyword arguments here; an
-:class:`~fieldmap.errors.InputError` about one carries its name as ``param`` (the command line
-rewords the message with its own options: :mod:`fieldmap.cli.params`).
+The options travel as one :class:`Conditioning`, validated once on construction. Messages that
+say what to change name its fields; an :class:`~fieldmap.errors.InputError` about one carries
+its name as ``param`` (the command line rewords the message with its own options:
+:mod:`fieldmap.cli.params`).
 
 The references (Hampel 1974, Tukey 1977, Theil 1950, Sen 1968, Whittaker 1923, Reinsch 1967,
 Eilers 2003, Buja et al. 1989, Hutchinson 1989, Beaton & Tukey 1974, Garcia 2010) are given in
@@ -63,9 +64,12 @@ full in :mod:`fieldmap.nav.logs.fit`.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
@@ -113,33 +117,16 @@ LEVEL_S = 20.0
 STILL_H, STILL_V = FLOOR_H, FLOOR_V
 
 
-def condition(
-    track,
-    *,
-    position_noise_m: float | tuple[float, float] | None = None,
-    max_gap_s: float = 60.0,
-    airborne_only: bool = True,
-    smooth: bool = True,
-    reorder: bool = True,
-    on_long_gap: str = "longest",
-    ellipsoid: Ellipsoid = WGS84,
-    min_speed_mps: float = 30.0,
-    max_speed_mps: float = 1200.0,
-    max_climb_mps: float = 300.0,
-    max_accel_g: float | None = 2.5,
-    max_jerk: float | None = 5.0,
-    threshold: float = 5.0,
-    dt_out: float | None = None,
-) -> ConditionedFlight:
-    """Clean, smooth samples of a raw flight log, and a report of what was done.
+@dataclass(frozen=True)
+class Conditioning:
+    """The options of the conditioning of a flight log, validated once (on construction).
+
+    Built alike by the command line (``fieldmap nav --trajectory``) and by Python users, and
+    passed as one object to :func:`condition`, :func:`condition_segments` and
+    :func:`fieldmap.nav.logs.load.load_flight`.
 
     Parameters
     ----------
-    track : RawTrack
-        Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
-        ellipsoid) and ``lines``, and a ``source`` string
-        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
-        ``t0_utc`` go into the report.
     position_noise_m : float or (float, float), optional
         Position noise σ (m): one value, or (horizontal, per axis; vertical). Default:
         estimated from the data.
@@ -155,6 +142,7 @@ def condition(
         More than one segment left (gaps, jumps): fly the longest (the report lists the
         others), or refuse naming the first break.
     ellipsoid : Ellipsoid
+        Ellipsoid of the coordinates.
     min_speed_mps : float
         Ground speed below which a vehicle near its first (last) height is on the ground.
     max_speed_mps, max_climb_mps : float
@@ -168,6 +156,99 @@ def condition(
     dt_out : float, optional
         Output sample interval (s). Default: the median sample interval, within 0.1..1 s.
 
+    Raises
+    ------
+    InputError
+        An invalid option, naming it (``param``: the command line rewords the message with its
+        own option, :mod:`fieldmap.cli.params`).
+    """
+
+    position_noise_m: float | tuple[float, float] | None = None
+    max_gap_s: float = 60.0
+    airborne_only: bool = True
+    smooth: bool = True
+    reorder: bool = True
+    on_long_gap: str = "longest"
+    ellipsoid: Ellipsoid = WGS84
+    min_speed_mps: float = 30.0
+    max_speed_mps: float = 1200.0
+    max_climb_mps: float = 300.0
+    max_accel_g: float | None = 2.5
+    max_jerk: float | None = 5.0
+    threshold: float = 5.0
+    dt_out: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.on_long_gap not in ("longest", "refuse"):
+            raise InputError(
+                f"on_long_gap must be 'longest' or 'refuse', got {self.on_long_gap!r}",
+                param="on_long_gap",
+            )
+        for name, optional in (
+            ("max_gap_s", False),
+            ("min_speed_mps", False),
+            ("max_speed_mps", False),
+            ("max_climb_mps", False),
+            ("threshold", False),
+            ("max_accel_g", True),
+            ("max_jerk", True),
+            ("dt_out", True),
+        ):
+            v = getattr(self, name)
+            if not (optional and v is None) and not (
+                isinstance(v, (int, float)) and np.isfinite(v) and v > 0
+            ):
+                raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
+        self.noise_m()
+
+    def noise_m(self) -> list[float] | None:
+        """Return the position noise σ (m) as [horizontal, vertical], or None (estimated)."""
+        noise = self.position_noise_m
+        if noise is None:
+            return None
+        try:
+            sig = [float(x) for x in np.broadcast_to(np.asarray(noise, dtype=float), (2,))]
+        except (TypeError, ValueError):
+            sig = [np.nan]
+        if not all(np.isfinite(x) and x > 0 for x in sig):
+            raise InputError(
+                f"position_noise_m must be positive metres, got {noise!r}",
+                param="position_noise_m",
+            )
+        return sig
+
+    def report_options(self) -> dict[str, Any]:
+        """Return the options as the report gives them (JSON-ready)."""
+        return {
+            "position_noise_m": self.noise_m(),
+            "max_gap_s": float(self.max_gap_s),
+            "airborne_only": bool(self.airborne_only),
+            "smooth": bool(self.smooth),
+            "min_speed_mps": float(self.min_speed_mps),
+            "max_speed_mps": float(self.max_speed_mps),
+            "max_climb_mps": float(self.max_climb_mps),
+            "max_accel_g": None if self.max_accel_g is None else float(self.max_accel_g),
+            "max_jerk": None if self.max_jerk is None else float(self.max_jerk),
+            "threshold": float(self.threshold),
+            "dt_out": None if self.dt_out is None else float(self.dt_out),
+        }
+
+
+@options_api("options", Conditioning)
+def condition(track: Any, options: Conditioning | None = None) -> ConditionedFlight:
+    """Clean, smooth samples of a raw flight log, and a report of what was done.
+
+    Parameters
+    ----------
+    track : RawTrack
+        Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
+        ellipsoid) and ``lines``, and a ``source`` string
+        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
+        ``t0_utc`` go into the report.
+    options : Conditioning, optional
+        The options (default ``Conditioning()``). The 0.1 keywords (``max_gap_s=`` …) still
+        work, with a ``DeprecationWarning``.
+
     Returns
     -------
     ConditionedFlight
@@ -179,31 +260,27 @@ def condition(
         ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples);
         no flight (the vehicle never leaves a 30 m circle and a 15 m height band, also with
         ``smooth=False`` or ``airborne_only=False``), each in one line naming the source and
-        its lines; an invalid option.
+        its lines.
     """
-    if on_long_gap not in ("longest", "refuse"):
-        raise InputError(
-            f"on_long_gap must be 'longest' or 'refuse', got {on_long_gap!r}", param="on_long_gap"
-        )
-    opts = _options(**{k: v for k, v in locals().items() if k not in ("track", "on_long_gap")})
-    st = Stages(track, opts, reorder, ellipsoid)
-    if not smooth:
+    options = Conditioning() if options is None else options
+    st = Stages(track, options)
+    if not options.smooth:
         return finish(st, st.exact())
     ids = st.segment_ids()
-    if on_long_gap == "refuse" and len(ids) > 1:
+    if options.on_long_gap == "refuse" and len(ids) > 1:
         st.refuse_break(ids)
     return finish(st, st.fit(st.longest(ids)))
 
 
-def condition_segments(track, **kw) -> list[ConditionedFlight]:
+@options_api("options", Conditioning)
+def condition_segments(track: Any, options: Conditioning | None = None) -> list[ConditionedFlight]:
     """Condition every segment of a log (gaps and jumps separate them), in time order.
 
-    Keywords as :func:`condition` (``on_long_gap`` and ``smooth`` excepted); segments too short
+    Options as :func:`condition` (``on_long_gap`` and ``smooth`` ignored); segments too short
     to fly are left out. Raises :class:`InputError` when none is left.
     """
-    kw = {k: v for k, v in kw.items() if k not in ("on_long_gap", "smooth")}
-    reorder, ellipsoid = kw.pop("reorder", True), kw.pop("ellipsoid", WGS84)
-    st = Stages(track, _options(**kw), reorder, ellipsoid)
+    options = Conditioning() if options is None else options
+    st = Stages(track, replace(options, smooth=True))
     out = []
     for s in st.segment_ids():
         try:
@@ -215,69 +292,13 @@ def condition_segments(track, **kw) -> list[ConditionedFlight]:
     return out
 
 
-def _options(
-    *,
-    position_noise_m=None,
-    max_gap_s=60.0,
-    airborne_only=True,
-    smooth=True,
-    reorder=True,
-    ellipsoid=WGS84,
-    min_speed_mps=30.0,
-    max_speed_mps=1200.0,
-    max_climb_mps=300.0,
-    max_accel_g=2.5,
-    max_jerk=5.0,
-    threshold=5.0,
-    dt_out=None,
-) -> dict:
-    """Check the options of :func:`condition`; return them JSON-ready (for the report)."""
-    for name, v, optional in (
-        ("max_gap_s", max_gap_s, False),
-        ("min_speed_mps", min_speed_mps, False),
-        ("max_speed_mps", max_speed_mps, False),
-        ("max_climb_mps", max_climb_mps, False),
-        ("threshold", threshold, False),
-        ("max_accel_g", max_accel_g, True),
-        ("max_jerk", max_jerk, True),
-        ("dt_out", dt_out, True),
-    ):
-        if not (optional and v is None) and not (
-            isinstance(v, (int, float)) and np.isfinite(v) and v > 0
-        ):
-            raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
-    sig = position_noise_m
-    if sig is not None:
-        try:
-            sig = [float(x) for x in np.broadcast_to(np.asarray(sig, dtype=float), (2,))]
-        except (TypeError, ValueError):
-            sig = [np.nan]
-        if not all(np.isfinite(x) and x > 0 for x in sig):
-            raise InputError(
-                f"position_noise_m must be positive metres, got {position_noise_m!r}",
-                param="position_noise_m",
-            )
-    return {
-        "position_noise_m": sig,
-        "max_gap_s": float(max_gap_s),
-        "airborne_only": bool(airborne_only),
-        "smooth": bool(smooth),
-        "min_speed_mps": float(min_speed_mps),
-        "max_speed_mps": float(max_speed_mps),
-        "max_climb_mps": float(max_climb_mps),
-        "max_accel_g": None if max_accel_g is None else float(max_accel_g),
-        "max_jerk": None if max_jerk is None else float(max_jerk),
-        "threshold": float(threshold),
-        "dt_out": None if dt_out is None else float(dt_out),
-    }
-
-
 class Stages:
     """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment."""
 
-    def __init__(self, track, opts: dict, reorder: bool, ellipsoid: Ellipsoid):
-        self.track, self.opts = track, opts
-        self.log = log = OrderedLog(track, ellipsoid, reorder)
+    def __init__(self, track: Any, options: Conditioning) -> None:
+        self.track, self.options = track, options
+        self.opts = opts = options.report_options()
+        self.log = log = OrderedLog(track, options.ellipsoid, options.reorder)
         n = log.t.size
         z = np.zeros(n, bool)
         self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
@@ -449,7 +470,9 @@ class Stages:
             param="max_gap_s",
         )
 
-    def _noise(self, hi: np.ndarray, vi: np.ndarray):
+    def _noise(
+        self, hi: np.ndarray, vi: np.ndarray
+    ) -> tuple[Any, list[np.ndarray], np.ndarray, bool]:
         """σ (horizontal, vertical), per-sample σ of each, vertical noise energies, estimated."""
         log, q, sig = self.log, self.quantum, self.opts["position_noise_m"]
         if sig is None:
@@ -496,18 +519,11 @@ class Stages:
         # first and last samples are interior nodes, not free ends
         grid = (float(t_lo) - EDGE * dt, dt, ng + 2 * EDGE)
         th, tv, ph, hh = log.t[hi], log.t[vi], log.p[hi], log.h[vi, None]
-        fh = cfit.fit_path(grid, th, ph, loc[0], 2, max_run=burst_length(th))
-        fv = cfit.fit_path(
-            grid,
-            tv,
-            hh,
-            loc[1],
-            1,
-            energy=energy,
-            edf_correction=q == 0.0,
-            floor=3.0 * q,
-            max_run=burst_length(tv),
+        fh = cfit.fit_path(grid, th, ph, loc[0], cfit.PathFit(2, max_run=burst_length(th)))
+        height_fit = cfit.PathFit(
+            1, edf_correction=q == 0.0, floor=3.0 * q, max_run=burst_length(tv)
         )
+        fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
@@ -547,7 +563,15 @@ class Stages:
             "softened": softened,
         }
 
-    def _limits(self, grid, hi, vi, loc, fh, fv):
+    def _limits(
+        self,
+        grid: tuple[float, float, int],
+        hi: np.ndarray,
+        vi: np.ndarray,
+        loc: list[np.ndarray],
+        fh: dict[str, Any],
+        fv: dict[str, Any],
+    ) -> tuple[np.ndarray, np.ndarray, int]:
         """Step 7: soften the fits where the path as flown exceeds the vehicle limits.
 
         Where the acceleration or jerk of the quintic through the output
@@ -653,7 +677,7 @@ class OrderedLog:
     ``n_in, n_invalid, n_reordered, n_duplicates`` and the first line of each kind.
     """
 
-    def __init__(self, track, ellipsoid: Ellipsoid, reorder: bool):
+    def __init__(self, track: Any, ellipsoid: Ellipsoid, reorder: bool) -> None:
         src = self.source = str(getattr(track, "source", "flight"))
         arrs = [
             np.asarray(getattr(track, k), dtype=np.float64).ravel()

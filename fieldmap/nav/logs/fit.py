@@ -36,8 +36,13 @@ Silverman, B. W. (1984) Ann. Statist. 12, 898-916.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from fieldmap._compat import options_api
+from fieldmap.errors import InputError
 
 #: normal consistency factor of the MAD (1 / Φ⁻¹(3/4))
 MAD_SCALE = 1.482602218505602
@@ -256,7 +261,14 @@ class Whittaker:
     fit, by Hutchinson's (1989) estimator with fixed Rademacher probes (deterministic).
     """
 
-    def __init__(self, grid, t, y, w, probes: int = 0):
+    def __init__(
+        self,
+        grid: tuple[float, float, int],
+        t: np.ndarray,
+        y: np.ndarray,
+        w: np.ndarray,
+        probes: int = 0,
+    ) -> None:
         t0, self.dt, self.ng = grid
         ng = self.ng
         self.rows = k0, L = lagrange_rows(t0, self.dt, ng, t)
@@ -299,18 +311,52 @@ def _bisquare(z: np.ndarray, c: float) -> np.ndarray:
     return np.where(z < c, (1.0 - (z / c) ** 2) ** 2, 0.0)
 
 
+@dataclass(frozen=True)
+class PathFit:
+    """How :func:`fit_path` fits one component: its noise components and its robustness.
+
+    Parameters
+    ----------
+    dof : int
+        Noise components per sample (2 for a horizontal position in 3-D coordinates, 1 for a
+        height).
+    edf_correction : bool
+        λ with the degrees-of-freedom correction of Buja, Hastie & Tibshirani (1989); False:
+        Reinsch's (1967) own criterion.
+    floor : float
+        Residuals within ``floor`` of the fit are never outliers. Units: m.
+    max_run : int
+        Runs of more outliers than this are real motion the fit has yet to follow.
+    """
+
+    dof: int
+    edf_correction: bool = True
+    floor: float = 0.0
+    max_run: int = 7
+
+    def __post_init__(self) -> None:
+        if (
+            isinstance(self.dof, bool)
+            or not isinstance(self.dof, (int, np.integer))
+            or self.dof < 1
+        ):
+            raise InputError(f"dof must be a positive integer, got {self.dof!r}")
+        if not (math.isfinite(self.floor) and self.floor >= 0.0):
+            raise InputError(f"floor must be >= 0 metres, got {self.floor!r}")
+        if isinstance(self.max_run, bool) or not isinstance(self.max_run, (int, np.integer)):
+            raise InputError(f"max_run must be an integer, got {self.max_run!r}")
+
+
+@options_api("settings", PathFit, first_field="dof")
 def fit_path(
     grid: tuple[float, float, int],
     t: np.ndarray,
     y: np.ndarray,
     sigma: np.ndarray,
-    dof: int,
+    settings: PathFit,
     *,
     energy: np.ndarray | None = None,
-    edf_correction: bool = True,
-    floor: float = 0.0,
-    max_run: int = 7,
-) -> dict:
+) -> dict[str, Any]:
     """Robust :class:`Whittaker` fit of ``y`` (n, d) with λ from the noise σ (m, per sample).
 
     λ. Weights ``u/σ²``; λ solves ``Σ u |y − fit|² / σ² = dof Σ u (e / σ²) (1 − edf(λ) / n)``:
@@ -319,7 +365,9 @@ def fit_path(
     1967 criterion with the correction of Buja, Hastie & Tibshirani 1989; without it,
     ``edf_correction=False``, Reinsch's own: a little smoother and monotone in λ). Brent's
     method on log λ. ``dof``: noise components per sample (2 for a horizontal position in 3-D
-    coordinates, 1 for a height).
+    coordinates, 1 for a height): ``settings`` (:class:`PathFit`) holds it and the robustness
+    settings; the 0.1 call ``fit_path(grid, t, y, sigma, dof, max_run=...)`` still works, with a
+    ``DeprecationWarning``.
 
     Robustness. Iteratively reweighted (Garcia 2010): Tukey's bisquare weights ``u`` of the
     residuals in units of σ times their MAD scale (at least 1), c = 4.685 (Beaton & Tukey
@@ -331,6 +379,9 @@ def fit_path(
     """
     from scipy.linalg import LinAlgError
     from scipy.optimize import brentq
+
+    dof, edf_correction = settings.dof, settings.edf_correction
+    floor, max_run = settings.floor, settings.max_run
 
     n = t.size
     y0 = y.mean(axis=0)
@@ -345,7 +396,7 @@ def fit_path(
         # β = e^logb: the equivalent kernel's half-width in samples (Silverman 1984)
         return math.exp(2 * ORDER * logb) * scale
 
-    def discrepancy(wt: Whittaker, w: np.ndarray, u: np.ndarray, lo: float, hi: float):
+    def discrepancy(wt: Whittaker, w: np.ndarray, u: np.ndarray, lo: float, hi: float) -> float:
         budget, neff = float(np.sum(w * e)), float(np.sum(u))
 
         def excess(logb: float) -> float:
@@ -402,7 +453,9 @@ def fit_path(
     }
 
 
-def refit(grid: tuple[float, float, int], t, y, sigma, lam: float) -> tuple[np.ndarray, np.ndarray]:
+def refit(
+    grid: tuple[float, float, int], t: np.ndarray, y: np.ndarray, sigma: np.ndarray, lam: float
+) -> tuple[np.ndarray, np.ndarray]:
     """:class:`Whittaker` fit at a given λ with weights ``1/σ²``: grid values, fit at ``t``."""
     y0 = y.mean(axis=0)
     g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)

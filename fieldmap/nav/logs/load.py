@@ -5,25 +5,31 @@ column names, ADS-B exports, GPX, NMEA 0183, IGC, DataFrame/Dataset/arrays; MSL 
 heights made ellipsoidal), conditions it with :func:`fieldmap.nav.logs.condition.condition`
 (order, outliers, gaps, ground, smoothing: the path's acceleration and jerk are the vehicle's,
 not the noise's) and builds the :class:`fieldmap.nav.flight.FlightTrajectory` that the flight
-study flies. ``smooth=False`` keeps the exact interpolation of the samples (and its refusals)
+study flies, with the options of one :class:`~fieldmap.nav.logs.condition.Conditioning`.
+``smooth=False`` keeps the exact interpolation of the samples (and its refusals)
 for clean, simulated inputs; fieldmap's own CSV with attitude columns and NetCDF files are flown
 as recorded (their attitude would be lost by the smoothing).
 
-Its messages name its own keywords: where the conditioning advises ``reorder=True``, which
-:func:`load_flight` sets from ``smooth``, the advice is ``smooth=True``.
+Its messages name the options' fields: where the conditioning without smoothing advises
+``reorder=True``, which :func:`load_flight` sets from ``smooth``, the advice is ``smooth=True``.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
+from fieldmap._compat import options_api
 from fieldmap.errors import InputError
-from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.nav.flight import FlightTrajectory
+from fieldmap.nav.logs.condition import Conditioning, condition
+from fieldmap.nav.logs.report import ConditionedFlight
 
 _EXACT_SUFFIXES = (".nc", ".nc4", ".cdf")
 
 
-def _recorded_attitude(source) -> bool:
+def _recorded_attitude(source: Any) -> bool:
     """Whether ``source`` is a fieldmap CSV with roll/pitch/heading columns (flown as recorded)."""
     if not isinstance(source, (str, Path)):
         return hasattr(source, "keys") and "heading_deg" in list(source.keys())
@@ -41,40 +47,32 @@ def _recorded_attitude(source) -> bool:
     return False
 
 
+@options_api("options", Conditioning)
 def load_flight(
-    source,
+    source: Any,
+    options: Conditioning | None = None,
     *,
-    columns=None,
+    columns: Any = None,
     alt_units: str | None = None,
     height_ref: str | None = None,
     time_format: str | None = None,
-    model=None,
-    ellipsoid: Ellipsoid = WGS84,
-    smooth: bool = True,
-    position_noise_m=None,
-    max_gap_s: float = 60.0,
-    airborne_only: bool = True,
-):
+    model: Any = None,
+) -> tuple[FlightTrajectory, ConditionedFlight | None]:
     """Read, condition and interpolate a flight log.
 
     Parameters
     ----------
     source : str, Path, pandas.DataFrame, xarray.Dataset or dict
         The log (formats of :func:`fieldmap.nav.logs.read.read_track`).
+    options : Conditioning, optional
+        The conditioning (default ``Conditioning()``); its ``ellipsoid`` is that of the
+        coordinates and of the flight. With ``smooth=False``: the exact interpolation of the
+        samples, refused where times go back (``reorder`` applies to the smoothing only). The
+        0.1 keywords (``smooth=``, ``max_gap_s=`` …) still work, with a
+        ``DeprecationWarning``.
     columns, alt_units, height_ref, time_format, model
         As :func:`fieldmap.nav.logs.read.read_track` (``model``: the truth model whose geoid
         makes MSL heights ellipsoidal).
-    ellipsoid : Ellipsoid
-        Ellipsoid of the coordinates and of the flight.
-    smooth : bool
-        Condition the log (default; times going back are sorted, and said so); False: the
-        exact interpolation of the samples, refused where times go back.
-    position_noise_m : float or (float, float), optional
-        Position noise (horizontal[, vertical]) of the smoothing fit; default estimated.
-    max_gap_s : float
-        Longest gap bridged; longer gaps split the log (the longest segment is flown).
-    airborne_only : bool
-        Trim leading and trailing ground segments (taxi).
 
     Returns
     -------
@@ -82,8 +80,8 @@ def load_flight(
         The trajectory and the conditioning (its ``report`` and figure); None when flown as
         recorded.
     """
-    from fieldmap.nav.flight import FlightTrajectory
-
+    options = Conditioning() if options is None else options
+    ellipsoid = options.ellipsoid
     if isinstance(source, (str, Path)) and not Path(source).is_file():
         raise InputError(f"{source}: flight file not found")
     reader_opts = {
@@ -101,24 +99,17 @@ def load_flight(
                 param=given[0],
             )
         return FlightTrajectory(source, ellipsoid=ellipsoid), None
-    from fieldmap.nav.logs.condition import condition
     from fieldmap.nav.logs.read import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
+    # unconditioned, times going back are refused (today's rule): smooth= is what sorts
+    exact = not options.smooth
     try:
-        cf = condition(
-            track,
-            position_noise_m=position_noise_m,
-            max_gap_s=max_gap_s,
-            airborne_only=airborne_only,
-            smooth=smooth,
-            reorder=smooth,  # unconditioned, times going back are refused (today's rule)
-            ellipsoid=ellipsoid,
-        )
+        cf = condition(track, replace(options, reorder=options.reorder and not exact))
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
         text, param = str(exc), exc.param
-        if param == "reorder":  # reorder= is set from smooth=: the caller's keyword that sorts
+        if param == "reorder" and exact:  # the caller's keyword that sorts is smooth=
             text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
         if track.time_guess is not None:
             # the guess of the time units may be what made the log fail: say it was a guess

@@ -65,9 +65,10 @@ import gzip
 import os
 import re
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -76,6 +77,11 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
 from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
 from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
+
+#: the cells of a table's column j
+Getter = Callable[[Any], Any]
+#: "<source> line <n>" of sample i
+Where = Callable[[int], str]
 
 #: how a column mapping is written (the messages about columns show it)
 HINT = "--columns time=...,lat=...,lon=...,alt=..."
@@ -150,7 +156,15 @@ def parse_columns(text: str) -> dict[str, str]:
     return out
 
 
-def _table(header, get, lines, source, where_word, columns, time_format) -> Parsed:
+def _table(
+    header: list[str],
+    get: Getter,
+    lines: np.ndarray,
+    source: str,
+    where_word: str,
+    columns: Mapping[str, str] | None,
+    time_format: str | None,
+) -> Parsed:
     """Recognise the layout (or apply ``columns``) and read the four columns."""
     found = {h.lower(): j for j, h in reversed(list(enumerate(header)))}
     exact = {h: j for j, h in reversed(list(enumerate(header)))}
@@ -158,7 +172,7 @@ def _table(header, get, lines, source, where_word, columns, time_format) -> Pars
     for j, h in enumerate(header):
         fields.setdefault(h.lower(), []).append(j + 1)
 
-    def col(name):
+    def col(name: str) -> int | None:
         twice = fields.get(name.lower(), [])
         if len(twice) > 1:  # a column read (or looked for) that the header names twice
             raise InputError(
@@ -200,7 +214,7 @@ def _table(header, get, lines, source, where_word, columns, time_format) -> Pars
     notes += [] if layout[0] == "mapping" else [f"layout {layout[0]}"]
     kind, tname, latname, lonname, altmap, units = layout
 
-    def where(i):
+    def where(i: int) -> str:
         return f"{source} {where_word} {lines[i]}"
 
     t, absolute, tnote = times(get(col(tname)), where, tname, time_format)
@@ -227,13 +241,13 @@ def _table(header, get, lines, source, where_word, columns, time_format) -> Pars
 
 
 def read_track(
-    source,
+    source: Any,
     *,
     columns: Mapping[str, str] | str | None = None,
     alt_units: str | None = None,
     height_ref: str | None = None,
     time_format: str | None = None,
-    model=None,
+    model: Any = None,
     ellipsoid: Ellipsoid = WGS84,
 ) -> RawTrack:
     """Read a flight log as it comes into a :class:`RawTrack` (no smoothing, no reordering).
@@ -310,7 +324,13 @@ def read_track(
     return _finish(p, alt_units, height_ref, model, ellipsoid)
 
 
-def _finish(p: Parsed, alt_units, height_ref, model, ellipsoid) -> RawTrack:
+def _finish(
+    p: Parsed,
+    alt_units: str | None,
+    height_ref: str | None,
+    model: Any,
+    ellipsoid: Ellipsoid,
+) -> RawTrack:
     """Check, convert units and the height reference: the :class:`RawTrack`."""
     ref = height_ref or p.height_ref
     aname, alt = p.alts.get(ref, p.alts[p.height_ref])
@@ -418,7 +438,7 @@ def load_text(path: Path) -> tuple[str, str]:
 # -- CSV text and tables ---------------------------------------------------------------------
 
 
-def numbers(cells, where, name: str) -> np.ndarray:
+def numbers(cells: Any, where: Where, name: str) -> np.ndarray:
     """Floats of a column: empty cells NaN, anything else that is no number refused."""
     arr = np.asarray(cells)
     try:
@@ -444,7 +464,9 @@ def _iso(s: str) -> float:
     return utc_seconds(datetime.fromisoformat(s))
 
 
-def times(cells, where, name: str, fmt: str | None) -> tuple[np.ndarray, bool, str | None]:
+def times(
+    cells: Any, where: Where, name: str, fmt: str | None
+) -> tuple[np.ndarray, bool, str | None]:
     """Return times in seconds, whether they are absolute, and a note on how they were read.
 
     Numbers without ``fmt`` are seconds as given, epoch seconds above 1e8, epoch milliseconds
@@ -496,7 +518,7 @@ GUESS_MS = "guessed from their size: above 1e11"
 _EPOCH_MIN, _EPOCH_MAX = -62_135_596_800.0, 253_402_300_800.0
 
 
-def _check_epoch(t: np.ndarray, raw: np.ndarray, where, name: str, how: str) -> None:
+def _check_epoch(t: np.ndarray, raw: np.ndarray, where: Where, name: str, how: str) -> None:
     """Refuse epoch times ``t`` (s) outside the years 1..9999, naming the first and the units."""
     bad = np.flatnonzero((t < _EPOCH_MIN) | (t >= _EPOCH_MAX))
     if bad.size:
@@ -517,7 +539,7 @@ def _isnum(s: str) -> bool:
         return False
 
 
-def csv_table(text: str, source: str):
+def csv_table(text: str, source: str) -> tuple[list[str], Getter, np.ndarray]:
     """Header, getter of a column's cells and line numbers of a CSV text."""
     header, hline, rows, lines = None, 0, [], []
     body = [(k, s) for k, s in enumerate(text.splitlines(), 1) if s.strip() and s[:1] != "#"]
@@ -544,7 +566,7 @@ def csv_table(text: str, source: str):
     return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64)
 
 
-def object_table(obj, source: str):
+def object_table(obj: Any, source: str) -> tuple[list[str], Getter, np.ndarray]:
     """Header, getter and record numbers of a DataFrame, Dataset or mapping of arrays."""
     if hasattr(obj, "data_vars"):
         obj = {str(k): obj[k].values for k in obj.variables if obj[k].ndim == 1}
@@ -566,7 +588,7 @@ def object_table(obj, source: str):
 # -- heights: units checked, references made ellipsoidal --------------------------------------
 
 
-def _steps(lat, lon) -> np.ndarray:
+def _steps(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
     """Distances between consecutive samples (m; haversine on a sphere of 6371 km)."""
     la, lo = np.radians(lat), np.radians(lon)
     a = (
@@ -576,13 +598,21 @@ def _steps(lat, lon) -> np.ndarray:
     return 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
 
 
-def speeds(lat, lon, t) -> np.ndarray:
+def speeds(lat: np.ndarray, lon: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Ground speed between consecutive samples with increasing time (m/s)."""
     d, dt = _steps(lat, lon), np.diff(t)
     return d[dt > 0] / dt[dt > 0]
 
 
-def check_units(a, t, lines, units, vmed, where, aname) -> None:
+def check_units(
+    a: np.ndarray,
+    t: np.ndarray,
+    lines: np.ndarray,
+    units: str,
+    vmed: float,
+    where: str,
+    aname: str,
+) -> None:
     """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring)."""
     hint = "pass alt_units='ft'" if units == "m" else "a wrong column?"
     hint += ", or pass alt_units='m' if these are metres"
@@ -619,7 +649,14 @@ def check_units(a, t, lines, units, vmed, where, aname) -> None:
             )
 
 
-def to_ellipsoid(ref, lat, lon, a, model, ellipsoid) -> tuple[np.ndarray, list[str]]:
+def to_ellipsoid(
+    ref: str,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    a: np.ndarray,
+    model: Any,
+    ellipsoid: Ellipsoid,
+) -> tuple[np.ndarray, list[str]]:
     """Return h = H + N (a pressure altitude first carried to a geometric MSL height)."""
     from fieldmap.field.geodesy import geoid_height
 

@@ -12,6 +12,7 @@ track angle, ``(v_N a_E − v_E a_N) / v_H²``, where the ground speed exceeds 1
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 from fieldmap.nav.flight import FlightSamples
 from fieldmap.units import STANDARD_GRAVITY as G0
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: a sample's fate: the codes of ``ConditionedFlight.raw["status"]``
 KEPT, OUTLIER_H, OUTLIER_V, OUTLIER_HV, STALE, GROUND, DROPPED, GAP = range(8)
@@ -61,7 +65,7 @@ class ConditionedFlight:
         return format_report(self.report)
 
 
-def _normal_gravity(lat_deg, h, ell: Ellipsoid) -> np.ndarray:
+def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.ndarray:
     """Compute normal gravity (m/s²) at geodetic latitude and height (2nd order in h/a)."""
     phi = np.radians(lat_deg)
     c2, s2 = np.cos(phi) ** 2, np.sin(phi) ** 2
@@ -136,8 +140,12 @@ def _intervals(t: np.ndarray, dtm: float) -> tuple[int, float]:
     return int(np.sum(d > 2.5 * dtm)), float(d.max())
 
 
-def finish(st, fr: dict) -> ConditionedFlight:
-    """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``."""
+def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
+    """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``.
+
+    ``st``: a :class:`fieldmap.nav.logs.condition.Stages` (not imported: condition imports this
+    module).
+    """
     log, o, track = st.log, st.opts, st.track
     samples, status = fr["samples"], st.status()
     t0 = samples.t_start
@@ -327,7 +335,7 @@ def format_report(rep: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_conditioning(cf: ConditionedFlight):
+def plot_conditioning(cf: ConditionedFlight) -> Figure:
     """Raw samples against the conditioned path: map, height, offsets; a matplotlib Figure.
 
     Rejected samples are marked (red), stale positions grey; offsets are from the fitted path
