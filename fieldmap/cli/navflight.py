@@ -113,7 +113,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _noise(text: str | None) -> float | tuple[float, ...] | None:
+def _noise(text: str | None) -> float | tuple[float, float] | None:
     if text is None:
         return None
     try:
@@ -125,7 +125,7 @@ def _noise(text: str | None) -> float | tuple[float, ...] | None:
             f"--position-noise-m takes 1 or 2 positive numbers (m, horizontal[,vertical]), "
             f"got {text!r}"
         )
-    return vals[0] if len(vals) == 1 else tuple(vals)
+    return vals[0] if len(vals) == 1 else (vals[0], vals[1])
 
 
 def _rate(text: str | None) -> float | str | None:

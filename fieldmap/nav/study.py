@@ -529,11 +529,12 @@ def gravity_error_along(
     g_true = to_ned(Gravitation("sh", model=model, device=device, ellipsoid=ell)(r))
     dg, pred = {}, {}
     for m in names:
-        if table_file(m) is not None:
+        path = table_file(m)
+        if path is not None:
             from fieldmap.nav.gravity import table_gravitation
             from fieldmap.products.tables.model import load_table
 
-            tab = load_table(table_file(m))
+            tab = load_table(path)
             g_nav = table_gravitation(tab, *r.T, ellipsoid=ell, device=device)
         elif m in NORMAL_KINDS:
             g_nav = Gravitation(NORMAL_KINDS[m], device=device, ellipsoid=ell)(r)
