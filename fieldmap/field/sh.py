@@ -10,7 +10,6 @@ Degree limits: the ``[m, n]`` tables and the 1e-280 scaling serve degrees up to
 :data:`MAX_DEGREE_POINTS` (10,800): above 2700 their struct is the extended-range one
 (``xrange``: X-numbers, coefficients packed by order, recursion factors computed in the kernel
 from square-root tables; see :mod:`fieldmap.kernels.sh`). Memory at degree 10,800: the packed
-
 coefficients, 0.93 GB, besides the model's own C and S (1.87 GB).
 """
 

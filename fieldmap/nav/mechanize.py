@@ -199,18 +199,18 @@ class _Batch:
 
 
 def _prepare_batch(
-    dtheta: npt.ArrayLike, dv: npt.ArrayLike, dt: float,
-    states: dict[str, Any], gravity: str | Sequence[str],
-    sh_model: SHModel | None, imu_set: npt.ArrayLike | None, errors: dict | None,
-    output_every: int, device: str | None, per_step: int, sample0: int = 0,
-    gravity_every: int = 1, gravity_hold: npt.ArrayLike | None = None,
+    dtheta: npt.ArrayLike, dv: npt.ArrayLike, dt: float, states: dict[str, Any],
+    cfg: NavConfig, device: str | None, per_step: int,
 ) -> _Batch:  # fmt: skip
     """Validate and upload everything the LCI and NED kernels share (one row per trajectory).
 
     Used by :func:`fieldmap.nav.mechanize.propagate_lci` and
-    :func:`fieldmap.nav.mechanize.propagate_ned`; ``sample0`` is the global index of the first
-    sample (see :func:`~fieldmap.nav.mechanize.propagate_lci`).
+    :func:`fieldmap.nav.mechanize.propagate_ned`; ``cfg.sample0`` is the global index of the
+    first sample (see :func:`~fieldmap.nav.mechanize.propagate_lci`).
     """
+    gravity, sh_model, imu_set, errors = cfg.gravity, cfg.sh_model, cfg.imu_set, cfg.errors
+    output_every, sample0 = cfg.output_every, cfg.sample0
+    gravity_every, gravity_hold = cfg.gravity_every, cfg.gravity_hold
     _warp.init()
     dtheta = _finite("dtheta", dtheta, (3,))
     dv = _finite("dv", dv, (3,))
@@ -633,16 +633,9 @@ def propagate_lci(
         dv,
         dt,
         {"P0": (start.P, (3,)), "V0": (start.V, (3,)), "q0": (start.q, (4,))},
-        cfg.gravity,
-        cfg.sh_model,
-        cfg.imu_set,
-        cfg.errors,
-        cfg.output_every,
+        cfg,
         device,
         per_step=2,
-        sample0=cfg.sample0,
-        gravity_every=cfg.gravity_every,
-        gravity_hold=cfg.gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
@@ -797,16 +790,9 @@ def propagate_ned(
         dv,
         dt,
         {"llh0": (llh, (3,)), "v_ned0": (start.v_ned, (3,)), "q0": (start.q, (4,))},
-        cfg.gravity,
-        cfg.sh_model,
-        cfg.imu_set,
-        cfg.errors,
-        cfg.output_every,
+        cfg,
         device,
         per_step=1,
-        sample0=cfg.sample0,
-        gravity_every=cfg.gravity_every,
-        gravity_hold=cfg.gravity_hold,
     )
     from fieldmap.field.normal import normal_params
     from fieldmap.kernels import strapdown as ksd
