@@ -467,6 +467,7 @@ def test_optional_dependencies_match_pyproject():
 
 
 # ----------------------------------------------------------------------------- fieldmap navsim
+_ROUTE = ["--route", "47,8,500;47.1,8.2,500", "--speed-mps", "100"]
 NAVSIM_CASES = [
     (["--rate", "0"], "--rate must be a positive number"),
     (["--rate", "nan"], "--rate must be a positive number"),
@@ -505,6 +506,14 @@ NAVSIM_CASES = [
     (["--out", "afile/sub"], "not a folder"),
     (["--out", "/proc/fieldmap_out"], "cannot create output folder"),
     (["--out", ""], "output folder name is empty"),
+    # the gravity budget's terms (issue 26)
+    ([*_ROUTE, "--omission-model", "foo"], "unknown degree-variance model 'foo'"),
+    ([*_ROUTE, "--commission", "maybe"], "invalid choice"),
+    (
+        [*_ROUTE, "--commission", "on", "--model", "good.gfc", "--models", "j4"],
+        "no coefficient standard deviations",
+    ),
+    (["--omission-model", "kaula"], "--omission-model applies to"),
 ]
 
 

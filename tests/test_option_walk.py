@@ -205,7 +205,10 @@ def invoke(argv, stdin, fixtures, tmp, monkeypatch) -> Run:
 
 
 #: keys of the JSON documents (and of the JSON in NetCDF attributes) holding wall-clock times
-VOLATILE = {"gravity_eval_seconds", "synthesis_seconds", "propagation_seconds", "elapsed_s"}
+VOLATILE = {
+    "gravity_eval_seconds", "synthesis_seconds", "propagation_seconds", "gravity_budget_seconds",
+    "elapsed_s",
+}  # fmt: skip
 
 
 def _mask(doc):
@@ -572,6 +575,15 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("navsim", "--fraction"): [
         C("flight", "--fraction", "0.5"),
         C("table1", "--fraction", "0.5", expect=REFUSED, note="--study table1"),
+    ],
+    ("navsim", "--omission-model"): [
+        C("flight", "--omission-model", "kaula"),
+        C("flight", "--omission-model", "none"),
+        C("table1", "--omission-model", "kaula", expect=REFUSED, note="--study table1"),
+    ],
+    ("navsim", "--commission"): [
+        C("flight", "--commission", "off"),
+        C("table1", "--commission", "off", expect=REFUSED, note="--study table1"),
     ],
     ("navsim", "--block-s"): [
         C("flight", "--block-s", "3"),

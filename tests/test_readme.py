@@ -50,7 +50,9 @@ def test_flight_from_python(capsys):
     """docs/user_guide/flight_python.md: the public flight-study call, as the page writes it.
 
     The page's claims are checked too: J2 and J4 add more than the 10 % of the IMU-only error
-    allowed, the full SH model (``sh`` → ``sh240``) less, so it is the recommended model.
+    allowed; the full SH model (``sh`` → ``sh240``) adds exactly nothing against the truth, but
+    the field above degree 240 and the commission do, more than 10 %, so no model is
+    recommended and the omission is named as the dominant term.
     """
     page = DOCS / "user_guide" / "flight_python.md"
     (block,) = _python_blocks(page)
@@ -59,12 +61,18 @@ def test_flight_from_python(capsys):
         warnings.simplefilter("error", DeprecationWarning)  # the page shows today's call
         exec(compile(block, str(page), "exec"), env)
     res, added, imu_only = env["res"], env["added_m"], env["imu_only_m"]
+    budget = env["budget_m"]
     assert env["study"].imu_name == "navigation"
     assert 200 < env["study"].duration_s < 300  # "about four minutes"
-    assert set(added) == {"j2", "j4", "sh240"}
+    assert set(added) == set(budget) == {"j2", "j4", "sh240"}
     assert 10 < imu_only < 25  # "about 16 m"
-    assert min(added["j2"], added["j4"]) > 0.1 * imu_only > added["sh240"]
-    assert res.summary["recommended_model"] == "sh240"
+    assert min(added["j2"], added["j4"]) > 0.1 * imu_only
+    assert 6 < min(budget["j2"]["model_difference"], budget["j4"]["model_difference"]) < 11
+    assert budget["sh240"]["model_difference"] == 0.0
+    assert 3 < budget["sh240"]["omission"] < 8  # "about 5 m"
+    assert 0.5 < budget["sh240"]["commission"] < 2  # "about 1 m"
+    assert res.summary["recommended_model"] is None
+    assert "field above degree 240 (omission) dominates" in res.summary["recommendation"]
     assert res.summary["recommendation"] in capsys.readouterr().out
     ds = env["ds"]
     assert {"run", "time", "axis"} <= set(ds.dims)

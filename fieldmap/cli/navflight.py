@@ -243,6 +243,8 @@ def study(
         output_dt=args.output_dt,
         block_s=args.block_s,
         fraction=args.fraction,
+        omission_model="tscherning-rapp" if args.omission_model is None else args.omission_model,
+        commission={None: None, "auto": None, "on": True, "off": False}[args.commission],
     )
 
 
@@ -281,7 +283,9 @@ def run(
             if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
                 tqdm.write(f"warning: {w.message}")
         if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
-            res.summary["meta"].update(synthesis_seconds=None, propagation_seconds=None)
+            res.summary["meta"].update(
+                synthesis_seconds=None, propagation_seconds=None, gravity_budget_seconds=None
+            )
         if cf is not None:
             res.summary["conditioning"] = cf.report
         results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))

@@ -70,8 +70,24 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "--fraction",
         type=float,
         default=0.1,
-        help="recommended model: added horizontal error below this fraction of the IMU-only "
-        "error (default 0.1)",
+        help="recommended model: the simplest whose gravity contribution (model difference, "
+        "omission and commission through the linear error model) stays below this fraction of "
+        "the IMU-only horizontal error (default 0.1)",
+    )
+    p.add_argument(
+        "--omission-model",
+        default=None,
+        metavar="tscherning-rapp|kaula|fitted|none",
+        help="flight study: degree-variance model of the field above the truth's degree (the "
+        "omission term of the gravity budget; default tscherning-rapp, Tscherning & Rapp 1974 "
+        "model 4; fitted: a power law fitted to the truth's own degrees; none: left out)",
+    )
+    p.add_argument(
+        "--commission",
+        default=None,
+        choices=("auto", "on", "off"),
+        help="flight study: realise the truth model's coefficient errors (the commission term "
+        "of the gravity budget; auto, the default: when the model carries coefficient sigma)",
     )
     p.add_argument(
         "--block-s",
@@ -175,6 +191,8 @@ FLIGHT_ONLY = {
     "altitude_aiding": "--altitude-aiding",
     "fraction": "--fraction",
     "block_s": "--block-s",
+    "omission_model": "--omission-model",
+    "commission": "--commission",
     **navflight.LOG_ONLY,
     **navflight.FLIGHT_EXTRA,
 }

@@ -83,6 +83,8 @@ OPTIONS: dict[str, str | None] = {
     "output_dt": "--output-dt",
     "block_s": "--block-s",
     "fraction": "--fraction",
+    "omission_model": "--omission-model",
+    "commission": "--commission",
     "speed_mps": "--speed-mps",
     "imu_name": None,
     # Propagator (fieldmap.nav.propagator)

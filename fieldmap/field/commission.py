@@ -197,3 +197,65 @@ def commission_sigma(
         return (np.sqrt(var) / gamma0).reshape(lat.shape)
     sig = np.sqrt(var) * MGAL
     return sig.reshape(lat.shape + ((3,) if quantity == "disturbance" else ()))
+
+
+def commission_draws(
+    model: SHModel,
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    draws: int,
+    seed: int,
+    ellipsoid: Ellipsoid = WGS84,
+    device: str | None = None,
+) -> np.ndarray:
+    """Random realisations of the model's commission error of δg, north/east/down, in m/s².
+
+    Each draw is a set of coefficient errors δC̄nm ~ N(0, σ²_C,nm), δS̄nm ~ N(0, σ²_S,nm)
+    (uncorrelated, as :func:`commission_sigma` assumes), synthesised as a gravitational field
+    by the point engine (:func:`fieldmap.field.sh.sh_gravitation`): a realisation is a field
+    consistent in 3-D, and its σ over draws at a point is :func:`commission_sigma`'s.
+
+    Parameters
+    ----------
+    model : SHModel
+        A model with ``sigma_c`` and ``sigma_s`` (its degree: the degrees realised).
+    latitude, longitude, height : array_like
+        Geodetic points (1-D, same length). Units: degrees, degrees, m.
+    draws : int
+        Number of realisations (>= 1).
+    seed : int
+        Seed of ``numpy.random.default_rng``: the same seed gives the same fields.
+    ellipsoid : Ellipsoid
+        Of the coordinates.
+    device : str, optional
+        Warp device.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (draws, n, 3): δg north, east, down. Units: m/s².
+    """
+    from fieldmap.field.sh import sh_gravitation
+
+    if model.sigma_c is None or model.sigma_s is None:
+        raise InputError(
+            f"model {model.name} carries no coefficient standard deviations: no commission error"
+        )
+    lat, lon, h = (np.asarray(v, dtype=np.float64).ravel() for v in (latitude, longitude, height))
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ellipsoid)
+    enu = frames.C_e_to_enu(lat, lon)
+    rng = np.random.default_rng(seed)
+    sc, ss = np.asarray(model.sigma_c), np.asarray(model.sigma_s)
+    out = np.empty((int(draws), lat.size, 3))
+    for k in range(int(draws)):
+        dC = sc * rng.standard_normal(sc.shape)
+        dS = ss * rng.standard_normal(ss.shape)
+        err = SHModel(
+            f"{model.name} commission draw {k}", model.gm, model.radius, dC, dS, model.lmax,
+            tide_system=model.tide_system, source="synthetic",
+        )  # fmt: skip
+        g = np.asarray(sh_gravitation(err, x, y, z, device=device))
+        e_n_u = np.einsum("nij,nj->ni", enu, g)
+        out[k] = e_n_u[:, [1, 0, 2]] * np.array([1.0, 1.0, -1.0])
+    return out

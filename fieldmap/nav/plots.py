@@ -607,6 +607,19 @@ def errors_figure(res: FlightResult) -> Figure:
         ax.plot(t, np.median(np.hypot(d[..., 0], d[..., 1]), 0), color=c, label=f"{m} simulated")
         p = res.predicted[m]
         ax.plot(t, np.hypot(p[:, 0], p[:, 1]), "--", color=c, label=f"{m} ∬δg dt²")
+        b = getattr(res, "budget", None)
+        if b is not None:
+            a = b.model_difference[m]
+            ax.plot(t, np.hypot(a[:, 0], a[:, 1]), ":", color=c, lw=1.5, label=f"{m} (a) linear")
+    b = getattr(res, "budget", None)
+    for term, c, label in (
+        ("omission", "0.2", "(b) omission"),
+        ("commission", "0.55", "(c) commission"),
+    ):
+        x = None if b is None else getattr(b, term)
+        if x is not None:
+            rms = np.sqrt(np.mean(x[..., 0] ** 2 + x[..., 1] ** 2, axis=0))
+            ax.plot(t, rms, "-.", color=c, lw=1.5, label=f"{label} RMS")
     ax.set_yscale("log")
     ax.set_xlabel("time (min)")
     ax.set_ylabel("horizontal error added by the model (m)")

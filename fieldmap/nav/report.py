@@ -177,16 +177,37 @@ def format_flight(res: FlightResult) -> str:
         f"{m['imu_rate_hz']:g} Hz, {m['draws']} draw(s), frame {m['frame']}, altitude aiding "
         f"{m['altitude_aiding']}, truth {m['truth_model']} degree {m['truth_degree']} ==",
         f"{'model':{w}s} {'horiz rms m':>12s} {'p95':>10s} {'vert rms m':>11s} {'|dv| rms':>10s} "
-        f"{'added horiz':>12s}",
+        f"{'added horiz':>12s} {'gravity h':>10s} {'(a) model':>10s} {'(b) omis.':>10s} "
+        f"{'(c) comm.':>10s}",
     ]
     for name, e in doc["models"].items():
+        g = e.get("gravity") or {}
+        gt = g.get("horizontal_terms_m") or {}
         lines.append(
             f"{name:{w}s} {_num(e['final_horizontal_error_m']['rms'], '12.3f', 12)} "
             f"{_num(e['final_horizontal_error_m']['p95'], '10.3f', 10)} "
             f"{_num(e['final_vertical_error_m']['rms'], '11.3f', 11)} "
             f"{_num(e['final_velocity_error_m_s']['rms'], '10.4f', 10)} "
-            f"{_num(e.get('added_horizontal_error_m'), '12.3f', 12)}"
+            f"{_num(e.get('added_horizontal_error_m'), '12.3f', 12)} "
+            f"{_num(g.get('horizontal_m'), '10.3f', 10)} "
+            f"{_num(gt.get('model_difference'), '10.3f', 10)} "
+            f"{_num(gt.get('omission'), '10.3f', 10)} {_num(gt.get('commission'), '10.3f', 10)}"
             + ("  DIVERGED" if e["diverged"] else "")
+        )
+    terms = m.get("gravity_terms")
+    if terms:
+        om = terms["omission_model"]
+        lines.append(
+            "gravity terms (linear error model, "
+            f"{terms['draws']} draws): (a) navigation model minus truth; (b) "
+            + (
+                f"omission: degrees {terms['omission_degrees'][0]}..{terms['omission_degrees'][1]}"
+                f" of the {om} degree variances"
+                if om
+                else "omission: off"
+            )
+            + "; (c) commission: "
+            + ("the truth's coefficient sigma" if terms["commission"] else "off")
         )
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)

@@ -78,6 +78,13 @@ from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
+from fieldmap.nav.budget import (
+    GRAVITY_DRAWS,
+    TERM_WORDS,
+    GravityBudget,
+    GravityTerms,
+    gravity_budget,
+)
 from fieldmap.nav.flight import geodetic_state
 from fieldmap.nav.gravity import NORMAL_MODELS, sh_degree, table_file
 from fieldmap.nav.imu import (
@@ -584,15 +591,24 @@ def summarize(
     dvel: np.ndarray,
     run_models: Any,
     rows: list[str],
-    n_draws: int,
     fraction: Any,
     diverged: list[dict[str, Any]],
     meta: dict[str, Any],
+    budget: GravityBudget | None = None,
 ) -> dict[str, Any]:
-    """Build the JSON document: final-error statistics per row, added errors, recommendation."""
+    """Build the JSON document: final errors per row, the gravity budget, a recommendation.
+
+    With a ``budget`` (:func:`fieldmap.nav.budget.gravity_budget`) each model's ``gravity``
+    entry gives its contribution to the final horizontal and vertical error, term by term
+    (model difference, omission, commission; RMS over the budget's draws), and the
+    recommendation is the simplest model whose whole gravity contribution stays below
+    ``fraction`` × the IMU-only horizontal error, naming the term that dominates. Without one,
+    the Monte Carlo ``added_horizontal_error_m`` decides (the difference of two nonlinear runs
+    per draw, reported in both cases).
+    """
     run_models = np.array(run_models)
     fin = dpos[:, -1]
-    doc = {"meta": meta, "models": {}, "fraction": fraction}
+    doc: dict[str, Any] = {"meta": meta, "models": {}, "fraction": fraction}
     ref = fin[run_models == "imu_only"]
     imu_h = float(np.sqrt(np.mean(np.sum(ref[:, :2] ** 2, -1))))
     bad_models = {d["model"] for d in diverged}
@@ -613,27 +629,52 @@ def summarize(
             d = f - ref  # same draws, same order
             entry["added_horizontal_error_m"] = float(np.sqrt(np.mean(np.sum(d[:, :2] ** 2, -1))))
             entry["added_vertical_error_m"] = float(np.sqrt(np.mean(d[:, 2] ** 2)))
+            if budget is not None:
+                entry["gravity"] = budget.summary(r)
         doc["models"][r] = entry
     doc["imu_only_horizontal_error_m"] = imu_h
     order = simplicity_order([r for r in rows if r != "imu_only"])
-    ok = [
-        m for m in order
-        if not doc["models"][m]["diverged"]
-        and doc["models"][m]["added_horizontal_error_m"] <= fraction * imu_h
-    ]  # fmt: skip
+    key = "added_horizontal_error_m"
+
+    def cost(m: str) -> float:
+        e = doc["models"][m]
+        return float(e["gravity"]["horizontal_m"] if budget is not None else e[key])
+
+    ok = [m for m in order if not doc["models"][m]["diverged"] and cost(m) <= fraction * imu_h]
+    what = "gravity contributes" if budget is not None else "adds"
     if ok:
         doc["recommended_model"] = ok[0]
         doc["recommendation"] = (
-            f"{ok[0]}: adds {doc['models'][ok[0]]['added_horizontal_error_m']:.3g} m horizontal "
-            f"error, below {fraction:.0%} of the IMU-only {imu_h:.3g} m"
+            f"{ok[0]}: {what} {cost(ok[0]):.3g} m horizontal error, below {fraction:.0%} of the "
+            f"IMU-only {imu_h:.3g} m"
         )
+        pick = ok[0]
     else:
-        best = min(order, key=lambda m: doc["models"][m]["added_horizontal_error_m"])
+        pick = min(order, key=cost)
         doc["recommended_model"] = None
         doc["recommendation"] = (
             f"no model stays below {fraction:.0%} of the IMU-only error ({imu_h:.3g} m); the "
-            f"smallest added error is {best}'s "
-            f"({doc['models'][best]['added_horizontal_error_m']:.3g} m)"
+            f"smallest {'gravity contribution' if budget is not None else 'added error'} is "
+            f"{pick}'s, {cost(pick):.3g} m"
+        )
+    if budget is not None:
+        g = doc["models"][pick]["gravity"]
+        dom = g["dominant"]
+        words = TERM_WORDS[dom].format(L=meta.get("truth_degree", "L"))
+        terms = g["horizontal_terms_m"]
+        parts = ", ".join(
+            f"{t.replace('_', ' ')} {v:.3g} m" for t, v in terms.items() if v is not None
+        )
+        doc["recommendation"] += f" ({parts}). {words[0].upper()}{words[1:]} dominates"
+        floor = [terms[t] for t in ("omission", "commission") if terms[t] is not None]
+        if dom != "model_difference" and not ok:
+            doc["recommendation"] += (
+                f": no model of degree <= {meta.get('truth_degree', 'L')} can do better; a "
+                "higher-degree model, or a table built from one, is needed"
+            )
+        doc["recommendation"] += "."
+        doc["gravity_floor_horizontal_m"] = (
+            float(np.sqrt(sum(v * v for v in floor))) if floor else 0.0
         )
     doc["diverged"] = list(diverged)
     return doc
@@ -689,6 +730,8 @@ class FlightResult:
     diverged: list = field(default_factory=list)
     #: commission σ of the truth gravity along the track, NED (n_out, 3) m/s²; None without σ
     dg_sigma: Any = None
+    #: each gravity term's position error through the linear error model (nav.budget)
+    budget: GravityBudget | None = None
 
     def to_dataset(self) -> xr.Dataset:
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
@@ -814,6 +857,13 @@ class FlightStudy:
     imu_name : str, optional
         Label of the IMU in the outputs (default: the preset name, the TOML file's ``name``,
         or ``"custom"`` for a spec).
+    omission_model : {"tscherning-rapp", "kaula", "fitted"} or None
+        Degree-variance model of the field above the truth's degree (the omission term of the
+        gravity budget, :mod:`fieldmap.nav.budget`); None or ``"none"``: left out (said in
+        the summary).
+    commission : bool, optional
+        Realise the truth model's coefficient errors (the commission term). None (default): when
+        the truth carries coefficient σ; True with a truth without σ is refused.
 
     Examples
     --------
@@ -844,6 +894,8 @@ class FlightStudy:
     fraction: float = 0.1
     speed_mps: float | None = None
     imu_name: str | None = None
+    omission_model: str | None = "tscherning-rapp"
+    commission: bool | None = None
     # resolved at construction (read-only): the altitude aiding ("baro"/"none"), the flown
     # duration and the stored-state interval (s), the samples per output, flown and per block,
     # and the draws flown
@@ -855,6 +907,7 @@ class FlightStudy:
     per_block: int = field(init=False)
     n_draws: int = field(init=False)
     gravity_every: int = field(init=False)
+    gravity_terms: GravityTerms = field(init=False)
 
     def __post_init__(self) -> None:
         from fieldmap.limits import MAX_DRAWS
@@ -985,6 +1038,30 @@ class FlightStudy:
         sh_deg = max((parse_gravity(m, model)[1] for m in self.models), default=0)
         g_every = gravity_update_every(traj, sh_deg, rate_hz, self.gravity_rate_hz) if sh_deg else 1
         put("gravity_every", g_every)
+        put("gravity_terms", _gravity_terms(self, model, int(n_draws)))
+
+
+def _gravity_terms(study: FlightStudy, model: SHModel, n_draws: int) -> GravityTerms:
+    """Validate and resolve the omission and commission options of a study."""
+    kind = study.omission_model
+    omission = None
+    if kind is not None and str(kind).strip().lower() != "none":
+        from fieldmap.field.omission import Omission
+
+        omission = Omission(int(model.lmax), kind=str(kind).strip().lower(), model=model)
+    comm = study.commission
+    if comm not in (None, True, False):
+        raise InputError(
+            f"commission must be True, False or None, got {comm!r}", param="commission"
+        )
+    if comm is None:
+        comm = model.has_sigma
+    elif comm and not model.has_sigma:
+        raise InputError(
+            f"commission: the truth model {model.name} carries no coefficient standard deviations",
+            param="commission",
+        )
+    return GravityTerms(omission, bool(comm), max(n_draws, GRAVITY_DRAWS), int(study.seed))
 
 
 def run_flight(
@@ -1129,12 +1206,20 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
     track = np.stack(truth_state[:3], -1)
     dg, predicted = gravity_error_along(track, t_out, names, model, ell, device)
     dg_sigma = truth_sigma_along(track, t_out, model, ell)
+    c2 = time.perf_counter()
+    gains = None
+    if aiding == "baro":
+        from fieldmap.nav.mechanize import baro_gains
+
+        gains = baro_gains(baro.loop_tau_s, ell)
+    budget = gravity_budget(t_out, track, dg, model, study.gravity_terms, ell, gains, device)
+    secs["gravity_budget"] = time.perf_counter() - c2
     labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
     run_models = [r for r in rows for _ in range(n_draws)]
     draw_idx = np.tile(np.arange(n_draws), len(rows))
     diverged = divergence(dpos, t_out, run_models, labels)
     summary = summarize(
-        dpos, dvel, run_models, rows, n_draws, study.fraction, diverged,
+        dpos, dvel, run_models, rows, study.fraction, diverged,
         meta={
             "trajectory": traj.name,
             "duration_s": float(n_total * dt),
@@ -1162,13 +1247,32 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
             "block_s": float(per_block * dt),
             "synthesis_seconds": secs["synthesis"],
             "propagation_seconds": secs["propagation"],
+            "gravity_budget_seconds": secs["gravity_budget"],
+            "gravity_terms": _terms_meta(study.gravity_terms, budget),
             "device": device or "auto",
         },
+        budget=budget,
     )  # fmt: skip
     return FlightResult(
         t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
-        diverged, dg_sigma,
+        diverged, dg_sigma, budget,
     )  # fmt: skip
+
+
+def _terms_meta(terms: GravityTerms, budget: GravityBudget) -> dict[str, Any]:
+    """Describe the gravity budget's terms for the summary."""
+    om = terms.omission
+    sig = budget.omission_sigma
+    return {
+        "method": "linear error model along the true track (fieldmap.nav.linear), per draw",
+        "omission_model": None if om is None else om.kind,
+        "omission_degrees": None if om is None else [int(om.degree) + 1, int(om.max_degree)],
+        "omission_sigma_max_mgal": None
+        if sig is None
+        else dict(zip(("north", "east", "down"), (np.max(sig, axis=0) * 1e5).tolist())),
+        "commission": bool(terms.commission),
+        "draws": int(terms.draws),
+    }
 
 
 def to_dataset(res: Any) -> xr.Dataset:
@@ -1209,7 +1313,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
 
     models = list(res.dg)
     axis = np.array(["north", "east", "down"])
-    sigma = {}
+    sigma: dict[str, tuple[tuple[str, ...], Any, dict[str, str]]] = {}
     if getattr(res, "dg_sigma", None) is not None:
         sigma["truth_gravity_sigma"] = (
             ("time", "axis"),
@@ -1220,6 +1324,46 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                 "error from the coefficient sigma, diagonal propagation), NED",
             },
         )
+    budget = getattr(res, "budget", None)
+    coords_extra = {}
+    if budget is not None and models:
+        terms = ("total", "model_difference", "omission", "commission")
+
+        def rms(x: Any) -> np.ndarray:
+            if x is None:
+                return np.full(res.t.shape + (3,), np.nan)
+            x = np.asarray(x)
+            return np.sqrt(np.mean(x * x, axis=0)) if x.ndim == 3 else np.abs(x)
+
+        def total(m: str) -> np.ndarray:
+            parts = [rms(x) for x in (budget.model_difference[m], budget.omission,
+                                      budget.commission) if x is not None]  # fmt: skip
+            return np.sqrt(sum(p * p for p in parts))
+
+        curves = np.stack(
+            [
+                np.stack(
+                    [
+                        total(m),
+                        rms(budget.model_difference[m]),
+                        rms(budget.omission),
+                        rms(budget.commission),
+                    ]
+                )
+                for m in models
+            ]
+        )
+        sigma["gravity_contribution"] = (
+            ("model", "gravity_term", "time", "axis"),
+            curves,
+            {
+                "units": "m",
+                "long_name": "position error due to each gravity term through the linear error "
+                "model (RMS over the budget's draws; total: root sum of their mean squares; NaN: "
+                "term off), NED",
+            },
+        )
+        coords_extra["gravity_term"] = ("gravity_term", np.array(terms))
     ds = xr.Dataset(
         {
             **sigma,
@@ -1265,6 +1409,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
             "time": ("time", res.t, {"units": "s", "long_name": "time since the first sample"}),
             "axis": ("axis", axis),
             "horizontal_axis": ("horizontal_axis", axis[:2]),
+            **coords_extra,
         },
         attrs={
             "Conventions": "CF-1.8",

@@ -1,0 +1,243 @@
+r"""The gravity model's share of a navigation error: three terms, through the linear error model.
+
+A navigator flying with gravity model m is in error by g_m − g_real, and the real field is the
+truth model plus what the truth model lacks:
+
+.. math::
+    g_m - g_\mathrm{real} = \underbrace{(g_m - g_\mathrm{truth})}_{(a)}
+        - \underbrace{\delta g_\mathrm{omission}}_{(b)}
+        - \underbrace{\delta g_\mathrm{commission}}_{(c)} .
+
+* (a) the **model difference**, deterministic: the navigation model against the truth model
+  (degree L) at the true track points;
+* (b) the **omission**: the field above degree L, an isotropic random field of a degree-variance
+  model (:class:`fieldmap.field.omission.Omission`: Tscherning–Rapp 1974 model 4, Kaula's rule,
+  or a power law fitted to the truth's own degrees), realised along the 3-D track;
+* (c) the **commission**: the truth model's coefficient errors (its σ), realised as random
+  coefficient sets synthesised by the point engine
+  (:func:`fieldmap.field.commission.commission_draws`).
+
+Each term is flown through the linear error model of :mod:`fieldmap.nav.linear` (the INS's
+position error driven by a gravity error along the true path, the Schuler, vertical and
+Earth-rate modes and the baro loop included). Being linear, the contributions add draw by draw,
+the truth model's own (a) is exactly zero, and no term drowns in the spread of the IMU's
+nonlinear error (the Monte Carlo "added" error of two nonlinear runs, still reported beside it,
+carries that spread). (b) and (c) are the same for every navigation model: they are the part of
+the real field the truth model does not hold, which no model built from it can supply.
+
+(b) and (c) are realised :data:`GRAVITY_DRAWS` times at least (a draw costs a synthesis along
+the track and one linear pass, not a strapdown run), so their RMS is good to about 1/√(2·draws).
+Both are synthesised at :func:`path_nodes` along the path, an eighth of their shortest
+wavelength apart (the truth's 2πR/L for (c); for (b) the one :func:`omission_spacing` finds at
+the flight's lowest height), and interpolated by a cubic spline in time: a cubic between nodes
+λ/8 apart errs by about 1e-3 of the term.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fieldmap.field.ellipsoid import Ellipsoid
+from fieldmap.models.shmodel import SHModel
+from fieldmap.nav.linear import position_response
+
+__all__ = [
+    "GRAVITY_DRAWS", "GravityBudget", "GravityTerms", "gravity_budget", "omission_spacing",
+    "path_nodes",
+]  # fmt: skip
+
+#: fewest realisations of the omission and commission terms
+GRAVITY_DRAWS = 32
+#: fewest and most points along the path at which the omission and commission are synthesised
+PATH_NODES = (16, 4000)
+TERMS = ("model_difference", "omission", "commission")
+#: words of each term in a recommendation
+TERM_WORDS = {
+    "model_difference": "the model's difference from the truth model",
+    "omission": "the field above degree {L} (omission)",
+    "commission": "the truth model's coefficient errors (commission)",
+}
+
+
+@dataclass(frozen=True)
+class GravityTerms:
+    """The gravity-error terms a study flies besides the model difference (resolved, trusted).
+
+    ``omission`` the field above the truth's degree (an
+    :class:`~fieldmap.field.omission.Omission`) or None; ``commission`` whether the truth's
+    coefficient errors are realised; ``draws`` realisations of each; ``seed`` of the first
+    (the commission uses ``seed + 1``).
+    """
+
+    omission: Any
+    commission: bool
+    draws: int
+    seed: int
+
+
+@dataclass
+class GravityBudget:
+    """Position errors (NED, m, at the study's output times) of each gravity term.
+
+    ``model_difference`` {model: (n, 3)}, deterministic; ``omission`` and ``commission``
+    (draws, n, 3) or None when the term is off; ``draws`` their realisations; ``omission_sigma``
+    (n, 3) the omission's σ of δg along the track (m/s², north/east/down) or None.
+    """
+
+    model_difference: dict
+    omission: np.ndarray | None
+    commission: np.ndarray | None
+    draws: int
+    omission_sigma: np.ndarray | None = None
+
+    def total(self, model: str) -> np.ndarray:
+        """(draws, n, 3): the model's whole gravity contribution, draw by draw (a − b − c)."""
+        tot = np.broadcast_to(self.model_difference[model], (self.draws,) + self.shape).copy()
+        for x in (self.omission, self.commission):
+            if x is not None:
+                tot -= x
+        return tot
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n, 3) of one term's error curve."""
+        return next(iter(self.model_difference.values())).shape
+
+    def summary(self, model: str) -> dict[str, Any]:
+        """Return each term's final horizontal and vertical contribution (RMS over draws), m.
+
+        ``horizontal_m``/``vertical_m``: the whole contribution, the root sum of the terms'
+        mean squares (the expected RMS of a − b − c); ``dominant``: the largest horizontal term.
+        """
+
+        def rms(x: np.ndarray | None, comp: slice) -> float | None:
+            if x is None:
+                return None
+            f = np.asarray(x)[..., -1, comp]
+            return float(np.sqrt(np.mean(np.sum(f * f, axis=-1))))
+
+        doc: dict[str, Any] = {}
+        for name, comp in (("horizontal", slice(0, 2)), ("vertical", slice(2, 3))):
+            terms = {
+                "model_difference": rms(self.model_difference[model], comp),
+                "omission": rms(self.omission, comp),
+                "commission": rms(self.commission, comp),
+            }
+            # the terms are independent and (b), (c) zero-mean: their mean squares add (the
+            # draw-by-draw total would add the sample cross terms of a few dozen draws)
+            doc[f"{name}_m"] = float(np.sqrt(sum(v * v for v in terms.values() if v is not None)))
+            doc[f"{name}_terms_m"] = terms
+        h = doc["horizontal_terms_m"]
+        doc["dominant"] = max((t for t in TERMS if h[t] is not None), key=lambda t: h[t])
+        return doc
+
+
+def path_nodes(track: np.ndarray, spacing: float) -> np.ndarray:
+    """Return indices of track points about ``spacing`` apart along the path (m).
+
+    Evenly spaced in path length, within :data:`PATH_NODES`, the first and last points always
+    included; every point when the track has fewer.
+    """
+    from fieldmap.field.frames import geodetic_to_ecef
+
+    r = np.stack(geodetic_to_ecef(track[:, 0], track[:, 1], track[:, 2]), -1)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(r, axis=0), axis=1))])
+    lo, hi = PATH_NODES
+    k = int(np.clip(np.ceil(s[-1] / spacing) + 1, lo, hi))
+    if k >= track.shape[0]:
+        return np.arange(track.shape[0])
+    idx = np.searchsorted(s, np.linspace(0.0, s[-1], k))
+    idx[-1] = track.shape[0] - 1
+    return np.unique(np.clip(idx, 0, track.shape[0] - 1))
+
+
+def omission_spacing(omission: Any, height: float) -> float:
+    """Return an eighth of the shortest wavelength that matters in the omission at ``height``.
+
+    In m: the wavelength 2πR/n_q of the degree n_q below which 99.9 % of the omitted δg variance at
+    the height lies (the attenuation (R/r)^(2n+2) sets it: tens of km at airliner heights, a
+    few km near the ground).
+    """
+    n = omission.degrees
+    r = omission.radius + max(float(height), 0.0)
+    c = omission.potential_variances(n)
+    w = c * ((n + 1.0) ** 2 + n * (n + 1.0)) * np.exp((2.0 * n + 2.0) * np.log(omission.radius / r))
+    cum = np.cumsum(w)
+    nq = float(n[min(int(np.searchsorted(cum, 0.999 * cum[-1])), n.size - 1)])
+    return float(2.0 * np.pi * omission.radius / nq / 8.0)
+
+
+def _at_nodes(t: np.ndarray, idx: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Values (…, k, 3) at the nodes ``idx`` of ``t`` → at every t (cubic spline in time)."""
+    if idx.size == t.size:
+        return values
+    from scipy.interpolate import CubicSpline
+
+    return np.asarray(CubicSpline(t[idx], values, axis=-2)(t))
+
+
+def gravity_budget(
+    t: np.ndarray,
+    track: np.ndarray,
+    dg: dict[str, np.ndarray],
+    truth: SHModel,
+    terms: Any,
+    ellipsoid: Ellipsoid,
+    baro_gains: tuple[float, float, float] | None = None,
+    device: str | None = None,
+) -> GravityBudget:
+    """Fly each gravity term through the linear error model along the true track.
+
+    Parameters
+    ----------
+    t, track : numpy.ndarray
+        Output times (n,) in s and the true lat, lon, h (n, 3) there (deg, deg, m).
+    dg : dict
+        {model: (n, 3)} the model difference g_model − g_truth, NED, m/s².
+    truth : SHModel
+        The truth model (degree L; its σ for the commission).
+    terms : GravityTerms
+        Which terms, with what (validated by the study): ``omission`` (an
+        :class:`~fieldmap.field.omission.Omission` or None), ``commission`` (bool), ``draws``
+        and ``seed``.
+    ellipsoid : Ellipsoid
+        Of the track.
+    baro_gains : (k1, k2, k3), optional
+        The baro loop's gains when the vertical channel is aided.
+    device : str, optional
+        Warp device of the commission synthesis.
+    """
+    names = list(dg)
+    inputs = [np.asarray(dg[m]) for m in names]
+    n_g = int(terms.draws)
+    om = cm = sig = None
+    if terms.omission is not None:
+        idx = path_nodes(track, omission_spacing(terms.omission, float(np.min(track[:, 2]))))
+        lat, lon, h = track[idx, 0], track[idx, 1], track[idx, 2]
+        om = _at_nodes(t, idx, terms.omission.realise(lat, lon, h, n_g, terms.seed))
+        sig = _at_nodes(t, idx, terms.omission.sigma(h))
+    if terms.commission:
+        from fieldmap.field.commission import commission_draws
+
+        idx = path_nodes(track, 2.0 * np.pi * truth.radius / max(int(truth.lmax), 1) / 8.0)
+        c = commission_draws(
+            truth, track[idx, 0], track[idx, 1], track[idx, 2], n_g, terms.seed + 1,
+            ellipsoid, device,
+        )  # fmt: skip
+        cm = _at_nodes(t, idx, c)
+    for term in (om, cm):
+        if term is not None:
+            inputs.extend(term)
+    stack = np.stack(inputs)
+    resp = position_response(t, track, stack, ellipsoid, baro_gains)
+    k = len(names)
+    diff = {m: resp[i] for i, m in enumerate(names)}
+    b = c_ = None
+    if om is not None:
+        b, k = resp[k : k + n_g], k + n_g
+    if cm is not None:
+        c_ = resp[k : k + n_g]
+    return GravityBudget(diff, b, c_, n_g, sig)
