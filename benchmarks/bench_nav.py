@@ -159,7 +159,9 @@ def main(argv=None) -> int:
         print(
             f"flight study {args.minutes:g} min at {args.rate:g} Hz, 7 rows x {m['draws']} draws, "
             f"NED, truth EIGEN-6S 200: wall {wall:.1f} s = synthesis {m['synthesis_seconds']:.1f} s"
-            f" + propagation {m['propagation_seconds']:.1f} s (+ outputs/δg)"
+            f" + propagation {m['propagation_seconds']:.1f} s + gravity budget "
+            f"{m['gravity_budget_seconds']:.1f} s (omission and commission, "
+            f"{m['gravity_terms']['draws']} draws, linear error model) (+ outputs/δg)"
         )
         print(res.summary["recommendation"])
         print(
