@@ -73,3 +73,18 @@ def test_agrees_with_the_strapdown_mechanization(frame, aiding):
         assert np.abs(linear - nonlinear).max() < 5e-3 * scale
         # and the study's own budget is this response (other columns beside it in one pass)
         np.testing.assert_allclose(res.budget.model_difference[m], linear, rtol=1e-12, atol=1e-12)
+
+
+def test_lci_flight_velocity_error_is_earth_relative():
+    # an ideal IMU in the launch-centred inertial frame: the velocity error is zero, not the
+    # Earth's ω × r (400 m/s east here: it was subtracted twice before issue 26)
+    from fieldmap.nav.study import FlightStudy, run_flight
+    from fieldmap.nav.trajectory import BoostGlide
+
+    study = FlightStudy(
+        BoostGlide(), imu="ideal", models="sh", frame="lci", draws=1, duration=100,
+        truth_lmax=20, omission_model=None, commission=False,
+    )  # fmt: skip
+    res = run_flight(study)
+    assert np.abs(res.dpos).max() < 0.05
+    assert np.abs(res.dvel).max() < 1e-3

@@ -444,9 +444,9 @@ def geodetic_outputs(launch: Any, out: dict[str, Any]) -> dict[str, Any]:
     fr = launch
     t = out["t"]
     n = out["P"].shape[0]
-    r_e, v_in = fr.a_state_to_ecef(out["P"].reshape(-1, 3), out["V"].reshape(-1, 3), np.tile(t, n))
+    # a_state_to_ecef gives the Earth-relative velocity (the inertial one less ω × r) already
+    r_e, v_e = fr.a_state_to_ecef(out["P"].reshape(-1, 3), out["V"].reshape(-1, 3), np.tile(t, n))
     lat, lon, h = ecef_to_geodetic(r_e[:, 0], r_e[:, 1], r_e[:, 2], fr.ellipsoid)
-    v_e = v_in - np.cross([0.0, 0.0, fr.omega], r_e)
     C_n_e = C_n_to_e(lat, lon)
     v_ned = np.einsum("nji,nj->ni", C_n_e, v_e)
     C_b_a = quat_to_dcm(out["q"]).reshape(-1, 3, 3)
