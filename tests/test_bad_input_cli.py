@@ -514,6 +514,11 @@ NAVSIM_CASES = [
         "no coefficient standard deviations",
     ),
     (["--omission-model", "kaula"], "--omission-model applies to"),
+    (
+        [*_ROUTE, "--method", "covariance", "--draws", "5"],
+        "--draws applies to --method monte-carlo",
+    ),
+    ([*_ROUTE, "--method", "kalman"], "invalid choice"),
 ]
 
 

@@ -581,6 +581,10 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--omission-model", "none"),
         C("table1", "--omission-model", "kaula", expect=REFUSED, note="--study table1"),
     ],
+    ("navsim", "--method"): [
+        C("flight", "--method", "covariance"),
+        C("table1", "--method", "covariance", expect=REFUSED, note="--study table1"),
+    ],
     ("navsim", "--commission"): [
         C("flight", "--commission", "off"),
         C("table1", "--commission", "off", expect=REFUSED, note="--study table1"),

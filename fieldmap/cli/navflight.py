@@ -245,6 +245,7 @@ def study(
         fraction=args.fraction,
         omission_model="tscherning-rapp" if args.omission_model is None else args.omission_model,
         commission={None: None, "auto": None, "on": True, "off": False}[args.commission],
+        method=args.method or "monte-carlo",
     )
 
 
@@ -263,8 +264,14 @@ def run(
 
     from tqdm import tqdm
 
+    from fieldmap.nav.covariance import CovarianceStudyResult
     from fieldmap.nav.plots import disturbance_grid
-    from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.nav.report import (
+        format_covariance,
+        format_flight,
+        write_covariance_outputs,
+        write_flight_outputs,
+    )
     from fieldmap.nav.study import run_flight
     from fieldmap.products.io import output_batch
 
@@ -283,9 +290,12 @@ def run(
             if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
                 tqdm.write(f"warning: {w.message}")
         if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
-            res.summary["meta"].update(
-                synthesis_seconds=None, propagation_seconds=None, gravity_budget_seconds=None
-            )
+            for key in (
+                "synthesis_seconds", "propagation_seconds", "gravity_budget_seconds",
+                "covariance_seconds",
+            ):  # fmt: skip
+                if key in res.summary["meta"]:
+                    res.summary["meta"][key] = None
         if cf is not None:
             res.summary["conditioning"] = cf.report
         results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))
@@ -293,7 +303,10 @@ def run(
     with output_batch(args.out) as batch:  # every file of every flight, or none
         for name, res, cf, grid in results:
             prefix = f"navsim_flight_{name}" if several else "navsim_flight"
-            write_flight_outputs(res, batch, grid, prefix=prefix)
+            if isinstance(res, CovarianceStudyResult):
+                write_covariance_outputs(res, batch, prefix=prefix)
+            else:
+                write_flight_outputs(res, batch, grid, prefix=prefix)
             if cf is not None:
                 from fieldmap.nav.logs.report import plot_conditioning
 
@@ -301,7 +314,9 @@ def run(
     for name, res, _, _ in results:
         if several:
             print(f"== {name} ==")
-        print(format_flight(res))
+        print(
+            format_covariance(res) if isinstance(res, CovarianceStudyResult) else format_flight(res)
+        )
     if several:
         print(f"{'flight':24s} {'duration s':>10s}  recommended")
         for name, res, _, _ in results:

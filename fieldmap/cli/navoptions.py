@@ -75,6 +75,14 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "the IMU-only horizontal error (default 0.1)",
     )
     p.add_argument(
+        "--method",
+        default=None,
+        choices=("monte-carlo", "covariance"),
+        help="flight study: monte-carlo (default: strapdown runs of every model and IMU draw) "
+        "or covariance (linear covariance analysis: sigma(t) of every error source in one "
+        "pass, an error budget; --draws does not apply)",
+    )
+    p.add_argument(
         "--omission-model",
         default=None,
         metavar="tscherning-rapp|kaula|fitted|none",
@@ -193,6 +201,7 @@ FLIGHT_ONLY = {
     "block_s": "--block-s",
     "omission_model": "--omission-model",
     "commission": "--commission",
+    "method": "--method",
     **navflight.LOG_ONLY,
     **navflight.FLIGHT_EXTRA,
 }
@@ -250,6 +259,13 @@ def refuse_in_flight(
             raise InputError(f"{option} applies to {studies}, not to {_FLIGHT}")
     if given(args, "speed_mps") and args.route is None:
         raise InputError("--speed-mps applies to --route, not to --trajectory")
+    if args.method == "covariance":
+        for dest, option in (("draws", "--draws"), ("scheduler", "--scheduler")):
+            if given(args, dest):
+                raise InputError(
+                    f"{option} applies to --method monte-carlo: the covariance analysis draws "
+                    "nothing and runs here"
+                )
     label, spec = imu
     if spec.is_ideal:
         if given(args, "draws"):

@@ -85,6 +85,7 @@ OPTIONS: dict[str, str | None] = {
     "fraction": "--fraction",
     "omission_model": "--omission-model",
     "commission": "--commission",
+    "method": "--method",
     "speed_mps": "--speed-mps",
     "imu_name": None,
     # Propagator (fieldmap.nav.propagator)

@@ -45,15 +45,22 @@ from numpy.typing import ArrayLike
 from fieldmap.field.ellipsoid import Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 
-__all__ = ["position_response"]
+__all__ = ["CORE_STATES", "core_dynamics", "position_response", "rk4_transition"]
 
-_NS = 7  # state: δr (3), δv (3), baro accelerometer-correction state a (1)
+#: the core error state: δr (3, ECEF, m), δv (3, ECEF, m/s), the baro loop's acceleration
+#: correction a (1, m/s²)
+CORE_STATES = 7
+_NS = CORE_STATES
 
 
-def _dynamics(
+def core_dynamics(
     r: np.ndarray, up: np.ndarray, gm: float, omega: float, gains: tuple[float, float, float]
 ) -> np.ndarray:
-    """F(t) of the 7-state error model at ECEF points r (n, 3), geodetic up û (n, 3)."""
+    """Return F(t) of the core error state at ECEF points r (n, 3), geodetic up û (n, 3).
+
+    ``gm`` and ``omega`` the ellipsoid's GM (m³/s²) and rotation rate (rad/s), ``gains`` the
+    baro loop's (k1, k2, k3) or zeros. Shape (n, 7, 7).
+    """
     n = r.shape[0]
     rn = np.linalg.norm(r, axis=1)
     rh = r / rn[:, None]
@@ -70,6 +77,21 @@ def _dynamics(
     F[:, 3:6, 6] = -up if (k1 or k2 or k3) else 0.0
     F[:, 6, 0:3] = k3 * up
     return F
+
+
+def rk4_transition(F0: np.ndarray, Fm: np.ndarray, F1: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Return the transition matrices of one RK4 step of x' = F(t) x per interval.
+
+    ``F0``, ``Fm``, ``F1`` (n, k, k): F at the start, middle and end of each of the n
+    intervals, ``h`` (n,) their lengths (s). Exact to fifth order in h‖F‖.
+    """
+    hs = np.asarray(h, dtype=np.float64)[:, None, None]
+    eye = np.eye(F0.shape[-1])
+    K1 = F0
+    K2 = Fm @ (eye + 0.5 * hs * K1)
+    K3 = Fm @ (eye + 0.5 * hs * K2)
+    K4 = F1 @ (eye + hs * K3)
+    return np.asarray(eye + hs / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4))
 
 
 def position_response(
@@ -118,20 +140,15 @@ def position_response(
     # inputs in ECEF (velocity rows of the state): u = C_ecef<-ned δg
     u = np.einsum("nji,knj->kni", ned, dg)
     # midpoints: the track and the input linear in time within an interval
-    F = _dynamics(r, up, ellipsoid.GM, ellipsoid.omega, gains)
+    F = core_dynamics(r, up, ellipsoid.GM, ellipsoid.omega, gains)
     rm = 0.5 * (r[1:] + r[:-1])
     um_dir = up[1:] + up[:-1]
     um_dir /= np.linalg.norm(um_dir, axis=1)[:, None]
-    Fm = _dynamics(rm, um_dir, ellipsoid.GM, ellipsoid.omega, gains)
+    Fm = core_dynamics(rm, um_dir, ellipsoid.GM, ellipsoid.omega, gains)
     F0, F1 = F[:-1], F[1:]
     hs = np.diff(t)[:, None, None]
-    eye = np.eye(_NS)
     # RK4 for x' = F x + B u (B selects the velocity rows): x+ = Φ x + P0 u0 + Pm um + P1 u1
-    K1 = F0
-    K2 = Fm @ (eye + 0.5 * hs * K1)
-    K3 = Fm @ (eye + 0.5 * hs * K2)
-    K4 = F1 @ (eye + hs * K3)
-    Phi = eye + hs / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)
+    Phi = rk4_transition(F0, Fm, F1, np.diff(t))
     B = np.zeros((_NS, 3))
     B[3:6] = np.eye(3)
     # the stage inputs: k1 = F0 x + B u0; k2 = Fm(x + h/2 k1) + B um; k3 = Fm(x + h/2 k2) + B um;

@@ -58,6 +58,7 @@ if TYPE_CHECKING:
     from matplotlib.patches import Patch
 
     from fieldmap.models.shmodel import SHModel
+    from fieldmap.nav.covariance import CovarianceStudyResult
     from fieldmap.nav.paper import StudyResult
     from fieldmap.nav.study import FlightResult
 
@@ -635,6 +636,44 @@ def errors_figure(res: FlightResult) -> Figure:
     return fig
 
 
+def sigma_figure(res: CovarianceStudyResult) -> Figure:
+    """σ(t) of the horizontal and vertical position error per source, and the gravity terms."""
+    plt = _plt()
+    cov = res.covariance
+    t = res.t / 60.0
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    tot = cov.total()
+    for ax, k, what in ((axes[0], slice(0, 2), "horizontal"), (axes[1], slice(2, 3), "vertical")):
+        ax.plot(t, np.sqrt(np.sum(tot[:, k] ** 2, -1)), color="k", lw=2.5, label="IMU total")
+        for j, s in enumerate(cov.sources):
+            y = np.sqrt(np.sum(cov.position[s][:, k] ** 2, -1))
+            ax.plot(t, y, color=colors[j % len(colors)], lw=1, ls="-" if j < 10 else "--",
+                    label=s)  # fmt: skip
+        b = res.budget
+        for m in res.dg:
+            a = b.model_difference[m][:, k]
+            ax.plot(t, np.sqrt(np.sum(a * a, -1)), ":", lw=1.5, label=f"gravity (a) {m}")
+        for term, c in (("omission", "0.2"), ("commission", "0.55")):
+            x = getattr(b, term)
+            if x is not None:
+                y = np.sqrt(np.mean(np.sum(x[..., k] ** 2, -1), axis=0))
+                ax.plot(t, y, "-.", color=c, lw=1.5, label=f"gravity ({term})")
+        ax.set_yscale("log")
+        ax.set_xlabel("time (min)")
+        ax.set_ylabel(f"{what} position error σ (m)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    m = res.summary["meta"]
+    fig.suptitle(
+        f"Covariance analysis, flight {m['trajectory']}: IMU {m['imu']}, frame {m['frame']}, "
+        f"altitude aiding {m['altitude_aiding']}, truth {m['truth_model']} {m['truth_degree']}\n"
+        f"{res.summary['recommendation']}",
+        fontsize=9,
+    )
+    return fig
+
+
 def track_aspect(lat_limits: Sequence[float]) -> float:
     """Axis aspect (degrees of latitude per degree of longitude on screen) of a local map.
 
@@ -675,7 +714,10 @@ def track_figure(
 
 
 def disturbance_grid(
-    res: FlightResult, model: SHModel, n: int = 60, device: str | None = None
+    res: FlightResult | CovarianceStudyResult,
+    model: SHModel,
+    n: int = 60,
+    device: str | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Down component of g_truth − γ_normal (mGal) on a grid around the track at mean height."""
     from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef

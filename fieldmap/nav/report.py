@@ -20,6 +20,7 @@ import numpy.typing as npt
 from fieldmap.nav.study import flight_dataset, to_dataset
 
 if TYPE_CHECKING:
+    from fieldmap.nav.covariance import CovarianceStudyResult
     from fieldmap.nav.paper import StudyResult
     from fieldmap.nav.study import FlightResult
     from fieldmap.products.io import OutputBatch
@@ -211,6 +212,68 @@ def format_flight(res: FlightResult) -> str:
         )
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
+
+
+def format_covariance(res: CovarianceStudyResult) -> str:
+    """Plain-text error budget of a covariance study: each source, then each gravity model."""
+    doc = res.summary
+    m = doc["meta"]
+    lines = [
+        f"== flight {m['trajectory']}: {m['duration_s']:g} s, IMU {m['imu']}, frame {m['frame']}, "
+        f"altitude aiding {m['altitude_aiding']}, truth {m['truth_model']} degree "
+        f"{m['truth_degree']}: linear covariance analysis ==",
+        f"{'error source':32s} {'final horiz σ m':>16s} {'final vert σ m':>15s}",
+    ]
+    for name, e in doc["sources"].items():
+        lines.append(
+            f"{name:32s} {_num(e['final_horizontal_sigma_m'], '16.3f', 16)} "
+            f"{_num(e['final_vertical_sigma_m'], '15.3f', 15)}"
+        )
+    lines.append(
+        f"{'IMU and baro, all':32s} {_num(doc['imu_only_horizontal_error_m'], '16.3f', 16)} "
+        f"{_num(doc['imu_only_vertical_error_m'], '15.3f', 15)}"
+    )
+    w = max(10, *(len(name) for name in doc["models"]))
+    lines.append(
+        f"{'model':{w}s} {'horiz m':>10s} {'gravity h':>10s} {'(a) model':>10s} "
+        f"{'(b) omis.':>10s} {'(c) comm.':>10s}"
+    )
+    for name, e in doc["models"].items():
+        g = e["gravity"]
+        gt = g["horizontal_terms_m"]
+        lines.append(
+            f"{name:{w}s} {_num(e['final_horizontal_error_m'], '10.3f', 10)} "
+            f"{_num(g['horizontal_m'], '10.3f', 10)} "
+            f"{_num(gt['model_difference'], '10.3f', 10)} {_num(gt['omission'], '10.3f', 10)} "
+            f"{_num(gt['commission'], '10.3f', 10)}"
+        )
+    lines.append(f"recommended model: {doc['recommendation']}")
+    return "\n".join(lines)
+
+
+def write_covariance_outputs(
+    res: CovarianceStudyResult, out: OutputBatch, prefix: str = "navsim_flight"
+) -> list[str]:
+    """``<prefix>.{json,csv,nc,png}`` of a covariance study into an open output batch."""
+    from fieldmap.nav import plots
+    from fieldmap.products.io import signals_deferred
+
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["source", "final_horizontal_sigma_m", "final_vertical_sigma_m"])
+    for name, e in res.summary["sources"].items():
+        w.writerow([name, e["final_horizontal_sigma_m"], e["final_vertical_sigma_m"]])
+    for name, e in res.summary["models"].items():
+        for term, v in e["gravity"]["horizontal_terms_m"].items():
+            w.writerow([f"gravity {term} ({name})", v, e["gravity"]["vertical_terms_m"][term]])
+    paths = [
+        out.text(json.dumps(res.summary, indent=2, default=float) + "\n", f"{prefix}.json"),
+        out.text(buf.getvalue(), f"{prefix}.csv"),
+        out.netcdf(res.to_dataset(), f"{prefix}.nc"),
+    ]
+    with signals_deferred():
+        paths.append(out.png(plots.sigma_figure(res), f"{prefix}.png"))
+    return [str(p) for p in paths]
 
 
 def write_flight_outputs(

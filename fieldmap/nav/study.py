@@ -104,6 +104,7 @@ if TYPE_CHECKING:
     import xarray as xr
 
     from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.nav.covariance import CovarianceStudyResult
 
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
 #: names: the exact level-ellipsoid field is ``"exact"`` on both sides)
@@ -586,6 +587,56 @@ def truth_sigma_along(
     return np.stack([np.interp(t, t[idx], ned[:, k]) for k in range(3)], axis=-1)
 
 
+def recommend(
+    doc: dict[str, Any], order: list[str], imu_h: float, fraction: float, budget: bool, degree: Any
+) -> None:
+    """Set ``recommended_model``, ``recommendation`` (and the gravity floor) of a summary.
+
+    ``doc["models"]`` holds each model's entry (``diverged``, and ``gravity`` from the budget
+    or the Monte Carlo ``added_horizontal_error_m``); ``order`` the models from the simplest;
+    ``imu_h`` the IMU's own horizontal error (m); ``degree`` the truth's, for the wording.
+    """
+    models = doc["models"]
+
+    def cost(m: str) -> float:
+        e = models[m]
+        return float(e["gravity"]["horizontal_m"] if budget else e["added_horizontal_error_m"])
+
+    ok = [m for m in order if not models[m].get("diverged") and cost(m) <= fraction * imu_h]
+    what = "gravity contributes" if budget else "adds"
+    if ok:
+        pick = ok[0]
+        doc["recommended_model"] = pick
+        doc["recommendation"] = (
+            f"{pick}: {what} {cost(pick):.3g} m horizontal error, below {fraction:.0%} of the "
+            f"IMU-only {imu_h:.3g} m"
+        )
+    else:
+        pick = min(order, key=cost)
+        doc["recommended_model"] = None
+        doc["recommendation"] = (
+            f"no model stays below {fraction:.0%} of the IMU-only error ({imu_h:.3g} m); the "
+            f"smallest {'gravity contribution' if budget else 'added error'} is "
+            f"{pick}'s, {cost(pick):.3g} m"
+        )
+    if not budget:
+        return
+    g = models[pick]["gravity"]
+    dom = g["dominant"]
+    words = TERM_WORDS[dom].format(L=degree)
+    terms = g["horizontal_terms_m"]
+    parts = ", ".join(f"{t.replace('_', ' ')} {v:.3g} m" for t, v in terms.items() if v is not None)
+    doc["recommendation"] += f" ({parts}). {words[0].upper()}{words[1:]} dominates"
+    if dom != "model_difference" and not ok:
+        doc["recommendation"] += (
+            f": no model of degree <= {degree} can do better; a higher-degree model, or a table "
+            "built from one, is needed"
+        )
+    doc["recommendation"] += "."
+    floor = [terms[t] for t in ("omission", "commission") if terms[t] is not None]
+    doc["gravity_floor_horizontal_m"] = float(np.sqrt(sum(v * v for v in floor))) if floor else 0.0
+
+
 def summarize(
     dpos: np.ndarray,
     dvel: np.ndarray,
@@ -634,48 +685,7 @@ def summarize(
         doc["models"][r] = entry
     doc["imu_only_horizontal_error_m"] = imu_h
     order = simplicity_order([r for r in rows if r != "imu_only"])
-    key = "added_horizontal_error_m"
-
-    def cost(m: str) -> float:
-        e = doc["models"][m]
-        return float(e["gravity"]["horizontal_m"] if budget is not None else e[key])
-
-    ok = [m for m in order if not doc["models"][m]["diverged"] and cost(m) <= fraction * imu_h]
-    what = "gravity contributes" if budget is not None else "adds"
-    if ok:
-        doc["recommended_model"] = ok[0]
-        doc["recommendation"] = (
-            f"{ok[0]}: {what} {cost(ok[0]):.3g} m horizontal error, below {fraction:.0%} of the "
-            f"IMU-only {imu_h:.3g} m"
-        )
-        pick = ok[0]
-    else:
-        pick = min(order, key=cost)
-        doc["recommended_model"] = None
-        doc["recommendation"] = (
-            f"no model stays below {fraction:.0%} of the IMU-only error ({imu_h:.3g} m); the "
-            f"smallest {'gravity contribution' if budget is not None else 'added error'} is "
-            f"{pick}'s, {cost(pick):.3g} m"
-        )
-    if budget is not None:
-        g = doc["models"][pick]["gravity"]
-        dom = g["dominant"]
-        words = TERM_WORDS[dom].format(L=meta.get("truth_degree", "L"))
-        terms = g["horizontal_terms_m"]
-        parts = ", ".join(
-            f"{t.replace('_', ' ')} {v:.3g} m" for t, v in terms.items() if v is not None
-        )
-        doc["recommendation"] += f" ({parts}). {words[0].upper()}{words[1:]} dominates"
-        floor = [terms[t] for t in ("omission", "commission") if terms[t] is not None]
-        if dom != "model_difference" and not ok:
-            doc["recommendation"] += (
-                f": no model of degree <= {meta.get('truth_degree', 'L')} can do better; a "
-                "higher-degree model, or a table built from one, is needed"
-            )
-        doc["recommendation"] += "."
-        doc["gravity_floor_horizontal_m"] = (
-            float(np.sqrt(sum(v * v for v in floor))) if floor else 0.0
-        )
+    recommend(doc, order, imu_h, fraction, budget is not None, meta.get("truth_degree", "L"))
     doc["diverged"] = list(diverged)
     return doc
 
@@ -864,6 +874,10 @@ class FlightStudy:
     commission : bool, optional
         Realise the truth model's coefficient errors (the commission term). None (default): when
         the truth carries coefficient σ; True with a truth without σ is refused.
+    method : {"monte-carlo", "covariance"}
+        ``monte-carlo``: strapdown runs of every model and IMU draw; ``covariance``: linear
+        covariance analysis, σ(t) per error source in one pass
+        (:func:`fieldmap.nav.covariance.covariance_study`; ``draws`` then unused).
 
     Examples
     --------
@@ -896,6 +910,7 @@ class FlightStudy:
     imu_name: str | None = None
     omission_model: str | None = "tscherning-rapp"
     commission: bool | None = None
+    method: str = "monte-carlo"
     # resolved at construction (read-only): the altitude aiding ("baro"/"none"), the flown
     # duration and the stored-state interval (s), the samples per output, flown and per block,
     # and the draws flown
@@ -965,6 +980,10 @@ class FlightStudy:
             raise InputError(
                 f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
                 param="altitude_aiding",
+            )
+        if self.method not in ("monte-carlo", "covariance"):
+            raise InputError(
+                f"method must be 'monte-carlo' or 'covariance', got {self.method!r}", param="method"
             )
         if not 0 < self.fraction < 1:
             raise InputError(f"fraction must be in (0, 1), got {self.fraction}", param="fraction")
@@ -1071,7 +1090,7 @@ def run_flight(
     client: Any = None,
     progress: bool = False,
     **options: Any,
-) -> FlightResult:
+) -> FlightResult | CovarianceStudyResult:
     """Fly a :class:`FlightStudy`: each gravity model and IMU draw; errors, δg, a recommendation.
 
     Parameters
@@ -1090,7 +1109,9 @@ def run_flight(
 
     Returns
     -------
-    FlightResult
+    FlightResult or CovarianceStudyResult
+        The Monte Carlo's runs, or (``study.method == "covariance"``) the covariance analysis's
+        σ(t) per source (:class:`fieldmap.nav.covariance.CovarianceStudyResult`).
     """
     if not isinstance(study, FlightStudy):
         from fieldmap import _compat
@@ -1102,6 +1123,12 @@ def run_flight(
             f"run_flight() got options {sorted(options)} besides a FlightStudy: set them on "
             "the study"
         )
+    if study.method == "covariance":
+        if client is not None:
+            raise InputError("a covariance study runs here: client= is for the Monte Carlo")
+        from fieldmap.nav.covariance import covariance_study
+
+        return covariance_study(study, device)
     return _fly(study, device, client, progress)
 
 
