@@ -122,9 +122,10 @@ def _flight_at(traj: Any, t: np.ndarray) -> _Flight:
     return _Flight(k.r_e, enu[:, 2, :], C_b_e, f_b, k.w_b, ned)
 
 
-def _dynamics(fl: _Flight, ell: Any, gains: tuple[float, float, float], spec: Any, baro: Any):
+def _dynamics(
+    fl: _Flight, ell: Any, gains: tuple[float, float, float], spec: Any, baro: Any
+) -> np.ndarray:
     """F (n, 36, 36) of the whole error state along the flight."""
-    from fieldmap.nav.sensors import GM_ADEV_PEAK  # noqa: F401  (documented coupling)
 
     n = fl.r.shape[0]
     F = np.zeros((n, N_STATES, N_STATES))
