@@ -126,7 +126,6 @@ def _dynamics(
     fl: _Flight, ell: Any, gains: tuple[float, float, float], spec: Any, baro: Any
 ) -> np.ndarray:
     """F (n, 36, 36) of the whole error state along the flight."""
-
     n = fl.r.shape[0]
     F = np.zeros((n, N_STATES, N_STATES))
     F[:, :7, :7] = core_dynamics(fl.r, fl.up, ell.GM, ell.omega, gains)
