@@ -125,6 +125,8 @@ __all__ = [
     "DEGREE_VARIANCE_MODELS",
     "MAX_DEGREE_CAP",
     "Omission",
+    "degree_variance_model",
+    "grid_omission",
     "tscherning_rapp_anomaly_variances",
 ]
 
@@ -177,6 +179,23 @@ def tscherning_rapp_anomaly_variances(n: ArrayLike) -> NDArray[np.float64]:
     m = nn[k]
     out[k] = TR_A * (m - 1.0) / ((m - 2.0) * (m + TR_B)) * TR_S ** (m + 2.0)
     return out
+
+
+def degree_variance_model(kind: object) -> str:
+    """``kind`` checked against :data:`DEGREE_VARIANCE_MODELS` (any case), in lower case.
+
+    Raises
+    ------
+    InputError
+        An unknown model (``param="omission_model"``), one line.
+    """
+    if not isinstance(kind, str) or kind.lower() not in DEGREE_VARIANCE_MODELS:
+        raise InputError(
+            f"unknown degree-variance model {kind!r} for the omission: one of "
+            f"{', '.join(DEGREE_VARIANCE_MODELS)} (omission_model)",
+            param="omission_model",
+        )
+    return kind.lower()
 
 
 def _degrees(n: ArrayLike, lowest: int) -> NDArray[np.float64]:
@@ -257,15 +276,8 @@ class Omission:
     fit: tuple[float, float] | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
-        kind = self.kind
-        if not isinstance(kind, str) or kind.lower() not in DEGREE_VARIANCE_MODELS:
-            raise InputError(
-                f"unknown degree-variance model {kind!r} for the omission: one of "
-                f"{', '.join(DEGREE_VARIANCE_MODELS)} (omission_model)",
-                param="omission_model",
-            )
         set_ = object.__setattr__
-        set_(self, "kind", kind.lower())
+        set_(self, "kind", degree_variance_model(self.kind))
         L = _whole(self.degree, "the omission degree", "omission_degree")
         if L < 2:
             raise InputError(
@@ -549,3 +561,26 @@ def _wave_sum(
         out[d, :, 1] = np.sum(hor * pe, axis=1)
         out[d, :, 2] = np.sum(down, axis=1)
     return out
+
+
+#: variables of the ``omission-sigma`` map (:func:`grid_omission`)
+GRID_VARIABLES = (
+    "omission_sigma_north",
+    "omission_sigma_east",
+    "omission_sigma_down",
+    "omission_sigma_modulus",
+)
+
+
+def grid_omission(model: SHModel, heights: ArrayLike, shape: tuple[int, int], kind: str) -> dict:
+    """σ of the omission above ``model``'s degree on a grid: {variable: (nh, nlat, nlon)}, mGal.
+
+    The field is isotropic, so σ depends on the height only (spherical approximation,
+    :meth:`Omission.sigma`); the modulus is the root of the three variances summed.
+    """
+    sig = Omission(model.lmax, kind, model=model).sigma(heights) * MGAL  # (nh, 3)
+    cols = (sig[:, 0], sig[:, 1], sig[:, 2], np.sqrt(np.sum(sig * sig, axis=1)))
+    return {
+        name: np.broadcast_to(col[:, None, None], (col.size, *shape)).copy()
+        for name, col in zip(GRID_VARIABLES, cols)
+    }
