@@ -421,8 +421,9 @@ class Omission:
         for i in range(0, hh.size, 16):
             r = self.radius + hh[i : i + 16]
             att = np.exp(np.outer(np.log(self.radius / r), 2.0 * n + 2.0))  # (R/r)^(2n+2)
-            out[i : i + 16, 2] = np.sqrt(att @ down_w) / r
-            hor = np.sqrt(att @ hor_w) / r
+            # row by row (not BLAS): a height's σ has the same bits whatever the others
+            out[i : i + 16, 2] = np.sqrt(np.sum(att * down_w, axis=1)) / r
+            hor = np.sqrt(np.sum(att * hor_w, axis=1)) / r
             out[i : i + 16, 0] = hor
             out[i : i + 16, 1] = hor
         return out
