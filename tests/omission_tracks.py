@@ -64,9 +64,7 @@ def sh_ned(model: SHModel, lat: np.ndarray, lon: np.ndarray, h: float) -> np.nda
     g = np.asarray(sh_gravitation(model, *(r * x.T), device="cpu")).reshape(-1, 3)
     north = np.stack([-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)], -1)
     east = np.stack([-np.sin(lam), np.cos(lam), np.zeros_like(lam)], -1)
-    out = np.stack(
-        [np.sum(g * north, -1), np.sum(g * east, -1), -np.sum(g * x, -1)], axis=-1
-    )
+    out = np.stack([np.sum(g * north, -1), np.sum(g * east, -1), -np.sum(g * x, -1)], axis=-1)
     return out.reshape(lat.shape + (3,))
 
 
@@ -97,7 +95,7 @@ def track_stats(ned: np.ndarray, spacing_m: float, maxlag: int) -> dict[str, flo
 def legendre_stats(
     c: np.ndarray, n: np.ndarray, h: float, spacing_m: float, maxlag: int
 ) -> dict[str, float]:
-    """The same statistics from the degree variances: direct Legendre sums.
+    """Compute the same statistics from the degree variances: direct Legendre sums.
 
     Down: Σ c_n ((n+1)/r)² q^(2n+2) P_n(cos θ); horizontal (one component, pooled over
     azimuths): ½ Σ c_n n(n+1)/r² q^(2n+2) P_n(cos θ), the trace of the horizontal covariance

@@ -77,7 +77,7 @@ def test_kaula_potential_variances() -> None:
 
 
 def _power_law_model(a: float, b: float, lmax: int) -> SHModel:
-    """A model whose degree variances Σm C² + S² are exactly a n^b (all power in C_n0)."""
+    """Make a model whose degree variances Σm C² + S² are exactly a n^b (power in C_n0)."""
     C = np.zeros((lmax + 1, lmax + 1))
     S = np.zeros_like(C)
     n = np.arange(2, lmax + 1, dtype=np.float64)
@@ -128,7 +128,9 @@ def _mp_sigma(om: Omission, h: float) -> tuple[float, float]:
             c = (mpmath.mpf(om.gm) / R) ** 2 * (2 * n + 1) * mpmath.mpf("1e-10") / n**4
         else:
             cg = (
-                mpmath.mpf("425.28") * (n - 1) / ((n - 2) * (n + 24))
+                mpmath.mpf("425.28")
+                * (n - 1)
+                / ((n - 2) * (n + 24))
                 * mpmath.mpf("0.999617") ** (n + 2)
             )
             c = cg * mpmath.mpf("1e-10") * (R / (n - 1)) ** 2
@@ -345,8 +347,18 @@ def test_cli_omission_sigma(
     monkeypatch.chdir(tmp_path)
     base = ["--lmax", "60", "--step-deg", "30", "--no-plots"]
     rc, err = _cli(
-        ["map", "--quantity", "omission-sigma", *base, "--height-km", "10",
-         "--omission-model", "kaula", "--out", "out"],
+        [
+            "map",
+            "--quantity",
+            "omission-sigma",
+            *base,
+            "--height-km",
+            "10",
+            "--omission-model",
+            "kaula",
+            "--out",
+            "out",
+        ],
         capsys,
     )
     assert rc == 0, err

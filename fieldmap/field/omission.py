@@ -154,11 +154,11 @@ _CHUNK = 1024  # points per pass: a few (chunk, 640) float64 arrays
 
 
 def tscherning_rapp_anomaly_variances(n: ArrayLike) -> NDArray[np.float64]:
-    """Gravity-anomaly degree variances of Tscherning & Rapp (1974) model 4, at the surface.
+    r"""Gravity-anomaly degree variances of Tscherning & Rapp (1974) model 4, at the surface.
 
     .. math::
-        c_n^{\\Delta g} = A\\,\\frac{n-1}{(n-2)(n+B)}\\,s^{n+2}\\quad(n\\ge 3),\\qquad
-        c_2^{\\Delta g} = 7.5\\ \\mathrm{mGal}^2
+        c_n^{\Delta g} = A\,\frac{n-1}{(n-2)(n+B)}\,s^{n+2}\quad(n\ge 3),\qquad
+        c_2^{\Delta g} = 7.5\ \mathrm{mGal}^2
 
     with A = 425.28 mGal², B = 24, s = 0.999617 (TR 1974, model 4; the degree-2 value is
     theirs, with respect to GRS 1967).
@@ -398,7 +398,7 @@ class Omission:
     # ------------------------------------------------------------------ σ
 
     def sigma(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Standard deviation of the omitted gravity disturbance vector at heights ``h``.
+        """Return the σ of the omitted gravity disturbance vector at heights ``h``.
 
         Spherical approximation, r = R + h (module docstring for the sums).
 
@@ -442,7 +442,7 @@ class Omission:
         return out
 
     def waves(self, draws: int, seed: int) -> dict[str, NDArray[np.float64]]:
-        """The random waves of ``draws`` realisations (module docstring).
+        """Draw the random waves of ``draws`` realisations (module docstring).
 
         Parameters
         ----------
@@ -573,7 +573,9 @@ GRID_VARIABLES = (
 )
 
 
-def grid_omission(model: SHModel, heights: ArrayLike, shape: tuple[int, int], kind: str) -> dict:
+def grid_omission(
+    model: SHModel, heights: ArrayLike, shape: tuple[int, int], kind: str
+) -> dict[str, NDArray[np.float64]]:
     """σ of the omission above ``model``'s degree on a grid: {variable: (nh, nlat, nlon)}, mGal.
 
     The field is isotropic, so σ depends on the height only (spherical approximation,

@@ -120,7 +120,7 @@ class Output:
 
 
 def _omission_model(quantity: str, kind: str | None) -> str | None:
-    """The degree-variance model of an omission-sigma product (None for other products)."""
+    """Return the degree-variance model of an omission-sigma product (None for others)."""
     if quantity != OMISSION:
         if kind is not None:
             raise InputError(
@@ -245,7 +245,7 @@ class MapRequest:
             from fieldmap.field.omission import Omission
 
             # validated once here (degree >= 2, a fitted law needs power in the model)
-            Omission(self.model.lmax, self.output.omission_model, model=self.model)
+            Omission(self.model.lmax, str(self.output.omission_model), model=self.model)
         if self.execution.chunks is not None and q in (TRUNCATION, COMPONENTS):
             raise InputError(f"a {q} map is computed at once: no chunks=")
         if self.execution.chunks is not None and self.output.percentile_method != "histogram":

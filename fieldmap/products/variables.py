@@ -362,14 +362,15 @@ VARIABLES["omission-sigma"] = [
         None,
     )
     for c in ("north", "east", "down")
-] + [
+]
+VARIABLES["omission-sigma"].append(
     (
         "omission_sigma_modulus",
         "mGal",
         f"{_OMISSION} of the gravity disturbance vector (root of the three variances summed)",
         None,
     )
-]
+)
 #: commission-error quantities (fieldmap.field.commission_grid)
 SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
 #: quantities that live on the ellipsoid (h = 0)
