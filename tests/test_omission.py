@@ -189,7 +189,6 @@ def test_drawn_degrees_give_the_variance_at_every_height() -> None:
         assert north == pytest.approx(expected[0], rel=2e-3)
 
 
-
 def test_same_bits_whatever_the_chunking(monkeypatch: pytest.MonkeyPatch) -> None:
     om = Omission(240, "kaula", max_degree=2190)
     lat, lon = tracks(3, 40, 3000.0, seed=5)
