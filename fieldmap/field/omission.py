@@ -270,7 +270,8 @@ class Omission:
 
     degree: int
     kind: str = "tscherning-rapp"
-    model: SHModel | None = None
+    # compared through what it gives (gm, radius, fit): an SHModel's arrays have no truth value
+    model: SHModel | None = field(default=None, compare=False)
     max_degree: int | None = None
     gm: float = field(init=False, repr=False)
     radius: float = field(init=False, repr=False)
