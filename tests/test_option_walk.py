@@ -339,6 +339,10 @@ CONTEXTS = {
     "map-geoid": _ctx("map", *_MAP, "--quantity", "geoid", "--no-plots", *_OUT),
     "sweep": _ctx("sweep", *_MAP, "--height-km", "20,50", "--no-plots", *_OUT),
     "sweep-geoid": _ctx("sweep", *_MAP, "--quantity", "geoid", "--no-plots", *_OUT),
+    "map-omission": _ctx("map", *_MAP, "--quantity", "omission-sigma", "--no-plots", *_OUT),
+    "sweep-omission": _ctx(
+        "sweep", *_MAP, "--height-km", "20,50", "--quantity", "omission-sigma", "--no-plots", *_OUT
+    ),
     "sweep-plots": _ctx("sweep", *_MAP, "--height-km", "20,50", *_OUT),
     "sweep-region": _ctx("sweep", *_REGION, "--height-km", "20,50", "--no-plots", *_OUT),
     "sweep-anomaly": _ctx(
@@ -456,6 +460,10 @@ def _maps(cmd: str, height: tuple) -> dict:
         "--percentile-method": [
             C(ctx, "--percentile-method", "exact"),
             C(anomaly, "--percentile-method", "exact", expect=REFUSED, note="--quantity"),
+        ],
+        "--omission-model": [
+            C(f"{cmd}-omission", "--omission-model", "kaula"),
+            C(ctx, "--omission-model", "kaula", expect=REFUSED, note="--quantity omission-sigma"),
         ],
     }
 

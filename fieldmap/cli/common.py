@@ -137,6 +137,8 @@ def map_request(args: argparse.Namespace, heights_km: list[float], **fixed: Any)
     """
     from fieldmap.products.request import MapRequest
 
+    if fixed.get("quantity") == "omission-sigma":
+        fixed.setdefault("omission_model", getattr(args, "omission_model", None))
     return MapRequest.build(
         load=(lambda: load_cli_model(args)) if hasattr(args, "model") else None,
         height_km=heights_km,

@@ -77,6 +77,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
                 "disturbance-sigma",
                 "anomaly-sigma",
                 "geoid-sigma",
+                "omission-sigma",
             ),
             default="disturbance",
             help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
@@ -84,7 +85,18 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             "gradient-disturbance, gradient-normal: the six ENU components of the gradient "
             "tensor of gravity, of the disturbance or of exact normal gravity (Eötvös); "
             "disturbance-sigma, anomaly-sigma, geoid-sigma: the "
-            "commission error from the model's coefficient sigma (diagonal propagation)",
+            "commission error from the model's coefficient sigma (diagonal propagation); "
+            "omission-sigma: sigma north, east, down and modulus (mGal) of the field above the "
+            "model's degree (--lmax), from a degree-variance model (--omission-model)",
+        )
+        p.add_argument(
+            "--omission-model",
+            # fieldmap.field.omission.DEGREE_VARIANCE_MODELS, spelt out (start-up time)
+            choices=("tscherning-rapp", "kaula", "fitted"),
+            default=None,
+            help="degree-variance model of --quantity omission-sigma: tscherning-rapp "
+            "(Tscherning & Rapp 1974 model 4, default), kaula (Kaula's rule 1e-5/n^2) or fitted "
+            "(a power law fitted to the model's own degrees L/2..L)",
         )
     p.add_argument(
         "--step-deg",
@@ -243,6 +255,17 @@ def _write(
         return batch.commit()
 
 
+def _check_omission_option(args: argparse.Namespace) -> None:
+    """Refuse ``--omission-model`` with a quantity other than omission-sigma (one line)."""
+    if args.omission_model is not None and args.quantity != "omission-sigma":
+        from fieldmap.errors import InputError
+
+        raise InputError(
+            f"--omission-model applies to --quantity omission-sigma, not to --quantity "
+            f"{args.quantity}"
+        )
+
+
 def run_map(args: argparse.Namespace) -> int:
     """``fieldmap map``: disturbance map at one height."""
     from fieldmap.cli.quantity import run_quantity
@@ -250,6 +273,7 @@ def run_map(args: argparse.Namespace) -> int:
     from fieldmap.products.engine import compute
     from fieldmap.products.variables import fraction_attr
 
+    _check_omission_option(args)
     (height_km,) = heights_km(args, "map takes one height; use sweep for several")
     if args.quantity != "disturbance":
         return run_quantity(args, [height_km])
@@ -290,6 +314,7 @@ def run_sweep(args: argparse.Namespace) -> int:
     from fieldmap.products import plots
     from fieldmap.products.engine import compute
 
+    _check_omission_option(args)
     thresholds = thresholds_mg(args)
     heights = heights_km(args)
     if args.quantity != "disturbance":

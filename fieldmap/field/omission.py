@@ -25,20 +25,21 @@ Degree-variance models (:data:`DEGREE_VARIANCE_MODELS`, :attr:`Omission.kind`):
   :math:`10^{-5}/n^2`, so :math:`c_n = (GM/R)^2 (2n+1)\,10^{-10}/n^4`.
 * ``"fitted"`` — a power law :math:`c_n = a\,n^b` fitted (least squares in log c, log n) to the
   model's own degree variances :math:`(GM/R)^2\sum_m(\bar C_{nm}^2+\bar S_{nm}^2)` over its
-  degrees :math:`\lfloor L_m/2\rfloor..L_m` (:math:`L_m` the degree it holds). A
-  satellite-only model (EIGEN-6S) loses power towards its top degrees, so this is the
-  lowest of the three: the field it extrapolates is what the model's own spectrum implies.
+  degrees :math:`\lfloor L_m/2\rfloor..L_m` (:math:`L_m` the degree it holds): the field
+  the model's own spectrum implies (EIGEN-6S, degrees 120..240: :math:`b = -3.35`, between
+  Kaula's −3 and the steeper fall of Tscherning-Rapp at high degree).
 
 GM and R are the model's when one is given, else the bundled EIGEN-6S header's
 (:data:`DEFAULT_GM`, :data:`DEFAULT_RADIUS`).
 
 **Degrees summed.** Degrees L+1 .. :attr:`Omission.max_degree`. Unless given, the top degree is
 the smallest that leaves less than :data:`TAIL_FRACTION` (0.1 %) of the omitted
-gravity-disturbance variance at h = 0 beyond it (Tscherning-Rapp from L = 240: about 12,700),
+gravity-disturbance variance at h = 0 beyond it (Tscherning-Rapp from L = 240: 12,005),
 at most :data:`MAX_DEGREE_CAP` (100,000, a wavelength of 400 m). Kaula's rule does not converge
-at h = 0 (the disturbance variance of degree n falls as 2/n, so the sum grows as 2 ln N): it and
-any fitted law as flat are summed to the cap, and their σ at h = 0 is that of the degrees to
-100,000 (a few km up, the factor :math:`(R/r)^{2n+2}` has cut the degrees above 10,000 anyway).
+at h = 0 (the disturbance variance of degree n falls as 2/n, so the sum grows as 2 ln N): it, and
+a fitted law whose tail beyond the cap still holds 0.1 %, are summed to the cap, and their σ at
+h = 0 is that of the degrees to 100,000 (a few km up, the factor :math:`(R/r)^{2n+2}` has cut
+the degrees above 10,000 anyway; pass ``max_degree`` to choose).
 
 **σ at a height** (:meth:`Omission.sigma`), spherical approximation r = R + h, h above the
 ellipsoid (the degree-variance models are defined on the mean sphere, i.e. at the Earth's
@@ -154,11 +155,11 @@ _CHUNK = 1024  # points per pass: a few (chunk, 640) float64 arrays
 
 
 def tscherning_rapp_anomaly_variances(n: ArrayLike) -> NDArray[np.float64]:
-    """Gravity-anomaly degree variances of Tscherning & Rapp (1974) model 4, at the surface.
+    r"""Gravity-anomaly degree variances of Tscherning & Rapp (1974) model 4, at the surface.
 
     .. math::
-        c_n^{\\Delta g} = A\\,\\frac{n-1}{(n-2)(n+B)}\\,s^{n+2}\\quad(n\\ge 3),\\qquad
-        c_2^{\\Delta g} = 7.5\\ \\mathrm{mGal}^2
+        c_n^{\Delta g} = A\,\frac{n-1}{(n-2)(n+B)}\,s^{n+2}\quad(n\ge 3),\qquad
+        c_2^{\Delta g} = 7.5\ \mathrm{mGal}^2
 
     with A = 425.28 mGal², B = 24, s = 0.999617 (TR 1974, model 4; the degree-2 value is
     theirs, with respect to GRS 1967).
@@ -260,16 +261,17 @@ class Omission:
     >>> from fieldmap.field.omission import Omission
     >>> om = Omission(240)
     >>> om.max_degree
-    12659
+    12005
     >>> sig = om.sigma([0.0, 10e3]) * 1e5  # mGal: north, east, down
     >>> sig.round(1)
-    array([[19.7, 19.7, 28. ],
-           [ 5.9,  5.9,  7.7]])
+    array([[19.8, 19.8, 28. ],
+           [ 7.6,  7.6, 10.7]])
     """
 
     degree: int
     kind: str = "tscherning-rapp"
-    model: SHModel | None = None
+    # compared through what it gives (gm, radius, fit): an SHModel's arrays have no truth value
+    model: SHModel | None = field(default=None, compare=False)
     max_degree: int | None = None
     gm: float = field(init=False, repr=False)
     radius: float = field(init=False, repr=False)
@@ -398,7 +400,7 @@ class Omission:
     # ------------------------------------------------------------------ σ
 
     def sigma(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Standard deviation of the omitted gravity disturbance vector at heights ``h``.
+        """Return the σ of the omitted gravity disturbance vector at heights ``h``.
 
         Spherical approximation, r = R + h (module docstring for the sums).
 
@@ -421,8 +423,9 @@ class Omission:
         for i in range(0, hh.size, 16):
             r = self.radius + hh[i : i + 16]
             att = np.exp(np.outer(np.log(self.radius / r), 2.0 * n + 2.0))  # (R/r)^(2n+2)
-            out[i : i + 16, 2] = np.sqrt(att @ down_w) / r
-            hor = np.sqrt(att @ hor_w) / r
+            # row by row (not BLAS): a height's σ has the same bits whatever the others
+            out[i : i + 16, 2] = np.sqrt(np.sum(att * down_w, axis=1)) / r
+            hor = np.sqrt(np.sum(att * hor_w, axis=1)) / r
             out[i : i + 16, 0] = hor
             out[i : i + 16, 1] = hor
         return out
@@ -441,7 +444,7 @@ class Omission:
         return out
 
     def waves(self, draws: int, seed: int) -> dict[str, NDArray[np.float64]]:
-        """The random waves of ``draws`` realisations (module docstring).
+        """Draw the random waves of ``draws`` realisations (module docstring).
 
         Parameters
         ----------
@@ -572,7 +575,9 @@ GRID_VARIABLES = (
 )
 
 
-def grid_omission(model: SHModel, heights: ArrayLike, shape: tuple[int, int], kind: str) -> dict:
+def grid_omission(
+    model: SHModel, heights: ArrayLike, shape: tuple[int, int], kind: str
+) -> dict[str, NDArray[np.float64]]:
     """σ of the omission above ``model``'s degree on a grid: {variable: (nh, nlat, nlon)}, mGal.
 
     The field is isotropic, so σ depends on the height only (spherical approximation,

@@ -360,6 +360,11 @@ def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
             from fieldmap.field.commission_grid import grid_commission
 
             vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
+        elif job.quantity == "omission-sigma":
+            from fieldmap.field.omission import grid_omission
+
+            shape = (sub.lat.size, sub.lon.size)
+            vals = grid_omission(model, sub.heights, shape, job.output.omission_model)
         else:
             from fieldmap.field.geodesy import grid_quantities
 
@@ -845,7 +850,13 @@ def template(request: _Request) -> xr.Dataset:
         return v.truncation_template(grid, ell, out.orders, out.units)
     if out.quantity == "components":
         return v.components_template(mod, grid, ell)
-    return v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
+    ds = v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
+    if out.quantity == "omission-sigma":
+        from fieldmap.field.omission import Omission
+
+        om = Omission(mod.lmax, out.omission_model, model=mod)
+        ds.attrs.update(omission_model=om.kind, omission_max_degree=om.max_degree)
+    return ds
 
 
 def compute(request: _Request) -> xr.Dataset:

@@ -90,7 +90,7 @@ _RUN = ("device", "progress", "client", "scheduler", "rows_per_block")
 _DISTURBANCE = (*_MODEL, *_GRID, *_RUN, "thresholds_mg", "units", "chunks", "percentile_method")
 _TRUNCATION = (*_GRID, *_RUN, "orders", "units")
 _COMPONENTS = (*_MODEL, *_GRID, *_RUN)
-_QUANTITY = (*_MODEL, *_GRID, *_RUN, "chunks", "degree0")
+_QUANTITY = (*_MODEL, *_GRID, *_RUN, "chunks", "degree0", "omission_model")
 
 
 def _request(name: str, model: Any, options: dict, allowed: tuple, **fixed: Any) -> MapRequest:
@@ -278,14 +278,17 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
         components of the gradient tensor of gravity, of the disturbance or of exact normal
         gravity (:func:`fieldmap.field.gradient.grid_gradient`, Eötvös);
         ``"disturbance-sigma"``, ``"anomaly-sigma"``, ``"geoid-sigma"`` the commission error
-        from the model's coefficient sigma; ``"anomaly"``, ``"deflection"``, ``"geoid"``,
-        ``"potential"`` those of :func:`fieldmap.field.geodesy.grid_quantities`.
+        from the model's coefficient sigma; ``"omission-sigma"`` the σ (north, east, down,
+        modulus; mGal) of the field above the model's degree, from a degree-variance model
+        (:class:`fieldmap.field.omission.Omission`); ``"anomaly"``, ``"deflection"``,
+        ``"geoid"``, ``"potential"`` those of :func:`fieldmap.field.geodesy.grid_quantities`.
     **options
         ``model``, ``lmax``, ``epoch``, ``height_km`` (one or several; ignored for the geoid,
         a property of the surface), ``step_deg``, ``lat_max``, ``region``, ``ellipsoid``,
         ``device``, ``progress``, ``client``, ``scheduler``, ``chunks``, ``rows_per_block`` as
         in :func:`disturbance_map`; ``degree0`` (bool): keep the degree-0 term of T (default
-        False, as GeographicLib).
+        False, as GeographicLib); ``omission_model`` (``"tscherning-rapp"`` default,
+        ``"kaula"``, ``"fitted"``): the degree-variance model of ``"omission-sigma"``.
 
     Returns
     -------

@@ -34,6 +34,8 @@ from fieldmap.grids.spec import GridSpec
 #: the J2n truncation error (no model) and the model and normal gravity components.
 TRUNCATION = "truncation"
 COMPONENTS = "components"
+#: The omission error's σ (:mod:`fieldmap.field.omission`): it takes ``omission_model``.
+OMISSION = "omission-sigma"
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
 
 
@@ -71,6 +73,10 @@ class Output:
         A stack of heights (a sweep: ``height`` is a dimension) rather than one map.
     percentile_method : {"histogram", "exact"}
         Percentiles of the modulus from merged block histograms, or exact ones.
+    omission_model : str, optional
+        Degree-variance model of ``"omission-sigma"``
+        (:data:`fieldmap.field.omission.DEGREE_VARIANCE_MODELS`; default
+        ``"tscherning-rapp"``); refused for any other quantity.
     """
 
     quantity: str = "disturbance"
@@ -80,6 +86,7 @@ class Output:
     degree0: bool = False
     stacked: bool = False
     percentile_method: str = "histogram"
+    omission_model: str | None = None
 
     def __post_init__(self) -> None:
         from fieldmap.products.statistics import check_percentile_method, parse_thresholds
@@ -92,7 +99,8 @@ class Output:
             )
         scalar = self.quantity not in ("disturbance", TRUNCATION)
         if self.degree0 and (
-            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS) or not scalar
+            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS, OMISSION)
+            or not scalar
         ):
             what = "δg" if self.quantity == "disturbance" else self.quantity
             raise InputError(
@@ -108,6 +116,21 @@ class Output:
         )
         if self.quantity == TRUNCATION:
             _set(self, orders=limits.check_orders(self.orders))
+        _set(self, omission_model=_omission_model(self.quantity, self.omission_model))
+
+
+def _omission_model(quantity: str, kind: str | None) -> str | None:
+    """Return the degree-variance model of an omission-sigma product (None for others)."""
+    if quantity != OMISSION:
+        if kind is not None:
+            raise InputError(
+                f"omission_model applies to the {OMISSION} quantity, not to {quantity}",
+                param="omission_model",
+            )
+        return None
+    from fieldmap.field.omission import DEGREE_VARIANCE_MODELS, degree_variance_model
+
+    return degree_variance_model(DEGREE_VARIANCE_MODELS[0] if kind is None else kind)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,6 +241,11 @@ class MapRequest:
                 f"model {self.model.name} carries no coefficient standard deviations (sigma C, "
                 f"sigma S): --quantity {q} needs an ICGEM file with sigma columns"
             )
+        if q == OMISSION:
+            from fieldmap.field.omission import Omission
+
+            # validated once here (degree >= 2, a fitted law needs power in the model)
+            Omission(self.model.lmax, str(self.output.omission_model), model=self.model)
         if self.execution.chunks is not None and q in (TRUNCATION, COMPONENTS):
             raise InputError(f"a {q} map is computed at once: no chunks=")
         if self.execution.chunks is not None and self.output.percentile_method != "histogram":

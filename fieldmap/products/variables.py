@@ -350,6 +350,27 @@ VARIABLES["disturbance-sigma"] = [
 ]
 VARIABLES["anomaly-sigma"] = [("anomaly_sigma", "mGal", f"{_SIGMA} of the gravity anomaly", None)]
 VARIABLES["geoid-sigma"] = [("geoid_sigma", "m", f"{_SIGMA} of the geoid height", None)]
+_OMISSION = (
+    "standard deviation (omission error: the degrees above the model's, from a degree-variance "
+    "model)"
+)
+VARIABLES["omission-sigma"] = [
+    (
+        f"omission_sigma_{c}",
+        "mGal",
+        f"{_OMISSION} of the {c} component of the gravity disturbance",
+        None,
+    )
+    for c in ("north", "east", "down")
+]
+VARIABLES["omission-sigma"].append(
+    (
+        "omission_sigma_modulus",
+        "mGal",
+        f"{_OMISSION} of the gravity disturbance vector (root of the three variances summed)",
+        None,
+    )
+)
 #: commission-error quantities (fieldmap.field.commission_grid)
 SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
 #: quantities that live on the ellipsoid (h = 0)
@@ -358,6 +379,15 @@ QUANTITIES = ("disturbance", *VARIABLES)
 
 
 def _definition(degree0: bool, quantity: str = "potential") -> str:
+    if quantity == "omission-sigma":
+        return (
+            "standard deviation of the gravity disturbance of the degrees above the model's "
+            "degree L, an isotropic random field with the degree variances of the "
+            "degree-variance model named in omission_model (fieldmap.field.omission: "
+            "Tscherning & Rapp 1974 model 4, Kaula's rule, or a power law fitted to the model's "
+            "degrees L/2..L); spherical approximation r = R + h, so the same at every node of a "
+            "height; degrees L+1..omission_max_degree"
+        )
     if quantity in SIGMA_QUANTITIES:
         return (
             "standard deviation of the quantity propagated from the model's coefficient "
