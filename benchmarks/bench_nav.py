@@ -10,7 +10,8 @@ Prints, all measured in this run (medians of ``--repeat``):
    ``pyins.strapdown``) over the same trajectories from a ``numba.prange`` loop (all cores).
 3. The whole study of the issue — ``--minutes`` of flight at ``--rate`` Hz, models j2 j4 j6
    exact sh18 sh200 + the IMU-only row, ``--draws`` tactical-IMU draws, NED, truth EIGEN-6S
-   degree 200 — with its wall time split into synthesis and propagation.
+   degree 200 — with its wall time split into synthesis, propagation and the gravity budget;
+   then the same study by covariance analysis (``--method covariance``), its time and ratio.
 
 Usage: ``python benchmarks/bench_nav.py [--minutes 120 --rate 200 --draws 20]``;
 ``--quick`` runs 2 minutes at 100 Hz with 3 draws (a CPU check of the script).
@@ -164,6 +165,18 @@ def main(argv=None) -> int:
             f"{m['gravity_terms']['draws']} draws, linear error model) (+ outputs/δg)"
         )
         print(res.summary["recommendation"])
+        cres, cwall = bench_study(traj, args.minutes, args.rate, args.draws, args.device,
+                                  method="covariance")  # fmt: skip
+        cm = cres.summary["meta"]
+        print(
+            f"the same study by covariance analysis (--method covariance): wall {cwall:.1f} s "
+            f"(covariance {cm['covariance_seconds']:.1f} s + gravity budget "
+            f"{cm['gravity_budget_seconds']:.1f} s) -> {wall / cwall:.1f}x faster than the "
+            f"Monte Carlo; IMU-only horizontal sigma "
+            f"{cres.summary['imu_only_horizontal_error_m']:.1f} m vs Monte Carlo RMS "
+            f"{res.summary['imu_only_horizontal_error_m']:.1f} m "
+            f"({m['draws']} draws)"
+        )
         print(
             f"  truth disturbance every {m['truth_gravity'].split('every ')[-1].split(' +')[0]}"
             f" (interpolation error <= {m['truth_interpolation_max_error_mgal']:.1e} mGal), "
