@@ -131,6 +131,88 @@ def options_api(param: str, options_type: type, first_field: str | None = None) 
     return decorate
 
 
+def folded(
+    names: tuple[str, ...], fold: Callable[[dict[str, Any], dict[str, Any]], Any]
+) -> Callable[[F], F]:
+    """Accept keywords a function no longer takes, folded into those it takes now.
+
+    ``fold(old, kwargs)`` receives the retired keywords of the call (``old``, those given) and
+    its other keywords (``kwargs``, to rewrite in place) and returns the advice of the
+    ``DeprecationWarning``, or ``(advice, target)``: a callable run with the call's positional
+    arguments and the rewritten keywords in place of the function (for an old option the new
+    signature has no room for).
+
+    Parameters
+    ----------
+    names : tuple of str
+        The retired keyword names.
+    fold : callable
+        ``fold(old, kwargs) -> str | tuple[str, callable]``.
+    """
+
+    def decorate(func: F) -> F:
+        name = func.__name__
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            old = {k: kwargs.pop(k) for k in names if k in kwargs}
+            if not old:
+                return func(*args, **kwargs)
+            advice = fold(old, kwargs)
+            target = func
+            if isinstance(advice, tuple):
+                advice, target = advice
+            warn(f"{name}(): {advice}", stacklevel=3)
+            return target(*args, **kwargs)
+
+        return cast(F, wrapper)
+
+    return decorate
+
+
+def fold_model(model: Any, lmax: int | None = None, epoch: float | str | None = None) -> Any:
+    """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (the model's own options).
+
+    ``load_model(model, lmax=lmax, epoch=epoch)`` (a loaded :class:`SHModel` is truncated; an
+    epoch it does not hold is refused); ``model`` as it is when both are None. A compensation
+    table (``"table:FILE"`` or a table object) takes neither: :class:`InputError`, as before.
+    """
+    if lmax is None and epoch is None:
+        return model
+    from fieldmap.products.tables.model import CompensationTable, table_path
+
+    if isinstance(model, CompensationTable) or table_path(model) is not None:
+        from fieldmap.errors import InputError
+
+        raise InputError(
+            "a compensation table (table:FILE) takes no lmax or epoch",
+            param="lmax" if lmax is not None else "epoch",
+        )
+    from fieldmap.models.registry import load_model
+
+    return load_model(model, lmax=lmax, epoch=epoch)
+
+
+def model_api(func: F) -> F:
+    """Accept the 0.2 ``lmax=``/``epoch=`` of a point function: model options, on the model.
+
+    They are folded into its ``model=`` (:func:`fold_model`: the same bits, the kernels read
+    degrees 0..lmax only), with a ``DeprecationWarning`` naming
+    ``model=load_model(name, lmax=, epoch=)`` or ``model.truncated(lmax)``.
+    """
+    default = inspect.signature(func).parameters["model"].default
+
+    def fold(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
+        kwargs["model"] = fold_model(kwargs.get("model", default), **old)
+        keys = " and ".join(f"{k}=" for k in old)
+        return (
+            f"{keys} belong to the model: pass model=load_model(name, lmax=..., epoch=...) or "
+            "model.truncated(lmax)"
+        )
+
+    return folded(("lmax", "epoch"), fold)(func)
+
+
 #: Old module paths (relative to ``fieldmap``) -> the module(s) that hold their public names
 #: now. A tuple lists several new homes of one old module (it was split or merged); its names are
 #: looked up in them in order. Importing an old path warns and yields the new module (or, for a
