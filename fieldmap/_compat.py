@@ -170,6 +170,58 @@ def folded(
     return decorate
 
 
+def grouped_api(old_order: tuple[str, ...], groups: dict[str, tuple[str, ...]]) -> Callable[[F], F]:
+    """Accept the 0.2 calls of a function whose arguments now travel in groups (tuples).
+
+    A call that passes something else than a tuple where a group goes, more positional
+    arguments than the function takes, or a member of a group by keyword, is bound to the 0.2
+    names ``old_order``; each group's members become its tuple, with a ``DeprecationWarning``.
+
+    Parameters
+    ----------
+    old_order : tuple of str
+        The 0.2 positional parameters, in order.
+    groups : dict
+        New parameter -> the 0.2 parameters it holds, in order
+        (``{"increments": ("dtheta", "dv", "dt")}``).
+    """
+    members = {m for ms in groups.values() for m in ms}
+
+    def decorate(func: F) -> F:
+        name = func.__name__
+        positional = [
+            p.name
+            for p in inspect.signature(func).parameters.values()
+            if p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+        ]
+        at = [positional.index(g) for g in groups]
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            new = all(isinstance(args[i], tuple) for i in at if i < len(args))
+            if new and len(args) <= len(positional) and not members.intersection(kwargs):
+                return func(*args, **kwargs)
+            if len(args) > len(old_order):
+                raise TypeError(f"{name}() takes at most {len(old_order)} positional arguments")
+            bound = dict(zip(old_order, args))
+            for key, value in kwargs.items():
+                if key in bound:
+                    raise TypeError(f"{name}() got multiple values for argument {key!r}")
+                bound[key] = value
+            for new, group in groups.items():
+                missing = [m for m in group if m not in bound]
+                if missing:
+                    raise TypeError(f"{name}() missing 0.2 argument(s) {', '.join(missing)}")
+                bound[new] = tuple(bound.pop(m) for m in group)
+            notes = ", ".join(f"{new}=({', '.join(g)})" for new, g in groups.items())
+            warn(f"{name}(): pass {notes}", stacklevel=3)
+            return func(**bound)
+
+        return cast(F, wrapper)
+
+    return decorate
+
+
 def fold_model(model: Any, lmax: int | None = None, epoch: float | str | None = None) -> Any:
     """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (the model's own options).
 
