@@ -278,8 +278,11 @@ def normal_gravitation_ecef(
     x, y, z : array_like
         ECEF coordinates (broadcast together), at most ``MAX_HEIGHT`` above and
         ``-MIN_HEIGHT`` below the ellipsoid. Units: m.
-    normal, ellipsoid, device, groves_j2
+    normal, ellipsoid, device
         As in :func:`normal_gravity`.
+    groves_j2 : float or None
+        J2 of ``normal="groves-j2"``: Groves' printed value (:data:`GROVES_J2`) by default,
+        ``None`` for the ellipsoid's own J2.
     centrifugal : bool
         Add ω²(x, y, 0) (default False: gravitation only).
 
