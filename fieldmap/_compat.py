@@ -198,8 +198,8 @@ def grouped_api(old_order: tuple[str, ...], groups: dict[str, tuple[str, ...]]) 
 
         @functools.wraps(func)
         def wrapper(*args: Any, **kwargs: Any) -> Any:
-            new = all(isinstance(args[i], tuple) for i in at if i < len(args))
-            if new and len(args) <= len(positional) and not members.intersection(kwargs):
+            grouped = all(isinstance(args[i], tuple) for i in at if i < len(args))
+            if grouped and len(args) <= len(positional) and not members.intersection(kwargs):
                 return func(*args, **kwargs)
             if len(args) > len(old_order):
                 raise TypeError(f"{name}() takes at most {len(old_order)} positional arguments")

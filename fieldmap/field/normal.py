@@ -150,7 +150,8 @@ def _fold_groves_j2(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
         return "groves_j2= is gone: normal='groves-j2' uses Groves' printed J2"
 
     def target(*args: Any, **kw: Any) -> np.ndarray:
-        return _normal_gravity(*args, **kw, groves_j2=float(j2))
+        kw["groves_j2"] = float(j2)
+        return _normal_gravity(*args, **kw)
 
     return "groves_j2= with another J2 is gone (normal='groves-j2' uses Groves' printed J2)", target
 

@@ -325,7 +325,7 @@ def synthesize(
         raise InputError("legendre='column' (the engine's column path) stops at degree 2700")
     if xr:  # the model enters the kernel as GM, lmax and the packed tables
         head: list[Any] = [wp.float64(model.gm), int(model.lmax)]
-        tabs = grid_tables_x(model, model.lmax, device)
+        tabs: tuple[Any, ...] = grid_tables_x(model, model.lmax, device)
         kern = kgridx.row_fourier8x_kernel
     else:
         head = [kernel_model(model, device)]
