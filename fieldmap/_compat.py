@@ -222,47 +222,31 @@ def grouped_api(old_order: tuple[str, ...], groups: dict[str, tuple[str, ...]]) 
     return decorate
 
 
-def fold_model(model: Any, lmax: int | None = None, epoch: float | str | None = None) -> Any:
-    """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (the model's own options).
-
-    ``load_model(model, lmax=lmax, epoch=epoch)`` (a loaded :class:`SHModel` is truncated; an
-    epoch it does not hold is refused); ``model`` as it is when both are None. A compensation
-    table (``"table:FILE"`` or a table object) takes neither: :class:`InputError`, as before.
-    """
-    if lmax is None and epoch is None:
-        return model
-    from fieldmap.products.tables.model import CompensationTable, table_path
-
-    if isinstance(model, CompensationTable) or table_path(model) is not None:
-        from fieldmap.errors import InputError
-
-        raise InputError(
-            "a compensation table (table:FILE) takes no lmax or epoch",
-            param="lmax" if lmax is not None else "epoch",
-        )
-    from fieldmap.models.registry import load_model
-
-    return load_model(model, lmax=lmax, epoch=epoch)
+#: the advice of a 0.2 ``lmax=``/``epoch=`` (:func:`model_api`)
+MODEL_OPTIONS_ADVICE = (
+    "belong to the model: pass model=load_model(name, lmax=..., epoch=...) or model.truncated(lmax)"
+)
 
 
-def model_api(func: F) -> F:
+def model_api(apply: Callable[..., Any]) -> Callable[[F], F]:
     """Accept the 0.2 ``lmax=``/``epoch=`` of a point function: model options, on the model.
 
-    They are folded into its ``model=`` (:func:`fold_model`: the same bits, the kernels read
+    They are folded into its ``model=`` by ``apply(model, lmax=, epoch=)``
+    (:func:`fieldmap.field.gravity.apply_model_options`: the same bits, the kernels read
     degrees 0..lmax only), with a ``DeprecationWarning`` naming
     ``model=load_model(name, lmax=, epoch=)`` or ``model.truncated(lmax)``.
     """
-    default = inspect.signature(func).parameters["model"].default
 
-    def fold(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
-        kwargs["model"] = fold_model(kwargs.get("model", default), **old)
-        keys = " and ".join(f"{k}=" for k in old)
-        return (
-            f"{keys} belong to the model: pass model=load_model(name, lmax=..., epoch=...) or "
-            "model.truncated(lmax)"
-        )
+    def decorate(func: F) -> F:
+        default = inspect.signature(func).parameters["model"].default
 
-    return folded(("lmax", "epoch"), fold)(func)
+        def fold(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
+            kwargs["model"] = apply(kwargs.get("model", default), **old)
+            return " and ".join(f"{k}=" for k in old) + " " + MODEL_OPTIONS_ADVICE
+
+        return folded(("lmax", "epoch"), fold)(func)
+
+    return decorate
 
 
 #: Old module paths (relative to ``fieldmap``) -> the module(s) that hold their public names

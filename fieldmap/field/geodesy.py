@@ -56,6 +56,7 @@ from fieldmap import _compat
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.gravity import apply_model_options
 from fieldmap.limits import check_geodetic as _points
 from fieldmap.models.shmodel import SHModel
 
@@ -162,7 +163,7 @@ def _t_and_gradient(
     return t, g, (x, y, z)
 
 
-@_compat.model_api
+@_compat.model_api(apply_model_options)
 def disturbing_potential(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -326,7 +327,7 @@ def anomaly_from_t(
     return np.stack([dg, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
 
 
-@_compat.model_api
+@_compat.model_api(apply_model_options)
 def gravity_anomaly(
     latitude: ArrayLike,
     longitude: ArrayLike,

@@ -37,6 +37,7 @@ from fieldmap import _compat, limits
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.gravity import apply_model_options
 from fieldmap.models.shmodel import SHModel
 
 if TYPE_CHECKING:
@@ -169,12 +170,8 @@ def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
     if "lmax" in old or "epoch" in old:
         sub = {k: old[k] for k in ("lmax", "epoch") if k in old}
         if quantity.lower() != "normal":  # the normal field took no model options
-            kwargs["model"] = _compat.fold_model(kwargs.get("model", "eigen-6s"), **sub)
-        keys = " and ".join(f"{k}=" for k in sub)
-        notes.append(
-            f"{keys} belong to the model: pass model=load_model(name, lmax=..., epoch=...) or "
-            "model.truncated(lmax)"
-        )
+            kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), **sub)
+        notes.append(" and ".join(f"{k}=" for k in sub) + " " + _compat.MODEL_OPTIONS_ADVICE)
     if "normal" in old:
         key = normal_model(old["normal"])
         if key != "exact":

@@ -41,10 +41,44 @@ if TYPE_CHECKING:
 MIN_HEIGHT = limits.MIN_HEIGHT
 MAX_HEIGHT = limits.MAX_HEIGHT
 
-__all__ = ["disturbance", "gravitation", "gravity"]
+__all__ = ["apply_model_options", "disturbance", "gravitation", "gravity"]
 
 FRAMES = ("enu", "ned", "ecef")
 _RENAMED = {"lat": "latitude", "lon": "longitude", "h": "height"}
+
+
+def apply_model_options(
+    model: object, lmax: int | None = None, epoch: float | str | None = None
+) -> object:
+    """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (deprecated spellings).
+
+    ``load_model(model, lmax=lmax, epoch=epoch)`` (a loaded :class:`SHModel` is truncated; an
+    epoch it does not hold is refused); ``model`` as it is when both are None. A compensation
+    table (``"table:FILE"`` or a table object) takes neither: :class:`InputError`.
+
+    Parameters
+    ----------
+    model : SHModel, CompensationTable or str
+        What the point function was given.
+    lmax : int, optional
+        Truncation degree.
+    epoch : float or str, optional
+        Epoch of time-variable terms. Units: decimal year or ``'YYYY-MM-DD'``.
+
+    Returns
+    -------
+    SHModel or the ``model`` given
+    """
+    if lmax is None and epoch is None:
+        return model
+    if _table_model(model) is not None:
+        raise InputError(
+            "a compensation table (table:FILE) takes no lmax or epoch",
+            param="lmax" if lmax is not None else "epoch",
+        )
+    from fieldmap.models.registry import load_model
+
+    return load_model(model, lmax=lmax, epoch=epoch)
 
 
 def _model(model: object) -> SHModel:
@@ -90,7 +124,7 @@ def _gravitation_ecef(
 
 
 @_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
-@_compat.model_api
+@_compat.model_api(apply_model_options)
 def gravitation(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -138,7 +172,7 @@ def gravitation(
 
 
 @_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
-@_compat.model_api
+@_compat.model_api(apply_model_options)
 def gravity(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -182,7 +216,7 @@ def gravity(
     ("model", "lmax", "ellipsoid", "unit", "frame", "device", "epoch"),
     {**_RENAMED, "unit": "units"},
 )
-@_compat.model_api
+@_compat.model_api(apply_model_options)
 def disturbance(
     latitude: ArrayLike,
     longitude: ArrayLike,

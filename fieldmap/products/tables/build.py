@@ -210,7 +210,9 @@ def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
     """0.2's ``lmax=`` (on the model now) and ``seed=`` (fixed: 0) of :func:`build_table`."""
     notes = []
     if "lmax" in old:
-        kwargs["model"] = _compat.fold_model(kwargs.get("model", "eigen-6s"), old["lmax"])
+        from fieldmap.field.gravity import apply_model_options
+
+        kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), old["lmax"])
         notes.append("lmax= belongs to the model: pass model=load_model(name, lmax=...)")
     if "seed" in old:
         notes.append("seed= is gone: the check points are drawn with seed 0")
