@@ -15,7 +15,9 @@ Public API (degrees and metres in, NumPy out):
 Points are ``latitude, longitude, height``: geodetic degrees and metres above the ellipsoid,
 positional; every other argument is keyword-only. The local frames are the geodetic ENU/NED
 frames at the point (``fieldmap.field.frames``). Output units of the disturbance: ``units=``,
-looked up in :mod:`fieldmap.units`.
+looked up in :mod:`fieldmap.units`. A truncation degree and an epoch belong to the model:
+``model=load_model(name, lmax=..., epoch=...)`` (0.2's ``lmax=``/``epoch=`` on these functions
+still work, with a ``DeprecationWarning``: :func:`apply_model_options`).
 """
 
 from __future__ import annotations
