@@ -131,6 +131,124 @@ def options_api(param: str, options_type: type, first_field: str | None = None) 
     return decorate
 
 
+def folded(
+    names: tuple[str, ...], fold: Callable[[dict[str, Any], dict[str, Any]], Any]
+) -> Callable[[F], F]:
+    """Accept keywords a function no longer takes, folded into those it takes now.
+
+    ``fold(old, kwargs)`` receives the retired keywords of the call (``old``, those given) and
+    its other keywords (``kwargs``, to rewrite in place) and returns the advice of the
+    ``DeprecationWarning``, or ``(advice, target)``: a callable run with the call's positional
+    arguments and the rewritten keywords in place of the function (for an old option the new
+    signature has no room for).
+
+    Parameters
+    ----------
+    names : tuple of str
+        The retired keyword names.
+    fold : callable
+        ``fold(old, kwargs) -> str | tuple[str, callable]``.
+    """
+
+    def decorate(func: F) -> F:
+        name = func.__name__
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            old = {k: kwargs.pop(k) for k in names if k in kwargs}
+            if not old:
+                return func(*args, **kwargs)
+            advice = fold(old, kwargs)
+            target = func
+            if isinstance(advice, tuple):
+                advice, target = advice
+            warn(f"{name}(): {advice}", stacklevel=3)
+            return target(*args, **kwargs)
+
+        return cast(F, wrapper)
+
+    return decorate
+
+
+def grouped_api(old_order: tuple[str, ...], groups: dict[str, tuple[str, ...]]) -> Callable[[F], F]:
+    """Accept the 0.2 calls of a function whose arguments now travel in groups (tuples).
+
+    A call that passes something else than a tuple where a group goes, more positional
+    arguments than the function takes, or a member of a group by keyword, is bound to the 0.2
+    names ``old_order``; each group's members become its tuple, with a ``DeprecationWarning``.
+
+    Parameters
+    ----------
+    old_order : tuple of str
+        The 0.2 positional parameters, in order.
+    groups : dict
+        New parameter -> the 0.2 parameters it holds, in order
+        (``{"increments": ("dtheta", "dv", "dt")}``).
+    """
+    members = {m for ms in groups.values() for m in ms}
+
+    def decorate(func: F) -> F:
+        name = func.__name__
+        positional = [
+            p.name
+            for p in inspect.signature(func).parameters.values()
+            if p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+        ]
+        at = [positional.index(g) for g in groups]
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            grouped = all(isinstance(args[i], tuple) for i in at if i < len(args))
+            if grouped and len(args) <= len(positional) and not members.intersection(kwargs):
+                return func(*args, **kwargs)
+            if len(args) > len(old_order):
+                raise TypeError(f"{name}() takes at most {len(old_order)} positional arguments")
+            bound = dict(zip(old_order, args))
+            for key, value in kwargs.items():
+                if key in bound:
+                    raise TypeError(f"{name}() got multiple values for argument {key!r}")
+                bound[key] = value
+            for new, group in groups.items():
+                missing = [m for m in group if m not in bound]
+                if missing:
+                    raise TypeError(f"{name}() missing 0.2 argument(s) {', '.join(missing)}")
+                bound[new] = tuple(bound.pop(m) for m in group)
+            notes = ", ".join(f"{new}=({', '.join(g)})" for new, g in groups.items())
+            warn(f"{name}(): pass {notes}", stacklevel=3)
+            return func(**bound)
+
+        return cast(F, wrapper)
+
+    return decorate
+
+
+#: the advice of a 0.2 ``lmax=``/``epoch=`` (:func:`model_api`)
+MODEL_OPTIONS_ADVICE = (
+    "belong to the model: pass model=load_model(name, lmax=..., epoch=...) or model.truncated(lmax)"
+)
+
+
+def model_api(apply: Callable[..., Any]) -> Callable[[F], F]:
+    """Accept the 0.2 ``lmax=``/``epoch=`` of a point function: model options, on the model.
+
+    They are folded into its ``model=`` by ``apply(model, lmax=, epoch=)``
+    (:func:`fieldmap.field.gravity.apply_model_options`: the same bits, the kernels read
+    degrees 0..lmax only), with a ``DeprecationWarning`` naming
+    ``model=load_model(name, lmax=, epoch=)`` or ``model.truncated(lmax)``.
+    """
+
+    def decorate(func: F) -> F:
+        default = inspect.signature(func).parameters["model"].default
+
+        def fold(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
+            kwargs["model"] = apply(kwargs.get("model", default), **old)
+            return " and ".join(f"{k}=" for k in old) + " " + MODEL_OPTIONS_ADVICE
+
+        return folded(("lmax", "epoch"), fold)(func)
+
+    return decorate
+
+
 #: Old module paths (relative to ``fieldmap``) -> the module(s) that hold their public names
 #: now. A tuple lists several new homes of one old module (it was split or merged); its names are
 #: looked up in them in order. Importing an old path warns and yields the new module (or, for a

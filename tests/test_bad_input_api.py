@@ -26,6 +26,13 @@ from fieldmap.products import statistics as stats
 LMAX = 4  # small degree: these tests are about input checks, not the series
 
 
+def _model():
+    """EIGEN-6S to degree LMAX (load_model keeps it: one load)."""
+    from fieldmap.models.registry import load_model
+
+    return load_model("eigen-6s", lmax=LMAX)
+
+
 def _one_line(info) -> str:
     msg = str(info.value)
     assert "\n" not in msg and isinstance(info.value, FieldmapError)
@@ -67,9 +74,9 @@ def test_api_models_and_reader(work):  # noqa: F811 (fixture)
 
 # ----------------------------------------------------------------------------- geodetic points
 POINT_FUNCS = [
-    ("disturbance", lambda *p: GR.disturbance(*p, lmax=LMAX, device="cpu")),
-    ("gravitation", lambda *p: GR.gravitation(*p, lmax=LMAX, device="cpu")),
-    ("gravity", lambda *p: GR.gravity(*p, lmax=LMAX, device="cpu")),
+    ("disturbance", lambda *p: GR.disturbance(*p, model=_model(), device="cpu")),
+    ("gravitation", lambda *p: GR.gravitation(*p, model=_model(), device="cpu")),
+    ("gravity", lambda *p: GR.gravity(*p, model=_model(), device="cpu")),
     ("normal_gravity", lambda *p: N.normal_gravity(*p, device="cpu")),
 ]
 
@@ -111,7 +118,9 @@ def test_longitude_range_is_geographiclib_s(name, func):
 
 
 def test_bad_degree_and_frame_raise():
-    for kw, msg in (({"lmax": 500}, r"lmax 500 is outside the model"), ({"frame": "xyz"}, "frame")):
+    # 0.2's lmax= (deprecated) is load_model's: its message (raised before any warning)
+    bad_lmax = ({"lmax": 500}, r"lmax 500 exceeds the degree 240 of model EIGEN-6S")
+    for kw, msg in (bad_lmax, ({"frame": "xyz"}, "frame")):
         with pytest.raises(InputError, match=msg) as info:
             GR.disturbance([0.0], [0.0], [0.0], device="cpu", **kw)
         _one_line(info)
@@ -122,12 +131,12 @@ def test_highest_height_is_finite_and_near_point_mass():
     assert GR.MAX_HEIGHT == N.MAX_HEIGHT == 1e8
     r = WGS84.a + 1e8  # on the equator, geodetic height = distance - a
     for g in (
-        GR.gravitation(0.0, 0.0, 1e8, lmax=LMAX, device="cpu"),
+        GR.gravitation(0.0, 0.0, 1e8, model=_model(), device="cpu"),
         N.normal_gravity(0.0, 0.0, 1e8, centrifugal=False, device="cpu"),
     ):
         assert np.all(np.isfinite(g))
         np.testing.assert_allclose(np.linalg.norm(g), WGS84.GM / r**2, rtol=1e-5)
-    d = GR.disturbance(0.0, 0.0, 1e8, lmax=LMAX, device="cpu")
+    d = GR.disturbance(0.0, 0.0, 1e8, model=_model(), device="cpu")
     assert np.all(np.isfinite(d)) and np.linalg.norm(d) < 1.0  # mGal, far above the masses
 
 
@@ -454,12 +463,12 @@ def test_units_table_spellings():
 
 def test_disturbance_units_agree_across_api():
     """``units=`` spelled any accepted way gives the same numbers, at points and on maps."""
-    a = GR.disturbance(30.0, 105.0, 20e3, lmax=LMAX, units="m s-2", device="cpu")
-    b = GR.disturbance(30.0, 105.0, 20e3, lmax=LMAX, units="mGal", device="cpu")
+    a = GR.disturbance(30.0, 105.0, 20e3, model=_model(), units="m s-2", device="cpu")
+    b = GR.disturbance(30.0, 105.0, 20e3, model=_model(), units="mGal", device="cpu")
     np.testing.assert_allclose(a * 1e5, b, rtol=1e-15)
-    m1 = maps.disturbance_map(lmax=LMAX, step_deg=30.0, units="m/s2", device="cpu")
-    m2 = maps.disturbance_map(lmax=LMAX, step_deg=30.0, units="M S-2", device="cpu")
-    m3 = maps.disturbance_map(lmax=LMAX, step_deg=30.0, units="mGal", device="cpu")
+    m1 = maps.disturbance_map(model=_model(), step_deg=30.0, units="m/s2", device="cpu")
+    m2 = maps.disturbance_map(model=_model(), step_deg=30.0, units="M S-2", device="cpu")
+    m3 = maps.disturbance_map(model=_model(), step_deg=30.0, units="mGal", device="cpu")
     np.testing.assert_array_equal(m1["up"].values, m2["up"].values)
     np.testing.assert_allclose(m1["up"].values * 1e5, m3["up"].values, rtol=1e-14)
     assert m1["up"].attrs["units"] == "m s-2" and m3["up"].attrs["units"] == "mGal"
@@ -483,12 +492,14 @@ def test_point_functions_share_one_signature_convention():
 
 def test_deprecated_spellings_still_work():
     """0.1 calls (positional options, unit=, kind=, lat_deg=...) warn and give the same result."""
-    want = GR.disturbance(30.0, 105.0, 20e3, lmax=LMAX, units="mg", device="cpu")
-    with pytest.warns(DeprecationWarning, match=r"disturbance\(\): pass model, lmax by keyword"):
+    want = GR.disturbance(30.0, 105.0, 20e3, model=_model(), units="mg", device="cpu")
+    with pytest.warns(DeprecationWarning) as rec:
         got = GR.disturbance(30.0, 105.0, 20e3, "eigen-6s", LMAX, units="mg", device="cpu")
+    assert "disturbance(): pass model, lmax by keyword" in str(rec[0].message)
+    assert "lmax= belong to the model" in str(rec[1].message)
     np.testing.assert_array_equal(got, want)
     with pytest.warns(DeprecationWarning, match="unit= is now units="):
-        got = GR.disturbance(lat=30.0, lon=105.0, h=20e3, lmax=LMAX, unit="mg", device="cpu")
+        got = GR.disturbance(lat=30.0, lon=105.0, h=20e3, model=_model(), unit="mg", device="cpu")
     np.testing.assert_array_equal(got, want)
     want = N.normal_gravity(30.0, 105.0, 20e3, normal="j4", ellipsoid="GRS80", frame="ned")
     with pytest.warns(DeprecationWarning, match="kind= is now normal="):
@@ -517,9 +528,9 @@ def test_one_normal_vocabulary():
     assert N.normal_model("GROVES_J2") == N.normal_model("groves-j2") == "groves-j2"
     with pytest.raises(InputError, match=r"unknown normal-gravity model 'j8' \(known: exact, j2"):
         N.normal_model("j8")
-    a = N.normal_gravity(10.0, 0.0, 0.0, normal="Groves_J2", groves_j2=None, device="cpu")
-    b = N.normal_gravity(10.0, 0.0, 0.0, normal="j2", device="cpu")
-    np.testing.assert_allclose(a, b, rtol=1e-15)
+    a = N.normal_gravity(10.0, 0.0, 0.0, normal="Groves_J2", device="cpu")
+    b = N.normal_gravity(10.0, 0.0, 0.0, normal="groves-j2", device="cpu")
+    np.testing.assert_array_equal(a, b)
 
 
 def test_points_and_grids_share_one_height_range():
@@ -529,11 +540,11 @@ def test_points_and_grids_share_one_height_range():
     assert GR.MIN_HEIGHT == N.MIN_HEIGHT == gridspec.MIN_HEIGHT_M == limits.MIN_HEIGHT == -10e3
     assert GR.MAX_HEIGHT == N.MAX_HEIGHT == gridspec.MAX_HEIGHT_M == limits.MAX_HEIGHT == 1e8
     gridspec.make_grid(30.0, heights_m=[-10e3])  # accepted, as a point is
-    GR.gravitation(0.0, 0.0, -10e3, lmax=LMAX, device="cpu")
+    GR.gravitation(0.0, 0.0, -10e3, model=_model(), device="cpu")
     msgs = set()
     for call in (
         lambda: gridspec.make_grid(30.0, heights_m=[-10001.0]),
-        lambda: GR.gravitation(0.0, 0.0, -10001.0, lmax=LMAX, device="cpu"),
+        lambda: GR.gravitation(0.0, 0.0, -10001.0, model=_model(), device="cpu"),
         lambda: N.normal_gravity(0.0, 0.0, -10001.0, device="cpu"),
     ):
         with pytest.raises(InputError) as info:

@@ -53,7 +53,7 @@ def test_baro_loop_kernel_equals_reference(device):
         device=device,
     )
     L, V, C = propagate_ned_reference(
-        (w * dt)[None], (f * dt)[None], dt, LLH0[None], VNED0[None], C0[None], _g_ned_j2, WGS84,
+        ((w * dt)[None], (f * dt)[None], dt), (LLH0[None], VNED0[None], C0[None]), _g_ned_j2, WGS84,
         output_every=100, baro={"k1": k1, "k2": k2, "k3": k3, "h_ref": h_ref[None], "bias": 7.0},
     )  # fmt: skip
     # same algorithm in two code paths (quaternion vs DCM attitude): rounding only

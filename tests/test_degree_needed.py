@@ -34,9 +34,10 @@ def _point_omission_max(d: int) -> float:
     """Return the max |δg_L − δg_d| (mGal) over the nodes and heights, from the point functions."""
     lat, lon = _nodes()
     worst = 0.0
+    full_model, part_model = (fieldmap.load_model("eigen-6s", lmax=n) for n in (L, d))
     for h in HEIGHTS_KM:
-        full = fieldmap.disturbance(lat, lon, 1e3 * h, model="eigen-6s", lmax=L, units="mGal")
-        part = fieldmap.disturbance(lat, lon, 1e3 * h, model="eigen-6s", lmax=d, units="mGal")
+        full = fieldmap.disturbance(lat, lon, 1e3 * h, model=full_model, units="mGal")
+        part = fieldmap.disturbance(lat, lon, 1e3 * h, model=part_model, units="mGal")
         worst = max(worst, float(np.linalg.norm(full - part, axis=-1).max()))
     return worst
 

@@ -29,7 +29,7 @@ def test_api_raises_device_error():
         lambda: synthesis.resolve_device(BAD),
         lambda: run_checks([BAD], lmax=2, points=5),
         lambda: evaluate_points(
-            np.array([0.0]), np.array([0.0]), np.array([0.0]), lmax=2, device=BAD
+            np.array([0.0]), np.array([0.0]), np.array([0.0]), model_options={"lmax": 2}, device=BAD
         ),
     ]
     for call in calls:

@@ -18,7 +18,7 @@ import fieldmap
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.field.gradient import EOTVOS, gradient_tensor
+from fieldmap.field.gradient import EOTVOS, gradient_asymmetry, gradient_tensor
 from fieldmap.field.normal import normal_gravity
 from fieldmap.models.registry import load_model
 from fieldmap.models.shmodel import SHModel
@@ -48,9 +48,8 @@ def test_point_mass_closed_form():
     r = np.stack([x, y, z], axis=-1)
     rn = np.linalg.norm(r, axis=-1)[:, None, None]
     want = WGS84.GM * (3 * r[:, :, None] * r[:, None, :] - rn**2 * np.eye(3)) / rn**5 / EOTVOS
-    got, asym = gradient_tensor(
-        lat, lon, h, model=pm, quantity="gravitation", frame="ecef", return_asymmetry=True
-    )
+    got = gradient_tensor(lat, lon, h, model=pm, quantity="gravitation", frame="ecef")
+    asym = gradient_asymmetry(lat, lon, h, model=pm, quantity="gravitation")
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)  # |T| up to 3100 E
     assert np.all(asym < 1e-5)
     c = C_e_to_enu(lat, lon)
@@ -74,13 +73,12 @@ def test_point_mass_closed_form():
 def test_laplace_and_symmetry(model60, quantity, trace):
     """Trace = 0 outside the masses (2ω² with the centrifugal term); the tensor is symmetric."""
     lat, lon, h = _points()
+    asym = gradient_asymmetry(lat, lon, h, model=model60, quantity=quantity)
+    assert asym.shape == lat.shape and np.all(asym < 1e-5), asym.max()
     for frame in ("enu", "ned", "ecef"):
-        t, asym = gradient_tensor(
-            lat, lon, h, model=model60, quantity=quantity, frame=frame, return_asymmetry=True
-        )
+        t = gradient_tensor(lat, lon, h, model=model60, quantity=quantity, frame=frame)
         assert t.shape == (lat.size, 3, 3)
         np.testing.assert_allclose(np.trace(t, axis1=-2, axis2=-1), trace, rtol=0, atol=1e-5)
-        assert np.all(asym < 1e-5), asym.max()
         np.testing.assert_array_equal(t, np.swapaxes(t, -1, -2))
     assert trace == 0.0 or abs(trace - 10.635) < 1e-3
 
@@ -100,7 +98,7 @@ def test_normal_free_air_gradient(normal):
         np.linalg.norm(normal_gravity(lat, lon, h0 + s, normal=normal), axis=-1) for s in (dh, -dh)
     ]
     want = (mag[0] - mag[1]) / (2 * dh) / EOTVOS
-    t = gradient_tensor(lat, lon, h0, quantity="normal", normal=normal)
+    t = gradient_tensor(lat, lon, h0, quantity=f"normal:{normal}")
     np.testing.assert_allclose(-t[:, 2, 2], want, rtol=1e-3)
     assert np.all(np.abs(want[:3] + 3086.0) < 15.0)  # free-air gradient at h = 0
     # the vertical of normal gravity at the equator/poles: no east/north-up coupling
@@ -124,12 +122,38 @@ def test_shapes_and_refusals(model60):
         gradient_tensor(0.0, 0.0, 0.0, model=model60, quantity="potential")
     with pytest.raises(InputError, match="frame"):
         gradient_tensor(0.0, 0.0, 0.0, model=model60, frame="xyz")
-    with pytest.raises(InputError, match="normal"):
-        gradient_tensor(0.0, 0.0, 0.0, model=model60, normal="j2")
+    with pytest.raises(InputError, match="applies to quantity normal or disturbance"):
+        gradient_tensor(0.0, 0.0, 0.0, model=model60, quantity="gravity:j2")
+    with pytest.raises(InputError, match="unknown normal-gravity model 'j3'"):
+        gradient_tensor(0.0, 0.0, 0.0, model=model60, quantity="disturbance:j3")
     with pytest.raises(InputError):
         gradient_tensor(91.0, 0.0, 0.0, quantity="normal")
     assert "gradient_tensor" in fieldmap.__all__
     assert fieldmap.gradient_tensor is gradient_tensor
+
+
+def test_deprecated_spellings_give_the_same_bits(model60):
+    """0.2's lmax=, epoch=, normal= and return_asymmetry= still run, warn, and change no bit."""
+    lat, lon, h = _points(5)
+    m20 = model60.truncated(20)
+    cases = [
+        (dict(model=model60, lmax=20), dict(model=m20)),
+        (dict(model="eigen-6s", lmax=20, epoch=None), dict(model=load_model("eigen-6s", lmax=20))),
+        (dict(quantity="normal", normal="j4"), dict(quantity="normal:j4")),
+        (dict(model=m20, quantity="disturbance", normal="j2"),
+         dict(model=m20, quantity="disturbance:j2")),
+        (dict(quantity="normal", normal="exact", lmax=3), dict(quantity="normal")),
+    ]  # fmt: skip
+    for old, new in cases:
+        with pytest.warns(DeprecationWarning, match="gradient_tensor"):
+            got = gradient_tensor(lat, lon, h, frame="ned", **old)
+        np.testing.assert_array_equal(got, gradient_tensor(lat, lon, h, frame="ned", **new))
+    with pytest.warns(DeprecationWarning, match="gradient_asymmetry"):
+        t, asym = gradient_tensor(lat, lon, h, model=m20, frame="ned", return_asymmetry=True)
+    np.testing.assert_array_equal(t, gradient_tensor(lat, lon, h, model=m20, frame="ned"))
+    np.testing.assert_array_equal(asym, gradient_asymmetry(lat, lon, h, model=m20))
+    with pytest.warns(DeprecationWarning), pytest.raises(InputError, match="applies to quantity"):
+        gradient_tensor(0.0, 0.0, 0.0, model=m20, normal="j2")
 
 
 def _run(args, stdin):

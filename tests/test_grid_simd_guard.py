@@ -122,8 +122,8 @@ def test_host_asks_for_simd_on_the_cpu_only():
         assert G.simd_flag(device) == 0
 
 
-@pytest.mark.parametrize("xrange", [False, True])
-def test_plain_warp_path_matches_numpy_reference(monkeypatch, xrange):
+@pytest.mark.parametrize("legendre", ["scaled", "xrange"])
+def test_plain_warp_path_matches_numpy_reference(monkeypatch, legendre):
     """``simd = 0`` (the path CUDA runs) against the NumPy SH reference and the SIMD path."""
     from fieldmap.reference import sh as ref
 
@@ -133,9 +133,9 @@ def test_plain_warp_path_matches_numpy_reference(monkeypatch, xrange):
     x, y, z = frames.geodetic_to_ecef(la, lo, 10e3)
     g = ref.gravitation_ecef(model, x.ravel(), y.ravel(), z.ravel()).reshape(*la.shape, 3)
     want = np.einsum("...ij,...j->...i", frames.C_e_to_enu(la, lo), g)
-    simd = G.synthesize(model, grid, quantity="gravitation", device="cpu", xrange=xrange)[0]
+    simd = G.synthesize(model, grid, quantity="gravitation", device="cpu", legendre=legendre)[0]
     monkeypatch.setattr(G, "simd_flag", lambda device: 0)
-    plain = G.synthesize(model, grid, quantity="gravitation", device="cpu", xrange=xrange)[0]
+    plain = G.synthesize(model, grid, quantity="gravitation", device="cpu", legendre=legendre)[0]
     scale = np.max(np.linalg.norm(want, axis=-1))
     assert np.max(np.abs(plain - want)) <= 1e-13 * scale
     assert np.max(np.abs(plain - simd)) <= 1e-14 * scale

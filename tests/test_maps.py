@@ -157,7 +157,7 @@ def test_disturbance_matches_point_api(small_map):
 
     ds = small_map
     la, lo = np.meshgrid(ds.latitude.values, ds.longitude.values, indexing="ij")
-    ref = disturbance(la, lo, 20e3, model="eigen-6s", lmax=60, units="mGal", device="cpu")
+    ref = disturbance(la, lo, 20e3, model=fieldmap.load_model("eigen-6s", lmax=60), device="cpu")
     got = np.stack([ds.east, ds.north, ds.up], axis=-1)
     # grid (FFT) and point paths both cancel g − γ: a few ulp of g (1e-15 of g, 1e-9 mGal measured)
     assert np.max(np.abs(got - ref)) < 2e-14 * 9.8 / 1e-5

@@ -161,7 +161,7 @@ def test_table4_values_against_an_independent_computation(scenario):
     finals = []
     for inc in (imu_j4, sc.imu):
         _, P, _, _ = propagate_lci_reference(
-            inc.dtheta[None], inc.dv[None], inc.dt, k0.P_a, k0.V_a, k0.C_b_to_a, fr,
+            (inc.dtheta[None], inc.dv[None], inc.dt), (k0.P_a, k0.V_a, k0.C_b_to_a), fr,
             j4, output_every=sc.output_every, **bias,
         )  # fmt: skip
         finals.append(np.linalg.norm(P[0, -1] - sc.truth.P_a[-1]))

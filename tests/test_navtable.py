@@ -183,10 +183,12 @@ ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
 @pytest.fixture(scope="module")
 def table60(tmp_path_factory):
+    from fieldmap.models.registry import load_model
     from fieldmap.products.tables.build import build_table
     from fieldmap.products.tables.files import binary_bytes
 
-    tab, rep = build_table((6.8, 8.1, 44.8, 45.5), (2.5, 5.5), 0.5, lmax=60)
+    m60 = load_model("eigen-6s", lmax=60)
+    tab, rep = build_table((6.8, 8.1, 44.8, 45.5), (2.5, 5.5), 0.5, model=m60)
     path = tmp_path_factory.mktemp("tab") / "t60.bin"
     path.write_bytes(binary_bytes(tab))
     return f"table:{path}", rep

@@ -229,11 +229,12 @@ def test_jn_equals_truncated_series(order):
 
 def test_groves_eq377_is_the_j2_formula():
     lat, lon, h = _points(200, hmin=0.0, hmax=1e6, seed=13)
-    # with the ellipsoid's J2, Groves' eq. 3.7.7 is the J2 model of eq. (13)
-    g_gr = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=None, frame="ned")
+    # with the ellipsoid's J2, Groves' eq. 3.7.7 is the J2 model of eq. (13): 0.2's
+    # groves_j2=None is normal="j2" (deprecated; the same kernel and parameters, bit for bit) ...
+    with pytest.warns(DeprecationWarning, match="groves_j2=None is normal='j2'"):
+        g_gr = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=None, frame="ned")
     g_j2 = N.normal_gravity(lat, lon, h, normal="j2", frame="ned")
-    # same kernel and parameters by construction (an API equivalence, bit for bit) ...
-    _assert_vec_close(g_gr, g_j2, 1e-15)
+    np.testing.assert_array_equal(g_gr, g_j2)
     x, y, z = _ecef(lat, lon, h, WGS84)
     C_e_to_ned = R._ned_basis(np.radians(lat), np.radians(lon))
     cen = R.groves_centrifugal_ned(
@@ -253,6 +254,13 @@ def test_groves_eq377_is_the_j2_formula():
     g_pr = N.normal_gravity(lat, lon, h, normal="groves-j2", frame="ned")
     _assert_vec_close(g_pr, lit_ned(1.082627e-3), 1e-13)
     assert np.abs(g_pr - g_j2).max() > 1e-9
+    # 0.2's groves_j2= with another J2 still runs (deprecated): that J2 in Groves' formula
+    with pytest.warns(DeprecationWarning, match="groves_j2= with another J2 is gone"):
+        g_x = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=1.0827e-3, frame="ned")
+    _assert_vec_close(g_x, lit_ned(1.0827e-3), 1e-13)
+    with pytest.warns(DeprecationWarning, match="groves_j2= is gone"):
+        same = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=N.GROVES_J2, frame="ned")
+    np.testing.assert_array_equal(same, g_pr)
 
 
 # ----------------------------------------------------------------------------- external: boule

@@ -114,10 +114,12 @@ def fixtures(tmp_path_factory) -> Path:
     (root / "flight.csv").write_text(_flight_csv())
     (root / "adsb.csv").write_text(_traffic_csv())
     (root / "pts.txt").write_text("-30 100 500\n")
+    from fieldmap.models.registry import load_model
     from fieldmap.products.tables.build import build_table
     from fieldmap.products.tables.files import binary_bytes
 
-    tab, _ = build_table((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0, lmax=20, check_points=10)
+    m20 = load_model("eigen-6s", lmax=20)
+    tab, _ = build_table((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0, model=m20, check_points=10)
     (root / "table.bin").write_bytes(binary_bytes(tab))
     return root
 

@@ -117,7 +117,7 @@ def test_point_values_are_those_of_the_api(root, tmp_path, quantity):
         want = np.stack(geodesy.gravity_anomaly(lat, lon, h, model=m, device="cpu"), axis=-1)
     clear_cache()
     _forget_structs()
-    got = evaluate_points(lat, lon, h, quantity, model=path, device="cpu")
+    got = evaluate_points(lat, lon, h, quantity=quantity, model=path, device="cpu")
     assert cache._prefetched == {}  # the prefetched tables were taken
     np.testing.assert_array_equal(got, want)
 

@@ -59,12 +59,8 @@ def test_kernel_equals_reference(device):
     for kind in kinds:
         sel = [i for i in range(n) if res.gravity[i] == kind]
         ts, P, V, C = propagate_lci_reference(
-            dth[sets[sel]],
-            dv[sets[sel]],
-            dt,
-            P0[sel],
-            V0[sel],
-            quat_to_dcm(q0[sel]),
+            (dth[sets[sel]], dv[sets[sel]], dt),
+            (P0[sel], V0[sel], quat_to_dcm(q0[sel])),
             FRAME,
             _g_ref(kind),
             t0=12.5,
@@ -95,12 +91,8 @@ def test_sh_kind_equals_reference(device):
     for i, L in enumerate([12, 24]):
         g = lambda r, L=L: rsh.gravitation_ecef(model, r[:, 0], r[:, 1], r[:, 2], lmax=L)  # noqa: E731
         _, P, V, C = propagate_lci_reference(
-            dth[i : i + 1],
-            dv[i : i + 1],
-            dt,
-            P0[i : i + 1],
-            V0[i : i + 1],
-            quat_to_dcm(q0[i : i + 1]),
+            (dth[i : i + 1], dv[i : i + 1], dt),
+            (P0[i : i + 1], V0[i : i + 1], quat_to_dcm(q0[i : i + 1])),
             FRAME,
             g,
             output_every=25,
@@ -289,27 +281,30 @@ def test_noise_is_seeded_and_scaled(device):
     np.testing.assert_allclose(dV.var(), sig**2 * a.t[-1], rtol=0.12)
 
 
+#: a start state at rest at the launch point
+START = LciStart(np.zeros(3), np.zeros(3), [1.0, 0, 0, 0], FRAME)
+
+
 def test_input_validation():
     dth = np.zeros((10, 3))
-    ok = dict(dt=0.01, P0=np.zeros(3), V0=np.zeros(3), q0=[1.0, 0, 0, 0], launch=FRAME)
     bad = dth.copy()
     bad[3, 1] = np.nan
     with pytest.raises(InputError, match="non-finite"):
-        propagate_lci(bad, dth, **ok)
+        propagate_lci(bad, dth, 0.01, START)
     with pytest.raises(InputError, match="must match"):
-        propagate_lci(dth, dth[:8], **ok)
+        propagate_lci(dth, dth[:8], 0.01, START)
     with pytest.raises(InputError, match="even"):
-        propagate_lci(dth[:9], dth[:9], **ok)
+        propagate_lci(dth[:9], dth[:9], 0.01, START)
     with pytest.raises(InputError, match="dt must be > 0"):
-        propagate_lci(dth, dth, **{**ok, "dt": 0.0})
+        propagate_lci(dth, dth, 0.0, START)
     with pytest.raises(InputError, match="dt must be > 0"):
-        propagate_lci(dth, dth, **{**ok, "dt": -1.0})
+        propagate_lci(dth, dth, -1.0, START)
     with pytest.raises(InputError, match="unknown navigation gravity"):
-        propagate_lci(dth, dth, gravity="j3", **ok)
+        propagate_lci(dth, dth, 0.01, START, NavConfig("j3"))
     with pytest.raises(InputError, match="needs an SH model"):
-        propagate_lci(dth, dth, gravity="sh18", **ok)
+        propagate_lci(dth, dth, 0.01, START, NavConfig("sh18"))
     with pytest.raises(InputError, match="unit quaternions"):
-        propagate_lci(dth, dth, **{**ok, "q0": [1.0, 1.0, 0, 0]})
+        propagate_lci(dth, dth, 0.01, LciStart(np.zeros(3), np.zeros(3), [1.0, 1.0, 0, 0], FRAME))
 
 
 def test_normal_is_the_deprecated_name_of_exact():
@@ -338,16 +333,47 @@ def test_input_validation_models_and_errors():
     from fieldmap.models.registry import load_model
 
     dth = np.zeros((10, 3))
-    ok = dict(dt=0.01, P0=np.zeros(3), V0=np.zeros(3), q0=[1.0, 0, 0, 0], launch=FRAME)
     model = load_model("eigen-6s", lmax=24)
     with pytest.raises(InputError, match="outside"):
-        propagate_lci(dth, dth, gravity="sh200", sh_model=model, **ok)
+        propagate_lci(dth, dth, 0.01, START, NavConfig("sh200", sh_model=model))
     with pytest.raises(InputError, match="unknown sensor error"):
-        propagate_lci(dth, dth, errors={"acc_bais": np.zeros(3)}, **ok)
+        propagate_lci(dth, dth, 0.01, START, NavConfig(errors={"acc_bais": np.zeros(3)}))
     with pytest.raises(InputError, match="imu_set"):
-        propagate_lci(dth, dth, imu_set=[0, 1], **ok)
+        propagate_lci(dth, dth, 0.01, START, NavConfig(imu_set=[0, 1]))
     with pytest.raises(InputError, match="P0"):
-        propagate_lci(dth, dth, **{**ok, "P0": [0.0, np.inf, 0.0]})
+        propagate_lci(
+            dth, dth, 0.01, LciStart([0.0, np.inf, 0.0], np.zeros(3), [1.0, 0, 0, 0], FRAME)
+        )
+
+
+def test_reference_old_spelling_gives_the_same_bits():
+    """0.2's propagate_*_reference(dtheta, dv, dt, P0, V0, C0, ...) warn, and change no bit."""
+    from fieldmap.reference.strapdown import propagate_ned_reference
+
+    dth, dv, P0, V0, q0 = _random_motion(2, 40, 0.005)
+    C0, g = quat_to_dcm(q0), _g_ref("j2")
+    new = propagate_lci_reference((dth, dv, 0.005), (P0, V0, C0), FRAME, g, output_every=4)
+    with pytest.warns(DeprecationWarning, match=r"increments=\(dtheta, dv, dt\)"):
+        old = propagate_lci_reference(dth, dv, 0.005, P0, V0, C0, FRAME, g, output_every=4)
+    for a, b in zip(old, new):
+        np.testing.assert_array_equal(a, b)
+    with pytest.warns(DeprecationWarning, match=r"start=\(P0, V0, C0\)"):
+        old = propagate_lci_reference(dtheta=dth, dv=dv, dt=0.005, P0=P0, V0=V0, C0=C0,
+                                      frame=FRAME, gravitation_ecef=g, output_every=4)  # fmt: skip
+    for a, b in zip(old, new):
+        np.testing.assert_array_equal(a, b)
+    llh = np.array([[0.5, 1.8, 1000.0], [-0.2, 0.1, 50.0]])
+
+    def g_ned(x):
+        return np.tile([0.0, 0.0, 9.8], (x.shape[0], 1))
+
+    new = propagate_ned_reference((dth, dv, 0.005), (llh, V0 * 0.1, C0), g_ned, WGS84)
+    with pytest.warns(DeprecationWarning, match=r"start=\(llh0, v0, C0\)"):
+        old = propagate_ned_reference(dth, dv, 0.005, llh, V0 * 0.1, C0, g_ned, WGS84)
+    for a, b in zip(old, new):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(TypeError, match="missing 0.2 argument"):
+        propagate_ned_reference(dth, dv, 0.005, llh, V0 * 0.1)
 
 
 def test_several_sets_without_imu_set_raise():

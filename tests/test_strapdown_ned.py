@@ -52,12 +52,8 @@ def _reference_run(dth, dv, dt, C0, output_every, **kw):
     from fieldmap.reference.strapdown import propagate_ned_reference
 
     L, V, C = propagate_ned_reference(
-        dth[None],
-        dv[None],
-        dt,
-        LLH0[None],
-        VNED0[None],
-        C0[None],
+        (dth[None], dv[None], dt),
+        (LLH0[None], VNED0[None], C0[None]),
         _g_ned_j2,
         WGS84,
         output_every=output_every,

@@ -292,7 +292,7 @@ def test_antimeridian_and_corridor(tmp_path):
     tab = f"table:{out / 'table.bin'}"
     lat, lon, h = np.array([0.3, -0.7, 0.0]), np.array([179.5, -179.2, 180.0]), np.full(3, 7e3)
     got = fieldmap.disturbance(lat, lon, h, model=tab)
-    want = fieldmap.disturbance(lat, lon, h, model="eigen-6s", lmax=120)
+    want = fieldmap.disturbance(lat, lon, h, model=fieldmap.load_model("eigen-6s", lmax=120))
     assert np.max(np.abs(got - want)) <= 1.0
     csv = tmp_path / "flight.csv"
     t = np.arange(31.0)
@@ -328,3 +328,22 @@ def test_interpolator_reproduces_polynomials():
     assert np.isnan(tab.interpolate([s - 0.1], [w], [0.0], outside="nan")).all()
     with pytest.raises(InputError, match="outside"):
         tab.interpolate(s, w, hmax + 1.0)
+
+
+def test_build_table_old_spelling_gives_the_same_bits():
+    """0.2's build_table(lmax=, seed=) warn: lmax is the model's, the seed fixed (0)."""
+    from fieldmap.products.tables.build import build_table
+
+    args = ((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0)
+    m12 = fieldmap.load_model("eigen-6s", lmax=12)
+    new, rep = build_table(*args, model=m12, check_points=10, device="cpu")
+    with pytest.warns(DeprecationWarning, match="lmax= belongs to the model"):
+        old, rep_old = build_table(*args, lmax=12, check_points=10, device="cpu")
+    np.testing.assert_array_equal(old.data, new.data)
+    assert rep_old["verification"] == rep["verification"]
+    with pytest.warns(DeprecationWarning, match="seed= is gone"):
+        _, rep_seed = build_table(*args, model=m12, check_points=10, seed=0, device="cpu")
+    assert rep_seed["verification"] == rep["verification"]
+    with pytest.warns(DeprecationWarning, match="seed= is gone"):  # another seed: still honoured
+        _, rep5 = build_table(*args, model=m12, check_points=10, seed=5, device="cpu")
+    assert rep5["verification"] != rep["verification"]

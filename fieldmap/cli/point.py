@@ -31,6 +31,8 @@ import sys
 from collections.abc import Iterable
 from typing import IO, TYPE_CHECKING, Any, TextIO
 
+from fieldmap import _compat
+
 if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
@@ -162,17 +164,25 @@ def parse_point_line(line: str) -> tuple[float, float, float]:
     return vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0
 
 
+def _fold_model_options(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
+    """0.2's ``lmax=``/``epoch=`` of :func:`evaluate_points`: keywords of ``load_model``."""
+    kwargs["model_options"] = {**(kwargs.get("model_options") or {}), **old}
+    keys = " and ".join(f"{k}=" for k in old)
+    return f"{keys} go in model_options= (the keywords of load_model)"
+
+
+@_compat.keyword_api(3, ("quantity", "normal", "model", "lmax", "epoch", "device", "model_options"))
+@_compat.folded(("lmax", "epoch"), _fold_model_options)
 def evaluate_points(
     lat: npt.ArrayLike,
     lon: npt.ArrayLike,
     h: npt.ArrayLike,
+    *,
     quantity: str = "disturbance",
     normal: str = "exact",
     model: str = "eigen-6s",
-    lmax: int | None = None,
-    epoch: float | str | None = None,
     device: str | None = None,
-    model_options: dict | None = None,
+    model_options: dict[str, Any] | None = None,
 ) -> np.ndarray:
     """East, north, up of ``quantity`` at the points, in one batched launch.
 
@@ -189,11 +199,14 @@ def evaluate_points(
         commission error (:mod:`fieldmap.field.commission`).
     normal : {"exact", "j2", "j4", "j6", "groves-j2"}
         Normal model of ``quantity="normal"``.
-    model, lmax, epoch, device
-        As :func:`fieldmap.field.gravity.disturbance`.
+    model : str
+        A bundled model name, a model file or ``table:FILE``, loaded here with
+        ``model_options`` (while Warp is imported: :mod:`fieldmap.cli.startup`).
+    device : str, optional
+        Warp device.
     model_options : dict, optional
-        More keywords of :func:`fieldmap.models.registry.load_model` (model_dir, gm, radius,
-        cache).
+        Keywords of :func:`fieldmap.models.registry.load_model`: ``lmax``, ``epoch``,
+        ``model_dir``, ``gm``, ``radius``, ``cache`` (0.2: ``lmax=``, ``epoch=`` here).
 
     Returns
     -------
@@ -205,7 +218,7 @@ def evaluate_points(
     from fieldmap.products.tables.model import table_path
 
     table = table_path(model) is not None
-    early = load_model_early(model, lmax, epoch, model_options, quantity, device, table)
+    early = load_model_early(model, model_options, quantity, device, table)
     from fieldmap import _warp
 
     device = _warp.resolve_device(device)
@@ -298,17 +311,19 @@ def run_point(args: argparse.Namespace) -> int:
     points = [p for p, k in zip(parsed, where) if results[k] is None] if parsed else []
     if points:
         lat, lon, h = (np.array(c, dtype=np.float64) for c in zip(*points))
+        given = {k: v for k, v in opts.items() if v != _DEFAULT_MODEL_OPTIONS[k]}
+        for key in ("lmax", "epoch"):
+            if getattr(args, key) is not None:
+                given[key] = getattr(args, key)
         values = evaluate_points(
             lat,
             lon,
             h,
-            args.quantity,
-            args.normal,
-            args.model,
-            args.lmax,
-            args.epoch,
-            args.device,
-            **({"model_options": opts} if opts != _DEFAULT_MODEL_OPTIONS else {}),
+            quantity=args.quantity,
+            normal=args.normal,
+            model=args.model,
+            device=args.device,
+            model_options=given or None,
         )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line

@@ -88,9 +88,7 @@ class Early:
 
 def load_model_early(
     model: str,
-    lmax: int | None,
-    epoch: float | str | None,
-    options: dict | None,
+    options: dict[str, Any] | None,
     quantity: str,
     device: str | None = None,
     table: bool = False,
@@ -99,7 +97,8 @@ def load_model_early(
 
     The model's error (bad file, degree, epoch) is kept for :meth:`Early.settle`, so that the
     caller checks the device first, as before. Nothing is started for ``--quantity normal`` and
-    a compensation ``table`` (no spherical-harmonic model).
+    a compensation ``table`` (no spherical-harmonic model). ``options``: keywords of
+    :func:`fieldmap.models.registry.load_model` (``lmax``, ``epoch``, ``model_dir``...).
     """
     if quantity == "normal" or table:
         return Early()
@@ -108,7 +107,7 @@ def load_model_early(
     engine = _Engine(device, quantity)
     engine.start()
     try:
-        sh_model = load_model(model, lmax=lmax, epoch=epoch, **(options or {}))
+        sh_model = load_model(model, **(options or {}))
         if not quantity.endswith("-sigma"):  # the commission errors are NumPy sums: no tables
             from fieldmap.models import cache
 

@@ -222,12 +222,8 @@ def _strapdown_checks(device: str) -> Iterator[CheckResult]:
 
     def numpy_ref() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         _, P, V, C = propagate_lci_reference(
-            dth,
-            dv,
-            dt,
-            P0,
-            V0,
-            C0,
+            (dth, dv, dt),
+            (P0, V0, C0),
             frame,
             lambda r: rnorm.jn_gravitation(r[:, 0], r[:, 1], r[:, 2], WGS84, 4),
             output_every=20,
@@ -278,12 +274,8 @@ def _strapdown_ned_checks(device: str) -> Iterator[CheckResult]:
 
     def numpy_ref() -> tuple[np.ndarray, np.ndarray]:
         _, V, C = propagate_ned_reference(
-            dth[None],
-            dv[None],
-            dt,
-            np.array([[np.radians(30.0), np.radians(100.0), 1000.0]]),
-            v0[None],
-            np.eye(3)[None],
+            (dth[None], dv[None], dt),
+            (np.array([[np.radians(30.0), np.radians(100.0), 1000.0]]), v0[None], np.eye(3)[None]),
             g_ned,
             WGS84,
             output_every=50,

@@ -52,9 +52,11 @@ import numpy as np
 import numpy.typing as npt
 from numpy.typing import ArrayLike, NDArray
 
+from fieldmap import _compat
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.gravity import apply_model_options
 from fieldmap.limits import check_geodetic as _points
 from fieldmap.models.shmodel import SHModel
 
@@ -135,12 +137,10 @@ def disturbing_model(
     return out
 
 
-def _resolve(
-    model: SHModel | str | os.PathLike[str], lmax: int | None, epoch: float | str | None
-) -> SHModel:
+def _resolve(model: SHModel | str | os.PathLike[str]) -> SHModel:
     from fieldmap.models.registry import load_model
 
-    return load_model(model, lmax=lmax, epoch=epoch)
+    return load_model(model)
 
 
 def _t_and_gradient(
@@ -163,17 +163,16 @@ def _t_and_gradient(
     return t, g, (x, y, z)
 
 
+@_compat.model_api(apply_model_options)
 def disturbing_potential(
     latitude: ArrayLike,
     longitude: ArrayLike,
     height: ArrayLike,
     *,
     model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     degree0: bool = False,
     device: str | None = None,
-    epoch: float | str | None = None,
 ) -> np.ndarray:
     """Disturbing potential T = W − U at geodetic points (see the module docstring).
 
@@ -184,17 +183,15 @@ def disturbing_potential(
     height : array_like
         Height above ``ellipsoid``, −10 km ≤ h ≤ 1e8 m. Units: m.
     model : SHModel or str
-        A model, a bundled model name or a model file path.
-    lmax : int, optional
-        Truncation degree of the model (the normal field is never truncated).
+        A model, a bundled model name or a model file path. A truncation degree and an epoch
+        of time-variable terms belong to the model: ``load_model(name, lmax=, epoch=)`` or
+        ``model.truncated(lmax)`` (the normal field is never truncated).
     ellipsoid : Ellipsoid or str
         Level ellipsoid of the normal field and of the coordinates (default WGS84).
     degree0 : bool
         Keep the term (GM − GM_e)/r (default False, as GeographicLib).
     device : str, optional
         Warp device.
-    epoch : float or str, optional
-        Epoch of time-variable terms. Units: decimal year.
 
     Returns
     -------
@@ -203,7 +200,7 @@ def disturbing_potential(
     """
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, height)
-    m = _resolve(model, lmax, epoch)
+    m = _resolve(model)
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
     return t
 
@@ -330,17 +327,16 @@ def anomaly_from_t(
     return np.stack([dg, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
 
 
+@_compat.model_api(apply_model_options)
 def gravity_anomaly(
     latitude: ArrayLike,
     longitude: ArrayLike,
     height: ArrayLike,
     *,
     model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     degree0: bool = False,
     device: str | None = None,
-    epoch: float | str | None = None,
     units: str = "mGal",
 ) -> SphericalAnomaly:
     """Gravity anomaly Δg and deflection of the vertical ξ, η (spherical approximation).
@@ -364,10 +360,12 @@ def gravity_anomaly(
     --------
     >>> import numpy as np
     >>> from fieldmap.field.geodesy import gravity_anomaly
-    >>> dg, xi, eta = gravity_anomaly([45.0], [10.0], [0.0], lmax=36)
+    >>> from fieldmap.models.registry import load_model
+    >>> m36 = load_model("eigen-6s", lmax=36)
+    >>> dg, xi, eta = gravity_anomaly([45.0], [10.0], [0.0], model=m36)
     >>> np.round(dg, 2), np.round(xi, 2)  # mGal, arcsec
     (array([17.03]), array([-1.02]))
-    >>> a = gravity_anomaly([45.0], [10.0], [0.0], lmax=36, units="m/s2")
+    >>> a = gravity_anomaly([45.0], [10.0], [0.0], model=m36, units="m/s2")
     >>> a.units, np.round(a.anomaly * 1e5, 2)
     ('m/s2', array([17.03]))
     """
@@ -377,7 +375,7 @@ def gravity_anomaly(
     unit = get_unit(units)
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, height)
-    m = _resolve(model, lmax, epoch)
+    m = _resolve(model)
     t, grad, xyz = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
     gam = normal_gravity(
         lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
@@ -437,8 +435,13 @@ def geoid_height(
     ----------
     latitude, longitude : array_like
         Geodetic latitude and longitude. Units: degrees.
-    model, lmax, ellipsoid, degree0, device, epoch
+    model, ellipsoid, degree0, device
         As :func:`disturbing_potential`.
+    lmax : int, optional
+        Truncation degree of the model and of its correction series N_corr (a
+        ``model.truncated(lmax)`` keeps the whole correction series).
+    epoch : float or str, optional
+        Epoch of time-variable terms when ``model`` is a name or file. Units: decimal year.
 
     Returns
     -------
@@ -453,10 +456,11 @@ def geoid_height(
     array([48.87, 32.27])
     """
     from fieldmap.field.normal import somigliana
+    from fieldmap.models.registry import load_model
 
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, 0.0)
-    m = _resolve(model, lmax, epoch)
+    m = load_model(model, lmax=lmax, epoch=epoch)
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
     n = t / somigliana(lat, ellipsoid=ell)
     return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)

@@ -16,7 +16,7 @@ each ECEF axis, with one Richardson step (steps h and 2h):
 whose truncation error, O(h⁴ ∂⁵V), is negligible for degrees up to ~2000 (wavelengths ≥ 20 km);
 the roundoff of float64 gravity (~1e-15 m/s² over 2 m) is ~1e-15 s⁻² = 1e-6 E. The tensor is
 symmetrised, (T + Tᵀ)/2 (the potential's Hessian is symmetric); the removed antisymmetric
-part, max |T − Tᵀ|/2 per point, is returned with ``return_asymmetry=True`` as a check of the
+part, max |T − Tᵀ|/2 per point, is returned by :func:`gradient_asymmetry` as a check of the
 differencing. The ECEF tensor is rotated to ENU with the rotation C at the geodetic point,
 C T Cᵀ, and to NED by reordering (north, east, −up).
 
@@ -26,21 +26,24 @@ Checks (tests/test_gradient.py): the point-mass closed form GM (3 x_i x_j − r�
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal, overload
+import inspect
+import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fieldmap import limits
+from fieldmap import _compat, limits
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.gravity import apply_model_options
 from fieldmap.models.shmodel import SHModel
 
 if TYPE_CHECKING:
     from fieldmap.grids.spec import GridSpec
 
-__all__ = ["EOTVOS", "QUANTITIES", "STEP", "gradient_tensor"]
+__all__ = ["EOTVOS", "QUANTITIES", "STEP", "gradient_asymmetry", "gradient_tensor"]
 
 #: 1 Eötvös. Units: s⁻².
 EOTVOS = 1e-9
@@ -55,7 +58,6 @@ _ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 def _vector_ecef(
     quantity: str,
     model: SHModel | None,
-    lmax: int | None,
     normal: str,
     ell: Ellipsoid,
     device: str | None,
@@ -72,7 +74,7 @@ def _vector_ecef(
         from fieldmap.field.sh import sh_gravitation
 
         assert model is not None  # loaded for every quantity but normal
-        g = sh_gravitation(model, x, y, z, lmax=lmax, device=device)
+        g = sh_gravitation(model, x, y, z, device=device)
         if quantity == "disturbance":
             g = g - normal_gravitation_ecef(x, y, z, normal=normal, ellipsoid=ell, device=device)
     if quantity in ("gravity", "normal"):
@@ -80,112 +82,49 @@ def _vector_ecef(
     return g
 
 
-@overload
-def gradient_tensor(
-    latitude: ArrayLike,
-    longitude: ArrayLike,
-    height: ArrayLike,
-    *,
-    model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
-    quantity: str = "gravity",
-    normal: str = "exact",
-    ellipsoid: Ellipsoid | str = WGS84,
-    frame: str = "enu",
-    epoch: float | str | None = None,
-    device: str | None = None,
-    return_asymmetry: Literal[False] = False,
-) -> NDArray[np.float64]: ...
+def parse_quantity(quantity: str) -> tuple[str, str]:
+    """Split a :func:`gradient_tensor` quantity into (quantity, normal model).
 
-
-@overload
-def gradient_tensor(
-    latitude: ArrayLike,
-    longitude: ArrayLike,
-    height: ArrayLike,
-    *,
-    model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
-    quantity: str = "gravity",
-    normal: str = "exact",
-    ellipsoid: Ellipsoid | str = WGS84,
-    frame: str = "enu",
-    epoch: float | str | None = None,
-    device: str | None = None,
-    return_asymmetry: Literal[True],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
-
-
-def gradient_tensor(
-    latitude: ArrayLike,
-    longitude: ArrayLike,
-    height: ArrayLike,
-    *,
-    model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
-    quantity: str = "gravity",
-    normal: str = "exact",
-    ellipsoid: Ellipsoid | str = WGS84,
-    frame: str = "enu",
-    epoch: float | str | None = None,
-    device: str | None = None,
-    return_asymmetry: bool = False,
-) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Gradient tensor ∂g_i/∂x_j of gravity, gravitation, disturbance or normal gravity.
-
-    Central differences (steps 1 m and 2 m, one Richardson step) of fieldmap's float64 gravity
-    vector in ECEF, symmetrised, rotated at the geodetic point (see the module docstring).
-
-    Parameters
-    ----------
-    latitude, longitude, height : array_like
-        Geodetic latitude in [-90, 90], longitude in [-540, 540), height above ``ellipsoid``
-        (broadcast together). Units: degrees, degrees, m.
-    model : SHModel or str
-        A model, a bundled model name or a model file (unused by ``quantity="normal"``).
-    lmax : int, optional
-        Truncation degree (default: the model's).
-    quantity : {"gravity", "gravitation", "disturbance", "normal"}
-        Model gravity incl. centrifugal ω²(x, y, 0); model gravitation; disturbance δg = model
-        gravitation − normal gravitation (``normal``, exact by default); normal gravity of
-        ``normal`` incl. centrifugal.
-    normal : {"exact", "j2", "j4", "j6", "groves-j2"}
-        Normal field of ``quantity="normal"`` and ``"disturbance"``.
-    ellipsoid : Ellipsoid or str
-        Ellipsoid of the coordinates, of ω and of the normal field (default WGS84).
-    frame : {"enu", "ned", "ecef"}
-        Frame of both indices: local geodetic ENU/NED at the point, or ECEF.
-    epoch : float or str, optional
-        Epoch of time-variable terms when ``model`` is a name or file.
-    device : str, optional
-        Warp device (default: first CUDA device, else CPU).
-    return_asymmetry : bool
-        Also return max |T − Tᵀ|/2 per point (the part removed by symmetrising). Units: E.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``broadcast(latitude, longitude, height).shape + (3, 3)``, component ``[i, j]`` =
-        ∂g_i/∂x_j. Units: E (1e-9 s⁻²). With ``return_asymmetry``: ``(tensor, asymmetry)``,
-        the latter of the broadcast shape.
+    ``"gravity"``, ``"gravitation"``, ``"disturbance"``, ``"normal"``; the last two take the
+    normal field after a colon (``"normal:j4"``, ``"disturbance:j2"``; default ``exact``, any
+    name of :data:`fieldmap.field.normal.NORMAL_MODELS`).
     """
     from fieldmap.field.normal import normal_model
 
-    q = str(quantity).lower()
+    q, _, normal = str(quantity).lower().partition(":")
     if q not in QUANTITIES:
-        raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+        raise InputError(
+            f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}", param="quantity"
+        )
+    key = normal_model(normal or "exact")
+    if normal and q not in ("normal", "disturbance"):
+        raise InputError(
+            f"a normal field ({quantity!r}) applies to quantity normal or disturbance, not to {q}",
+            param="quantity",
+        )
+    return q, key
+
+
+def _tensor(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    model: SHModel | str | os.PathLike[str],
+    quantity: str,
+    ellipsoid: Ellipsoid | str,
+    frame: str,
+    device: str | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Return the tensor of :func:`gradient_tensor` and its :func:`gradient_asymmetry`."""
+    q, key = parse_quantity(quantity)
     f = str(frame).lower()
     if f not in FRAMES:
         raise InputError(f"frame must be one of {', '.join(FRAMES)}, got {frame!r}")
-    key = normal_model(normal)
-    if key != "exact" and q not in ("normal", "disturbance"):
-        raise InputError(f"normal= applies to quantity normal or disturbance, not to {q}")
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = limits.check_geodetic(latitude, longitude, height)
     shape = lat.shape
     if lat.size == 0:
-        empty = np.zeros(shape + (3, 3))
-        return (empty, np.zeros(shape)) if return_asymmetry else empty
+        return np.zeros(shape + (3, 3)), np.zeros(shape)
     sh_model = None
     if q != "normal":
         if isinstance(model, SHModel):
@@ -193,7 +132,7 @@ def gradient_tensor(
         else:
             from fieldmap.models.registry import load_model
 
-            sh_model = load_model(model, epoch=epoch)
+            sh_model = load_model(model)
     x, y, z = (np.ravel(v) for v in frames.geodetic_to_ecef(lat, lon, h, ell))
     p0 = np.stack([x, y, z], axis=-1)  # (n, 3)
     # displaced points: axis j, offsets (+h, -h, +2h, -2h) -> (3, 4, n, 3)
@@ -201,7 +140,7 @@ def gradient_tensor(
     eye = np.eye(3)
     pts = p0[None, None, :, :] + offsets[None, :, None, None] * eye[:, None, None, :]
     flat = pts.reshape(-1, 3)
-    g = _vector_ecef(q, sh_model, lmax, key, ell, device, flat[:, 0], flat[:, 1], flat[:, 2])
+    g = _vector_ecef(q, sh_model, key, ell, device, flat[:, 0], flat[:, 1], flat[:, 2])
     g = g.reshape(3, 4, -1, 3)
     d1 = (g[:, 0] - g[:, 1]) / (2 * STEP)  # (j, n, i)
     d2 = (g[:, 2] - g[:, 3]) / (4 * STEP)
@@ -215,8 +154,126 @@ def gradient_tensor(
         if f == "ned":
             t = _ENU_TO_NED @ t @ _ENU_TO_NED.T
         t = (t + np.swapaxes(t, -1, -2)) / 2.0  # exactly symmetric after the rotation too
-    t = t.reshape(shape + (3, 3))
-    return (t, asym.reshape(shape)) if return_asymmetry else t
+    return t.reshape(shape + (3, 3)), asym.reshape(shape)
+
+
+def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
+    """Rewrite a 0.2 call of :func:`gradient_tensor`; return the warning's advice.
+
+    ``lmax``/``epoch`` go to the model, ``normal`` into the quantity; ``return_asymmetry=True``
+    also returns the call to make instead (the tensor and its asymmetry, from one pass).
+    """
+    from fieldmap.field.normal import normal_model
+
+    notes = []
+    quantity = str(kwargs.get("quantity", "gravity"))
+    if "lmax" in old or "epoch" in old:
+        sub = {k: old[k] for k in ("lmax", "epoch") if k in old}
+        if quantity.lower() != "normal":  # the normal field took no model options
+            kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), **sub)
+        notes.append(" and ".join(f"{k}=" for k in sub) + " " + _compat.MODEL_OPTIONS_ADVICE)
+    if "normal" in old:
+        key = normal_model(old["normal"])
+        if key != "exact":
+            kwargs["quantity"] = f"{quantity}:{key}"
+        notes.append(f"normal= is now quantity={kwargs['quantity']!r}")
+    if "return_asymmetry" in old:
+        notes.append("return_asymmetry= is now gradient_asymmetry(...)")
+    advice = "; ".join(notes)
+    return (advice, _with_asymmetry) if old.get("return_asymmetry") else advice
+
+
+def _with_asymmetry(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(tensor, asymmetry) of one :func:`gradient_tensor` call (0.2 ``return_asymmetry=True``)."""
+    bound = inspect.signature(gradient_tensor).bind(*args, **kwargs)
+    bound.apply_defaults()
+    a = bound.arguments
+    return _tensor(
+        a["latitude"], a["longitude"], a["height"], a["model"], a["quantity"], a["ellipsoid"],
+        a["frame"], a["device"],
+    )  # fmt: skip
+
+
+@_compat.folded(("lmax", "epoch", "normal", "return_asymmetry"), _fold_old)
+def gradient_tensor(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    quantity: str = "gravity",
+    ellipsoid: Ellipsoid | str = WGS84,
+    frame: str = "enu",
+    device: str | None = None,
+) -> NDArray[np.float64]:
+    """Gradient tensor ∂g_i/∂x_j of gravity, gravitation, disturbance or normal gravity.
+
+    Central differences (steps 1 m and 2 m, one Richardson step) of fieldmap's float64 gravity
+    vector in ECEF, symmetrised, rotated at the geodetic point (see the module docstring).
+
+    Parameters
+    ----------
+    latitude, longitude, height : array_like
+        Geodetic latitude in [-90, 90], longitude in [-540, 540), height above ``ellipsoid``
+        (broadcast together). Units: degrees, degrees, m.
+    model : SHModel or str
+        A model (:func:`fieldmap.models.registry.load_model`, which applies a truncation
+        degree ``lmax=`` and an epoch ``epoch=``), a bundled model name or a model file
+        (unused by ``quantity="normal"``).
+    quantity : str
+        ``"gravity"``: model gravity incl. centrifugal ω²(x, y, 0); ``"gravitation"``: model
+        gravitation; ``"disturbance"``: model gravitation − exact normal gravitation;
+        ``"normal"``: exact normal gravity incl. centrifugal. The last two take another normal
+        field after a colon, a name of :data:`fieldmap.field.normal.NORMAL_MODELS`:
+        ``"normal:j4"``, ``"disturbance:j2"``, ``"normal:groves-j2"`` (0.2: ``normal=``).
+    ellipsoid : Ellipsoid or str
+        Ellipsoid of the coordinates, of ω and of the normal field (default WGS84).
+    frame : {"enu", "ned", "ecef"}
+        Frame of both indices: local geodetic ENU/NED at the point, or ECEF.
+    device : str, optional
+        Warp device (default: first CUDA device, else CPU).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast(latitude, longitude, height).shape + (3, 3)``, component ``[i, j]`` =
+        ∂g_i/∂x_j. Units: E (1e-9 s⁻²).
+
+    Examples
+    --------
+    The free-air gradient of exact normal gravity on the equator, about 3088 E (0.3088 mGal/m):
+
+    >>> import numpy as np
+    >>> from fieldmap.field.gradient import gradient_tensor
+    >>> t = gradient_tensor(0.0, 0.0, 0.0, quantity="normal", device="cpu")
+    >>> t.shape, round(float(t[2, 2]))  # ENU; ∂g_up/∂up in E
+    ((3, 3), 3088)
+    """
+    return _tensor(latitude, longitude, height, model, quantity, ellipsoid, frame, device)[0]
+
+
+def gradient_asymmetry(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    quantity: str = "gravity",
+    ellipsoid: Ellipsoid | str = WGS84,
+    device: str | None = None,
+) -> NDArray[np.float64]:
+    """Return what :func:`gradient_tensor` removes by symmetrising: a check of the differencing.
+
+    max |T − Tᵀ|/2 per point of the central-difference tensor before it is symmetrised (the
+    potential's Hessian is symmetric: what is left measures the differencing). Parameters as
+    :func:`gradient_tensor` (the asymmetry does not depend on the frame).
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the points. Units: E (1e-9 s⁻²).
+    """
+    return _tensor(latitude, longitude, height, model, quantity, ellipsoid, "ecef", device)[1]
 
 
 #: map quantity -> (gradient_tensor quantity, description); the ENU components kept (symmetric)

@@ -15,12 +15,13 @@ Public API (degrees and metres in, NumPy out):
 Points are ``latitude, longitude, height``: geodetic degrees and metres above the ellipsoid,
 positional; every other argument is keyword-only. The local frames are the geodetic ENU/NED
 frames at the point (``fieldmap.field.frames``). Output units of the disturbance: ``units=``,
-looked up in :mod:`fieldmap.units`.
+looked up in :mod:`fieldmap.units`. A truncation degree and an epoch belong to the model:
+``model=load_model(name, lmax=..., epoch=...)`` (0.2's ``lmax=``/``epoch=`` on these functions
+still work, with a ``DeprecationWarning``: :func:`apply_model_options`).
 """
 
 from __future__ import annotations
 
-import os
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -42,18 +43,52 @@ if TYPE_CHECKING:
 MIN_HEIGHT = limits.MIN_HEIGHT
 MAX_HEIGHT = limits.MAX_HEIGHT
 
-__all__ = ["disturbance", "gravitation", "gravity"]
+__all__ = ["apply_model_options", "disturbance", "gravitation", "gravity"]
 
 FRAMES = ("enu", "ned", "ecef")
 _RENAMED = {"lat": "latitude", "lon": "longitude", "h": "height"}
 
 
-def _model(model: SHModel | str | os.PathLike[str], epoch: float | str | None) -> SHModel:
+def apply_model_options(
+    model: object, lmax: int | None = None, epoch: float | str | None = None
+) -> object:
+    """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (deprecated spellings).
+
+    ``load_model(model, lmax=lmax, epoch=epoch)`` (a loaded :class:`SHModel` is truncated; an
+    epoch it does not hold is refused); ``model`` as it is when both are None. A compensation
+    table (``"table:FILE"`` or a table object) takes neither: :class:`InputError`.
+
+    Parameters
+    ----------
+    model : SHModel, CompensationTable or str
+        What the point function was given.
+    lmax : int, optional
+        Truncation degree.
+    epoch : float or str, optional
+        Epoch of time-variable terms. Units: decimal year or ``'YYYY-MM-DD'``.
+
+    Returns
+    -------
+    SHModel or the ``model`` given
+    """
+    if lmax is None and epoch is None:
+        return model
+    if _table_model(model) is not None:
+        raise InputError(
+            "a compensation table (table:FILE) takes no lmax or epoch",
+            param="lmax" if lmax is not None else "epoch",
+        )
+    from fieldmap.models.registry import load_model
+
+    return load_model(model, lmax=lmax, epoch=epoch)
+
+
+def _model(model: object) -> SHModel:
     if isinstance(model, SHModel):
         return model
     from fieldmap.models.registry import load_model
 
-    return load_model(model, epoch=epoch)
+    return load_model(model)
 
 
 def _inputs(
@@ -78,31 +113,28 @@ def _to_frame(v_ecef: np.ndarray, lat: ArrayLike, lon: ArrayLike, frame: str) ->
 
 
 def _gravitation_ecef(
-    model: SHModel | str | os.PathLike[str],
+    model: object,
     lat: np.ndarray,
     lon: np.ndarray,
     h: np.ndarray,
-    lmax: int | None,
     ellipsoid: Ellipsoid,
     device: str | None,
-    epoch: float | str | None,
 ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    m = _model(model, epoch)
+    m = _model(model)
     x, y, z = frames.geodetic_to_ecef(lat, lon, h, ellipsoid)
-    return sh_gravitation(m, x, y, z, lmax=lmax, device=device), (x, y, z)
+    return sh_gravitation(m, x, y, z, device=device), (x, y, z)
 
 
 @_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
+@_compat.model_api(apply_model_options)
 def gravitation(
     latitude: ArrayLike,
     longitude: ArrayLike,
     height: ArrayLike,
     *,
     model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     frame: str = "enu",
-    epoch: float | str | None = None,
     device: str | None = None,
 ) -> np.ndarray:
     """Gravitational acceleration of a spherical-harmonic model (no centrifugal term).
@@ -120,16 +152,14 @@ def gravitation(
         Height above ``ellipsoid``, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT`` (-10 km to 1e8 m).
         Units: m.
     model : SHModel or str
-        A model, a bundled model name or the path of an ICGEM file.
-    lmax : int, optional
-        Truncation degree (default: the model's).
+        A model (:func:`fieldmap.models.registry.load_model`, which applies a truncation
+        degree ``lmax=`` and an ``epoch=`` of time-variable terms; or ``model.truncated(lmax)``),
+        a bundled model name or the path of a model file (at its full degree and reference
+        epoch).
     ellipsoid : Ellipsoid or str
         Ellipsoid of the geodetic coordinates (default WGS84).
     frame : {"enu", "ned", "ecef"}
         Output frame (local geodetic ENU/NED at the point, or ECEF).
-    epoch : float or str, optional
-        Epoch of time-variable terms when ``model`` is a file or name (an ``SHModel`` already
-        holds its evaluated coefficients). Units: decimal year or ``'YYYY-MM-DD'``.
     device : str, optional
         Warp device (default: first CUDA device, else CPU).
 
@@ -139,21 +169,20 @@ def gravitation(
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
     """
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
-    g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
+    g, _ = _gravitation_ecef(model, lat, lon, h, ell, device)
     return _to_frame(g, lat, lon, f)
 
 
 @_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
+@_compat.model_api(apply_model_options)
 def gravity(
     latitude: ArrayLike,
     longitude: ArrayLike,
     height: ArrayLike,
     *,
     model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
     ellipsoid: Ellipsoid | str = WGS84,
     frame: str = "enu",
-    epoch: float | str | None = None,
     device: str | None = None,
 ) -> np.ndarray:
     """Gravity = model gravitation + centrifugal ω²(x, y, 0), ω of ``ellipsoid``.
@@ -171,14 +200,15 @@ def gravity(
 
     >>> import numpy as np
     >>> from fieldmap.field.gravity import gravity
-    >>> g = gravity(45.0, 10.0, 1000.0, lmax=36)
+    >>> from fieldmap.models.registry import load_model
+    >>> g = gravity(45.0, 10.0, 1000.0, model=load_model("eigen-6s", lmax=36))
     >>> g.shape
     (3,)
     >>> round(float(g[2]), 4)  # up; m/s²
     -9.8034
     """
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
-    g, (x, y, z) = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
+    g, (x, y, z) = _gravitation_ecef(model, lat, lon, h, ell, device)
     g = g + frames.centrifugal_ecef(x, y, z, ell.omega)
     return _to_frame(g, lat, lon, f)
 
@@ -188,17 +218,16 @@ def gravity(
     ("model", "lmax", "ellipsoid", "unit", "frame", "device", "epoch"),
     {**_RENAMED, "unit": "units"},
 )
+@_compat.model_api(apply_model_options)
 def disturbance(
     latitude: ArrayLike,
     longitude: ArrayLike,
     height: ArrayLike,
     *,
-    model: SHModel | str = "eigen-6s",
-    lmax: int | None = None,
+    model: SHModel | CompensationTable | str = "eigen-6s",
     ellipsoid: Ellipsoid | str = WGS84,
     units: str | Unit = "mGal",
     frame: str = "enu",
-    epoch: float | str | None = None,
     device: str | None = None,
 ) -> np.ndarray:
     """Gravity disturbance vector δg = g_model − γ_exact at the same point.
@@ -215,10 +244,9 @@ def disturbance(
         A model, a bundled model name or the path of an ICGEM file; or a gravity compensation
         table, ``"table:FILE"`` (``fieldmap table``'s table.nc or table.bin) or a
         :class:`fieldmap.products.tables.model.CompensationTable`: its interpolated δg (WGS84
-        only; no ``lmax`` or ``epoch``; NumPy, ``device`` unused; a point outside the table is
-        an :class:`InputError`).
-    lmax : int, optional
-        Truncation degree.
+        only; NumPy, ``device`` unused; a point outside the table is an :class:`InputError`).
+        A truncation degree and an epoch belong to the model:
+        ``load_model(name, lmax=, epoch=)``.
     ellipsoid : Ellipsoid or str
         Level ellipsoid of the normal field and of the coordinates (default WGS84).
     units : {"mGal", "mg", "m/s2"}
@@ -226,8 +254,6 @@ def disturbance(
         :mod:`fieldmap.units` (``"m s-2"``...). 0.1: ``unit=``.
     frame : {"enu", "ned", "ecef"}
         Output frame.
-    epoch : float or str, optional
-        Epoch of time-variable terms. Units: decimal year or ``'YYYY-MM-DD'``.
     device : str, optional
         Warp device.
 
@@ -242,13 +268,15 @@ def disturbance(
 
     >>> import numpy as np
     >>> from fieldmap.field.gravity import disturbance
-    >>> d = disturbance([45.0, -30.0], [10.0, 150.0], 0.0, lmax=36)
+    >>> from fieldmap.models.registry import load_model
+    >>> m36 = load_model("eigen-6s", lmax=36)
+    >>> d = disturbance([45.0, -30.0], [10.0, 150.0], 0.0, model=m36)
     >>> d.shape
     (2, 3)
     >>> np.round(d, 1)  # east, north, up; mGal
     array([[ -1.3,   5. , -32.1],
            [  8.3,  26.1, -28.8]])
-    >>> np.round(disturbance(45.0, 10.0, 0.0, lmax=36, units="mg"), 4)
+    >>> np.round(disturbance(45.0, 10.0, 0.0, model=m36, units="mg"), 4)
     array([-0.0013,  0.0051, -0.0327])
     """
     from fieldmap.field.normal import normal_gravity
@@ -256,11 +284,9 @@ def disturbance(
 
     unit = get_unit(units)
     if _table_model(model) is not None:
-        return _table_disturbance(
-            latitude, longitude, height, model, lmax, ellipsoid, unit, frame, epoch
-        )
+        return _table_disturbance(latitude, longitude, height, model, ellipsoid, unit, frame)
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
-    g, _ = _gravitation_ecef(model, lat, lon, h, lmax, ell, device, epoch)
+    g, _ = _gravitation_ecef(model, lat, lon, h, ell, device)
     gamma = normal_gravity(
         lat, lon, h, normal="exact", ellipsoid=ell, centrifugal=False, frame="ecef", device=device
     )
@@ -282,16 +308,12 @@ def _table_disturbance(
     longitude: ArrayLike,
     height: ArrayLike,
     model: object,
-    lmax: int | None,
     ellipsoid: Ellipsoid | str,
     unit: str | Unit,
     frame: str,
-    epoch: float | str | None,
 ) -> np.ndarray:
     """δg interpolated from a compensation table, in ``frame`` and ``unit``."""
     tab = _table_model(model)
-    if lmax is not None or epoch is not None:
-        raise InputError("a compensation table (table:FILE) takes no lmax or epoch")
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     if ell.name != WGS84.name:
         raise InputError(f"a compensation table holds δg of WGS84, not of {ell.name}")

@@ -134,11 +134,34 @@ def _params_for(ell: Ellipsoid, kind: str, groves_j2: float | None) -> _k.Normal
     return normal_params(ell)
 
 
+def _fold_groves_j2(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
+    """Fold a 0.2 ``groves_j2=`` of :func:`normal_gravity`; return the warning's advice.
+
+    ``None`` is ``normal="j2"`` (the same kernel and parameters), Groves' printed value the
+    default; any other J2 is still computed (the call goes to the implementation).
+    """
+    j2 = old["groves_j2"]
+    if normal_model(kwargs.get("normal", "exact")) != "groves-j2":
+        return "groves_j2= applies to normal='groves-j2' only (and is gone: leave it out)"
+    if j2 is None:
+        kwargs["normal"] = "j2"
+        return "groves_j2=None is normal='j2' (the ellipsoid's J2)"
+    if j2 == GROVES_J2:
+        return "groves_j2= is gone: normal='groves-j2' uses Groves' printed J2"
+
+    def target(*args: Any, **kw: Any) -> np.ndarray:
+        kw["groves_j2"] = float(j2)
+        return _normal_gravity(*args, **kw)
+
+    return "groves_j2= with another J2 is gone (normal='groves-j2' uses Groves' printed J2)", target
+
+
 @_compat.keyword_api(
     3,
     ("ellipsoid", "kind", "centrifugal", "frame", "device", "groves_j2"),
     {"lat_deg": "latitude", "lon_deg": "longitude", "h_m": "height", "kind": "normal"},
 )
+@_compat.folded(("groves_j2",), _fold_groves_j2)
 def normal_gravity(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -149,7 +172,6 @@ def normal_gravity(
     centrifugal: bool = True,
     frame: str = "enu",
     device: str | None = None,
-    groves_j2: float | None = GROVES_J2,
 ) -> np.ndarray:
     """Compute the normal gravity vector at geodetic points.
 
@@ -164,8 +186,9 @@ def normal_gravity(
         Height above the ellipsoid, ``MIN_HEIGHT`` ≤ h ≤ ``MAX_HEIGHT``. Units: m.
     normal : {"exact", "j2", "j4", "j6", "groves-j2"}
         Exact closed form (Heiskanen & Moritz 1967 §2-7…2-9), the truncated zonal models of
-        Chen et al. (2022) eqs. (7)–(13) (corrected), or Groves (2013) eq. 3.7.7
-        (:func:`normal_model`; 0.1: ``kind=``).
+        Chen et al. (2022) eqs. (7)–(13) (corrected), or Groves (2013) eq. 3.7.7 with its
+        printed J2 = 1.082627e-3 (:data:`GROVES_J2`; with the ellipsoid's own J2 it is
+        ``"j2"``) (:func:`normal_model`; 0.1: ``kind=``; 0.2: ``groves_j2=``).
     ellipsoid : Ellipsoid or str
         Level ellipsoid, default WGS84.
     centrifugal : bool
@@ -175,9 +198,6 @@ def normal_gravity(
         Output frame; ENU/NED are the local geodetic frames at the point.
     device : str, optional
         Warp device (default: first CUDA device, else CPU).
-    groves_j2 : float or None
-        J2 of ``normal="groves-j2"``: Groves' printed 1.082627e-3 by default, ``None`` for the
-        ellipsoid's own J2 (then identical to ``normal="j2"``).
 
     Returns
     -------
@@ -195,6 +215,23 @@ def normal_gravity(
     >>> np.round(g[:, 2], 6)  # m/s²
     array([-9.780325, -9.832185])
     """
+    return _normal_gravity(
+        latitude, longitude, height, normal, ellipsoid, centrifugal, frame, device
+    )
+
+
+def _normal_gravity(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    normal: str = "exact",
+    ellipsoid: Ellipsoid | str = WGS84,
+    centrifugal: bool = True,
+    frame: str = "enu",
+    device: str | None = None,
+    groves_j2: float | None = GROVES_J2,
+) -> np.ndarray:
+    """:func:`normal_gravity`, and the J2 of ``normal="groves-j2"`` (0.2's ``groves_j2=``)."""
     key = normal_model(normal)
     fkey = _check_frame(frame)
     ell = get_ellipsoid(ellipsoid)
@@ -242,8 +279,11 @@ def normal_gravitation_ecef(
     x, y, z : array_like
         ECEF coordinates (broadcast together), at most ``MAX_HEIGHT`` above and
         ``-MIN_HEIGHT`` below the ellipsoid. Units: m.
-    normal, ellipsoid, device, groves_j2
+    normal, ellipsoid, device
         As in :func:`normal_gravity`.
+    groves_j2 : float or None
+        J2 of ``normal="groves-j2"``: Groves' printed value (:data:`GROVES_J2`) by default,
+        ``None`` for the ellipsoid's own J2.
     centrifugal : bool
         Add ω²(x, y, 0) (default False: gravitation only).
 

@@ -222,6 +222,35 @@ def centrifugal_rows(grid: GridSpec, ellipsoid: Ellipsoid | str | None = None) -
     return out
 
 
+#: Legendre passes of :func:`synthesize` (``legendre=``): name -> (mirrored rows share one
+#: recursion, extended-range X-numbers: True, False, or None for "above degree 2700 only")
+LEGENDRE: dict[str, tuple[bool, bool | None]] = {
+    "auto": (True, None),
+    "scaled": (True, False),
+    "xrange": (True, True),
+    "column": (False, None),
+}
+
+
+def _fold_legendre(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
+    """Fold 0.2's ``symmetric=``/``xrange=`` of :func:`synthesize` into ``legendre=``."""
+    if "legendre" in kwargs:
+        raise TypeError("synthesize() got legendre= and its 0.2 spelling symmetric=/xrange=")
+    symmetric, xr = bool(old.get("symmetric", True)), old.get("xrange")
+    if not symmetric and xr:
+        raise InputError("symmetric=False (the engine's column path) stops at degree 2700")
+    if not symmetric:
+        kwargs["legendre"] = "column"
+    else:
+        kwargs["legendre"] = {None: "auto", True: "xrange", False: "scaled"}[
+            None if xr is None else bool(xr)
+        ]
+    keys = " and ".join(f"{k}=" for k in old)
+    return f"pass legendre={kwargs['legendre']!r} for {keys}"
+
+
+@_compat.keyword_api(6, ("symmetric", "potential", "xrange"))
+@_compat.folded(("symmetric", "xrange"), _fold_legendre)
 def synthesize(
     model: SHModel,
     grid: GridSpec,
@@ -229,9 +258,9 @@ def synthesize(
     quantity: str = "disturbance",
     device: str | None = None,
     progress: bool | None = None,
-    symmetric: bool = True,
+    *,
     potential: bool = False,
-    xrange: bool | None = None,
+    legendre: str = "auto",
 ) -> np.ndarray:
     """Gravitation-derived vector on every node of a grid, geodetic east-north-up.
 
@@ -250,16 +279,17 @@ def synthesize(
         Warp device (default: CUDA when present, else CPU on every core).
     progress : bool, optional
         Progress bar over row blocks; default: only for long runs on a terminal.
-    symmetric : bool
-        Share one Legendre recursion between rows mirrored about the equator (default); False
-        runs the engine's ``sh_column`` on every row (used to cross-check the two paths).
     potential : bool
         Also return the model potential V (eq. 1 of Chen et al. 2022, no normal part
         subtracted, no centrifugal term) as a fourth component, from the same Legendre pass.
-    xrange : bool, optional
-        Legendre pass with extended-range X-numbers (:mod:`fieldmap.kernels.grid_xrange`).
-        Default: above degree 2700 only (:data:`fieldmap.field.sh.MAX_DEGREE_GRID`, the limit
-        of the scaled recursion); True forces it at any degree (tests, benchmarks).
+    legendre : {"auto", "scaled", "xrange", "column"}
+        The Legendre pass (:data:`LEGENDRE`). Rows mirrored about the equator share one
+        recursion, scaled up to degree 2700 (:data:`fieldmap.field.sh.MAX_DEGREE_GRID`, the
+        limit of the scaled recursion) and with extended-range X-numbers above it
+        (:mod:`fieldmap.kernels.grid_xrange`): ``"auto"`` (default); ``"scaled"`` and
+        ``"xrange"`` force either at any degree (tests, benchmarks); ``"column"`` runs the
+        engine's ``sh_column`` on every row (to cross-check the paths; up to degree 2700).
+        0.2: ``symmetric=``, ``xrange=``.
 
     Returns
     -------
@@ -281,16 +311,21 @@ def synthesize(
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    if legendre not in LEGENDRE:
+        raise InputError(
+            f"legendre must be one of {', '.join(LEGENDRE)}, got {legendre!r}", param="legendre"
+        )
+    symmetric, xrange = LEGENDRE[legendre]
     ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     device = resolve_device(device)
     xr = model.lmax > MAX_DEGREE_GRID if xrange is None else bool(xrange)
     if model.lmax > MAX_DEGREE_POINTS:
         raise InputError(f"degree {model.lmax} is above {MAX_DEGREE_POINTS}; truncate the model")
     if xr and not symmetric:
-        raise InputError("symmetric=False (the engine's column path) stops at degree 2700")
+        raise InputError("legendre='column' (the engine's column path) stops at degree 2700")
     if xr:  # the model enters the kernel as GM, lmax and the packed tables
         head: list[Any] = [wp.float64(model.gm), int(model.lmax)]
-        tabs = grid_tables_x(model, model.lmax, device)
+        tabs: tuple[Any, ...] = grid_tables_x(model, model.lmax, device)
         kern = kgridx.row_fourier8x_kernel
     else:
         head = [kernel_model(model, device)]

@@ -24,16 +24,21 @@ from __future__ import annotations
 
 import threading
 import weakref
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
 
 _lock = threading.Lock()
 _cache: dict[tuple, tuple[Any, tuple]] = {}
 _CACHE_MAX = 4
 
 
-def pack_columns(anm, bnm, fnm, cnm, snm, lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pack_columns(
+    anm: np.ndarray, bnm: np.ndarray, fnm: np.ndarray, cnm: np.ndarray, snm: np.ndarray, lmax: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Build ``(rec, start, zon)`` (NumPy) from ``[m, n]`` tables; see the module docstring.
 
     Returns
@@ -79,7 +84,7 @@ def sectoral(lmax: int) -> np.ndarray:
     return sect
 
 
-def pack_columns_direct(model, lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pack_columns_direct(model: SHModel, lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`pack_columns` of a model without square tables (any degree); same values.
 
     The recursion factors of each order m come from the closed forms of
@@ -126,7 +131,7 @@ def pack_columns_direct(model, lmax: int) -> tuple[np.ndarray, np.ndarray, np.nd
     return rec, start, np.ascontiguousarray(zon)
 
 
-def grid_tables_x(model, lmax: int, device: str):
+def grid_tables_x(model: SHModel, lmax: int, device: str) -> tuple[Any, Any, Any, Any]:
     """Warp arrays ``(rec, start, zon, sect)`` for the extended-range grid kernel, cached."""
     import warp as wp
 
@@ -158,12 +163,12 @@ def grid_tables_x(model, lmax: int, device: str):
     return out
 
 
-def _forget(key) -> None:
+def _forget(key: tuple[Any, ...]) -> None:
     with _lock:
         _cache.pop(key, None)
 
 
-def grid_tables(model, km, device: str):
+def grid_tables(model: SHModel, km: Any, device: str) -> tuple[Any, Any, Any]:
     """Warp arrays ``(rec, start, zon)`` of :func:`pack_columns` for a kernel model, cached.
 
     Parameters

@@ -8,8 +8,12 @@ from __future__ import annotations
 
 from functools import lru_cache
 from importlib import resources
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 DATA_FILE = "coastline_ne50m.npz"
 
@@ -44,7 +48,7 @@ def shifted(lon_min: float) -> tuple[np.ndarray, np.ndarray]:
     return np.insert(w, idx, np.nan), np.insert(lat, idx, np.nan)
 
 
-def draw(ax, lon_min: float = -180.0, **kwargs) -> None:
+def draw(ax: Axes, lon_min: float = -180.0, **kwargs: Any) -> None:
     """Draw the coastlines on a plate-carrée matplotlib axis without changing its limits.
 
     Parameters
@@ -55,7 +59,7 @@ def draw(ax, lon_min: float = -180.0, **kwargs) -> None:
     **kwargs
         Line properties (default: thin dark grey).
     """
-    style = {"color": "0.15", "linewidth": 0.5, "zorder": 5}
+    style: dict[str, Any] = {"color": "0.15", "linewidth": 0.5, "zorder": 5}
     style.update(kwargs)
     lon, lat = shifted(lon_min)
     xlim, ylim = ax.get_xlim(), ax.get_ylim()

@@ -17,15 +17,25 @@ Written for clarity, not speed; each follows a different route than the Warp cod
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+import numpy.typing as npt
+from numpy.typing import ArrayLike
 
 from fieldmap.field.ellipsoid import Ellipsoid
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
+
+#: a NumPy array (float64; complex128 in the complex-step derivatives)
+Array = npt.NDArray[Any]
 
 # ---------------------------------------------------------------------------------------------
 # exact closed form, Cartesian route
 
 
-def _one_minus_atan_over_x(x):
+def _one_minus_atan_over_x(x: ArrayLike) -> Array:
     """1 − arctan(x)/x, by its Taylor series for small x (no cancellation), else directly."""
     x = np.asarray(x, dtype=np.float64)
     small = x < 0.5
@@ -39,7 +49,7 @@ def _one_minus_atan_over_x(x):
     return np.where(small, total, 1.0 - np.arctan(xl) / xl)
 
 
-def q_function(x):
+def q_function(x: ArrayLike) -> Array:
     r"""q(x) = ½[(1 + 3/x²) arctan x − 3/x] (H&M eq. 2-58), x = E/u, written via 1 − arctan(x)/x.
 
     With arctan x = x(1 − w), w = 1 − arctan(x)/x:  q = ½[x(1 − w) − 3w/x]. The O(x) parts
@@ -59,7 +69,7 @@ def q_function(x):
     return -0.5 * (x**3 / 3.0 + tail * (x + 3.0 / x))
 
 
-def q_prime_hm(x):
+def q_prime_hm(x: ArrayLike) -> Array:
     r"""Heiskanen & Moritz's q' = 3(1 + 1/x²)(1 − arctan(x)/x) − 1 (eq. 2-67 with x = E/u).
 
     It relates to the derivative of q(E/u) by dq/du = −E q'/(u² + E²) (checked numerically in
@@ -69,14 +79,14 @@ def q_prime_hm(x):
     return 3.0 * (1.0 + 1.0 / (x * x)) * _one_minus_atan_over_x(x) - 1.0
 
 
-def ellipsoidal_u(x, y, z, E):
+def ellipsoidal_u(x: Array, y: Array, z: Array, E: float) -> Array:
     """Ellipsoidal coordinate u (semi-minor axis of the confocal ellipsoid through the point). m."""
     r2 = x * x + y * y + z * z
     d = r2 - E * E
     return np.sqrt(0.5 * (d + np.sqrt(d * d + 4.0 * E * E * z * z)))
 
 
-def exact_potential(x, y, z, ell: Ellipsoid):
+def exact_potential(x: Array, y: Array, z: Array, ell: Ellipsoid) -> Array:
     r"""Gravitational potential of the level ellipsoid (H&M eqs. 2-61, 2-62, without Φ). m²/s²."""
     E = ell.E
     u = ellipsoidal_u(x, y, z, E)
@@ -86,7 +96,7 @@ def exact_potential(x, y, z, ell: Ellipsoid):
     ) / ell.q0 * (sin2beta - 1.0 / 3.0)
 
 
-def exact_gravitation_ecef(x, y, z, ell: Ellipsoid):
+def exact_gravitation_ecef(x: ArrayLike, y: ArrayLike, z: ArrayLike, ell: Ellipsoid) -> Array:
     r"""Gradient of :func:`exact_potential` in Cartesian coordinates. Returns (..., 3), m/s².
 
     V = f(u) + g(u)·(z²/u² − 1/3) with f = (GM/E) arctan(E/u), g = ½ω²a² q(E/u)/q0, so
@@ -118,7 +128,7 @@ def exact_gravitation_ecef(x, y, z, ell: Ellipsoid):
 # zonal series
 
 
-def legendre_and_derivative(nmax: int, t):
+def legendre_and_derivative(nmax: int, t: ArrayLike) -> tuple[Array, Array]:
     """Legendre polynomials P_n(t) and P_n'(t), n = 0..nmax, shape (nmax+1, ...).
 
     Bonnet's recursion n P_n = (2n−1) t P_{n−1} − (n−1) P_{n−2}, and
@@ -138,7 +148,14 @@ def legendre_and_derivative(nmax: int, t):
     return P, dP
 
 
-def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40, radius: float | None = None):
+def zonal_series_gravitation(
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    ell: Ellipsoid,
+    nmax: int = 40,
+    radius: float | None = None,
+) -> Array:
     r"""Gradient of V = (GM/r)[1 − Σ_{n=1}^{nmax} J_{2n} (R/r)^{2n} P_{2n}(z/r)]. (..., 3), m/s².
 
     Chen et al. (2022) eq. (6)/(7); J_{2n} from :meth:`Ellipsoid.J2n` (H&M eq. 2-92), R = a by
@@ -164,7 +181,7 @@ def zonal_series_gravitation(x, y, z, ell: Ellipsoid, nmax: int = 40, radius: fl
 
 def zonal_sh_model(
     ell: Ellipsoid, nmax: int = 12, gm: float | None = None, radius: float | None = None
-):
+) -> SHModel:
     r"""Return the normal gravitational potential as a zonal SH model of degree 2 nmax.
 
     Fully normalised coefficients of the J2n series (Heiskanen & Moritz 1967 eq. 2-92),
@@ -192,7 +209,7 @@ def zonal_sh_model(
 # truncated J2/J4/J6 (Chen et al. 2022 eqs. 7-8) by complex-step differentiation
 
 
-def _p2n(n: int, s):
+def _p2n(n: int, s: Array) -> Array:
     """P2, P4, P6 of Chen et al. (2022) eq. (8) (works on complex arrays)."""
     if n == 1:
         return 1.5 * s**2 - 0.5
@@ -203,7 +220,9 @@ def _p2n(n: int, s):
     raise ValueError("n must be 1, 2 or 3")
 
 
-def jn_potential(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None):
+def jn_potential(
+    x: Array, y: Array, z: Array, ell: Ellipsoid, order: int, j2: float | None = None
+) -> Array:
     """Return the zonal potential of Chen et al. (2022) eq. (7) up to J_order (2, 4, 6). m²/s²."""
     rho = np.sqrt(x * x + y * y + z * z)
     s = z / rho
@@ -214,7 +233,15 @@ def jn_potential(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None):
     return ell.GM / rho * total
 
 
-def jn_gravitation(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None, step=1e-20):
+def jn_gravitation(
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    ell: Ellipsoid,
+    order: int,
+    j2: float | None = None,
+    step: float = 1e-20,
+) -> Array:
     """Gradient of :func:`jn_potential` by complex-step derivatives (exact to rounding). m/s²."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.complex128) for v in (x, y, z)))
     out = []
@@ -229,7 +256,9 @@ def jn_gravitation(x, y, z, ell: Ellipsoid, order: int, j2: float | None = None,
 # Groves (2013) as printed
 
 
-def groves_j2_gravitation(x, y, z, mu: float, J2: float, R0: float):
+def groves_j2_gravitation(
+    x: ArrayLike, y: ArrayLike, z: ArrayLike, mu: float, J2: float, R0: float
+) -> Array:
     """Groves (2013) eq. 3.7.7, ECEF J2 gravitation, typed as printed. m/s²."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
     r = np.sqrt(x * x + y * y + z * z)
@@ -241,7 +270,7 @@ def groves_j2_gravitation(x, y, z, mu: float, J2: float, R0: float):
     return np.moveaxis(-mu / r**3 * vec, 0, -1)
 
 
-def groves_centrifugal_ned(lat_rad, r_ned, omega: float):
+def groves_centrifugal_ned(lat_rad: ArrayLike, r_ned: Array, omega: float) -> Array:
     """Centrifugal term of Groves (2013) eq. 3.7.6 in NED, typed as printed. m/s²."""
     sL, cL = np.sin(lat_rad), np.cos(lat_rad)
     rn, re, rd = r_ned[..., 0], r_ned[..., 1], r_ned[..., 2]
@@ -252,7 +281,9 @@ def groves_centrifugal_ned(lat_rad, r_ned, omega: float):
 # assembly at geodetic points
 
 
-def _geodetic_to_ecef(lat, lon, h, ell: Ellipsoid):
+def _geodetic_to_ecef(
+    lat: Array, lon: Array, h: Array, ell: Ellipsoid
+) -> tuple[Array, Array, Array]:
     N = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(lat) ** 2)
     return (
         (N + h) * np.cos(lat) * np.cos(lon),
@@ -261,7 +292,7 @@ def _geodetic_to_ecef(lat, lon, h, ell: Ellipsoid):
     )
 
 
-def _ned_basis(lat, lon):
+def _ned_basis(lat: ArrayLike, lon: ArrayLike) -> Array:
     """Rows: north, east, down unit vectors in ECEF, shape (..., 3, 3)."""
     sL, cL, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
     north = np.stack([-sL * co, -sL * so, cL], -1)
@@ -271,15 +302,15 @@ def _ned_basis(lat, lon):
 
 
 def normal_gravity(
-    lat_deg,
-    lon_deg,
-    h,
+    lat_deg: ArrayLike,
+    lon_deg: ArrayLike,
+    h: ArrayLike,
     ell: Ellipsoid,
-    kind="exact",
-    centrifugal=True,
-    frame="enu",
-    groves_j2=1.082627e-3,
-):
+    kind: str = "exact",
+    centrifugal: bool = True,
+    frame: str = "enu",
+    groves_j2: float | None = 1.082627e-3,
+) -> Array:
     """Compute normal gravity at geodetic points (reference).
 
     Conventions of ``fieldmap.field.normal``.

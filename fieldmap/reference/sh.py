@@ -35,7 +35,10 @@ The potential and its spherical gradient follow Chen et al. (2022) eqs. 1-3:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from fieldmap.models.shmodel import SHModel
 
@@ -43,7 +46,7 @@ _STEP = 400  # X-number exponent step: values are mantissa * 2**(400 k)
 _BIG = 2.0**_STEP
 
 
-def _powers_x(u: np.ndarray, kmax: int):
+def _powers_x(u: np.ndarray, kmax: int) -> tuple[np.ndarray, np.ndarray]:
     """u^k for k = 0..kmax as X-numbers: ``(mant, exp2)`` arrays of shape (N, kmax+1)."""
     fu, eu = np.frexp(u)  # u = fu * 2**eu, fu in [0.5, 1) (or 0)
     mant = np.empty((u.size, kmax + 1))
@@ -60,7 +63,9 @@ def _powers_x(u: np.ndarray, kmax: int):
     return mant, ex
 
 
-def legendre_rows(t: np.ndarray, u: np.ndarray, lmax: int):
+def legendre_rows(
+    t: np.ndarray, u: np.ndarray, lmax: int
+) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
     """Yield ``(n, P, PU)`` for n = 0..lmax.
 
     ``P[:, m]`` = P̄nm(t) and ``PU[:, m]`` = P̄nm(t)/u (m ≥ 1; column 0 set to 0), shapes
@@ -106,7 +111,9 @@ def legendre_rows(t: np.ndarray, u: np.ndarray, lmax: int):
         q2, q1 = q1, qn
 
 
-def spherical_gradient(model: SHModel, x, y, z, lmax: int | None = None):
+def spherical_gradient(
+    model: SHModel, x: ArrayLike, y: ArrayLike, z: ArrayLike, lmax: int | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Potential and gravitation components in the geocentric spherical frame.
 
     Parameters
@@ -157,7 +164,9 @@ def spherical_gradient(model: SHModel, x, y, z, lmax: int | None = None):
     return k * V, k / r * d_lam, k / r * d_phi, -k / r * d_r
 
 
-def gravitation_ecef(model: SHModel, x, y, z, lmax: int | None = None) -> np.ndarray:
+def gravitation_ecef(
+    model: SHModel, x: ArrayLike, y: ArrayLike, z: ArrayLike, lmax: int | None = None
+) -> np.ndarray:
     """Gravitation (no centrifugal) in ECEF, shape (N, 3). Units: m -> m/s²."""
     x, y, z = (np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in (x, y, z))
     _, ge, gn, gu = spherical_gradient(model, x, y, z, lmax)
@@ -170,12 +179,14 @@ def gravitation_ecef(model: SHModel, x, y, z, lmax: int | None = None) -> np.nda
     return ge[:, None] * east + gn[:, None] * north + gu[:, None] * up
 
 
-def potential(model: SHModel, x, y, z, lmax: int | None = None) -> np.ndarray:
+def potential(
+    model: SHModel, x: ArrayLike, y: ArrayLike, z: ArrayLike, lmax: int | None = None
+) -> np.ndarray:
     """Gravitational potential (Chen et al. 2022 eq. 1). Units: m -> m²/s²."""
     return spherical_gradient(model, x, y, z, lmax)[0]
 
 
-def legendre_matrix(lat_rad, lmax: int) -> np.ndarray:
+def legendre_matrix(lat_rad: ArrayLike, lmax: int) -> np.ndarray:
     """Full matrix P̄nm(sin φ), shape (N, lmax+1, lmax+1) indexed [point, n, m] (for tests).
 
     Units: geocentric latitude in radians.

@@ -8,9 +8,20 @@ Loops over steps, vectorised over trajectories. Chen et al. (2022) eqs. (14), (1
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
+from numpy.typing import ArrayLike
+
+from fieldmap import _compat
 from fieldmap.nav.frames import LaunchFrame
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+
+#: ``(dtheta, dv, dt)``: increments of shape (n, n_samples, 3) (rad, m/s), sample interval (s)
+Increments = tuple[ArrayLike, ArrayLike, float]
 
 
 def rodrigues(phi: np.ndarray) -> np.ndarray:
@@ -26,42 +37,54 @@ def rodrigues(phi: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + c * (K @ K)
 
 
+@_compat.grouped_api(
+    (
+        "dtheta", "dv", "dt", "P0", "V0", "C0", "frame", "gravitation_ecef", "t0",
+        "output_every", "acc_bias", "gyro_bias",
+    ),
+    {"increments": ("dtheta", "dv", "dt"), "start": ("P0", "V0", "C0")},
+)  # fmt: skip
 def propagate_lci_reference(
-    dtheta,
-    dv,
-    dt,
-    P0,
-    V0,
-    C0,
+    increments: Increments,
+    start: tuple[ArrayLike, ArrayLike, ArrayLike],
     frame: LaunchFrame,
-    gravitation_ecef,
-    t0=0.0,
-    output_every=1,
-    acc_bias=None,
-    gyro_bias=None,
-):
+    gravitation_ecef: Callable[[np.ndarray], np.ndarray],
+    t0: float = 0.0,
+    output_every: int = 1,
+    acc_bias: ArrayLike | None = None,
+    gyro_bias: ArrayLike | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Two-sample LCI propagation of n trajectories.
 
     Parameters
     ----------
-    dtheta, dv : ndarray, shape (n, n_samples, 3)
-        Body-frame increments. Units: rad, m/s.
-    dt : float
-        Sample interval (navigation step 2 dt). Units: s.
-    P0, V0 : ndarray, shape (n, 3)
-        Initial a-frame position and inertial velocity. Units: m, m/s.
-    C0 : ndarray, shape (n, 3, 3)
-        Initial C_b^a.
+    increments : (dtheta, dv, dt)
+        Body-frame increments ``dtheta``, ``dv`` of shape (n, n_samples, 3) (rad, m/s) and
+        the sample interval ``dt`` (s; navigation step 2 dt).
+    start : (P0, V0, C0)
+        Initial a-frame position and inertial velocity, shape (n, 3) (m, m/s), and C_b^a,
+        shape (n, 3, 3).
     frame : LaunchFrame
     gravitation_ecef : callable
         ``g(r)`` with r of shape (n, 3) in ECEF (m) -> (n, 3) gravitation (m/s²).
+    t0 : float
+        Time of the first sample after launch. Units: s.
+    output_every : int
+        Store every this many navigation steps.
     acc_bias, gyro_bias : ndarray (n, 3), optional
         Constant sensor biases added to every sample. Units: m/s², rad/s.
 
     Returns
     -------
     t, P, V, C : arrays (n_out,), (n, n_out, 3), (n, n_out, 3), (n, n_out, 3, 3)
+
+    Notes
+    -----
+    0.2 took ``dtheta, dv, dt, P0, V0, C0`` as six arguments; they still work, with a
+    ``DeprecationWarning``.
     """
+    dtheta, dv, dt = increments
+    P0, V0, C0 = start
     dtheta = np.array(dtheta, dtype=np.float64)
     dv = np.array(dv, dtype=np.float64)
     if gyro_bias is not None:
@@ -98,34 +121,33 @@ def propagate_lci_reference(
     return np.array(ts), np.stack(Ps, 1), np.stack(Vs, 1), np.stack(Cs, 1)
 
 
+@_compat.grouped_api(
+    (
+        "dtheta", "dv", "dt", "llh0", "v0", "C0", "gravity_ned", "ellipsoid", "output_every",
+        "attitude", "frame_rotation", "baro",
+    ),
+    {"increments": ("dtheta", "dv", "dt"), "start": ("llh0", "v0", "C0")},
+)  # fmt: skip
 def propagate_ned_reference(
-    dtheta,
-    dv,
-    dt,
-    llh0,
-    v0,
-    C0,
-    gravity_ned,
-    ellipsoid,
-    output_every=1,
-    attitude="split",
-    frame_rotation=True,
-    baro=None,
-):
+    increments: Increments,
+    start: tuple[ArrayLike, ArrayLike, ArrayLike],
+    gravity_ned: Callable[[np.ndarray], np.ndarray],
+    ellipsoid: Ellipsoid,
+    output_every: int = 1,
+    attitude: str = "split",
+    frame_rotation: bool = True,
+    baro: dict[str, Any] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Earth-relative NED mechanization, one update per sample, n trajectories at once.
 
     Parameters
     ----------
-    dtheta, dv : ndarray, shape (n, n_samples, 3)
-        Body-frame increments. Units: rad, m/s.
-    dt : float
-        Sample interval. Units: s.
-    llh0 : ndarray, shape (n, 3)
-        Geodetic latitude, longitude (rad) and height (m).
-    v0 : ndarray, shape (n, 3)
-        Earth-relative NED velocity. Units: m/s.
-    C0 : ndarray, shape (n, 3, 3)
-        Initial C_b^n.
+    increments : (dtheta, dv, dt)
+        Body-frame increments ``dtheta``, ``dv`` of shape (n, n_samples, 3) (rad, m/s) and
+        the sample interval ``dt`` (s).
+    start : (llh0, v0, C0)
+        Geodetic latitude, longitude (rad) and height (m), shape (n, 3); Earth-relative NED
+        velocity (m/s), shape (n, 3); initial C_b^n, shape (n, 3, 3).
     gravity_ned : callable
         ``g(llh)`` (n, 3) -> gravity (gravitation + centrifugal) in NED (n, 3), m/s².
     ellipsoid : Ellipsoid
@@ -144,7 +166,15 @@ def propagate_ned_reference(
     Returns
     -------
     llh, v, C : arrays (n, n_out, 3), (n, n_out, 3), (n, n_out, 3, 3)
+
+    Notes
+    -----
+    0.2 took ``dtheta, dv, dt, llh0, v0, C0`` as six arguments; they still work, with a
+    ``DeprecationWarning``.
     """
+    dtheta, dv = (np.asarray(x, dtype=np.float64) for x in increments[:2])
+    dt = increments[2]
+    llh0, v0, C0 = start
     a, e2, om = ellipsoid.a, ellipsoid.e2, ellipsoid.omega
     llh = np.array(llh0, dtype=np.float64)
     v = np.array(v0, dtype=np.float64)

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fieldmap import limits
+from fieldmap import _compat, limits
 from fieldmap.errors import InputError
 from fieldmap.products.tables.model import COMPONENTS, CompensationTable
 
@@ -206,6 +206,23 @@ def _evaluate(
     return a, b, c, d
 
 
+def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
+    """0.2's ``lmax=`` (on the model now) and ``seed=`` (fixed: 0) of :func:`build_table`."""
+    notes = []
+    if "lmax" in old:
+        from fieldmap.field.gravity import apply_model_options
+
+        kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), old["lmax"])
+        notes.append("lmax= belongs to the model: pass model=load_model(name, lmax=...)")
+    if "seed" in old:
+        notes.append("seed= is gone: the check points are drawn with seed 0")
+        seed = int(old["seed"])
+        if seed != 0:  # still honoured, through the implementation
+            return "; ".join(notes), lambda *a, **kw: _build(*a, **kw, seed=seed)
+    return "; ".join(notes)
+
+
+@_compat.folded(("lmax", "seed"), _fold_old)
 def build_table(
     region: Iterable[float | str],
     heights_km: Iterable[float | str],
@@ -213,10 +230,8 @@ def build_table(
     *,
     budget_mb: float = 8.0,
     model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    lmax: int | None = None,
     device: str | None = None,
     check_points: int = CHECK_POINTS,
-    seed: int = 0,
     log: Callable[[str], object] | None = None,
 ) -> tuple[CompensationTable, dict[str, Any]]:
     """Build a compensation table whose verified interpolation error is within a bound.
@@ -232,14 +247,13 @@ def build_table(
         Largest interpolation error accepted on each of north, east, down. Units: mGal.
     budget_mb : float
         Largest ``table.bin`` (header and float32 values). Units: MB (1e6 bytes).
-    model, lmax
-        Gravity model and truncation degree (:func:`fieldmap.models.registry.load_model`).
+    model : SHModel or str
+        Gravity model: a model (its truncation degree applied by
+        :func:`fieldmap.models.registry.load_model` ``lmax=``), a bundled name or a file.
     device : str, optional
         Warp device of the engine.
     check_points : int
-        Random points of the check set D.
-    seed : int
-        Seed of those points.
+        Random points of the check set D (drawn with seed 0: the same points every run).
     log : callable, optional
         Called with one line per refinement (progress).
 
@@ -248,6 +262,25 @@ def build_table(
     (CompensationTable, dict)
         The table (float32 values) and its verification report (JSON-ready).
     """
+    return _build(
+        region, heights_km, max_error_mgal, budget_mb=budget_mb, model=model, device=device,
+        check_points=check_points, log=log,
+    )  # fmt: skip
+
+
+def _build(
+    region: Iterable[float | str],
+    heights_km: Iterable[float | str],
+    max_error_mgal: float,
+    *,
+    budget_mb: float = 8.0,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    device: str | None = None,
+    check_points: int = CHECK_POINTS,
+    log: Callable[[str], object] | None = None,
+    seed: int = 0,
+) -> tuple[CompensationTable, dict[str, Any]]:
+    """:func:`build_table`, and the seed of the check points (0.2's ``seed=``)."""
     from fieldmap.grids.synthesis import resolve_device
     from fieldmap.models.registry import load_model
 
@@ -266,7 +299,7 @@ def build_table(
     if int(check_points) < 1:
         raise InputError(f"check_points must be >= 1, got {check_points!r}")
     device = resolve_device(device)
-    m = load_model(model, lmax=lmax)
+    m = load_model(model)
     hmin, hmax = float(hk[0]), float(hk[1])
     L = max(int(m.lmax), 2)
     scale_m = 0.5 * max(math.pi * m.radius / L, hmin)
