@@ -29,7 +29,7 @@ the real field the truth model does not hold, which no model built from it can s
 the track and one linear pass, not a strapdown run), so their RMS is good to about 1/√(2·draws).
 Both are synthesised at :func:`path_nodes` along the path, an eighth of their shortest
 wavelength apart (the truth's 2πR/L for (c); for (b) the one :func:`omission_spacing` finds at
-the flight's lowest height), and interpolated by a cubic spline in time: a cubic between nodes
+each point's height), and interpolated by a cubic spline in time: a cubic between nodes
 λ/8 apart errs by about 1e-3 of the term.
 """
 
@@ -135,39 +135,51 @@ class GravityBudget:
         return doc
 
 
-def path_nodes(track: np.ndarray, spacing: float) -> np.ndarray:
-    """Return indices of track points about ``spacing`` apart along the path (m).
+def path_nodes(track: np.ndarray, spacing: Any) -> np.ndarray:
+    """Return indices of track points about ``spacing`` apart along the path.
 
-    Evenly spaced in path length, within :data:`PATH_NODES`, the first and last points always
-    included; every point when the track has fewer.
+    ``spacing`` (m): one number, or one per track point (denser where it is smaller: the
+    omission near the ground, sparser at altitude). The first and last points always included,
+    within :data:`PATH_NODES`; every point when the track has fewer.
     """
     from fieldmap.field.frames import geodetic_to_ecef
 
     r = np.stack(geodetic_to_ecef(track[:, 0], track[:, 1], track[:, 2]), -1)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(r, axis=0), axis=1))])
+    ds = np.linalg.norm(np.diff(r, axis=0), axis=1)
+    sp = np.broadcast_to(np.asarray(spacing, dtype=np.float64), (track.shape[0],))
+    # node coordinate: path length in units of the local spacing (smaller of the two ends)
+    u = np.concatenate([[0.0], np.cumsum(ds / np.minimum(sp[1:], sp[:-1]))])
     lo, hi = PATH_NODES
-    k = int(np.clip(np.ceil(s[-1] / spacing) + 1, lo, hi))
+    k = int(np.clip(np.ceil(u[-1]) + 1, lo, hi))
     if k >= track.shape[0]:
         return np.arange(track.shape[0])
-    idx = np.searchsorted(s, np.linspace(0.0, s[-1], k))
+    idx = np.searchsorted(u, np.linspace(0.0, u[-1], k))
     idx[-1] = track.shape[0] - 1
     return np.unique(np.clip(idx, 0, track.shape[0] - 1))
 
 
-def omission_spacing(omission: Any, height: float) -> float:
+def omission_spacing(omission: Any, height: Any) -> np.ndarray:
     """Return an eighth of the shortest wavelength that matters in the omission at ``height``.
 
-    In m: the wavelength 2πR/n_q of the degree n_q below which 99.9 % of the omitted δg variance at
-    the height lies (the attenuation (R/r)^(2n+2) sets it: tens of km at airliner heights, a
-    few km near the ground).
+    In m, for each height (m): the wavelength 2πR/n_q of the degree n_q below which 99.9 % of
+    the omitted δg variance at that height lies (the attenuation (R/r)^(2n+2) sets it: tens of
+    km at airliner heights, a few km near the ground). Computed on a table of 24 heights
+    (geometric from 0 to the highest) and interpolated, never above the table's value at the
+    next lower height.
     """
+    h = np.maximum(np.atleast_1d(np.asarray(height, dtype=np.float64)), 0.0)
+    levels = np.unique(np.concatenate([[0.0], np.geomspace(10.0, max(h.max(), 10.0) + 1.0, 23)]))
     n = omission.degrees
-    r = omission.radius + max(float(height), 0.0)
-    c = omission.potential_variances(n)
-    w = c * ((n + 1.0) ** 2 + n * (n + 1.0)) * np.exp((2.0 * n + 2.0) * np.log(omission.radius / r))
-    cum = np.cumsum(w)
-    nq = float(n[min(int(np.searchsorted(cum, 0.999 * cum[-1])), n.size - 1)])
-    return float(2.0 * np.pi * omission.radius / nq / 8.0)
+    c = omission.potential_variances(n) * ((n + 1.0) ** 2 + n * (n + 1.0))
+    out = np.empty(levels.size)
+    for i, z in enumerate(levels):
+        w = c * np.exp((2.0 * n + 2.0) * np.log(omission.radius / (omission.radius + z)))
+        cum = np.cumsum(w)
+        nq = float(n[min(int(np.searchsorted(cum, 0.999 * cum[-1])), n.size - 1)])
+        out[i] = 2.0 * np.pi * omission.radius / nq / 8.0
+    # the spacing grows with height: take the table's value at the level at or below each height
+    j = np.clip(np.searchsorted(levels, h, side="right") - 1, 0, levels.size - 1)
+    return np.asarray(out[j])
 
 
 def _at_nodes(t: np.ndarray, idx: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -215,7 +227,7 @@ def gravity_budget(
     n_g = int(terms.draws)
     om = cm = sig = None
     if terms.omission is not None:
-        idx = path_nodes(track, omission_spacing(terms.omission, float(np.min(track[:, 2]))))
+        idx = path_nodes(track, omission_spacing(terms.omission, track[:, 2]))
         lat, lon, h = track[idx, 0], track[idx, 1], track[idx, 2]
         om = _at_nodes(t, idx, terms.omission.realise(lat, lon, h, n_g, terms.seed))
         sig = _at_nodes(t, idx, terms.omission.sigma(h))
