@@ -142,6 +142,10 @@ def main(argv=None) -> int:
     from fieldmap.nav.flight import FlightTrajectory, route_flight
 
     traj = FlightTrajectory(route_flight(ROUTE, 180.0))
+    if traj.duration < 60.0 * args.minutes:  # a longer study: the same route, flown slower
+        speed = 180.0 * traj.duration / (60.0 * args.minutes) * 0.999
+        traj = FlightTrajectory(route_flight(ROUTE, speed))
+        print(f"route flown at {speed:.1f} m/s to last {args.minutes:g} min")
     syn_o, syn_p = bench_synthesis(traj, args.rate, 20.0 if args.quick else 60.0, args.repeat)
     print(
         f"synthesis per IMU sample: ours {syn_o * 1e6:.2f} us, pyins generate_imu "
