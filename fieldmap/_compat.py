@@ -138,7 +138,7 @@ def options_api(param: str, options_type: type, first_field: str | None = None) 
 MOVED: dict[str, str | tuple[str, ...]] = {
     # fieldmap 0.1: a flat package
     "icgem": "models.icgem",
-    "_gfc_scan": "models._gfc_scan",
+    "_gfc_scan": "models.icgem",
     "model": "models.shmodel",
     "geographiclib": "models.geographiclib",
     "ellipsoid": "field.ellipsoid",
