@@ -26,6 +26,7 @@ import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.models import cache as disk_cache
+from fieldmap.models import icgem
 from fieldmap.models.icgem import as_degree, parse_epoch, read_icgem
 from fieldmap.models.shmodel import SHModel
 
@@ -292,13 +293,15 @@ def _reader(fmt: str, path: str, t, gm, radius):
     model, or none). Other formats' variants hold no name, so the bundled model read from a
     zip import (a new temporary name each run) keeps hitting its entry.
     """
-    from fieldmap.models import egm, icgem, nga
+    if fmt == "nga":  # each reader is imported when a file is of its format
+        from fieldmap.models import nga
 
-    if fmt == "nga":
         named = f"|file={os.path.basename(path)!r}"
         variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}{named}"
         return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
     if fmt == "egm":
+        from fieldmap.models import egm
+
         variant = f"egm-v{egm.READER_VERSION}"
         return (lambda L: egm.read_egm(path, lmax=L)), variant
     variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
