@@ -212,7 +212,7 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "products.summary": "products.variables",
     "products.quantity_maps": ("products.maps", "products.variables", "products.plots"),
     "products.blocks": ("products.engine", "products.variables"),
-    "products.cluster": "products.engine",
+    "products.cluster": "cluster",
     "products.lazy": "products.engine",
     "products.distributed": ("products.engine", "products.sinks", "products.request"),
     "products.blockio": ("products.sinks", "products.variables"),

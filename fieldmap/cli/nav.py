@@ -212,7 +212,7 @@ def _check_flight_args(
 
 def run(args: argparse.Namespace) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.products.engine import open_client, parse_scheduler
+    from fieldmap.cluster import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
 
     notes: list[str] = []

@@ -141,7 +141,7 @@ class Execution:
     window: int | None = None
 
     def __post_init__(self) -> None:
-        from fieldmap.products.engine import parse_scheduler
+        from fieldmap.cluster import parse_scheduler
 
         if isinstance(self.executor, str):
             parse_scheduler(self.executor)  # one line for a malformed scheduler
@@ -164,8 +164,8 @@ class Execution:
 
     @property
     def scheduler(self) -> Any:
-        """The parsed scheduler string (:func:`fieldmap.products.engine.parse_scheduler`)."""
-        from fieldmap.products.engine import parse_scheduler
+        """The parsed scheduler string (:func:`fieldmap.cluster.parse_scheduler`)."""
+        from fieldmap.cluster import parse_scheduler
 
         return parse_scheduler(self.executor) if isinstance(self.executor, str) else None
 
