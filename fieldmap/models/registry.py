@@ -239,7 +239,8 @@ def load_model(
 
         def reader():
             # through the on-disk cache as a user's file (parsing the .gz costs ~0.1 s a start)
-            ref = resources.files("fieldmap.data").joinpath(bundled)
+            # through the fieldmap package: importing fieldmap.data would run one more module
+            ref = resources.files("fieldmap").joinpath("data").joinpath(bundled)
             with resources.as_file(ref) as path:
                 read, variant = _reader("icgem", str(path), t, None, None)
                 model = disk_cache.cached_read([str(path)], variant, None, read, enabled=cache)
