@@ -43,7 +43,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import xarray as xr
 
-from fieldmap.cluster import open_client, scattered, worker_setup
 from fieldmap.errors import InputError
 from fieldmap.grids.spec import GridSpec
 from fieldmap.products.sinks import memory_target
@@ -307,7 +306,10 @@ def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.synthesis import synthesize
 
-    worker_setup()
+    if "distributed" in sys.modules:  # a Dask worker; a process without Dask is none
+        from fieldmap.cluster import worker_setup
+
+        worker_setup()
     ell = get_ellipsoid(job.ellipsoid)
     sub = job.grid
     row_weights, hist_weights = job.weights
@@ -419,6 +421,8 @@ def _run_dask(
     """Submit the blocks to ``client`` (at most ``window`` in flight), handle results."""
     from distributed import as_completed
     from tqdm.auto import tqdm
+
+    from fieldmap.cluster import scattered
 
     nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     # the coefficients travel once to every worker, not once per task (nor per product)
@@ -593,6 +597,8 @@ def lazy(request: _Request) -> xr.Dataset:
     import dask
     import dask.array as da
 
+    from fieldmap.cluster import scattered
+
     grid, mod, client = request.grid, request.model, request.execution.client
     tmpl = template(request)
     blocks = plan_blocks(grid, mod.lmax, _chunk_rows(request.execution.chunks))
@@ -646,7 +652,11 @@ def executor_client(request: _Request) -> Iterator[Any]:
     ex = request.execution
     if ex.client is not None:
         yield ex.client
+    elif ex.scheduler is None:  # here
+        yield None
     else:
+        from fieldmap.cluster import open_client
+
         with open_client(ex.scheduler) as c:
             yield c
 
