@@ -222,6 +222,9 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "products.table": "products.tables.build",
     "products.table_io": "products.tables.files",
     "products.table_model": "products.tables.model",
+    # fieldmap 0.2: the SH device code in one module (the struct, both ranges, the kernels)
+    "kernels.sh_model": "kernels.sh",
+    "kernels.sh_xrange": "kernels.sh",
 }
 
 
