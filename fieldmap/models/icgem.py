@@ -49,11 +49,16 @@ import re
 import stat
 import warnings
 import zlib
+from collections.abc import Iterator
+from typing import Any, BinaryIO
 
 import numpy as np
 
 from fieldmap.errors import InputError, ModelFileError
 from fieldmap.models.shmodel import SHModel
+
+#: a model file's bytes: read whole, or memory-mapped (:func:`read_bytes`)
+Raw = bytes | mmap.mmap
 
 _KEYS = {"gfc": 0, "gfct": 1, "trnd": 2, "dot": 2, "acos": 3, "asin": 4}
 # allowed number of value fields after "key n m", per kind, for (icgem1.0, icgem2.0): C S, up to
@@ -99,7 +104,7 @@ BLOCK = 16 * 2**20
 GZ_IN_MEMORY = 64 * 2**20
 
 
-def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
+def read_bytes(path: str, mapped: bool = False) -> Raw:
     """Return the bytes of a model file, gunzipped if compressed (raises ModelFileError).
 
     With ``mapped``, a regular uncompressed file comes back as a read-only :class:`mmap.mmap`
@@ -138,7 +143,7 @@ def read_bytes(path, mapped: bool = False) -> bytes | mmap.mmap:
     return raw
 
 
-def _gunzip_mapped(f, path) -> mmap.mmap:
+def _gunzip_mapped(f: BinaryIO, path: str) -> mmap.mmap:
     """Decompress the gzip file ``f`` chunk by chunk into an unnamed temporary file; map it.
 
     The memory used is a chunk's, whatever the size of the model (unless the system's
@@ -165,7 +170,7 @@ def _gunzip_mapped(f, path) -> mmap.mmap:
         raise ModelFileError(f"{path}: cannot decompress ({exc.strerror or exc})") from None
 
 
-def release(raw, lo: int, hi: int) -> None:
+def release(raw: Raw, lo: int, hi: int) -> None:
     """Drop the pages of ``raw[lo:hi]`` from this process's memory if ``raw`` is a mapping.
 
     The bytes stay in the page cache and are read again on the next access: only the resident
@@ -178,7 +183,7 @@ def release(raw, lo: int, hi: int) -> None:
             raw.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
 
 
-def _read_stream(f, path) -> bytes:
+def _read_stream(f: BinaryIO, path: str) -> bytes:
     parts: list[bytes] = []
     size = 0
     while chunk := f.read(_CHUNK):
@@ -195,7 +200,7 @@ _CONTROL = np.zeros(256, bool)
 _CONTROL[[c for c in range(32) if c not in (9, 10, 13)]] = True
 
 
-def check_text(path, raw, what: str = "an ICGEM text file") -> None:
+def check_text(path: str, raw: Raw, what: str = "an ICGEM text file") -> None:
     """Reject binary data: control bytes other than tab, CR, LF (Latin-1 text is fine).
 
     ``raw``: bytes or a mapping, read in blocks of ``BLOCK`` bytes (no copy of the whole);
@@ -215,7 +220,7 @@ def check_text(path, raw, what: str = "an ICGEM text file") -> None:
         release(raw, lo, lo + BLOCK)
 
 
-def count_newlines(raw, lo: int, hi: int) -> int:
+def count_newlines(raw: Raw, lo: int, hi: int) -> int:
     """Count the newline bytes in ``raw[lo:hi]`` (bytes or a mapping), read in blocks."""
     total = 0
     for a in range(lo, hi, BLOCK):
@@ -224,7 +229,7 @@ def count_newlines(raw, lo: int, hi: int) -> int:
     return total
 
 
-def line_chunks(raw, offset: int, lines: int):
+def line_chunks(raw: Raw, offset: int, lines: int) -> Iterator[tuple[int, int, np.ndarray]]:
     """Yield ``(lo, hi, newlines)``: ``raw[offset:]`` cut after every ``lines``-th newline.
 
     Each piece but the last ends with a newline; the pieces cover ``raw[offset:]`` exactly (none
@@ -253,7 +258,9 @@ _WHITESPACE = np.zeros(256, bool)
 _WHITESPACE[[9, 10, 13, 32]] = True
 
 
-def tokenise(raw, offset: int = 0, count: int = -1, newlines=None):
+def tokenise(
+    raw: Raw, offset: int = 0, count: int = -1, newlines: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Split ``raw[offset:offset + count]`` into whitespace-separated tokens (no copy of it).
 
     ``count`` -1: to the end. Lines are counted from ``offset``; ``newlines``, the offsets of its
@@ -287,7 +294,7 @@ def tokenise(raw, offset: int = 0, count: int = -1, newlines=None):
     return buf, starts, ends, tok_line, ntok, first
 
 
-def small_ints(buf, s, e):
+def small_ints(buf: np.ndarray, s: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parse short unsigned decimal integers at byte ranges [s, e); return (values, ok)."""
     length = e - s
     ok = (length >= 1) & (length <= 6)
@@ -300,7 +307,9 @@ def small_ints(buf, s, e):
     return val, ok
 
 
-def keyword_kinds(buf, s, e, keys: dict):
+def keyword_kinds(
+    buf: np.ndarray, s: np.ndarray, e: np.ndarray, keys: dict[str, int]
+) -> np.ndarray:
     """Map keyword tokens (case-insensitive, at most 4 letters) to ``keys[name]``; -1 if unknown."""
     length = e - s
     code = np.zeros(s.size, np.int64)
@@ -314,7 +323,14 @@ def keyword_kinds(buf, s, e, keys: dict):
     return kind
 
 
-def parse_values(buf, starts, ends, tok_line, first, keep_line):
+def parse_values(
+    buf: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    tok_line: np.ndarray,
+    first: np.ndarray,
+    keep_line: np.ndarray,
+) -> tuple[np.ndarray | None, int | None]:
     """Parse every value token (all but the first three) of the kept lines in one pass.
 
     Returns
@@ -344,9 +360,9 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
     if vals is not None and vals.size == keep_tok.sum() and np.isfinite(vals).all():
         return vals, None
     for t in np.flatnonzero(keep_tok):  # slow path, only to name the token
-        text = buf[starts[t] : ends[t]].tobytes().decode("latin-1")
+        token = buf[starts[t] : ends[t]].tobytes().decode("latin-1")
         try:
-            ok = math.isfinite(float(text.replace("D", "E").replace("d", "e")))
+            ok = math.isfinite(float(token.replace("D", "E").replace("d", "e")))
         except ValueError:
             ok = False
         if not ok:
@@ -354,7 +370,7 @@ def parse_values(buf, starts, ends, tok_line, first, keep_line):
     return None, -1  # pragma: no cover - fromstring and float() disagree
 
 
-def unnormalized_to_full(C, S, path):
+def unnormalized_to_full(C: np.ndarray, S: np.ndarray, path: str) -> tuple[np.ndarray, np.ndarray]:
     """Divide by the normalisation N̄nm = sqrt((2 − δm0)(2n+1)(n−m)!/(n+m)!), in place.
 
     Column by column (no (L+1)² temporaries: a degree-10,800 table is 0.9 GB); returns C, S.
@@ -396,7 +412,7 @@ def yyyymmdd(value: float) -> float:
 C00_BAND = 0.02
 
 
-def c00_problem(C) -> str | None:
+def c00_problem(C: np.ndarray) -> str | None:
     """Return why the C̄00 of ``C`` is no gravity model's (outside 1 ± C00_BAND), else None."""
     c00 = float(C[0, 0])
     if abs(c00 - 1.0) <= C00_BAND:
@@ -414,7 +430,7 @@ def c00_problem(C) -> str | None:
 DEGREE1_MAX = 1e-3
 
 
-def degree1_problem(C, S) -> tuple[int, int, str] | None:
+def degree1_problem(C: np.ndarray, S: np.ndarray) -> tuple[int, int, str] | None:
     """Return ``(n, m, why)`` if a degree-1 coefficient exceeds :data:`DEGREE1_MAX`, else None."""
     if C.shape[0] < 2:
         return None
@@ -430,7 +446,7 @@ def degree1_problem(C, S) -> tuple[int, int, str] | None:
     return None
 
 
-def first_outsize(C, S):
+def first_outsize(C: np.ndarray, S: np.ndarray) -> tuple[int, int, float] | None:
     """Return ``(n, m, value)`` of the first coefficient too large to be physical, else None.
 
     Fully normalised coefficients of a real body are far below 1 in size beyond degree 0
@@ -451,7 +467,7 @@ def first_outsize(C, S):
 
 
 # --------------------------------------------------------------------------------------- the header
-def parse_header(path, raw):
+def parse_header(path: str, raw: Raw) -> tuple[dict[str, str], dict[str, int], int, int]:
     """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
     m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
     if not m_end:
@@ -477,7 +493,9 @@ def parse_header(path, raw):
     return header, where, offset, nhead
 
 
-def header_number(path, header, where, key, integer=False):
+def header_number(
+    path: str, header: dict[str, str], where: dict[str, int], key: str, integer: bool = False
+) -> float:
     """Return the number of header ``key`` (a positive float, or a count with ``integer``)."""
     if key not in header:
         raise fail(path, where["end_of_head"], f"header key '{key}' is missing before end_of_head")
@@ -496,13 +514,13 @@ def header_number(path, header, where, key, integer=False):
 KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
 
 
-def fail(path, line, msg):
+def fail(path: str, line: int | None, msg: str) -> ModelFileError:
     """Return the :class:`ModelFileError` of ``msg`` at ``line`` of ``path`` (no line: the file)."""
     where = f"{path}, line {line}" if line else f"{path}"
     return ModelFileError(f"{where}: {msg}")
 
 
-def times(path, values, lines, nhead):
+def times(path: str, values: np.ndarray, lines: np.ndarray, nhead: int) -> np.ndarray:
     """Decimal years of ICGEM time stamps ``yyyymmdd[.hhmm]`` (one per data line)."""
     uniq, inv = np.unique(values, return_inverse=True)
     out = np.empty(uniq.size)
@@ -515,7 +533,9 @@ def times(path, values, lines, nhead):
     return out[inv]
 
 
-def epochs(path, nhead, v2, t, cols):
+def epochs(
+    path: str, nhead: int, v2: bool, t: float | None, cols: tuple[np.ndarray, ...]
+) -> tuple[np.ndarray, ...]:
     """Return the time-variable lines' epochs t0; in icgem2.0, only the lines valid at ``t``.
 
     ``cols``: line, kind, n, m, c, s, σc, σs, has σ, and the last three values of each line.
@@ -525,6 +545,7 @@ def epochs(path, nhead, v2, t, cols):
     period = np.where(kind >= 3, last, 1.0)
     t0 = np.zeros(kind.size)
     if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
+        assert t is not None  # read_icgem asks an icgem2.0 file with such lines for an epoch
         t0 = times(path, np.where(kind >= 3, third, prev), lines, nhead)
         t1 = times(path, np.where(kind >= 3, prev, last), lines, nhead)
         active = (t0 <= t) & (t < t1)
@@ -546,7 +567,7 @@ def epochs(path, nhead, v2, t, cols):
     return lines, kind, n, m, c, s, sc, ss, has_sig, t0, period
 
 
-def duplicates(path, keys, lines, nhead, what):
+def duplicates(path: str, keys: np.ndarray, lines: np.ndarray, nhead: int, what: str) -> None:
     """Raise the error of the first line whose key repeats an earlier one's (``what``: its kind)."""
     order = np.argsort(keys, kind="stable")
     dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
@@ -569,23 +590,38 @@ class StaticTable:
     of the whole file at once would. Chunks come in line order.
     """
 
-    def __init__(self, lmax, nbytes, sigma=True):
+    def __init__(self, lmax: int, nbytes: int, sigma: bool = True) -> None:
         self.C = np.zeros((lmax + 1, lmax + 1))
         self.S = np.zeros((lmax + 1, lmax + 1))
-        self.SC = self.SS = None
+        self.SC: np.ndarray | None = None
+        self.SS: np.ndarray | None = None
         self.sigma = sigma  # False: header "errors no", σ columns ignored
         dtype = np.uint32 if nbytes < 2**32 - 1 else np.int64  # a line index < its byte offset
         self.none = np.iinfo(dtype).max
         self.line = np.full((lmax + 1) * (lmax + 2) // 2, self.none, dtype)
-        self.repeat = None  # (line, key) of the first static line repeating a coefficient
+        self.repeat: tuple[int, int] | None = (
+            None  # (line, key) of the first static line repeating a coefficient
+        )
 
-    def _sigmas(self, n, m, sc, ss, has):
+    def _sigmas(
+        self, n: np.ndarray, m: np.ndarray, sc: np.ndarray, ss: np.ndarray, has: np.ndarray
+    ) -> None:
         if self.sigma and has.any():
-            if self.SC is None:
+            if self.SC is None or self.SS is None:  # both, at the first σ
                 self.SC, self.SS = np.zeros_like(self.C), np.zeros_like(self.C)
             self.SC[n[has], m[has]], self.SS[n[has], m[has]] = sc[has], ss[has]
 
-    def add(self, lines, n, m, c, s, sc, ss, has):
+    def add(
+        self,
+        lines: np.ndarray,
+        n: np.ndarray,
+        m: np.ndarray,
+        c: np.ndarray,
+        s: np.ndarray,
+        sc: np.ndarray,
+        ss: np.ndarray,
+        has: np.ndarray,
+    ) -> None:
         """Enter static lines (data line indices ``lines``, increasing, after earlier chunks')."""
         idx = n * (n + 1) // 2 + m
         self.C[n, m], self.S[n, m] = c, s
@@ -607,7 +643,19 @@ class StaticTable:
             k = int(np.flatnonzero(rep)[0])
             self.repeat = (int(lines[k]), int(idx[k]))
 
-    def finish(self, path, nhead, lines, n, m, c, s, sc, ss, has):
+    def finish(
+        self,
+        path: str,
+        nhead: int,
+        lines: np.ndarray,
+        n: np.ndarray,
+        m: np.ndarray,
+        c: np.ndarray,
+        s: np.ndarray,
+        sc: np.ndarray,
+        ss: np.ndarray,
+        has: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
         """Enter the gfct lines (kept, active), check duplicates and gaps; return C, S, σ."""
         idx = n * (n + 1) // 2 + m
         rep = [self.repeat] if self.repeat is not None else []
@@ -622,8 +670,8 @@ class StaticTable:
                 rep.append((int(at[k]), int(keys[k])))
         if rep:
             line, key = min(rep)
-            given = [int(self.line[key])] if self.line[key] != self.none else []
-            first = min(given + [int(v) for v in lines[idx == key]])
+            known = [int(self.line[key])] if self.line[key] != self.none else []
+            first = min(known + [int(v) for v in lines[idx == key]])
             raise fail(
                 path,
                 nhead + line + 1,
@@ -652,17 +700,33 @@ class StaticTable:
                 f"no line for n={miss_n} m={miss_m} after this one ({why})",
             )
         sig = None
-        if self.SC is not None and (self.SC.any() or self.SS.any()):
+        if self.SC is not None and self.SS is not None and (self.SC.any() or self.SS.any()):
             sig = (self.SC, self.SS)
         return self.C, self.S, sig
 
-    def first_line(self, n, m):
+    def first_line(self, n: int, m: int) -> int | None:
         """Return the data line of the static line of (n, m), or None."""
         v = self.line[n * (n + 1) // 2 + m]
         return None if v == self.none else int(v)
 
 
-def time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead):
+def time_variable(
+    path: str,
+    lines: np.ndarray,
+    kind: np.ndarray,
+    n: np.ndarray,
+    m: np.ndarray,
+    idx: np.ndarray,
+    c: np.ndarray,
+    s: np.ndarray,
+    t0: np.ndarray,
+    period: np.ndarray,
+    t: float | None,
+    v2: bool,
+    C: np.ndarray,
+    S: np.ndarray,
+    nhead: int,
+) -> float | None:
     """Add trend and periodic terms at epoch ``t`` (None: each coefficient's t0)."""
     tv = kind >= 2
     ref = np.full(int(idx.max(initial=0)) + 1, np.nan)
@@ -700,7 +764,9 @@ def time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, n
 _EXTRA = (np.array([0, 1, 0, 1, 1]), np.array([0, 2, 2, 3, 3]))
 
 
-def sigma_columns(vals, off, nf, kind, v2):
+def sigma_columns(
+    vals: np.ndarray, off: np.ndarray, nf: np.ndarray, kind: np.ndarray, v2: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return σC, σS of each data line and whether the line has them.
 
     The first pair of σ columns is taken: the calibrated one of ``calibrated_and_formal`` files.
@@ -712,7 +778,9 @@ def sigma_columns(vals, off, nf, kind, v2):
     return sc, ss, has
 
 
-def negative_sigma(vals, off, nf, kind, v2):
+def negative_sigma(
+    vals: np.ndarray, off: np.ndarray, nf: np.ndarray, kind: np.ndarray, v2: bool
+) -> np.ndarray:
     """Tell, per data line, whether one of its σ columns (up to four) is negative.
 
     A standard deviation is never negative: such a file is malformed (NGA's reader refuses it
@@ -727,7 +795,7 @@ def negative_sigma(vals, off, nf, kind, v2):
 
 
 # --------------------------------------------------------------------------- epochs and the reader
-def parse_epoch(epoch) -> float | None:
+def parse_epoch(epoch: Any) -> float | None:
     """Return an epoch as a decimal year.
 
     Parameters
@@ -761,7 +829,7 @@ def parse_epoch(epoch) -> float | None:
     return epoch
 
 
-def as_degree(lmax, what: str = "lmax") -> int | None:
+def as_degree(lmax: Any, what: str = "lmax") -> int | None:
     """Return ``lmax`` as an int (None stays None); raise :class:`InputError` if not a degree.
 
     Accepts integers, integral floats (``240.0``) and integer strings; rejects booleans,
@@ -779,7 +847,14 @@ def as_degree(lmax, what: str = "lmax") -> int | None:
     return value
 
 
-def _scan_chunk(path, raw, piece, base, ctx, best):
+def _scan_chunk(
+    path: str,
+    raw: Raw,
+    piece: tuple[int, int, np.ndarray],
+    base: int,
+    ctx: tuple[int, int, int, bool],
+    best: int,
+) -> tuple[int, Exception | None, int, tuple[Any, ...] | None]:
     """Check and parse the data lines ``base`` on, in ``raw[lo:hi]``.
 
     ``piece``: lo, hi and the offsets of the newlines from lo. Returns ``(rank, error, nlines,
@@ -795,10 +870,10 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
     li = np.flatnonzero(ntok > 0)  # data lines with content
     nlines, f0 = ntok.size, first[li]
 
-    def line_of(mask):
+    def line_of(mask: np.ndarray) -> int:
         return nhead + base + int(li[np.flatnonzero(mask)[0]]) + 1
 
-    def text_of(t):
+    def text_of(t: Any) -> str:
         return buf[starts[t] : ends[t]].tobytes().decode("latin-1")
 
     kind = keyword_kinds(buf, starts[f0], ends[f0], _KEYS)
@@ -850,7 +925,9 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
     keep_line = np.zeros(ntok.size, bool)
     keep_line[li[keep]] = True
     vals, bad_tok = parse_values(buf, starts, ends, tok_line, first, keep_line)
-    if vals is None and bad_tok < 0:  # pragma: no cover - NumPy and float() disagree
+    if (
+        vals is None and bad_tok is not None and bad_tok < 0
+    ):  # pragma: no cover - NumPy and float() disagree
         return 11, ModelFileError(f"{path}: could not parse the coefficient values"), nlines, None
     if vals is None:
         bad_line = nhead + base + int(tok_line[bad_tok]) + 1
@@ -879,7 +956,9 @@ def _scan_chunk(path, raw, piece, base, ctx, best):
     return _NONE, None, nlines, (li.size, static, tvs, any_tv)
 
 
-def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
+def read_icgem(
+    path: str | os.PathLike[str], lmax: int | None = None, epoch: float | str | None = None
+) -> SHModel:
     """Read an ICGEM ``.gfc`` (or ``.gfc.gz``) file into a fully normalised :class:`SHModel`.
 
     Parameters
@@ -919,7 +998,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     header, where, offset, nhead = parse_header(path, raw)
     gm = header_number(path, header, where, "earth_gravity_constant")
     radius = header_number(path, header, where, "radius")
-    nmax = header_number(path, header, where, "max_degree", integer=True)
+    nmax = int(header_number(path, header, where, "max_degree", integer=True))
     norm = (header.get("norm", "fully_normalized").split() or ["fully_normalized"])[0].lower()
     if norm not in _NORMS:
         raise fail(
@@ -984,7 +1063,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
         if sig is not None:
             sig = unnormalized_to_full(sig[0], sig[1], path)
 
-    def first_line(cn, cm):  # file line of the first data line of coefficient (cn, cm)
+    def first_line(cn: int, cm: int) -> int:  # file line of the first data line of (cn, cm)
         at = [int(x) for x in lines[(n == cn) & (m == cm)]]
         if (k := table.first_line(cn, cm)) is not None:
             at.append(k)
@@ -1015,7 +1094,7 @@ def read_icgem(path, lmax: int | None = None, epoch=None) -> SHModel:
     )
 
 
-def write_icgem(path, model: SHModel, preamble: str = "") -> None:
+def write_icgem(path: str | os.PathLike[str], model: SHModel, preamble: str = "") -> None:
     """Write ``model`` as a static ICGEM file (``gfc`` lines, fully normalised; gzip if ``.gz``).
 
     Parameters
