@@ -225,6 +225,8 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     # fieldmap 0.2: the SH device code in one module (the struct, both ranges, the kernels)
     "kernels.sh_model": "kernels.sh",
     "kernels.sh_xrange": "kernels.sh",
+    "kernels.navtable": "kernels.navgravity",
+    "kernels.sensor_errors": "kernels.strapdown",
 }
 
 

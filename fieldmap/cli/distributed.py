@@ -1,7 +1,7 @@
 """``fieldmap map|sweep --scheduler ... --format ...``: products streamed block by block.
 
 Used by :mod:`fieldmap.cli.maps` when ``--scheduler`` is given or ``--format zarr``
-(:func:`fieldmap.cli.maps.streamed`; the options are the map commands'): the blocks
+(:func:`fieldmap.cli.common.streamed`, options added by its ``streaming_options``): the blocks
 of :mod:`fieldmap.products.engine` run here (``--scheduler threads``), on a LocalCluster
 (``local:N``) or on a running Dask scheduler (an address), and go straight to the NetCDF file or
 zarr store; figures are drawn from a decimated view of the store. Bad input and an unreachable

@@ -23,6 +23,8 @@ from fieldmap.cli.common import (
     preflight,
     print_files,
     stem,
+    streamed,
+    streaming_options,
     thresholds_mg,
 )
 
@@ -161,7 +163,7 @@ def _register_map(subparsers: argparse._SubParsersAction[argparse.ArgumentParser
         "thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
         "positive and distinct",
     )
-    _streaming_options(p)
+    streaming_options(p)
     _percentile_option(p)
     p.set_defaults(func=run_map)
 
@@ -188,7 +190,7 @@ def _register_sweep(subparsers: argparse._SubParsersAction[argparse.ArgumentPars
         DEFAULT_THRESHOLDS,
         "thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct",
     )
-    _streaming_options(p)
+    streaming_options(p)
     _percentile_option(p)
     p.set_defaults(func=run_sweep)
 
@@ -222,54 +224,6 @@ def _register_truncation(subparsers: argparse._SubParsersAction[argparse.Argumen
 
 
 _REGISTER = {"map": _register_map, "sweep": _register_sweep, "truncation": _register_truncation}
-
-
-def _streaming_options(p: argparse.ArgumentParser) -> None:
-    """Add ``--scheduler``, ``--format`` and ``--rows-per-block`` to a map sub-command."""
-    p.add_argument(
-        "--scheduler",
-        default=None,
-        help="compute block by block on Dask: local:N (a cluster of N worker processes for this "
-        "run), a scheduler address (tcp://host:port), or 'threads' (here, blocks one after the "
-        "other); default: the whole map in memory here",
-    )
-    p.add_argument(
-        "--format",
-        choices=("netcdf", "zarr"),
-        default="netcdf",
-        help="product format: netcdf (NetCDF-4, zlib; default) or zarr (chunked, written by "
-        "the workers in parallel; implies block-by-block computation)",
-    )
-    p.add_argument(
-        "--rows-per-block",
-        type=int,
-        default=None,
-        help="most latitude rows per block (default: from the memory budget and the grid)",
-    )
-
-
-def streamed(args: argparse.Namespace) -> bool:
-    """Tell whether the product is streamed to its file block by block (not held in memory).
-
-    Options that need the whole map in memory are refused here with one line naming them.
-    A streamed product is run by :mod:`fieldmap.cli.distributed`.
-    """
-    from fieldmap.errors import InputError
-
-    scheduler, fmt = getattr(args, "scheduler", None), getattr(args, "format", None)
-    streamed = scheduler is not None or fmt == "zarr"
-    if streamed:
-        how = "--format zarr" if fmt == "zarr" else f"--scheduler {scheduler}"
-        if getattr(args, "float32", False):
-            raise InputError(
-                f"--float32 is not available with {how}: streamed maps are stored in float64"
-            )
-        if getattr(args, "percentile_method", "histogram") != "histogram":
-            raise InputError(
-                f"--percentile-method {args.percentile_method} needs the whole map in memory: "
-                f"not with {how}"
-            )
-    return streamed
 
 
 def _percentile_option(p: argparse.ArgumentParser) -> None:

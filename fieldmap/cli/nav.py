@@ -212,17 +212,20 @@ def _check_flight_args(
 
 def run(args: argparse.Namespace) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.cluster import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
 
     notes: list[str] = []
     device, models, nav = _check_args(args, notes)
-    scheduler = parse_scheduler(args.scheduler)
+    cluster: contextlib.AbstractContextManager[Any] = contextlib.nullcontext(None)  # here
+    if args.scheduler is not None:
+        from fieldmap.cluster import open_client, parse_scheduler
+
+        cluster = open_client(parse_scheduler(args.scheduler))
     for note in notes:
         print(note, file=sys.stderr)
     studies = STUDIES if args.study == "all" else (args.study,)
     # connect (or start the LocalCluster) before the long work; None: here
-    with open_client(scheduler) as opened:
+    with cluster as opened:
         client = cast("Client | None", opened)  # open_client yields a Client, or None: here
         if is_flight(args):
             return navflight.run(args, nav, device=device, client=client)

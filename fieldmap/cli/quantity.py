@@ -20,8 +20,7 @@ if TYPE_CHECKING:
 
 def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
-    from fieldmap.cli.common import map_request, preflight, print_files, stem
-    from fieldmap.cli.maps import streamed
+    from fieldmap.cli.common import map_request, preflight, print_files, stem, streamed
     from fieldmap.errors import InputError
     from fieldmap.products.engine import compute
     from fieldmap.products.io import output_batch
