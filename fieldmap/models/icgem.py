@@ -33,9 +33,9 @@ chunk size. Static lines go straight into the tables (:class:`StaticTable`); the
 time-variable lines are kept and assembled at the end (:func:`epochs`, :func:`time_variable`).
 
 The module is read top-down: constants; reading the bytes (memory maps, gzip, pipes, binary
-data refused) and tokenising; the header; the coefficient tables; epochs; the reader and the
-writer. The byte reading, tokeniser and the checks of C̄00 and of the coefficients' size also
-serve the NGA reader (:mod:`fieldmap.models.nga`).
+data refused), tokenising, ICGEM dates, normalisation and the checks of C̄00 and of the
+coefficients' size (also the NGA reader's, :mod:`fieldmap.models.nga`); the header; the
+coefficient tables; epochs; the reader and the writer.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ _NORMS = {
 }
 
 
-# -------------------------------------------------------------------------------- reading the bytes
+# ---------------------------------------- bytes, tokens, dates and the checks the NGA reader shares
 #: largest model read from a pipe or device (a regular file of any size is read whole): a
 #: degree-2190 ``.gfc`` is 0.3 GB; ``--model /dev/zero`` must not fill the memory
 MAX_STREAM_BYTES = 4 * 2**30
