@@ -29,8 +29,8 @@ values are parsed by one call of :func:`numpy.fromstring` (:func:`tokenise`,
 memory-mapped (:func:`read_bytes`), so the memory held is the coefficient tables plus one chunk
 (a degree-5540 file: 0.9 GB, not 6 GB). Each chunk is checked in the order a whole-file check
 would take, and the error raised is the one of lowest rank, at its first line: the same for any
-chunk size. Static lines go straight into the tables (:class:`StaticTable`); the few
-time-variable lines are kept and assembled at the end (:func:`epochs`, :func:`time_variable`).
+chunk size. Static lines go straight into the tables (:class:`_StaticTable`); the few
+time-variable lines are kept and assembled at the end (:func:`_epochs`, :func:`_time_variable`).
 
 The module is read top-down: constants; reading the bytes (memory maps, gzip, pipes, binary
 data refused), tokenising, ICGEM dates, normalisation and the checks of C̄00 and of the
@@ -467,7 +467,7 @@ def first_outsize(C: np.ndarray, S: np.ndarray) -> tuple[int, int, float] | None
 
 
 # --------------------------------------------------------------------------------------- the header
-def parse_header(path: str, raw: Raw) -> tuple[dict[str, str], dict[str, int], int, int]:
+def _parse_header(path: str, raw: Raw) -> tuple[dict[str, str], dict[str, int], int, int]:
     """Return (header dict, {key: line}, offset of the data, number of lines before the data)."""
     m_end = re.search(rb"^[ \t]*end_of_head\b.*$", raw, re.M)
     if not m_end:
@@ -493,34 +493,34 @@ def parse_header(path: str, raw: Raw) -> tuple[dict[str, str], dict[str, int], i
     return header, where, offset, nhead
 
 
-def header_number(
+def _header_number(
     path: str, header: dict[str, str], where: dict[str, int], key: str, integer: bool = False
 ) -> float:
     """Return the number of header ``key`` (a positive float, or a count with ``integer``)."""
     if key not in header:
-        raise fail(path, where["end_of_head"], f"header key '{key}' is missing before end_of_head")
+        raise _fail(path, where["end_of_head"], f"header key '{key}' is missing before end_of_head")
     text = header[key].split()[0] if header[key].split() else ""
     try:
         val = float(text.replace("D", "E").replace("d", "e"))
     except ValueError:
-        raise fail(path, where[key], f"header '{key}': bad number {text!r}") from None
+        raise _fail(path, where[key], f"header '{key}': bad number {text!r}") from None
     if not math.isfinite(val) or val <= (-1 if integer else 0) or (integer and val != int(val)):
-        raise fail(path, where[key], f"header '{key}': invalid value {text!r}")
+        raise _fail(path, where[key], f"header '{key}': invalid value {text!r}")
     return int(val) if integer else val
 
 
 # ------------------------------------------------------------------------------- coefficient tables
 #: keyword of each kind of data line (the kinds of ``fieldmap.models.icgem``'s keywords)
-KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
+_KIND_NAME = ("gfc", "gfct", "trnd", "acos", "asin")
 
 
-def fail(path: str, line: int | None, msg: str) -> ModelFileError:
+def _fail(path: str, line: int | None, msg: str) -> ModelFileError:
     """Return the :class:`ModelFileError` of ``msg`` at ``line`` of ``path`` (no line: the file)."""
     where = f"{path}, line {line}" if line else f"{path}"
     return ModelFileError(f"{where}: {msg}")
 
 
-def times(path: str, values: np.ndarray, lines: np.ndarray, nhead: int) -> np.ndarray:
+def _times(path: str, values: np.ndarray, lines: np.ndarray, nhead: int) -> np.ndarray:
     """Decimal years of ICGEM time stamps ``yyyymmdd[.hhmm]`` (one per data line)."""
     uniq, inv = np.unique(values, return_inverse=True)
     out = np.empty(uniq.size)
@@ -529,11 +529,11 @@ def times(path: str, values: np.ndarray, lines: np.ndarray, nhead: int) -> np.nd
             out[k] = yyyymmdd(float(v))
         except (ValueError, OverflowError):
             line = nhead + int(lines[np.flatnonzero(inv == k)[0]]) + 1
-            raise fail(path, line, f"bad time stamp {v!r} (expected yyyymmdd[.hhmm])") from None
+            raise _fail(path, line, f"bad time stamp {v!r} (expected yyyymmdd[.hhmm])") from None
     return out[inv]
 
 
-def epochs(
+def _epochs(
     path: str, nhead: int, v2: bool, t: float | None, cols: tuple[np.ndarray, ...]
 ) -> tuple[np.ndarray, ...]:
     """Return the time-variable lines' epochs t0; in icgem2.0, only the lines valid at ``t``.
@@ -546,8 +546,8 @@ def epochs(
     t0 = np.zeros(kind.size)
     if v2:  # gfct/trnd: ... t0 t1; acos/asin: ... t0 t1 period
         assert t is not None  # read_icgem asks an icgem2.0 file with such lines for an epoch
-        t0 = times(path, np.where(kind >= 3, third, prev), lines, nhead)
-        t1 = times(path, np.where(kind >= 3, prev, last), lines, nhead)
+        t0 = _times(path, np.where(kind >= 3, third, prev), lines, nhead)
+        t1 = _times(path, np.where(kind >= 3, prev, last), lines, nhead)
         active = (t0 <= t) & (t < t1)
         gct = kind == 1
         has_gfct = np.unique(n[gct] * (n[gct] + 1) // 2 + m[gct])
@@ -563,11 +563,11 @@ def epochs(
         )
     elif (kind == 1).any():  # icgem1.0: t0 on the gfct line
         g = kind == 1
-        t0[g] = times(path, last[g], lines[g], nhead)
+        t0[g] = _times(path, last[g], lines[g], nhead)
     return lines, kind, n, m, c, s, sc, ss, has_sig, t0, period
 
 
-def duplicates(path: str, keys: np.ndarray, lines: np.ndarray, nhead: int, what: str) -> None:
+def _duplicates(path: str, keys: np.ndarray, lines: np.ndarray, nhead: int, what: str) -> None:
     """Raise the error of the first line whose key repeats an earlier one's (``what``: its kind)."""
     order = np.argsort(keys, kind="stable")
     dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
@@ -575,14 +575,14 @@ def duplicates(path: str, keys: np.ndarray, lines: np.ndarray, nhead: int, what:
         later = order[dup + 1]
         k = later[np.argmin(lines[later])]
         first = lines[order[dup[np.argmin(lines[later])]]]
-        raise fail(
+        raise _fail(
             path,
             nhead + int(lines[k]) + 1,
             f"duplicate {what} (first given on line {nhead + int(first) + 1})",
         )
 
 
-class StaticTable:
+class _StaticTable:
     """C, S (and σC, σS) of the static lines, filled chunk by chunk (:meth:`add`, :meth:`finish`).
 
     Besides the (lmax+1)² tables it keeps, per coefficient (packed index n(n+1)/2 + m), the data
@@ -672,7 +672,7 @@ class StaticTable:
             line, key = min(rep)
             known = [int(self.line[key])] if self.line[key] != self.none else []
             first = min(known + [int(v) for v in lines[idx == key]])
-            raise fail(
+            raise _fail(
                 path,
                 nhead + line + 1,
                 f"duplicate coefficient (first given on line {nhead + first + 1})",
@@ -694,7 +694,7 @@ class StaticTable:
             last = int(np.max(self.line[:miss][present[:miss]]))
             top = present.size - 1 - int(np.argmax(present[::-1]))
             why = "file truncated?" if miss > top else "degree gap"
-            raise fail(
+            raise _fail(
                 path,
                 nhead + last + 1,
                 f"no line for n={miss_n} m={miss_m} after this one ({why})",
@@ -710,7 +710,7 @@ class StaticTable:
         return None if v == self.none else int(v)
 
 
-def time_variable(
+def _time_variable(
     path: str,
     lines: np.ndarray,
     kind: np.ndarray,
@@ -736,16 +736,16 @@ def time_variable(
     orphan = tv & np.isnan(tref)
     if orphan.any():
         k = np.flatnonzero(orphan)[0]
-        raise fail(
+        raise _fail(
             path,
             nhead + int(lines[k]) + 1,
-            f"'{KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line",
+            f"'{_KIND_NAME[kind[k]]}' for n={n[k]} m={m[k]} without a 'gfct' line",
         )
     for kd, what in ((2, "trend"), (3, "acos term"), (4, "asin term")):
         sel = kind == kd
         if sel.any():
             keys = idx[sel] * 4096.0 + (period[sel] if kd >= 3 else 0.0)
-            duplicates(path, keys, lines[sel], nhead, what)
+            _duplicates(path, keys, lines[sel], nhead, what)
     dt = (t - tref) if t is not None else np.zeros(idx.size)
     factor = np.select(
         [kind == 2, kind == 3, kind == 4],
@@ -764,7 +764,7 @@ def time_variable(
 _EXTRA = (np.array([0, 1, 0, 1, 1]), np.array([0, 2, 2, 3, 3]))
 
 
-def sigma_columns(
+def _sigma_columns(
     vals: np.ndarray, off: np.ndarray, nf: np.ndarray, kind: np.ndarray, v2: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return σC, σS of each data line and whether the line has them.
@@ -778,7 +778,7 @@ def sigma_columns(
     return sc, ss, has
 
 
-def negative_sigma(
+def _negative_sigma(
     vals: np.ndarray, off: np.ndarray, nf: np.ndarray, kind: np.ndarray, v2: bool
 ) -> np.ndarray:
     """Tell, per data line, whether one of its σ columns (up to four) is negative.
@@ -860,7 +860,7 @@ def _scan_chunk(
     ``piece``: lo, hi and the offsets of the newlines from lo. Returns ``(rank, error, nlines,
     data)``: the first failed check of rank below ``best`` (the whole-file order of the checks,
     each at its first line: chunks come in line order), or ``_NONE``; the number of lines; and,
-    when all checks pass, ``(content lines, static gfc lines for StaticTable.add, time-variable
+    when all checks pass, ``(content lines, static gfc lines for _StaticTable.add, time-variable
     lines as _TV_FIELDS, whether the chunk has time-variable lines of any degree)`` (None:
     nothing kept).
     """
@@ -881,14 +881,14 @@ def _scan_chunk(
         k = np.flatnonzero(kind < 0)[0]
         return (
             0,
-            fail(path, line_of(kind < 0), f"unknown keyword {text_of(f0[k])!r}"),
+            _fail(path, line_of(kind < 0), f"unknown keyword {text_of(f0[k])!r}"),
             nlines,
             None,
         )
     short = ntok[li] < 3
     if best > 1 and short.any():
         why = "expected 'key n m C S ...', line too short"
-        return 1, fail(path, line_of(short), why), nlines, None
+        return 1, _fail(path, line_of(short), why), nlines, None
     if best <= 2:
         return _NONE, None, nlines, None
     n, ok_n = small_ints(buf, starts[f0 + 1], ends[f0 + 1])
@@ -896,7 +896,7 @@ def _scan_chunk(
     if not (ok_n & ok_m).all():
         k = np.flatnonzero(~(ok_n & ok_m))[0]
         what = f"bad degree/order {text_of(f0[k] + 1)!r} {text_of(f0[k] + 2)!r}"
-        return 2, fail(path, line_of(~(ok_n & ok_m)), what), nlines, None
+        return 2, _fail(path, line_of(~(ok_n & ok_m)), what), nlines, None
     nf = ntok[li] - 3
     checks = [
         (kind == kd) & ((nf < ok[v2].start) | (nf >= ok[v2].stop)) for kd, ok in _NFIELDS.items()
@@ -910,13 +910,13 @@ def _scan_chunk(
             if rank < 8:
                 ok = _NFIELDS[rank - 3][v2]
                 why = (
-                    f"'{KIND_NAME[rank - 3]}' line with {nf[k]} values"
+                    f"'{_KIND_NAME[rank - 3]}' line with {nf[k]} values"
                     f" (expected {ok.start} to {ok.stop - 1})"
                 )
             else:
                 why = "order m > degree n" if rank == 8 else f"degree above max_degree {nmax}"
                 why += f" (n={n[k]}, m={m[k]})"
-            return rank, fail(path, line_of(bad), why), nlines, None
+            return rank, _fail(path, line_of(bad), why), nlines, None
     if best <= 10:
         return _NONE, None, nlines, None
     keep, any_tv = n <= lmax, bool((kind >= 1).any())
@@ -931,22 +931,22 @@ def _scan_chunk(
         return 11, ModelFileError(f"{path}: could not parse the coefficient values"), nlines, None
     if vals is None:
         bad_line = nhead + base + int(tok_line[bad_tok]) + 1
-        return 10, fail(path, bad_line, f"bad number {text_of(bad_tok)!r}"), nlines, None
+        return 10, _fail(path, bad_line, f"bad number {text_of(bad_tok)!r}"), nlines, None
     lines, kind, n, m, nf = base + li[keep], kind[keep], n[keep], m[keep], nf[keep]
     off = np.cumsum(nf) - nf
     c, s = vals[off], vals[off + 1]
-    sc, ss, has_sig = sigma_columns(vals, off, nf, kind, v2)
+    sc, ss, has_sig = _sigma_columns(vals, off, nf, kind, v2)
     last, prev = vals[off + nf - 1], vals[off + nf - 2]
     bad = (kind >= 3) & ~(last > 0)
     if bad.any() and best > 12:
         at = nhead + int(lines[bad][0]) + 1
-        return 12, fail(path, at, "period must be positive"), nlines, None
+        return 12, _fail(path, at, "period must be positive"), nlines, None
     if best <= 12:
         return _NONE, None, nlines, None
-    neg = negative_sigma(vals, off, nf, kind, v2)
+    neg = _negative_sigma(vals, off, nf, kind, v2)
     if neg.any() and best > 13:
         at = nhead + int(lines[neg][0]) + 1
-        return 13, fail(path, at, "a standard deviation (σ column) is negative"), nlines, None
+        return 13, _fail(path, at, "a standard deviation (σ column) is negative"), nlines, None
     if best <= 13:
         return _NONE, None, nlines, None
     g, tv = kind == 0, kind >= 1
@@ -995,13 +995,13 @@ def read_icgem(
     lmax = as_degree(lmax)
     raw = read_bytes(path, mapped=True)
     check_text(path, raw)
-    header, where, offset, nhead = parse_header(path, raw)
-    gm = header_number(path, header, where, "earth_gravity_constant")
-    radius = header_number(path, header, where, "radius")
-    nmax = int(header_number(path, header, where, "max_degree", integer=True))
+    header, where, offset, nhead = _parse_header(path, raw)
+    gm = _header_number(path, header, where, "earth_gravity_constant")
+    radius = _header_number(path, header, where, "radius")
+    nmax = int(_header_number(path, header, where, "max_degree", integer=True))
     norm = (header.get("norm", "fully_normalized").split() or ["fully_normalized"])[0].lower()
     if norm not in _NORMS:
-        raise fail(
+        raise _fail(
             path,
             where["norm"],
             f"unknown normalisation {norm!r} (expected fully_normalized or unnormalized)",
@@ -1016,7 +1016,7 @@ def read_icgem(
         raise InputError(f"{path}: degree {lmax} is above {MAX_DEGREE}; pass a smaller lmax")
 
     errors = (header.get("errors", "").split() or [""])[0].lower()
-    table = StaticTable(lmax, len(raw), sigma=errors != "no")
+    table = _StaticTable(lmax, len(raw), sigma=errors != "no")
     best, err, content, base, parts, any_tv = _NONE, None, 0, 0, [], False
     for lo, hi, newlines in line_chunks(raw, offset, CHUNK_LINES):
         ctx = (nhead, nmax, lmax, v2)
@@ -1036,7 +1036,7 @@ def read_icgem(
     if err is not None:
         raise err
     if content == 0:
-        raise fail(path, nhead, "no coefficient lines after end_of_head (truncated file?)")
+        raise _fail(path, nhead, "no coefficient lines after end_of_head (truncated file?)")
     if v2 and t is None and any_tv:
         raise InputError(f"{path} is an icgem2.0 (piecewise time-variable) model: give an epoch")
     if t is not None and not any_tv:  # refused, not ignored: the user expects it to act
@@ -1049,7 +1049,7 @@ def read_icgem(
         np.concatenate([p[k] for p in parts]) if parts else np.zeros(0, np.int64)
         for k in range(len(_TV_FIELDS))
     )
-    lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = epochs(
+    lines, kind, n, m, c, s, sc, ss, has_sig, t0, period = _epochs(
         path, nhead, v2, t, (lines, kind, n, m, c, s, sc, ss, has_sig, last, prev, third)
     )
     g = kind == 1
@@ -1057,7 +1057,7 @@ def read_icgem(
         path, nhead, lines[g], n[g], m[g], c[g], s[g], sc[g], ss[g], has_sig[g]
     )
     idx = n * (n + 1) // 2 + m
-    eval_epoch = time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead)
+    eval_epoch = _time_variable(path, lines, kind, n, m, idx, c, s, t0, period, t, v2, C, S, nhead)
     if not _NORMS[norm]:
         C, S = unnormalized_to_full(C, S, path)
         if sig is not None:
@@ -1070,13 +1070,13 @@ def read_icgem(
         return nhead + min(at) + 1
 
     if (why := c00_problem(C)) is not None:  # not 1: C00 was given (its default is 1)
-        raise fail(path, first_line(0, 0), why)
+        raise _fail(path, first_line(0, 0), why)
     if (one := degree1_problem(C, S)) is not None:
-        raise fail(path, first_line(one[0], one[1]), one[2])
+        raise _fail(path, first_line(one[0], one[1]), one[2])
     if (big := first_outsize(C, S)) is not None:
         bn, bm, v = big
         why = f"coefficient n={bn} m={bm} is {v:.3g}: beyond 1 in size, not a gravity model"
-        raise fail(path, first_line(bn, bm), why)
+        raise _fail(path, first_line(bn, bm), why)
     name = header.get("modelname", "").strip() or os.path.basename(path).split(".")[0]
     return SHModel(
         name=name,
