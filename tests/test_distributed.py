@@ -131,7 +131,7 @@ def test_workers_are_set_up_once(client):
 
     def probe():
         cluster.worker_setup()
-        return engine._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
+        return cluster._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
 
     workers = list(client.scheduler_info(n_workers=-1)["workers"])
     out = [client.submit(probe, workers=[w], pure=False).result() for w in workers]
@@ -139,7 +139,7 @@ def test_workers_are_set_up_once(client):
     for ready, threads in out:
         assert ready and int(threads) >= 1
     cluster.worker_setup()  # not a worker: nothing changes here
-    assert not engine._WORKER_READY
+    assert not cluster._WORKER_READY
     if "glibc" in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
         assert cluster._glibc_thresholds(32 * 2**20)
 
