@@ -72,6 +72,7 @@ class PeakRSS:
 
 def overhead(repeat: int, quick: bool) -> None:
     """Two tables: the map returned in memory, and the map written to a file (the CLI's job)."""
+    from fieldmap import cluster
     from fieldmap.models.registry import kaula_model, load_model
     from fieldmap.products import engine
     from fieldmap.products.io import write_netcdf
@@ -111,7 +112,7 @@ def overhead(repeat: int, quick: bool) -> None:
             "zarr": median_time(lambda: engine_file("zarr"), repeat),
         }
         for n in (1, 2):
-            with engine.open_client(("local", n)) as client:
+            with cluster.open_client(("local", n)) as client:
                 disturbance_map(**kw, client=client)  # workers load kernels and the model
                 row[f"local:{n}"] = median_time(
                     lambda: disturbance_map(**kw, client=client), repeat
@@ -216,12 +217,13 @@ def projection(results: dict) -> None:
 
 
 def big(out: str, fmt: str, workers: int) -> None:
+    from fieldmap import cluster
     from fieldmap.products import engine
     from fieldmap.products.request import MapRequest
 
     path = os.path.join(out, f"bench_big_0.02deg.{'zarr' if fmt == 'zarr' else 'nc'}")
     t0 = time.perf_counter()
-    with PeakRSS() as mon, engine.open_client(("local", workers)) as client:
+    with PeakRSS() as mon, cluster.open_client(("local", workers)) as client:
         t1 = time.perf_counter()
         request = MapRequest.build(
             heights_m=[20000.0], step_deg=0.02, lat_max=90.0, client=client, progress=True

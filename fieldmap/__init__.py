@@ -26,13 +26,15 @@ import types
 import typing
 
 from fieldmap import _compat
-from fieldmap._version import __version__ as __version__
 from fieldmap.errors import FieldmapError as FieldmapError
 from fieldmap.errors import InputError as InputError
 from fieldmap.errors import ModelFileError as ModelFileError
 from fieldmap.field.ellipsoid import GRS80 as GRS80
 from fieldmap.field.ellipsoid import WGS84 as WGS84
 from fieldmap.field.ellipsoid import Ellipsoid as Ellipsoid
+
+#: the version of fieldmap: the one place it is written (pyproject.toml reads it from here)
+__version__ = "0.2.0"
 
 #: Public name -> module that defines it (imported on first use, PEP 562).
 _LAZY = {

@@ -256,7 +256,7 @@ def model_api(apply: Callable[..., Any]) -> Callable[[F], F]:
 MOVED: dict[str, str | tuple[str, ...]] = {
     # fieldmap 0.1: a flat package
     "icgem": "models.icgem",
-    "_gfc_scan": "models._gfc_scan",
+    "_gfc_scan": "models.icgem",
     "model": "models.shmodel",
     "geographiclib": "models.geographiclib",
     "ellipsoid": "field.ellipsoid",
@@ -330,7 +330,7 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "products.summary": "products.variables",
     "products.quantity_maps": ("products.maps", "products.variables", "products.plots"),
     "products.blocks": ("products.engine", "products.variables"),
-    "products.cluster": "products.engine",
+    "products.cluster": "cluster",
     "products.lazy": "products.engine",
     "products.distributed": ("products.engine", "products.sinks", "products.request"),
     "products.blockio": ("products.sinks", "products.variables"),
@@ -340,6 +340,14 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "products.table": "products.tables.build",
     "products.table_io": "products.tables.files",
     "products.table_model": "products.tables.model",
+    # fieldmap 0.2: the SH device code in one module (the struct, both ranges, the kernels)
+    "kernels.sh_model": "kernels.sh",
+    "kernels.sh_xrange": "kernels.sh",
+    "kernels.navtable": "kernels.navgravity",
+    "kernels.sensor_errors": "kernels.strapdown",
+    # fieldmap 0.2: one module per sub-command
+    "cli.navflight": "cli.nav",
+    "cli.navoptions": "cli.nav",
 }
 
 

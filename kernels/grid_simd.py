@@ -25,8 +25,7 @@ on which rows share its thread. The Fourier coefficients are formed in
 
 import warp as wp
 
-from .sh import SCALE
-from .sh_model import QM_MIN, SHKernelModel
+from .sh import QM_MIN, SCALE, SHKernelModel
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())

@@ -4,9 +4,9 @@ r"""The grid Legendre pass at any degree: eight rows per thread with X-numbers (
 :func:`fieldmap.kernels.grid.row_fourier8_kernel` (one order m for a group of eight row units,
 a row and its mirror at -latitude, per thread) for models above degree 2700, where the
 1e-280-scaled recursion of :mod:`fieldmap.kernels.grid_simd` overflows near the poles (it
-carries P̄nm/u^m, which reaches ~e^(n/2) there). Here each lane carries, like the point path
-:mod:`fieldmap.kernels.sh_xrange`, ``W'_nm = q^n P̄nm/u`` (order m >= 1: the factor u^(m-1) is
-in the seed; order 0: ``q^n P̄n0``), which is at most ``sqrt(2(2n+1)) max(1, q)^n``:
+carries P̄nm/u^m, which reaches ~e^(n/2) there). Here each lane carries, like the extended-range
+point path of :mod:`fieldmap.kernels.sh`, ``W'_nm = q^n P̄nm/u`` (order m >= 1: the factor
+u^(m-1) is in the seed; order 0: ``q^n P̄n0``), which is at most ``sqrt(2(2n+1)) max(1, q)^n``:
 
 - the seed ``q^m s_m u^(m-1)`` of each lane (s_m = P̄mm/u^m) is an X-number (Fukushima 2012;
   mantissa x and exponent e standing for ``x 2^(960 e)``), :func:`seed8x`, with u^(m-1) by
@@ -33,8 +33,7 @@ import warp as wp
 
 from .grid import lane_sums, mirror_rows, zero_tail
 from .grid_simd import mat168d, order_of, sums_matrix, vec8d, zonal_north8
-from .sh_model import QM_MIN, sh_vec8
-from .sh_xrange import XBIGI, XHALF, xnorm
+from .sh import QM_MIN, XBIGI, XHALF, sh_vec8, xnorm
 
 # forward kernels only: fieldmap never differentiates through them (faster builds, whatever
 # the import order relative to fieldmap._warp.init())

@@ -22,7 +22,6 @@ from pathlib import Path
 import pytest
 
 from fieldmap.errors import InputError, ModelFileError
-from fieldmap.models import _gfc_scan as scan
 from fieldmap.models import icgem
 from fieldmap.models.geographiclib import write_egm
 from fieldmap.models.icgem import read_icgem
@@ -151,7 +150,7 @@ def test_corrupt_gzip_is_bad_input(work, name, data):
 def test_corrupt_gzip_readers(tmp_path, monkeypatch, in_memory):
     """Both gzip paths of the ICGEM reader (in memory, streamed to a file) and the NGA reader."""
     if not in_memory:
-        monkeypatch.setattr(scan, "GZ_IN_MEMORY", 0)
+        monkeypatch.setattr(icgem, "GZ_IN_MEMORY", 0)
     for name, data in (("a.gfc.gz", BAD_DEFLATE), ("b.gfc.gz", _flipped_gzip(GOOD.encode()))):
         (tmp_path / name).write_bytes(data)
         assert detect_format(tmp_path / name) == "icgem"  # its reader names the damage

@@ -45,7 +45,6 @@ _warp.init()
 import fieldmap.kernels  # noqa: E402
 from fieldmap.kernels import launch_frames as klf  # noqa: E402
 from fieldmap.kernels import navgravity as knav  # noqa: E402
-from fieldmap.kernels import navtable as knavtable  # noqa: E402
 from fieldmap.kernels import normal as knormal  # noqa: E402
 from fieldmap.kernels import sh as ksh  # noqa: E402
 
@@ -109,7 +108,7 @@ def _navgravity_wrapper(
     p: wp.array(dtype=wp.vec3d),
     ell: knormal.NormalParams,
     model: ksh.SHKernelModel,
-    tab: knavtable.TableKernel,
+    tab: knav.TableKernel,
     g_out: wp.array(dtype=wp.vec3d),
 ):
     i = wp.tid()

@@ -25,6 +25,7 @@ from fieldmap.products import variables as cf
 distributed = pytest.importorskip("distributed")
 pytest.importorskip("zarr")
 
+from fieldmap import cluster  # noqa: E402
 from fieldmap.products import engine, sinks  # noqa: E402
 from fieldmap.products import statistics as blockstats  # noqa: E402
 from fieldmap.products.maps import altitude_sweep, disturbance_map, truncation_map  # noqa: E402
@@ -48,7 +49,7 @@ def _write(path, fmt, **options):
 
 @pytest.fixture(scope="module")
 def client():
-    with engine.open_client(("local", 2)) as c:
+    with cluster.open_client(("local", 2)) as c:
         yield c
 
 
@@ -129,18 +130,18 @@ def test_workers_are_set_up_once(client):
     """Each worker: Warp threads from its share of the cores, glibc thresholds of a process."""
 
     def probe():
-        engine.worker_setup()
-        return engine._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
+        cluster.worker_setup()
+        return cluster._WORKER_READY, os.environ.get("FIELDMAP_THREADS")
 
     workers = list(client.scheduler_info(n_workers=-1)["workers"])
     out = [client.submit(probe, workers=[w], pure=False).result() for w in workers]
     assert len(out) == 2
     for ready, threads in out:
         assert ready and int(threads) >= 1
-    engine.worker_setup()  # not a worker: nothing changes here
-    assert not engine._WORKER_READY
+    cluster.worker_setup()  # not a worker: nothing changes here
+    assert not cluster._WORKER_READY
     if "glibc" in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
-        assert engine._glibc_thresholds(32 * 2**20)
+        assert cluster._glibc_thresholds(32 * 2**20)
 
 
 def test_model_is_shipped_once_per_client(client):
@@ -151,15 +152,15 @@ def test_model_is_shipped_once_per_client(client):
 
     m1 = load_model("eigen-6s", lmax=20)
     m2 = dataclasses.replace(m1, name="copy")  # another object, alive only here
-    f1 = engine.scattered(client, m1)
-    assert engine.scattered(client, m1) is f1  # reused by the next product
-    f2 = engine.scattered(client, m2)
+    f1 = cluster.scattered(client, m1)
+    assert cluster.scattered(client, m1) is f1  # reused by the next product
+    f2 = cluster.scattered(client, m2)
     assert f2.key != f1.key
     assert client.submit(lambda m: m.name, f2).result() == "copy"
     key = f2.key
     del m2, f2
     gc.collect()  # the model is gone: its copy on the cluster is released
-    assert key not in {fut.key for _, fut in engine._SCATTERED[client].values()}
+    assert key not in {fut.key for _, fut in cluster._SCATTERED[client].values()}
     # the release is asynchronous: wait for it, bounded only so that a lost release cannot hang
     # the run (a guard, not a speed claim: any loaded machine releases well within it)
     deadline = time.monotonic() + 120
@@ -469,7 +470,7 @@ def test_unreachable_scheduler_one_line_exit_2(tmp_path):
     assert "cannot reach the Dask scheduler" in r.stderr
     assert not out.exists()
     with pytest.raises(InputError, match="local:N"):
-        engine.parse_scheduler("local:0")
+        cluster.parse_scheduler("local:0")
 
 
 @pytest.mark.slow

@@ -2,10 +2,10 @@
 
 Checked against three things it shares no code with: the 1e-280-scaled grid kernel (at degrees
 where both work, poles and heights inside the sphere included), the extended-range *point*
-path (kernels/sh_xrange.py, itself checked against 30-digit mpmath in test_any_degree.py) and
-the NumPy X-number reference (fieldmap/reference/sh.py), near the poles and at the equator,
-above degree 2700. The lanes are checked for independence (same bits for any grouping) and
-the SIMD snippet against the plain Warp version.
+path (the extended range of kernels/sh.py, itself checked against 30-digit mpmath in
+test_any_degree.py) and the NumPy X-number reference (fieldmap/reference/sh.py), near the poles
+and at the equator, above degree 2700. The lanes are checked for independence (same bits for
+any grouping) and the SIMD snippet against the plain Warp version.
 """
 
 from __future__ import annotations

@@ -15,7 +15,6 @@ import pytest
 
 import fieldmap.models.icgem as icgem
 from fieldmap.errors import InputError, ModelFileError
-from fieldmap.models import _gfc_scan as scan
 from fieldmap.models.icgem import read_icgem, write_icgem
 from fieldmap.models.registry import kaula_model
 
@@ -246,14 +245,14 @@ def test_chunks_are_bounded(tmp_path, monkeypatch):
     path = tmp_path / "k.gfc"
     write_icgem(path, kaula_model(30, seed=2))
     seen = []
-    real = scan.tokenise
+    real = icgem.tokenise
 
     def spy(raw, offset=0, count=-1, newlines=None):
         out = real(raw, offset, count, newlines)
         seen.append(out[4].size)
         return out
 
-    monkeypatch.setattr(scan, "tokenise", spy)
+    monkeypatch.setattr(icgem, "tokenise", spy)
     monkeypatch.setattr(icgem, "CHUNK_LINES", 50)
     back = read_icgem(path)
     assert seen and max(seen) <= 50 and sum(seen) == 31 * 32 // 2
@@ -265,7 +264,7 @@ def test_chunks_are_bounded(tmp_path, monkeypatch):
 def test_line_chunks_cover_the_data(text, lines):
     """Pieces end after every lines-th newline and cover the data exactly."""
     raw = b"head\n" + text
-    pieces = list(scan.line_chunks(raw, 5, lines))
+    pieces = list(icgem.line_chunks(raw, 5, lines))
     assert b"".join(raw[lo:hi] for lo, hi, _ in pieces) == text
     for k, (lo, hi, nl) in enumerate(pieces):
         assert list(nl) == [i for i, c in enumerate(raw[lo:hi]) if c == 10]
@@ -275,26 +274,26 @@ def test_line_chunks_cover_the_data(text, lines):
 def test_read_bytes_mapped(tmp_path):
     """Plain files come back mapped (same bytes), gzip ones as bytes; blank files are empty."""
     path = _write(tmp_path, "m.gfc", GOOD)
-    mapped = scan.read_bytes(path, mapped=True)
+    mapped = icgem.read_bytes(path, mapped=True)
     assert not isinstance(mapped, bytes) and mapped[:] == path.read_bytes()
-    scan.release(mapped, 0, len(mapped))  # drops the pages, keeps the bytes
+    icgem.release(mapped, 0, len(mapped))  # drops the pages, keeps the bytes
     assert mapped[:] == path.read_bytes()
     gz = _write(tmp_path, "m.gfc.gz", GOOD, gz=True)
-    assert scan.read_bytes(gz, mapped=True) == path.read_bytes()
+    assert icgem.read_bytes(gz, mapped=True) == path.read_bytes()
     blank = tmp_path / "blank.gfc"
     blank.write_bytes(b" \t\r\n\x0b\x0c")
     with pytest.raises(ModelFileError, match="empty file"):
-        scan.read_bytes(blank, mapped=True)
+        icgem.read_bytes(blank, mapped=True)
 
 
 def test_block_scans_match_whole_array_ones(tmp_path, monkeypatch):
     """Binary check, unnormalised conversion and the size check, in blocks: same results."""
-    monkeypatch.setattr(scan, "BLOCK", 64)
+    monkeypatch.setattr(icgem, "BLOCK", 64)
     text = HEAD.format(nmax=6, norm="x", extra="") + "".join(GOOD)
     raw = (text + "gfc 6 6 \x07 0\n").encode()
     with pytest.raises(ModelFileError, match=rf"line {text.count(chr(10)) + 1}: binary byte 0x07"):
-        scan.check_text("p", raw)
-    assert scan.count_newlines(raw, 3, len(raw) - 5) == raw[3:-5].count(b"\n")
+        icgem.check_text("p", raw)
+    assert icgem.count_newlines(raw, 3, len(raw) - 5) == raw[3:-5].count(b"\n")
     rng = np.random.default_rng(1)
     C, S = np.tril(rng.standard_normal((40, 40))), np.tril(rng.standard_normal((40, 40)))
     n = np.arange(40.0)[:, None]
@@ -304,14 +303,14 @@ def test_block_scans_match_whole_array_ones(tmp_path, monkeypatch):
         norm = np.sqrt(
             np.where(m == 0, 1, 2) * (2 * n + 1) * fact(np.maximum(n - m, 0)) / fact(n + m)
         )
-    C2, S2 = scan.unnormalized_to_full(C.copy(), S.copy(), "p")
+    C2, S2 = icgem.unnormalized_to_full(C.copy(), S.copy(), "p")
     np.testing.assert_allclose(C2[m <= n], (C / norm)[m <= n], rtol=1e-13)
     assert not np.triu(C2, 1).any() and not np.triu(S2, 1).any()
     small = C * 1e-3
-    assert scan.first_outsize(small, small) is None
+    assert icgem.first_outsize(small, small) is None
     small[23, 4] = -2.0
     small[30, 1] = 3.0
-    assert scan.first_outsize(small, small * 0) == (23, 4, -2.0)
+    assert icgem.first_outsize(small, small * 0) == (23, 4, -2.0)
 
 
 def test_large_gzip_files_stream_to_a_mapping(tmp_path, monkeypatch):
@@ -322,20 +321,20 @@ def test_large_gzip_files_stream_to_a_mapping(tmp_path, monkeypatch):
     """
     path = _write(tmp_path, "big.gfc.gz", _lines(6), gz=True)
     in_memory = _read(path, 7, monkeypatch)
-    monkeypatch.setattr(scan, "GZ_IN_MEMORY", 0)
-    monkeypatch.setattr(scan, "_CHUNK", 100)  # many chunks
-    raw = scan.read_bytes(path, mapped=True)
+    monkeypatch.setattr(icgem, "GZ_IN_MEMORY", 0)
+    monkeypatch.setattr(icgem, "_CHUNK", 100)  # many chunks
+    raw = icgem.read_bytes(path, mapped=True)
     assert not isinstance(raw, bytes) and raw[:] == gzip.decompress(path.read_bytes())
     assert _read(path, 7, monkeypatch) == in_memory
     cut = tmp_path / "cut.gfc.gz"
     cut.write_bytes(path.read_bytes()[:-20])
     with pytest.raises(ModelFileError, match="truncated or corrupt gzip data"):
-        scan.read_bytes(cut, mapped=True)
+        icgem.read_bytes(cut, mapped=True)
     empty = tmp_path / "empty.gfc.gz"
     empty.write_bytes(gzip.compress(b""))
     with pytest.raises(ModelFileError, match="empty file"):
-        scan.read_bytes(empty, mapped=True)
+        icgem.read_bytes(empty, mapped=True)
     binary = tmp_path / "bin.gfc.gz"
     binary.write_bytes(gzip.compress(b"\x00" * 1000))
     with pytest.raises(ModelFileError, match="binary byte 0x00"):
-        scan.read_bytes(binary, mapped=True)
+        icgem.read_bytes(binary, mapped=True)

@@ -20,11 +20,15 @@ import subprocess
 import sys
 import textwrap
 
-# After the regrouping of nav/ and products/ (issue 25): 55 and 75 (from 64 and 81). The issue's
-# target, 40 and 50, is not reached yet: the rest sits in models/ (ICGEM reading in four modules,
-# every reader probed), cli/ and the kernels. Lower these as the count falls; never raise them.
-MAP_CEILING = 55
-FLIGHT_CEILING = 78
+# After the regrouping of nav/ and products/ (issue 25): 55 and 75 (from 64 and 81); then 40 and
+# 54: the ICGEM format in one module, readers imported for their format only, the Dask cluster
+# (fieldmap.cluster) only where Dask runs, plots only when made, one CLI module per sub-command
+# (and only the sub-command run registered), the SH, navigation-gravity and strapdown device
+# code each in one kernel module. The issue's flight target, 50, is not reached: the flight still
+# enters products.tables(.model) for the "table:" name check and reference.sh through
+# field.commission. Lower these as the count falls; never raise them.
+MAP_CEILING = 40
+FLIGHT_CEILING = 54  # the gravity budget's modules: set at the merge
 
 _RUN = textwrap.dedent(
     """

@@ -1,4 +1,4 @@
-"""Compensation tables in the kernels (issue 18): ``kernels/navtable.py`` vs the NumPy paths.
+"""Compensation tables in the kernels (issue 18): ``kernels/navgravity.py`` vs the NumPy paths.
 
 The kernel interpolation is checked against :func:`fieldmap.products.tables.model.interpolate`
 (the NumPy interpolator, written separately) at random points — cells next to the domain edges,

@@ -183,7 +183,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
             if exc.name == name:
                 continue
             raise
-        mod.register(sub)
+        if command is not None and only and len(_COMMANDS[name]) > 1:  # that sub-command alone
+            mod.register(sub, commands=(command,))
+        else:
+            mod.register(sub)
     _once_everywhere(parser)
     return parser
 

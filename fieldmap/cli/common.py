@@ -2,7 +2,8 @@
 
 ``map``, ``sweep``, ``truncation``, their ``--quantity`` and ``--scheduler`` forms: option lists,
 the API's checks with the option named, file stems, pre-flight checks before anything is
-computed or written.
+computed or written, and the streaming options (:func:`streamed`: block by block to a file,
+run by :mod:`fieldmap.cli.distributed`).
 """
 
 from __future__ import annotations
@@ -151,3 +152,51 @@ def map_request(args: argparse.Namespace, heights_km: list[float], **fixed: Any)
         rows_per_block=getattr(args, "rows_per_block", None),
         **fixed,
     )
+
+
+def streaming_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--scheduler``, ``--format`` and ``--rows-per-block`` to a map sub-command."""
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="compute block by block on Dask: local:N (a cluster of N worker processes for this "
+        "run), a scheduler address (tcp://host:port), or 'threads' (here, blocks one after the "
+        "other); default: the whole map in memory here",
+    )
+    p.add_argument(
+        "--format",
+        choices=("netcdf", "zarr"),
+        default="netcdf",
+        help="product format: netcdf (NetCDF-4, zlib; default) or zarr (chunked, written by "
+        "the workers in parallel; implies block-by-block computation)",
+    )
+    p.add_argument(
+        "--rows-per-block",
+        type=int,
+        default=None,
+        help="most latitude rows per block (default: from the memory budget and the grid)",
+    )
+
+
+def streamed(args: argparse.Namespace) -> bool:
+    """Tell whether the product is streamed to its file block by block (not held in memory).
+
+    Options that need the whole map in memory are refused here with one line naming them.
+    A streamed product is run by :mod:`fieldmap.cli.distributed`.
+    """
+    from fieldmap.errors import InputError
+
+    scheduler, fmt = getattr(args, "scheduler", None), getattr(args, "format", None)
+    streamed = scheduler is not None or fmt == "zarr"
+    if streamed:
+        how = "--format zarr" if fmt == "zarr" else f"--scheduler {scheduler}"
+        if getattr(args, "float32", False):
+            raise InputError(
+                f"--float32 is not available with {how}: streamed maps are stored in float64"
+            )
+        if getattr(args, "percentile_method", "histogram") != "histogram":
+            raise InputError(
+                f"--percentile-method {args.percentile_method} needs the whole map in memory: "
+                f"not with {how}"
+            )
+    return streamed

@@ -1,6 +1,7 @@
 """``fieldmap map|sweep --scheduler ... --format ...``: products streamed block by block.
 
-Used by :mod:`fieldmap.cli.maps` when ``--scheduler`` is given or ``--format zarr``: the blocks
+Used by :mod:`fieldmap.cli.maps` when ``--scheduler`` is given or ``--format zarr``
+(:func:`fieldmap.cli.common.streamed`, options added by its ``streaming_options``): the blocks
 of :mod:`fieldmap.products.engine` run here (``--scheduler threads``), on a LocalCluster
 (``local:N``) or on a running Dask scheduler (an address), and go straight to the NetCDF file or
 zarr store; figures are drawn from a decimated view of the store. Bad input and an unreachable
@@ -27,53 +28,6 @@ if TYPE_CHECKING:
     Figures = list[tuple[str, Callable[..., Figure]]]
     #: ``publish(view, info, elapsed)``: the JSON summary and the figures
     Publish = Callable[[xr.Dataset, dict, float], tuple[dict, Figures]]
-
-
-def add_options(p: argparse.ArgumentParser) -> None:
-    """Add ``--scheduler``, ``--format`` and ``--rows-per-block`` to a map sub-command."""
-    p.add_argument(
-        "--scheduler",
-        default=None,
-        help="compute block by block on Dask: local:N (a cluster of N worker processes for this "
-        "run), a scheduler address (tcp://host:port), or 'threads' (here, blocks one after the "
-        "other); default: the whole map in memory here",
-    )
-    p.add_argument(
-        "--format",
-        choices=("netcdf", "zarr"),
-        default="netcdf",
-        help="product format: netcdf (NetCDF-4, zlib; default) or zarr (chunked, written by "
-        "the workers in parallel; implies block-by-block computation)",
-    )
-    p.add_argument(
-        "--rows-per-block",
-        type=int,
-        default=None,
-        help="most latitude rows per block (default: from the memory budget and the grid)",
-    )
-
-
-def wanted(args: argparse.Namespace) -> bool:
-    """Tell whether the product is streamed to its file block by block (not held in memory).
-
-    Options that need the whole map in memory are refused here with one line naming them.
-    """
-    from fieldmap.errors import InputError
-
-    scheduler, fmt = getattr(args, "scheduler", None), getattr(args, "format", None)
-    streamed = scheduler is not None or fmt == "zarr"
-    if streamed:
-        how = "--format zarr" if fmt == "zarr" else f"--scheduler {scheduler}"
-        if getattr(args, "float32", False):
-            raise InputError(
-                f"--float32 is not available with {how}: streamed maps are stored in float64"
-            )
-        if getattr(args, "percentile_method", "histogram") != "histogram":
-            raise InputError(
-                f"--percentile-method {args.percentile_method} needs the whole map in memory: "
-                f"not with {how}"
-            )
-    return streamed
 
 
 def run(

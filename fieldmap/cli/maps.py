@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import xarray as xr
 
-from fieldmap.cli import distributed
 from fieldmap.cli.common import (
     api_call,
     heights_km,
@@ -24,6 +23,8 @@ from fieldmap.cli.common import (
     preflight,
     print_files,
     stem,
+    streamed,
+    streaming_options,
     thresholds_mg,
 )
 
@@ -140,8 +141,21 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
     )
 
 
-def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Add the map, sweep and truncation sub-commands."""
+def register(
+    subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
+    commands: tuple[str, ...] = ("map", "sweep", "truncation"),
+) -> None:
+    """Add the map, sweep and truncation sub-commands (or those of ``commands`` only).
+
+    :func:`fieldmap.cli.build_parser` names the one run: ``fieldmap map`` then imports nothing
+    of ``truncation``'s options (:mod:`fieldmap.cli.degree`).
+    """
+    for command in commands:
+        _REGISTER[command](subparsers)
+
+
+def _register_map(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``fieldmap map``."""
     p = subparsers.add_parser(
         "map",
         help="gravity-disturbance map at one height (the main job)",
@@ -161,10 +175,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "thresholds in mg (1 mg = 9.80665e-3 m/s²) for area fractions and isolines, "
         "positive and distinct",
     )
-    distributed.add_options(p)
+    streaming_options(p)
     _percentile_option(p)
     p.set_defaults(func=run_map)
 
+
+def _register_sweep(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``fieldmap sweep``."""
     p = subparsers.add_parser(
         "sweep",
         help="disturbance statistics over several heights",
@@ -185,10 +202,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         DEFAULT_THRESHOLDS,
         "thresholds in mg (1 mg = 9.80665e-3 m/s²), positive and distinct",
     )
-    distributed.add_options(p)
+    streaming_options(p)
     _percentile_option(p)
     p.set_defaults(func=run_sweep)
 
+
+def _register_truncation(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``fieldmap truncation``."""
     p = subparsers.add_parser(
         "truncation",
         help="J2/J4/J6 normal gravitation truncation-error maps, or SH omission maps "
@@ -213,6 +233,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
     degree.add_options(p)
     p.set_defaults(func=run_truncation)
+
+
+_REGISTER = {"map": _register_map, "sweep": _register_sweep, "truncation": _register_truncation}
 
 
 def _percentile_option(p: argparse.ArgumentParser) -> None:
@@ -266,19 +289,28 @@ def _check_omission_option(args: argparse.Namespace) -> None:
         )
 
 
+def _disturbance_figures(ds: xr.Dataset, thresholds: list[float]) -> list:
+    """Return the figures of a disturbance map or sweep (matplotlib imported only for them)."""
+    from fieldmap.products import plots
+
+    return plots.disturbance_figures(ds, thresholds)
+
+
 def run_map(args: argparse.Namespace) -> int:
     """``fieldmap map``: disturbance map at one height."""
-    from fieldmap.cli.quantity import run_quantity
-    from fieldmap.products import plots
     from fieldmap.products.engine import compute
     from fieldmap.products.variables import fraction_attr
 
     _check_omission_option(args)
     (height_km,) = heights_km(args, "map takes one height; use sweep for several")
     if args.quantity != "disturbance":
+        from fieldmap.cli.quantity import run_quantity
+
         return run_quantity(args, [height_km])
     thresholds = thresholds_mg(args)
-    if distributed.wanted(args):
+    if streamed(args):
+        from fieldmap.cli import distributed
+
         return distributed.run(args, [height_km], thresholds, stacked=False)
     preflight(args, [height_km])
     t0 = time.perf_counter()
@@ -303,23 +335,25 @@ def run_map(args: argparse.Namespace) -> int:
     print("  threshold (mg)   area above (%)")
     for t in thresholds:
         print(f"  {t:>14g}   {100 * a[fraction_attr(t)]:>14.2f}")
-    figures = [] if args.no_plots else plots.disturbance_figures(ds, thresholds)
+    figures = [] if args.no_plots else _disturbance_figures(ds, thresholds)
     print_files(_write(ds, stem(ds, "disturbance"), Path(args.out), figures, {}, args.float32))
     return 0
 
 
 def run_sweep(args: argparse.Namespace) -> int:
     """``fieldmap sweep``: statistics over several heights."""
-    from fieldmap.cli.quantity import run_quantity
-    from fieldmap.products import plots
     from fieldmap.products.engine import compute
 
     _check_omission_option(args)
     thresholds = thresholds_mg(args)
     heights = heights_km(args)
     if args.quantity != "disturbance":
+        from fieldmap.cli.quantity import run_quantity
+
         return run_quantity(args, heights)
-    if distributed.wanted(args):
+    if streamed(args):
+        from fieldmap.cli import distributed
+
         return distributed.run(args, heights, thresholds, stacked=True)
     preflight(args, heights)
     t0 = time.perf_counter()
@@ -346,7 +380,7 @@ def run_sweep(args: argparse.Namespace) -> int:
             for t, f in zip(thresholds, ds["area_fraction_above"].values[k])
         )
         print(row)
-    figures = [] if args.no_plots else plots.disturbance_figures(ds, thresholds)
+    figures = [] if args.no_plots else _disturbance_figures(ds, thresholds)
     print_files(_write(ds, stem(ds, "sweep"), Path(args.out), figures, {}, args.float32))
     return 0
 

@@ -5,10 +5,9 @@ path; ``--trajectory FILE`` or ``--route "lat,lon,h;..." --speed-mps V`` runs th
 :mod:`fieldmap.nav.study` (``navsim_flight.*``: see
 :func:`fieldmap.nav.report.write_flight_outputs`).
 
-Each option applies to the paper's studies, to the flight study or to both (the table of
-:data:`~fieldmap.cli.navoptions.FLIGHT_ONLY`, :data:`~fieldmap.cli.navoptions.STUDIES_ONLY` and
-:data:`~fieldmap.cli.navoptions.USED_BY` in :mod:`fieldmap.cli.navoptions`, where the options are
-defined; their names are re-exported here): one given where it does nothing (``--block-s`` with
+Each option applies to the paper's studies, to the flight study or to both (the tables
+:data:`FLIGHT_ONLY`, :data:`STUDIES_ONLY` and :data:`USED_BY`, beside :func:`add_options`, where
+the options are defined): one given where it does nothing (``--block-s`` with
 ``--study table1``, ``--bias-mode`` with ``--route``, ``--draws`` with an ideal IMU) is refused
 in one line, exit status 2, before any work.
 
@@ -17,21 +16,34 @@ values), ``navsim_<study>.nc`` (error curves over time, xarray/NetCDF, CF attrib
 ``navsim_<study>.png`` (Figs. 11-13 like curves) under ``--out`` (default ``outputs/``). Every
 input is checked before any work starts; every file is written to a temporary name and renamed,
 so a failed run leaves nothing half-written.
+
+The flight study (``--trajectory FILE [FILE ...]`` / ``--route``, the section "your flight"):
+flight logs are read as they come (:func:`fieldmap.nav.logs.load.load_flight`: CSV with any
+column names, ADS-B exports, GPX, NMEA, IGC; MSL or pressure heights), conditioned (outliers,
+gaps, ground, smoothing; ``--no-smooth`` for clean, simulated files) and flown: one summary table,
+and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` and the fit
+figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
+are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
+the kinematics that were flown. Its notes, like the messages of the readers and the
+conditioning, name the options here (:func:`fieldmap.cli.params.reword`).
+
+The module reads top-down: your flight (its options and steps); all the options and where
+each applies; the command.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import sys
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from fieldmap.cli import navflight, navoptions
-from fieldmap.cli.navoptions import STUDIES
 from fieldmap.errors import InputError
 from fieldmap.limits import MAX_DRAWS
 
@@ -44,9 +56,573 @@ if TYPE_CHECKING:
     from fieldmap.models.shmodel import SHModel
     from fieldmap.nav.logs.report import ConditionedFlight
     from fieldmap.nav.paper import StudyResult
+    from fieldmap.nav.sensors import ImuErrorSpec
     from fieldmap.nav.study import FlightStudy, Scenario
+    from fieldmap.nav.trajectory import Trajectory
+
+    #: ``(name, trajectory, conditioning or None)`` of a flight to fly
+    Flight = tuple[str, Trajectory, ConditionedFlight | None]
 
 
+# -------------------------------------------------------------------------------------- your flight
+#: options of the flight logs (``--trajectory``) only: dest -> option
+LOG_ONLY = {
+    "columns": "--columns",
+    "alt_units": "--alt-units",
+    "height_ref": "--height-ref",
+    "time_format": "--time-format",
+    "position_noise_m": "--position-noise-m",
+    "max_gap_s": "--max-gap-s",
+    "keep_ground": "--keep-ground",
+    "no_smooth": "--no-smooth",
+}
+#: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
+#: CSV with attitude columns, NetCDF) skip it: dest -> option
+CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground")}
+#: options of the flight study, logs and routes alike: dest -> option
+FLIGHT_EXTRA = {
+    "gravity_rate_hz": "--gravity-rate-hz",
+    "truth_evaluation": "--truth-evaluation",
+}
+
+
+def _flight_options(p: argparse.ArgumentParser) -> None:
+    """Add the flight-log and fast-path options of ``navsim``."""
+    g = p.add_argument_group("flight logs (--trajectory)")
+    g.add_argument(
+        "--columns",
+        default=None,
+        help="CSV columns: time=NAME,lat=NAME,lon=NAME,alt=NAME (default: recognised from the "
+        "header: fieldmap, OpenSky, traffic)",
+    )
+    g.add_argument("--alt-units", default=None, choices=("m", "ft"), help="altitude units")
+    g.add_argument(
+        "--height-ref",
+        default=None,
+        choices=("ellipsoid", "msl", "pressure"),
+        help="what the heights are: above the ellipsoid, above mean sea level (the truth "
+        "model's geoid is added), or pressure altitude (ISA, approximate)",
+    )
+    g.add_argument(
+        "--time-format",
+        default=None,
+        help="s, epoch, epoch_ms, iso or a strptime pattern (default: recognised)",
+    )
+    g.add_argument(
+        "--position-noise-m",
+        default=None,
+        help="position noise of the smoothing fit, horizontal[,vertical] in m (default: "
+        "estimated from the log)",
+    )
+    g.add_argument(
+        "--max-gap-s",
+        type=float,
+        default=60.0,
+        help="longest gap bridged by the fit; longer gaps split the log and the longest part "
+        "is flown (default 60)",
+    )
+    g.add_argument(
+        "--keep-ground",
+        action="store_true",
+        help="keep the taxi and ground segments at the ends (default: trimmed)",
+    )
+    g.add_argument(
+        "--no-smooth",
+        action="store_true",
+        help="no conditioning: interpolate the samples exactly (clean, simulated flights)",
+    )
+    p.add_argument(
+        "--gravity-rate-hz",
+        default=None,
+        help="flight study, SH navigation models: disturbance update rate in Hz, or 'full' for "
+        "the whole model every step (default: from the degree and the speed, error < 0.1 %%)",
+    )
+    p.add_argument(
+        "--truth-evaluation",
+        default="interpolated",
+        choices=("interpolated", "full"),
+        help="flight study truth: disturbance interpolated along the path plus the exact "
+        "normal field (default; error measured and reported), or the SH model at every node",
+    )
+
+
+def _noise(text: str | None) -> float | tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        vals = [float(x) for x in str(text).replace(",", " ").split()]
+    except ValueError:
+        vals = []
+    if len(vals) not in (1, 2) or not all(math.isfinite(v) and v > 0 for v in vals):
+        raise InputError(
+            f"--position-noise-m takes 1 or 2 positive numbers (m, horizontal[,vertical]), "
+            f"got {text!r}"
+        )
+    return vals[0] if len(vals) == 1 else (vals[0], vals[1])
+
+
+def _rate(text: str | None) -> float | str | None:
+    if text is None or str(text).lower() == "full":
+        return None if text is None else "full"
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(
+            f"--gravity-rate-hz must be a number of Hz or 'full', got {text!r}"
+        ) from None
+
+
+def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
+    """Return ``[(name, trajectory, conditioning or None), ...]`` of the flights to fly.
+
+    The conditioning options are refused (one line) where no flight is conditioned: with
+    ``--no-smooth``, and when every file is flown as recorded. The notes of the conditioning
+    name the options here (:func:`fieldmap.cli.params.reword`; its errors are reworded where
+    they are reported, :func:`fieldmap.cli.main`).
+    """
+    from fieldmap.cli import given
+    from fieldmap.cli.params import reword
+    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.logs.condition import Conditioning
+    from fieldmap.nav.logs.load import load_flight
+
+    if args.route is not None:
+        for dest, option in LOG_ONLY.items():
+            if given(args, dest):
+                raise InputError(f"{option} applies to flight logs (--trajectory), not to --route")
+        return [("route", FlightTrajectory(route_flight(args.route, args.speed_mps)), None)]
+    if given(args, "no_smooth"):
+        for dest, option in CONDITIONING.items():
+            if given(args, dest):
+                raise InputError(
+                    f"{option} applies to the conditioning of the log, which --no-smooth turns "
+                    "off (the samples are flown as they are)"
+                )
+    conditioning = Conditioning(
+        position_noise_m=_noise(args.position_noise_m),
+        max_gap_s=args.max_gap_s,
+        airborne_only=not args.keep_ground,
+        smooth=not args.no_smooth,
+    )
+    out: list[Flight] = []
+    names: set[str] = set()
+    for path in args.trajectory:
+        traj, cf = load_flight(
+            path,
+            conditioning,
+            columns=args.columns,
+            alt_units=args.alt_units,
+            height_ref=args.height_ref,
+            time_format=args.time_format,
+            model=model,
+        )
+        if cf is not None:
+            cf.report["notes"] = [reword(note) for note in cf.report["notes"]]
+        name = Path(path).name.split(".")[0] or "flight"
+        base, k = name, 2
+        while name in names:
+            name, k = f"{base}_{k}", k + 1
+        names.add(name)
+        out.append((name, traj, cf))
+    _refuse_unconditioned(args, out)
+    return out
+
+
+def _refuse_unconditioned(args: argparse.Namespace, flights_: Sequence[Flight]) -> None:
+    """Refuse the conditioning options when every flight is flown as recorded (not conditioned)."""
+    from fieldmap.cli import given
+
+    if any(cf is not None for _, _, cf in flights_):
+        return
+    for dest, option in {**CONDITIONING, "no_smooth": "--no-smooth"}.items():
+        if given(args, dest):
+            files = ", ".join(str(p) for p in args.trajectory)
+            verb = "is" if len(args.trajectory) == 1 else "are"
+            raise InputError(
+                f"{option} applies to conditioned flight logs: {files} {verb} flown as recorded "
+                "(a fieldmap flight file with attitude columns, or NetCDF), not conditioned"
+            )
+
+
+def _flight_study(
+    args: argparse.Namespace,
+    traj: Trajectory,
+    imu: tuple[str, ImuErrorSpec],
+    model: SHModel,
+    names: list[str],
+) -> FlightStudy:
+    """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
+
+    Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
+    names the options instead (:func:`fieldmap.cli.params.reword`).
+    """
+    from fieldmap.nav.study import FlightStudy
+
+    return FlightStudy(
+        traj,
+        imu=imu[1],
+        imu_name=imu[0],
+        models=names,
+        draws=20 if args.draws is None else args.draws,
+        seed=args.seed,
+        rate_hz=args.rate,
+        frame=args.frame or "ned",
+        altitude_aiding=args.altitude_aiding,
+        truth=model,
+        truth_evaluation=args.truth_evaluation,
+        gravity_rate_hz=_rate(args.gravity_rate_hz),
+        n_gauss=args.gauss,
+        duration=args.duration,
+        output_dt=args.output_dt,
+        block_s=args.block_s,
+        fraction=args.fraction,
+        omission_model="tscherning-rapp" if args.omission_model is None else args.omission_model,
+        commission={None: None, "auto": None, "on": True, "off": False}[args.commission],
+        method=args.method or "monte-carlo",
+    )
+
+
+def _run_flights(
+    args: argparse.Namespace,
+    studies: Sequence[tuple[str, FlightStudy, ConditionedFlight | None]],
+    *,
+    device: str | None = None,
+    client: Client | None = None,
+) -> int:
+    """Fly every flight; write all outputs (or none); print the reports; exit 1 if one diverged.
+
+    ``studies``: ``[(name, FlightStudy, conditioning or None), ...]``, validated.
+    """
+    import warnings
+
+    from tqdm import tqdm
+
+    from fieldmap.nav.covariance import CovarianceStudyResult
+    from fieldmap.nav.plots import disturbance_grid
+    from fieldmap.nav.report import (
+        format_covariance,
+        format_flight,
+        write_covariance_outputs,
+        write_flight_outputs,
+    )
+    from fieldmap.nav.study import run_flight
+    from fieldmap.products.io import output_batch
+
+    results = []
+    for name, st, cf in studies:
+        tqdm.write(
+            f"navsim: flight {name} of {st.flight.duration:g} s, IMU {st.imu_name} at "
+            f"{st.rate_hz:g} Hz, models {' '.join(st.models)}"
+        )
+        if cf is not None:
+            print(cf.format_report())
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            res = run_flight(st, device=device, client=client, progress=True)
+        for w in caught:
+            if issubclass(w.category, RuntimeWarning) and "diverged" in str(w.message):
+                tqdm.write(f"warning: {w.message}")
+        if args.no_timing:  # no wall-clock seconds in the files: two runs' results compare equal
+            for key in (
+                "synthesis_seconds", "propagation_seconds", "gravity_budget_seconds",
+                "covariance_seconds",
+            ):  # fmt: skip
+                if key in res.summary["meta"]:
+                    res.summary["meta"][key] = None
+        if cf is not None:
+            res.summary["conditioning"] = cf.report
+        results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))
+    several = len(results) > 1
+    with output_batch(args.out) as batch:  # every file of every flight, or none
+        for name, res, cf, grid in results:
+            prefix = f"navsim_flight_{name}" if several else "navsim_flight"
+            if isinstance(res, CovarianceStudyResult):
+                write_covariance_outputs(res, batch, prefix=prefix)
+            else:
+                write_flight_outputs(res, batch, grid, prefix=prefix)
+            if cf is not None:
+                from fieldmap.nav.logs.report import plot_conditioning
+
+                batch.png(plot_conditioning(cf), f"{prefix}_conditioning.png")
+    for name, res, _, _ in results:
+        if several:
+            print(f"== {name} ==")
+        print(
+            format_covariance(res) if isinstance(res, CovarianceStudyResult) else format_flight(res)
+        )
+    if several:
+        print(f"{'flight':24s} {'duration s':>10s}  recommended")
+        for name, res, _, _ in results:
+            m = res.summary["meta"]
+            print(f"{name:24s} {m['duration_s']:10.0f}  {res.summary['recommended_model']}")
+    return 1 if any(res.diverged for _, res, _, _ in results) else 0
+
+
+# --------------------------------------------------------------- the options and where each applies
+STUDIES = ("table1", "table3", "table4")
+
+#: most Monte Carlo draws per study (each draw propagates the whole flight; 10 000 draws of the
+#: 800 s path take hours on a CPU)
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """Add the options of ``navsim`` (those of the flight study included) to ``p``."""
+    p.add_argument(
+        "--study", default="table1", choices=STUDIES + ("all",), help="study (default table1)"
+    )
+    p.add_argument(
+        "--trajectory",
+        default=None,
+        nargs="+",
+        metavar="FILE",
+        help="your flight log(s), as they come: CSV (fieldmap's time_s, lat_deg, lon_deg, "
+        "height_m [, roll_deg, pitch_deg, heading_deg]; ADS-B exports; any columns with "
+        "--columns), GPX, NMEA 0183, IGC, or NetCDF; conditioned (outliers, gaps, smoothing) "
+        "unless --no-smooth; several files: one study each, one summary",
+    )
+    p.add_argument(
+        "--route",
+        default=None,
+        help='a study flight along geodesics: "lat,lon,h;lat,lon,h;..." (with --speed-mps)',
+    )
+    p.add_argument("--speed-mps", type=float, default=None, help="ground speed of --route (m/s)")
+    p.add_argument(
+        "--imu",
+        default=None,
+        help="flight study IMU: ideal consumer industrial tactical navigation strategic "
+        "table2-groupN table4, or a TOML file (default ideal)",
+    )
+    p.add_argument(
+        "--frame",
+        default=None,
+        choices=("ned", "lci"),
+        help="mechanization of the flight study (default ned; the paper's studies use lci)",
+    )
+    p.add_argument(
+        "--altitude-aiding",
+        default="auto",
+        choices=("auto", "none", "baro"),
+        help="flight study vertical channel: third-order baro loop or free (auto: baro for "
+        "flights over 15 min)",
+    )
+    p.add_argument(
+        "--fraction",
+        type=float,
+        default=0.1,
+        help="recommended model: the simplest whose gravity contribution (model difference, "
+        "omission and commission through the linear error model) stays below this fraction of "
+        "the IMU-only horizontal error (default 0.1)",
+    )
+    p.add_argument(
+        "--method",
+        default=None,
+        choices=("monte-carlo", "covariance"),
+        help="flight study: monte-carlo (default: strapdown runs of every model and IMU draw) "
+        "or covariance (linear covariance analysis: sigma(t) of every error source in one "
+        "pass, an error budget; --draws does not apply)",
+    )
+    p.add_argument(
+        "--omission-model",
+        default=None,
+        metavar="tscherning-rapp|kaula|fitted|none",
+        help="flight study: degree-variance model of the field above the truth's degree (the "
+        "omission term of the gravity budget; default tscherning-rapp, Tscherning & Rapp 1974 "
+        "model 4; fitted: a power law fitted to the truth's own degrees; none: left out)",
+    )
+    p.add_argument(
+        "--commission",
+        default=None,
+        choices=("auto", "on", "off"),
+        help="flight study: realise the truth model's coefficient errors (the commission term "
+        "of the gravity budget; auto, the default: when the model carries coefficient sigma)",
+    )
+    p.add_argument(
+        "--block-s",
+        type=float,
+        default=600.0,
+        help="flight study time block in s (memory bound; default 600)",
+    )
+    p.add_argument(
+        "--models",
+        nargs="+",
+        default=["j2,j4,j6,exact,sh18,sh200"],
+        help="navigation gravity models, comma or space separated: j2 j4 j6 exact sh shN "
+        "table:FILE auto (exact: the closed-form level-ellipsoid field, the --normal exact of "
+        "the maps; 'normal' is its deprecated name; table:FILE: exact plus a compensation table "
+        "of 'fieldmap table', flight studies only; auto: j2 j4 j6 exact and SH degrees "
+        "12..the model's, the recommendation then names the simplest that meets --fraction) "
+        "(table1 and flight; table4 adds the full IMU errors to the SH ones and to --nav)",
+    )
+    p.add_argument(
+        "--nav",
+        default="j4",
+        help="normal model of table3 and of the table4 IMU-only reference (default j4)",
+    )
+    p.add_argument(
+        "--draws",
+        type=int,
+        default=None,
+        help=f"Monte Carlo draws, 1..{MAX_DRAWS} (default: table3 50, table4 20)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the error draws, >= 0 (default 0)")
+    p.add_argument(
+        "--bias-mode",
+        default="gauss",
+        choices=("gauss", "sign", "fixed"),
+        help="how constant errors are drawn per run (see fieldmap.nav.sensors)",
+    )
+    p.add_argument("--rate", type=float, default=200.0, help="IMU sample rate in Hz (default 200)")
+    p.add_argument(
+        "--gauss",
+        type=int,
+        default=3,
+        help="Gauss-Legendre nodes per IMU sample, 1..16 (default 3, as the API)",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="flight time in s (paper's studies: at most 800, default 800; flight: default all)",
+    )
+    p.add_argument(
+        "--model",
+        default="eigen-6s",
+        help="truth gravity model: bundled name or ICGEM .gfc[.gz] file (default eigen-6s)",
+    )
+    p.add_argument("--truth", dest="model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument(
+        "--lmax",
+        type=int,
+        default=None,
+        help="truth degree (default: the model's full degree)",
+    )
+    p.add_argument(
+        "--truth-degree", dest="lmax", type=int, default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    p.add_argument(
+        "--output-dt",
+        type=float,
+        default=None,
+        help="interval of the error curves in s (paper's studies: default 1, dividing the run; "
+        "flight: default about 3600 points)",
+    )
+    p.add_argument(
+        "--no-timing",
+        action="store_true",
+        help="table1: skip the gravity CPU-time measurement; flight: leave the wall-clock "
+        "seconds out of navsim_flight.json/.nc (null), so that two runs' files compare equal",
+    )
+    p.add_argument("--device", default=None, help="Warp device (cpu, cuda:0; default auto)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="threads|local:N|ADDRESS",
+        help="run the navigation launches (draws x models) on Dask: local:N starts a "
+        "LocalCluster of N worker processes, ADDRESS connects to a running scheduler; the paper's "
+        "studies and a flight study (--trajectory, --route: the IMU increments are synthesised "
+        "here, block by block, the runs propagated on the workers) give the results of a local "
+        "run, bit for bit (default: here)",
+    )
+    p.add_argument(
+        "--out",
+        default="outputs",
+        help="output folder, created with its parents if missing (default outputs/)",
+    )
+    _flight_options(p)
+
+
+#: options of the flight study (``--trajectory``/``--route``) only: dest -> option
+FLIGHT_ONLY = {
+    "imu": "--imu",
+    "frame": "--frame",
+    "altitude_aiding": "--altitude-aiding",
+    "fraction": "--fraction",
+    "block_s": "--block-s",
+    "omission_model": "--omission-model",
+    "commission": "--commission",
+    "method": "--method",
+    **LOG_ONLY,
+    **FLIGHT_EXTRA,
+}
+#: options of the paper's studies only (the flight study's IMU-only reference is J4 and its
+#: constant errors are Gaussian): dest -> option
+STUDIES_ONLY = {"study": "--study", "nav": "--nav", "bias_mode": "--bias-mode"}
+#: options that only some of the paper's studies use: dest -> (option, the studies using it)
+USED_BY = {
+    "models": ("--models", ("table1", "table4")),
+    "no_timing": ("--no-timing", ("table1",)),
+    "draws": ("--draws", ("table3", "table4")),
+    "seed": ("--seed", ("table3", "table4")),
+    "bias_mode": ("--bias-mode", ("table3", "table4")),
+    "nav": ("--nav", ("table3", "table4")),
+}
+_FLIGHT = "flight studies (--trajectory/--route)"
+
+
+def refuse_in_studies(
+    args: argparse.Namespace, studies: Sequence[str], models: Sequence[str], nav: str
+) -> None:
+    """Refuse, in one line, an option given that the paper's chosen studies do not use."""
+    from fieldmap.cli import given
+
+    where = f"--study {args.study}"
+    for dest, option in FLIGHT_ONLY.items():
+        if given(args, dest):
+            raise InputError(f"{option} applies to {_FLIGHT}, not to {where}")
+    if given(args, "speed_mps"):
+        raise InputError(f"--speed-mps applies to --route, not to {where}")
+    for dest, (option, users) in USED_BY.items():
+        if given(args, dest) and not set(users) & set(studies):
+            raise InputError(
+                f"{option} applies to --study {' or '.join(users)} (or all), not to {where}"
+            )
+    if tuple(studies) == ("table4",) and given(args, "models"):
+        unused = [m for m in models if not (m.startswith("sh") or m == nav)]
+        if unused:
+            raise InputError(
+                f"--models {' '.join(unused)}: --study table4 runs the SH models of --models and "
+                f"--nav ({nav}) only"
+            )
+
+
+def refuse_in_flight(
+    args: argparse.Namespace, imu: tuple[str, ImuErrorSpec], traj: Trajectory
+) -> None:
+    """Refuse, in one line, an option given that the flight study does not use."""
+    from fieldmap.cli import given
+    from fieldmap.nav.study import BARO_AFTER_S
+
+    for dest, option in STUDIES_ONLY.items():
+        if given(args, dest):
+            studies = "the paper's studies" + ("" if option == "--study" else " (--study)")
+            raise InputError(f"{option} applies to {studies}, not to {_FLIGHT}")
+    if given(args, "speed_mps") and args.route is None:
+        raise InputError("--speed-mps applies to --route, not to --trajectory")
+    if args.method == "covariance":
+        for dest, option in (("draws", "--draws"), ("scheduler", "--scheduler")):
+            if given(args, dest):
+                raise InputError(
+                    f"{option} applies to --method monte-carlo: the covariance analysis draws "
+                    "nothing and runs here"
+                )
+    label, spec = imu
+    if spec.is_ideal:
+        if given(args, "draws"):
+            raise InputError(
+                f"--draws needs IMU errors to draw: --imu {label} flies one run per model"
+            )
+        frame = args.frame or "ned"
+        duration = traj.duration if args.duration is None else args.duration
+        baro = args.altitude_aiding == "baro" or (
+            args.altitude_aiding == "auto" and frame == "ned" and duration > BARO_AFTER_S
+        )
+        if given(args, "seed") and not baro:
+            raise InputError(
+                f"--seed: nothing is drawn with --imu {label} and no baro altitude aiding"
+            )
+
+
+# -------------------------------------------------------------------------------------- the command
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``navsim`` sub-command."""
     p = subparsers.add_parser(
@@ -58,7 +634,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "Bad input, or an option given where it does nothing (a flight option with --study, "
         "--bias-mode with --route): one line on stderr, exit status 2, nothing written.",
     )
-    navoptions.add_options(p)
+    add_options(p)
     p.set_defaults(func=run)
 
 
@@ -150,9 +726,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     # before the IMU synthesis: its progress bar would come before the refusal
     output_steps(args.output_dt, steps, 2.0 / args.rate)
     nav = _model_names(args, [args.nav], model, notes)[0]
-    navoptions.refuse_in_studies(
-        args, STUDIES if args.study == "all" else (args.study,), models, nav
-    )
+    refuse_in_studies(args, STUDIES if args.study == "all" else (args.study,), models, nav)
     check_out_dir(args.out)
     device = resolve_device(args.device)
     return device, models, nav
@@ -199,12 +773,12 @@ def _check_flight_args(
         raise InputError(
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
-    flights = navflight.flights(args, model)
+    flights = _flights(args, model)
     studies = []
     for name, traj, cf in flights:
-        navoptions.refuse_in_flight(args, imu, traj)
+        refuse_in_flight(args, imu, traj)
         with _deprecation_notes(args, notes):
-            studies.append((name, navflight.study(args, traj, imu, model, names), cf))
+            studies.append((name, _flight_study(args, traj, imu, model, names), cf))
     check_out_dir(args.out)
     device = resolve_device(args.device)
     return device, list(studies[0][1].models), studies
@@ -212,20 +786,23 @@ def _check_flight_args(
 
 def run(args: argparse.Namespace) -> int:
     """Run the chosen study (or all) and write its outputs."""
-    from fieldmap.products.engine import open_client, parse_scheduler
     from fieldmap.products.io import output_batch
 
     notes: list[str] = []
     device, models, nav = _check_args(args, notes)
-    scheduler = parse_scheduler(args.scheduler)
+    cluster: contextlib.AbstractContextManager[Any] = contextlib.nullcontext(None)  # here
+    if args.scheduler is not None:
+        from fieldmap.cluster import open_client, parse_scheduler
+
+        cluster = open_client(parse_scheduler(args.scheduler))
     for note in notes:
         print(note, file=sys.stderr)
     studies = STUDIES if args.study == "all" else (args.study,)
     # connect (or start the LocalCluster) before the long work; None: here
-    with open_client(scheduler) as opened:
+    with cluster as opened:
         client = cast("Client | None", opened)  # open_client yields a Client, or None: here
         if is_flight(args):
-            return navflight.run(args, nav, device=device, client=client)
+            return _run_flights(args, nav, device=device, client=client)
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:

@@ -8,7 +8,7 @@ keep ground movement", "draws must be within 1..10000", "baro altitude aiding ne
 frame='ned'"), and an :class:`~fieldmap.errors.InputError` about one carries its name as
 ``param``. A user of the command line can only change options, so the CLI rewords such text
 with :data:`OPTIONS` and :data:`ADVICE` before it shows it (:func:`reword`; errors in
-:func:`fieldmap.cli.main`, the notes of a conditioning report in :mod:`fieldmap.cli.navflight`).
+:func:`fieldmap.cli.main`, the notes of a conditioning report in :mod:`fieldmap.cli.nav`).
 
 How a message names a keyword ``name`` (a key of :data:`OPTIONS`), and what the command line
 makes of it:

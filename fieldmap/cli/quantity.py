@@ -20,8 +20,7 @@ if TYPE_CHECKING:
 
 def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
     """Compute, print and write a quantity map (one height) or sweep (several)."""
-    from fieldmap.cli import distributed
-    from fieldmap.cli.common import map_request, preflight, print_files, stem
+    from fieldmap.cli.common import map_request, preflight, print_files, stem, streamed
     from fieldmap.errors import InputError
     from fieldmap.products.engine import compute
     from fieldmap.products.io import output_batch
@@ -54,7 +53,7 @@ def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
                     f"{option}: --quantity gradient-normal is the exact normal gravity of the "
                     "ellipsoid, no model enters it; leave the model options out"
                 )
-    if distributed.wanted(args):
+    if streamed(args):
         return _run_blocks(args, heights_km)
     preflight(args, heights_km)
     t0 = time.perf_counter()

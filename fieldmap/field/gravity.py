@@ -22,7 +22,7 @@ still work, with a ``DeprecationWarning``: :func:`apply_model_options`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -80,7 +80,7 @@ def apply_model_options(
         )
     from fieldmap.models.registry import load_model
 
-    return load_model(model, lmax=lmax, epoch=epoch)
+    return load_model(cast(Any, model), lmax=lmax, epoch=epoch)
 
 
 def _model(model: object) -> SHModel:
@@ -88,7 +88,7 @@ def _model(model: object) -> SHModel:
         return model
     from fieldmap.models.registry import load_model
 
-    return load_model(model)
+    return load_model(cast(Any, model))
 
 
 def _inputs(

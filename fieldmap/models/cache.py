@@ -27,7 +27,7 @@ memory-mapped, in tens of milliseconds. Layout under :func:`cache_dir`
 * **Atomic.** An entry is written in a temporary folder and renamed into place; a process that
   loses the race keeps its own copy in memory and removes its temporary folder. A cache folder
   that cannot be written only costs the speed-up (the model still loads); one that is a file is
-  refused (:mod:`fieldmap.models._cache_root`).
+  refused (:func:`usable`).
 """
 
 from __future__ import annotations
@@ -45,13 +45,38 @@ from typing import Any
 import numpy as np
 
 from fieldmap.errors import InputError
-from fieldmap.models._cache_root import usable
 from fieldmap.models.shmodel import SHModel
 
 #: format of the entries themselves (bump when the layout changes)
 CACHE_FORMAT = 2  # 2: sigma_c, sigma_s (SC.npy, SS.npy) stored when the model has them
 _ARRAYS = ("C", "S")
 _CORR = ("CC", "CS")
+
+
+def usable(root: str) -> str:
+    """Return ``root``, refused if it is no folder.
+
+    :class:`InputError` if ``root``, or the nearest existing path above it, is not a folder (a
+    missing folder is fine: the cache creates it). A cache folder that cannot be written only
+    costs the speed-up, but a path that is a file, or lies under one (``FIELDMAP_MODEL_CACHE``
+    set to a file by mistake), is a misconfiguration: every use of the cache reports it in one
+    line, rather than ``fieldmap cache info`` listing "0 cached models" in it and every run
+    parsing the model file again in silence.
+    """
+    probe = os.path.abspath(root)
+    while not os.path.lexists(probe):
+        parent = os.path.dirname(probe)
+        if parent == probe:
+            return root
+        probe = parent
+    if os.path.isdir(probe):
+        return root
+    same = probe == os.path.abspath(root)
+    why = "is not a folder" if same else f"cannot be made ({probe} is not a folder)"
+    raise InputError(
+        f"model cache folder {root} {why}: set FIELDMAP_MODEL_CACHE to a folder (or read models "
+        "without the cache, --no-cache)"
+    )
 
 
 def cache_dir() -> str:

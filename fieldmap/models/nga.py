@@ -11,7 +11,7 @@ neither GM nor the reference radius: they are taken from the model's name in the
 (:data:`KNOWN`, NGA's published constants) or must be given (``gm``, ``radius``); the model's
 ``header["constants"]`` says which were used.
 
-The file is tokenised in bulk with NumPy (:mod:`fieldmap.models._gfc_scan`), so EGM2008's
+The file is tokenised in bulk with NumPy (:mod:`fieldmap.models.icgem`), so EGM2008's
 2.4 million lines parse in seconds; a per-token pass runs only to name the line of an error.
 """
 
@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 
 from fieldmap.errors import InputError, ModelFileError
-from fieldmap.models import _gfc_scan as scan
+from fieldmap.models import icgem
 from fieldmap.models.shmodel import SHModel
 
 #: version of this reader, part of the key of the on-disk cache (bump when output changes)
@@ -126,9 +126,9 @@ def read_nga(
         if gm is None and radius is None
         else f"given, the other from {kn[0]}'s published values"
     )
-    raw = scan.read_bytes(path)
-    scan.check_text(path, raw, "an NGA coefficient file")
-    buf, starts, ends, tok_line, ntok, first = scan.tokenise(raw, 0)
+    raw = icgem.read_bytes(path)
+    icgem.check_text(path, raw, "an NGA coefficient file")
+    buf, starts, ends, tok_line, ntok, first = icgem.tokenise(raw, 0)
     li = np.flatnonzero(ntok > 0)
     if li.size == 0:
         raise _fail(path, 0, "no coefficient lines")
@@ -139,8 +139,8 @@ def read_nga(
         raise _fail(
             path, k + 1, f"expected 4 or 6 fields 'n m C S [sigmaC sigmaS]', got {int(ntok[k])}"
         )
-    ints, ok = scan.small_ints(buf, starts[first[li]], ends[first[li]])
-    ints_m, ok_m = scan.small_ints(buf, starts[first[li] + 1], ends[first[li] + 1])
+    ints, ok = icgem.small_ints(buf, starts[first[li]], ends[first[li]])
+    ints_m, ok_m = icgem.small_ints(buf, starts[first[li] + 1], ends[first[li] + 1])
     bad = ~(ok & ok_m)
     if bad.any():
         raise _fail(path, int(li[np.flatnonzero(bad)[0]]) + 1, "degree and order must be integers")
@@ -192,13 +192,13 @@ def read_nga(
         sigma_s[:, 0] = 0.0
         sigma_c = np.ascontiguousarray(sigma_c[: lmax + 1, : lmax + 1])
         sigma_s = np.ascontiguousarray(sigma_s[: lmax + 1, : lmax + 1])
-    if (why := scan.c00_problem(C)) is not None:  # not 1: the file has a degree-0 line
+    if (why := icgem.c00_problem(C)) is not None:  # not 1: the file has a degree-0 line
         k = int(np.flatnonzero((n == 0) & (m == 0))[0])
         raise _fail(path, int(li[k]) + 1, why)
-    if (one := scan.degree1_problem(C, S)) is not None:
+    if (one := icgem.degree1_problem(C, S)) is not None:
         k = int(np.flatnonzero((n == 1) & (m == one[1]))[0])
         raise _fail(path, int(li[k]) + 1, one[2])
-    big = scan.first_outsize(C, S)
+    big = icgem.first_outsize(C, S)
     if big is not None:
         k = int(np.flatnonzero((n == big[0]) & (m == big[1]))[0])
         raise _fail(path, int(li[k]) + 1, f"coefficient {big[2]:g} is not a normalised one")

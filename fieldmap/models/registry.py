@@ -20,25 +20,31 @@ import os
 import stat
 import threading
 import zlib
+from collections.abc import Callable
 from importlib import resources
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
 from fieldmap.errors import InputError
 from fieldmap.models import cache as disk_cache
+from fieldmap.models import icgem
 from fieldmap.models.icgem import as_degree, parse_epoch, read_icgem
 from fieldmap.models.shmodel import SHModel
+
+if TYPE_CHECKING:
+    import argparse
 
 #: bundled models: lower-case name -> file in fieldmap/data
 BUNDLED = {"eigen-6s": "eigen-6s.gfc.gz"}
 DEFAULT_MODEL = "eigen-6s"
 
-_cache: dict = {}
+_cache: dict[tuple[Any, ...], SHModel] = {}
 _cache_lock = threading.Lock()
 _CACHE_SIZE = 4
 
 
-def _read_cached(key, reader) -> SHModel:
+def _read_cached(key: tuple[Any, ...], reader: Callable[[], SHModel]) -> SHModel:
     with _cache_lock:
         if key in _cache:
             return _cache[key]
@@ -60,7 +66,7 @@ def clear_cache() -> None:
 FORMATS = ("icgem", "nga", "egm")
 
 
-def detect_format(path) -> str:
+def detect_format(path: str | os.PathLike[str]) -> str:
     """Recognise a model file by its content: ``"icgem"``, ``"nga"`` or ``"egm"``.
 
     ``EGMF-`` on the first line is GeographicLib's metadata (as is a ``.egm.cof`` file name);
@@ -97,7 +103,7 @@ def detect_format(path) -> str:
     return "egm" if path.endswith(".egm") else "icgem"
 
 
-def _in_model_dir(name: str, model_dir) -> str | None:
+def _in_model_dir(name: str, model_dir: str | os.PathLike[str]) -> str | None:
     """Path of ``model_dir/NAME.egm``, ``model_dir/name`` or ``name`` inside it, or None.
 
     ``name`` is taken as it is where it is a path (absolute or relative) to a file inside
@@ -123,7 +129,7 @@ def _in_model_dir(name: str, model_dir) -> str | None:
     return None
 
 
-def _resolve_path(name: str, model_dir) -> str:
+def _resolve_path(name: str, model_dir: str | os.PathLike[str] | None) -> str:
     """Path of a model given by path, or by GeographicLib name in ``model_dir``."""
     from fieldmap.models.egm import default_gravity_dirs, find_egm
 
@@ -151,11 +157,11 @@ def _resolve_path(name: str, model_dir) -> str:
 
 
 def load_model(
-    name_or_path="eigen-6s",
+    name_or_path: str | os.PathLike[str] | bytes | SHModel | None = "eigen-6s",
     lmax: int | None = None,
-    epoch=None,
+    epoch: float | str | None = None,
     *,
-    model_dir=None,
+    model_dir: str | os.PathLike[str] | None = None,
     gm: float | None = None,
     radius: float | None = None,
     cache: bool = True,
@@ -236,9 +242,10 @@ def load_model(
     if bundled:
         key: tuple = ("bundled", bundled, t)
 
-        def reader():
+        def reader() -> SHModel:
             # through the on-disk cache as a user's file (parsing the .gz costs ~0.1 s a start)
-            ref = resources.files("fieldmap.data").joinpath(bundled)
+            # through the fieldmap package: importing fieldmap.data would run one more module
+            ref = resources.files("fieldmap").joinpath("data").joinpath(bundled)
             with resources.as_file(ref) as path:
                 read, variant = _reader("icgem", str(path), t, None, None)
                 model = disk_cache.cached_read([str(path)], variant, None, read, enabled=cache)
@@ -276,7 +283,7 @@ def load_model(
     if full is not None:
         return _truncate(full, lmax)
 
-    def read():
+    def read() -> SHModel:
         model = disk_cache.cached_read(paths, variant, part, parse, enabled=cache)
         # an entry made from a copy of the file elsewhere: this path is the source
         return _earth(model if model.source == paths[0] else _with_source(model, paths[0]))
@@ -284,7 +291,9 @@ def load_model(
     return _read_cached(key + (part,), read)
 
 
-def _reader(fmt: str, path: str, t, gm, radius):
+def _reader(
+    fmt: str, path: str, t: float | None, gm: float | None, radius: float | None
+) -> tuple[Callable[[int | None], SHModel], str]:
     """Return ``(reader(lmax) -> SHModel, cache variant string)`` of a format.
 
     An NGA file's variant holds the file's name: the reader takes GM, the radius, the tide
@@ -292,13 +301,15 @@ def _reader(fmt: str, path: str, t, gm, radius):
     model, or none). Other formats' variants hold no name, so the bundled model read from a
     zip import (a new temporary name each run) keeps hitting its entry.
     """
-    from fieldmap.models import egm, icgem, nga
+    if fmt == "nga":  # each reader is imported when a file is of its format
+        from fieldmap.models import nga
 
-    if fmt == "nga":
         named = f"|file={os.path.basename(path)!r}"
         variant = f"nga-v{nga.READER_VERSION}|gm={gm!r}|radius={radius!r}{named}"
         return (lambda L: nga.read_nga(path, lmax=L, gm=gm, radius=radius)), variant
     if fmt == "egm":
+        from fieldmap.models import egm
+
         variant = f"egm-v{egm.READER_VERSION}"
         return (lambda L: egm.read_egm(path, lmax=L)), variant
     variant = f"icgem-v{icgem.READER_VERSION}|epoch={t!r}"
@@ -331,7 +342,7 @@ def _with_source(model: SHModel, source: str) -> SHModel:
     return replace(model, source=source)
 
 
-def _truncate(model: SHModel, lmax) -> SHModel:
+def _truncate(model: SHModel, lmax: int | None) -> SHModel:
     if lmax is None or int(lmax) == model.lmax:
         return model
     if int(lmax) > model.lmax:
@@ -386,7 +397,7 @@ def kaula_model(
     )
 
 
-def model_options(args) -> dict:
+def model_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`load_model` from the model-file options of the CLI.
 
     ``args`` is the namespace parsed with the options of
@@ -419,7 +430,7 @@ def model_options(args) -> dict:
     }
 
 
-def announce(model: SHModel, stream=None) -> None:
+def announce(model: SHModel, stream: TextIO | None = None) -> None:
     """Tell the user (stderr) which GM and radius an NGA file was read with."""
     import sys
 

@@ -46,7 +46,7 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
 
 if TYPE_CHECKING:
-    from fieldmap.kernels.navtable import TableKernel
+    from fieldmap.kernels.navgravity import TableKernel
     from fieldmap.nav.trajectory import Trajectory
     from fieldmap.products.tables.model import CompensationTable
 
@@ -192,7 +192,7 @@ class _TableLattice(Protocol):
 
 def kernel_table(table: _TableLattice, device: str) -> TableKernel:
     """Return the device struct of ``table`` (its δg values as float64)."""
-    from fieldmap.kernels.navtable import TableKernel
+    from fieldmap.kernels.navgravity import TableKernel
 
     _warp.init()
     kt = TableKernel()
@@ -215,7 +215,7 @@ def table_points(
 
     Every point must be inside the table (checked: the NumPy interpolator's error otherwise).
     """
-    from fieldmap.kernels import navtable as knt
+    from fieldmap.kernels import navgravity as knt
     from fieldmap.products.tables.model import check_inside
 
     lat, lon, h = (
@@ -246,7 +246,7 @@ def table_gravitation(
 ) -> npt.NDArray[np.float64]:
     """Navigation gravitation of a table at ECEF points: exact normal + δg; (n, 3) ECEF, m/s²."""
     from fieldmap.field.normal import normal_params
-    from fieldmap.kernels import navtable as knt
+    from fieldmap.kernels import navgravity as knt
 
     ell = get_ellipsoid(ellipsoid)
     p = np.ascontiguousarray(

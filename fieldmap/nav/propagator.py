@@ -318,7 +318,7 @@ class Propagator:
         h_ref: npt.ArrayLike | None,
         n: int,
     ) -> tuple[dict, dict]:
-        from fieldmap.products.engine import scattered
+        from fieldmap.cluster import scattered
 
         client = self.client
         nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
@@ -357,7 +357,7 @@ def _task(
     block: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike | None],
     sample0: int,
 ) -> tuple[dict, dict]:
-    from fieldmap.products.engine import worker_setup
+    from fieldmap.cluster import worker_setup
 
     worker_setup()
     dtheta, dv, h_ref = block

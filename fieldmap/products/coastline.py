@@ -24,7 +24,7 @@ def coastlines() -> tuple[np.ndarray, np.ndarray]:
 
     Units: degrees, longitudes in -180..180.
     """
-    with resources.files("fieldmap.data").joinpath(DATA_FILE).open("rb") as fh:
+    with resources.files("fieldmap").joinpath("data").joinpath(DATA_FILE).open("rb") as fh:
         with np.load(fh) as npz:
             lon = npz["lon"].astype(np.float64)
             lat = npz["lat"].astype(np.float64)

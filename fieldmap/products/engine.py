@@ -18,10 +18,9 @@ a dask-backed Dataset; :func:`write_product` streams it to a NetCDF file or zarr
 (the targets of :mod:`fieldmap.products.sinks`).
 
 Statistics are combined from per-block partial results in block order, so exactly the same on
-every executor (:mod:`fieldmap.products.statistics`). Dask: :func:`parse_scheduler`,
-:func:`open_client` (connects or starts a LocalCluster for the run, failing in one line when
-nothing listens), :func:`worker_setup` (prepares a worker before its first task),
-:func:`scattered` (the model shipped once per worker).
+every executor (:mod:`fieldmap.products.statistics`). The Dask cluster itself (scheduler
+strings, clients, worker set-up, the model shipped once per worker) is :mod:`fieldmap.cluster`,
+which the navigation studies share.
 
 Memory: one block of ``nb`` rows and ``nlon`` longitudes takes about ``nb * (per_item + 104 *
 nlon)`` bytes on the process computing it (``per_item`` of ``synthesize``: Fourier coefficients
@@ -38,7 +37,6 @@ import dataclasses
 import math
 import os
 import sys
-import weakref
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -308,7 +306,10 @@ def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
     from fieldmap.field.ellipsoid import get_ellipsoid
     from fieldmap.grids.synthesis import synthesize
 
-    worker_setup()
+    if "distributed" in sys.modules:  # a Dask worker; a process without Dask is none
+        from fieldmap.cluster import worker_setup
+
+        worker_setup()
     ell = get_ellipsoid(job.ellipsoid)
     sub = job.grid
     row_weights, hist_weights = job.weights
@@ -425,6 +426,8 @@ def _run_dask(
     """Submit the blocks to ``client`` (at most ``window`` in flight), handle results."""
     from distributed import as_completed
     from tqdm.auto import tqdm
+
+    from fieldmap.cluster import scattered
 
     nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     # the coefficients travel once to every worker, not once per task (nor per product)
@@ -580,184 +583,6 @@ def run_blocks(
     return stats
 
 
-_WORKER_READY = False
-
-
-def worker_setup() -> None:
-    """Prepare a Dask worker process for the kernels (once per process; a no-op elsewhere).
-
-    - Warp launches use the worker's share of the cores (``FIELDMAP_THREADS`` = its threads,
-      unless set).
-    - glibc's allocator gets back the dynamic thresholds of a plain process: Dask's nanny
-      starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which freezes the mmap threshold at
-      128 KiB, so that every array of a block is a fresh ``mmap`` whose pages fault in on first
-      touch. Measured here: a block's CPU time doubled (0.56 s -> 1.17 s for the blocks of a
-      0.1 deg map). Large blocks are then served from the heap, as in the client process, and
-      at most ``2 * 32 MiB`` of freed memory is kept before it is returned to the system.
-    """
-    global _WORKER_READY
-    if _WORKER_READY:
-        return
-    try:
-        from distributed import get_worker
-
-        w = get_worker()
-    except (ImportError, ValueError):
-        return
-    if "FIELDMAP_THREADS" not in os.environ:
-        os.environ["FIELDMAP_THREADS"] = str(max(1, int(w.state.nthreads)))
-    _glibc_thresholds(mmap_bytes=32 * 2**20)
-    _WORKER_READY = True
-
-
-def _glibc_thresholds(mmap_bytes: int) -> bool:
-    """Set glibc's mmap and trim thresholds (``mallopt``); False where there is no glibc."""
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    if not name or not hasattr(os, "confstr"):
-        return False
-    try:
-        if "glibc" not in (os.confstr("CS_GNU_LIBC_VERSION") or "").lower():
-            return False
-        libc = ctypes.CDLL(name)
-    except (OSError, ValueError):
-        return False
-    m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
-    ok = libc.mallopt(m_mmap_threshold, ctypes.c_int(mmap_bytes))
-    ok &= libc.mallopt(m_trim_threshold, ctypes.c_int(2 * mmap_bytes))
-    return bool(ok)
-
-
-def parse_scheduler(text: str | None) -> tuple[str, int] | str | None:
-    """``None``/"threads" (local thread pool), ``("local", N)`` or a scheduler address."""
-    if text is None or text in ("threads", "none", ""):
-        return None
-    if text.startswith("local:"):
-        try:
-            n = int(text.split(":", 1)[1])
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise InputError(f"--scheduler local:N needs a worker count N >= 1, got {text!r}")
-        return ("local", n)
-    if text == "local":
-        return ("local", max(1, os.cpu_count() or 1))
-    return text
-
-
-@contextlib.contextmanager
-def open_client(
-    scheduler: tuple[str, int] | str | None, connect_timeout: float = 5.0
-) -> Iterator[Any]:
-    """Yield a ``dask.distributed.Client`` for a parsed scheduler; close what was opened.
-
-    ``None`` (no scheduler: run here) yields None. ``("local", N)`` starts a LocalCluster of N
-    single-threaded worker processes on 127.0.0.1 (no dashboard) and shuts it down afterwards;
-    an address connects to a running scheduler.
-    An unreachable scheduler is an :class:`InputError` (one line, CLI exit 2).
-    """
-    if scheduler is None:
-        yield None
-        return
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise InputError(
-            "Dask is not installed: pip install 'fieldmap[distributed]' (dask[distributed], zarr)"
-        ) from None
-    import logging
-
-    if isinstance(scheduler, tuple):
-        n = scheduler[1]
-        cores = max(1, os.cpu_count() or 1)
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",
-            silence_logs=logging.ERROR,
-            env={"FIELDMAP_THREADS": str(max(1, cores // n))},
-        )
-        try:
-            with Client(cluster) as client:
-                yield client
-        finally:
-            cluster.close()
-        return
-    _probe(scheduler, connect_timeout)
-    try:
-        client = Client(scheduler, timeout=connect_timeout)
-    except (OSError, TimeoutError, ValueError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {msg}") from None
-    try:
-        yield client
-    finally:
-        client.close()
-
-
-def _probe(address: str, timeout: float) -> None:
-    """Fail in milliseconds, not after Dask's connect retries, when nothing listens (tcp)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    if not isinstance(address, str) or not address.startswith("tcp://"):
-        return
-    try:
-        u = urlsplit(address)
-        host, port = u.hostname, u.port
-    except ValueError:
-        raise InputError(f"bad Dask scheduler address {address!r}") from None
-    if host is None or port is None:
-        raise InputError(f"Dask scheduler address {address!r} needs tcp://HOST:PORT")
-    try:
-        socket.create_connection((host, port), timeout=timeout).close()
-    except OSError as exc:
-        why = exc.strerror or type(exc).__name__
-        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {why}") from None
-
-
-#: client -> {id(model): (weak reference to the model, its future on the cluster)}
-_SCATTERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def scattered(client: Any, model: SHModel) -> Any:
-    """Return the future of ``model`` broadcast to every worker of ``client``, once per client.
-
-    Products made one after the other on the same client (a notebook, a study over several
-    maps) reuse the copy the workers already hold: a degree-2190 model is 77 MB per worker.
-    The copy lives as long as the model object and the client; a model that is garbage
-    collected, or a client that is closed, releases it. The object is taken as immutable (an
-    :class:`~fieldmap.models.shmodel.SHModel` is frozen): one changed in place is not shipped
-    again.
-    """
-    try:
-        per_client = _SCATTERED.setdefault(client, {})
-    except TypeError:  # a client that cannot be weakly referenced: no reuse
-        return client.scatter(model, broadcast=True, hash=False)
-    entry = per_client.get(id(model))
-    if entry is not None and entry[0]() is model and entry[1].status == "finished":
-        return entry[1]
-    fut = client.scatter(model, broadcast=True, hash=False)
-    key = id(model)
-
-    def forget(
-        _ref: weakref.ref[SHModel], key: int = key, per_client: dict[int, Any] = per_client
-    ) -> None:
-        # drop the cache's reference only: a graph or a task still holding the future keeps
-        # the data on the cluster, the last reference gone releases it (Future.__del__)
-        per_client.pop(key, None)
-
-    try:
-        per_client[key] = (weakref.ref(model, forget), fut)
-    except TypeError:  # a model that cannot be weakly referenced: not kept
-        pass
-    return fut
-
-
 def _chunk_rows(chunks: Any) -> Any:
     if isinstance(chunks, dict):
         chunks = chunks.get("latitude")
@@ -776,6 +601,8 @@ def lazy(request: _Request) -> xr.Dataset:
     """
     import dask
     import dask.array as da
+
+    from fieldmap.cluster import scattered
 
     grid, mod, client = request.grid, request.model, request.execution.client
     tmpl = template(request)
@@ -830,7 +657,11 @@ def executor_client(request: _Request) -> Iterator[Any]:
     ex = request.execution
     if ex.client is not None:
         yield ex.client
+    elif ex.scheduler is None:  # here
+        yield None
     else:
+        from fieldmap.cluster import open_client
+
         with open_client(ex.scheduler) as c:
             yield c
 

@@ -164,9 +164,9 @@ class Execution:
     window: int | None = None
 
     def __post_init__(self) -> None:
-        from fieldmap.products.engine import parse_scheduler
-
         if isinstance(self.executor, str):
+            from fieldmap.cluster import parse_scheduler
+
             parse_scheduler(self.executor)  # one line for a malformed scheduler
         if self.chunks is not None:
             if isinstance(self.executor, str):
@@ -187,10 +187,12 @@ class Execution:
 
     @property
     def scheduler(self) -> Any:
-        """The parsed scheduler string (:func:`fieldmap.products.engine.parse_scheduler`)."""
-        from fieldmap.products.engine import parse_scheduler
+        """The parsed scheduler string (:func:`fieldmap.cluster.parse_scheduler`)."""
+        if not isinstance(self.executor, str):
+            return None
+        from fieldmap.cluster import parse_scheduler
 
-        return parse_scheduler(self.executor) if isinstance(self.executor, str) else None
+        return parse_scheduler(self.executor)
 
 
 #: Keys of :meth:`MapRequest.build` that go to :class:`Output` and :class:`Execution`.

@@ -75,7 +75,6 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
-from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
 from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
 
 #: the cells of a table's column j
@@ -315,6 +314,8 @@ def read_track(
                     f"{path}: {' and '.join(given)} {verb} to CSV files (a {kind})",
                     param=given[0],
                 )
+            from fieldmap.nav.logs.gnss import read_gpx, read_igc, read_nmea
+
             p = {"gpx": read_gpx, "nmea": read_nmea, "igc": read_igc}[kind](text, str(path))
     else:
         name = type(source).__name__
