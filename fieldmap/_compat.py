@@ -421,6 +421,8 @@ def install_moved_finder() -> None:
 #: (module now holding them, the names). ``fieldmap.models`` was, in 0.1, the module now called
 #: ``fieldmap.models.registry``.
 MOVED_NAMES: dict[str, tuple[str, tuple[str, ...]]] = {
+    # the "table:FILE" model name is parsed where model names are (issue 25)
+    "products.tables.model": ("models.registry", ("table_path", "PREFIX=TABLE_PREFIX")),
     "models": (
         "models.registry",
         ("load_model", "kaula_model", "clear_cache", "BUNDLED", "DEFAULT_MODEL"),
@@ -434,11 +436,14 @@ def moved_names(package: str) -> Callable[[str], Any]:
     Each lookup of a moved name warns (``DeprecationWarning``) and gives the name from its home.
     """
     home, names = MOVED_NAMES[package]
+    # "OLD=NEW": a name renamed in its new home
+    renamed: dict[str, str] = {n.split("=")[0]: n.split("=")[-1] for n in names}
 
     def __getattr__(name: str) -> Any:
-        if name not in names:
+        if name not in renamed:
             raise AttributeError(f"module 'fieldmap.{package}' has no attribute {name!r}")
-        warn(f"fieldmap.{package}.{name} is fieldmap.{home}.{name}", stacklevel=3)
-        return getattr(importlib.import_module(f"fieldmap.{home}"), name)
+        new = renamed[name]
+        warn(f"fieldmap.{package}.{name} is fieldmap.{home}.{new}", stacklevel=3)
+        return getattr(importlib.import_module(f"fieldmap.{home}"), new)
 
     return __getattr__

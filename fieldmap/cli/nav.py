@@ -297,16 +297,13 @@ def _run_flights(
 
     from tqdm import tqdm
 
-    from fieldmap.nav.covariance import CovarianceStudyResult
     from fieldmap.nav.plots import disturbance_grid
-    from fieldmap.nav.report import (
-        format_covariance,
-        format_flight,
-        write_covariance_outputs,
-        write_flight_outputs,
-    )
-    from fieldmap.nav.study import run_flight
+    from fieldmap.nav.report import format_flight, write_flight_outputs
+    from fieldmap.nav.study import FlightResult, run_flight
     from fieldmap.products.io import output_batch
+
+    if args.method == "covariance":  # imported for that method only
+        from fieldmap.nav.report import format_covariance, write_covariance_outputs
 
     results = []
     for name, st, cf in studies:
@@ -336,10 +333,10 @@ def _run_flights(
     with output_batch(args.out) as batch:  # every file of every flight, or none
         for name, res, cf, grid in results:
             prefix = f"navsim_flight_{name}" if several else "navsim_flight"
-            if isinstance(res, CovarianceStudyResult):
-                write_covariance_outputs(res, batch, prefix=prefix)
-            else:
+            if isinstance(res, FlightResult):
                 write_flight_outputs(res, batch, grid, prefix=prefix)
+            else:
+                write_covariance_outputs(res, batch, prefix=prefix)
             if cf is not None:
                 from fieldmap.nav.logs.report import plot_conditioning
 
@@ -347,9 +344,7 @@ def _run_flights(
     for name, res, _, _ in results:
         if several:
             print(f"== {name} ==")
-        print(
-            format_covariance(res) if isinstance(res, CovarianceStudyResult) else format_flight(res)
-        )
+        print(format_flight(res) if isinstance(res, FlightResult) else format_covariance(res))
     if several:
         print(f"{'flight':24s} {'duration s':>10s}  recommended")
         for name, res, _, _ in results:

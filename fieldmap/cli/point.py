@@ -215,7 +215,7 @@ def evaluate_points(
         potential, anomaly-sigma and geoid-sigma.
     """
     from fieldmap.cli.startup import load_model_early
-    from fieldmap.products.tables.model import table_path
+    from fieldmap.models.registry import table_path
 
     table = table_path(model) is not None
     early = load_model_early(model, model_options, quantity, device, table)
@@ -349,7 +349,8 @@ def _table(args: argparse.Namespace) -> CompensationTable | None:
     from fieldmap.cli import given
     from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
-    from fieldmap.products.tables.model import load_table, table_path
+    from fieldmap.models.registry import table_path
+    from fieldmap.products.tables.model import load_table
 
     path = table_path(args.model)
     if path is None:

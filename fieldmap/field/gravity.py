@@ -295,7 +295,8 @@ def disturbance(
 
 def _table_model(model: object) -> CompensationTable | None:
     """Return the table of ``model`` (``"table:FILE"`` or a table object), else None."""
-    from fieldmap.products.tables.model import CompensationTable, load_table, table_path
+    from fieldmap.models.registry import table_path
+    from fieldmap.products.tables.model import CompensationTable, load_table
 
     if isinstance(model, CompensationTable):
         return model

@@ -437,3 +437,17 @@ def announce(model: SHModel, stream: TextIO | None = None) -> None:
     note = model.header.get("constants") if isinstance(model.header, dict) else None
     if note:
         print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
+
+
+#: the prefix of a compensation table given as a model name, ``"table:FILE"``
+TABLE_PREFIX = "table:"
+
+
+def table_path(model: object) -> str | None:
+    """Return the FILE of a ``"table:FILE"`` model name (case kept), else None."""
+    if isinstance(model, str) and model.strip().lower().startswith(TABLE_PREFIX):
+        name = model.strip()[len(TABLE_PREFIX) :]
+        if not name:
+            raise InputError("table: needs a file name (table:FILE)")
+        return name
+    return None

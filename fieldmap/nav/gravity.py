@@ -122,7 +122,7 @@ def sh_degree(name: str) -> int | None:
 
 def table_file(name: object) -> str | None:
     """Return the file of a navigation name ``table:FILE`` (as given, case kept), else None."""
-    from fieldmap.products.tables.model import table_path
+    from fieldmap.models.registry import table_path
 
     return table_path(name) if isinstance(name, str) else None
 

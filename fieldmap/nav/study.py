@@ -777,11 +777,12 @@ def check_tables_cover(names: Any, traj: Any, duration: float) -> None:
     the navigator's own height error.
     """
     from fieldmap.nav.gravity import table_file
-    from fieldmap.products.tables.model import load_table, outside_message
 
     files = [f for f in (table_file(m) for m in names) if f is not None]
     if not files:
         return
+    from fieldmap.products.tables.model import load_table, outside_message
+
     if len(set(files)) > 1:  # as the propagator would, but before any work
         raise InputError(
             f"one compensation table per launch, got {len(set(files))}: {', '.join(files)}"

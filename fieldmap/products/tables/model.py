@@ -43,10 +43,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fieldmap import _compat
 from fieldmap.errors import InputError
 
 #: Prefix of a table model name: ``model="table:FILE"``.
-PREFIX = "table:"
 #: Components of the tables, in storage order: north, east, down (mGal).
 COMPONENTS = ("dn", "de", "dd")
 #: Tolerance of the domain edges, in units of the node spacing (rounding of user coordinates).
@@ -352,11 +352,4 @@ def _read_file(path: Path) -> CompensationTable:
     raise InputError(f"{path}: not a compensation table (neither table.bin nor NetCDF)")
 
 
-def table_path(model: object) -> str | None:
-    """Return the FILE of a ``"table:FILE"`` model name, else None."""
-    if isinstance(model, str) and model.strip().lower().startswith(PREFIX):
-        name = model.strip()[len(PREFIX) :]
-        if not name:
-            raise InputError("table: needs a file name (table:FILE)")
-        return name
-    return None
+__getattr__ = _compat.moved_names("products.tables.model")
