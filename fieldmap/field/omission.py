@@ -99,9 +99,10 @@ The waves of a draw are a few thousand numbers drawn from ``numpy.random.default
 before any point is looked at, draw after draw (so the first k draws of ``draws=m`` are those
 of ``draws=k``); the sum at a point runs over the waves in one fixed order with element-wise
 NumPy operations, so the same inputs give the same bits however the points are chunked
-(``tests/test_omission.py``). Cost: about 25 floating-point operations and a sine, cosine,
-arctangent and exponential per wave and point (640 waves), NumPy, in chunks of
-:data:`_CHUNK` points.
+(``tests/test_omission.py``). Cost: about 40 floating-point operations and a sine, cosine,
+arctangent and exponential per wave and point (640 waves), in the Warp kernel
+:func:`fieldmap.kernels.omission.wave_sum` (one thread per draw and point, every CPU core or a
+GPU); its NumPy reference is :func:`fieldmap.reference.omission.wave_sum`.
 
 References: Tscherning C.C. & Rapp R.H. (1974), *Closed covariance expressions for gravity
 anomalies, geoid undulations, and deflections of the vertical implied by anomaly degree
@@ -151,7 +152,7 @@ TR_C2 = 7.5
 #: Kaula's rule: RMS of a fully normalised coefficient of degree n is KAULA / n².
 KAULA = 1.0e-5
 MGAL = 1.0e5  # mGal per m/s²
-_CHUNK = 1024  # points per pass: a few (chunk, 640) float64 arrays
+_CHUNK = 1 << 24  # threads (draws x points) per launch
 
 
 def tscherning_rapp_anomaly_variances(n: ArrayLike) -> NDArray[np.float64]:
@@ -490,7 +491,14 @@ class Omission:
         }
 
     def realise(
-        self, lat: ArrayLike, lon: ArrayLike, h: ArrayLike, draws: int, seed: int
+        self,
+        lat: ArrayLike,
+        lon: ArrayLike,
+        h: ArrayLike,
+        draws: int,
+        seed: int,
+        *,
+        device: str | None = None,
     ) -> NDArray[np.float64]:
         """Realisations of the omitted gravity disturbance vector at points.
 
@@ -509,61 +517,53 @@ class Omission:
             Number of realisations, 1 .. 10,000.
         seed : int
             Seed of ``numpy.random.default_rng`` (≥ 0).
+        device : str, optional
+            Warp device of the kernel (:mod:`fieldmap.kernels.omission`; default: the first
+            CUDA device, else the CPU, every core).
 
         Returns
         -------
         numpy.ndarray
             Shape ``(draws, npoints, 3)``: δg north, east, down. Units: m/s².
         """
+        import warp as wp
+
+        from fieldmap import _warp
+        from fieldmap.kernels import omission as kom
+
         la, lo, hh = (np.ravel(v) for v in limits.check_geodetic(lat, lon, h))
         waves = self.waves(draws, seed)
-        out = np.empty((waves["degree"].shape[0], la.size, 3))
-        for i in range(0, la.size, _CHUNK):
-            k = slice(i, i + _CHUNK)
-            out[:, k] = _wave_sum(waves, la[k], lo[k], hh[k], self.radius)
+        dev = _warp.resolve_device(device)
+        nd = waves["degree"].shape[0]
+        out = np.empty((nd, la.size, 3))
+        if la.size == 0:
+            return out
+        wv = {
+            k: wp.array(waves[k], dtype=wp.vec3d if k == "pole" else wp.float64, device=dev)
+            for k in ("degree", "amplitude", "phase", "pole")
+        }
+        phi, lam = np.radians(la), np.radians(lo)
+        sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
+        frame = {
+            "unit": np.stack([cp * cl, cp * sl, sp], axis=-1),
+            "north": np.stack([-sp * cl, -sp * sl, cp], axis=-1),
+            "east": np.stack([-sl, cl, np.zeros_like(sl)], axis=-1),
+        }
+        r = self.radius + hh
+        step = max(1, _CHUNK // nd)  # points per launch: draws x points threads stay int32
+        for i in range(0, la.size, step):
+            k = slice(i, i + step)
+            m = len(range(*k.indices(la.size)))
+            ins = [wp.array(frame[c][k], dtype=wp.vec3d, device=dev) for c in frame]
+            ins += [
+                wp.array(np.log(self.radius / r[k]), dtype=wp.float64, device=dev),
+                wp.array(1.0 / r[k], dtype=wp.float64, device=dev),
+            ]
+            res = wp.zeros((nd, m), dtype=wp.vec3d, device=dev)
+            args = [*ins, wv["degree"], wv["amplitude"], wv["phase"], wv["pole"], m, res]
+            _warp.launch_chunked(kom.wave_sum, nd * m, args, dev)
+            out[:, k] = res.numpy()
         return out
-
-
-def _wave_sum(
-    waves: dict[str, NDArray[np.float64]],
-    lat: NDArray[np.float64],
-    lon: NDArray[np.float64],
-    h: NDArray[np.float64],
-    radius: float,
-) -> NDArray[np.float64]:
-    """δg (north, east, down; m/s²) of every draw's waves at a chunk of points: (draws, P, 3).
-
-    Element-wise operations only (no BLAS: its blocking could change the rounding with the
-    chunk), and each point's sum over its row of waves: the bits do not depend on the chunk.
-    """
-    phi, lam = np.radians(lat)[:, None], np.radians(lon)[:, None]
-    sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
-    x = (cp * cl, cp * sl, sp)  # unit position vector
-    north = (-sp * cl, -sp * sl, cp)
-    east = (-sl, cl, np.zeros_like(sl))
-    r = (radius + h)[:, None]
-    log_q = np.log(radius / r)
-    out = np.empty((waves["degree"].shape[0], lat.size, 3))
-    for d in range(out.shape[0]):
-        n = waves["degree"][d][None, :]
-        p = waves["pole"][d]
-        px, py, pz = p[None, :, 0], p[None, :, 1], p[None, :, 2]
-        cos_psi = x[0] * px + x[1] * py + x[2] * pz
-        pn = north[0] * px + north[1] * py + north[2] * pz  # p = cosψ x + pn n + pe e
-        pe = east[0] * px + east[1] * py + east[2] * pz
-        sin_psi = np.hypot(pn, pe)
-        psi = np.arctan2(sin_psi, cos_psi)
-        nu = np.sqrt(n * (n + 1.0))
-        arg = nu * psi + waves["phase"][d][None, :]
-        a = waves["amplitude"][d][None, :] * np.exp((n + 1.0) * log_q) / r  # A (R/r)^(n+1) / r
-        down = a * (n + 1.0) * np.cos(arg)
-        # ∇_h T = (1/r) dT/dψ e_ψ, e_ψ·north = -pn/sinψ, e_ψ·east = -pe/sinψ
-        with np.errstate(invalid="ignore", divide="ignore"):
-            hor = np.where(sin_psi > 0.0, a * nu * np.sin(arg) / sin_psi, 0.0)
-        out[d, :, 0] = np.sum(hor * pn, axis=1)
-        out[d, :, 1] = np.sum(hor * pe, axis=1)
-        out[d, :, 2] = np.sum(down, axis=1)
-    return out
 
 
 #: variables of the ``omission-sigma`` map (:func:`grid_omission`)
