@@ -115,6 +115,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -538,7 +539,7 @@ class Omission:
         out = np.empty((nd, la.size, 3))
         if la.size == 0:
             return out
-        wv = {
+        wv: dict[str, Any] = {
             k: wp.array(waves[k], dtype=wp.vec3d if k == "pole" else wp.float64, device=dev)
             for k in ("degree", "amplitude", "phase", "pole")
         }
@@ -554,7 +555,7 @@ class Omission:
         for i in range(0, la.size, step):
             k = slice(i, i + step)
             m = len(range(*k.indices(la.size)))
-            ins = [wp.array(frame[c][k], dtype=wp.vec3d, device=dev) for c in frame]
+            ins: list[Any] = [wp.array(frame[c][k], dtype=wp.vec3d, device=dev) for c in frame]
             ins += [
                 wp.array(np.log(self.radius / r[k]), dtype=wp.float64, device=dev),
                 wp.array(1.0 / r[k], dtype=wp.float64, device=dev),
