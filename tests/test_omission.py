@@ -168,6 +168,29 @@ def test_sigma_of_realisations() -> None:
     assert np.all(np.abs(np.mean(x, axis=0)) < 4 * expected / np.sqrt(draws))
 
 
+def test_covariance_against_legendre_sums_and_realisations() -> None:
+    """covariance(): σ² at distance 0, the down series of omission_tracks, and many draws."""
+    om = Omission(240, "kaula", max_degree=2190)
+    n = np.arange(241, 2191, dtype=np.float64)
+    spacing = 4000.0
+    cov = om.covariance(np.arange(6) * spacing, 10e3)
+    sig2 = om.sigma(10e3)[0] ** 2
+    np.testing.assert_allclose(cov[0], [sig2[2], sig2[0], sig2[0]], rtol=1e-12)
+    ref = legendre_stats(kaula_potential_variances(n), n, 10e3, spacing, 5)
+    assert cov[0, 0] == pytest.approx(ref["var_down"], rel=1e-12)
+    # two points 8 km apart on a meridian: north is longitudinal, east transverse
+    draws, d = 3000, 8000.0
+    lat2 = 30.0 + np.degrees(d / om.radius)
+    x = om.realise([30.0, lat2], [15.0, 15.0], 10e3, draws, 4)
+    emp = np.mean(x[:, 0] * x[:, 1], axis=0)  # north, east, down
+    c = om.covariance(d, 10e3)[0]
+    tol = 4 * np.sqrt(2.0 / draws) * sig2
+    assert abs(emp[2] - c[0]) < tol[2]
+    assert abs(emp[0] - c[1]) < tol[0]
+    assert abs(emp[1] - c[2]) < tol[1]
+    assert c[1] < c[2] < sig2[0]  # the longitudinal correlation falls first
+
+
 # ---------------------------------------------------------------------------- realisations
 
 

@@ -432,6 +432,66 @@ class Omission:
             out[i : i + 16, 1] = hor
         return out
 
+    def covariance(
+        self, distance_m: ArrayLike, h: float, h2: float | None = None
+    ) -> NDArray[np.float64]:
+        r"""Covariances of δg between two points a distance apart, at heights h and h2.
+
+        With :math:`K(\psi) = \sum_n c_n (R^2/(r_1r_2))^{n+1} P_n(\cos\psi)` the covariance
+        of T (Moritz 1980 §23; Tscherning & Rapp 1974 for its derivatives), t = cos ψ:
+
+        .. math::
+            C_{down} = \sum_n c_n \frac{(n+1)^2}{r_1r_2}\,s_n P_n(t),\quad
+            C_{long} = \sum_n \frac{c_n s_n}{r_1r_2}\,\bigl(n(n+1)P_n(t) - tP_n'(t)\bigr),
+            \quad C_{trans} = \sum_n \frac{c_n s_n}{r_1r_2}\,P_n'(t)
+
+        (:math:`s_n = (R^2/(r_1r_2))^{n+1}`): the down components, the horizontal components
+        along the great circle through the points (longitudinal, :math:`-K''/(r_1r_2)`) and
+        across it (transverse, :math:`-K'/(r_1r_2\sin\psi)`). At distance 0 and h2 = h they
+        are σ²: down, and north = east = long = trans. Legendre recursions to ``max_degree``.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Great-circle distances on the sphere of radius R, ≥ 0. Units: m.
+        h, h2 : float
+            Heights of the two points (h2 default h). Units: m.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(distance.size, 3)``: down, longitudinal, transverse. Units: (m/s²)².
+        """
+        d = limits.as_float("distance_m", distance_m).ravel()
+        if np.any(d < 0):
+            raise InputError("distance_m must be non-negative", param="distance_m")
+        h1 = float(np.ravel(limits.check_geodetic(0.0, 0.0, h)[2])[0])
+        h2 = h1 if h2 is None else float(np.ravel(limits.check_geodetic(0.0, 0.0, h2)[2])[0])
+        r1, r2 = self.radius + h1, self.radius + h2
+        assert self.max_degree is not None
+        n_all = np.arange(self.max_degree + 1, dtype=np.float64)
+        c = np.zeros_like(n_all)
+        c[self.degree + 1 :] = self.potential_variances(n_all[self.degree + 1 :])
+        c *= np.exp((n_all + 1.0) * np.log(self.radius**2 / (r1 * r2))) / (r1 * r2)
+        t = np.cos(d / self.radius)
+        out = np.zeros((d.size, 3))
+        p_prev, p = np.ones_like(t), t.copy()  # P_0, P_1
+        dp_prev, dp = np.zeros_like(t), np.ones_like(t)  # P_0', P_1'
+        for n in range(1, self.max_degree + 1):
+            if n > self.degree:
+                w = c[n]
+                out[:, 0] += w * (n + 1.0) ** 2 * p
+                out[:, 1] += w * (n * (n + 1.0) * p - t * dp)
+                out[:, 2] += w * dp
+            # P_{n+1} = ((2n+1) t P_n - n P_{n-1})/(n+1); P'_{n+1} = P'_{n-1} + (2n+1) P_n
+            p_prev, p, dp_prev, dp = (
+                p,
+                ((2 * n + 1) * t * p - n * p_prev) / (n + 1),
+                dp,
+                dp_prev + (2 * n + 1) * p,
+            )
+        return out
+
     # ------------------------------------------------------------------ realisations
 
     def _bands(self) -> list[tuple[int, NDArray[np.float64]]]:
