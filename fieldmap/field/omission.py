@@ -54,6 +54,10 @@ surface, whatever its latitude): with :math:`\delta g = \nabla T`,
 (the mean square of the surface gradient of :math:`T_n` is :math:`n(n+1)/r^2` times that of
 :math:`T_n`, shared equally by any two orthogonal horizontal directions).
 
+**Covariances** (:meth:`Omission.covariance`), for a linear error model or a covariance
+analysis: of δg down, and of the horizontal components along and across the great circle
+through two points, at any distance and pair of heights (Legendre sums to the top degree).
+
 **Realisations** (:meth:`Omission.realise`): a sum of random waves. The degrees are split
 into :data:`N_BANDS` log-spaced bands; each band b holds :data:`WAVES_PER_BAND` = K waves, and
 wave j has
