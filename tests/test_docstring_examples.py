@@ -20,6 +20,7 @@ ENTRY_POINTS = {
     "fieldmap.field.gravity": ("gravity", "disturbance"),
     "fieldmap.field.normal": ("normal_gravity",),
     "fieldmap.field.geodesy": ("gravity_anomaly", "geoid_height"),
+    "fieldmap.field.omission": ("Omission",),
     "fieldmap.models.registry": ("load_model",),
     "fieldmap.models.shmodel": ("SHModel.truncated",),
 }

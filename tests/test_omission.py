@@ -37,6 +37,7 @@ from fieldmap.errors import InputError
 from fieldmap.field import omission
 from fieldmap.field.omission import MAX_DEGREE_CAP, Omission, tscherning_rapp_anomaly_variances
 from fieldmap.models.shmodel import SHModel
+from fieldmap.reference.omission import wave_sum
 
 TR_POINT_VARIANCE_MGAL2 = 1795.0  # Tscherning & Rapp (1974), abstract: point anomaly variance
 
@@ -167,6 +168,29 @@ def test_sigma_of_realisations() -> None:
     assert np.all(np.abs(np.mean(x, axis=0)) < 4 * expected / np.sqrt(draws))
 
 
+def test_covariance_against_legendre_sums_and_realisations() -> None:
+    """covariance(): σ² at distance 0, the down series of omission_tracks, and many draws."""
+    om = Omission(240, "kaula", max_degree=2190)
+    n = np.arange(241, 2191, dtype=np.float64)
+    spacing = 4000.0
+    cov = om.covariance(np.arange(6) * spacing, 10e3)
+    sig2 = om.sigma(10e3)[0] ** 2
+    np.testing.assert_allclose(cov[0], [sig2[2], sig2[0], sig2[0]], rtol=1e-12)
+    ref = legendre_stats(kaula_potential_variances(n), n, 10e3, spacing, 5)
+    assert cov[0, 0] == pytest.approx(ref["var_down"], rel=1e-12)
+    # two points 8 km apart on a meridian: north is longitudinal, east transverse
+    draws, d = 3000, 8000.0
+    lat2 = 30.0 + np.degrees(d / om.radius)
+    x = om.realise([30.0, lat2], [15.0, 15.0], 10e3, draws, 4)
+    emp = np.mean(x[:, 0] * x[:, 1], axis=0)  # north, east, down
+    c = om.covariance(d, 10e3)[0]
+    tol = 4 * np.sqrt(2.0 / draws) * sig2
+    assert abs(emp[2] - c[0]) < tol[2]
+    assert abs(emp[0] - c[1]) < tol[0]
+    assert abs(emp[1] - c[2]) < tol[1]
+    assert c[1] < c[2] < sig2[0]  # the longitudinal correlation falls first
+
+
 # ---------------------------------------------------------------------------- realisations
 
 
@@ -189,12 +213,23 @@ def test_drawn_degrees_give_the_variance_at_every_height() -> None:
         assert north == pytest.approx(expected[0], rel=2e-3)
 
 
+def test_kernel_matches_reference(device: str) -> None:
+    """The Warp kernel against the NumPy reference (fieldmap.reference.omission)."""
+    om = Omission(240)
+    lat, lon = tracks(4, 30, 2000.0, seed=9)
+    h = np.linspace(-500.0, 40e3, lat.size)
+    got = om.realise(lat.ravel(), lon.ravel(), h, 3, 17, device=device)
+    ref = wave_sum(om.waves(3, 17), lat.ravel(), lon.ravel(), h, om.radius)
+    scale = np.max(np.abs(ref), axis=1, keepdims=True)  # per draw and component
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-11 * float(np.min(scale)))
+
+
 def test_same_bits_whatever_the_chunking(monkeypatch: pytest.MonkeyPatch) -> None:
     om = Omission(240, "kaula", max_degree=2190)
     lat, lon = tracks(3, 40, 3000.0, seed=5)
     h = np.linspace(0.0, 30e3, lat.size)
     whole = om.realise(lat.ravel(), lon.ravel(), h, 3, 42)
-    monkeypatch.setattr(omission, "_CHUNK", 7)
+    monkeypatch.setattr(omission, "_CHUNK", 7)  # two points per launch
     np.testing.assert_array_equal(om.realise(lat.ravel(), lon.ravel(), h, 3, 42), whole)
     part = om.realise(lat.ravel()[50:61], lon.ravel()[50:61], h[50:61], 2, 42)
     np.testing.assert_array_equal(part, whole[:2, 50:61])

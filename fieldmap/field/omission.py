@@ -54,6 +54,10 @@ surface, whatever its latitude): with :math:`\delta g = \nabla T`,
 (the mean square of the surface gradient of :math:`T_n` is :math:`n(n+1)/r^2` times that of
 :math:`T_n`, shared equally by any two orthogonal horizontal directions).
 
+**Covariances** (:meth:`Omission.covariance`), for a linear error model or a covariance
+analysis: of δg down, and of the horizontal components along and across the great circle
+through two points, at any distance and pair of heights (Legendre sums to the top degree).
+
 **Realisations** (:meth:`Omission.realise`): a sum of random waves. The degrees are split
 into :data:`N_BANDS` log-spaced bands; each band b holds :data:`WAVES_PER_BAND` = K waves, and
 wave j has
@@ -99,9 +103,10 @@ The waves of a draw are a few thousand numbers drawn from ``numpy.random.default
 before any point is looked at, draw after draw (so the first k draws of ``draws=m`` are those
 of ``draws=k``); the sum at a point runs over the waves in one fixed order with element-wise
 NumPy operations, so the same inputs give the same bits however the points are chunked
-(``tests/test_omission.py``). Cost: about 25 floating-point operations and a sine, cosine,
-arctangent and exponential per wave and point (640 waves), NumPy, in chunks of
-:data:`_CHUNK` points.
+(``tests/test_omission.py``). Cost: about 40 floating-point operations and a sine, cosine,
+arctangent and exponential per wave and point (640 waves), in the Warp kernel
+:func:`fieldmap.kernels.omission.wave_sum` (one thread per draw and point, every CPU core or a
+GPU); its NumPy reference is :func:`fieldmap.reference.omission.wave_sum`.
 
 References: Tscherning C.C. & Rapp R.H. (1974), *Closed covariance expressions for gravity
 anomalies, geoid undulations, and deflections of the vertical implied by anomaly degree
@@ -114,6 +119,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -151,7 +157,7 @@ TR_C2 = 7.5
 #: Kaula's rule: RMS of a fully normalised coefficient of degree n is KAULA / n².
 KAULA = 1.0e-5
 MGAL = 1.0e5  # mGal per m/s²
-_CHUNK = 1024  # points per pass: a few (chunk, 640) float64 arrays
+_CHUNK = 1 << 24  # threads (draws x points) per launch
 
 
 def tscherning_rapp_anomaly_variances(n: ArrayLike) -> NDArray[np.float64]:
@@ -430,6 +436,66 @@ class Omission:
             out[i : i + 16, 1] = hor
         return out
 
+    def covariance(
+        self, distance_m: ArrayLike, h: float, h2: float | None = None
+    ) -> NDArray[np.float64]:
+        r"""Covariances of δg between two points a distance apart, at heights h and h2.
+
+        With :math:`K(\psi) = \sum_n c_n (R^2/(r_1r_2))^{n+1} P_n(\cos\psi)` the covariance
+        of T (Moritz 1980 §23; Tscherning & Rapp 1974 for its derivatives), t = cos ψ:
+
+        .. math::
+            C_{down} = \sum_n c_n \frac{(n+1)^2}{r_1r_2}\,s_n P_n(t),\quad
+            C_{long} = \sum_n \frac{c_n s_n}{r_1r_2}\,\bigl(n(n+1)P_n(t) - tP_n'(t)\bigr),
+            \quad C_{trans} = \sum_n \frac{c_n s_n}{r_1r_2}\,P_n'(t)
+
+        (:math:`s_n = (R^2/(r_1r_2))^{n+1}`): the down components, the horizontal components
+        along the great circle through the points (longitudinal, :math:`-K''/(r_1r_2)`) and
+        across it (transverse, :math:`-K'/(r_1r_2\sin\psi)`). At distance 0 and h2 = h they
+        are σ²: down, and north = east = long = trans. Legendre recursions to ``max_degree``.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Great-circle distances on the sphere of radius R, ≥ 0. Units: m.
+        h, h2 : float
+            Heights of the two points (h2 default h). Units: m.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(distance.size, 3)``: down, longitudinal, transverse. Units: (m/s²)².
+        """
+        d = limits.as_float("distance_m", distance_m).ravel()
+        if np.any(d < 0):
+            raise InputError("distance_m must be non-negative", param="distance_m")
+        h1 = float(np.ravel(limits.check_geodetic(0.0, 0.0, h)[2])[0])
+        h2 = h1 if h2 is None else float(np.ravel(limits.check_geodetic(0.0, 0.0, h2)[2])[0])
+        r1, r2 = self.radius + h1, self.radius + h2
+        assert self.max_degree is not None
+        n_all = np.arange(self.max_degree + 1, dtype=np.float64)
+        c = np.zeros_like(n_all)
+        c[self.degree + 1 :] = self.potential_variances(n_all[self.degree + 1 :])
+        c *= np.exp((n_all + 1.0) * np.log(self.radius**2 / (r1 * r2))) / (r1 * r2)
+        t = np.cos(d / self.radius)
+        out = np.zeros((d.size, 3))
+        p_prev, p = np.ones_like(t), t.copy()  # P_0, P_1
+        dp_prev, dp = np.zeros_like(t), np.ones_like(t)  # P_0', P_1'
+        for n in range(1, self.max_degree + 1):
+            if n > self.degree:
+                w = c[n]
+                out[:, 0] += w * (n + 1.0) ** 2 * p
+                out[:, 1] += w * (n * (n + 1.0) * p - t * dp)
+                out[:, 2] += w * dp
+            # P_{n+1} = ((2n+1) t P_n - n P_{n-1})/(n+1); P'_{n+1} = P'_{n-1} + (2n+1) P_n
+            p_prev, p, dp_prev, dp = (
+                p,
+                ((2 * n + 1) * t * p - n * p_prev) / (n + 1),
+                dp,
+                dp_prev + (2 * n + 1) * p,
+            )
+        return out
+
     # ------------------------------------------------------------------ realisations
 
     def _bands(self) -> list[tuple[int, NDArray[np.float64]]]:
@@ -490,7 +556,14 @@ class Omission:
         }
 
     def realise(
-        self, lat: ArrayLike, lon: ArrayLike, h: ArrayLike, draws: int, seed: int
+        self,
+        lat: ArrayLike,
+        lon: ArrayLike,
+        h: ArrayLike,
+        draws: int,
+        seed: int,
+        *,
+        device: str | None = None,
     ) -> NDArray[np.float64]:
         """Realisations of the omitted gravity disturbance vector at points.
 
@@ -509,61 +582,53 @@ class Omission:
             Number of realisations, 1 .. 10,000.
         seed : int
             Seed of ``numpy.random.default_rng`` (≥ 0).
+        device : str, optional
+            Warp device of the kernel (:mod:`fieldmap.kernels.omission`; default: the first
+            CUDA device, else the CPU, every core).
 
         Returns
         -------
         numpy.ndarray
             Shape ``(draws, npoints, 3)``: δg north, east, down. Units: m/s².
         """
+        import warp as wp
+
+        from fieldmap import _warp
+        from fieldmap.kernels import omission as kom
+
         la, lo, hh = (np.ravel(v) for v in limits.check_geodetic(lat, lon, h))
         waves = self.waves(draws, seed)
-        out = np.empty((waves["degree"].shape[0], la.size, 3))
-        for i in range(0, la.size, _CHUNK):
-            k = slice(i, i + _CHUNK)
-            out[:, k] = _wave_sum(waves, la[k], lo[k], hh[k], self.radius)
+        dev = _warp.resolve_device(device)
+        nd = waves["degree"].shape[0]
+        out = np.empty((nd, la.size, 3))
+        if la.size == 0:
+            return out
+        wv: dict[str, Any] = {
+            k: wp.array(waves[k], dtype=wp.vec3d if k == "pole" else wp.float64, device=dev)
+            for k in ("degree", "amplitude", "phase", "pole")
+        }
+        phi, lam = np.radians(la), np.radians(lo)
+        sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
+        frame = {
+            "unit": np.stack([cp * cl, cp * sl, sp], axis=-1),
+            "north": np.stack([-sp * cl, -sp * sl, cp], axis=-1),
+            "east": np.stack([-sl, cl, np.zeros_like(sl)], axis=-1),
+        }
+        r = self.radius + hh
+        step = max(1, _CHUNK // nd)  # points per launch: draws x points threads stay int32
+        for i in range(0, la.size, step):
+            k = slice(i, i + step)
+            m = len(range(*k.indices(la.size)))
+            ins: list[Any] = [wp.array(frame[c][k], dtype=wp.vec3d, device=dev) for c in frame]
+            ins += [
+                wp.array(np.log(self.radius / r[k]), dtype=wp.float64, device=dev),
+                wp.array(1.0 / r[k], dtype=wp.float64, device=dev),
+            ]
+            res = wp.zeros((nd, m), dtype=wp.vec3d, device=dev)
+            args = [*ins, wv["degree"], wv["amplitude"], wv["phase"], wv["pole"], m, res]
+            _warp.launch_chunked(kom.wave_sum, nd * m, args, dev)
+            out[:, k] = res.numpy()
         return out
-
-
-def _wave_sum(
-    waves: dict[str, NDArray[np.float64]],
-    lat: NDArray[np.float64],
-    lon: NDArray[np.float64],
-    h: NDArray[np.float64],
-    radius: float,
-) -> NDArray[np.float64]:
-    """δg (north, east, down; m/s²) of every draw's waves at a chunk of points: (draws, P, 3).
-
-    Element-wise operations only (no BLAS: its blocking could change the rounding with the
-    chunk), and each point's sum over its row of waves: the bits do not depend on the chunk.
-    """
-    phi, lam = np.radians(lat)[:, None], np.radians(lon)[:, None]
-    sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
-    x = (cp * cl, cp * sl, sp)  # unit position vector
-    north = (-sp * cl, -sp * sl, cp)
-    east = (-sl, cl, np.zeros_like(sl))
-    r = (radius + h)[:, None]
-    log_q = np.log(radius / r)
-    out = np.empty((waves["degree"].shape[0], lat.size, 3))
-    for d in range(out.shape[0]):
-        n = waves["degree"][d][None, :]
-        p = waves["pole"][d]
-        px, py, pz = p[None, :, 0], p[None, :, 1], p[None, :, 2]
-        cos_psi = x[0] * px + x[1] * py + x[2] * pz
-        pn = north[0] * px + north[1] * py + north[2] * pz  # p = cosψ x + pn n + pe e
-        pe = east[0] * px + east[1] * py + east[2] * pz
-        sin_psi = np.hypot(pn, pe)
-        psi = np.arctan2(sin_psi, cos_psi)
-        nu = np.sqrt(n * (n + 1.0))
-        arg = nu * psi + waves["phase"][d][None, :]
-        a = waves["amplitude"][d][None, :] * np.exp((n + 1.0) * log_q) / r  # A (R/r)^(n+1) / r
-        down = a * (n + 1.0) * np.cos(arg)
-        # ∇_h T = (1/r) dT/dψ e_ψ, e_ψ·north = -pn/sinψ, e_ψ·east = -pe/sinψ
-        with np.errstate(invalid="ignore", divide="ignore"):
-            hor = np.where(sin_psi > 0.0, a * nu * np.sin(arg) / sin_psi, 0.0)
-        out[d, :, 0] = np.sum(hor * pn, axis=1)
-        out[d, :, 1] = np.sum(hor * pe, axis=1)
-        out[d, :, 2] = np.sum(down, axis=1)
-    return out
 
 
 #: variables of the ``omission-sigma`` map (:func:`grid_omission`)
