@@ -229,7 +229,7 @@ def gravity_budget(
     if terms.omission is not None:
         idx = path_nodes(track, omission_spacing(terms.omission, track[:, 2]))
         lat, lon, h = track[idx, 0], track[idx, 1], track[idx, 2]
-        om = _at_nodes(t, idx, terms.omission.realise(lat, lon, h, n_g, terms.seed))
+        om = _at_nodes(t, idx, terms.omission.realise(lat, lon, h, n_g, terms.seed, device=device))
         sig = _at_nodes(t, idx, terms.omission.sigma(h))
     if terms.commission:
         from fieldmap.field.commission import commission_draws
