@@ -24,7 +24,7 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
    motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
-   heights ``max_climb_mps``) are outliers too. A height held and then left faster than
+   heights ``max_climb_mps``; default 1.5 times the vehicle's) are outliers too. A height held and then left faster than
    50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
 3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
    stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
@@ -75,6 +75,8 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.logs import fit as cfit
+from fieldmap.nav.logs.vehicle import guess_vehicle
+from fieldmap.nav.logs.vehicle import vehicle as vehicle_class
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -145,12 +147,19 @@ class Conditioning:
         Ellipsoid of the coordinates.
     min_speed_mps : float
         Ground speed below which a vehicle near its first (last) height is on the ground.
-    max_speed_mps, max_climb_mps : float
+    max_speed_mps, max_climb_mps : float, optional
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
-    max_accel_g, max_jerk : float or None
-        Limits of the vehicle: acceleration (g, relative to the Earth) and jerk (m/s³) the
-        conditioned path keeps within (None: no limit).
+        Default: 1.5 times the vehicle's speed and climb rate.
+    vehicle : str, optional
+        The vehicle class (:data:`~fieldmap.nav.logs.vehicle.VEHICLES`: ``airliner``,
+        ``light-aircraft``, ``glider``, ``helicopter``, ``uav``, ``fighter``, ``car``,
+        ``ship``, ``rocket``) whose load factor, jerk and speeds the conditioned path keeps
+        within. Default: guessed from the log
+        (:func:`~fieldmap.nav.logs.vehicle.guess_vehicle`), and the report says so.
+    max_accel_g, max_jerk : float, optional
+        Further limits: acceleration (g, relative to the Earth; default none beyond the
+        vehicle's load factor) and jerk (m/s³; default the vehicle's).
     threshold : float
         Outlier threshold in robust standard deviations.
     dt_out : float, optional
@@ -171,12 +180,13 @@ class Conditioning:
     on_long_gap: str = "longest"
     ellipsoid: Ellipsoid = WGS84
     min_speed_mps: float = 30.0
-    max_speed_mps: float = 1200.0
-    max_climb_mps: float = 300.0
-    max_accel_g: float | None = 2.5
-    max_jerk: float | None = 5.0
+    max_speed_mps: float | None = None
+    max_climb_mps: float | None = None
+    max_accel_g: float | None = None
+    max_jerk: float | None = None
     threshold: float = 5.0
     dt_out: float | None = None
+    vehicle: str | None = None
 
     def __post_init__(self) -> None:
         if self.on_long_gap not in ("longest", "refuse"):
@@ -187,8 +197,8 @@ class Conditioning:
         for name, optional in (
             ("max_gap_s", False),
             ("min_speed_mps", False),
-            ("max_speed_mps", False),
-            ("max_climb_mps", False),
+            ("max_speed_mps", True),
+            ("max_climb_mps", True),
             ("threshold", False),
             ("max_accel_g", True),
             ("max_jerk", True),
@@ -200,6 +210,8 @@ class Conditioning:
             ):
                 raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
         self.noise_m()
+        if self.vehicle is not None:
+            vehicle_class(self.vehicle)
 
     def noise_m(self) -> list[float] | None:
         """Return the position noise σ (m) as [horizontal, vertical], or None (estimated)."""
@@ -225,12 +237,13 @@ class Conditioning:
             "airborne_only": bool(self.airborne_only),
             "smooth": bool(self.smooth),
             "min_speed_mps": float(self.min_speed_mps),
-            "max_speed_mps": float(self.max_speed_mps),
-            "max_climb_mps": float(self.max_climb_mps),
+            "max_speed_mps": None if self.max_speed_mps is None else float(self.max_speed_mps),
+            "max_climb_mps": None if self.max_climb_mps is None else float(self.max_climb_mps),
             "max_accel_g": None if self.max_accel_g is None else float(self.max_accel_g),
             "max_jerk": None if self.max_jerk is None else float(self.max_jerk),
             "threshold": float(self.threshold),
             "dt_out": None if self.dt_out is None else float(self.dt_out),
+            "vehicle": self.vehicle,
         }
 
 
@@ -309,12 +322,26 @@ class Stages:
         self.dropped: list[dict] = []
         self.seg = np.zeros(n, np.int64)
         self.hv, self.vv = ~z, ~z
+        self.vehicle, self.vehicle_why = vehicle_class(options.vehicle or "airliner"), "given"
+        if n >= 3:
+            log.geometry()
+            self.stale = log.stale_positions()
+        if options.vehicle is None:
+            self.vehicle, self.vehicle_why = self._guess(~self.stale)
+        veh = self.vehicle
+        #: the limits in force: the options where given, else the vehicle's
+        self.lim = {
+            "max_speed_mps": opts["max_speed_mps"] or 1.5 * veh.speed,
+            "max_climb_mps": opts["max_climb_mps"] or 1.5 * veh.climb,
+            "max_accel_g": opts["max_accel_g"],
+            "max_jerk": opts["max_jerk"] or veh.jerk,
+            "n_min": veh.n_min,
+            "n_max": veh.n_max,
+        }
         if not opts["smooth"] or n < 3:
             return
-        o, q = opts, self.quantum
+        o, q = dict(opts, **self.lim), self.quantum
         floor_v = max(3.0 * q, FLOOR_V)
-        log.geometry()
-        self.stale = log.stale_positions()
         hv, vv = ~self.stale, ~z
         comps = [(hv, log.p, np.inf, 0.0), (vv, log.h[:, None], np.inf, 0.0)]
         seg, _ = segments(log.t, comps, o["max_gap_s"])
@@ -352,6 +379,20 @@ class Stages:
                 self.ground[m[g]] = True
                 seg[m[g]] = -1
         self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
+
+    def _guess(self, hv: np.ndarray) -> tuple[Any, str]:
+        """Guess the vehicle class from robust speeds (:func:`~.vehicle.guess_vehicle`)."""
+        log = self.log
+        cat = getattr(self.track, "category", None)
+        idx = np.flatnonzero(hv)
+        if idx.size < 3:
+            return guess_vehicle(np.zeros(1), np.zeros(1), log.h, cat)
+        t, half = log.t[idx], half_window(log.t[idx])
+        dt = np.diff(t)
+        v = cfit.running_median(np.diff(log.p[idx], axis=0) / dt[:, None], half)
+        w = cfit.running_median(np.diff(log.h)[:, None] / np.diff(log.t)[:, None], half)
+        h = cfit.running_median(log.h[:, None], half)[:, 0]
+        return guess_vehicle(np.linalg.norm(v, axis=1), w[:, 0], h, cat)
 
     def status(self) -> np.ndarray:
         """Each ordered sample's fate, codes of :data:`STATUS_NAMES`."""
@@ -403,7 +444,7 @@ class Stages:
         a = int(np.flatnonzero(self.seg == ids[0])[-1])
         b = int(np.flatnonzero(self.seg == ids[1])[0])
         kind = next((k for i, j, k in self.breaks if a <= i < b or a < j <= b), "gap")
-        o = self.opts
+        o = dict(self.opts, **self.lim)
         why = (
             f"more than {o['max_gap_s']:g} s (max_gap_s): raise the limit"
             if kind == "gap"
@@ -574,19 +615,22 @@ class Stages:
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """Step 7: soften the fits where the path as flown exceeds the vehicle limits.
 
-        Where the acceleration or jerk of the quintic through the output
-        (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds
-        ``LIMIT_MARGIN × max_accel_g`` or ``× max_jerk``, the σ of the samples nearby is raised
+        Where the load factor of the quintic through the output
+        (:func:`~fieldmap.nav.logs.fit.quintic_load_factor`) leaves the vehicle's range
+        (narrowed by ``LIMIT_MARGIN`` about 1 g), or its acceleration or jerk
+        (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds ``LIMIT_MARGIN ×
+        max_accel_g`` or ``× max_jerk`` (the vehicle's unless given), the σ of the samples nearby is raised
         (twice within two sample intervals, tapering to none at four) for the component(s)
         carrying at least half of it; both are refitted at the same λ, up to
         :data:`LIMIT_ITER` times. Returns the grid values and the number of samples softened.
         """
-        log, o = self.log, self.opts
+        log, o = self.log, self.lim
         gh, gv = fh["g"], fv["g"]
         a_max = np.inf if o["max_accel_g"] is None else o["max_accel_g"] * G0 * LIMIT_MARGIN
         j_max = np.inf if o["max_jerk"] is None else o["max_jerk"] * LIMIT_MARGIN
-        if np.isinf(a_max) and np.isinf(j_max):
-            return gh, gv, 0
+        # aim inside the load-factor range by the same margin, measured from 1 g
+        n_lo = 1.0 - LIMIT_MARGIN * (1.0 - o["n_min"])
+        n_hi = 1.0 + LIMIT_MARGIN * (o["n_max"] - 1.0)
         t0, dt, ng = grid
         out = slice(EDGE, ng - EDGE)
         tg = t0 + dt * np.arange(ng)[out]
@@ -595,7 +639,8 @@ class Stages:
         for _ in range(LIMIT_ITER):
             (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[out], dt) for g in (gh, gv))
             acc, jerk = np.hypot(ah, av), np.hypot(jh, jv)
-            bad = (acc > a_max) | (jerk > j_max)
+            nl, nh = cfit.quintic_load_factor(gh[out], gv[out], dt, G0)
+            bad = (acc > a_max) | (jerk > j_max) | (nl < n_lo) | (nh > n_hi)
             if not bad.any():
                 break
             for k, (idx, a, j) in enumerate(((hi, ah, jh), (vi, av, jv))):

@@ -481,3 +481,30 @@ def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
         a[1:] = np.maximum(a[1:], mid)
         out.append(a)
     return out[0], out[1]
+
+
+def quintic_load_factor(
+    gh: np.ndarray, gv: np.ndarray, dt: float, g0: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest load factor of the quintics through horizontal and vertical grids.
+
+    ``gh`` (ng, 3): the surface ECEF path; ``gv`` (ng, 1): heights. The load factor is the
+    specific force in units of ``g0``, ``n = √(|a_h|² + (a_v + g0)²) / g0`` (the Coriolis term,
+    under 0.5 % of g at airliner speeds, and the variation of gravity left out: this is the
+    limit the smoothing keeps, not the reported kinematics), evaluated at each node and the
+    midpoints next to it, as :func:`quintic_kinematics`. Two arrays (ng,).
+    """
+    from scipy.interpolate import make_interp_spline
+
+    t = dt * np.arange(gh.shape[0])
+    sh, sv = make_interp_spline(t, gh, k=5), make_interp_spline(t, gv, k=5)
+
+    def load(x: np.ndarray) -> np.ndarray:
+        ah = np.linalg.norm(sh(x, 2), axis=1)
+        return np.hypot(ah, sv(x, 2)[:, 0] + g0) / g0
+
+    at, mid = load(t), load(t[:-1] + 0.5 * dt)
+    lo, hi = at.copy(), at.copy()
+    for k in (slice(None, -1), slice(1, None)):
+        lo[k], hi[k] = np.minimum(lo[k], mid), np.maximum(hi[k], mid)
+    return lo, hi

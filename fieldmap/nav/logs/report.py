@@ -172,8 +172,18 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
     notes = list(getattr(track, "notes", ()) or ())
     if st.dropped:
         notes.append(f"flew the longest of {len(st.dropped) + 1} segments (breaks: gaps, jumps)")
+    veh, lim = st.vehicle, st.lim
+    if o["smooth"]:
+        notes.append(
+            f"vehicle: {veh.name} ({st.vehicle_why}; pass vehicle= to choose): load factor "
+            f"{veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, speed "
+            f"{veh.speed:g} m/s"
+        )
     if fr["softened"]:
-        limits = [f"{o[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if o[k]]
+        limits = [f"load factor {veh.n_min:g}..{veh.n_max:g} g"]
+        limits += [
+            f"{lim[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if lim[k]
+        ]
         notes.append(
             f"the path was softened near {fr['softened']} samples to keep within the vehicle "
             f"limits ({', '.join(limits)})"
@@ -252,6 +262,14 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
                 "lines": [int(samples.lines[0]), int(samples.lines[-1])],
             },
             "dropped": [rel(d) for d in st.dropped],
+        },
+        "vehicle": {
+            "class": veh.name,
+            "how": st.vehicle_why,
+            "load_factor_g": [veh.n_min, veh.n_max],
+            "max_jerk_m_s3": lim["max_jerk"],
+            "max_speed_m_s": veh.speed,
+            "max_climb_m_s": veh.climb,
         },
         "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
         "kinematics": kinematics(samples, log.ellipsoid),
