@@ -39,7 +39,7 @@ class Track:
 
 
 def straight(speed, h0, n=900, dt=1.0, noise=3.0, seed=3, category=None):
-    """A straight level track east at ``speed`` m/s with ``noise`` m white position noise."""
+    """Return a straight level track east at ``speed`` m/s with ``noise`` m white position noise."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) * dt
     lat = 45.0 + rng.normal(0.0, noise, n) / M_DEG

@@ -24,8 +24,8 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
    motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
-   heights ``max_climb_mps``; default 1.5 times the vehicle's) are outliers too. A height held and then left faster than
-   50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
+   heights ``max_climb_mps``; default 1.5 times the vehicle's) are outliers too. A height
+   held and then left faster than 50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
 3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
    stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
 4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
@@ -75,8 +75,6 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.logs import fit as cfit
-from fieldmap.nav.logs.vehicle import guess_vehicle
-from fieldmap.nav.logs.vehicle import vehicle as vehicle_class
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -90,6 +88,8 @@ from fieldmap.nav.logs.report import (
     ConditionedFlight,
     finish,
 )
+from fieldmap.nav.logs.vehicle import guess_vehicle
+from fieldmap.nav.logs.vehicle import vehicle as vehicle_class
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX
@@ -619,9 +619,9 @@ class Stages:
         (:func:`~fieldmap.nav.logs.fit.quintic_load_factor`) leaves the vehicle's range
         (narrowed by ``LIMIT_MARGIN`` about 1 g), or its acceleration or jerk
         (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds ``LIMIT_MARGIN ×
-        max_accel_g`` or ``× max_jerk`` (the vehicle's unless given), the σ of the samples nearby is raised
-        (twice within two sample intervals, tapering to none at four) for the component(s)
-        carrying at least half of it; both are refitted at the same λ, up to
+        max_accel_g`` or ``× max_jerk`` (the vehicle's unless given), the σ of the samples
+        nearby is raised (twice within two sample intervals, tapering to none at four) for the
+        component(s) carrying at least half of it; both are refitted at the same λ, up to
         :data:`LIMIT_ITER` times. Returns the grid values and the number of samples softened.
         """
         log, o = self.log, self.lim
