@@ -46,9 +46,7 @@ LOG_ONLY = {
 }
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
-CONDITIONING = {
-    k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground", "vehicle")
-}
+CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground", "vehicle")}
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
     "gravity_rate_hz": "--gravity-rate-hz",

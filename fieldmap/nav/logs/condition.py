@@ -25,7 +25,8 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
    motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
    heights ``max_climb_mps``; default 1.5 times the vehicle's) are outliers too. A height
-   held and then left faster than 50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
+   held and then left faster than 50 m/s was not updated (stale). Later, the robust fit
+   rejects what is left (step 6).
 3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
    stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
 4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
