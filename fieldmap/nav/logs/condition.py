@@ -24,16 +24,18 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
    motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
-   heights ``max_climb_mps``; default 1.5 times the vehicle's) are outliers too. A height
+   heights ``max_climb_mps``) are outliers too. A height
    held and then left faster than 50 m/s was not updated (stale). Later, the robust fit
    rejects what is left (step 6).
-3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
-   stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
+3. **Breaks**: jumps that are no short bursts (a displaced stretch: spoofing, a wrong altitude
+   held for minutes) split the log into segments; so do gaps longer than ``max_gap_s``, unless
+   ``on_long_gap="bridge"`` (default).
 4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
    ``min_speed_mps`` and within 30 m of the segment's first (last) height are trimmed.
-5. **Segment.** ``on_long_gap="longest"`` (default) flies the longest segment and lists the
-   others in the report; ``"refuse"`` raises an :class:`InputError` naming the first break.
-   :func:`condition_segments` conditions each.
+5. **Segment.** ``on_long_gap="bridge"`` (default) flies across gaps of any length (step 6)
+   and the longest of the segments jumps leave; ``"longest"`` flies the longest segment that
+   gaps and jumps leave and lists the others in the report; ``"refuse"`` raises an
+   :class:`InputError` naming the first break. :func:`condition_segments` conditions each.
 6. **Smoothing** on a regular grid (``dt_out``, default the median sample interval within
    0.1..1 s, extended past the data so that the ends are no free ends): a penalised
    least-squares path, the discrete cubic smoothing spline (Whittaker 1923, Reinsch 1967,
@@ -42,7 +44,12 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    trace estimate). σ is ``position_noise_m`` or estimated from leave-one-out cubic predictions
    (a local RMS: ADS-B noise grows with speed); heights quantised in ``q`` have at least
    ``q/√12`` and no noise in level flight. Iteratively reweighted (Tukey's bisquare; Garcia
-   2010): samples beyond 4.685 robust σ are outliers. Gaps up to ``max_gap_s`` are bridged.
+   2010): samples beyond 4.685 robust σ are outliers. Gaps are bridged by the fit itself:
+   across an interval without samples the penalised spline is the cubic that joins the
+   positions and velocities at both ends with the least ∫|a|² (Reinsch 1967), a path the
+   vehicle can fly; its uncertainty is the fit's Bayesian posterior σ at the middle of each
+   gap longer than ``max_gap_s`` (Wahba 1983; :func:`~fieldmap.nav.logs.fit.posterior_sigma`),
+   given in the report.
 7. **Vehicle limits.** Where the path as flown (the quintic through the output) exceeds
    ``max_accel_g`` (2.5 g) or ``max_jerk`` (5 m/s³), the noise σ of the samples there is
    raised and the path refitted, until it keeps within them: stale or late ADS-B positions and
@@ -134,24 +141,26 @@ class Conditioning:
         Position noise σ (m): one value, or (horizontal, per axis; vertical). Default:
         estimated from the data.
     max_gap_s : float
-        Longest interval without samples the smoothing bridges (s); longer ones split the log.
+        Gaps longer than this (s) are long gaps: bridged and reported with their uncertainty
+        (``on_long_gap="bridge"``), or breaks that split the log.
     airborne_only : bool
         Trim leading and trailing ground movement (slower than ``min_speed_mps``).
     smooth : bool
         False: only order the samples and drop repeated times (exact interpolation).
     reorder : bool
         Sort times that go back; False: refuse them (:class:`InputError` naming the line).
-    on_long_gap : {"longest", "refuse"}
-        More than one segment left (gaps, jumps): fly the longest (the report lists the
-        others), or refuse naming the first break.
+    on_long_gap : {"bridge", "longest", "refuse"}
+        Gaps longer than ``max_gap_s``: bridge them by the fit (default; the report gives the
+        bridged position's σ), or let them split the log with jumps and fly the longest
+        segment (the report lists the others), or refuse naming the first break.
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
     min_speed_mps : float
         Ground speed below which a vehicle near its first (last) height is on the ground.
-    max_speed_mps, max_climb_mps : float, optional
+    max_speed_mps, max_climb_mps : float
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
-        Default: 1.5 times the vehicle's speed and climb rate.
+        Generous (any vehicle's noisy steps stay within them), not the vehicle's envelope.
     vehicle : str, optional
         The vehicle class (:data:`~fieldmap.nav.logs.vehicle.VEHICLES`: ``airliner``,
         ``light-aircraft``, ``glider``, ``helicopter``, ``uav``, ``fighter``, ``car``,
@@ -178,11 +187,11 @@ class Conditioning:
     airborne_only: bool = True
     smooth: bool = True
     reorder: bool = True
-    on_long_gap: str = "longest"
+    on_long_gap: str = "bridge"
     ellipsoid: Ellipsoid = WGS84
     min_speed_mps: float = 30.0
-    max_speed_mps: float | None = None
-    max_climb_mps: float | None = None
+    max_speed_mps: float = 1200.0
+    max_climb_mps: float = 300.0
     max_accel_g: float | None = None
     max_jerk: float | None = None
     threshold: float = 5.0
@@ -190,16 +199,16 @@ class Conditioning:
     vehicle: str | None = None
 
     def __post_init__(self) -> None:
-        if self.on_long_gap not in ("longest", "refuse"):
+        if self.on_long_gap not in ("bridge", "longest", "refuse"):
             raise InputError(
-                f"on_long_gap must be 'longest' or 'refuse', got {self.on_long_gap!r}",
+                f"on_long_gap must be 'bridge', 'longest' or 'refuse', got {self.on_long_gap!r}",
                 param="on_long_gap",
             )
         for name, optional in (
             ("max_gap_s", False),
             ("min_speed_mps", False),
-            ("max_speed_mps", True),
-            ("max_climb_mps", True),
+            ("max_speed_mps", False),
+            ("max_climb_mps", False),
             ("threshold", False),
             ("max_accel_g", True),
             ("max_jerk", True),
@@ -238,8 +247,8 @@ class Conditioning:
             "airborne_only": bool(self.airborne_only),
             "smooth": bool(self.smooth),
             "min_speed_mps": float(self.min_speed_mps),
-            "max_speed_mps": None if self.max_speed_mps is None else float(self.max_speed_mps),
-            "max_climb_mps": None if self.max_climb_mps is None else float(self.max_climb_mps),
+            "max_speed_mps": float(self.max_speed_mps),
+            "max_climb_mps": float(self.max_climb_mps),
             "max_accel_g": None if self.max_accel_g is None else float(self.max_accel_g),
             "max_jerk": None if self.max_jerk is None else float(self.max_jerk),
             "threshold": float(self.threshold),
@@ -294,7 +303,7 @@ def condition_segments(track: Any, options: Conditioning | None = None) -> list[
     to fly are left out. Raises :class:`InputError` when none is left.
     """
     options = Conditioning() if options is None else options
-    st = Stages(track, replace(options, smooth=True))
+    st = Stages(track, replace(options, smooth=True, on_long_gap="longest"))
     out = []
     for s in st.segment_ids():
         try:
@@ -332,8 +341,8 @@ class Stages:
         veh = self.vehicle
         #: the limits in force: the options where given, else the vehicle's
         self.lim = {
-            "max_speed_mps": opts["max_speed_mps"] or 1.5 * veh.speed,
-            "max_climb_mps": opts["max_climb_mps"] or 1.5 * veh.climb,
+            "max_speed_mps": opts["max_speed_mps"],
+            "max_climb_mps": opts["max_climb_mps"],
             "max_accel_g": opts["max_accel_g"],
             "max_jerk": opts["max_jerk"] or veh.jerk,
             "n_min": veh.n_min,
@@ -371,7 +380,16 @@ class Stages:
             (hv, log.p, o["max_speed_mps"], FLOOR_H),
             (vv, log.h[:, None], o["max_climb_mps"], floor_v),
         ]
+        if options.on_long_gap == "bridge":  # jumps are left to the robust fit (step 6)
+            comps = [(hv, log.p, np.inf, FLOOR_H), (vv, log.h[:, None], np.inf, floor_v)]
         seg, self.breaks = segments(log.t, comps, o["max_gap_s"])
+        if options.on_long_gap == "bridge" and any(
+            (hv & (seg == s)).sum() >= MIN_POINTS and (vv & (seg == s)).sum() >= MIN_POINTS
+            for s in np.unique(seg[seg >= 0])
+        ):
+            # one flight across every gap, from the first sample to the last (step 5): the
+            # ground trimming below then sees its real ends (a glider parked after landing)
+            seg[:] = 0
         self.in_gap = seg < 0
         if o["airborne_only"]:
             for s in np.unique(seg[seg >= 0]):
@@ -570,6 +588,7 @@ class Stages:
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
         gh, gv, softened = self._limits(grid, hi, vi, loc, fh, fv)
+        bridges = self._bridges(grid, hi, vi, loc, (fh["lam"], fv["lam"]))
         tg = t_lo + dt * np.arange(ng)
         gh, gv = gh[EDGE : EDGE + ng], gv[EDGE : EDGE + ng]
         lat, lon, _ = ecef_to_geodetic(gh[:, 0], gh[:, 1], gh[:, 2], log.ellipsoid)
@@ -603,7 +622,54 @@ class Stages:
             "t_hi": float(t_hi),
             "dt_out": dt,
             "softened": softened,
+            "bridges": bridges,
         }
+
+    def _bridges(
+        self,
+        grid: tuple[float, float, int],
+        hi: np.ndarray,
+        vi: np.ndarray,
+        loc: list[np.ndarray],
+        lam: tuple[float, float],
+    ) -> list[dict[str, Any]]:
+        """The long gaps the path bridges, each with the path's posterior σ at its middle.
+
+        A long gap: more than ``max_gap_s`` between the samples of the horizontal or the
+        vertical fit (overlapping ones joined). σ per horizontal axis and vertical (m) from
+        :func:`~fieldmap.nav.logs.fit.posterior_sigma` with the fit's final weights and λ.
+        """
+        log = self.log
+        t0, dt, ng = grid
+        out: list[dict[str, Any]] = []
+        spans = []
+        for idx in (hi, vi):
+            tt = log.t[idx]
+            for j in np.flatnonzero(np.diff(tt) > self.opts["max_gap_s"]):
+                spans.append((int(idx[j]), int(idx[j + 1])))
+        pairs: list[tuple[int, int]] = []
+        for a, b in sorted(spans):  # a gap of either component; overlapping ones joined
+            if pairs and a < pairs[-1][1]:
+                pairs[-1] = (pairs[-1][0], max(b, pairs[-1][1]))
+            else:
+                pairs.append((a, b))
+        if not pairs:
+            return out
+        mid = np.array([0.5 * (log.t[a] + log.t[b]) for a, b in pairs])
+        nodes = np.clip(np.round((mid - t0) / dt).astype(np.int64), 0, ng - 1)
+        sh = cfit.posterior_sigma(grid, log.t[hi], loc[0], lam[0], nodes)
+        sv = cfit.posterior_sigma(grid, log.t[vi], loc[1], lam[1], nodes)
+        for (a, b), s_h, s_v in zip(pairs, sh, sv):
+            out.append(
+                {
+                    "t_from": float(log.t[a]),
+                    "t_to": float(log.t[b]),
+                    "lines": [int(log.lines[a]), int(log.lines[b])],
+                    "sigma_h_m": float(s_h),
+                    "sigma_v_m": float(s_v),
+                }
+            )
+        return out
 
     def _limits(
         self,
@@ -682,6 +748,7 @@ class Stages:
             "t_hi": float(log.t[-1]),
             "dt_out": None,
             "softened": 0,
+            "bridges": [],
         }
 
 

@@ -30,7 +30,8 @@ C. H. (1967) Numer. Math. 10, 177-183. Eilers, P. H. C. (2003) Anal. Chem. 75, 3
 Buja, A., Hastie, T. & Tibshirani, R. (1989) Ann. Statist. 17, 453-510. Hutchinson, M. F.
 (1989) Commun. Statist. Simul. 18, 1059-1076. Beaton, A. E. & Tukey, J. W. (1974)
 Technometrics 16, 147-185. Garcia, D. (2010) Comput. Statist. Data Anal. 54, 1167-1178.
-Silverman, B. W. (1984) Ann. Statist. 12, 898-916.
+Silverman, B. W. (1984) Ann. Statist. 12, 898-916. Wahba, G. (1983) J. R. Statist. Soc. B 45,
+133-150.
 """
 
 from __future__ import annotations
@@ -288,17 +289,21 @@ class Whittaker:
                 self.rhs[:, j] += np.bincount(k0 + a, wl * y[:, j], ng)
         self.c = np.array([(-1.0) ** (ORDER - j) * math.comb(ORDER, j) for j in range(ORDER + 1)])
 
-    def solve(self, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
-        """Grid values (ng, d), the fit at the samples (n, d) and the degrees of freedom."""
-        from scipy.linalg import solveh_banded
-
+    def matrix(self, lam: float) -> np.ndarray:
+        """The banded normal matrix ``Bᵀ W B + λ Dᵀ D`` at ``lam`` (upper form, (u+1, ng))."""
         ab, u, c, m = self.ab.copy(), self.u, self.c, ORDER
         lamd = lam * self.dt ** (1 - 2 * m)
         r = np.arange(self.ng - m)
         for a in range(m + 1):
             for b in range(a, m + 1):
                 ab[u - (b - a), r + b] += lamd * c[a] * c[b]
-        g = solveh_banded(ab, self.rhs, lower=False, check_finite=False)
+        return ab
+
+    def solve(self, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Grid values (ng, d), the fit at the samples (n, d) and the degrees of freedom."""
+        from scipy.linalg import solveh_banded
+
+        g = solveh_banded(self.matrix(lam), self.rhs, lower=False, check_finite=False)
         fit = on_grid(g, self.rows)
         p = self.probes
         if not p:
@@ -460,6 +465,37 @@ def refit(
     y0 = y.mean(axis=0)
     g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)
     return g + y0, fit + y0
+
+
+def posterior_sigma(
+    grid: tuple[float, float, int],
+    t: np.ndarray,
+    sigma: np.ndarray,
+    lam: float,
+    nodes: np.ndarray,
+) -> np.ndarray:
+    r"""Posterior σ of the fitted path at grid ``nodes`` (per component, m).
+
+    The penalised spline is the posterior mean of a Bayesian model (Wahba 1983): the samples
+    with independent errors of σ, the path an integrated random walk whose second differences
+    have the precision ``λ DᵀD``. Its posterior covariance is the inverse of the normal matrix,
+
+    .. math:: \operatorname{Cov}(g) = (B^T W B + \lambda D^T D)^{-1}, \quad W = \sigma^{-2},
+
+    so the σ at node k is ``√((A⁻¹)_kk)``: a few metres where samples are dense, growing as
+    ``T^{3/2}`` across a gap of T without samples. Wahba, G. (1983) J. R. Statist. Soc. B 45,
+    133-150.
+    """
+    from scipy.linalg import solveh_banded
+
+    nodes = np.asarray(nodes, dtype=np.int64)
+    if nodes.size == 0:
+        return np.zeros(0)
+    wt = Whittaker(grid, t, np.zeros((t.size, 1)), 1.0 / np.asarray(sigma, dtype=np.float64) ** 2)
+    e = np.zeros((wt.ng, nodes.size))
+    e[nodes, np.arange(nodes.size)] = 1.0
+    x = solveh_banded(wt.matrix(lam), e, lower=False, check_finite=False)
+    return np.sqrt(np.maximum(x[nodes, np.arange(nodes.size)], 0.0))
 
 
 def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:

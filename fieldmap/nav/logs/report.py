@@ -254,6 +254,17 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
                 for a, b, kind in st.breaks
             ],
             "samples_in_breaks": int(np.sum(status == GAP)),
+            "long_bridged": [
+                {
+                    "t_from_s": b["t_from"] - t0,
+                    "t_to_s": b["t_to"] - t0,
+                    "duration_s": b["t_to"] - b["t_from"],
+                    "lines": b["lines"],
+                    "sigma_h_m": b["sigma_h_m"],
+                    "sigma_v_m": b["sigma_v_m"],
+                }
+                for b in fr["bridges"]
+            ],
         },
         "segments": {
             "flown": {
@@ -331,6 +342,13 @@ def format_report(rep: dict) -> str:
             f"  gaps bridged: {g['bridged']} (longest {g['longest_bridged_s']:.1f} s); breaks "
             f"(gaps over {g['limit_s']:g} s, jumps): {len(g['breaks'])}"
         )
+        for b in g.get("long_bridged", []):
+            lines.append(
+                f"  long gap bridged: lines {b['lines'][0]}..{b['lines'][1]} "
+                f"({b['duration_s']:.0f} s, t = {b['t_from_s']:.0f}..{b['t_to_s']:.0f} s): "
+                f"a path the vehicle could fly, σ {b['sigma_h_m']:.0f} m per horizontal axis, "
+                f"{b['sigma_v_m']:.0f} m vertical at mid-gap"
+            )
     for d in rep["segments"]["dropped"]:
         lines.append(
             f"  segment dropped: lines {d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "

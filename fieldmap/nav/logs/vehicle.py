@@ -42,8 +42,7 @@ rocket         0 … 10      100       8000      launch vehicles: 3…6 g axial 
 ============== =========== ========= ========= ==========================================
 
 The conditioning keeps the specific force ``|a − γ|`` within ``[n_min, n_max] g`` and the jerk
-below the class's; jumps between consecutive samples faster than 1.5 × the class's speed (or its
-climb rate) are errors of the log, not motion.
+below the class's; the report compares the flown speeds with the class's.
 
 Guess (:func:`guess_vehicle`), when the user names none: from an ADS-B emitter category where the
 log carries one (DO-260B: A1 light, A2 small, A3 large, A4 high-vortex, A5 heavy, A6 high
