@@ -633,7 +633,7 @@ class Stages:
         loc: list[np.ndarray],
         lam: tuple[float, float],
     ) -> list[dict[str, Any]]:
-        """The long gaps the path bridges, each with the path's posterior σ at its middle.
+        """Return the long gaps the path bridges, each with the path's posterior σ at its middle.
 
         A long gap: more than ``max_gap_s`` between the samples of the horizontal or the
         vertical fit (overlapping ones joined). σ per horizontal axis and vertical (m) from

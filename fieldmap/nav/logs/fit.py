@@ -290,7 +290,7 @@ class Whittaker:
         self.c = np.array([(-1.0) ** (ORDER - j) * math.comb(ORDER, j) for j in range(ORDER + 1)])
 
     def matrix(self, lam: float) -> np.ndarray:
-        """The banded normal matrix ``Bᵀ W B + λ Dᵀ D`` at ``lam`` (upper form, (u+1, ng))."""
+        """Return the banded normal matrix ``Bᵀ W B + λ Dᵀ D`` at ``lam`` (upper, (u+1, ng))."""
         ab, u, c, m = self.ab.copy(), self.u, self.c, ORDER
         lamd = lam * self.dt ** (1 - 2 * m)
         r = np.arange(self.ng - m)
