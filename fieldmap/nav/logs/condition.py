@@ -83,6 +83,7 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.logs import fit as cfit
+from fieldmap.nav.logs import velocity
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -327,6 +328,7 @@ class Stages:
         self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
+        self.obs: velocity.Observed | None = None
         self.quantum = cfit.height_quantum(log.h)
         self.breaks: list[tuple[int, int, str]] = []
         self.dropped: list[dict] = []
@@ -584,6 +586,21 @@ class Stages:
             1, edf_correction=q == 0.0, floor=3.0 * q, max_run=burst_length(tv)
         )
         fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
+        inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
+        obs = self.obs = velocity.observations(log, self.track, inside)
+        if obs is not None:  # the log's own velocities: checked, then observations of the path
+            rh = (
+                np.zeros((0, 3)) if obs.h is None else velocity.fitted_rates(grid, fh["g"], obs.h.t)
+            )
+            rv = (
+                np.zeros((0, 1)) if obs.v is None else velocity.fitted_rates(grid, fv["g"], obs.v.t)
+            )
+            obs = self.obs = velocity.check(obs, rh, rv, log.source, log.lines)
+            horizontal_fit = cfit.PathFit(2, max_run=burst_length(th))
+            fh = cfit.fit_path(grid, th, ph, loc[0], horizontal_fit, rates=obs.h, lam=fh["lam"])
+            fv = cfit.fit_path(
+                grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
+            )
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
@@ -623,6 +640,7 @@ class Stages:
             "dt_out": dt,
             "softened": softened,
             "bridges": bridges,
+            "velocity": velocity.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
         }
 
     def _bridges(
@@ -657,8 +675,9 @@ class Stages:
             return out
         mid = np.array([0.5 * (log.t[a] + log.t[b]) for a, b in pairs])
         nodes = np.clip(np.round((mid - t0) / dt).astype(np.int64), 0, ng - 1)
-        sh = cfit.posterior_sigma(grid, log.t[hi], loc[0], lam[0], nodes)
-        sv = cfit.posterior_sigma(grid, log.t[vi], loc[1], lam[1], nodes)
+        rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
+        sh = cfit.posterior_sigma(grid, log.t[hi], loc[0], lam[0], nodes, rh)
+        sv = cfit.posterior_sigma(grid, log.t[vi], loc[1], lam[1], nodes, rv)
         for (a, b), s_h, s_v in zip(pairs, sh, sv):
             out.append(
                 {
@@ -721,8 +740,9 @@ class Stages:
                     f = np.clip(3.0 - d / span, 1.0, 2.0)
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
-            gh = cfit.refit(grid, log.t[hi], log.p[hi], loc[0], fh["lam"])[0]
-            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"])[0]
+            rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
+            gh = cfit.refit(grid, log.t[hi], log.p[hi], loc[0], fh["lam"], rh)[0]
+            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rv)[0]
         return gh, gv, int(touched.sum())
 
     def exact(self) -> dict:
@@ -749,6 +769,7 @@ class Stages:
             "dt_out": None,
             "softened": 0,
             "bridges": [],
+            "velocity": None,
         }
 
 
@@ -807,6 +828,7 @@ class OrderedLog:
         self.first_invalid_line = int(lines[~finite][0]) if self.n_invalid else None
         t, lat, lon, h = (a[finite] for a in arrs)
         lines = lines[finite]
+        index = np.flatnonzero(finite)
         for name, v, lim in (("latitude", lat, 90.0), ("longitude", lon, 540.0)):
             bad = np.flatnonzero(np.abs(v) > lim)
             if bad.size:
@@ -826,10 +848,13 @@ class OrderedLog:
                 )
             order = np.argsort(t, kind="stable")
             t, lat, lon, h, lines = t[order], lat[order], lon[order], h[order], lines[order]
+            index = index[order]
         dup = np.concatenate([[False], np.diff(t) == 0.0])
         self.n_duplicates = int(dup.sum())
         self.first_duplicate_line = int(lines[dup][0]) if dup.any() else None
         self.t, self.lat, self.lon, self.h, self.lines = (a[~dup] for a in (t, lat, lon, h, lines))
+        #: each ordered sample's index in the track
+        self.index = index[~dup]
         self.lon = np.degrees(np.unwrap(np.radians(self.lon)))
         self.ellipsoid = ellipsoid
         self.p = self.en = np.zeros((0, 3))

@@ -245,10 +245,44 @@ def lagrange_rows(t0: float, dt: float, ng: int, t: np.ndarray) -> tuple[np.ndar
     return k - 1, L
 
 
+def lagrange_rate_rows(
+    t0: float, dt: float, ng: int, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Time derivative of the cubic Lagrange interpolation of :func:`lagrange_rows` at ``t``.
+
+    Returns the first node of each time, (m,), and the weights of the rate, (m, 4) (1/s).
+    """
+    x = (np.asarray(t, dtype=np.float64) - t0) / dt
+    k = np.clip(np.floor(x).astype(np.int64), 1, ng - 3)
+    u = x - k
+    dL = np.stack(
+        [
+            -(3.0 * u * u - 6.0 * u + 2.0) / 6.0,
+            (3.0 * u * u - 4.0 * u - 1.0) / 2.0,
+            -(3.0 * u * u - 2.0 * u - 2.0) / 2.0,
+            (3.0 * u * u - 1.0) / 6.0,
+        ],
+        -1,
+    )
+    return k - 1, dL / dt
+
+
 def on_grid(g: np.ndarray, rows: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Values at the times of ``rows`` (from :func:`lagrange_rows`) of grid values ``g``."""
     k0, L = rows
     return np.einsum("mj,mjd->md", L, g[k0[:, None] + np.arange(4)])
+
+
+@dataclass(frozen=True)
+class Rates:
+    """Observed rates of a fitted component: times ``t`` (m,), values ``v`` (m, d), weights.
+
+    Units: s; m/s (the component's units per second); ``w`` = 1/σ² in (s/m)².
+    """
+
+    t: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
 
 
 class Whittaker:
@@ -269,24 +303,35 @@ class Whittaker:
         y: np.ndarray,
         w: np.ndarray,
         probes: int = 0,
+        rates: Rates | None = None,
     ) -> None:
         t0, self.dt, self.ng = grid
         ng = self.ng
         self.rows = k0, L = lagrange_rows(t0, self.dt, ng, t)
         self.u = u = max(3, ORDER)
         self.ab = np.zeros((u + 1, ng))
-        for a in range(4):
-            for b in range(a, 4):
-                self.ab[u - (b - a)] += np.bincount(k0 + b, w * L[:, a] * L[:, b], ng)
+        d = y.shape[1]
         self.probes = probes
         if probes:
             self.z = np.random.default_rng(20240601).choice([-1.0, 1.0], size=(t.size, probes))
             y = np.concatenate([y, self.z], 1)
         self.rhs = np.zeros((ng, y.shape[1]))
-        for a in range(4):
-            wl = w * L[:, a]
-            for j in range(y.shape[1]):
-                self.rhs[:, j] += np.bincount(k0 + a, wl * y[:, j], ng)
+        obs = [(k0, L, w, y)]
+        if rates is not None and rates.t.size:
+            # rate observations: rows of the derivative of the same interpolation, weights
+            # 1/σ_v²; they enter the data columns only (the probes trace the positions' hat)
+            kr, dL = lagrange_rate_rows(t0, self.dt, ng, rates.t)
+            yr = np.zeros((rates.t.size, y.shape[1]))
+            yr[:, :d] = rates.v
+            obs.append((kr, dL, rates.w, yr))
+        for k, M, ww, yy in obs:
+            for a in range(4):
+                for b in range(a, 4):
+                    self.ab[u - (b - a)] += np.bincount(k + b, ww * M[:, a] * M[:, b], ng)
+            for a in range(4):
+                wl = ww * M[:, a]
+                for j in range(yy.shape[1]):
+                    self.rhs[:, j] += np.bincount(k + a, wl * yy[:, j], ng)
         self.c = np.array([(-1.0) ** (ORDER - j) * math.comb(ORDER, j) for j in range(ORDER + 1)])
 
     def matrix(self, lam: float) -> np.ndarray:
@@ -361,6 +406,8 @@ def fit_path(
     settings: PathFit,
     *,
     energy: np.ndarray | None = None,
+    rates: Rates | None = None,
+    lam: float | None = None,
 ) -> dict[str, Any]:
     """Robust :class:`Whittaker` fit of ``y`` (n, d) with λ from the noise σ (m, per sample).
 
@@ -378,6 +425,13 @@ def fit_path(
     residuals in units of σ times their MAD scale (at least 1), c = 4.685 (Beaton & Tukey
     1974). Samples with weight 0 are outliers, unless within ``floor`` (m) of the fit or in a
     run longer than ``max_run`` samples (real motion the fit has yet to follow: weight 1).
+
+    Rates. ``rates`` (:class:`Rates`): observed velocities of the component (the log's own:
+    ADS-B ground speed and track, vertical rate), least-squares rows of the derivative of the
+    same interpolation with their weights, in every solve; they hold the path's velocity where
+    the positions are noisy or missing (gaps). ``lam``: a λ to keep (that of the positions
+    alone: rates that disagree with the positions in a way the noise model does not hold, e.g.
+    late fixes, would drive the discrepancy to the roughest λ); default: from the discrepancy.
 
     Returns ``g`` (grid values), ``fit`` (at the samples), ``lam``, ``edf``, ``rms`` (residual
     RMS per noise component of the inliers, m) and ``outlier`` (n,) bool.
@@ -421,8 +475,11 @@ def fit_path(
         return brentq(excess, lo, hi, xtol=1e-2)
 
     u = np.ones(n)
-    wt = Whittaker(grid, t, yc, w0, PROBES)
-    logb = discrepancy(wt, w0, u, math.log(0.01), math.log(100.0))
+    wt = Whittaker(grid, t, yc, w0, PROBES, rates)
+    if lam is None:
+        logb = discrepancy(wt, w0, u, math.log(0.01), math.log(100.0))
+    else:
+        logb = math.log(lam / scale) / (2 * ORDER)
     for _ in range(IRLS_ITER):  # reweighting at a fixed λ
         _, fit, _ = wt.solve(lam_of(logb))
         r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
@@ -436,14 +493,15 @@ def fit_path(
         unew = np.where(r <= floor, 1.0, _bisquare(z, BISQUARE_C))
         done = np.max(np.abs(unew - u)) < 1e-3
         u = unew
-        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES, rates)
         if done:
             break
     # the final fit: outliers out, every other sample at full weight, λ again
     u = (u > 0.0).astype(np.float64)
     if not u.all():
-        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
-        logb = discrepancy(wt, w0 * u, u, logb - 1.5, logb + 1.5)
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES, rates)
+        if lam is None:
+            logb = discrepancy(wt, w0 * u, u, logb - 1.5, logb + 1.5)
     g, fit, edf = wt.solve(lam_of(logb))
     r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
     outlier = u == 0.0
@@ -459,11 +517,17 @@ def fit_path(
 
 
 def refit(
-    grid: tuple[float, float, int], t: np.ndarray, y: np.ndarray, sigma: np.ndarray, lam: float
+    grid: tuple[float, float, int],
+    t: np.ndarray,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    lam: float,
+    rates: Rates | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:class:`Whittaker` fit at a given λ with weights ``1/σ²``: grid values, fit at ``t``."""
     y0 = y.mean(axis=0)
-    g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)
+    w = 1.0 / np.asarray(sigma) ** 2
+    g, fit, _ = Whittaker(grid, t, y - y0, w, 0, rates).solve(lam)
     return g + y0, fit + y0
 
 
@@ -473,6 +537,7 @@ def posterior_sigma(
     sigma: np.ndarray,
     lam: float,
     nodes: np.ndarray,
+    rates: Rates | None = None,
 ) -> np.ndarray:
     r"""Posterior σ of the fitted path at grid ``nodes`` (per component, m).
 
@@ -482,7 +547,8 @@ def posterior_sigma(
 
     .. math:: \operatorname{Cov}(g) = (B^T W B + \lambda D^T D)^{-1}, \quad W = \sigma^{-2},
 
-    so the σ at node k is ``√((A⁻¹)_kk)``: a few metres where samples are dense, growing as
+    so the σ at node k is ``√((A⁻¹)_kk)`` (observed rates ``rates`` add their rows to A): a
+    few metres where samples are dense, growing as
     ``T^{3/2}`` across a gap of T without samples. Wahba, G. (1983) J. R. Statist. Soc. B 45,
     133-150.
     """
@@ -491,7 +557,10 @@ def posterior_sigma(
     nodes = np.asarray(nodes, dtype=np.int64)
     if nodes.size == 0:
         return np.zeros(0)
-    wt = Whittaker(grid, t, np.zeros((t.size, 1)), 1.0 / np.asarray(sigma, dtype=np.float64) ** 2)
+    w = 1.0 / np.asarray(sigma, dtype=np.float64) ** 2
+    if rates is not None:  # the covariance does not depend on the values: any d = 1 will do
+        rates = Rates(rates.t, np.zeros((rates.t.size, 1)), rates.w)
+    wt = Whittaker(grid, t, np.zeros((t.size, 1)), w, 0, rates)
     e = np.zeros((wt.ng, nodes.size))
     e[nodes, np.arange(nodes.size)] = 1.0
     x = solveh_banded(wt.matrix(lam), e, lower=False, check_finite=False)

@@ -77,7 +77,8 @@ def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.nd
 def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
     """Peaks of the path a :class:`FlightTrajectory` interpolates through ``samples``.
 
-    Returns a dict: ``duration_s``, ``max_speed_m_s``, ``peak_acceleration_g`` (and its
+    Returns a dict: ``duration_s``, ``max_speed_m_s``, ``max_ground_speed_m_s`` (horizontal),
+    ``peak_acceleration_g`` (and its
     ``peak_acceleration_t_s``, ``peak_acceleration_line``), ``peak_specific_force_g``,
     ``min_specific_force_g``, ``peak_jerk_m_s3``, ``peak_turn_rate_deg_s``,
     ``peak_climb_rate_m_s``, ``peak_descent_rate_m_s``.
@@ -104,6 +105,7 @@ def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
     return {
         "duration_s": float(s.t[-1] - s.t[0]),
         "max_speed_m_s": float(np.linalg.norm(v, axis=1).max()),
+        "max_ground_speed_m_s": float(np.hypot(v_enu[:, 0], v_enu[:, 1]).max()),
         "peak_acceleration_g": float(acc[i] / G0),
         "peak_acceleration_t_s": float(tt[i]),
         "peak_acceleration_line": int(s.lines[near]),
@@ -284,6 +286,7 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
         },
         "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
         "kinematics": kinematics(samples, log.ellipsoid),
+        "velocity": fr.get("velocity"),
         "notes": notes,
     }
     raw = {
@@ -367,6 +370,25 @@ def format_report(rep: dict) -> str:
         f"{k['peak_turn_rate_deg_s']:.1f} °/s, climb {k['peak_climb_rate_m_s']:.1f} m/s, "
         f"descent {k['peak_descent_rate_m_s']:.1f} m/s"
     )
+    vr = rep.get("velocity")
+    if vr:
+        parts = []
+        if "groundspeed_rms_m_s" in vr:
+            parts.append(
+                f"ground speed {vr['groundspeed_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['groundspeed_max_m_s']:.1f}), track {vr['track_rms_deg']:.2f}° RMS (max "
+                f"{vr['track_max_deg']:.1f}°)"
+            )
+        if "vertical_rate_rms_m_s" in vr:
+            parts.append(
+                f"vertical rate {vr['vertical_rate_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['vertical_rate_max_m_s']:.1f})"
+            )
+        lines.append(
+            f"  velocity residuals, flown − log ({', '.join(vr['columns'])}; fitted with σ "
+            f"{vr['sigma_h_m_s']:.2f} m/s per horizontal axis, {vr['sigma_v_m_s']:.2f} m/s "
+            f"vertical; {vr['outliers']} outliers left out): " + "; ".join(parts)
+        )
     lines += [f"  note: {n}" for n in rep["notes"]]
     return "\n".join(lines)
 
