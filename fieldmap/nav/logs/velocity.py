@@ -86,7 +86,7 @@ def _loo_sigma(t: np.ndarray, v: np.ndarray) -> float:
 
 
 def observations(log: Any, track: Any, idx: np.ndarray) -> Observed | None:
-    """The velocities of the ordered samples ``idx`` of ``log`` (an ``OrderedLog``), or None.
+    """Return the velocities of the ordered samples ``idx`` of ``log`` (an ``OrderedLog``).
 
     ``track``: the :class:`~fieldmap.nav.logs.track.RawTrack` whose ``velocity`` the ordered
     samples index (``log.index``). Only finite values are used.
@@ -193,7 +193,7 @@ def check(
 
 
 def residuals(obs: Observed | None, samples: Any, t_start: float, ellipsoid: Any) -> dict | None:
-    """The flown velocity against the log's (JSON-ready), or None without velocities.
+    """Compare the flown velocity with the log's (JSON-ready; None without velocities).
 
     The flown velocity is that of the quintic spline :class:`~fieldmap.nav.flight.
     FlightTrajectory` flies (as :func:`fieldmap.nav.logs.report.kinematics`), at the times of
