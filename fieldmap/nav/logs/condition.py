@@ -71,6 +71,7 @@ full in :mod:`fieldmap.nav.logs.fit`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
@@ -117,6 +118,9 @@ GROUND_DH = 30.0
 LIMIT_MARGIN, LIMIT_ITER = 0.9, 12
 #: grid nodes beyond the data at either end
 EDGE = 8
+#: timing jitter: modelled when the along-track residual variance exceeds JITTER_RATIO × the
+#: across-track one; RETIME_ITER passes
+JITTER_RATIO, RETIME_ITER = 2.0, 3
 #: smallest noise σ (m) estimated
 SIGMA_MIN = 0.05
 #: local noise: RMS over ±NOISE_HALF samples, at least NOISE_FRAC × the segment's
@@ -329,6 +333,8 @@ class Stages:
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
         self.obs: velocity.Observed | None = None
+        self.t_h = log.t
+        self.timing: dict[str, Any] | None = None
         self.quantum = cfit.height_quantum(log.h)
         self.breaks: list[tuple[int, int, str]] = []
         self.dropped: list[dict] = []
@@ -601,6 +607,9 @@ class Stages:
             fv = cfit.fit_path(
                 grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
             )
+        self.t_h = log.t.copy()
+        th, fh, loc[0], self.timing = self._retime(grid, th, ph, loc[0], fh)
+        self.t_h[hi] = th
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
@@ -618,8 +627,9 @@ class Stages:
         )
         inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
         rows = cfit.lagrange_rows(t_lo, dt, ng, log.t[inside])
+        rows_h = cfit.lagrange_rows(t_lo, dt, ng, self.t_h[inside])  # the fixes' own times
         self.off_h[inside] = np.linalg.norm(
-            to_en(log.en[inside], log.p[inside] - cfit.on_grid(gh, rows)), axis=1
+            to_en(log.en[inside], log.p[inside] - cfit.on_grid(gh, rows_h)), axis=1
         )
         self.off_v[inside] = np.abs(log.h[inside] - cfit.on_grid(gv, rows)[:, 0])
         rms = (
@@ -641,7 +651,93 @@ class Stages:
             "softened": softened,
             "bridges": bridges,
             "velocity": velocity.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
+            "timing": self.timing,
         }
+
+    def _retime(
+        self,
+        grid: tuple[float, float, int],
+        th: np.ndarray,
+        ph: np.ndarray,
+        loc: np.ndarray,
+        fh: dict[str, Any],
+    ) -> tuple[np.ndarray, dict[str, Any], np.ndarray, dict[str, Any] | None]:
+        r"""Step 6b: the timing jitter of the fixes, modelled as a time error per fix.
+
+        A receiver's timestamps are late or early by a varying δ (a position kept until the next
+        report, positions resampled to a clock): the fix is the path's position at ``t + δ``,
+        off the path by ``v δ`` *along* the track, not across it. The leave-one-out prediction
+        errors of the fixes (:func:`~fieldmap.nav.logs.fit.loo_noise`) split along and across
+        the fitted track (where faster than :data:`~fieldmap.nav.logs.velocity.MOVING`) give
+        σ_a and σ_c; when σ_a² exceeds ``JITTER_RATIO`` σ_c², the jitter is
+        σ_t² = (σ_a² − σ_c²) / v². Then, :data:`RETIME_ITER` times: a path that does not follow
+        the along-track errors (the fixes at σ_a, λ from their discrepancy, the log's
+        velocities at that λ), and each fix's time moved by the posterior mean of its δ,
+
+        .. math:: \hat\delta = \frac{a}{v} \, \frac{\sigma_t^2 v^2}{\sigma_t^2 v^2 +
+                  \sigma_c^2}
+
+        (a its along-track residual). The path is then fitted to the re-timed fixes at σ_c
+        (λ from their discrepancy, the velocities at that λ). Without jitter nothing changes.
+
+        Returns the fixes' times, the fit, their σ and the timing summary (None: no jitter).
+        """
+        t0, dt, ng = grid
+        settings = cfit.PathFit(2, max_run=burst_length(th))
+        rates = None if self.obs is None else self.obs.h
+        ok0 = ~fh["outlier"]
+        if ok0.sum() < 10:
+            return th, fh, loc, None
+        z = cfit.loo_noise(th[ok0], ph[ok0])
+        v_fit = velocity.fitted_rates(grid, fh["g"], th[ok0])[2:-2]
+        speed = np.linalg.norm(v_fit, axis=1)
+        moving = speed > velocity.MOVING
+        if moving.sum() < 10:
+            return th, fh, loc, None
+        u = v_fit[moving] / speed[moving, None]
+        za = np.sum(z[moving] * u, axis=1)
+        zc = z[moving] - za[:, None] * u
+        s_a = cfit.noise_sigma(za[:, None], self.opts["threshold"])[0]
+        # across: one horizontal direction (the third, along the normal, holds no noise)
+        s_c = math.sqrt(2.0 / 3.0) * cfit.noise_sigma(zc, self.opts["threshold"])[0]
+        s_c = max(s_c, SIGMA_MIN)
+        if s_a**2 < JITTER_RATIO * s_c**2:
+            return th, fh, loc, None
+        v2 = float(np.median(speed[moving] ** 2))
+        s_t2 = (s_a**2 - s_c**2) / v2
+        iso = float(np.sqrt(np.mean(np.sum(z[moving] ** 2, axis=1)) / 2.0))
+        loc_a, loc_c = loc * s_a / max(iso, SIGMA_MIN), loc * s_c / max(iso, SIGMA_MIN)
+
+        def fitted(t_fix: np.ndarray, sig: np.ndarray) -> dict[str, Any]:
+            pos = cfit.fit_path(grid, t_fix, ph, sig, settings)
+            if rates is None:
+                return pos
+            return cfit.fit_path(grid, t_fix, ph, sig, settings, rates=rates, lam=pos["lam"])
+
+        t_fix = th.copy()
+        for _ in range(RETIME_ITER):
+            ref = fitted(t_fix, loc_a)
+            p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
+            v = velocity.fitted_rates(grid, ref["g"], t_fix)
+            sp = np.linalg.norm(v, axis=1)
+            ok = (sp > velocity.MOVING) & ~ref["outlier"]
+            a = np.sum((ph - p_fit) * v, axis=1) / np.maximum(sp, 1e-9)
+            k = s_t2 * sp**2 / (s_t2 * sp**2 + s_c**2)
+            t_fix = t_fix + np.where(ok, k * a / np.maximum(sp, 1e-9), 0.0)
+        # the re-timed fixes at σ_c, at the λ of the reference: the along-track errors are gone
+        # from the fixes, not from the noise of what is left
+        fh = fitted(t_fix, loc_a)
+        d = t_fix - th
+        info = {
+            "jitter_s": math.sqrt(s_t2),
+            "sigma_along_m": s_a,
+            "sigma_across_m": s_c,
+            "speed_m_s": math.sqrt(v2),
+            "fixes_retimed": int(np.count_nonzero(d)),
+            "time_shift_rms_s": float(np.sqrt(np.mean(d**2))),
+            "time_shift_max_s": float(np.max(np.abs(d))),
+        }
+        return t_fix, fh, loc_c, info
 
     def _bridges(
         self,
@@ -676,7 +772,7 @@ class Stages:
         mid = np.array([0.5 * (log.t[a] + log.t[b]) for a, b in pairs])
         nodes = np.clip(np.round((mid - t0) / dt).astype(np.int64), 0, ng - 1)
         rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
-        sh = cfit.posterior_sigma(grid, log.t[hi], loc[0], lam[0], nodes, rh)
+        sh = cfit.posterior_sigma(grid, self.t_h[hi], loc[0], lam[0], nodes, rh)
         sv = cfit.posterior_sigma(grid, log.t[vi], loc[1], lam[1], nodes, rv)
         for (a, b), s_h, s_v in zip(pairs, sh, sv):
             out.append(
@@ -741,7 +837,7 @@ class Stages:
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
             rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
-            gh = cfit.refit(grid, log.t[hi], log.p[hi], loc[0], fh["lam"], rh)[0]
+            gh = cfit.refit(grid, self.t_h[hi], log.p[hi], loc[0], fh["lam"], rh)[0]
             gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rv)[0]
         return gh, gv, int(touched.sum())
 
@@ -770,6 +866,7 @@ class Stages:
             "softened": 0,
             "bridges": [],
             "velocity": None,
+            "timing": None,
         }
 
 

@@ -287,6 +287,7 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
         "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
         "kinematics": kinematics(samples, log.ellipsoid),
         "velocity": fr.get("velocity"),
+        "timing": fr.get("timing"),
         "notes": notes,
     }
     raw = {
@@ -370,6 +371,14 @@ def format_report(rep: dict) -> str:
         f"{k['peak_turn_rate_deg_s']:.1f} °/s, climb {k['peak_climb_rate_m_s']:.1f} m/s, "
         f"descent {k['peak_descent_rate_m_s']:.1f} m/s"
     )
+    tm = rep.get("timing")
+    if tm:
+        lines.append(
+            f"  timing jitter of the fixes: σ {tm['jitter_s']:.2f} s ({tm['sigma_along_m']:.0f} m "
+            f"along the track at {tm['speed_m_s']:.0f} m/s, {tm['sigma_across_m']:.1f} m across):"
+            f" modelled as a time error per fix, {tm['fixes_retimed']} fixes moved by "
+            f"{tm['time_shift_rms_s']:.2f} s RMS (max {tm['time_shift_max_s']:.1f} s)"
+        )
     vr = rep.get("velocity")
     if vr:
         parts = []

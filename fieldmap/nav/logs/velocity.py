@@ -156,10 +156,6 @@ def check(
             )
         s = cfit.MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
         keep_h = agree & ((r <= OUTLIER_K * s) | (r <= OUTLIER_FLOOR))
-        # what the positions can tell of the velocity bounds the velocities' weight: their
-        # errors are not white (stale or late values, truncation), and integrated over
-        # minutes they would pull the path off its positions
-        s_h = max(s_h, cfit.MAD_SCALE * float(np.median(np.abs(d[keep_h]))) if keep_h.any() else 0)
     if obs.v is not None and obs.iv.size:
         r = np.abs(obs.v.v[:, 0] - rate_v[:, 0])
         agree = r <= np.maximum(0.5 * np.abs(rate_v[:, 0]), CONTRADICTION_V)
@@ -172,7 +168,6 @@ def check(
             )
         s = cfit.MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
         keep_v = agree & ((r <= OUTLIER_K * s) | (r <= OUTLIER_FLOOR))
-        s_v = max(s_v, cfit.MAD_SCALE * float(np.median(r[keep_v])) if keep_v.any() else 0.0)
 
     def sub(rt: cfit.Rates | None, keep: np.ndarray, sig: float) -> cfit.Rates | None:
         if rt is None:
