@@ -121,6 +121,8 @@ EDGE = 8
 #: timing jitter: modelled when the along-track residual variance exceeds JITTER_RATIO × the
 #: across-track one; RETIME_ITER passes
 JITTER_RATIO, RETIME_ITER = 2.0, 3
+#: a fix is moved by at most JITTER_CLIP jitter σ
+JITTER_CLIP = 3.0
 #: smallest noise σ (m) estimated
 SIGMA_MIN = 0.05
 #: local noise: RMS over ±NOISE_HALF samples, at least NOISE_FRAC × the segment's
@@ -602,8 +604,12 @@ class Stages:
                 np.zeros((0, 1)) if obs.v is None else velocity.fitted_rates(grid, fv["g"], obs.v.t)
             )
             obs = self.obs = velocity.check(obs, rh, rv, log.source, log.lines)
+            # with the rates the fit follows the real motion: a long run of outliers is wrong
+            # values (a height held for minutes), not motion the fit lags
             horizontal_fit = cfit.PathFit(2, max_run=burst_length(th))
             fh = cfit.fit_path(grid, th, ph, loc[0], horizontal_fit, rates=obs.h, lam=fh["lam"])
+            if obs.v is not None and obs.v.t.size >= 0.5 * tv.size:
+                height_fit = replace(height_fit, max_run=tv.size)
             fv = cfit.fit_path(
                 grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
             )
@@ -677,8 +683,10 @@ class Stages:
         .. math:: \hat\delta = \frac{a}{v} \, \frac{\sigma_t^2 v^2}{\sigma_t^2 v^2 +
                   \sigma_c^2}
 
-        (a its along-track residual). The path is then fitted to the re-timed fixes at σ_c
-        (λ from their discrepancy, the velocities at that λ). Without jitter nothing changes.
+        (a its along-track residual, δ at most ``JITTER_CLIP`` σ_t). The path is then fitted to
+        the re-timed fixes in the same way. Without jitter nothing changes; without the log's
+        velocities (what anchors the reference along the track) the jitter stays in the
+        fixes' noise σ.
 
         Returns the fixes' times, the fit, their σ and the timing summary (None: no jitter).
         """
@@ -686,7 +694,7 @@ class Stages:
         settings = cfit.PathFit(2, max_run=burst_length(th))
         rates = None if self.obs is None else self.obs.h
         ok0 = ~fh["outlier"]
-        if ok0.sum() < 10:
+        if ok0.sum() < 10 or rates is None or rates.t.size < 10:
             return th, fh, loc, None
         z = cfit.loo_noise(th[ok0], ph[ok0])
         v_fit = velocity.fitted_rates(grid, fh["g"], th[ok0])[2:-2]
@@ -698,15 +706,16 @@ class Stages:
         za = np.sum(z[moving] * u, axis=1)
         zc = z[moving] - za[:, None] * u
         s_a = cfit.noise_sigma(za[:, None], self.opts["threshold"])[0]
-        # across: one horizontal direction (the third, along the normal, holds no noise)
-        s_c = math.sqrt(2.0 / 3.0) * cfit.noise_sigma(zc, self.opts["threshold"])[0]
+        # across: one horizontal direction; noise_sigma averages over the three components,
+        # the other two (along, the normal) hold none
+        s_c = math.sqrt(3.0) * cfit.noise_sigma(zc, self.opts["threshold"])[0]
         s_c = max(s_c, SIGMA_MIN)
         if s_a**2 < JITTER_RATIO * s_c**2:
             return th, fh, loc, None
         v2 = float(np.median(speed[moving] ** 2))
         s_t2 = (s_a**2 - s_c**2) / v2
         iso = float(np.sqrt(np.mean(np.sum(z[moving] ** 2, axis=1)) / 2.0))
-        loc_a, loc_c = loc * s_a / max(iso, SIGMA_MIN), loc * s_c / max(iso, SIGMA_MIN)
+        loc_a = loc * s_a / max(iso, SIGMA_MIN)
 
         def fitted(t_fix: np.ndarray, sig: np.ndarray) -> dict[str, Any]:
             pos = cfit.fit_path(grid, t_fix, ph, sig, settings)
@@ -715,6 +724,7 @@ class Stages:
             return cfit.fit_path(grid, t_fix, ph, sig, settings, rates=rates, lam=pos["lam"])
 
         t_fix = th.copy()
+        clip = JITTER_CLIP * math.sqrt(s_t2)
         for _ in range(RETIME_ITER):
             ref = fitted(t_fix, loc_a)
             p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
@@ -723,7 +733,10 @@ class Stages:
             ok = (sp > velocity.MOVING) & ~ref["outlier"]
             a = np.sum((ph - p_fit) * v, axis=1) / np.maximum(sp, 1e-9)
             k = s_t2 * sp**2 / (s_t2 * sp**2 + s_c**2)
-            t_fix = t_fix + np.where(ok, k * a / np.maximum(sp, 1e-9), 0.0)
+            # beyond JITTER_CLIP σ_t an along-track offset is no jitter (an outlier, a change of
+            # speed the reference missed)
+            delta = np.clip(k * a / np.maximum(sp, 1e-9), -clip, clip)
+            t_fix = t_fix + np.where(ok, delta, 0.0)
         # the re-timed fixes at σ_c, at the λ of the reference: the along-track errors are gone
         # from the fixes, not from the noise of what is left
         fh = fitted(t_fix, loc_a)
@@ -737,7 +750,7 @@ class Stages:
             "time_shift_rms_s": float(np.sqrt(np.mean(d**2))),
             "time_shift_max_s": float(np.max(np.abs(d))),
         }
-        return t_fix, fh, loc_c, info
+        return t_fix, fh, loc_a, info
 
     def _bridges(
         self,
@@ -818,6 +831,19 @@ class Stages:
         tg = t0 + dt * np.arange(ng)[out]
         touched = np.zeros(log.t.size, bool)
         span = 2.0 * max(dt, median_interval(log.t[hi]))
+        # only the fixes are softened: the log's velocities hold the along-track motion that
+        # late or resampled fixes get wrong
+        rates = [None, None] if self.obs is None else [self.obs.h, self.obs.v]
+
+        def near(tt: np.ndarray, tb: np.ndarray) -> np.ndarray:
+            """σ factor at the times ``tt``: 2 within ``span`` of a bad node, 1 beyond 2 span."""
+            pos = np.searchsorted(tb, tt)
+            d = np.minimum(
+                np.abs(tt - tb[np.clip(pos - 1, 0, tb.size - 1)]),
+                np.abs(tt - tb[np.clip(pos, 0, tb.size - 1)]),
+            )
+            return np.clip(3.0 - d / span, 1.0, 2.0)
+
         for _ in range(LIMIT_ITER):
             (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[out], dt) for g in (gh, gv))
             acc, jerk = np.hypot(ah, av), np.hypot(jh, jv)
@@ -828,17 +854,11 @@ class Stages:
             for k, (idx, a, j) in enumerate(((hi, ah, jh), (vi, av, jv))):
                 tb = tg[bad & ((a >= 0.5 * acc) | (j >= 0.5 * jerk))]
                 if tb.size:
-                    pos = np.searchsorted(tb, log.t[idx])
-                    d = np.minimum(
-                        np.abs(log.t[idx] - tb[np.clip(pos - 1, 0, tb.size - 1)]),
-                        np.abs(log.t[idx] - tb[np.clip(pos, 0, tb.size - 1)]),
-                    )
-                    f = np.clip(3.0 - d / span, 1.0, 2.0)
+                    f = near(log.t[idx], tb)
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
-            rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
-            gh = cfit.refit(grid, self.t_h[hi], log.p[hi], loc[0], fh["lam"], rh)[0]
-            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rv)[0]
+            gh = cfit.refit(grid, self.t_h[hi], log.p[hi], loc[0], fh["lam"], rates[0])[0]
+            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rates[1])[0]
         return gh, gv, int(touched.sum())
 
     def exact(self) -> dict:

@@ -16,8 +16,11 @@ positions, whose noise it does not share. They enter the smoothing fit of
   vertically) and the noise of the velocity series itself, from the same leave-one-out cubic
   predictions as the positions' (:func:`~fieldmap.nav.logs.fit.loo_noise`): the velocities
   change smoothly, their noise does not.
-- **Outliers**: a velocity further than ``OUTLIER_K`` robust σ (and over ``OUTLIER_FLOOR``) from
-  the positions-only fit's is left out.
+- **Outliers**: a horizontal velocity further than ``OUTLIER_K`` robust σ (and over
+  ``OUTLIER_FLOOR``) from the positions-only fit's, or not within the contradiction bound of
+  it (stale, or another source), is left out; a vertical rate further than ``OUTLIER_K``
+  robust σ from the cubic through its neighbours (barometric heights, not the rates, are what
+  goes wrong for minutes).
 - **Contradiction** (:func:`check`): where the log's ground speeds or tracks disagree with its
   positions by more than ``CONTRADICTION`` of the speed (and ``CONTRADICTION_MIN`` m/s) for
   the median sample, one of the two is wrong for the whole log (a unit, a column, a
@@ -159,15 +162,18 @@ def check(
     if obs.v is not None and obs.iv.size:
         r = np.abs(obs.v.v[:, 0] - rate_v[:, 0])
         agree = r <= np.maximum(0.5 * np.abs(rate_v[:, 0]), CONTRADICTION_V)
-        if agree.mean() < AGREE_MIN:
+        if agree.mean() < AGREE_MIN and obs.iv.size >= 10:
             names = obs.names[2] if len(obs.names) > 2 else "vertical rate"
             raise InputError(
                 f"{source} lines {lines[obs.iv[0]]}..{lines[obs.iv[-1]]}: the log's vertical "
                 f"rates ({names}) contradict its heights: {100 * agree.mean():.0f} % agree "
                 f"within half the rate or {CONTRADICTION_V:g} m/s: a unit or a column mixed up?"
             )
-        s = cfit.MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
-        keep_v = agree & ((r <= OUTLIER_K * s) | (r <= OUTLIER_FLOOR))
+        # barometric heights go wrong for minutes (held, from another source) where the
+        # vertical rates do not: a rate is an outlier against its own neighbours only
+        z = np.abs(cfit.loo_noise(obs.v.t, obs.v.v))[:, 0]
+        s = cfit.MAD_SCALE * float(np.median(z)) if z.size else 0.0
+        keep_v[2:-2] = (z <= OUTLIER_K * s) | (z <= OUTLIER_FLOOR)
 
     def sub(rt: cfit.Rates | None, keep: np.ndarray, sig: float) -> cfit.Rates | None:
         if rt is None:
