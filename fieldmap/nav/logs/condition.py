@@ -335,7 +335,7 @@ class Stages:
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
         self.obs: velocity.Observed | None = None
-        self.t_h = log.t
+        self.t_h, self.p_h = log.t, log.p
         self.timing: dict[str, Any] | None = None
         self.quantum = cfit.height_quantum(log.h)
         self.breaks: list[tuple[int, int, str]] = []
@@ -613,9 +613,11 @@ class Stages:
             fv = cfit.fit_path(
                 grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
             )
-        self.t_h = log.t.copy()
+        self.t_h, self.p_h = log.t.copy(), log.p.copy()
         th, fh, loc[0], self.timing = self._retime(grid, th, ph, loc[0], fh)
         self.t_h[hi] = th
+        if "p" in fh:
+            self.p_h[hi] = fh["p"]
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
@@ -739,7 +741,21 @@ class Stages:
             t_fix = t_fix + np.where(ok, delta, 0.0)
         # the re-timed fixes at σ_c, at the λ of the reference: the along-track errors are gone
         # from the fixes, not from the noise of what is left
-        fh = fitted(t_fix, loc_a)
+        # what is left along the track is no noise to average but the reference's to keep:
+        # each fix is moved onto it along the track (a pseudo-fix, across-track as measured),
+        # and the path fitted to them at the noise across, σ_c
+        ref = fitted(t_fix, loc_a)
+        p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
+        v = velocity.fitted_rates(grid, ref["g"], t_fix)
+        sp = np.linalg.norm(v, axis=1)
+        ok = (sp > velocity.MOVING) & ~ref["outlier"]
+        u = v / np.maximum(sp, 1e-9)[:, None]
+        a = np.sum((ph - p_fit) * u, axis=1)
+        p_new = ph - np.where(ok, a, 0.0)[:, None] * u
+        loc_c = loc * s_c / max(iso, SIGMA_MIN)
+        fh = cfit.fit_path(grid, t_fix, p_new, loc_c, settings)
+        fh = cfit.fit_path(grid, t_fix, p_new, loc_c, settings, rates=rates, lam=fh["lam"])
+        fh["p"] = p_new
         d = t_fix - th
         info = {
             "jitter_s": math.sqrt(s_t2),
@@ -750,7 +766,7 @@ class Stages:
             "time_shift_rms_s": float(np.sqrt(np.mean(d**2))),
             "time_shift_max_s": float(np.max(np.abs(d))),
         }
-        return t_fix, fh, loc_a, info
+        return t_fix, fh, loc_c, info
 
     def _bridges(
         self,
@@ -857,7 +873,7 @@ class Stages:
                     f = near(log.t[idx], tb)
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
-            gh = cfit.refit(grid, self.t_h[hi], log.p[hi], loc[0], fh["lam"], rates[0])[0]
+            gh = cfit.refit(grid, self.t_h[hi], self.p_h[hi], loc[0], fh["lam"], rates[0])[0]
             gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rates[1])[0]
         return gh, gv, int(touched.sum())
 

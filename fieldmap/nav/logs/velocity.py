@@ -15,7 +15,10 @@ positions, whose noise it does not share. They enter the smoothing fit of
   σ = q/√12: 1 kt and 1° horizontally, the track's error scaled by the speed, 64 ft/min
   vertically) and the noise of the velocity series itself, from the same leave-one-out cubic
   predictions as the positions' (:func:`~fieldmap.nav.logs.fit.loo_noise`): the velocities
-  change smoothly, their noise does not.
+  change smoothly, their noise does not. A run of L equal values (steady flight: the same
+  rounded speed and track for minutes) carries one rounding error, not L: each of its values
+  has the weight 1/(L σ²), so that the rounding does not integrate into a drift along the
+  track.
 - **Outliers**: a horizontal velocity further than ``OUTLIER_K`` robust σ (and over
   ``OUTLIER_FLOOR``) from the positions-only fit's, or not within the contradiction bound of
   it (stale, or another source), is left out; a vertical rate further than ``OUTLIER_K``
@@ -83,6 +86,16 @@ def _radii(lat_deg: np.ndarray, ell: Any) -> tuple[np.ndarray, np.ndarray]:
     return ell.a / np.sqrt(w2), ell.a * (1.0 - e2) / w2**1.5
 
 
+def _run_lengths(x: np.ndarray) -> np.ndarray:
+    """Length of the run of equal rows each row of ``x`` (m, k) is in, (m,)."""
+    if x.shape[0] == 0:
+        return np.ones(0)
+    same = np.all(x[1:] == x[:-1], axis=1)
+    start = np.concatenate([[True], ~same])
+    ident = np.cumsum(start) - 1
+    return np.bincount(ident)[ident].astype(np.float64)
+
+
 def _loo_sigma(t: np.ndarray, v: np.ndarray) -> float:
     z = cfit.loo_noise(t, v)
     return cfit.noise_sigma(z)[0] if z.size else 0.0
@@ -113,15 +126,17 @@ def observations(log: Any, track: Any, idx: np.ndarray) -> Observed | None:
     s_h = max(float(s_q), _loo_sigma(log.t[ih], en[okh]))
     s_v = max(float(q_v), _loo_sigma(log.t[iv], climb[okv, None])) if iv.size else 0.0
     rh = rv = None
+    run_h = _run_lengths(np.stack([speed[okh], course[okh]], -1))
+    run_v = _run_lengths(climb[okv, None])
     if ih.size:
         n_rad, m_rad = _radii(log.lat[ih], log.ellipsoid)
         hh = log.h[ih]
         e = en[okh, 0] * n_rad / (n_rad + hh)
         n = en[okh, 1] * m_rad / (m_rad + hh)
         v_ecef = e[:, None] * log.en[ih, 0, :] + n[:, None] * log.en[ih, 1, :]
-        rh = cfit.Rates(log.t[ih], v_ecef, np.full(ih.size, 1.0 / s_h**2))
+        rh = cfit.Rates(log.t[ih], v_ecef, 1.0 / (s_h**2 * run_h))
     if iv.size:
-        rv = cfit.Rates(log.t[iv], climb[okv, None], np.full(iv.size, 1.0 / s_v**2))
+        rv = cfit.Rates(log.t[iv], climb[okv, None], 1.0 / (s_v**2 * run_v))
     return Observed(ih, iv, rh, rv, (s_h, s_v), en[okh], climb[okv], tuple(vel.names))
 
 
