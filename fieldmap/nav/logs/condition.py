@@ -847,8 +847,6 @@ class Stages:
         tg = t0 + dt * np.arange(ng)[out]
         touched = np.zeros(log.t.size, bool)
         span = 2.0 * max(dt, median_interval(log.t[hi]))
-        # only the fixes are softened: the log's velocities hold the along-track motion that
-        # late or resampled fixes get wrong
         rates = [None, None] if self.obs is None else [self.obs.h, self.obs.v]
 
         def near(tt: np.ndarray, tb: np.ndarray) -> np.ndarray:
@@ -873,6 +871,11 @@ class Stages:
                     f = near(log.t[idx], tb)
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
+                    rt = rates[k]
+                    if rt is not None:
+                        # the log's velocities there too (late, stale), less: their σ by √f,
+                        # for they hold the along-track motion that resampled fixes get wrong
+                        rates[k] = cfit.Rates(rt.t, rt.v, rt.w / near(rt.t, tb))
             gh = cfit.refit(grid, self.t_h[hi], self.p_h[hi], loc[0], fh["lam"], rates[0])[0]
             gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rates[1])[0]
         return gh, gv, int(touched.sum())
