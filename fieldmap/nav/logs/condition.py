@@ -847,7 +847,9 @@ class Stages:
         tg = t0 + dt * np.arange(ng)[out]
         touched = np.zeros(log.t.size, bool)
         span = 2.0 * max(dt, median_interval(log.t[hi]))
-        rates = [None, None] if self.obs is None else [self.obs.h, self.obs.v]
+        rates: list[cfit.Rates | None] = (
+            [None, None] if self.obs is None else [self.obs.h, self.obs.v]
+        )
 
         def near(tt: np.ndarray, tb: np.ndarray) -> np.ndarray:
             """σ factor at the times ``tt``: 2 within ``span`` of a bad node, 1 beyond 2 span."""
