@@ -86,8 +86,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "--max-gap-s",
         type=float,
         default=60.0,
-        help="longest gap bridged by the fit; longer gaps split the log and the longest part "
-        "is flown (default 60)",
+        help="gaps longer than this are listed in the report with the σ of the path the fit "
+        "flies across them (every gap is bridged; default 60)",
     )
     g.add_argument(
         "--vehicle",

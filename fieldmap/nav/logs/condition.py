@@ -404,7 +404,14 @@ class Stages:
         if o["airborne_only"]:
             for s in np.unique(seg[seg >= 0]):
                 m = np.flatnonzero(seg == s)
-                g = ground(log.t[m], log.p[m], log.h[m], hv[m], vv[m], o["min_speed_mps"])
+                g = ground(
+                    log.t[m],
+                    log.p[m],
+                    log.h[m],
+                    (hv[m], vv[m]),
+                    o["min_speed_mps"],
+                    self.vehicle.stall > o["min_speed_mps"],
+                )
                 self.ground[m[g]] = True
                 seg[m[g]] = -1
         self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
@@ -1121,14 +1128,23 @@ def segments(
 
 
 def ground(
-    t: np.ndarray, p: np.ndarray, h: np.ndarray, hv: np.ndarray, vv: np.ndarray, min_speed: float
+    t: np.ndarray,
+    p: np.ndarray,
+    h: np.ndarray,
+    valid: tuple[np.ndarray, np.ndarray],
+    min_speed: float,
+    any_height: bool = False,
 ) -> np.ndarray:
     """Leading and trailing ground samples (n,) of one segment.
 
     Ground: robust ground speed (running median of the step velocities) below ``min_speed``
     and height within :data:`GROUND_DH` of the segment's first (last) height, from the start
     (end) up to the first sample that is not: taxi, parking, the first part of a take-off run.
+    ``any_height``: a vehicle that cannot fly that slowly (an airliner's stall speed is above
+    it) is on the ground whatever its height says (a barometric altitude held from the last
+    flight during the take-off roll). ``valid``: the usable horizontal and vertical samples.
     """
+    hv, vv = valid
     n = t.size
     out = np.zeros(n, bool)
     idx, vidx = np.flatnonzero(hv), np.flatnonzero(vv)
@@ -1139,6 +1155,6 @@ def ground(
     speed = np.interp(t, 0.5 * (t[idx][1:] + t[idx][:-1]), np.linalg.norm(v, axis=1))
     hk = np.interp(t, t[vidx], h[vidx])
     for order, end in ((np.arange(n), vidx[0]), (np.arange(n)[::-1], vidx[-1])):
-        slow = (speed[order] < min_speed) & (np.abs(hk[order] - h[end]) < GROUND_DH)
+        slow = (speed[order] < min_speed) & (any_height | (np.abs(hk[order] - h[end]) < GROUND_DH))
         out[order[: n if slow.all() else int(np.argmin(slow))]] = True
     return out

@@ -41,6 +41,11 @@ rocket         0 … 10      100       8000      launch vehicles: 3…6 g axial 
                                                coast; orbital speed 7.9 km/s
 ============== =========== ========= ========= ==========================================
 
+Stall speeds (the slowest a class flies; slower at the ends of a log is ground movement whatever
+the altitude column says): airliner 50 m/s (a wide-body's approach speed is 70 m/s, its stall in
+landing configuration about 55 m/s), fighter 60 m/s, light aircraft 20 m/s (CS-23 singles stall
+at 25…30 m/s), glider 15 m/s; helicopters, drones and surface vehicles none.
+
 The conditioning keeps the specific force ``|a − γ|`` within ``[n_min, n_max] g`` and the jerk
 below the class's; the report compares the flown speeds with the class's.
 
@@ -78,6 +83,8 @@ class Vehicle:
         Largest speed over the ground. Units: m/s.
     climb : float
         Largest vertical speed, up or down. Units: m/s.
+    stall : float
+        Slowest speed it flies at (0: any, or it does not fly). Units: m/s.
     """
 
     name: str
@@ -86,18 +93,19 @@ class Vehicle:
     jerk: float
     speed: float
     climb: float
+    stall: float = 0.0
 
 
 #: the vehicle classes, by name (module docstring)
 VEHICLES: dict[str, Vehicle] = {
     v.name: v
     for v in (
-        Vehicle("airliner", 0.5, 1.6, 3.0, 360.0, 40.0),
-        Vehicle("light-aircraft", -1.5, 3.8, 10.0, 130.0, 20.0),
-        Vehicle("glider", -2.65, 5.3, 10.0, 100.0, 20.0),
+        Vehicle("airliner", 0.5, 1.6, 3.0, 360.0, 40.0, 50.0),
+        Vehicle("light-aircraft", -1.5, 3.8, 10.0, 130.0, 20.0, 20.0),
+        Vehicle("glider", -2.65, 5.3, 10.0, 100.0, 20.0, 15.0),
         Vehicle("helicopter", -0.5, 3.5, 10.0, 110.0, 20.0),
         Vehicle("uav", -1.0, 4.0, 20.0, 80.0, 25.0),
-        Vehicle("fighter", -3.0, 9.0, 50.0, 700.0, 300.0),
+        Vehicle("fighter", -3.0, 9.0, 50.0, 700.0, 300.0, 60.0),
         Vehicle("car", 0.3, 1.6, 10.0, 90.0, 15.0),
         Vehicle("ship", 0.7, 1.3, 2.0, 30.0, 5.0),
         Vehicle("rocket", 0.0, 10.0, 100.0, 8000.0, 8000.0),
