@@ -182,7 +182,9 @@ def check(
             raise InputError(
                 f"{source} lines {lines[obs.iv[0]]}..{lines[obs.iv[-1]]}: the log's vertical "
                 f"rates ({names}) contradict its heights: {100 * agree.mean():.0f} % agree "
-                f"within half the rate or {CONTRADICTION_V:g} m/s: a unit or a column mixed up?"
+                f"within half the rate or {CONTRADICTION_V:g} m/s: a unit or a column mixed up "
+                "(the altitudes' alt_units, the rates')?",
+                param="alt_units",
             )
         # barometric heights go wrong for minutes (held, from another source) where the
         # vertical rates do not: a rate is an outlier against its own neighbours only
