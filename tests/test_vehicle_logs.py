@@ -1,4 +1,4 @@
-"""Vehicle classes of the flight-log conditioning (fieldmap.nav.logs.vehicle).
+"""Vehicle classes of the flight-log conditioning (fieldmap.nav.logs.condition).
 
 The envelope a conditioned log keeps within comes from a vehicle class, named or guessed from the
 log and said in the report; an unknown class is refused in one line. The tracks here are built
@@ -16,8 +16,13 @@ import pytest
 
 from fieldmap.cli import main
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.condition import Conditioning, condition
-from fieldmap.nav.logs.vehicle import VEHICLES, guess_vehicle, vehicle
+from fieldmap.nav.logs.condition import (
+    VEHICLES,
+    Conditioning,
+    condition,
+    guess_vehicle,
+)
+from fieldmap.nav.logs.condition import vehicle_class as vehicle
 
 M_DEG = math.radians(1.0) * 6.371e6
 

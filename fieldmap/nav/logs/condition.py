@@ -64,6 +64,63 @@ say what to change name its fields; an :class:`~fieldmap.errors.InputError` abou
 its name as ``param`` (the command line rewords the message with its own options:
 :mod:`fieldmap.cli.params`).
 
+**Vehicle classes** (:class:`Vehicle`, :data:`VEHICLES`, :func:`guess_vehicle`). The smoothing
+of :mod:`fieldmap.nav.logs.condition` keeps the flown path within what the vehicle
+can do: its load factor (the specific force in g, what an accelerometer senses), its jerk and its
+speed. One generic envelope (2.5 g, 5 m/s³) fits no vehicle: it lets an airliner pull 2 g where
+it flies 0.7…1.4 g, and stops a glider or a rocket short of theirs. Each class here holds one
+envelope, with its source or the reasoning behind it:
+
+============== =========== ========= ========= ==========================================
+class          load factor jerk      speed     source / reasoning
+               n (g)       (m/s³)    (m/s)
+============== =========== ========= ========= ==========================================
+airliner       0.5 … 1.6   3         360       transport category (CS-25.337) limit loads
+                                               are −1…+2.5 g, but an airliner in service flies
+                                               0.7…1.4 g: turns at most 30° bank (n = 1.15),
+                                               turbulence rarely beyond ±0.5 g (ICAO Annex 3
+                                               "severe" is ±1 g); ground speed: Mach 0.9 at
+                                               cruise plus a 200 kt jet stream
+light-aircraft −1.5 … 3.8  10        130       CS-23 normal category limit loads (+3.8/−1.52
+                                               g); Vne of light singles and twins about 100
+                                               m/s, plus wind
+glider         −2.65 … 5.3 10        100       CS-22 utility category (+5.3/−2.65 g); Vne
+                                               about 75 m/s (270 km/h), plus wind
+helicopter     −0.5 … 3.5  10        110       CS-27/29 limit manoeuvring loads (+3.5/−0.5 g);
+                                               the helicopter speed record is 111 m/s
+uav            −1 … 4      20        80        small fixed-wing and multirotor drones (no
+                                               certification basis): the light-aircraft loads
+                                               with a margin; racing multirotors stay below 80
+                                               m/s
+fighter        −3 … 9      50        700       the F-16's +9/−3 g; Mach 2 at altitude
+car            0.3 … 1.6   10        90        tyres hold about 1 g laterally and in braking
+                                               (√(1 + 1²) = 1.41 g); bumps ±0.3 g; emergency
+                                               braking builds up within 0.1…0.2 s (≈ 10 m/s³);
+                                               325 km/h
+ship           0.7 … 1.3   2         30        heave and roll of a vessel in a seaway: the
+                                               accelerations of passenger comfort criteria
+                                               (0.2 g vertical, NORDFORSK 1987) with margin;
+                                               60 kt fast craft
+rocket         0 … 10      100       8000      launch vehicles: 3…6 g axial at burnout
+                                               (Saturn V 4 g, Space Shuttle 3 g), 0 g in
+                                               coast; orbital speed 7.9 km/s
+============== =========== ========= ========= ==========================================
+
+Stall speeds (the slowest a class flies; slower at the ends of a log is ground movement whatever
+the altitude column says): airliner 50 m/s (a wide-body's approach speed is 70 m/s, its stall in
+landing configuration about 55 m/s), fighter 60 m/s, light aircraft 20 m/s (CS-23 singles stall
+at 25…30 m/s), glider 15 m/s; helicopters, drones and surface vehicles none.
+
+The conditioning keeps the specific force ``|a − γ|`` within ``[n_min, n_max] g`` and the jerk
+below the class's; the report compares the flown speeds with the class's.
+
+Guess (:func:`guess_vehicle`), when the user names none: from an ADS-B emitter category where the
+log carries one (DO-260B: A1 light, A2 small, A3 large, A4 high-vortex, A5 heavy, A6 high
+performance, A7 rotorcraft, B1 glider, B6 UAV, C1/C2 surface vehicles), else from the log's robust
+ground speed and height: over 1.2 km/s or 300 m/s vertically a rocket; over 130 m/s or above 7 km an
+airliner; slower than 45 m/s within 150 m of one height a car; else a light aircraft. The report
+says which class, and whether it was guessed.
+
 The references (Hampel 1974, Tukey 1977, Theil 1950, Sen 1968, Whittaker 1923, Reinsch 1967,
 Eilers 2003, Buja et al. 1989, Hutchinson 1989, Beaton & Tukey 1974, Garcia 2010) are given in
 full in :mod:`fieldmap.nav.logs.fit`.
@@ -84,7 +141,6 @@ from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.logs import fit as cfit
-from fieldmap.nav.logs import velocity
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -98,8 +154,6 @@ from fieldmap.nav.logs.report import (
     ConditionedFlight,
     finish,
 )
-from fieldmap.nav.logs.vehicle import guess_vehicle
-from fieldmap.nav.logs.vehicle import vehicle as vehicle_class
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX
@@ -132,6 +186,124 @@ LEVEL_S = 20.0
 #: a vehicle that stays within STILL_H metres horizontally and STILL_V vertically of one place
 #: never moved beyond the noise of its fixes (the outlier floors): not a flight
 STILL_H, STILL_V = FLOOR_H, FLOOR_V
+
+
+# -- vehicle classes ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """The envelope of one vehicle class (see the module docstring for the values' sources).
+
+    Attributes
+    ----------
+    name : str
+        The class (``airliner``, ``glider``, …).
+    n_min, n_max : float
+        Load factor range: the specific force's magnitude the flown path keeps within.
+        Units: g.
+    jerk : float
+        Largest jerk (rate of the acceleration). Units: m/s³.
+    speed : float
+        Largest speed over the ground. Units: m/s.
+    climb : float
+        Largest vertical speed, up or down. Units: m/s.
+    stall : float
+        Slowest speed it flies at (0: any, or it does not fly). Units: m/s.
+    """
+
+    name: str
+    n_min: float
+    n_max: float
+    jerk: float
+    speed: float
+    climb: float
+    stall: float = 0.0
+
+
+#: the vehicle classes, by name (module docstring)
+VEHICLES: dict[str, Vehicle] = {
+    v.name: v
+    for v in (
+        Vehicle("airliner", 0.5, 1.6, 3.0, 360.0, 40.0, 50.0),
+        Vehicle("light-aircraft", -1.5, 3.8, 10.0, 130.0, 20.0, 20.0),
+        Vehicle("glider", -2.65, 5.3, 10.0, 100.0, 20.0, 15.0),
+        Vehicle("helicopter", -0.5, 3.5, 10.0, 110.0, 20.0),
+        Vehicle("uav", -1.0, 4.0, 20.0, 80.0, 25.0),
+        Vehicle("fighter", -3.0, 9.0, 50.0, 700.0, 300.0, 60.0),
+        Vehicle("car", 0.3, 1.6, 10.0, 90.0, 15.0),
+        Vehicle("ship", 0.7, 1.3, 2.0, 30.0, 5.0),
+        Vehicle("rocket", 0.0, 10.0, 100.0, 8000.0, 8000.0),
+    )
+}
+
+#: ADS-B emitter categories (DO-260B, as ``traffic`` and OpenSky write them) -> class
+CATEGORIES = {
+    "A1": "light-aircraft",
+    "A2": "light-aircraft",
+    "A3": "airliner",
+    "A4": "airliner",
+    "A5": "airliner",
+    "A6": "fighter",
+    "A7": "helicopter",
+    "B1": "glider",
+    "B6": "uav",
+    "C1": "car",
+    "C2": "car",
+}
+
+
+def vehicle_class(name: str) -> Vehicle:
+    """Return the class ``name``; an unknown one is an :class:`InputError` naming the known."""
+    v = VEHICLES.get(str(name).strip().lower())
+    if v is None:
+        raise InputError(
+            f"vehicle must be one of {', '.join(VEHICLES)}, got {name!r}", param="vehicle"
+        )
+    return v
+
+
+def guess_vehicle(
+    speed: np.ndarray, climb: np.ndarray, h: np.ndarray, category: str | None = None
+) -> tuple[Vehicle, str]:
+    """Guess the class of a log's vehicle, and say from what (module docstring).
+
+    Parameters
+    ----------
+    speed, climb : numpy.ndarray
+        Robust ground speed and vertical speed along the log (running medians of the step
+        speeds: a wild sample moves neither). Units: m/s.
+    h : numpy.ndarray
+        Heights. Units: m.
+    category : str, optional
+        An ADS-B emitter category (``"A3"``), when the log carries one.
+
+    Returns
+    -------
+    (Vehicle, str)
+        The class, and why (for the report).
+    """
+    if category is not None and str(category).strip().upper() in CATEGORIES:
+        c = str(category).strip().upper()
+        return VEHICLES[CATEGORIES[c]], f"guessed from the ADS-B emitter category {c}"
+
+    def pct(x: np.ndarray, q: float) -> float:
+        x = np.asarray(x, dtype=np.float64)
+        x = x[np.isfinite(x)]
+        return float(np.percentile(x, q)) if x.size else 0.0
+
+    v95, up95, top = pct(speed, 95), pct(np.abs(climb), 95), pct(h, 99)
+    band = top - pct(h, 1)
+    why = f"ground speed to {v95:.0f} m/s, heights to {top:.0f} m"
+    if v95 > 1200.0 or up95 > 300.0:
+        name = "rocket"
+    elif v95 > 100.0 or top > 7000.0:
+        name = "airliner"
+    elif v95 < 45.0 and band < 150.0:
+        name = "car"
+    else:
+        name = "light-aircraft"
+    return VEHICLES[name], f"guessed from the log ({why})"
 
 
 @dataclass(frozen=True)
@@ -169,11 +341,11 @@ class Conditioning:
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
         Generous (any vehicle's noisy steps stay within them), not the vehicle's envelope.
     vehicle : str, optional
-        The vehicle class (:data:`~fieldmap.nav.logs.vehicle.VEHICLES`: ``airliner``,
+        The vehicle class (:data:`VEHICLES`: ``airliner``,
         ``light-aircraft``, ``glider``, ``helicopter``, ``uav``, ``fighter``, ``car``,
         ``ship``, ``rocket``) whose load factor, jerk and speeds the conditioned path keeps
         within. Default: guessed from the log
-        (:func:`~fieldmap.nav.logs.vehicle.guess_vehicle`), and the report says so.
+        (:func:`guess_vehicle`), and the report says so.
     max_accel_g, max_jerk : float, optional
         Further limits: acceleration (g, relative to the Earth; default none beyond the
         vehicle's load factor) and jerk (m/s³; default the vehicle's).
@@ -334,7 +506,7 @@ class Stages:
         self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
-        self.obs: velocity.Observed | None = None
+        self.obs: cfit.Observed | None = None
         self.t_h, self.p_h = log.t, log.p
         self.timing: dict[str, Any] | None = None
         self.quantum = cfit.height_quantum(log.h)
@@ -602,15 +774,11 @@ class Stages:
         )
         fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
         inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
-        obs = self.obs = velocity.observations(log, self.track, inside)
+        obs = self.obs = cfit.observations(log, self.track, inside)
         if obs is not None:  # the log's own velocities: checked, then observations of the path
-            rh = (
-                np.zeros((0, 3)) if obs.h is None else velocity.fitted_rates(grid, fh["g"], obs.h.t)
-            )
-            rv = (
-                np.zeros((0, 1)) if obs.v is None else velocity.fitted_rates(grid, fv["g"], obs.v.t)
-            )
-            obs = self.obs = velocity.check(obs, rh, rv, log.source, log.lines)
+            rh = np.zeros((0, 3)) if obs.h is None else cfit.fitted_rates(grid, fh["g"], obs.h.t)
+            rv = np.zeros((0, 1)) if obs.v is None else cfit.fitted_rates(grid, fv["g"], obs.v.t)
+            obs = self.obs = cfit.check(obs, rh, rv, log.source, log.lines)
             # with the rates the fit follows the real motion: a long run of outliers is wrong
             # values (a height held for minutes), not motion the fit lags
             horizontal_fit = cfit.PathFit(2, max_run=burst_length(th))
@@ -665,7 +833,7 @@ class Stages:
             "dt_out": dt,
             "softened": softened,
             "bridges": bridges,
-            "velocity": velocity.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
+            "velocity": cfit.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
             "timing": self.timing,
         }
 
@@ -683,7 +851,7 @@ class Stages:
         report, positions resampled to a clock): the fix is the path's position at ``t + δ``,
         off the path by ``v δ`` *along* the track, not across it. The leave-one-out prediction
         errors of the fixes (:func:`~fieldmap.nav.logs.fit.loo_noise`) split along and across
-        the fitted track (where faster than :data:`~fieldmap.nav.logs.velocity.MOVING`) give
+        the fitted track (where faster than :data:`~fieldmap.nav.logs.cfit.MOVING`) give
         σ_a and σ_c; when σ_a² exceeds ``JITTER_RATIO`` σ_c², the jitter is
         σ_t² = (σ_a² − σ_c²) / v². Then, :data:`RETIME_ITER` times: a path that does not follow
         the along-track errors (the fixes at σ_a, λ from their discrepancy, the log's
@@ -706,9 +874,9 @@ class Stages:
         if ok0.sum() < 10 or rates is None or rates.t.size < 10:
             return th, fh, loc, None
         z = cfit.loo_noise(th[ok0], ph[ok0])
-        v_fit = velocity.fitted_rates(grid, fh["g"], th[ok0])[2:-2]
+        v_fit = cfit.fitted_rates(grid, fh["g"], th[ok0])[2:-2]
         speed = np.linalg.norm(v_fit, axis=1)
-        moving = speed > velocity.MOVING
+        moving = speed > cfit.MOVING
         if moving.sum() < 10:
             return th, fh, loc, None
         u = v_fit[moving] / speed[moving, None]
@@ -737,9 +905,9 @@ class Stages:
         for _ in range(RETIME_ITER):
             ref = fitted(t_fix, loc_a)
             p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
-            v = velocity.fitted_rates(grid, ref["g"], t_fix)
+            v = cfit.fitted_rates(grid, ref["g"], t_fix)
             sp = np.linalg.norm(v, axis=1)
-            ok = (sp > velocity.MOVING) & ~ref["outlier"]
+            ok = (sp > cfit.MOVING) & ~ref["outlier"]
             a = np.sum((ph - p_fit) * v, axis=1) / np.maximum(sp, 1e-9)
             k = s_t2 * sp**2 / (s_t2 * sp**2 + s_c**2)
             # beyond JITTER_CLIP σ_t an along-track offset is no jitter (an outlier, a change of
@@ -753,9 +921,9 @@ class Stages:
         # and the path fitted to them at the noise across, σ_c
         ref = fitted(t_fix, loc_a)
         p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
-        v = velocity.fitted_rates(grid, ref["g"], t_fix)
+        v = cfit.fitted_rates(grid, ref["g"], t_fix)
         sp = np.linalg.norm(v, axis=1)
-        ok = (sp > velocity.MOVING) & ~ref["outlier"]
+        ok = (sp > cfit.MOVING) & ~ref["outlier"]
         u = v / np.maximum(sp, 1e-9)[:, None]
         a = np.sum((ph - p_fit) * u, axis=1)
         p_new = ph - np.where(ok, a, 0.0)[:, None] * u
