@@ -291,10 +291,30 @@ def test_conditioning_options_validated_once_and_old_keywords_warn():
     assert [round(s.samples.t[-1]) for s in segs] == [1199]
 
 
-def test_long_gap_longest_segment_refuse_and_split():
+def test_long_gap_bridged_by_default_with_its_sigma():
+    """A 5-minute gap is flown across (issue 26), its σ stated; nothing is dropped."""
     t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
     tr = quiet_track(t, *straight(t), source="gappy.csv")
     cf = condition(tr)
+    assert cf.samples.t[-1] == pytest.approx(1199.0)
+    assert cf.report["segments"]["dropped"] == []
+    (b,) = cf.report["gaps"]["long_bridged"]
+    assert b["lines"] == [601, 602] and b["duration_s"] == 301.0
+    assert 0.0 < b["sigma_h_m"] < 1e4 and 0.0 < b["sigma_v_m"] < 1e4
+    assert "long gap bridged: lines 601..602 (301 s" in cf.format_report()
+    # straight and level on both sides: the bridge is the straight line, within its σ
+    s = cf.samples
+    lat, lon, h = straight(s.t + s.t_start)
+    mid = (s.t > 650) & (s.t < 850)
+    dn = (s.lat[mid] - lat[mid]) * math.radians(1.0) * 6.37e6
+    assert np.abs(dn).max() < 3.0 * b["sigma_h_m"] and np.abs(dn).max() < 20.0
+    assert np.abs(s.h[mid] - h[mid]).max() < 20.0
+
+
+def test_long_gap_longest_segment_refuse_and_split():
+    t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
+    tr = quiet_track(t, *straight(t), source="gappy.csv")
+    cf = condition(tr, Conditioning(on_long_gap="longest"))
     assert cf.samples.t[-1] == pytest.approx(599.0)
     (d,) = cf.report["segments"]["dropped"]
     assert d["samples"] == 300 and d["lines"] == [602, 901]
@@ -303,9 +323,10 @@ def test_long_gap_longest_segment_refuse_and_split():
     with pytest.raises(InputError, match=r"gappy.csv lines 601\.\.602: .*301\.0 s.*max_gap_s") as e:
         condition(tr, Conditioning(on_long_gap="refuse"))
     assert "\n" not in str(e.value)
-    segs = condition_segments(tr)
+    segs = condition_segments(tr, Conditioning(on_long_gap="longest"))
     assert [round(s.samples.t[-1]) for s in segs] == [599, 299]
-    assert condition(tr, Conditioning(max_gap_s=400.0)).samples.t[-1] == pytest.approx(1199.0)
+    longest = Conditioning(max_gap_s=400.0, on_long_gap="longest")
+    assert condition(tr, longest).samples.t[-1] == pytest.approx(1199.0)
 
 
 def test_times_going_back_refused_naming_the_line():

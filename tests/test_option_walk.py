@@ -96,9 +96,13 @@ def _traffic_csv() -> str:
     lat = 45 + np.degrees(np.cumsum(speed) / 6.4e6)
     alt_ft = np.where(t < 30, 1000.0, 1000.0 + 25.0 * np.round(20.0 * (t - 30) / 25.0))
     rows = ["timestamp,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    # the aircraft's own velocities, as the positions fly them (north; kt, ft/min): zeros
+    # would contradict the positions, and the log be refused (issue 26)
+    gs_kt = speed * 3600.0 / 1852.0
+    vr_fpm = np.where(t < 30, 0.0, 1200.0)
     rows += [
-        f"2024-05-01T10:{int(s) // 60:02d}:{int(s) % 60:02d}Z,{a:.6f},7.0,{h:.0f},0,0,0"
-        for s, a, h in zip(t, lat, alt_ft)
+        f"2024-05-01T10:{int(s) // 60:02d}:{int(s) % 60:02d}Z,{a:.6f},7.0,{h:.0f},{g:.0f},0,{v:.0f}"
+        for s, a, h, g, v in zip(t, lat, alt_ft, gs_kt, vr_fpm)
         if not 80 <= s < 120
     ]
     return "\n".join(rows) + "\n"
@@ -659,7 +663,8 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("table1", "--columns", "time=t,lat=a,lon=b,alt=c", expect=REFUSED, note="table1"),
     ],
     ("navsim", "--alt-units"): [
-        C("flight-log", "--alt-units", "m"),
+        # feet read as metres: the log's own vertical rates (ft/min) contradict the heights
+        C("flight-log", "--alt-units", "m", expect=REFUSED, note="vertical rates"),
         C("flight", "--alt-units", "m", expect=REFUSED, note="--route"),
     ],
     ("navsim", "--height-ref"): [
@@ -678,6 +683,11 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("navsim", "--max-gap-s"): [
         C("flight-log", "--max-gap-s", "30"),
         C("flight", "--max-gap-s", "30", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--vehicle"): [
+        # a fighter's envelope (9 g, 50 m/s³) instead of the airliner guessed from the log
+        C("flight-log", "--vehicle", "fighter"),
+        C("flight", "--vehicle", "glider", expect=REFUSED, note="--route"),
     ],
     ("navsim", "--keep-ground"): [
         C("flight-log", "--keep-ground"),

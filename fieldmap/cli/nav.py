@@ -75,10 +75,11 @@ LOG_ONLY = {
     "max_gap_s": "--max-gap-s",
     "keep_ground": "--keep-ground",
     "no_smooth": "--no-smooth",
+    "vehicle": "--vehicle",
 }
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
-CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground")}
+CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground", "vehicle")}
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
     "gravity_rate_hz": "--gravity-rate-hz",
@@ -118,8 +119,15 @@ def _flight_options(p: argparse.ArgumentParser) -> None:
         "--max-gap-s",
         type=float,
         default=60.0,
-        help="longest gap bridged by the fit; longer gaps split the log and the longest part "
-        "is flown (default 60)",
+        help="gaps longer than this are listed in the report with the σ of the path the fit "
+        "flies across them (every gap is bridged; default 60)",
+    )
+    g.add_argument(
+        "--vehicle",
+        default=None,
+        help="vehicle class whose load factor, jerk and speed the conditioned path keeps "
+        "within: airliner, light-aircraft, glider, helicopter, uav, fighter, car, ship, rocket "
+        "(default: guessed from the log, and said in the report)",
     )
     g.add_argument(
         "--keep-ground",
@@ -203,6 +211,7 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
         max_gap_s=args.max_gap_s,
         airborne_only=not args.keep_ground,
         smooth=not args.no_smooth,
+        vehicle=args.vehicle,
     )
     out: list[Flight] = []
     names: set[str] = set()

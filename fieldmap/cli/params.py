@@ -62,6 +62,7 @@ OPTIONS: dict[str, str | None] = {
     "max_jerk": None,
     "threshold": None,
     "dt_out": None,
+    "vehicle": "--vehicle",
     "model": None,  # the truth model's geoid makes MSL heights ellipsoidal
     "ellipsoid": None,
     # FlightStudy (fieldmap.nav.study)

@@ -24,15 +24,18 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
    motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
-   heights ``max_climb_mps``) are outliers too. A height held and then left faster than
-   50 m/s was not updated (stale). Later, the robust fit rejects what is left (step 6).
-3. **Breaks**: gaps longer than ``max_gap_s`` and jumps that are no short bursts (a displaced
-   stretch: spoofing, a wrong altitude held for minutes) split the log into segments.
+   heights ``max_climb_mps``) are outliers too. A height
+   held and then left faster than 50 m/s was not updated (stale). Later, the robust fit
+   rejects what is left (step 6).
+3. **Breaks**: jumps that are no short bursts (a displaced stretch: spoofing, a wrong altitude
+   held for minutes) split the log into segments; so do gaps longer than ``max_gap_s``, unless
+   ``on_long_gap="bridge"`` (default).
 4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
    ``min_speed_mps`` and within 30 m of the segment's first (last) height are trimmed.
-5. **Segment.** ``on_long_gap="longest"`` (default) flies the longest segment and lists the
-   others in the report; ``"refuse"`` raises an :class:`InputError` naming the first break.
-   :func:`condition_segments` conditions each.
+5. **Segment.** ``on_long_gap="bridge"`` (default) flies across gaps of any length (step 6)
+   and the longest of the segments jumps leave; ``"longest"`` flies the longest segment that
+   gaps and jumps leave and lists the others in the report; ``"refuse"`` raises an
+   :class:`InputError` naming the first break. :func:`condition_segments` conditions each.
 6. **Smoothing** on a regular grid (``dt_out``, default the median sample interval within
    0.1..1 s, extended past the data so that the ends are no free ends): a penalised
    least-squares path, the discrete cubic smoothing spline (Whittaker 1923, Reinsch 1967,
@@ -41,7 +44,12 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    trace estimate). σ is ``position_noise_m`` or estimated from leave-one-out cubic predictions
    (a local RMS: ADS-B noise grows with speed); heights quantised in ``q`` have at least
    ``q/√12`` and no noise in level flight. Iteratively reweighted (Tukey's bisquare; Garcia
-   2010): samples beyond 4.685 robust σ are outliers. Gaps up to ``max_gap_s`` are bridged.
+   2010): samples beyond 4.685 robust σ are outliers. Gaps are bridged by the fit itself:
+   across an interval without samples the penalised spline is the cubic that joins the
+   positions and velocities at both ends with the least ∫|a|² (Reinsch 1967), a path the
+   vehicle can fly; its uncertainty is the fit's Bayesian posterior σ at the middle of each
+   gap longer than ``max_gap_s`` (Wahba 1983; :func:`~fieldmap.nav.logs.fit.posterior_sigma`),
+   given in the report.
 7. **Vehicle limits.** Where the path as flown (the quintic through the output) exceeds
    ``max_accel_g`` (2.5 g) or ``max_jerk`` (5 m/s³), the noise σ of the samples there is
    raised and the path refitted, until it keeps within them: stale or late ADS-B positions and
@@ -56,6 +64,63 @@ say what to change name its fields; an :class:`~fieldmap.errors.InputError` abou
 its name as ``param`` (the command line rewords the message with its own options:
 :mod:`fieldmap.cli.params`).
 
+**Vehicle classes** (:class:`Vehicle`, :data:`VEHICLES`, :func:`guess_vehicle`). The smoothing
+of :mod:`fieldmap.nav.logs.condition` keeps the flown path within what the vehicle
+can do: its load factor (the specific force in g, what an accelerometer senses), its jerk and its
+speed. One generic envelope (2.5 g, 5 m/s³) fits no vehicle: it lets an airliner pull 2 g where
+it flies 0.7…1.4 g, and stops a glider or a rocket short of theirs. Each class here holds one
+envelope, with its source or the reasoning behind it:
+
+============== =========== ========= ========= ==========================================
+class          load factor jerk      speed     source / reasoning
+               n (g)       (m/s³)    (m/s)
+============== =========== ========= ========= ==========================================
+airliner       0.5 … 1.6   3         360       transport category (CS-25.337) limit loads
+                                               are −1…+2.5 g, but an airliner in service flies
+                                               0.7…1.4 g: turns at most 30° bank (n = 1.15),
+                                               turbulence rarely beyond ±0.5 g (ICAO Annex 3
+                                               "severe" is ±1 g); ground speed: Mach 0.9 at
+                                               cruise plus a 200 kt jet stream
+light-aircraft −1.5 … 3.8  10        130       CS-23 normal category limit loads (+3.8/−1.52
+                                               g); Vne of light singles and twins about 100
+                                               m/s, plus wind
+glider         −2.65 … 5.3 10        100       CS-22 utility category (+5.3/−2.65 g); Vne
+                                               about 75 m/s (270 km/h), plus wind
+helicopter     −0.5 … 3.5  10        110       CS-27/29 limit manoeuvring loads (+3.5/−0.5 g);
+                                               the helicopter speed record is 111 m/s
+uav            −1 … 4      20        80        small fixed-wing and multirotor drones (no
+                                               certification basis): the light-aircraft loads
+                                               with a margin; racing multirotors stay below 80
+                                               m/s
+fighter        −3 … 9      50        700       the F-16's +9/−3 g; Mach 2 at altitude
+car            0.3 … 1.6   10        90        tyres hold about 1 g laterally and in braking
+                                               (√(1 + 1²) = 1.41 g); bumps ±0.3 g; emergency
+                                               braking builds up within 0.1…0.2 s (≈ 10 m/s³);
+                                               325 km/h
+ship           0.7 … 1.3   2         30        heave and roll of a vessel in a seaway: the
+                                               accelerations of passenger comfort criteria
+                                               (0.2 g vertical, NORDFORSK 1987) with margin;
+                                               60 kt fast craft
+rocket         0 … 10      100       8000      launch vehicles: 3…6 g axial at burnout
+                                               (Saturn V 4 g, Space Shuttle 3 g), 0 g in
+                                               coast; orbital speed 7.9 km/s
+============== =========== ========= ========= ==========================================
+
+Stall speeds (the slowest a class flies; slower at the ends of a log is ground movement whatever
+the altitude column says): airliner 50 m/s (a wide-body's approach speed is 70 m/s, its stall in
+landing configuration about 55 m/s), fighter 60 m/s, light aircraft 20 m/s (CS-23 singles stall
+at 25…30 m/s), glider 15 m/s; helicopters, drones and surface vehicles none.
+
+The conditioning keeps the specific force ``|a − γ|`` within ``[n_min, n_max] g`` and the jerk
+below the class's; the report compares the flown speeds with the class's.
+
+Guess (:func:`guess_vehicle`), when the user names none: from an ADS-B emitter category where the
+log carries one (DO-260B: A1 light, A2 small, A3 large, A4 high-vortex, A5 heavy, A6 high
+performance, A7 rotorcraft, B1 glider, B6 UAV, C1/C2 surface vehicles), else from the log's robust
+ground speed and height: over 1.2 km/s or 300 m/s vertically a rocket; over 130 m/s or above 7 km an
+airliner; slower than 45 m/s within 150 m of one height a car; else a light aircraft. The report
+says which class, and whether it was guessed.
+
 The references (Hampel 1974, Tukey 1977, Theil 1950, Sen 1968, Whittaker 1923, Reinsch 1967,
 Eilers 2003, Buja et al. 1989, Hutchinson 1989, Beaton & Tukey 1974, Garcia 2010) are given in
 full in :mod:`fieldmap.nav.logs.fit`.
@@ -63,6 +128,7 @@ full in :mod:`fieldmap.nav.logs.fit`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
@@ -106,6 +172,11 @@ GROUND_DH = 30.0
 LIMIT_MARGIN, LIMIT_ITER = 0.9, 12
 #: grid nodes beyond the data at either end
 EDGE = 8
+#: timing jitter: modelled when the along-track residual variance exceeds JITTER_RATIO × the
+#: across-track one; RETIME_ITER passes
+JITTER_RATIO, RETIME_ITER = 2.0, 3
+#: a fix is moved by at most JITTER_CLIP jitter σ
+JITTER_CLIP = 3.0
 #: smallest noise σ (m) estimated
 SIGMA_MIN = 0.05
 #: local noise: RMS over ±NOISE_HALF samples, at least NOISE_FRAC × the segment's
@@ -115,6 +186,124 @@ LEVEL_S = 20.0
 #: a vehicle that stays within STILL_H metres horizontally and STILL_V vertically of one place
 #: never moved beyond the noise of its fixes (the outlier floors): not a flight
 STILL_H, STILL_V = FLOOR_H, FLOOR_V
+
+
+# -- vehicle classes ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """The envelope of one vehicle class (see the module docstring for the values' sources).
+
+    Attributes
+    ----------
+    name : str
+        The class (``airliner``, ``glider``, …).
+    n_min, n_max : float
+        Load factor range: the specific force's magnitude the flown path keeps within.
+        Units: g.
+    jerk : float
+        Largest jerk (rate of the acceleration). Units: m/s³.
+    speed : float
+        Largest speed over the ground. Units: m/s.
+    climb : float
+        Largest vertical speed, up or down. Units: m/s.
+    stall : float
+        Slowest speed it flies at (0: any, or it does not fly). Units: m/s.
+    """
+
+    name: str
+    n_min: float
+    n_max: float
+    jerk: float
+    speed: float
+    climb: float
+    stall: float = 0.0
+
+
+#: the vehicle classes, by name (module docstring)
+VEHICLES: dict[str, Vehicle] = {
+    v.name: v
+    for v in (
+        Vehicle("airliner", 0.5, 1.6, 3.0, 360.0, 40.0, 50.0),
+        Vehicle("light-aircraft", -1.5, 3.8, 10.0, 130.0, 20.0, 20.0),
+        Vehicle("glider", -2.65, 5.3, 10.0, 100.0, 20.0, 15.0),
+        Vehicle("helicopter", -0.5, 3.5, 10.0, 110.0, 20.0),
+        Vehicle("uav", -1.0, 4.0, 20.0, 80.0, 25.0),
+        Vehicle("fighter", -3.0, 9.0, 50.0, 700.0, 300.0, 60.0),
+        Vehicle("car", 0.3, 1.6, 10.0, 90.0, 15.0),
+        Vehicle("ship", 0.7, 1.3, 2.0, 30.0, 5.0),
+        Vehicle("rocket", 0.0, 10.0, 100.0, 8000.0, 8000.0),
+    )
+}
+
+#: ADS-B emitter categories (DO-260B, as ``traffic`` and OpenSky write them) -> class
+CATEGORIES = {
+    "A1": "light-aircraft",
+    "A2": "light-aircraft",
+    "A3": "airliner",
+    "A4": "airliner",
+    "A5": "airliner",
+    "A6": "fighter",
+    "A7": "helicopter",
+    "B1": "glider",
+    "B6": "uav",
+    "C1": "car",
+    "C2": "car",
+}
+
+
+def vehicle_class(name: str) -> Vehicle:
+    """Return the class ``name``; an unknown one is an :class:`InputError` naming the known."""
+    v = VEHICLES.get(str(name).strip().lower())
+    if v is None:
+        raise InputError(
+            f"vehicle must be one of {', '.join(VEHICLES)}, got {name!r}", param="vehicle"
+        )
+    return v
+
+
+def guess_vehicle(
+    speed: np.ndarray, climb: np.ndarray, h: np.ndarray, category: str | None = None
+) -> tuple[Vehicle, str]:
+    """Guess the class of a log's vehicle, and say from what (module docstring).
+
+    Parameters
+    ----------
+    speed, climb : numpy.ndarray
+        Robust ground speed and vertical speed along the log (running medians of the step
+        speeds: a wild sample moves neither). Units: m/s.
+    h : numpy.ndarray
+        Heights. Units: m.
+    category : str, optional
+        An ADS-B emitter category (``"A3"``), when the log carries one.
+
+    Returns
+    -------
+    (Vehicle, str)
+        The class, and why (for the report).
+    """
+    if category is not None and str(category).strip().upper() in CATEGORIES:
+        c = str(category).strip().upper()
+        return VEHICLES[CATEGORIES[c]], f"guessed from the ADS-B emitter category {c}"
+
+    def pct(x: np.ndarray, q: float) -> float:
+        x = np.asarray(x, dtype=np.float64)
+        x = x[np.isfinite(x)]
+        return float(np.percentile(x, q)) if x.size else 0.0
+
+    v95, up95, top = pct(speed, 95), pct(np.abs(climb), 95), pct(h, 99)
+    band = top - pct(h, 1)
+    why = f"ground speed to {v95:.0f} m/s, heights to {top:.0f} m"
+    if v95 > 1200.0 or up95 > 300.0:
+        name = "rocket"
+    elif v95 > 100.0 or top > 7000.0:
+        name = "airliner"
+    elif v95 < 45.0 and band < 150.0:
+        name = "car"
+    else:
+        name = "light-aircraft"
+    return VEHICLES[name], f"guessed from the log ({why})"
 
 
 @dataclass(frozen=True)
@@ -131,16 +320,18 @@ class Conditioning:
         Position noise σ (m): one value, or (horizontal, per axis; vertical). Default:
         estimated from the data.
     max_gap_s : float
-        Longest interval without samples the smoothing bridges (s); longer ones split the log.
+        Gaps longer than this (s) are long gaps: bridged and reported with their uncertainty
+        (``on_long_gap="bridge"``), or breaks that split the log.
     airborne_only : bool
         Trim leading and trailing ground movement (slower than ``min_speed_mps``).
     smooth : bool
         False: only order the samples and drop repeated times (exact interpolation).
     reorder : bool
         Sort times that go back; False: refuse them (:class:`InputError` naming the line).
-    on_long_gap : {"longest", "refuse"}
-        More than one segment left (gaps, jumps): fly the longest (the report lists the
-        others), or refuse naming the first break.
+    on_long_gap : {"bridge", "longest", "refuse"}
+        Gaps longer than ``max_gap_s``: bridge them by the fit (default; the report gives the
+        bridged position's σ), or let them split the log with jumps and fly the longest
+        segment (the report lists the others), or refuse naming the first break.
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
     min_speed_mps : float
@@ -148,9 +339,16 @@ class Conditioning:
     max_speed_mps, max_climb_mps : float
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
-    max_accel_g, max_jerk : float or None
-        Limits of the vehicle: acceleration (g, relative to the Earth) and jerk (m/s³) the
-        conditioned path keeps within (None: no limit).
+        Generous (any vehicle's noisy steps stay within them), not the vehicle's envelope.
+    vehicle : str, optional
+        The vehicle class (:data:`VEHICLES`: ``airliner``,
+        ``light-aircraft``, ``glider``, ``helicopter``, ``uav``, ``fighter``, ``car``,
+        ``ship``, ``rocket``) whose load factor, jerk and speeds the conditioned path keeps
+        within. Default: guessed from the log
+        (:func:`guess_vehicle`), and the report says so.
+    max_accel_g, max_jerk : float, optional
+        Further limits: acceleration (g, relative to the Earth; default none beyond the
+        vehicle's load factor) and jerk (m/s³; default the vehicle's).
     threshold : float
         Outlier threshold in robust standard deviations.
     dt_out : float, optional
@@ -168,20 +366,21 @@ class Conditioning:
     airborne_only: bool = True
     smooth: bool = True
     reorder: bool = True
-    on_long_gap: str = "longest"
+    on_long_gap: str = "bridge"
     ellipsoid: Ellipsoid = WGS84
     min_speed_mps: float = 30.0
     max_speed_mps: float = 1200.0
     max_climb_mps: float = 300.0
-    max_accel_g: float | None = 2.5
-    max_jerk: float | None = 5.0
+    max_accel_g: float | None = None
+    max_jerk: float | None = None
     threshold: float = 5.0
     dt_out: float | None = None
+    vehicle: str | None = None
 
     def __post_init__(self) -> None:
-        if self.on_long_gap not in ("longest", "refuse"):
+        if self.on_long_gap not in ("bridge", "longest", "refuse"):
             raise InputError(
-                f"on_long_gap must be 'longest' or 'refuse', got {self.on_long_gap!r}",
+                f"on_long_gap must be 'bridge', 'longest' or 'refuse', got {self.on_long_gap!r}",
                 param="on_long_gap",
             )
         for name, optional in (
@@ -200,6 +399,8 @@ class Conditioning:
             ):
                 raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
         self.noise_m()
+        if self.vehicle is not None:
+            vehicle_class(self.vehicle)
 
     def noise_m(self) -> list[float] | None:
         """Return the position noise σ (m) as [horizontal, vertical], or None (estimated)."""
@@ -231,6 +432,7 @@ class Conditioning:
             "max_jerk": None if self.max_jerk is None else float(self.max_jerk),
             "threshold": float(self.threshold),
             "dt_out": None if self.dt_out is None else float(self.dt_out),
+            "vehicle": self.vehicle,
         }
 
 
@@ -280,7 +482,7 @@ def condition_segments(track: Any, options: Conditioning | None = None) -> list[
     to fly are left out. Raises :class:`InputError` when none is left.
     """
     options = Conditioning() if options is None else options
-    st = Stages(track, replace(options, smooth=True))
+    st = Stages(track, replace(options, smooth=True, on_long_gap="longest"))
     out = []
     for s in st.segment_ids():
         try:
@@ -304,17 +506,34 @@ class Stages:
         self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
+        self.obs: cfit.Observed | None = None
+        self.t_h, self.p_h = log.t, log.p
+        self.timing: dict[str, Any] | None = None
         self.quantum = cfit.height_quantum(log.h)
         self.breaks: list[tuple[int, int, str]] = []
         self.dropped: list[dict] = []
         self.seg = np.zeros(n, np.int64)
         self.hv, self.vv = ~z, ~z
+        self.vehicle, self.vehicle_why = vehicle_class(options.vehicle or "airliner"), "given"
+        if n >= 3:
+            log.geometry()
+            self.stale = log.stale_positions()
+        if options.vehicle is None:
+            self.vehicle, self.vehicle_why = self._guess(~self.stale)
+        veh = self.vehicle
+        #: the limits in force: the options where given, else the vehicle's
+        self.lim = {
+            "max_speed_mps": opts["max_speed_mps"],
+            "max_climb_mps": opts["max_climb_mps"],
+            "max_accel_g": opts["max_accel_g"],
+            "max_jerk": opts["max_jerk"] or veh.jerk,
+            "n_min": veh.n_min,
+            "n_max": veh.n_max,
+        }
         if not opts["smooth"] or n < 3:
             return
-        o, q = opts, self.quantum
+        o, q = dict(opts, **self.lim), self.quantum
         floor_v = max(3.0 * q, FLOOR_V)
-        log.geometry()
-        self.stale = log.stale_positions()
         hv, vv = ~self.stale, ~z
         comps = [(hv, log.p, np.inf, 0.0), (vv, log.h[:, None], np.inf, 0.0)]
         seg, _ = segments(log.t, comps, o["max_gap_s"])
@@ -343,15 +562,45 @@ class Stages:
             (hv, log.p, o["max_speed_mps"], FLOOR_H),
             (vv, log.h[:, None], o["max_climb_mps"], floor_v),
         ]
+        if options.on_long_gap == "bridge":  # jumps are left to the robust fit (step 6)
+            comps = [(hv, log.p, np.inf, FLOOR_H), (vv, log.h[:, None], np.inf, floor_v)]
         seg, self.breaks = segments(log.t, comps, o["max_gap_s"])
+        if options.on_long_gap == "bridge" and any(
+            (hv & (seg == s)).sum() >= MIN_POINTS and (vv & (seg == s)).sum() >= MIN_POINTS
+            for s in np.unique(seg[seg >= 0])
+        ):
+            # one flight across every gap, from the first sample to the last (step 5): the
+            # ground trimming below then sees its real ends (a glider parked after landing)
+            seg[:] = 0
         self.in_gap = seg < 0
         if o["airborne_only"]:
             for s in np.unique(seg[seg >= 0]):
                 m = np.flatnonzero(seg == s)
-                g = ground(log.t[m], log.p[m], log.h[m], hv[m], vv[m], o["min_speed_mps"])
+                g = ground(
+                    log.t[m],
+                    log.p[m],
+                    log.h[m],
+                    (hv[m], vv[m]),
+                    o["min_speed_mps"],
+                    self.vehicle.stall > o["min_speed_mps"],
+                )
                 self.ground[m[g]] = True
                 seg[m[g]] = -1
         self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
+
+    def _guess(self, hv: np.ndarray) -> tuple[Any, str]:
+        """Guess the vehicle class from robust speeds (:func:`~.vehicle.guess_vehicle`)."""
+        log = self.log
+        cat = getattr(self.track, "category", None)
+        idx = np.flatnonzero(hv)
+        if idx.size < 3:
+            return guess_vehicle(np.zeros(1), np.zeros(1), log.h, cat)
+        t, half = log.t[idx], half_window(log.t[idx])
+        dt = np.diff(t)
+        v = cfit.running_median(np.diff(log.p[idx], axis=0) / dt[:, None], half)
+        w = cfit.running_median(np.diff(log.h)[:, None] / np.diff(log.t)[:, None], half)
+        h = cfit.running_median(log.h[:, None], half)[:, 0]
+        return guess_vehicle(np.linalg.norm(v, axis=1), w[:, 0], h, cat)
 
     def status(self) -> np.ndarray:
         """Each ordered sample's fate, codes of :data:`STATUS_NAMES`."""
@@ -403,7 +652,7 @@ class Stages:
         a = int(np.flatnonzero(self.seg == ids[0])[-1])
         b = int(np.flatnonzero(self.seg == ids[1])[0])
         kind = next((k for i, j, k in self.breaks if a <= i < b or a < j <= b), "gap")
-        o = self.opts
+        o = dict(self.opts, **self.lim)
         why = (
             f"more than {o['max_gap_s']:g} s (max_gap_s): raise the limit"
             if kind == "gap"
@@ -524,10 +773,31 @@ class Stages:
             1, edf_correction=q == 0.0, floor=3.0 * q, max_run=burst_length(tv)
         )
         fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
+        inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
+        obs = self.obs = cfit.observations(log, self.track, inside)
+        if obs is not None:  # the log's own velocities: checked, then observations of the path
+            rh = np.zeros((0, 3)) if obs.h is None else cfit.fitted_rates(grid, fh["g"], obs.h.t)
+            rv = np.zeros((0, 1)) if obs.v is None else cfit.fitted_rates(grid, fv["g"], obs.v.t)
+            obs = self.obs = cfit.check(obs, rh, rv, log.source, log.lines)
+            # with the rates the fit follows the real motion: a long run of outliers is wrong
+            # values (a height held for minutes), not motion the fit lags
+            horizontal_fit = cfit.PathFit(2, max_run=burst_length(th))
+            fh = cfit.fit_path(grid, th, ph, loc[0], horizontal_fit, rates=obs.h, lam=fh["lam"])
+            if obs.v is not None and obs.v.t.size >= 0.5 * tv.size:
+                height_fit = replace(height_fit, max_run=tv.size)
+            fv = cfit.fit_path(
+                grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
+            )
+        self.t_h, self.p_h = log.t.copy(), log.p.copy()
+        th, fh, loc[0], self.timing = self._retime(grid, th, ph, loc[0], fh)
+        self.t_h[hi] = th
+        if "p" in fh:
+            self.p_h[hi] = fh["p"]
         self.out_h[hi[fh["outlier"]]], self.out_v[vi[fv["outlier"]]] = True, True
         keep_h, keep_v = ~fh["outlier"], ~fv["outlier"]
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
         gh, gv, softened = self._limits(grid, hi, vi, loc, fh, fv)
+        bridges = self._bridges(grid, hi, vi, loc, (fh["lam"], fv["lam"]))
         tg = t_lo + dt * np.arange(ng)
         gh, gv = gh[EDGE : EDGE + ng], gv[EDGE : EDGE + ng]
         lat, lon, _ = ecef_to_geodetic(gh[:, 0], gh[:, 1], gh[:, 2], log.ellipsoid)
@@ -540,8 +810,9 @@ class Stages:
         )
         inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
         rows = cfit.lagrange_rows(t_lo, dt, ng, log.t[inside])
+        rows_h = cfit.lagrange_rows(t_lo, dt, ng, self.t_h[inside])  # the fixes' own times
         self.off_h[inside] = np.linalg.norm(
-            to_en(log.en[inside], log.p[inside] - cfit.on_grid(gh, rows)), axis=1
+            to_en(log.en[inside], log.p[inside] - cfit.on_grid(gh, rows_h)), axis=1
         )
         self.off_v[inside] = np.abs(log.h[inside] - cfit.on_grid(gv, rows)[:, 0])
         rms = (
@@ -561,7 +832,163 @@ class Stages:
             "t_hi": float(t_hi),
             "dt_out": dt,
             "softened": softened,
+            "bridges": bridges,
+            "velocity": cfit.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
+            "timing": self.timing,
         }
+
+    def _retime(
+        self,
+        grid: tuple[float, float, int],
+        th: np.ndarray,
+        ph: np.ndarray,
+        loc: np.ndarray,
+        fh: dict[str, Any],
+    ) -> tuple[np.ndarray, dict[str, Any], np.ndarray, dict[str, Any] | None]:
+        r"""Step 6b: the timing jitter of the fixes, modelled as a time error per fix.
+
+        A receiver's timestamps are late or early by a varying δ (a position kept until the next
+        report, positions resampled to a clock): the fix is the path's position at ``t + δ``,
+        off the path by ``v δ`` *along* the track, not across it. The leave-one-out prediction
+        errors of the fixes (:func:`~fieldmap.nav.logs.fit.loo_noise`) split along and across
+        the fitted track (where faster than :data:`~fieldmap.nav.logs.cfit.MOVING`) give
+        σ_a and σ_c; when σ_a² exceeds ``JITTER_RATIO`` σ_c², the jitter is
+        σ_t² = (σ_a² − σ_c²) / v². Then, :data:`RETIME_ITER` times: a path that does not follow
+        the along-track errors (the fixes at σ_a, λ from their discrepancy, the log's
+        velocities at that λ), and each fix's time moved by the posterior mean of its δ,
+
+        .. math:: \hat\delta = \frac{a}{v} \, \frac{\sigma_t^2 v^2}{\sigma_t^2 v^2 +
+                  \sigma_c^2}
+
+        (a its along-track residual, δ at most ``JITTER_CLIP`` σ_t). The path is then fitted to
+        the re-timed fixes in the same way. Without jitter nothing changes; without the log's
+        velocities (what anchors the reference along the track) the jitter stays in the
+        fixes' noise σ.
+
+        Returns the fixes' times, the fit, their σ and the timing summary (None: no jitter).
+        """
+        t0, dt, ng = grid
+        settings = cfit.PathFit(2, max_run=burst_length(th))
+        rates = None if self.obs is None else self.obs.h
+        ok0 = ~fh["outlier"]
+        if ok0.sum() < 10 or rates is None or rates.t.size < 10:
+            return th, fh, loc, None
+        z = cfit.loo_noise(th[ok0], ph[ok0])
+        v_fit = cfit.fitted_rates(grid, fh["g"], th[ok0])[2:-2]
+        speed = np.linalg.norm(v_fit, axis=1)
+        moving = speed > cfit.MOVING
+        if moving.sum() < 10:
+            return th, fh, loc, None
+        u = v_fit[moving] / speed[moving, None]
+        za = np.sum(z[moving] * u, axis=1)
+        zc = z[moving] - za[:, None] * u
+        s_a = cfit.noise_sigma(za[:, None], self.opts["threshold"])[0]
+        # across: one horizontal direction; noise_sigma averages over the three components,
+        # the other two (along, the normal) hold none
+        s_c = math.sqrt(3.0) * cfit.noise_sigma(zc, self.opts["threshold"])[0]
+        s_c = max(s_c, SIGMA_MIN)
+        if s_a**2 < JITTER_RATIO * s_c**2:
+            return th, fh, loc, None
+        v2 = float(np.median(speed[moving] ** 2))
+        s_t2 = (s_a**2 - s_c**2) / v2
+        iso = float(np.sqrt(np.mean(np.sum(z[moving] ** 2, axis=1)) / 2.0))
+        loc_a = loc * s_a / max(iso, SIGMA_MIN)
+
+        def fitted(t_fix: np.ndarray, sig: np.ndarray) -> dict[str, Any]:
+            pos = cfit.fit_path(grid, t_fix, ph, sig, settings)
+            if rates is None:
+                return pos
+            return cfit.fit_path(grid, t_fix, ph, sig, settings, rates=rates, lam=pos["lam"])
+
+        t_fix = th.copy()
+        clip = JITTER_CLIP * math.sqrt(s_t2)
+        for _ in range(RETIME_ITER):
+            ref = fitted(t_fix, loc_a)
+            p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
+            v = cfit.fitted_rates(grid, ref["g"], t_fix)
+            sp = np.linalg.norm(v, axis=1)
+            ok = (sp > cfit.MOVING) & ~ref["outlier"]
+            a = np.sum((ph - p_fit) * v, axis=1) / np.maximum(sp, 1e-9)
+            k = s_t2 * sp**2 / (s_t2 * sp**2 + s_c**2)
+            # beyond JITTER_CLIP σ_t an along-track offset is no jitter (an outlier, a change of
+            # speed the reference missed)
+            delta = np.clip(k * a / np.maximum(sp, 1e-9), -clip, clip)
+            t_fix = t_fix + np.where(ok, delta, 0.0)
+        # the re-timed fixes at σ_c, at the λ of the reference: the along-track errors are gone
+        # from the fixes, not from the noise of what is left
+        # what is left along the track is no noise to average but the reference's to keep:
+        # each fix is moved onto it along the track (a pseudo-fix, across-track as measured),
+        # and the path fitted to them at the noise across, σ_c
+        ref = fitted(t_fix, loc_a)
+        p_fit = cfit.on_grid(ref["g"], cfit.lagrange_rows(t0, dt, ng, t_fix))
+        v = cfit.fitted_rates(grid, ref["g"], t_fix)
+        sp = np.linalg.norm(v, axis=1)
+        ok = (sp > cfit.MOVING) & ~ref["outlier"]
+        u = v / np.maximum(sp, 1e-9)[:, None]
+        a = np.sum((ph - p_fit) * u, axis=1)
+        p_new = ph - np.where(ok, a, 0.0)[:, None] * u
+        loc_c = loc * s_c / max(iso, SIGMA_MIN)
+        fh = cfit.fit_path(grid, t_fix, p_new, loc_c, settings)
+        fh = cfit.fit_path(grid, t_fix, p_new, loc_c, settings, rates=rates, lam=fh["lam"])
+        fh["p"] = p_new
+        d = t_fix - th
+        info = {
+            "jitter_s": math.sqrt(s_t2),
+            "sigma_along_m": s_a,
+            "sigma_across_m": s_c,
+            "speed_m_s": math.sqrt(v2),
+            "fixes_retimed": int(np.count_nonzero(d)),
+            "time_shift_rms_s": float(np.sqrt(np.mean(d**2))),
+            "time_shift_max_s": float(np.max(np.abs(d))),
+        }
+        return t_fix, fh, loc_c, info
+
+    def _bridges(
+        self,
+        grid: tuple[float, float, int],
+        hi: np.ndarray,
+        vi: np.ndarray,
+        loc: list[np.ndarray],
+        lam: tuple[float, float],
+    ) -> list[dict[str, Any]]:
+        """Return the long gaps the path bridges, each with the path's posterior σ at its middle.
+
+        A long gap: more than ``max_gap_s`` between the samples of the horizontal or the
+        vertical fit (overlapping ones joined). σ per horizontal axis and vertical (m) from
+        :func:`~fieldmap.nav.logs.fit.posterior_sigma` with the fit's final weights and λ.
+        """
+        log = self.log
+        t0, dt, ng = grid
+        out: list[dict[str, Any]] = []
+        spans = []
+        for idx in (hi, vi):
+            tt = log.t[idx]
+            for j in np.flatnonzero(np.diff(tt) > self.opts["max_gap_s"]):
+                spans.append((int(idx[j]), int(idx[j + 1])))
+        pairs: list[tuple[int, int]] = []
+        for a, b in sorted(spans):  # a gap of either component; overlapping ones joined
+            if pairs and a < pairs[-1][1]:
+                pairs[-1] = (pairs[-1][0], max(b, pairs[-1][1]))
+            else:
+                pairs.append((a, b))
+        if not pairs:
+            return out
+        mid = np.array([0.5 * (log.t[a] + log.t[b]) for a, b in pairs])
+        nodes = np.clip(np.round((mid - t0) / dt).astype(np.int64), 0, ng - 1)
+        rh, rv = (None, None) if self.obs is None else (self.obs.h, self.obs.v)
+        sh = cfit.posterior_sigma(grid, self.t_h[hi], loc[0], lam[0], nodes, rh)
+        sv = cfit.posterior_sigma(grid, log.t[vi], loc[1], lam[1], nodes, rv)
+        for (a, b), s_h, s_v in zip(pairs, sh, sv):
+            out.append(
+                {
+                    "t_from": float(log.t[a]),
+                    "t_to": float(log.t[b]),
+                    "lines": [int(log.lines[a]), int(log.lines[b])],
+                    "sigma_h_m": float(s_h),
+                    "sigma_v_m": float(s_v),
+                }
+            )
+        return out
 
     def _limits(
         self,
@@ -574,43 +1001,60 @@ class Stages:
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """Step 7: soften the fits where the path as flown exceeds the vehicle limits.
 
-        Where the acceleration or jerk of the quintic through the output
-        (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds
-        ``LIMIT_MARGIN × max_accel_g`` or ``× max_jerk``, the σ of the samples nearby is raised
-        (twice within two sample intervals, tapering to none at four) for the component(s)
-        carrying at least half of it; both are refitted at the same λ, up to
+        Where the load factor of the quintic through the output
+        (:func:`~fieldmap.nav.logs.fit.quintic_load_factor`) leaves the vehicle's range
+        (narrowed by ``LIMIT_MARGIN`` about 1 g), or its acceleration or jerk
+        (:func:`~fieldmap.nav.logs.fit.quintic_kinematics`) exceeds ``LIMIT_MARGIN ×
+        max_accel_g`` or ``× max_jerk`` (the vehicle's unless given), the σ of the samples
+        nearby is raised (twice within two sample intervals, tapering to none at four) for the
+        component(s) carrying at least half of it; both are refitted at the same λ, up to
         :data:`LIMIT_ITER` times. Returns the grid values and the number of samples softened.
         """
-        log, o = self.log, self.opts
+        log, o = self.log, self.lim
         gh, gv = fh["g"], fv["g"]
         a_max = np.inf if o["max_accel_g"] is None else o["max_accel_g"] * G0 * LIMIT_MARGIN
         j_max = np.inf if o["max_jerk"] is None else o["max_jerk"] * LIMIT_MARGIN
-        if np.isinf(a_max) and np.isinf(j_max):
-            return gh, gv, 0
+        # aim inside the load-factor range by the same margin, measured from 1 g
+        n_lo = 1.0 - LIMIT_MARGIN * (1.0 - o["n_min"])
+        n_hi = 1.0 + LIMIT_MARGIN * (o["n_max"] - 1.0)
         t0, dt, ng = grid
         out = slice(EDGE, ng - EDGE)
         tg = t0 + dt * np.arange(ng)[out]
         touched = np.zeros(log.t.size, bool)
         span = 2.0 * max(dt, median_interval(log.t[hi]))
+        rates: list[cfit.Rates | None] = (
+            [None, None] if self.obs is None else [self.obs.h, self.obs.v]
+        )
+
+        def near(tt: np.ndarray, tb: np.ndarray) -> np.ndarray:
+            """σ factor at the times ``tt``: 2 within ``span`` of a bad node, 1 beyond 2 span."""
+            pos = np.searchsorted(tb, tt)
+            d = np.minimum(
+                np.abs(tt - tb[np.clip(pos - 1, 0, tb.size - 1)]),
+                np.abs(tt - tb[np.clip(pos, 0, tb.size - 1)]),
+            )
+            return np.clip(3.0 - d / span, 1.0, 2.0)
+
         for _ in range(LIMIT_ITER):
             (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[out], dt) for g in (gh, gv))
             acc, jerk = np.hypot(ah, av), np.hypot(jh, jv)
-            bad = (acc > a_max) | (jerk > j_max)
+            nl, nh = cfit.quintic_load_factor(gh[out], gv[out], dt, G0)
+            bad = (acc > a_max) | (jerk > j_max) | (nl < n_lo) | (nh > n_hi)
             if not bad.any():
                 break
             for k, (idx, a, j) in enumerate(((hi, ah, jh), (vi, av, jv))):
                 tb = tg[bad & ((a >= 0.5 * acc) | (j >= 0.5 * jerk))]
                 if tb.size:
-                    pos = np.searchsorted(tb, log.t[idx])
-                    d = np.minimum(
-                        np.abs(log.t[idx] - tb[np.clip(pos - 1, 0, tb.size - 1)]),
-                        np.abs(log.t[idx] - tb[np.clip(pos, 0, tb.size - 1)]),
-                    )
-                    f = np.clip(3.0 - d / span, 1.0, 2.0)
+                    f = near(log.t[idx], tb)
                     loc[k] = loc[k] * f
                     touched[idx[f > 1.0]] = True
-            gh = cfit.refit(grid, log.t[hi], log.p[hi], loc[0], fh["lam"])[0]
-            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"])[0]
+                    rt = rates[k]
+                    if rt is not None:
+                        # the log's velocities there too (late, stale), less: their σ by √f,
+                        # for they hold the along-track motion that resampled fixes get wrong
+                        rates[k] = cfit.Rates(rt.t, rt.v, rt.w / near(rt.t, tb))
+            gh = cfit.refit(grid, self.t_h[hi], self.p_h[hi], loc[0], fh["lam"], rates[0])[0]
+            gv = cfit.refit(grid, log.t[vi], log.h[vi, None], loc[1], fv["lam"], rates[1])[0]
         return gh, gv, int(touched.sum())
 
     def exact(self) -> dict:
@@ -636,6 +1080,9 @@ class Stages:
             "t_hi": float(log.t[-1]),
             "dt_out": None,
             "softened": 0,
+            "bridges": [],
+            "velocity": None,
+            "timing": None,
         }
 
 
@@ -694,6 +1141,7 @@ class OrderedLog:
         self.first_invalid_line = int(lines[~finite][0]) if self.n_invalid else None
         t, lat, lon, h = (a[finite] for a in arrs)
         lines = lines[finite]
+        index = np.flatnonzero(finite)
         for name, v, lim in (("latitude", lat, 90.0), ("longitude", lon, 540.0)):
             bad = np.flatnonzero(np.abs(v) > lim)
             if bad.size:
@@ -713,10 +1161,13 @@ class OrderedLog:
                 )
             order = np.argsort(t, kind="stable")
             t, lat, lon, h, lines = t[order], lat[order], lon[order], h[order], lines[order]
+            index = index[order]
         dup = np.concatenate([[False], np.diff(t) == 0.0])
         self.n_duplicates = int(dup.sum())
         self.first_duplicate_line = int(lines[dup][0]) if dup.any() else None
         self.t, self.lat, self.lon, self.h, self.lines = (a[~dup] for a in (t, lat, lon, h, lines))
+        #: each ordered sample's index in the track
+        self.index = index[~dup]
         self.lon = np.degrees(np.unwrap(np.radians(self.lon)))
         self.ellipsoid = ellipsoid
         self.p = self.en = np.zeros((0, 3))
@@ -845,14 +1296,23 @@ def segments(
 
 
 def ground(
-    t: np.ndarray, p: np.ndarray, h: np.ndarray, hv: np.ndarray, vv: np.ndarray, min_speed: float
+    t: np.ndarray,
+    p: np.ndarray,
+    h: np.ndarray,
+    valid: tuple[np.ndarray, np.ndarray],
+    min_speed: float,
+    any_height: bool = False,
 ) -> np.ndarray:
     """Leading and trailing ground samples (n,) of one segment.
 
     Ground: robust ground speed (running median of the step velocities) below ``min_speed``
     and height within :data:`GROUND_DH` of the segment's first (last) height, from the start
     (end) up to the first sample that is not: taxi, parking, the first part of a take-off run.
+    ``any_height``: a vehicle that cannot fly that slowly (an airliner's stall speed is above
+    it) is on the ground whatever its height says (a barometric altitude held from the last
+    flight during the take-off roll). ``valid``: the usable horizontal and vertical samples.
     """
+    hv, vv = valid
     n = t.size
     out = np.zeros(n, bool)
     idx, vidx = np.flatnonzero(hv), np.flatnonzero(vv)
@@ -863,6 +1323,6 @@ def ground(
     speed = np.interp(t, 0.5 * (t[idx][1:] + t[idx][:-1]), np.linalg.norm(v, axis=1))
     hk = np.interp(t, t[vidx], h[vidx])
     for order, end in ((np.arange(n), vidx[0]), (np.arange(n)[::-1], vidx[-1])):
-        slow = (speed[order] < min_speed) & (np.abs(hk[order] - h[end]) < GROUND_DH)
+        slow = (speed[order] < min_speed) & (any_height | (np.abs(hk[order] - h[end]) < GROUND_DH))
         out[order[: n if slow.all() else int(np.argmin(slow))]] = True
     return out

@@ -23,6 +23,40 @@ corrected for the fit's degrees of freedom (Buja, Hastie & Tibshirani 1989), est
 Hutchinson's (1989) randomised trace; outliers by iteratively reweighted least squares with
 Tukey's bisquare (Beaton & Tukey 1974; Garcia 2010).
 
+The log's own velocities (:class:`Observed`, :func:`observations`, :func:`check`,
+:func:`residuals`). ADS-B messages carry the aircraft's velocity (ground speed, track, vertical
+rate, from the
+airborne velocity message: DO-260B §2.2.3.2.6), NMEA RMC sentences the speed and course over
+the ground, GPX files a speed: a measurement of the velocity at the fix, independent of the
+positions, whose noise it does not share. They enter the smoothing fit of
+:mod:`fieldmap.nav.logs.fit` as rows of the path's time derivative (:class:`~.fit.Rates`):
+
+- **Horizontal**: east and north components ``v_E = s sin χ``, ``v_N = s cos χ`` (ground speed
+  s, track χ) carried to the rate of the surface point the horizontal fit follows (its ECEF
+  position on the ellipsoid): east × ``N / (N + h)``, north × ``M / (M + h)`` (N, M the prime
+  vertical and meridian radii of curvature; Heiskanen & Moritz 1967 eqs. 2-81, 5-58).
+- **Vertical**: the vertical rate, up positive.
+- **σ** (:func:`observations`): the larger of the quantisation (a rounding error of step q has
+  σ = q/√12: 1 kt and 1° horizontally, the track's error scaled by the speed, 64 ft/min
+  vertically) and the noise of the velocity series itself, from the same leave-one-out cubic
+  predictions as the positions' (:func:`~fieldmap.nav.logs.fit.loo_noise`): the velocities
+  change smoothly, their noise does not. A run of L equal values (steady flight: the same
+  rounded speed and track for minutes) carries one rounding error, not L: each of its values
+  has the weight 1/(L σ²), so that the rounding does not integrate into a drift along the
+  track.
+- **Outliers**: a horizontal velocity further than ``OUTLIER_K`` robust σ (and over
+  ``OUTLIER_FLOOR``) from the positions-only fit's, or not within the contradiction bound of
+  it (stale, or another source), is left out; a vertical rate further than ``OUTLIER_K``
+  robust σ from the cubic through its neighbours (barometric heights, not the rates, are what
+  goes wrong for minutes).
+- **Contradiction** (:func:`check`): where the log's ground speeds or tracks disagree with its
+  positions by more than ``CONTRADICTION`` of the speed (and ``CONTRADICTION_MIN`` m/s) for
+  the median sample, one of the two is wrong for the whole log (a unit, a column, a
+  convention): an :class:`~fieldmap.errors.InputError` in one line, nothing flown.
+
+The report (:func:`residuals`) gives the flown path's ground speed, track and vertical rate
+against the log's: RMS, largest, and the σ the fit gave them.
+
 References: Hampel, F. R. (1974) J. Amer. Statist. Assoc. 69, 383-393. Tukey, J. W. (1977)
 Exploratory Data Analysis. Theil, H. (1950) Proc. KNAW 53; Sen, P. K. (1968) J. Amer. Statist.
 Assoc. 63, 1379-1389. Whittaker, E. T. (1923) Proc. Edinburgh Math. Soc. 41, 63-75. Reinsch,
@@ -30,7 +64,8 @@ C. H. (1967) Numer. Math. 10, 177-183. Eilers, P. H. C. (2003) Anal. Chem. 75, 3
 Buja, A., Hastie, T. & Tibshirani, R. (1989) Ann. Statist. 17, 453-510. Hutchinson, M. F.
 (1989) Commun. Statist. Simul. 18, 1059-1076. Beaton, A. E. & Tukey, J. W. (1974)
 Technometrics 16, 147-185. Garcia, D. (2010) Comput. Statist. Data Anal. 54, 1167-1178.
-Silverman, B. W. (1984) Ann. Statist. 12, 898-916.
+Silverman, B. W. (1984) Ann. Statist. 12, 898-916. Wahba, G. (1983) J. R. Statist. Soc. B 45,
+133-150.
 """
 
 from __future__ import annotations
@@ -244,10 +279,44 @@ def lagrange_rows(t0: float, dt: float, ng: int, t: np.ndarray) -> tuple[np.ndar
     return k - 1, L
 
 
+def lagrange_rate_rows(
+    t0: float, dt: float, ng: int, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Time derivative of the cubic Lagrange interpolation of :func:`lagrange_rows` at ``t``.
+
+    Returns the first node of each time, (m,), and the weights of the rate, (m, 4) (1/s).
+    """
+    x = (np.asarray(t, dtype=np.float64) - t0) / dt
+    k = np.clip(np.floor(x).astype(np.int64), 1, ng - 3)
+    u = x - k
+    dL = np.stack(
+        [
+            -(3.0 * u * u - 6.0 * u + 2.0) / 6.0,
+            (3.0 * u * u - 4.0 * u - 1.0) / 2.0,
+            -(3.0 * u * u - 2.0 * u - 2.0) / 2.0,
+            (3.0 * u * u - 1.0) / 6.0,
+        ],
+        -1,
+    )
+    return k - 1, dL / dt
+
+
 def on_grid(g: np.ndarray, rows: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Values at the times of ``rows`` (from :func:`lagrange_rows`) of grid values ``g``."""
     k0, L = rows
     return np.einsum("mj,mjd->md", L, g[k0[:, None] + np.arange(4)])
+
+
+@dataclass(frozen=True)
+class Rates:
+    """Observed rates of a fitted component: times ``t`` (m,), values ``v`` (m, d), weights.
+
+    Units: s; m/s (the component's units per second); ``w`` = 1/σ² in (s/m)².
+    """
+
+    t: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
 
 
 class Whittaker:
@@ -268,37 +337,52 @@ class Whittaker:
         y: np.ndarray,
         w: np.ndarray,
         probes: int = 0,
+        rates: Rates | None = None,
     ) -> None:
         t0, self.dt, self.ng = grid
         ng = self.ng
         self.rows = k0, L = lagrange_rows(t0, self.dt, ng, t)
         self.u = u = max(3, ORDER)
         self.ab = np.zeros((u + 1, ng))
-        for a in range(4):
-            for b in range(a, 4):
-                self.ab[u - (b - a)] += np.bincount(k0 + b, w * L[:, a] * L[:, b], ng)
+        d = y.shape[1]
         self.probes = probes
         if probes:
             self.z = np.random.default_rng(20240601).choice([-1.0, 1.0], size=(t.size, probes))
             y = np.concatenate([y, self.z], 1)
         self.rhs = np.zeros((ng, y.shape[1]))
-        for a in range(4):
-            wl = w * L[:, a]
-            for j in range(y.shape[1]):
-                self.rhs[:, j] += np.bincount(k0 + a, wl * y[:, j], ng)
+        obs = [(k0, L, w, y)]
+        if rates is not None and rates.t.size:
+            # rate observations: rows of the derivative of the same interpolation, weights
+            # 1/σ_v²; they enter the data columns only (the probes trace the positions' hat)
+            kr, dL = lagrange_rate_rows(t0, self.dt, ng, rates.t)
+            yr = np.zeros((rates.t.size, y.shape[1]))
+            yr[:, :d] = rates.v
+            obs.append((kr, dL, rates.w, yr))
+        for k, M, ww, yy in obs:
+            for a in range(4):
+                for b in range(a, 4):
+                    self.ab[u - (b - a)] += np.bincount(k + b, ww * M[:, a] * M[:, b], ng)
+            for a in range(4):
+                wl = ww * M[:, a]
+                for j in range(yy.shape[1]):
+                    self.rhs[:, j] += np.bincount(k + a, wl * yy[:, j], ng)
         self.c = np.array([(-1.0) ** (ORDER - j) * math.comb(ORDER, j) for j in range(ORDER + 1)])
 
-    def solve(self, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
-        """Grid values (ng, d), the fit at the samples (n, d) and the degrees of freedom."""
-        from scipy.linalg import solveh_banded
-
+    def matrix(self, lam: float) -> np.ndarray:
+        """Return the banded normal matrix ``Bᵀ W B + λ Dᵀ D`` at ``lam`` (upper, (u+1, ng))."""
         ab, u, c, m = self.ab.copy(), self.u, self.c, ORDER
         lamd = lam * self.dt ** (1 - 2 * m)
         r = np.arange(self.ng - m)
         for a in range(m + 1):
             for b in range(a, m + 1):
                 ab[u - (b - a), r + b] += lamd * c[a] * c[b]
-        g = solveh_banded(ab, self.rhs, lower=False, check_finite=False)
+        return ab
+
+    def solve(self, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Grid values (ng, d), the fit at the samples (n, d) and the degrees of freedom."""
+        from scipy.linalg import solveh_banded
+
+        g = solveh_banded(self.matrix(lam), self.rhs, lower=False, check_finite=False)
         fit = on_grid(g, self.rows)
         p = self.probes
         if not p:
@@ -356,6 +440,8 @@ def fit_path(
     settings: PathFit,
     *,
     energy: np.ndarray | None = None,
+    rates: Rates | None = None,
+    lam: float | None = None,
 ) -> dict[str, Any]:
     """Robust :class:`Whittaker` fit of ``y`` (n, d) with λ from the noise σ (m, per sample).
 
@@ -373,6 +459,13 @@ def fit_path(
     residuals in units of σ times their MAD scale (at least 1), c = 4.685 (Beaton & Tukey
     1974). Samples with weight 0 are outliers, unless within ``floor`` (m) of the fit or in a
     run longer than ``max_run`` samples (real motion the fit has yet to follow: weight 1).
+
+    Rates. ``rates`` (:class:`Rates`): observed velocities of the component (the log's own:
+    ADS-B ground speed and track, vertical rate), least-squares rows of the derivative of the
+    same interpolation with their weights, in every solve; they hold the path's velocity where
+    the positions are noisy or missing (gaps). ``lam``: a λ to keep (that of the positions
+    alone: rates that disagree with the positions in a way the noise model does not hold, e.g.
+    late fixes, would drive the discrepancy to the roughest λ); default: from the discrepancy.
 
     Returns ``g`` (grid values), ``fit`` (at the samples), ``lam``, ``edf``, ``rms`` (residual
     RMS per noise component of the inliers, m) and ``outlier`` (n,) bool.
@@ -416,8 +509,11 @@ def fit_path(
         return brentq(excess, lo, hi, xtol=1e-2)
 
     u = np.ones(n)
-    wt = Whittaker(grid, t, yc, w0, PROBES)
-    logb = discrepancy(wt, w0, u, math.log(0.01), math.log(100.0))
+    wt = Whittaker(grid, t, yc, w0, PROBES, rates)
+    if lam is None:
+        logb = discrepancy(wt, w0, u, math.log(0.01), math.log(100.0))
+    else:
+        logb = math.log(lam / scale) / (2 * ORDER)
     for _ in range(IRLS_ITER):  # reweighting at a fixed λ
         _, fit, _ = wt.solve(lam_of(logb))
         r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
@@ -431,14 +527,15 @@ def fit_path(
         unew = np.where(r <= floor, 1.0, _bisquare(z, BISQUARE_C))
         done = np.max(np.abs(unew - u)) < 1e-3
         u = unew
-        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES, rates)
         if done:
             break
     # the final fit: outliers out, every other sample at full weight, λ again
     u = (u > 0.0).astype(np.float64)
     if not u.all():
-        wt = Whittaker(grid, t, yc, w0 * u, PROBES)
-        logb = discrepancy(wt, w0 * u, u, logb - 1.5, logb + 1.5)
+        wt = Whittaker(grid, t, yc, w0 * u, PROBES, rates)
+        if lam is None:
+            logb = discrepancy(wt, w0 * u, u, logb - 1.5, logb + 1.5)
     g, fit, edf = wt.solve(lam_of(logb))
     r = np.linalg.norm(yc - fit, axis=1) / math.sqrt(dof)
     outlier = u == 0.0
@@ -454,12 +551,54 @@ def fit_path(
 
 
 def refit(
-    grid: tuple[float, float, int], t: np.ndarray, y: np.ndarray, sigma: np.ndarray, lam: float
+    grid: tuple[float, float, int],
+    t: np.ndarray,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    lam: float,
+    rates: Rates | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:class:`Whittaker` fit at a given λ with weights ``1/σ²``: grid values, fit at ``t``."""
     y0 = y.mean(axis=0)
-    g, fit, _ = Whittaker(grid, t, y - y0, 1.0 / np.asarray(sigma) ** 2).solve(lam)
+    w = 1.0 / np.asarray(sigma) ** 2
+    g, fit, _ = Whittaker(grid, t, y - y0, w, 0, rates).solve(lam)
     return g + y0, fit + y0
+
+
+def posterior_sigma(
+    grid: tuple[float, float, int],
+    t: np.ndarray,
+    sigma: np.ndarray,
+    lam: float,
+    nodes: np.ndarray,
+    rates: Rates | None = None,
+) -> np.ndarray:
+    r"""Posterior σ of the fitted path at grid ``nodes`` (per component, m).
+
+    The penalised spline is the posterior mean of a Bayesian model (Wahba 1983): the samples
+    with independent errors of σ, the path an integrated random walk whose second differences
+    have the precision ``λ DᵀD``. Its posterior covariance is the inverse of the normal matrix,
+
+    .. math:: \operatorname{Cov}(g) = (B^T W B + \lambda D^T D)^{-1}, \quad W = \sigma^{-2},
+
+    so the σ at node k is ``√((A⁻¹)_kk)`` (observed rates ``rates`` add their rows to A): a
+    few metres where samples are dense, growing as
+    ``T^{3/2}`` across a gap of T without samples. Wahba, G. (1983) J. R. Statist. Soc. B 45,
+    133-150.
+    """
+    from scipy.linalg import solveh_banded
+
+    nodes = np.asarray(nodes, dtype=np.int64)
+    if nodes.size == 0:
+        return np.zeros(0)
+    w = 1.0 / np.asarray(sigma, dtype=np.float64) ** 2
+    if rates is not None:  # the covariance does not depend on the values: any d = 1 will do
+        rates = Rates(rates.t, np.zeros((rates.t.size, 1)), rates.w)
+    wt = Whittaker(grid, t, np.zeros((t.size, 1)), w, 0, rates)
+    e = np.zeros((wt.ng, nodes.size))
+    e[nodes, np.arange(nodes.size)] = 1.0
+    x = solveh_banded(wt.matrix(lam), e, lower=False, check_finite=False)
+    return np.sqrt(np.maximum(x[nodes, np.arange(nodes.size)], 0.0))
 
 
 def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -481,3 +620,254 @@ def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
         a[1:] = np.maximum(a[1:], mid)
         out.append(a)
     return out[0], out[1]
+
+
+def quintic_load_factor(
+    gh: np.ndarray, gv: np.ndarray, dt: float, g0: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest load factor of the quintics through horizontal and vertical grids.
+
+    ``gh`` (ng, 3): the surface ECEF path; ``gv`` (ng, 1): heights. The load factor is the
+    specific force in units of ``g0``, ``n = √(|a_h|² + (a_v + g0)²) / g0`` (the Coriolis term,
+    under 0.5 % of g at airliner speeds, and the variation of gravity left out: this is the
+    limit the smoothing keeps, not the reported kinematics), evaluated at each node and the
+    midpoints next to it, as :func:`quintic_kinematics`. Two arrays (ng,).
+    """
+    from scipy.interpolate import make_interp_spline
+
+    t = dt * np.arange(gh.shape[0])
+    sh, sv = make_interp_spline(t, gh, k=5), make_interp_spline(t, gv, k=5)
+
+    def load(x: np.ndarray) -> np.ndarray:
+        ah = np.linalg.norm(sh(x, 2), axis=1)
+        return np.hypot(ah, sv(x, 2)[:, 0] + g0) / g0
+
+    at, mid = load(t), load(t[:-1] + 0.5 * dt)
+    lo, hi = at.copy(), at.copy()
+    for k in (slice(None, -1), slice(1, None)):
+        lo[k], hi[k] = np.minimum(lo[k], mid), np.maximum(hi[k], mid)
+    return lo, hi
+
+
+# -- the log's own velocities as observations of the path ----------------------------------
+#: velocities: beyond OUTLIER_K robust σ of the residual from the positions-only fit, and
+#: over OUTLIER_FLOOR m/s, an outlier
+OUTLIER_K, OUTLIER_FLOOR = 5.0, 5.0
+#: velocities that disagree with the positions by more than CONTRADICTION × the speed and
+#: CONTRADICTION_MIN m/s for the median sample contradict them
+CONTRADICTION, CONTRADICTION_MIN = 0.25, 15.0
+#: vertical: by more than half the rate and CONTRADICTION_V m/s
+CONTRADICTION_V = 5.0
+#: fewer than this fraction of the velocities agreeing with the positions: the log's
+#: velocities contradict them (refused); else the others are left out (stale, wrong)
+AGREE_MIN = 0.1
+#: tracks are compared where the ground speed exceeds this (m/s)
+MOVING = 10.0
+
+
+@dataclass(frozen=True)
+class Observed:
+    """The velocities of one flown segment, as observations of the horizontal and height fits.
+
+    ``ih``, ``iv``: indices (into the ordered log) of the samples with a horizontal, a vertical
+    velocity; ``h``, ``v``: the :class:`~fieldmap.nav.logs.fit.Rates` of each (None when
+    none); ``sigma``: the σ (m/s) of each, per horizontal axis and vertical; ``east_north``
+    (m, 2) and ``up`` (m,): the observed values (m/s) for the residuals.
+    """
+
+    ih: np.ndarray
+    iv: np.ndarray
+    h: Rates | None
+    v: Rates | None
+    sigma: tuple[float, float]
+    east_north: np.ndarray
+    up: np.ndarray
+    names: tuple[str, ...]
+    outliers: int = 0
+
+
+def _radii(lat_deg: np.ndarray, ell: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Prime vertical and meridian radii of curvature (m) at geodetic latitudes."""
+    e2 = ell.f * (2.0 - ell.f)
+    w2 = 1.0 - e2 * np.sin(np.radians(lat_deg)) ** 2
+    return ell.a / np.sqrt(w2), ell.a * (1.0 - e2) / w2**1.5
+
+
+def _run_lengths(x: np.ndarray) -> np.ndarray:
+    """Length of the run of equal rows each row of ``x`` (m, k) is in, (m,)."""
+    if x.shape[0] == 0:
+        return np.ones(0)
+    same = np.all(x[1:] == x[:-1], axis=1)
+    start = np.concatenate([[True], ~same])
+    ident = np.cumsum(start) - 1
+    return np.bincount(ident)[ident].astype(np.float64)
+
+
+def _loo_sigma(t: np.ndarray, v: np.ndarray) -> float:
+    z = loo_noise(t, v)
+    return noise_sigma(z)[0] if z.size else 0.0
+
+
+def observations(log: Any, track: Any, idx: np.ndarray) -> Observed | None:
+    """Return the velocities of the ordered samples ``idx`` of ``log`` (an ``OrderedLog``).
+
+    ``track``: the :class:`~fieldmap.nav.logs.track.RawTrack` whose ``velocity`` the ordered
+    samples index (``log.index``). Only finite values are used.
+    """
+    vel = getattr(track, "velocity", None)
+    if vel is None or idx.size == 0:
+        return None
+    src = log.index[idx]
+    speed, course = vel.speed[src], vel.track[src]
+    climb = vel.climb[src] if vel.climb is not None else np.full(idx.size, np.nan)
+    okh = np.isfinite(speed) & np.isfinite(course) & (speed >= 0.0)
+    okv = np.isfinite(climb)
+    if okh.sum() < ORDER + 3 and okv.sum() < ORDER + 3:
+        return None
+    chi = np.radians(course)
+    en = np.stack([speed * np.sin(chi), speed * np.cos(chi)], -1)
+    q_s, q_c, q_v = (r / np.sqrt(12.0) for r in vel.resolution)
+    ih, iv = idx[okh], idx[okv]
+    # per horizontal axis: half the variance of the speed's and the track's rounding
+    s_q = np.sqrt(0.5 * (q_s**2 + (np.nanmedian(speed[okh]) * np.radians(q_c)) ** 2))
+    s_h = max(float(s_q), _loo_sigma(log.t[ih], en[okh]))
+    s_v = max(float(q_v), _loo_sigma(log.t[iv], climb[okv, None])) if iv.size else 0.0
+    rh = rv = None
+    run_h = _run_lengths(np.stack([speed[okh], course[okh]], -1))
+    run_v = _run_lengths(climb[okv, None])
+    if ih.size:
+        n_rad, m_rad = _radii(log.lat[ih], log.ellipsoid)
+        hh = log.h[ih]
+        e = en[okh, 0] * n_rad / (n_rad + hh)
+        n = en[okh, 1] * m_rad / (m_rad + hh)
+        v_ecef = e[:, None] * log.en[ih, 0, :] + n[:, None] * log.en[ih, 1, :]
+        rh = Rates(log.t[ih], v_ecef, 1.0 / (s_h**2 * run_h))
+    if iv.size:
+        rv = Rates(log.t[iv], climb[okv, None], 1.0 / (s_v**2 * run_v))
+    return Observed(ih, iv, rh, rv, (s_h, s_v), en[okh], climb[okv], tuple(vel.names))
+
+
+def fitted_rates(grid: tuple[float, float, int], g: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rates (m, d) at the times ``t`` of the grid values ``g`` (cubic Lagrange derivative)."""
+    t0, dt, ng = grid
+    return on_grid(g, lagrange_rate_rows(t0, dt, ng, t))
+
+
+def check(
+    obs: Observed, rate_h: np.ndarray, rate_v: np.ndarray, source: str, lines: np.ndarray
+) -> Observed:
+    """Refuse velocities that contradict the positions; leave out outliers (module docstring).
+
+    ``rate_h`` (m, 3), ``rate_v`` (m, 1): the positions-only fit's rates at the observations.
+    ``lines``: the line of each ordered sample, for the message. Returns the observations
+    without their outliers.
+    """
+    keep_h = np.ones(obs.ih.size, bool)
+    keep_v = np.ones(obs.iv.size, bool)
+    s_h, s_v = obs.sigma
+    if obs.h is not None and obs.ih.size:
+        d = obs.h.v - rate_h
+        r = np.linalg.norm(d, axis=1)
+        speed = np.linalg.norm(rate_h, axis=1)
+        agree = r <= np.maximum(CONTRADICTION * speed, CONTRADICTION_MIN)
+        if agree.mean() < AGREE_MIN:
+            names = "/".join(obs.names[:2])
+            raise InputError(
+                f"{source} lines {lines[obs.ih[0]]}..{lines[obs.ih[-1]]}: the log's velocities "
+                f"({names}) contradict its positions: {100 * agree.mean():.0f} % agree within "
+                f"{100 * CONTRADICTION:g} % of the speed (the median differs by "
+                f"{np.median(r):.0f} m/s at a median speed of {np.median(speed):.0f} m/s from "
+                "the positions): a unit or a column mixed up?"
+            )
+        s = MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
+        keep_h = agree & ((r <= OUTLIER_K * s) | (r <= OUTLIER_FLOOR))
+    if obs.v is not None and obs.iv.size:
+        r = np.abs(obs.v.v[:, 0] - rate_v[:, 0])
+        agree = r <= np.maximum(0.5 * np.abs(rate_v[:, 0]), CONTRADICTION_V)
+        if agree.mean() < AGREE_MIN and obs.iv.size >= 10:
+            names = obs.names[2] if len(obs.names) > 2 else "vertical rate"
+            raise InputError(
+                f"{source} lines {lines[obs.iv[0]]}..{lines[obs.iv[-1]]}: the log's vertical "
+                f"rates ({names}) contradict its heights: {100 * agree.mean():.0f} % agree "
+                f"within half the rate or {CONTRADICTION_V:g} m/s: a unit or a column mixed up "
+                "(the altitudes' alt_units, the rates')?",
+                param="alt_units",
+            )
+        # barometric heights go wrong for minutes (held, from another source) where the
+        # vertical rates do not: a rate is an outlier against its own neighbours only
+        z = np.abs(loo_noise(obs.v.t, obs.v.v))[:, 0]
+        s = MAD_SCALE * float(np.median(z)) if z.size else 0.0
+        keep_v[2:-2] = (z <= OUTLIER_K * s) | (z <= OUTLIER_FLOOR)
+
+    def sub(rt: Rates | None, keep: np.ndarray, sig: float) -> Rates | None:
+        if rt is None:
+            return None
+        return Rates(rt.t[keep], rt.v[keep], np.full(int(keep.sum()), 1.0 / sig**2))
+
+    return Observed(
+        obs.ih[keep_h],
+        obs.iv[keep_v],
+        sub(obs.h, keep_h, s_h),
+        sub(obs.v, keep_v, s_v),
+        (s_h, s_v),
+        obs.east_north[keep_h],
+        obs.up[keep_v],
+        obs.names,
+        int((~keep_h).sum() + (~keep_v).sum()),
+    )
+
+
+def residuals(obs: Observed | None, samples: Any, t_start: float, ellipsoid: Any) -> dict | None:
+    """Compare the flown velocity with the log's (JSON-ready; None without velocities).
+
+    The flown velocity is that of the quintic spline :class:`~fieldmap.nav.flight.
+    FlightTrajectory` flies (as :func:`fieldmap.nav.logs.report.kinematics`), at the times of
+    the observations within the flown span. Returns the RMS and largest residual (flown − log)
+    of the ground speed (m/s), the track (degrees, where faster than 10 m/s) and the vertical
+    rate (m/s), the number of each, the σ the fit gave them and the outliers left out.
+    """
+    from scipy.interpolate import make_interp_spline
+
+    from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+
+    if obs is None:
+        return None
+    s = samples
+    r = np.stack(geodetic_to_ecef(s.lat, s.lon, s.h, ellipsoid), -1)
+    sp = make_interp_spline(s.t, r, k=5)
+    out: dict[str, Any] = {
+        "columns": list(obs.names),
+        "sigma_h_m_s": float(obs.sigma[0]),
+        "sigma_v_m_s": float(obs.sigma[1]),
+        "outliers": int(obs.outliers),
+    }
+
+    def enu(tt: np.ndarray) -> np.ndarray:
+        lat, lon = (np.interp(tt, s.t, x) for x in (s.lat, s.lon))
+        return np.einsum("nij,nj->ni", C_e_to_enu(lat, lon), sp(tt, 1))
+
+    def stats(x: np.ndarray) -> tuple[float, float]:
+        return (float(np.sqrt(np.mean(x**2))), float(np.max(np.abs(x)))) if x.size else (0, 0)
+
+    if obs.h is not None:
+        tt = obs.h.t - t_start
+        inside = (tt >= s.t[0]) & (tt <= s.t[-1])
+        v = enu(tt[inside])
+        en = obs.east_north[inside]
+        gs_f, gs_o = np.hypot(v[:, 0], v[:, 1]), np.hypot(en[:, 0], en[:, 1])
+        d_gs = gs_f - gs_o
+        fast = (gs_o > MOVING) & (gs_f > MOVING)
+        d_tr = np.degrees(
+            np.angle(np.exp(1j * (np.arctan2(v[fast, 0], v[fast, 1]) - np.arctan2(*en[fast].T))))
+        )
+        out["horizontal_count"] = int(inside.sum())
+        out["groundspeed_rms_m_s"], out["groundspeed_max_m_s"] = stats(d_gs)
+        out["track_rms_deg"], out["track_max_deg"] = stats(d_tr)
+        out["east_north_rms_m_s"] = stats(np.linalg.norm(v[:, :2] - en, axis=1) / np.sqrt(2))[0]
+    if obs.v is not None:
+        tt = obs.v.t - t_start
+        inside = (tt >= s.t[0]) & (tt <= s.t[-1])
+        d_v = enu(tt[inside])[:, 2] - obs.up[inside]
+        out["vertical_count"] = int(inside.sum())
+        out["vertical_rate_rms_m_s"], out["vertical_rate_max_m_s"] = stats(d_v)
+    return out

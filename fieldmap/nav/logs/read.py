@@ -75,7 +75,7 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
-from fieldmap.nav.logs.track import Parsed, RawTrack, iso_utc, utc_seconds
+from fieldmap.nav.logs.track import Parsed, RawTrack, Velocities, iso_utc, utc_seconds
 
 #: the cells of a table's column j
 Getter = Callable[[Any], Any]
@@ -114,6 +114,17 @@ LAYOUTS = {
         {"msl": "geoaltitude", "pressure": "altitude"},
         "ft",
     ),
+}
+
+KT, FPM = 1852.0 / 3600.0, FT / 60.0
+#: ADS-B velocity resolution (DO-260B airborne velocity, subsonic): 1 kt east/north (ground
+#: speed 1 kt, track about 1° at airliner speeds), vertical rate 64 ft/min
+ADSB_RESOLUTION = (KT, 1.0, 64.0 * FPM)
+#: layout -> (ground speed, its factor to m/s, track, vertical speed, its factor to m/s)
+VELOCITY_COLUMNS = {
+    "opensky": ("velocity", 1.0, "heading", "vertrate", 1.0),
+    "opensky-api": ("velocity", 1.0, "true_track", "vertical_rate", 1.0),
+    "traffic": ("groundspeed", KT, "track", "vertical_rate", FPM),
 }
 
 
@@ -233,6 +244,19 @@ def _table(
         )
     names = (tname, latname, lonname)
     p = Parsed(t, lat, lon, alts, ref, units, lines, source, absolute, names, where_word, notes)
+    vcols = VELOCITY_COLUMNS.get(kind)
+    if vcols is not None and col(vcols[0]) is not None and col(vcols[2]) is not None:
+        sname, sf, trname, cname, cf = vcols
+        speed = numbers(get(col(sname)), where, sname) * sf
+        track = numbers(get(col(trname)), where, trname)
+        climb = numbers(get(col(cname)), where, cname) * cf if col(cname) is not None else None
+        used = (sname, trname) + ((cname,) if climb is not None else ())
+        p.velocity = Velocities(speed, track, climb, ADSB_RESOLUTION, used)
+    if col("category") is not None:
+        cats = [str(c).strip().upper() for c in get(col("category"))]
+        cats = [c for c in cats if c and c.lower() not in _EMPTY]
+        if cats:
+            p.category = max(set(cats), key=cats.count)
     guess = tnote if tnote and GUESS_MS in tnote else None
     return dataclasses.replace(
         p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess
@@ -386,7 +410,18 @@ def _finish(
         h, note = to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
         notes += note
     t0 = iso_utc(float(t[0])) if p.absolute else None
-    return RawTrack(t, lat, lon, h, lines, p.source, ref, tuple(notes), t0, p.time_guess)
+    vel = p.velocity
+    if vel is not None:
+        vel = Velocities(
+            vel.speed[keep],
+            vel.track[keep],
+            None if vel.climb is None else vel.climb[keep],
+            vel.resolution,
+            vel.names,
+        )
+    return RawTrack(
+        t, lat, lon, h, lines, p.source, ref, tuple(notes), t0, p.time_guess, vel, p.category
+    )
 
 
 # -- the format of a file ------------------------------------------------------------------

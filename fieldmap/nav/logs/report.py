@@ -77,7 +77,8 @@ def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.nd
 def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
     """Peaks of the path a :class:`FlightTrajectory` interpolates through ``samples``.
 
-    Returns a dict: ``duration_s``, ``max_speed_m_s``, ``peak_acceleration_g`` (and its
+    Returns a dict: ``duration_s``, ``max_speed_m_s``, ``max_ground_speed_m_s`` (horizontal),
+    ``peak_acceleration_g`` (and its
     ``peak_acceleration_t_s``, ``peak_acceleration_line``), ``peak_specific_force_g``,
     ``min_specific_force_g``, ``peak_jerk_m_s3``, ``peak_turn_rate_deg_s``,
     ``peak_climb_rate_m_s``, ``peak_descent_rate_m_s``.
@@ -104,6 +105,7 @@ def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
     return {
         "duration_s": float(s.t[-1] - s.t[0]),
         "max_speed_m_s": float(np.linalg.norm(v, axis=1).max()),
+        "max_ground_speed_m_s": float(np.hypot(v_enu[:, 0], v_enu[:, 1]).max()),
         "peak_acceleration_g": float(acc[i] / G0),
         "peak_acceleration_t_s": float(tt[i]),
         "peak_acceleration_line": int(s.lines[near]),
@@ -172,8 +174,18 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
     notes = list(getattr(track, "notes", ()) or ())
     if st.dropped:
         notes.append(f"flew the longest of {len(st.dropped) + 1} segments (breaks: gaps, jumps)")
+    veh, lim = st.vehicle, st.lim
+    if o["smooth"]:
+        notes.append(
+            f"vehicle: {veh.name} ({st.vehicle_why}; pass vehicle= to choose): load factor "
+            f"{veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, speed "
+            f"{veh.speed:g} m/s"
+        )
     if fr["softened"]:
-        limits = [f"{o[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if o[k]]
+        limits = [f"load factor {veh.n_min:g}..{veh.n_max:g} g"]
+        limits += [
+            f"{lim[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if lim[k]
+        ]
         notes.append(
             f"the path was softened near {fr['softened']} samples to keep within the vehicle "
             f"limits ({', '.join(limits)})"
@@ -244,6 +256,17 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
                 for a, b, kind in st.breaks
             ],
             "samples_in_breaks": int(np.sum(status == GAP)),
+            "long_bridged": [
+                {
+                    "t_from_s": b["t_from"] - t0,
+                    "t_to_s": b["t_to"] - t0,
+                    "duration_s": b["t_to"] - b["t_from"],
+                    "lines": b["lines"],
+                    "sigma_h_m": b["sigma_h_m"],
+                    "sigma_v_m": b["sigma_v_m"],
+                }
+                for b in fr["bridges"]
+            ],
         },
         "segments": {
             "flown": {
@@ -253,8 +276,18 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
             },
             "dropped": [rel(d) for d in st.dropped],
         },
+        "vehicle": {
+            "class": veh.name,
+            "how": st.vehicle_why,
+            "load_factor_g": [veh.n_min, veh.n_max],
+            "max_jerk_m_s3": lim["max_jerk"],
+            "max_speed_m_s": veh.speed,
+            "max_climb_m_s": veh.climb,
+        },
         "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
         "kinematics": kinematics(samples, log.ellipsoid),
+        "velocity": fr.get("velocity"),
+        "timing": fr.get("timing"),
         "notes": notes,
     }
     raw = {
@@ -313,6 +346,13 @@ def format_report(rep: dict) -> str:
             f"  gaps bridged: {g['bridged']} (longest {g['longest_bridged_s']:.1f} s); breaks "
             f"(gaps over {g['limit_s']:g} s, jumps): {len(g['breaks'])}"
         )
+        for b in g.get("long_bridged", []):
+            lines.append(
+                f"  long gap bridged: lines {b['lines'][0]}..{b['lines'][1]} "
+                f"({b['duration_s']:.0f} s, t = {b['t_from_s']:.0f}..{b['t_to_s']:.0f} s): "
+                f"a path the vehicle could fly, σ {b['sigma_h_m']:.0f} m per horizontal axis, "
+                f"{b['sigma_v_m']:.0f} m vertical at mid-gap"
+            )
     for d in rep["segments"]["dropped"]:
         lines.append(
             f"  segment dropped: lines {d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
@@ -331,6 +371,33 @@ def format_report(rep: dict) -> str:
         f"{k['peak_turn_rate_deg_s']:.1f} °/s, climb {k['peak_climb_rate_m_s']:.1f} m/s, "
         f"descent {k['peak_descent_rate_m_s']:.1f} m/s"
     )
+    tm = rep.get("timing")
+    if tm:
+        lines.append(
+            f"  timing jitter of the fixes: σ {tm['jitter_s']:.2f} s ({tm['sigma_along_m']:.0f} m "
+            f"along the track at {tm['speed_m_s']:.0f} m/s, {tm['sigma_across_m']:.1f} m across):"
+            f" modelled as a time error per fix, {tm['fixes_retimed']} fixes moved by "
+            f"{tm['time_shift_rms_s']:.2f} s RMS (max {tm['time_shift_max_s']:.1f} s)"
+        )
+    vr = rep.get("velocity")
+    if vr:
+        parts = []
+        if "groundspeed_rms_m_s" in vr:
+            parts.append(
+                f"ground speed {vr['groundspeed_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['groundspeed_max_m_s']:.1f}), track {vr['track_rms_deg']:.2f}° RMS (max "
+                f"{vr['track_max_deg']:.1f}°)"
+            )
+        if "vertical_rate_rms_m_s" in vr:
+            parts.append(
+                f"vertical rate {vr['vertical_rate_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['vertical_rate_max_m_s']:.1f})"
+            )
+        lines.append(
+            f"  velocity residuals, flown − log ({', '.join(vr['columns'])}; fitted with σ "
+            f"{vr['sigma_h_m_s']:.2f} m/s per horizontal axis, {vr['sigma_v_m_s']:.2f} m/s "
+            f"vertical; {vr['outliers']} outliers left out): " + "; ".join(parts)
+        )
     lines += [f"  note: {n}" for n in rep["notes"]]
     return "\n".join(lines)
 

@@ -19,6 +19,33 @@ import numpy as np
 
 
 @dataclass(frozen=True, eq=False)
+class Velocities:
+    """The velocities a log carries with its fixes (ADS-B, NMEA RMC, GPX), as the log gives them.
+
+    Attributes
+    ----------
+    speed : numpy.ndarray
+        Ground speed at each sample (NaN where none). Units: m/s.
+    track : numpy.ndarray
+        Track angle over the ground, clockwise from true north (NaN where none). Units: degrees.
+    climb : numpy.ndarray or None
+        Vertical speed, up positive (NaN where none); None when the log has none. Units: m/s.
+    resolution : tuple of float
+        Quantisation step of each (ground speed m/s, track degrees, vertical speed m/s): the
+        uniform rounding error's σ is step/√12. ADS-B: 1 kt, 1° (the 1 kt east/north
+        components at 250 m/s), 64 ft/min (DO-260B §2.2.3.2.6).
+    names : tuple of str
+        The columns (or fields) read, for the report.
+    """
+
+    speed: np.ndarray
+    track: np.ndarray
+    climb: np.ndarray | None
+    resolution: tuple[float, float, float]
+    names: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
 class RawTrack:
     """One flight log, read but not conditioned (samples in file order, repeats kept).
 
@@ -43,6 +70,10 @@ class RawTrack:
     time_guess : str or None
         How the times were read where their units were guessed from their size (epoch
         milliseconds), for messages about what follows from the guess; None otherwise.
+    velocity : Velocities or None
+        The log's own velocities at the samples, when it carries them.
+    category : str or None
+        An ADS-B emitter category (``"A3"``) when the log gives one.
     """
 
     t: np.ndarray
@@ -55,6 +86,8 @@ class RawTrack:
     notes: tuple[str, ...] = ()
     t0_utc: str | None = None
     time_guess: str | None = None
+    velocity: Velocities | None = None
+    category: str | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -88,6 +121,10 @@ class Parsed:
     units_fixed: bool = True
     #: how the times were read where their units were guessed (epoch ms), else None
     time_guess: str | None = None
+    #: the velocities the source carries (units converted), or None
+    velocity: Velocities | None = None
+    #: an ADS-B emitter category, when the source gives one
+    category: str | None = None
 
 
 def utc_seconds(d: datetime) -> float:

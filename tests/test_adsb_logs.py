@@ -1,0 +1,319 @@
+"""ADS-B logs flown whole, as the vehicle flew (issue 26): gaps, velocities, timing jitter.
+
+A smooth synthetic airliner is built here with its own geodesy (WGS84 formulas written out, dead
+reckoning on the ellipsoid, specific force from finite differences of a dense ECEF path and
+Somigliana's normal gravity), made into an ADS-B log in the ``traffic`` layout (1 Hz, positions
+late or early by a random time, 25 ft altitude steps, outliers, 3-minute gaps, ground speed in
+whole knots, track in whole degrees, vertical rate in 64 ft/min steps), read by the reader and
+conditioned. The real excerpts of ``tests/data/adsb`` (the ``traffic`` package's samples) are
+flown whole, at the speeds the aircraft reported.
+"""
+
+from __future__ import annotations
+
+import gzip
+import math
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fieldmap.cli import main
+from fieldmap.errors import InputError
+from fieldmap.nav.flight import FlightTrajectory
+from fieldmap.nav.logs.condition import Conditioning, condition
+from fieldmap.nav.logs.read import read_track
+
+A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
+E2 = F_WGS * (2.0 - F_WGS)
+OMEGA = 7.292115e-5
+G0 = 9.80665
+FT, KT, FPM = 0.3048, 1852.0 / 3600.0, 0.3048 / 60.0
+ADSB = Path(__file__).parent / "data" / "adsb"
+T0 = datetime(2024, 5, 1, 10, 0, 0, tzinfo=timezone.utc).timestamp()
+#: the 3-minute gaps of the synthetic log (s from its start), in level flight before and after
+#: the turn (a manoeuvre wholly inside a gap is not in the log: no fit can fly it)
+GAPS = ((700.0, 880.0), (1450.0, 1630.0))
+
+
+def ecef(lat, lon, h):
+    la, lo = np.radians(lat), np.radians(lon)
+    n = A_WGS / np.sqrt(1.0 - E2 * np.sin(la) ** 2)
+    return np.stack(
+        [
+            (n + h) * np.cos(la) * np.cos(lo),
+            (n + h) * np.cos(la) * np.sin(lo),
+            (n * (1.0 - E2) + h) * np.sin(la),
+        ],
+        -1,
+    )
+
+
+def up_vector(lat, lon):
+    la, lo = np.radians(lat), np.radians(lon)
+    return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], -1)
+
+
+def somigliana(lat, h):
+    """Return normal gravity (m/s²): Somigliana's formula, the free-air gradient (WGS84)."""
+    s2 = np.sin(np.radians(lat)) ** 2
+    g = 9.7803253359 * (1.0 + 0.00193185265241 * s2) / np.sqrt(1.0 - E2 * s2)
+    return g - 3.086e-6 * h
+
+
+def smoothstep(t, t0, dur):
+    x = np.clip((t - t0) / dur, 0.0, 1.0)
+    return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+def airliner(duration=2100.0, dt=0.05):
+    """Dense truth: climb to cruise at 235 m/s, a 25° bank turn (1.14 °/s) of 90°, a descent.
+
+    Returns t, lat, lon, h, ground speed, track (degrees), vertical speed and the specific
+    force magnitude (g) of the path, from finite differences of its ECEF positions.
+    """
+    t = np.arange(0.0, duration + dt / 2, dt)
+    vz = 8.0 * (smoothstep(t, 60.0, 30.0) - smoothstep(t, 500.0, 30.0))
+    vz -= 6.0 * (smoothstep(t, 1700.0, 30.0) - smoothstep(t, 1950.0, 30.0))
+    speed = 200.0 + 35.0 * smoothstep(t, 100.0, 300.0)
+    rate_turn = G0 * math.tan(math.radians(25.0)) / 235.0
+    t_turn = math.radians(90.0) / rate_turn
+    rate = rate_turn * (smoothstep(t, 1300.0, 8.0) - smoothstep(t, 1300.0 + t_turn, 8.0))
+
+    def integral(x):
+        return np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * dt)])
+
+    psi = np.radians(30.0) + integral(rate)
+    h = 2000.0 + integral(vz)
+    vh = np.sqrt(speed**2 - vz**2)
+    lat = np.full(t.size, np.radians(45.0))
+    for _ in range(3):  # radii of curvature at the running latitude
+        w = 1.0 - E2 * np.sin(lat) ** 2
+        lat = np.radians(45.0) + integral(vh * np.cos(psi) / (A_WGS * (1 - E2) / w**1.5 + h))
+    w = 1.0 - E2 * np.sin(lat) ** 2
+    lon = np.radians(6.0) + integral(vh * np.sin(psi) / ((A_WGS / np.sqrt(w) + h) * np.cos(lat)))
+    lat, lon = np.degrees(lat), np.degrees(lon)
+    r = ecef(lat, lon, h)
+    v = np.gradient(r, dt, axis=0)
+    a = np.gradient(v, dt, axis=0)
+    w_e = np.array([0.0, 0.0, OMEGA])
+    # f = a + 2 Ω × v − γ, γ (with the centrifugal part) = −|γ| up
+    f = a + 2.0 * np.cross(w_e, v) + somigliana(lat, h)[:, None] * up_vector(lat, lon)
+    sf = np.linalg.norm(f, axis=1)[40:-40] / G0  # the finite differences' ends left out
+    return t, lat, lon, h, vh, np.degrees(psi) % 360.0, vz, sf
+
+
+def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0):
+    """Write the airliner as a traffic-layout ADS-B log; return the truth (dense) and the path."""
+    t_d, lat_d, lon_d, h_d, gs_d, trk_d, vz_d, sf = airliner()
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, t_d[-1] - 5.0, 1.0)
+    keep = np.ones(t.size, bool)
+    for a, b in GAPS:
+        keep &= ~((t > a) & (t < b))
+    t = t[keep]
+    n = t.size
+    # the position is that of a time late or early by the jitter: along-track noise of 120 m
+    te = np.clip(t + rng.normal(0.0, jitter_s, n), 0.0, t_d[-1])
+    m_lat = math.radians(1.0) * 6.37e6
+    lat = np.interp(te, t_d, lat_d) + rng.normal(0.0, noise_m, n) / m_lat
+    m_lon = m_lat * np.cos(np.radians(lat))
+    lon = np.interp(te, t_d, lon_d) + rng.normal(0.0, noise_m, n) / m_lon
+    alt_ft = np.round(np.interp(t, t_d, h_d) / FT / 25.0) * 25.0
+    for i, km in ((150, 2.0), (151, 2.0), (1000, -1.5), (1600, 3.0)):  # position outliers
+        lat[i] += km * 1e3 / m_lat
+    for i, dft in ((400, 1000.0), (1100, -600.0), (1101, -600.0)):  # altitude spikes
+        alt_ft[i] += dft
+    gs = np.round(np.interp(t, t_d, gs_d) / KT)
+    trk = np.round(np.degrees(np.unwrap(np.radians(np.interp(t, t_d, np.unwrap(trk_d, 180.0)))))
+                   ) % 360.0  # fmt: skip
+    vr = np.round(np.interp(t, t_d, vz_d) / FPM / 64.0) * 64.0
+    rows = ["timestamp,icao24,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    for k in range(n):
+        stamp = datetime.fromtimestamp(T0 + t[k], timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+        rows.append(
+            f"{stamp},4ca000,{lat[k]:.7f},{lon[k]:.7f},{alt_ft[k]:.0f},{gs[k]:.0f},"
+            f"{trk[k]:.0f},{vr[k]:.0f}"
+        )
+    path.write_text("\n".join(rows) + "\n")
+    truth = {"t": t_d, "lat": lat_d, "lon": lon_d, "h": h_d, "sf_max": float(sf.max())}
+    return path, truth
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    path, truth = adsb_csv(tmp_path_factory.mktemp("adsb") / "airliner.csv")
+    tr = read_track(path, height_ref="ellipsoid")
+    return tr, truth, condition(tr)
+
+
+def _errors(cf, truth):
+    """Offsets (m) of the conditioned samples from the truth: horizontal, vertical, along."""
+    s = cf.samples
+    tt = s.t + s.t_start - T0
+    ref = [np.interp(tt, truth["t"], truth[k]) for k in ("lat", "lon", "h")]
+    r_ref = ecef(*ref)
+    d = ecef(s.lat, s.lon, s.h) - r_ref
+    u = up_vector(ref[0], ref[1])
+    dv = np.sum(d * u, axis=1)
+    dh = np.linalg.norm(d - dv[:, None] * u, axis=1)
+    v = np.gradient(r_ref, tt, axis=0)
+    v -= np.sum(v * u, axis=1)[:, None] * u
+    along = np.sum(d * v, axis=1) / np.linalg.norm(v, axis=1)
+    return tt, dh, dv, along
+
+
+def test_synthetic_adsb_log_flown_whole(synthetic):
+    tr, truth, cf = synthetic
+    k = cf.report["kinematics"]
+    assert k["duration_s"] >= np.ptp(tr.t) - 1.0  # the whole span, across both 3-minute gaps
+    assert cf.report["segments"]["dropped"] == []
+    assert len(cf.report["gaps"]["long_bridged"]) == len(GAPS)
+    assert cf.report["vehicle"]["class"] == "airliner"
+    FlightTrajectory(cf.samples)
+
+
+def test_synthetic_adsb_path_within_the_noise(synthetic):
+    """Within the noise of the fixes where there are fixes; within 3 stated σ across the gaps.
+
+    The fixes are off by 5 m per axis and, along the track, by the 0.5 s jitter (117 m at 235
+    m/s); the ground speeds are whole knots, so that the velocities hold the along-track
+    position only to their rounding (0.1 m/s for minutes of steady flight: tens of metres).
+    """
+    _, truth, cf = synthetic
+    tt, dh, dv, along = _errors(cf, truth)
+    in_gap = np.zeros(tt.size, bool)
+    for b in cf.report["gaps"]["long_bridged"]:
+        t_a, t_b = (b[k] + cf.samples.t_start - T0 for k in ("t_from_s", "t_to_s"))
+        inside = (tt > t_a) & (tt < t_b)
+        in_gap |= inside
+        assert dh[inside].max() < 3.0 * math.sqrt(2.0) * b["sigma_h_m"], b
+        assert np.abs(dv[inside]).max() < 3.0 * b["sigma_v_m"] + 8.0, b
+    assert in_gap.sum() > 300
+    across = np.sqrt(np.maximum(dh**2 - along**2, 0.0))[~in_gap]
+    # across the track within the 5 m noise (RMS), the largest where the fixes were moved
+    # along a turn (measured 22..28 m on three seeds)
+    assert np.sqrt(np.mean(across**2)) < 5.0 and across.max() < 30.0
+    # along the track a quarter of one fix's jitter (without the jitter model: 146 m RMS)
+    assert np.sqrt(np.mean(along[~in_gap] ** 2)) < 0.25 * 0.5 * 235.0
+    assert np.sqrt(np.mean(dv[~in_gap] ** 2)) < 5.0 and np.abs(dv[~in_gap]).max() < 15.0
+
+
+def test_synthetic_adsb_specific_force_as_flown(synthetic):
+    _, truth, cf = synthetic
+    k = cf.report["kinematics"]
+    assert abs(k["peak_specific_force_g"] - truth["sf_max"]) < 0.05
+    assert k["min_specific_force_g"] > 0.85  # gentle climb and descent entries only
+
+
+def test_synthetic_adsb_velocities_and_jitter_reported(synthetic):
+    _, _, cf = synthetic
+    v = cf.report["velocity"]
+    assert v["columns"] == ["groundspeed", "track", "vertical_rate"]
+    # the flown velocity within the log's rounding (1 kt, 1°, 64 ft/min) and little more
+    assert v["groundspeed_rms_m_s"] < 1.0 and v["track_rms_deg"] < 1.0
+    assert v["vertical_rate_rms_m_s"] < 1.0
+    tm = cf.report["timing"]
+    assert tm is not None and 0.25 < tm["jitter_s"] < 1.0  # 0.5 s injected
+    text = cf.format_report()
+    assert "velocity residuals, flown − log" in text and "timing jitter of the fixes" in text
+
+
+def _contradicting(tmp_path: Path, scale: float, rotate: float) -> Path:
+    path, _ = adsb_csv(tmp_path / "bad.csv")
+    lines = path.read_text().splitlines()
+    out = [lines[0]]
+    for row in lines[1:]:
+        f = row.split(",")
+        f[5] = f"{float(f[5]) * scale:.0f}"
+        f[6] = f"{(float(f[6]) + rotate) % 360.0:.0f}"
+        out.append(",".join(f))
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(("scale", "rotate"), [(KT, 0.0), (1.0, 90.0)])
+def test_velocities_contradicting_the_positions_refused(tmp_path, scale, rotate):
+    """Ground speeds in m/s under a knots column, or tracks a quarter turn off: one line."""
+    path = _contradicting(tmp_path, scale, rotate)
+    with pytest.raises(InputError, match="velocities .* contradict its positions") as e:
+        condition(read_track(path, height_ref="ellipsoid"))
+    assert "\n" not in str(e.value)
+
+
+def test_velocities_contradicting_refused_on_the_command_line(tmp_path, capsys):
+    path = _contradicting(tmp_path, KT, 0.0)
+    out = tmp_path / "out"
+    argv = ["navsim", "--lmax", "20", "--models", "j4", "--rate", "10", "--no-timing"]
+    rc = main([*argv, "--trajectory", str(path), "--height-ref", "ellipsoid", "--out", str(out)])
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1, cap.err
+    assert "contradict its positions" in lines[0] and "Traceback" not in cap.err
+    assert not out.exists()
+
+
+def test_longest_segment_still_on_request(synthetic):
+    tr, _, cf = synthetic
+    longest = condition(tr, Conditioning(on_long_gap="longest"))
+    assert longest.report["kinematics"]["duration_s"] < 0.5 * cf.report["kinematics"]["duration_s"]
+    assert len(longest.report["segments"]["dropped"]) == 2
+
+
+# -- the real excerpts ---------------------------------------------------------------------
+
+#: the excerpts that do not meet the issue's targets yet, and why (strict: a fix shows)
+KNOWN = {
+    "cevennes": "glider fixes 12 s apart jump by km (another transmitter): flown 6x too fast",
+    "sisteron": "glider fixes 12 s apart jump by km (another transmitter): flown 4x too fast",
+}
+REAL = ["elal747", "qantas747", "noisy_landing", "noisy_takeoff", "noisy_time_issue", "munich",
+        "cevennes", "sisteron"]  # fmt: skip
+
+
+def _reported_max_groundspeed(path: Path) -> float:
+    with gzip.open(path, "rt") as f:
+        rows = f.read().splitlines()
+    col = rows[0].split(",").index("groundspeed")
+    gs = [float(r.split(",")[col]) for r in rows[1:] if r.split(",")[col]]
+    return max(gs) * KT
+
+
+def _airborne_span(cf) -> float:
+    """Return the log's span less the ground movement trimmed at its ends (s)."""
+    t = cf.raw["t"]
+    a, b = t[0], t[-1]
+    for g in cf.report["ground_trimmed"]:
+        if g["t_start_s"] <= a:
+            a = t[t > g["t_end_s"]][0]
+        if g["t_end_s"] >= b:
+            b = t[t < g["t_start_s"]][-1]
+    return float(b - a)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=KNOWN[n])) if n in KNOWN else n
+        for n in REAL
+    ],
+)
+def test_real_adsb_flown_whole_at_the_reported_speeds(name):
+    path = ADSB / f"{name}.csv.gz"
+    cf = condition(read_track(path, height_ref="pressure"))
+    k = cf.report["kinematics"]
+    assert k["duration_s"] >= 0.9 * _airborne_span(cf)
+    ratio = k["max_ground_speed_m_s"] / _reported_max_groundspeed(path)
+    assert 0.95 <= ratio <= 1.05, ratio
+    assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
+    v = cf.report["velocity"]
+    assert v is not None and v["horizontal_count"] > 100
+    assert "velocity residuals, flown − log" in cf.format_report()
+
+
+def test_real_log_with_velocities_that_contradict_its_positions_refused():
+    """inflight_refuelling: 536 kt on a track of 280.5° for 70 min while flying orbits."""
+    with pytest.raises(InputError, match=r"lines 5902\.\.\d+: the log's velocities") as e:
+        condition(read_track(ADSB / "inflight_refuelling.csv.gz", height_ref="pressure"))
+    assert "0 % agree" in str(e.value) and "\n" not in str(e.value)
