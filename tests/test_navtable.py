@@ -218,8 +218,9 @@ def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table
 
 
 def test_table_order_and_a_flight_outside_the_table(table60):
+    from fieldmap.nav.budget import simplicity_order
     from fieldmap.nav.flight import FlightTrajectory, route_flight
-    from fieldmap.nav.study import FlightStudy, run_flight, simplicity_order
+    from fieldmap.nav.study import FlightStudy, run_flight
 
     name, _ = table60
     assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]

@@ -42,11 +42,13 @@ import numpy as np
 
 from fieldmap.field.ellipsoid import Ellipsoid
 from fieldmap.models.shmodel import SHModel
+from fieldmap.nav.gravity import NORMAL_MODELS, sh_degree, table_file
+from fieldmap.nav.imu import Gravitation
 from fieldmap.nav.linear import position_response
 
 __all__ = [
-    "GRAVITY_DRAWS", "GravityBudget", "GravityTerms", "gravity_budget", "omission_spacing",
-    "path_nodes",
+    "GRAVITY_DRAWS", "GravityBudget", "GravityTerms", "gravity_budget", "gravity_error_along",
+    "omission_spacing", "path_nodes", "recommend", "simplicity_order",
 ]  # fmt: skip
 
 #: fewest realisations of the omission and commission terms
@@ -253,3 +255,114 @@ def gravity_budget(
     if cm is not None:
         c_ = resp[k : k + n_g]
     return GravityBudget(diff, b, c_, n_g, sig)
+
+
+def simplicity_order(models: Any) -> list[str]:
+    """Models from the simplest to the most complete: j2, j4, j6, exact, tables, shN, sh.
+
+    A compensation table (a look-up a flight computer interpolates) counts as simpler than
+    real-time spherical harmonics; tables among themselves keep their order.
+    """
+
+    def key(m: str) -> tuple[int, int]:
+        if m in NORMAL_MODELS:
+            return (0, NORMAL_MODELS.index(m))
+        if table_file(m) is not None:
+            return (1, 0)
+        d = sh_degree(m)
+        return (2, 10**9 if d is None else d)
+
+    return sorted(models, key=key)
+
+
+def gravity_error_along(
+    track: Any,
+    t: np.ndarray,
+    names: list[str],
+    model: SHModel,
+    ell: Ellipsoid,
+    device: str | None = None,
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """δg = g_model − g_truth (NED, m/s²) at the track points and its double time integral.
+
+    Returns two dicts keyed by model: δg (n, 3) and the predicted north/east position error
+    (n, 2) in m (cumulative trapezoid twice, zero at t[0]).
+    """
+    from scipy.integrate import cumulative_trapezoid
+
+    from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+
+    r = np.stack(geodetic_to_ecef(track[:, 0], track[:, 1], track[:, 2], ell), -1)
+    enu = C_e_to_enu(track[:, 0], track[:, 1])
+    to_ned = lambda g: np.einsum("nij,nj->ni", enu, g)[:, [1, 0, 2]] * [1, 1, -1]  # noqa: E731
+    g_true = to_ned(Gravitation("sh", model=model, device=device, ellipsoid=ell)(r))
+    dg, pred = {}, {}
+    for m in names:
+        path = table_file(m)
+        if path is not None:
+            from fieldmap.nav.gravity import table_gravitation
+            from fieldmap.products.tables.model import load_table
+
+            tab = load_table(path)
+            g_nav = table_gravitation(tab, *r.T, ellipsoid=ell, device=device)
+        elif m in NORMAL_MODELS:
+            g_nav = Gravitation(m, device=device, ellipsoid=ell)(r)
+        else:
+            from fieldmap.nav.gravity import parse_gravity
+
+            lmax = parse_gravity(m, model)[1]
+            g_nav = Gravitation("sh", model=model, lmax=lmax, device=device, ellipsoid=ell)(r)
+        dg[m] = to_ned(g_nav) - g_true
+        v = cumulative_trapezoid(dg[m][:, :2], t, axis=0, initial=0.0)
+        pred[m] = cumulative_trapezoid(v, t, axis=0, initial=0.0)
+    return dg, pred
+
+
+def recommend(
+    doc: dict[str, Any], order: list[str], imu_h: float, fraction: float, budget: bool, degree: Any
+) -> None:
+    """Set ``recommended_model``, ``recommendation`` (and the gravity floor) of a summary.
+
+    ``doc["models"]`` holds each model's entry (``diverged``, and ``gravity`` from the budget
+    or the Monte Carlo ``added_horizontal_error_m``); ``order`` the models from the simplest;
+    ``imu_h`` the IMU's own horizontal error (m); ``degree`` the truth's, for the wording.
+    """
+    models = doc["models"]
+
+    def cost(m: str) -> float:
+        e = models[m]
+        return float(e["gravity"]["horizontal_m"] if budget else e["added_horizontal_error_m"])
+
+    ok = [m for m in order if not models[m].get("diverged") and cost(m) <= fraction * imu_h]
+    what = "gravity contributes" if budget else "adds"
+    if ok:
+        pick = ok[0]
+        doc["recommended_model"] = pick
+        doc["recommendation"] = (
+            f"{pick}: {what} {cost(pick):.3g} m horizontal error, below {fraction:.0%} of the "
+            f"IMU-only {imu_h:.3g} m"
+        )
+    else:
+        pick = min(order, key=cost)
+        doc["recommended_model"] = None
+        doc["recommendation"] = (
+            f"no model stays below {fraction:.0%} of the IMU-only error ({imu_h:.3g} m); the "
+            f"smallest {'gravity contribution' if budget else 'added error'} is "
+            f"{pick}'s, {cost(pick):.3g} m"
+        )
+    if not budget:
+        return
+    g = models[pick]["gravity"]
+    dom = g["dominant"]
+    words = TERM_WORDS[dom].format(L=degree)
+    terms = g["horizontal_terms_m"]
+    parts = ", ".join(f"{t.replace('_', ' ')} {v:.3g} m" for t, v in terms.items() if v is not None)
+    doc["recommendation"] += f" ({parts}). {words[0].upper()}{words[1:]} dominates"
+    if dom != "model_difference" and not ok:
+        doc["recommendation"] += (
+            f": no model of degree <= {degree} can do better; a higher-degree model, or a table "
+            "built from one, is needed"
+        )
+    doc["recommendation"] += "."
+    floor = [terms[t] for t in ("omission", "commission") if terms[t] is not None]
+    doc["gravity_floor_horizontal_m"] = float(np.sqrt(sum(v * v for v in floor))) if floor else 0.0
