@@ -27,9 +27,9 @@ import textwrap
 # code each in one kernel module. The "table:" name is parsed in models.registry, so a flight
 # without a table no longer enters products.tables (−2); every flight study now flies the
 # gravity budget of issue 26, four modules of its own (nav.budget, nav.linear, field.omission
-# and its Warp kernel, kernels.omission): 56. The issue's flight target, 50, is not reached: reference.sh is entered through
-# field.commission's σ, nav.logs is seven modules. Lower these as the count falls; never raise
-# them.
+# and its Warp kernel, kernels.omission): 56. The issue's flight target, 50, is not reached:
+# reference.sh is entered through field.commission's σ, nav.logs is seven modules. Lower these
+# as the count falls; never raise them.
 MAP_CEILING = 40
 FLIGHT_CEILING = 56
 
