@@ -29,13 +29,13 @@ if TYPE_CHECKING:
     from fieldmap.models.shmodel import SHModel
 
 #: a NumPy array (float64; complex128 in the complex-step derivatives)
-Array = npt.NDArray[Any]
+_Array = npt.NDArray[Any]
 
 # ---------------------------------------------------------------------------------------------
 # exact closed form, Cartesian route
 
 
-def _one_minus_atan_over_x(x: ArrayLike) -> Array:
+def _one_minus_atan_over_x(x: ArrayLike) -> _Array:
     """1 − arctan(x)/x, by its Taylor series for small x (no cancellation), else directly."""
     x = np.asarray(x, dtype=np.float64)
     small = x < 0.5
@@ -49,7 +49,7 @@ def _one_minus_atan_over_x(x: ArrayLike) -> Array:
     return np.where(small, total, 1.0 - np.arctan(xl) / xl)
 
 
-def q_function(x: ArrayLike) -> Array:
+def q_function(x: ArrayLike) -> _Array:
     r"""q(x) = ½[(1 + 3/x²) arctan x − 3/x] (H&M eq. 2-58), x = E/u, written via 1 − arctan(x)/x.
 
     With arctan x = x(1 − w), w = 1 − arctan(x)/x:  q = ½[x(1 − w) − 3w/x]. The O(x) parts
@@ -69,7 +69,7 @@ def q_function(x: ArrayLike) -> Array:
     return -0.5 * (x**3 / 3.0 + tail * (x + 3.0 / x))
 
 
-def q_prime_hm(x: ArrayLike) -> Array:
+def q_prime_hm(x: ArrayLike) -> _Array:
     r"""Heiskanen & Moritz's q' = 3(1 + 1/x²)(1 − arctan(x)/x) − 1 (eq. 2-67 with x = E/u).
 
     It relates to the derivative of q(E/u) by dq/du = −E q'/(u² + E²) (checked numerically in
@@ -79,14 +79,14 @@ def q_prime_hm(x: ArrayLike) -> Array:
     return 3.0 * (1.0 + 1.0 / (x * x)) * _one_minus_atan_over_x(x) - 1.0
 
 
-def ellipsoidal_u(x: Array, y: Array, z: Array, E: float) -> Array:
+def ellipsoidal_u(x: _Array, y: _Array, z: _Array, E: float) -> _Array:
     """Ellipsoidal coordinate u (semi-minor axis of the confocal ellipsoid through the point). m."""
     r2 = x * x + y * y + z * z
     d = r2 - E * E
     return np.sqrt(0.5 * (d + np.sqrt(d * d + 4.0 * E * E * z * z)))
 
 
-def exact_potential(x: Array, y: Array, z: Array, ell: Ellipsoid) -> Array:
+def exact_potential(x: _Array, y: _Array, z: _Array, ell: Ellipsoid) -> _Array:
     r"""Gravitational potential of the level ellipsoid (H&M eqs. 2-61, 2-62, without Φ). m²/s²."""
     E = ell.E
     u = ellipsoidal_u(x, y, z, E)
@@ -96,7 +96,7 @@ def exact_potential(x: Array, y: Array, z: Array, ell: Ellipsoid) -> Array:
     ) / ell.q0 * (sin2beta - 1.0 / 3.0)
 
 
-def exact_gravitation_ecef(x: ArrayLike, y: ArrayLike, z: ArrayLike, ell: Ellipsoid) -> Array:
+def exact_gravitation_ecef(x: ArrayLike, y: ArrayLike, z: ArrayLike, ell: Ellipsoid) -> _Array:
     r"""Gradient of :func:`exact_potential` in Cartesian coordinates. Returns (..., 3), m/s².
 
     V = f(u) + g(u)·(z²/u² − 1/3) with f = (GM/E) arctan(E/u), g = ½ω²a² q(E/u)/q0, so
@@ -128,7 +128,7 @@ def exact_gravitation_ecef(x: ArrayLike, y: ArrayLike, z: ArrayLike, ell: Ellips
 # zonal series
 
 
-def legendre_and_derivative(nmax: int, t: ArrayLike) -> tuple[Array, Array]:
+def legendre_and_derivative(nmax: int, t: ArrayLike) -> tuple[_Array, _Array]:
     """Legendre polynomials P_n(t) and P_n'(t), n = 0..nmax, shape (nmax+1, ...).
 
     Bonnet's recursion n P_n = (2n−1) t P_{n−1} − (n−1) P_{n−2}, and
@@ -155,7 +155,7 @@ def zonal_series_gravitation(
     ell: Ellipsoid,
     nmax: int = 40,
     radius: float | None = None,
-) -> Array:
+) -> _Array:
     r"""Gradient of V = (GM/r)[1 − Σ_{n=1}^{nmax} J_{2n} (R/r)^{2n} P_{2n}(z/r)]. (..., 3), m/s².
 
     Chen et al. (2022) eq. (6)/(7); J_{2n} from :meth:`Ellipsoid.J2n` (H&M eq. 2-92), R = a by
@@ -209,7 +209,7 @@ def zonal_sh_model(
 # truncated J2/J4/J6 (Chen et al. 2022 eqs. 7-8) by complex-step differentiation
 
 
-def _p2n(n: int, s: Array) -> Array:
+def _p2n(n: int, s: _Array) -> _Array:
     """P2, P4, P6 of Chen et al. (2022) eq. (8) (works on complex arrays)."""
     if n == 1:
         return 1.5 * s**2 - 0.5
@@ -221,8 +221,8 @@ def _p2n(n: int, s: Array) -> Array:
 
 
 def jn_potential(
-    x: Array, y: Array, z: Array, ell: Ellipsoid, order: int, j2: float | None = None
-) -> Array:
+    x: _Array, y: _Array, z: _Array, ell: Ellipsoid, order: int, j2: float | None = None
+) -> _Array:
     """Return the zonal potential of Chen et al. (2022) eq. (7) up to J_order (2, 4, 6). m²/s²."""
     rho = np.sqrt(x * x + y * y + z * z)
     s = z / rho
@@ -241,7 +241,7 @@ def jn_gravitation(
     order: int,
     j2: float | None = None,
     step: float = 1e-20,
-) -> Array:
+) -> _Array:
     """Gradient of :func:`jn_potential` by complex-step derivatives (exact to rounding). m/s²."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.complex128) for v in (x, y, z)))
     out = []
@@ -258,7 +258,7 @@ def jn_gravitation(
 
 def groves_j2_gravitation(
     x: ArrayLike, y: ArrayLike, z: ArrayLike, mu: float, J2: float, R0: float
-) -> Array:
+) -> _Array:
     """Groves (2013) eq. 3.7.7, ECEF J2 gravitation, typed as printed. m/s²."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
     r = np.sqrt(x * x + y * y + z * z)
@@ -270,7 +270,7 @@ def groves_j2_gravitation(
     return np.moveaxis(-mu / r**3 * vec, 0, -1)
 
 
-def groves_centrifugal_ned(lat_rad: ArrayLike, r_ned: Array, omega: float) -> Array:
+def groves_centrifugal_ned(lat_rad: ArrayLike, r_ned: _Array, omega: float) -> _Array:
     """Centrifugal term of Groves (2013) eq. 3.7.6 in NED, typed as printed. m/s²."""
     sL, cL = np.sin(lat_rad), np.cos(lat_rad)
     rn, re, rd = r_ned[..., 0], r_ned[..., 1], r_ned[..., 2]
@@ -282,8 +282,8 @@ def groves_centrifugal_ned(lat_rad: ArrayLike, r_ned: Array, omega: float) -> Ar
 
 
 def _geodetic_to_ecef(
-    lat: Array, lon: Array, h: Array, ell: Ellipsoid
-) -> tuple[Array, Array, Array]:
+    lat: _Array, lon: _Array, h: _Array, ell: Ellipsoid
+) -> tuple[_Array, _Array, _Array]:
     N = ell.a / np.sqrt(1.0 - ell.e2 * np.sin(lat) ** 2)
     return (
         (N + h) * np.cos(lat) * np.cos(lon),
@@ -292,7 +292,7 @@ def _geodetic_to_ecef(
     )
 
 
-def _ned_basis(lat: ArrayLike, lon: ArrayLike) -> Array:
+def _ned_basis(lat: ArrayLike, lon: ArrayLike) -> _Array:
     """Rows: north, east, down unit vectors in ECEF, shape (..., 3, 3)."""
     sL, cL, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
     north = np.stack([-sL * co, -sL * so, cL], -1)
@@ -310,7 +310,7 @@ def normal_gravity(
     centrifugal: bool = True,
     frame: str = "enu",
     groves_j2: float | None = 1.082627e-3,
-) -> Array:
+) -> _Array:
     """Compute normal gravity at geodetic points (reference).
 
     Conventions of ``fieldmap.field.normal``.

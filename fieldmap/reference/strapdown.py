@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from fieldmap.field.ellipsoid import Ellipsoid
 
 #: ``(dtheta, dv, dt)``: increments of shape (n, n_samples, 3) (rad, m/s), sample interval (s)
-Increments = tuple[ArrayLike, ArrayLike, float]
+_Increments = tuple[ArrayLike, ArrayLike, float]
 
 
 def rodrigues(phi: np.ndarray) -> np.ndarray:
@@ -45,7 +45,7 @@ def rodrigues(phi: np.ndarray) -> np.ndarray:
     {"increments": ("dtheta", "dv", "dt"), "start": ("P0", "V0", "C0")},
 )  # fmt: skip
 def propagate_lci_reference(
-    increments: Increments,
+    increments: _Increments,
     start: tuple[ArrayLike, ArrayLike, ArrayLike],
     frame: LaunchFrame,
     gravitation_ecef: Callable[[np.ndarray], np.ndarray],
@@ -129,7 +129,7 @@ def propagate_lci_reference(
     {"increments": ("dtheta", "dv", "dt"), "start": ("llh0", "v0", "C0")},
 )  # fmt: skip
 def propagate_ned_reference(
-    increments: Increments,
+    increments: _Increments,
     start: tuple[ArrayLike, ArrayLike, ArrayLike],
     gravity_ned: Callable[[np.ndarray], np.ndarray],
     ellipsoid: Ellipsoid,
