@@ -7,20 +7,20 @@ an **error budget**: each source's own covariance, which add up to the whole.
 
 Error state (Earth-fixed axes; Groves 2013 §14.2, Titterton & Weston 2004 §12.2), 36 states:
 
-===========  =====================================================================  =========
-states       meaning                                                                units
-===========  =====================================================================  =========
-0–2, 3–5     δr, δv: position and Earth-relative velocity error (ECEF)               m, m/s
-6            a: the baro loop's acceleration correction (:mod:`fieldmap.nav.linear`) m/s²
-7–9          ψ: attitude error, Ĉ_b^e = (I − [ψ×]) C_b^e                              rad
-10–12        accelerometer constant bias (body)                                      m/s²
-13–15        gyro constant bias (body)                                               rad/s
-16–18        accelerometer bias instability, first-order Gauss–Markov (body)         m/s²
-19–21        gyro bias instability, Gauss–Markov (body)                              rad/s
-22–24, 25–27 accelerometer scale factor, misalignment (body)                         1, rad
-28–30, 31–33 gyro scale factor, misalignment (body)                                  1, rad
-34, 35       baro bias, baro drift (Gauss–Markov)                                    m, m
-===========  =====================================================================  =========
+==============  =====================================================================  =========
+states          meaning                                                                units
+==============  =====================================================================  =========
+0–2, 3–5        δr, δv: position and Earth-relative velocity error (ECEF)              m, m/s
+6               a: the baro loop’s acceleration correction (fieldmap.nav.linear)       m/s²
+7–9             ψ: attitude error, Ĉ_b^e = (I − [ψ×]) C_b^e                            rad
+10–12           accelerometer constant bias (body)                                     m/s²
+13–15           gyro constant bias (body)                                              rad/s
+16–18           accelerometer bias instability, first-order Gauss–Markov (body)        m/s²
+19–21           gyro bias instability, Gauss–Markov (body)                             rad/s
+22–24, 25–27    accelerometer scale factor, misalignment (body)                        1, rad
+28–30, 31–33    gyro scale factor, misalignment (body)                                 1, rad
+34, 35          baro bias, baro drift (Gauss–Markov)                                   m, m
+==============  =====================================================================  =========
 
 with (f the specific force, ω the body rate w.r.t. inertial space, both of the true flight;
 δf = b_a + β_a + s_a ⊙ f − f × θ_a + w_a, δω likewise)
