@@ -103,6 +103,21 @@ class GravityBudget:
                 tot -= x
         return tot
 
+    def curves(self, model: str) -> np.ndarray:
+        """(4, n, 3): the RMS over draws of the total, (a), (b) and (c) (NaN: a term off).
+
+        The total is the root sum of the terms' mean squares (see :meth:`summary`); (a), being
+        deterministic, is its magnitude.
+        """
+        a = np.abs(self.model_difference[model])
+        terms = [a] + [
+            None if x is None else np.sqrt(np.mean(x * x, axis=0))
+            for x in (self.omission, self.commission)
+        ]
+        total = np.sqrt(sum(x * x for x in terms if x is not None))
+        b, c = (np.full(self.shape, np.nan) if x is None else x for x in terms[1:])
+        return np.stack([total, a, b, c])
+
     @property
     def shape(self) -> tuple[int, int]:
         """(n, 3) of one term's error curve."""

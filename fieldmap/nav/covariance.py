@@ -102,8 +102,9 @@ class _Flight:
 
 
 def _flight_at(traj: Any, t: np.ndarray) -> _Flight:
-    from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic
+    from fieldmap.field.frames import ecef_to_geodetic
     from fieldmap.field.normal import normal_gravitation_ecef
+    from fieldmap.nav.frames import C_n_to_e
 
     k = traj.kinematics(t)
     fr = traj.frame
@@ -117,9 +118,8 @@ def _flight_at(traj: Any, t: np.ndarray) -> _Flight:
     f_e = k.a_e + 2.0 * np.cross(w, k.v_e) + np.cross(w, np.cross(w, k.r_e)) - g
     f_b = np.einsum("nji,nj->ni", C_b_e, f_e)
     lat, lon, _ = ecef_to_geodetic(k.r_e[:, 0], k.r_e[:, 1], k.r_e[:, 2], fr.ellipsoid)
-    enu = C_e_to_enu(lat, lon)
-    ned = enu[:, [1, 0, 2], :] * np.array([1.0, 1.0, -1.0])[None, :, None]
-    return _Flight(k.r_e, enu[:, 2, :], C_b_e, f_b, k.w_b, ned)
+    ned = np.swapaxes(C_n_to_e(lat, lon), -1, -2)  # rows north, east, down in ECEF
+    return _Flight(k.r_e, -ned[:, 2, :], C_b_e, f_b, k.w_b, ned)
 
 
 def _dynamics(
@@ -379,15 +379,11 @@ class CovarianceStudyResult:
             return np.stack([d[s] for s in src]) if src else np.zeros((0, self.t.size, 3))
 
         b = self.budget
-        grav = np.stack(
-            [
-                np.stack([np.abs(b.model_difference[m])]
-                         + [np.sqrt(np.mean(x * x, axis=0)) if x is not None
-                            else np.full((self.t.size, 3), np.nan)
-                            for x in (b.omission, b.commission)])  # fmt: skip
-                for m in models
-            ]
-        ) if models else np.zeros((0, 3, self.t.size, 3))  # fmt: skip
+        grav = (
+            np.stack([b.curves(m)[1:] for m in models])  # (a), (b), (c)
+            if models
+            else np.zeros((0, 3, self.t.size, 3))
+        )
         return xr.Dataset(
             {
                 "position_sigma": (
@@ -465,8 +461,8 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
     traj = study.flight
     ell = traj.frame.ellipsoid
     dt = study.every / float(study.rate_hz)
-    t = dt * np.arange(int(round(study.n_samples / study.every)) + 1)
-    cov = covariance_analysis(study, t)
+    cov = covariance_analysis(study)  # on the study's output grid
+    t = cov.t
     c1 = time.perf_counter()
     lat, lon, h, _, _ = geodetic_state(traj, t)
     track = np.stack([lat, lon, h], -1)

@@ -43,7 +43,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fieldmap.field.ellipsoid import Ellipsoid
-from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+from fieldmap.field.frames import geodetic_to_ecef
+from fieldmap.nav.frames import C_n_to_e
 
 __all__ = ["CORE_STATES", "core_dynamics", "position_response", "rk4_transition"]
 
@@ -132,9 +133,8 @@ def position_response(
     k = dg.shape[0]
     lat, lon, h = trk[:, 0], trk[:, 1], trk[:, 2]
     r = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), -1)
-    enu = C_e_to_enu(lat, lon)  # (n, 3, 3): rows east, north, up in ECEF
-    ned = enu[:, [1, 0, 2], :] * np.array([1.0, 1.0, -1.0])[None, :, None]
-    up = enu[:, 2, :]
+    ned = np.swapaxes(C_n_to_e(lat, lon), -1, -2)  # (n, 3, 3): rows north, east, down in ECEF
+    up = -ned[:, 2, :]
     k1, k2, k3 = (0.0, 0.0, 0.0) if baro_gains is None else baro_gains
     gains = (float(k1), float(k2), float(k3))
     # inputs in ECEF (velocity rows of the state): u = C_ecef<-ned δg

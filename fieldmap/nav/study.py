@@ -1246,30 +1246,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
     if budget is not None and models:
         terms = ("total", "model_difference", "omission", "commission")
 
-        def rms(x: Any) -> np.ndarray:
-            if x is None:
-                return np.full(res.t.shape + (3,), np.nan)
-            x = np.asarray(x)
-            return np.sqrt(np.mean(x * x, axis=0)) if x.ndim == 3 else np.abs(x)
-
-        def total(m: str) -> np.ndarray:
-            parts = [rms(x) for x in (budget.model_difference[m], budget.omission,
-                                      budget.commission) if x is not None]  # fmt: skip
-            return np.sqrt(sum(p * p for p in parts))
-
-        curves = np.stack(
-            [
-                np.stack(
-                    [
-                        total(m),
-                        rms(budget.model_difference[m]),
-                        rms(budget.omission),
-                        rms(budget.commission),
-                    ]
-                )
-                for m in models
-            ]
-        )
+        curves = np.stack([budget.curves(m) for m in models])
         sigma["gravity_contribution"] = (
             ("model", "gravity_term", "time", "axis"),
             curves,
