@@ -21,6 +21,7 @@ from fieldmap.nav.logs.track import RawTrack
 
 T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
 FT = 0.3048
+KT = 1852.0 / 3600.0
 DATA = Path(__file__).parent / "data" / "flights"
 ADSB = Path(__file__).parent / "data" / "adsb"
 
@@ -38,7 +39,28 @@ def fl():
     lat, lon = np.degrees(la), np.degrees(lo)
     H = np.minimum(500.0 + 10.0 * t, 11_000.0)
     N = fieldmap.geoid_height(lat, lon)
-    return dict(t=t, lat=lat, lon=lon, H=H, N=N, h=H + N, epoch=T0.timestamp() + t)
+    # the velocity over the ground, as a receiver gives it: central differences of the ECEF
+    # positions (WGS84, written out here) in the local east/north axes; one-sided at the ends
+    a, e2 = 6378137.0, 6.69437999014e-3
+    p, q = np.radians(lat), np.radians(lon)
+    nu = a / np.sqrt(1.0 - e2 * np.sin(p) ** 2)
+    h = H + N
+    x = np.stack(
+        [
+            (nu + h) * np.cos(p) * np.cos(q),
+            (nu + h) * np.cos(p) * np.sin(q),
+            (nu * (1.0 - e2) + h) * np.sin(p),
+        ],
+        -1,
+    )
+    v = np.gradient(x, t, axis=0)
+    east = np.stack([-np.sin(q), np.cos(q), 0.0 * q], -1)
+    north = np.stack([-np.sin(p) * np.cos(q), -np.sin(p) * np.sin(q), np.cos(p)], -1)
+    ve, vn = np.sum(v * east, axis=1), np.sum(v * north, axis=1)
+    return dict(
+        t=t, lat=lat, lon=lon, H=H, N=N, h=h, epoch=T0.timestamp() + t,
+        gs=np.hypot(ve, vn), course=np.degrees(np.arctan2(ve, vn)) % 360.0,
+    )  # fmt: skip
 
 
 def geoid(track):
@@ -256,7 +278,8 @@ def ddmm(v: float, hemi: str, width: int) -> tuple[str, str]:
     return f"{d:0{width}d}{m:07.4f}", hemi[int(v < 0)]
 
 
-def nmea_lines(fl, sep=True, bad=()):
+def nmea_lines(fl, sep=True, bad=(), knots=1.0 / KT):
+    """Return the flight as GGA + RMC sentences; RMC speeds are the ground speed times ``knots``."""
     out = []
     for k in range(fl["t"].size):
         tt = T0 + timedelta(seconds=k)
@@ -264,7 +287,8 @@ def nmea_lines(fl, sep=True, bad=()):
         la, ns = ddmm(fl["lat"][k], "NS", 2)
         lo, ew = ddmm(fl["lon"][k], "EW", 3)
         s = f"{fl['N'][k]:.1f}" if sep else ""
-        out.append(nmea(f"GPRMC,{hms},A,{la},{ns},{lo},{ew},447.1,60.0,{dmy},,,A"))
+        v = f"{fl['gs'][k] * knots:.1f},{fl['course'][k]:.1f}"
+        out.append(nmea(f"GPRMC,{hms},A,{la},{ns},{lo},{ew},{v},{dmy},,,A"))
         gga = nmea(f"GPGGA,{hms},{la},{ns},{lo},{ew},1,09,0.8,{fl['H'][k]:.1f},M,{s},M,,")
         out.append(gga[:-2] + "00" if k in bad else gga)
     return out
@@ -288,6 +312,88 @@ def test_nmea_gga_rmc_midnight(tmp_path, fl):
     gga_only = [s for s in nmea_lines(fl) if "GGA" in s]
     tg = read_track(write(tmp_path / "gga.nmea", gga_only))
     assert tg.t0_utc is None and tg.t[0] == 23 * 3600 + 45 * 60 and tg.t[-1] == 86400 + 899
+
+
+def _velocity_report(track):
+    return condition(track).report["velocity"]
+
+
+def test_nmea_rmc_velocities_observed(tmp_path, fl):
+    """RMC speed and course enter the fit; the report gives the flown residuals against them."""
+    tr = read_track(write(tmp_path / "log.nmea", nmea_lines(fl)))
+    v = tr.velocity
+    assert v is not None and v.climb is None
+    np.testing.assert_allclose(v.speed, fl["gs"], atol=0.051 * KT)  # printed to 0.1 kt
+    np.testing.assert_allclose(v.track, fl["course"], atol=0.05)
+    assert v.resolution == pytest.approx((0.1 * KT, 0.1, 0.0))
+    assert any("receiver's velocities" in n for n in tr.notes)
+    rep = _velocity_report(tr)
+    assert rep["columns"] == ["RMC field 7 (speed)", "RMC field 8 (course)"]
+    assert rep["groundspeed_rms_m_s"] < 0.2 and rep["track_rms_deg"] < 0.1
+
+
+def test_nmea_rmc_velocities_in_the_wrong_unit_refused(tmp_path, fl):
+    """Speeds in km/h written where knots belong: the velocities contradict the positions."""
+    tr = read_track(write(tmp_path / "kmh.nmea", nmea_lines(fl, knots=3.6)))
+    with pytest.raises(InputError, match="RMC field 7 .*contradict its positions") as e:
+        condition(tr)
+    assert "\n" not in str(e.value)
+
+
+def test_nmea_rmc_void_or_without_course(tmp_path, fl):
+    """Status V (void) RMC and RMC without a course give no velocity vector; said."""
+    void = [s.replace(",A,", ",V,", 1) if "RMC" in s else s for s in nmea_lines(fl)]
+    void = [nmea(s[1:-3]) for s in void]
+    assert read_track(write(tmp_path / "void.nmea", void)).velocity is None
+    nocourse = []
+    for s in nmea_lines(fl):
+        if "RMC" in s:
+            f = s[1:-3].split(",")
+            f[8] = ""
+            s = nmea(",".join(f))
+        nocourse.append(s)
+    tr = read_track(write(tmp_path / "nocourse.nmea", nocourse))
+    assert tr.velocity is None
+    assert any("without a RMC field 8 (course)" in n for n in tr.notes)
+
+
+def _gpx_velocity(fl, version: str) -> str:
+    pts = []
+    for k in range(fl["t"].size):
+        sp, co = f"{fl['gs'][k]:.2f}", f"{fl['course'][k]:.2f}"
+        if version == "1.0":
+            vel = f"<course>{co}</course><speed>{sp}</speed>"
+        else:
+            vel = (
+                "<extensions><gpxtpx:TrackPointExtension>"
+                f"<gpxtpx:speed>{sp}</gpxtpx:speed><gpxtpx:course>{co}</gpxtpx:course>"
+                "</gpxtpx:TrackPointExtension></extensions>"
+            )
+        pts.append(
+            f'<trkpt lat="{fl["lat"][k]:.9f}" lon="{fl["lon"][k]:.9f}">'
+            f"<ele>{fl['H'][k]:.2f}</ele><time>{iso(k)}</time>{vel}</trkpt>"
+        )
+    ns = f"http://www.topografix.com/GPX/{version.replace('.', '/')}"
+    tpx = "http://www.garmin.com/xmlschemas/TrackPointExtension/v2"
+    return (
+        f'<?xml version="1.0"?><gpx version="{version}" creator="test" xmlns="{ns}" '
+        f'xmlns:gpxtpx="{tpx}"><trk><trkseg>{"".join(pts)}</trkseg></trk></gpx>'
+    )
+
+
+@pytest.mark.parametrize("version", ["1.0", "1.1"])
+def test_gpx_speed_and_course_observed(tmp_path, fl, version):
+    """GPX 1.0 <speed>/<course>, GPX 1.1 Garmin TrackPointExtension speed/course."""
+    pytest.importorskip("gpxpy")
+    tr = read_track(write(tmp_path / f"v{version}.gpx", [_gpx_velocity(fl, version)]))
+    v = tr.velocity
+    assert v is not None
+    np.testing.assert_allclose(v.speed, np.round(fl["gs"], 2))
+    np.testing.assert_allclose(v.track, np.round(fl["course"], 2))
+    assert v.resolution == pytest.approx((0.01, 0.01, 0.0))
+    rep = _velocity_report(tr)
+    assert rep["columns"] == ["<speed>", "<course>"]
+    assert rep["groundspeed_rms_m_s"] < 0.2 and rep["track_rms_deg"] < 0.1
 
 
 def b_record(k, fl, gnss, press=None):

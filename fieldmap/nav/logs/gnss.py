@@ -8,12 +8,18 @@ Each reader returns a :class:`~fieldmap.nav.logs.track.Parsed` for
   schema calls ``<ele>`` the "elevation (in meters) of the point" and ``<geoidheight>`` the
   "height of geoid (mean sea level) above WGS84 earth ellipsoid, as defined in NMEA GGA": ``<ele>``
   is the height above mean sea level (MSL). With ``<geoidheight>`` on every point the file's own
-  ellipsoidal height ``ele + geoidheight`` is used.
+  ellipsoidal height ``ele + geoidheight`` is used. The receiver's velocity, where the file has
+  it: GPX 1.0's ``<speed>`` (m/s) and ``<course>`` (degrees from true north), or the same two in
+  a GPX 1.1 ``<extensions>`` block (Garmin's ``TrackPointExtension`` v2 ``speed``/``course``, or
+  any extension element so named).
 - **NMEA 0183** (NMEA 0183 v4.11, GGA and RMC sentences; parsed with ``pynmea2``): GGA gives
   the UTC time of day, position, the altitude above MSL (field 9) and the geoid separation
   (field 11, geoid above the WGS84 ellipsoid): h = altitude + separation when every fix has it.
-  RMC gives the date (field 9, ``ddmmyy``). Sentences with a wrong checksum (XOR of the bytes
-  between ``$`` and ``*``) are skipped and counted, as are fixes of quality 0 (no fix).
+  RMC gives the date (field 9, ``ddmmyy``) and the receiver's velocity over the ground: speed
+  (field 7, knots) and course (field 8, degrees from true north), attached to the GGA fix of the
+  same time of day (the sentence next to it) when the RMC status (field 2) is ``A``. Sentences
+  with a wrong checksum (XOR of the bytes between ``$`` and ``*``) are skipped and counted, as
+  are fixes of quality 0 (no fix).
 - **IGC** (FAI/IGC *Technical Specification for IGC-approved GNSS Flight Recorders*, appendix
   A): ``HFDTE`` date (``HFDTEDDMMYY`` or ``HFDTEDATE:DDMMYY,NN``), ``B`` fixes
   ``BHHMMSSDDMMmmmNDDDMMmmmEVPPPPPGGGGG``: pressure altitude (m, ICAO ISA, 1013.25 hPa datum)
@@ -22,19 +28,71 @@ Each reader returns a :class:`~fieldmap.nav.logs.track.Parsed` for
   decimals of minutes.
 
 Times of day roll over at midnight (a step back by more than 12 h adds a day).
+
+The velocities become a :class:`~fieldmap.nav.logs.track.Velocities` (no vertical speed: neither
+format has one): the conditioning checks them against the positions and fits the path to them
+(:func:`fieldmap.nav.logs.fit.observations`). Their resolution is the last digit the file prints
+(the rounding's σ is that step/√12); a receiver's Doppler noise above it is estimated from the
+values themselves. A speed without a course (or the reverse) gives no velocity vector and is
+left out, and said.
 """
 
 from __future__ import annotations
 
 import re
 from datetime import datetime, timezone
+from typing import Any
 
 import numpy as np
 
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.track import Parsed, utc_seconds
+from fieldmap.nav.logs.track import Parsed, Velocities, utc_seconds
 
 DAY = 86400.0
+KT = 1852.0 / 3600.0
+
+
+def _step(texts: list[str]) -> float:
+    """Return the finest step of printed decimal numbers: 10^-(most decimals printed), 1 if none."""
+    dec = [len(x.partition(".")[2]) for x in texts if x]
+    return 10.0 ** -max(dec) if dec else 1.0
+
+
+def _velocities(
+    speed: list[str], course: list[str], factor: float, names: tuple[str, str], notes: list[str]
+) -> Velocities | None:
+    """Velocities from the printed speeds (times ``factor`` to m/s) and courses; None if none."""
+    both = [bool(a) and bool(b) for a, b in zip(speed, course)]
+    one = sum(bool(a) != bool(b) for a, b in zip(speed, course))
+    if not any(both):
+        if one:
+            notes.append(f"{one} fixes have a {names[0]} without a {names[1]} (or the reverse):"
+                         " no velocity vector, not used")  # fmt: skip
+        return None
+    sp = np.array([float(a) if ok else np.nan for a, ok in zip(speed, both)]) * factor
+    co = np.array([float(b) if ok else np.nan for b, ok in zip(course, both)])
+    used_s = [a for a, ok in zip(speed, both) if ok]
+    used_c = [b for b, ok in zip(course, both) if ok]
+    res = (_step(used_s) * factor, _step(used_c), 0.0)
+    notes.append(
+        f"the receiver's velocities ({names[0]}, {names[1]}) at {sum(both)} fixes: observations "
+        "of the flown path" + (f"; {one} with only one of the two left out" if one else "")
+    )
+    return Velocities(sp, co, None, res, names)
+
+
+def _extension(point: object, name: str) -> str:
+    """Text of a GPX 1.1 extension element ``name`` (any namespace, any depth), else ''."""
+    for root in getattr(point, "extensions", None) or []:
+        for el in root.iter():
+            if str(el.tag).rpartition("}")[2].lower() == name and (el.text or "").strip():
+                return str(el.text).strip()
+    return ""
+
+
+def _printed(v: float | None) -> str:
+    """Return a number as the file printed it (the shortest repr of the float read), '' for None."""
+    return "" if v is None else np.format_float_positional(float(v), trim="-")
 
 
 def _line_of(text: str, pos: int) -> int:
@@ -91,9 +149,23 @@ def read_gpx(text: str, source: str) -> Parsed:
         alts["ellipsoid"] = ("ele+geoidheight", ele + sep)
         ref = "ellipsoid"
         notes[0] = f"GPX: {len(pts)} <{kind}> points; h = <ele> + <geoidheight> (the file's own)"
-    return Parsed(
+    speed = [_printed(getattr(p, "speed", None)) or _extension(p, "speed") for p in pts]
+    course = [_printed(getattr(p, "course", None)) or _extension(p, "course") for p in pts]
+    for k, (a, b) in enumerate(zip(speed, course)):
+        for name, x in (("speed", a), ("course", b)):
+            try:
+                if x and not np.isfinite(float(x)):
+                    raise ValueError
+            except ValueError:
+                raise InputError(
+                    f"{source} {where} {lines[k]} column {name}: {x!r} is not a number"
+                ) from None
+    velocity = _velocities(speed, course, 1.0, ("<speed>", "<course>"), notes)
+    out = Parsed(
         t, lat, lon, alts, ref, "m", lines, source, True, ("time", "lat", "lon"), where, notes
     )
+    out.velocity = velocity
+    return out
 
 
 def _dm(s: str, hemi: str, neg: str, where: str, name: str) -> float:
@@ -122,7 +194,7 @@ def read_nmea(text: str, source: str) -> Parsed:
     """GGA fixes of an NMEA 0183 log, dated by RMC sentences (see the module docstring)."""
     import pynmea2
 
-    stamps: list[tuple[str, int, float, object]] = []  # (GGA|RMC, line, time of day, payload)
+    stamps: list[tuple[str, int, float, Any]] = []  # (GGA|RMC, line, time of day, payload)
     skipped = {"with a bad checksum": 0, "incomplete": 0, "without a fix": 0}
     for lineno, raw in enumerate(text.splitlines(), start=1):
         i = raw.find("$")
@@ -141,13 +213,25 @@ def read_nmea(text: str, source: str) -> Parsed:
             continue
         where = f"{source} line {lineno}"
         if s[3:6] == "RMC":
-            if re.fullmatch(r"\d{6}", f[8]) and f[0]:
+            if not f[0]:
+                continue
+            day0 = None
+            if re.fullmatch(r"\d{6}", f[8]):
                 d = (int(f[8][4:]) + 2000, int(f[8][2:4]), int(f[8][:2]))
                 try:
                     day0 = datetime(*d, tzinfo=timezone.utc).timestamp()
                 except ValueError:
                     raise InputError(f"{where} column RMC field 9 (date): {f[8]!r} is no ddmmyy")
-                stamps.append(("RMC", lineno, _tod(f[0], where), day0))
+            vel = ("", "")
+            if f[1] == "A":
+                for j, name in ((6, "field 7 (speed, knots)"), (7, "field 8 (course)")):
+                    try:
+                        if f[j] and not np.isfinite(float(f[j])):
+                            raise ValueError
+                    except ValueError:
+                        raise InputError(f"{where} column RMC {name}: {f[j]!r} is not a number")
+                vel = (f[6], f[7])
+            stamps.append(("RMC", lineno, _tod(f[0], where), (day0, vel)))
             continue
         if not has_sum and (len(msg.data) < 11 or not f[8]):
             skipped["incomplete"] += 1
@@ -172,7 +256,11 @@ def read_nmea(text: str, source: str) -> Parsed:
             f"{source}: no usable GGA fix in the NMEA log ({why or 'no GGA sentence'})"
         )
     days = _days([s[2] for s in stamps])
-    anchors = [(k, s[3] - days[k] * DAY) for k, s in enumerate(stamps) if s[0] == "RMC"]
+    anchors = [
+        (k, s[3][0] - days[k] * DAY)
+        for k, s in enumerate(stamps)
+        if s[0] == "RMC" and s[3][0] is not None
+    ]
     t, lines, cols = np.empty(len(fixes)), np.empty(len(fixes), np.int64), []
     base, a = (anchors[0][1] if anchors else 0.0), 0
     for j, k in enumerate(fixes):
@@ -182,6 +270,20 @@ def read_nmea(text: str, source: str) -> Parsed:
         cols.append(stamps[k][3])
     lat, lon, alt, sep = np.array(cols, dtype=np.float64).T
     notes = [f"NMEA 0183: {len(fixes)} GGA fixes" + (f"; skipped {why}" if why else "")]
+    speed: list[str] = []
+    course: list[str] = []
+    for k in fixes:  # the RMC of the same epoch: the sentence before or after the GGA
+        same = [
+            j
+            for j in (k - 1, k + 1)
+            if 0 <= j < len(stamps)
+            and stamps[j][0] == "RMC"
+            and stamps[j][2] == stamps[k][2]
+            and days[j] == days[k]
+        ]
+        sp_k, co_k = stamps[same[0]][3][1] if same else ("", "")
+        speed.append(sp_k)
+        course.append(co_k)
     if not anchors:
         notes.append("no RMC date: times are seconds from 00:00 UTC of the log's first day")
     alts = {"msl": ("GGA field 9 (altitude)", alt)}
@@ -191,7 +293,12 @@ def read_nmea(text: str, source: str) -> Parsed:
         ref = "ellipsoid"
         notes.append("h = GGA altitude (MSL) + the receiver's geoid separation (field 11)")
     names = ("GGA field 1 (UTC time)", "GGA field 2 (latitude)", "GGA field 4 (longitude)")
-    return Parsed(t, lat, lon, alts, ref, "m", lines, source, bool(anchors), names, "line", notes)
+    velocity = _velocities(
+        speed, course, KT, ("RMC field 7 (speed)", "RMC field 8 (course)"), notes
+    )
+    out = Parsed(t, lat, lon, alts, ref, "m", lines, source, bool(anchors), names, "line", notes)
+    out.velocity = velocity
+    return out
 
 
 #: fields of an IGC B record: name, first byte, last byte (1-based, inclusive)
