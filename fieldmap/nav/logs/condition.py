@@ -23,8 +23,11 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    ``threshold`` (5) local robust standard deviations (1.4826 × MAD, widened by the 90th
    percentile for heavy-tailed noise) and at least 30 m (heights: 15 m and 3 quanta, so that
    25 ft steps are never outliers), iterated; runs longer than a burst (7 samples, 10 s) are
-   motion, not outliers. Short runs between jumps (steps faster than ``max_speed_mps``,
-   heights ``max_climb_mps``) are outliers too. A height
+   motion, not outliers. Where steps are jumps (faster than 1.5 × the vehicle class's speed,
+   or than the fastest the log reports, with a second of slack in the time stamps; heights
+   ``max_climb_mps``), the fewest fixes go that leave a path the vehicle could fly: a fix from
+   another transmitter whichever side its jump is, positions a receiver dead-reckoned at a
+   repeated state (they count half). A height
    held and then left faster than 50 m/s was not updated (stale). Later, the robust fit
    rejects what is left (step 6).
 3. **Breaks**: jumps that are no short bursts (a displaced stretch: spoofing, a wrong altitude
@@ -164,6 +167,13 @@ BURST_S = 10.0
 SCALE_HALF = 50
 #: smallest outlier offsets and jump margins (m): horizontal, vertical (or 3 height quanta)
 FLOOR_H, FLOOR_V = 30.0, 15.0
+#: a step between two fixes faster than this × the vehicle class's speed (plus FLOOR_H) is a
+#: jump: one of them is wrong (the class speeds already hold a wind margin)
+JUMP_FACTOR = 1.5
+#: a receiver's time stamps err by up to this (s): a step may be this much longer in time
+TIME_SLACK_S = 1.0
+#: the longest run of repeated reported states (samples) a path may leave out at once
+CHAIN_MAX = 60
 #: a height held and then left faster than this (m/s) was not updated
 HOLD_RATE = 50.0
 #: ground: within this height (m) of the segment's first (last) height
@@ -339,7 +349,9 @@ class Conditioning:
     max_speed_mps, max_climb_mps : float
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
-        Generous (any vehicle's noisy steps stay within them), not the vehicle's envelope.
+        Generous (any vehicle's noisy steps stay within them), not the vehicle's envelope; the
+        outlier step (2) takes the smaller of ``max_speed_mps`` and 1.5 × the vehicle's speed
+        (or the fastest the log reports).
     vehicle : str, optional
         The vehicle class (:data:`VEHICLES`: ``airliner``,
         ``light-aircraft``, ``glider``, ``helicopter``, ``uav``, ``fighter``, ``car``,
@@ -537,6 +549,7 @@ class Stages:
         hv, vv = ~self.stale, ~z
         comps = [(hv, log.p, np.inf, 0.0), (vv, log.h[:, None], np.inf, 0.0)]
         seg, _ = segments(log.t, comps, o["max_gap_s"])
+        repeated = log.repeated_states(self.track)
         for s in np.unique(seg[seg >= 0]):
             m = np.flatnonzero(seg == s)
             en, tt, k = log.en[m], log.t[m], o["threshold"]
@@ -547,7 +560,8 @@ class Stages:
                 lambda e: to_en(en, e),
                 k,
                 FLOOR_H,
-                o["max_speed_mps"],
+                min(o["max_speed_mps"], self._jump_speed()),
+                repeated[m],
             )
             bad_v, self.off_v[m] = outliers(
                 tt, log.h[m, None], vv[m], lambda e: e, k, floor_v, o["max_climb_mps"]
@@ -587,6 +601,20 @@ class Stages:
                 self.ground[m[g]] = True
                 seg[m[g]] = -1
         self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
+
+    def _jump_speed(self) -> float:
+        """Speed (m/s) beyond which a step between two fixes is a jump (:data:`JUMP_FACTOR`).
+
+        × the vehicle class's speed, or × the fastest the log itself reports (its 99th
+        percentile ground speed, from 20 values) when that is lower.
+        """
+        speed = self.vehicle.speed
+        vel = getattr(self.track, "velocity", None)
+        if vel is not None:
+            gs = vel.speed[np.isfinite(vel.speed)]
+            if gs.size >= 20:
+                speed = min(speed, float(np.percentile(gs, 99)))
+        return JUMP_FACTOR * speed
 
     def _guess(self, hv: np.ndarray) -> tuple[Any, str]:
         """Guess the vehicle class from robust speeds (:func:`~.vehicle.guess_vehicle`)."""
@@ -1178,6 +1206,28 @@ class OrderedLog:
         self.p = np.stack(geodetic_to_ecef(self.lat, self.lon, zero, self.ellipsoid), -1)
         self.en = C_e_to_enu(self.lat, self.lon)[:, :2, :]
 
+    def repeated_states(self, track: Any) -> np.ndarray:
+        """Length of the run of identical reported states each sample is in, (n,) (1: none).
+
+        A state is the log's own ground speed, track and vertical rate together
+        (:class:`~fieldmap.nav.logs.track.Velocities`); a receiver that lost the vehicle and
+        dead-reckons its position from the last state (ADS-B and FLARM relays extrapolate
+        for a minute or more) repeats it unchanged while the position moves on. Logs without
+        velocities: all 1.
+        """
+        vel = getattr(track, "velocity", None)
+        n = self.t.size
+        if vel is None or n == 0:
+            return np.ones(n)
+        src = self.index
+        climb = vel.climb[src] if vel.climb is not None else np.zeros(n)
+        x = np.stack([vel.speed[src], vel.track[src], climb], -1)
+        same = np.all((x[1:] == x[:-1]) & np.isfinite(x[1:]), axis=1)
+        out = np.ones(n)
+        for a, b in runs(same):
+            out[a : b + 1] = b + 1 - a
+        return out
+
     def stale_positions(self) -> np.ndarray:
         """Find samples repeating the previous horizontal position while the vehicle moves.
 
@@ -1225,6 +1275,7 @@ def outliers(
     k: float,
     floor: float,
     max_speed: float,
+    repeated: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Outliers (n,) and offsets (m, (n,)) of one component (``y`` (n, d)) of one segment.
 
@@ -1233,8 +1284,11 @@ def outliers(
     the local axes) beyond ``max(k s, floor)``, ``s`` the local robust scale
     (:func:`~fieldmap.nav.logs.fit.local_scale`), iterated to a fixed point (a sample
     rejected early is taken back when the cleaner trend passes near it). A run of rejections
-    longer than a burst (:func:`burst_length`) is motion the trend misses, kept. Then short runs
-    between jumps (steps faster than ``max_speed``) are rejected: bursts of any size.
+    longer than a burst (:func:`burst_length`) is motion the trend misses, kept. Then, where
+    steps are faster than ``max_speed``, the fewest samples go that leave a path the vehicle could
+    fly (:func:`feasible_chain`); a sample in a run of ``repeated`` identical reported states
+    (:meth:`OrderedLog.repeated_states`, (n,)) counts 1/(2 run length): a dead-reckoned stretch
+    ending in a jump goes whole, like a burst.
     """
     keep = valid.copy()
     off = np.zeros(t.size)
@@ -1259,13 +1313,57 @@ def outliers(
             break
         keep = valid & ~far
     idx = np.flatnonzero(keep)
-    jump = jumps(t[idx], y[idx], max_speed, floor)
-    edges = np.concatenate([[0], np.flatnonzero(jump) + 1, [idx.size]])
-    if jump.any() and (np.diff(edges) > burst).any():
-        for a, b in zip(edges[:-1], edges[1:]):
-            if b - a <= burst:
-                keep[idx[a:b]] = False
+    if jumps(t[idx] + TIME_SLACK_S * np.arange(idx.size), y[idx], max_speed, floor).any():
+        rep = np.ones(t.size) if repeated is None else repeated
+        chain = feasible_chain(t[idx], y[idx], max_speed, floor, (burst, rep[idx]))
+        keep[idx[~chain]] = False
     return valid & ~keep, off
+
+
+def feasible_chain(
+    t: np.ndarray, y: np.ndarray, max_speed: float, margin: float, drops: tuple[int, np.ndarray]
+) -> np.ndarray:
+    """Return the samples (n,) kept by the cheapest drops leaving no step over ``max_speed``.
+
+    A path the vehicle could fly through the samples: every step between kept samples within
+    ``max_speed`` × Δt + ``margin`` (:func:`jumps`). ``drops`` = (``burst``, ``repeated``):
+    a sample costs 1 to drop, or 1/(2L) in a run of L identical reported states (dead-reckoned
+    positions: the run counts as half a measured fix); a run of dropped samples is at most
+    ``burst`` long, or one such run of repeated states; steps may take :data:`TIME_SLACK_S`
+    longer (time stamps err). Where no such path exists (a displaced stretch longer than that)
+    the jump stays, at the cost of ``burst`` + 1, and is left to the breaks or the robust fit.
+    Dynamic programming over (sample, predecessor): the least cost, ties to the nearer
+    predecessor, so that a fix from another transmitter goes whichever side of it the jump is.
+    """
+    burst, repeated = drops
+    n = t.size
+    w = np.where(repeated > 1.0, 0.5 / repeated, 1.0)
+    cw = np.concatenate([[0.0], np.cumsum(w)])  # cost of dropping samples a..b-1: cw[b] - cw[a]
+    reach = burst + 1 + int(min(np.max(repeated, initial=1.0), CHAIN_MAX))
+    big = float(burst + 1)
+    cost = np.full(n, np.inf)
+    prev = np.full(n, -1, dtype=np.int64)
+    for j in range(n):
+        if j <= burst:
+            cost[j] = cw[j]  # the samples before j dropped
+        for i in range(max(0, j - reach), j):
+            gap = j - i - 1
+            if gap > burst and not np.all(repeated[i + 1 : j] > 1.0):
+                continue
+            reach_m = max_speed * (t[j] - t[i] + TIME_SLACK_S) + margin
+            step = np.linalg.norm(y[j] - y[i]) > reach_m
+            if step and gap:
+                continue
+            c = cost[i] + (cw[j] - cw[i + 1]) + (big if step else 0.0)
+            if c <= cost[j]:
+                cost[j], prev[j] = c, i
+    ends = np.arange(max(0, n - burst - 1), n)
+    j = int(ends[np.argmin(cost[ends] + (cw[n] - cw[ends + 1]))])
+    keep = np.zeros(n, bool)
+    while j >= 0:
+        keep[j] = True
+        j = int(prev[j])
+    return keep
 
 
 def segments(
