@@ -345,6 +345,7 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "kernels.sh_xrange": "kernels.sh",
     "kernels.navtable": "kernels.navgravity",
     "kernels.sensor_errors": "kernels.strapdown",
+    "kernels.launch_frames": "kernels.frames",
     # fieldmap 0.2: one module per sub-command
     "cli.navflight": "cli.nav",
     "cli.navoptions": "cli.nav",

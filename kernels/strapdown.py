@@ -22,8 +22,7 @@ The sensor errors (:class:`SensorErrors`, :class:`BaroAiding`, :func:`thread_err
 
 import warp as wp
 
-from .frames import ecef_to_enu, enu_to_ned, geodetic_to_ecef
-from .launch_frames import C_e_to_t, LaunchParams
+from .frames import C_e_to_t, LaunchParams, ecef_to_enu, enu_to_ned, geodetic_to_ecef
 from .navgravity import TableKernel, held_gravitation_ecef
 from .normal import NormalParams, centrifugal_ecef, normal_field_ecef
 from .sh import SHKernelModel

@@ -6,7 +6,7 @@ once to a CUBIN for ``ARCH`` (sm_90: the H100/H200 this project runs on); a CUBI
 ptxas, so register allocation and stack frames are checked as well as the C++ front end.
 
 Device functions reach a CUDA build only through a kernel that calls them. Modules that hold
-functions only (``frames``, ``launch_frames``, ``navgravity``) are covered by the kernels that use
+functions only (``frames``, ``navgravity``) are covered by the kernels that use
 them, plus the small wrapper kernels below for functions no fieldmap kernel calls; a coverage test
 fails on any ``@wp.func`` that none of these builds compiled.
 
@@ -43,7 +43,7 @@ from fieldmap import _warp
 _warp.init()
 
 import fieldmap.kernels  # noqa: E402
-from fieldmap.kernels import launch_frames as klf  # noqa: E402
+from fieldmap.kernels import frames as klf  # noqa: E402
 from fieldmap.kernels import navgravity as knav  # noqa: E402
 from fieldmap.kernels import normal as knormal  # noqa: E402
 from fieldmap.kernels import sh as ksh  # noqa: E402

@@ -123,7 +123,7 @@ def test_eq18_equals_eq20(launch):
 
 
 # ---------------------------------------------------------------- Warp twins
-from fieldmap.kernels import launch_frames as klf  # noqa: E402
+from fieldmap.kernels import frames as klf  # noqa: E402
 
 
 @wp.kernel

@@ -43,7 +43,7 @@ from fieldmap.nav.gravity import gravity_names, parse_gravity, table_file
 from fieldmap.units import STANDARD_GRAVITY
 
 if TYPE_CHECKING:
-    from fieldmap.kernels.launch_frames import LaunchParams
+    from fieldmap.kernels.frames import LaunchParams
     from fieldmap.kernels.sh import SHKernelModel
     from fieldmap.kernels.strapdown import BaroAiding, SensorErrors
     from fieldmap.models.shmodel import SHModel
@@ -420,7 +420,7 @@ def dcm_to_quat(C: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 def launch_params(frame: LaunchFrame) -> LaunchParams:
     """Device struct of a launch frame (R_t^a of eq. 17, launch point, Earth rate)."""
-    from fieldmap.kernels.launch_frames import LaunchParams
+    from fieldmap.kernels.frames import LaunchParams
 
     lp = LaunchParams()
     lp.C_t_to_a = wp.mat33d(*frame.C_t_to_a.ravel())
