@@ -1,7 +1,8 @@
 """The model-file options shared by the sub-commands that load a gravity model.
 
-``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` (``fieldmap point``, ``map``,
-``sweep``, ``truncation``); their values become keyword arguments of
+``--model-dir``, ``--gm``, ``--radius``, ``--no-cache`` and ``--tide-system`` (``fieldmap point``,
+``map``, ``sweep``, ``table``; ``truncation --degrees`` and ``navsim`` add ``--tide-system``
+alone with :func:`add_tide_option`); their values become keyword arguments of
 :func:`fieldmap.models.registry.load_model` through
 :func:`fieldmap.models.registry.model_options`, which also validates them.
 """
@@ -20,11 +21,27 @@ MODEL_OPTIONS = {
     "gm": "--gm",
     "radius": "--radius",
     "no_cache": "--no-cache",
+    "tide_system": "--tide-system",
 }
+
+#: the names of :data:`fieldmap.models.tide.TIDE_SYSTEMS`, spelt out (start-up time)
+TIDE_CHOICES = ("tide_free", "zero_tide", "mean_tide")
+
+
+def add_tide_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--tide-system`` (the model converted after loading, :mod:`fieldmap.models.tide`)."""
+    parser.add_argument(
+        "--tide-system",
+        choices=TIDE_CHOICES,
+        default=None,
+        help="convert the model to this permanent-tide system after loading (C̄20, IERS "
+        "Conventions 2010 §6.2.2); recorded in the products (default: the model file's own; "
+        "refused for a model whose tide system is unknown)",
+    )
 
 
 def add_model_options(parser: argparse.ArgumentParser) -> None:
-    """Add ``--model-dir``, ``--gm``, ``--radius`` and ``--no-cache`` to a CLI sub-parser."""
+    """Add ``--model-dir``, ``--gm``, ``--radius``, ``--no-cache``, ``--tide-system``."""
     parser.add_argument(
         "--model-dir",
         default=None,
@@ -48,3 +65,4 @@ def add_model_options(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="parse the model file, neither reading nor writing the on-disk model cache",
     )
+    add_tide_option(parser)

@@ -503,6 +503,9 @@ def add_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--truth-degree", dest="lmax", type=int, default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
+    from fieldmap.cli.model_options import add_tide_option
+
+    add_tide_option(p)
     p.add_argument(
         "--output-dt",
         type=float,
@@ -681,7 +684,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
     from fieldmap._warp import resolve_device
-    from fieldmap.models.registry import load_model
+    from fieldmap.models.registry import announce, load_model
     from fieldmap.nav.imu import sample_count
     from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
@@ -697,7 +700,8 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
             raise InputError(f"{name} must be a positive number, got {v}")
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
-    model = load_model(args.model, lmax=args.lmax)
+    model = load_model(args.model, lmax=args.lmax, tide_system=args.tide_system)
+    announce(model)
     if is_flight(args):
         return _check_flight_args(args, model, notes)
     models = _model_names(args, split_list(args.models), model, notes)
@@ -826,6 +830,7 @@ def _scenario_and_studies(
 ) -> list[StudyResult]:
     from tqdm import tqdm
 
+    from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
@@ -836,8 +841,7 @@ def _scenario_and_studies(
     sc = build_scenario(
         duration=args.duration,
         sampling=ImuSampling(args.rate, args.gauss),
-        truth=args.model,
-        truth_lmax=args.lmax,
+        truth=load_model(args.model, lmax=args.lmax, tide_system=args.tide_system),
         output_dt=args.output_dt,
         device=device,
         progress=True,

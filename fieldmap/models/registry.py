@@ -165,6 +165,7 @@ def load_model(
     gm: float | None = None,
     radius: float | None = None,
     cache: bool = True,
+    tide_system: str | None = None,
 ) -> SHModel:
     """Return a spherical-harmonic gravity model.
 
@@ -192,6 +193,9 @@ def load_model(
         other formats, which carry their own.
     cache : bool
         Use the on-disk cache of parsed coefficients (:mod:`fieldmap.models.cache`).
+    tide_system : {"tide_free", "zero_tide", "mean_tide"}, optional
+        Convert the model to this permanent-tide system (:mod:`fieldmap.models.tide`); default:
+        the system of the file.
 
     Returns
     -------
@@ -201,7 +205,8 @@ def load_model(
     ------
     InputError
         Unknown name, missing file, ``lmax`` not a non-negative integer or above the model's
-        degree, bad epoch or one given for a static model, ``model_dir`` that does nothing.
+        degree, bad epoch or one given for a static model, ``model_dir`` that does nothing,
+        unknown tide system, or one asked of a model whose own is unknown.
     ModelFileError
         Malformed model file.
 
@@ -214,6 +219,25 @@ def load_model(
     >>> model  # doctest: +ELLIPSIS
     SHModel('EIGEN-6S', degree=36 (of 240), GM=3.986004415e+14 m3/s2, a=6378136.46 m, ...)
     """
+    if tide_system is None:
+        return _load(name_or_path, lmax, epoch, model_dir, gm, radius, cache)
+    from fieldmap.models.tide import check_tide_system, convert_tide_system
+
+    target = check_tide_system(tide_system)  # before the file is read: a typo costs nothing
+    model = _load(name_or_path, lmax, epoch, model_dir, gm, radius, cache)
+    return convert_tide_system(model, target)
+
+
+def _load(
+    name_or_path: str | os.PathLike[str] | bytes | SHModel | None,
+    lmax: int | None,
+    epoch: float | str | None,
+    model_dir: str | os.PathLike[str] | None,
+    gm: float | None,
+    radius: float | None,
+    cache: bool,
+) -> SHModel:
+    """:func:`load_model` before any tide-system conversion."""
     lmax = as_degree(lmax)
     if name_or_path is None:
         name_or_path = DEFAULT_MODEL
@@ -402,7 +426,7 @@ def model_options(args: argparse.Namespace) -> dict[str, Any]:
 
     ``args`` is the namespace parsed with the options of
     ``fieldmap.cli.model_options.add_model_options`` (``--model-dir``, ``--gm``, ``--radius``,
-    ``--no-cache``); a missing attribute counts as its default.
+    ``--no-cache``, ``--tide-system``); a missing attribute counts as its default.
 
     ``--no-cache`` also stops the cache of recursion tables for this process. ``--model-dir``
     with a bundled model name (read from the package, never from that folder) or with the path
@@ -422,21 +446,37 @@ def model_options(args: argparse.Namespace) -> dict[str, Any]:
             )
     if getattr(args, "no_cache", False):
         disk_cache.disable()
+    tide_system = getattr(args, "tide_system", None)
+    if tide_system is not None:
+        from fieldmap.models.tide import check_tide_system
+
+        tide_system = check_tide_system(tide_system)
     return {
         "model_dir": getattr(args, "model_dir", None),
         "gm": getattr(args, "gm", None),
         "radius": getattr(args, "radius", None),
         "cache": not getattr(args, "no_cache", False),
+        "tide_system": tide_system,
     }
 
 
 def announce(model: SHModel, stream: TextIO | None = None) -> None:
-    """Tell the user (stderr) which GM and radius an NGA file was read with."""
+    """Tell the user (stderr) which GM and radius an NGA file was read with, and a conversion.
+
+    A model converted to another tide system (:func:`load_model` ``tide_system=``) is one line
+    naming both systems and the change of C̄20.
+    """
     import sys
 
-    note = model.header.get("constants") if isinstance(model.header, dict) else None
+    header = model.header if isinstance(model.header, dict) else {}
+    note = header.get("constants")
     if note:
         print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
+    origin = header.get("tide_origin")
+    if origin and origin["system"] != model.tide_system:
+        from fieldmap.models.tide import conversion_note
+
+        print(f"fieldmap: {model.name}: {conversion_note(model)}", file=stream or sys.stderr)
 
 
 #: the prefix of a compensation table given as a model name, ``"table:FILE"``

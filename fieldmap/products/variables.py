@@ -154,6 +154,7 @@ def global_attrs(
                 "model_max_degree": int(model.max_degree),
                 "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
                 "model_tide_system": model.tide_system,
+                **_tide_conversion(model, attrs["history"]),
                 "model_gm": float(model.gm),
                 "model_radius": float(model.radius),
             }
@@ -161,6 +162,17 @@ def global_attrs(
     if grid.heights.size == 1:
         attrs["height_m"] = float(grid.heights[0])
     return attrs
+
+
+def _tide_conversion(model: SHModel, history: str) -> dict[str, Any]:
+    """Return the file's tide system and a history line of a model converted to another."""
+    from fieldmap.models.tide import conversion_note
+
+    note = conversion_note(model)
+    if not note:
+        return {}
+    system = model.header["tide_origin"]["system"]
+    return {"model_tide_system_of_file": system, "history": f"{history}; {model.name} {note}"}
 
 
 def disturbance_attrs(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> dict[str, Any]:
@@ -657,6 +669,7 @@ def _header(ds: xr.Dataset, product: str) -> dict[str, Any]:
         "product": product,
         "model": a.get("model"),
         "lmax": a.get("model_lmax"),
+        "tide_system": a.get("model_tide_system"),
         "ellipsoid": a.get("ellipsoid"),
         "grid_step_deg": a.get("grid_step_deg"),
         "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]],
@@ -675,7 +688,8 @@ def _stack_statistics(ds: xr.Dataset, dim: str) -> list[str]:
 def summary(ds: xr.Dataset) -> dict:
     """JSON-ready statistics of any map product: disturbance map or sweep, truncation, quantity.
 
-    Every summary starts with the same header: ``product``, ``model``, ``lmax``, ``ellipsoid``,
+    Every summary starts with the same header: ``product``, ``model``, ``lmax``, ``tide_system``
+    (the model's permanent-tide system; None without a model), ``ellipsoid``,
     ``grid_step_deg``, ``region_deg``, ``height_m`` (a list for a sweep). Then, for a
     disturbance map, its statistics (``max_mg``, ``mean_mg``, ``rms_mg``, percentiles) and
     ``area_fraction_above`` {threshold in mg: fraction 0..1}; for a sweep the same as lists per
