@@ -1,8 +1,9 @@
 """Gravity models by name or path: the bundled EIGEN-6S, user model files, synthetic Kaula models.
 
 ``load_model()`` with no argument returns the bundled EIGEN-6S (degree 240, see
-``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A user's file is
-recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
+``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A catalogue name
+(``EGM2008``, ``EIGEN-6C4``..., :mod:`.catalogue`) is downloaded once and verified. A user's
+file is recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
 plain coefficient file (:mod:`.nga`), or GeographicLib's ``.egm`` + ``.egm.cof`` pair
 (:mod:`.egm`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
 as ``Gravity -n NAME -d DIR``).
@@ -145,6 +146,11 @@ def _resolve_path(name: str, model_dir: str | os.PathLike[str] | None) -> str:
     found = None if model_dir is not None else find_egm(name)
     if found:
         return found
+    from fieldmap.models import catalogue
+
+    listed = None if model_dir is not None else catalogue.lookup(name)
+    if listed is not None:  # downloaded once, verified (one line if it cannot be)
+        return catalogue.fetch(listed)
     where = (
         f"nor {name}.egm in {os.fspath(model_dir)}"
         if model_dir is not None
@@ -152,7 +158,7 @@ def _resolve_path(name: str, model_dir: str | os.PathLike[str] | None) -> str:
     )
     raise InputError(
         f"unknown model {name!r}: not a bundled model ({', '.join(BUNDLED)}), "
-        f"not an existing file, {where}"
+        f"not a catalogue model ({', '.join(catalogue.names())}), not an existing file, {where}"
     )
 
 
@@ -172,11 +178,13 @@ def load_model(
     Parameters
     ----------
     name_or_path : str or os.PathLike or SHModel or None
-        A bundled model name (``"eigen-6s"``, case-insensitive); the path of an ICGEM ``.gfc``
-        or ``.gfc.gz`` file, of an NGA coefficient file (EGM96, EGM2008) or of a GeographicLib
-        ``.egm`` file; a GeographicLib model name (``egm2008``) found in ``model_dir`` or in
-        GeographicLib's gravity folders; or an :class:`SHModel` (returned, truncated to
-        ``lmax`` if given). None: the default model (EIGEN-6S).
+        A bundled model name (``"eigen-6s"``, case-insensitive); a catalogue name
+        (``"EGM2008"``, :mod:`fieldmap.models.catalogue`: downloaded once, verified); the path
+        of an ICGEM ``.gfc`` or ``.gfc.gz`` file, of an NGA coefficient file (EGM96, EGM2008)
+        or of a GeographicLib ``.egm`` file; a GeographicLib model name (``egm2008``) found in
+        ``model_dir`` or in GeographicLib's gravity folders (before the catalogue); or an
+        :class:`SHModel` (returned, truncated to ``lmax`` if given). None: the default model
+        (EIGEN-6S).
     lmax : int, optional
         Truncation degree; default: the model's full degree.
     epoch : float or str, optional

@@ -154,7 +154,7 @@ def global_attrs(
                 "model_max_degree": int(model.max_degree),
                 "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
                 "model_tide_system": model.tide_system,
-                **_tide_conversion(model, attrs["history"]),
+                **_tide_conversion(model, str(attrs["history"])),
                 "model_gm": float(model.gm),
                 "model_radius": float(model.radius),
             }
