@@ -208,7 +208,8 @@ def _download(e: CatalogueEntry, path: str, progress: bool) -> None:
 
     import pooch  # type: ignore[import-untyped]  # no py.typed marker (pooch 1.9)
 
-    print(f"fieldmap: downloading {e.name} from {e.url} to {path}", file=sys.stderr)
+    if progress:  # with the bar; a failure is then one line of its own
+        print(f"fieldmap: downloading {e.name} from {e.url} to {path}", file=sys.stderr)
     logger = pooch.get_logger()
     level = logger.level
     logger.setLevel(logging.WARNING)  # our line above says it; pooch's would be a second one
@@ -236,10 +237,13 @@ def _download(e: CatalogueEntry, path: str, progress: bool) -> None:
 
 
 def _unreachable(e: CatalogueEntry, path: str, exc: BaseException) -> InputError:
-    why = " ".join(str(exc).split())[:160] or type(exc).__name__
+    """One line: the URL, why (the exception's kind, an HTTP status), where to put the file."""
+    why = type(exc).__name__
+    status = getattr(getattr(exc, "response", None), "status_code", None)
+    if status is not None:
+        why += f", HTTP {status}"
     return InputError(
-        f"cannot download {e.name} from {e.url} ({type(exc).__name__}: {why}): download it by "
-        f"hand to {path}"
+        f"cannot download {e.name} from {e.url} ({why}): download it by hand to {path}"
     )
 
 
