@@ -503,9 +503,14 @@ def add_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--truth-degree", dest="lmax", type=int, default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
-    from fieldmap.cli.model_options import add_tide_option
-
-    add_tide_option(p)
+    p.add_argument(
+        "--tide-system",
+        # fieldmap.models.tide.TIDE_SYSTEMS, spelt out (one module fewer at every start)
+        choices=("tide_free", "zero_tide", "mean_tide"),
+        default=None,
+        help="convert the truth model to this permanent-tide system after loading (C̄20, IERS "
+        "Conventions 2010 §6.2.2); recorded in the JSON meta (default: the model file's own)",
+    )
     p.add_argument(
         "--output-dt",
         type=float,

@@ -166,6 +166,8 @@ def global_attrs(
 
 def _tide_conversion(model: SHModel, history: str) -> dict[str, Any]:
     """Return the file's tide system and a history line of a model converted to another."""
+    if not (isinstance(model.header, dict) and "tide_origin" in model.header):
+        return {}  # read as it is (and fieldmap.models.tide not imported)
     from fieldmap.models.tide import conversion_note
 
     note = conversion_note(model)
