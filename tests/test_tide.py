@@ -192,3 +192,32 @@ def test_cli_unknown_model_system_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tide system is unknown" in err[0]
     assert not out.exists()
+
+
+def test_navigation_truth_in_the_tables_system(tmp_path, capsys):
+    """A flight's truth is converted to the system its compensation tables were built in."""
+    from fieldmap.cli.model_options import in_tables_system
+    from fieldmap.models.registry import announce
+    from fieldmap.products.tables.build import build_table
+    from fieldmap.products.tables.files import write_table
+    from fieldmap.products.tables.model import load_table
+
+    names = {}
+    for system in ("mean_tide", "zero_tide"):
+        m = load_model("eigen-6s", lmax=8, tide_system=system)
+        tab, rep = build_table((6.8, 8.1, 44.8, 45.5), (2.5, 5.5), 5.0, model=m)
+        assert rep["tide_system"] == system
+        (nc, *_) = write_table(tab, rep, tmp_path / system)
+        assert load_table(str(nc)).meta["tide_system"] == system  # read back from the NetCDF
+        names[system] = f"table:{nc}"
+    truth = load_model("eigen-6s", lmax=8)
+    got = in_tables_system(truth, ["j4", names["mean_tide"]], None)
+    assert got.tide_system == "mean_tide"
+    assert got.C[2, 0] == convert_tide_system(truth, "mean_tide").C[2, 0]
+    announce(got)
+    assert "converted from tide_free to mean_tide" in capsys.readouterr().err
+    assert in_tables_system(truth, ["j4", "sh8"], None) is truth  # no table: as it is
+    with pytest.raises(InputError, match="several tide systems"):
+        in_tables_system(truth, list(names.values()), None)
+    with pytest.raises(InputError, match="compared in one system"):
+        in_tables_system(truth, [names["mean_tide"]], "zero_tide")

@@ -706,6 +706,10 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
     model = load_model(args.model, lmax=args.lmax, tide_system=args.tide_system)
+    if is_flight(args) and "table:" in str(args.models):  # truth and tables in one tide system
+        from fieldmap.cli.model_options import in_tables_system
+
+        model = in_tables_system(model, split_list(args.models), args.tide_system)
     announce(model)
     if is_flight(args):
         return _check_flight_args(args, model, notes)
