@@ -221,3 +221,16 @@ def test_navigation_truth_in_the_tables_system(tmp_path, capsys):
         in_tables_system(truth, list(names.values()), None)
     with pytest.raises(InputError, match="compared in one system"):
         in_tables_system(truth, [names["mean_tide"]], "zero_tide")
+
+
+def test_cli_zarr_records_the_tide_system(tmp_path):
+    pytest.importorskip("zarr")
+    import xarray as xr
+
+    out = tmp_path / "z"
+    args = ["map", "--step-deg", "30", "--lmax", "6", "--no-plots", "--format", "zarr"]
+    assert main([*args, "--tide-system", "mean_tide", "--out", str(out)]) == 0
+    (store,) = out.glob("*.zarr")
+    with xr.open_zarr(store) as ds:
+        assert ds.attrs["model_tide_system"] == "mean_tide"
+        assert ds.attrs["model_tide_system_of_file"] == "tide_free"
