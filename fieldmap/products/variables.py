@@ -671,13 +671,13 @@ def _header(ds: xr.Dataset, product: str) -> dict[str, Any]:
         "product": product,
         "model": a.get("model"),
         "lmax": a.get("model_lmax"),
-        "tide_system": a.get("model_tide_system"),
         "ellipsoid": a.get("ellipsoid"),
         "grid_step_deg": a.get("grid_step_deg"),
         "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]],
     }
     h = ds["height"].values
     out["height_m"] = [float(x) for x in h] if "height" in ds.dims else float(h)
+    out["tide_system"] = a.get("model_tide_system")
     return out
 
 
@@ -690,9 +690,9 @@ def _stack_statistics(ds: xr.Dataset, dim: str) -> list[str]:
 def summary(ds: xr.Dataset) -> dict:
     """JSON-ready statistics of any map product: disturbance map or sweep, truncation, quantity.
 
-    Every summary starts with the same header: ``product``, ``model``, ``lmax``, ``tide_system``
-    (the model's permanent-tide system; None without a model), ``ellipsoid``,
-    ``grid_step_deg``, ``region_deg``, ``height_m`` (a list for a sweep). Then, for a
+    Every summary starts with the same header: ``product``, ``model``, ``lmax``, ``ellipsoid``,
+    ``grid_step_deg``, ``region_deg``, ``height_m`` (a list for a sweep), ``tide_system`` (the
+    model's permanent-tide system; None without a model). Then, for a
     disturbance map, its statistics (``max_mg``, ``mean_mg``, ``rms_mg``, percentiles) and
     ``area_fraction_above`` {threshold in mg: fraction 0..1}; for a sweep the same as lists per
     height; for a truncation map each statistic as {"j2": ..., ...}; for a quantity map
