@@ -406,7 +406,7 @@ CONTEXTS = {
 
 # ------------------------------------------------------------------------------- expectations
 CHANGES, NEUTRAL, REFUSED, OUT, ALIAS, GAP = "changes", "neutral", "refused", "out", "alias", "gap"
-NO_CACHE, CACHE, VERSION = "no-cache", "cache", "version"
+NO_CACHE, CACHE, VERSION, CATALOGUE = "no-cache", "cache", "version", "catalogue"
 
 
 @dataclass(frozen=True)
@@ -436,6 +436,18 @@ def _maps(cmd: str, height: tuple) -> dict:
         "--gm": [C(ctx, "--gm", "3.986e14", expect=REFUSED)],
         "--radius": [C(ctx, "--radius", "6378137", expect=REFUSED)],
         "--no-cache": [C(ctx, "--no-cache", expect=NEUTRAL)],
+        "--tide-system": [
+            C(ctx, "--tide-system", "zero_tide"),
+            C(
+                ctx,
+                "--tide-system",
+                "zero_tide",
+                "--model",
+                "kaula.gfc",
+                expect=REFUSED,
+                note="unknown",
+            ),
+        ],
         "--quantity": [C(ctx, "--quantity", "anomaly")],
         "--step-deg": [C(ctx, "--step-deg", "45")],
         "--lat-max": [
@@ -511,6 +523,12 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("point-table", "--device", "cpu", expect=REFUSED, note="table:FILE"),
         C("point-sigma", "--device", "cpu", expect=REFUSED, note="sigma"),
     ],
+    ("point", "--tide-system"): [
+        C("point", "--tide-system", "mean_tide"),
+        C("point-file", "--tide-system", "mean_tide", expect=REFUSED, note="unknown"),
+        C("point-table", "--tide-system", "mean_tide", expect=REFUSED, note="table:FILE"),
+        C("point-normal", "--tide-system", "mean_tide", expect=REFUSED, note="--quantity normal"),
+    ],
     ("point", "--precision"): [C("point", "--precision", "6")],
     ("point", "--input"): [C("point", "--input", "pts.txt")],
     # ----------------------------------------------------------------------------- verify
@@ -520,6 +538,9 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     # ------------------------------------------------------------------------------ cache
     ("cache", "info"): [C("point-file", expect=CACHE)],
     ("cache", "clear"): [C("point-file", expect=CACHE)],
+    ("cache", "models"): [C("point", expect=CATALOGUE)],
+    ("cache", "fetch"): [C("point", expect=CATALOGUE)],
+    ("cache", "name"): [C("point", expect=CATALOGUE)],
     # ------------------------------------------------------------------------- map, sweep
     **{("map", k): v for k, v in _maps("map", ("30",)).items()},
     **{("sweep", k): v for k, v in _maps("sweep", ("20,30",)).items()},
@@ -554,6 +575,10 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("truncation", "--model"): [
         C("truncation-degrees", "--model", "kaula.gfc"),
         C("truncation", "--model", "kaula.gfc", expect=REFUSED, note="--degrees"),
+    ],
+    ("truncation", "--tide-system"): [
+        C("truncation-degrees", "--tide-system", "zero_tide"),  # recorded: the numbers stay
+        C("truncation", "--tide-system", "zero_tide", expect=REFUSED, note="--degrees"),
     ],
     ("truncation", "--lmax"): [
         C("truncation-degrees", "--lmax", "9"),
@@ -644,6 +669,10 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("navsim", "--model"): [C("table1", "--model", "kaula.gfc")],
     ("navsim", "--truth"): [C("table1", "--truth", "kaula.gfc", expect=ALIAS, note="--model")],
     ("navsim", "--lmax"): [C("table1", "--lmax", "8"), C("flight", "--lmax", "8")],
+    ("navsim", "--tide-system"): [
+        C("table1", "--tide-system", "mean_tide"),
+        C("flight", "--tide-system", "mean_tide"),
+    ],
     ("navsim", "--truth-degree"): [C("table1", "--truth-degree", "8", expect=ALIAS, note="--lmax")],
     ("navsim", "--output-dt"): [C("table1", "--output-dt", "0.5"), C("flight", "--output-dt", "2")],
     ("navsim", "--no-timing"): [
@@ -744,6 +773,7 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("table", "--gm"): [C("table", "--gm", "3.986e14", expect=REFUSED)],
     ("table", "--radius"): [C("table", "--radius", "6378137", expect=REFUSED)],
     ("table", "--no-cache"): [C("table", "--no-cache", expect=NEUTRAL)],
+    ("table", "--tide-system"): [C("table", "--tide-system", "mean_tide")],
     ("table", "--device"): [C("table", "--device", "cpu", expect=NEUTRAL)],
     ("table", "--out"): [C("table", expect=OUT)],
     # --------------------------------------------------------------------------- imu allan
@@ -886,6 +916,8 @@ def test_option(key, case, fixtures, tmp_path, monkeypatch):
         return
     if case.expect in (NO_CACHE, CACHE):
         return _check_cache(case, key, fixtures, tmp_path, monkeypatch)
+    if case.expect == CATALOGUE:
+        return _check_catalogue(key, fixtures, tmp_path, monkeypatch)
     if case.expect == VERSION:
         from fieldmap import __version__
 
@@ -953,6 +985,19 @@ def _check_cache(case, key, fixtures, tmp_path, monkeypatch):
         run = invoke(["cache", "clear"], None, fixtures, tmp_path, monkeypatch)
         assert run.rc == 0 and run.out.startswith("removed 1 cached models"), run.out
         assert entries() == 0
+
+
+def _check_catalogue(key, fixtures, tmp_path, monkeypatch):
+    """``cache models`` lists the catalogue; ``fetch`` wants a known NAME; NAME is fetch's only."""
+    if key[1] == "models":
+        run = invoke(["cache", "models"], None, fixtures, tmp_path, monkeypatch)
+        assert run.rc == 0 and "EGM2008" in run.out and "GGM05C" in run.out, run.err
+        return
+    argv = {"fetch": ["cache", "fetch", "EGM2009"], "name": ["cache", "models", "EGM2008"]}
+    run = invoke(argv[key[1]], None, fixtures, tmp_path, monkeypatch)
+    lines = run.err.strip().splitlines()
+    assert run.rc == 2 and len(lines) == 1 and run.out == "" and not run.files, run.err
+    assert ("EGM2008" if key[1] == "fetch" else "'fetch'") in lines[0], lines[0]
 
 
 @pytest.mark.parametrize("name", sorted(CONTEXTS))

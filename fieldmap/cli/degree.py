@@ -51,6 +51,9 @@ def add_options(p: argparse.ArgumentParser) -> None:
         help="truncate the model of --degrees/--tolerance-mgal to this degree first "
         "(the full model L; default: its own degree)",
     )
+    from fieldmap.cli.model_options import add_tide_option
+
+    add_tide_option(p)
 
 
 def wanted(args: argparse.Namespace) -> bool:
@@ -65,7 +68,11 @@ def wanted(args: argparse.Namespace) -> bool:
         if args.scheduler is not None:
             raise InputError("--scheduler applies to the J2n maps (--orders), not to --degrees")
     else:
-        for dest, opt in (("model", "--model"), ("lmax", "--lmax")):
+        for dest, opt in (
+            ("model", "--model"),
+            ("lmax", "--lmax"),
+            ("tide_system", "--tide-system"),
+        ):
             if given(args, dest) or getattr(args, dest) is not None:
                 raise InputError(f"{opt} applies with --degrees or --tolerance-mgal")
     return sh
@@ -73,7 +80,7 @@ def wanted(args: argparse.Namespace) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Validate everything, compute, print, then write NetCDF, JSON (and PNG)."""
-    from fieldmap.models.registry import load_model
+    from fieldmap.models.registry import announce, load_model
     from fieldmap.products import degree as deg
 
     heights = heights_km(args)
@@ -81,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     if args.tolerance_mgal is not None:
         tol = api_call("--tolerance-mgal", deg.check_tolerance, args.tolerance_mgal)
     preflight(args, heights)
-    model = load_model(args.model or "eigen-6s", lmax=args.lmax)
+    model = load_model(args.model or "eigen-6s", lmax=args.lmax, tide_system=args.tide_system)
+    announce(model)
     degrees = None
     if args.degrees is not None:
         degrees = api_call(
@@ -114,7 +122,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _print(ds: xr.Dataset, found: dict[str, Any] | None) -> None:
     a = ds.attrs
-    print(f"SH omission of {a['model']} degree {a['model_lmax']} ({a['ellipsoid']}), mGal")
+    print(
+        f"SH omission of {a['model']} degree {a['model_lmax']} ({a['ellipsoid']}, "
+        f"{a['model_tide_system']}), mGal"
+    )
     print("  degree   h (km)    max         mean        rms         p99")
     for i, d in enumerate(ds["degree"].values):
         for k, h in enumerate(ds["height"].values):
@@ -136,6 +147,7 @@ def summary(ds: xr.Dataset, found: dict[str, Any] | None) -> dict:
         "product": "omission",
         "model": a["model"],
         "lmax": a["model_lmax"],
+        "tide_system": a["model_tide_system"],
         "ellipsoid": a["ellipsoid"],
         "grid_step_deg": a["grid_step_deg"],
         "region_deg": [float(x) for x in a["region_west_east_south_north_deg"]],

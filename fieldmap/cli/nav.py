@@ -504,6 +504,14 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "--truth-degree", dest="lmax", type=int, default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
     p.add_argument(
+        "--tide-system",
+        # fieldmap.models.tide.TIDE_SYSTEMS, spelt out (one module fewer at every start)
+        choices=("tide_free", "zero_tide", "mean_tide"),
+        default=None,
+        help="convert the truth model to this permanent-tide system after loading (C̄20, IERS "
+        "Conventions 2010 §6.2.2); recorded in the JSON meta (default: the model file's own)",
+    )
+    p.add_argument(
         "--output-dt",
         type=float,
         default=None,
@@ -681,7 +689,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
     from fieldmap._warp import resolve_device
-    from fieldmap.models.registry import load_model
+    from fieldmap.models.registry import announce, load_model
     from fieldmap.nav.imu import sample_count
     from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
@@ -697,7 +705,12 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
             raise InputError(f"{name} must be a positive number, got {v}")
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
-    model = load_model(args.model, lmax=args.lmax)
+    model = load_model(args.model, lmax=args.lmax, tide_system=args.tide_system)
+    if is_flight(args) and "table:" in str(args.models):  # truth and tables in one tide system
+        from fieldmap.cli.model_options import in_tables_system
+
+        model = in_tables_system(model, split_list(args.models), args.tide_system)
+    announce(model)
     if is_flight(args):
         return _check_flight_args(args, model, notes)
     models = _model_names(args, split_list(args.models), model, notes)
@@ -826,6 +839,7 @@ def _scenario_and_studies(
 ) -> list[StudyResult]:
     from tqdm import tqdm
 
+    from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
@@ -836,8 +850,7 @@ def _scenario_and_studies(
     sc = build_scenario(
         duration=args.duration,
         sampling=ImuSampling(args.rate, args.gauss),
-        truth=args.model,
-        truth_lmax=args.lmax,
+        truth=load_model(args.model, lmax=args.lmax, tide_system=args.tide_system),
         output_dt=args.output_dt,
         device=device,
         progress=True,

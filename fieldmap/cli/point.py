@@ -56,7 +56,13 @@ QUANTITIES = (
 #: not import Warp; a test checks that both agree).
 NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
 #: model-file options of :func:`fieldmap.models.registry.model_options` left at their defaults
-_DEFAULT_MODEL_OPTIONS = {"model_dir": None, "gm": None, "radius": None, "cache": True}
+_DEFAULT_MODEL_OPTIONS = {
+    "model_dir": None,
+    "gm": None,
+    "radius": None,
+    "cache": True,
+    "tide_system": None,
+}
 #: as GeographicLib's Gravity (no T there: 4 decimals of m²/s² are 0.01 mm of geoid height)
 _DEFAULT_DECIMALS = {
     "disturbance": 3,
@@ -206,7 +212,8 @@ def evaluate_points(
         Warp device.
     model_options : dict, optional
         Keywords of :func:`fieldmap.models.registry.load_model`: ``lmax``, ``epoch``,
-        ``model_dir``, ``gm``, ``radius``, ``cache`` (0.2: ``lmax=``, ``epoch=`` here).
+        ``model_dir``, ``gm``, ``radius``, ``cache``, ``tide_system`` (0.2: ``lmax=``,
+        ``epoch=`` here).
 
     Returns
     -------

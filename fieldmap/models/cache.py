@@ -86,6 +86,15 @@ def cache_dir() -> str:
     return config.get().model_cache
 
 
+def downloads_dir(root: str | None = None) -> str:
+    """Folder of the model files downloaded by name (:mod:`fieldmap.models.catalogue`).
+
+    ``<cache>/downloads``; not created here. :func:`clear` leaves it alone (a download of a
+    degree-2190 model takes minutes; its parsed entry a second to rebuild).
+    """
+    return os.path.join(_root(root), "downloads")
+
+
 def _root(root: str | None) -> str:
     """``root``, else :func:`cache_dir`; an InputError if that is a file (:func:`usable`)."""
     return usable(root or cache_dir())

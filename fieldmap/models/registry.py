@@ -1,8 +1,9 @@
 """Gravity models by name or path: the bundled EIGEN-6S, user model files, synthetic Kaula models.
 
 ``load_model()`` with no argument returns the bundled EIGEN-6S (degree 240, see
-``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A user's file is
-recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
+``fieldmap/data/README.md``), read through :mod:`importlib.resources`. A catalogue name
+(``EGM2008``, ``EIGEN-6C4``..., :mod:`.catalogue`) is downloaded once and verified. A user's
+file is recognised by its content (:func:`detect_format`): an ICGEM ``.gfc`` (:mod:`.icgem`), an NGA
 plain coefficient file (:mod:`.nga`), or GeographicLib's ``.egm`` + ``.egm.cof`` pair
 (:mod:`.egm`; also found by name in ``model_dir`` or GeographicLib's gravity folders,
 as ``Gravity -n NAME -d DIR``).
@@ -145,6 +146,11 @@ def _resolve_path(name: str, model_dir: str | os.PathLike[str] | None) -> str:
     found = None if model_dir is not None else find_egm(name)
     if found:
         return found
+    from fieldmap.models import catalogue
+
+    listed = None if model_dir is not None else catalogue.lookup(name)
+    if listed is not None:  # downloaded once, verified (one line if it cannot be)
+        return catalogue.fetch(listed)
     where = (
         f"nor {name}.egm in {os.fspath(model_dir)}"
         if model_dir is not None
@@ -152,7 +158,7 @@ def _resolve_path(name: str, model_dir: str | os.PathLike[str] | None) -> str:
     )
     raise InputError(
         f"unknown model {name!r}: not a bundled model ({', '.join(BUNDLED)}), "
-        f"not an existing file, {where}"
+        f"not a catalogue model ({', '.join(catalogue.names())}), not an existing file, {where}"
     )
 
 
@@ -165,17 +171,20 @@ def load_model(
     gm: float | None = None,
     radius: float | None = None,
     cache: bool = True,
+    tide_system: str | None = None,
 ) -> SHModel:
     """Return a spherical-harmonic gravity model.
 
     Parameters
     ----------
     name_or_path : str or os.PathLike or SHModel or None
-        A bundled model name (``"eigen-6s"``, case-insensitive); the path of an ICGEM ``.gfc``
-        or ``.gfc.gz`` file, of an NGA coefficient file (EGM96, EGM2008) or of a GeographicLib
-        ``.egm`` file; a GeographicLib model name (``egm2008``) found in ``model_dir`` or in
-        GeographicLib's gravity folders; or an :class:`SHModel` (returned, truncated to
-        ``lmax`` if given). None: the default model (EIGEN-6S).
+        A bundled model name (``"eigen-6s"``, case-insensitive); a catalogue name
+        (``"EGM2008"``, :mod:`fieldmap.models.catalogue`: downloaded once, verified); the path
+        of an ICGEM ``.gfc`` or ``.gfc.gz`` file, of an NGA coefficient file (EGM96, EGM2008)
+        or of a GeographicLib ``.egm`` file; a GeographicLib model name (``egm2008``) found in
+        ``model_dir`` or in GeographicLib's gravity folders (before the catalogue); or an
+        :class:`SHModel` (returned, truncated to ``lmax`` if given). None: the default model
+        (EIGEN-6S).
     lmax : int, optional
         Truncation degree; default: the model's full degree.
     epoch : float or str, optional
@@ -192,6 +201,9 @@ def load_model(
         other formats, which carry their own.
     cache : bool
         Use the on-disk cache of parsed coefficients (:mod:`fieldmap.models.cache`).
+    tide_system : {"tide_free", "zero_tide", "mean_tide"}, optional
+        Convert the model to this permanent-tide system (:mod:`fieldmap.models.tide`); default:
+        the system of the file.
 
     Returns
     -------
@@ -201,7 +213,8 @@ def load_model(
     ------
     InputError
         Unknown name, missing file, ``lmax`` not a non-negative integer or above the model's
-        degree, bad epoch or one given for a static model, ``model_dir`` that does nothing.
+        degree, bad epoch or one given for a static model, ``model_dir`` that does nothing,
+        unknown tide system, or one asked of a model whose own is unknown.
     ModelFileError
         Malformed model file.
 
@@ -214,6 +227,25 @@ def load_model(
     >>> model  # doctest: +ELLIPSIS
     SHModel('EIGEN-6S', degree=36 (of 240), GM=3.986004415e+14 m3/s2, a=6378136.46 m, ...)
     """
+    if tide_system is None:
+        return _load(name_or_path, lmax, epoch, model_dir, gm, radius, cache)
+    from fieldmap.models.tide import check_tide_system, convert_tide_system
+
+    target = check_tide_system(tide_system)  # before the file is read: a typo costs nothing
+    model = _load(name_or_path, lmax, epoch, model_dir, gm, radius, cache)
+    return convert_tide_system(model, target)
+
+
+def _load(
+    name_or_path: str | os.PathLike[str] | bytes | SHModel | None,
+    lmax: int | None,
+    epoch: float | str | None,
+    model_dir: str | os.PathLike[str] | None,
+    gm: float | None,
+    radius: float | None,
+    cache: bool,
+) -> SHModel:
+    """:func:`load_model` before any tide-system conversion."""
     lmax = as_degree(lmax)
     if name_or_path is None:
         name_or_path = DEFAULT_MODEL
@@ -402,7 +434,7 @@ def model_options(args: argparse.Namespace) -> dict[str, Any]:
 
     ``args`` is the namespace parsed with the options of
     ``fieldmap.cli.model_options.add_model_options`` (``--model-dir``, ``--gm``, ``--radius``,
-    ``--no-cache``); a missing attribute counts as its default.
+    ``--no-cache``, ``--tide-system``); a missing attribute counts as its default.
 
     ``--no-cache`` also stops the cache of recursion tables for this process. ``--model-dir``
     with a bundled model name (read from the package, never from that folder) or with the path
@@ -422,21 +454,37 @@ def model_options(args: argparse.Namespace) -> dict[str, Any]:
             )
     if getattr(args, "no_cache", False):
         disk_cache.disable()
+    tide_system = getattr(args, "tide_system", None)
+    if tide_system is not None:
+        from fieldmap.models.tide import check_tide_system
+
+        tide_system = check_tide_system(tide_system)
     return {
         "model_dir": getattr(args, "model_dir", None),
         "gm": getattr(args, "gm", None),
         "radius": getattr(args, "radius", None),
         "cache": not getattr(args, "no_cache", False),
+        "tide_system": tide_system,
     }
 
 
 def announce(model: SHModel, stream: TextIO | None = None) -> None:
-    """Tell the user (stderr) which GM and radius an NGA file was read with."""
+    """Tell the user (stderr) which GM and radius an NGA file was read with, and a conversion.
+
+    A model converted to another tide system (:func:`load_model` ``tide_system=``) is one line
+    naming both systems and the change of C̄20.
+    """
     import sys
 
-    note = model.header.get("constants") if isinstance(model.header, dict) else None
+    header = model.header if isinstance(model.header, dict) else {}
+    note = header.get("constants")
     if note:
         print(f"fieldmap: {model.source}: {note}", file=stream or sys.stderr)
+    origin = header.get("tide_origin")
+    if origin and origin["system"] != model.tide_system:
+        from fieldmap.models.tide import conversion_note
+
+        print(f"fieldmap: {model.name}: {conversion_note(model)}", file=stream or sys.stderr)
 
 
 #: the prefix of a compensation table given as a model name, ``"table:FILE"``

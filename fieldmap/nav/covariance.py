@@ -490,6 +490,7 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
             "baro": study.baro.__dict__ if study.aiding == "baro" else None,
             "truth_model": study.truth.name,
             "truth_degree": int(study.truth.lmax),
+            "truth_tide_system": study.truth.tide_system,
             "output_dt_s": float(dt),
             "covariance_seconds": c1 - c0,
             "gravity_budget_seconds": c2 - c1,

@@ -109,7 +109,7 @@ def validate_increments(dtheta: Any, dv: Any, dt: Any) -> None:
 
 
 # --- truth gravitation --------------------------------------------------------------------------
-def load_truth_model(name: str = DEFAULT_TRUTH, lmax: int | None = None) -> SHModel:
+def load_truth_model(name: str | SHModel = DEFAULT_TRUTH, lmax: int | None = None) -> SHModel:
     """Load a gravity model by name or path via :func:`fieldmap.models.registry.load_model`."""
     from fieldmap.models.registry import load_model
 

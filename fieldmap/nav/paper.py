@@ -343,6 +343,7 @@ def _meta(sc: Scenario) -> dict:
     return {
         "truth_model": sc.truth_model.name,
         "truth_degree": int(sc.truth_model.lmax),
+        "truth_tide_system": sc.truth_model.tide_system,
         "trajectory": sc.traj.name,
         "duration_s": float(sc.imu.duration),
         "imu_rate_hz": float(sc.imu.rate_hz),

@@ -198,7 +198,7 @@ class Scenario:
 def build_scenario(
     duration: float = 800.0,
     sampling: ImuSampling | None = None,
-    truth: str = "eigen-6s",
+    truth: str | SHModel = "eigen-6s",
     truth_lmax: int | None = None,
     output_dt: float = 1.0,
     trajectory: Trajectory | None = None,
@@ -215,8 +215,9 @@ def build_scenario(
         IMU rate (navigation step 2/rate) and Gauss–Legendre nodes per sample (default
         ``ImuSampling()``: 200 Hz, 3 nodes). The 0.1 keywords ``rate_hz=``, ``n_gauss=`` still
         work, with a ``DeprecationWarning``.
-    truth : str
-        Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``).
+    truth : str or SHModel
+        Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``), or
+        the model itself (e.g. converted to a tide system).
     truth_lmax : int, optional
         Truth degree (default: full).
     output_dt : float
@@ -1150,6 +1151,7 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
             "baro": baro.__dict__ if aiding == "baro" else None,
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
+            "truth_tide_system": model.tide_system,
             "truth_evaluation": study.truth_evaluation,
             "gravity_update_every_samples": int(g_every),
             "gravity_rate_hz": float(rate_hz) / g_every,

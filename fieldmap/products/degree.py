@@ -233,9 +233,10 @@ def degree_needed(
     Returns
     -------
     dict
-        ``degree_needed``, ``tolerance_mgal``, ``model``, ``model_lmax``, ``height_m``,
-        ``omission_max_mgal`` (at the degree), ``omission_max_below_mgal`` (at degree − 1,
-        the degree 1 omission when the answer is 2) and ``evaluated`` {degree: omission max}.
+        ``degree_needed``, ``tolerance_mgal``, ``model``, ``model_lmax``,
+        ``model_tide_system``, ``height_m``, ``omission_max_mgal`` (at the degree),
+        ``omission_max_below_mgal`` (at degree − 1, the degree 1 omission when the answer is
+        2) and ``evaluated`` {degree: omission max}.
     """
     tol = check_tolerance(tolerance_mgal)
     grid, ell, device, mod = _setup("degree_needed", model, options)
@@ -268,6 +269,7 @@ def degree_needed(
         "tolerance_mgal": tol,
         "model": mod.name,
         "model_lmax": int(mod.lmax),
+        "model_tide_system": mod.tide_system,
         "height_m": [float(x) for x in grid.heights],
         "omission_max_mgal": omax(hi),
         "omission_max_below_mgal": below,

@@ -154,6 +154,7 @@ def global_attrs(
                 "model_max_degree": int(model.max_degree),
                 "model_epoch": "static" if model.epoch is None else f"{model.epoch:.4f}",
                 "model_tide_system": model.tide_system,
+                **_tide_conversion(model, str(attrs["history"])),
                 "model_gm": float(model.gm),
                 "model_radius": float(model.radius),
             }
@@ -161,6 +162,19 @@ def global_attrs(
     if grid.heights.size == 1:
         attrs["height_m"] = float(grid.heights[0])
     return attrs
+
+
+def _tide_conversion(model: SHModel, history: str) -> dict[str, Any]:
+    """Return the file's tide system and a history line of a model converted to another."""
+    if not (isinstance(model.header, dict) and "tide_origin" in model.header):
+        return {}  # read as it is (and fieldmap.models.tide not imported)
+    from fieldmap.models.tide import conversion_note
+
+    note = conversion_note(model)
+    if not note:
+        return {}
+    system = model.header["tide_origin"]["system"]
+    return {"model_tide_system_of_file": system, "history": f"{history}; {model.name} {note}"}
 
 
 def disturbance_attrs(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> dict[str, Any]:
@@ -663,6 +677,7 @@ def _header(ds: xr.Dataset, product: str) -> dict[str, Any]:
     }
     h = ds["height"].values
     out["height_m"] = [float(x) for x in h] if "height" in ds.dims else float(h)
+    out["tide_system"] = a.get("model_tide_system")
     return out
 
 
@@ -676,7 +691,8 @@ def summary(ds: xr.Dataset) -> dict:
     """JSON-ready statistics of any map product: disturbance map or sweep, truncation, quantity.
 
     Every summary starts with the same header: ``product``, ``model``, ``lmax``, ``ellipsoid``,
-    ``grid_step_deg``, ``region_deg``, ``height_m`` (a list for a sweep). Then, for a
+    ``grid_step_deg``, ``region_deg``, ``height_m`` (a list for a sweep), ``tide_system`` (the
+    model's permanent-tide system; None without a model). Then, for a
     disturbance map, its statistics (``max_mg``, ``mean_mg``, ``rms_mg``, percentiles) and
     ``area_fraction_above`` {threshold in mg: fraction 0..1}; for a sweep the same as lists per
     height; for a truncation map each statistic as {"j2": ..., ...}; for a quantity map

@@ -352,6 +352,7 @@ def _build(
     tab.meta.update(
         model=m.name,
         lmax=int(m.lmax),
+        tide_system=m.tide_system,
         ellipsoid="WGS84",
         max_error_mgal=bound,
         verified={
@@ -412,6 +413,7 @@ def _report(
     return {
         "model": m.name,
         "lmax": int(m.lmax),
+        "tide_system": m.tide_system,
         "normal_field": "exact normal gravity of the WGS84 level ellipsoid",
         "components": "dn, de, dd: gravity disturbance north, east, down (NED), mGal",
         "region": {"west": region[0], "east": region[1], "south": region[2], "north": region[3]},

@@ -127,6 +127,7 @@ def to_dataset(tab: CompensationTable) -> xr.Dataset:
         "source": f"{m.get('model', '?')} degree {m.get('lmax', '?')}",
         "model": str(m.get("model", "")),
         "lmax": int(m.get("lmax", 0)),
+        "model_tide_system": str(m.get("tide_system", "unknown")),
         "normal_field": f"exact normal gravity of the {m.get('ellipsoid', 'WGS84')} level "
         "ellipsoid (closed form); disturbance = model gravitation - normal gravitation",
         "frame": "local geodetic north-east-down (NED) at each node; dd > 0 pulls downward",

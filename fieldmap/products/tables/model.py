@@ -306,6 +306,7 @@ def read_netcdf(path: str | os.PathLike[str]) -> CompensationTable:
                 axis=-1,
             )
             meta = {k: a[k] for k in ("model", "lmax", "max_error_mgal") if k in a}
+            meta["tide_system"] = str(a.get("model_tide_system", "unknown"))
     except (KeyError, ValueError, OSError) as exc:
         raise InputError(f"{path}: not a fieldmap compensation table ({exc})") from None
     lat0, dlat, lon0, dlon, h0, dh = lattice
