@@ -35,7 +35,39 @@ reproduce NGA's synthesis programs):
   latitude, r geocentric radius) and γ the magnitude of normal gravity (with centrifugal) at P.
   ξ is the northerly, η the easterly component.
 
+ICGEM's functionals (Barthelmes 2013, *Definition of functionals of the geopotential and their
+calculation from spherical harmonic models*, GFZ Scientific Technical Report STR09/02, revised
+edition; ICGEM's names in brackets), with the same T:
+
+* **Height anomaly on the ellipsoid** [``height_anomaly_ell``] (Barthelmes 2013 §2.2 defines
+  the height anomaly ζ of a point P by :math:`W(P) = U(Q)`, Q on P's ellipsoidal normal at
+  height :math:`h_P - \zeta`; §3.2 and §4.3 approximate it by Bruns' formula):
+  :math:`\zeta_{ell} = T(\varphi, \lambda, 0)/\gamma_0(\varphi)`, T on the ellipsoid over
+  Somigliana's γ0. It is the geoid height above without GeographicLib's ζ0 and correction
+  series (EGM2008's N − ζ terms): ``Gravity -H`` minus ζ is exactly that N − ζ term. The
+  neglected second-order term :math:`\zeta^2 (\partial\gamma/\partial h)/(2\gamma)` is at
+  most 2 mm (ζ = 110 m).
+* **Classical (Molodensky) gravity anomaly** [``gravity_anomaly_cl``] (Barthelmes 2013 §2.4.1,
+  §3.5.1, §4.5): :math:`\Delta g_{cl} = |\nabla W(P)| - |\nabla U(Q)|`, P at height h, Q on
+  its ellipsoidal normal at height :math:`h - \zeta` with :math:`U(Q) = W(P)` (the normal
+  height surface, the telluroid when P is on the topography). ζ is solved here from
+  :math:`U(Q) = U(P) + T(P)` by Newton's method on the closed-form normal potential (Heiskanen
+  & Moritz 1967 eqs. 2-61, 2-62 plus the centrifugal term), starting from Bruns' T/γ(P); three
+  steps reach the float64 rounding of U (1e-9 m). :math:`\nabla W(P) = \nabla U(P) +
+  \nabla T(P)`, so the degree-0 choice of T applies here as well.
+* **Gravity disturbance in spherical approximation** [``gravity_disturbance_sa``] (Barthelmes
+  2013 §3.4, §4.4): :math:`\delta g_{sa} = -\partial T/\partial r`, the geocentric radial
+  derivative at the point (the anomaly above without its :math:`-2T/r`).
+* **Second radial derivative** [``second_r_derivative``] :math:`T_{rr} = \partial^2 T/
+  \partial r^2` at the point, in Eötvös (1 E = 1e-9 s⁻²). From the series of T (Barthelmes
+  2013 §4.1: each degree n of T is :math:`(R/r)^{n+1}` times a surface harmonic), exactly
+  :math:`T_{rr} = r^{-2}\sum_n (n+1)(n+2)\,T_n(r, \psi, \lambda)`: one synthesis of the
+  disturbing model with coefficients weighted by (n+1)(n+2), divided by r².
+
 The series are summed by the engine of :mod:`fieldmap.field.sh` (Warp kernels), no new kernel.
+On grids (:func:`grid_quantities`) every quantity is one Legendre pass of
+:func:`fieldmap.grids.synthesis.synthesize` (the classical anomaly adds point evaluations of
+normal gravity at h − ζ, which cost no harmonic synthesis).
 """
 
 from __future__ import annotations
@@ -464,6 +496,233 @@ def geoid_height(
     t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
     n = t / somigliana(lat, ellipsoid=ell)
     return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)
+
+
+def height_anomaly(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    """Height anomaly on the ellipsoid ζ = T(φ, λ, 0)/γ0(φ) (ICGEM's ``height_anomaly_ell``).
+
+    Barthelmes (2013) §2.2 (definition), §4.3 (Bruns' formula on the ellipsoid); module
+    docstring. GeographicLib's ``Gravity -H`` (and :func:`geoid_height`) is ζ plus the model's
+    N − ζ terms (``HeightOffset`` and correction series); for a model without them both agree.
+
+    Parameters
+    ----------
+    latitude, longitude : array_like
+        Geodetic latitude and longitude. Units: degrees.
+    model, ellipsoid, degree0, device
+        As :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of ``latitude``, ``longitude``. Units: m.
+    """
+    from fieldmap.field.normal import somigliana
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, 0.0)
+    m = _resolve(model)
+    t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
+    return t / somigliana(lat, ellipsoid=ell)
+
+
+def _radial(grad_ecef: np.ndarray, xyz: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Geocentric radial component r̂·∇ of an ECEF gradient (the ``d_up`` of anomaly_from_t)."""
+    x, y, z = xyz
+    p = np.hypot(x, y)
+    r = np.hypot(p, z)
+    cpsi, spsi = p / r, z / r
+    lam = np.arctan2(y, x)
+    gx, gy, gz = grad_ecef[..., 0], grad_ecef[..., 1], grad_ecef[..., 2]
+    return cpsi * (np.cos(lam) * gx + np.sin(lam) * gy) + spsi * gz
+
+
+def disturbance_sa(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    """Gravity disturbance in spherical approximation δg_sa = −∂T/∂r (``gravity_disturbance_sa``).
+
+    Barthelmes (2013) §3.4, §4.4: the geocentric radial derivative of T at the point (module
+    docstring). Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: mGal.
+    """
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    _, grad, xyz = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
+    assert grad is not None  # asked for (grad=True)
+    return -_radial(grad, xyz) * MGAL
+
+
+def radial_weighted_model(model: SHModel, weights: np.ndarray) -> SHModel:
+    """``model`` with the coefficients of each degree n multiplied by ``weights[n]``.
+
+    A functional that is a per-degree weighting of a series is one synthesis of this model
+    (module docstring: T_rr; :mod:`fieldmap.field.water`: equivalent water height).
+    """
+    w = np.asarray(weights, dtype=np.float64)[: model.lmax + 1, None]
+    return replace(
+        model,
+        name=f"{model.name} (weighted per degree)",
+        C=model.C * w,
+        S=model.S * w,
+        sigma_c=None,
+        sigma_s=None,
+    )
+
+
+def _trr_model(dm: SHModel) -> SHModel:
+    n = np.arange(dm.lmax + 1, dtype=np.float64)
+    return radial_weighted_model(dm, (n + 1.0) * (n + 2.0))
+
+
+def second_radial_derivative(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    r"""Second radial derivative :math:`T_{rr}` of T (ICGEM's ``second_r_derivative``).
+
+    .. math::
+        T_{rr} = \frac{1}{r^2}\sum_{n}(n+1)(n+2)\,T_n(r,\psi,\lambda)
+
+    (each degree of T falls as :math:`r^{-(n+1)}`, Barthelmes 2013 §4.1), r the geocentric
+    radius. Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: E (1e-9 s⁻²).
+    """
+    from fieldmap.field.sh import sh_potential
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    wm = _trr_model(disturbing_model(m, ell, degree0=degree0))
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    r2 = x * x + y * y + z * z
+    return sh_potential(wm, x, y, z, device=device) / r2 * 1e9
+
+
+def _normal_potential(x: np.ndarray, y: np.ndarray, z: np.ndarray, ell: Ellipsoid) -> np.ndarray:
+    r"""Return the normal gravity potential U (gravitational + centrifugal), closed form. m²/s².
+
+    Heiskanen & Moritz (1967) eqs. 2-61, 2-62 (:func:`fieldmap.reference.normal.exact_potential`)
+    plus :math:`\omega^2 (x^2 + y^2)/2`.
+    """
+    from fieldmap.reference.normal import exact_potential
+
+    return exact_potential(x, y, z, ell) + 0.5 * ell.omega**2 * (x * x + y * y)
+
+
+#: Newton steps of the classical anomaly's ζ (from Bruns' T/γ: 1e-4 m, 1e-11 m, then rounding)
+_ZETA_STEPS = 3
+
+
+def _classical_from_t(
+    t: np.ndarray,
+    grad_t_ecef: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    h: np.ndarray,
+    ell: Ellipsoid,
+    device: str | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Classical anomaly (m/s²) and height anomaly ζ at P (m) from T and its ECEF gradient.
+
+    Module docstring: |∇W(P)| − |∇U(Q)|, Q at h − ζ with U(Q) = U(P) + T(P) (Newton on ζ).
+    """
+    from fieldmap.field.normal import normal_gravity
+
+    gam_p = normal_gravity(
+        lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
+    )
+    g_p = np.linalg.norm(gam_p + grad_t_ecef, axis=-1)
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    target = _normal_potential(x, y, z, ell) + t
+    zeta = t / np.linalg.norm(gam_p, axis=-1)
+    for _ in range(_ZETA_STEPS):
+        xq, yq, zq = frames.geodetic_to_ecef(lat, lon, h - zeta, ell)
+        gam_q = normal_gravity(
+            lat,
+            lon,
+            h - zeta,
+            ellipsoid=ell,
+            normal="exact",
+            centrifugal=True,
+            frame="enu",
+            device=device,
+        )
+        # dU/dh along the normal is the up component of normal gravity (negative)
+        zeta = zeta + (_normal_potential(xq, yq, zq, ell) - target) / gam_q[..., 2]
+    gam_q = normal_gravity(
+        lat,
+        lon,
+        h - zeta,
+        ellipsoid=ell,
+        normal="exact",
+        centrifugal=True,
+        frame="ecef",
+        device=device,
+    )
+    return g_p - np.linalg.norm(gam_q, axis=-1), zeta
+
+
+def classical_anomaly(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    r"""Classical (Molodensky) gravity anomaly (ICGEM's ``gravity_anomaly_cl``).
+
+    .. math::
+        \Delta g_{cl} = |\nabla W(P)| - |\nabla U(Q)|,\qquad U(Q) = W(P)
+
+    with Q on P's ellipsoidal normal at height h − ζ (Barthelmes 2013 §2.4.1, §4.5; module
+    docstring). Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: mGal.
+    """
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    t, grad, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
+    assert grad is not None  # asked for (grad=True)
+    dg, _ = _classical_from_t(t, grad, lat, lon, h, ell, device)
+    return dg * MGAL
 
 
 #: quantities of :func:`grid_quantities`
