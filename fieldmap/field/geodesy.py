@@ -644,53 +644,43 @@ def _normal_potential(x: np.ndarray, y: np.ndarray, z: np.ndarray, ell: Ellipsoi
 _ZETA_STEPS = 3
 
 
-def _classical_from_t(
+def _normal_height_point(
     t: np.ndarray,
-    grad_t_ecef: np.ndarray,
+    gamma_p: np.ndarray,
     lat: np.ndarray,
     lon: np.ndarray,
     h: np.ndarray,
     ell: Ellipsoid,
     device: str | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Classical anomaly (m/s²) and height anomaly ζ at P (m) from T and its ECEF gradient.
+    """Height anomaly ζ at P (m) and |∇U(Q)| (m/s²), Q at h − ζ with U(Q) = U(P) + T(P).
 
-    Module docstring: |∇W(P)| − |∇U(Q)|, Q at h − ζ with U(Q) = U(P) + T(P) (Newton on ζ).
+    Newton's method on ζ from Bruns' ζ = T/|γ(P)| (``gamma_p``, m/s²); module docstring.
     """
     from fieldmap.field.normal import normal_gravity
 
-    gam_p = normal_gravity(
-        lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
-    )
-    g_p = np.linalg.norm(gam_p + grad_t_ecef, axis=-1)
-    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
-    target = _normal_potential(x, y, z, ell) + t
-    zeta = t / np.linalg.norm(gam_p, axis=-1)
-    for _ in range(_ZETA_STEPS):
-        xq, yq, zq = frames.geodetic_to_ecef(lat, lon, h - zeta, ell)
-        gam_q = normal_gravity(
+    def gamma_at(hq: np.ndarray, frame: str) -> np.ndarray:
+        return normal_gravity(
             lat,
             lon,
-            h - zeta,
+            hq,
             ellipsoid=ell,
             normal="exact",
             centrifugal=True,
-            frame="enu",
+            frame=frame,
             device=device,
         )
-        # dU/dh along the normal is the up component of normal gravity (negative)
-        zeta = zeta + (_normal_potential(xq, yq, zq, ell) - target) / gam_q[..., 2]
-    gam_q = normal_gravity(
-        lat,
-        lon,
-        h - zeta,
-        ellipsoid=ell,
-        normal="exact",
-        centrifugal=True,
-        frame="ecef",
-        device=device,
-    )
-    return g_p - np.linalg.norm(gam_q, axis=-1), zeta
+
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    target = _normal_potential(x, y, z, ell) + t
+    zeta = t / gamma_p
+    for _ in range(_ZETA_STEPS):
+        xq, yq, zq = frames.geodetic_to_ecef(lat, lon, h - zeta, ell)
+        # dU/dh along the ellipsoidal normal is the up component of normal gravity (< 0)
+        zeta = (
+            zeta + (_normal_potential(xq, yq, zq, ell) - target) / gamma_at(h - zeta, "enu")[..., 2]
+        )
+    return zeta, np.linalg.norm(gamma_at(h - zeta, "ecef"), axis=-1)
 
 
 def classical_anomaly(
@@ -721,12 +711,28 @@ def classical_anomaly(
     m = _resolve(model)
     t, grad, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
     assert grad is not None  # asked for (grad=True)
-    dg, _ = _classical_from_t(t, grad, lat, lon, h, ell, device)
-    return dg * MGAL
+    from fieldmap.field.normal import normal_gravity
+
+    gam_p = normal_gravity(
+        lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
+    )
+    _, gam_q = _normal_height_point(t, np.linalg.norm(gam_p, axis=-1), lat, lon, h, ell, device)
+    return (np.linalg.norm(gam_p + grad, axis=-1) - gam_q) * MGAL
 
 
 #: quantities of :func:`grid_quantities`
-GRID_QUANTITIES = ("potential", "anomaly", "deflection", "geoid")
+GRID_QUANTITIES = (
+    "potential",
+    "anomaly",
+    "deflection",
+    "geoid",
+    "height-anomaly",
+    "anomaly-classical",
+    "disturbance-sa",
+    "trr",
+)
+#: those of them defined on the ellipsoid's surface (h = 0 whatever the grid's heights)
+_SURFACE = ("geoid", "height-anomaly")
 
 
 def grid_quantities(
@@ -739,13 +745,16 @@ def grid_quantities(
     device: str | None = None,
     progress: bool | None = None,
 ) -> dict[str, np.ndarray]:
-    """T, Δg, ξ, η or N on every node of a grid, from one Legendre pass per row.
+    """T, Δg, ξ, η, N or an ICGEM functional on every node of a grid, one Legendre pass per row.
 
     The disturbing model (:func:`disturbing_model`) is synthesised with
     :func:`fieldmap.grids.synthesis.synthesize` (potential and gradient in geodetic ENU); the
     gradient is turned back into the geocentric frame of each row (rotation by φ − ψ) and
-    combined as in :func:`anomaly_from_t`. The geoid height is computed at h = 0 whatever the
-    grid's heights (it is a property of the surface).
+    combined as in :func:`anomaly_from_t`. The geoid height and the height anomaly are computed
+    at h = 0 whatever the grid's heights (properties of the surface). T_rr is the potential of
+    the disturbing model weighted per degree by (n+1)(n+2), over r² (module docstring); the
+    classical anomaly adds ζ and normal gravity at h − ζ, node by node
+    (:func:`classical_anomaly`).
 
     Parameters
     ----------
@@ -753,8 +762,8 @@ def grid_quantities(
         Model (already truncated).
     grid : fieldmap.grids.spec.GridSpec
         Nodes.
-    quantity : {"potential", "anomaly", "deflection", "geoid"}
-        What to compute.
+    quantity : str
+        What to compute, one of :data:`GRID_QUANTITIES`.
     ellipsoid, degree0, device
         As :func:`disturbing_potential`.
     progress : bool, optional
@@ -763,9 +772,10 @@ def grid_quantities(
     Returns
     -------
     dict of numpy.ndarray
-        Arrays of shape ``grid.shape`` (``(1, nlat, nlon)`` for the geoid): ``potential``
-        (m²/s²); ``anomaly`` (mGal); ``xi``, ``eta`` (arcsec, with ``deflection``); ``geoid``
-        (m).
+        Arrays of shape ``grid.shape`` (``(1, nlat, nlon)`` for the geoid and the height
+        anomaly): ``potential`` (m²/s²); ``anomaly`` (mGal); ``xi``, ``eta`` (arcsec, with
+        ``deflection``); ``geoid`` (m); ``height_anomaly`` (m); ``anomaly_classical``,
+        ``disturbance_sa`` (mGal); ``trr`` (E).
     """
     from fieldmap.field.normal import somigliana
     from fieldmap.grids.synthesis import centrifugal_rows, normal_rows, synthesize
@@ -773,15 +783,19 @@ def grid_quantities(
     if quantity not in GRID_QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
     ell = get_ellipsoid(ellipsoid)
-    if quantity == "geoid" and np.any(grid.heights != 0.0):
+    if quantity in _SURFACE and np.any(grid.heights != 0.0):
         grid = replace(grid, heights=np.zeros(1))
     dm = disturbing_model(model, ell, degree0=degree0)
+    if quantity == "trr":
+        dm = _trr_model(dm)
     out = synthesize(
         dm, grid, ell, quantity="gravitation", device=device, progress=progress, potential=True
     )
     t = out[..., 3]
     if quantity == "potential":
         return {"potential": t}
+    if quantity == "height-anomaly":
+        return {"height_anomaly": t / somigliana(grid.lat, ellipsoid=ell)[None, :, None]}
     if quantity == "geoid":
         gam0 = somigliana(grid.lat, ellipsoid=ell)[None, :, None]
         n = t / gam0
@@ -797,12 +811,17 @@ def grid_quantities(
     r = np.hypot(p, z)
     psi = np.arctan2(z, p)
     cd, sd = np.cos(phi - psi)[..., None], np.sin(phi - psi)[..., None]
+    if quantity == "trr":  # the weighted series' potential over r²
+        return {"trr": t / (r * r)[..., None] * 1e9}
     g_e, g_n, g_u = out[..., 0], out[..., 1], out[..., 2]
     d_north = cd * g_n + sd * g_u  # geodetic -> geocentric (north, up)
     d_up = -sd * g_n + cd * g_u
-    gam = np.linalg.norm(
-        normal_rows(grid, ell, device=device) + centrifugal_rows(grid, ell), axis=-1
-    )
+    if quantity == "disturbance-sa":
+        return {"disturbance_sa": -d_up * MGAL}
+    gam_enu = normal_rows(grid, ell, device=device) + centrifugal_rows(grid, ell)
+    gam = np.linalg.norm(gam_enu, axis=-1)
+    if quantity == "anomaly-classical":
+        return {"anomaly_classical": _grid_classical(grid, ell, out, gam_enu, gam, device)}
     gam = gam[..., None]
     if quantity == "anomaly":
         return {"anomaly": (-d_up - 2.0 * t / r[..., None]) * MGAL}
@@ -810,3 +829,29 @@ def grid_quantities(
         "xi": -d_north / gam * ARCSEC_PER_RAD,
         "eta": -g_e / gam * ARCSEC_PER_RAD,
     }
+
+
+def _grid_classical(
+    grid: GridSpec,
+    ell: Ellipsoid,
+    out: np.ndarray,
+    gam_enu: np.ndarray,
+    gam: np.ndarray,
+    device: str | None,
+) -> np.ndarray:
+    """Classical anomaly (mGal) of every node from the synthesis ``out`` (∇T in ENU, T).
+
+    ``gam_enu`` (nh, nlat, 3) and ``gam`` (nh, nlat): normal gravity at the rows (ENU, with
+    centrifugal) and its magnitude. |∇W(P)| = |γ(P) + ∇T(P)| (geodetic ENU, as the
+    synthesis); ζ and |γ(Q)| node by node (:func:`classical_anomaly`); the normal field is
+    axisymmetric, so the nodes' longitude does not enter it.
+    """
+    g_p = np.linalg.norm(gam_enu[:, :, None, :] + out[..., :3], axis=-1)
+    shape = g_p.shape
+    lat = np.broadcast_to(grid.lat[None, :, None], shape).ravel()
+    h = np.broadcast_to(grid.heights[:, None, None], shape).ravel()
+    gp = np.broadcast_to(gam[..., None], shape).ravel()
+    _, gam_q = _normal_height_point(
+        out[..., 3].ravel(), gp, lat, np.zeros_like(lat), h, ell, device
+    )
+    return (g_p - gam_q.reshape(shape)) * MGAL
