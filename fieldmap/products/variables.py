@@ -339,7 +339,7 @@ VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
         (
             "anomaly_classical",
             "mGal",
-            "classical gravity anomaly |grad W(h)| - |grad U(h - zeta)|, ICGEM gravity_anomaly_cl",
+            "classical gravity anomaly, |grad W(h)| - |grad U(h - zeta)|, ICGEM gravity_anomaly_cl",
             None,
         )
     ],
@@ -347,7 +347,7 @@ VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
         (
             "disturbance_sa",
             "mGal",
-            "gravity disturbance, spherical approximation: -dT/dr, ICGEM gravity_disturbance_sa",
+            "gravity disturbance in spherical approximation, -dT/dr, ICGEM gravity_disturbance_sa",
             None,
         )
     ],
