@@ -131,7 +131,7 @@ def field_difference(model: SHModel, reference: SHModel) -> SHModel:
     Returns
     -------
     SHModel
-        The difference, named ``"A minus B"``; its header marks it as a difference (what
+        The difference, named ``"A-minus-B"``; its header marks it as a difference (what
         :func:`equivalent_water_height` asks for).
     """
     for what, m in (("model", model), ("reference", reference)):
@@ -153,7 +153,7 @@ def field_difference(model: SHModel, reference: SHModel) -> SHModel:
     what = f"{_describe(model)} minus {_describe(reference)}"
     return replace(
         model,
-        name=f"{model.name} minus {reference.name}",
+        name=f"{model.name}-minus-{reference.name}",
         C=C,
         S=S,
         sigma_c=None,
