@@ -51,7 +51,17 @@ QUANTITIES = (
     "geoid-sigma",
     "gradient",
     "gradient-disturbance",
+    "height-anomaly",
+    "anomaly-classical",
+    "disturbance-sa",
+    "trr",
+    "ewh",
 )
+#: ICGEM's functionals (:mod:`fieldmap.field.geodesy`, :mod:`fieldmap.field.water`): one value
+#: a line
+FUNCTIONALS = ("height-anomaly", "anomaly-classical", "disturbance-sa", "trr", "ewh")
+#: the quantities defined on the ellipsoid's surface: h must be 0
+_SURFACE = ("geoid", "geoid-sigma", "height-anomaly", "ewh")
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
 NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
@@ -70,6 +80,11 @@ _DEFAULT_DECIMALS = {
     "geoid-sigma": 4,
     "gradient": 3,
     "gradient-disturbance": 3,
+    "height-anomaly": 4,
+    "anomaly-classical": 3,
+    "disturbance-sa": 3,
+    "trr": 4,
+    "ewh": 4,
 }
 
 
@@ -99,7 +114,19 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "deviation propagated from the model's coefficient sigmas, uncorrelated) of δg east "
         "north up (mGal), of Δg (mGal) or of N (m, h must be 0); gradient, "
         "gradient-disturbance: the 9 components dg_i/dx_j (east north up, row-major, in "
-        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance",
+        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance; ICGEM's "
+        "functionals (Barthelmes 2013): height-anomaly: ζ on the ellipsoid (m, h must be 0), "
+        "anomaly-classical: |∇W(h)| − |∇U(h − ζ)| (mGal), disturbance-sa: −∂T/∂r (mGal), trr: "
+        "∂²T/∂r² (Eötvös), ewh: equivalent water height (m, h must be 0) of --model minus "
+        "--minus",
+    )
+    p.add_argument(
+        "--minus",
+        default=None,
+        metavar="REFERENCE",
+        help="--quantity ewh: the reference field subtracted from --model (a mean field, "
+        "another month, or the same time-variable model: with --epoch T the change since its "
+        "reference epoch); loaded with --lmax and the model-file options",
     )
     p.add_argument(
         "--normal",
@@ -251,6 +278,17 @@ def evaluate_points(
         return t.reshape(-1, 9)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
+    if quantity in FUNCTIONALS[:-1]:  # ewh: run_point, with its reference
+        from fieldmap.field import geodesy
+
+        if quantity == "height-anomaly":
+            return geodesy.height_anomaly(lat, lon, model=sh_model, device=device)[:, None]
+        func = {
+            "anomaly-classical": geodesy.classical_anomaly,
+            "disturbance-sa": geodesy.disturbance_sa,
+            "trr": geodesy.second_radial_derivative,
+        }[quantity]
+        return func(lat, lon, h, model=sh_model, device=device)[:, None]
     if quantity in ("anomaly", "geoid", "potential"):
         from fieldmap.field import geodesy
 
@@ -293,8 +331,9 @@ def run_point(args: argparse.Namespace) -> int:
     for line in lines:
         try:
             pt = parse_point_line(line)
-            if args.quantity in ("geoid", "geoid-sigma") and pt[2] != 0.0:
-                raise ValueError("the geoid height is defined on the ellipsoid: h must be 0")
+            if args.quantity in _SURFACE and pt[2] != 0.0:
+                what = "the geoid height" if args.quantity.startswith("geoid") else args.quantity
+                raise ValueError(f"{what} is defined on the ellipsoid: h must be 0")
             parsed.append(pt)
             results.append(None)
         except ValueError as exc:
@@ -315,16 +354,19 @@ def run_point(args: argparse.Namespace) -> int:
         for key in ("lmax", "epoch"):
             if getattr(args, key) is not None:
                 given[key] = getattr(args, key)
-        values = evaluate_points(
-            lat,
-            lon,
-            h,
-            quantity=args.quantity,
-            normal=args.normal,
-            model=args.model,
-            device=args.device,
-            model_options=given or None,
-        )
+        if args.quantity == "ewh":
+            values = _ewh_points(args, lat, lon, given)
+        else:
+            values = evaluate_points(
+                lat,
+                lon,
+                h,
+                quantity=args.quantity,
+                normal=args.normal,
+                model=args.model,
+                device=args.device,
+                model_options=given or None,
+            )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line
         results = [r if r is not None else _format(next(it), decimals) for r in results]
@@ -338,6 +380,23 @@ def run_point(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def _ewh_points(
+    args: argparse.Namespace, lat: np.ndarray, lon: np.ndarray, options: dict[str, Any]
+) -> np.ndarray:
+    """``--quantity ewh``: EWH (m) of ``--model`` minus ``--minus`` at the points, shape (n, 1)."""
+    from fieldmap.field.water import equivalent_water_height
+    from fieldmap.models.registry import announce, load_model
+
+    model = load_model(args.model, **options)
+    announce(model)
+    ref_options = {k: v for k, v in options.items() if k != "epoch"}
+    reference = load_model(args.minus, **ref_options)
+    announce(reference)
+    return equivalent_water_height(lat, lon, model=model, reference=reference, device=args.device)[
+        :, None
+    ]
 
 
 def _table(args: argparse.Namespace) -> CompensationTable | None:
@@ -374,6 +433,16 @@ def _refuse_unused(args: argparse.Namespace) -> None:
     from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
 
+    minus = getattr(args, "minus", None)
+    if minus is not None and args.quantity != "ewh":
+        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
+    if minus is None and args.quantity == "ewh":
+        raise InputError(
+            f"--quantity ewh: equivalent water height is that of a change of the field, and "
+            f"--model {args.model} is one field; give the reference with --minus (a mean "
+            "field, or the same time-variable model with --epoch T for the change since its "
+            "reference epoch)"
+        )
     if args.quantity == "normal":
         for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):
