@@ -326,49 +326,6 @@ VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
         )
     ],
     "potential": [("potential", "m2 s-2", "disturbing potential T = W - U", None)],
-    # ICGEM's functionals (Barthelmes 2013; fieldmap.field.geodesy, fieldmap.field.water)
-    "height-anomaly": [
-        (
-            "height_anomaly",
-            "m",
-            "height anomaly on the ellipsoid (Bruns: T(h=0)/gamma0), ICGEM height_anomaly_ell",
-            None,
-        )
-    ],
-    "anomaly-classical": [
-        (
-            "anomaly_classical",
-            "mGal",
-            "classical gravity anomaly, |grad W(h)| - |grad U(h - zeta)|, ICGEM gravity_anomaly_cl",
-            None,
-        )
-    ],
-    "disturbance-sa": [
-        (
-            "disturbance_sa",
-            "mGal",
-            "gravity disturbance in spherical approximation, -dT/dr, ICGEM gravity_disturbance_sa",
-            None,
-        )
-    ],
-    "trr": [
-        (
-            "trr",
-            "1e-9 s-2",
-            "second radial derivative of the disturbing potential, d2T/dr2, Eotvos, ICGEM "
-            "second_r_derivative",
-            None,
-        )
-    ],
-    "ewh": [
-        (
-            "ewh",
-            "m",
-            "equivalent water height of the difference of two fields (load Love numbers), "
-            "ICGEM water_column",
-            "lwe_thickness",
-        )
-    ],
 }
 for _q, _what in (
     ("gradient", "gravity"),
@@ -414,6 +371,54 @@ VARIABLES["omission-sigma"].append(
         None,
     )
 )
+VARIABLES.update(
+    {
+        "height-anomaly": [
+            (
+                "height_anomaly",
+                "m",
+                "height anomaly on the ellipsoid (Bruns: T(h=0)/gamma0), ICGEM height_anomaly_ell",
+                None,
+            )
+        ],
+        "anomaly-classical": [
+            (
+                "anomaly_classical",
+                "mGal",
+                "classical gravity anomaly, |grad W(h)| - |grad U(h - zeta)|, ICGEM "
+                "gravity_anomaly_cl",
+                None,
+            )
+        ],
+        "disturbance-sa": [
+            (
+                "disturbance_sa",
+                "mGal",
+                "gravity disturbance in spherical approximation, -dT/dr, ICGEM "
+                "gravity_disturbance_sa",
+                None,
+            )
+        ],
+        "trr": [
+            (
+                "trr",
+                "1e-9 s-2",
+                "second radial derivative of the disturbing potential, d2T/dr2, Eotvos, ICGEM "
+                "second_r_derivative",
+                None,
+            )
+        ],
+        "ewh": [
+            (
+                "ewh",
+                "m",
+                "equivalent water height of the difference of two fields (load Love numbers), "
+                "ICGEM water_column",
+                "lwe_thickness",
+            )
+        ],
+    }
+)  # ICGEM's functionals (Barthelmes 2013; fieldmap.field.geodesy, fieldmap.field.water)
 #: commission-error quantities (fieldmap.field.commission_grid)
 SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
 #: quantities that live on the ellipsoid (h = 0)
