@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
+    from fieldmap.models.shmodel import SHModel
     from fieldmap.products.tables.model import CompensationTable
 
 QUANTITIES = (
@@ -313,6 +314,7 @@ def run_point(args: argparse.Namespace) -> int:
     _refuse_unused(args)
     table = _table(args)
     opts = model_options(args)
+    ewh = _ewh_difference(args, opts) if args.quantity == "ewh" else None
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
         raise InputError(f"--precision must be within 0..20, got {decimals}")
@@ -355,7 +357,10 @@ def run_point(args: argparse.Namespace) -> int:
             if getattr(args, key) is not None:
                 given[key] = getattr(args, key)
         if args.quantity == "ewh":
-            values = _ewh_points(args, lat, lon, given)
+            from fieldmap.field.water import equivalent_water_height
+
+            assert ewh is not None  # loaded above for this quantity
+            values = equivalent_water_height(lat, lon, model=ewh, device=args.device)[:, None]
         else:
             values = evaluate_points(
                 lat,
@@ -382,21 +387,20 @@ def run_point(args: argparse.Namespace) -> int:
     return 0
 
 
-def _ewh_points(
-    args: argparse.Namespace, lat: np.ndarray, lon: np.ndarray, options: dict[str, Any]
-) -> np.ndarray:
-    """``--quantity ewh``: EWH (m) of ``--model`` minus ``--minus`` at the points, shape (n, 1)."""
-    from fieldmap.field.water import equivalent_water_height
+def _ewh_difference(args: argparse.Namespace, opts: dict[str, Any]) -> SHModel:
+    """``--quantity ewh``: the field ``--model`` minus ``--minus``, both loaded before any line.
+
+    ``opts``: :func:`fieldmap.models.registry.model_options` of the command line; ``--lmax``
+    applies to both, ``--epoch`` to ``--model`` only (the reference at its own epoch).
+    """
+    from fieldmap.field.water import field_difference
     from fieldmap.models.registry import announce, load_model
 
-    model = load_model(args.model, **options)
+    model = load_model(args.model, lmax=args.lmax, epoch=args.epoch, **opts)
     announce(model)
-    ref_options = {k: v for k, v in options.items() if k != "epoch"}
-    reference = load_model(args.minus, **ref_options)
+    reference = load_model(args.minus, lmax=args.lmax, **opts)
     announce(reference)
-    return equivalent_water_height(lat, lon, model=model, reference=reference, device=args.device)[
-        :, None
-    ]
+    return field_difference(model, reference)
 
 
 def _table(args: argparse.Namespace) -> CompensationTable | None:
