@@ -326,9 +326,6 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
     if quantity == "ewh" and options.get("degree0", False):
         raise InputError("degree0 applies to the potential T and its quantities, not to EWH")
-    request = _request("quantity_map", None, options, _QUANTITY, quantity=quantity, stacked=True)
-    if quantity == "ewh":  # of a difference of two fields only (one line, before any work)
-        from fieldmap.field.water import check_difference
-
-        check_difference(request.model)
-    return compute(request)
+    return compute(
+        _request("quantity_map", None, options, _QUANTITY, quantity=quantity, stacked=True)
+    )
