@@ -52,9 +52,10 @@ edition; ICGEM's names in brackets), with the same T:
   its ellipsoidal normal at height :math:`h - \zeta` with :math:`U(Q) = W(P)` (the normal
   height surface, the telluroid when P is on the topography). ζ is solved here from
   :math:`U(Q) = U(P) + T(P)` by Newton's method on the closed-form normal potential (Heiskanen
-  & Moritz 1967 eqs. 2-61, 2-62 plus the centrifugal term), starting from Bruns' T/γ(P); three
-  steps reach the float64 rounding of U (1e-9 m). :math:`\nabla W(P) = \nabla U(P) +
-  \nabla T(P)`, so the degree-0 choice of T applies here as well.
+  & Moritz 1967 eqs. 2-61, 2-62 plus the centrifugal term), from Bruns' T/γ(P) until a step
+  is below 1e-7 m (two steps for a real field, whose ζ Bruns gives to 2 mm).
+  :math:`\nabla W(P) = \nabla U(P) + \nabla T(P)`, so the degree-0 choice of T applies here
+  as well.
 * **Gravity disturbance in spherical approximation** [``gravity_disturbance_sa``] (Barthelmes
   2013 §3.4, §4.4): :math:`\delta g_{sa} = -\partial T/\partial r`, the geocentric radial
   derivative at the point (the anomaly above without its :math:`-2T/r`).
