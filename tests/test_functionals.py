@@ -428,6 +428,11 @@ def test_field_difference_constants_and_tide():
     assert np.abs(water.equivalent_water_height([10.0, -50.0], [0.0, 99.0], model=diff)).max() < (
         1e-6
     )
+    # degree 0 is no load: two fields that differ in C̄00 only have no EWH
+    c00 = model.C.copy()
+    c00[0, 0] = 1.0 + 3e-9
+    mass = SHModel("mass", model.gm, model.radius, c00, model.S, 40, model.tide_system)
+    assert water.equivalent_water_height([10.0], [0.0], model=mass, reference=model)[0] == 0.0
     zero = SHModel("zero", gm2, r2, model.C * scale, model.S * scale, 40, "zero_tide")
     with pytest.raises(InputError, match="tide system"):
         water.field_difference(model, zero)

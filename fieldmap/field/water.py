@@ -13,7 +13,8 @@ Bryan 1998, eq. 14 divided by :math:`\rho_w`; ICGEM's ``water_column``):
         \left(\Delta\bar C_{nm}\cos m\lambda + \Delta\bar S_{nm}\sin m\lambda\right)
 
 with :math:`\rho_{ave} = 5517` kg/m³ (Wahr et al. 1998), :math:`\rho_w = 1000` kg/m³ and the
-load Love numbers :math:`k'_n` of :func:`love_numbers` (Wahr et al. 1998 Table 1, PREM). The
+load Love numbers :math:`k'_n` of :func:`love_numbers` (Wahr et al. 1998 Table 1, PREM); the sum
+starts at degree 1 (the mass of the Earth does not change: :func:`ewh_weights`). The
 latitude of a point or grid row is read as the spherical latitude on that sphere, as GRACE
 Level-3 tools do (spherical approximation: no height enters; EWH is a property of the surface).
 
@@ -61,7 +62,7 @@ DIFFERENCE_KEY = "fieldmap_difference_of"
 DEFINITION = (
     "equivalent water height of the change dC, dS between two fields: "
     "a rho_ave / (3 rho_w) sum_n (2n+1)/(1+k'_n) sum_m Pnm(sin lat)(dCnm cos m lon + dSnm sin m "
-    "lon) on the sphere of the model's radius a (Wahr, Molenaar & Bryan 1998 eq. 14 over "
+    "lon), n >= 1, on the sphere of the model's radius a (Wahr, Molenaar & Bryan 1998 eq. 14 over "
     "rho_w), rho_ave = 5517 kg m-3, rho_w = 1000 kg m-3, load Love numbers k'_n of Wahr et al. "
     "1998 Table 1 (PREM), linear in n between its degrees, n k'_n constant above degree 200"
 )
@@ -104,10 +105,14 @@ def love_numbers(lmax: int) -> np.ndarray:
 def ewh_weights(lmax: int, radius: float) -> np.ndarray:
     """Per-degree factor a ρ_ave (2n+1) / (3 ρ_w (1 + k'_n)) of the EWH sum (module docstring).
 
-    Units: m (a: ``radius``, m).
+    Degree 0 has weight 0: the Earth's mass does not change, and a C̄00 difference of two fields
+    is one of their GM conventions, not a load (as GRACE processing leaves it out). Units: m
+    (a: ``radius``, m).
     """
     n = np.arange(int(lmax) + 1, dtype=np.float64)
-    return radius * RHO_EARTH / (3.0 * RHO_WATER) * (2.0 * n + 1.0) / (1.0 + love_numbers(lmax))
+    w = radius * RHO_EARTH / (3.0 * RHO_WATER) * (2.0 * n + 1.0) / (1.0 + love_numbers(lmax))
+    w[0] = 0.0
+    return w
 
 
 def _describe(model: SHModel) -> str:
