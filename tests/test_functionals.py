@@ -307,6 +307,32 @@ def test_geoid_minus_height_anomaly_is_the_n_minus_zeta_term(tmp_path):
     np.testing.assert_allclose(tool[:, 0] - zeta, n_minus_zeta, rtol=0, atol=1e-6)  # m
 
 
+@needs_tool
+def test_disturbance_sa_from_gravity_a_and_h(tmp_path):
+    """At h = 0, −∂T/∂r = Δg + 2T/r with Δg of ``Gravity -A`` and T = N γ0 of ``Gravity -H``.
+
+    The model file has no N − ζ terms, so ``Gravity -H`` is T/γ0; γ0 = |∇U| on the ellipsoid and
+    r come from this module's mpmath normal field. Measured: 2e-12 mGal.
+    """
+    model = load_model("eigen-6s", lmax=60)
+    name = write_egm(model, tmp_path, name="plain")
+    rng = np.random.default_rng(11)
+    lat = np.degrees(np.arcsin(rng.uniform(-1, 1, 40)))
+    lon = rng.uniform(-180, 180, 40)
+    lat[:2] = [90.0, -90.0]
+    pts = np.c_[lat, lon, 0 * lat]
+    dg = run_gravity_tool(pts, tmp_path, name, "anomaly", precision=12)[:, 0]  # mGal
+    n = run_gravity_tool(pts, tmp_path, name, "geoid", precision=12)[:, 0]  # m
+    expect = []
+    for k in range(lat.size):
+        p, z = meridian(lat[k], 0)
+        gam0 = grad_norm(u_normal, p, z)
+        expect.append(float(dg[k] + 2e5 * n[k] * gam0 / mp.sqrt(p * p + z * z)))
+    got = gd.disturbance_sa(lat, lon, 0 * lat, model=model)
+    assert np.abs(got).max() > 30.0
+    np.testing.assert_allclose(got, expect, rtol=0, atol=1e-6)  # mGal
+
+
 # --------------------------------------------------------------------------------------------
 # grids = points
 
