@@ -6,7 +6,8 @@ WGS84 (its zonal series, Heiskanen & Moritz 1967 eqs. 2-90 and 2-92, not fieldma
 numerical ones (``mp.diff``) of these potentials; the height anomaly of the classical anomaly is
 mpmath's root of U(Q) = W(P) along the ellipsoidal normal. The high-degree point sums its own
 fully normalised Legendre recursion in mpmath; GeographicLib's ``Gravity -H`` gives the geoid,
-whose difference from ζ is the model's N − ζ term; EWH is checked on single coefficients
+whose difference from ζ is the model's N − ζ term, and with ``Gravity -A`` the radial derivative
+−∂T/∂r = Δg + 2T/r at h = 0; EWH is checked on single coefficients
 against Wahr et al. (1998) eq. 14 with the load Love numbers of their Table 1.
 """
 
