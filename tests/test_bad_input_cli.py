@@ -139,6 +139,9 @@ POINT_OPTIONS = (
         (["--input", "nonexist.txt"], "No such file"),
         (["--input", "adir"], "Is a directory"),
         (["--model", "/dev/zero"], "binary byte 0x00"),
+        (["--quantity", "ewh"], "is one field; give the reference with --minus"),
+        (["--quantity", "geoid", "--minus", "eigen-6s"], "--minus applies to --quantity ewh"),
+        (["--quantity", "ewh", "--minus", "nonexist.gfc"], "unknown model"),
     ]
     + [(["--model", name], msg) for name, (_, msg) in BAD_MODELS.items()]
     + [(["--model", name], msg) for name, (_, _, msg) in ALIEN_MODELS.items()]
@@ -338,6 +341,10 @@ MODEL_CASES = [
     (["--thresholds-mg", "0.05,x"], "must be numbers in mg, got ['0.05', 'x']"),
     (["--thresholds-mg", ","], "no value"),
     (["--thresholds-mg", "0.05,0.05"], "repeated threshold"),
+    (["--quantity", "ewh"], "is one field; give the reference with --minus"),
+    (["--quantity", "ewh", "--model", "good.gfc"], "is one field"),  # a static model
+    (["--quantity", "trr", "--minus", "eigen-6s"], "--minus applies to --quantity ewh"),
+    (["--quantity", "ewh", "--minus", "nonexist.gfc"], "unknown model"),
 ]
 
 

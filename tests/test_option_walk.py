@@ -331,6 +331,7 @@ _FLIGHT = ("--duration", "10", "--rate", "20", "--lmax", "10", "--models", "j2",
 _STUDY = ("--duration", "2", "--rate", "20", "--output-dt", "1")
 _POINT = "10 20 30\n"
 _TABLE = ("--height-km", "0,10", "--max-error-mgal", "2")
+_EWH = ("--quantity", "ewh", "--epoch", "2012", "--minus", "eigen-6s")
 
 CONTEXTS = {
     "point": _ctx("point", stdin=_POINT),
@@ -350,6 +351,9 @@ CONTEXTS = {
         "sweep", *_MAP, "--height-km", "20,50", "--quantity", "omission-sigma", "--no-plots", *_OUT
     ),
     "sweep-plots": _ctx("sweep", *_MAP, "--height-km", "20,50", *_OUT),
+    "map-ewh": _ctx("map", *_MAP, *_EWH, "--no-plots", *_OUT),
+    "sweep-ewh": _ctx("sweep", *_MAP, *_EWH, "--no-plots", *_OUT),
+    "point-ewh": _ctx("point", "--lmax", "10", *_EWH, stdin="10 20 0\n"),
     "sweep-region": _ctx("sweep", *_REGION, "--height-km", "20,50", "--no-plots", *_OUT),
     "sweep-anomaly": _ctx(
         "sweep", *_MAP, "--height-km", "20,50", "--quantity", "anomaly", "--no-plots", *_OUT
@@ -483,6 +487,10 @@ def _maps(cmd: str, height: tuple) -> dict:
             C(f"{cmd}-omission", "--omission-model", "kaula"),
             C(ctx, "--omission-model", "kaula", expect=REFUSED, note="--quantity omission-sigma"),
         ],
+        "--minus": [
+            C(f"{cmd}-ewh", "--minus", "kaula.gfc"),
+            C(ctx, "--minus", "eigen-6s", expect=REFUSED, note="--quantity ewh"),
+        ],
     }
 
 
@@ -530,6 +538,10 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("point-normal", "--tide-system", "mean_tide", expect=REFUSED, note="--quantity normal"),
     ],
     ("point", "--precision"): [C("point", "--precision", "6")],
+    ("point", "--minus"): [
+        C("point-ewh", "--minus", "kaula.gfc"),
+        C("point", "--minus", "eigen-6s", expect=REFUSED, note="--quantity ewh"),
+    ],
     ("point", "--input"): [C("point", "--input", "pts.txt")],
     # ----------------------------------------------------------------------------- verify
     ("verify", "--device"): [C("verify", "--device", "cpu", expect=NEUTRAL)],

@@ -25,11 +25,21 @@ _T = TypeVar("_T")
 
 
 def load_cli_model(args: argparse.Namespace) -> SHModel:
-    """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options."""
+    """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options.
+
+    With ``--minus`` (``--quantity ewh``), the difference of that model and the reference
+    (:func:`fieldmap.field.water.field_difference`).
+    """
     from fieldmap.models.registry import announce, load_model, model_options
 
     model = load_model(args.model, lmax=args.lmax, epoch=args.epoch, **model_options(args))
     announce(model)
+    if getattr(args, "minus", None) is not None:  # --quantity ewh: the change of the field
+        from fieldmap.field.water import field_difference
+
+        reference = load_model(args.minus, lmax=args.lmax, **model_options(args))
+        announce(reference)
+        model = field_difference(model, reference)
     return model
 
 

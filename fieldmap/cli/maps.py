@@ -79,6 +79,11 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
                 "anomaly-sigma",
                 "geoid-sigma",
                 "omission-sigma",
+                "height-anomaly",
+                "anomaly-classical",
+                "disturbance-sa",
+                "trr",
+                "ewh",
             ),
             default="disturbance",
             help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
@@ -88,7 +93,19 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             "disturbance-sigma, anomaly-sigma, geoid-sigma: the "
             "commission error from the model's coefficient sigma (diagonal propagation); "
             "omission-sigma: sigma north, east, down and modulus (mGal) of the field above the "
-            "model's degree (--lmax), from a degree-variance model (--omission-model)",
+            "model's degree (--lmax), from a degree-variance model (--omission-model); ICGEM's "
+            "functionals (Barthelmes 2013): height-anomaly (zeta on the ellipsoid, m, at h = 0), "
+            "anomaly-classical (|grad W(h)| - |grad U(h - zeta)|, mGal), disturbance-sa (-dT/dr, "
+            "mGal), trr (d2T/dr2, Eötvös), ewh (equivalent water height, m, at h = 0, of "
+            "--model minus --minus)",
+        )
+        p.add_argument(
+            "--minus",
+            default=None,
+            metavar="REFERENCE",
+            help="--quantity ewh: the reference field subtracted from --model (a mean field, "
+            "another month, or the same time-variable model: with --epoch T the change since "
+            "its reference epoch); loaded with --lmax and the model-file options",
         )
         p.add_argument(
             "--omission-model",
@@ -279,13 +296,26 @@ def _write(
 
 
 def _check_omission_option(args: argparse.Namespace) -> None:
-    """Refuse ``--omission-model`` with a quantity other than omission-sigma (one line)."""
-    if args.omission_model is not None and args.quantity != "omission-sigma":
-        from fieldmap.errors import InputError
+    """Refuse ``--omission-model`` with a quantity other than omission-sigma (one line).
 
+    Likewise ``--minus`` with a quantity other than ewh, and ewh without ``--minus``.
+    """
+    from fieldmap.errors import InputError
+
+    if args.omission_model is not None and args.quantity != "omission-sigma":
         raise InputError(
             f"--omission-model applies to --quantity omission-sigma, not to --quantity "
             f"{args.quantity}"
+        )
+    minus = getattr(args, "minus", None)
+    if minus is not None and args.quantity != "ewh":
+        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
+    if minus is None and args.quantity == "ewh":
+        raise InputError(
+            f"--quantity ewh: equivalent water height is that of a change of the field, and "
+            f"--model {args.model} is one field; give the reference with --minus (a mean "
+            "field, or the same time-variable model with --epoch T for the change since its "
+            "reference epoch)"
         )
 
 

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
+    from fieldmap.models.shmodel import SHModel
     from fieldmap.products.tables.model import CompensationTable
 
 QUANTITIES = (
@@ -51,7 +52,17 @@ QUANTITIES = (
     "geoid-sigma",
     "gradient",
     "gradient-disturbance",
+    "height-anomaly",
+    "anomaly-classical",
+    "disturbance-sa",
+    "trr",
+    "ewh",
 )
+#: ICGEM's functionals (:mod:`fieldmap.field.geodesy`, :mod:`fieldmap.field.water`): one value
+#: a line
+FUNCTIONALS = ("height-anomaly", "anomaly-classical", "disturbance-sa", "trr", "ewh")
+#: the quantities defined on the ellipsoid's surface: h must be 0
+_SURFACE = ("geoid", "geoid-sigma", "height-anomaly", "ewh")
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
 NORMALS = ("exact", "j2", "j4", "j6", "groves-j2")
@@ -76,6 +87,11 @@ _DEFAULT_DECIMALS = {
     "geoid-sigma": 4,
     "gradient": 3,
     "gradient-disturbance": 3,
+    "height-anomaly": 4,
+    "anomaly-classical": 3,
+    "disturbance-sa": 3,
+    "trr": 4,
+    "ewh": 4,
 }
 
 
@@ -105,7 +121,19 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "deviation propagated from the model's coefficient sigmas, uncorrelated) of δg east "
         "north up (mGal), of Δg (mGal) or of N (m, h must be 0); gradient, "
         "gradient-disturbance: the 9 components dg_i/dx_j (east north up, row-major, in "
-        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance",
+        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance; ICGEM's "
+        "functionals (Barthelmes 2013): height-anomaly: ζ on the ellipsoid (m, h must be 0), "
+        "anomaly-classical: |∇W(h)| − |∇U(h − ζ)| (mGal), disturbance-sa: −∂T/∂r (mGal), trr: "
+        "∂²T/∂r² (Eötvös), ewh: equivalent water height (m, h must be 0) of --model minus "
+        "--minus",
+    )
+    p.add_argument(
+        "--minus",
+        default=None,
+        metavar="REFERENCE",
+        help="--quantity ewh: the reference field subtracted from --model (a mean field, "
+        "another month, or the same time-variable model: with --epoch T the change since its "
+        "reference epoch); loaded with --lmax and the model-file options",
     )
     p.add_argument(
         "--normal",
@@ -258,6 +286,17 @@ def evaluate_points(
         return t.reshape(-1, 9)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)
+    if quantity in FUNCTIONALS[:-1]:  # ewh: run_point, with its reference
+        from fieldmap.field import geodesy
+
+        if quantity == "height-anomaly":
+            return geodesy.height_anomaly(lat, lon, model=sh_model, device=device)[:, None]
+        func = {
+            "anomaly-classical": geodesy.classical_anomaly,
+            "disturbance-sa": geodesy.disturbance_sa,
+            "trr": geodesy.second_radial_derivative,
+        }[quantity]
+        return func(lat, lon, h, model=sh_model, device=device)[:, None]
     if quantity in ("anomaly", "geoid", "potential"):
         from fieldmap.field import geodesy
 
@@ -282,6 +321,7 @@ def run_point(args: argparse.Namespace) -> int:
     _refuse_unused(args)
     table = _table(args)
     opts = model_options(args)
+    ewh = _ewh_difference(args, opts) if args.quantity == "ewh" else None
     decimals = _DEFAULT_DECIMALS[args.quantity] if args.precision is None else args.precision
     if not 0 <= decimals <= 20:
         raise InputError(f"--precision must be within 0..20, got {decimals}")
@@ -300,8 +340,9 @@ def run_point(args: argparse.Namespace) -> int:
     for line in lines:
         try:
             pt = parse_point_line(line)
-            if args.quantity in ("geoid", "geoid-sigma") and pt[2] != 0.0:
-                raise ValueError("the geoid height is defined on the ellipsoid: h must be 0")
+            if args.quantity in _SURFACE and pt[2] != 0.0:
+                what = "the geoid height" if args.quantity.startswith("geoid") else args.quantity
+                raise ValueError(f"{what} is defined on the ellipsoid: h must be 0")
             parsed.append(pt)
             results.append(None)
         except ValueError as exc:
@@ -322,16 +363,22 @@ def run_point(args: argparse.Namespace) -> int:
         for key in ("lmax", "epoch"):
             if getattr(args, key) is not None:
                 given[key] = getattr(args, key)
-        values = evaluate_points(
-            lat,
-            lon,
-            h,
-            quantity=args.quantity,
-            normal=args.normal,
-            model=args.model,
-            device=args.device,
-            model_options=given or None,
-        )
+        if args.quantity == "ewh":
+            from fieldmap.field.water import equivalent_water_height
+
+            assert ewh is not None  # loaded above for this quantity
+            values = equivalent_water_height(lat, lon, model=ewh, device=args.device)[:, None]
+        else:
+            values = evaluate_points(
+                lat,
+                lon,
+                h,
+                quantity=args.quantity,
+                normal=args.normal,
+                model=args.model,
+                device=args.device,
+                model_options=given or None,
+            )
         it = iter(values)
         # never print NaN or inf: a point where the series does not converge is a bad line
         results = [r if r is not None else _format(next(it), decimals) for r in results]
@@ -345,6 +392,22 @@ def run_point(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def _ewh_difference(args: argparse.Namespace, opts: dict[str, Any]) -> SHModel:
+    """``--quantity ewh``: the field ``--model`` minus ``--minus``, both loaded before any line.
+
+    ``opts``: :func:`fieldmap.models.registry.model_options` of the command line; ``--lmax``
+    applies to both, ``--epoch`` to ``--model`` only (the reference at its own epoch).
+    """
+    from fieldmap.field.water import field_difference
+    from fieldmap.models.registry import announce, load_model
+
+    model = load_model(args.model, lmax=args.lmax, epoch=args.epoch, **opts)
+    announce(model)
+    reference = load_model(args.minus, lmax=args.lmax, **opts)
+    announce(reference)
+    return field_difference(model, reference)
 
 
 def _table(args: argparse.Namespace) -> CompensationTable | None:
@@ -381,6 +444,16 @@ def _refuse_unused(args: argparse.Namespace) -> None:
     from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
 
+    minus = getattr(args, "minus", None)
+    if minus is not None and args.quantity != "ewh":
+        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
+    if minus is None and args.quantity == "ewh":
+        raise InputError(
+            f"--quantity ewh: equivalent water height is that of a change of the field, and "
+            f"--model {args.model} is one field; give the reference with --minus (a mean "
+            "field, or the same time-variable model with --epoch T for the change since its "
+            "reference epoch)"
+        )
     if args.quantity == "normal":
         for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):

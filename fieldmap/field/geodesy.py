@@ -35,7 +35,40 @@ reproduce NGA's synthesis programs):
   latitude, r geocentric radius) and γ the magnitude of normal gravity (with centrifugal) at P.
   ξ is the northerly, η the easterly component.
 
+ICGEM's functionals (Barthelmes 2013, *Definition of functionals of the geopotential and their
+calculation from spherical harmonic models*, GFZ Scientific Technical Report STR09/02, revised
+edition; ICGEM's names in brackets), with the same T:
+
+* **Height anomaly on the ellipsoid** [``height_anomaly_ell``] (Barthelmes 2013 §2.2 defines
+  the height anomaly ζ of a point P by :math:`W(P) = U(Q)`, Q on P's ellipsoidal normal at
+  height :math:`h_P - \zeta`; §3.2 and §4.3 approximate it by Bruns' formula):
+  :math:`\zeta_{ell} = T(\varphi, \lambda, 0)/\gamma_0(\varphi)`, T on the ellipsoid over
+  Somigliana's γ0. It is the geoid height above without GeographicLib's ζ0 and correction
+  series (EGM2008's N − ζ terms): ``Gravity -H`` minus ζ is exactly that N − ζ term. The
+  neglected second-order term :math:`\zeta^2 (\partial\gamma/\partial h)/(2\gamma)` is at
+  most 2 mm (ζ = 110 m).
+* **Classical (Molodensky) gravity anomaly** [``gravity_anomaly_cl``] (Barthelmes 2013 §2.4.1,
+  §3.5.1, §4.5): :math:`\Delta g_{cl} = |\nabla W(P)| - |\nabla U(Q)|`, P at height h, Q on
+  its ellipsoidal normal at height :math:`h - \zeta` with :math:`U(Q) = W(P)` (the normal
+  height surface, the telluroid when P is on the topography). ζ is solved here from
+  :math:`U(Q) = U(P) + T(P)` by Newton's method on the closed-form normal potential (Heiskanen
+  & Moritz 1967 eqs. 2-61, 2-62 plus the centrifugal term), from Bruns' T/γ(P) until a step
+  is below 1e-7 m (two steps for a real field, whose ζ Bruns gives to 2 mm).
+  :math:`\nabla W(P) = \nabla U(P) + \nabla T(P)`, so the degree-0 choice of T applies here
+  as well.
+* **Gravity disturbance in spherical approximation** [``gravity_disturbance_sa``] (Barthelmes
+  2013 §3.4, §4.4): :math:`\delta g_{sa} = -\partial T/\partial r`, the geocentric radial
+  derivative at the point (the anomaly above without its :math:`-2T/r`).
+* **Second radial derivative** [``second_r_derivative``] :math:`T_{rr} = \partial^2 T/
+  \partial r^2` at the point, in Eötvös (1 E = 1e-9 s⁻²). From the series of T (Barthelmes
+  2013 §4.1: each degree n of T is :math:`(R/r)^{n+1}` times a surface harmonic), exactly
+  :math:`T_{rr} = r^{-2}\sum_n (n+1)(n+2)\,T_n(r, \psi, \lambda)`: one synthesis of the
+  disturbing model with coefficients weighted by (n+1)(n+2), divided by r².
+
 The series are summed by the engine of :mod:`fieldmap.field.sh` (Warp kernels), no new kernel.
+On grids (:func:`grid_quantities`) every quantity is one Legendre pass of
+:func:`fieldmap.grids.synthesis.synthesize` (the classical anomaly adds point evaluations of
+normal gravity at h − ζ, which cost no harmonic synthesis).
 """
 
 from __future__ import annotations
@@ -466,8 +499,247 @@ def geoid_height(
     return n + correction_height(m, lat, lon, lmax=lmax, ellipsoid=ell, device=device)
 
 
+def height_anomaly(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    """Height anomaly on the ellipsoid ζ = T(φ, λ, 0)/γ0(φ) (ICGEM's ``height_anomaly_ell``).
+
+    Barthelmes (2013) §2.2 (definition), §4.3 (Bruns' formula on the ellipsoid); module
+    docstring. GeographicLib's ``Gravity -H`` (and :func:`geoid_height`) is ζ plus the model's
+    N − ζ terms (``HeightOffset`` and correction series); for a model without them both agree.
+
+    Parameters
+    ----------
+    latitude, longitude : array_like
+        Geodetic latitude and longitude. Units: degrees.
+    model, ellipsoid, degree0, device
+        As :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of ``latitude``, ``longitude``. Units: m.
+    """
+    from fieldmap.field.normal import somigliana
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, 0.0)
+    m = _resolve(model)
+    t, _, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device, grad=False)
+    return t / somigliana(lat, ellipsoid=ell)
+
+
+def _radial(grad_ecef: np.ndarray, xyz: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Geocentric radial component r̂·∇ of an ECEF gradient (the ``d_up`` of anomaly_from_t)."""
+    x, y, z = xyz
+    p = np.hypot(x, y)
+    r = np.hypot(p, z)
+    cpsi, spsi = p / r, z / r
+    lam = np.arctan2(y, x)
+    gx, gy, gz = grad_ecef[..., 0], grad_ecef[..., 1], grad_ecef[..., 2]
+    return cpsi * (np.cos(lam) * gx + np.sin(lam) * gy) + spsi * gz
+
+
+def disturbance_sa(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    """Gravity disturbance in spherical approximation δg_sa = −∂T/∂r (``gravity_disturbance_sa``).
+
+    Barthelmes (2013) §3.4, §4.4: the geocentric radial derivative of T at the point (module
+    docstring). Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: mGal.
+    """
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    _, grad, xyz = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
+    assert grad is not None  # asked for (grad=True)
+    return -_radial(grad, xyz) * MGAL
+
+
+def radial_weighted_model(model: SHModel, weights: np.ndarray) -> SHModel:
+    """``model`` with the coefficients of each degree n multiplied by ``weights[n]``.
+
+    A functional that is a per-degree weighting of a series is one synthesis of this model
+    (module docstring: T_rr; :mod:`fieldmap.field.water`: equivalent water height).
+    """
+    w = np.asarray(weights, dtype=np.float64)[: model.lmax + 1, None]
+    return replace(
+        model,
+        name=f"{model.name} (weighted per degree)",
+        C=model.C * w,
+        S=model.S * w,
+        sigma_c=None,
+        sigma_s=None,
+    )
+
+
+def _trr_model(dm: SHModel) -> SHModel:
+    n = np.arange(dm.lmax + 1, dtype=np.float64)
+    return radial_weighted_model(dm, (n + 1.0) * (n + 2.0))
+
+
+def second_radial_derivative(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    r"""Second radial derivative :math:`T_{rr}` of T (ICGEM's ``second_r_derivative``).
+
+    .. math::
+        T_{rr} = \frac{1}{r^2}\sum_{n}(n+1)(n+2)\,T_n(r,\psi,\lambda)
+
+    (each degree of T falls as :math:`r^{-(n+1)}`, Barthelmes 2013 §4.1), r the geocentric
+    radius. Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: E (1e-9 s⁻²).
+    """
+    from fieldmap.field.sh import sh_potential
+
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    wm = _trr_model(disturbing_model(m, ell, degree0=degree0))
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    r2 = x * x + y * y + z * z
+    return sh_potential(wm, x, y, z, device=device) / r2 * 1e9
+
+
+def _normal_potential(x: np.ndarray, y: np.ndarray, z: np.ndarray, ell: Ellipsoid) -> np.ndarray:
+    r"""Return the normal gravity potential U (gravitational + centrifugal), closed form. m²/s².
+
+    Heiskanen & Moritz (1967) eqs. 2-61, 2-62 (:func:`fieldmap.reference.normal.exact_potential`)
+    plus :math:`\omega^2 (x^2 + y^2)/2`.
+    """
+    from fieldmap.reference.normal import exact_potential
+
+    return exact_potential(x, y, z, ell) + 0.5 * ell.omega**2 * (x * x + y * y)
+
+
+#: Newton on the classical anomaly's ζ stops at the first step below this, well above the
+#: rounding of the steps (U ~ 6e7 m²/s² to 1e-8, over γ: 1e-9 m), and small enough that |γ(Q)|,
+#: taken at the ζ before that step, is off by at most 3e-8 mGal (∂γ/∂h = 3e-6 s⁻²). From
+#: Bruns' T/γ a real field (ζ < 110 m, Bruns off by < 2 mm) needs 2 steps, a point mass far
+#: from the ellipsoid (ζ of kilometres) 3. Units: m.
+_ZETA_TOL = 1e-7
+#: most Newton steps (the tolerance is judged on the finite steps only)
+_ZETA_STEPS = 8
+
+
+def _normal_height_point(
+    t: np.ndarray,
+    gamma_p: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    h: np.ndarray,
+    ell: Ellipsoid,
+    device: str | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Height anomaly ζ at P (m) and |∇U(Q)| (m/s²), Q at h − ζ with U(Q) = U(P) + T(P).
+
+    Newton's method on ζ from Bruns' ζ = T/|γ(P)| (``gamma_p``, m/s²); module docstring.
+    """
+    from fieldmap.field.normal import normal_gravity
+
+    x, y, z = frames.geodetic_to_ecef(lat, lon, h, ell)
+    target = _normal_potential(x, y, z, ell) + t
+    zeta = t / gamma_p
+    for _ in range(_ZETA_STEPS):
+        gam_q = normal_gravity(
+            lat,
+            lon,
+            h - zeta,
+            ellipsoid=ell,
+            normal="exact",
+            centrifugal=True,
+            frame="enu",
+            device=device,
+        )
+        xq, yq, zq = frames.geodetic_to_ecef(lat, lon, h - zeta, ell)
+        # dU/dh along the ellipsoidal normal is the up component of normal gravity (< 0)
+        step = (_normal_potential(xq, yq, zq, ell) - target) / gam_q[..., 2]
+        zeta = zeta + step
+        if not np.abs(step[np.isfinite(step)]).max(initial=0.0) > _ZETA_TOL:
+            break
+    # |γ| at the ζ before the last step: it moved Q by at most 1e-7 m (_ZETA_TOL)
+    return zeta, np.linalg.norm(gam_q, axis=-1)
+
+
+def classical_anomaly(
+    latitude: ArrayLike,
+    longitude: ArrayLike,
+    height: ArrayLike,
+    *,
+    model: SHModel | str | os.PathLike[str] = "eigen-6s",
+    ellipsoid: Ellipsoid | str = WGS84,
+    degree0: bool = False,
+    device: str | None = None,
+) -> np.ndarray:
+    r"""Classical (Molodensky) gravity anomaly (ICGEM's ``gravity_anomaly_cl``).
+
+    .. math::
+        \Delta g_{cl} = |\nabla W(P)| - |\nabla U(Q)|,\qquad U(Q) = W(P)
+
+    with Q on P's ellipsoidal normal at height h − ζ (Barthelmes 2013 §2.4.1, §4.5; module
+    docstring). Parameters as :func:`disturbing_potential`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Broadcast shape of the inputs. Units: mGal.
+    """
+    ell = get_ellipsoid(ellipsoid)
+    lat, lon, h = _points(latitude, longitude, height)
+    m = _resolve(model)
+    t, grad, _ = _t_and_gradient(m, ell, lat, lon, h, degree0, device)
+    assert grad is not None  # asked for (grad=True)
+    from fieldmap.field.normal import normal_gravity
+
+    gam_p = normal_gravity(
+        lat, lon, h, ellipsoid=ell, normal="exact", centrifugal=True, frame="ecef", device=device
+    )
+    _, gam_q = _normal_height_point(t, np.linalg.norm(gam_p, axis=-1), lat, lon, h, ell, device)
+    return (np.linalg.norm(gam_p + grad, axis=-1) - gam_q) * MGAL
+
+
 #: quantities of :func:`grid_quantities`
-GRID_QUANTITIES = ("potential", "anomaly", "deflection", "geoid")
+GRID_QUANTITIES = (
+    "potential",
+    "anomaly",
+    "deflection",
+    "geoid",
+    "height-anomaly",
+    "anomaly-classical",
+    "disturbance-sa",
+    "trr",
+)
+#: those of them defined on the ellipsoid's surface (h = 0 whatever the grid's heights)
+_SURFACE = ("geoid", "height-anomaly")
 
 
 def grid_quantities(
@@ -480,13 +752,16 @@ def grid_quantities(
     device: str | None = None,
     progress: bool | None = None,
 ) -> dict[str, np.ndarray]:
-    """T, Δg, ξ, η or N on every node of a grid, from one Legendre pass per row.
+    """T, Δg, ξ, η, N or an ICGEM functional on every node of a grid, one Legendre pass per row.
 
     The disturbing model (:func:`disturbing_model`) is synthesised with
     :func:`fieldmap.grids.synthesis.synthesize` (potential and gradient in geodetic ENU); the
     gradient is turned back into the geocentric frame of each row (rotation by φ − ψ) and
-    combined as in :func:`anomaly_from_t`. The geoid height is computed at h = 0 whatever the
-    grid's heights (it is a property of the surface).
+    combined as in :func:`anomaly_from_t`. The geoid height and the height anomaly are computed
+    at h = 0 whatever the grid's heights (properties of the surface). T_rr is the potential of
+    the disturbing model weighted per degree by (n+1)(n+2), over r² (module docstring); the
+    classical anomaly adds ζ and normal gravity at h − ζ, node by node
+    (:func:`classical_anomaly`).
 
     Parameters
     ----------
@@ -494,8 +769,8 @@ def grid_quantities(
         Model (already truncated).
     grid : fieldmap.grids.spec.GridSpec
         Nodes.
-    quantity : {"potential", "anomaly", "deflection", "geoid"}
-        What to compute.
+    quantity : str
+        What to compute, one of :data:`GRID_QUANTITIES`.
     ellipsoid, degree0, device
         As :func:`disturbing_potential`.
     progress : bool, optional
@@ -504,9 +779,10 @@ def grid_quantities(
     Returns
     -------
     dict of numpy.ndarray
-        Arrays of shape ``grid.shape`` (``(1, nlat, nlon)`` for the geoid): ``potential``
-        (m²/s²); ``anomaly`` (mGal); ``xi``, ``eta`` (arcsec, with ``deflection``); ``geoid``
-        (m).
+        Arrays of shape ``grid.shape`` (``(1, nlat, nlon)`` for the geoid and the height
+        anomaly): ``potential`` (m²/s²); ``anomaly`` (mGal); ``xi``, ``eta`` (arcsec, with
+        ``deflection``); ``geoid`` (m); ``height_anomaly`` (m); ``anomaly_classical``,
+        ``disturbance_sa`` (mGal); ``trr`` (E).
     """
     from fieldmap.field.normal import somigliana
     from fieldmap.grids.synthesis import centrifugal_rows, normal_rows, synthesize
@@ -514,15 +790,19 @@ def grid_quantities(
     if quantity not in GRID_QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(GRID_QUANTITIES)}, got {quantity!r}")
     ell = get_ellipsoid(ellipsoid)
-    if quantity == "geoid" and np.any(grid.heights != 0.0):
+    if quantity in _SURFACE and np.any(grid.heights != 0.0):
         grid = replace(grid, heights=np.zeros(1))
     dm = disturbing_model(model, ell, degree0=degree0)
+    if quantity == "trr":
+        dm = _trr_model(dm)
     out = synthesize(
         dm, grid, ell, quantity="gravitation", device=device, progress=progress, potential=True
     )
     t = out[..., 3]
     if quantity == "potential":
         return {"potential": t}
+    if quantity == "height-anomaly":
+        return {"height_anomaly": t / somigliana(grid.lat, ellipsoid=ell)[None, :, None]}
     if quantity == "geoid":
         gam0 = somigliana(grid.lat, ellipsoid=ell)[None, :, None]
         n = t / gam0
@@ -538,12 +818,17 @@ def grid_quantities(
     r = np.hypot(p, z)
     psi = np.arctan2(z, p)
     cd, sd = np.cos(phi - psi)[..., None], np.sin(phi - psi)[..., None]
+    if quantity == "trr":  # the weighted series' potential over r²
+        return {"trr": t / (r * r)[..., None] * 1e9}
     g_e, g_n, g_u = out[..., 0], out[..., 1], out[..., 2]
     d_north = cd * g_n + sd * g_u  # geodetic -> geocentric (north, up)
     d_up = -sd * g_n + cd * g_u
-    gam = np.linalg.norm(
-        normal_rows(grid, ell, device=device) + centrifugal_rows(grid, ell), axis=-1
-    )
+    if quantity == "disturbance-sa":
+        return {"disturbance_sa": -d_up * MGAL}
+    gam_enu = normal_rows(grid, ell, device=device) + centrifugal_rows(grid, ell)
+    gam = np.linalg.norm(gam_enu, axis=-1)
+    if quantity == "anomaly-classical":
+        return {"anomaly_classical": _grid_classical(grid, ell, out, gam_enu, gam, device)}
     gam = gam[..., None]
     if quantity == "anomaly":
         return {"anomaly": (-d_up - 2.0 * t / r[..., None]) * MGAL}
@@ -551,3 +836,29 @@ def grid_quantities(
         "xi": -d_north / gam * ARCSEC_PER_RAD,
         "eta": -g_e / gam * ARCSEC_PER_RAD,
     }
+
+
+def _grid_classical(
+    grid: GridSpec,
+    ell: Ellipsoid,
+    out: np.ndarray,
+    gam_enu: np.ndarray,
+    gam: np.ndarray,
+    device: str | None,
+) -> np.ndarray:
+    """Classical anomaly (mGal) of every node from the synthesis ``out`` (∇T in ENU, T).
+
+    ``gam_enu`` (nh, nlat, 3) and ``gam`` (nh, nlat): normal gravity at the rows (ENU, with
+    centrifugal) and its magnitude. |∇W(P)| = |γ(P) + ∇T(P)| (geodetic ENU, as the
+    synthesis); ζ and |γ(Q)| node by node (:func:`classical_anomaly`); the normal field is
+    axisymmetric, so the nodes' longitude does not enter it.
+    """
+    g_p = np.linalg.norm(gam_enu[:, :, None, :] + out[..., :3], axis=-1)
+    shape = g_p.shape
+    lat = np.broadcast_to(grid.lat[None, :, None], shape).ravel()
+    h = np.broadcast_to(grid.heights[:, None, None], shape).ravel()
+    gp = np.broadcast_to(gam[..., None], shape).ravel()
+    _, gam_q = _normal_height_point(
+        out[..., 3].ravel(), gp, lat, np.zeros_like(lat), h, ell, device
+    )
+    return (g_p - gam_q.reshape(shape)) * MGAL

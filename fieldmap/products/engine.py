@@ -361,6 +361,10 @@ def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
             from fieldmap.field.commission_grid import grid_commission
 
             vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
+        elif job.quantity == "ewh":
+            from fieldmap.field.water import grid_ewh
+
+            vals = grid_ewh(model, sub, device=job.device)
         elif job.quantity == "omission-sigma":
             from fieldmap.field.omission import grid_omission
 

@@ -281,7 +281,11 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
         from the model's coefficient sigma; ``"omission-sigma"`` the σ (north, east, down,
         modulus; mGal) of the field above the model's degree, from a degree-variance model
         (:class:`fieldmap.field.omission.Omission`); ``"anomaly"``, ``"deflection"``,
-        ``"geoid"``, ``"potential"`` those of :func:`fieldmap.field.geodesy.grid_quantities`.
+        ``"geoid"``, ``"potential"`` those of :func:`fieldmap.field.geodesy.grid_quantities`,
+        as are ICGEM's functionals (Barthelmes 2013) ``"height-anomaly"`` (ζ on the ellipsoid,
+        m), ``"anomaly-classical"`` (mGal), ``"disturbance-sa"`` (−∂T/∂r, mGal) and ``"trr"``
+        (∂²T/∂r², E); ``"ewh"``: equivalent water height (m) of a difference of two fields
+        (``model=fieldmap.field.water.field_difference(a, b)``; one field alone is refused).
     **options
         ``model``, ``lmax``, ``epoch``, ``height_km`` (one or several; ignored for the geoid,
         a property of the surface), ``step_deg``, ``lat_max``, ``region``, ``ellipsoid``,
@@ -320,6 +324,8 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
 
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
+    if quantity == "ewh" and options.get("degree0", False):
+        raise InputError("degree0 applies to the potential T and its quantities, not to EWH")
     return compute(
         _request("quantity_map", None, options, _QUANTITY, quantity=quantity, stacked=True)
     )

@@ -238,6 +238,10 @@ class MapRequest:
             raise InputError(f"{q} is a property of the surface: its grid has the one height 0")
         if not self.output.stacked and self.grid.heights.size != 1:
             raise InputError("one map takes one height; a sweep (stacked) takes several")
+        if q == "ewh":  # of a change of the field only: one line, before anything is written
+            from fieldmap.field.water import check_difference
+
+            check_difference(self.model)
         if q in SIGMA_QUANTITIES and (self.model.sigma_c is None or self.model.sigma_s is None):
             raise InputError(
                 f"model {self.model.name} carries no coefficient standard deviations (sigma C, "

@@ -385,10 +385,58 @@ VARIABLES["omission-sigma"].append(
         None,
     )
 )
+VARIABLES.update(
+    {
+        "height-anomaly": [
+            (
+                "height_anomaly",
+                "m",
+                "height anomaly on the ellipsoid (Bruns: T(h=0)/gamma0), ICGEM height_anomaly_ell",
+                None,
+            )
+        ],
+        "anomaly-classical": [
+            (
+                "anomaly_classical",
+                "mGal",
+                "classical gravity anomaly, |grad W(h)| - |grad U(h - zeta)|, ICGEM "
+                "gravity_anomaly_cl",
+                None,
+            )
+        ],
+        "disturbance-sa": [
+            (
+                "disturbance_sa",
+                "mGal",
+                "gravity disturbance in spherical approximation, -dT/dr, ICGEM "
+                "gravity_disturbance_sa",
+                None,
+            )
+        ],
+        "trr": [
+            (
+                "trr",
+                "1e-9 s-2",
+                "second radial derivative of the disturbing potential, d2T/dr2, Eotvos, ICGEM "
+                "second_r_derivative",
+                None,
+            )
+        ],
+        "ewh": [
+            (
+                "ewh",
+                "m",
+                "equivalent water height of the difference of two fields (load Love numbers), "
+                "ICGEM water_column",
+                "lwe_thickness",
+            )
+        ],
+    }
+)  # ICGEM's functionals (Barthelmes 2013; fieldmap.field.geodesy, fieldmap.field.water)
 #: commission-error quantities (fieldmap.field.commission_grid)
 SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
 #: quantities that live on the ellipsoid (h = 0)
-SURFACE_QUANTITIES = ("geoid", "geoid-sigma")
+SURFACE_QUANTITIES = ("geoid", "geoid-sigma", "height-anomaly", "ewh")
 QUANTITIES = ("disturbance", *VARIABLES)
 
 
@@ -421,6 +469,10 @@ def _definition(degree0: bool, quantity: str = "potential") -> str:
             "centrifugal; central differences of the float64 gravity vector (steps 1 m and 2 m, "
             "one Richardson step), symmetrised; the tensor is symmetric, so six components"
         )
+    if quantity == "ewh":
+        from fieldmap.field.water import DEFINITION
+
+        return DEFINITION
     zero = (
         "the degree-0 term (GM - GM_ellipsoid)/r is included"
         if degree0
@@ -432,7 +484,22 @@ def _definition(degree0: bool, quantity: str = "potential") -> str:
         + "; anomaly and deflection in the spherical approximation (Heiskanen & Moritz 1967 "
         "eq. 2-151c), gamma the normal gravity at the point; geoid N = T(h=0)/gamma0 "
         "(Somigliana) + HeightOffset and correction terms of a GeographicLib model"
+        + _FUNCTIONALS.get(quantity, "")
     )
+
+
+#: the definitions of ICGEM's functionals (Barthelmes 2013), appended to T's
+_FUNCTIONALS = {
+    "height-anomaly": "; height anomaly on the ellipsoid zeta = T(h=0)/gamma0 (Barthelmes 2013 "
+    "sections 2.2, 4.3: Bruns' formula; the geoid without a GeographicLib model's N - zeta terms)",
+    "anomaly-classical": "; classical gravity anomaly |grad W(P)| - |grad U(Q)|, Q on the "
+    "ellipsoidal normal of P at height h - zeta with U(Q) = W(P) (Barthelmes 2013 sections "
+    "2.4.1, 4.5), zeta solved by Newton's method on the closed-form normal potential",
+    "disturbance-sa": "; gravity disturbance in spherical approximation -dT/dr, geocentric "
+    "radial derivative (Barthelmes 2013 sections 3.4, 4.4)",
+    "trr": "; second radial derivative d2T/dr2 = r^-2 sum_n (n+1)(n+2) T_n (geocentric r; "
+    "Barthelmes 2013 section 4.1), 1 E = 1e-9 s-2",
+}
 
 
 def quantity_template(
@@ -460,6 +527,7 @@ def quantity_template(
         + {
             "gradient": f"{mod.name} degree {mod.lmax}",
             "gradient-normal": f"the exact normal gravity of {ell.name}",
+            "ewh": f"{mod.name} degree {mod.lmax}",
         }.get(quantity, f"{mod.name} degree {mod.lmax} minus the {ell.name} normal field"),
     )
     attrs.update({"quantity": quantity, "definition": _definition(degree0, quantity)})
