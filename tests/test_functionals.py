@@ -30,6 +30,7 @@ from fieldmap.grids.spec import GridSpec
 from fieldmap.models.geographiclib import gravity_tool, run_gravity_tool, write_egm
 from fieldmap.models.registry import kaula_model, load_model
 from fieldmap.models.shmodel import SHModel
+from fieldmap.models.tide import convert_tide_system
 
 mp.mp.dps = 40
 # WGS84's defining constants (NIMA TR8350.2), as printed
@@ -444,7 +445,7 @@ def test_ewh_single_coefficient(n, m, kn):
 
 
 def test_field_difference_constants_and_tide():
-    """A field re-expressed in other GM and radius differs from itself by nothing; tides refused."""
+    """A field re-expressed in other GM and radius, or another tide system, differs by nothing."""
     model = load_model("eigen-6s", lmax=40)
     gm2, r2 = model.gm * 1.001, model.radius * 1.0001
     n = np.arange(41)[:, None]
@@ -460,9 +461,13 @@ def test_field_difference_constants_and_tide():
     c00[0, 0] = 1.0 + 3e-9
     mass = SHModel("mass", model.gm, model.radius, c00, model.S, 40, model.tide_system)
     assert water.equivalent_water_height([10.0], [0.0], model=mass, reference=model)[0] == 0.0
-    zero = SHModel("zero", gm2, r2, model.C * scale, model.S * scale, 40, "zero_tide")
-    with pytest.raises(InputError, match="tide system"):
-        water.field_difference(model, zero)
+    # another tide system: converted to the model's first (the permanent tide is no mass)
+    assert model.tide_system == "tide_free"
+    zero = convert_tide_system(other, "zero_tide")
+    assert zero.C[2, 0] != other.C[2, 0]
+    diff_zero = water.field_difference(model, zero)
+    assert np.abs(diff_zero.C).max() < 1e-18 and np.abs(diff_zero.S).max() < 1e-18
+    assert "converted from zero_tide to tide_free" in diff_zero.source
 
 
 def test_ewh_of_one_field_is_refused(tmp_path):

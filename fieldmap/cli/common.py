@@ -28,7 +28,8 @@ def load_cli_model(args: argparse.Namespace) -> SHModel:
     """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options.
 
     With ``--minus`` (``--quantity ewh``), the difference of that model and the reference
-    (:func:`fieldmap.field.water.field_difference`).
+    (:func:`fieldmap.field.water.field_difference`), the reference converted to the model's tide
+    system first when they differ (said on stderr).
     """
     from fieldmap.models.registry import announce, load_model, model_options
 
@@ -38,6 +39,11 @@ def load_cli_model(args: argparse.Namespace) -> SHModel:
         from fieldmap.field.water import field_difference
 
         reference = load_model(args.minus, lmax=args.lmax, **model_options(args))
+        known = {model.tide_system, reference.tide_system} - {"unknown"}
+        if len(known) > 1:  # one tide system for both (field_difference would convert too)
+            from fieldmap.models.tide import convert_tide_system
+
+            reference = convert_tide_system(reference, model.tide_system)
         announce(reference)
         model = field_difference(model, reference)
     return model

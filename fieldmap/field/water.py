@@ -125,8 +125,9 @@ def field_difference(model: SHModel, reference: SHModel) -> SHModel:
 
     The reference's coefficients are re-expressed with the model's constants,
     :math:`\bar C^B_{nm}\,(GM_B/GM_A)(R_B/R_A)^n`, then subtracted, to the lower of the two
-    degrees. Two fields in different known tide systems are refused (their C̄20 differ by the
-    permanent tide, not by a change of mass).
+    degrees. Of two fields in different known tide systems the reference is converted to the
+    model's first (:func:`fieldmap.models.tide.convert_tide_system`: their C̄20 differ by the
+    permanent tide, not by a change of mass), and the difference's ``source`` says so.
 
     Parameters
     ----------
@@ -143,19 +144,20 @@ def field_difference(model: SHModel, reference: SHModel) -> SHModel:
         if not isinstance(m, SHModel):
             raise InputError(f"{what} must be an SHModel, got {type(m).__name__}", param=what)
     known = {model.tide_system, reference.tide_system} - {"unknown"}
-    if len(known) > 1:
-        raise InputError(
-            f"{model.name} is {model.tide_system} and {reference.name} is "
-            f"{reference.tide_system}: convert one to the other's tide system before taking "
-            "their difference",
-            param="reference",
-        )
+    if len(known) > 1:  # the permanent tide is no change of mass: one system for both
+        from fieldmap.models.tide import convert_tide_system
+
+        converted = f" ({reference.name} converted from {reference.tide_system} to "
+        converted += f"{model.tide_system}, IERS Conventions 2010 §6.2.2)"
+        reference = convert_tide_system(reference, model.tide_system)
     lmax = min(model.lmax, reference.lmax)
     n = np.arange(lmax + 1, dtype=np.float64)[:, None]
     scale = (reference.gm / model.gm) * (reference.radius / model.radius) ** n
     C = model.C[: lmax + 1, : lmax + 1] - reference.C[: lmax + 1, : lmax + 1] * scale
     S = model.S[: lmax + 1, : lmax + 1] - reference.S[: lmax + 1, : lmax + 1] * scale
     what = f"{_describe(model)} minus {_describe(reference)}"
+    if len(known) > 1:
+        what += converted
     return replace(
         model,
         name=f"{model.name}-minus-{reference.name}",
