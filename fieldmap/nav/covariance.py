@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from fieldmap.errors import InputError
 from fieldmap.nav.linear import core_dynamics, rk4_transition
 
 __all__ = [
@@ -72,7 +73,7 @@ SOURCES = (
     "accelerometer bias", "gyro bias", "accelerometer bias instability",
     "gyro bias instability", "accelerometer scale factor", "accelerometer misalignment",
     "gyro scale factor", "gyro misalignment", "velocity random walk", "angle random walk",
-    "baro bias", "baro drift", "baro noise",
+    "baro bias", "baro drift", "baro noise", "GNSS noise",
 )  # fmt: skip
 
 
@@ -171,6 +172,8 @@ class CovarianceResult:
     position: dict
     velocity: dict
     attitude: dict
+    #: the GNSS filter of an aided study (:class:`fieldmap.nav.aiding.FilterDesign`) or None
+    design: Any = None
 
     def total(self, what: str = "position") -> np.ndarray:
         """(n, 3) σ of all sources together."""
@@ -205,6 +208,67 @@ def _noise_q(F: np.ndarray, GQG: np.ndarray, h: np.ndarray) -> np.ndarray:
         + (FG + np.swapaxes(FG, -1, -2)) * hs**2 / 2.0
         + (F2G + 2.0 * FGF + np.swapaxes(F2G, -1, -2)) * hs**3 / 6.0
     )
+
+
+def _aided(
+    t: np.ndarray,
+    gnss: Any,
+    Phi: np.ndarray,
+    Fq: np.ndarray,
+    h: np.ndarray,
+    const: list,
+    stoch: list,
+    noise_baro: np.ndarray | None,
+    store: Any,
+) -> Any:
+    """GNSS-aided: the filter's covariance, then each source through its gains (Joseph form).
+
+    Returns the :class:`fieldmap.nav.aiding.FilterDesign`; ``store`` receives each source's
+    a priori covariance and that of the GNSS noise.
+    """
+    from fieldmap.nav.aiding import design_filter, joseph_sources
+
+    step = 1.0 / gnss.rate_hz
+    dt = np.diff(t)
+    k = step / dt
+    if t.size < 2 or np.any(np.abs(k - np.round(k)) > 1e-6 * k) or np.any(k < 1 - 1e-9):
+        raise InputError(
+            f"the covariance grid must hold every GNSS fix ({step:g} s apart): output_dt "
+            f"{dt.max():g} s",
+            param="output_dt",
+        )
+    names, P0s, gqgs = [], [], []
+    for name, sl, sigma in const:
+        p0 = np.zeros((N_STATES, N_STATES))
+        ix = np.arange(N_STATES)[sl]
+        p0[ix, ix] = sigma**2
+        names.append(name)
+        P0s.append(p0)
+        gqgs.append(np.zeros((1, N_STATES, N_STATES)))
+    for name, p0, q in stoch:
+        names.append(name)
+        P0s.append(np.diag(p0))
+        gqgs.append(np.diag(q)[None])
+    if noise_baro is not None:
+        names.append("baro noise")
+        P0s.append(np.zeros((N_STATES, N_STATES)))
+        gqgs.append(0.5 * (noise_baro[:-1] + noise_baro[1:]))
+    names.append("GNSS noise")
+    P0s.append(np.zeros((N_STATES, N_STATES)))
+    gqgs.append(np.zeros((1, N_STATES, N_STATES)))
+    P0 = np.stack(P0s)
+
+    def q_src(i: int) -> np.ndarray:
+        G = np.stack([g[min(i, g.shape[0] - 1)] for g in gqgs])
+        return _noise_q(np.broadcast_to(Fq[i], G.shape), G, np.full(G.shape[0], h[i]))
+
+    update = gnss.updates(t)
+    design = design_filter(t, update, Phi, lambda i: q_src(i).sum(0), P0.sum(0), gnss)
+    noise = np.array([nm == "GNSS noise" for nm in names])
+    P = joseph_sources(design, P0, q_src, noise)
+    for j, name in enumerate(names):
+        store(name, P[j])
+    return design
 
 
 def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceResult:
@@ -302,6 +366,14 @@ def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceRe
             blk = P[:, sl, sl]
             d[name] = np.sqrt(np.maximum(np.einsum("nij,njk,nik->ni", ned, blk, ned), 0.0))
 
+    gnss = getattr(study, "gnss", None)
+    if gnss is not None:
+        design = _aided(t, gnss, Phi, Fq, h, const, stoch, noise_baro, store)
+        present = [s for s in SOURCES if s in pos]
+        return CovarianceResult(
+            t, present, {s: pos[s] for s in present}, {s: vel[s] for s in present},
+            {s: att[s] for s in present}, design,
+        )  # fmt: skip
     # constant sources: sensitivity columns S = Φ(t, 0)[:, cols]
     if const:
         cols = np.concatenate([np.arange(N_STATES)[c[1]] for c in const])

@@ -1,0 +1,469 @@
+r"""GNSS-aided navigation through outages: a loosely coupled error-state Kalman filter.
+
+The navigator integrates its IMU (:mod:`fieldmap.nav.mechanize`) and, at each GNSS epoch,
+compares its position (and velocity) with the receiver's fix; a Kalman filter on the error state
+of :mod:`fieldmap.nav.covariance` (36 states: position, velocity, attitude, sensor biases, scale
+factors, misalignments, baro loop) estimates the errors, and the estimates of the navigation
+state and of the IMU biases are **fed back** (Groves 2013 §14.1.1, "closed-loop" correction):
+the strapdown is corrected and goes on from the corrected state, the filter's estimate of those
+states set back to zero. During an outage no fix arrives: the navigator coasts on its IMU, and
+the gravity model's error shows in how fast its error grows.
+
+Measurement model (ECEF, loosely coupled; Groves 2013 eq. 14.101 without the lever arm):
+
+.. math::
+    z_r = \hat r - \tilde r_\mathrm{GNSS} = \delta r - n_r,\qquad
+    z_v = \hat v - \tilde v_\mathrm{GNSS} = \delta v - n_v ,
+
+n white, σ per axis (``sigma_m``, ``velocity_sigma_mps``; isotropic, so the same in NED and
+ECEF). Update (Joseph form, Bucy & Joseph 1968; Groves 2013 eq. 3.25):
+
+.. math::
+    K = P^- H^\mathsf{T} (H P^- H^\mathsf{T} + R)^{-1},\qquad
+    P^+ = (I - K H) P^- (I - K H)^\mathsf{T} + K R K^\mathsf{T} .
+
+The Joseph form holds for any gain, so with the gains of the whole filter each error source's
+own covariance goes through the same recursion (R entering only the GNSS noise's): the sources
+still add up to the total, and the error budget of a free-inertial flight carries over to an
+aided one. A deterministic input (a gravity model's error) goes through the closed loop
+x⁺ = (I − K H) x⁻ (:func:`closed_loop`).
+
+The filter is designed on the true trajectory (a simulation: the gains of every Monte Carlo draw
+are the same, and equal to those of the covariance analysis); the Monte Carlo draws differ in
+their errors, GNSS noise and feedback (:class:`FeedbackFilter`).
+
+Outages: intervals ``START:DURATION`` (seconds, or with a unit ``s``, ``min``, ``h``:
+``20min:5min``), comma-separated, or a pattern ``every PERIOD:DURATION`` (an outage of DURATION
+starting at PERIOD, 2·PERIOD, … while it ends within the flight: ``every 30min:5min``). No
+update happens at an epoch t with START ≤ t < START + DURATION; the *coasting error* of an
+outage is the error just before the first update after it, at START + DURATION.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from fieldmap.errors import InputError
+
+__all__ = [
+    "FeedbackFilter", "FilterDesign", "GnssSpec", "closed_loop", "design_filter",
+    "joseph_sources", "nees_bounds", "parse_outages",
+]  # fmt: skip
+
+_UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "h": 3600.0}
+
+
+def _seconds(text: str, what: str) -> float:
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(s|min|h)?\s*", text)
+    try:
+        if m is None:
+            raise ValueError
+        v = float(m.group(1)) * _UNITS[m.group(2) or ""]
+    except ValueError:
+        raise InputError(
+            f"gnss.outages: {what} {text.strip()!r} is no time (seconds, or with a unit s, "
+            "min, h)",
+            param="gnss.outages",
+        ) from None
+    if not np.isfinite(v):
+        raise InputError(f"gnss.outages: {what} {text.strip()!r} is not finite", "gnss.outages")
+    return v
+
+
+def parse_outages(text: str) -> tuple[tuple[tuple[float, float], ...], tuple[float, float] | None]:
+    """Parse ``"START:DURATION[,...]"`` or ``"every PERIOD:DURATION"`` → (intervals, pattern).
+
+    Units: s (a number, or with a unit ``s``, ``min``, ``h``).
+    """
+    s = str(text).strip()
+    if not s or s.lower() == "none":
+        return (), None
+    every = s.lower().startswith("every")
+    body = s[5:] if every else s
+    pairs = []
+    for part in body.split(","):
+        bits = part.split(":")
+        if len(bits) != 2:
+            raise InputError(
+                f"gnss.outages: {part.strip()!r} is not START:DURATION (e.g. 600:300, "
+                "20min:5min, or every 30min:5min)",
+                param="gnss.outages",
+            )
+        pairs.append(
+            (_seconds(bits[0], "period" if every else "start"), _seconds(bits[1], "duration"))
+        )
+    if every:
+        if len(pairs) != 1:
+            raise InputError("gnss.outages: one PERIOD:DURATION after 'every'", "gnss.outages")
+        return (), pairs[0]
+    return tuple(pairs), None
+
+
+@dataclass(frozen=True)
+class GnssSpec:
+    """GNSS aiding of a flight study: fix rate, noise and outages (validated once).
+
+    Parameters
+    ----------
+    rate_hz : float
+        Fix rate; at most the IMU's, a whole number of IMU samples apart (checked by the
+        study). Units: Hz.
+    sigma_m : float
+        White noise of each position component (N, E, D), 1σ. Units: m.
+    velocity_sigma_mps : float or None
+        White noise of each velocity component, 1σ; None: position fixes only. Units: m/s.
+    outages : str or sequence of (start, duration)
+        ``"600:300,2400:300"``, ``"every 30min:5min"`` (see the module docstring), or pairs in
+        seconds. Checked against the flight by the study (inside it, not overlapping).
+    """
+
+    rate_hz: float = 1.0
+    sigma_m: float = 2.0
+    velocity_sigma_mps: float | None = 0.05
+    outages: Any = ()
+    #: a pattern (period, duration) in s, or None (resolved from ``outages``)
+    every: tuple[float, float] | None = field(init=False, default=None)
+
+    def __post_init__(self) -> None:
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        for name, v in (("rate_hz", self.rate_hz), ("sigma_m", self.sigma_m),
+                        ("velocity_sigma_mps", self.velocity_sigma_mps)):  # fmt: skip
+            if name == "velocity_sigma_mps" and v is None:
+                continue
+            if isinstance(v, (str, bool)) or not isinstance(v, (int, float, np.number)):
+                raise InputError(f"gnss.{name} must be a number, got {v!r}", param=f"gnss.{name}")
+            if not np.isfinite(v) or v <= 0:
+                raise InputError(
+                    f"gnss.{name} must be a positive number, got {v:g}", param=f"gnss.{name}"
+                )
+            put(name, float(v))
+        out = self.outages
+        if isinstance(out, str):
+            pairs, every = parse_outages(out)
+        else:
+            try:
+                pairs = tuple((float(a), float(b)) for a, b in (out or ()))
+            except (TypeError, ValueError):
+                raise InputError(
+                    "gnss.outages must be a string or (start, duration) pairs in s",
+                    param="gnss.outages",
+                ) from None
+            every = None
+        for a, d in pairs + ((every,) if every else ()):
+            if not (np.isfinite(a) and np.isfinite(d)) or d <= 0 or a < 0:
+                raise InputError(
+                    f"gnss.outages: an outage starts at {a:g} s and lasts {d:g} s: the start "
+                    "must be >= 0 and the duration > 0",
+                    param="gnss.outages",
+                )
+        order = sorted(pairs)
+        for (a0, d0), (a1, _) in zip(order, order[1:]):
+            if a1 < a0 + d0:
+                raise InputError(
+                    f"gnss.outages: the outages {a0:g}:{d0:g} and {a1:g}:{_:g} overlap",
+                    param="gnss.outages",
+                )
+        if every is not None and every[1] >= every[0]:
+            raise InputError(
+                f"gnss.outages: every {every[0]:g}:{every[1]:g} s: outages as long as their period "
+                "overlap (no fix at all)",
+                param="gnss.outages",
+            )
+        put("outages", tuple(order))
+        put("every", every)
+
+    def intervals(self, duration: float) -> np.ndarray:
+        """(k, 2) start and end (s) of the outages of a flight of ``duration`` s."""
+        if self.every is None:
+            return np.array(self.outages, dtype=np.float64).reshape(-1, 2) @ np.array(
+                [[1.0, 1.0], [0.0, 1.0]]
+            )
+        p, d = self.every
+        starts = p * np.arange(1, int(np.floor(duration / p + 1e-9)) + 1)
+        starts = starts[starts + d <= duration * (1 + 1e-12)]
+        return np.stack([starts, starts + d], -1).reshape(-1, 2)
+
+    def check_flight(self, duration: float, imu_rate_hz: float) -> None:
+        """Refuse (one line) a rate above the IMU's and outages outside a flight of ``duration``."""
+        if self.rate_hz > imu_rate_hz * (1 + 1e-12):
+            raise InputError(
+                f"gnss.rate_hz {self.rate_hz:g} Hz is above the IMU rate {imu_rate_hz:g} Hz "
+                "(rate_hz)",
+                param="gnss.rate_hz",
+            )
+        k = imu_rate_hz / self.rate_hz
+        if abs(k - round(k)) > 1e-9 * k:
+            raise InputError(
+                f"gnss.rate_hz {self.rate_hz:g} Hz: its fixes are not a whole number of IMU "
+                f"samples apart at {imu_rate_hz:g} Hz (rate_hz)",
+                param="gnss.rate_hz",
+            )
+        iv = self.intervals(duration)
+        if self.every is not None and iv.shape[0] == 0:
+            raise InputError(
+                f"gnss.outages: every {self.every[0]:g}:{self.every[1]:g} s has no outage within "
+                f"the flight's {duration:g} s",
+                param="gnss.outages",
+            )
+        for a, b in iv:
+            if b > duration * (1 + 1e-12):
+                raise InputError(
+                    f"gnss.outages: the outage {a:g}:{b - a:g} s ends after the flight's "
+                    f"{duration:g} s (duration)",
+                    param="gnss.outages",
+                )
+
+    def updates(self, t: np.ndarray) -> np.ndarray:
+        """Mask of the times ``t`` (on the fix grid) at which a fix arrives (not t = 0)."""
+        t = np.asarray(t, dtype=np.float64)
+        k = t * self.rate_hz
+        on = (np.abs(k - np.round(k)) < 1e-6) & (t > 0)
+        for a, b in self.intervals(float(t[-1]) if t.size else 0.0):
+            on &= ~((t >= a - 1e-9) & (t < b - 1e-9))
+        return on
+
+    @property
+    def n_meas(self) -> int:
+        """Measurement components per fix (3 or 6)."""
+        return 3 if self.velocity_sigma_mps is None else 6
+
+    def r_matrix(self) -> np.ndarray:
+        """R (m, m) of one fix (m², m²/s²)."""
+        d = [self.sigma_m**2] * 3
+        if self.velocity_sigma_mps is not None:
+            d += [self.velocity_sigma_mps**2] * 3
+        return np.diag(d)
+
+    def h_matrix(self, n_states: int) -> np.ndarray:
+        """H (m, n_states): δr in states 0–2, δv in 3–5."""
+        H = np.zeros((self.n_meas, n_states))
+        H[:, : self.n_meas] = np.eye(self.n_meas)
+        return H
+
+
+@dataclass
+class FilterDesign:
+    """The filter of an aided study on its time grid (a priori covariances, gains).
+
+    ``t`` (n,) s; ``update`` (n,) bool: a fix is used at t_i (after storing P⁻_i); ``Phi``
+    (n−1, k, k) the transitions between grid times; ``P`` (n, k, k) the a priori covariance;
+    ``K`` (n, k, m) the gains (zero where no update); ``H`` (m, k); ``R`` (m, m).
+    """
+
+    t: np.ndarray
+    update: np.ndarray
+    Phi: np.ndarray
+    P: np.ndarray
+    K: np.ndarray
+    H: np.ndarray
+    R: np.ndarray
+
+
+def design_filter(
+    t: np.ndarray, update: np.ndarray, Phi: np.ndarray, q: Any, P0: np.ndarray, gnss: Any
+) -> FilterDesign:
+    """Run the covariance of the Kalman filter along the grid: P⁻ at every time, the gains.
+
+    ``q(i)`` (k, k) the process noise of step i, ``P0`` (k, k) at t[0]; Joseph-form updates
+    at the times of ``update`` (module docstring).
+    """
+    n, k = t.size, P0.shape[0]
+    H, R = gnss.h_matrix(k), gnss.r_matrix()
+    I = np.eye(k)  # noqa: E741
+    P = P0.copy()
+    Ps = np.empty((n, k, k))
+    Ks = np.zeros((n, k, H.shape[0]))
+    for i in range(n):
+        Ps[i] = P
+        if update[i]:
+            S = H @ P @ H.T + R
+            K = np.linalg.solve(S, H @ P).T  # P Hᵀ S⁻¹ (S, P symmetric)
+            A = I - K @ H
+            P = A @ P @ A.T + K @ R @ K.T
+            Ks[i] = K
+        if i < n - 1:
+            P = Phi[i] @ P @ Phi[i].T + q(i)
+            P = 0.5 * (P + P.T)
+    return FilterDesign(t, update, Phi, Ps, Ks, H, R)
+
+
+def joseph_sources(design: FilterDesign, P0: np.ndarray, q: Any, noise: np.ndarray) -> np.ndarray:
+    """A priori covariance (s, n, k, k) of s sources through the filter's fixed gains.
+
+    ``P0`` (s, k, k) at t[0]; ``q(i)`` (s, k, k) the process noise of each source over step i;
+    ``noise`` (s,) bool: the source whose covariance takes the fixes' K R Kᵀ (the GNSS noise).
+    """
+    d = design
+    n, k = d.t.size, d.H.shape[1]
+    out = np.empty((P0.shape[0], n, k, k))
+    P = P0.copy()
+    I = np.eye(k)  # noqa: E741
+    w = noise.astype(np.float64)[:, None, None]
+    for i in range(n):
+        out[:, i] = P
+        if d.update[i]:
+            A = I - d.K[i] @ d.H
+            P = A @ P @ A.T + w * (d.K[i] @ d.R @ d.K[i].T)
+        if i < n - 1:
+            P = d.Phi[i] @ P @ d.Phi[i].T + q(i)
+    return out
+
+
+def closed_loop(design: FilterDesign, u: np.ndarray) -> np.ndarray:
+    """States (s, n, k) driven by accelerations ``u`` (s, n, 3) on the velocity error (ECEF).
+
+    x_{i+1} = Φ_i x_i⁺ + h_i/2 (Φ_i B u_i + B u_{i+1}) (the trapezoid rule, B the velocity
+    rows), x_i⁺ = (I − K_i H) x_i where a fix is used at t_i, x_i elsewhere; x_0 = 0; a priori
+    values stored. Units: m/s² → the state's.
+    """
+    d = design
+    s, n, k = u.shape[0], d.t.size, d.H.shape[1]
+    h = np.diff(d.t)
+    x = np.zeros((s, k))
+    out = np.zeros((s, n, k))
+    for i in range(n - 1):
+        if d.update[i]:
+            x = x - (x @ d.H.T) @ d.K[i].T
+        x = x @ d.Phi[i].T + 0.5 * h[i] * (u[:, i] @ d.Phi[i][:, 3:6].T)
+        x[:, 3:6] += 0.5 * h[i] * u[:, i + 1]
+        out[:, i + 1] = x
+    return out
+
+
+def nees_bounds(n_draws: int, dim: int, p: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``p`` bounds of the mean NEES over ``n_draws`` draws (χ²(n·dim)/n)."""
+    from scipy.stats import chi2
+
+    a = (1.0 - p) / 2.0
+    nd = n_draws * dim
+    return float(chi2.ppf(a, nd) / n_draws), float(chi2.ppf(1.0 - a, nd) / n_draws)
+
+
+#: the states fed back into the navigator (the rest stay estimates, propagated open loop)
+FED_BACK = np.r_[0:6, 7:22]
+
+
+class FeedbackFilter:
+    """The Monte Carlo's filter: one estimate per run, the design's gains, feedback at fixes.
+
+    ``design`` the :class:`FilterDesign` (gains common to all runs); ``draw`` (n_runs,) the
+    draw of each run (runs of one draw see the same GNSS noise); ``seed`` of the GNSS noise;
+    ``n_draws`` the draws.
+    """
+
+    def __init__(
+        self, design: FilterDesign, gnss: GnssSpec, draw: np.ndarray, seed: int, grid: tuple
+    ) -> None:
+        self.d = design
+        #: IMU sample interval (s), samples per stored state and per fix, the ellipsoid
+        self.dt, self.every, self.per_fix, self.ellipsoid = grid
+        self.gnss = gnss
+        self.draw = np.asarray(draw)
+        self.seed = int(seed)
+        n, k = self.draw.size, design.H.shape[1]
+        self.x = np.zeros((n, k))
+        self.i_last = 0  # grid index of the estimate
+        #: NEES of position and velocity at each fix (n_fix, n_runs), and the fix indices
+        self.nees: list[np.ndarray] = []
+        self.nees_at: list[int] = []
+
+    def propagate_to(self, i: int) -> None:
+        """Carry the estimate from grid index ``i_last`` to ``i`` (open loop, Φ)."""
+        for j in range(self.i_last, i):
+            self.x = self.x @ self.d.Phi[j].T
+        self.i_last = i
+
+    def update(self, i: int, err: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Use the fix at grid index ``i`` given the runs' true errors; return the corrections.
+
+        ``err``: ``dr``, ``dv`` (n_runs, 3) ECEF errors of the navigated state (m, m/s);
+        ``psi`` the attitude errors (rad). Returns the estimated errors to remove: ``dr``,
+        ``dv``, ``psi``, ``acc_bias``, ``gyro_bias``, ``acc_gm``, ``gyro_gm`` (n_runs, 3).
+        """
+        from fieldmap.nav import covariance as cv
+
+        self.propagate_to(i)
+        d, g = self.d, self.gnss
+        nd = int(self.draw.max()) + 1 if self.draw.size else 0
+        rng = np.random.default_rng([self.seed, 7, i])
+        noise = rng.standard_normal((nd, g.n_meas))[self.draw] * np.sqrt(np.diag(d.R))
+        true = np.concatenate([err["dr"], err["dv"]], -1)[:, : g.n_meas]
+        z = true - noise
+        # NEES of δr, δv (the filter's a priori error: truth less estimate)
+        e = np.concatenate([err["dr"], err["dv"]], -1) - self.x[:, 0:6]
+        P = d.P[i][0:6, 0:6]
+        self.nees.append(np.einsum("ni,ni->n", e, np.linalg.solve(P, e.T).T))
+        self.nees_at.append(i)
+        self.x = self.x + (z - self.x @ d.H.T) @ d.K[i].T
+        fb = {
+            "dr": self.x[:, cv.R].copy(), "dv": self.x[:, cv.V].copy(),
+            "psi": self.x[:, cv.PSI].copy(), "acc_bias": self.x[:, cv.BA].copy(),
+            "gyro_bias": self.x[:, cv.BG].copy(), "acc_gm": self.x[:, cv.GA].copy(),
+            "gyro_gm": self.x[:, cv.GG].copy(),
+        }  # fmt: skip
+        self.x[:, FED_BACK] = 0.0
+        return fb
+
+    def fly_block(self, prop: Any, block: tuple, s0: int, truth: Any) -> dict[str, np.ndarray]:
+        """Propagate a block of increments in segments between fixes, feeding back at each.
+
+        ``prop`` the :class:`~fieldmap.nav.propagator.Propagator` (NED; its runs those of the
+        filter); ``block`` ``(dtheta, dv, h_ref)`` of the block (``h_ref`` None without baro);
+        ``s0`` its first sample; ``truth(t)`` the true ECEF position, velocity and C_b^e at a
+        time (1,)-array. Returns the stored states as :meth:`Propagator.propagate` does: at
+        each fix the state before its update (a priori).
+        """
+        dth, dvel, h_ref = block
+        dt, every, per_fix = self.dt, self.every, self.per_fix
+        nb = np.shape(dth)[1]
+        cuts = [a for a in range(s0 + 1, s0 + nb) if a % per_fix == 0] + [s0 + nb]
+        parts: list[dict[str, np.ndarray]] = []
+        a = s0
+        for b in cuts:
+            sl = slice(a - s0, b - s0)
+            href = None if h_ref is None else np.asarray(h_ref)[..., sl]
+            out = prop.propagate(dth[:, sl], dvel[:, sl], a, href)
+            parts.append(out if not parts else {k: v[:, 1:] for k, v in out.items()})
+            i = b // every
+            if b % per_fix == 0 and self.d.update[i]:
+                self._feedback(prop, i, truth(np.array([b * dt])))
+            a = b
+        return {k: np.concatenate([p[k] for p in parts], axis=1) for k in parts[0]}
+
+    def _feedback(self, prop: Any, i: int, truth: tuple) -> None:
+        """Update at grid index ``i`` and apply the corrections to the propagator's runs."""
+        from scipy.spatial.transform import Rotation
+
+        from fieldmap.field.frames import ecef_to_geodetic, geodetic_to_ecef
+        from fieldmap.nav.frames import C_n_to_e
+        from fieldmap.nav.mechanize import dcm_to_quat, quat_to_dcm
+
+        r_t, v_t, C_t = truth
+        st = prop.get_state()
+        lat, lon = np.degrees(st["llh"][:, 0]), np.degrees(st["llh"][:, 1])
+        r = np.stack(geodetic_to_ecef(lat, lon, st["llh"][:, 2], self.ellipsoid), -1)
+        Cne = C_n_to_e(lat, lon)
+        v = np.einsum("nij,nj->ni", Cne, st["v"])
+        C = Cne @ quat_to_dcm(st["q"])
+        E = C @ C_t.T  # Ĉ Cᵀ = I − [ψ×]
+        S = 0.5 * (np.swapaxes(E, -1, -2) - E)
+        psi = np.stack([S[:, 2, 1], S[:, 0, 2], S[:, 1, 0]], -1)
+        fb = self.update(i, {"dr": r - r_t, "dv": v - v_t, "psi": psi})
+        r = r - fb["dr"]
+        v = v - fb["dv"]
+        C = Rotation.from_rotvec(fb["psi"]).as_matrix() @ C
+        lat, lon, hh = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], self.ellipsoid)
+        Cen = np.swapaxes(C_n_to_e(lat, lon), -1, -2)
+        st["llh"] = np.stack([np.radians(lat), np.radians(lon), hh], -1)
+        st["v"] = np.einsum("nij,nj->ni", Cen, v)
+        st["q"] = dcm_to_quat(Cen @ C)
+        st["acc_gm"] = st["acc_gm"] - fb["acc_gm"]
+        st["gyro_gm"] = st["gyro_gm"] - fb["gyro_gm"]
+        prop.set_state(st)
+        prop.correct_errors(acc_bias=fb["acc_bias"], gyro_bias=fb["gyro_bias"])
