@@ -416,11 +416,16 @@ class FeedbackFilter:
         ``prop`` the :class:`~fieldmap.nav.propagator.Propagator` (NED; its runs those of the
         filter); ``block`` ``(dtheta, dv, h_ref)`` of the block (``h_ref`` None without baro);
         ``s0`` its first sample; ``truth(t)`` the true ECEF position, velocity and C_b^e at a
-        time (1,)-array. Returns the stored states as :meth:`Propagator.propagate` does: at
-        each fix the state before its update (a priori).
+        time (1,)-array. Returns the stored states as :meth:`Propagator.propagate` does
+        (``lat``, ``lon`` deg, ``h``, ``v``, ``C`` C_b^n), each the navigator's output: the
+        strapdown's state less the filter's estimate of its error at that time (nonzero between
+        fixes where states not fed back, e.g. scale factors, drive it); at a fix, before its
+        update (a priori).
         """
+        from fieldmap.nav.mechanize import quat_to_dcm
+
         dth, dvel, h_ref = block
-        dt, every, per_fix = self.dt, self.every, self.per_fix
+        every, per_fix = self.every, self.per_fix
         nb = np.shape(dth)[1]
         cuts = [a for a in range(s0 + 1, s0 + nb) if a % per_fix == 0] + [s0 + nb]
         parts: list[dict[str, np.ndarray]] = []
@@ -429,40 +434,67 @@ class FeedbackFilter:
             sl = slice(a - s0, b - s0)
             href = None if h_ref is None else np.asarray(h_ref)[..., sl]
             out = prop.propagate(dth[:, sl], dvel[:, sl], a, href)
-            parts.append(out if not parts else {k: v[:, 1:] for k, v in out.items()})
+            out = {"lat": out["lat"], "lon": out["lon"], "h": out["h"], "v": out["v"],
+                   "C": quat_to_dcm(out["q"])}  # fmt: skip
+            first = 0 if not parts else 1
+            out = {k: v[:, first:] for k, v in out.items()}
+            idx = a // every + first + np.arange(out["h"].shape[1])
+            xs = np.empty((self.x.shape[0], idx.size, 9))
+            for j, gi in enumerate(idx):
+                self.propagate_to(int(gi))
+                xs[:, j] = self.x[:, :10][:, [0, 1, 2, 3, 4, 5, 7, 8, 9]]
+            if np.any(xs):
+                shp = out["h"].shape
+                new = self._apply(
+                    {k: v.reshape((-1,) + v.shape[2:]) for k, v in out.items()},
+                    xs.reshape(-1, 9),
+                )
+                out = {k: v.reshape(shp + v.shape[1:]) for k, v in new.items()}
+            parts.append(out)
             i = b // every
             if b % per_fix == 0 and self.d.update[i]:
-                self._feedback(prop, i, truth(np.array([b * dt])))
+                self._feedback(prop, i, truth(np.array([b * self.dt])))
             a = b
         return {k: np.concatenate([p[k] for p in parts], axis=1) for k in parts[0]}
 
-    def _feedback(self, prop: Any, i: int, truth: tuple) -> None:
-        """Update at grid index ``i`` and apply the corrections to the propagator's runs."""
+    def _apply(self, nav: dict[str, np.ndarray], x: np.ndarray) -> dict[str, np.ndarray]:
+        """Remove estimated errors x (n, 9: δr, δv ECEF, ψ) from NED states (n,)."""
         from scipy.spatial.transform import Rotation
 
         from fieldmap.field.frames import ecef_to_geodetic, geodetic_to_ecef
+        from fieldmap.nav.frames import C_n_to_e
+
+        r = np.stack(geodetic_to_ecef(nav["lat"], nav["lon"], nav["h"], self.ellipsoid), -1)
+        Cne = C_n_to_e(nav["lat"], nav["lon"])
+        v = np.einsum("nij,nj->ni", Cne, nav["v"]) - x[:, 3:6]
+        C = Rotation.from_rotvec(x[:, 6:9]).as_matrix() @ (Cne @ nav["C"])
+        r = r - x[:, 0:3]
+        lat, lon, h = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], self.ellipsoid)
+        Cen = np.swapaxes(C_n_to_e(lat, lon), -1, -2)
+        return {"lat": lat, "lon": lon, "h": h, "v": np.einsum("nij,nj->ni", Cen, v),
+                "C": Cen @ C}  # fmt: skip
+
+    def _feedback(self, prop: Any, i: int, truth: tuple) -> None:
+        """Update at grid index ``i`` and apply the corrections to the propagator's runs."""
+        from fieldmap.field.frames import geodetic_to_ecef
         from fieldmap.nav.frames import C_n_to_e
         from fieldmap.nav.mechanize import dcm_to_quat, quat_to_dcm
 
         r_t, v_t, C_t = truth
         st = prop.get_state()
-        lat, lon = np.degrees(st["llh"][:, 0]), np.degrees(st["llh"][:, 1])
-        r = np.stack(geodetic_to_ecef(lat, lon, st["llh"][:, 2], self.ellipsoid), -1)
-        Cne = C_n_to_e(lat, lon)
-        v = np.einsum("nij,nj->ni", Cne, st["v"])
-        C = Cne @ quat_to_dcm(st["q"])
-        E = C @ C_t.T  # Ĉ Cᵀ = I − [ψ×]
+        nav = {"lat": np.degrees(st["llh"][:, 0]), "lon": np.degrees(st["llh"][:, 1]),
+               "h": st["llh"][:, 2], "v": st["v"], "C": quat_to_dcm(st["q"])}  # fmt: skip
+        r = np.stack(geodetic_to_ecef(nav["lat"], nav["lon"], nav["h"], self.ellipsoid), -1)
+        Cne = C_n_to_e(nav["lat"], nav["lon"])
+        v = np.einsum("nij,nj->ni", Cne, nav["v"])
+        E = (Cne @ nav["C"]) @ C_t.T  # Ĉ Cᵀ = I − [ψ×]
         S = 0.5 * (np.swapaxes(E, -1, -2) - E)
         psi = np.stack([S[:, 2, 1], S[:, 0, 2], S[:, 1, 0]], -1)
         fb = self.update(i, {"dr": r - r_t, "dv": v - v_t, "psi": psi})
-        r = r - fb["dr"]
-        v = v - fb["dv"]
-        C = Rotation.from_rotvec(fb["psi"]).as_matrix() @ C
-        lat, lon, hh = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], self.ellipsoid)
-        Cen = np.swapaxes(C_n_to_e(lat, lon), -1, -2)
-        st["llh"] = np.stack([np.radians(lat), np.radians(lon), hh], -1)
-        st["v"] = np.einsum("nij,nj->ni", Cen, v)
-        st["q"] = dcm_to_quat(Cen @ C)
+        new = self._apply(nav, np.concatenate([fb["dr"], fb["dv"], fb["psi"]], -1))
+        st["llh"] = np.stack([np.radians(new["lat"]), np.radians(new["lon"]), new["h"]], -1)
+        st["v"] = new["v"]
+        st["q"] = dcm_to_quat(new["C"])
         st["acc_gm"] = st["acc_gm"] - fb["acc_gm"]
         st["gyro_gm"] = st["gyro_gm"] - fb["gyro_gm"]
         prop.set_state(st)

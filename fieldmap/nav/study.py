@@ -1156,7 +1156,7 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         if filt is None:
             res = geodetic_outputs(traj.frame, prop.propagate(dth, dvel, s0, h_ref))
         else:
-            res = geodetic_outputs(traj.frame, filt.fly_block(prop, (dth, dvel, h_ref), s0, truth_at))
+            res = filt.fly_block(prop, (dth, dvel, h_ref), s0, truth_at)
         secs["propagation"] += time.perf_counter() - c1
         for k in outs:
             outs[k].append(res[k][:, 1:])
