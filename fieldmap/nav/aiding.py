@@ -50,8 +50,9 @@ import numpy as np
 from fieldmap.errors import InputError
 
 __all__ = [
-    "FeedbackFilter", "FilterDesign", "GnssSpec", "closed_loop", "design_filter",
-    "joseph_sources", "nees_bounds", "parse_outages",
+    "FeedbackFilter", "FilterDesign", "GnssSpec", "aided_response", "closed_loop",
+    "coasting_summary", "design_filter", "joseph_sources", "nees_bounds", "nees_summary",
+    "outage_ends", "parse_outages",
 ]  # fmt: skip
 
 _UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "h": 3600.0}
@@ -65,8 +66,7 @@ def _seconds(text: str, what: str) -> float:
         v = float(m.group(1)) * _UNITS[m.group(2) or ""]
     except ValueError:
         raise InputError(
-            f"gnss.outages: {what} {text.strip()!r} is no time (seconds, or with a unit s, "
-            "min, h)",
+            f"gnss.outages: {what} {text.strip()!r} is no time (seconds, or with a unit s, min, h)",
             param="gnss.outages",
         ) from None
     if not np.isfinite(v):
@@ -294,7 +294,7 @@ def design_filter(
 
 
 def joseph_sources(design: FilterDesign, P0: np.ndarray, q: Any, noise: np.ndarray) -> np.ndarray:
-    """A priori covariance (s, n, k, k) of s sources through the filter's fixed gains.
+    """Return the a priori covariance (s, n, k, k) of s sources through the filter's fixed gains.
 
     ``P0`` (s, k, k) at t[0]; ``q(i)`` (s, k, k) the process noise of each source over step i;
     ``noise`` (s,) bool: the source whose covariance takes the fixes' K R Kᵀ (the GNSS noise).
@@ -334,6 +334,21 @@ def closed_loop(design: FilterDesign, u: np.ndarray) -> np.ndarray:
         x[:, 3:6] += 0.5 * h[i] * u[:, i + 1]
         out[:, i + 1] = x
     return out
+
+
+def aided_response(design: FilterDesign, track: np.ndarray, dg_ned: np.ndarray, ell: Any) -> Any:
+    """NED position errors (k, n, 3) of aided navigators whose only error is ``dg_ned`` (k, n, 3).
+
+    The gravity errors (m/s², north/east/down at the true ``track`` points, degrees, degrees,
+    m) drive the velocity error through the filter's closed loop (:func:`closed_loop`): the
+    aided counterpart of :func:`fieldmap.nav.linear.position_response`. Units: m.
+    """
+    from fieldmap.nav.frames import C_n_to_e
+
+    Cne = C_n_to_e(track[:, 0], track[:, 1])  # (n, 3, 3) columns N, E, D in ECEF
+    u = np.einsum("nij,knj->kni", Cne, np.asarray(dg_ned, dtype=np.float64))
+    x = closed_loop(design, u)
+    return np.einsum("nji,knj->kni", Cne, x[..., 0:3])
 
 
 def nees_bounds(n_draws: int, dim: int, p: float = 0.95) -> tuple[float, float]:
@@ -499,3 +514,110 @@ class FeedbackFilter:
         st["gyro_gm"] = st["gyro_gm"] - fb["gyro_gm"]
         prop.set_state(st)
         prop.correct_errors(acc_bias=fb["acc_bias"], gyro_bias=fb["gyro_bias"])
+
+
+def outage_ends(t: np.ndarray, gnss: GnssSpec) -> list[tuple[float, float, int]]:
+    """(start, end, index) of each outage: ``index`` the first stored time at or after its end."""
+    t = np.asarray(t, dtype=np.float64)
+    out = []
+    for a, b in gnss.intervals(float(t[-1])):
+        out.append((float(a), float(b), int(min(np.searchsorted(t, b - 1e-9), t.size - 1))))
+    return out
+
+
+def coasting_summary(doc: dict[str, Any], res: Any, gnss: GnssSpec, sigma_h: np.ndarray) -> None:
+    """Add the GNSS block (errors at the end of each outage, over the flight) to a summary.
+
+    ``doc`` the study's summary (its ``models`` entries, ``fraction``, ``meta``); ``res`` the
+    result: ``t``, ``budget`` (the gravity terms through the aided loop), and for a Monte Carlo
+    ``dpos``, ``models`` (the row of each run); ``sigma_h`` (n,) the filter's horizontal σ
+    of the IMU's (and GNSS's) errors. Sets ``doc["gnss"]`` and replaces the recommendation by
+    the one for coasting through the worst outage (the largest IMU-only error at its end;
+    the flight's end without outages): the simplest model whose gravity contribution there
+    stays below ``fraction`` × the IMU-only error (:func:`fieldmap.nav.budget.recommend`).
+    """
+    from fieldmap.nav.budget import recommend, simplicity_order
+
+    t = res.t
+    names = [m for m in doc["models"] if m != "imu_only"]
+    mc = getattr(res, "dpos", None)
+    curves: dict[str, np.ndarray] = {}
+    added: dict[str, np.ndarray] = {}
+    if mc is not None:
+        rows = np.array(res.models)
+        ref = mc[rows == "imu_only"]
+        curves["imu_only"] = np.sqrt(np.mean(np.sum(ref[..., :2] ** 2, -1), 0))
+        for m in names:
+            d = mc[rows == m]
+            curves[m] = np.sqrt(np.mean(np.sum(d[..., :2] ** 2, -1), 0))
+            added[m] = np.sqrt(np.mean(np.sum((d - ref)[..., :2] ** 2, -1), 0))
+    imu_h = curves.get("imu_only", sigma_h)
+    ends = outage_ends(t, gnss)
+    block: dict[str, Any] = {
+        "rate_hz": gnss.rate_hz,
+        "sigma_m": gnss.sigma_m,
+        "velocity_sigma_mps": gnss.velocity_sigma_mps,
+        "outages_s": [[a, b] for a, b, _ in ends],
+        "outages": [],
+    }
+
+    def at(i: int) -> dict[str, Any]:
+        e: dict[str, Any] = {
+            "time_s": float(t[i]),
+            "filter_horizontal_sigma_m": float(sigma_h[i]),
+            "imu_only_horizontal_error_m": float(imu_h[i]),
+            "models": {},
+        }
+        for m in names:
+            g = res.budget.summary(m, at=i)
+            em: dict[str, Any] = {"gravity": g}
+            if mc is not None:
+                em["horizontal_error_m"] = float(curves[m][i])
+                em["added_horizontal_error_m"] = float(added[m][i])
+            else:
+                em["horizontal_error_m"] = float(np.hypot(sigma_h[i], g["horizontal_m"]))
+            e["models"][m] = em
+        return e
+
+    for a, b, i in ends:
+        block["outages"].append({"start_s": a, "end_s": b, **at(i)})
+    k = int(np.argmax(imu_h))
+    block["flight_max"] = at(k)
+    doc["gnss"] = block
+    iw = max(ends, key=lambda e: imu_h[e[2]])[2] if ends else t.size - 1
+    rec: dict[str, Any] = {
+        "models": {
+            m: {"gravity": res.budget.summary(m, at=iw),
+                "diverged": bool(doc["models"][m].get("diverged", False))}
+            for m in names
+        }  # fmt: skip
+    }
+    recommend(rec, simplicity_order(names), float(imu_h[iw]), doc["fraction"], True,
+              doc["meta"].get("truth_degree", "L"))  # fmt: skip
+    what = f"the outage ending at {t[iw]:g} s" if ends else "the aided flight's end"
+    doc["recommended_model"] = rec["recommended_model"]
+    doc["recommendation"] = f"coasting through {what}: {rec['recommendation']}"
+    if "gravity_floor_horizontal_m" in rec:
+        doc["gravity_floor_horizontal_m"] = rec["gravity_floor_horizontal_m"]
+
+
+def nees_summary(filt: FeedbackFilter, imu_only: np.ndarray) -> dict[str, Any]:
+    """The filter's NEES of position and velocity (6 states) over the IMU-only runs.
+
+    ``imu_only`` (n_runs,) bool in the filter's run order (runs with a gravity model carry an
+    error the filter does not model). Mean over draws at each fix, its 95 % χ² bounds, the
+    fraction of fixes within them and the mean over the flight.
+    """
+    if not filt.nees:
+        return {"fixes": 0}
+    v = np.stack(filt.nees)[:, imu_only]  # (fixes, draws)
+    mean = v.mean(axis=1)
+    lo, hi = nees_bounds(v.shape[1], 6)
+    return {
+        "dimension": 6,
+        "draws": int(v.shape[1]),
+        "fixes": int(v.shape[0]),
+        "mean": float(mean.mean()),
+        "bounds_95": [lo, hi],
+        "fraction_within": float(np.mean((mean >= lo) & (mean <= hi))),
+    }

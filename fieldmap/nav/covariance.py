@@ -545,7 +545,14 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
         from fieldmap.nav.mechanize import baro_gains
 
         gains = baro_gains(study.baro.loop_tau_s, ell)
-    budget = gravity_budget(t, track, dg, study.truth, study.gravity_terms, ell, gains, device)
+    if study.gnss is None:
+        budget = gravity_budget(t, track, dg, study.truth, study.gravity_terms, ell, gains, device)
+    else:  # the gravity terms through the filter's closed loop
+        from fieldmap.nav.aiding import aided_response
+        from fieldmap.nav.budget import gravity_inputs
+
+        inp = gravity_inputs(t, track, dg, study.truth, study.gravity_terms, ell, device)
+        budget = inp.budget(aided_response(cov.design, track, inp.stack, ell))
     c2 = time.perf_counter()
     tot = cov.total()[-1]
     imu_h = float(np.hypot(tot[0], tot[1]))
@@ -560,6 +567,7 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
             "frame": study.frame,
             "altitude_aiding": study.aiding,
             "baro": study.baro.__dict__ if study.aiding == "baro" else None,
+            "gnss": None if study.gnss is None else study.gnss.__dict__,
             "truth_model": study.truth.name,
             "truth_degree": int(study.truth.lmax),
             "output_dt_s": float(dt),
@@ -588,4 +596,9 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
         }
     recommend(doc, simplicity_order(names), imu_h, study.fraction, True, study.truth.lmax)
     doc["diverged"] = []
-    return CovarianceStudyResult(t, track, cov, dg, budget, doc)
+    res = CovarianceStudyResult(t, track, cov, dg, budget, doc)
+    if study.gnss is not None:
+        from fieldmap.nav.aiding import coasting_summary
+
+        coasting_summary(doc, res, study.gnss, cov.horizontal())
+    return res

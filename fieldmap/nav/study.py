@@ -633,6 +633,8 @@ class FlightResult:
     dg_sigma: Any = None
     #: each gravity term's position error through the linear error model (nav.budget)
     budget: GravityBudget | None = None
+    #: GNSS-aided: the filter's horizontal σ of the IMU-only error (n_out,) m; else None
+    sigma_h: Any = None
 
     def to_dataset(self) -> xr.Dataset:
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
@@ -922,9 +924,12 @@ class FlightStudy:
         output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
         per_fix = _check_gnss(self, duration, frame)
         if per_fix and self.output_dt is None:  # the stored states hold every fix
-            per_out = next(k for k in range(1, per_fix + 1)
-                           if per_fix % k == 0 and per_fix / k <= output_dt * rate_hz + 1e-9)
-            output_dt = per_fix / per_out / rate_hz  # fmt: skip
+            per_out = next(
+                k
+                for k in range(1, per_fix + 1)
+                if per_fix % k == 0 and per_fix / k <= output_dt * rate_hz + 1e-9
+            )
+            output_dt = per_fix / per_out / rate_hz
         put("output_dt_s", output_dt)
         every = _steps_per_output(output_dt, rate_hz)
         if frame == "lci" and every % 2:
@@ -1182,7 +1187,14 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         from fieldmap.nav.mechanize import baro_gains
 
         gains = baro_gains(baro.loop_tau_s, ell)
-    budget = gravity_budget(t_out, track, dg, model, study.gravity_terms, ell, gains, device)
+    if filt is None:
+        budget = gravity_budget(t_out, track, dg, model, study.gravity_terms, ell, gains, device)
+    else:  # the gravity terms through the filter's closed loop
+        from fieldmap.nav.aiding import aided_response
+        from fieldmap.nav.budget import gravity_inputs
+
+        inp = gravity_inputs(t_out, track, dg, model, study.gravity_terms, ell, device)
+        budget = inp.budget(aided_response(cov.design, track, inp.stack, ell))
     secs["gravity_budget"] = time.perf_counter() - c2
     labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
     run_models = [r for r in rows for _ in range(n_draws)]
@@ -1201,6 +1213,7 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
             "frame": frame,
             "altitude_aiding": aiding,
             "baro": baro.__dict__ if aiding == "baro" else None,
+            "gnss": None if study.gnss is None else study.gnss.__dict__,
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
             "truth_evaluation": study.truth_evaluation,
@@ -1223,10 +1236,17 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         },
         budget=budget,
     )  # fmt: skip
-    return FlightResult(
+    res = FlightResult(
         t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
         diverged, dg_sigma, budget,
     )  # fmt: skip
+    if filt is not None:
+        from fieldmap.nav.aiding import coasting_summary, nees_summary
+
+        coasting_summary(summary, res, study.gnss, cov.horizontal())
+        summary["gnss"]["nees"] = nees_summary(filt, imu_set[perm] == 1)
+        res.sigma_h = cov.horizontal()
+    return res
 
 
 def _terms_meta(terms: GravityTerms, budget: GravityBudget) -> dict[str, Any]:
