@@ -299,7 +299,7 @@ def _flight_study(
 
 
 def _gnss(args: argparse.Namespace) -> Any:
-    """The :class:`~fieldmap.nav.aiding.GnssSpec` of the ``--gnss-*`` options, or None."""
+    """Return the :class:`~fieldmap.nav.aiding.GnssSpec` of the ``--gnss-*`` options (or None)."""
     from fieldmap.cli import given
 
     if not any(given(args, d) for d in GNSS_OPTIONS):

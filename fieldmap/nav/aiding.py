@@ -50,9 +50,9 @@ import numpy as np
 from fieldmap.errors import InputError
 
 __all__ = [
-    "FeedbackFilter", "FilterDesign", "GnssSpec", "aided_response", "closed_loop",
-    "coasting_summary", "design_filter", "joseph_sources", "nees_bounds", "nees_summary",
-    "outage_ends", "parse_outages",
+    "FeedbackFilter", "FilterDesign", "GnssSpec", "add_to_dataset", "aided_response",
+    "closed_loop", "coasting_summary", "design_filter", "format_gnss", "joseph_sources",
+    "nees_bounds", "nees_summary", "outage_ends", "parse_outages",
 ]  # fmt: skip
 
 _UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "h": 3600.0}
@@ -587,8 +587,10 @@ def coasting_summary(doc: dict[str, Any], res: Any, gnss: GnssSpec, sigma_h: np.
     iw = max(ends, key=lambda e: imu_h[e[2]])[2] if ends else t.size - 1
     rec: dict[str, Any] = {
         "models": {
-            m: {"gravity": res.budget.summary(m, at=iw),
-                "diverged": bool(doc["models"][m].get("diverged", False))}
+            m: {
+                "gravity": res.budget.summary(m, at=iw),
+                "diverged": bool(doc["models"][m].get("diverged", False)),
+            }
             for m in names
         }  # fmt: skip
     }
@@ -602,7 +604,7 @@ def coasting_summary(doc: dict[str, Any], res: Any, gnss: GnssSpec, sigma_h: np.
 
 
 def nees_summary(filt: FeedbackFilter, imu_only: np.ndarray) -> dict[str, Any]:
-    """The filter's NEES of position and velocity (6 states) over the IMU-only runs.
+    """Return the filter's NEES of position and velocity (6 states) over the IMU-only runs.
 
     ``imu_only`` (n_runs,) bool in the filter's run order (runs with a gravity model carry an
     error the filter does not model). Mean over draws at each fix, its 95 % χ² bounds, the
@@ -621,3 +623,102 @@ def nees_summary(filt: FeedbackFilter, imu_only: np.ndarray) -> dict[str, Any]:
         "bounds_95": [lo, hi],
         "fraction_within": float(np.mean((mean >= lo) & (mean <= hi))),
     }
+
+
+def add_to_dataset(ds: Any, doc: dict[str, Any], sigma_h: np.ndarray | None) -> Any:
+    """Add the GNSS block of a summary to a study's ``xarray.Dataset`` (CF-1.8 attributes).
+
+    ``outage_start``, ``outage_end`` (outage) s; ``coasting_horizontal_error`` (coasting_row,
+    outage): IMU-only and each model's horizontal error at the end of each outage (m; Monte
+    Carlo RMS over draws, covariance σ); ``coasting_gravity_contribution`` (model, outage) m;
+    ``filter_horizontal_sigma`` (time) m, the filter's a priori σ; ``nees_mean`` (attribute).
+    """
+    g = doc.get("gnss")
+    if g is None:
+        return ds
+    out = g["outages"]
+    models = [m for m in doc["models"] if m != "imu_only"]
+    rows = ["imu_only"] + models
+    err = np.array(
+        [[o["imu_only_horizontal_error_m"] for o in out]]
+        + [[o["models"][m]["horizontal_error_m"] for o in out] for m in models]
+    ).reshape(len(rows), len(out))
+    grav = np.array(
+        [[o["models"][m]["gravity"]["horizontal_m"] for o in out] for m in models]
+    ).reshape(len(models), len(out))
+    new = {
+        "outage_start": ("outage", np.array([o["start_s"] for o in out], dtype=np.float64),
+                         {"units": "s", "long_name": "start of each GNSS outage"}),
+        "outage_end": ("outage", np.array([o["end_s"] for o in out], dtype=np.float64),
+                       {"units": "s", "long_name": "end of each GNSS outage"}),
+        "coasting_horizontal_error": (("coasting_row", "outage"), err, {
+            "units": "m", "long_name": "horizontal position error at the end of each GNSS "
+            "outage (IMU only and with each gravity model)"}),
+        "coasting_gravity_contribution": (("model", "outage"), grav, {
+            "units": "m", "long_name": "gravity model's contribution to the horizontal error at "
+            "the end of each GNSS outage (model difference, omission, commission through the "
+            "filter's closed loop)"}),
+    }  # fmt: skip
+    if sigma_h is not None:
+        new["filter_horizontal_sigma"] = (
+            "time",
+            np.asarray(sigma_h),
+            {"units": "m", "long_name": "GNSS/INS filter's a priori horizontal position sigma"},
+        )
+    ds = ds.assign(new).assign_coords(coasting_row=("coasting_row", np.array(rows, dtype=str)))
+    nees = g.get("nees")
+    if nees and nees.get("fixes"):
+        ds.attrs["gnss_nees_mean"] = nees["mean"]
+        ds.attrs["gnss_nees_bounds_95"] = list(nees["bounds_95"])
+        ds.attrs["gnss_nees_fraction_within"] = nees["fraction_within"]
+    return ds
+
+
+def format_gnss(doc: dict[str, Any]) -> list[str]:
+    """Text lines of the GNSS block of a summary (empty without GNSS aiding)."""
+    g = doc.get("gnss")
+    if g is None:
+        return []
+    vel = g["velocity_sigma_mps"]
+    lines = [
+        f"GNSS aiding: fixes at {g['rate_hz']:g} Hz, position sigma {g['sigma_m']:g} m"
+        + (f", velocity sigma {vel:g} m/s" if vel is not None else ", no velocity")
+        + f"; {len(g['outages'])} outage(s)"
+    ]
+    models = [m for m in doc["models"] if m != "imu_only"]
+    if g["outages"]:
+        w = max(10, *(len(m) for m in models)) if models else 10
+        lines.append(
+            f"{'coasting (horiz m)':{w + 8}s} " + " ".join(
+                f"{o['start_s']:>6g}-{o['end_s']:<6g}" for o in g["outages"]
+            )
+        )  # fmt: skip
+        lines.append(
+            f"{'IMU only':{w + 8}s} "
+            + " ".join(f"{o['imu_only_horizontal_error_m']:13.3f}" for o in g["outages"])
+        )
+        for m in models:
+            lines.append(
+                f"{m:{w}s} total  "
+                + " ".join(f"{o['models'][m]['horizontal_error_m']:13.3f}" for o in g["outages"])
+            )
+            lines.append(
+                f"{m:{w}s} grav.  "
+                + " ".join(
+                    f"{o['models'][m]['gravity']['horizontal_m']:13.3f}" for o in g["outages"]
+                )
+            )
+    fm = g["flight_max"]
+    lines.append(
+        "largest IMU-only horizontal error over the flight: "
+        f"{fm['imu_only_horizontal_error_m']:.3f} m at {fm['time_s']:g} s"
+    )
+    nees = g.get("nees")
+    if nees and nees.get("fixes"):
+        lo, hi = nees["bounds_95"]
+        lines.append(
+            f"filter consistency: NEES (position, velocity; {nees['draws']} draws) mean "
+            f"{nees['mean']:.2f} (expected 6), within its 95 % bounds [{lo:.2f}, {hi:.2f}] at "
+            f"{nees['fraction_within']:.0%} of {nees['fixes']} fixes"
+        )
+    return lines

@@ -456,7 +456,7 @@ class CovarianceStudyResult:
             if models
             else np.zeros((0, 3, self.t.size, 3))
         )
-        return xr.Dataset(
+        ds = xr.Dataset(
             {
                 "position_sigma": (
                     ("source", "time", "axis"),
@@ -514,6 +514,9 @@ class CovarianceStudyResult:
                 "meta": json.dumps(self.summary["meta"], default=float),
             },
         )
+        from fieldmap.nav.aiding import add_to_dataset
+
+        return add_to_dataset(ds, self.summary, self.covariance.horizontal())
 
 
 def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyResult:

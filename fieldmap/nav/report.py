@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from fieldmap.nav.aiding import format_gnss
 from fieldmap.nav.study import flight_dataset, to_dataset
 
 if TYPE_CHECKING:
@@ -210,6 +211,7 @@ def format_flight(res: FlightResult) -> str:
             + "; (c) commission: "
             + ("the truth's coefficient sigma" if terms["commission"] else "off")
         )
+    lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
@@ -247,6 +249,7 @@ def format_covariance(res: CovarianceStudyResult) -> str:
             f"{_num(gt['model_difference'], '10.3f', 10)} {_num(gt['omission'], '10.3f', 10)} "
             f"{_num(gt['commission'], '10.3f', 10)}"
         )
+    lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 

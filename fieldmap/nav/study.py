@@ -1386,4 +1386,8 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
             "meta": json.dumps(res.summary["meta"], default=float),
         },
     )
+    if "gnss" in res.summary:
+        from fieldmap.nav.aiding import add_to_dataset
+
+        ds = add_to_dataset(ds, res.summary, res.sigma_h)
     return ds
