@@ -89,8 +89,8 @@ def test_covariance_sources_add_up_to_the_filter():
     study = _study(draws=1, imu="navigation", altitude_aiding="baro")
     cov = covariance_analysis(study)
     P = cov.design.P
-    from fieldmap.nav.frames import C_n_to_e
     from fieldmap.nav.flight import geodetic_state
+    from fieldmap.nav.frames import C_n_to_e
 
     lat, lon, *_ = geodetic_state(study.flight, cov.t)
     ned = np.swapaxes(C_n_to_e(lat, lon), -1, -2)

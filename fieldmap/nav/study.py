@@ -1236,17 +1236,17 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         },
         budget=budget,
     )  # fmt: skip
-    res = FlightResult(
+    result = FlightResult(
         t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
         diverged, dg_sigma, budget,
     )  # fmt: skip
     if filt is not None:
         from fieldmap.nav.aiding import coasting_summary, nees_summary
 
-        coasting_summary(summary, res, study.gnss, cov.horizontal())
+        coasting_summary(summary, result, study.gnss, cov.horizontal())
         summary["gnss"]["nees"] = nees_summary(filt, imu_set[perm] == 1)
-        res.sigma_h = cov.horizontal()
-    return res
+        result.sigma_h = cov.horizontal()
+    return result
 
 
 def _terms_meta(terms: GravityTerms, budget: GravityBudget) -> dict[str, Any]:
