@@ -228,6 +228,16 @@ class GnssSpec:
             on &= ~((t >= a - 1e-9) & (t < b - 1e-9))
         return on
 
+    def fix_noise(self, seed: int, i: int, n_draws: int) -> np.ndarray:
+        """Errors (n_draws, 3 or 6) of the fix at output index ``i``: position, velocity (ECEF).
+
+        White, σ per axis; drawn from ``numpy.random.default_rng([seed, 7, i])`` (standard
+        normals, one row per draw, scaled), the same for every gravity model of a draw.
+        Units: m, m/s.
+        """
+        rng = np.random.default_rng([int(seed), 7, int(i)])
+        return rng.standard_normal((n_draws, self.n_meas)) * np.sqrt(np.diag(self.r_matrix()))
+
     @property
     def n_meas(self) -> int:
         """Measurement components per fix (3 or 6)."""
@@ -263,6 +273,9 @@ class FilterDesign:
     K: np.ndarray
     H: np.ndarray
     R: np.ndarray
+    #: where the fed-back errors sit in the state ({"dr": slice, "dv", "psi", "acc_bias",
+    #: "gyro_bias", "acc_gm", "gyro_gm"}), set by the model's owner (fieldmap.nav.covariance)
+    layout: dict = field(default_factory=dict)
 
 
 def design_filter(
@@ -360,10 +373,6 @@ def nees_bounds(n_draws: int, dim: int, p: float = 0.95) -> tuple[float, float]:
     return float(chi2.ppf(a, nd) / n_draws), float(chi2.ppf(1.0 - a, nd) / n_draws)
 
 
-#: the states fed back into the navigator (the rest stay estimates, propagated open loop)
-FED_BACK = np.r_[0:6, 7:22]
-
-
 class FeedbackFilter:
     """The Monte Carlo's filter: one estimate per run, the design's gains, feedback at fixes.
 
@@ -401,28 +410,25 @@ class FeedbackFilter:
         ``psi`` the attitude errors (rad). Returns the estimated errors to remove: ``dr``,
         ``dv``, ``psi``, ``acc_bias``, ``gyro_bias``, ``acc_gm``, ``gyro_gm`` (n_runs, 3).
         """
-        from fieldmap.nav import covariance as cv
-
         self.propagate_to(i)
         d, g = self.d, self.gnss
         nd = int(self.draw.max()) + 1 if self.draw.size else 0
-        rng = np.random.default_rng([self.seed, 7, i])
-        noise = rng.standard_normal((nd, g.n_meas))[self.draw] * np.sqrt(np.diag(d.R))
+        noise = g.fix_noise(self.seed, i, nd)[self.draw]
         true = np.concatenate([err["dr"], err["dv"]], -1)[:, : g.n_meas]
         z = true - noise
         # NEES of δr, δv (the filter's a priori error: truth less estimate)
-        e = np.concatenate([err["dr"], err["dv"]], -1) - self.x[:, 0:6]
-        P = d.P[i][0:6, 0:6]
-        self.nees.append(np.einsum("ni,ni->n", e, np.linalg.solve(P, e.T).T))
+        rv = np.r_[
+            np.arange(self.x.shape[1])[d.layout["dr"]], np.arange(self.x.shape[1])[d.layout["dv"]]
+        ]
+        e = np.concatenate([err["dr"], err["dv"]], -1) - self.x[:, rv]
+        P = d.P[i][np.ix_(rv, rv)]
+        # pseudo-inverse: with few error sources P may be singular (the NEES then on its range)
+        self.nees.append(np.einsum("ni,ij,nj->n", e, np.linalg.pinv(P, hermitian=True), e))
         self.nees_at.append(i)
         self.x = self.x + (z - self.x @ d.H.T) @ d.K[i].T
-        fb = {
-            "dr": self.x[:, cv.R].copy(), "dv": self.x[:, cv.V].copy(),
-            "psi": self.x[:, cv.PSI].copy(), "acc_bias": self.x[:, cv.BA].copy(),
-            "gyro_bias": self.x[:, cv.BG].copy(), "acc_gm": self.x[:, cv.GA].copy(),
-            "gyro_gm": self.x[:, cv.GG].copy(),
-        }  # fmt: skip
-        self.x[:, FED_BACK] = 0.0
+        fb = {k: self.x[:, sl].copy() for k, sl in d.layout.items()}
+        for sl in d.layout.values():
+            self.x[:, sl] = 0.0
         return fb
 
     def fly_block(self, prop: Any, block: tuple, s0: int, truth: Any) -> dict[str, np.ndarray]:
@@ -454,10 +460,12 @@ class FeedbackFilter:
             first = 0 if not parts else 1
             out = {k: v[:, first:] for k, v in out.items()}
             idx = a // every + first + np.arange(out["h"].shape[1])
+            lay = self.d.layout
             xs = np.empty((self.x.shape[0], idx.size, 9))
             for j, gi in enumerate(idx):
                 self.propagate_to(int(gi))
-                xs[:, j] = self.x[:, :10][:, [0, 1, 2, 3, 4, 5, 7, 8, 9]]
+                xs[:, j] = np.concatenate([self.x[:, lay["dr"]], self.x[:, lay["dv"]],
+                                           self.x[:, lay["psi"]]], -1)  # fmt: skip
             if np.any(xs):
                 shp = out["h"].shape
                 new = self._apply(

@@ -264,6 +264,9 @@ def _aided(
 
     update = gnss.updates(t)
     design = design_filter(t, update, Phi, lambda i: q_src(i).sum(0), P0.sum(0), gnss)
+    # fed back into the navigator; the other states stay estimates (propagated open loop)
+    design.layout = {"dr": R, "dv": V, "psi": PSI, "acc_bias": BA, "gyro_bias": BG,
+                     "acc_gm": GA, "gyro_gm": GG}  # fmt: skip
     noise = np.array([nm == "GNSS noise" for nm in names])
     P = joseph_sources(design, P0, q_src, noise)
     for j, name in enumerate(names):
@@ -514,6 +517,8 @@ class CovarianceStudyResult:
                 "meta": json.dumps(self.summary["meta"], default=float),
             },
         )
+        if "gnss" not in self.summary:
+            return ds
         from fieldmap.nav.aiding import add_to_dataset
 
         return add_to_dataset(ds, self.summary, self.covariance.horizontal())

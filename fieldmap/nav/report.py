@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from fieldmap.nav.aiding import format_gnss
 from fieldmap.nav.study import flight_dataset, to_dataset
 
 if TYPE_CHECKING:
@@ -211,7 +210,10 @@ def format_flight(res: FlightResult) -> str:
             + "; (c) commission: "
             + ("the truth's coefficient sigma" if terms["commission"] else "off")
         )
-    lines.extend(format_gnss(doc))
+    if "gnss" in doc:  # an aided study (the module entered only then)
+        from fieldmap.nav.aiding import format_gnss
+
+        lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
@@ -249,7 +251,10 @@ def format_covariance(res: CovarianceStudyResult) -> str:
             f"{_num(gt['model_difference'], '10.3f', 10)} {_num(gt['omission'], '10.3f', 10)} "
             f"{_num(gt['commission'], '10.3f', 10)}"
         )
-    lines.extend(format_gnss(doc))
+    if "gnss" in doc:  # an aided study (the module entered only then)
+        from fieldmap.nav.aiding import format_gnss
+
+        lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
