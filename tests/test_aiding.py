@@ -200,3 +200,75 @@ def test_aided_covariance_study_from_the_command_line(tmp_path, capsys):
     with xr.open_dataset(out / "navsim_flight.nc") as ds:
         assert ds["coasting_horizontal_error"].shape == (2, 2)
         assert ds["outage_end"].values.tolist() == ends
+
+
+# ----------------------------------------------------------------------------------- pyins
+@pytest.mark.slow
+def test_coasting_error_matches_pyins_feedback_filter():
+    # pyins (1.0) run_feedback_filter on the same IMU increments (fieldmap's synthesis with the
+    # draw's biases applied by fieldmap.nav.sensors.apply, then pyins' own coning/sculling
+    # preparation, compute_increments_from_imu) and the same position fixes (the truth plus
+    # GnssSpec.fix_noise): the horizontal error at the end of a 5-minute outage after 60 s of
+    # fixes. Observed: 302.57 m (fieldmap) against 302.30 m (pyins), 0.1 %; the issue's bound
+    # is 10 %. (A 10 deg/h gyro bias on a straight flight leaves the heading nearly
+    # unobservable and the two filters' estimates differ by up to 8 %.)
+    pd = pytest.importorskip("pandas")
+    pyins = pytest.importorskip("pyins")
+    from pyins import filters, inertial_sensor, measurements, strapdown, transform
+    from pyins.util import ACCEL_COLS, GYRO_COLS
+
+    from fieldmap.field.frames import ecef_to_geodetic
+    from fieldmap.nav import sensors
+    from fieldmap.nav.flight import geodetic_state
+    from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
+    from fieldmap.nav.sensors import ImuErrorSpec
+
+    assert pyins.__version__ == "1.0"
+    rate, seed, (t0, dur) = 5.0, 7, (60.0, 300.0)
+    end = t0 + dur
+    spec = ImuErrorSpec(acc_bias_ug=1000.0, gyro_bias_deg_h=1.0)
+    gnss = GnssSpec(rate_hz=1.0, sigma_m=0.5, velocity_sigma_mps=None, outages=f"{t0:g}:{dur:g}")
+    study = FlightStudy(
+        "47,8,500;47.5,9,500", speed_mps=150, imu=spec, models="j4", truth_lmax=10,
+        altitude_aiding="none", duration=end, rate_hz=rate, draws=1, seed=seed,
+        omission_model=None, commission=False, gnss=gnss,
+    )  # fmt: skip
+    res = run_flight(study)
+    i = int(np.searchsorted(res.t, end))
+    assert res.t[i] == end
+    d = res.dpos[np.array(res.models) == "imu_only"][0, i]
+    ours = float(np.hypot(d[0], d[1]))
+
+    traj = study.flight
+    ell = traj.frame.ellipsoid
+    dt = 1.0 / rate
+    inc = synthesize(traj, ImuSampling(rate, 3), Gravitation("j4", ellipsoid=ell), duration=end)
+    th, dv = sensors.apply(inc.dtheta, inc.dv, dt, sensors.draw(spec, 1, seed=seed), 0)
+    t = dt * np.arange(th.shape[0] + 1)
+    # raw increments over (t_{k-1}, t_k]; the row at t = 0 only seeds the two-sample corrections
+    raw = pd.DataFrame(np.column_stack([np.r_[th[:1], th], np.r_[dv[:1], dv]]), index=t,
+                       columns=GYRO_COLS + ACCEL_COLS)  # fmt: skip
+    increments = strapdown.compute_increments_from_imu(raw, "increment")
+    tf = np.arange(0.0, end + 0.5)  # the output grid (1 s): fix k at index k
+    lat, lon, h, v, C = geodetic_state(traj, tf)
+    rph = transform.mat_to_rph(C[0])
+    pva0 = pd.Series(
+        {"lat": lat[0], "lon": lon[0], "alt": h[0], "VN": v[0, 0], "VE": v[0, 1],
+         "VD": v[0, 2], "roll": rph[0], "pitch": rph[1], "heading": rph[2]},
+        name=0.0,
+    )  # fmt: skip
+    r = traj.kinematics(tf).r_e + np.stack([gnss.fix_noise(seed, k, 1)[0] for k in range(tf.size)])
+    flat, flon, fh = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ell)
+    on = gnss.updates(tf)
+    fixes = pd.DataFrame({"lat": flat[on], "lon": flon[on], "alt": fh[on]}, index=tf[on])
+    out = filters.run_feedback_filter(
+        pva0, 1e-3, 1e-4, 1e-5, 1e-5, increments,
+        gyro_model=inertial_sensor.EstimationModel(bias_sd=spec.gyro_bias_deg_h * sensors.DEG_H),
+        accel_model=inertial_sensor.EstimationModel(bias_sd=spec.acc_bias_ug * sensors.UG),
+        measurements=[measurements.Position(fixes, gnss.sigma_m)], time_step=1.0,
+    )  # fmt: skip
+    row = out.trajectory.loc[end, ["lat", "lon", "alt"]].to_numpy(dtype=float)
+    dn = transform.compute_lla_difference(row, np.array([lat[-1], lon[-1], h[-1]]))
+    theirs = float(np.hypot(dn[0], dn[1]))
+    assert theirs > 100.0  # a coasting error, not the fixes' noise
+    assert ours == pytest.approx(theirs, rel=0.03)
