@@ -51,7 +51,7 @@ from fieldmap.errors import InputError
 
 __all__ = [
     "FeedbackFilter", "FilterDesign", "GnssSpec", "add_to_dataset", "aided_response",
-    "closed_loop", "coasting_summary", "design_filter", "format_gnss", "joseph_sources",
+    "closed_loop", "coasting_summary", "design_filter", "format_gnss",
     "nees_bounds", "nees_summary", "outage_ends", "parse_outages",
 ]  # fmt: skip
 
@@ -279,53 +279,52 @@ class FilterDesign:
 
 
 def design_filter(
-    t: np.ndarray, update: np.ndarray, Phi: np.ndarray, q: Any, P0: np.ndarray, gnss: Any
-) -> FilterDesign:
-    """Run the covariance of the Kalman filter along the grid: P⁻ at every time, the gains.
+    t: np.ndarray, update: np.ndarray, Phi: np.ndarray, sources: tuple, gnss: Any, keep: list
+) -> tuple[FilterDesign, np.ndarray]:
+    """Run the Kalman filter's covariance along the grid, and each error source's through it.
 
-    ``q(i)`` (k, k) the process noise of step i, ``P0`` (k, k) at t[0]; Joseph-form updates
-    at the times of ``update`` (module docstring).
+    ``sources`` = ``(P0, q, noise)``: P0 (s, k, k) each source's covariance at t[0]; ``q(i)``
+    (s, k, k) each source's process noise over step i; ``noise`` (s,) bool, the source that
+    takes the fixes' K R Kᵀ (the GNSS noise). The filter's P is their sum; its gains K come
+    from it (Joseph-form updates at the times of ``update``, module docstring), and each
+    source goes through the same gains, P_s⁺ = (I − K H) P_s (I − K H)ᵀ (+ K R Kᵀ), so the
+    sources add up to the filter's P at every time. ``keep`` (slices): the diagonal blocks of
+    each source's a priori covariance returned, shape (s, n, len(keep), 3, 3).
     """
-    n, k = t.size, P0.shape[0]
+    P0s, q, noise = sources
+    n, k = t.size, P0s.shape[-1]
     H, R = gnss.h_matrix(k), gnss.r_matrix()
     I = np.eye(k)  # noqa: E741
-    P = P0.copy()
+    P = P0s.sum(0)
+    Psrc = P0s.copy()
+    w = np.asarray(noise, dtype=np.float64)[:, None, None]
     Ps = np.empty((n, k, k))
     Ks = np.zeros((n, k, H.shape[0]))
+    blocks = np.empty((P0s.shape[0], n, len(keep), 3, 3))
     for i in range(n):
         Ps[i] = P
+        for b, sl in enumerate(keep):
+            blocks[:, i, b] = Psrc[:, sl, sl]
+        if i == n - 1:
+            break
+        Qi = q(i)
+        F = Phi[i]
         if update[i]:
             S = H @ P @ H.T + R
             K = np.linalg.solve(S, H @ P).T  # P Hᵀ S⁻¹ (S, P symmetric)
-            A = I - K @ H
-            P = A @ P @ A.T + K @ R @ K.T
             Ks[i] = K
-        if i < n - 1:
-            P = Phi[i] @ P @ Phi[i].T + q(i)
-            P = 0.5 * (P + P.T)
-    return FilterDesign(t, update, Phi, Ps, Ks, H, R)
-
-
-def joseph_sources(design: FilterDesign, P0: np.ndarray, q: Any, noise: np.ndarray) -> np.ndarray:
-    """Return the a priori covariance (s, n, k, k) of s sources through the filter's fixed gains.
-
-    ``P0`` (s, k, k) at t[0]; ``q(i)`` (s, k, k) the process noise of each source over step i;
-    ``noise`` (s,) bool: the source whose covariance takes the fixes' K R Kᵀ (the GNSS noise).
-    """
-    d = design
-    n, k = d.t.size, d.H.shape[1]
-    out = np.empty((P0.shape[0], n, k, k))
-    P = P0.copy()
-    I = np.eye(k)  # noqa: E741
-    w = noise.astype(np.float64)[:, None, None]
-    for i in range(n):
-        out[:, i] = P
-        if d.update[i]:
-            A = I - d.K[i] @ d.H
-            P = A @ P @ A.T + w * (d.K[i] @ d.R @ d.K[i].T)
-        if i < n - 1:
-            P = d.Phi[i] @ P @ d.Phi[i].T + q(i)
-    return out
+            A = F @ (I - K @ H)  # the update and the step in one transition
+            FK = F @ K
+            KRK = FK @ R @ FK.T
+            P = A @ P @ A.T + KRK
+            Psrc = A @ Psrc @ A.T + w * KRK
+        else:
+            P = F @ P @ F.T
+            Psrc = F @ Psrc @ F.T
+        Psrc = Psrc + Qi
+        P = P + Qi.sum(0)
+        P = 0.5 * (P + P.T)
+    return FilterDesign(t, update, Phi, Ps, Ks, H, R), blocks
 
 
 def closed_loop(design: FilterDesign, u: np.ndarray) -> np.ndarray:

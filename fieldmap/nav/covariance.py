@@ -226,7 +226,7 @@ def _aided(
     Returns the :class:`fieldmap.nav.aiding.FilterDesign`; ``store`` receives each source's
     a priori covariance and that of the GNSS noise.
     """
-    from fieldmap.nav.aiding import design_filter, joseph_sources
+    from fieldmap.nav.aiding import design_filter
 
     step = 1.0 / gnss.rate_hz
     dt = np.diff(t)
@@ -263,14 +263,13 @@ def _aided(
         return _noise_q(np.broadcast_to(Fq[i], G.shape), G, np.full(G.shape[0], h[i]))
 
     update = gnss.updates(t)
-    design = design_filter(t, update, Phi, lambda i: q_src(i).sum(0), P0.sum(0), gnss)
+    noise = np.array([nm == "GNSS noise" for nm in names])
+    design, blocks = design_filter(t, update, Phi, (P0, q_src, noise), gnss, [R, V, PSI])
     # fed back into the navigator; the other states stay estimates (propagated open loop)
     design.layout = {"dr": R, "dv": V, "psi": PSI, "acc_bias": BA, "gyro_bias": BG,
                      "acc_gm": GA, "gyro_gm": GG}  # fmt: skip
-    noise = np.array([nm == "GNSS noise" for nm in names])
-    P = joseph_sources(design, P0, q_src, noise)
     for j, name in enumerate(names):
-        store(name, P[j])
+        store(name, blocks[j])
     return design
 
 
@@ -364,9 +363,9 @@ def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceRe
     att: dict[str, np.ndarray] = {}
 
     def store(name: str, P: np.ndarray) -> None:
-        """P (n, 36, 36) → σ NED of position, velocity, attitude."""
-        for d, sl in ((pos, R), (vel, V), (att, PSI)):
-            blk = P[:, sl, sl]
+        """P (n, 36, 36), or its blocks (n, 3, 3, 3) → σ NED of position, velocity, attitude."""
+        for b, (d, sl) in enumerate(((pos, R), (vel, V), (att, PSI))):
+            blk = P[:, b] if P.ndim == 4 else P[:, sl, sl]
             d[name] = np.sqrt(np.maximum(np.einsum("nij,njk,nik->ni", ned, blk, ned), 0.0))
 
     gnss = getattr(study, "gnss", None)
