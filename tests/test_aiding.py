@@ -272,3 +272,14 @@ def test_coasting_error_matches_pyins_feedback_filter():
     theirs = float(np.hypot(dn[0], dn[1]))
     assert theirs > 100.0  # a coasting error, not the fixes' noise
     assert ours == pytest.approx(theirs, rel=0.03)
+
+
+def test_fixes_must_fall_on_stored_states():
+    with pytest.raises(InputError, match="must fall on stored states"):
+        _study(draws=1, output_dt=2.0, gnss=GnssSpec(rate_hz=1.0))
+    with pytest.raises(InputError, match="frame='ned'"):
+        _study(draws=1, frame="lci", gnss=GnssSpec())
+    # the default output interval (1 s for 800 s) shortened, where needed, to divide the fixes'
+    # interval (0.4 Hz at 10 Hz: 25 samples apart, stored every 5)
+    assert _study(draws=1, gnss=GnssSpec(rate_hz=0.2)).output_dt_s == 1.0
+    assert _study(draws=1, gnss=GnssSpec(rate_hz=0.4)).output_dt_s == 0.5
