@@ -28,7 +28,7 @@ def _study(**kw):
         speed_mps=200, imu="tactical", models="j4", truth_lmax=10, altitude_aiding="none",
         duration=800.0, rate_hz=10, draws=200, seed=5, omission_model=None, commission=False,
         gnss=GnssSpec(rate_hz=1.0, sigma_m=2.0, velocity_sigma_mps=0.05,
-                      outages="100:300,450:300"),
+                      outages="100:300,450:300", bias_m=1.0, bias_tau_s=300.0),
     )  # fmt: skip
     opts.update(kw)
     return FlightStudy(ROUTE, **opts)
@@ -86,7 +86,8 @@ def test_feedback_matters():
 
 def test_covariance_sources_add_up_to_the_filter():
     # each source through the filter's gains (Joseph form) adds up to the filter's own P
-    study = _study(draws=1, imu="navigation", altitude_aiding="baro")
+    study = _study(draws=1, imu="navigation", altitude_aiding="baro",
+                   gnss=GnssSpec(outages="100:300,450:300"))  # fmt: skip
     cov = covariance_analysis(study)
     P = cov.design.P
     from fieldmap.nav.flight import geodetic_state
@@ -97,6 +98,9 @@ def test_covariance_sources_add_up_to_the_filter():
     sig = np.sqrt(np.einsum("nij,njk,nik->ni", ned, P[:, 0:3, 0:3], ned))
     np.testing.assert_allclose(cov.total(), sig, rtol=1e-6, atol=1e-9)
     assert "GNSS noise" in cov.sources and "baro noise" in cov.sources
+    assert "GNSS bias" not in cov.sources
+    biased = covariance_analysis(_study(draws=1))  # the module's study: a GNSS bias
+    assert "GNSS bias" in biased.sources
 
 
 def test_outage_forms():
@@ -122,6 +126,8 @@ def test_outage_forms():
         ({"outages": "100:-5"}, "duration > 0"),
         ({"outages": "every 5min:5min"}, "overlap"),
         ({"outages": "abc"}, "START:DURATION"),
+        ({"bias_m": -1.0}, "gnss.bias_m must be a number >= 0"),
+        ({"bias_m": 1.0, "bias_tau_s": 0.0}, "gnss.bias_tau_s must be a positive number"),
     ],
 )
 def test_bad_spec(kw, words):
@@ -173,6 +179,8 @@ def _refused(argv, tmp_path, capsys, *words):
         (["--gnss-sigma", "-2"], ("--gnss-sigma", "positive")),
         (["--gnss-rate", "50"], ("--gnss-rate", "above the IMU rate", "(--rate)")),
         (["--gnss-velocity-sigma", "fast"], ("--gnss-velocity-sigma",)),
+        (["--gnss-bias", "-1"], ("--gnss-bias", ">= 0")),
+        (["--gnss-bias", "1:x"], ("--gnss-bias", "M[:TAU_S]")),
     ],
 )
 def test_bad_gnss_options(args, words, tmp_path, capsys):

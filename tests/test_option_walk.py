@@ -720,6 +720,10 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight-imu", "--gnss-velocity-sigma", "none"),
         C("flight", "--gnss-velocity-sigma", "fast", expect=REFUSED, note="a number"),
     ],
+    ("navsim", "--gnss-bias"): [
+        C("flight-imu", "--gnss-bias", "1:300"),
+        C("flight", "--gnss-bias", "-1", expect=REFUSED, note=">= 0"),
+    ],
     ("navsim", "--gnss-outage"): [
         C("flight-imu", "--gnss-outage", "2:3"),
         C("flight", "--gnss-outage", "8:5", expect=REFUSED, note="ends after the flight"),

@@ -88,9 +88,10 @@ FLIGHT_EXTRA = {
     "gnss_sigma": "--gnss-sigma",
     "gnss_velocity_sigma": "--gnss-velocity-sigma",
     "gnss_outage": "--gnss-outage",
+    "gnss_bias": "--gnss-bias",
 }
 #: the GNSS options: any of them turns the aiding on
-GNSS_OPTIONS = ("gnss_rate", "gnss_sigma", "gnss_velocity_sigma", "gnss_outage")
+GNSS_OPTIONS = ("gnss_rate", "gnss_sigma", "gnss_velocity_sigma", "gnss_outage", "gnss_bias")
 
 
 def _flight_options(p: argparse.ArgumentParser) -> None:
@@ -316,7 +317,21 @@ def _gnss(args: argparse.Namespace) -> Any:
             raise InputError(
                 f"--gnss-velocity-sigma must be a number (m/s) or none, got {vs!r}"
             ) from None
+    bias, tau = 0.0, 600.0
+    if args.gnss_bias is not None:
+        parts = args.gnss_bias.split(":")
+        try:
+            if len(parts) > 2:
+                raise ValueError
+            bias = float(parts[0])
+            tau = float(parts[1]) if len(parts) == 2 else tau
+        except ValueError:
+            raise InputError(
+                f"--gnss-bias must be M[:TAU_S] (numbers), got {args.gnss_bias!r}"
+            ) from None
     return GnssSpec(
+        bias_m=bias,
+        bias_tau_s=tau,
         rate_hz=1.0 if args.gnss_rate is None else args.gnss_rate,
         sigma_m=2.0 if args.gnss_sigma is None else args.gnss_sigma,
         velocity_sigma_mps=vel,
@@ -480,6 +495,13 @@ def add_options(p: argparse.ArgumentParser) -> None:
         metavar="MPS|none",
         help="GNSS velocity noise per axis, 1 sigma, in m/s (default 0.05; none: position "
         "fixes only)",
+    )
+    g.add_argument(
+        "--gnss-bias",
+        default=None,
+        metavar="M[:TAU_S]",
+        help="GNSS position bias per axis, first-order Gauss-Markov: 1 sigma in m and "
+        "correlation time in s (default 0, none; time 600 s)",
     )
     g.add_argument(
         "--gnss-outage",

@@ -119,12 +119,19 @@ class GnssSpec:
     outages : str or sequence of (start, duration)
         ``"600:300,2400:300"``, ``"every 30min:5min"`` (see the module docstring), or pairs in
         seconds. Checked against the flight by the study (inside it, not overlapping).
+    bias_m : float
+        A Gauss–Markov bias of each position component (first order, stationary), 1σ, besides
+        the white noise; 0: none. Units: m.
+    bias_tau_s : float
+        Its correlation time. Units: s.
     """
 
     rate_hz: float = 1.0
     sigma_m: float = 2.0
     velocity_sigma_mps: float | None = 0.05
     outages: Any = ()
+    bias_m: float = 0.0
+    bias_tau_s: float = 600.0
     #: a pattern (period, duration) in s, or None (resolved from ``outages``)
     every: tuple[float, float] | None = field(init=False, default=None)
 
@@ -132,8 +139,17 @@ class GnssSpec:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
+        b = self.bias_m
+        if (
+            isinstance(b, (str, bool))
+            or not isinstance(b, (int, float, np.number))
+            or not (np.isfinite(b) and b >= 0)
+        ):
+            raise InputError(f"gnss.bias_m must be a number >= 0, got {b!r}", param="gnss.bias_m")
+        put("bias_m", float(b))
         for name, v in (("rate_hz", self.rate_hz), ("sigma_m", self.sigma_m),
-                        ("velocity_sigma_mps", self.velocity_sigma_mps)):  # fmt: skip
+                        ("velocity_sigma_mps", self.velocity_sigma_mps),
+                        ("bias_tau_s", self.bias_tau_s)):  # fmt: skip
             if name == "velocity_sigma_mps" and v is None:
                 continue
             if isinstance(v, (str, bool)) or not isinstance(v, (int, float, np.number)):
@@ -251,10 +267,17 @@ class GnssSpec:
         return np.diag(d)
 
     def h_matrix(self, n_states: int) -> np.ndarray:
-        """H (m, n_states): δr in states 0–2, δv in 3–5."""
+        """H (m, n_states): δr in states 0–2, δv in 3–5; with a bias, its 3 states last."""
         H = np.zeros((self.n_meas, n_states))
         H[:, : self.n_meas] = np.eye(self.n_meas)
+        if self.bias_m > 0:
+            H[0:3, n_states - 3 :] = np.eye(3)
         return H
+
+    def bias_step(self, h: float) -> tuple[float, float]:
+        """Return the bias's Gauss–Markov step over h s: (e^(−h/τ), σ √(1 − e^(−2h/τ)))."""
+        a = float(np.exp(-h / self.bias_tau_s))
+        return a, self.bias_m * float(np.sqrt(-np.expm1(-2.0 * h / self.bias_tau_s)))
 
 
 @dataclass
@@ -392,6 +415,9 @@ class FeedbackFilter:
         n, k = self.draw.size, design.H.shape[1]
         self.x = np.zeros((n, k))
         self.i_last = 0  # grid index of the estimate
+        #: the GNSS bias of each draw (n_draws, 3) m at time ``t_bias`` s (None: not started)
+        self.bias: np.ndarray | None = None
+        self.t_bias = 0.0
         #: NEES of position and velocity at each fix (n_fix, n_runs), and the fix indices
         self.nees: list[np.ndarray] = []
         self.nees_at: list[int] = []
@@ -412,7 +438,18 @@ class FeedbackFilter:
         self.propagate_to(i)
         d, g = self.d, self.gnss
         nd = int(self.draw.max()) + 1 if self.draw.size else 0
-        noise = g.fix_noise(self.seed, i, nd)[self.draw]
+        noise = g.fix_noise(self.seed, i, nd)
+        if g.bias_m > 0:  # the bias of each draw, carried from fix to fix (stationary start)
+            if self.bias is None:
+                rng = np.random.default_rng([self.seed, 8])
+                self.bias = g.bias_m * rng.standard_normal((nd, 3))
+                self.t_bias = 0.0
+            a, q = g.bias_step(float(d.t[i]) - self.t_bias)
+            rng = np.random.default_rng([self.seed, 8, i])
+            self.bias = a * self.bias + q * rng.standard_normal((nd, 3))
+            self.t_bias = float(d.t[i])
+            noise[:, 0:3] += self.bias
+        noise = noise[self.draw]
         true = np.concatenate([err["dr"], err["dv"]], -1)[:, : g.n_meas]
         z = true - noise
         # NEES of δr, δv (the filter's a priori error: truth less estimate)
@@ -564,6 +601,8 @@ def coasting_summary(doc: dict[str, Any], res: Any, gnss: GnssSpec, sigma_h: np.
         "rate_hz": gnss.rate_hz,
         "sigma_m": gnss.sigma_m,
         "velocity_sigma_mps": gnss.velocity_sigma_mps,
+        "bias_m": gnss.bias_m,
+        "bias_tau_s": gnss.bias_tau_s,
         "outages_s": [[a, b] for a, b, _ in ends],
         "outages": [],
     }

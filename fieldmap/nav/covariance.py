@@ -73,7 +73,7 @@ SOURCES = (
     "accelerometer bias", "gyro bias", "accelerometer bias instability",
     "gyro bias instability", "accelerometer scale factor", "accelerometer misalignment",
     "gyro scale factor", "gyro misalignment", "velocity random walk", "angle random walk",
-    "baro bias", "baro drift", "baro noise", "GNSS noise",
+    "baro bias", "baro drift", "baro noise", "GNSS noise", "GNSS bias",
 )  # fmt: skip
 
 
@@ -256,11 +256,28 @@ def _aided(
     names.append("GNSS noise")
     P0s.append(np.zeros((N_STATES, N_STATES)))
     gqgs.append(np.zeros((1, N_STATES, N_STATES)))
-    P0 = np.stack(P0s)
+    nb = 3 if gnss.bias_m > 0 else 0  # the GNSS bias: 3 states after the 36
+    k = N_STATES + nb
+    P0 = np.zeros((len(P0s) + (1 if nb else 0), k, k))
+    P0[: len(P0s), :N_STATES, :N_STATES] = np.stack(P0s)
+    if nb:
+        names.append("GNSS bias")
+        P0[-1, N_STATES:, N_STATES:] = gnss.bias_m**2 * np.eye(3)
+        steps = [gnss.bias_step(float(x)) for x in h]
+        Phi_b = np.zeros((Phi.shape[0], k, k))
+        Phi_b[:, :N_STATES, :N_STATES] = Phi
+        Phi_b[:, N_STATES:, N_STATES:] = np.array([a for a, _ in steps])[:, None, None] * np.eye(3)
+        Phi = Phi_b
 
     def q_src(i: int) -> np.ndarray:
         G = np.stack([g[min(i, g.shape[0] - 1)] for g in gqgs])
-        return _noise_q(np.broadcast_to(Fq[i], G.shape), G, np.full(G.shape[0], h[i]))
+        Q = _noise_q(np.broadcast_to(Fq[i], G.shape), G, np.full(G.shape[0], h[i]))
+        if not nb:
+            return Q
+        out = np.zeros((Q.shape[0] + 1, k, k))
+        out[:-1, :N_STATES, :N_STATES] = Q
+        out[-1, N_STATES:, N_STATES:] = steps[i][1] ** 2 * np.eye(3)
+        return out
 
     update = gnss.updates(t)
     noise = np.array([nm == "GNSS noise" for nm in names])
