@@ -748,6 +748,28 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--truth-evaluation", "full"),
         C("table1", "--truth-evaluation", "full", expect=REFUSED, note="table1"),
     ],
+    ("navsim", "--gnss-rate"): [
+        C("flight-imu", "--gnss-rate", "1"),
+        C("flight", "--gnss-rate", "50", expect=REFUSED, note="above the IMU rate"),
+        C("table1", "--gnss-rate", "1", expect=REFUSED, note="table1"),
+    ],
+    ("navsim", "--gnss-sigma"): [
+        C("flight-imu", "--gnss-sigma", "3"),
+        C("flight", "--gnss-sigma", "0", expect=REFUSED, note="positive"),
+    ],
+    ("navsim", "--gnss-velocity-sigma"): [
+        C("flight-imu", "--gnss-velocity-sigma", "none"),
+        C("flight", "--gnss-velocity-sigma", "fast", expect=REFUSED, note="a number"),
+    ],
+    ("navsim", "--gnss-bias"): [
+        C("flight-imu", "--gnss-bias", "1:300"),
+        C("flight", "--gnss-bias", "-1", expect=REFUSED, note=">= 0"),
+    ],
+    ("navsim", "--gnss-outage"): [
+        C("flight-imu", "--gnss-outage", "2:3"),
+        C("flight", "--gnss-outage", "8:5", expect=REFUSED, note="ends after the flight"),
+        C("flight", "--gnss-outage", "1:3,2:3", expect=REFUSED, note="overlap"),
+    ],
     # ------------------------------------------------------------------------------ table
     ("table", "--region"): [
         C("table", "--region", "5", "7", "40", "41"),

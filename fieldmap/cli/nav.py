@@ -84,7 +84,14 @@ CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_
 FLIGHT_EXTRA = {
     "gravity_rate_hz": "--gravity-rate-hz",
     "truth_evaluation": "--truth-evaluation",
+    "gnss_rate": "--gnss-rate",
+    "gnss_sigma": "--gnss-sigma",
+    "gnss_velocity_sigma": "--gnss-velocity-sigma",
+    "gnss_outage": "--gnss-outage",
+    "gnss_bias": "--gnss-bias",
 }
+#: the GNSS options: any of them turns the aiding on
+GNSS_OPTIONS = ("gnss_rate", "gnss_sigma", "gnss_velocity_sigma", "gnss_outage", "gnss_bias")
 
 
 def _flight_options(p: argparse.ArgumentParser) -> None:
@@ -288,6 +295,47 @@ def _flight_study(
         omission_model="tscherning-rapp" if args.omission_model is None else args.omission_model,
         commission={None: None, "auto": None, "on": True, "off": False}[args.commission],
         method=args.method or "monte-carlo",
+        gnss=_gnss(args),
+    )
+
+
+def _gnss(args: argparse.Namespace) -> Any:
+    """Return the :class:`~fieldmap.nav.aiding.GnssSpec` of the ``--gnss-*`` options (or None)."""
+    from fieldmap.cli import given
+
+    if not any(given(args, d) for d in GNSS_OPTIONS):
+        return None
+    from fieldmap.nav.aiding import GnssSpec
+
+    vs = args.gnss_velocity_sigma
+    if vs is not None and vs.strip().lower() == "none":
+        vel = None
+    else:
+        try:
+            vel = 0.05 if vs is None else float(vs)
+        except ValueError:
+            raise InputError(
+                f"--gnss-velocity-sigma must be a number (m/s) or none, got {vs!r}"
+            ) from None
+    bias, tau = 0.0, 600.0
+    if args.gnss_bias is not None:
+        parts = args.gnss_bias.split(":")
+        try:
+            if len(parts) > 2:
+                raise ValueError
+            bias = float(parts[0])
+            tau = float(parts[1]) if len(parts) == 2 else tau
+        except ValueError:
+            raise InputError(
+                f"--gnss-bias must be M[:TAU_S] (numbers), got {args.gnss_bias!r}"
+            ) from None
+    return GnssSpec(
+        bias_m=bias,
+        bias_tau_s=tau,
+        rate_hz=1.0 if args.gnss_rate is None else args.gnss_rate,
+        sigma_m=2.0 if args.gnss_sigma is None else args.gnss_sigma,
+        velocity_sigma_mps=vel,
+        outages=args.gnss_outage or "",
     )
 
 
@@ -424,6 +472,45 @@ def add_options(p: argparse.ArgumentParser) -> None:
         help="flight study: monte-carlo (default: strapdown runs of every model and IMU draw) "
         "or covariance (linear covariance analysis: sigma(t) of every error source in one "
         "pass, an error budget; --draws does not apply)",
+    )
+    g = p.add_argument_group("GNSS aiding (flight study; any of these turns it on)")
+    g.add_argument(
+        "--gnss-rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="GNSS fix rate in Hz, at most the IMU's (default 1): a loosely coupled Kalman "
+        "filter with feedback, fixes synthesised from the truth with white noise",
+    )
+    g.add_argument(
+        "--gnss-sigma",
+        type=float,
+        default=None,
+        metavar="M",
+        help="GNSS position noise per axis (N, E, D), 1 sigma, in m (default 2)",
+    )
+    g.add_argument(
+        "--gnss-velocity-sigma",
+        default=None,
+        metavar="MPS|none",
+        help="GNSS velocity noise per axis, 1 sigma, in m/s (default 0.05; none: position "
+        "fixes only)",
+    )
+    g.add_argument(
+        "--gnss-bias",
+        default=None,
+        metavar="M[:TAU_S]",
+        help="GNSS position bias per axis, first-order Gauss-Markov: 1 sigma in m and "
+        "correlation time in s (default 0, none; time 600 s)",
+    )
+    g.add_argument(
+        "--gnss-outage",
+        default=None,
+        metavar="START:DURATION[,...]|every PERIOD:DURATION",
+        help="GNSS outages: START:DURATION in s (or with a unit s, min, h: 20min:5min), comma "
+        "separated, inside the flight and not overlapping; or a pattern, 'every 30min:5min' (a "
+        "5-minute outage every 30 minutes); the report gives the coasting error at the end of "
+        "each outage per gravity model",
     )
     p.add_argument(
         "--omission-model",

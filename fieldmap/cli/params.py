@@ -89,6 +89,14 @@ OPTIONS: dict[str, str | None] = {
     "method": "--method",
     "speed_mps": "--speed-mps",
     "imu_name": None,
+    "gnss": None,
+    # GnssSpec (fieldmap.nav.aiding), a FlightStudy's gnss
+    "gnss.rate_hz": "--gnss-rate",
+    "gnss.sigma_m": "--gnss-sigma",
+    "gnss.velocity_sigma_mps": "--gnss-velocity-sigma",
+    "gnss.outages": "--gnss-outage",
+    "gnss.bias_m": "--gnss-bias",
+    "gnss.bias_tau_s": "--gnss-bias",
     # Propagator (fieldmap.nav.propagator)
     "launch": None,
     "nav": None,  # its NavConfig (not navsim's --nav, the normal model of table3)

@@ -47,7 +47,8 @@ from fieldmap.nav.imu import Gravitation
 from fieldmap.nav.linear import position_response
 
 __all__ = [
-    "GRAVITY_DRAWS", "GravityBudget", "GravityTerms", "gravity_budget", "gravity_error_along",
+    "GRAVITY_DRAWS", "GravityBudget", "GravityInputs", "GravityTerms", "gravity_budget",
+    "gravity_error_along", "gravity_inputs",
     "omission_spacing", "path_nodes", "recommend", "simplicity_order",
 ]  # fmt: skip
 
@@ -123,8 +124,10 @@ class GravityBudget:
         """(n, 3) of one term's error curve."""
         return next(iter(self.model_difference.values())).shape
 
-    def summary(self, model: str) -> dict[str, Any]:
+    def summary(self, model: str, at: int = -1) -> dict[str, Any]:
         """Return each term's final horizontal and vertical contribution (RMS over draws), m.
+
+        ``at``: the output index (default the last; an aided study: the end of an outage).
 
         ``horizontal_m``/``vertical_m``: the whole contribution, the root sum of the terms'
         mean squares (the expected RMS of a − b − c); ``dominant``: the largest horizontal term.
@@ -133,7 +136,7 @@ class GravityBudget:
         def rms(x: np.ndarray | None, comp: slice) -> float | None:
             if x is None:
                 return None
-            f = np.asarray(x)[..., -1, comp]
+            f = np.asarray(x)[..., at, comp]
             return float(np.sqrt(np.mean(np.sum(f * f, axis=-1))))
 
         doc: dict[str, Any] = {}
@@ -239,6 +242,46 @@ def gravity_budget(
     device : str, optional
         Warp device of the commission synthesis.
     """
+    inp = gravity_inputs(t, track, dg, truth, terms, ellipsoid, device)
+    return inp.budget(position_response(t, track, inp.stack, ellipsoid, baro_gains))
+
+
+@dataclass
+class GravityInputs:
+    """The gravity errors a budget flies (NED, m/s², at the output times), stacked.
+
+    ``stack`` (k, n, 3): the models' differences (``names``), then the omission's and the
+    commission's draws (``n_om``, ``n_cm`` of them, 0 when off); ``draws`` per term;
+    ``omission_sigma`` (n, 3) or None.
+    """
+
+    stack: np.ndarray
+    names: list
+    n_om: int
+    n_cm: int
+    draws: int
+    omission_sigma: np.ndarray | None
+
+    def budget(self, resp: np.ndarray) -> GravityBudget:
+        """Return the :class:`GravityBudget` of the responses ``resp`` (k, n, 3) to ``stack``."""
+        k = len(self.names)
+        diff = {m: resp[i] for i, m in enumerate(self.names)}
+        b = resp[k : k + self.n_om] if self.n_om else None
+        k += self.n_om
+        c_ = resp[k : k + self.n_cm] if self.n_cm else None
+        return GravityBudget(diff, b, c_, self.draws, self.omission_sigma)
+
+
+def gravity_inputs(
+    t: np.ndarray,
+    track: np.ndarray,
+    dg: dict[str, np.ndarray],
+    truth: SHModel,
+    terms: Any,
+    ellipsoid: Ellipsoid,
+    device: str | None = None,
+) -> GravityInputs:
+    """Realise the gravity terms of :func:`gravity_budget` along the track (its parameters)."""
     names = list(dg)
     inputs = [np.asarray(dg[m]) for m in names]
     n_g = int(terms.draws)
@@ -260,16 +303,9 @@ def gravity_budget(
     for term in (om, cm):
         if term is not None:
             inputs.extend(term)
-    stack = np.stack(inputs)
-    resp = position_response(t, track, stack, ellipsoid, baro_gains)
-    k = len(names)
-    diff = {m: resp[i] for i, m in enumerate(names)}
-    b = c_ = None
-    if om is not None:
-        b, k = resp[k : k + n_g], k + n_g
-    if cm is not None:
-        c_ = resp[k : k + n_g]
-    return GravityBudget(diff, b, c_, n_g, sig)
+    return GravityInputs(
+        np.stack(inputs), names, 0 if om is None else n_g, 0 if cm is None else n_g, n_g, sig
+    )
 
 
 def simplicity_order(models: Any) -> list[str]:

@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from fieldmap.errors import InputError
 from fieldmap.nav.linear import core_dynamics, rk4_transition
 
 __all__ = [
@@ -72,7 +73,7 @@ SOURCES = (
     "accelerometer bias", "gyro bias", "accelerometer bias instability",
     "gyro bias instability", "accelerometer scale factor", "accelerometer misalignment",
     "gyro scale factor", "gyro misalignment", "velocity random walk", "angle random walk",
-    "baro bias", "baro drift", "baro noise",
+    "baro bias", "baro drift", "baro noise", "GNSS noise", "GNSS bias",
 )  # fmt: skip
 
 
@@ -171,6 +172,8 @@ class CovarianceResult:
     position: dict
     velocity: dict
     attitude: dict
+    #: the GNSS filter of an aided study (:class:`fieldmap.nav.aiding.FilterDesign`) or None
+    design: Any = None
 
     def total(self, what: str = "position") -> np.ndarray:
         """(n, 3) σ of all sources together."""
@@ -205,6 +208,86 @@ def _noise_q(F: np.ndarray, GQG: np.ndarray, h: np.ndarray) -> np.ndarray:
         + (FG + np.swapaxes(FG, -1, -2)) * hs**2 / 2.0
         + (F2G + 2.0 * FGF + np.swapaxes(F2G, -1, -2)) * hs**3 / 6.0
     )
+
+
+def _aided(
+    t: np.ndarray,
+    gnss: Any,
+    Phi: np.ndarray,
+    Fq: np.ndarray,
+    h: np.ndarray,
+    const: list,
+    stoch: list,
+    noise_baro: np.ndarray | None,
+    store: Any,
+) -> Any:
+    """GNSS-aided: the filter's covariance, then each source through its gains (Joseph form).
+
+    Returns the :class:`fieldmap.nav.aiding.FilterDesign`; ``store`` receives each source's
+    a priori covariance and that of the GNSS noise.
+    """
+    from fieldmap.nav.aiding import design_filter
+
+    step = 1.0 / gnss.rate_hz
+    dt = np.diff(t)
+    k = step / dt
+    if t.size < 2 or np.any(np.abs(k - np.round(k)) > 1e-6 * k) or np.any(k < 1 - 1e-9):
+        raise InputError(
+            f"the covariance grid must hold every GNSS fix ({step:g} s apart): output_dt "
+            f"{dt.max():g} s",
+            param="output_dt",
+        )
+    names, P0s, gqgs = [], [], []
+    for name, sl, sigma in const:
+        p0 = np.zeros((N_STATES, N_STATES))
+        ix = np.arange(N_STATES)[sl]
+        p0[ix, ix] = sigma**2
+        names.append(name)
+        P0s.append(p0)
+        gqgs.append(np.zeros((1, N_STATES, N_STATES)))
+    for name, p0, q in stoch:
+        names.append(name)
+        P0s.append(np.diag(p0))
+        gqgs.append(np.diag(q)[None])
+    if noise_baro is not None:
+        names.append("baro noise")
+        P0s.append(np.zeros((N_STATES, N_STATES)))
+        gqgs.append(0.5 * (noise_baro[:-1] + noise_baro[1:]))
+    names.append("GNSS noise")
+    P0s.append(np.zeros((N_STATES, N_STATES)))
+    gqgs.append(np.zeros((1, N_STATES, N_STATES)))
+    nb = 3 if gnss.bias_m > 0 else 0  # the GNSS bias: 3 states after the 36
+    k = N_STATES + nb
+    P0 = np.zeros((len(P0s) + (1 if nb else 0), k, k))
+    P0[: len(P0s), :N_STATES, :N_STATES] = np.stack(P0s)
+    if nb:
+        names.append("GNSS bias")
+        P0[-1, N_STATES:, N_STATES:] = gnss.bias_m**2 * np.eye(3)
+        steps = [gnss.bias_step(float(x)) for x in h]
+        Phi_b = np.zeros((Phi.shape[0], k, k))
+        Phi_b[:, :N_STATES, :N_STATES] = Phi
+        Phi_b[:, N_STATES:, N_STATES:] = np.array([a for a, _ in steps])[:, None, None] * np.eye(3)
+        Phi = Phi_b
+
+    def q_src(i: int) -> np.ndarray:
+        G = np.stack([g[min(i, g.shape[0] - 1)] for g in gqgs])
+        Q = _noise_q(np.broadcast_to(Fq[i], G.shape), G, np.full(G.shape[0], h[i]))
+        if not nb:
+            return Q
+        out = np.zeros((Q.shape[0] + 1, k, k))
+        out[:-1, :N_STATES, :N_STATES] = Q
+        out[-1, N_STATES:, N_STATES:] = steps[i][1] ** 2 * np.eye(3)
+        return out
+
+    update = gnss.updates(t)
+    noise = np.array([nm == "GNSS noise" for nm in names])
+    design, blocks = design_filter(t, update, Phi, (P0, q_src, noise), gnss, [R, V, PSI])
+    # fed back into the navigator; the other states stay estimates (propagated open loop)
+    design.layout = {"dr": R, "dv": V, "psi": PSI, "acc_bias": BA, "gyro_bias": BG,
+                     "acc_gm": GA, "gyro_gm": GG}  # fmt: skip
+    for j, name in enumerate(names):
+        store(name, blocks[j])
+    return design
 
 
 def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceResult:
@@ -297,11 +380,19 @@ def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceRe
     att: dict[str, np.ndarray] = {}
 
     def store(name: str, P: np.ndarray) -> None:
-        """P (n, 36, 36) → σ NED of position, velocity, attitude."""
-        for d, sl in ((pos, R), (vel, V), (att, PSI)):
-            blk = P[:, sl, sl]
+        """P (n, 36, 36), or its blocks (n, 3, 3, 3) → σ NED of position, velocity, attitude."""
+        for b, (d, sl) in enumerate(((pos, R), (vel, V), (att, PSI))):
+            blk = P[:, b] if P.ndim == 4 else P[:, sl, sl]
             d[name] = np.sqrt(np.maximum(np.einsum("nij,njk,nik->ni", ned, blk, ned), 0.0))
 
+    gnss = getattr(study, "gnss", None)
+    if gnss is not None:
+        design = _aided(t, gnss, Phi, Fq, h, const, stoch, noise_baro, store)
+        present = [s for s in SOURCES if s in pos]
+        return CovarianceResult(
+            t, present, {s: pos[s] for s in present}, {s: vel[s] for s in present},
+            {s: att[s] for s in present}, design,
+        )  # fmt: skip
     # constant sources: sensitivity columns S = Φ(t, 0)[:, cols]
     if const:
         cols = np.concatenate([np.arange(N_STATES)[c[1]] for c in const])
@@ -384,7 +475,7 @@ class CovarianceStudyResult:
             if models
             else np.zeros((0, 3, self.t.size, 3))
         )
-        return xr.Dataset(
+        ds = xr.Dataset(
             {
                 "position_sigma": (
                     ("source", "time", "axis"),
@@ -442,6 +533,11 @@ class CovarianceStudyResult:
                 "meta": json.dumps(self.summary["meta"], default=float),
             },
         )
+        if "gnss" not in self.summary:
+            return ds
+        from fieldmap.nav.aiding import add_to_dataset
+
+        return add_to_dataset(ds, self.summary, self.covariance.horizontal())
 
 
 def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyResult:
@@ -473,7 +569,14 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
         from fieldmap.nav.mechanize import baro_gains
 
         gains = baro_gains(study.baro.loop_tau_s, ell)
-    budget = gravity_budget(t, track, dg, study.truth, study.gravity_terms, ell, gains, device)
+    if study.gnss is None:
+        budget = gravity_budget(t, track, dg, study.truth, study.gravity_terms, ell, gains, device)
+    else:  # the gravity terms through the filter's closed loop
+        from fieldmap.nav.aiding import aided_response
+        from fieldmap.nav.budget import gravity_inputs
+
+        inp = gravity_inputs(t, track, dg, study.truth, study.gravity_terms, ell, device)
+        budget = inp.budget(aided_response(cov.design, track, inp.stack, ell))
     c2 = time.perf_counter()
     tot = cov.total()[-1]
     imu_h = float(np.hypot(tot[0], tot[1]))
@@ -488,6 +591,7 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
             "frame": study.frame,
             "altitude_aiding": study.aiding,
             "baro": study.baro.__dict__ if study.aiding == "baro" else None,
+            "gnss": None if study.gnss is None else study.gnss.__dict__,
             "truth_model": study.truth.name,
             "truth_degree": int(study.truth.lmax),
             "truth_tide_system": study.truth.tide_system,
@@ -517,4 +621,9 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
         }
     recommend(doc, simplicity_order(names), imu_h, study.fraction, True, study.truth.lmax)
     doc["diverged"] = []
-    return CovarianceStudyResult(t, track, cov, dg, budget, doc)
+    res = CovarianceStudyResult(t, track, cov, dg, budget, doc)
+    if study.gnss is not None:
+        from fieldmap.nav.aiding import coasting_summary
+
+        coasting_summary(doc, res, study.gnss, cov.horizontal())
+    return res

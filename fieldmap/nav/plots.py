@@ -564,6 +564,17 @@ def _median_band(
     return np.median(x, 0), np.percentile(x, 5, 0), np.percentile(x, 95, 0)
 
 
+def _outages(axes: Iterable[Axes], summary: Mapping[str, Any]) -> None:
+    """Shade the GNSS outages of an aided study (time in minutes)."""
+    g = summary.get("gnss")
+    if not g:
+        return
+    for ax in axes:
+        for j, (a, b) in enumerate(g["outages_s"]):
+            ax.axvspan(a / 60.0, b / 60.0, color="0.88", zorder=0, lw=0,
+                       label="GNSS outage" if j == 0 else None)  # fmt: skip
+
+
 def errors_figure(res: FlightResult) -> Figure:
     """Horizontal and vertical error per model (median, 5–95 % band), δg and its prediction."""
     plt = _plt()
@@ -584,6 +595,9 @@ def errors_figure(res: FlightResult) -> Figure:
             ax.plot(t, med, color=c, label=row, lw=1.5 if row != "imu_only" else 2.5)
             if sel.sum() > 1:
                 ax.fill_between(t, lo, hi, color=c, alpha=0.15, lw=0)
+    if getattr(res, "sigma_h", None) is not None:
+        axes[0, 0].plot(t, res.sigma_h, "k--", lw=1, label="filter σ (IMU only)")
+    _outages(axes[0], res.summary)
     for ax, what in ((axes[0, 0], "horizontal"), (axes[0, 1], "vertical")):
         ax.set_yscale("log")
         ax.set_xlabel("time (min)")
@@ -659,6 +673,7 @@ def sigma_figure(res: CovarianceStudyResult) -> Figure:
             if x is not None:
                 y = np.sqrt(np.mean(np.sum(x[..., k] ** 2, -1), axis=0))
                 ax.plot(t, y, "-.", color=c, lw=1.5, label=f"gravity ({term})")
+        _outages([ax], res.summary)
         ax.set_yscale("log")
         ax.set_xlabel("time (min)")
         ax.set_ylabel(f"{what} position error σ (m)")

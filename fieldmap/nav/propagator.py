@@ -272,6 +272,19 @@ class Propagator:
                 )
             self._state[k] = a
 
+    def correct_errors(self, **estimates: npt.ArrayLike) -> None:
+        """Remove estimated sensor errors from the runs (a filter's feedback of its estimates).
+
+        ``acc_bias=`` (n_runs, 3) m/s², ``gyro_bias=`` (n_runs, 3) rad/s: subtracted from the
+        runs' constant biases (what the navigator compensates from then on).
+        """
+        for key, value in estimates.items():
+            if key not in ("acc_bias", "gyro_bias") or key not in self._cfg.errors:
+                raise InputError(f"no sensor error {key!r} to correct", param="state")
+            self._cfg.errors[key] = np.asarray(self._cfg.errors[key], np.float64) - np.asarray(
+                value, np.float64
+            )
+
     def propagate(
         self,
         dtheta: npt.ArrayLike,

@@ -210,6 +210,10 @@ def format_flight(res: FlightResult) -> str:
             + "; (c) commission: "
             + ("the truth's coefficient sigma" if terms["commission"] else "off")
         )
+    if "gnss" in doc:  # an aided study (the module entered only then)
+        from fieldmap.nav.aiding import format_gnss
+
+        lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
@@ -247,6 +251,10 @@ def format_covariance(res: CovarianceStudyResult) -> str:
             f"{_num(gt['model_difference'], '10.3f', 10)} {_num(gt['omission'], '10.3f', 10)} "
             f"{_num(gt['commission'], '10.3f', 10)}"
         )
+    if "gnss" in doc:  # an aided study (the module entered only then)
+        from fieldmap.nav.aiding import format_gnss
+
+        lines.extend(format_gnss(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 

@@ -634,6 +634,8 @@ class FlightResult:
     dg_sigma: Any = None
     #: each gravity term's position error through the linear error model (nav.budget)
     budget: GravityBudget | None = None
+    #: GNSS-aided: the filter's horizontal σ of the IMU-only error (n_out,) m; else None
+    sigma_h: Any = None
 
     def to_dataset(self) -> xr.Dataset:
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
@@ -769,6 +771,10 @@ class FlightStudy:
         ``monte-carlo``: strapdown runs of every model and IMU draw; ``covariance``: linear
         covariance analysis, σ(t) per error source in one pass
         (:func:`fieldmap.nav.covariance.covariance_study`; ``draws`` then unused).
+    gnss : GnssSpec, optional
+        GNSS aiding through outages (:class:`fieldmap.nav.aiding.GnssSpec`: fix rate and noise,
+        outages; NED only): a loosely coupled Kalman filter with feedback. None: free inertial
+        (with the altitude aiding).
 
     Examples
     --------
@@ -802,6 +808,7 @@ class FlightStudy:
     omission_model: str | None = "tscherning-rapp"
     commission: bool | None = None
     method: str = "monte-carlo"
+    gnss: Any = None
     # resolved at construction (read-only): the altitude aiding ("baro"/"none"), the flown
     # duration and the stored-state interval (s), the samples per output, flown and per block,
     # and the draws flown
@@ -916,6 +923,14 @@ class FlightStudy:
         put("aiding", aiding)
         rate_hz = self.rate_hz
         output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
+        per_fix = _check_gnss(self, duration, frame)
+        if per_fix and self.output_dt is None:  # the stored states hold every fix
+            per_out = next(
+                k
+                for k in range(1, per_fix + 1)
+                if per_fix % k == 0 and per_fix / k <= output_dt * rate_hz + 1e-9
+            )
+            output_dt = per_fix / per_out / rate_hz
         put("output_dt_s", output_dt)
         every = _steps_per_output(output_dt, rate_hz)
         if frame == "lci" and every % 2:
@@ -925,6 +940,12 @@ class FlightStudy:
                 param="frame",
             )
         put("every", every)
+        if per_fix and per_fix % every:
+            raise InputError(
+                f"output interval {output_dt:g} s: GNSS fixes {per_fix / rate_hz:g} s apart "
+                "must fall on stored states (a whole number of output intervals)",
+                param="output_dt",
+            )
         unit = every * (2 if every % 2 else 1)  # whole outputs, an even number of samples
         n_total = int(np.floor(duration * rate_hz / unit + 1e-9)) * unit
         if n_total < unit:
@@ -932,6 +953,8 @@ class FlightStudy:
                 f"flight of {duration:g} s is shorter than one output interval ({output_dt:g} s)"
             )
         put("n_samples", n_total)
+        if per_fix:  # a block holds whole intervals between fixes
+            unit = int(np.lcm(unit, per_fix))
         per_block = max(unit, int(self.block_s * rate_hz) // unit * unit)
         # a block's IMU synthesis is bounded (sample_count): refused here, before any work
         block = min(per_block, n_total) / float(rate_hz)
@@ -949,6 +972,21 @@ class FlightStudy:
         g_every = gravity_update_every(traj, sh_deg, rate_hz, self.gravity_rate_hz) if sh_deg else 1
         put("gravity_every", g_every)
         put("gravity_terms", _gravity_terms(self, model, int(n_draws)))
+
+
+def _check_gnss(study: FlightStudy, duration: float, frame: str) -> int:
+    """Validate the GNSS aiding of a study; return the IMU samples between fixes (0: none)."""
+    g = study.gnss
+    if g is None:
+        return 0
+    from fieldmap.nav.aiding import GnssSpec
+
+    if not isinstance(g, GnssSpec):
+        raise InputError(f"gnss must be a GnssSpec or None, got {type(g).__name__}", param="gnss")
+    if frame != "ned":
+        raise InputError("GNSS aiding needs frame='ned'", param="frame")
+    g.check_flight(duration, float(study.rate_hz))
+    return int(round(study.rate_hz / g.rate_hz))
 
 
 def _gravity_terms(study: FlightStudy, model: SHModel, n_draws: int) -> GravityTerms:
@@ -1081,6 +1119,23 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         launch=traj.frame if frame == "lci" else None, device=device, client=client,
     )  # fmt: skip
 
+    filt = None
+    if study.gnss is not None:
+        from fieldmap.nav.aiding import FeedbackFilter
+        from fieldmap.nav.covariance import covariance_analysis
+
+        t_grid = every * dt * np.arange(n_total // every + 1)
+        cov = covariance_analysis(study, t_grid)
+        per_fix = int(round(rate_hz / study.gnss.rate_hz))
+        draw_of_run = np.tile(np.arange(n_draws), len(rows))[perm]
+        filt = FeedbackFilter(cov.design, study.gnss, draw_of_run, seed,
+                              (dt, every, per_fix, ell))  # fmt: skip
+
+        def truth_at(t: np.ndarray) -> tuple:
+            k = traj.kinematics(t)
+            C_b_e = np.swapaxes(traj.frame.C_e_to_a(t), -1, -2) @ k.C_b_to_a
+            return k.r_e[0], k.v_e[0], C_b_e[0]
+
     t_list: list[float] = [0.0]
     outs: dict[str, list[np.ndarray]] = {"lat": [], "lon": [], "h": [], "v": [], "C": []}
     starts = range(0, n_total, per_block)
@@ -1104,7 +1159,10 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
             h_ref = np.stack([h, h])
         dth = np.stack([x.dtheta for x in sets])
         dvel = np.stack([x.dv for x in sets])
-        res = geodetic_outputs(traj.frame, prop.propagate(dth, dvel, s0, h_ref))
+        if filt is None:
+            res = geodetic_outputs(traj.frame, prop.propagate(dth, dvel, s0, h_ref))
+        else:
+            res = filt.fly_block(prop, (dth, dvel, h_ref), s0, truth_at)
         secs["propagation"] += time.perf_counter() - c1
         for k in outs:
             outs[k].append(res[k][:, 1:])
@@ -1130,7 +1188,14 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         from fieldmap.nav.mechanize import baro_gains
 
         gains = baro_gains(baro.loop_tau_s, ell)
-    budget = gravity_budget(t_out, track, dg, model, study.gravity_terms, ell, gains, device)
+    if filt is None:
+        budget = gravity_budget(t_out, track, dg, model, study.gravity_terms, ell, gains, device)
+    else:  # the gravity terms through the filter's closed loop
+        from fieldmap.nav.aiding import aided_response
+        from fieldmap.nav.budget import gravity_inputs
+
+        inp = gravity_inputs(t_out, track, dg, model, study.gravity_terms, ell, device)
+        budget = inp.budget(aided_response(cov.design, track, inp.stack, ell))
     secs["gravity_budget"] = time.perf_counter() - c2
     labels = [f"{r}/{d}" for r in rows for d in range(n_draws)]
     run_models = [r for r in rows for _ in range(n_draws)]
@@ -1149,6 +1214,7 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
             "frame": frame,
             "altitude_aiding": aiding,
             "baro": baro.__dict__ if aiding == "baro" else None,
+            "gnss": None if study.gnss is None else study.gnss.__dict__,
             "truth_model": model.name,
             "truth_degree": int(model.lmax),
             "truth_tide_system": model.tide_system,
@@ -1172,10 +1238,17 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         },
         budget=budget,
     )  # fmt: skip
-    return FlightResult(
+    result = FlightResult(
         t_out, labels, run_models, draw_idx, dpos, dvel, datt, track, dg, predicted, summary,
         diverged, dg_sigma, budget,
     )  # fmt: skip
+    if filt is not None:
+        from fieldmap.nav.aiding import coasting_summary, nees_summary
+
+        coasting_summary(summary, result, study.gnss, cov.horizontal())
+        summary["gnss"]["nees"] = nees_summary(filt, imu_set[perm] == 1)
+        result.sigma_h = cov.horizontal()
+    return result
 
 
 def _terms_meta(terms: GravityTerms, budget: GravityBudget) -> dict[str, Any]:
@@ -1315,4 +1388,8 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
             "meta": json.dumps(res.summary["meta"], default=float),
         },
     )
+    if "gnss" in res.summary:
+        from fieldmap.nav.aiding import add_to_dataset
+
+        ds = add_to_dataset(ds, res.summary, res.sigma_h)
     return ds
