@@ -1,0 +1,328 @@
+r"""Warp kernels: the gravity gradient tensor by grid synthesis, one Legendre pass per row.
+
+On a circle of latitude (geocentric latitude φ, t = sin φ, u = cos φ, radius r, q = R/r) the
+second derivatives of the potential
+
+.. math::
+    V = \frac{GM}{r}\sum_{n,m} q^n \bar P_{nm}(t)\,(\bar C_{nm}\cos m\lambda
+        + \bar S_{nm}\sin m\lambda)
+
+in the local geocentric east-north-up frame (e: λ, n: φ, u: r) are (Reed 1973, *Application
+of kinematical geodesy for determining the short wave length components of the gravity field
+by satellite gradiometry*, OSU report 201, eqs. 3.32-3.37; Petrovskaya & Vershkov 2006,
+J. Geodesy 80:117-127, eqs. 5-10)
+
+.. math::
+    V_{uu} &= V_{rr}, \qquad
+    V_{nu} = \tfrac{1}{r} V_{r\varphi} - \tfrac{1}{r^2} V_\varphi, \qquad
+    V_{eu} = \tfrac{1}{r u}\big(V_{r\lambda} - \tfrac{1}{r} V_\lambda\big), \\
+    V_{nn} &= \tfrac{1}{r^2} V_{\varphi\varphi} + \tfrac{1}{r} V_r, \qquad
+    V_{ee} = \tfrac{1}{r^2u^2} V_{\lambda\lambda} + \tfrac{1}{r} V_r
+             - \tfrac{t}{r^2 u} V_\varphi, \qquad
+    V_{en} = \tfrac{1}{r^2 u}\big(V_{\varphi\lambda} + \tfrac{t}{u} V_\lambda\big).
+
+Per order m these are Fourier coefficients of cos mλ and sin mλ (the factors m and m² of the
+longitude derivatives go into the coefficients; the host sums the longitudes by FFT as for the
+vector). The second latitude derivative comes from Legendre's equation,
+:math:`\bar P'' = (t/u)\bar P' - n(n+1)\bar P + (m^2/u^2)\bar P`. With the Holmes &
+Featherstone (2002) split :math:`\bar P_{nm} = u^m Q_{nm}` and their
+:math:`\bar P'_{nm} = u^{m-1} D_{nm}`, :math:`D_{nm} = -n t Q_{nm} + f_{nm} Q_{n-1,m}` (their eqs.
+11-16), the terms with 1/u and 1/u² are
+
+.. math::
+    H_{nm} \equiv \frac{t}{u}\bar P' + \frac{m^2}{u^2}\bar P = u^{m-2}(t D + m^2 Q), \qquad
+    G_{nm} \equiv \frac{1}{u}\Big(\bar P' + \frac{t}{u}\bar P\Big) = u^{m-2}(D + t Q),
+
+finite for m ≥ 2. For m = 1, :math:`D + tQ = u^2\, dQ/dt` (from
+:math:`\bar P' = u^{m-1}(-m t Q + u^2 dQ/dt)`), so :math:`G = u\, dQ/dt` and
+:math:`H = u(Q + t\, dQ/dt)`, with dQ/dt from the derivative of the column recursion
+(:math:`Q'_n = a_n(Q_{n-1} + t Q'_{n-1}) - b_n Q'_{n-2}`): both vanish at the poles, exactly.
+For m = 0, :math:`\bar P'_{n0} = \sqrt{n(n+1)/2}\, u Q_{n1}` and :math:`H = t \sqrt{n(n+1)/2}\,
+Q_{n1}` (from the order-1 column). Then, with :math:`K = GM/r^3`,
+
+.. math::
+    V_{uu} = K\sum (n+1)(n+2) q^n \bar P, \quad
+    V_{nu} = -K\sum (n+2) q^n \bar P', \quad
+    V_{eu} = -K\sum (n+2) q^n \tfrac{1}{u}\partial_\lambda \bar P\cdots, \\
+    V_{nn} = K\sum q^n\,[H - (n+1)^2 \bar P], \quad
+    V_{ee} = K\sum q^n\,[-H - (n+1)\bar P], \quad
+    V_{en} = K\sum q^n\, G\,\partial_\lambda(\cdots)
+
+(their trace is zero term by term: Laplace). The powers of u are applied in halves and the
+1e-280 scale last (:func:`fieldmap.kernels.grid.scaled_times`), as for the vector; a rotation
+by δ = φ_geodetic − φ_geocentric about east turns the tensor into the geodetic ENU frame.
+
+One thread per (row unit, order m); a unit is a row and its mirror at −latitude (same height),
+which share the recursion: the sums are split by the parity of n − m, and at −t the sums of Q
+are even − odd, those of the f Q_{n−1} and dQ/dt terms odd − even (exact sign flips, so a row
+gets the same bits with or without its mirror). Degrees up to 2700 (the scaled recursion).
+"""
+
+import warp as wp
+
+from .grid import half_powers, scaled_times, zero_tail
+from .sh import SCALE, SHKernelModel, sh_degree_cut
+
+wp.set_module_options({"enable_backward": False})
+
+#: per-parity column sums, for X = C (even index) and S (odd index):
+#: [0,1] X Q, [2,3] (n+1) X Q, [4,5] (n+1)(n+2) X Q, [6,7] X f Q_{n-1} (q-folded),
+#: [8,9] (n+2) X f Q_{n-1}, [10,11] X dQ/dt (m = 1), [12] c_n C_n0 Q_n1, [13] (n+2) of it (m = 1)
+tensor_sums = wp.types.vector(length=14, dtype=wp.float64)
+#: the six components ee, en, eu, nn, nu, uu of a symmetric tensor
+vec6d = wp.types.vector(length=6, dtype=wp.float64)
+
+
+@wp.func
+def _term(
+    model: SHKernelModel,
+    m: int,
+    n: int,
+    pn: wp.float64,
+    p1: wp.float64,
+    rn: wp.float64,
+) -> tensor_sums:
+    """The terms of degree n of :data:`tensor_sums` (pn = q^n Q_n, p1 = q^(n-1) Q_(n-1))."""
+    c = model.cnm[m, n]
+    s = model.snm[m, n]
+    a1 = wp.float64(n + 1)
+    a2 = a1 * wp.float64(n + 2)
+    b = wp.float64(n + 2)
+    wc = c * pn
+    ws = s * pn
+    out = tensor_sums()
+    out[0] = wc
+    out[1] = ws
+    out[2] = a1 * wc
+    out[3] = a1 * ws
+    out[4] = a2 * wc
+    out[5] = a2 * ws
+    if m >= 1:
+        fp = model.fnm[m, n] * p1
+        out[6] = c * fp
+        out[7] = s * fp
+        out[8] = b * c * fp
+        out[9] = b * s * fp
+    if m == 1:
+        out[10] = c * rn
+        out[11] = s * rn
+        z = model.fnm[0, n] * model.cnm[0, n] * pn
+        out[12] = z
+        out[13] = b * z
+    return out
+
+
+@wp.func
+def tensor_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
+    """Column sums of order m at t, split by the parity of n − m: (even, odd).
+
+    See :data:`tensor_sums`; the recursion is that of :func:`fieldmap.kernels.sh.sh_column`
+    (Holmes & Featherstone 2002 eqs. 11-13, q^n folded in), and for m = 1 its derivative in t.
+    """
+    ev = tensor_sums()
+    od = tensor_sums()
+    lmax = sh_degree_cut(model, q)
+    if m > lmax:
+        return ev, od
+    tq = t * q
+    qq = q * q
+    p1 = SCALE * model.sect[m] * wp.pow(q, wp.float64(m))
+    p2 = wp.float64(0.0)
+    r1 = wp.float64(0.0)  # dQ'/dt: the seed does not depend on t
+    r2 = wp.float64(0.0)
+    ev = _term(model, m, m, p1, p2, r1)
+    n = m + 1
+    while n <= lmax:
+        a = model.anm[m, n]
+        bq = model.bnm[m, n] * qq
+        pn = a * tq * p1 - bq * p2
+        rn = wp.float64(0.0)
+        if m == 1:
+            rn = a * (q * p1 + tq * r1) - bq * r2
+        od = od + _term(model, m, n, pn, p1, rn)
+        p2 = p1
+        p1 = pn
+        r2 = r1
+        r1 = rn
+        n = n + 1
+        if n <= lmax:
+            a = model.anm[m, n]
+            bq = model.bnm[m, n] * qq
+            pn = a * tq * p1 - bq * p2
+            rn = wp.float64(0.0)
+            if m == 1:
+                rn = a * (q * p1 + tq * r1) - bq * r2
+            ev = ev + _term(model, m, n, pn, p1, rn)
+            p2 = p1
+            p1 = pn
+            r2 = r1
+            r1 = rn
+            n = n + 1
+    return ev, od
+
+
+@wp.func
+def mirror_sums(ev: tensor_sums, od: tensor_sums) -> tensor_sums:
+    """The sums at −t: even − odd for the Q terms, odd − even for f Q_{n−1} and dQ/dt."""
+    out = ev - od
+    for k in range(6, 12):
+        out[k] = od[k] - ev[k]
+    return out
+
+
+@wp.func
+def _rotate_store(
+    ee: wp.float64,
+    en: wp.float64,
+    eu: wp.float64,
+    nn: wp.float64,
+    nu: wp.float64,
+    uu: wp.float64,
+    cd: wp.float64,
+    sd: wp.float64,
+) -> vec6d:
+    """Rotate a geocentric ENU tensor by δ about east (cd, sd = cos δ, sin δ): geodetic ENU.
+
+    T' = R T Rᵀ with north' = cd n − sd u, up' = sd n + cd u (as the vector's rotation).
+    """
+    cc = cd * cd
+    ss = sd * sd
+    cs = cd * sd
+    return vec6d(
+        ee,
+        cd * en - sd * eu,
+        sd * en + cd * eu,
+        cc * nn - wp.float64(2.0) * cs * nu + ss * uu,
+        cs * (nn - uu) + (cc - ss) * nu,
+        ss * nn + wp.float64(2.0) * cs * nu + cc * uu,
+    )
+
+
+@wp.func
+def tensor_coefficients(
+    sm: tensor_sums,
+    z0: wp.float64,
+    z2: wp.float64,
+    m: int,
+    t: wp.float64,
+    u: wp.float64,
+    q: wp.float64,
+    k: wp.float64,
+    cd: wp.float64,
+    sd: wp.float64,
+    coef: wp.array3d(dtype=wp.vec2d),
+    row: int,
+):
+    """Write the six geodetic-ENU Fourier coefficients (A, −B) of order m of one row.
+
+    ``sm``: the column sums of the row (:data:`tensor_sums`, both parities added); ``z0``,
+    ``z2``: entries [12], [13] of the order-1 sums (used by m = 0); ``k = GM/r^3`` times the
+    order's factor. Components in the order ee, en, eu, nn, nu, uu (see the module docstring).
+    """
+    h0 = wp.vec2d(wp.float64(1.0), wp.float64(1.0))
+    zero = wp.float64(0.0)
+    cA = vec6d()
+    cB = vec6d()
+    if m == 0:
+        hq = half_powers(u, 1)
+        uu = scaled_times(sm[4], h0)
+        nu = -scaled_times(z2, hq)
+        hh = scaled_times(t * z0, h0)
+        nn = hh - scaled_times(sm[4] - sm[2], h0)
+        ee = -hh - scaled_times(sm[2], h0)
+        cA = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
+    else:
+        fm = wp.float64(m)
+        hm = half_powers(u, m)
+        hm1 = half_powers(u, m - 1)
+        for x in range(2):
+            s0 = sm[0 + x]
+            s1 = sm[2 + x]
+            s2 = sm[4 + x]
+            d0 = -t * (s1 - s0) + q * sm[6 + x]
+            d2 = -t * (s2 - s1 - s0) + q * sm[8 + x]
+            uu = scaled_times(s2, hm)
+            nu = -scaled_times(d2, hm1)
+            ew = scaled_times(s1 + s0, hm1)
+            hh = zero
+            gg = zero
+            if m == 1:
+                hh = scaled_times(s0 + t * sm[10 + x], hm)
+                gg = scaled_times(sm[10 + x], hm)
+            else:
+                hm2 = half_powers(u, m - 2)
+                hh = scaled_times(t * d0 + fm * fm * s0, hm2)
+                gg = scaled_times(d0 + t * s0, hm2)
+            nn = hh - scaled_times(s2 - s1, hm)
+            ee = -hh - scaled_times(s1, hm)
+            # x = 0 (C): cos part of uu, nu, nn, ee; the λ-derivative puts C into the sin
+            # part of eu and en. x = 1 (S): the other way round.
+            sgn = wp.float64(1.0)
+            if x == 1:
+                sgn = wp.float64(-1.0)
+            # eu: A = -K m ew_S, B = K m ew_C; en: A = K m G_S, B = -K m G_C
+            va = _rotate_store(zero, -sgn * k * fm * gg, sgn * k * fm * ew, zero, zero, zero, cd, sd)
+            vb = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
+            if x == 0:
+                cA = cA + vb
+                cB = cB + va
+            else:
+                cB = cB + vb
+                cA = cA + va
+    for c in range(6):
+        coef[row, c, m] = wp.vec2d(cA[c], -cB[c])
+
+
+@wp.kernel
+def row_tensor_kernel(
+    model: SHKernelModel,
+    t: wp.array(dtype=wp.float64),
+    u: wp.array(dtype=wp.float64),
+    r: wp.array(dtype=wp.float64),
+    q: wp.array(dtype=wp.float64),
+    cdel: wp.array(dtype=wp.float64),
+    sdel: wp.array(dtype=wp.float64),
+    row_a: wp.array(dtype=wp.int32),
+    row_b: wp.array(dtype=wp.int32),
+    nm: int,
+    osc: wp.array(dtype=wp.float64),
+    coef: wp.array3d(dtype=wp.vec2d),
+    offset: wp.int32,
+):
+    """Fourier coefficients of the gravitation tensor for every (row unit, order m).
+
+    Thread ``i`` handles unit ``i // nm`` (row ``row_a``, its mirror ``row_b`` or −1) and order
+    ``m = i % nm``; the m = 0 thread also sums the order-1 column for the zonal terms of V_nu
+    and V_nn (1/(lmax/2) of a row's work). Order m is written times ``osc[m]`` (see
+    :func:`fieldmap.kernels.grid.row_fourier_kernel`); the m = nm - 1 thread zeroes the
+    columns past nm.
+    """
+    i = wp.tid() + offset
+    unit = i / nm
+    m = i - unit * nm
+    ra = row_a[unit]
+    rb = row_b[unit]
+    ta = t[ra]
+    qa = q[ra]
+    ev, od = tensor_column(model, m, ta, qa)
+    e1 = tensor_sums()
+    o1 = tensor_sums()
+    if m == 0 and model.lmax >= 1:
+        e1, o1 = tensor_column(model, 1, ta, qa)
+    ra_r = r[ra]
+    k = model.gm / (ra_r * ra_r * ra_r) * osc[m]
+    tensor_coefficients(
+        ev + od, e1[12] + o1[12], e1[13] + o1[13], m, ta, u[ra], qa, k, cdel[ra], sdel[ra],
+        coef, ra,
+    )  # fmt: skip
+    if m == nm - 1:
+        zero_tail(coef, ra, nm)
+    if rb >= 0:
+        rb_r = r[rb]
+        kb = model.gm / (rb_r * rb_r * rb_r) * osc[m]
+        tensor_coefficients(
+            mirror_sums(ev, od), e1[12] - o1[12], e1[13] - o1[13], m, -ta, u[rb], q[rb], kb,
+            cdel[rb], sdel[rb], coef, rb,
+        )  # fmt: skip
+        if m == nm - 1:
+            zero_tail(coef, rb, nm)
