@@ -515,19 +515,25 @@ def _check_tensor_degree(model: SHModel) -> None:
         )
 
 
-def tensor_coefficients(
+def tensor_points(
     model: SHModel,
     lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
     h_m: np.ndarray,
     ellipsoid: Ellipsoid | str | None = None,
     device: str | None = None,
 ) -> np.ndarray:
-    """Fourier coefficients in longitude of the gravitation tensor, one row per (lat, h) item.
+    """Gradient tensor of the model's gravitation at scattered points, geodetic ENU.
 
-    Each item on its own (no mirrors): the longitude series of a point, see
-    :func:`synthesize_tensor`. Returns a complex array (n, 6, lmax + 1), W_m = A_m − i B_m of
-    the components ee, en, eu, nn, nu, uu in geodetic ENU (s⁻²): the tensor at longitude λ is
-    Re Σ_m W_m e^{i m λ}.
+    A point is a grid of one node: its own row of Fourier coefficients in longitude
+    (:func:`fieldmap.kernels.grid_tensor.row_tensor_kernel`, no mirror), summed at its
+    longitude, Re Σ_m W_m e^{i m λ} with W_m = A_m − i B_m; points in blocks, so memory stays
+    bounded. Same model and ellipsoid conventions as :func:`synthesize_tensor`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n, 6): ee, en, eu, nn, nu, uu (:data:`TENSOR_COMPONENTS`). Units: s⁻².
     """
     import warp as wp
 
@@ -537,18 +543,24 @@ def tensor_coefficients(
     ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
     device = resolve_device(device)
     lat = np.ascontiguousarray(np.radians(lat_deg), dtype=np.float64).ravel()
+    lam = np.radians(np.asarray(lon_deg, dtype=np.float64).ravel())
     h = np.ascontiguousarray(h_m, dtype=np.float64).ravel()
     nm = model.lmax + 1
-    out = np.empty((lat.size, 6, nm), dtype=np.complex128)
+    out = np.empty((lat.size, 6))
     osc = to_device(np.ones(nm), wp.float64, device)
-    block = int(max(1, BLOCK_BYTES // (nm * 6 * 16 * 2)))
+    block = int(max(1, BLOCK_BYTES // (nm * 6 * 16 * 3)))
+    orders = np.arange(nm, dtype=np.float64)
     for a in range(0, lat.size, block):
         b = min(lat.size, a + block)
         geo, _ = _row_setup(lat[a:b], h[a:b], ellipsoid, model.radius, 0, device)
         store = _coefficient_store((b - a, 6, nm), True, device)
         idx = np.arange(b - a, dtype=np.int32)
         _tensor_launch(model, geo, idx, np.full_like(idx, -1), osc, store, device)
-        out[a:b] = store.numpy().view(np.complex128)[..., 0]
+        W = store.numpy().view(np.complex128)[..., 0]  # (n, 6, nm)
+        ml = lam[a:b, None] * orders[None, :]
+        out[a:b] = np.einsum("ncm,nm->nc", W.real, np.cos(ml)) - np.einsum(
+            "ncm,nm->nc", W.imag, np.sin(ml)
+        )
     return out
 
 
