@@ -61,6 +61,75 @@ def _vector_ecef(
     return g
 
 
+def spherical_tensor(
+    model: SHModel,
+    lat_deg: NDArray[np.float64],
+    lon_deg: NDArray[np.float64],
+    h_m: NDArray[np.float64],
+    ell: Ellipsoid,
+) -> NDArray[np.float64]:
+    """Gravitation tensor (s⁻²) of ``model`` in geodetic ENU at points off the poles, (n, 3, 3).
+
+    See the module docstring. ``lat_deg``, ``lon_deg``, ``h_m`` flat arrays (degrees, m).
+    """
+    from fieldmap.reference.sh import legendre_rows
+
+    x, y, z = frames.geodetic_to_ecef(lat_deg, lon_deg, h_m, ell)
+    rho = np.hypot(x, y)
+    r = np.hypot(rho, z)
+    t, u = z / r, rho / r
+    lam = np.arctan2(y, x)
+    q = model.radius / r
+    L = model.lmax
+    names = ("V", "r", "rr", "p", "rp", "pp", "l", "rl", "pl", "ll")
+    acc = {k: np.zeros_like(r) for k in names}
+    for nn, P, PU in legendre_rows(t, u, L):
+        # P̄_{nn, m+1} of the identity is in the same row (P̄_{nn, nn+1} = 0)
+        m = np.arange(nn + 1, dtype=np.float64)
+        zcol = np.zeros((P.shape[0], 1))
+        Pn = np.concatenate([P, zcol], axis=1)
+        mm = np.arange(nn + 2, dtype=np.float64)
+        ee = np.sqrt(np.maximum((nn - mm) * (nn + mm + 1), 0.0))
+        ee[0] = np.sqrt(nn * (nn + 1) / 2.0)
+        e = ee[:-1]
+        tu = (t / u)[:, None]
+        # first derivative for m = 0..nn+1 (the last is 0), then the second for m = 0..nn
+        d1 = -mm * tu * Pn
+        d1[:, :-1] += e * Pn[:, 1:]
+        d2 = -m / u[:, None] * PU - m * tu * d1[:, :-1] + e * d1[:, 1:]
+        c = model.C[nn, : nn + 1]
+        s = model.S[nn, : nn + 1]
+        cm = np.cos(np.outer(lam, m))
+        sm = np.sin(np.outer(lam, m))
+        f = c * cm + s * sm  # (N, m)
+        fl = m * (s * cm - c * sm)  # ∂f/∂λ
+        fll = -(m**2) * f
+        k = model.gm / r * q**nn
+        P0, D1 = Pn[:, :-1], d1[:, :-1]
+        acc["V"] += k * np.sum(P0 * f, axis=1)
+        acc["r"] += -(nn + 1) / r * k * np.sum(P0 * f, axis=1)
+        acc["rr"] += (nn + 1) * (nn + 2) / r**2 * k * np.sum(P0 * f, axis=1)
+        acc["p"] += k * np.sum(D1 * f, axis=1)
+        acc["rp"] += -(nn + 1) / r * k * np.sum(D1 * f, axis=1)
+        acc["pp"] += k * np.sum(d2 * f, axis=1)
+        acc["l"] += k * np.sum(P0 * fl, axis=1)
+        acc["rl"] += -(nn + 1) / r * k * np.sum(P0 * fl, axis=1)
+        acc["pl"] += k * np.sum(D1 * fl, axis=1)
+        acc["ll"] += k * np.sum(P0 * fll, axis=1)
+    a = acc
+    T = np.empty((r.size, 3, 3))
+    T[:, 2, 2] = a["rr"]
+    T[:, 1, 1] = a["pp"] / r**2 + a["r"] / r
+    T[:, 0, 0] = a["ll"] / (r * u) ** 2 + a["r"] / r - t * a["p"] / (r**2 * u)
+    T[:, 1, 2] = T[:, 2, 1] = a["rp"] / r - a["p"] / r**2
+    T[:, 0, 2] = T[:, 2, 0] = a["rl"] / (r * u) - a["l"] / (r**2 * u)
+    T[:, 0, 1] = T[:, 1, 0] = a["pl"] / (r**2 * u) + t * a["l"] / (r * u) ** 2
+    gc = frames.C_e_to_enu(np.degrees(np.arctan2(z, rho)), np.degrees(lam))  # geocentric
+    gd = frames.C_e_to_enu(lat_deg, lon_deg)
+    T_ecef = np.swapaxes(gc, -1, -2) @ T @ gc
+    return gd @ T_ecef @ np.swapaxes(gd, -1, -2)
+
+
 def central_difference_tensor(
     lat: NDArray[np.float64],
     lon: NDArray[np.float64],
