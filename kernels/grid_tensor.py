@@ -60,7 +60,7 @@ gets the same bits with or without its mirror). Degrees up to 2700 (the scaled r
 
 import warp as wp
 
-from .grid import half_powers, scaled_times, zero_tail
+from .grid import half_powers_tab, scaled_times, zero_tail
 from .sh import SCALE, SHKernelModel, sh_degree_cut
 
 wp.set_module_options({"enable_backward": False})
@@ -161,6 +161,93 @@ def tensor_column(model: SHKernelModel, m: int, t: wp.float64, q: wp.float64):
     return ev, od
 
 
+#: packed table entry of degree n of order m (:func:`fieldmap.grids.tables.tensor_tables`):
+#: a_nm, b_nm, C, S, (n+1) C, (n+1) S, (n+1)(n+2) C, (n+1)(n+2) S, f_{n+1} C_{n+1},
+#: f_{n+1} S_{n+1}, (n+3) f_{n+1} C_{n+1}, (n+3) f_{n+1} S_{n+1}
+vec12d = wp.types.vector(length=12, dtype=wp.float64)
+
+
+@wp.func
+def tensor_column_packed(
+    rec: wp.array(dtype=vec12d),
+    s0: int,
+    nterm: int,
+    seed: wp.float64,
+    tq: wp.float64,
+    qq: wp.float64,
+):
+    """:func:`tensor_column` for m >= 2 on the packed table ``rec[s0 + j]`` (degree m + j).
+
+    The products with (n+1), (n+1)(n+2), f_{n+1} and (n+3) are formed once on the host, and
+    the sums of f_n X_n Q_{n-1} are taken at Q_{n-1} (one degree down: every product of a step
+    multiplies the same Q_n), so they land in the other parity's sums; they are moved back to
+    the parity of their degree n here. Same layout as :func:`tensor_column` (entries 10-13
+    zero: m >= 2).
+    """
+    z = wp.float64(0.0)
+    w = rec[s0]
+    p1 = seed
+    p2 = z
+    e0 = w[2] * p1
+    e1 = w[3] * p1
+    e2 = w[4] * p1
+    e3 = w[5] * p1
+    e4 = w[6] * p1
+    e5 = w[7] * p1
+    e6 = w[8] * p1
+    e7 = w[9] * p1
+    e8 = w[10] * p1
+    e9 = w[11] * p1
+    o0 = z
+    o1 = z
+    o2 = z
+    o3 = z
+    o4 = z
+    o5 = z
+    o6 = z
+    o7 = z
+    o8 = z
+    o9 = z
+    j = s0 + 1
+    jend = s0 + nterm
+    while j < jend:
+        w = rec[j]
+        pn = w[0] * tq * p1 - w[1] * qq * p2
+        o0 = o0 + w[2] * pn
+        o1 = o1 + w[3] * pn
+        o2 = o2 + w[4] * pn
+        o3 = o3 + w[5] * pn
+        o4 = o4 + w[6] * pn
+        o5 = o5 + w[7] * pn
+        o6 = o6 + w[8] * pn
+        o7 = o7 + w[9] * pn
+        o8 = o8 + w[10] * pn
+        o9 = o9 + w[11] * pn
+        p2 = p1
+        p1 = pn
+        j = j + 1
+        if j >= jend:
+            break
+        w = rec[j]
+        pn = w[0] * tq * p1 - w[1] * qq * p2
+        e0 = e0 + w[2] * pn
+        e1 = e1 + w[3] * pn
+        e2 = e2 + w[4] * pn
+        e3 = e3 + w[5] * pn
+        e4 = e4 + w[6] * pn
+        e5 = e5 + w[7] * pn
+        e6 = e6 + w[8] * pn
+        e7 = e7 + w[9] * pn
+        e8 = e8 + w[10] * pn
+        e9 = e9 + w[11] * pn
+        p2 = p1
+        p1 = pn
+        j = j + 1
+    ev = tensor_sums(e0, e1, e2, e3, e4, e5, o6, o7, o8, o9, z, z, z, z)
+    od = tensor_sums(o0, o1, o2, o3, o4, o5, e6, e7, e8, e9, z, z, z, z)
+    return ev, od
+
+
 @wp.func
 def mirror_sums(ev: tensor_sums, od: tensor_sums) -> tensor_sums:
     """The sums at −t: even − odd for the Q terms, odd − even for f Q_{n−1} and dQ/dt."""
@@ -205,7 +292,7 @@ def tensor_coefficients(
     z2: wp.float64,
     m: int,
     t: wp.float64,
-    u: wp.float64,
+    upow: wp.array2d(dtype=wp.float64),
     q: wp.float64,
     k: wp.float64,
     cd: wp.float64,
@@ -217,14 +304,16 @@ def tensor_coefficients(
 
     ``sm``: the column sums of the row (:data:`tensor_sums`, both parities added); ``z0``,
     ``z2``: entries [12], [13] of the order-1 sums (used by m = 0); ``k = GM/r^3`` times the
-    order's factor. Components in the order ee, en, eu, nn, nu, uu (see the module docstring).
+    order's factor; the powers of u from the row's table ``upow``
+    (:func:`fieldmap.kernels.grid.row_powers_kernel`). Components in the order ee, en, eu,
+    nn, nu, uu (see the module docstring).
     """
     h0 = wp.vec2d(wp.float64(1.0), wp.float64(1.0))
     zero = wp.float64(0.0)
     cA = vec6d()
     cB = vec6d()
     if m == 0:
-        hq = half_powers(u, 1)
+        hq = half_powers_tab(upow, row, 1)
         uu = scaled_times(sm[4], h0)
         nu = -scaled_times(z2, hq)
         hh = scaled_times(t * z0, h0)
@@ -233,8 +322,8 @@ def tensor_coefficients(
         cA = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
     else:
         fm = wp.float64(m)
-        hm = half_powers(u, m)
-        hm1 = half_powers(u, m - 1)
+        hm = half_powers_tab(upow, row, m)
+        hm1 = half_powers_tab(upow, row, m - 1)
         for x in range(2):
             s0 = sm[0 + x]
             s1 = sm[2 + x]
@@ -250,7 +339,7 @@ def tensor_coefficients(
                 hh = scaled_times(s0 + t * sm[10 + x], hm)
                 gg = scaled_times(sm[10 + x], hm)
             else:
-                hm2 = half_powers(u, m - 2)
+                hm2 = half_powers_tab(upow, row, m - 2)
                 hh = scaled_times(t * d0 + fm * fm * s0, hm2)
                 gg = scaled_times(d0 + t * s0, hm2)
             nn = hh - scaled_times(s2 - s1, hm)
@@ -276,6 +365,8 @@ def tensor_coefficients(
 @wp.kernel
 def row_tensor_kernel(
     model: SHKernelModel,
+    rec: wp.array(dtype=vec12d),
+    start: wp.array(dtype=wp.int32),
     t: wp.array(dtype=wp.float64),
     u: wp.array(dtype=wp.float64),
     r: wp.array(dtype=wp.float64),
@@ -284,6 +375,8 @@ def row_tensor_kernel(
     sdel: wp.array(dtype=wp.float64),
     row_a: wp.array(dtype=wp.int32),
     row_b: wp.array(dtype=wp.int32),
+    upow: wp.array2d(dtype=wp.float64),
+    qpow: wp.array2d(dtype=wp.float64),
     nm: int,
     osc: wp.array(dtype=wp.float64),
     coef: wp.array3d(dtype=wp.vec2d),
@@ -292,7 +385,10 @@ def row_tensor_kernel(
     """Fourier coefficients of the gravitation tensor for every (row unit, order m).
 
     Thread ``i`` handles unit ``i // nm`` (row ``row_a``, its mirror ``row_b`` or −1) and order
-    ``m = i % nm``; the m = 0 thread also sums the order-1 column for the zonal terms of V_nu
+    ``m = i % nm``, the powers of u and q from the rows' tables ``upow``/``qpow``
+    (:func:`fieldmap.kernels.grid.row_powers_kernel`): orders m >= 2 on the packed tables
+    ``rec``/``start``
+    (:func:`tensor_column_packed`), 0 and 1 on the model's square tables; the m = 0 thread also sums the order-1 column for the zonal terms of V_nu
     and V_nn (1/(lmax/2) of a row's work). Order m is written times ``osc[m]`` (see
     :func:`fieldmap.kernels.grid.row_fourier_kernel`); the m = nm - 1 thread zeroes the
     columns past nm.
@@ -304,7 +400,15 @@ def row_tensor_kernel(
     rb = row_b[unit]
     ta = t[ra]
     qa = q[ra]
-    ev, od = tensor_column(model, m, ta, qa)
+    ev = tensor_sums()
+    od = tensor_sums()
+    if m >= 2:
+        top = sh_degree_cut(model, qa)
+        if m <= top:
+            seed = SCALE * model.sect[m] * qpow[m, ra]
+            ev, od = tensor_column_packed(rec, start[m], top + 1 - m, seed, ta * qa, qa * qa)
+    else:
+        ev, od = tensor_column(model, m, ta, qa)
     e1 = tensor_sums()
     o1 = tensor_sums()
     if m == 0 and model.lmax >= 1:
@@ -312,7 +416,7 @@ def row_tensor_kernel(
     ra_r = r[ra]
     k = model.gm / (ra_r * ra_r * ra_r) * osc[m]
     tensor_coefficients(
-        ev + od, e1[12] + o1[12], e1[13] + o1[13], m, ta, u[ra], qa, k, cdel[ra], sdel[ra],
+        ev + od, e1[12] + o1[12], e1[13] + o1[13], m, ta, upow, qa, k, cdel[ra], sdel[ra],
         coef, ra,
     )  # fmt: skip
     if m == nm - 1:
@@ -321,7 +425,7 @@ def row_tensor_kernel(
         rb_r = r[rb]
         kb = model.gm / (rb_r * rb_r * rb_r) * osc[m]
         tensor_coefficients(
-            mirror_sums(ev, od), e1[12] - o1[12], e1[13] - o1[13], m, -ta, u[rb], q[rb], kb,
+            mirror_sums(ev, od), e1[12] - o1[12], e1[13] - o1[13], m, -ta, upow, q[rb], kb,
             cdel[rb], sdel[rb], coef, rb,
         )  # fmt: skip
         if m == nm - 1:

@@ -494,12 +494,15 @@ def _tensor_launch(
 
     from fieldmap import _warp
     from fieldmap.field.sh import kernel_model
+    from fieldmap.grids.tables import tensor_tables
     from fieldmap.kernels import grid_tensor as kten
 
     km = kernel_model(model, device)
+    tabs = tensor_tables(model, km, device)
     ra, rb = to_device(ga, wp.int32, device), to_device(gb, wp.int32, device)
     nm = model.lmax + 1
-    args = [km, *geo, ra, rb, nm, osc, coef]
+    pows = row_powers(geo, model.lmax, device)
+    args = [km, *tabs, *geo, ra, rb, *pows, nm, osc, coef]
     _warp.launch_chunked(kten.row_tensor_kernel, ga.size * nm, args, device)
 
 
