@@ -82,7 +82,7 @@ def _term(
     p1: wp.float64,
     rn: wp.float64,
 ) -> tensor_sums:
-    """The terms of degree n of :data:`tensor_sums` (pn = q^n Q_n, p1 = q^(n-1) Q_(n-1))."""
+    """Return the terms of degree n of :data:`tensor_sums` (pn = q^n Q_n, p1 = q^(n-1) Q_(n-1))."""
     c = model.cnm[m, n]
     s = model.snm[m, n]
     a1 = wp.float64(n + 1)
@@ -250,7 +250,7 @@ def tensor_column_packed(
 
 @wp.func
 def mirror_sums(ev: tensor_sums, od: tensor_sums) -> tensor_sums:
-    """The sums at −t: even − odd for the Q terms, odd − even for f Q_{n−1} and dQ/dt."""
+    """Return the sums at −t: even − odd for Q terms, odd − even for f Q_{n−1} and dQ/dt."""
     out = ev - od
     for k in range(6, 12):
         out[k] = od[k] - ev[k]
@@ -350,7 +350,9 @@ def tensor_coefficients(
             if x == 1:
                 sgn = wp.float64(-1.0)
             # eu: A = -K m ew_S, B = K m ew_C; en: A = K m G_S, B = -K m G_C
-            va = _rotate_store(zero, -sgn * k * fm * gg, sgn * k * fm * ew, zero, zero, zero, cd, sd)
+            va = _rotate_store(
+                zero, -sgn * k * fm * gg, sgn * k * fm * ew, zero, zero, zero, cd, sd
+            )
             vb = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
             if x == 0:
                 cA = cA + vb
@@ -387,9 +389,9 @@ def row_tensor_kernel(
     Thread ``i`` handles unit ``i // nm`` (row ``row_a``, its mirror ``row_b`` or −1) and order
     ``m = i % nm``, the powers of u and q from the rows' tables ``upow``/``qpow``
     (:func:`fieldmap.kernels.grid.row_powers_kernel`): orders m >= 2 on the packed tables
-    ``rec``/``start``
-    (:func:`tensor_column_packed`), 0 and 1 on the model's square tables; the m = 0 thread also sums the order-1 column for the zonal terms of V_nu
-    and V_nn (1/(lmax/2) of a row's work). Order m is written times ``osc[m]`` (see
+    ``rec``/``start`` (:func:`tensor_column_packed`), 0 and 1 on the model's square tables
+    (:func:`tensor_column`); the m = 0 thread also sums the order-1 column for the zonal
+    terms of V_nu and V_nn (1/(lmax/2) of a row's work). Order m is written times ``osc[m]`` (see
     :func:`fieldmap.kernels.grid.row_fourier_kernel`); the m = nm - 1 thread zeroes the
     columns past nm.
     """

@@ -129,7 +129,7 @@ def test_grid_trace_and_poles_at_degree_240():
 
 
 def test_pyshtools_tensor_on_its_own_grid(model60):
-    """pyshtools' ``SHGravCoeffs.tensor`` (sphere r = R + 20 km, its DH grid) to 1e-6 E.
+    """Equals pyshtools' ``SHGravCoeffs.tensor`` (sphere r = R + 20 km, its DH grid) to 1e-6 E.
 
     pyshtools' frame: x north, y west, z up. Its two pole rows are left out: its formulas
     divide by sin θ there (the values it returns at the poles are not the tensor); the poles

@@ -51,6 +51,7 @@ QUANTITIES = (
     "geoid-sigma",
     "gradient",
     "gradient-disturbance",
+    "gradient-invariants",
 )
 #: The names of :data:`fieldmap.field.normal.NORMAL_MODELS` (kept here so that ``--help`` does
 #: not import Warp; a test checks that both agree).
@@ -70,6 +71,7 @@ _DEFAULT_DECIMALS = {
     "geoid-sigma": 4,
     "gradient": 3,
     "gradient-disturbance": 3,
+    "gradient-invariants": 3,
 }
 
 
@@ -99,7 +101,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "deviation propagated from the model's coefficient sigmas, uncorrelated) of δg east "
         "north up (mGal), of Δg (mGal) or of N (m, h must be 0); gradient, "
         "gradient-disturbance: the 9 components dg_i/dx_j (east north up, row-major, in "
-        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance",
+        "Eötvös, 1 E = 1e-9 s⁻²) of gravity incl. centrifugal or of the disturbance; "
+        "gradient-invariants: I1 (E²), I2 (E³) and the eigenvalues (E, decreasing) of the "
+        "model gravitation's tensor",
     )
     p.add_argument(
         "--normal",
@@ -246,8 +250,15 @@ def evaluate_points(
     if quantity.startswith("gradient"):
         from fieldmap.field.gradient import gradient_tensor
 
-        what = "gravity" if quantity == "gradient" else "disturbance"
+        what = {"gradient": "gravity", "gradient-invariants": "gravitation"}.get(
+            quantity, "disturbance"
+        )
         t = gradient_tensor(lat, lon, h, model=sh_model, quantity=what, device=device)
+        if quantity == "gradient-invariants":
+            from fieldmap.field.gradient import INVARIANTS, gradient_invariants
+
+            inv = gradient_invariants(t)
+            return np.stack([inv[k] for k in INVARIANTS], axis=-1)
         return t.reshape(-1, 9)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)

@@ -102,7 +102,7 @@ _model_cache: dict[tuple, tuple[Any, SHModel]] = {}
 
 
 def normal_zonal_model(normal: str = "exact", ellipsoid: Ellipsoid | str = WGS84) -> SHModel:
-    """The normal gravitational potential (no centrifugal term) as a zonal SH model.
+    """Return the normal gravitational potential (no centrifugal term) as a zonal SH model.
 
     C̄00 = 1 and C̄_{2n,0} = −J2n/√(4n+1) in the ellipsoid's GM and a (Heiskanen & Moritz 1967
     eqs. 2-80, 2-92; see the module docstring), J2n for n up to :data:`EXACT_ZONAL_TERMS`
@@ -123,7 +123,7 @@ def normal_zonal_model(normal: str = "exact", ellipsoid: Ellipsoid | str = WGS84
 
 
 def _minus_normal(model: SHModel, key: str, ell: Ellipsoid) -> SHModel:
-    """The model's coefficients minus the normal field's, in the model's GM and radius."""
+    """Return the model's coefficients minus the normal field's (the model's GM and radius)."""
     nor = normal_zonal_model(key, ell)
     L = max(model.lmax, nor.lmax)
     C = np.zeros((L + 1, L + 1))
@@ -139,7 +139,7 @@ def _minus_normal(model: SHModel, key: str, ell: Ellipsoid) -> SHModel:
 
 
 def synthesis_model(quantity: str, model: SHModel | None, normal: str, ell: Ellipsoid) -> SHModel:
-    """The model whose gravitation tensor :func:`gradient_tensor` synthesises for ``quantity``.
+    """Return the model whose gravitation tensor :func:`gradient_tensor` sums for ``quantity``.
 
     ``gravity``/``gravitation``: the model; ``disturbance``: the model minus the normal field
     (:func:`normal_zonal_model`); ``normal``: the normal field. Cached for the model object's
@@ -188,7 +188,7 @@ def _from_components(c: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _load(q: str, model: SHModel | str | os.PathLike[str]) -> SHModel | None:
-    """The SH model of a quantity (none for the normal field)."""
+    """Return the SH model of a quantity (none for the normal field)."""
     if q == "normal":
         return None
     if isinstance(model, SHModel):
@@ -439,7 +439,7 @@ def gradient_invariants(tensor: ArrayLike) -> dict[str, NDArray[np.float64]]:
     xy, yz, xz = t[..., 0, 1], t[..., 1, 2], t[..., 0, 2]
     i1 = xx * yy + yy * zz + xx * zz - xy**2 - yz**2 - xz**2
     i2 = xx * (yy * zz - yz**2) + xy * (yz * xz - xy * zz) + xz * (xy * yz - xz * yy)
-    eig = np.linalg.eigvalsh(t)[..., ::-1]
+    eig = np.asarray(np.linalg.eigvalsh(t)[..., ::-1], dtype=np.float64)
     return {"I1": i1, "I2": i2, "eig_1": eig[..., 0], "eig_2": eig[..., 1], "eig_3": eig[..., 2]}
 
 

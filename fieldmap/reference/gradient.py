@@ -173,4 +173,3 @@ def central_difference_tensor(
             t = _ENU_TO_NED @ t @ _ENU_TO_NED.T
         t = (t + np.swapaxes(t, -1, -2)) / 2.0  # exactly symmetric after the rotation too
     return t.reshape(shape + (3, 3)), asym.reshape(shape)
-
