@@ -251,7 +251,7 @@ def _asymmetry(
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = limits.check_geodetic(latitude, longitude, height)
     sh_model = _load(q, model) if lat.size else None
-    return central_difference_tensor(lat, lon, h, sh_model, q, key, ell, "ecef", device)[1]
+    return central_difference_tensor(lat, lon, h, sh_model, f"{q}:{key}", ell, "ecef", device)[1]
 
 
 def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:

@@ -136,7 +136,6 @@ def central_difference_tensor(
     h: NDArray[np.float64],
     model: SHModel | None,
     quantity: str,
-    normal: str,
     ell: Ellipsoid,
     frame: str,
     device: str | None,
@@ -144,10 +143,13 @@ def central_difference_tensor(
     """Return the tensor (E) and its asymmetry (E) at geodetic points, by central differences.
 
     ``lat``, ``lon``, ``h``: checked geodetic coordinates of one shape (degrees, degrees, m);
-    ``quantity`` one of ``gravity``, ``gravitation``, ``disturbance``, ``normal`` with the
-    normal field ``normal`` (a name of :data:`fieldmap.field.normal.NORMAL_MODELS`); ``frame``
-    ``enu``, ``ned`` or ``ecef``. Returns shapes ``lat.shape + (3, 3)`` and ``lat.shape``.
+    ``quantity`` one of ``gravity``, ``gravitation``, ``disturbance``, ``normal``, the last two
+    with a normal field after a colon (``"normal:j4"``, a name of
+    :data:`fieldmap.field.normal.NORMAL_MODELS`; default ``exact``); ``frame`` ``enu``,
+    ``ned`` or ``ecef``. Returns shapes ``lat.shape + (3, 3)`` and ``lat.shape``.
     """
+    quantity, _, normal = quantity.partition(":")
+    normal = normal or "exact"
     shape = lat.shape
     if lat.size == 0:
         return np.zeros(shape + (3, 3)), np.zeros(shape)
