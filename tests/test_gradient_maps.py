@@ -140,8 +140,10 @@ def test_invariants_map_is_the_invariants_of_the_gravitation_tensor(model60):
 
 
 def test_rerecorded_gradient_numbers_moved_by_the_differences_error_only():
-    """The same-bits reference of the gradient map, recorded again for the synthesis (issue 28),
-    is the central-difference one to 2e-5 E: only the differences' error went away."""
+    """The re-recorded same-bits gradient map is the central-difference one to 2e-5 E.
+
+    Recorded again for the synthesis (issue 28): only the differences' error went away.
+    """
     import pathlib
 
     ref = pathlib.Path(__file__).parent / "data" / "same_bits"
