@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import threading
 import weakref
 from typing import TYPE_CHECKING, Any
 
@@ -99,6 +100,7 @@ EXACT_ZONAL_TERMS = 12
 #: J2n terms of the truncated normal fields (``groves-j2`` also takes Groves' J2)
 _ZONAL_TERMS = {"exact": EXACT_ZONAL_TERMS, "j2": 1, "j4": 2, "j6": 3, "groves-j2": 1}
 _model_cache: dict[tuple, tuple[Any, SHModel]] = {}
+_model_lock = threading.Lock()
 
 
 def normal_zonal_model(normal: str = "exact", ellipsoid: Ellipsoid | str = WGS84) -> SHModel:
@@ -153,18 +155,19 @@ def synthesis_model(quantity: str, model: SHModel | None, normal: str, ell: Elli
     else:
         assert model is not None
         return model
-    hit = _model_cache.get(key)
-    if hit is not None and (hit[0] is None or hit[0]() is model):
-        return hit[1]
-    if quantity == "normal":
-        out, ref = normal_zonal_model(normal, ell), None
-    else:
-        assert model is not None
-        out, ref = _minus_normal(model, normal, ell), weakref.ref(model)
-    if len(_model_cache) >= 8:
-        _model_cache.pop(next(iter(_model_cache)))
-    _model_cache[key] = (ref, out)
-    return out
+    with _model_lock:  # the blocks of a map may run on several threads
+        hit = _model_cache.get(key)
+        if hit is not None and (hit[0] is None or hit[0]() is model):
+            return hit[1]
+        if quantity == "normal":
+            out, ref = normal_zonal_model(normal, ell), None
+        else:
+            assert model is not None
+            out, ref = _minus_normal(model, normal, ell), weakref.ref(model)
+        if len(_model_cache) >= 8:
+            _model_cache.pop(next(iter(_model_cache)))
+        _model_cache[key] = (ref, out)
+        return out
 
 
 def centrifugal_tensor(latitude: ArrayLike, omega: float) -> NDArray[np.float64]:
