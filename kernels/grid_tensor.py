@@ -258,30 +258,75 @@ def mirror_sums(ev: tensor_sums, od: tensor_sums) -> tensor_sums:
 
 
 @wp.func
-def _rotate_store(
-    ee: wp.float64,
-    en: wp.float64,
-    eu: wp.float64,
-    nn: wp.float64,
-    nu: wp.float64,
-    uu: wp.float64,
+def _store_rotated(
+    coef: wp.array3d(dtype=wp.vec2d),
+    row: int,
+    m: int,
+    a: vec6d,
+    b: vec6d,
     cd: wp.float64,
     sd: wp.float64,
-) -> vec6d:
-    """Rotate a geocentric ENU tensor by δ about east (cd, sd = cos δ, sin δ): geodetic ENU.
+):
+    """Rotate the cos (``a``) and sin (``b``) parts by δ about east and store them as (A, −B).
 
-    T' = R T Rᵀ with north' = cd n − sd u, up' = sd n + cd u (as the vector's rotation).
+    ``a``, ``b`` hold the geocentric ee, en, eu, nn, nu, uu; T' = R T Rᵀ with
+    north' = cd n − sd u, up' = sd n + cd u (as the vector's rotation): geodetic ENU.
     """
     cc = cd * cd
     ss = sd * sd
     cs = cd * sd
+    two = wp.float64(2.0)
+    coef[row, 0, m] = wp.vec2d(a[0], -b[0])
+    coef[row, 1, m] = wp.vec2d(cd * a[1] - sd * a[2], -(cd * b[1] - sd * b[2]))
+    coef[row, 2, m] = wp.vec2d(sd * a[1] + cd * a[2], -(sd * b[1] + cd * b[2]))
+    coef[row, 3, m] = wp.vec2d(
+        cc * a[3] - two * cs * a[4] + ss * a[5], -(cc * b[3] - two * cs * b[4] + ss * b[5])
+    )
+    coef[row, 4, m] = wp.vec2d(
+        cs * (a[3] - a[5]) + (cc - ss) * a[4], -(cs * (b[3] - b[5]) + (cc - ss) * b[4])
+    )
+    coef[row, 5, m] = wp.vec2d(
+        ss * a[3] + two * cs * a[4] + cc * a[5], -(ss * b[3] + two * cs * b[4] + cc * b[5])
+    )
+
+
+@wp.func
+def _order_parts(
+    sm: tensor_sums,
+    x: int,
+    m: int,
+    t: wp.float64,
+    q: wp.float64,
+    hm: wp.vec2d,
+    hm1: wp.vec2d,
+    hm2: wp.vec2d,
+) -> vec6d:
+    """(ee, nn, nu, uu, ew, G) of order m >= 1 from the C (x = 0) or S (x = 1) sums.
+
+    ew = Σ (n+2) q^n X P̄/u and G the 1/u² term of V_en (see the module docstring), before
+    the factors K, m and the signs of the longitude derivative.
+    """
+    s0 = sm[0 + x]
+    s1 = sm[2 + x]
+    s2 = sm[4 + x]
+    d0 = -t * (s1 - s0) + q * sm[6 + x]
+    d2 = -t * (s2 - s1 - s0) + q * sm[8 + x]
+    hh = wp.float64(0.0)
+    gg = wp.float64(0.0)
+    if m == 1:
+        hh = scaled_times(s0 + t * sm[10 + x], hm)
+        gg = scaled_times(sm[10 + x], hm)
+    else:
+        fm = wp.float64(m)
+        hh = scaled_times(t * d0 + fm * fm * s0, hm2)
+        gg = scaled_times(d0 + t * s0, hm2)
     return vec6d(
-        ee,
-        cd * en - sd * eu,
-        sd * en + cd * eu,
-        cc * nn - wp.float64(2.0) * cs * nu + ss * uu,
-        cs * (nn - uu) + (cc - ss) * nu,
-        ss * nn + wp.float64(2.0) * cs * nu + cc * uu,
+        -hh - scaled_times(s1, hm),
+        hh - scaled_times(s2 - s1, hm),
+        -scaled_times(d2, hm1),
+        scaled_times(s2, hm),
+        scaled_times(s1 + s0, hm1),
+        gg,
     )
 
 
@@ -308,60 +353,34 @@ def tensor_coefficients(
     (:func:`fieldmap.kernels.grid.row_powers_kernel`). Components in the order ee, en, eu,
     nn, nu, uu (see the module docstring).
     """
-    h0 = wp.vec2d(wp.float64(1.0), wp.float64(1.0))
     zero = wp.float64(0.0)
-    cA = vec6d()
-    cB = vec6d()
     if m == 0:
+        h0 = wp.vec2d(wp.float64(1.0), wp.float64(1.0))
         hq = half_powers_tab(upow, row, 1)
-        uu = scaled_times(sm[4], h0)
-        nu = -scaled_times(z2, hq)
         hh = scaled_times(t * z0, h0)
-        nn = hh - scaled_times(sm[4] - sm[2], h0)
-        ee = -hh - scaled_times(sm[2], h0)
-        cA = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
-    else:
-        fm = wp.float64(m)
-        hm = half_powers_tab(upow, row, m)
-        hm1 = half_powers_tab(upow, row, m - 1)
-        for x in range(2):
-            s0 = sm[0 + x]
-            s1 = sm[2 + x]
-            s2 = sm[4 + x]
-            d0 = -t * (s1 - s0) + q * sm[6 + x]
-            d2 = -t * (s2 - s1 - s0) + q * sm[8 + x]
-            uu = scaled_times(s2, hm)
-            nu = -scaled_times(d2, hm1)
-            ew = scaled_times(s1 + s0, hm1)
-            hh = zero
-            gg = zero
-            if m == 1:
-                hh = scaled_times(s0 + t * sm[10 + x], hm)
-                gg = scaled_times(sm[10 + x], hm)
-            else:
-                hm2 = half_powers_tab(upow, row, m - 2)
-                hh = scaled_times(t * d0 + fm * fm * s0, hm2)
-                gg = scaled_times(d0 + t * s0, hm2)
-            nn = hh - scaled_times(s2 - s1, hm)
-            ee = -hh - scaled_times(s1, hm)
-            # x = 0 (C): cos part of uu, nu, nn, ee; the λ-derivative puts C into the sin
-            # part of eu and en. x = 1 (S): the other way round.
-            sgn = wp.float64(1.0)
-            if x == 1:
-                sgn = wp.float64(-1.0)
-            # eu: A = -K m ew_S, B = K m ew_C; en: A = K m G_S, B = -K m G_C
-            va = _rotate_store(
-                zero, -sgn * k * fm * gg, sgn * k * fm * ew, zero, zero, zero, cd, sd
-            )
-            vb = _rotate_store(k * ee, zero, zero, k * nn, k * nu, k * uu, cd, sd)
-            if x == 0:
-                cA = cA + vb
-                cB = cB + va
-            else:
-                cB = cB + vb
-                cA = cA + va
-    for c in range(6):
-        coef[row, c, m] = wp.vec2d(cA[c], -cB[c])
+        a = vec6d(
+            k * (-hh - scaled_times(sm[2], h0)),
+            zero,
+            zero,
+            k * (hh - scaled_times(sm[4] - sm[2], h0)),
+            -k * scaled_times(z2, hq),
+            k * scaled_times(sm[4], h0),
+        )
+        _store_rotated(coef, row, m, a, vec6d(), cd, sd)
+        return
+    hm = half_powers_tab(upow, row, m)
+    hm1 = half_powers_tab(upow, row, m - 1)
+    hm2 = hm1
+    if m >= 2:
+        hm2 = half_powers_tab(upow, row, m - 2)
+    pc = _order_parts(sm, 0, m, t, q, hm, hm1, hm2)
+    ps = _order_parts(sm, 1, m, t, q, hm, hm1, hm2)
+    km = k * wp.float64(m)
+    # the λ-derivative turns C into the sin part of eu and en and S into their cos part:
+    # eu: A = -K m ew_S, B = K m ew_C; en: A = K m G_S, B = -K m G_C
+    a = vec6d(k * pc[0], km * ps[5], -km * ps[4], k * pc[1], k * pc[2], k * pc[3])
+    b = vec6d(k * ps[0], -km * pc[5], km * pc[4], k * ps[1], k * ps[2], k * ps[3])
+    _store_rotated(coef, row, m, a, b, cd, sd)
 
 
 @wp.kernel
