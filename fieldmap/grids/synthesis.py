@@ -9,6 +9,8 @@ Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier8_k
 rows and their mirrors per thread, SIMD on the CPU), then the
 longitude sums of all nodes of the row by FFT (regular longitudes) or a direct sum kernel (any
 longitudes). Rows are processed in blocks so memory stays bounded for any grid size and degree.
+:func:`synthesize_tensor` and :func:`tensor_points` do the same for the gradient tensor (second
+derivatives, :mod:`fieldmap.kernels.grid_tensor`) on grids and at points.
 """
 
 from __future__ import annotations
