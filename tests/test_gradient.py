@@ -227,3 +227,12 @@ def test_tensor_equals_central_differences_of_geographiclib_gravity(model60, tmp
     got = gradient_tensor(lat, lon, h, model=model60, quantity="gravity")
     assert np.abs(want).max() > 1000.0
     np.testing.assert_allclose(got, want, rtol=0, atol=0.05)
+
+
+def test_step_moved_with_the_central_differences():
+    """0.3's ``fieldmap.field.gradient.STEP`` warns and is the reference's step (1 m)."""
+    import fieldmap.field.gradient as fgr
+    from fieldmap.reference.gradient import STEP
+
+    with pytest.warns(DeprecationWarning, match="fieldmap.reference.gradient.STEP"):
+        assert fgr.STEP == STEP == 1.0

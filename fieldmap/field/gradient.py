@@ -66,6 +66,8 @@ __all__ = [
 
 #: 1 Eötvös. Units: s⁻².
 EOTVOS = 1e-9
+#: 0.3's ``STEP`` (the central differences' step) is ``fieldmap.reference.gradient.STEP``
+__getattr__ = _compat.moved_names("field.gradient")
 QUANTITIES = ("gravity", "gravitation", "disturbance", "normal")
 FRAMES = ("enu", "ned", "ecef")
 #: ENU -> NED reordering (north, east, -up)
