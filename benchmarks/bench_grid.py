@@ -24,6 +24,14 @@ Prints medians and ratios measured in the same run:
    agreement in mGal, the Legendre pass's flop count, GFLOP/s and fraction of the cores' peak.
    Targets: fieldmap's public call <= ducc0's sphere time.
 5. The same for a Kaula-rule model of degree 2190 on a global 0.1° grid (1801 x 3600).
+6. The gradient tensor by synthesis (issue 28), EIGEN-6S degree 240: the public
+   ``quantity_map("gradient-disturbance")`` against ``disturbance_map`` on the same global 1°
+   grid with the poles (181 x 360, h = 20 km), target <= 3x (and the syntheses alone); the
+   gravitation tensor on pyshtools' own Driscoll-Healy grid (lmax 240, 483 x 965, the sphere
+   r = R + 20 km) against ``SHGravCoeffs.tensor`` there, target <= 1x (same node count: the
+   time ratio is the per-node ratio); and a global 0.1° tensor map of a degree-2190
+   Kaula-rule model (720 with ``--quick``): time and the growth of the peak resident memory
+   (rows in blocks: the six output arrays, 311 MB, and the packed tables, 230 MB, dominate).
 
 ducc0 and pyharm are optional (``pip install '.[bench]'``); a missing one is skipped with a
 line saying so. ``--threads`` (default 2) applies to all codes in cases 4 and 5.
@@ -208,11 +216,18 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--device", default="cpu")
     ap.add_argument(
-        "--cases", type=int, nargs="+", default=[1, 2, 3, 4, 5], choices=[1, 2, 3, 4, 5]
+        "--cases",
+        type=int,
+        nargs="+",
+        default=[1, 2, 3, 4, 5, 6],
+        choices=[1, 2, 3, 4, 5, 6],
     )
+    ap.add_argument("--tensor", action="store_true", help="case 6 only (the gradient tensor)")
     ap.add_argument("--threads", type=int, default=2, help="threads of each code in cases 4, 5")
     args = ap.parse_args()
     rep = 3 if args.quick else args.repeat
+    if args.tensor:
+        args.cases = [6]
     # CHarm (OpenMP) reads this when it is loaded; ducc0 and fieldmap take it per call
     os.environ["OMP_NUM_THREADS"] = str(args.threads)
     _warp.init()
@@ -233,6 +248,8 @@ def main() -> int:
         if 5 in args.cases:
             L5 = 720 if args.quick else 2190
             case_peers(5, L5, 0.1, dev, max(3, rep // 2), args.threads)
+        if 6 in args.cases:
+            case_tensor(eigen, dev, rep, args.quick)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
@@ -502,6 +519,72 @@ def case_peers(case: int, L: int, step: float, dev: str, rep: int, threads: int)
             f"sphere {med['ours_sphere'] / med[k]:5.2f}, public {med['ours_public'] / med[k]:5.2f}"
             f"   max |ours - peer| {diff:.1e} mGal"
         )
+
+
+def case_tensor(eigen, dev, rep, quick: bool) -> None:
+    """Time the gradient tensor by synthesis (issue 28); see the module docstring, case 6."""
+    import resource
+
+    from fieldmap.field.gradient import synthesis_model
+    from fieldmap.products.maps import quantity_map
+
+    m240 = eigen.truncated(240)
+    print("6. gradient tensor by synthesis, EIGEN-6S degree 240, h = 20 km")
+    kw = dict(height_km=20.0, step_deg=1.0, lat_max=90.0, device=dev)
+
+    def tensor_map():
+        return quantity_map("gradient-disturbance", model=m240, **kw)
+
+    def vector_map():
+        return fieldmap.disturbance_map(m240, **kw)
+
+    tensor_map(), vector_map()  # compile, warm, tables
+    t_ten, t_vec = paired_medians(tensor_map, vector_map, 2 * rep)
+    line("1 deg tensor map vs disturbance map (181x360)", t_ten, t_vec, 3.0)
+    grid = G.make_grid(1.0, 90.0, heights_m=[20e3])
+    dist = synthesis_model("disturbance", m240, "exact", WGS84)
+    t_st, t_sv = paired_medians(
+        lambda: G.synthesize_tensor(dist, grid, WGS84, dev),
+        lambda: G.synthesize(m240, grid, WGS84, "disturbance", dev),
+        2 * rep,
+    )
+    line("  syntheses alone: tensor vs vector", t_st, t_sv, 3.0)
+    try:
+        import pyshtools as pysh
+    except ImportError:
+        print("  pyshtools not installed")
+    else:
+        clm = pysh.SHGravCoeffs.from_array(np.stack([m240.C, m240.S]), m240.gm, m240.radius)
+        a = m240.radius + 20e3
+
+        def peer():
+            return clm.tensor(a=a, f=0.0, degree0=True)
+
+        ten = peer()
+        nlat, nlon = ten.vxx.data.shape
+        lat = np.asarray(ten.vxx.lats())[::-1].copy()
+        lon = np.asarray(ten.vxx.lons())
+        dh = G.GridSpec(lat, lon, np.array([20e3]), 180.0 / (nlat - 1))
+        G.synthesize_tensor(m240, dh, WGS84, dev)
+        t_us, t_sh = paired_medians(
+            lambda: G.synthesize_tensor(m240, dh, WGS84, dev), peer, max(3, rep)
+        )
+        line(f"vs pyshtools SHGravCoeffs.tensor {nlat}x{nlon}", t_us, t_sh, 1.0)
+    L = 720 if quick else 2190
+    kaula = kaula_model(L, seed=1)
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    t0 = time.perf_counter()
+    ds = quantity_map(
+        "gradient-disturbance", model=kaula, height_km=20.0, step_deg=0.1, lat_max=90.0,
+        device=dev,
+    )  # fmt: skip
+    t1 = time.perf_counter() - t0
+    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    shape = "x".join(str(n) for n in ds["T_uu"].shape)
+    print(
+        f"  0.1 deg tensor map, Kaula degree {L} ({shape}): {t1:.1f} s, peak resident memory "
+        f"+{rss1 - rss0:.0f} MB (to {rss1:.0f} MB)"
+    )
 
 
 if __name__ == "__main__":

@@ -428,6 +428,8 @@ MOVED_NAMES: dict[str, tuple[str, tuple[str, ...]]] = {
         "models.registry",
         ("load_model", "kaula_model", "clear_cache", "BUNDLED", "DEFAULT_MODEL"),
     ),
+    # the central-difference tensor is the reference of the synthesis (issue 28)
+    "field.gradient": ("reference.gradient", ("STEP",)),
 }
 
 

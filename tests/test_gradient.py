@@ -18,7 +18,12 @@ import fieldmap
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.field.gradient import EOTVOS, gradient_asymmetry, gradient_tensor
+from fieldmap.field.gradient import (
+    EOTVOS,
+    gradient_asymmetry,
+    gradient_invariants,
+    gradient_tensor,
+)
 from fieldmap.field.normal import normal_gravity
 from fieldmap.models.registry import load_model
 from fieldmap.models.shmodel import SHModel
@@ -179,6 +184,14 @@ def test_cli_gradient(model60):
         got = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()])
         want = gradient_tensor(lat, lon, h, model=model60, quantity=what).reshape(-1, 9)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-8)
+    out = _run(["point", "--quantity", "gradient-invariants", "--lmax", "60", "--precision", "9"],
+               stdin)  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    got = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()])
+    t = gradient_tensor(lat, lon, h, model=model60, quantity="gravitation")
+    inv = gradient_invariants(t)
+    want = np.stack([inv[k] for k in ("I1", "I2", "eig_1", "eig_2", "eig_3")], axis=-1)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-8)
     out = _run(["point", "--quantity", "gradient", "--lmax", "60"], "1 2 3\n")
     assert len(out.stdout.split()) == 9 and len(out.stdout.split()[0].split(".")[1]) == 3
     out = _run(["point", "--quantity", "gradient", "--normal", "j2"], "1 2 3\n")
@@ -214,3 +227,12 @@ def test_tensor_equals_central_differences_of_geographiclib_gravity(model60, tmp
     got = gradient_tensor(lat, lon, h, model=model60, quantity="gravity")
     assert np.abs(want).max() > 1000.0
     np.testing.assert_allclose(got, want, rtol=0, atol=0.05)
+
+
+def test_step_moved_with_the_central_differences():
+    """0.3's ``fieldmap.field.gradient.STEP`` warns and is the reference's step (1 m)."""
+    import fieldmap.field.gradient as fgr
+    from fieldmap.reference.gradient import STEP
+
+    with pytest.warns(DeprecationWarning, match="fieldmap.reference.gradient.STEP"):
+        assert fgr.STEP == STEP == 1.0

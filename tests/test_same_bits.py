@@ -19,6 +19,10 @@ from same_bits_cases import CASES, machine, run_case
 REF = pathlib.Path(__file__).parent / "data" / "same_bits"
 #: Variables renamed since the reference was recorded: old "file:variable" -> new.
 RENAMED: dict[str, str] = {}
+#: Numbers a later issue changed on purpose, recorded again (same machine kind) and read over
+#: those of reference.npz: issue 28's gradient maps by synthesis instead of central
+#: differences (they moved by at most 1.5e-5 E, the differences' error; tests/test_gradient*.py)
+RERECORDED = ("reference_issue28.npz",)
 
 
 @pytest.fixture(scope="module")
@@ -26,6 +30,9 @@ def reference():
     meta = json.loads((REF / "reference.json").read_text())
     with np.load(REF / "reference.npz") as z:
         arrays = {k: z[k] for k in z.files}
+    for name in RERECORDED:
+        with np.load(REF / name) as z:
+            arrays.update({k: z[k] for k in z.files if k in arrays})
     return meta, arrays
 
 

@@ -75,6 +75,7 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
                 "gradient",
                 "gradient-disturbance",
                 "gradient-normal",
+                "gradient-invariants",
                 "disturbance-sigma",
                 "anomaly-sigma",
                 "geoid-sigma",
@@ -90,6 +91,8 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
             "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy; gradient, "
             "gradient-disturbance, gradient-normal: the six ENU components of the gradient "
             "tensor of gravity, of the disturbance or of exact normal gravity (Eötvös); "
+            "gradient-invariants: I1 (E²), I2 (E³) and the eigenvalues (E) of the model "
+            "gravitation's tensor; "
             "disturbance-sigma, anomaly-sigma, geoid-sigma: the "
             "commission error from the model's coefficient sigma (diagonal propagation); "
             "omission-sigma: sigma north, east, down and modulus (mGal) of the field above the "

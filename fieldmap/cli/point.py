@@ -57,6 +57,7 @@ QUANTITIES = (
     "disturbance-sa",
     "trr",
     "ewh",
+    "gradient-invariants",
 )
 #: ICGEM's functionals (:mod:`fieldmap.field.geodesy`, :mod:`fieldmap.field.water`): one value
 #: a line
@@ -92,6 +93,7 @@ _DEFAULT_DECIMALS = {
     "disturbance-sa": 3,
     "trr": 4,
     "ewh": 4,
+    "gradient-invariants": 3,
 }
 
 
@@ -125,7 +127,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "functionals (Barthelmes 2013): height-anomaly: ζ on the ellipsoid (m, h must be 0), "
         "anomaly-classical: |∇W(h)| − |∇U(h − ζ)| (mGal), disturbance-sa: −∂T/∂r (mGal), trr: "
         "∂²T/∂r² (Eötvös), ewh: equivalent water height (m, h must be 0) of --model minus "
-        "--minus",
+        "--minus; gradient-invariants: I1 (E²), I2 (E³) and the eigenvalues (E, decreasing) of "
+        "the model gravitation's tensor",
     )
     p.add_argument(
         "--minus",
@@ -281,8 +284,15 @@ def evaluate_points(
     if quantity.startswith("gradient"):
         from fieldmap.field.gradient import gradient_tensor
 
-        what = "gravity" if quantity == "gradient" else "disturbance"
+        what = {"gradient": "gravity", "gradient-invariants": "gravitation"}.get(
+            quantity, "disturbance"
+        )
         t = gradient_tensor(lat, lon, h, model=sh_model, quantity=what, device=device)
+        if quantity == "gradient-invariants":
+            from fieldmap.field.gradient import INVARIANTS, gradient_invariants
+
+            inv = gradient_invariants(t)
+            return np.stack([inv[k] for k in INVARIANTS], axis=-1)
         return t.reshape(-1, 9)
     if quantity == "gravity":
         return fg.gravity(lat, lon, h, model=sh_model, frame="enu", device=device)

@@ -38,7 +38,13 @@ _ENGINE_MODULES = (
 #: quantities evaluated with the struct of the model itself (geoid, anomaly and potential use
 #: a disturbing model derived from it, the commission errors NumPy sums: for those, the
 #: recursion tables only are loaded ahead)
-_STRUCT_QUANTITIES = ("disturbance", "gravity", "gradient", "gradient-disturbance")
+_STRUCT_QUANTITIES = (
+    "disturbance",
+    "gravity",
+    "gradient",
+    "gradient-disturbance",
+    "gradient-invariants",
+)
 
 
 class _Engine(threading.Thread):

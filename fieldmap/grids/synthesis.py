@@ -9,6 +9,8 @@ Legendre pass per (row, height) with :func:`fieldmap.kernels.grid.row_fourier8_k
 rows and their mirrors per thread, SIMD on the CPU), then the
 longitude sums of all nodes of the row by FFT (regular longitudes) or a direct sum kernel (any
 longitudes). Rows are processed in blocks so memory stays bounded for any grid size and degree.
+:func:`synthesize_tensor` and :func:`tensor_points` do the same for the gradient tensor (second
+derivatives, :mod:`fieldmap.kernels.grid_tensor`) on grids and at points.
 """
 
 from __future__ import annotations
@@ -474,3 +476,201 @@ def mirror_pairs(lat_deg: np.ndarray) -> list[tuple[int, int]]:
     """
     pairs = mirror_pair_array(lat_deg)
     return list(zip(pairs[:, 0].tolist(), pairs[:, 1].tolist()))
+
+
+#: The six components of the tensor maps, in the order of :func:`synthesize_tensor`.
+TENSOR_COMPONENTS = ("ee", "en", "eu", "nn", "nu", "uu")
+
+
+def _tensor_launch(
+    model: SHModel,
+    geo: list,
+    ga: np.ndarray,
+    gb: np.ndarray,
+    osc: Any,
+    coef: Any,
+    device: str,
+) -> None:
+    """Run :func:`fieldmap.kernels.grid_tensor.row_tensor_kernel` on the units (ga, gb)."""
+    import warp as wp
+
+    from fieldmap import _warp
+    from fieldmap.field.sh import kernel_model
+    from fieldmap.grids.tables import tensor_tables
+    from fieldmap.kernels import grid_tensor as kten
+
+    km = kernel_model(model, device)
+    tabs = tensor_tables(model, km, device)
+    ra, rb = to_device(ga, wp.int32, device), to_device(gb, wp.int32, device)
+    nm = model.lmax + 1
+    pows = row_powers(geo, model.lmax, device)
+    args = [km, *tabs, *geo, ra, rb, *pows, nm, osc, coef]
+    _warp.launch_chunked(kten.row_tensor_kernel, ga.size * nm, args, device)
+
+
+def _check_tensor_degree(model: SHModel) -> None:
+    """Refuse degrees above the scaled recursion's (the tensor has no extended-range pass)."""
+    from fieldmap.field.sh import MAX_DEGREE_GRID
+
+    if model.lmax > MAX_DEGREE_GRID:
+        raise InputError(
+            f"the gradient tensor is synthesised up to degree {MAX_DEGREE_GRID}, got degree "
+            f"{model.lmax}; truncate the model (lmax=)",
+            param="lmax",
+        )
+
+
+def tensor_points(
+    model: SHModel,
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    h_m: np.ndarray,
+    ellipsoid: Ellipsoid | str | None = None,
+    device: str | None = None,
+) -> np.ndarray:
+    """Gradient tensor of the model's gravitation at scattered points, geodetic ENU.
+
+    A point is a grid of one node: its own row of Fourier coefficients in longitude
+    (:func:`fieldmap.kernels.grid_tensor.row_tensor_kernel`, no mirror), summed at its
+    longitude, Re Σ_m W_m e^{i m λ} with W_m = A_m − i B_m; points in blocks, so memory stays
+    bounded. Same model and ellipsoid conventions as :func:`synthesize_tensor`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n, 6): ee, en, eu, nn, nu, uu (:data:`TENSOR_COMPONENTS`). Units: s⁻².
+    """
+    import warp as wp
+
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
+
+    _check_tensor_degree(model)
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
+    device = resolve_device(device)
+    lat = np.ascontiguousarray(np.radians(lat_deg), dtype=np.float64).ravel()
+    lam = np.radians(np.asarray(lon_deg, dtype=np.float64).ravel())
+    h = np.ascontiguousarray(h_m, dtype=np.float64).ravel()
+    nm = model.lmax + 1
+    out = np.empty((lat.size, 6))
+    osc = to_device(np.ones(nm), wp.float64, device)
+    block = int(max(1, BLOCK_BYTES // (nm * 6 * 16 * 3)))
+    orders = np.arange(nm, dtype=np.float64)
+    for a in range(0, lat.size, block):
+        b = min(lat.size, a + block)
+        geo, _ = _row_setup(lat[a:b], h[a:b], ellipsoid, model.radius, 0, device)
+        store = _coefficient_store((b - a, 6, nm), True, device)
+        idx = np.arange(b - a, dtype=np.int32)
+        _tensor_launch(model, geo, idx, np.full_like(idx, -1), osc, store, device)
+        W = store.numpy().view(np.complex128)[..., 0]  # (n, 6, nm)
+        ml = lam[a:b, None] * orders[None, :]
+        out[a:b] = np.einsum("ncm,nm->nc", W.real, np.cos(ml)) - np.einsum(
+            "ncm,nm->nc", W.imag, np.sin(ml)
+        )
+    return out
+
+
+def synthesize_tensor(
+    model: SHModel,
+    grid: GridSpec,
+    ellipsoid: Ellipsoid | str | None = None,
+    device: str | None = None,
+    progress: bool | None = None,
+) -> np.ndarray:
+    """Gradient tensor of the model's gravitation on every node of a grid, geodetic ENU.
+
+    One Legendre pass per row unit (a row and its mirror at −latitude) with
+    :func:`fieldmap.kernels.grid_tensor.row_tensor_kernel`: the second derivatives of the series
+    as Fourier coefficients of the six components (see that module), then the longitude sums
+    (FFT where the longitudes are regular), row block by row block so memory stays bounded.
+    No normal field, no centrifugal term: the caller subtracts the normal field's zonal
+    coefficients from the model, or adds the centrifugal tensor
+    (:mod:`fieldmap.field.gradient`).
+
+    Parameters
+    ----------
+    model : fieldmap.models.shmodel.SHModel
+        Fully normalised coefficients, degree <= 2700.
+    grid : GridSpec
+    ellipsoid : fieldmap.field.ellipsoid.Ellipsoid, optional
+        Frame of the geodetic coordinates. Default WGS84.
+    device : str, optional
+    progress : bool, optional
+        Progress bar over row blocks; default: only for long runs on a terminal.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (nh, nlat, nlon, 6): ∂g_i/∂x_j for (ee, en, eu, nn, nu, uu)
+        (:data:`TENSOR_COMPONENTS`). Units: s⁻².
+    """
+    import time
+
+    import warp as wp
+    from tqdm.auto import tqdm
+
+    from fieldmap import _warp
+    from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
+
+    _check_tensor_degree(model)
+    ellipsoid = get_ellipsoid(WGS84 if ellipsoid is None else ellipsoid)
+    device = resolve_device(device)
+    nm = model.lmax + 1
+    nh, nlat, nlon = grid.shape
+    nitems = nh * nlat
+    lat_all = np.tile(np.radians(grid.lat), nh)
+    h_all = np.repeat(grid.heights, nlat)
+    pairs = mirror_pair_array(grid.lat)
+    layer = (np.arange(nh) * nlat)[:, None]
+    ua = (layer + pairs[:, 0]).ravel()
+    ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
+    ucum = np.cumsum(1 + (ub >= 0))
+    nper = regular_period(grid.lon) or nlon
+    nc = 6
+    ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
+    osc = to_device(osc_np, wp.float64, device)
+    per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
+    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
+    if device == "cpu" and block < nitems:
+        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
+    out = np.empty((nitems, nc, nlon))
+    work = float(nitems) * nm * nm * 3
+    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
+    bar = (
+        None
+        if disable is True
+        else tqdm(total=nitems, unit="row", desc="tensor", leave=False, disable=disable)
+    )
+    t_leg = t_lon = 0.0
+    t_all = time.perf_counter()
+    u0 = 0
+    while u0 < ua.size:
+        done = ucum[u0 - 1] if u0 else 0
+        u1 = max(u0 + 1, int(np.searchsorted(ucum, done + block, side="right")))
+        bra, brb = ua[u0:u1], ub[u0:u1]
+        items = np.sort(np.concatenate([bra, brb[brb >= 0]]))
+        nb = items.size
+        geo, _ = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
+        shape = (ncol, nb, nc) if ready else (nb, nc, ncol)
+        store = _coefficient_store(shape, True, device)
+        coef = store.transpose([1, 2, 0]) if ready else store
+        t0 = time.perf_counter()
+        ga = np.searchsorted(items, bra).astype(np.int32)
+        gb = np.where(brb >= 0, np.searchsorted(items, brb), -1).astype(np.int32)
+        _tensor_launch(model, geo, ga, gb, osc, coef, device)
+        t1 = time.perf_counter()
+        t_leg += t1 - t0
+        W = store.numpy().view(np.complex128)[..., 0]
+        if ready:
+            W = np.moveaxis(W, 0, -1)
+        if items[-1] - items[0] + 1 == nb:
+            longitude_sums(W, grid.lon, device, out=out[items[0] : items[-1] + 1], ready=ready)
+        else:
+            out[items] = longitude_sums(W, grid.lon, device, ready=ready)
+        t_lon += time.perf_counter() - t1
+        if bar is not None:
+            bar.update(nb)
+        u0 = u1
+    if bar is not None:
+        bar.close()
+    last_timings.update(legendre=t_leg, longitude=t_lon, total=time.perf_counter() - t_all)
+    return np.moveaxis(out.reshape(nh, nlat, nc, nlon), 2, 3)

@@ -203,3 +203,45 @@ def grid_tables(model: SHModel, km: Any, device: str) -> tuple[Any, Any, Any]:
             _cache.pop(next(iter(_cache)))
         _cache[key] = (weakref.ref(model), out)
     return out
+
+
+def tensor_tables(model: SHModel, km: Any, device: str) -> tuple[Any, Any]:
+    """Warp arrays ``(rec, start)`` of the tensor kernel's packed table, cached.
+
+    ``rec[start[m] + n - m]`` = (a_nm, b_nm, C, S, (n+1) C, (n+1) S, (n+1)(n+2) C,
+    (n+1)(n+2) S, f_{n+1} C_{n+1}, f_{n+1} S_{n+1}, (n+3) f_{n+1} C_{n+1},
+    (n+3) f_{n+1} S_{n+1}) (see :func:`fieldmap.kernels.grid_tensor.tensor_column_packed`);
+    :func:`pack_columns` plus four columns. 96 bytes per (m, n): 230 MB at degree 2190.
+    """
+    import warp as wp
+
+    from fieldmap.kernels import grid_tensor as kten
+
+    L = int(km.lmax)
+    key = (id(model), L, device, "tensor")
+    with _lock:
+        hit = _cache.get(key)
+        if hit is not None and hit[0]() is model:
+            return hit[1]
+    rec8, start, _ = pack_columns(
+        km.anm.numpy(), km.bnm.numpy(), km.fnm.numpy(), km.cnm.numpy(), km.snm.numpy(), L
+    )
+    n = np.concatenate([np.arange(m, L + 1) for m in range(L + 1)]).astype(np.float64)
+    rec = np.empty((rec8.shape[0], 12))
+    rec[:, :6] = rec8[:, :6]
+    w2 = (n + 1.0) * (n + 2.0)
+    rec[:, 6] = w2 * rec8[:, 2]
+    rec[:, 7] = w2 * rec8[:, 3]
+    rec[:, 8:10] = rec8[:, 6:8]
+    rec[:, 10] = (n + 3.0) * rec8[:, 6]
+    rec[:, 11] = (n + 3.0) * rec8[:, 7]
+    del rec8
+    out: tuple[Any, Any] = (
+        wp.array(rec, dtype=kten.vec12d, device=device),
+        wp.array(start.astype(np.int32), dtype=wp.int32, device=device),
+    )
+    with _lock:
+        if len(_cache) >= _CACHE_MAX:
+            _cache.pop(next(iter(_cache)))
+        _cache[key] = (weakref.ref(model), out)
+    return out

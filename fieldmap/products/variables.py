@@ -355,8 +355,18 @@ for _q, _what in (
         )
         for name in ("T_ee", "T_en", "T_eu", "T_nn", "T_nu", "T_uu")
     ]
+VARIABLES["gradient-invariants"] = [
+    ("I1", "1e-18 s-4", "second invariant of the gravitation gradient tensor, E^2", None),
+    ("I2", "1e-27 s-6", "third invariant (determinant) of the gravitation gradient tensor, E^3",
+     None),
+    *[
+        (f"eig_{k}", "1e-9 s-2", f"{o} eigenvalue of the gravitation gradient tensor, Eotvos",
+         None)
+        for k, o in ((1, "largest"), (2, "middle"), (3, "smallest"))
+    ],
+]  # fmt: skip
 #: quantities of the tensor (no disturbing potential involved: degree0 does not apply)
-GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance", "gradient-normal")
+GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance", "gradient-normal", "gradient-invariants")
 _SIGMA = "standard deviation (commission error, diagonal propagation of the coefficient sigma)"
 VARIABLES["disturbance-sigma"] = [
     (f"sigma_{c}", "mGal", f"{_SIGMA} of the {c} component of the gravity disturbance", None)
@@ -462,13 +472,21 @@ def _definition(degree0: bool, quantity: str = "potential") -> str:
             "gradient": "g",
             "gradient-disturbance": "g - gamma_exact (gravitation)",
             "gradient-normal": "gamma_exact (with centrifugal)",
+            "gradient-invariants": "model gravitation",
         }[quantity]
-        return (
+        text = (
             f"second derivatives of the potential: d({what})_i / dx_j in the local geodetic "
             "east-north-up frame at each node (1 E = 1e-9 s-2); g is model gravitation plus "
-            "centrifugal; central differences of the float64 gravity vector (steps 1 m and 2 m, "
-            "one Richardson step), symmetrised; the tensor is symmetric, so six components"
+            "centrifugal; synthesised from the second derivatives of the series (one Legendre "
+            "pass per row, FFT in longitude), the normal field as its zonal J2n series, the "
+            "centrifugal tensor in closed form; the tensor is symmetric, so six components"
         )
+        if quantity == "gradient-invariants":
+            text += (
+                "; invariants I1 = sum of the principal 2x2 minors, I2 = determinant "
+                "(Pedersen & Rasmussen 1990), eigenvalues in decreasing order"
+            )
+        return text
     if quantity == "ewh":
         from fieldmap.field.water import DEFINITION
 
@@ -526,6 +544,7 @@ def quantity_template(
         f"fieldmap {__version__}: "
         + {
             "gradient": f"{mod.name} degree {mod.lmax}",
+            "gradient-invariants": f"{mod.name} degree {mod.lmax}",
             "gradient-normal": f"the exact normal gravity of {ell.name}",
             "ewh": f"{mod.name} degree {mod.lmax}",
         }.get(quantity, f"{mod.name} degree {mod.lmax} minus the {ell.name} normal field"),
