@@ -28,10 +28,11 @@ import textwrap
 # without a table no longer enters products.tables (−2); every flight study now flies the
 # gravity budget of issue 26, four modules of its own (nav.budget, nav.linear, field.omission
 # and its Warp kernel, kernels.omission): 56. The issue's flight target, 50, is not reached:
-# reference.sh is entered through field.commission's σ, nav.logs is seven modules. Lower these
-# as the count falls; never raise them.
+# reference.sh is entered through field.commission's σ, nav.logs is seven modules. The launch
+# frames' device functions joined kernels.frames (−1): 55. Lower these as the count falls;
+# never raise them.
 MAP_CEILING = 40
-FLIGHT_CEILING = 56
+FLIGHT_CEILING = 55
 
 _RUN = textwrap.dedent(
     """
