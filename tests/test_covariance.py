@@ -22,13 +22,15 @@ def _mc_sigma(res):
 
 
 @pytest.mark.parametrize(
-    ("imu", "aiding", "duration"), [("tactical", "none", 600.0), ("navigation", "baro", 1800.0)]
+    ("imu", "aiding", "duration"), [("tactical", "none", 1800.0), ("navigation", "baro", 10800.0)]
 )
 def test_agrees_with_monte_carlo(imu, aiding, duration):
-    # 200 draws: the RMS of n draws errs by about 1/√(2n) per axis (5 %), the horizontal one by
-    # 1/√(4n) (3.5 %); 10 % is the bound
+    # the cases: a tactical IMU free-inertial for 30 min, a navigation IMU with baro for
+    # 3 h (measured: 0.986..1.013 and 0.969..1.034); 200 draws: the RMS of n draws errs by
+    # about 1/√(2n) per axis (5 %), the horizontal one by 1/√(4n) (3.5 %); 10 % is the issue's
+    # bound
     study = FlightStudy(
-        "47,8,3000;49,20,3000", speed_mps=200, imu=imu, models="j4", truth_lmax=10,
+        "45,-5,3000;50,30,3000", speed_mps=200, imu=imu, models="j4", truth_lmax=10,
         altitude_aiding=aiding, duration=duration, rate_hz=25, draws=200, seed=3,
         omission_model=None, commission=False,
     )  # fmt: skip
