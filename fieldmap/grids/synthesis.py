@@ -15,6 +15,7 @@ derivatives, :mod:`fieldmap.kernels.grid_tensor`) on grids and at points.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -234,6 +235,65 @@ LEGENDRE: dict[str, tuple[bool, bool | None]] = {
 }
 
 
+def _row_blocks(
+    grid: GridSpec, nm: int, nc: int, device: str, symmetric: bool = True
+) -> tuple[Any, Any, bool, Iterator[tuple[Any, Any, Any]]]:
+    """Return the coefficients' layout and the row blocks of a grid synthesis.
+
+    Returns ``(ncol, osc, ready, blocks)``: the spectrum layout of the longitudes
+    (:func:`spectrum_layout`; ``osc`` on the device) and a generator of blocks of whole units (a
+    row and its mirror at −latitude when ``symmetric``, else a single row; heights stacked, row
+    index ``height * nlat + lat``), as many as fit a block of rows bounded by
+    :data:`BLOCK_BYTES` (at least one unit; on the CPU at least two per worker thread). Each
+    block is ``(items, ua, ub)``: its rows sorted, the units' first rows and their mirrors (-1:
+    none).
+    """
+    import warp as wp
+
+    from fieldmap import _warp
+
+    nh, nlat, nlon = grid.shape
+    nitems = nh * nlat
+    if symmetric:
+        pairs = mirror_pair_array(grid.lat)
+    else:
+        pairs = np.stack([np.arange(nlat), np.full(nlat, -1)], axis=1)
+    layer = (np.arange(nh) * nlat)[:, None]
+    ua = (layer + pairs[:, 0]).ravel()
+    ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
+    ucum = np.cumsum(1 + (ub >= 0))  # rows in units 0..u
+    nper = regular_period(grid.lon) or nlon
+    ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
+    osc = to_device(osc_np, wp.float64, device)
+    per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
+    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
+    if device == "cpu" and block < nitems:
+        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
+
+    def blocks() -> Iterator[tuple[Any, Any, Any]]:
+        u0 = 0
+        while u0 < ua.size:
+            # a block of whole units: as many as fit ``block`` rows, at least one
+            done = ucum[u0 - 1] if u0 else 0
+            u1 = max(u0 + 1, int(np.searchsorted(ucum, done + block, side="right")))
+            bra, brb = ua[u0:u1], ub[u0:u1]
+            yield np.sort(np.concatenate([bra, brb[brb >= 0]])), bra, brb
+            u0 = u1
+
+    return ncol, osc, ready, blocks()
+
+
+def _progress_bar(nitems: int, work: float, progress: bool | None, desc: str) -> Any:
+    """Return a tqdm bar over rows, or None: ``progress``, else only for long runs on a terminal."""
+    from tqdm.auto import tqdm
+
+    # tqdm: disable=None shows the bar on a terminal only
+    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
+    if disable is True:
+        return None
+    return tqdm(total=nitems, unit="row", desc=desc, leave=False, disable=disable)
+
+
 def _fold_legendre(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
     """Fold 0.2's ``symmetric=``/``xrange=`` of :func:`synthesize` into ``legendre=``."""
     if "legendre" in kwargs:
@@ -302,7 +362,6 @@ def synthesize(
     import time
 
     import warp as wp
-    from tqdm.auto import tqdm
 
     from fieldmap import _warp
     from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
@@ -339,44 +398,15 @@ def synthesize(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
-    # units: a row (ua) and its mirror (ub, or -1), height by height
-    if symmetric:
-        pairs = mirror_pair_array(grid.lat)
-    else:
-        pairs = np.stack([np.arange(nlat), np.full(nlat, -1)], axis=1)
-    layer = (np.arange(nh) * nlat)[:, None]
-    ua = (layer + pairs[:, 0]).ravel()
-    ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
-    ucum = np.cumsum(1 + (ub >= 0))  # rows in units 0..u
-    nper = regular_period(grid.lon) or nlon
     nc = 4 if potential else 3
     # the coefficients as the longitude FFTs read them, where the longitudes allow
-    ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
-    osc = to_device(osc_np, wp.float64, device)
-    per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
-    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
-    if device == "cpu" and block < nitems:
-        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
+    ncol, osc, ready, blocks = _row_blocks(grid, nm, nc, device, symmetric)
     out = np.empty((nitems, nc, nlon))
-    work = float(nitems) * nm * nm
-    # tqdm: disable=None shows the bar on a terminal only
-    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
-    bar = (
-        None
-        if disable is True
-        else tqdm(total=nitems, unit="row", desc="synthesis", leave=False, disable=disable)
-    )
+    bar = _progress_bar(nitems, float(nitems) * nm * nm, progress, "synthesis")
     cen = centrifugal_rows(grid, ellipsoid).reshape(nitems, 3) if quantity == "gravity" else None
     t_leg = t_lon = 0.0
     t_all = time.perf_counter()
-    u0 = 0
-    while u0 < ua.size:
-        # a block of whole units (a mirrored pair of rows, or a single row): as many as fit
-        # ``block`` rows, at least one
-        done = ucum[u0 - 1] if u0 else 0
-        u1 = max(u0 + 1, int(np.searchsorted(ucum, done + block, side="right")))
-        bra, brb = ua[u0:u1], ub[u0:u1]
-        items = np.sort(np.concatenate([bra, brb[brb >= 0]]))
+    for items, bra, brb in blocks:
         nb = items.size
         geo, gamma = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         # the kernels write every (row, component, order) of the block. For the FFTs that
@@ -426,7 +456,6 @@ def synthesize(
             out[items, 3] *= geo[2].numpy()[:, None]
         if bar is not None:
             bar.update(nb)
-        u0 = u1
     if bar is not None:
         bar.close()
     last_timings.update(legendre=t_leg, longitude=t_lon, total=time.perf_counter() - t_all)
@@ -605,10 +634,6 @@ def synthesize_tensor(
     """
     import time
 
-    import warp as wp
-    from tqdm.auto import tqdm
-
-    from fieldmap import _warp
     from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
 
     _check_tensor_degree(model)
@@ -619,35 +644,13 @@ def synthesize_tensor(
     nitems = nh * nlat
     lat_all = np.tile(np.radians(grid.lat), nh)
     h_all = np.repeat(grid.heights, nlat)
-    pairs = mirror_pair_array(grid.lat)
-    layer = (np.arange(nh) * nlat)[:, None]
-    ua = (layer + pairs[:, 0]).ravel()
-    ub = np.where(pairs[:, 1] >= 0, layer + pairs[:, 1], -1).ravel()
-    ucum = np.cumsum(1 + (ub >= 0))
-    nper = regular_period(grid.lon) or nlon
     nc = 6
-    ncol, osc_np, ready = spectrum_layout(grid.lon, nm)
-    osc = to_device(osc_np, wp.float64, device)
-    per_item = ncol * nc * 16 * 3 + nper * nc * 16 * 2 + nlon * nc * 8 * 2 + nm * 8 * 2
-    block = int(max(2, min(nitems, BLOCK_BYTES // per_item)))
-    if device == "cpu" and block < nitems:
-        block = max(block, min(nitems, 2 * _warp.cpu_workers()))
+    ncol, osc, ready, blocks = _row_blocks(grid, nm, nc, device)
     out = np.empty((nitems, nc, nlon))
-    work = float(nitems) * nm * nm * 3
-    disable = (not progress) if progress is not None else (None if work > 2e10 else True)
-    bar = (
-        None
-        if disable is True
-        else tqdm(total=nitems, unit="row", desc="tensor", leave=False, disable=disable)
-    )
+    bar = _progress_bar(nitems, float(nitems) * nm * nm * 3, progress, "tensor")
     t_leg = t_lon = 0.0
     t_all = time.perf_counter()
-    u0 = 0
-    while u0 < ua.size:
-        done = ucum[u0 - 1] if u0 else 0
-        u1 = max(u0 + 1, int(np.searchsorted(ucum, done + block, side="right")))
-        bra, brb = ua[u0:u1], ub[u0:u1]
-        items = np.sort(np.concatenate([bra, brb[brb >= 0]]))
+    for items, bra, brb in blocks:
         nb = items.size
         geo, _ = _row_setup(lat_all[items], h_all[items], ellipsoid, model.radius, 0, device)
         shape = (ncol, nb, nc) if ready else (nb, nc, ncol)
@@ -669,7 +672,6 @@ def synthesize_tensor(
         t_lon += time.perf_counter() - t1
         if bar is not None:
             bar.update(nb)
-        u0 = u1
     if bar is not None:
         bar.close()
     last_timings.update(legendre=t_leg, longitude=t_lon, total=time.perf_counter() - t_all)
