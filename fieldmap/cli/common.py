@@ -24,6 +24,22 @@ if TYPE_CHECKING:
 _T = TypeVar("_T")
 
 
+def check_minus(args: argparse.Namespace) -> None:
+    """Refuse ``--minus`` with a quantity other than ewh, and ewh without ``--minus`` (one line)."""
+    from fieldmap.errors import InputError
+
+    minus = getattr(args, "minus", None)
+    if minus is not None and args.quantity != "ewh":
+        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
+    if minus is None and args.quantity == "ewh":
+        raise InputError(
+            f"--quantity ewh: equivalent water height is that of a change of the field, and "
+            f"--model {args.model} is one field; give the reference with --minus (a mean "
+            "field, or the same time-variable model with --epoch T for the change since its "
+            "reference epoch)"
+        )
+
+
 def load_cli_model(args: argparse.Namespace) -> SHModel:
     """Load the model of ``--model`` with ``--lmax``, ``--epoch`` and the model-file options.
 

@@ -303,6 +303,7 @@ def _check_omission_option(args: argparse.Namespace) -> None:
 
     Likewise ``--minus`` with a quantity other than ewh, and ewh without ``--minus``.
     """
+    from fieldmap.cli.common import check_minus
     from fieldmap.errors import InputError
 
     if args.omission_model is not None and args.quantity != "omission-sigma":
@@ -310,16 +311,7 @@ def _check_omission_option(args: argparse.Namespace) -> None:
             f"--omission-model applies to --quantity omission-sigma, not to --quantity "
             f"{args.quantity}"
         )
-    minus = getattr(args, "minus", None)
-    if minus is not None and args.quantity != "ewh":
-        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
-    if minus is None and args.quantity == "ewh":
-        raise InputError(
-            f"--quantity ewh: equivalent water height is that of a change of the field, and "
-            f"--model {args.model} is one field; give the reference with --minus (a mean "
-            "field, or the same time-variable model with --epoch T for the change since its "
-            "reference epoch)"
-        )
+    check_minus(args)
 
 
 def _disturbance_figures(ds: xr.Dataset, thresholds: list[float]) -> list:

@@ -451,19 +451,11 @@ def _table(args: argparse.Namespace) -> CompensationTable | None:
 def _refuse_unused(args: argparse.Namespace) -> None:
     """Refuse, in one line, an option given that the chosen ``--quantity`` does not use."""
     from fieldmap.cli import given
+    from fieldmap.cli.common import check_minus
     from fieldmap.cli.model_options import MODEL_OPTIONS
     from fieldmap.errors import InputError
 
-    minus = getattr(args, "minus", None)
-    if minus is not None and args.quantity != "ewh":
-        raise InputError(f"--minus applies to --quantity ewh, not to --quantity {args.quantity}")
-    if minus is None and args.quantity == "ewh":
-        raise InputError(
-            f"--quantity ewh: equivalent water height is that of a change of the field, and "
-            f"--model {args.model} is one field; give the reference with --minus (a mean "
-            "field, or the same time-variable model with --epoch T for the change since its "
-            "reference epoch)"
-        )
+    check_minus(args)
     if args.quantity == "normal":
         for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):
