@@ -192,3 +192,29 @@ def test_catalogue_entries_well_formed(capsys):
     assert all(e.name in out for e in CATALOGUE.values())
     with pytest.raises(ValueError, match="64 lower-case hex"):
         CatalogueEntry("x", "u", "f", "ABC", None, "tide_free", 2, "")
+
+
+def test_catalogue_pins_what_pyshtools_pins(monkeypatch):
+    """Each entry's URL and SHA-256 equal those pyshtools' own downloader pins for the model.
+
+    An independent check of the catalogue's pins (ICGEM publishes no checksums): pyshtools'
+    ``datasets.Earth`` functions are called with its ``pooch.retrieve`` replaced by a recorder,
+    so nothing is downloaded; a pyshtools release that re-pins a file makes this fail.
+    """
+    Earth = pytest.importorskip("pyshtools.datasets.Earth")
+    pinned: dict[str, str] = {}
+
+    class Recorded(Exception):
+        pass
+
+    def record(url, known_hash, *args, **kwargs):
+        pinned[url] = known_hash
+        raise Recorded
+
+    monkeypatch.setattr(Earth, "_retrieve", record)
+    for fetch in (Earth.EGM2008, Earth.EIGEN_6C4, Earth.XGM2019E, Earth.GOCO06S, Earth.GGM05C):
+        with pytest.raises(Recorded):
+            fetch()
+    assert len(pinned) == len(CATALOGUE) == 5
+    for e in CATALOGUE.values():
+        assert pinned.get(e.url) == f"sha256:{e.sha256}", e.name

@@ -13,8 +13,11 @@ never read).
 
 Checksums. ICGEM publishes no checksums. The SHA-256 of each entry is the one pinned by
 pyshtools 4.14.1 (``pyshtools/datasets/Earth/__init__.py``, ``known_hash`` of each model, the
-same ICGEM URLs), which its users' downloads verify against; fieldmap has not downloaded the
-files itself. An entry without a checksum (``sha256=None``) must give the file's ``size``:
+same ICGEM URLs), which its users' downloads verify against
+(``tests/test_catalogue.py::test_catalogue_pins_what_pyshtools_pins`` compares every URL and
+SHA-256 with the ones the installed pyshtools pins); fieldmap has not downloaded the files itself
+(its development machines have no network).
+An entry without a checksum (``sha256=None``) must give the file's ``size``:
 the first download is then checked by size and accepted with a warning naming its SHA-256
 (to be recorded in the entry); one with neither is refused. The tide system and degree are
 those of the files as pyshtools describes them, for the listing (``fieldmap cache models``);
