@@ -130,18 +130,38 @@ def run_case(name: str, out: pathlib.Path) -> dict[str, np.ndarray]:
 
 
 def machine() -> dict[str, str]:
-    """Return what the bits depend on besides the code: the CPU, Warp and NumPy."""
+    """Return what the bits depend on besides the code: the CPU kind, Warp and NumPy.
+
+    The CPU kind is its model name, family and model numbers and the vector instruction sets
+    it offers: two machines that both call themselves "AMD EPYC" (one AVX2, one AVX-512) round
+    the last bit of the same code differently (Warp's CPU kernels are compiled for the host,
+    NumPy dispatches its loops by instruction set).
+    """
     import platform
 
     import numpy
     import warp
 
     cpu = platform.processor() or platform.machine()
+    fields: dict[str, str] = {}
+    flags: set[str] = set()
     try:
         for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
+            key, _, value = line.partition(":")
+            key, value = key.strip(), value.strip()
+            if key in ("model name", "cpu family", "model") and key not in fields:
+                fields[key] = value
+            elif key == "flags" and not flags:
+                flags = set(value.split())
     except OSError:
         pass
-    return {"cpu": cpu, "warp": warp.config.version, "numpy": numpy.__version__}
+    cpu = fields.get("model name", cpu)
+    kind = f"family {fields.get('cpu family', '?')} model {fields.get('model', '?')}"
+    isa = " ".join(f for f in ("sse4_2", "avx", "avx2", "fma", "avx512f") if f in flags)
+    return {
+        "cpu": cpu,
+        "cpu_kind": kind,
+        "isa": isa,
+        "warp": warp.config.version,
+        "numpy": numpy.__version__,
+    }
