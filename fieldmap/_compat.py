@@ -298,7 +298,9 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "nav.conditioning_stages": "nav.logs.condition",
     "nav.conditioning_steps": "nav.logs.condition",
     "nav.conditioning_report": "nav.logs.report",
-    "nav.flightlog": "nav.logs.load",
+    "nav.flightlog": "nav.logs",
+    # fieldmap 0.2: the composition of the steps is the package's own (issue 25)
+    "nav.logs.load": "nav.logs",
     # fieldmap 0.2: nav/ regrouped by concept (issue 25)
     "nav.launch_frames": "nav.frames",
     "nav.forcened": "nav.frames",

@@ -61,8 +61,8 @@ def test_every_param_raised_in_nav_is_in_the_table():
 
 def test_every_keyword_of_the_log_functions_is_in_the_table():
     """A new keyword of a reader or of the conditioning must be added to the table."""
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import condition
-    from fieldmap.nav.logs.load import load_flight
     from fieldmap.nav.logs.read import read_track
 
     for func in (read_track, condition, load_flight):

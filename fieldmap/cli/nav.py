@@ -18,7 +18,7 @@ input is checked before any work starts; every file is written to a temporary na
 so a failed run leaves nothing half-written.
 
 The flight study (``--trajectory FILE [FILE ...]`` / ``--route``, the section "your flight"):
-flight logs are read as they come (:func:`fieldmap.nav.logs.load.load_flight`: CSV with any
+flight logs are read as they come (:func:`fieldmap.nav.logs.load_flight`: CSV with any
 column names, ADS-B exports, GPX, NMEA, IGC; MSL or pressure heights), conditioned (outliers,
 gaps, ground, smoothing; ``--no-smooth`` for clean, simulated files) and flown: one summary table,
 and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` and the fit
@@ -198,8 +198,8 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
     from fieldmap.cli import given
     from fieldmap.cli.params import reword
     from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
-    from fieldmap.nav.logs.load import load_flight
 
     if args.route is not None:
         for dest, option in LOG_ONLY.items():

@@ -145,7 +145,7 @@ def _check_corridor_heights(
     import numpy as np
 
     from fieldmap.errors import InputError
-    from fieldmap.nav.logs.load import load_flight
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.study import TABLE_HEIGHT_MARGIN as margin
 
     traj, _ = load_flight(flight)

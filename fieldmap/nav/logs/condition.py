@@ -138,12 +138,12 @@ from typing import Any
 
 import numpy as np
 
+import fieldmap.nav.logs.fit as cfit
 from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
-from fieldmap.nav.logs import fit as cfit
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -322,7 +322,7 @@ class Conditioning:
 
     Built alike by the command line (``fieldmap nav --trajectory``) and by Python users, and
     passed as one object to :func:`condition`, :func:`condition_segments` and
-    :func:`fieldmap.nav.logs.load.load_flight`.
+    :func:`fieldmap.nav.logs.load_flight`.
 
     Parameters
     ----------
