@@ -432,6 +432,8 @@ MOVED_NAMES: dict[str, tuple[str, tuple[str, ...]]] = {
     ),
     # the central-difference tensor is the reference of the synthesis (issue 28)
     "field.gradient": ("reference.gradient", ("STEP",)),
+    # the Legendre rows are the basis of the commission σ too, production code (issue 25)
+    "reference.sh": ("field.legendre", ("legendre_rows",)),
 }
 
 
