@@ -1,10 +1,10 @@
 """A flight log as read: the raw columns of one format, and the :class:`RawTrack` made of them.
 
-Every format reader (:mod:`fieldmap.nav.logs.read` for CSV and tables,
-:mod:`fieldmap.nav.logs.gnss` for GPX, NMEA 0183 and IGC) returns a :class:`Parsed`: raw
-columns in file order, the line (or record) of each fix, the altitude columns by height
-reference. :func:`fieldmap.nav.logs.read.read_track` checks it, converts units and heights and
-returns a :class:`RawTrack`, what the conditioning (:mod:`fieldmap.nav.logs.condition`) takes.
+Every format reader of :mod:`fieldmap.nav.logs.read` (CSV, tables, GPX, NMEA 0183 and IGC)
+returns a :class:`Parsed`: raw columns in file order, the line (or record) of each fix, the
+altitude columns by height reference. :func:`fieldmap.nav.logs.read.read_track` checks it,
+converts units and heights and returns a :class:`RawTrack`, what the conditioning
+(:mod:`fieldmap.nav.logs.condition`) takes.
 
 Times are epoch seconds UTC where the source has absolute times: :func:`utc_seconds` reads a
 ``datetime`` (naive = UTC), :func:`iso_utc` writes one.
