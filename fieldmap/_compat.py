@@ -287,11 +287,11 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "cli_point": "cli.point",
     "verify": "cli.verify",
     # fieldmap 0.2: the flight logs, one module per step (fieldmap.nav.logs)
-    "nav.readers": ("nav.logs.read", "nav.logs.track"),
-    "nav.readers_parsed": ("nav.logs.track", "nav.logs.read"),
+    "nav.readers": "nav.logs.read",
+    "nav.readers_parsed": "nav.logs.read",
     "nav.readers_tables": "nav.logs.read",
     "nav.readers_gnss": "nav.logs.read",
-    "nav.readers_formats": ("nav.logs.read", "nav.logs.track"),
+    "nav.readers_formats": "nav.logs.read",
     "nav.readers_heights": "nav.logs.read",
     "nav.conditioning": ("nav.logs.condition", "nav.logs.report"),
     "nav.conditioning_fit": "nav.logs.fit",
@@ -301,8 +301,9 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "nav.flightlog": "nav.logs",
     # fieldmap 0.2: the composition of the steps is the package's own (issue 25)
     "nav.logs.load": "nav.logs",
-    # fieldmap 0.2: every format a log comes in is read in one module (issue 25)
+    # fieldmap 0.2: every format a log comes in is read, into its records, in one module (issue 25)
     "nav.logs.gnss": "nav.logs.read",
+    "nav.logs.track": "nav.logs.read",
     # fieldmap 0.2: nav/ regrouped by concept (issue 25)
     "nav.launch_frames": "nav.frames",
     "nav.forcened": "nav.frames",

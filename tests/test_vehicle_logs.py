@@ -29,7 +29,7 @@ M_DEG = math.radians(1.0) * 6.371e6
 
 @dataclass(frozen=True)
 class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.track.RawTrack."""
+    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
 
     t: np.ndarray
     lat: np.ndarray

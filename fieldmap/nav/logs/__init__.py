@@ -6,8 +6,8 @@ takes it from file to flight:
 1. :mod:`~fieldmap.nav.logs.read`: a CSV file (any column layout, ADS-B exports), a table
    (DataFrame, Dataset, arrays), a GPX, NMEA 0183 or IGC file, read as it comes
    (:func:`~fieldmap.nav.logs.read.read_track`): one meaning for every source, heights made
-   ellipsoidal, units checked; the result is a :class:`~fieldmap.nav.logs.track.RawTrack`
-   (:mod:`~fieldmap.nav.logs.track`: the records a reader fills).
+   ellipsoidal, units checked; the result is a :class:`~fieldmap.nav.logs.read.RawTrack`
+   (the records a reader fills are defined with it).
 2. :mod:`~fieldmap.nav.logs.condition`: order, stale values, outliers, breaks, ground, then
    the robust smoothing fit of :mod:`~fieldmap.nav.logs.fit` within the vehicle's limits
    (:func:`~fieldmap.nav.logs.condition.condition`).

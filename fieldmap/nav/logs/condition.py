@@ -457,7 +457,7 @@ def condition(track: Any, options: Conditioning | None = None) -> ConditionedFli
     track : RawTrack
         Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
         ellipsoid) and ``lines``, and a ``source`` string
-        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
+        (:class:`~fieldmap.nav.logs.read.RawTrack`); its ``notes``, ``height_ref`` and
         ``t0_utc`` go into the report.
     options : Conditioning, optional
         The options (default ``Conditioning()``). The 0.1 keywords (``max_gap_s=`` …) still
@@ -1210,7 +1210,7 @@ class OrderedLog:
         """Length of the run of identical reported states each sample is in, (n,) (1: none).
 
         A state is the log's own ground speed, track and vertical rate together
-        (:class:`~fieldmap.nav.logs.track.Velocities`); a receiver that lost the vehicle and
+        (:class:`~fieldmap.nav.logs.read.Velocities`); a receiver that lost the vehicle and
         dead-reckons its position from the last state (ADS-B and FLARM relays extrapolate
         for a minute or more) repeats it unchanged while the position moves on. Logs without
         velocities: all 1.

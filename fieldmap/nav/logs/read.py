@@ -54,8 +54,12 @@ them with its options).
 The format is recognised by its content (:func:`load_text`): CSV text and tables are read here
 (:func:`csv_table`, :func:`object_table`; cells by :func:`numbers` and :func:`times`), the GNSS
 receiver and flight-recorder logs by :func:`read_gpx`, :func:`read_nmea` and :func:`read_igc`;
-each gives a :class:`~fieldmap.nav.logs.track.Parsed` that :func:`read_track` checks and converts
-(heights: :func:`check_units`, :func:`to_ellipsoid`).
+each gives a :class:`Parsed` (raw columns in file order, the line or record of each fix, the
+altitude columns by height reference) that :func:`read_track` checks and converts (heights:
+:func:`check_units`, :func:`to_ellipsoid`) into a :class:`RawTrack`, what the conditioning
+(:mod:`fieldmap.nav.logs.condition`) takes: the records a reader fills are defined here, with
+what reads them. Times are epoch seconds UTC where the source has absolute times:
+:func:`utc_seconds` reads a ``datetime`` (naive = UTC), :func:`iso_utc` writes one.
 
 GNSS receiver and flight-recorder logs (GPX 1.1, NMEA 0183 and IGC):
 
@@ -85,23 +89,23 @@ GNSS receiver and flight-recorder logs (GPX 1.1, NMEA 0183 and IGC):
 
 Times of day roll over at midnight (a step back by more than 12 h adds a day).
 
-The velocities become a :class:`~fieldmap.nav.logs.track.Velocities` (no vertical speed: neither
-format has one): the conditioning checks them against the positions and fits the path to them
+The velocities become a :class:`Velocities` (no vertical speed: neither format has one): the
+conditioning checks them against the positions and fits the path to them
 (:func:`fieldmap.nav.logs.fit.observations`). Their resolution is the last digit the file prints
 (the rounding's σ is that step/√12); a receiver's Doppler noise above it is estimated from the
-values themselves. A speed without a course (or the reverse) gives no velocity vector and is
-left out, and said.
+values themselves. A speed without a course (or the reverse) gives no velocity vector and is left
+out, and said.
 """
 
 from __future__ import annotations
 
 import csv
-import dataclasses
 import gzip
 import os
 import re
 import zlib
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -111,7 +115,130 @@ import numpy as np
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
-from fieldmap.nav.logs.track import Parsed, RawTrack, Velocities, iso_utc, utc_seconds
+
+# -- what reading produces: the records a reader fills ----------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Velocities:
+    """The velocities a log carries with its fixes (ADS-B, NMEA RMC, GPX), as the log gives them.
+
+    Attributes
+    ----------
+    speed : numpy.ndarray
+        Ground speed at each sample (NaN where none). Units: m/s.
+    track : numpy.ndarray
+        Track angle over the ground, clockwise from true north (NaN where none). Units: degrees.
+    climb : numpy.ndarray or None
+        Vertical speed, up positive (NaN where none); None when the log has none. Units: m/s.
+    resolution : tuple of float
+        Quantisation step of each (ground speed m/s, track degrees, vertical speed m/s): the
+        uniform rounding error's σ is step/√12. ADS-B: 1 kt, 1° (the 1 kt east/north
+        components at 250 m/s), 64 ft/min (DO-260B §2.2.3.2.6).
+    names : tuple of str
+        The columns (or fields) read, for the report.
+    """
+
+    speed: np.ndarray
+    track: np.ndarray
+    climb: np.ndarray | None
+    resolution: tuple[float, float, float]
+    names: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class RawTrack:
+    """One flight log, read but not conditioned (samples in file order, repeats kept).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Times (float64, s): epoch seconds UTC when the source has absolute times, else as given.
+    lat, lon : numpy.ndarray
+        Geodetic latitude and longitude. Units: degrees.
+    h : numpy.ndarray
+        Height above the ellipsoid after the height-reference conversion. Units: m.
+    lines : numpy.ndarray
+        int64 line (or record) number of each sample in the source, for messages.
+    source : str
+        File name, or ``"DataFrame"``, ``"Dataset"``, ``"arrays"``.
+    height_ref : str
+        What the source heights were: ``"ellipsoid"``, ``"msl"`` or ``"pressure"``.
+    notes : tuple of str
+        Human-readable notes (layout, units, dropped rows, height conversion).
+    t0_utc : str or None
+        ISO 8601 time of the first sample when known.
+    time_guess : str or None
+        How the times were read where their units were guessed from their size (epoch
+        milliseconds), for messages about what follows from the guess; None otherwise.
+    velocity : Velocities or None
+        The log's own velocities at the samples, when it carries them.
+    category : str or None
+        An ADS-B emitter category (``"A3"``) when the log gives one.
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    lines: np.ndarray
+    source: str
+    height_ref: str
+    notes: tuple[str, ...] = ()
+    t0_utc: str | None = None
+    time_guess: str | None = None
+    velocity: Velocities | None = None
+    category: str | None = None
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+
+@dataclass
+class Parsed:
+    """Raw columns of one source: before units, checks and the height reference.
+
+    ``alts`` maps a height reference (``ellipsoid``, ``msl``, ``pressure``) to the column name
+    and values (NaN where empty) that hold heights in that reference; ``height_ref`` is the
+    default key. ``where`` is the word for a position in the source (``line`` or ``record``);
+    ``names`` the names of the time, latitude and longitude columns, for messages.
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    alts: dict[str, tuple[str, np.ndarray]]
+    height_ref: str
+    alt_units: str
+    lines: np.ndarray
+    source: str
+    absolute: bool
+    names: tuple[str, str, str] = ("time", "lat", "lon")
+    where: str = "line"
+    notes: list[str] = field(default_factory=list)
+    #: a note on the default height reference, dropped when the caller gives one
+    ref_note: str | None = None
+    #: units fixed by the format's specification or the column name: no units checks
+    units_fixed: bool = True
+    #: how the times were read where their units were guessed (epoch ms), else None
+    time_guess: str | None = None
+    #: the velocities the source carries (units converted), or None
+    velocity: Velocities | None = None
+    #: an ADS-B emitter category, when the source gives one
+    category: str | None = None
+
+
+def utc_seconds(d: datetime) -> float:
+    """Epoch seconds of a ``datetime``; a naive one is UTC."""
+    return (d if d.tzinfo else d.replace(tzinfo=timezone.utc)).timestamp()
+
+
+def iso_utc(t: float) -> str:
+    """ISO 8601 (UTC, ``Z``) of epoch seconds."""
+    return datetime.fromtimestamp(t, timezone.utc).isoformat().replace("+00:00", "Z")
+
+
+# -- options and layouts --------------------------------------------------------------------
 
 #: the cells of a table's column j
 Getter = Callable[[Any], Any]
@@ -294,9 +421,7 @@ def _table(
         if cats:
             p.category = max(set(cats), key=cats.count)
     guess = tnote if tnote and GUESS_MS in tnote else None
-    return dataclasses.replace(
-        p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess
-    )
+    return replace(p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess)
 
 
 def read_track(
