@@ -304,7 +304,7 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
 
 def test_reader_notes_name_the_cli_options(tmp_path):
     """An IGC note said "give height_ref='msl'"; from the CLI it names --height-ref msl."""
-    from fieldmap.cli.params import options_of, reword
+    from fieldmap.cli import options_of, reword
     from fieldmap.nav.logs.read import read_track
 
     rows = ["AXXX001", "HFDTE010124"]

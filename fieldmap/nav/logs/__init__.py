@@ -30,7 +30,7 @@ ground movement", "60 s (max_gap_s)"), and an :class:`~fieldmap.errors.InputErro
 carries its name as ``param``. Where the conditioning without smoothing advises
 ``reorder=True``, which :func:`load_flight` sets from ``smooth``, the advice is
 ``smooth=True``. The command line rewords them with its options from one table
-(:mod:`fieldmap.cli.params`).
+(:mod:`fieldmap.cli`).
 
 Importing a step (``fieldmap.nav.logs.read``) imports this package and with it the options of
 :func:`load_flight` (:mod:`~fieldmap.nav.logs.condition`, NumPy only); the reader, the flight

@@ -65,7 +65,7 @@ is refused: it is no flight.
 The options travel as one :class:`Conditioning`, validated once on construction. Messages that
 say what to change name its fields; an :class:`~fieldmap.errors.InputError` about one carries
 its name as ``param`` (the command line rewords the message with its own options:
-:mod:`fieldmap.cli.params`).
+:mod:`fieldmap.cli`).
 
 **Vehicle classes** (:class:`Vehicle`, :data:`VEHICLES`, :func:`guess_vehicle`). The smoothing
 of :mod:`fieldmap.nav.logs.condition` keeps the flown path within what the vehicle
@@ -370,7 +370,7 @@ class Conditioning:
     ------
     InputError
         An invalid option, naming it (``param``: the command line rewords the message with its
-        own option, :mod:`fieldmap.cli.params`).
+        own option, :mod:`fieldmap.cli`).
     """
 
     position_noise_m: float | tuple[float, float] | None = None
