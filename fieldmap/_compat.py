@@ -287,18 +287,23 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     "cli_point": "cli.point",
     "verify": "cli.verify",
     # fieldmap 0.2: the flight logs, one module per step (fieldmap.nav.logs)
-    "nav.readers": ("nav.logs.read", "nav.logs.track"),
-    "nav.readers_parsed": ("nav.logs.track", "nav.logs.read", "nav.logs.gnss"),
+    "nav.readers": "nav.logs.read",
+    "nav.readers_parsed": "nav.logs.read",
     "nav.readers_tables": "nav.logs.read",
-    "nav.readers_gnss": "nav.logs.gnss",
-    "nav.readers_formats": ("nav.logs.read", "nav.logs.gnss", "nav.logs.track"),
+    "nav.readers_gnss": "nav.logs.read",
+    "nav.readers_formats": "nav.logs.read",
     "nav.readers_heights": "nav.logs.read",
     "nav.conditioning": ("nav.logs.condition", "nav.logs.report"),
     "nav.conditioning_fit": "nav.logs.fit",
     "nav.conditioning_stages": "nav.logs.condition",
     "nav.conditioning_steps": "nav.logs.condition",
     "nav.conditioning_report": "nav.logs.report",
-    "nav.flightlog": "nav.logs.load",
+    "nav.flightlog": "nav.logs",
+    # fieldmap 0.2: the composition of the steps is the package's own (issue 25)
+    "nav.logs.load": "nav.logs",
+    # fieldmap 0.2: every format a log comes in is read, into its records, in one module (issue 25)
+    "nav.logs.gnss": "nav.logs.read",
+    "nav.logs.track": "nav.logs.read",
     # fieldmap 0.2: nav/ regrouped by concept (issue 25)
     "nav.launch_frames": "nav.frames",
     "nav.forcened": "nav.frames",
@@ -349,6 +354,8 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     # fieldmap 0.2: one module per sub-command
     "cli.navflight": "cli.nav",
     "cli.navoptions": "cli.nav",
+    # fieldmap 0.2: the table that words library errors for the command line is main()'s (issue 25)
+    "cli.params": "cli",
 }
 
 
@@ -430,6 +437,8 @@ MOVED_NAMES: dict[str, tuple[str, tuple[str, ...]]] = {
     ),
     # the central-difference tensor is the reference of the synthesis (issue 28)
     "field.gradient": ("reference.gradient", ("STEP",)),
+    # the Legendre rows are the basis of the commission σ too, production code (issue 25)
+    "reference.sh": ("field.legendre", ("legendre_rows",)),
 }
 
 

@@ -22,7 +22,7 @@ class InputError(FieldmapError, ValueError):
         The keyword argument of the function called that the error is about
         (``"max_gap_s"``). The message names it as Python spells it ("60 s (max_gap_s)",
         "pass airborne_only=False"); the command line rewords such messages with its own
-        options (:mod:`fieldmap.cli.params`). None: the error is about no single keyword.
+        options (:mod:`fieldmap.cli`). None: the error is about no single keyword.
     """
 
     def __init__(self, *args: object, param: str | None = None) -> None:

@@ -263,8 +263,8 @@ def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
 def test_library_messages_name_its_keywords(tmp_path):
     """From Python the same refusals name the keywords of the function called."""
     from fieldmap.errors import InputError
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
-    from fieldmap.nav.logs.load import load_flight
 
     t = np.arange(121.0)
     t[[1, 2]] = t[[2, 1]]
@@ -304,7 +304,7 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
 
 def test_reader_notes_name_the_cli_options(tmp_path):
     """An IGC note said "give height_ref='msl'"; from the CLI it names --height-ref msl."""
-    from fieldmap.cli.params import options_of, reword
+    from fieldmap.cli import options_of, reword
     from fieldmap.nav.logs.read import read_track
 
     rows = ["AXXX001", "HFDTE010124"]

@@ -32,7 +32,7 @@ G = 9.80665
 
 @dataclass(frozen=True)
 class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.track.RawTrack."""
+    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
 
     t: np.ndarray
     lat: np.ndarray

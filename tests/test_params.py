@@ -3,7 +3,7 @@
 The flight-log code (:mod:`fieldmap.nav.logs`), the flight study and the propagator
 (:mod:`fieldmap.nav.study`, :mod:`fieldmap.nav.propagator`) word their messages for a Python
 caller and raise :class:`~fieldmap.errors.InputError` with ``param=``;
-:mod:`fieldmap.cli.params` maps keywords to options. A keyword a message can name but the table
+:mod:`fieldmap.cli` maps keywords to options. A keyword a message can name but the table
 does not know would reach a command-line user as a Python keyword: the walks below fail on it.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import fieldmap.nav
-from fieldmap.cli.params import ADVICE, OPTIONS, options_of, reword
+from fieldmap.cli import ADVICE, OPTIONS, options_of, reword
 from fieldmap.errors import InputError
 
 NAV = Path(fieldmap.nav.__file__).parent
@@ -54,15 +54,13 @@ def test_every_param_raised_in_nav_is_in_the_table():
     assert used, "no param= found: the walk is broken"
     assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used  # nav.logs
     assert {"frame", "output_dt", "block_s", "models", "draws"} <= used  # study, propagator
-    assert not used - set(OPTIONS), (
-        f"keywords missing from cli.params.OPTIONS: {used - set(OPTIONS)}"
-    )
+    assert not used - set(OPTIONS), f"keywords missing from cli.OPTIONS: {used - set(OPTIONS)}"
 
 
 def test_every_keyword_of_the_log_functions_is_in_the_table():
     """A new keyword of a reader or of the conditioning must be added to the table."""
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import condition
-    from fieldmap.nav.logs.load import load_flight
     from fieldmap.nav.logs.read import read_track
 
     for func in (read_track, condition, load_flight):
@@ -80,7 +78,7 @@ def test_every_keyword_of_the_flight_study_is_in_the_table():
     names = [f.name for f in dataclasses.fields(FlightStudy) if f.init]
     assert {"frame", "output_dt", "block_s", "models"} <= set(names)
     missing = [n for n in names if n not in OPTIONS]
-    assert not missing, f"FlightStudy keywords missing from cli.params.OPTIONS: {missing}"
+    assert not missing, f"FlightStudy keywords missing from cli.OPTIONS: {missing}"
 
 
 def test_the_table_names_real_options_and_settings():

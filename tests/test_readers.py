@@ -16,8 +16,7 @@ import pytest
 import fieldmap
 from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import condition
-from fieldmap.nav.logs.read import R_ISA, parse_columns, read_track
-from fieldmap.nav.logs.track import RawTrack
+from fieldmap.nav.logs.read import R_ISA, RawTrack, parse_columns, read_track
 
 T0 = datetime(2023, 6, 14, 23, 45, 0, tzinfo=timezone.utc)
 FT = 0.3048

@@ -29,7 +29,7 @@ M_DEG = math.radians(1.0) * 6.371e6
 
 @dataclass(frozen=True)
 class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.track.RawTrack."""
+    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
 
     t: np.ndarray
     lat: np.ndarray
@@ -135,7 +135,7 @@ def test_a_hard_pull_up_is_softened_to_the_airliner_envelope():
 
 
 def test_vehicle_option_in_params_table():
-    from fieldmap.cli.params import OPTIONS
+    from fieldmap.cli import OPTIONS
 
     assert OPTIONS["vehicle"] == "--vehicle"
     assert Path(__file__).exists()

@@ -18,14 +18,14 @@ input is checked before any work starts; every file is written to a temporary na
 so a failed run leaves nothing half-written.
 
 The flight study (``--trajectory FILE [FILE ...]`` / ``--route``, the section "your flight"):
-flight logs are read as they come (:func:`fieldmap.nav.logs.load.load_flight`: CSV with any
+flight logs are read as they come (:func:`fieldmap.nav.logs.load_flight`: CSV with any
 column names, ADS-B exports, GPX, NMEA, IGC; MSL or pressure heights), conditioned (outliers,
 gaps, ground, smoothing; ``--no-smooth`` for clean, simulated files) and flown: one summary table,
 and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` and the fit
 figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
 are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
 the kinematics that were flown. Its notes, like the messages of the readers and the
-conditioning, name the options here (:func:`fieldmap.cli.params.reword`).
+conditioning, name the options here (:func:`fieldmap.cli.reword`).
 
 The module reads top-down: your flight (its options and steps); all the options and where
 each applies; the command.
@@ -192,14 +192,13 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
 
     The conditioning options are refused (one line) where no flight is conditioned: with
     ``--no-smooth``, and when every file is flown as recorded. The notes of the conditioning
-    name the options here (:func:`fieldmap.cli.params.reword`; its errors are reworded where
+    name the options here (:func:`fieldmap.cli.reword`; its errors are reworded where
     they are reported, :func:`fieldmap.cli.main`).
     """
-    from fieldmap.cli import given
-    from fieldmap.cli.params import reword
+    from fieldmap.cli import given, reword
     from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
-    from fieldmap.nav.logs.load import load_flight
 
     if args.route is not None:
         for dest, option in LOG_ONLY.items():
@@ -270,7 +269,7 @@ def _flight_study(
     """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
 
     Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
-    names the options instead (:func:`fieldmap.cli.params.reword`).
+    names the options instead (:func:`fieldmap.cli.reword`).
     """
     from fieldmap.nav.study import FlightStudy
 
@@ -853,7 +852,7 @@ def _check_flight_args(
 
     The CLI checks what only it has (the choice of flight, the log options, options given
     where they do nothing); the study checks the rest, once, when it is built (its messages
-    name the Python keywords, which :func:`fieldmap.cli.params.reword` names as options).
+    name the Python keywords, which :func:`fieldmap.cli.reword` names as options).
     """
     from fieldmap._warp import resolve_device
     from fieldmap.nav.sensors import PRESETS, load_imu

@@ -145,7 +145,7 @@ def _check_corridor_heights(
     import numpy as np
 
     from fieldmap.errors import InputError
-    from fieldmap.nav.logs.load import load_flight
+    from fieldmap.nav.logs import load_flight
     from fieldmap.nav.study import TABLE_HEIGHT_MARGIN as margin
 
     traj, _ = load_flight(flight)
@@ -197,7 +197,7 @@ def run_table(args: argparse.Namespace) -> int:
     opts = model_options(args)
     if args.corridor is not None:
         # the flight is read with the defaults: the readers' advice is left out where reported
-        # (table has none of their options; fieldmap.cli.params.options_of)
+        # (table has none of their options; fieldmap.cli.options_of)
         width = 50.0 if args.width_km is None else args.width_km
         region = corridor_region(args.corridor, width, args.region)
         _check_corridor_heights(args.corridor, metres, option)

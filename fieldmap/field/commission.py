@@ -26,7 +26,7 @@ The normal field and the correction terms of N do not depend on the coefficients
 For a time-variable model the σ are those of the static part (the ``gfct`` lines; the σ of
 trend and periodic terms are not propagated).
 
-The Legendre functions come from the row recursion of :func:`fieldmap.reference.sh.legendre_rows`
+The Legendre functions come from the row recursion of :func:`fieldmap.field.legendre.legendre_rows`
 (extended range, finite at the poles); the sums are NumPy, vectorised over points and orders,
 in chunks of points (a degree-240 model at a few thousand points takes seconds).
 """
@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
+from fieldmap.field.legendre import legendre_rows
 from fieldmap.limits import check_geodetic
 from fieldmap.models.shmodel import SHModel
 
@@ -75,7 +76,7 @@ def disturbance_basis(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Basis values of δg at degree n, orders m = 0..n: (east factor m P̄/u, north, up).
 
-    ``P``, ``PU``: P̄nm and P̄nm/u, shape (N, n+1) (:func:`fieldmap.reference.sh.legendre_rows`);
+    ``P``, ``PU``: P̄nm and P̄nm/u, shape (N, n+1) (:func:`fieldmap.field.legendre.legendre_rows`);
     ``t`` sin ψ (N,); ``m`` the orders; ``cd``, ``sd`` cos/sin of φ − ψ, shape (N, 1). North and
     up are the geodetic components of the geocentric radial −(n+1) P̄ and dP̄/dψ (the factor
     GM/r² q^n and cos/sin mλ left out); the east basis is ∓ m P̄/u sin/cos mλ.
@@ -98,8 +99,6 @@ def _variances(
     quantity: str,
 ) -> np.ndarray:
     """Σ basis² σ² at ECEF points (1-D), shape (N,) or (N, 3) for the disturbance; SI units."""
-    from fieldmap.reference.sh import legendre_rows
-
     rho = np.hypot(x, y)
     r = np.hypot(rho, z)
     t, u = z / r, rho / r

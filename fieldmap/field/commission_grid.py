@@ -12,7 +12,7 @@ folds over n once per row,
     A_m = \sum_n b_{nm}^2\sigma^2_{C,nm},\; B_m = \sum_n b_{nm}^2\sigma^2_{S,nm},
 
 and the longitudes cost one (nlon × (L+1)) product: O(L²) per row instead of O(L²) per node.
-Same basis values and Legendre rows (:func:`fieldmap.reference.sh.legendre_rows`) as the point
+Same basis values and Legendre rows (:func:`fieldmap.field.legendre.legendre_rows`) as the point
 function; ``tests/test_commission.py`` checks the two against each other at the nodes.
 """
 
@@ -27,6 +27,7 @@ from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.commission import MGAL, disturbance_basis
 from fieldmap.field.ellipsoid import Ellipsoid, get_ellipsoid
+from fieldmap.field.legendre import legendre_rows
 from fieldmap.models.shmodel import SHModel
 
 if TYPE_CHECKING:
@@ -93,8 +94,6 @@ def _row_variances(
     what: str,
 ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """Return [(A, B) per component]: weights of cos² mλ and sin² mλ per row and order."""
-    from fieldmap.reference.sh import legendre_rows
-
     L = model.lmax
     nrow = t.size
     mm = np.arange(L + 1, dtype=np.float64)

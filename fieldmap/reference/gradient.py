@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import Ellipsoid
+from fieldmap.field.legendre import legendre_rows
 from fieldmap.models.shmodel import SHModel
 
 #: Finite-difference step along each ECEF axis (the second step is twice this). Units: m.
@@ -72,8 +73,6 @@ def spherical_tensor(
 
     See the module docstring. ``lat_deg``, ``lon_deg``, ``h_m`` flat arrays (degrees, m).
     """
-    from fieldmap.reference.sh import legendre_rows
-
     x, y, z = frames.geodetic_to_ecef(lat_deg, lon_deg, h_m, ell)
     rho = np.hypot(x, y)
     r = np.hypot(rho, z)

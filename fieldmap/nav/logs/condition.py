@@ -65,7 +65,7 @@ is refused: it is no flight.
 The options travel as one :class:`Conditioning`, validated once on construction. Messages that
 say what to change name its fields; an :class:`~fieldmap.errors.InputError` about one carries
 its name as ``param`` (the command line rewords the message with its own options:
-:mod:`fieldmap.cli.params`).
+:mod:`fieldmap.cli`).
 
 **Vehicle classes** (:class:`Vehicle`, :data:`VEHICLES`, :func:`guess_vehicle`). The smoothing
 of :mod:`fieldmap.nav.logs.condition` keeps the flown path within what the vehicle
@@ -138,12 +138,12 @@ from typing import Any
 
 import numpy as np
 
+import fieldmap.nav.logs.fit as cfit
 from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.flight import MIN_POINTS, FlightSamples
-from fieldmap.nav.logs import fit as cfit
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -322,7 +322,7 @@ class Conditioning:
 
     Built alike by the command line (``fieldmap nav --trajectory``) and by Python users, and
     passed as one object to :func:`condition`, :func:`condition_segments` and
-    :func:`fieldmap.nav.logs.load.load_flight`.
+    :func:`fieldmap.nav.logs.load_flight`.
 
     Parameters
     ----------
@@ -370,7 +370,7 @@ class Conditioning:
     ------
     InputError
         An invalid option, naming it (``param``: the command line rewords the message with its
-        own option, :mod:`fieldmap.cli.params`).
+        own option, :mod:`fieldmap.cli`).
     """
 
     position_noise_m: float | tuple[float, float] | None = None
@@ -457,7 +457,7 @@ def condition(track: Any, options: Conditioning | None = None) -> ConditionedFli
     track : RawTrack
         Anything with arrays ``t`` (s), ``lat``, ``lon`` (degrees), ``h`` (m above the
         ellipsoid) and ``lines``, and a ``source`` string
-        (:class:`~fieldmap.nav.logs.track.RawTrack`); its ``notes``, ``height_ref`` and
+        (:class:`~fieldmap.nav.logs.read.RawTrack`); its ``notes``, ``height_ref`` and
         ``t0_utc`` go into the report.
     options : Conditioning, optional
         The options (default ``Conditioning()``). The 0.1 keywords (``max_gap_s=`` …) still
@@ -1210,7 +1210,7 @@ class OrderedLog:
         """Length of the run of identical reported states each sample is in, (n,) (1: none).
 
         A state is the log's own ground speed, track and vertical rate together
-        (:class:`~fieldmap.nav.logs.track.Velocities`); a receiver that lost the vehicle and
+        (:class:`~fieldmap.nav.logs.read.Velocities`); a receiver that lost the vehicle and
         dead-reckons its position from the last state (ADS-B and FLARM relays extrapolate
         for a minute or more) repeats it unchanged while the position moves on. Logs without
         velocities: all 1.

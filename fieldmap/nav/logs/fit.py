@@ -711,7 +711,7 @@ def _loo_sigma(t: np.ndarray, v: np.ndarray) -> float:
 def observations(log: Any, track: Any, idx: np.ndarray) -> Observed | None:
     """Return the velocities of the ordered samples ``idx`` of ``log`` (an ``OrderedLog``).
 
-    ``track``: the :class:`~fieldmap.nav.logs.track.RawTrack` whose ``velocity`` the ordered
+    ``track``: the :class:`~fieldmap.nav.logs.read.RawTrack` whose ``velocity`` the ordered
     samples index (``log.index``). Only finite values are used.
     """
     vel = getattr(track, "velocity", None)
