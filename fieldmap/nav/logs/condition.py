@@ -33,8 +33,25 @@ cleaning steps are the functions below it, each on one segment of ordered sample
 3. **Breaks**: jumps that are no short bursts (a displaced stretch: spoofing, a wrong altitude
    held for minutes) split the log into segments; so do gaps longer than ``max_gap_s``, unless
    ``on_long_gap="bridge"`` (default).
-4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
-   ``min_speed_mps`` and within 30 m of the segment's first (last) height are trimmed.
+4. **Ground.** The leading and trailing parts of each segment slower than ``min_speed_mps``
+   and within 30 m of the segment's first (last) height (any height for a vehicle whose stall
+   speed is above ``min_speed_mps``) are ground movement: taxi, parking, the slow part of the
+   take-off and landing rolls. With ``airborne_only=True`` they are trimmed. By default the
+   whole log is flown: a vehicle without a stall speed (helicopter, drone, car, ship, rocket)
+   moves slowly within its own envelope, and its slow ends are fitted with the rest; an
+   aircraft (a stall speed) is fitted in three pieces, because a ground roll, a parked hour
+   and the flight share neither their noise, nor their smoothness, nor their limits (fitted
+   together, the ground's few-metre noise and slow speeds change the one σ, λ and timing
+   jitter of the whole fit, and the flight is flown differently). The flight is fitted as
+   with ``airborne_only=True`` (steps 6-7, its bits unchanged), then each piece of ground
+   movement next to it (:func:`ground_piece`) as an aircraft moves on the ground: a penalised
+   spline with the noise σ and λ of its own samples, the log's ground speeds and tracks as
+   observations (a parked aircraft reports 0 kt: it does not move), level (the height of the
+   ground: ADS-B surface positions carry no altitude, readers fill 0 or hold the last), joined
+   to the flight by holding the flight's path at the join (position, velocity and
+   acceleration continue), and kept within :data:`ON_GROUND` (0.5 g horizontally, 5 m/s³) by
+   step 7. A segment with no flight left beside its ground movement is flown as one piece.
+   The report says how much of the log was on the ground and flown as such (``ground``).
 5. **Segment.** ``on_long_gap="bridge"`` (default) flies across gaps of any length (step 6)
    and the longest of the segments jumps leave; ``"longest"`` flies the longest segment that
    gaps and jumps leave and lists the others in the report; ``"refuse"`` raises an
@@ -333,7 +350,9 @@ class Conditioning:
         Gaps longer than this (s) are long gaps: bridged and reported with their uncertainty
         (``on_long_gap="bridge"``), or breaks that split the log.
     airborne_only : bool
-        Trim leading and trailing ground movement (slower than ``min_speed_mps``).
+        Trim leading and trailing ground movement (slower than ``min_speed_mps``). Default
+        False: the whole log is flown, an aircraft's ground movement as an aircraft moves on
+        the ground (step 4 of :mod:`fieldmap.nav.logs.condition`).
     smooth : bool
         False: only order the samples and drop repeated times (exact interpolation).
     reorder : bool
@@ -345,7 +364,8 @@ class Conditioning:
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
     min_speed_mps : float
-        Ground speed below which a vehicle near its first (last) height is on the ground.
+        Ground speed below which a vehicle near its first (last) height is on the ground
+        (trimmed with ``airborne_only``, else flown as such).
     max_speed_mps, max_climb_mps : float
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
@@ -471,9 +491,10 @@ def condition(track: Any, options: Conditioning | None = None) -> ConditionedFli
     ------
     InputError
         Times going back with ``reorder=False``; more than one segment with
-        ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples);
+        ``on_long_gap="refuse"``; nothing left to fly (all on the ground with
+        ``airborne_only=True``, too few samples);
         no flight (the vehicle never leaves a 30 m circle and a 15 m height band, also with
-        ``smooth=False`` or ``airborne_only=False``), each in one line naming the source and
+        ``smooth=False``, whatever ``airborne_only``), each in one line naming the source and
         its lines.
     """
     options = Conditioning() if options is None else options
@@ -750,8 +771,8 @@ class Stages:
             raise InputError(
                 f"{where}: no airborne part: the vehicle stays slower than "
                 f"{o['min_speed_mps']:g} m/s (min_speed_mps) near its first/last height "
-                f"({counts['ground']} of {n} samples on the ground); pass airborne_only=False "
-                "to keep ground movement",
+                f"({counts['ground']} of {n} samples on the ground, trimmed); pass "
+                "airborne_only=False to fly the ground movement",
                 param="airborne_only",
             )
         what = ", ".join(f"{v} {k}" for k, v in counts.items())
