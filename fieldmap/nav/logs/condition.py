@@ -151,7 +151,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -528,7 +528,10 @@ def condition_segments(track: Any, options: Conditioning | None = None) -> list[
 
 
 class Stages:
-    """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment."""
+    """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment.
+
+    :meth:`fit` also flies the ground movement next to the segment (step 4, :meth:`_fly_ground`).
+    """
 
     def __init__(self, track: Any, options: Conditioning) -> None:
         self.track, self.options = track, options
@@ -756,7 +759,7 @@ class Stages:
                 f"within {STILL_H:g} m horizontally and {STILL_V:g} m vertically of one place)"
             )
 
-    def nothing_left(self) -> None:
+    def nothing_left(self) -> NoReturn:
         """Raise the reason no segment can be flown."""
         log, st, o = self.log, self.status(), self.opts
         n, src = log.t.size, log.source
@@ -1216,6 +1219,8 @@ ON_GROUND = Vehicle("ground", 0.9, 1.12, 5.0, 30.0, 0.0)
 JOIN_NODES = 4
 #: σ (m) of the held nodes: a join the fit cannot move
 JOIN_SIGMA = 1e-3
+#: σ (m/s) of the vertical speed 0 of an aircraft on the ground (a runway's 1 % slope at 10 m/s)
+LEVEL_RATE_SIGMA = 0.1
 
 
 def ground_piece(
@@ -1284,39 +1289,45 @@ def ground_piece(
     rates = None
     obs = cfit.observations(log, st.track, idx[keep])
     if obs is not None and obs.h is not None and free is not None:
+        t_obs = obs.h.t
         obs = replace(obs, iv=obs.iv[:0], v=None, up=obs.up[:0])
         try:
             rates = cfit.check(
                 obs,
-                cfit.fitted_rates(grid, free["g"], obs.h.t),
+                cfit.fitted_rates(grid, free["g"], t_obs),
                 np.zeros((0, 1)),
                 log.source,
                 log.lines,
             ).h
         except InputError:  # velocities that contradict the ground positions: not used
             rates = None
-    # vertical: level, at the flight's height at the join or the piece's own
+    # vertical: level (no vertical speed), joined to the flight's height, or at the piece's own
+    # heights across a gap longer than max_gap_s
     near_join = th[-1 if side < 0 else 0]
-    if abs(near_join - t_join) <= o["max_gap_s"]:
-        level, level_from = float(held_v[0 if side < 0 else -1, 0]), "the flight's at the join"
-    else:
-        hv_ok = idx[st.vv_all[idx]]
-        level = float(np.median(log.h[hv_ok])) if hv_ok.size else float(held_v[0, 0])
-        level_from = "the piece's own heights" if hv_ok.size else "the flight's at the join"
+    joined = abs(near_join - t_join) <= o["max_gap_s"]
+    hv_ok = idx[st.vv_all[idx]]
+    level_from = "joined to the flight"
     on = out[(tn[out] >= th[0] - 0.5 * dt) & (tn[out] <= th[-1] + 0.5 * dt)]
     if on.size == 0:
         on = out
     t_lvl = tn[on]
-    loc_v = np.full(on.size, max(float(sig[1]), SIGMA_MIN))
+    t_v, y_v = tn[held], held_v
+    sv = np.full(0, 1.0)
+    if not joined and hv_ok.size:
+        level_from = "the piece's own heights"
+        t_v = np.concatenate([t_lvl, t_v])
+        y_v = np.concatenate([np.full((on.size, 1), float(np.median(log.h[hv_ok]))), y_v])
+        sv = np.full(on.size, max(float(sig[1]), SIGMA_MIN))
+    sr = np.full(on.size, LEVEL_RATE_SIGMA)
     t_h, y_h = np.concatenate([th[keep], tn[held]]), np.concatenate([ph[keep], held_h])
-    t_v = np.concatenate([t_lvl, tn[held]])
-    y_v = np.concatenate([np.full((on.size, 1), level), held_v])
     pin = np.full(a, JOIN_SIGMA)
-    sh, sv = loc_h[keep].copy(), loc_v.copy()
+    sh = loc_h[keep].copy()
+    pin_v = pin if joined or not hv_ok.size else np.concatenate([sv, pin])
 
     def solve() -> tuple[np.ndarray, np.ndarray]:
         g1 = cfit.refit(grid, t_h, y_h, np.concatenate([sh, pin]), lam_h, rates)[0]
-        g2 = cfit.refit(grid, t_v, y_v, np.concatenate([sv, pin]), float(lam[1]))[0]
+        level = cfit.Rates(t_lvl, np.zeros((on.size, 1)), 1.0 / sr**2)
+        g2 = cfit.refit(grid, t_v, y_v, pin_v, float(lam[1]), level)[0]
         return g1, g2
 
     g_h, g_v = solve()
@@ -1349,7 +1360,7 @@ def ground_piece(
                 rates = cfit.Rates(rates.t, rates.v, rates.w / soften_factor(rates.t, tb, span))
         tb = tn[rng][bad & ((av >= 0.5 * acc) | (jv >= 0.5 * jerk))]
         if tb.size:
-            sv *= soften_factor(t_lvl, tb, span)
+            sr *= soften_factor(t_lvl, tb, span)
         g_h, g_v = solve()
     st.out_h[idx[~keep]] = True
     fit_at = cfit.on_grid(g_h, cfit.lagrange_rows(t0, dt, ngp, th[keep]))
@@ -1363,7 +1374,7 @@ def ground_piece(
         "outliers": int((~keep).sum()),
         "sigma_h_m": float(sigma_h),
         "residual_rms_h_m": rms,
-        "height_m": level,
+        "height_m": float(np.median(g_v[on, 0])),
         "height_from": level_from,
         "softened_samples": int(touched.sum()),
         "velocities": rates is not None,
