@@ -43,15 +43,18 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    and the flight share neither their noise, nor their smoothness, nor their limits (fitted
    together, the ground's few-metre noise and slow speeds change the one σ, λ and timing
    jitter of the whole fit, and the flight is flown differently). The flight is fitted as
-   with ``airborne_only=True`` (steps 6-7, its bits unchanged), then each piece of ground
-   movement next to it (:func:`ground_piece`) as an aircraft moves on the ground: a penalised
-   spline with the noise σ and λ of its own samples, the log's ground speeds and tracks as
-   observations (a parked aircraft reports 0 kt: it does not move), level (the height of the
-   ground: ADS-B surface positions carry no altitude, readers fill 0 or hold the last), joined
-   to the flight by holding the flight's path at the join (position, velocity and
-   acceleration continue), and kept within :data:`ON_GROUND` (0.5 g horizontally, 5 m/s³) by
-   step 7. A segment with no flight left beside its ground movement is flown as one piece.
-   The report says how much of the log was on the ground and flown as such (``ground``).
+   with ``airborne_only=True`` (steps 6-7: the same bits but for its :data:`JOIN_OVERLAP_S`
+   seconds next to a piece), then each piece of ground movement next to it
+   (:func:`ground_piece`) as an aircraft moves on the ground: a penalised spline with the
+   noise σ and λ of its own samples, the log's ground speeds and tracks as observations (a
+   parked aircraft reports 0 kt: it does not move), level (no vertical speed: the height of
+   the ground; ADS-B surface positions carry no altitude, readers fill 0 or hold the last),
+   joined to the flight (the flight's free end, its first or last :data:`JOIN_OVERLAP_S`
+   seconds, fitted again with the piece from the flight's own samples, and the flight's path
+   held beyond: position, velocity and acceleration continue), and kept within
+   :data:`ON_GROUND` (0.5 g horizontally, 5 m/s³) by step 7, the overlap within the
+   vehicle's envelope. A segment with no flight left beside its ground movement is flown as
+   one piece. The report says how much of the log was on the ground and flown as such (``ground``).
 5. **Segment.** ``on_long_gap="bridge"`` (default) flies across gaps of any length (step 6)
    and the longest of the segments jumps leave; ``"longest"`` flies the longest segment that
    gaps and jumps leave and lists the others in the report; ``"refuse"`` raises an
@@ -874,7 +877,7 @@ class Stages:
         self.ground_pieces = []
         if self.on_ground.any():  # the ground movement at either end, flown as such (step 4)
             gh, gv, t_lo, t_hi, on_ground = self._fly_ground(
-                s, (float(t_lo), dt), (gh, gv), sig, (fh["lam"], fv["lam"])
+                s, (float(t_lo), dt), (gh, gv), sig, (fh["lam"], fv["lam"]), (hi, vi, loc)
             )
             used, inside = np.union1d(used, on_ground), np.union1d(inside, on_ground)
             ng = gh.shape[0]
@@ -921,12 +924,14 @@ class Stages:
         path: tuple[np.ndarray, np.ndarray],
         sig: Any,
         lam: tuple[float, float],
+        flight: tuple[np.ndarray, np.ndarray, list[np.ndarray]],
     ) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
         """Step 4b: the ground movement at either end of segment ``s``, flown as such.
 
         ``start``: the time of the flight's first output node and the output interval; ``path``:
         the flight's output grid values (horizontal (ng, 3), heights (ng, 1)); ``sig``, ``lam``:
-        the flight's noise σ and λ (horizontal, vertical). Each piece (the ground samples before
+        the flight's noise σ and λ (horizontal, vertical); ``flight``: its samples (horizontal,
+        vertical) and their σ. Each piece (the ground samples before
         the flight, those after it) is a penalised spline of its own (:func:`ground_piece`):
         its own noise σ and λ (the discrepancy principle on its samples; the flight's where it
         has fewer than ``2 MIN_POINTS``), the log's ground speeds and tracks as observations,
@@ -949,16 +954,18 @@ class Stages:
         ):
             if idx.size == 0:
                 continue
-            piece = ground_piece(self, side, idx, (t_lo if side < 0 else t_end, dt), path, sig, lam)
+            join = (t_lo if side < 0 else t_end, dt)
+            piece = ground_piece(self, side, idx, join, (gh, gv), sig, lam, flight)
             if piece is None:
                 continue
             ph, pv, info = piece
-            k = ph.shape[0]
+            k, over = ph.shape[0], info.pop("overlap")
             if side < 0:
-                gh, gv = np.concatenate([ph, gh]), np.concatenate([pv, gv])
-                t_lo -= k * dt
+                gh, gv = np.concatenate([ph, gh[over:]]), np.concatenate([pv, gv[over:]])
+                t_lo -= (k - over) * dt
             else:
-                gh, gv = np.concatenate([gh, ph]), np.concatenate([gv, pv])
+                n = gh.shape[0] - over
+                gh, gv = np.concatenate([gh[:n], ph]), np.concatenate([gv[:n], pv])
             used.append(idx)
             self.ground_pieces.append(info)
         self.ground_pieces.sort(key=lambda d: d["t_start"])
@@ -1217,6 +1224,9 @@ ON_GROUND = Vehicle("ground", 0.9, 1.12, 5.0, 30.0, 0.0)
 #: a ground piece is joined to the flight by holding this many of the flight's output nodes
 #: next to it (one more than the penalty's stencil: position, velocity and acceleration)
 JOIN_NODES = 4
+#: the flight's first (last) seconds fitted again with a ground piece next to them: the end of
+#: the flight's own fit is a free end (straight beyond its data), no join
+JOIN_OVERLAP_S = 10.0
 #: σ (m) of the held nodes: a join the fit cannot move
 JOIN_SIGMA = 1e-3
 #: σ (m/s) of the vertical speed 0 of an aircraft on the ground (a runway's 1 % slope at 10 m/s)
@@ -1231,6 +1241,7 @@ def ground_piece(
     path: tuple[np.ndarray, np.ndarray],
     sig: Any,
     lam: tuple[float, float],
+    flight: tuple[np.ndarray, np.ndarray, list[np.ndarray]],
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """Fly one piece of ground movement next to the flight (step 4b of :class:`Stages`).
 
@@ -1239,21 +1250,27 @@ def ground_piece(
     output node next to the piece and the output interval; ``path``: the flight's output grid
     values; ``sig``, ``lam``: the flight's noise σ and λ (horizontal, vertical).
 
-    The piece gets a grid of its own, aligned with the flight's, that holds the flight's
-    :data:`JOIN_NODES` output nodes next to it (σ :data:`JOIN_SIGMA`): the piece continues
-    the flight's position, velocity and acceleration. Horizontally a penalised spline as the
+    The piece gets a grid of its own, aligned with the flight's, that reaches
+    :data:`JOIN_OVERLAP_S` into the flight (the flight's free end: fitted again, from the
+    flight's own samples ``flight`` = (horizontal, vertical indices, their σ), within the
+    vehicle's envelope) and holds the flight's :data:`JOIN_NODES` output nodes beyond (σ
+    :data:`JOIN_SIGMA`): the piece continues the flight's position, velocity and
+    acceleration. Horizontally a penalised spline as the
     flight's (step 6) with the noise σ of the piece's own samples (leave-one-out, local) and
     λ from their discrepancy, the log's velocities as observations (a parked aircraft reports
     0 kt: it does not move); with fewer than ``2 MIN_POINTS`` samples the flight's σ and λ.
     Vertically level: an aircraft on the ground is at the height of the ground, which along
     an aerodrome varies by metres, while the heights logged there are no measurement of it
-    (ADS-B surface positions carry no altitude: readers fill 0 or hold the last one). The
-    level is the flight's height at the join when the piece reaches the flight within
-    ``max_gap_s``, else the median of the piece's own heights. Then step 7 with
-    :data:`ON_GROUND` at the nodes within the piece's samples, the vehicle's envelope across a
-    gap between them and the flight. Returns the piece's output grid values (horizontal
-    (k, 3), heights (k, 1)) in time order and its summary for the report, or None where the
-    piece is shorter than one output interval.
+    (ADS-B surface positions carry no altitude: readers fill 0 or hold the last one). Level
+    is a vertical speed of 0 (σ :data:`LEVEL_RATE_SIGMA`) at the piece's nodes: the height is
+    the one the flight's path reaches at the join when the piece reaches the flight within
+    ``max_gap_s``, else (a gap between) also held to the median of the piece's own heights.
+    Then step 7 with :data:`ON_GROUND` at the nodes within the piece's samples, the vehicle's
+    envelope in the overlap and across a gap between them and the flight.
+
+    Returns the piece's output grid values (horizontal (k, 3), heights (k, 1)) in time order,
+    the overlap's nodes included (they replace the flight's: ``overlap`` in the summary), and
+    its summary for the report; None where the piece is shorter than one output interval.
     """
     log, o, veh = st.log, st.opts, st.vehicle
     t_join, dt = join
@@ -1263,17 +1280,33 @@ def ground_piece(
     k = int(np.floor(abs(th[0 if side < 0 else -1] - t_join) / dt + 1e-9))
     if k < 1:
         return None
-    ngp = a + k + EDGE
+    # the flight's first (last) nodes are fitted again with the piece: its free end is no join
+    hi, vi, loc = flight
+    over = int(np.ceil(JOIN_OVERLAP_S / dt))
+    if gh.shape[0] < 2 * (over + a):
+        over = 0
+    ngp = a + k + over + EDGE
     if side < 0:
         t0 = t_join - (k + EDGE) * dt
-        held, out = np.arange(k + EDGE, ngp), np.arange(EDGE, EDGE + k)
-        held_h, held_v = gh[:a], gv[:a]
+        held, out = np.arange(ngp - a, ngp), np.arange(EDGE, EDGE + k + over)
+        held_h, held_v = gh[over : over + a], gv[over : over + a]
     else:
-        t0 = t_join - (a - 1) * dt
-        held, out = np.arange(a), np.arange(a, a + k)
-        held_h, held_v = gh[-a:], gv[-a:]
+        t0 = t_join - (over + a - 1) * dt
+        held, out = np.arange(a), np.arange(a, a + over + k)
+        n = gh.shape[0] - over
+        held_h, held_v = gh[n - a : n], gv[n - a : n]
     grid = (t0, dt, ngp)
     tn = t0 + dt * np.arange(ngp)
+    lo_o, hi_o = (t_join, t_join + over * dt) if side < 0 else (t_join - over * dt, t_join)
+    th_all = st.t_h[hi]
+    fh_in = (th_all >= lo_o - 0.5 * dt) & (th_all <= hi_o + 0.5 * dt) if over else th_all < -np.inf
+    fv_in = (
+        (log.t[vi] >= lo_o - 0.5 * dt) & (log.t[vi] <= hi_o + 0.5 * dt)
+        if over
+        else log.t[vi] < -np.inf
+    )
+    f_t, f_p, f_s = th_all[fh_in], st.p_h[hi[fh_in]], loc[0][fh_in]
+    fv_t, fv_h, fv_s = log.t[vi[fv_in]], log.h[vi[fv_in], None], loc[1][fv_in]
     ph = log.p[idx]
     # horizontal: the piece's own noise and λ
     if idx.size >= 2 * MIN_POINTS:
@@ -1311,23 +1344,23 @@ def ground_piece(
     if on.size == 0:
         on = out
     t_lvl = tn[on]
-    t_v, y_v = tn[held], held_v
-    sv = np.full(0, 1.0)
+    t_v, y_v = np.concatenate([fv_t, tn[held]]), np.concatenate([fv_h, held_v])
+    sv = fv_s.copy()
     if not joined and hv_ok.size:
         level_from = "the piece's own heights"
         t_v = np.concatenate([t_lvl, t_v])
         y_v = np.concatenate([np.full((on.size, 1), float(np.median(log.h[hv_ok]))), y_v])
-        sv = np.full(on.size, max(float(sig[1]), SIGMA_MIN))
+        sv = np.concatenate([np.full(on.size, max(float(sig[1]), SIGMA_MIN)), sv])
     sr = np.full(on.size, LEVEL_RATE_SIGMA)
-    t_h, y_h = np.concatenate([th[keep], tn[held]]), np.concatenate([ph[keep], held_h])
+    t_h = np.concatenate([th[keep], f_t, tn[held]])
+    y_h = np.concatenate([ph[keep], f_p, held_h])
     pin = np.full(a, JOIN_SIGMA)
-    sh = loc_h[keep].copy()
-    pin_v = pin if joined or not hv_ok.size else np.concatenate([sv, pin])
+    sh = np.concatenate([loc_h[keep], f_s])
 
     def solve() -> tuple[np.ndarray, np.ndarray]:
         g1 = cfit.refit(grid, t_h, y_h, np.concatenate([sh, pin]), lam_h, rates)[0]
         level = cfit.Rates(t_lvl, np.zeros((on.size, 1)), 1.0 / sr**2)
-        g2 = cfit.refit(grid, t_v, y_v, pin_v, float(lam[1]), level)[0]
+        g2 = cfit.refit(grid, t_v, y_v, np.concatenate([sv, pin]), float(lam[1]), level)[0]
         return g1, g2
 
     g_h, g_v = solve()
@@ -1353,14 +1386,15 @@ def ground_piece(
         acc = np.hypot(ah, av)
         tb = tn[rng][bad & ((ah >= 0.5 * acc) | (jh >= 0.5 * jerk))]
         if tb.size:
-            f = soften_factor(th[keep], tb, span)
+            f = soften_factor(t_h[: sh.size], tb, span)
             sh *= f
-            touched[kept[f > 1.0]] = True
+            touched[kept[f[: kept.size] > 1.0]] = True
             if rates is not None:
                 rates = cfit.Rates(rates.t, rates.v, rates.w / soften_factor(rates.t, tb, span))
         tb = tn[rng][bad & ((av >= 0.5 * acc) | (jv >= 0.5 * jerk))]
         if tb.size:
             sr *= soften_factor(t_lvl, tb, span)
+            sv *= soften_factor(t_v[: sv.size], tb, span)
         g_h, g_v = solve()
     st.out_h[idx[~keep]] = True
     fit_at = cfit.on_grid(g_h, cfit.lagrange_rows(t0, dt, ngp, th[keep]))
@@ -1376,6 +1410,7 @@ def ground_piece(
         "residual_rms_h_m": rms,
         "height_m": float(np.median(g_v[on, 0])),
         "height_from": level_from,
+        "overlap": over,
         "softened_samples": int(touched.sum()),
         "velocities": rates is not None,
     }
