@@ -21,7 +21,7 @@ import pytest
 
 from fieldmap.cli import main
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.condition import Conditioning, condition
+from fieldmap.nav.logs.condition import JOIN_OVERLAP_S, Conditioning, condition
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.trajectory import FlightTrajectory
 
@@ -280,16 +280,16 @@ def _reported_max_groundspeed(path: Path) -> float:
     return max(gs) * KT
 
 
-def _airborne_span(cf) -> float:
-    """Return the log's span less the ground movement trimmed at its ends (s)."""
-    t = cf.raw["t"]
-    a, b = t[0], t[-1]
-    for g in cf.report["ground_trimmed"]:
-        if g["t_start_s"] <= a:
-            a = t[t > g["t_end_s"]][0]
-        if g["t_end_s"] >= b:
-            b = t[t < g["t_start_s"]][-1]
-    return float(b - a)
+def _file_span(path: Path) -> float:
+    """Return the log's span (s): its first fix to its last, as the file holds them."""
+    with gzip.open(path, "rt") as f:
+        rows = f.read().splitlines()
+    col = rows[0].split(",").index("timestamp")
+    t = [
+        datetime.fromisoformat(r.split(",")[col].replace("Z", "+00:00")).timestamp()
+        for r in rows[1:]
+    ]
+    return max(t) - min(t)
 
 
 @pytest.mark.parametrize(
@@ -300,16 +300,63 @@ def _airborne_span(cf) -> float:
     ],
 )
 def test_real_adsb_flown_whole_at_the_reported_speeds(name):
+    """The whole file is flown (the ground movement too), at the speeds the aircraft reported."""
     path = ADSB / f"{name}.csv.gz"
     cf = condition(read_track(path, height_ref="pressure"))
     k = cf.report["kinematics"]
-    assert k["duration_s"] >= 0.9 * _airborne_span(cf)
+    assert k["duration_s"] >= 0.9 * _file_span(path)
     ratio = k["max_ground_speed_m_s"] / _reported_max_groundspeed(path)
     assert 0.95 <= ratio <= 1.05, ratio
     assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
     v = cf.report["velocity"]
     assert v is not None and v["horizontal_count"] > 100
     assert "velocity residuals, flown − log" in cf.format_report()
+
+
+def test_parked_airliner_flown_whole():
+    """elal747 is parked for 42 minutes before it taxis: flown, not trimmed (84.7 % before)."""
+    path = ADSB / "elal747.csv.gz"
+    cf = condition(read_track(path, height_ref="pressure"))
+    span = _file_span(path)
+    assert cf.samples.t[-1] >= 0.99 * span
+    g = cf.report["ground"]
+    assert cf.report["ground_trimmed"] == []
+    assert [p["side"] for p in g["flown"]] == ["before", "after"]
+    assert g["flown"][0]["t_end_s"] - g["flown"][0]["t_start_s"] >= 40 * 60
+    assert 0.1 < g["fraction_of_log"] < 0.2
+    assert "ground movement flown as such (before the flight)" in cf.format_report()
+    # on the ground: level, at most 0.5 g horizontally (the ground envelope, with its margin)
+    s = cf.samples
+    before = s.t < g["flown"][0]["t_end_s"] - 60.0
+    assert np.ptp(s.h[before]) < 1.0
+    from fieldmap.nav.logs.report import kinematics
+    from fieldmap.nav.trajectory import FlightSamples
+
+    parked = FlightSamples(
+        s.t[before], s.lat[before], s.lon[before], s.h[before], None, "x", s.lines[before], 0.0
+    )
+    kp = kinematics(parked)
+    assert kp["peak_acceleration_g"] <= 0.5 and kp["max_ground_speed_m_s"] < 30.0
+
+
+@pytest.mark.parametrize("name", ["elal747", "qantas747", "munich", "noisy_takeoff"])
+def test_airborne_only_still_trims_the_ground(name):
+    """``airborne_only=True`` flies the airborne part only, and it is what the whole log flies."""
+    path = ADSB / f"{name}.csv.gz"
+    track = read_track(path, height_ref="pressure")
+    air = condition(track, Conditioning(airborne_only=True))
+    whole = condition(track)
+    assert air.report["ground_trimmed"] and air.report["ground"]["flown"] == []
+    assert air.samples.t[-1] < 0.97 * _file_span(path) <= whole.samples.t[-1] + 1.0
+    # the flight itself is the same path: the ground pieces join it, they do not move it (but
+    # for the JOIN_OVERLAP_S seconds next to a piece, fitted again with it)
+    k = np.searchsorted(whole.samples.t + whole.samples.t_start, air.samples.t_start)
+    n = air.samples.t.size
+    over = int(np.ceil(JOIN_OVERLAP_S / (air.samples.t[1] - air.samples.t[0])))
+    a, b = over, n - over if air.report["ground_trimmed"][-1]["t_end_s"] > air.samples.t[-1] else n
+    assert np.array_equal(whole.samples.lat[k + a : k + b], air.samples.lat[a:b])
+    assert np.array_equal(whole.samples.h[k + a : k + b], air.samples.h[a:b])
+    assert not np.array_equal(whole.samples.lat[k : k + a], air.samples.lat[:a])
 
 
 def test_real_log_with_velocities_that_contradict_its_positions_refused():

@@ -89,7 +89,8 @@ def test_times_read_as_epoch_ms_beyond_year_9999(tmp_path, capsys):
 
 # ------------------------------------------------------------------------------ 2.1, 2.2
 @pytest.mark.parametrize(
-    "option", [["--max-gap-s", "10"], ["--position-noise-m", "5"], ["--keep-ground"]]
+    "option",
+    [["--max-gap-s", "10"], ["--position-noise-m", "5"], ["--keep-ground"], ["--airborne-only"]],
 )
 def test_conditioning_options_refused_with_no_smooth(tmp_path, capsys, option):
     """``--no-smooth`` turns the conditioning off: its options did nothing (exit 0)."""
@@ -110,7 +111,13 @@ def _netcdf_flight(path: Path) -> Path:
 
 @pytest.mark.parametrize(
     "option",
-    [["--no-smooth"], ["--max-gap-s", "10"], ["--position-noise-m", "5"], ["--keep-ground"]],
+    [
+        ["--no-smooth"],
+        ["--max-gap-s", "10"],
+        ["--position-noise-m", "5"],
+        ["--keep-ground"],
+        ["--airborne-only"],
+    ],
 )
 @pytest.mark.parametrize("kind", ["attitude-csv", "netcdf"])
 def test_conditioning_options_refused_for_flights_flown_as_recorded(tmp_path, capsys, option, kind):
@@ -274,22 +281,30 @@ def test_library_messages_name_its_keywords(tmp_path):
     k = np.arange(121.0)
     taxi = _flight(tmp_path / "taxi.csv", lat=47.0 + k * 8.0 / 111_000.0, h=np.full(121, 400.0))
     with pytest.raises(InputError, match=r"30 m/s \(min_speed_mps\).*pass airborne_only=False"):
-        load_flight(taxi)
+        load_flight(taxi, Conditioning(airborne_only=True))
+    assert load_flight(taxi)[0] is not None  # the whole log is flown by default
 
 
-def test_ground_only_log_names_keep_ground(tmp_path, capsys):
-    """The advice was "pass airborne_only=False": the option is --keep-ground."""
+def test_ground_only_log_names_airborne_only(tmp_path, capsys):
+    """The advice "pass airborne_only=False" is to leave out --airborne-only."""
     k = np.arange(121.0)
     f = _flight(tmp_path / "taxi.csv", lat=47.0 + k * 8.0 / 111_000.0, h=np.full(121, 400.0))
-    argv = _navsim("--trajectory", str(f))
+    argv = _navsim("--trajectory", str(f), "--airborne-only")
     _refused(
         argv,
         tmp_path,
         capsys,
         "no airborne part",
-        "give --keep-ground",
+        "leave out --airborne-only",
         absent=("airborne_only", "min_speed_mps"),
     )
+
+
+def test_keep_ground_and_airborne_only_refused_together(tmp_path, capsys):
+    """--keep-ground (the default now) flies the ground, --airborne-only trims it."""
+    f = _flight(tmp_path / "good.csv")
+    argv = _navsim("--trajectory", str(f), "--keep-ground", "--airborne-only")
+    _refused(argv, tmp_path, capsys, "--keep-ground", "--airborne-only", "give one")
 
 
 def test_gap_message_names_max_gap_s_option(tmp_path, capsys):

@@ -343,11 +343,9 @@ def test_nothing_left():
     t = np.arange(0.0, 600.0)
     ground = quiet_track(t, *straight(t, v=8.0, h0=400.0), source="taxi.csv")
     with pytest.raises(InputError, match=r"taxi.csv .*no airborne part") as e:
-        condition(ground)
+        condition(ground, Conditioning(airborne_only=True))
     assert "\n" not in str(e.value)
-    assert condition(ground, Conditioning(airborne_only=False)).samples.t[-1] == pytest.approx(
-        599.0
-    )
+    assert condition(ground).samples.t[-1] == pytest.approx(599.0)  # the whole log by default
     t3 = np.arange(3.0)
     with pytest.raises(InputError, match=r"three.csv: 3 usable samples"):
         condition(quiet_track(t3, *straight(t3), source="three.csv"))
@@ -361,10 +359,20 @@ def test_ground_segments_trimmed():
     vz = 8.0 * (smoothstep(t, 400.0, 20) - smoothstep(t, 600, 20))
     vz -= 8.0 * (smoothstep(t, 800.0, 20) - smoothstep(t, 1000, 20))
     h = 600.0 + np.cumsum(vz)
-    cf = condition(quiet_track(t, lat, np.full(t.size, -3.0), h))
+    track = quiet_track(t, lat, np.full(t.size, -3.0), h)
+    cf = condition(track, Conditioning(airborne_only=True))
     lead, trail = cf.report["ground_trimmed"]
     assert 300 < lead["samples"] < 400 and 250 < trail["samples"] < 380
     assert cf.report["kinematics"]["max_speed_m_s"] > 190.0
+    # by default the ground movement is flown, as an aircraft on the ground
+    whole = condition(track)
+    assert whole.report["ground_trimmed"] == [] and whole.samples.t[-1] == pytest.approx(1499.0)
+    assert [p["samples"] for p in whole.report["ground"]["flown"]] == [
+        lead["samples"],
+        trail["samples"],
+    ]
+    k = whole.report["kinematics"]
+    assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
 
 
 def test_three_hours():

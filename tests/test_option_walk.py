@@ -731,8 +731,15 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--vehicle", "glider", expect=REFUSED, note="--route"),
     ],
     ("navsim", "--keep-ground"): [
-        C("flight-log", "--keep-ground"),
+        # the default now (the whole log is flown): a note on stderr says so
+        C("flight-log", "--keep-ground", expect=NEUTRAL),
+        C("flight-log", "--keep-ground", "--airborne-only", expect=REFUSED, note="give one"),
         C("flight", "--keep-ground", expect=REFUSED, note="--route"),
+    ],
+    ("navsim", "--airborne-only"): [
+        # the fixture's 20 s of taxi trimmed
+        C("flight-log", "--airborne-only"),
+        C("flight", "--airborne-only", expect=REFUSED, note="--route"),
     ],
     ("navsim", "--no-smooth"): [
         C("flight-file", "--no-smooth"),

@@ -126,7 +126,7 @@ def test_conditioning_errors_carry_their_keyword():
     e = _raised(condition, _Track(t, lat, 1e3 + k, "back.csv"), Conditioning(reorder=False))
     assert e.param == "reorder" and "pass reorder=True to sort the log" in str(e)
     taxi = _Track(k, 47.0 + k * 8.0 / 111_000.0, np.full(121, 400.0), "taxi.csv")
-    e = _raised(condition, taxi)
+    e = _raised(condition, taxi, Conditioning(airborne_only=True))
     assert e.param == "airborne_only"
     assert "30 m/s (min_speed_mps)" in str(e) and "pass airborne_only=False" in str(e)
 
@@ -156,7 +156,7 @@ def test_reworded_for_navsim_and_for_table():
     [
         # an advice by a switch (ADVICE), a label without an option
         ("x: slower than 30 m/s (min_speed_mps) (2 of 9); pass airborne_only=False to keep it",
-         "x: slower than 30 m/s (2 of 9); give --keep-ground to keep it",
+         "x: slower than 30 m/s (2 of 9); leave out --airborne-only to keep it",
          "x: slower than 30 m/s (2 of 9)"),
         # a setting by an option with a value; "? " keeps its question mark
         ("feet read as metres? pass alt_units='ft', or pass alt_units='m' if these are metres",

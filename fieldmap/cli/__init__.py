@@ -18,11 +18,11 @@ arguments, from one table (:data:`OPTIONS`). The flight-log readers and the cond
 (:mod:`fieldmap.nav.logs`), the flight study (:class:`fieldmap.nav.study.FlightStudy`) and the
 mechanization checks of the propagator (:mod:`fieldmap.nav.propagator`) word their messages for a
 Python caller: they name keyword arguments ("no stretch ... without a gap over 60 s (max_gap_s)",
-"pass airborne_only=False to keep ground movement", "draws must be within 1..10000", "baro altitude
-aiding needs frame='ned'"), and an :class:`~fieldmap.errors.InputError` about one carries its name
-as ``param``. A user of the command line can only change options, so the CLI rewords such text with
-:data:`OPTIONS` and :data:`ADVICE` before it shows it (:func:`reword`; errors in :func:`main`, the
-notes of a conditioning report in :mod:`fieldmap.cli.nav`).
+"pass airborne_only=False to fly the ground movement", "draws must be within 1..10000", "baro
+altitude aiding needs frame='ned'"), and an :class:`~fieldmap.errors.InputError` about one carries
+its name as ``param``. A user of the command line can only change options, so the CLI rewords such
+text with :data:`OPTIONS` and :data:`ADVICE` before it shows it (:func:`reword`; errors in
+:func:`main`, the notes of a conditioning report in :mod:`fieldmap.cli.nav`).
 
 How a message names a keyword ``name`` (a key of :data:`OPTIONS`), and what the command line
 makes of it:
@@ -313,7 +313,7 @@ OPTIONS: dict[str, str | None] = {
     # condition, load_flight
     "position_noise_m": "--position-noise-m",
     "max_gap_s": "--max-gap-s",
-    "airborne_only": None,  # --keep-ground sets airborne_only=False: see ADVICE
+    "airborne_only": None,  # --airborne-only sets airborne_only=True: see ADVICE
     "smooth": None,  # --no-smooth sets smooth=False: see ADVICE
     "reorder": None,
     "on_long_gap": None,
@@ -368,7 +368,7 @@ OPTIONS: dict[str, str | None] = {
 #: ``"name=value"`` (the value as ``repr`` writes it) -> the whole advice on the command line,
 #: for settings made by a switch rather than by an option with a value
 ADVICE: dict[str, str] = {
-    "airborne_only=False": "give --keep-ground",
+    "airborne_only=False": "leave out --airborne-only",
     "smooth=True": "leave out --no-smooth",
 }
 

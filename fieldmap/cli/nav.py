@@ -74,12 +74,16 @@ LOG_ONLY = {
     "position_noise_m": "--position-noise-m",
     "max_gap_s": "--max-gap-s",
     "keep_ground": "--keep-ground",
+    "airborne_only": "--airborne-only",
     "no_smooth": "--no-smooth",
     "vehicle": "--vehicle",
 }
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
-CONDITIONING = {k: LOG_ONLY[k] for k in ("position_noise_m", "max_gap_s", "keep_ground", "vehicle")}
+CONDITIONING = {
+    k: LOG_ONLY[k]
+    for k in ("position_noise_m", "max_gap_s", "keep_ground", "airborne_only", "vehicle")
+}
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
     "gravity_rate_hz": "--gravity-rate-hz",
@@ -137,9 +141,17 @@ def _flight_options(p: argparse.ArgumentParser) -> None:
         "(default: guessed from the log, and said in the report)",
     )
     g.add_argument(
+        "--airborne-only",
+        action="store_true",
+        help="trim the ground movement (taxi, parking, the slow part of the take-off and "
+        "landing rolls) at the ends of the log (default: flown, as the aircraft moved on the "
+        "ground)",
+    )
+    g.add_argument(
         "--keep-ground",
         action="store_true",
-        help="keep the taxi and ground segments at the ends (default: trimmed)",
+        help="fly the ground movement at the ends of the log: the default now (a note says "
+        "so); kept for old command lines, refused with --airborne-only",
     )
     g.add_argument(
         "--no-smooth",
@@ -212,10 +224,14 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
                     f"{option} applies to the conditioning of the log, which --no-smooth turns "
                     "off (the samples are flown as they are)"
                 )
+    if given(args, "keep_ground") and given(args, "airborne_only"):
+        raise InputError(
+            "--keep-ground flies the ground movement, --airborne-only trims it: give one"
+        )
     conditioning = Conditioning(
         position_noise_m=_noise(args.position_noise_m),
         max_gap_s=args.max_gap_s,
-        airborne_only=not args.keep_ground,
+        airborne_only=bool(args.airborne_only),
         smooth=not args.no_smooth,
         vehicle=args.vehicle,
     )
@@ -877,6 +893,11 @@ def _check_flight_args(
             "--gravity-rate-hz sets the update rate of SH navigation models: --models has none"
         )
     flights = _flights(args, model)
+    if given(args, "keep_ground"):
+        notes.append(
+            f"fieldmap {getattr(args, 'command', 'navsim')}: note: --keep-ground is the "
+            "default now: the ground movement is flown (--airborne-only trims it)"
+        )
     studies = []
     for name, traj, cf in flights:
         refuse_in_flight(args, imu, traj)

@@ -25,7 +25,7 @@ takes it from file to flight:
    CSV with attitude columns and NetCDF files are flown as recorded (their attitude would be
    lost by the smoothing).
 
-Messages name the keyword arguments of these functions ("pass airborne_only=False to keep
+Messages name the keyword arguments of these functions ("pass airborne_only=False to fly the
 ground movement", "60 s (max_gap_s)"), and an :class:`~fieldmap.errors.InputError` about one
 carries its name as ``param``. Where the conditioning without smoothing advises
 ``reorder=True``, which :func:`load_flight` sets from ``smooth``, the advice is

@@ -33,8 +33,28 @@ cleaning steps are the functions below it, each on one segment of ordered sample
 3. **Breaks**: jumps that are no short bursts (a displaced stretch: spoofing, a wrong altitude
    held for minutes) split the log into segments; so do gaps longer than ``max_gap_s``, unless
    ``on_long_gap="bridge"`` (default).
-4. **Ground.** With ``airborne_only``, leading and trailing parts of each segment slower than
-   ``min_speed_mps`` and within 30 m of the segment's first (last) height are trimmed.
+4. **Ground.** The leading and trailing parts of each segment slower than ``min_speed_mps``
+   and within 30 m of the segment's first (last) height (any height for a vehicle whose stall
+   speed is above ``min_speed_mps``) are ground movement: taxi, parking, the slow part of the
+   take-off and landing rolls. With ``airborne_only=True`` they are trimmed. By default the
+   whole log is flown: a vehicle without a stall speed (helicopter, drone, car, ship, rocket)
+   moves slowly within its own envelope, and its slow ends are fitted with the rest; an
+   aircraft (a stall speed) is fitted in three pieces, because a ground roll, a parked hour
+   and the flight share neither their noise, nor their smoothness, nor their limits (fitted
+   together, the ground's few-metre noise and slow speeds change the one σ, λ and timing
+   jitter of the whole fit, and the flight is flown differently). The flight is fitted as
+   with ``airborne_only=True`` (steps 6-7: the same bits but for its :data:`JOIN_OVERLAP_S`
+   seconds next to a piece), then each piece of ground movement next to it
+   (:func:`ground_piece`) as an aircraft moves on the ground: a penalised spline with the
+   noise σ and λ of its own samples, the log's ground speeds and tracks as observations (a
+   parked aircraft reports 0 kt: it does not move), level (no vertical speed: the height of
+   the ground; ADS-B surface positions carry no altitude, readers fill 0 or hold the last),
+   joined to the flight (the flight's free end, its first or last :data:`JOIN_OVERLAP_S`
+   seconds, fitted again with the piece from the flight's own samples, and the flight's path
+   held beyond: position, velocity and acceleration continue), and kept within
+   :data:`ON_GROUND` (0.5 g horizontally, 5 m/s³) by step 7, the overlap within the
+   vehicle's envelope. A segment with no flight left beside its ground movement is flown as
+   one piece. The report says how much of the log was on the ground and flown as such (``ground``).
 5. **Segment.** ``on_long_gap="bridge"`` (default) flies across gaps of any length (step 6)
    and the longest of the segments jumps leave; ``"longest"`` flies the longest segment that
    gaps and jumps leave and lists the others in the report; ``"refuse"`` raises an
@@ -134,7 +154,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -333,7 +353,9 @@ class Conditioning:
         Gaps longer than this (s) are long gaps: bridged and reported with their uncertainty
         (``on_long_gap="bridge"``), or breaks that split the log.
     airborne_only : bool
-        Trim leading and trailing ground movement (slower than ``min_speed_mps``).
+        Trim leading and trailing ground movement (slower than ``min_speed_mps``). Default
+        False: the whole log is flown, an aircraft's ground movement as an aircraft moves on
+        the ground (step 4 of :mod:`fieldmap.nav.logs.condition`).
     smooth : bool
         False: only order the samples and drop repeated times (exact interpolation).
     reorder : bool
@@ -345,7 +367,8 @@ class Conditioning:
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
     min_speed_mps : float
-        Ground speed below which a vehicle near its first (last) height is on the ground.
+        Ground speed below which a vehicle near its first (last) height is on the ground
+        (trimmed with ``airborne_only``, else flown as such).
     max_speed_mps, max_climb_mps : float
         Horizontal and vertical speeds between consecutive samples beyond which one of them is
         wrong (m/s): a short run between such jumps is an outlier burst, a longer one a break.
@@ -375,7 +398,7 @@ class Conditioning:
 
     position_noise_m: float | tuple[float, float] | None = None
     max_gap_s: float = 60.0
-    airborne_only: bool = True
+    airborne_only: bool = False
     smooth: bool = True
     reorder: bool = True
     on_long_gap: str = "bridge"
@@ -471,9 +494,10 @@ def condition(track: Any, options: Conditioning | None = None) -> ConditionedFli
     ------
     InputError
         Times going back with ``reorder=False``; more than one segment with
-        ``on_long_gap="refuse"``; nothing left to fly (all on the ground, too few samples);
+        ``on_long_gap="refuse"``; nothing left to fly (all on the ground with
+        ``airborne_only=True``, too few samples);
         no flight (the vehicle never leaves a 30 m circle and a 15 m height band, also with
-        ``smooth=False`` or ``airborne_only=False``), each in one line naming the source and
+        ``smooth=False``, whatever ``airborne_only``), each in one line naming the source and
         its lines.
     """
     options = Conditioning() if options is None else options
@@ -507,7 +531,10 @@ def condition_segments(track: Any, options: Conditioning | None = None) -> list[
 
 
 class Stages:
-    """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment."""
+    """Steps 1-4 on construction; :meth:`fit` does 6-7 for one segment.
+
+    :meth:`fit` also flies the ground movement next to the segment (step 4, :meth:`_fly_ground`).
+    """
 
     def __init__(self, track: Any, options: Conditioning) -> None:
         self.track, self.options = track, options
@@ -517,6 +544,12 @@ class Stages:
         z = np.zeros(n, bool)
         self.stale, self.stale_v, self.out_h, self.out_v = z.copy(), z.copy(), z.copy(), z.copy()
         self.ground, self.in_gap, self.dropped_mask = z.copy(), z.copy(), z.copy()
+        #: ground movement flown (``airborne_only=False``), and the segment it belongs to
+        self.on_ground, self.ground_seg = z.copy(), np.full(n, -1, np.int64)
+        self.hv_all, self.vv_all = ~z, ~z
+        #: the ground pieces of the last fitted segment (the report's ``ground``)
+        self.ground_pieces: list[dict[str, Any]] = []
+        self.ground_envelope = ON_GROUND
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
         self.obs: cfit.Observed | None = None
         self.t_h, self.p_h = log.t, log.p
@@ -587,7 +620,9 @@ class Stages:
             # ground trimming below then sees its real ends (a glider parked after landing)
             seg[:] = 0
         self.in_gap = seg < 0
-        if o["airborne_only"]:
+        # an aircraft (a stall speed) is flown on the ground as such, apart from its flight
+        fly_ground = not o["airborne_only"] and self.vehicle.stall > 0.0
+        if o["airborne_only"] or fly_ground:
             for s in np.unique(seg[seg >= 0]):
                 m = np.flatnonzero(seg == s)
                 g = ground(
@@ -598,8 +633,17 @@ class Stages:
                     o["min_speed_mps"],
                     self.vehicle.stall > o["min_speed_mps"],
                 )
-                self.ground[m[g]] = True
+                if fly_ground:
+                    air = m[~g]
+                    if hv[air].sum() < MIN_POINTS or vv[air].sum() < MIN_POINTS:
+                        continue  # no flight to join: the whole segment is flown as one
+                    self.on_ground[m[g]] = True
+                    self.ground_seg[m[g]] = s
+                else:
+                    self.ground[m[g]] = True
                 seg[m[g]] = -1
+        #: the usable samples before the ground was set apart (the ground pieces use them)
+        self.hv_all, self.vv_all = hv.copy(), vv.copy()
         self.hv, self.vv, self.seg = hv & (seg >= 0), vv & (seg >= 0), seg
 
     def _jump_speed(self) -> float:
@@ -672,6 +716,7 @@ class Stages:
                     }
                 )
                 self.dropped_mask[m] = True
+                self.dropped_mask[self.ground_seg == s] = True
         return best
 
     def refuse_break(self, ids: list[int]) -> None:
@@ -717,7 +762,7 @@ class Stages:
                 f"within {STILL_H:g} m horizontally and {STILL_V:g} m vertically of one place)"
             )
 
-    def nothing_left(self) -> None:
+    def nothing_left(self) -> NoReturn:
         """Raise the reason no segment can be flown."""
         log, st, o = self.log, self.status(), self.opts
         n, src = log.t.size, log.source
@@ -732,8 +777,8 @@ class Stages:
             raise InputError(
                 f"{where}: no airborne part: the vehicle stays slower than "
                 f"{o['min_speed_mps']:g} m/s (min_speed_mps) near its first/last height "
-                f"({counts['ground']} of {n} samples on the ground); pass airborne_only=False "
-                "to keep ground movement",
+                f"({counts['ground']} of {n} samples on the ground, trimmed); pass "
+                "airborne_only=False to fly the ground movement",
                 param="airborne_only",
             )
         what = ", ".join(f"{v} {k}" for k, v in counts.items())
@@ -826,17 +871,24 @@ class Stages:
         hi, vi, loc = hi[keep_h], vi[keep_v], [loc[0][keep_h], loc[1][keep_v]]
         gh, gv, softened = self._limits(grid, hi, vi, loc, fh, fv)
         bridges = self._bridges(grid, hi, vi, loc, (fh["lam"], fv["lam"]))
-        tg = t_lo + dt * np.arange(ng)
         gh, gv = gh[EDGE : EDGE + ng], gv[EDGE : EDGE + ng]
+        used = np.union1d(hi, vi)
+        inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
+        self.ground_pieces = []
+        if self.on_ground.any():  # the ground movement at either end, flown as such (step 4)
+            gh, gv, t_lo, t_hi, on_ground = self._fly_ground(
+                s, (float(t_lo), dt), (gh, gv), sig, (fh["lam"], fv["lam"]), (hi, vi, loc)
+            )
+            used, inside = np.union1d(used, on_ground), np.union1d(inside, on_ground)
+            ng = gh.shape[0]
+        tg = t_lo + dt * np.arange(ng)
         lat, lon, _ = ecef_to_geodetic(gh[:, 0], gh[:, 1], gh[:, 2], log.ellipsoid)
         lon = np.degrees(np.unwrap(np.radians(lon)))
         lon += 360.0 * np.round((log.lon[hi[0]] - lon[0]) / 360.0)
-        used = np.union1d(hi, vi)
         near = used[np.clip(np.searchsorted(log.t[used], tg), 0, used.size - 1)]
         samples = FlightSamples(
             tg - t_lo, lat, lon, gv[:, 0], None, log.source, log.lines[near], float(t_lo)
         )
-        inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
         rows = cfit.lagrange_rows(t_lo, dt, ng, log.t[inside])
         rows_h = cfit.lagrange_rows(t_lo, dt, ng, self.t_h[inside])  # the fixes' own times
         self.off_h[inside] = np.linalg.norm(
@@ -864,6 +916,61 @@ class Stages:
             "velocity": cfit.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
             "timing": self.timing,
         }
+
+    def _fly_ground(
+        self,
+        s: int,
+        start: tuple[float, float],
+        path: tuple[np.ndarray, np.ndarray],
+        sig: Any,
+        lam: tuple[float, float],
+        flight: tuple[np.ndarray, np.ndarray, list[np.ndarray]],
+    ) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
+        """Step 4b: the ground movement at either end of segment ``s``, flown as such.
+
+        ``start``: the time of the flight's first output node and the output interval; ``path``:
+        the flight's output grid values (horizontal (ng, 3), heights (ng, 1)); ``sig``, ``lam``:
+        the flight's noise σ and λ (horizontal, vertical); ``flight``: its samples (horizontal,
+        vertical) and their σ. Each piece (the ground samples before
+        the flight, those after it) is a penalised spline of its own (:func:`ground_piece`):
+        its own noise σ and λ (the discrepancy principle on its samples; the flight's where it
+        has fewer than ``2 MIN_POINTS``), the log's ground speeds and tracks as observations,
+        level, and joined to the flight by holding the flight's :data:`JOIN_NODES` output
+        nodes next to it; then softened (step 7) to :data:`ON_GROUND` where on the ground, to the
+        vehicle's envelope across a gap between the ground and the flight.
+
+        Returns the grid values with the pieces, the times of their first and last nodes,
+        and the ground samples flown.
+        """
+        log = self.log
+        t_lo, dt = start
+        gh, gv = path
+        t_end = t_lo + dt * (gh.shape[0] - 1)
+        mine = self.on_ground & (self.ground_seg == s) & self.hv_all
+        used: list[np.ndarray] = []
+        for side, idx in (
+            (-1, np.flatnonzero(mine & (log.t < t_lo))),
+            (1, np.flatnonzero(mine & (log.t > t_end))),
+        ):
+            if idx.size == 0:
+                continue
+            join = (t_lo if side < 0 else t_end, dt)
+            piece = ground_piece(self, side, idx, join, (gh, gv), sig, lam, flight)
+            if piece is None:
+                continue
+            ph, pv, info = piece
+            k, over = ph.shape[0], info.pop("overlap")
+            if side < 0:
+                gh, gv = np.concatenate([ph, gh[over:]]), np.concatenate([pv, gv[over:]])
+                t_lo -= (k - over) * dt
+            else:
+                n = gh.shape[0] - over
+                gh, gv = np.concatenate([gh[:n], ph]), np.concatenate([gv[:n], pv])
+            used.append(idx)
+            self.ground_pieces.append(info)
+        self.ground_pieces.sort(key=lambda d: d["t_start"])
+        idx = np.concatenate(used) if used else np.zeros(0, np.int64)
+        return gh, gv, t_lo, t_lo + dt * (gh.shape[0] - 1), idx
 
     def _retime(
         self,
@@ -1055,13 +1162,7 @@ class Stages:
         )
 
         def near(tt: np.ndarray, tb: np.ndarray) -> np.ndarray:
-            """σ factor at the times ``tt``: 2 within ``span`` of a bad node, 1 beyond 2 span."""
-            pos = np.searchsorted(tb, tt)
-            d = np.minimum(
-                np.abs(tt - tb[np.clip(pos - 1, 0, tb.size - 1)]),
-                np.abs(tt - tb[np.clip(pos, 0, tb.size - 1)]),
-            )
-            return np.clip(3.0 - d / span, 1.0, 2.0)
+            return soften_factor(tt, tb, span)
 
         for _ in range(LIMIT_ITER):
             (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[out], dt) for g in (gh, gv))
@@ -1112,6 +1213,221 @@ class Stages:
             "velocity": None,
             "timing": None,
         }
+
+
+#: an aircraft on the ground (taxi, parking, the roll below ``min_speed_mps``): level, at
+#: most 0.5 g horizontally (an airliner's hardest braking, a rejected take-off; taxi turns
+#: take 0.1..0.3 g), so 0.9..√(1 + 0.5²) = 1.12 g with 0.1 g for the vertical join to the
+#: flight; jerk 5 m/s³ (full braking, 0.5 g, applied within a second); slower than 30 m/s
+#: (the ground step's ``min_speed_mps``); no climb
+ON_GROUND = Vehicle("ground", 0.9, 1.12, 5.0, 30.0, 0.0)
+#: a ground piece is joined to the flight by holding this many of the flight's output nodes
+#: next to it (one more than the penalty's stencil: position, velocity and acceleration)
+JOIN_NODES = 4
+#: the flight's first (last) seconds fitted again with a ground piece next to them: the end of
+#: the flight's own fit is a free end (straight beyond its data), no join
+JOIN_OVERLAP_S = 10.0
+#: σ (m) of the held nodes: a join the fit cannot move
+JOIN_SIGMA = 1e-3
+#: σ (m/s) of the vertical speed 0 of an aircraft on the ground (a runway's 1 % slope at 10 m/s)
+LEVEL_RATE_SIGMA = 0.1
+
+
+def ground_piece(
+    st: Any,
+    side: int,
+    idx: np.ndarray,
+    join: tuple[float, float],
+    path: tuple[np.ndarray, np.ndarray],
+    sig: Any,
+    lam: tuple[float, float],
+    flight: tuple[np.ndarray, np.ndarray, list[np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
+    """Fly one piece of ground movement next to the flight (step 4b of :class:`Stages`).
+
+    ``st``: the :class:`Stages`; ``side``: -1 before the flight, +1 after it; ``idx``: the
+    piece's usable ground samples (ordered log indices); ``join``: the time of the flight's
+    output node next to the piece and the output interval; ``path``: the flight's output grid
+    values; ``sig``, ``lam``: the flight's noise σ and λ (horizontal, vertical).
+
+    The piece gets a grid of its own, aligned with the flight's, that reaches
+    :data:`JOIN_OVERLAP_S` into the flight (the flight's free end: fitted again, from the
+    flight's own samples ``flight`` = (horizontal, vertical indices, their σ), within the
+    vehicle's envelope) and holds the flight's :data:`JOIN_NODES` output nodes beyond (σ
+    :data:`JOIN_SIGMA`): the piece continues the flight's position, velocity and
+    acceleration. Horizontally a penalised spline as the
+    flight's (step 6) with the noise σ of the piece's own samples (leave-one-out, local) and
+    λ from their discrepancy, the log's velocities as observations (a parked aircraft reports
+    0 kt: it does not move); with fewer than ``2 MIN_POINTS`` samples the flight's σ and λ.
+    Vertically level: an aircraft on the ground is at the height of the ground, which along
+    an aerodrome varies by metres, while the heights logged there are no measurement of it
+    (ADS-B surface positions carry no altitude: readers fill 0 or hold the last one). Level
+    is a vertical speed of 0 (σ :data:`LEVEL_RATE_SIGMA`) at the piece's nodes: the height is
+    the one the flight's path reaches at the join when the piece reaches the flight within
+    ``max_gap_s``, else (a gap between) also held to the median of the piece's own heights.
+    Then step 7 with :data:`ON_GROUND` at the nodes within the piece's samples, the vehicle's
+    envelope in the overlap and across a gap between them and the flight.
+
+    Returns the piece's output grid values (horizontal (k, 3), heights (k, 1)) in time order,
+    the overlap's nodes included (they replace the flight's: ``overlap`` in the summary), and
+    its summary for the report; None where the piece is shorter than one output interval.
+    """
+    log, o, veh = st.log, st.opts, st.vehicle
+    t_join, dt = join
+    gh, gv = path
+    a = JOIN_NODES
+    th = log.t[idx]
+    k = int(np.floor(abs(th[0 if side < 0 else -1] - t_join) / dt + 1e-9))
+    if k < 1:
+        return None
+    # the flight's first (last) nodes are fitted again with the piece: its free end is no join
+    hi, vi, loc = flight
+    over = int(np.ceil(JOIN_OVERLAP_S / dt))
+    if gh.shape[0] < 2 * (over + a):
+        over = 0
+    ngp = a + k + over + EDGE
+    if side < 0:
+        t0 = t_join - (k + EDGE) * dt
+        held, out = np.arange(ngp - a, ngp), np.arange(EDGE, EDGE + k + over)
+        held_h, held_v = gh[over : over + a], gv[over : over + a]
+    else:
+        t0 = t_join - (over + a - 1) * dt
+        held, out = np.arange(a), np.arange(a, a + over + k)
+        n = gh.shape[0] - over
+        held_h, held_v = gh[n - a : n], gv[n - a : n]
+    grid = (t0, dt, ngp)
+    tn = t0 + dt * np.arange(ngp)
+    lo_o, hi_o = (t_join, t_join + over * dt) if side < 0 else (t_join - over * dt, t_join)
+    th_all = st.t_h[hi]
+    fh_in = (th_all >= lo_o - 0.5 * dt) & (th_all <= hi_o + 0.5 * dt) if over else th_all < -np.inf
+    fv_in = (
+        (log.t[vi] >= lo_o - 0.5 * dt) & (log.t[vi] <= hi_o + 0.5 * dt)
+        if over
+        else log.t[vi] < -np.inf
+    )
+    f_t, f_p, f_s = th_all[fh_in], st.p_h[hi[fh_in]], loc[0][fh_in]
+    fv_t, fv_h, fv_s = log.t[vi[fv_in]], log.h[vi[fv_in], None], loc[1][fv_in]
+    ph = log.p[idx]
+    # horizontal: the piece's own noise and λ
+    if idx.size >= 2 * MIN_POINTS:
+        zh = to_en(log.en[idx[2:-2]], cfit.loo_noise(th, ph))
+        nh = cfit.noise_sigma(zh, o["threshold"], 0.0, NOISE_HALF, NOISE_FRAC)
+        loc_h = np.maximum(nh[1], SIGMA_MIN)
+        free = cfit.fit_path(grid, th, ph, loc_h, cfit.PathFit(2, max_run=burst_length(th)))
+        lam_h, keep = float(free["lam"]), ~free["outlier"]
+        sigma_h = max(nh[0], SIGMA_MIN)
+    else:
+        loc_h, lam_h = np.full(idx.size, float(sig[0])), float(lam[0])
+        keep, free, sigma_h = np.ones(idx.size, bool), None, float(sig[0])
+    rates = None
+    obs = cfit.observations(log, st.track, idx[keep])
+    if obs is not None and obs.h is not None and free is not None:
+        t_obs = obs.h.t
+        obs = replace(obs, iv=obs.iv[:0], v=None, up=obs.up[:0])
+        try:
+            rates = cfit.check(
+                obs,
+                cfit.fitted_rates(grid, free["g"], t_obs),
+                np.zeros((0, 1)),
+                log.source,
+                log.lines,
+            ).h
+        except InputError:  # velocities that contradict the ground positions: not used
+            rates = None
+    # vertical: level (no vertical speed), joined to the flight's height, or at the piece's own
+    # heights across a gap longer than max_gap_s
+    near_join = th[-1 if side < 0 else 0]
+    joined = abs(near_join - t_join) <= o["max_gap_s"]
+    hv_ok = idx[st.vv_all[idx]]
+    level_from = "joined to the flight"
+    on = out[(tn[out] >= th[0] - 0.5 * dt) & (tn[out] <= th[-1] + 0.5 * dt)]
+    if on.size == 0:
+        on = out
+    t_lvl = tn[on]
+    t_v, y_v = np.concatenate([fv_t, tn[held]]), np.concatenate([fv_h, held_v])
+    sv = fv_s.copy()
+    if not joined and hv_ok.size:
+        level_from = "the piece's own heights"
+        t_v = np.concatenate([t_lvl, t_v])
+        y_v = np.concatenate([np.full((on.size, 1), float(np.median(log.h[hv_ok]))), y_v])
+        sv = np.concatenate([np.full(on.size, max(float(sig[1]), SIGMA_MIN)), sv])
+    sr = np.full(on.size, LEVEL_RATE_SIGMA)
+    t_h = np.concatenate([th[keep], f_t, tn[held]])
+    y_h = np.concatenate([ph[keep], f_p, held_h])
+    pin = np.full(a, JOIN_SIGMA)
+    sh = np.concatenate([loc_h[keep], f_s])
+
+    def solve() -> tuple[np.ndarray, np.ndarray]:
+        g1 = cfit.refit(grid, t_h, y_h, np.concatenate([sh, pin]), lam_h, rates)[0]
+        level = cfit.Rates(t_lvl, np.zeros((on.size, 1)), 1.0 / sr**2)
+        g2 = cfit.refit(grid, t_v, y_v, np.concatenate([sv, pin]), float(lam[1]), level)[0]
+        return g1, g2
+
+    g_h, g_v = solve()
+    # step 7: the ground envelope on the ground, the vehicle's across a gap to the flight
+    span = 2.0 * max(dt, median_interval(th))
+    rng = np.arange(min(out[0], held[0]), max(out[-1], held[-1]) + 1)
+    ground_node = np.isin(rng, on)
+    lim = st.lim
+    n_lo = np.where(ground_node, ON_GROUND.n_min, veh.n_min)
+    n_hi = np.where(ground_node, ON_GROUND.n_max, veh.n_max)
+    n_lo, n_hi = 1.0 - LIMIT_MARGIN * (1.0 - n_lo), 1.0 + LIMIT_MARGIN * (n_hi - 1.0)
+    j_max = LIMIT_MARGIN * np.where(ground_node, ON_GROUND.jerk, lim["max_jerk"])
+    touched = np.zeros(idx.size, bool)
+    kept = np.flatnonzero(keep)
+    for _ in range(LIMIT_ITER):
+        (ah, jh), (av, jv) = (cfit.quintic_kinematics(g[rng], dt) for g in (g_h, g_v))
+        jerk = np.hypot(jh, jv)
+        nl, nh2 = cfit.quintic_load_factor(g_h[rng], g_v[rng], dt, G0)
+        bad = (jerk > j_max) | (nl < n_lo) | (nh2 > n_hi)
+        bad &= ~np.isin(rng, held)
+        if not bad.any():
+            break
+        acc = np.hypot(ah, av)
+        tb = tn[rng][bad & ((ah >= 0.5 * acc) | (jh >= 0.5 * jerk))]
+        if tb.size:
+            f = soften_factor(t_h[: sh.size], tb, span)
+            sh *= f
+            touched[kept[f[: kept.size] > 1.0]] = True
+            if rates is not None:
+                rates = cfit.Rates(rates.t, rates.v, rates.w / soften_factor(rates.t, tb, span))
+        tb = tn[rng][bad & ((av >= 0.5 * acc) | (jv >= 0.5 * jerk))]
+        if tb.size:
+            sr *= soften_factor(t_lvl, tb, span)
+            sv *= soften_factor(t_v[: sv.size], tb, span)
+        g_h, g_v = solve()
+    st.out_h[idx[~keep]] = True
+    fit_at = cfit.on_grid(g_h, cfit.lagrange_rows(t0, dt, ngp, th[keep]))
+    rms = float(np.sqrt(np.mean(np.sum(to_en(log.en[idx[keep]], ph[keep] - fit_at) ** 2, 1)) / 2))
+    info = {
+        "side": "before" if side < 0 else "after",
+        "t_start": float(th[0]),
+        "t_end": float(th[-1]),
+        "lines": [int(log.lines[idx[0]]), int(log.lines[idx[-1]])],
+        "samples": int(idx.size),
+        "outliers": int((~keep).sum()),
+        "sigma_h_m": float(sigma_h),
+        "residual_rms_h_m": rms,
+        "height_m": float(np.median(g_v[on, 0])),
+        "height_from": level_from,
+        "overlap": over,
+        "softened_samples": int(touched.sum()),
+        "velocities": rates is not None,
+    }
+    return g_h[out], g_v[out], info
+
+
+def soften_factor(tt: np.ndarray, tb: np.ndarray, span: float) -> np.ndarray:
+    """Return the σ factor (step 7) at the times ``tt`` near the bad nodes at the times ``tb``.
+
+    2 within ``span`` of a bad node, 1 beyond 2 ``span``, linear between.
+    """
+    pos = np.searchsorted(tb, tt)
+    d = np.minimum(
+        np.abs(tt - tb[np.clip(pos - 1, 0, tb.size - 1)]),
+        np.abs(tt - tb[np.clip(pos, 0, tb.size - 1)]),
+    )
+    return np.clip(3.0 - d / span, 1.0, 2.0)
 
 
 # -- the cleaning steps (1-4), each on one segment of ordered samples --------------------------

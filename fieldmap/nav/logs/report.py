@@ -48,7 +48,8 @@ class ConditionedFlight:
     report : dict
         JSON-ready summary: ``samples``, ``order``, ``stale``, ``outliers`` (every rejected
         sample with line, time and offset), ``fit`` (σ, residual RMS), ``gaps``, ``segments``,
-        ``ground_trimmed``, ``kinematics`` (:func:`kinematics`), ``options``, ``notes``.
+        ``ground_trimmed`` (``airborne_only``), ``ground`` (the ground movement flown as such:
+        :func:`_ground`), ``kinematics`` (:func:`kinematics`), ``options``, ``notes``.
     raw : dict
         The ordered raw samples (``t`` relative to ``samples.t_start``, ``lat``, ``lon``, ``h``,
         ``lines``), each one's ``status`` (codes :data:`STATUS_NAMES`) and offsets from the
@@ -140,6 +141,34 @@ def _intervals(t: np.ndarray, dtm: float) -> tuple[int, float]:
         return 0, 0.0
     d = np.diff(t)
     return int(np.sum(d > 2.5 * dtm)), float(d.max())
+
+
+def _ground(st: Any, t0: float) -> dict[str, Any]:
+    """Return the ground movement flown as such (``st.ground_pieces``), JSON-ready.
+
+    ``flown``: each piece (before or after the flight) with its times (relative to ``t0``),
+    lines, samples, level height and where it came from, noise σ, fit residual RMS and
+    samples softened; ``duration_s`` and ``fraction_of_log``: their time against the log's
+    span (first to last sample); ``envelope``: the ground envelope they keep within.
+    """
+    log = st.log
+    pieces = list(getattr(st, "ground_pieces", []))
+    env = getattr(st, "ground_envelope", None)
+    span = float(log.t[-1] - log.t[0]) if log.t.size > 1 else 0.0
+    duration = float(sum(p["t_end"] - p["t_start"] for p in pieces))
+    flown = []
+    for p in pieces:
+        d = {k: v for k, v in p.items() if k not in ("t_start", "t_end")}
+        flown.append(dict(d, t_start_s=p["t_start"] - t0, t_end_s=p["t_end"] - t0))
+    return {
+        "flown": flown,
+        "samples": int(sum(p["samples"] for p in pieces)),
+        "duration_s": duration,
+        "fraction_of_log": duration / span if span > 0.0 else 0.0,
+        "envelope": None
+        if env is None
+        else {"load_factor_g": [env.n_min, env.n_max], "max_jerk_m_s3": env.jerk},
+    }
 
 
 def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
@@ -285,6 +314,7 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
             "max_climb_m_s": veh.climb,
         },
         "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
+        "ground": _ground(st, t0),
         "kinematics": kinematics(samples, log.ellipsoid),
         "velocity": fr.get("velocity"),
         "timing": fr.get("timing"),
@@ -357,6 +387,23 @@ def format_report(rep: dict) -> str:
         lines.append(
             f"  segment dropped: lines {d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
             f"t = {d['t_start_s']:.0f}..{d['t_end_s']:.0f} s)"
+        )
+    gr = rep.get("ground") or {}
+    for d in gr.get("flown", []):
+        env = gr["envelope"]
+        lines.append(
+            f"  ground movement flown as such ({d['side']} the flight): lines "
+            f"{d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
+            f"{d['t_end_s'] - d['t_start_s']:.0f} s), level at {d['height_m']:.0f} m "
+            f"({d['height_from']}), noise σ {d['sigma_h_m']:.1f} m, fit residual RMS "
+            f"{d['residual_rms_h_m']:.1f} m, within {env['load_factor_g'][0]:g}.."
+            f"{env['load_factor_g'][1]:g} g and {env['max_jerk_m_s3']:g} m/s³"
+            + (f" (softened near {d['softened_samples']} samples)" if d["softened_samples"] else "")
+        )
+    if gr.get("flown"):
+        lines.append(
+            f"  on the ground: {gr['duration_s']:.0f} s, {100 * gr['fraction_of_log']:.1f} % "
+            "of the log's span, flown as an aircraft on the ground"
         )
     for d in rep["ground_trimmed"]:
         lines.append(
