@@ -39,8 +39,8 @@ def bench_synthesis(traj, rate, seconds, repeat):
     """Seconds per IMU sample: ours (J4 truth) and pyins.sim.generate_imu on the same path."""
     from pyins import sim
 
-    from fieldmap.nav.flight import geodetic_state
     from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
+    from fieldmap.nav.trajectory import geodetic_state
 
     g = Gravitation("j4")
     n = int(seconds * rate) // 2 * 2
@@ -144,7 +144,7 @@ def main(argv=None) -> int:
         args.minutes, args.rate, args.draws, args.runs, args.repeat = 2.0, 100.0, 3, 16, 1
         args.check_minutes = min(args.check_minutes, 1.0)
 
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     traj = FlightTrajectory(route_flight(ROUTE, 180.0))
     if traj.duration < 60.0 * args.minutes:  # a longer study: the same route, flown slower

@@ -86,8 +86,8 @@ _LAZY = {
     "propagate_ned": "fieldmap.nav.mechanize",
     "calc_force_ned": "fieldmap.nav.frames",
     # your own flight and IMU
-    "FlightTrajectory": "fieldmap.nav.flight",
-    "route_flight": "fieldmap.nav.flight",
+    "FlightTrajectory": "fieldmap.nav.trajectory",
+    "route_flight": "fieldmap.nav.trajectory",
     "load_imu": "fieldmap.nav.sensors",
     "run_flight": "fieldmap.nav.study",
     "FlightStudy": "fieldmap.nav.study",

@@ -304,10 +304,12 @@ MOVED: dict[str, str | tuple[str, ...]] = {
     # fieldmap 0.2: every format a log comes in is read, into its records, in one module (issue 25)
     "nav.logs.gnss": "nav.logs.read",
     "nav.logs.track": "nav.logs.read",
+    # fieldmap 0.2: every trajectory a study flies, closed-form or sampled, in one module (issue 25)
+    "nav.flight": "nav.trajectory",
     # fieldmap 0.2: nav/ regrouped by concept (issue 25)
     "nav.launch_frames": "nav.frames",
     "nav.forcened": "nav.frames",
-    "nav.flightsamples": "nav.flight",
+    "nav.flightsamples": "nav.trajectory",
     "nav.imu_errors": "nav.sensors",
     "nav.imu_specs": "nav.sensors",
     "nav.allan": "nav.sensors",

@@ -21,9 +21,9 @@ import pytest
 
 from fieldmap.cli import main
 from fieldmap.errors import InputError
-from fieldmap.nav.flight import FlightTrajectory
 from fieldmap.nav.logs.condition import JOIN_OVERLAP_S, Conditioning, condition
 from fieldmap.nav.logs.read import read_track
+from fieldmap.nav.trajectory import FlightTrajectory
 
 A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
 E2 = F_WGS * (2.0 - F_WGS)
@@ -329,8 +329,8 @@ def test_parked_airliner_flown_whole():
     s = cf.samples
     before = s.t < g["flown"][0]["t_end_s"] - 60.0
     assert np.ptp(s.h[before]) < 1.0
-    from fieldmap.nav.flight import FlightSamples
     from fieldmap.nav.logs.report import kinematics
+    from fieldmap.nav.trajectory import FlightSamples
 
     parked = FlightSamples(
         s.t[before], s.lat[before], s.lon[before], s.h[before], None, "x", s.lines[before], 0.0

@@ -90,8 +90,8 @@ def test_covariance_sources_add_up_to_the_filter():
                    gnss=GnssSpec(outages="100:300,450:300"))  # fmt: skip
     cov = covariance_analysis(study)
     P = cov.design.P
-    from fieldmap.nav.flight import geodetic_state
     from fieldmap.nav.frames import C_n_to_e
+    from fieldmap.nav.trajectory import geodetic_state
 
     lat, lon, *_ = geodetic_state(study.flight, cov.t)
     ned = np.swapaxes(C_n_to_e(lat, lon), -1, -2)
@@ -227,9 +227,9 @@ def test_coasting_error_matches_pyins_feedback_filter():
 
     from fieldmap.field.frames import ecef_to_geodetic
     from fieldmap.nav import sensors
-    from fieldmap.nav.flight import geodetic_state
     from fieldmap.nav.imu import Gravitation, ImuSampling, synthesize
     from fieldmap.nav.sensors import ImuErrorSpec
+    from fieldmap.nav.trajectory import geodetic_state
 
     assert pyins.__version__ == "1.0"
     rate, seed, (t0, dur) = 5.0, 7, (60.0, 300.0)

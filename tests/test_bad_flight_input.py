@@ -430,7 +430,7 @@ def test_corrupt_gzip_flight_log(tmp_path, capsys):
 def test_flight_height_limits_are_not_rounded_onto(tmp_path):
     """A route height just past the limit is named as it is (not "-11000 m is outside -11 km")."""
     from fieldmap.errors import InputError
-    from fieldmap.nav.flight import route_flight
+    from fieldmap.nav.trajectory import route_flight
 
     with pytest.raises(InputError, match=r"height -11000.0004 m is outside"):
         route_flight("47,8,1000;47.1,8.1,-11000.0004", 200.0)

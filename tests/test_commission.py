@@ -323,8 +323,8 @@ def test_nga_files_keep_their_sigma_columns(tmp_path):
 
 def test_flight_study_reports_the_truth_sigma_along_the_track():
     """Navsim's δg output carries the truth model's commission σ (NED) at the track points."""
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.study import FlightStudy, run_flight
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     ft = FlightTrajectory(route_flight("45,7,3000;45.3,7.4,5000", 200.0))
     res = run_flight(

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav.flight import FlightTrajectory
 from fieldmap.nav.logs.condition import Conditioning, condition, condition_segments
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.logs.report import plot_conditioning
+from fieldmap.nav.trajectory import FlightTrajectory
 
 A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
 E2 = F_WGS * (2.0 - F_WGS)

@@ -649,8 +649,8 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     """
     from fieldmap.nav import study
     from fieldmap.nav.distributed import on_cluster
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.sensors import load_imu
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
     name, imu = load_imu("tactical")

@@ -15,8 +15,8 @@ import pytest
 
 from fieldmap.cli import main
 from fieldmap.nav import study
-from fieldmap.nav.flight import FlightTrajectory, geodetic_state, route_flight
 from fieldmap.nav.logs import load_flight
+from fieldmap.nav.trajectory import FlightTrajectory, geodetic_state, route_flight
 
 DATA = Path(__file__).parent / "data" / "flights"
 ROUTE = "46.0,7.0,9000;46.6,7.9,10000;47.0,9.0,10000"

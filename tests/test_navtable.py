@@ -196,8 +196,8 @@ def table60(tmp_path_factory):
 
 def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table60):
     """A table verified to ε adds at most ½ ε t² of horizontal error (truth = the table's model)."""
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.study import FlightStudy, run_flight
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     name, rep = table60
     ft = FlightTrajectory(route_flight(ROUTE, 200.0))
@@ -219,8 +219,8 @@ def test_flight_with_a_table_stays_within_the_double_integral_of_its_bound(table
 
 def test_table_order_and_a_flight_outside_the_table(table60):
     from fieldmap.nav.budget import simplicity_order
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.study import FlightStudy, run_flight
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     name, _ = table60
     assert simplicity_order(["sh60", name, "exact", "j2"]) == ["j2", "exact", name, "sh60"]

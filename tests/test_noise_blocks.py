@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fieldmap.nav.flight import FlightTrajectory, route_flight
 from fieldmap.nav.imu import ImuSampling
 from fieldmap.nav.mechanize import (
     Baro,
@@ -23,6 +22,7 @@ from fieldmap.nav.mechanize import (
 )
 from fieldmap.nav.sensors import ImuErrorSpec
 from fieldmap.nav.study import BaroSpec, FlightStudy, run_flight
+from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
 ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
@@ -249,7 +249,7 @@ def test_per_sample_streams_give_the_gauss_markov_and_white_noise_statistics():
 def test_results_as_datasets_over_run_and_time():
     """Flight and paper studies hand their results over as xarray Datasets with units."""
     from fieldmap.nav import paper, study
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     ft = FlightTrajectory(route_flight("45,7,9000;45.2,7.3,9500", 200.0))
     res = study.run_flight(

@@ -246,8 +246,8 @@ def test_reword_study_messages(text, param, navsim):
 def test_flight_study_errors_carry_their_keyword(kw, param, navsim):
     """FlightStudy words its refusals in Python; ``fieldmap navsim`` shows them with options."""
     from fieldmap.cli import _worded
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.study import FlightStudy
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     traj = FlightTrajectory(route_flight("47,8,1000;47.3,8.3,1000", 200.0))
     e = _raised(FlightStudy, traj, imu="tactical", models="j4", draws=2, truth_lmax=20, **kw)

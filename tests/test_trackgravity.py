@@ -9,10 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fieldmap.nav.flight import FlightTrajectory, route_flight
 from fieldmap.nav.gravity import TrackGravitation
 from fieldmap.nav.imu import Gravitation, ImuSampling, load_truth_model, synthesize
-from fieldmap.nav.trajectory import BoostGlide
+from fieldmap.nav.trajectory import BoostGlide, FlightTrajectory, route_flight
 
 MGAL = 1e-5
 

@@ -208,9 +208,9 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
     they are reported, :func:`fieldmap.cli.main`).
     """
     from fieldmap.cli import given, reword
-    from fieldmap.nav.flight import FlightTrajectory, route_flight
     from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
+    from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     if args.route is not None:
         for dest, option in LOG_ONLY.items():

@@ -551,7 +551,7 @@ def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyRe
     import time
 
     from fieldmap.nav.budget import gravity_budget, gravity_error_along, recommend, simplicity_order
-    from fieldmap.nav.flight import geodetic_state
+    from fieldmap.nav.trajectory import geodetic_state
 
     c0 = time.perf_counter()
     traj = study.flight

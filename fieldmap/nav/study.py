@@ -26,7 +26,7 @@ model (the simplest, in :func:`simplicity_order`, whose added error stays small)
 Navigation study on a user's flight: what each gravity model costs next to the IMU's errors.
 
 For a :class:`~fieldmap.nav.trajectory.Trajectory` (usually a
-:class:`~fieldmap.nav.flight.FlightTrajectory`), an IMU spec and a list of navigation gravity
+:class:`~fieldmap.nav.trajectory.FlightTrajectory`), an IMU spec and a list of navigation gravity
 models, :func:`run_flight` propagates, in one batched launch per time block:
 
 * ``imu_only`` runs: J4 navigation on increments synthesized with J4 as the truth — the IMU's
@@ -87,7 +87,6 @@ from fieldmap.nav.budget import (
     recommend,
     simplicity_order,
 )
-from fieldmap.nav.flight import geodetic_state
 from fieldmap.nav.gravity import table_file
 from fieldmap.nav.imu import (
     MAX_SAMPLES,
@@ -100,7 +99,7 @@ from fieldmap.nav.imu import (
 )
 from fieldmap.nav.mechanize import NavConfig, dcm_to_quat, quat_to_dcm
 from fieldmap.nav.propagator import Propagator, check_mechanization, divergence, final_stats
-from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory
+from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory, geodetic_state
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -706,9 +705,9 @@ class FlightStudy:
     Parameters
     ----------
     flight : Trajectory, FlightSamples, str or sequence of (lat, lon, h)
-        The flight: a trajectory (e.g. :class:`~fieldmap.nav.flight.FlightTrajectory`), the
-        samples of :func:`~fieldmap.nav.flight.read_flight` or
-        :func:`~fieldmap.nav.flight.route_flight`, or a route (``"lat,lon,h;..."`` or
+        The flight: a trajectory (e.g. :class:`~fieldmap.nav.trajectory.FlightTrajectory`), the
+        samples of :func:`~fieldmap.nav.trajectory.read_flight` or
+        :func:`~fieldmap.nav.trajectory.route_flight`, or a route (``"lat,lon,h;..."`` or
         waypoints; degrees, degrees, m) flown at ``speed_mps``.
     imu : str or ImuErrorSpec
         A preset name (``ideal consumer industrial tactical navigation strategic
@@ -824,7 +823,7 @@ class FlightStudy:
 
     def __post_init__(self) -> None:
         from fieldmap.limits import MAX_DRAWS
-        from fieldmap.nav.flight import FlightSamples, FlightTrajectory, route_flight
+        from fieldmap.nav.trajectory import FlightSamples, FlightTrajectory, route_flight
 
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)

@@ -13,7 +13,7 @@ takes it from file to flight:
    (:func:`~fieldmap.nav.logs.condition.condition`).
 3. :mod:`~fieldmap.nav.logs.report`: what was done, and the kinematics of the path that will
    be flown (:class:`~fieldmap.nav.logs.report.ConditionedFlight`, text and figure).
-4. :func:`load_flight` (here): all three, and the :class:`~fieldmap.nav.flight.FlightTrajectory`
+4. :func:`load_flight` (here): all three, and the :class:`~fieldmap.nav.trajectory.FlightTrajectory`
    that a flight study flies (what ``fieldmap navsim --trajectory`` calls; issue 16). It reads a
    log with :func:`~fieldmap.nav.logs.read.read_track` (CSV with any column names, ADS-B
    exports, GPX, NMEA 0183, IGC, DataFrame/Dataset/arrays; MSL or pressure heights made
@@ -48,8 +48,8 @@ from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning
 
 if TYPE_CHECKING:
-    from fieldmap.nav.flight import FlightTrajectory
     from fieldmap.nav.logs.report import ConditionedFlight
+    from fieldmap.nav.trajectory import FlightTrajectory
 
 _EXACT_SUFFIXES = (".nc", ".nc4", ".cdf")
 
@@ -105,8 +105,8 @@ def load_flight(
         The trajectory and the conditioning (its ``report`` and figure); None when flown as
         recorded.
     """
-    from fieldmap.nav.flight import FlightTrajectory
     from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.trajectory import FlightTrajectory
 
     options = Conditioning() if options is None else options
     ellipsoid = options.ellipsoid

@@ -1,6 +1,6 @@
 r"""Real flight logs made flyable: from a raw track to samples a :class:`FlightTrajectory` flies.
 
-:class:`~fieldmap.nav.flight.FlightTrajectory` interpolates its samples exactly (a quintic
+:class:`~fieldmap.nav.trajectory.FlightTrajectory` interpolates its samples exactly (a quintic
 spline), so the metre-level noise of a real log becomes tens of g and a kilometre-level outlier
 hundreds. :func:`condition` turns a raw track (an ADS-B or GNSS log as read by
 :func:`fieldmap.nav.logs.read.read_track`) into clean, smooth samples on a regular grid, with the
@@ -163,7 +163,6 @@ from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.flight import MIN_POINTS, FlightSamples
 from fieldmap.nav.logs.report import (
     DROPPED,
     GAP,
@@ -177,6 +176,7 @@ from fieldmap.nav.logs.report import (
     ConditionedFlight,
     finish,
 )
+from fieldmap.nav.trajectory import MIN_POINTS, FlightSamples
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 #: running-median half-window (samples): about HALF_SPAN_S seconds, within HALF_MIN..HALF_MAX

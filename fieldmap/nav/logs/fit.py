@@ -604,7 +604,7 @@ def posterior_sigma(
 def quintic_kinematics(g: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Acceleration and jerk magnitudes of the quintic interpolating grid values (ng, d).
 
-    The spline :class:`~fieldmap.nav.flight.FlightTrajectory` flies (``make_interp_spline``,
+    The spline :class:`~fieldmap.nav.trajectory.FlightTrajectory` flies (``make_interp_spline``,
     k = 5, not-a-knot ends); at each node the larger of its value there and at the midpoints
     next to it. Two arrays (ng,).
     """
@@ -820,7 +820,7 @@ def check(
 def residuals(obs: Observed | None, samples: Any, t_start: float, ellipsoid: Any) -> dict | None:
     """Compare the flown velocity with the log's (JSON-ready; None without velocities).
 
-    The flown velocity is that of the quintic spline :class:`~fieldmap.nav.flight.
+    The flown velocity is that of the quintic spline :class:`~fieldmap.nav.trajectory.
     FlightTrajectory` flies (as :func:`fieldmap.nav.logs.report.kinematics`), at the times of
     the observations within the flown span. Returns the RMS and largest residual (flown − log)
     of the ground speed (m/s), the track (degrees, where faster than 10 m/s) and the vertical

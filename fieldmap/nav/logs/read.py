@@ -591,8 +591,8 @@ _MAGIC = {
     b"%PDF": "a PDF document",
     b"PK\x03\x04": "a ZIP archive",
     b"\xff\xd8\xff": "a JPEG image",
-    b"CDF\x01": "a NetCDF file (use fieldmap.nav.flight.read_flight)",
-    b"\x89HDF": "an HDF5/NetCDF4 file (use fieldmap.nav.flight.read_flight)",
+    b"CDF\x01": "a NetCDF file (use fieldmap.nav.trajectory.read_flight)",
+    b"\x89HDF": "an HDF5/NetCDF4 file (use fieldmap.nav.trajectory.read_flight)",
 }
 
 

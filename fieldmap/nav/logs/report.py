@@ -1,6 +1,6 @@
 """The report of a conditioned flight: flown kinematics, a JSON-ready summary, text and a figure.
 
-The kinematics are those of the path :class:`~fieldmap.nav.flight.FlightTrajectory` will fly:
+The kinematics are those of the path :class:`~fieldmap.nav.trajectory.FlightTrajectory` will fly:
 the quintic interpolating spline (``make_interp_spline``, k = 5) of the conditioned samples in
 ECEF, evaluated at the samples and half-way between them. Acceleration and jerk are relative to
 the Earth (derivatives of the ECEF path, gravity not included); the specific force (what an
@@ -18,7 +18,7 @@ import numpy as np
 
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.nav.flight import FlightSamples
+from fieldmap.nav.trajectory import FlightSamples
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 if TYPE_CHECKING:
@@ -44,7 +44,7 @@ class ConditionedFlight:
     ----------
     samples : FlightSamples
         The smooth path on a regular grid, times from 0 (``t_start`` the first, in the track's
-        time scale); what :class:`~fieldmap.nav.flight.FlightTrajectory` takes.
+        time scale); what :class:`~fieldmap.nav.trajectory.FlightTrajectory` takes.
     report : dict
         JSON-ready summary: ``samples``, ``order``, ``stale``, ``outliers`` (every rejected
         sample with line, time and offset), ``fit`` (σ, residual RMS), ``gaps``, ``segments``,
