@@ -251,7 +251,31 @@ def test_velocities_contradicting_refused_on_the_command_line(tmp_path, capsys):
     lines = cap.err.strip().splitlines()
     assert rc == 2 and len(lines) == 1, cap.err
     assert "contradict its positions" in lines[0] and "Traceback" not in cap.err
+    assert "give --ignore-log-velocities" in lines[0] and "log_velocities" not in lines[0]
     assert not out.exists()
+
+
+def test_velocities_left_out_on_request(tmp_path):
+    """log_velocities=False: the contradicting velocity columns are not used, the path is flown."""
+    path = _contradicting(tmp_path, KT, 0.0)
+    track = read_track(path, height_ref="ellipsoid")
+    with pytest.raises(InputError) as e:
+        condition(track)
+    assert e.value.param == "log_velocities" and "log_velocities=False" in str(e.value)
+    cf = condition(track, Conditioning(log_velocities=False))
+    assert cf.report["options"]["log_velocities"] is False
+    assert cf.report["velocity"] is None
+    assert any("not used (log_velocities=False)" in n for n in cf.report["notes"])
+    assert cf.report["kinematics"]["duration_s"] >= 0.9 * (track.t[-1] - track.t[0])
+
+
+def test_real_log_flown_without_its_stale_velocities():
+    """inflight_refuelling, its velocity columns left out: its orbits flown whole, as flown."""
+    track = read_track(ADSB / "inflight_refuelling.csv.gz", height_ref="pressure")
+    cf = condition(track, Conditioning(log_velocities=False))
+    k = cf.report["kinematics"]
+    assert k["duration_s"] >= 0.9 * (track.t[-1] - track.t[0])
+    assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
 
 
 def test_longest_segment_still_on_request(synthetic):

@@ -741,6 +741,12 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight-log", "--airborne-only"),
         C("flight", "--airborne-only", expect=REFUSED, note="--route"),
     ],
+    ("navsim", "--ignore-log-velocities"): [
+        # the fixture's ADS-B ground speeds and tracks no longer observe the path
+        C("flight-log", "--ignore-log-velocities"),
+        C("flight", "--ignore-log-velocities", expect=REFUSED, note="--route"),
+        C("flight-log", "--no-smooth", "--ignore-log-velocities", expect=REFUSED, note="smooth"),
+    ],
     ("navsim", "--no-smooth"): [
         C("flight-file", "--no-smooth"),
         C("flight", "--no-smooth", expect=REFUSED, note="--route"),

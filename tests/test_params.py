@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import inspect
 import pickle
+import re
 from pathlib import Path
 
 import numpy as np
@@ -254,3 +255,15 @@ def test_flight_study_errors_carry_their_keyword(kw, param, navsim):
     assert e.param == param
     assert _worded(e, "navsim") == navsim
     assert _worded(e, "table") == str(e)
+
+
+def test_conditioning_notes_leave_no_python_advice_on_the_command_line():
+    """Every note of a conditioned real log, as navsim prints it, gives options, not keywords."""
+    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.read import read_track
+
+    adsb = Path(__file__).parent / "data" / "adsb"
+    cf = condition(read_track(adsb / "noisy_takeoff.csv.gz", height_ref="pressure"))
+    notes = [reword(n, None, options_of("navsim")) for n in cf.report["notes"]]
+    assert any("give --vehicle CLASS" in n for n in notes), notes
+    assert not [n for n in notes if re.search(r"\bpass \w+=", n)], notes

@@ -325,6 +325,7 @@ OPTIONS: dict[str, str | None] = {
     "threshold": None,
     "dt_out": None,
     "vehicle": "--vehicle",
+    "log_velocities": None,  # --ignore-log-velocities sets log_velocities=False: see ADVICE
     "model": None,  # the truth model's geoid makes MSL heights ellipsoidal
     "ellipsoid": None,
     # FlightStudy (fieldmap.nav.study)
@@ -370,6 +371,7 @@ OPTIONS: dict[str, str | None] = {
 ADVICE: dict[str, str] = {
     "airborne_only=False": "leave out --airborne-only",
     "smooth=True": "leave out --no-smooth",
+    "log_velocities=False": "give --ignore-log-velocities",
 }
 
 #: separators before an advice clause ("? " keeps its question mark)

@@ -77,12 +77,20 @@ LOG_ONLY = {
     "airborne_only": "--airborne-only",
     "no_smooth": "--no-smooth",
     "vehicle": "--vehicle",
+    "ignore_log_velocities": "--ignore-log-velocities",
 }
 #: options of the conditioning: --no-smooth turns it off, and files flown as recorded (fieldmap
 #: CSV with attitude columns, NetCDF) skip it: dest -> option
 CONDITIONING = {
     k: LOG_ONLY[k]
-    for k in ("position_noise_m", "max_gap_s", "keep_ground", "airborne_only", "vehicle")
+    for k in (
+        "position_noise_m",
+        "max_gap_s",
+        "keep_ground",
+        "airborne_only",
+        "vehicle",
+        "ignore_log_velocities",
+    )
 }
 #: options of the flight study, logs and routes alike: dest -> option
 FLIGHT_EXTRA = {
@@ -152,6 +160,14 @@ def _flight_options(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="fly the ground movement at the ends of the log: the default now (a note says "
         "so); kept for old command lines, refused with --airborne-only",
+    )
+    g.add_argument(
+        "--ignore-log-velocities",
+        action="store_true",
+        help="do not use the velocities the log carries (ground speed, track, vertical rate): "
+        "the path is fitted to the positions alone (for velocity columns that are stale or "
+        "from another source; default: used as observations and checked against the "
+        "positions)",
     )
     g.add_argument(
         "--no-smooth",
@@ -234,6 +250,7 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
         airborne_only=bool(args.airborne_only),
         smooth=not args.no_smooth,
         vehicle=args.vehicle,
+        log_velocities=not args.ignore_log_velocities,
     )
     out: list[Flight] = []
     names: set[str] = set()

@@ -388,6 +388,12 @@ class Conditioning:
         Outlier threshold in robust standard deviations.
     dt_out : float, optional
         Output sample interval (s). Default: the median sample interval, within 0.1..1 s.
+    log_velocities : bool
+        Use the velocities the log carries (ADS-B ground speed, track and vertical rate, NMEA
+        RMC speed and course, GPX speed): checked against the positions, then observations
+        of the path, the log's fastest speed for the jump bound, and its repeated states for
+        dead-reckoned fixes (default). False: the log's velocity columns are not used at all
+        (a log whose velocity columns are stale or from another source; the report says so).
 
     Raises
     ------
@@ -411,6 +417,7 @@ class Conditioning:
     threshold: float = 5.0
     dt_out: float | None = None
     vehicle: str | None = None
+    log_velocities: bool = True
 
     def __post_init__(self) -> None:
         if self.on_long_gap not in ("bridge", "longest", "refuse"):
@@ -468,7 +475,22 @@ class Conditioning:
             "threshold": float(self.threshold),
             "dt_out": None if self.dt_out is None else float(self.dt_out),
             "vehicle": self.vehicle,
+            "log_velocities": bool(self.log_velocities),
         }
+
+
+def without_velocities(track: Any) -> Any:
+    """Return ``track`` without the velocities it carries (``log_velocities=False``).
+
+    A :class:`~fieldmap.nav.logs.read.RawTrack` (or any dataclass with its fields) is copied
+    with ``velocity=None`` and a note saying so; anything else is returned as it is when it
+    has no velocities.
+    """
+    vel = getattr(track, "velocity", None)
+    if vel is None:
+        return track
+    note = f"the log's velocities ({'/'.join(vel.names)}) not used (log_velocities=False)"
+    return replace(track, velocity=None, notes=(*getattr(track, "notes", ()), note))
 
 
 @options_api("options", Conditioning)
@@ -537,6 +559,8 @@ class Stages:
     """
 
     def __init__(self, track: Any, options: Conditioning) -> None:
+        if not options.log_velocities:
+            track = without_velocities(track)
         self.track, self.options = track, options
         self.opts = opts = options.report_options()
         self.log = log = OrderedLog(track, options.ellipsoid, options.reorder)

@@ -777,7 +777,9 @@ def check(
                 f"({names}) contradict its positions: {100 * agree.mean():.0f} % agree within "
                 f"{100 * CONTRADICTION:g} % of the speed (the median differs by "
                 f"{np.median(r):.0f} m/s at a median speed of {np.median(speed):.0f} m/s from "
-                "the positions): a unit or a column mixed up?"
+                "the positions): a unit or a column mixed up, or velocities that are stale or "
+                "from another source; pass log_velocities=False to fly the positions alone",
+                param="log_velocities",
             )
         s = MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
         keep_h = agree & ((r <= OUTLIER_K * s) | (r <= OUTLIER_FLOOR))

@@ -206,7 +206,7 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
     veh, lim = st.vehicle, st.lim
     if o["smooth"]:
         notes.append(
-            f"vehicle: {veh.name} ({st.vehicle_why}; pass vehicle= to choose): load factor "
+            f"vehicle: {veh.name} ({st.vehicle_why}; pass vehicle=CLASS to choose): load factor "
             f"{veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, speed "
             f"{veh.speed:g} m/s"
         )
