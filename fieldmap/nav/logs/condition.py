@@ -65,9 +65,14 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    Eilers 2003), with weights ``1/σ²`` and λ from the discrepancy principle: the residuals as
    large as the noise σ leaves them given the fit's degrees of freedom (Hutchinson's 1989
    trace estimate). σ is ``position_noise_m`` or estimated from leave-one-out cubic predictions
-   (a local RMS: ADS-B noise grows with speed); heights quantised in ``q`` have at least
-   ``q/√12`` and no noise in level flight. Iteratively reweighted (Tukey's bisquare; Garcia
-   2010): samples beyond 4.685 robust σ are outliers. Gaps are bridged by the fit itself:
+   (a local RMS: ADS-B noise grows with speed) of the fixes: positions interpolated between
+   two fixes (a track resampled to a clock: collinear with their neighbours at equal time
+   steps within the rounding of the digits printed, :meth:`OrderedLog.interpolated_positions`)
+   are predicted without error, so they are left out of it and of the timing jitter's (6b),
+   and a run of L of them is one observation (weight ``1/(L σ²)``); heights quantised in
+   ``q`` have at least ``q/√12`` and no noise in level flight. Iteratively reweighted
+   (Tukey's bisquare; Garcia 2010): samples beyond 4.685 robust σ are outliers. Gaps are
+   bridged by the fit itself:
    across an interval without samples the penalised spline is the cubic that joins the
    positions and velocities at both ends with the least ∫|a|² (Reinsch 1967), a path the
    vehicle can fly; its uncertainty is the fit's Bayesian posterior σ at the middle of each

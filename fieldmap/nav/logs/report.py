@@ -46,7 +46,8 @@ class ConditionedFlight:
         The smooth path on a regular grid, times from 0 (``t_start`` the first, in the track's
         time scale); what :class:`~fieldmap.nav.trajectory.FlightTrajectory` takes.
     report : dict
-        JSON-ready summary: ``samples``, ``order``, ``stale``, ``outliers`` (every rejected
+        JSON-ready summary: ``samples``, ``order``, ``stale``, ``interpolated`` (positions
+        interpolated between fixes: :func:`_interpolated`), ``outliers`` (every rejected
         sample with line, time and offset), ``fit`` (σ, residual RMS), ``gaps``, ``segments``,
         ``ground_trimmed`` (``airborne_only``), ``ground`` (the ground movement flown as such:
         :func:`_ground`), ``kinematics`` (:func:`kinematics`), ``options``, ``notes``.
