@@ -65,9 +65,14 @@ cleaning steps are the functions below it, each on one segment of ordered sample
    Eilers 2003), with weights ``1/σ²`` and λ from the discrepancy principle: the residuals as
    large as the noise σ leaves them given the fit's degrees of freedom (Hutchinson's 1989
    trace estimate). σ is ``position_noise_m`` or estimated from leave-one-out cubic predictions
-   (a local RMS: ADS-B noise grows with speed); heights quantised in ``q`` have at least
-   ``q/√12`` and no noise in level flight. Iteratively reweighted (Tukey's bisquare; Garcia
-   2010): samples beyond 4.685 robust σ are outliers. Gaps are bridged by the fit itself:
+   (a local RMS: ADS-B noise grows with speed) of the fixes: positions interpolated between
+   two fixes (a track resampled to a clock: collinear with their neighbours at equal time
+   steps within the rounding of the digits printed, :meth:`OrderedLog.interpolated_positions`)
+   are predicted without error, so they are left out of it and of the timing jitter's (6b),
+   and a run of L of them is one observation (weight ``1/(L σ²)``); heights quantised in
+   ``q`` have at least ``q/√12`` and no noise in level flight. Iteratively reweighted
+   (Tukey's bisquare; Garcia 2010): samples beyond 4.685 robust σ are outliers. Gaps are
+   bridged by the fit itself:
    across an interval without samples the penalised spline is the cubic that joins the
    positions and velocities at both ends with the least ∫|a|² (Reinsch 1967), a path the
    vehicle can fly; its uncertainty is the fit's Bayesian posterior σ at the middle of each
@@ -207,6 +212,14 @@ EDGE = 8
 JITTER_RATIO, RETIME_ITER = 2.0, 3
 #: a fix is moved by at most JITTER_CLIP jitter σ
 JITTER_CLIP = 3.0
+#: positions collinear with their neighbours within a rounding finer than this (m) are
+#: interpolated between fixes (:meth:`OrderedLog.interpolated_positions`); a coarser rounding
+#: (4 decimals of a degree: 11 m) hides a real fix's noise, and says nothing
+INTERP_TOL_M = 1.0
+#: ... and only in a track resampled to a clock: at least this fraction of the positions
+#: interpolated (the ``traffic`` package's resampled samples 51..55 %; real 1 Hz logs under 1 %,
+#: and refuelling orbits 8 %, whose few collinear positions move the noise estimate by little)
+INTERP_MIN_FRACTION = 0.2
 #: smallest noise σ (m) estimated
 SIGMA_MIN = 0.05
 #: local noise: RMS over ±NOISE_HALF samples, at least NOISE_FRAC × the segment's
@@ -584,9 +597,12 @@ class Stages:
         self.seg = np.zeros(n, np.int64)
         self.hv, self.vv = ~z, ~z
         self.vehicle, self.vehicle_why = vehicle_class(options.vehicle or "airliner"), "given"
+        #: positions interpolated between fixes: the interior count of each one's run (0: a fix)
+        self.interpolated, self.interpolated_tol = np.zeros(n), 0.0
         if n >= 3:
             log.geometry()
             self.stale = log.stale_positions()
+            self.interpolated, self.interpolated_tol = log.interpolated_positions()
         if options.vehicle is None:
             self.vehicle, self.vehicle_why = self._guess(~self.stale)
         veh = self.vehicle
@@ -823,10 +839,15 @@ class Stages:
         log, q, sig = self.log, self.quantum, self.opts["position_noise_m"]
         if sig is None:
             k = self.opts["threshold"]
-            zh = to_en(log.en[hi[2:-2]], cfit.loo_noise(log.t[hi], log.p[hi]))
+            # the fixes only: a position interpolated between two is predicted without error
+            fx = hi[self.interpolated[hi] == 0.0]
+            fx = fx if hi.size > fx.size >= 2 * MIN_POINTS else hi
+            zh = to_en(log.en[fx[2:-2]], cfit.loo_noise(log.t[fx], log.p[fx]))
             zv = cfit.loo_noise(log.t[vi], log.h[vi, None])
             nh = cfit.noise_sigma(zh, k, 0.0, NOISE_HALF, NOISE_FRAC)
             nv = cfit.noise_sigma(zv, k, 3.0 * q, NOISE_HALF, NOISE_FRAC)
+            if fx.size < hi.size:
+                nh = (nh[0], np.interp(log.t[hi], log.t[fx], nh[1]))
             if q > 0.0:  # quantised: q²/12 (or more) wherever not level; uniform
                 moving = ~cfit.level_runs(log.t[vi], log.h[vi], LEVEL_S)[2:-2]
                 sv = max(cfit.noise_sigma(zv[moving], k, 3.0 * q)[0], q / np.sqrt(12.0))
@@ -835,6 +856,9 @@ class Stages:
             loc = [np.maximum(nh[1], SIGMA_MIN), np.maximum(nv[1], SIGMA_MIN)]
         else:
             loc = [np.full(hi.size, sig[0]), np.full(vi.size, sig[1])]
+        # the L positions interpolated between two fixes are one observation: weight 1/(L σ²)
+        L = self.interpolated[hi]
+        loc[0] = loc[0] * np.sqrt(np.maximum(L, 1.0))
         energy = loc[1] ** 2
         if q > 0.0:  # a long run of one height is level flight: it leaves no residual
             energy[cfit.level_runs(log.t[vi], log.h[vi], LEVEL_S)] = 0.0
@@ -886,7 +910,8 @@ class Stages:
                 grid, tv, hh, loc[1], height_fit, energy=energy, rates=obs.v, lam=fv["lam"]
             )
         self.t_h, self.p_h = log.t.copy(), log.p.copy()
-        th, fh, loc[0], self.timing = self._retime(grid, th, ph, loc[0], fh)
+        fix = self.interpolated[hi] == 0.0
+        th, fh, loc[0], self.timing = self._retime(grid, th, ph, loc[0], fh, fix)
         self.t_h[hi] = th
         if "p" in fh:
             self.p_h[hi] = fh["p"]
@@ -1003,6 +1028,7 @@ class Stages:
         ph: np.ndarray,
         loc: np.ndarray,
         fh: dict[str, Any],
+        fix: np.ndarray,
     ) -> tuple[np.ndarray, dict[str, Any], np.ndarray, dict[str, Any] | None]:
         r"""Step 6b: the timing jitter of the fixes, modelled as a time error per fix.
 
@@ -1030,6 +1056,8 @@ class Stages:
         settings = cfit.PathFit(2, max_run=burst_length(th))
         rates = None if self.obs is None else self.obs.h
         ok0 = ~fh["outlier"]
+        if (fix & ok0).sum() >= 10:  # the jitter of the fixes: an interpolated one has none
+            ok0 = ok0 & fix
         if ok0.sum() < 10 or rates is None or rates.t.size < 10:
             return th, fh, loc, None
         z = cfit.loo_noise(th[ok0], ph[ok0])
@@ -1568,6 +1596,42 @@ class OrderedLog:
             out[a : b + 1] = b + 1 - a
         return out
 
+    def interpolated_positions(self) -> tuple[np.ndarray, float]:
+        """Positions interpolated between fixes: the run's interior count per sample, (n,).
+
+        A sample whose position lies on the straight line through its two neighbours at equal
+        time steps (the second differences of latitude and longitude within the rounding of
+        the digits printed, :func:`printed_step`: 2 q for a step q, each value within q/2)
+        while the vehicle moves is a linear interpolation between the fixes either side (a
+        track resampled to a clock, the ``traffic`` package's samples), not a measurement.
+        Only where that rounding is finer than :data:`INTERP_TOL_M` (a real fix's noise,
+        metres, is collinear within it only by chance), and where at least
+        :data:`INTERP_MIN_FRACTION` of the positions are. Each interior sample of a run gets
+        the number L of interior samples of its run (the run's ends, the fixes, 0): the L are
+        one observation, not L. Returns those counts and the tolerance (degrees; 0 where none).
+        """
+        n = self.t.size
+        out = np.zeros(n)
+        if n < 3:
+            return out, 0.0
+        lat, lon = self.lat, self.lon
+        tol = 2.0 * max(printed_step(lat), printed_step(lon))
+        if tol * math.radians(1.0) * self.ellipsoid.a > INTERP_TOL_M:
+            return out, 0.0
+        dt = np.diff(self.t)
+        inner = (
+            (dt[1:] == dt[:-1])
+            & (np.abs(lat[2:] - 2.0 * lat[1:-1] + lat[:-2]) <= tol)
+            & (np.abs(lon[2:] - 2.0 * lon[1:-1] + lon[:-2]) <= tol)
+            & ((lat[2:] != lat[1:-1]) | (lon[2:] != lon[1:-1]))
+        )
+        if inner.mean() < INTERP_MIN_FRACTION:  # no resampled track: a few by chance
+            return out, 0.0
+        d = np.diff(np.concatenate([[0], inner.astype(np.int8), [0]]))
+        for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            out[a + 1 : b + 1] = b - a
+        return out, tol
+
     def stale_positions(self) -> np.ndarray:
         """Find samples repeating the previous horizontal position while the vehicle moves.
 
@@ -1581,6 +1645,22 @@ class OrderedLog:
             if b > a and np.linalg.norm(self.p[b] - self.p[a]) > self.t[b] - self.t[a]:
                 st[s + 1 : e + 1] = True
         return st
+
+
+def printed_step(x: np.ndarray) -> float:
+    """Return the finest step of the decimals printed in ``x`` (n,): 10^-(most), ≥ 1e-12.
+
+    A value read from text printed with d decimals is within float rounding of a multiple of
+    10^-d (trailing zeros are not printed: the most decimals any value holds is the file's
+    precision, as the readers take a velocity column's resolution); values with more
+    (computed, binary sources) give 1e-12.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    for k in range(12):
+        if np.all(np.abs(np.round(x, k) - x) <= 1e-9 * 10.0**-k):
+            return 10.0**-k
+    return 1e-12
 
 
 def stale_heights(t: np.ndarray, h: np.ndarray, dh_min: float) -> np.ndarray:

@@ -46,7 +46,8 @@ class ConditionedFlight:
         The smooth path on a regular grid, times from 0 (``t_start`` the first, in the track's
         time scale); what :class:`~fieldmap.nav.trajectory.FlightTrajectory` takes.
     report : dict
-        JSON-ready summary: ``samples``, ``order``, ``stale``, ``outliers`` (every rejected
+        JSON-ready summary: ``samples``, ``order``, ``stale``, ``interpolated`` (positions
+        interpolated between fixes: :func:`_interpolated`), ``outliers`` (every rejected
         sample with line, time and offset), ``fit`` (σ, residual RMS), ``gaps``, ``segments``,
         ``ground_trimmed`` (``airborne_only``), ``ground`` (the ground movement flown as such:
         :func:`_ground`), ``kinematics`` (:func:`kinematics`), ``options``, ``notes``.
@@ -171,6 +172,18 @@ def _ground(st: Any, t0: float) -> dict[str, Any]:
     }
 
 
+def _interpolated(st: Any) -> dict[str, Any]:
+    """Return the positions interpolated between fixes (JSON-ready; ``st.interpolated``)."""
+    L = np.asarray(getattr(st, "interpolated", np.zeros(0)))
+    first = (L > 0.0) & (np.concatenate([[0.0], L[:-1]]) == 0.0)
+    return {
+        "positions": int(np.sum(L > 0.0)),
+        "runs": int(np.sum(first)),
+        "tolerance_deg": float(getattr(st, "interpolated_tol", 0.0)),
+        "use": "each run of L weighted 1/L: one observation; not in the noise estimates",
+    }
+
+
 def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
     """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``.
 
@@ -220,6 +233,15 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
             f"limits ({', '.join(limits)})"
         )
 
+    interp = _interpolated(st)
+    if interp["positions"]:
+        notes.append(
+            f"{interp['positions']} positions in {interp['runs']} runs interpolated between "
+            f"fixes (collinear at equal time steps within {interp['tolerance_deg']:.1g}°, the "
+            "rounding of the printed digits): each run one observation in the fit, left out "
+            "of the noise and timing-jitter estimates"
+        )
+
     def rel(d: dict) -> dict:
         return dict(d, t_start_s=d["t_start_s"] - t0, t_end_s=d["t_end_s"] - t0)
 
@@ -246,6 +268,7 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
             "first_duplicate_line": log.first_duplicate_line,
         },
         "stale": {"positions": int(np.sum(st.stale)), "heights": int(np.sum(st.stale_v))},
+        "interpolated": interp,
         "outliers": {
             "count": len(rej),
             "horizontal": int(np.sum(st.out_h)),
