@@ -524,3 +524,31 @@ def test_synthetic_resampled_log_flown_nearer_the_real_speed(tmp_path):
     steady = (tt > 400.0) & (tt < 1200.0)
     err = np.linalg.norm(v, axis=1)[steady] - np.interp(tt[steady], truth["t"], truth["speed"])
     assert np.sqrt(np.mean(err**2)) < 2.5 and np.abs(err).max() < 8.0
+
+
+def test_residuals_against_every_velocity_of_the_log():
+    """The report's residuals against all the log's ground speeds, outliers included, as flown.
+
+    Checked by finite differences of the flown samples against the file's own ``groundspeed``
+    column (knots): no code shared with the report's spline derivative.
+    """
+    from fieldmap.field.frames import geodetic_to_ecef
+
+    path = ADSB / "noisy_takeoff.csv.gz"
+    track = read_track(path, height_ref="pressure")
+    cf = condition(track)
+    v = cf.report["velocity"]
+    assert v["outliers"] > 0 and v["horizontal_all_count"] > v["horizontal_count"]
+    assert v["groundspeed_all_rms_m_s"] > v["groundspeed_rms_m_s"]
+    assert "against every velocity of the log, the outliers included" in cf.format_report()
+    s = cf.samples
+    p = np.stack(geodetic_to_ecef(s.lat, s.lon, s.h), -1)
+    vel = np.gradient(p, s.t, axis=0)
+    up = p / np.linalg.norm(p, axis=1)[:, None]
+    gs = np.linalg.norm(vel - np.sum(vel * up, axis=1)[:, None] * up, axis=1)
+    t = track.t - track.t[0]
+    ok = np.isfinite(track.velocity.speed) & (t >= s.t[0]) & (t <= s.t[-1])
+    d = np.interp(t[ok], s.t, gs) - track.velocity.speed[ok]
+    assert d.size == v["horizontal_all_count"]
+    rms = float(np.sqrt(np.mean(d**2)))
+    assert abs(rms - v["groundspeed_all_rms_m_s"]) < 0.1 * v["groundspeed_all_rms_m_s"], rms

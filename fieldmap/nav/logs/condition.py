@@ -589,6 +589,8 @@ class Stages:
         self.ground_envelope = ON_GROUND
         self.off_h, self.off_v = np.zeros(n), np.zeros(n)
         self.obs: cfit.Observed | None = None
+        #: the log's velocities before the check left its outliers out (the report's residuals)
+        self.obs_all: cfit.Observed | None = None
         self.t_h, self.p_h = log.t, log.p
         self.timing: dict[str, Any] | None = None
         self.quantum = cfit.height_quantum(log.h)
@@ -895,7 +897,7 @@ class Stages:
         )
         fv = cfit.fit_path(grid, tv, hh, loc[1], height_fit, energy=energy)
         inside = np.flatnonzero(m & (log.t >= t_lo) & (log.t <= t_hi))
-        obs = self.obs = cfit.observations(log, self.track, inside)
+        obs = self.obs = self.obs_all = cfit.observations(log, self.track, inside)
         if obs is not None:  # the log's own velocities: checked, then observations of the path
             rh = np.zeros((0, 3)) if obs.h is None else cfit.fitted_rates(grid, fh["g"], obs.h.t)
             rv = np.zeros((0, 1)) if obs.v is None else cfit.fitted_rates(grid, fv["g"], obs.v.t)
@@ -962,7 +964,9 @@ class Stages:
             "dt_out": dt,
             "softened": softened,
             "bridges": bridges,
-            "velocity": cfit.residuals(self.obs, samples, float(t_lo), log.ellipsoid),
+            "velocity": cfit.residuals(
+                self.obs, samples, float(t_lo), log.ellipsoid, every=self.obs_all
+            ),
             "timing": self.timing,
         }
 

@@ -819,14 +819,23 @@ def check(
     )
 
 
-def residuals(obs: Observed | None, samples: Any, t_start: float, ellipsoid: Any) -> dict | None:
+def residuals(
+    obs: Observed | None,
+    samples: Any,
+    t_start: float,
+    ellipsoid: Any,
+    every: Observed | None = None,
+) -> dict | None:
     """Compare the flown velocity with the log's (JSON-ready; None without velocities).
 
     The flown velocity is that of the quintic spline :class:`~fieldmap.nav.trajectory.
     FlightTrajectory` flies (as :func:`fieldmap.nav.logs.report.kinematics`), at the times of
     the observations within the flown span. Returns the RMS and largest residual (flown − log)
     of the ground speed (m/s), the track (degrees, where faster than 10 m/s) and the vertical
-    rate (m/s), the number of each, the σ the fit gave them and the outliers left out.
+    rate (m/s), the number of each, the σ the fit gave them and the outliers left out. With
+    ``every`` (the observations before :func:`check` left its outliers out) and outliers
+    left out, the same against every velocity of the log (keys ``..._all_...``): a path that
+    parts from the log where its velocities were judged wrong shows there.
     """
     from scipy.interpolate import make_interp_spline
 
@@ -851,25 +860,44 @@ def residuals(obs: Observed | None, samples: Any, t_start: float, ellipsoid: Any
     def stats(x: np.ndarray) -> tuple[float, float]:
         return (float(np.sqrt(np.mean(x**2))), float(np.max(np.abs(x)))) if x.size else (0, 0)
 
-    if obs.h is not None:
-        tt = obs.h.t - t_start
+    def horizontal(o: Observed) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Count, ground-speed and track residuals, flown and log east/north of ``o``."""
+        assert o.h is not None
+        tt = o.h.t - t_start
         inside = (tt >= s.t[0]) & (tt <= s.t[-1])
         v = enu(tt[inside])
-        en = obs.east_north[inside]
+        en = o.east_north[inside]
         gs_f, gs_o = np.hypot(v[:, 0], v[:, 1]), np.hypot(en[:, 0], en[:, 1])
-        d_gs = gs_f - gs_o
         fast = (gs_o > MOVING) & (gs_f > MOVING)
         d_tr = np.degrees(
             np.angle(np.exp(1j * (np.arctan2(v[fast, 0], v[fast, 1]) - np.arctan2(*en[fast].T))))
         )
-        out["horizontal_count"] = int(inside.sum())
+        return int(inside.sum()), gs_f - gs_o, d_tr, v[:, :2], en
+
+    def vertical(o: Observed) -> tuple[int, np.ndarray]:
+        assert o.v is not None
+        tt = o.v.t - t_start
+        inside = (tt >= s.t[0]) & (tt <= s.t[-1])
+        return int(inside.sum()), enu(tt[inside])[:, 2] - o.up[inside]
+
+    if obs.h is not None:
+        n, d_gs, d_tr, v, en = horizontal(obs)
+        out["horizontal_count"] = n
         out["groundspeed_rms_m_s"], out["groundspeed_max_m_s"] = stats(d_gs)
         out["track_rms_deg"], out["track_max_deg"] = stats(d_tr)
-        out["east_north_rms_m_s"] = stats(np.linalg.norm(v[:, :2] - en, axis=1) / np.sqrt(2))[0]
+        out["east_north_rms_m_s"] = stats(np.linalg.norm(v - en, axis=1) / np.sqrt(2))[0]
     if obs.v is not None:
-        tt = obs.v.t - t_start
-        inside = (tt >= s.t[0]) & (tt <= s.t[-1])
-        d_v = enu(tt[inside])[:, 2] - obs.up[inside]
-        out["vertical_count"] = int(inside.sum())
+        n, d_v = vertical(obs)
+        out["vertical_count"] = n
         out["vertical_rate_rms_m_s"], out["vertical_rate_max_m_s"] = stats(d_v)
+    if every is not None and obs.outliers:
+        if every.h is not None:
+            n, d_gs, d_tr, _, _ = horizontal(every)
+            out["horizontal_all_count"] = n
+            out["groundspeed_all_rms_m_s"], out["groundspeed_all_max_m_s"] = stats(d_gs)
+            out["track_all_rms_deg"], out["track_all_max_deg"] = stats(d_tr)
+        if every.v is not None:
+            n, d_v = vertical(every)
+            out["vertical_all_count"] = n
+            out["vertical_rate_all_rms_m_s"], out["vertical_rate_all_max_m_s"] = stats(d_v)
     return out

@@ -468,6 +468,22 @@ def format_report(rep: dict) -> str:
             f"{vr['sigma_h_m_s']:.2f} m/s per horizontal axis, {vr['sigma_v_m_s']:.2f} m/s "
             f"vertical; {vr['outliers']} outliers left out): " + "; ".join(parts)
         )
+        every = []
+        if "groundspeed_all_rms_m_s" in vr:
+            every.append(
+                f"ground speed {vr['groundspeed_all_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['groundspeed_all_max_m_s']:.1f}), track {vr['track_all_rms_deg']:.2f}° "
+                f"RMS (max {vr['track_all_max_deg']:.1f}°)"
+            )
+        if "vertical_rate_all_rms_m_s" in vr:
+            every.append(
+                f"vertical rate {vr['vertical_rate_all_rms_m_s']:.2f} m/s RMS (max "
+                f"{vr['vertical_rate_all_max_m_s']:.1f})"
+            )
+        if every:
+            lines.append(
+                "  against every velocity of the log, the outliers included: " + "; ".join(every)
+            )
     lines += [f"  note: {n}" for n in rep["notes"]]
     return "\n".join(lines)
 
