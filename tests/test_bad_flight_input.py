@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from refusals import refused
 
-from fieldmap.cli import main
 from fieldmap.errors import InputError
 
 HEADER = "time_s,lat_deg,lon_deg,height_m"
@@ -45,27 +45,6 @@ def _flight(path: Path, n: int = 121, *, t=None, lat=None, h=None, extra: str = 
     return path
 
 
-def _refused(argv, tmp_path, capsys, *words, absent=()) -> str:
-    """Run ``fieldmap ARGV --out``; assert one line on stderr with ``words``; return it."""
-    out = tmp_path / "out"
-    try:
-        rc = main([*argv, "--out", str(out)])
-    except SystemExit as exc:  # argparse
-        rc = exc.code
-    cap = capsys.readouterr()
-    lines = cap.err.strip().splitlines()
-    assert rc == 2, cap.err
-    assert len(lines) == 1, cap.err
-    assert "Traceback" not in cap.err and "internal error" not in cap.err
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    for w in absent:
-        assert w not in lines[0], (w, lines[0])
-    assert cap.out == "", cap.out
-    assert not out.exists()
-    return lines[0]
-
-
 def _navsim(*args) -> list[str]:
     return ["navsim", *FAST, *args]
 
@@ -74,7 +53,7 @@ def _navsim(*args) -> list[str]:
 def test_times_read_as_epoch_ms_beyond_year_9999(tmp_path, capsys):
     """``time_s`` ~1e15 was taken for epoch ms and then failed with a ValueError (exit 3)."""
     f = _flight(tmp_path / "huge_t.csv", t=1e15 + np.arange(121.0))
-    _refused(
+    refused(
         _navsim("--trajectory", str(f)),
         tmp_path,
         capsys,
@@ -96,7 +75,7 @@ def test_conditioning_options_refused_with_no_smooth(tmp_path, capsys, option):
     """``--no-smooth`` turns the conditioning off: its options did nothing (exit 0)."""
     f = _flight(tmp_path / "good.csv")
     argv = _navsim("--trajectory", str(f), "--no-smooth", *option)
-    _refused(argv, tmp_path, capsys, option[0], "--no-smooth")
+    refused(argv, tmp_path, capsys, option[0], "--no-smooth")
 
 
 def _netcdf_flight(path: Path) -> Path:
@@ -127,14 +106,14 @@ def test_conditioning_options_refused_for_flights_flown_as_recorded(tmp_path, ca
     else:
         f = _flight(tmp_path / "att.csv", n=61, extra="roll_deg,pitch_deg,heading_deg|0,0,0")
     argv = _navsim("--trajectory", str(f), *option)
-    _refused(argv, tmp_path, capsys, option[0], f.name, "flown as recorded")
+    refused(argv, tmp_path, capsys, option[0], f.name, "flown as recorded")
 
 
 # ------------------------------------------------------------------------------------ 2.7
-def test_empty_imu_refused(tmp_path, capsys):
+def test_empty_imurefused(tmp_path, capsys):
     """``--imu ""`` silently flew the ideal IMU."""
     argv = _navsim("--route", ROUTE, "--speed-mps", "200", "--imu", "")
-    _refused(argv, tmp_path, capsys, "--imu", "empty")
+    refused(argv, tmp_path, capsys, "--imu", "empty")
 
 
 # ------------------------------------------------------------------------------------ 2.8
@@ -160,28 +139,28 @@ def _table(tmp_path: Path) -> Path:
         ("table:{t},table:{d}/./table.bin", ("the same model",)),
     ],
 )
-def test_models_named_twice_refused(tmp_path, capsys, models, words):
+def test_models_named_twicerefused(tmp_path, capsys, models, words):
     """``--models j4,j4`` and one table twice were flown (twice) without a word."""
     t = _table(tmp_path)
     f = _flight(tmp_path / "good.csv")
     models = models.format(t=t, d=tmp_path)
     argv = ["navsim", "--lmax", "20", "--rate", "10", "--models", models, "--trajectory", str(f)]
-    _refused(argv, tmp_path, capsys, *words)
+    refused(argv, tmp_path, capsys, *words)
 
 
-def test_one_column_for_two_fields_refused(tmp_path, capsys):
+def test_one_column_for_two_fieldsrefused(tmp_path, capsys):
     """``--columns ...,lat=LA,lon=LA`` flew the latitudes as longitudes."""
     f = _flight(tmp_path / "good.csv")
     cols = "time=time_s,lat=lat_deg,lon=lat_deg,alt=height_m"
     argv = _navsim("--trajectory", str(f), "--columns", cols)
-    _refused(argv, tmp_path, capsys, "--columns", "'lat_deg'", "lat and lon")
+    refused(argv, tmp_path, capsys, "--columns", "'lat_deg'", "lat and lon")
 
 
-def test_header_repeating_a_column_refused(tmp_path, capsys):
+def test_header_repeating_a_columnrefused(tmp_path, capsys):
     """A header naming ``height_m`` twice is refused (which one is the height?)."""
     f = _flight(tmp_path / "dup.csv", extra="height_m|5000")
     argv = _navsim("--trajectory", str(f))
-    _refused(argv, tmp_path, capsys, "dup.csv", "'height_m' more than once", "fields 4, 5")
+    refused(argv, tmp_path, capsys, "dup.csv", "'height_m' more than once", "fields 4, 5")
 
 
 def test_repeated_columns_that_are_not_read_are_fine(tmp_path):
@@ -206,7 +185,7 @@ def test_vehicle_that_never_moves_is_no_flight(tmp_path, capsys, option):
     """121 identical positions were simulated with ``--no-smooth`` or ``--keep-ground``."""
     f = _flight(tmp_path / "still.csv", lat=np.full(121, 47.0), h=np.full(121, 1000.0))
     argv = _navsim("--trajectory", str(f), *option)
-    _refused(argv, tmp_path, capsys, "still.csv lines 2..122", "not a flight", "never moves")
+    refused(argv, tmp_path, capsys, "still.csv lines 2..122", "not a flight", "never moves")
 
 
 # ------------------------------------------------------------------------------------ 3.6
@@ -214,7 +193,7 @@ def test_corridor_table_must_hold_its_flight(tmp_path, capsys):
     """A corridor table at 10..20 km for a flight at 1000..1240 m, refused later by navsim."""
     f = _flight(tmp_path / "good.csv")
     argv = ["table", "--lmax", "20", "--corridor", str(f), "--height-km", "10,20"]
-    line = _refused(
+    line = refused(
         [*argv, "--max-error-mgal", "5"],
         tmp_path,
         capsys,
@@ -244,7 +223,7 @@ def test_corridor_flight_refusal_advises_no_option_table_lacks(tmp_path, capsys)
     k = np.arange(12.0)
     f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
     argv = ["table", "--lmax", "20", "--corridor", str(f), "--height-km", "0,5"]
-    _refused(
+    refused(
         [*argv, "--max-error-mgal", "5"],
         tmp_path,
         capsys,
@@ -262,9 +241,7 @@ def test_going_back_with_no_smooth_names_the_option(tmp_path, capsys):
     t[[1, 2]] = t[[2, 1]]
     f = _flight(tmp_path / "back.csv", t=t)
     argv = _navsim("--trajectory", str(f), "--no-smooth")
-    _refused(
-        argv, tmp_path, capsys, "back.csv line 4", "leave out --no-smooth", absent=("reorder",)
-    )
+    refused(argv, tmp_path, capsys, "back.csv line 4", "leave out --no-smooth", absent=("reorder",))
 
 
 def test_library_messages_name_its_keywords(tmp_path):
@@ -290,7 +267,7 @@ def test_ground_only_log_names_airborne_only(tmp_path, capsys):
     k = np.arange(121.0)
     f = _flight(tmp_path / "taxi.csv", lat=47.0 + k * 8.0 / 111_000.0, h=np.full(121, 400.0))
     argv = _navsim("--trajectory", str(f), "--airborne-only")
-    _refused(
+    refused(
         argv,
         tmp_path,
         capsys,
@@ -304,7 +281,7 @@ def test_keep_ground_and_airborne_only_refused_together(tmp_path, capsys):
     """--keep-ground (the default now) flies the ground, --airborne-only trims it."""
     f = _flight(tmp_path / "good.csv")
     argv = _navsim("--trajectory", str(f), "--keep-ground", "--airborne-only")
-    _refused(argv, tmp_path, capsys, "--keep-ground", "--airborne-only", "give one")
+    refused(argv, tmp_path, capsys, "--keep-ground", "--airborne-only", "give one")
 
 
 def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
@@ -312,7 +289,7 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
     k = np.arange(12.0)
     f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
     argv = _navsim("--trajectory", str(f))
-    _refused(
+    refused(
         argv, tmp_path, capsys, "60 s (--max-gap-s)", "raise --max-gap-s", absent=("max_gap_s",)
     )
 
@@ -343,7 +320,7 @@ def test_no_smooth_across_a_long_gap_names_the_lines(tmp_path, capsys):
     t[61:] += 100_000.0
     f = _flight(tmp_path / "gap.csv", t=t)
     argv = _navsim("--trajectory", str(f), "--no-smooth")
-    _refused(argv, tmp_path, capsys, "gap.csv lines 62..63", "without samples", absent=("ECEF",))
+    refused(argv, tmp_path, capsys, "gap.csv lines 62..63", "without samples", absent=("ECEF",))
 
 
 def test_impossible_height_names_file_line_and_column(tmp_path, capsys):
@@ -352,27 +329,27 @@ def test_impossible_height_names_file_line_and_column(tmp_path, capsys):
     h[60] = -50_000.0
     f = _flight(tmp_path / "deep.csv", h=h)
     argv = _navsim("--trajectory", str(f))
-    _refused(argv, tmp_path, capsys, "deep.csv line 62 column height_m", "-50000 m", absent=("h0",))
+    refused(argv, tmp_path, capsys, "deep.csv line 62 column height_m", "-50000 m", absent=("h0",))
 
 
 # ------------------------------------------------------------------------------------ 4.6
 def test_route_climbing_on_the_spot_is_worded_for_what_it_is(tmp_path, capsys):
     """Waypoints at one place but different heights were said to "coincide"."""
     argv = _navsim("--route", "47,8,1000;47,8,5000", "--speed-mps", "200")
-    _refused(argv, tmp_path, capsys, "waypoints 1 and 2", "same point", absent=("coincide",))
+    refused(argv, tmp_path, capsys, "waypoints 1 and 2", "same point", absent=("coincide",))
 
 
 def test_route_too_fast_is_worded_for_a_route(tmp_path, capsys):
     """A route is no file: "route line 2 column lat_deg" named neither line nor column."""
     argv = _navsim("--route", "0,0,1000;0,180,1000", "--speed-mps", "200000")
-    _refused(argv, tmp_path, capsys, "route:", "ground speed", absent=("line", "column"))
+    refused(argv, tmp_path, capsys, "route:", "ground speed", absent=("line", "column"))
 
 
 def test_failure_after_a_guess_of_the_time_units_says_so(tmp_path, capsys):
     """Times 1.7e12 + i are read as epoch ms; the failure that follows must say so."""
     f = _flight(tmp_path / "ms.csv", t=1.7e12 + np.arange(121.0))
     argv = _navsim("--trajectory", str(f))
-    _refused(argv, tmp_path, capsys, "ms.csv", "epoch milliseconds", "guessed", "--time-format s")
+    refused(argv, tmp_path, capsys, "ms.csv", "epoch milliseconds", "guessed", "--time-format s")
 
 
 # -------------------------------------------------------------------------------------- 5
@@ -389,7 +366,7 @@ def test_failure_after_a_guess_of_the_time_units_says_so(tmp_path, capsys):
 )  # fmt: skip
 def test_refusal_is_the_only_line(tmp_path, capsys, args, words):
     """No progress bar, no warning before the refusal: it comes before any work."""
-    _refused(["navsim", "--lmax", "20", *args], tmp_path, capsys, *words)
+    refused(["navsim", "--lmax", "20", *args], tmp_path, capsys, *words)
 
 
 def test_two_tables_refused_before_any_work(tmp_path, capsys):
@@ -400,7 +377,7 @@ def test_two_tables_refused_before_any_work(tmp_path, capsys):
     f = _flight(tmp_path / "good.csv")
     models = f"j4,table:{a},table:{b}"
     argv = ["navsim", "--lmax", "20", "--rate", "10", "--models", models, "--trajectory", str(f)]
-    _refused(argv, tmp_path, capsys, "--models", "one compensation table per launch")
+    refused(argv, tmp_path, capsys, "--models", "one compensation table per launch")
 
 
 # ---------------------------------------------------------------------------- the program
@@ -424,7 +401,7 @@ def test_corrupt_gzip_flight_log(tmp_path, capsys):
     """A gzip header followed by no deflate stream (zlib.error) was an internal error."""
     bad = tmp_path / "bad.csv.gz"
     bad.write_bytes(b"\x1f\x8b\x08\x00garbagegarbage")
-    _refused(_navsim("--trajectory", str(bad)), tmp_path, capsys, "bad.csv.gz", "broken gzip")
+    refused(_navsim("--trajectory", str(bad)), tmp_path, capsys, "bad.csv.gz", "broken gzip")
 
 
 def test_flight_height_limits_are_not_rounded_onto(tmp_path):

@@ -43,6 +43,11 @@ STATE_SCALE = {
 }
 
 
+def _atol(key: str) -> float:
+    """Absolute tolerance of ``file:variable`` on another CPU kind (:data:`STATE_SCALE`)."""
+    return 1e-12 * STATE_SCALE.get(key.rsplit(":", 1)[-1], 0.0)
+
+
 def _kind_references() -> list[tuple[dict, pathlib.Path]]:
     return [
         (json.loads(meta.read_text()), meta.with_suffix(".npz"))
@@ -82,8 +87,7 @@ def test_same_numbers_as_before(name, reference, tmp_path):
         if exact or want.dtype.kind != "f":
             assert np.array_equal(have, want, equal_nan=True), f"{name}: {key} changed"
         else:
-            atol = 1e-12 * STATE_SCALE.get(key.rsplit(":", 1)[-1], 0.0)
-            np.testing.assert_allclose(have, want, rtol=1e-12, atol=atol, err_msg=key)
+            np.testing.assert_allclose(have, want, rtol=1e-12, atol=_atol(key), err_msg=key)
 
 
 def test_reference_records_every_case(reference):
@@ -103,5 +107,4 @@ def test_kind_references_are_of_the_recorded_commit(reference):
             assert set(z.files) <= set(first) and z.files
             for key in z.files:
                 want, have = first[key], z[key]
-                atol = 1e-12 * STATE_SCALE.get(key.rsplit(":", 1)[-1], 0.0)
-                np.testing.assert_allclose(have, want, rtol=1e-12, atol=atol, err_msg=key)
+                np.testing.assert_allclose(have, want, rtol=1e-12, atol=_atol(key), err_msg=key)

@@ -16,6 +16,7 @@ the machine, the old commit and the cases that differ.
 """
 
 import json
+import os
 import pathlib
 import shutil
 import subprocess
@@ -59,7 +60,7 @@ def main(before: pathlib.Path) -> None:
         shutil.copytree(before / "kernels", tree / "fieldmap" / "kernels")
         out = pathlib.Path(tmp) / "numbers.npz"
         code = _RUN.format(tests=str(TESTS), tree=str(tree), spelling=OLD_SPELLING, out=str(out))
-        env = {**__import__("os").environ, "PYTHONPATH": str(tree)}
+        env = {**os.environ, "PYTHONPATH": str(tree)}
         subprocess.run([sys.executable, "-c", code], cwd=tmp, env=env, check=True)
         with np.load(out) as z:
             numbers = {k: z[k] for k in z.files}
