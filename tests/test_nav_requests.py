@@ -128,13 +128,6 @@ def test_cli_checks_model_names_and_tables_once(monkeypatch, tmp_path, capsys):
     assert calls == {"check_model_names": 1, "check_tables_cover": 1}
 
 
-def test_no_public_flight_entry_over_eight_parameters():
-    """``run_flight`` took 22 parameters; the study is one object now."""
-    from fieldmap.nav.study import run_flight
-
-    assert len(inspect.signature(run_flight).parameters) <= 8
-
-
 def test_gravity_device_error_is_not_rewrapped():
     """A missing device raises ``DeviceError`` (an ``InputError``) from the gravitation.
 

@@ -4,7 +4,7 @@
 - every ``fieldmap.X`` / dotted path named in the README or a docs page is public and imports;
 - the README's quick start is what the Makefile does, and the landing page of the docs includes
   the README's sections (by its "begin X" / "end X" markers) instead of a copy;
-- the README's links point to files that exist; the README stays a front page (~250 lines).
+- the README's links point to files that exist.
 """
 
 import importlib
@@ -181,8 +181,3 @@ def test_readme_links_exist():
     assert any(t.startswith("docs/_static/") for t in local)  # the figures
     for target in local:
         assert (ROOT / target).exists(), target
-
-
-def test_readme_is_a_front_page():
-    """The README stays short; the details live in the docs pages it links to."""
-    assert len(README.read_text(encoding="utf-8").splitlines()) <= 250
