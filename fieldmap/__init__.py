@@ -21,11 +21,8 @@ resolved lazily, so ``import fieldmap`` loads neither Warp, xarray nor matplotli
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 import typing
 
-from fieldmap import _compat
 from fieldmap.errors import FieldmapError as FieldmapError
 from fieldmap.errors import InputError as InputError
 from fieldmap.errors import ModelFileError as ModelFileError
@@ -109,10 +106,6 @@ __all__ = sorted(
     ]
 )
 
-#: Old module paths -> where their names live now (the deprecation map, kept in
-#: :mod:`fieldmap._compat`); importing an old path warns and gives the new module.
-_MOVED = _compat.MOVED
-
 
 def __getattr__(name: str) -> typing.Any:
     """Resolve the lazily exported names on first use (PEP 562)."""
@@ -127,20 +120,3 @@ def __getattr__(name: str) -> typing.Any:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """The ``fieldmap`` module: an old module path never shadows a public function.
-
-    ``from fieldmap.gravity import disturbance`` (0.1 layout) makes the import system set
-    ``fieldmap.gravity`` to the module; the public function of that name is kept instead.
-    """
-
-    def __setattr__(self, name: str, value: object) -> None:
-        if isinstance(value, types.ModuleType) and name in _compat.MOVED and name in _LAZY:
-            return
-        super().__setattr__(name, value)
-
-
-_compat.install_moved_finder()
-sys.modules[__name__].__class__ = _Package

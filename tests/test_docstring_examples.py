@@ -1,8 +1,8 @@
 """The ``Examples`` sections of the main entry points run, and print what they show.
 
 Each module's doctests run with :mod:`doctest` (as ``doctest.testmod`` would), plus those of
-its entry points that a decorator wraps (``doctest`` skips a wrapper defined in another module,
-:func:`fieldmap._compat.keyword_api`): they are found through ``__wrapped__``. Every entry
+its entry points that a decorator wraps (``doctest`` skips a wrapper defined in another
+module): they are found through ``__wrapped__``. Every entry
 point listed must hold at least one example, so a lost section fails here. Warp is configured
 by ``tests/conftest.py`` before this module is imported.
 """

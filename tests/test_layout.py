@@ -148,7 +148,7 @@ def _private_imports(root: pathlib.Path) -> dict[str, set[str]]:
 
     Counted: ``from M import _name`` (relative imports resolved) and ``alias._name`` where
     ``alias`` is bound to a fieldmap module by an import. Not counted: a private *module*
-    (``from fieldmap import _warp``, ``fieldmap._compat``, ``fieldmap._version``,
+    (``from fieldmap import _warp``, ``fieldmap._version``,
     ``fieldmap.kernels._x``): an underscore module is a helper private to the fieldmap package
     as a whole, which any module of it may import; the rule is about ``_names`` defined inside
     another module (its own implementation details). Dunder names are not private.
@@ -220,8 +220,6 @@ def _all_names(tree: ast.Module) -> set[str]:
     return names
 
 
-#: The deprecation map is the one module that forwards names it does not define.
-REEXPORT_HOME = "fieldmap._compat"
 #: ``fieldmap/__init__.py`` is the top-level public face: the names below are imported there
 #: with ``X as X`` (light, always-loaded names: the version, the errors, the ellipsoids), and
 #: every other public name goes through its ``_LAZY`` table (name -> defining module, resolved by
@@ -237,14 +235,11 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
 
     Counted: ``from M import y as y`` and ``import x as x`` (the explicit re-export idiom of
     PEP 484), a string in ``__all__`` that the module does not define, and a module-level
-    ``__getattr__`` (PEP 562 forwarding). Exceptions: :data:`REEXPORT_HOME` entirely, and in
-    ``fieldmap/__init__.py`` the :data:`TOP_LEVEL_FACE` imports and its ``__getattr__`` (the
-    ``_LAZY`` table).
+    ``__getattr__`` (PEP 562 forwarding). Exception: in ``fieldmap/__init__.py`` the
+    :data:`TOP_LEVEL_FACE` imports and its ``__getattr__`` (the ``_LAZY`` table).
     """
     out: dict[str, set[str]] = {}
     for name, path in _package_modules(root).items():
-        if name == REEXPORT_HOME:
-            continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         top = name == "fieldmap"
         found = set()
@@ -263,18 +258,11 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
         found |= _all_names(tree) - _defined_names(tree)
         if any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body):
             found.add("__getattr__")
-        for n in tree.body:  # __getattr__ = f(...): only the deprecation map's may forward
+        for n in tree.body:  # __getattr__ = f(...) forwards as well
             if isinstance(n, ast.Assign) and any(
                 isinstance(t, ast.Name) and t.id == "__getattr__" for t in n.targets
             ):
-                call = n.value
-                func = call.func if isinstance(call, ast.Call) else None
-                if not (
-                    isinstance(func, ast.Attribute)
-                    and isinstance(func.value, ast.Name)
-                    and func.value.id == "_compat"
-                ):
-                    found.add("__getattr__")
+                found.add("__getattr__")
         if top:
             found -= TOP_LEVEL_FACE | {"__getattr__"}
         if found:
@@ -304,7 +292,7 @@ def test_no_private_names_imported_across_modules():
 
 
 def test_no_reexports():
-    """No module outside fieldmap._compat re-exports names it does not define."""
+    """No module re-exports names it does not define (the top level's lazy table aside)."""
     new, gone = _against(_reexports(ROOT), REEXPORTS_BEING_FIXED)
     assert not new, "re-exported names (define them, or import from their home):\n" + "\n".join(new)
     assert not gone, "fixed: remove from REEXPORTS_BEING_FIXED:\n" + "\n".join(gone)

@@ -33,7 +33,6 @@ from typing import Any
 
 import xarray as xr
 
-from fieldmap import _compat
 from fieldmap.errors import InputError
 from fieldmap.products.request import MapRequest
 
@@ -44,44 +43,6 @@ __all__ = [
     "quantity_map",
     "truncation_map",
 ]
-
-#: Options of the map products that followed ``model`` positionally in fieldmap 0.1 (now
-#: keyword-only; positional calls keep working for one release, with a DeprecationWarning).
-_OLD_ORDER = (
-    "lmax",
-    "height_km",
-    "step_deg",
-    "lat_max",
-    "region",
-    "thresholds_mg",
-    "device",
-    "ellipsoid",
-    "epoch",
-    "units",
-    "progress",
-)
-#: The 0.1 positional order of :func:`truncation_map` and :func:`component_maps`.
-_TRUNCATION_ORDER = (
-    "height_km",
-    "orders",
-    "step_deg",
-    "lat_max",
-    "region",
-    "device",
-    "ellipsoid",
-    "units",
-)
-_COMPONENTS_ORDER = (
-    "lmax",
-    "height_km",
-    "step_deg",
-    "lat_max",
-    "region",
-    "device",
-    "ellipsoid",
-    "epoch",
-    "progress",
-)
 
 #: Options each façade takes (the rest of a request is set by the façade itself).
 _GRID = ("height_km", "step_deg", "lat_max", "region", "ellipsoid")
@@ -105,7 +66,6 @@ def _request(name: str, model: Any, options: dict, allowed: tuple, **fixed: Any)
     return MapRequest.build(**options, **fixed)
 
 
-@_compat.keyword_api(1, _OLD_ORDER)
 def disturbance_map(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
 
@@ -171,7 +131,6 @@ def disturbance_map(model: Any = None, /, **options: Any) -> xr.Dataset:
     return compute(_request("disturbance_map", model, options, _DISTURBANCE, stacked=False))
 
 
-@_compat.keyword_api(1, _OLD_ORDER)
 def altitude_sweep(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
@@ -200,7 +159,6 @@ def altitude_sweep(model: Any = None, /, **options: Any) -> xr.Dataset:
     return compute(_request("altitude_sweep", model, options, _DISTURBANCE, stacked=True))
 
 
-@_compat.keyword_api(0, _TRUNCATION_ORDER)
 def truncation_map(**options: Any) -> xr.Dataset:
     """Map the truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
 
@@ -214,9 +172,7 @@ def truncation_map(**options: Any) -> xr.Dataset:
         ``height_km`` (one height, default 20. Units: km), ``orders`` (distinct orders among
         2, 4, 6, default all; 2.5 is an error, not order 2), and ``step_deg``, ``lat_max``,
         ``region``, ``ellipsoid``, ``units``, ``device``, ``progress``, ``client``,
-        ``scheduler``, ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional
-        order (height_km, orders, step_deg, lat_max, region, device, ellipsoid, units) still
-        works, with a DeprecationWarning.
+        ``scheduler``, ``rows_per_block`` as in :func:`disturbance_map`.
 
     Returns
     -------
@@ -238,7 +194,6 @@ def truncation_map(**options: Any) -> xr.Dataset:
     return compute(_request("truncation_map", None, options, _TRUNCATION, quantity="truncation"))
 
 
-@_compat.keyword_api(1, _COMPONENTS_ORDER)
 def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
     """Model gravity and normal gravity components at one height (Chen et al. 2022 Figs. 2-3).
 
@@ -252,9 +207,7 @@ def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
     **options
         ``lmax``, ``epoch``, ``height_km`` (one height), ``step_deg``, ``lat_max``,
         ``region``, ``ellipsoid``, ``device``, ``progress``, ``client``, ``scheduler``,
-        ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional order (model,
-        lmax, height_km, step_deg, lat_max, region, device, ellipsoid, epoch, progress) still
-        works, with a DeprecationWarning.
+        ``rows_per_block`` as in :func:`disturbance_map`.
 
     Returns
     -------

@@ -43,7 +43,6 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning
 
@@ -72,7 +71,6 @@ def _recorded_attitude(source: Any) -> bool:
     return False
 
 
-@options_api("options", Conditioning)
 def load_flight(
     source: Any,
     options: Conditioning | None = None,
