@@ -488,7 +488,9 @@ def test_point_functions_share_one_signature_convention():
         assert all(p.kind is p.POSITIONAL_OR_KEYWORD for p in params[:3]), name
         assert all(p.kind is p.KEYWORD_ONLY for p in params[3:]), name
         assert all(p.annotation is not p.empty for p in params), name
-    params = inspect.signature(fieldmap.normal_gravitation_ecef).parameters
+    from fieldmap.field.normal import normal_gravitation_ecef
+
+    params = inspect.signature(normal_gravitation_ecef).parameters
     assert [p.kind for p in params.values()][3:] == [inspect.Parameter.KEYWORD_ONLY] * 5
 
 

@@ -71,7 +71,7 @@ def test_flight_study_takes_what_the_cli_takes():
         assert np.array_equal(getattr(ref, k), getattr(new, k)), k
     with pytest.raises(TypeError, match="draws"):
         run_flight(study, draws=3)
-    with pytest.raises(InputError, match="takes a FlightStudy"):
+    with pytest.raises(TypeError, match="takes a FlightStudy"):
         run_flight(objects.flight)
 
 

@@ -225,6 +225,15 @@ def disturbing_potential(
     -------
     numpy.ndarray
         Broadcast shape of the inputs. Units: m²/s².
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fieldmap
+    >>> model = fieldmap.load_model("eigen-6s", lmax=36)
+    >>> T = fieldmap.disturbing_potential([45.0, -30.0], [10.0, 150.0], 0.0, model=model)
+    >>> np.round(T, 1)  # m²/s²
+    array([479.3, 316. ])
     """
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, height)

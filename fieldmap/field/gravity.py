@@ -129,6 +129,16 @@ def gravitation(
     -------
     numpy.ndarray
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
+
+    Examples
+    --------
+    The gravitation 1 km above 45° N, 10° E (no centrifugal term), east-north-up:
+
+    >>> import fieldmap
+    >>> model = fieldmap.load_model("eigen-6s", lmax=12)
+    >>> g = fieldmap.gravitation(45.0, 10.0, 1000.0, model=model)
+    >>> g.shape, round(float(g[2]), 2)  # up. Units: m/s²
+    ((3,), -9.82)
     """
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, ell, device)

@@ -560,7 +560,7 @@ def propagate_lci(
     LciResult
     """
     if not isinstance(start, LciStart):
-        raise InputError(f"start must be an LciStart, got {type(start).__name__}", param="start")
+        raise TypeError(f"start must be an LciStart, got {type(start).__name__}")
     launch = start.launch
     cfg = NavConfig() if config is None else config
     ellipsoid = cfg.ellipsoid
@@ -722,7 +722,7 @@ def propagate_ned(
     NedResult
     """
     if not isinstance(start, NedStart):
-        raise InputError(f"start must be a NedStart, got {type(start).__name__}", param="start")
+        raise TypeError(f"start must be a NedStart, got {type(start).__name__}")
     cfg = NavConfig() if config is None else config
     degrees = start.degrees
     ellipsoid = WGS84 if cfg.ellipsoid is None else cfg.ellipsoid

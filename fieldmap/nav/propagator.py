@@ -153,7 +153,7 @@ class Propagator:
         from fieldmap.nav.mechanize import NavConfig
 
         if not isinstance(nav, NavConfig):
-            raise InputError(f"nav must be a NavConfig, got {type(nav).__name__}", param="nav")
+            raise TypeError(f"nav must be a NavConfig, got {type(nav).__name__}")
         frame = check_mechanization(frame, baro=nav.baro is not None)
         if frame == "lci" and launch is None:
             raise InputError(
