@@ -14,18 +14,17 @@ product → file), with navigation apart:
 - :mod:`fieldmap.cli`: the ``fieldmap`` command;
 - ``fieldmap.kernels``: the Warp kernels (top-level folder ``kernels/`` of the repository).
 
-Everything a user needs is importable from the top level (see ``__all__``); the names are
-resolved lazily, so ``import fieldmap`` loads neither Warp, xarray nor matplotlib.
+What a user calls (models, the field at points, maps, flights and flight studies) is
+importable from the top level (see ``__all__``); the building blocks stay in their modules.
+The names are resolved lazily, so ``import fieldmap`` loads neither Warp, xarray nor
+matplotlib.
 """
 
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 import typing
 
-from fieldmap import _compat
 from fieldmap.errors import FieldmapError as FieldmapError
 from fieldmap.errors import InputError as InputError
 from fieldmap.errors import ModelFileError as ModelFileError
@@ -36,64 +35,42 @@ from fieldmap.field.ellipsoid import Ellipsoid as Ellipsoid
 #: the version of fieldmap: the one place it is written (pyproject.toml reads it from here)
 __version__ = "0.2.0"
 
-#: Public name -> module that defines it (imported on first use, PEP 562).
+#: Public name -> module that defines it (imported on first use, PEP 562). The top level holds
+#: what a user calls: models, the field at points, maps, flights and flight studies; the
+#: building blocks (frames, mechanizations, IMU synthesis, normal-field pieces, units) stay in
+#: their modules (``fieldmap.nav.frames.calc_force_ned``, ``fieldmap.field.normal.somigliana``).
 _LAZY = {
     # models
     "SHModel": "fieldmap.models.shmodel",
     "load_model": "fieldmap.models.registry",
-    "kaula_model": "fieldmap.models.registry",
-    "read_icgem": "fieldmap.models.icgem",
     # the field at points
     "gravitation": "fieldmap.field.gravity",
     "gravity": "fieldmap.field.gravity",
     "disturbance": "fieldmap.field.gravity",
     "gradient_tensor": "fieldmap.field.gradient",
     "normal_gravity": "fieldmap.field.normal",
-    "normal_gravitation_ecef": "fieldmap.field.normal",
-    "normal_model": "fieldmap.field.normal",
-    "NORMAL_MODELS": "fieldmap.field.normal",
-    "somigliana": "fieldmap.field.normal",
-    "get_ellipsoid": "fieldmap.field.ellipsoid",
-    "geodetic_to_ecef": "fieldmap.field.frames",
-    "ecef_to_geodetic": "fieldmap.field.frames",
-    # geodetic quantities
     "disturbing_potential": "fieldmap.field.geodesy",
     "gravity_anomaly": "fieldmap.field.geodesy",
-    "SphericalAnomaly": "fieldmap.field.geodesy",
     "geoid_height": "fieldmap.field.geodesy",
     "commission_sigma": "fieldmap.field.commission",
-    # units and accepted ranges
-    "Unit": "fieldmap.units",
-    "UNITS": "fieldmap.units",
-    "get_unit": "fieldmap.units",
-    "MIN_HEIGHT": "fieldmap.limits",
-    "MAX_HEIGHT": "fieldmap.limits",
-    # products
+    # maps and compensation tables
     "disturbance_map": "fieldmap.products.maps",
     "altitude_sweep": "fieldmap.products.maps",
     "truncation_map": "fieldmap.products.maps",
     "component_maps": "fieldmap.products.maps",
     "quantity_map": "fieldmap.products.maps",
     "MapRequest": "fieldmap.products.request",
-    "write_netcdf": "fieldmap.products.io",
-    # navigation
-    "LaunchFrame": "fieldmap.nav.frames",
-    "Trajectory": "fieldmap.nav.trajectory",
-    "BoostGlide": "fieldmap.nav.trajectory",
-    "synthesize_imu": ("fieldmap.nav.imu", "synthesize"),
-    "ImuErrorSpec": "fieldmap.nav.sensors",
-    "propagate_lci": "fieldmap.nav.mechanize",
-    "propagate_ned": "fieldmap.nav.mechanize",
-    "calc_force_ned": "fieldmap.nav.frames",
-    # your own flight and IMU
-    "FlightTrajectory": "fieldmap.nav.trajectory",
+    "build_table": "fieldmap.products.tables.build",
+    # flights and flight studies
     "route_flight": "fieldmap.nav.trajectory",
+    "FlightTrajectory": "fieldmap.nav.trajectory",
+    "load_flight": "fieldmap.nav.logs",
     "load_imu": "fieldmap.nav.sensors",
-    "run_flight": "fieldmap.nav.study",
+    "ImuErrorSpec": "fieldmap.nav.sensors",
     "FlightStudy": "fieldmap.nav.study",
     "BaroSpec": "fieldmap.nav.study",
-    "build_table": "fieldmap.products.tables.build",
-    "allan_deviation": "fieldmap.nav.sensors",
+    "GnssSpec": "fieldmap.nav.aiding",
+    "run_flight": "fieldmap.nav.study",
 }
 
 __all__ = sorted(
@@ -109,38 +86,16 @@ __all__ = sorted(
     ]
 )
 
-#: Old module paths -> where their names live now (the deprecation map, kept in
-#: :mod:`fieldmap._compat`); importing an old path warns and gives the new module.
-_MOVED = _compat.MOVED
-
 
 def __getattr__(name: str) -> typing.Any:
     """Resolve the lazily exported names on first use (PEP 562)."""
     target = _LAZY.get(name)
     if target is None:
         raise AttributeError(f"module 'fieldmap' has no attribute {name!r}")
-    module, attr = target if isinstance(target, tuple) else (target, name)
-    value = getattr(importlib.import_module(module), attr)
+    value = getattr(importlib.import_module(target), name)
     globals()[name] = value
     return value
 
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """The ``fieldmap`` module: an old module path never shadows a public function.
-
-    ``from fieldmap.gravity import disturbance`` (0.1 layout) makes the import system set
-    ``fieldmap.gravity`` to the module; the public function of that name is kept instead.
-    """
-
-    def __setattr__(self, name: str, value: object) -> None:
-        if isinstance(value, types.ModuleType) and name in _compat.MOVED and name in _LAZY:
-            return
-        super().__setattr__(name, value)
-
-
-_compat.install_moved_finder()
-sys.modules[__name__].__class__ = _Package

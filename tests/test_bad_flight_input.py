@@ -360,7 +360,7 @@ def test_failure_after_a_guess_of_the_time_units_says_so(tmp_path, capsys):
          ("--rate", "--block-s")),
         (["--study", "table1", "--models", "j2", "--duration", "10", "--rate", "20",
           "--output-dt", "3"], ("--output-dt",)),
-        (["--route", ROUTE, "--speed-mps", "200", "--models", "normal", "--draws", "3"],
+        (["--route", ROUTE, "--speed-mps", "200", "--models", "exact", "--draws", "3"],
          ("--draws",)),
     ],
 )  # fmt: skip

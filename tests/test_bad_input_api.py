@@ -118,12 +118,14 @@ def test_longitude_range_is_geographiclib_s(name, func):
 
 
 def test_bad_degree_and_frame_raise():
-    # 0.2's lmax= (deprecated) is load_model's: its message (raised before any warning)
-    bad_lmax = ({"lmax": 500}, r"lmax 500 exceeds the degree 240 of model EIGEN-6S")
-    for kw, msg in (bad_lmax, ({"frame": "xyz"}, "frame")):
-        with pytest.raises(InputError, match=msg) as info:
-            GR.disturbance([0.0], [0.0], [0.0], device="cpu", **kw)
-        _one_line(info)
+    from fieldmap.models.registry import load_model
+
+    with pytest.raises(InputError, match=r"lmax 500 exceeds the degree 240 of model EIGEN-6S") as i:
+        GR.disturbance([0.0], [0.0], [0.0], model=load_model("eigen-6s", lmax=500), device="cpu")
+    _one_line(i)
+    with pytest.raises(InputError, match="frame") as i:
+        GR.disturbance([0.0], [0.0], [0.0], frame="xyz", device="cpu")
+    _one_line(i)
 
 
 def test_highest_height_is_finite_and_near_point_mass():
@@ -486,38 +488,10 @@ def test_point_functions_share_one_signature_convention():
         assert all(p.kind is p.POSITIONAL_OR_KEYWORD for p in params[:3]), name
         assert all(p.kind is p.KEYWORD_ONLY for p in params[3:]), name
         assert all(p.annotation is not p.empty for p in params), name
-    params = inspect.signature(fieldmap.normal_gravitation_ecef).parameters
+    from fieldmap.field.normal import normal_gravitation_ecef
+
+    params = inspect.signature(normal_gravitation_ecef).parameters
     assert [p.kind for p in params.values()][3:] == [inspect.Parameter.KEYWORD_ONLY] * 5
-
-
-def test_deprecated_spellings_still_work():
-    """0.1 calls (positional options, unit=, kind=, lat_deg=...) warn and give the same result."""
-    want = GR.disturbance(30.0, 105.0, 20e3, model=_model(), units="mg", device="cpu")
-    with pytest.warns(DeprecationWarning) as rec:
-        got = GR.disturbance(30.0, 105.0, 20e3, "eigen-6s", LMAX, units="mg", device="cpu")
-    assert "disturbance(): pass model, lmax by keyword" in str(rec[0].message)
-    assert "lmax= belong to the model" in str(rec[1].message)
-    np.testing.assert_array_equal(got, want)
-    with pytest.warns(DeprecationWarning, match="unit= is now units="):
-        got = GR.disturbance(lat=30.0, lon=105.0, h=20e3, model=_model(), unit="mg", device="cpu")
-    np.testing.assert_array_equal(got, want)
-    want = N.normal_gravity(30.0, 105.0, 20e3, normal="j4", ellipsoid="GRS80", frame="ned")
-    with pytest.warns(DeprecationWarning, match="kind= is now normal="):
-        got = N.normal_gravity(
-            lat_deg=30.0, lon_deg=105.0, h_m=20e3, kind="J4", ellipsoid="GRS80", frame="ned"
-        )
-    np.testing.assert_array_equal(got, want)
-    with pytest.warns(DeprecationWarning, match="pass ellipsoid, kind by keyword"):
-        got = N.normal_gravity(30.0, 105.0, 20e3, "GRS80", "j4", frame="ned")
-    np.testing.assert_array_equal(got, want)
-    grid = gridspec.make_grid(30.0, heights_m=[20e3])
-    with pytest.warns(DeprecationWarning, match="order= is now normal="):
-        rows = G.normal_rows(grid, order=4, device="cpu")
-    np.testing.assert_array_equal(rows, G.normal_rows(grid, normal="j4", device="cpu"))
-    with pytest.raises(TypeError, match="takes 3 positional arguments but 11 were given"):
-        GR.disturbance(0.0, 0.0, 0.0, *range(8))
-    with pytest.raises(TypeError, match="got both 'unit'"):
-        GR.disturbance(0.0, 0.0, 0.0, unit="mg", units="mg")
 
 
 def test_one_normal_vocabulary():

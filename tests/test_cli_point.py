@@ -181,19 +181,3 @@ def test_verify_reports_failures(monkeypatch):
     assert len(rows) == 1 and not rows[0].ok
     assert rows[0].max_rel == pytest.approx(1e-9, rel=1e-6, abs=0)
     assert "FAIL" in verify.format_table(rows)
-
-
-def test_evaluate_points_old_spelling_gives_the_same_bits():
-    """0.2's positional options and lmax=/epoch= (now model_options=) warn and change no bit."""
-    from fieldmap.cli.point import evaluate_points
-
-    lat, lon, h = np.array([10.0, -40.0]), np.array([20.0, 150.0]), np.array([0.0, 3e4])
-    new = evaluate_points(lat, lon, h, model_options={"lmax": 12}, device="cpu")
-    with pytest.warns(DeprecationWarning) as rec:
-        old = evaluate_points(lat, lon, h, "disturbance", "exact", "eigen-6s", 12, None, "cpu")
-    np.testing.assert_array_equal(old, new)
-    assert "pass quantity, normal, model, lmax, epoch, device by keyword" in str(rec[0].message)
-    assert "lmax= and epoch= go in model_options=" in str(rec[1].message)
-    with pytest.warns(DeprecationWarning, match="lmax= go in model_options="):
-        old = evaluate_points(lat, lon, h, lmax=12, device="cpu")
-    np.testing.assert_array_equal(old, new)

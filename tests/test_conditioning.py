@@ -268,8 +268,8 @@ def test_quantised_heights_are_not_outliers(step_ft):
     assert cf.report["kinematics"]["peak_acceleration_g"] < 0.2
 
 
-def test_conditioning_options_validated_once_and_old_keywords_warn():
-    """Options are one frozen Conditioning, checked on construction; 0.1 keywords still work."""
+def test_conditioning_options_validated_once():
+    """Options are one frozen Conditioning, checked on construction."""
     import dataclasses
 
     for bad in ({"max_gap_s": 0.0}, {"on_long_gap": "all"}, {"position_noise_m": (1.0, -2.0)}):
@@ -282,12 +282,8 @@ def test_conditioning_options_validated_once_and_old_keywords_warn():
     t = np.concatenate([np.arange(0.0, 600.0), np.arange(900.0, 1200.0)])
     tr = quiet_track(t, *straight(t), source="gappy.csv")
     new = condition(tr, opts)
-    with pytest.warns(DeprecationWarning, match=r"max_gap_s= in options=Conditioning"):
-        old = condition(tr, max_gap_s=400.0)
-    assert np.array_equal(old.samples.lat, new.samples.lat)
-    assert old.report["options"] == new.report["options"] == opts.report_options()
-    with pytest.warns(DeprecationWarning):
-        segs = condition_segments(tr, max_gap_s=400.0, on_long_gap="refuse")
+    assert new.report["options"] == opts.report_options()
+    segs = condition_segments(tr, Conditioning(max_gap_s=400.0, on_long_gap="refuse"))
     assert [round(s.samples.t[-1]) for s in segs] == [1199]
 
 

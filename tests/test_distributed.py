@@ -596,14 +596,12 @@ def test_propagator_groups_of_runs_on_the_cluster_equal_here(client):
 def test_navigation_monte_carlo_on_the_cluster(client):
     """Draws x models split into tasks: the single-launch result, bit for bit."""
     from fieldmap.nav import imu, paper, sensors, study
-    from fieldmap.nav.distributed import propagate_on
 
     sc = study.build_scenario(duration=20.0, sampling=imu.ImuSampling(100.0), truth_lmax=30)
     err = sensors.draw(sensors.TABLE4, 3, seed=7).repeat(2)
     grav = ["j4"] * 3 + ["sh18"] * 3
     ref = paper.propagate(sc, grav, errors=err)
-    with pytest.warns(DeprecationWarning, match="propagate_on"):
-        got = propagate_on(client, sc, grav, errors=err, runs_per_task=2)
+    got = study.propagate(sc, grav, errors=err, client=client, runs_per_task=2)
     for k in ("t", "dP", "dV", "pos", "vel", "hor", "ver", "ned"):
         assert np.array_equal(ref[k], got[k]), k
     assert ref["diverged"] == got["diverged"]
@@ -611,14 +609,12 @@ def test_navigation_monte_carlo_on_the_cluster(client):
 
 
 def test_navsim_study_on_the_cluster_equals_here(client):
-    """``on_cluster``: a Monte Carlo study's launches on Dask give the local numbers."""
+    """``client=``: a Monte Carlo study's launches on Dask give the local numbers."""
     from fieldmap.nav import imu, paper, study
-    from fieldmap.nav.distributed import on_cluster
 
     sc = study.build_scenario(duration=20.0, sampling=imu.ImuSampling(100.0), truth_lmax=30)
     here = paper.table3(sc, draws=3, seed=5, nav="j4")
-    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
-        there = paper.table3(sc, draws=3, seed=5, nav="j4")
+    there = paper.table3(sc, draws=3, seed=5, nav="j4", client=client)
     assert np.array_equal(here.pos, there.pos) and np.array_equal(here.vel, there.vel)
     assert here.rows == there.rows
 
@@ -648,7 +644,6 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
     errors with white noise and bias instability, three models x three draws in groups of two.
     """
     from fieldmap.nav import study
-    from fieldmap.nav.distributed import on_cluster
     from fieldmap.nav.sensors import load_imu
     from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
@@ -660,10 +655,8 @@ def test_flight_study_on_the_cluster_equals_here(client, frame, aiding):
         altitude_aiding=aiding,
     )  # fmt: skip
     here = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
-    with pytest.warns(DeprecationWarning, match="on_cluster"), on_cluster(client):
-        there = study.run_flight(study.FlightStudy(ft, **kw), device="cpu")
-    pairs = study.run_flight(study.FlightStudy(ft, **kw), device="cpu", client=client)
-    for res in (there, pairs):
+    there = study.run_flight(study.FlightStudy(ft, **kw), device="cpu", client=client)
+    for res in (there,):
         for k in ("t", "dpos", "dvel", "datt", "track"):
             assert np.array_equal(getattr(here, k), getattr(res, k)), k
         for m in here.dg:

@@ -1,8 +1,11 @@
 """The ``Examples`` sections of the main entry points run, and print what they show.
 
+Every function of ``fieldmap.__all__`` (what a user calls) has one
+(:func:`test_every_top_level_function_has_a_running_example`).
+
 Each module's doctests run with :mod:`doctest` (as ``doctest.testmod`` would), plus those of
-its entry points that a decorator wraps (``doctest`` skips a wrapper defined in another module,
-:func:`fieldmap._compat.keyword_api`): they are found through ``__wrapped__``. Every entry
+its entry points that a decorator wraps (``doctest`` skips a wrapper defined in another
+module): they are found through ``__wrapped__``. Every entry
 point listed must hold at least one example, so a lost section fails here. Warp is configured
 by ``tests/conftest.py`` before this module is imported.
 """
@@ -23,6 +26,7 @@ ENTRY_POINTS = {
     "fieldmap.field.omission": ("Omission",),
     "fieldmap.models.registry": ("load_model",),
     "fieldmap.models.shmodel": ("SHModel.truncated",),
+    "fieldmap.nav.study": ("FlightStudy", "run_flight"),
 }
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
@@ -53,3 +57,31 @@ def test_docstring_examples_run(name):
     result = runner.summarize(verbose=False)
     assert result.attempted >= len(ENTRY_POINTS[name])
     assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed in {name}"
+
+
+def _top_level_functions() -> list[str]:
+    import fieldmap
+
+    return sorted(n for n in fieldmap.__all__ if inspect.isfunction(getattr(fieldmap, n)))
+
+
+@pytest.mark.parametrize("name", _top_level_functions())
+def test_every_top_level_function_has_a_running_example(name):
+    import fieldmap
+
+    func = inspect.unwrap(getattr(fieldmap, name))
+    module = inspect.getmodule(func)
+    finder = doctest.DocTestFinder()
+    tests = [
+        t
+        for t in finder.find(func, f"fieldmap.{name}", module=module, globs=vars(module))
+        if t.examples
+    ]
+    assert tests, f"fieldmap.{name} has no Examples section"
+    runner = doctest.DocTestRunner(optionflags=FLAGS)
+    for t in tests:
+        runner.run(t)
+    result = runner.summarize(verbose=False)
+    assert result.failed == 0, f"{result.failed} of {result.attempted} examples of {name} failed"
+    skipped = [e.source for t in tests for e in t.examples if e.options.get(doctest.SKIP)]
+    assert not skipped, f"fieldmap.{name}: examples marked +SKIP do not run: {skipped}"

@@ -407,37 +407,3 @@ def test_attitude_columns_are_used():
     np.testing.assert_allclose(ang, 10.0, atol=1e-6)
     with pytest.raises(InputError, match="give all of roll_deg, pitch_deg, heading_deg or none"):
         read_flight(cols | {"roll_deg": att[:, 0]})
-
-
-@pytest.mark.parametrize("old", ["fieldmap.nav.flight", "fieldmap.nav.flightsamples"])
-def test_old_flight_paths_warn_and_give_the_same_objects(old):
-    """0.2's ``fieldmap.nav.flight`` (and the older ``nav.flightsamples``) warn: nav.trajectory.
-
-    A flight's samples, their reader, the spline through them and routes joined the closed-form
-    trajectories in one module (issue 25); the old path gives the very same objects.
-    """
-    import importlib
-    import sys
-
-    import fieldmap.nav
-    from fieldmap.nav import trajectory
-
-    sys.modules.pop(old, None)
-    try:
-        with pytest.warns(DeprecationWarning, match=f"{old} moved to fieldmap.nav.trajectory"):
-            module = importlib.import_module(old)
-        assert module is trajectory
-        for name in (
-            "FlightSamples",
-            "read_flight",
-            "FlightTrajectory",
-            "coordinated_attitude",
-            "route_flight",
-            "parse_route",
-            "geodetic_state",
-            "MIN_POINTS",
-        ):
-            assert getattr(module, name) is getattr(trajectory, name)
-    finally:
-        sys.modules.pop(old, None)
-        fieldmap.nav.__dict__.pop(old.rsplit(".", 1)[1], None)

@@ -190,7 +190,7 @@ def test_bad_input(eigen6s):
     with pytest.raises(InputError):
         gd.geoid_height([np.nan], [0.0], model=eigen6s)
     with pytest.raises(InputError, match="lmax"):
-        gd.disturbing_potential([0.0], [0.0], [0.0], model=eigen6s, lmax=241)
+        gd.geoid_height([0.0], [0.0], model=eigen6s, lmax=241)
 
 
 def _cli(args, stdin):
@@ -385,20 +385,13 @@ def test_cli_quantity_choices_match_products():
 
 
 def test_gravity_anomaly_returns_one_unit_per_field(eigen6s):
-    """Δg, ξ, η come as named arrays of the points' shape; the stacked (..., 3) is deprecated."""
+    """Δg, ξ, η come as named arrays of the points' shape, one unit each."""
     lat, lon = np.array([[10.0, 20.0], [30.0, -40.0]]), np.array([[5.0, 6.0], [7.0, 8.0]])
     res = gd.gravity_anomaly(lat, lon, 0.0, model=eigen6s)
     assert isinstance(res, gd.SphericalAnomaly)
     dg, xi, eta = res
     assert dg.shape == xi.shape == eta.shape == (2, 2)
     assert res[0] is res.anomaly_mgal and res[1:] == (res.xi_arcsec, res.eta_arcsec)
-    with pytest.warns(DeprecationWarning, match="SphericalAnomaly"):
-        old = res[..., 0]
-    np.testing.assert_array_equal(old, dg)
-    with pytest.warns(DeprecationWarning):
-        stacked = np.asarray(res)
-    assert stacked.shape == (2, 2, 3)
-    np.testing.assert_array_equal(stacked[..., 2], eta)
 
 
 def test_gravity_anomaly_units(eigen6s):

@@ -137,30 +137,6 @@ def test_shapes_and_refusals(model60):
     assert fieldmap.gradient_tensor is gradient_tensor
 
 
-def test_deprecated_spellings_give_the_same_bits(model60):
-    """0.2's lmax=, epoch=, normal= and return_asymmetry= still run, warn, and change no bit."""
-    lat, lon, h = _points(5)
-    m20 = model60.truncated(20)
-    cases = [
-        (dict(model=model60, lmax=20), dict(model=m20)),
-        (dict(model="eigen-6s", lmax=20, epoch=None), dict(model=load_model("eigen-6s", lmax=20))),
-        (dict(quantity="normal", normal="j4"), dict(quantity="normal:j4")),
-        (dict(model=m20, quantity="disturbance", normal="j2"),
-         dict(model=m20, quantity="disturbance:j2")),
-        (dict(quantity="normal", normal="exact", lmax=3), dict(quantity="normal")),
-    ]  # fmt: skip
-    for old, new in cases:
-        with pytest.warns(DeprecationWarning, match="gradient_tensor"):
-            got = gradient_tensor(lat, lon, h, frame="ned", **old)
-        np.testing.assert_array_equal(got, gradient_tensor(lat, lon, h, frame="ned", **new))
-    with pytest.warns(DeprecationWarning, match="gradient_asymmetry"):
-        t, asym = gradient_tensor(lat, lon, h, model=m20, frame="ned", return_asymmetry=True)
-    np.testing.assert_array_equal(t, gradient_tensor(lat, lon, h, model=m20, frame="ned"))
-    np.testing.assert_array_equal(asym, gradient_asymmetry(lat, lon, h, model=m20))
-    with pytest.warns(DeprecationWarning), pytest.raises(InputError, match="applies to quantity"):
-        gradient_tensor(0.0, 0.0, 0.0, model=m20, normal="j2")
-
-
 def _run(args, stdin):
     return subprocess.run(
         [sys.executable, "-m", "fieldmap", *args],
@@ -227,12 +203,3 @@ def test_tensor_equals_central_differences_of_geographiclib_gravity(model60, tmp
     got = gradient_tensor(lat, lon, h, model=model60, quantity="gravity")
     assert np.abs(want).max() > 1000.0
     np.testing.assert_allclose(got, want, rtol=0, atol=0.05)
-
-
-def test_step_moved_with_the_central_differences():
-    """0.3's ``fieldmap.field.gradient.STEP`` warns and is the reference's step (1 m)."""
-    import fieldmap.field.gradient as fgr
-    from fieldmap.reference.gradient import STEP
-
-    with pytest.warns(DeprecationWarning, match="fieldmap.reference.gradient.STEP"):
-        assert fgr.STEP == STEP == 1.0

@@ -120,10 +120,9 @@ def test_shapes_and_truncation():
     model = load_model("eigen-6s")
     assert gravity.disturbance(10.0, 20.0, 0.0, model=model.truncated(10)).shape == (3,)
     lat = np.array([[0.0, 10.0, 20.0], [30.0, 40.0, 50.0]])
-    with pytest.warns(DeprecationWarning, match="lmax= belong to the model"):  # 0.2's lmax=
-        out = gravity.gravitation(lat, 5.0, 1e3, model=model, lmax=10)
+    out = gravity.gravitation(lat, 5.0, 1e3, model=model.truncated(10))
     assert out.shape == (2, 3, 3)
-    a = gravity.gravitation(lat, 5.0, 1e3, model=model.truncated(10))
+    a = gravity.gravitation(lat, 5.0, 1e3, model=load_model("eigen-6s", lmax=10))
     np.testing.assert_array_equal(out, a)
     assert gravity.disturbance([], [], [], model=model).shape == (0, 3)
 
@@ -138,8 +137,6 @@ def test_shapes_and_truncation():
         dict(h="x"),
         dict(frame="xyz"),
         dict(units="gal"),
-        dict(lmax=241),
-        dict(lmax=-1),
         dict(model="no-such-model"),
         dict(ellipsoid="bessel"),
     ],

@@ -210,24 +210,6 @@ def test_refusals():
         G.synthesize(SHModel("big", GM, R, big, big, 2701), grid, legendre="column")
     with pytest.raises(InputError, match="legendre must be one of auto, scaled, xrange, column"):
         G.synthesize(model, grid, legendre="x")
-    # 0.2's symmetric=/xrange= (deprecated): still refused together, and the same bits alone
-    with pytest.raises(InputError, match="symmetric=False .* stops at degree 2700"):
-        G.synthesize(model, grid, symmetric=False, xrange=True)
-    for old, new in (
-        ({"symmetric": False}, "column"),
-        ({"xrange": True}, "xrange"),
-        ({"xrange": False, "symmetric": True}, "scaled"),
-    ):
-        with pytest.warns(DeprecationWarning, match=f"legendre='{new}'"):
-            a = G.synthesize(model, grid, quantity="gravitation", device="cpu", **old)
-        b = G.synthesize(model, grid, quantity="gravitation", device="cpu", legendre=new)
-        np.testing.assert_array_equal(a, b)
-    with pytest.warns(DeprecationWarning) as rec:  # 0.2 positional symmetric
-        a = G.synthesize(model, grid, None, "gravitation", "cpu", False, False)
-    assert "pass symmetric by keyword" in str(rec[0].message)
-    assert "pass legendre='column' for symmetric=" in str(rec[1].message)
-    column = G.synthesize(model, grid, quantity="gravitation", device="cpu", legendre="column")
-    np.testing.assert_array_equal(a, column)
     huge = np.broadcast_to(np.float64(0.0), (10802, 10802))
     with pytest.raises(InputError, match="10800"):
         G.synthesize(SHModel("huge", GM, R, huge, huge, 10801), grid)

@@ -194,17 +194,13 @@ def test_bad_synthesis_requests():
         Gravitation("j3")
 
 
-def test_imu_sampling_is_one_validated_object_and_old_keywords_warn():
-    """Rate and Gauss nodes travel as one ImuSampling; the 0.1 call warns, same bits."""
+def test_imu_sampling_is_one_validated_object():
+    """Rate and Gauss nodes travel as one ImuSampling, checked when built."""
     for bad in ({"rate_hz": 0.0}, {"rate_hz": "200"}, {"n_gauss": 0}, {"n_gauss": 2.5}):
         with pytest.raises(InputError):
             ImuSampling(**bad)
     bg = BoostGlide()
     g = Gravitation("j2")
     new = synthesize(bg, ImuSampling(100.0, 2), g, duration=4.0)
-    with pytest.warns(DeprecationWarning, match=r"sampling=ImuSampling"):
-        old = synthesize(bg, 100.0, g, n_gauss=2, duration=4.0)
-    assert isinstance(new, ImuIncrements) and isinstance(old, ImuIncrements)
-    np.testing.assert_array_equal(old.dtheta, new.dtheta)
-    np.testing.assert_array_equal(old.dv, new.dv)
-    assert old.meta == new.meta == {**new.meta, "rate_hz": 100.0, "n_gauss": 2}
+    assert isinstance(new, ImuIncrements)
+    assert new.meta == {**new.meta, "rate_hz": 100.0, "n_gauss": 2}

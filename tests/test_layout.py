@@ -1,16 +1,20 @@
-"""The package layout: public names, old module paths, no import cycles, one idea per module."""
+"""Rules of the layout that protect its ideas (no test here counts modules, lines or parameters).
+
+- the top level's names resolve, and ``import fieldmap`` stays light;
+- no import cycles: no two modules import each other, directly or in a ring;
+- kernels apart from host code: ``kernels/`` (Warp code) never imports the host-side package;
+- no private names across modules: no module takes a ``_name`` another module defines, and
+  none re-exports names it does not define (a split that cuts one idea in two shows as either);
+- tests read only what ships with them.
+"""
 
 import ast
 import pathlib
 import re
 import subprocess
 import sys
-import warnings
-
-import pytest
 
 import fieldmap
-from fieldmap import _compat
 
 PKG = pathlib.Path(fieldmap.__file__).parent
 
@@ -26,42 +30,6 @@ def test_import_is_light():
     code = f"import fieldmap, sys; print(sorted(m for m in {heavy} if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
-
-
-@pytest.mark.parametrize("old", sorted(fieldmap._MOVED))
-def test_old_module_paths_still_import(old):
-    """An old path warns, names its new home(s), and gives their public names."""
-    targets = _compat.moved_targets(old)
-    code = (
-        "import warnings, importlib, sys\n"
-        "warnings.simplefilter('error')\n"
-        f"try:\n    importlib.import_module('fieldmap.{old}')\nexcept DeprecationWarning as e:\n"
-        "    print('warned', e)\n"
-        "warnings.simplefilter('ignore')\n"
-        f"m = importlib.import_module('fieldmap.{old}')\n"
-        f"targets = {targets!r}\n"
-        "news = [importlib.import_module(t) for t in targets]\n"
-        "if len(news) == 1:\n"
-        "    print(m is news[0])\n"
-        "else:\n"
-        "    names = [n for t in news for n in dir(t) if not n.startswith('_')]\n"
-        "    print(all(getattr(m, n) is not None for n in names) and bool(names))\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    lines = out.stdout.splitlines()
-    assert lines[0].startswith(f"warned fieldmap.{old} moved to {' and '.join(targets)}")
-    assert lines[-1] == "True"
-
-
-def test_old_gravity_path_keeps_public_function():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        from fieldmap.gravity import disturbance  # noqa: F401  (0.1 path)
-    assert callable(fieldmap.gravity) and fieldmap.gravity.__name__ == "gravity"
-    with pytest.warns(DeprecationWarning, match="fieldmap.models.load_model is fieldmap.models"):
-        from fieldmap.models import load_model
-
-    assert load_model is fieldmap.load_model
 
 
 ROOT = PKG.parent
@@ -157,7 +125,7 @@ def _kernel_violations(root: pathlib.Path) -> list[str]:
     return bad
 
 
-def test_kernels_only_imported_by_fieldmap():
+def test_kernels_apart_from_host_code():
     """kernels/ holds Warp code only: it never imports the host-side package."""
     assert _kernel_violations(ROOT) == []
 
@@ -180,7 +148,7 @@ def _private_imports(root: pathlib.Path) -> dict[str, set[str]]:
 
     Counted: ``from M import _name`` (relative imports resolved) and ``alias._name`` where
     ``alias`` is bound to a fieldmap module by an import. Not counted: a private *module*
-    (``from fieldmap import _warp``, ``fieldmap._compat``, ``fieldmap._version``,
+    (``from fieldmap import _warp``, ``fieldmap._version``,
     ``fieldmap.kernels._x``): an underscore module is a helper private to the fieldmap package
     as a whole, which any module of it may import; the rule is about ``_names`` defined inside
     another module (its own implementation details). Dunder names are not private.
@@ -252,8 +220,6 @@ def _all_names(tree: ast.Module) -> set[str]:
     return names
 
 
-#: The deprecation map is the one module that forwards names it does not define.
-REEXPORT_HOME = "fieldmap._compat"
 #: ``fieldmap/__init__.py`` is the top-level public face: the names below are imported there
 #: with ``X as X`` (light, always-loaded names: the version, the errors, the ellipsoids), and
 #: every other public name goes through its ``_LAZY`` table (name -> defining module, resolved by
@@ -269,14 +235,11 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
 
     Counted: ``from M import y as y`` and ``import x as x`` (the explicit re-export idiom of
     PEP 484), a string in ``__all__`` that the module does not define, and a module-level
-    ``__getattr__`` (PEP 562 forwarding). Exceptions: :data:`REEXPORT_HOME` entirely, and in
-    ``fieldmap/__init__.py`` the :data:`TOP_LEVEL_FACE` imports and its ``__getattr__`` (the
-    ``_LAZY`` table).
+    ``__getattr__`` (PEP 562 forwarding). Exception: in ``fieldmap/__init__.py`` the
+    :data:`TOP_LEVEL_FACE` imports and its ``__getattr__`` (the ``_LAZY`` table).
     """
     out: dict[str, set[str]] = {}
     for name, path in _package_modules(root).items():
-        if name == REEXPORT_HOME:
-            continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         top = name == "fieldmap"
         found = set()
@@ -295,18 +258,11 @@ def _reexports(root: pathlib.Path) -> dict[str, set[str]]:
         found |= _all_names(tree) - _defined_names(tree)
         if any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body):
             found.add("__getattr__")
-        for n in tree.body:  # __getattr__ = f(...): only the deprecation map's may forward
+        for n in tree.body:  # __getattr__ = f(...) forwards as well
             if isinstance(n, ast.Assign) and any(
                 isinstance(t, ast.Name) and t.id == "__getattr__" for t in n.targets
             ):
-                call = n.value
-                func = call.func if isinstance(call, ast.Call) else None
-                if not (
-                    isinstance(func, ast.Attribute)
-                    and isinstance(func.value, ast.Name)
-                    and func.value.id == "_compat"
-                ):
-                    found.add("__getattr__")
+                found.add("__getattr__")
         if top:
             found -= TOP_LEVEL_FACE | {"__getattr__"}
         if found:
@@ -328,7 +284,7 @@ def _against(found: dict[str, set[str]], allowed: dict[str, frozenset[str]]) -> 
     return new, gone
 
 
-def test_no_sibling_private_imports():
+def test_no_private_names_imported_across_modules():
     """No module of fieldmap/ or kernels/ takes a ``_name`` defined in another module."""
     new, gone = _against(_private_imports(ROOT), PRIVATE_IMPORTS_BEING_FIXED)
     assert not new, "imports of another module's private names:\n" + "\n".join(new)
@@ -336,7 +292,7 @@ def test_no_sibling_private_imports():
 
 
 def test_no_reexports():
-    """No module outside fieldmap._compat re-exports names it does not define."""
+    """No module re-exports names it does not define (the top level's lazy table aside)."""
     new, gone = _against(_reexports(ROOT), REEXPORTS_BEING_FIXED)
     assert not new, "re-exported names (define them, or import from their home):\n" + "\n".join(new)
     assert not gone, "fixed: remove from REEXPORTS_BEING_FIXED:\n" + "\n".join(gone)

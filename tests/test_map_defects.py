@@ -135,17 +135,6 @@ def test_truncation_and_component_maps_run_on_the_engine(monkeypatch):
     assert calls == ["truncation", "truncation", "components"]
 
 
-def test_positional_truncation_and_component_maps_warn_and_agree():
-    with pytest.warns(DeprecationWarning, match="pass height_km, orders, step_deg by keyword"):
-        old = fieldmap.truncation_map(30.0, (2, 6), 30.0)
-    new = fieldmap.truncation_map(height_km=30.0, orders=(2, 6), step_deg=30.0)
-    np.testing.assert_array_equal(old["modulus"].values, new["modulus"].values)
-    with pytest.warns(DeprecationWarning, match="pass lmax, height_km, step_deg by keyword"):
-        old = fieldmap.component_maps("eigen-6s", 12, 20.0, 30.0)
-    new = fieldmap.component_maps("eigen-6s", lmax=12, height_km=20.0, step_deg=30.0)
-    np.testing.assert_array_equal(old["model_up"].values, new["model_up"].values)
-
-
 def test_one_summary_with_one_header_for_every_product():
     from fieldmap.products.variables import summary
 

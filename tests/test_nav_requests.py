@@ -22,14 +22,13 @@ SMALL = dict(models=["j4"], duration=20.0, rate_hz=20.0, truth_lmax=10, output_d
 
 
 def test_run_flight_takes_the_samples_of_route_flight():
-    """``run_flight(route_flight(...))`` runs.
+    """``run_flight(FlightStudy(route_flight(...)))`` runs.
 
     It failed with "'FlightSamples' object has no attribute 'duration'" (the CLI wrapped the
     samples in a FlightTrajectory; Python users had to).
     """
     samples = fieldmap.route_flight(ROUTE, speed_mps=230)
-    with pytest.warns(DeprecationWarning, match="FlightStudy"):
-        res = fieldmap.run_flight(samples, **SMALL, device="cpu")
+    res = fieldmap.run_flight(fieldmap.FlightStudy(samples, **SMALL), device="cpu")
     assert res.t[-1] == pytest.approx(20.0)  # s
     assert res.summary["meta"]["imu"] == "ideal"  # the default IMU
 
@@ -37,8 +36,8 @@ def test_run_flight_takes_the_samples_of_route_flight():
 def test_run_flight_takes_a_preset_name():
     """``imu="tactical"`` failed: 'str' object has no attribute 'is_ideal' (the CLI loaded it)."""
     traj = fieldmap.FlightTrajectory(fieldmap.route_flight(ROUTE, speed_mps=230))
-    with pytest.warns(DeprecationWarning, match="FlightStudy"):
-        res = fieldmap.run_flight(traj, imu="tactical", draws=2, **SMALL, device="cpu")
+    study = fieldmap.FlightStudy(traj, imu="tactical", draws=2, **SMALL)
+    res = fieldmap.run_flight(study, device="cpu")
     assert res.summary["meta"]["imu"] == "tactical"
     assert res.dpos.shape[0] == 2 * 2  # imu_only and j4, two draws each
 
@@ -61,17 +60,19 @@ def test_flight_study_takes_what_the_cli_takes():
     )
     assert study.models == ("j4", "exact") and study.imu == PRESETS["tactical"]
     assert study.imu_name == "tactical" and study.n_draws == 2 and study.aiding == "none"
-    old = fieldmap.FlightTrajectory(fieldmap.route_flight(ROUTE, speed_mps=230))
-    with pytest.warns(DeprecationWarning):
-        ref = run_flight(
-            old, imu=PRESETS["tactical"], imu_name="tactical", models=["j4", "exact"], draws=2,
-            duration=20.0, rate_hz=20.0, truth_lmax=10, output_dt=2.0, device="cpu",
-        )  # fmt: skip
+    objects = FlightStudy(
+        fieldmap.FlightTrajectory(fieldmap.route_flight(ROUTE, speed_mps=230)),
+        imu=PRESETS["tactical"], imu_name="tactical", models=["j4", "exact"], draws=2,
+        duration=20.0, rate_hz=20.0, truth_lmax=10, output_dt=2.0,
+    )  # fmt: skip
+    ref = run_flight(objects, device="cpu")
     new = run_flight(study, device="cpu")
     for k in ("t", "dpos", "dvel", "datt", "track"):  # the same bits by either spelling
         assert np.array_equal(getattr(ref, k), getattr(new, k)), k
-    with pytest.raises(TypeError, match="set them on the study"):
+    with pytest.raises(TypeError, match="draws"):
         run_flight(study, draws=3)
+    with pytest.raises(TypeError, match="takes a FlightStudy"):
+        run_flight(objects.flight)
 
 
 @pytest.mark.parametrize(
@@ -99,8 +100,8 @@ def test_flight_study_refuses_bad_input_when_built(change, words):
 def test_python_errors_name_python_keywords():
     """``flightsim.py`` said "needs --frame ned" to a Python caller."""
     traj = fieldmap.FlightTrajectory(fieldmap.route_flight(ROUTE, speed_mps=230))
-    with pytest.raises(InputError) as err, pytest.warns(DeprecationWarning):
-        fieldmap.run_flight(traj, **SMALL, frame="lci", altitude_aiding="baro", device="cpu")
+    with pytest.raises(InputError) as err:
+        fieldmap.FlightStudy(traj, **SMALL, frame="lci", altitude_aiding="baro")
     assert "frame='ned'" in str(err.value) and "--" not in str(err.value)
 
 
@@ -128,13 +129,6 @@ def test_cli_checks_model_names_and_tables_once(monkeypatch, tmp_path, capsys):
     assert calls == {"check_model_names": 1, "check_tables_cover": 1}
 
 
-def test_no_public_flight_entry_over_eight_parameters():
-    """``run_flight`` took 22 parameters; the study is one object now."""
-    from fieldmap.nav.study import run_flight
-
-    assert len(inspect.signature(run_flight).parameters) <= 8
-
-
 def test_gravity_device_error_is_not_rewrapped():
     """A missing device raises ``DeviceError`` (an ``InputError``) from the gravitation.
 
@@ -145,14 +139,6 @@ def test_gravity_device_error_is_not_rewrapped():
 
     with pytest.raises(DeviceError):
         Gravitation("j4", device="cuda:97")
-
-
-def test_deprecated_cluster_entry_points_warn():
-    """``nav/distributed.py`` called itself deprecated but never warned."""
-    from fieldmap.nav.distributed import on_cluster
-
-    with pytest.warns(DeprecationWarning, match="client="), on_cluster(None):
-        pass
 
 
 def test_one_standard_gravity():

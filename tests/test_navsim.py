@@ -210,19 +210,6 @@ def test_cli_writes_tables_json_netcdf_png(tmp_path, capsys):
         assert ds.position_error.shape == (7, 21) and ds.position_error.attrs["units"] == "m"
 
 
-def test_cli_normal_is_read_as_exact(tmp_path, capsys):
-    """``--models j2,normal`` (the 0.1 name) still runs: one warning line, "exact" everywhere."""
-    out = tmp_path / "o"
-    argv = ["--study", "table1", "--duration", "10", "--rate", "100", "--truth-degree", "20"]
-    code, cap = _run_cli([*argv, "--models", "j2,normal", "--no-timing", "--out", str(out)], capsys)
-    assert code == 0, cap.err
-    assert 'fieldmap navsim: warning: navigation gravity model "normal" is now "exact"' in cap.err
-    assert "\nexact " in cap.out and "normal " not in cap.out
-    doc = json.loads((out / "navsim_table1.json").read_text())
-    assert "exact" in doc and "normal" not in doc
-    assert (out / "navsim_table1.csv").read_text().splitlines()[2].startswith("exact,")
-
-
 @pytest.mark.parametrize(
     "argv, msg",
     [
@@ -370,15 +357,12 @@ def test_progress_launches_give_the_numbers_of_one_launch(scenario):
     assert a.rows == b.rows
 
 
-def test_table4_monte_carlo_object_and_old_keywords(scenario):
-    """The draws travel as one MonteCarlo, checked when built; the 0.1 keywords warn, same bits."""
+def test_table4_monte_carlo_object(scenario):
+    """The draws travel as one MonteCarlo, checked when built."""
     from fieldmap.errors import InputError
 
     for bad in ({"draws": 0}, {"draws": 2.5}, {"seed": -1}, {"mode": "uniform"}):
         with pytest.raises(InputError):
             navsim.MonteCarlo(**bad)
     new = navsim.table4(scenario, ["j4"], navsim.MonteCarlo(draws=1, seed=4))
-    with pytest.warns(DeprecationWarning, match=r"monte_carlo=MonteCarlo"):
-        old = navsim.table4(scenario, ["j4"], draws=1, seed=4)
-    np.testing.assert_array_equal(old.pos, new.pos)
-    assert old.meta["draws"] == 1 and old.meta["seed"] == 4
+    assert new.meta["draws"] == 1 and new.meta["seed"] == 4

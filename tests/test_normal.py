@@ -229,12 +229,8 @@ def test_jn_equals_truncated_series(order):
 
 def test_groves_eq377_is_the_j2_formula():
     lat, lon, h = _points(200, hmin=0.0, hmax=1e6, seed=13)
-    # with the ellipsoid's J2, Groves' eq. 3.7.7 is the J2 model of eq. (13): 0.2's
-    # groves_j2=None is normal="j2" (deprecated; the same kernel and parameters, bit for bit) ...
-    with pytest.warns(DeprecationWarning, match="groves_j2=None is normal='j2'"):
-        g_gr = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=None, frame="ned")
+    # with the ellipsoid's J2, Groves' eq. 3.7.7 is the J2 model of eq. (13)
     g_j2 = N.normal_gravity(lat, lon, h, normal="j2", frame="ned")
-    np.testing.assert_array_equal(g_gr, g_j2)
     x, y, z = _ecef(lat, lon, h, WGS84)
     C_e_to_ned = R._ned_basis(np.radians(lat), np.radians(lon))
     cen = R.groves_centrifugal_ned(
@@ -247,20 +243,13 @@ def test_groves_eq377_is_the_j2_formula():
         lit = R.groves_j2_gravitation(x, y, z, WGS84.GM, j2, WGS84.a)
         return np.einsum("...ij,...j->...i", C_e_to_ned, lit) + cen
 
-    # ... and the physics: the kernel's J2 model is Groves' closed form written out in the
+    # the kernel's J2 model is Groves' closed form written out in the
     # NumPy reference (shares no code with the kernel; 6e-16 measured)
     _assert_vec_close(g_j2, lit_ned(WGS84.J2), 1e-13)
     # the printed J2 (1.082627e-3) differs from WGS84's derived one by 2.8e-9 (relative 2.6e-6)
     g_pr = N.normal_gravity(lat, lon, h, normal="groves-j2", frame="ned")
     _assert_vec_close(g_pr, lit_ned(1.082627e-3), 1e-13)
     assert np.abs(g_pr - g_j2).max() > 1e-9
-    # 0.2's groves_j2= with another J2 still runs (deprecated): that J2 in Groves' formula
-    with pytest.warns(DeprecationWarning, match="groves_j2= with another J2 is gone"):
-        g_x = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=1.0827e-3, frame="ned")
-    _assert_vec_close(g_x, lit_ned(1.0827e-3), 1e-13)
-    with pytest.warns(DeprecationWarning, match="groves_j2= is gone"):
-        same = N.normal_gravity(lat, lon, h, normal="groves-j2", groves_j2=N.GROVES_J2, frame="ned")
-    np.testing.assert_array_equal(same, g_pr)
 
 
 # ----------------------------------------------------------------------------- external: boule
@@ -328,16 +317,6 @@ def test_truncation_errors_at_20km_have_paper_magnitudes():
 def test_bad_input(args, kw, msg):
     with pytest.raises(InputError, match=msg):
         N.normal_gravity(*args, **kw)
-
-
-def test_normal_is_the_deprecated_name_of_exact():
-    """normal="normal" (the navigation side's 0.1 name) is "exact", with a DeprecationWarning."""
-    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
-        assert N.normal_model("normal") == "exact"
-    exact = N.normal_gravity(30.0, 10.0, 5e3, normal="exact")
-    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
-        old = N.normal_gravity(30.0, 10.0, 5e3, normal="Normal")
-    assert np.array_equal(np.asarray(old), np.asarray(exact))
 
 
 def test_bad_ecef_input():

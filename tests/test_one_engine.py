@@ -19,7 +19,7 @@ import xarray as xr
 
 import fieldmap
 from fieldmap.errors import InputError
-from fieldmap.products import maps, variables
+from fieldmap.products import variables
 from fieldmap.products.statistics import DEFAULT_PERCENTILES, area_weights, weighted_percentiles
 
 KW = dict(lmax=40, step_deg=3.0, device="cpu")
@@ -79,12 +79,6 @@ def test_lazy_products_say_they_have_no_statistics():
         variables.summary(lazy)
     with pytest.raises(InputError, match="percentile_method"):
         fieldmap.disturbance_map(**KW, chunks=8, percentile_method="exact")
-
-
-def test_options_keyword_only_with_deprecated_positional_calls():
-    with pytest.warns(DeprecationWarning, match="by keyword"):
-        old = maps.disturbance_map("eigen-6s", 40, 20.0, 3.0)
-    _same(old, fieldmap.disturbance_map(height_km=20, **KW))
 
 
 def test_epoch_on_a_model_object_is_refused_not_ignored():

@@ -324,16 +324,3 @@ def test_column_variants_match_sh_column(eigen, device):
         scale = np.max(np.abs(want), axis=1, keepdims=True)
         assert np.all(scale > 0)
         assert np.all(np.abs(got - want) <= 1e-14 * scale)
-
-
-def test_legendre_rows_moved_to_the_field():
-    """0.2's ``fieldmap.reference.sh.legendre_rows`` warns and is the production basis of the σ.
-
-    The row-wise X-number functions are ``fieldmap.field.legendre.legendre_rows`` (the
-    commission σ sums use them; production code imports no reference module).
-    """
-    from fieldmap.field.legendre import legendre_rows
-
-    with pytest.warns(DeprecationWarning, match="fieldmap.field.legendre.legendre_rows"):
-        old = ref.legendre_rows
-    assert old is legendre_rows

@@ -307,28 +307,6 @@ def test_input_validation():
         propagate_lci(dth, dth, 0.01, LciStart(np.zeros(3), np.zeros(3), [1.0, 1.0, 0, 0], FRAME))
 
 
-def test_normal_is_the_deprecated_name_of_exact():
-    """Navigation gravity "normal" (fieldmap 0.1) flies as "exact", bit for bit, with a warning."""
-    from fieldmap.nav.gravity import parse_gravity
-    from fieldmap.nav.study import check_model_names
-
-    dth, dv, P0, V0, q0 = _random_motion(2, 200, 0.005)
-    start = LciStart(P0, V0, q0, FRAME)
-    exact = propagate_lci(dth, dv, 0.005, start, NavConfig(["exact", "j4"], output_every=20))
-    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"') as rec:
-        old = propagate_lci(dth, dv, 0.005, start, NavConfig(["normal", "j4"], output_every=20))
-    assert len([w for w in rec if w.category is DeprecationWarning]) == 1  # one per call
-    assert old.gravity == ("exact", "j4")
-    for key in ("t", "P", "V", "q"):
-        assert np.array_equal(getattr(old, key), getattr(exact, key)), key
-    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
-        assert check_model_names(["j2", "Normal"], None) == ["j2", "exact"]
-    with pytest.warns(DeprecationWarning), pytest.raises(InputError, match="the same model"):
-        check_model_names(["Normal", "exact"], None)  # one model under two names
-    with pytest.warns(DeprecationWarning, match='"normal" is now "exact"'):
-        assert parse_gravity("normal", None) == parse_gravity("exact", None)
-
-
 def test_input_validation_models_and_errors():
     from fieldmap.models.registry import load_model
 
@@ -344,36 +322,6 @@ def test_input_validation_models_and_errors():
         propagate_lci(
             dth, dth, 0.01, LciStart([0.0, np.inf, 0.0], np.zeros(3), [1.0, 0, 0, 0], FRAME)
         )
-
-
-def test_reference_old_spelling_gives_the_same_bits():
-    """0.2's propagate_*_reference(dtheta, dv, dt, P0, V0, C0, ...) warn, and change no bit."""
-    from fieldmap.reference.strapdown import propagate_ned_reference
-
-    dth, dv, P0, V0, q0 = _random_motion(2, 40, 0.005)
-    C0, g = quat_to_dcm(q0), _g_ref("j2")
-    new = propagate_lci_reference((dth, dv, 0.005), (P0, V0, C0), FRAME, g, output_every=4)
-    with pytest.warns(DeprecationWarning, match=r"increments=\(dtheta, dv, dt\)"):
-        old = propagate_lci_reference(dth, dv, 0.005, P0, V0, C0, FRAME, g, output_every=4)
-    for a, b in zip(old, new):
-        np.testing.assert_array_equal(a, b)
-    with pytest.warns(DeprecationWarning, match=r"start=\(P0, V0, C0\)"):
-        old = propagate_lci_reference(dtheta=dth, dv=dv, dt=0.005, P0=P0, V0=V0, C0=C0,
-                                      frame=FRAME, gravitation_ecef=g, output_every=4)  # fmt: skip
-    for a, b in zip(old, new):
-        np.testing.assert_array_equal(a, b)
-    llh = np.array([[0.5, 1.8, 1000.0], [-0.2, 0.1, 50.0]])
-
-    def g_ned(x):
-        return np.tile([0.0, 0.0, 9.8], (x.shape[0], 1))
-
-    new = propagate_ned_reference((dth, dv, 0.005), (llh, V0 * 0.1, C0), g_ned, WGS84)
-    with pytest.warns(DeprecationWarning, match=r"start=\(llh0, v0, C0\)"):
-        old = propagate_ned_reference(dth, dv, 0.005, llh, V0 * 0.1, C0, g_ned, WGS84)
-    for a, b in zip(old, new):
-        np.testing.assert_array_equal(a, b)
-    with pytest.raises(TypeError, match="missing 0.2 argument"):
-        propagate_ned_reference(dth, dv, 0.005, llh, V0 * 0.1)
 
 
 def test_several_sets_without_imu_set_raise():

@@ -213,8 +213,6 @@ def test_point_table_model(built):
     )
     with pytest.raises(InputError, match="outside the table"):
         fieldmap.disturbance(46.0, 7.0, 0.0, model=tab)
-    with pytest.raises(InputError, match="lmax"):
-        fieldmap.disturbance(42.0, 7.0, 0.0, model=tab, lmax=10)
 
 
 def test_point_outside_is_a_bad_line(built):
@@ -328,22 +326,3 @@ def test_interpolator_reproduces_polynomials():
     assert np.isnan(tab.interpolate([s - 0.1], [w], [0.0], outside="nan")).all()
     with pytest.raises(InputError, match="outside"):
         tab.interpolate(s, w, hmax + 1.0)
-
-
-def test_build_table_old_spelling_gives_the_same_bits():
-    """0.2's build_table(lmax=, seed=) warn: lmax is the model's, the seed fixed (0)."""
-    from fieldmap.products.tables.build import build_table
-
-    args = ((19.5, 20.5, 9.5, 10.5), (0, 10), 5.0)
-    m12 = fieldmap.load_model("eigen-6s", lmax=12)
-    new, rep = build_table(*args, model=m12, check_points=10, device="cpu")
-    with pytest.warns(DeprecationWarning, match="lmax= belongs to the model"):
-        old, rep_old = build_table(*args, lmax=12, check_points=10, device="cpu")
-    np.testing.assert_array_equal(old.data, new.data)
-    assert rep_old["verification"] == rep["verification"]
-    with pytest.warns(DeprecationWarning, match="seed= is gone"):
-        _, rep_seed = build_table(*args, model=m12, check_points=10, seed=0, device="cpu")
-    assert rep_seed["verification"] == rep["verification"]
-    with pytest.warns(DeprecationWarning, match="seed= is gone"):  # another seed: still honoured
-        _, rep5 = build_table(*args, model=m12, check_points=10, seed=5, device="cpu")
-    assert rep5["verification"] != rep["verification"]

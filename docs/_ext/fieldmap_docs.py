@@ -121,7 +121,7 @@ def write_api_lists(app=None, config=None) -> None:
     linked, own = [], []
     for name in public:
         target = _canonical(name)
-        if target is None or target.rsplit(".", 1)[1] != name:  # e.g. synthesize_imu
+        if target is None or target.rsplit(".", 1)[1] != name:  # a constant or instance
             own.append(f"fieldmap.{name}")
         else:
             linked.append(f"~{target}")

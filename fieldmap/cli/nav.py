@@ -571,7 +571,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         default=["j2,j4,j6,exact,sh18,sh200"],
         help="navigation gravity models, comma or space separated: j2 j4 j6 exact sh shN "
         "table:FILE auto (exact: the closed-form level-ellipsoid field, the --normal exact of "
-        "the maps; 'normal' is its deprecated name; table:FILE: exact plus a compensation table "
+        "the maps; table:FILE: exact plus a compensation table "
         "of 'fieldmap table', flight studies only; auto: j2 j4 j6 exact and SH degrees "
         "12..the model's, the recommendation then names the simplest that meets --fraction) "
         "(table1 and flight; table4 adds the full IMU errors to the SH ones and to --nav)",

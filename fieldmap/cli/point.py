@@ -31,8 +31,6 @@ import sys
 from collections.abc import Iterable
 from typing import IO, TYPE_CHECKING, Any, TextIO
 
-from fieldmap import _compat
-
 if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
@@ -201,15 +199,6 @@ def parse_point_line(line: str) -> tuple[float, float, float]:
     return vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0
 
 
-def _fold_model_options(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
-    """0.2's ``lmax=``/``epoch=`` of :func:`evaluate_points`: keywords of ``load_model``."""
-    kwargs["model_options"] = {**(kwargs.get("model_options") or {}), **old}
-    keys = " and ".join(f"{k}=" for k in old)
-    return f"{keys} go in model_options= (the keywords of load_model)"
-
-
-@_compat.keyword_api(3, ("quantity", "normal", "model", "lmax", "epoch", "device", "model_options"))
-@_compat.folded(("lmax", "epoch"), _fold_model_options)
 def evaluate_points(
     lat: npt.ArrayLike,
     lon: npt.ArrayLike,
@@ -243,8 +232,7 @@ def evaluate_points(
         Warp device.
     model_options : dict, optional
         Keywords of :func:`fieldmap.models.registry.load_model`: ``lmax``, ``epoch``,
-        ``model_dir``, ``gm``, ``radius``, ``cache``, ``tide_system`` (0.2: ``lmax=``,
-        ``epoch=`` here).
+        ``model_dir``, ``gm``, ``radius``, ``cache``, ``tide_system``.
 
     Returns
     -------

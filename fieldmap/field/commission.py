@@ -176,6 +176,16 @@ def commission_sigma(
     ------
     InputError
         Unknown quantity, or a model without coefficient standard deviations.
+
+    Examples
+    --------
+    The standard deviation of EIGEN-6S's disturbance from its coefficients' sigma, at one point:
+
+    >>> import numpy as np
+    >>> import fieldmap
+    >>> sigma = fieldmap.commission_sigma([45.0], [10.0], 0.0)
+    >>> np.round(sigma, 2)  # east, north, up. Units: mGal
+    array([[3.77, 3.33, 5.04]])
     """
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")

@@ -76,20 +76,16 @@ from __future__ import annotations
 import math
 import os
 import threading
-import warnings
 import weakref
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
-import numpy.typing as npt
 from numpy.typing import ArrayLike, NDArray
 
-from fieldmap import _compat
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.field.gravity import apply_model_options
 from fieldmap.limits import check_geodetic as _points
 from fieldmap.models.shmodel import SHModel
 
@@ -196,7 +192,6 @@ def _t_and_gradient(
     return t, g, (x, y, z)
 
 
-@_compat.model_api(apply_model_options)
 def disturbing_potential(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -230,6 +225,15 @@ def disturbing_potential(
     -------
     numpy.ndarray
         Broadcast shape of the inputs. Units: m²/s².
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fieldmap
+    >>> model = fieldmap.load_model("eigen-6s", lmax=36)
+    >>> T = fieldmap.disturbing_potential([45.0, -30.0], [10.0, 150.0], 0.0, model=model)
+    >>> np.round(T, 1)  # m²/s²
+    array([479.3, 316. ])
     """
     ell = get_ellipsoid(ellipsoid)
     lat, lon, h = _points(latitude, longitude, height)
@@ -252,10 +256,7 @@ class SphericalAnomaly(_AnomalyFields):
 
     Unpack it (``dg, xi, eta = gravity_anomaly(...)``) or use the names: ``anomaly`` (Δg in
     :attr:`units`, the ``units=`` of the call, mGal by default), ``xi_arcsec``, ``eta_arcsec``;
-    ``anomaly_mgal`` is Δg in mGal whatever the unit asked. The ``(..., 3)`` array of
-    fieldmap 0.1 (mGal and arcsec mixed) is still what an ndarray-style key (``r[..., 0]``)
-    and ``np.asarray(r)`` give, with a :class:`DeprecationWarning`; an int or slice indexes
-    the tuple.
+    ``anomaly_mgal`` is Δg in mGal whatever the unit asked.
     """
 
     #: Canonical name of the unit of ``anomaly`` (:mod:`fieldmap.units`).
@@ -286,23 +287,6 @@ class SphericalAnomaly(_AnomalyFields):
         if self.units == "mGal":
             return self.anomaly
         return from_si(self.anomaly * get_unit(self.units).si, "mGal")
-
-    def _stacked(self) -> np.ndarray:
-        warnings.warn(
-            f"gravity_anomaly() returns a SphericalAnomaly (anomaly [{self.units}], xi_arcsec, "
-            "eta_arcsec); indexing it as one (..., 3) array is deprecated",
-            DeprecationWarning,
-            stacklevel=3,
-        )
-        return np.stack(tuple(self), axis=-1)
-
-    def __getitem__(self, key: Any) -> Any:
-        if isinstance(key, (int, np.integer, slice)):
-            return tuple.__getitem__(self, key)
-        return self._stacked()[key]
-
-    def __array__(self, dtype: npt.DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
-        return self._stacked() if dtype is None else self._stacked().astype(dtype)
 
 
 def anomaly_from_t(
@@ -360,7 +344,6 @@ def anomaly_from_t(
     return np.stack([dg, xi * ARCSEC_PER_RAD, eta * ARCSEC_PER_RAD], axis=-1)
 
 
-@_compat.model_api(apply_model_options)
 def gravity_anomaly(
     latitude: ArrayLike,
     longitude: ArrayLike,

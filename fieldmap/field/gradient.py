@@ -36,7 +36,6 @@ same bits for any block of rows.
 
 from __future__ import annotations
 
-import inspect
 import os
 import threading
 import weakref
@@ -45,11 +44,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fieldmap import _compat, limits
+from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
-from fieldmap.field.gravity import apply_model_options
 from fieldmap.models.shmodel import SHModel
 
 if TYPE_CHECKING:
@@ -66,8 +64,6 @@ __all__ = [
 
 #: 1 Eötvös. Units: s⁻².
 EOTVOS = 1e-9
-#: 0.3's ``STEP`` (the central differences' step) is ``fieldmap.reference.gradient.STEP``
-__getattr__ = _compat.moved_names("field.gradient")
 QUANTITIES = ("gravity", "gravitation", "disturbance", "normal")
 FRAMES = ("enu", "ned", "ecef")
 #: ENU -> NED reordering (north, east, -up)
@@ -259,49 +255,6 @@ def _asymmetry(
     return central_difference_tensor(lat, lon, h, sh_model, f"{q}:{key}", ell, "ecef", device)[1]
 
 
-def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
-    """Rewrite a 0.2 call of :func:`gradient_tensor`; return the warning's advice.
-
-    ``lmax``/``epoch`` go to the model, ``normal`` into the quantity; ``return_asymmetry=True``
-    also returns the call to make instead (the tensor and its asymmetry, from one pass).
-    """
-    from fieldmap.field.normal import normal_model
-
-    notes = []
-    quantity = str(kwargs.get("quantity", "gravity"))
-    if "lmax" in old or "epoch" in old:
-        sub = {k: old[k] for k in ("lmax", "epoch") if k in old}
-        if quantity.lower() != "normal":  # the normal field took no model options
-            kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), **sub)
-        notes.append(" and ".join(f"{k}=" for k in sub) + " " + _compat.MODEL_OPTIONS_ADVICE)
-    if "normal" in old:
-        key = normal_model(old["normal"])
-        if key != "exact":
-            kwargs["quantity"] = f"{quantity}:{key}"
-        notes.append(f"normal= is now quantity={kwargs['quantity']!r}")
-    if "return_asymmetry" in old:
-        notes.append("return_asymmetry= is now gradient_asymmetry(...)")
-    advice = "; ".join(notes)
-    return (advice, _with_asymmetry) if old.get("return_asymmetry") else advice
-
-
-def _with_asymmetry(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(tensor, asymmetry) of one :func:`gradient_tensor` call (0.2 ``return_asymmetry=True``)."""
-    bound = inspect.signature(gradient_tensor).bind(*args, **kwargs)
-    bound.apply_defaults()
-    a = bound.arguments
-    t = _tensor(
-        a["latitude"], a["longitude"], a["height"], a["model"], a["quantity"], a["ellipsoid"],
-        a["frame"], a["device"],
-    )  # fmt: skip
-    asym = _asymmetry(
-        a["latitude"], a["longitude"], a["height"], a["model"], a["quantity"], a["ellipsoid"],
-        a["device"],
-    )  # fmt: skip
-    return t, asym
-
-
-@_compat.folded(("lmax", "epoch", "normal", "return_asymmetry"), _fold_old)
 def gradient_tensor(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -334,7 +287,7 @@ def gradient_tensor(
         (the model's coefficients minus the normal field's zonal ones);
         ``"normal"``: exact normal gravity incl. centrifugal. The last two take another normal
         field after a colon, a name of :data:`fieldmap.field.normal.NORMAL_MODELS`:
-        ``"normal:j4"``, ``"disturbance:j2"``, ``"normal:groves-j2"`` (0.2: ``normal=``).
+        ``"normal:j4"``, ``"disturbance:j2"``, ``"normal:groves-j2"``.
     ellipsoid : Ellipsoid or str
         Ellipsoid of the coordinates, of ω and of the normal field (default WGS84).
     frame : {"enu", "ned", "ecef"}

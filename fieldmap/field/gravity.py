@@ -16,8 +16,7 @@ Points are ``latitude, longitude, height``: geodetic degrees and metres above th
 positional; every other argument is keyword-only. The local frames are the geodetic ENU/NED
 frames at the point (``fieldmap.field.frames``). Output units of the disturbance: ``units=``,
 looked up in :mod:`fieldmap.units`. A truncation degree and an epoch belong to the model:
-``model=load_model(name, lmax=..., epoch=...)`` (0.2's ``lmax=``/``epoch=`` on these functions
-still work, with a ``DeprecationWarning``: :func:`apply_model_options`).
+``model=load_model(name, lmax=..., epoch=...)``.
 """
 
 from __future__ import annotations
@@ -27,7 +26,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fieldmap import _compat, limits
+from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field import frames
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
@@ -43,44 +42,9 @@ if TYPE_CHECKING:
 MIN_HEIGHT = limits.MIN_HEIGHT
 MAX_HEIGHT = limits.MAX_HEIGHT
 
-__all__ = ["apply_model_options", "disturbance", "gravitation", "gravity"]
+__all__ = ["disturbance", "gravitation", "gravity"]
 
 FRAMES = ("enu", "ned", "ecef")
-_RENAMED = {"lat": "latitude", "lon": "longitude", "h": "height"}
-
-
-def apply_model_options(
-    model: object, lmax: int | None = None, epoch: float | str | None = None
-) -> object:
-    """Return ``model`` with a 0.2 call's ``lmax``/``epoch`` applied (deprecated spellings).
-
-    ``load_model(model, lmax=lmax, epoch=epoch)`` (a loaded :class:`SHModel` is truncated; an
-    epoch it does not hold is refused); ``model`` as it is when both are None. A compensation
-    table (``"table:FILE"`` or a table object) takes neither: :class:`InputError`.
-
-    Parameters
-    ----------
-    model : SHModel, CompensationTable or str
-        What the point function was given.
-    lmax : int, optional
-        Truncation degree.
-    epoch : float or str, optional
-        Epoch of time-variable terms. Units: decimal year or ``'YYYY-MM-DD'``.
-
-    Returns
-    -------
-    SHModel or the ``model`` given
-    """
-    if lmax is None and epoch is None:
-        return model
-    if _table_model(model) is not None:
-        raise InputError(
-            "a compensation table (table:FILE) takes no lmax or epoch",
-            param="lmax" if lmax is not None else "epoch",
-        )
-    from fieldmap.models.registry import load_model
-
-    return load_model(cast(Any, model), lmax=lmax, epoch=epoch)
 
 
 def _model(model: object) -> SHModel:
@@ -125,8 +89,6 @@ def _gravitation_ecef(
     return sh_gravitation(m, x, y, z, device=device), (x, y, z)
 
 
-@_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
-@_compat.model_api(apply_model_options)
 def gravitation(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -167,14 +129,22 @@ def gravitation(
     -------
     numpy.ndarray
         Shape ``broadcast(latitude, longitude, height).shape + (3,)``. Units: m/s².
+
+    Examples
+    --------
+    The gravitation 1 km above 45° N, 10° E (no centrifugal term), east-north-up:
+
+    >>> import fieldmap
+    >>> model = fieldmap.load_model("eigen-6s", lmax=12)
+    >>> g = fieldmap.gravitation(45.0, 10.0, 1000.0, model=model)
+    >>> g.shape, round(float(g[2]), 2)  # up. Units: m/s²
+    ((3,), -9.82)
     """
     f, ell, lat, lon, h = _inputs(latitude, longitude, height, frame, ellipsoid)
     g, _ = _gravitation_ecef(model, lat, lon, h, ell, device)
     return _to_frame(g, lat, lon, f)
 
 
-@_compat.keyword_api(3, ("model", "lmax", "frame", "device", "epoch", "ellipsoid"), _RENAMED)
-@_compat.model_api(apply_model_options)
 def gravity(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -213,12 +183,6 @@ def gravity(
     return _to_frame(g, lat, lon, f)
 
 
-@_compat.keyword_api(
-    3,
-    ("model", "lmax", "ellipsoid", "unit", "frame", "device", "epoch"),
-    {**_RENAMED, "unit": "units"},
-)
-@_compat.model_api(apply_model_options)
 def disturbance(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -251,7 +215,7 @@ def disturbance(
         Level ellipsoid of the normal field and of the coordinates (default WGS84).
     units : {"mGal", "mg", "m/s2"}
         Output unit (1 mGal = 1e-5 m/s², 1 mg = 9.80665e-3 m/s²), any case, aliases of
-        :mod:`fieldmap.units` (``"m s-2"``...). 0.1: ``unit=``.
+        :mod:`fieldmap.units` (``"m s-2"``...).
     frame : {"enu", "ned", "ecef"}
         Output frame.
     device : str, optional

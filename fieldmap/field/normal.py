@@ -22,7 +22,7 @@ import numpy as np
 import warp as wp
 from numpy.typing import ArrayLike
 
-from fieldmap import _compat, _warp, limits
+from fieldmap import _warp, limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.field.frames import ecef_to_geodetic
@@ -40,8 +40,6 @@ LON_MIN, LON_MAX = limits.LON_MIN, limits.LON_MAX
 #: The normal-gravity models, one vocabulary for the API and the CLI (``normal=``,
 #: ``--normal``): name -> J2n order of the kernel (0: the exact closed form).
 NORMAL_MODELS = {"exact": 0, "j2": 2, "j4": 4, "j6": 6, "groves-j2": 2}
-#: 0.1 name of :data:`NORMAL_MODELS`.
-KINDS = NORMAL_MODELS
 FRAMES = {"ecef": 0, "enu": 1, "ned": 2}
 
 
@@ -76,16 +74,14 @@ def normal_params(ellipsoid: Ellipsoid | str = WGS84, j2: float | None = None) -
     return p
 
 
-def normal_model(normal: str | int) -> str:
+def normal_model(normal: str) -> str:
     """Return the canonical name of a normal-gravity model.
 
     Parameters
     ----------
     normal : str
         ``"exact"``, ``"j2"``, ``"j4"``, ``"j6"`` or ``"groves-j2"``, in any case, ``_`` for
-        ``-`` allowed (the navigation models of :mod:`fieldmap.nav` use the same names). The J2n
-        order of fieldmap 0.1's grid functions (0 for exact, 2, 4, 6) and ``"normal"`` (fieldmap
-        0.1's navigation name of ``"exact"``) are accepted with a ``DeprecationWarning``.
+        ``-`` allowed (the navigation models of :mod:`fieldmap.nav` use the same names).
 
     Returns
     -------
@@ -97,15 +93,7 @@ def normal_model(normal: str | int) -> str:
     InputError
         An unknown model.
     """
-    if isinstance(normal, (int, np.integer)) and not isinstance(normal, bool):
-        if int(normal) in (0, 2, 4, 6):
-            name = "exact" if int(normal) == 0 else f"j{int(normal)}"
-            _compat.warn(f"normal-gravity order {int(normal)} is now normal={name!r}", 4)
-            return name
     key = str(normal).strip().lower().replace("_", "-")
-    if key == "normal":
-        _compat.warn('normal-gravity model "normal" is now "exact"', 4)
-        return "exact"
     if key not in NORMAL_MODELS:
         raise InputError(
             f"unknown normal-gravity model {normal!r} (known: {', '.join(NORMAL_MODELS)})"
@@ -124,44 +112,12 @@ def _as_float(name: str, v: ArrayLike) -> np.ndarray:
     return limits.as_float(name, v)
 
 
-#: 0.1 name of :func:`fieldmap.limits.check_geodetic`.
-check_geodetic = limits.check_geodetic
-
-
 def _params_for(ell: Ellipsoid, kind: str, groves_j2: float | None) -> _k.NormalParams:
     if kind == "groves-j2":
         return normal_params(ell, j2=ell.J2 if groves_j2 is None else groves_j2)
     return normal_params(ell)
 
 
-def _fold_groves_j2(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
-    """Fold a 0.2 ``groves_j2=`` of :func:`normal_gravity`; return the warning's advice.
-
-    ``None`` is ``normal="j2"`` (the same kernel and parameters), Groves' printed value the
-    default; any other J2 is still computed (the call goes to the implementation).
-    """
-    j2 = old["groves_j2"]
-    if normal_model(kwargs.get("normal", "exact")) != "groves-j2":
-        return "groves_j2= applies to normal='groves-j2' only (and is gone: leave it out)"
-    if j2 is None:
-        kwargs["normal"] = "j2"
-        return "groves_j2=None is normal='j2' (the ellipsoid's J2)"
-    if j2 == GROVES_J2:
-        return "groves_j2= is gone: normal='groves-j2' uses Groves' printed J2"
-
-    def target(*args: Any, **kw: Any) -> np.ndarray:
-        kw["groves_j2"] = float(j2)
-        return _normal_gravity(*args, **kw)
-
-    return "groves_j2= with another J2 is gone (normal='groves-j2' uses Groves' printed J2)", target
-
-
-@_compat.keyword_api(
-    3,
-    ("ellipsoid", "kind", "centrifugal", "frame", "device", "groves_j2"),
-    {"lat_deg": "latitude", "lon_deg": "longitude", "h_m": "height", "kind": "normal"},
-)
-@_compat.folded(("groves_j2",), _fold_groves_j2)
 def normal_gravity(
     latitude: ArrayLike,
     longitude: ArrayLike,
@@ -188,7 +144,7 @@ def normal_gravity(
         Exact closed form (Heiskanen & Moritz 1967 §2-7…2-9), the truncated zonal models of
         Chen et al. (2022) eqs. (7)–(13) (corrected), or Groves (2013) eq. 3.7.7 with its
         printed J2 = 1.082627e-3 (:data:`GROVES_J2`; with the ellipsoid's own J2 it is
-        ``"j2"``) (:func:`normal_model`; 0.1: ``kind=``; 0.2: ``groves_j2=``).
+        ``"j2"``) (:func:`normal_model`).
     ellipsoid : Ellipsoid or str
         Level ellipsoid, default WGS84.
     centrifugal : bool
@@ -215,23 +171,6 @@ def normal_gravity(
     >>> np.round(g[:, 2], 6)  # m/s²
     array([-9.780325, -9.832185])
     """
-    return _normal_gravity(
-        latitude, longitude, height, normal, ellipsoid, centrifugal, frame, device
-    )
-
-
-def _normal_gravity(
-    latitude: ArrayLike,
-    longitude: ArrayLike,
-    height: ArrayLike,
-    normal: str = "exact",
-    ellipsoid: Ellipsoid | str = WGS84,
-    centrifugal: bool = True,
-    frame: str = "enu",
-    device: str | None = None,
-    groves_j2: float | None = GROVES_J2,
-) -> np.ndarray:
-    """:func:`normal_gravity`, and the J2 of ``normal="groves-j2"`` (0.2's ``groves_j2=``)."""
     key = normal_model(normal)
     fkey = _check_frame(frame)
     ell = get_ellipsoid(ellipsoid)
@@ -248,7 +187,7 @@ def _normal_gravity(
     ]
     arrs.append(wp.array(np.ascontiguousarray(h.ravel()), dtype=wp.float64, device=dev))
     out = wp.empty(n, dtype=wp.vec3d, device=dev)
-    params = _params_for(ell, key, groves_j2)
+    params = _params_for(ell, key, GROVES_J2)
     _warp.launch_chunked(
         _k.normal_points_kernel,
         n,
@@ -258,9 +197,6 @@ def _normal_gravity(
     return out.numpy().reshape(shape + (3,))
 
 
-@_compat.keyword_api(
-    3, ("ellipsoid", "kind", "device", "centrifugal", "groves_j2"), {"kind": "normal"}
-)
 def normal_gravitation_ecef(
     x: ArrayLike,
     y: ArrayLike,
@@ -351,7 +287,6 @@ def normal_gravitation_ecef(
     return out.numpy().reshape(shape + (3,))
 
 
-@_compat.keyword_api(1, ("ellipsoid",), {"lat_deg": "latitude"})
 def somigliana(latitude: ArrayLike, *, ellipsoid: Ellipsoid | str = WGS84) -> np.ndarray:
     r"""Magnitude of normal gravity on the ellipsoid (h = 0), Somigliana's closed formula.
 

@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fieldmap import _compat
 from fieldmap.errors import InputError
 from fieldmap.grids.longitude import (  # noqa: F401 - longitude_sums, spectrum_layout re-exported
     longitude_sums,
@@ -163,8 +162,6 @@ def normal_rows(
     ellipsoid: Ellipsoid | str | None = None,
     normal: str = "exact",
     device: str | None = None,
-    *,
-    order: int | None = None,
 ) -> np.ndarray:
     """Return the normal gravitation of every (height, row) in geodetic ENU.
 
@@ -179,8 +176,6 @@ def normal_rows(
         The exact level-ellipsoid field or the J2/J4/J6 series (eqs. 7-13 of Chen et al. 2022,
         corrected); names of :func:`fieldmap.field.normal.normal_model`.
     device : str, optional
-    order : int, optional
-        fieldmap 0.1's spelling of ``normal`` (0 exact, 2, 4, 6), deprecated.
 
     Returns
     -------
@@ -190,9 +185,6 @@ def normal_rows(
     from fieldmap.field.ellipsoid import WGS84, get_ellipsoid
     from fieldmap.field.normal import NORMAL_MODELS, normal_model
 
-    if order is not None:
-        _compat.warn("normal_rows(): order= is now normal= ('exact', 'j2', 'j4', 'j6')")
-        normal = {0: "exact", 2: "j2", 4: "j4", 6: "j6"}.get(order) or repr(order)
     key = normal_model(normal)
     if key == "groves-j2":
         raise InputError("normal_rows computes the exact, j2, j4 and j6 normal fields only")
@@ -294,25 +286,6 @@ def _progress_bar(nitems: int, work: float, progress: bool | None, desc: str) ->
     return tqdm(total=nitems, unit="row", desc=desc, leave=False, disable=disable)
 
 
-def _fold_legendre(old: dict[str, Any], kwargs: dict[str, Any]) -> str:
-    """Fold 0.2's ``symmetric=``/``xrange=`` of :func:`synthesize` into ``legendre=``."""
-    if "legendre" in kwargs:
-        raise TypeError("synthesize() got legendre= and its 0.2 spelling symmetric=/xrange=")
-    symmetric, xr = bool(old.get("symmetric", True)), old.get("xrange")
-    if not symmetric and xr:
-        raise InputError("symmetric=False (the engine's column path) stops at degree 2700")
-    if not symmetric:
-        kwargs["legendre"] = "column"
-    else:
-        kwargs["legendre"] = {None: "auto", True: "xrange", False: "scaled"}[
-            None if xr is None else bool(xr)
-        ]
-    keys = " and ".join(f"{k}=" for k in old)
-    return f"pass legendre={kwargs['legendre']!r} for {keys}"
-
-
-@_compat.keyword_api(6, ("symmetric", "potential", "xrange"))
-@_compat.folded(("symmetric", "xrange"), _fold_legendre)
 def synthesize(
     model: SHModel,
     grid: GridSpec,
@@ -351,7 +324,6 @@ def synthesize(
         (:mod:`fieldmap.kernels.grid_xrange`): ``"auto"`` (default); ``"scaled"`` and
         ``"xrange"`` force either at any degree (tests, benchmarks); ``"column"`` runs the
         engine's ``sh_column`` on every row (to cross-check the paths; up to degree 2700).
-        0.2: ``symmetric=``, ``xrange=``.
 
     Returns
     -------

@@ -7,11 +7,3 @@ models by name (EGM2008, ...) once and verifies them, ``tide`` converts a model 
 permanent-tide systems, and ``geographiclib`` writes a model in GeographicLib's ``.egm`` format
 and runs its ``Gravity`` tool.
 """
-
-from __future__ import annotations
-
-from fieldmap import _compat
-
-# fieldmap 0.1 had ``fieldmap.models`` as the module now called ``fieldmap.models.registry``;
-# its names stay importable from here, with a DeprecationWarning (fieldmap._compat.MOVED_NAMES).
-__getattr__ = _compat.moved_names("models")

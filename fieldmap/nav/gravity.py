@@ -3,9 +3,8 @@
 Navigation gravity model names: ``j2``/``j4``/``j6``/``exact``/``sh``/``shN``/``table:FILE``.
 
 Parse a navigation gravity name to the kernel kind and SH degree of
-:mod:`fieldmap.kernels.navgravity` (:func:`parse_gravity`), replace the deprecated 0.1 aliases
-(:func:`gravity_names`) and rank the models by cost (:func:`gravity_cost`). Shared by the LCI
-and NED mechanizations and the studies built on them.
+:mod:`fieldmap.kernels.navgravity` (:func:`parse_gravity`) and rank the models by cost
+(:func:`gravity_cost`). Shared by the LCI and NED mechanizations and the studies built on them.
 
 Compensation tables as navigation gravity: upload, and evaluation at points (Warp).
 
@@ -33,14 +32,13 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
 import warp as wp
 
-from fieldmap import _compat, _warp
+from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.models.shmodel import SHModel
@@ -71,32 +69,6 @@ GRAVITY_KINDS = _kernel_kinds()
 _SH_NAME = re.compile(r"^sh(\d+)?$")
 #: normal navigation models from the simplest to the most complete
 NORMAL_MODELS = ("j2", "j4", "j6", "exact")
-#: deprecated navigation gravity names (fieldmap 0.1) -> current name; removed in 0.3
-GRAVITY_ALIASES = {"normal": "exact"}
-
-
-def gravity_names(names: Iterable[str], stacklevel: int = 4) -> list[str]:
-    """``names`` with the deprecated aliases (``"normal"``) replaced by their current name.
-
-    Other names are returned as given (validation is :func:`parse_gravity`'s). One
-    ``DeprecationWarning`` per call when any alias was used (``stacklevel`` as in
-    :func:`fieldmap._compat.warn`, counted from the caller of this function).
-    """
-    out, used = [], []
-    for name in names:
-        key = str(name).strip().lower() if isinstance(name, str) else None
-        if key in GRAVITY_ALIASES:
-            used.append(key)
-            out.append(GRAVITY_ALIASES[key])
-        else:
-            out.append(name)
-    for key in dict.fromkeys(used):
-        _compat.warn(
-            f'navigation gravity model "{key}" is now "{GRAVITY_ALIASES[key]}"', stacklevel
-        )
-    return out
-
-
 #: SH degrees ``auto`` tries (those up to the model's degree, and the model's own)
 AUTO_DEGREES = (12, 24, 36, 72, 120, 180, 360, 720, 1080, 2190)
 
@@ -132,7 +104,6 @@ def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
     if table_file(name) is not None:
         return 64.0  # a 4 x 4 x 4 stencil
     key = str(name).strip().lower()
-    key = GRAVITY_ALIASES.get(key, key)
     if key in GRAVITY_KINDS and key != "sh":
         return 1.0
     deg = sh_degree(key)
@@ -144,8 +115,8 @@ def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     """Navigation gravity name (j2, j4, j6, exact, sh, shN, table:FILE) -> (kernel kind, degree).
 
-    The deprecated ``"normal"`` is ``"exact"`` (with a ``DeprecationWarning``). A table name is
-    checked by loading the table (:func:`fieldmap.products.tables.model.load_table`).
+    A table name is checked by loading the table
+    (:func:`fieldmap.products.tables.model.load_table`).
     """
     path = table_file(name)
     if path is not None:
@@ -153,7 +124,7 @@ def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
 
         load_table(path)
         return GRAVITY_KINDS["table"], 0
-    key = str(gravity_names([name])[0]).strip().lower()
+    key = str(name).strip().lower()
     if key in NORMAL_MODELS:
         return GRAVITY_KINDS[key], 0
     m = _SH_NAME.match(key)

@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.nav.trajectory import Trajectory
@@ -245,7 +244,6 @@ class ImuSampling:
         gauss_legendre01(self.n_gauss)
 
 
-@options_api("sampling", ImuSampling, first_field="rate_hz")
 def synthesize(
     traj: Trajectory,
     sampling: ImuSampling | None = None,
@@ -265,8 +263,7 @@ def synthesize(
         Reference trajectory (closed form).
     sampling : ImuSampling, optional
         IMU rate and Gauss–Legendre nodes per sample (default ``ImuSampling()``: 200 Hz, 3
-        nodes). The 0.1 call ``synthesize(traj, rate_hz, gravity, n_gauss=...)`` still works,
-        with a ``DeprecationWarning``.
+        nodes).
     gravity : callable or list of callables, optional
         ECEF gravitation ``γ_e(r_e)`` (N, 3) -> (N, 3), e.g. :class:`Gravitation`; default
         EIGEN-6S at full degree. A list gives one increment set per model from one evaluation

@@ -27,7 +27,7 @@ The local-level mechanization of Groves (2013) ch. 5 and NavToolKit; the kernel 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, cast
 
@@ -39,7 +39,7 @@ from fieldmap import _warp
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid, get_ellipsoid
 from fieldmap.nav.frames import LaunchFrame
-from fieldmap.nav.gravity import gravity_names, parse_gravity, table_file
+from fieldmap.nav.gravity import parse_gravity, table_file
 from fieldmap.units import STANDARD_GRAVITY
 
 if TYPE_CHECKING:
@@ -236,7 +236,7 @@ def _prepare_batch(
     unknown = set(err) - set(_ERROR_KEYS)
     if unknown:
         raise InputError(f"unknown sensor error keys: {sorted(unknown)}")
-    names = gravity_names([gravity] if isinstance(gravity, str) else list(gravity), 5)
+    names = [gravity] if isinstance(gravity, str) else list(gravity)
     # with imu_set given, the number of sets says nothing about the number of trajectories
     lens = [
         len(names),
@@ -529,50 +529,14 @@ class NedStart:
     degrees: bool = True
 
 
-_LCI_OLD = ("P0", "V0", "q0", "launch", "gravity")
-_NED_OLD = ("lat0", "lon0", "h0", "v_ned0", "q0", "gravity")
-_START_KEYS = {"P0", "V0", "q0", "lat0", "lon0", "h0", "v_ned0", "launch", "degrees"}
-
-
-def _old_call(name: str, order: tuple[str, ...], args: tuple, kw: dict) -> dict:
-    """Bind a fieldmap 0.2 call (long parameter list) to its names; warn once."""
-    from fieldmap import _compat
-
-    while args and args[-1] is None:  # the new signature's defaults, not given
-        args = args[:-1]
-    if len(args) > len(order):
-        raise TypeError(f"{name}() takes at most {3 + len(order)} positional arguments")
-    bound = dict(zip(order, args))
-    for key in kw:
-        if key in bound:
-            raise TypeError(f"{name}() got multiple values for argument {key!r}")
-    bound.update(kw)
-    _compat.warn(
-        f"{name}(dtheta, dv, dt, <state>, ..., gravity, **options): pass the start state and "
-        f"a NavConfig",
-        stacklevel=4,
-    )
-    return bound
-
-
-def _config_of(bound: dict) -> NavConfig:
-    """Return the :class:`NavConfig` of a bound 0.2 call (unknown keywords: TypeError)."""
-    keys = {f.name for f in fields(NavConfig)}
-    extra = set(bound) - keys - _START_KEYS - {"device"}
-    if extra:
-        raise TypeError(f"unexpected keyword argument(s) {sorted(extra)}")
-    return NavConfig(**{k: v for k, v in bound.items() if k in keys})
-
-
 def propagate_lci(
     dtheta: npt.ArrayLike,
     dv: npt.ArrayLike,
     dt: float,
-    start: LciStart | None = None,
+    start: LciStart,
     config: NavConfig | None = None,
-    *old: Any,
+    *,
     device: str | None = None,
-    **old_kw: Any,
 ) -> LciResult:
     """Propagate many trajectories in the launch-centred inertial frame (eqs. 14-15, 20).
 
@@ -590,21 +554,13 @@ def propagate_lci(
         J4, no errors, every step).
     device : str, optional
         Warp device (default: CUDA if present, else CPU using every core).
-    *old, **old_kw
-        Deprecated (fieldmap 0.2): ``propagate_lci(dtheta, dv, dt, P0, V0, q0, launch,
-        gravity, **options)`` still runs, with a ``DeprecationWarning``.
 
     Returns
     -------
     LciResult
     """
-    if not isinstance(start, LciStart) or old or old_kw:
-        bound = _old_call("propagate_lci", _LCI_OLD, (start, config, *old), old_kw)
-        if bound.get("launch") is None:
-            raise InputError("the LCI mechanization needs its launch frame (launch=)")
-        start = LciStart(bound["P0"], bound["V0"], bound["q0"], bound["launch"])
-        device = bound.get("device", device)
-        config = _config_of(bound)
+    if not isinstance(start, LciStart):
+        raise TypeError(f"start must be an LciStart, got {type(start).__name__}")
     launch = start.launch
     cfg = NavConfig() if config is None else config
     ellipsoid = cfg.ellipsoid
@@ -735,11 +691,10 @@ def propagate_ned(
     dtheta: npt.ArrayLike,
     dv: npt.ArrayLike,
     dt: float,
-    start: NedStart | None = None,
+    start: NedStart,
     config: NavConfig | None = None,
-    *old: Any,
+    *,
     device: str | None = None,
-    **old_kw: Any,
 ) -> NedResult:
     """Propagate many trajectories with the Earth-relative NED mechanization.
 
@@ -761,22 +716,13 @@ def propagate_ned(
         IMU and baro noise of sample j on (seed, ``sample0`` + j), as in :func:`propagate_lci`.
     device : str, optional
         Warp device (default: CUDA if present, else CPU using every core).
-    *old, **old_kw
-        Deprecated (fieldmap 0.2): ``propagate_ned(dtheta, dv, dt, lat0, lon0, h0, v_ned0, q0,
-        gravity, **options)`` still runs, with a ``DeprecationWarning``.
 
     Returns
     -------
     NedResult
     """
-    if not isinstance(start, NedStart) or old or old_kw:
-        bound = _old_call("propagate_ned", _NED_OLD, (start, config, *old), old_kw)
-        start = NedStart(
-            bound["lat0"], bound["lon0"], bound["h0"], bound["v_ned0"], bound["q0"],
-            degrees=bound.get("degrees", True),
-        )  # fmt: skip
-        device = bound.get("device", device)
-        config = _config_of(bound)
+    if not isinstance(start, NedStart):
+        raise TypeError(f"start must be a NedStart, got {type(start).__name__}")
     cfg = NavConfig() if config is None else config
     degrees = start.degrees
     ellipsoid = WGS84 if cfg.ellipsoid is None else cfg.ellipsoid

@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.nav import sensors
 from fieldmap.nav.imu import Gravitation
@@ -71,9 +70,8 @@ def gravity_eval_seconds(
     points is returned. Units: s.
     """
     from fieldmap import _warp
-    from fieldmap.nav.gravity import gravity_names
 
-    key = gravity_names([name.strip().lower()])[0]
+    key = name.strip().lower()
     if key in NORMAL_KINDS:
         g = Gravitation(NORMAL_KINDS[key], device=device)
         n_points = n_points or 20000
@@ -279,7 +277,6 @@ class MonteCarlo:
             raise InputError(f"unknown bias mode {self.mode!r} (known: {', '.join(sensors.MODES)})")
 
 
-@options_api("monte_carlo", MonteCarlo, first_field="draws")
 def table4(
     sc: Scenario,
     models: Sequence[str] = ("j4", "sh18", "sh200"),
@@ -295,8 +292,7 @@ def table4(
     ``reference`` as truth: no gravity-model error) and one row per navigation model in ``models``
     on the truth increments (IMU + gravity-model error). The same draws of ``monte_carlo``
     (default ``MonteCarlo()``: 20 draws of the Table 4 errors, seed 0) are used in every row;
-    all runs go into one launch. The 0.1 keywords ``draws=``, ``seed=``, ``spec=``, ``mode=``
-    still work, with a ``DeprecationWarning``.
+    all runs go into one launch.
     """
     mc = MonteCarlo() if monte_carlo is None else monte_carlo
     draws, seed, mode, spec = mc.draws, mc.seed, mc.mode, mc.spec

@@ -20,12 +20,10 @@ bits whatever the executor, the grouping of the runs and the time blocks.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import dataclasses
 import math
 import warnings
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -44,22 +42,6 @@ __all__ = ["EARTH_RADIUS", "STAT_KEYS", "Propagator", "divergence", "final_stats
 
 #: An error beyond an Earth radius (m) has left physical meaning.
 EARTH_RADIUS = 6_371_000.0
-
-#: Client of the deprecated ``fieldmap.nav.distributed.on_cluster`` block (None: here). Pass
-#: ``client=`` instead; this default goes with ``on_cluster`` in fieldmap 0.3.
-_DEFAULT_CLIENT: contextvars.ContextVar = contextvars.ContextVar(
-    "fieldmap_nav_default_client", default=None
-)
-
-
-@contextlib.contextmanager
-def default_client(client: Client | None) -> Iterator[None]:
-    """Within the block, propagators built with ``client=None`` use ``client`` (deprecated)."""
-    token = _DEFAULT_CLIENT.set(client)
-    try:
-        yield
-    finally:
-        _DEFAULT_CLIENT.reset(token)
 
 
 @dataclasses.dataclass
@@ -120,25 +102,6 @@ def check_mechanization(frame: str, *, baro: bool = False) -> str:
     return name
 
 
-_OLD_NAV = {
-    "ellipsoid", "sh_model", "imu_set", "errors", "output_every", "baro", "gravity_every",
-}  # fmt: skip
-
-
-def _old_config(gravity: Any, dt: Any, old: dict[str, Any]) -> tuple[NavConfig, float]:
-    """Return the NavConfig and dt of a 0.2 call ``Propagator(frame, start, gravity, dt, ...)``."""
-    from fieldmap import _compat
-    from fieldmap.nav.mechanize import NavConfig
-
-    extra = set(old) - _OLD_NAV - {"t_start", "runs_per_task"}
-    if extra:
-        raise TypeError(f"Propagator() got unexpected keyword argument(s) {sorted(extra)}")
-    _compat.warn("Propagator(frame, start, gravity, dt, **options): pass Propagator(frame, start, "
-                 "dt, NavConfig(gravity, ...))", stacklevel=4)  # fmt: skip
-    kw = {k: v for k, v in old.items() if k in _OLD_NAV}
-    return NavConfig(gravity, t0=old.get("t_start", 0.0), **kw), dt
-
-
 class Propagator:
     """Batched NED or launch-centred inertial (LCI) strapdown propagation in blocks of samples.
 
@@ -173,9 +136,6 @@ class Propagator:
     client : dask.distributed.Client, optional
         Run groups of runs as tasks on this cluster (default: here); ``runs_per_task`` (the
         attribute, default four tasks per worker) sets the groups.
-    **old
-        Deprecated (fieldmap 0.2): ``Propagator(frame, start, gravity, dt, ellipsoid=...,
-        sh_model=..., ...)`` still works, with a ``DeprecationWarning``.
     """
 
     def __init__(
@@ -183,19 +143,17 @@ class Propagator:
         frame: str,
         start: dict,
         dt: float,
-        nav: NavConfig | None = None,
+        nav: NavConfig,
         *,
         launch: LaunchFrame | None = None,
         device: str | None = None,
         client: Client | None = None,
-        **old: Any,
     ) -> None:
         from fieldmap.field.ellipsoid import WGS84
         from fieldmap.nav.mechanize import NavConfig
 
-        if not isinstance(nav, NavConfig) or old:
-            nav, dt = _old_config(dt, nav, old)
-        runs_per_task = old.get("runs_per_task")
+        if not isinstance(nav, NavConfig):
+            raise TypeError(f"nav must be a NavConfig, got {type(nav).__name__}")
         frame = check_mechanization(frame, baro=nav.baro is not None)
         if frame == "lci" and launch is None:
             raise InputError(
@@ -205,10 +163,8 @@ class Propagator:
             raise InputError(
                 "the LCI mechanization stores states every even number of samples", param="nav"
             )
-        from fieldmap.nav.gravity import gravity_names
-
         gravity = nav.gravity
-        gravity = gravity_names([gravity] if isinstance(gravity, str) else list(gravity))
+        gravity = [gravity] if isinstance(gravity, str) else list(gravity)
         n = len(gravity)
         errors = dict(nav.errors or {})
         baro = nav.baro
@@ -241,9 +197,9 @@ class Propagator:
             gravity_every=int(nav.gravity_every),
         )
         self._state = state
-        self.client = client if client is not None else _DEFAULT_CLIENT.get()
+        self.client = client
         #: runs per task on a cluster (None: four tasks per worker)
-        self.runs_per_task: int | None = runs_per_task
+        self.runs_per_task: int | None = None
 
     @property
     def n_runs(self) -> int:
@@ -334,6 +290,7 @@ class Propagator:
         from fieldmap.cluster import scattered
 
         client = self.client
+        assert client is not None  # propagate() runs here without one
         nworkers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
         per = self.runs_per_task or max(1, math.ceil(n / (4 * nworkers)))
         cfg = self._cfg

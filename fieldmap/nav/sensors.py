@@ -632,6 +632,13 @@ def load_imu(name_or_path: str | os.PathLike[str]) -> tuple[str, ImuErrorSpec]:
     ------
     InputError
         Unknown name, unreadable or malformed file, unknown key or bad value.
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> name, spec = fieldmap.load_imu("tactical")
+    >>> name, spec.acc_bias_ug, spec.gyro_bias_deg_h  # µg, °/h
+    ('tactical', 1000.0, 1.0)
     """
     if sys.version_info >= (3, 11):
         import tomllib

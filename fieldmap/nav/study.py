@@ -74,7 +74,6 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
@@ -117,12 +116,11 @@ def check_model_names(names: Any, sh_model: SHModel) -> list[str]:
 
     Returns the names in lower case (a table's file name as given), ``sh`` as ``sh<lmax>``,
     ``auto`` as :func:`fieldmap.nav.gravity.auto_models` (a model ``auto`` adds appears
-    once, also when named besides); the deprecated
-    ``"normal"`` becomes ``"exact"`` with one ``DeprecationWarning``. Raises
+    once, also when named besides). Raises
     :class:`InputError` for an unknown name, an unreadable table, or a model named twice
     (``j4,j4``, ``sh,sh200`` with a degree-200 model, one table file under two names).
     """
-    from fieldmap.nav.gravity import auto_models, gravity_names, parse_gravity
+    from fieldmap.nav.gravity import auto_models, parse_gravity
 
     given: list = []
     auto: set = set()  # the names "auto" stands for: once each, with the user's own
@@ -134,7 +132,7 @@ def check_model_names(names: Any, sh_model: SHModel) -> list[str]:
             given.append(name)
     out: list[str] = []
     seen: dict[str, str] = {}  # what makes two names one model (a table's real path) -> name
-    for given_name, name in zip(given, gravity_names(given)):
+    for name in given:
         path = table_file(name)
         if path is not None:  # a file name keeps its case
             parse_gravity(name, sh_model)
@@ -143,7 +141,7 @@ def check_model_names(names: Any, sh_model: SHModel) -> list[str]:
             key = str(name).strip().lower()
             parse_gravity(key, sh_model)
             key = same = key if key != "sh" else f"sh{sh_model.lmax}"
-        typed = str(given_name).strip()
+        typed = str(name).strip()
         if same in seen:
             if key in auto:
                 continue
@@ -193,7 +191,6 @@ class Scenario:
         return self.extra_sets[nav_truth]
 
 
-@options_api("sampling", ImuSampling, first_field="rate_hz")
 def build_scenario(
     duration: float = 800.0,
     sampling: ImuSampling | None = None,
@@ -212,8 +209,7 @@ def build_scenario(
         Flight time simulated. Units: s.
     sampling : ImuSampling, optional
         IMU rate (navigation step 2/rate) and Gauss–Legendre nodes per sample (default
-        ``ImuSampling()``: 200 Hz, 3 nodes). The 0.1 keywords ``rate_hz=``, ``n_gauss=`` still
-        work, with a ``DeprecationWarning``.
+        ``ImuSampling()``: 200 Hz, 3 nodes).
     truth : str or SHModel
         Truth gravity model name or ICGEM path (``fieldmap.models.registry.load_model``), or
         the model itself (e.g. converted to a tide system).
@@ -780,8 +776,9 @@ class FlightStudy:
     >>> study = FlightStudy(
     ...     "49,2.55,10000;48.5,4,10000", speed_mps=230, imu="tactical",
     ...     models="j2,sh12", draws=2, duration=300,
-    ... )  # doctest: +SKIP
-    >>> run_flight(study).summary["recommended_model"]  # doctest: +SKIP
+    ... )
+    >>> study.models, study.n_draws, study.aiding, study.duration_s
+    (('j2', 'sh12'), 2, 'none', 300.0)
     """
 
     flight: Any
@@ -1012,12 +1009,11 @@ def _gravity_terms(study: FlightStudy, model: SHModel, n_draws: int) -> GravityT
 
 
 def run_flight(
-    study: FlightStudy | Any,
+    study: FlightStudy,
     *,
     device: str | None = None,
     client: Any = None,
     progress: bool = False,
-    **options: Any,
 ) -> FlightResult | CovarianceStudyResult:
     """Fly a :class:`FlightStudy`: each gravity model and IMU draw; errors, δg, a recommendation.
 
@@ -1031,25 +1027,31 @@ def run_flight(
         Propagate groups of runs as tasks on this cluster (the same bits; default: here).
     progress : bool
         tqdm progress bar over the time blocks.
-    **options
-        Deprecated (fieldmap 0.2): ``run_flight(trajectory, imu=..., models=..., ...)`` builds
-        the :class:`FlightStudy` of those keywords, with a ``DeprecationWarning``.
 
     Returns
     -------
     FlightResult or CovarianceStudyResult
         The Monte Carlo's runs, or (``study.method == "covariance"``) the covariance analysis's
         σ(t) per source (:class:`fieldmap.nav.covariance.CovarianceStudyResult`).
+
+    Examples
+    --------
+    Twenty seconds of a route at 230 m/s with an ideal IMU, navigating with J4 gravity (a
+    degree-10 truth, to be quick):
+
+    >>> import fieldmap
+    >>> study = fieldmap.FlightStudy(
+    ...     "49,2.55,10000;48.9,2.9,10000", speed_mps=230, models="j4", draws=1,
+    ...     duration=20, rate_hz=20, truth_lmax=10, output_dt=2,
+    ... )
+    >>> res = fieldmap.run_flight(study)
+    >>> float(res.t[-1]), res.dpos.shape  # s; (runs, stored states, north-east-down)
+    (20.0, (2, 11, 3))
     """
     if not isinstance(study, FlightStudy):
-        from fieldmap import _compat
-
-        _compat.warn("run_flight(trajectory, **options): pass run_flight(FlightStudy(...))")
-        study = FlightStudy(study, **options)
-    elif options:
         raise TypeError(
-            f"run_flight() got options {sorted(options)} besides a FlightStudy: set them on "
-            "the study"
+            f"run_flight() takes a FlightStudy, got {type(study).__name__}: pass "
+            "run_flight(FlightStudy(trajectory, ...))"
         )
     if study.method == "covariance":
         if client is not None:

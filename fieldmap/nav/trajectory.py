@@ -940,6 +940,15 @@ def route_flight(
     slope Δ/(σ√(2π)), so turn and climb accelerations stay at ``max_accel``) and flown at
     constant ground speed from the first waypoint by geodesic steps; the turns cut the corners,
     so the later waypoints are passed within about σ v.
+
+    Examples
+    --------
+    Two waypoints (lat, lon, h) at 200 m/s, climbing from 500 to 3000 m:
+
+    >>> import fieldmap
+    >>> samples = fieldmap.route_flight("47,8,500;47.5,9,3000", speed_mps=200.0)
+    >>> float(samples.t[-1]), samples.t.size  # s, samples
+    (469.0, 470)
     """
     from geographiclib.geodesic import Geodesic
     from scipy.ndimage import gaussian_filter1d

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from numbers import Integral
 from typing import TYPE_CHECKING, Any, cast
@@ -112,31 +112,39 @@ def _max_mgal(vec: np.ndarray) -> float:
     return float(np.sqrt(np.einsum("...k,...k->...", vec, vec)).max() / MGAL)
 
 
-#: Options of :func:`omission_map` and :func:`degree_needed` besides ``model`` (fields of a
-#: :class:`~fieldmap.products.request.MapRequest`, validated there).
-OPTIONS = ("lmax", "epoch", "height_km", "step_deg", "lat_max", "region", "ellipsoid", "device")
-
-
 def _setup(
-    name: str, model: SHModel | str | os.PathLike[str], options: dict[str, Any]
+    model: SHModel | str | os.PathLike[str],
+    lmax: int | None,
+    epoch: float | str | None,
+    height_km: float | Sequence[float],
+    step_deg: float,
+    lat_max: float,
+    region: Sequence[float] | None,
+    ellipsoid: Ellipsoid | str,
+    device: str | None,
 ) -> tuple[GridSpec, Ellipsoid, str | None, SHModel]:
     """Validate the grid, ellipsoid, device and model of an omission product (one request)."""
     from fieldmap.products.request import MapRequest
 
-    model = options.pop("model", model)  # also by keyword, as the map façades take it
-    unknown = sorted(set(options) - set(OPTIONS))
-    if unknown:
-        raise TypeError(f"{name}() got unexpected keyword arguments: {', '.join(unknown)}")
-    req = MapRequest.build(model=model, stacked=True, **options)
+    req = MapRequest.build(
+        model=model, lmax=lmax, epoch=epoch, height_km=height_km, step_deg=step_deg,
+        lat_max=lat_max, region=region, ellipsoid=ellipsoid, device=device, stacked=True,
+    )  # fmt: skip
     return req.grid, req.ellipsoid, req.execution.device, req.model
 
 
 def omission_map(
     model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    /,
     *,
     degrees: int | str | Iterable[int | str] = (18, 36, 90, 180),
-    **options: Any,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: float | Sequence[float] = 20.0,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    device: str | None = None,
 ) -> xr.Dataset:
     """Map the SH omission δg_full − δg_d of each degree d (the field of degrees d+1..L).
 
@@ -147,10 +155,10 @@ def omission_map(
         (the "full model" is then the truncated one), ``epoch`` as there.
     degrees : sequence of int
         Distinct integers between 2 and the model's degree L (L: omission zero).
-    **options
-        ``height_km`` (one or several distinct heights above the ellipsoid, -10 ≤ h ≤ 1e5,
-        default 20. Units: km), ``lmax``, ``epoch``, ``step_deg``, ``lat_max``, ``region``,
-        ``device``, ``ellipsoid`` as in :func:`fieldmap.products.maps.disturbance_map`.
+    height_km : float or sequence of float
+        One or several distinct heights above the ellipsoid, -10 ≤ h ≤ 1e5. Units: km.
+    lmax, epoch, step_deg, lat_max, region, ellipsoid, device
+        As in :func:`fieldmap.products.maps.disturbance_map`.
 
     Returns
     -------
@@ -160,7 +168,9 @@ def omission_map(
         (area-weighted but the max) on (degree, height), as every product's statistics, and
         the same in mGal (``max_mgal``...), the unit of the omission's tolerance.
     """
-    grid, ell, device, mod = _setup("omission_map", model, options)
+    grid, ell, device, mod = _setup(
+        model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
+    )
     degs = check_degrees(degrees, mod.lmax)
     check_memory(grid, layers=len(degs))
     vec = np.stack([_omission(mod, d, grid, ell, device) for d in degs])
@@ -217,10 +227,16 @@ def _dataset(
 
 def degree_needed(
     model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    /,
     *,
     tolerance_mgal: float | str,
-    **options: Any,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: float | Sequence[float] = 20.0,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    device: str | None = None,
 ) -> dict[str, Any]:
     """Find the smallest degree d (2..L) whose omission max over grid and heights is ≤ tolerance.
 
@@ -229,6 +245,15 @@ def degree_needed(
     search checks by evaluating both. The omission max is nearly, not strictly, monotone in d
     (a higher degree may add a little locally): the answer is then a degree meeting the
     tolerance whose predecessor does not, the smallest one wherever the max is monotone.
+
+    Parameters
+    ----------
+    model : str or SHModel
+        As in :func:`omission_map`.
+    tolerance_mgal : float
+        Largest omission accepted (the modulus, over the grid and the heights). Units: mGal.
+    lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
+        As in :func:`omission_map`.
 
     Returns
     -------
@@ -239,7 +264,9 @@ def degree_needed(
         2) and ``evaluated`` {degree: omission max}.
     """
     tol = check_tolerance(tolerance_mgal)
-    grid, ell, device, mod = _setup("degree_needed", model, options)
+    grid, ell, device, mod = _setup(
+        model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device
+    )
     if mod.lmax < MIN_DEGREE:
         raise InputError(f"model degree {mod.lmax} is below {MIN_DEGREE}")
     check_memory(grid)

@@ -1,20 +1,14 @@
 """The map products of Chen et al. (2022) §4 and the geodesist's quantity maps: thin façades.
 
 Each function builds one :class:`fieldmap.products.request.MapRequest` from its keyword
-options (validated there, once) and runs it on the one block engine
-(:func:`fieldmap.products.engine.compute`): disturbance maps and sweeps, J2n truncation maps,
-model and normal gravity components, quantity maps. Every one returns an ``xarray.Dataset``
-with CF-1.8 attributes on (latitude, longitude) (and ``height`` or ``order`` for stacks);
-vectors are in the local geodetic east-north-up frame; statistics use area weights
-(:mod:`fieldmap.products.statistics`).
-
-Why ``**options``: the products share some seventeen options (model, degree, epoch, heights,
-grid, ellipsoid, units, thresholds, device, executor, block rows...), the fields of a request.
-Spelling them out in every signature wrote the same list five times and let them drift; the
-façades take them by keyword, exactly as before (``disturbance_map(lmax=36, height_km=20)``),
-and :meth:`~fieldmap.products.request.MapRequest.build` checks every name and value in one
-place. A request built once can be run again with :meth:`MapRequest.compute
-<fieldmap.products.request.MapRequest.compute>`.
+options (validated there, once: :meth:`~fieldmap.products.request.MapRequest.build`) and runs
+it on the one block engine (:func:`fieldmap.products.engine.compute`): disturbance maps and
+sweeps, J2n truncation maps, model and normal gravity components, quantity maps. Every one
+returns an ``xarray.Dataset`` with CF-1.8 attributes on (latitude, longitude) (and ``height``
+or ``order`` for stacks); vectors are in the local geodetic east-north-up frame; statistics use
+area weights (:mod:`fieldmap.products.statistics`). Each names its options in its signature
+(``help()`` and an IDE show them); a request built once can be run again with
+:meth:`MapRequest.compute <fieldmap.products.request.MapRequest.compute>`.
 
 Examples
 --------
@@ -29,13 +23,18 @@ True
 
 from __future__ import annotations
 
-from typing import Any
+import os
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import xarray as xr
 
-from fieldmap import _compat
 from fieldmap.errors import InputError
-from fieldmap.products.request import MapRequest
+from fieldmap.products.request import DEFAULT_THRESHOLDS_MG, MapRequest
+
+if TYPE_CHECKING:
+    from fieldmap.field.ellipsoid import Ellipsoid
+    from fieldmap.models.shmodel import SHModel
 
 __all__ = [
     "altitude_sweep",
@@ -45,110 +44,84 @@ __all__ = [
     "truncation_map",
 ]
 
-#: Options of the map products that followed ``model`` positionally in fieldmap 0.1 (now
-#: keyword-only; positional calls keep working for one release, with a DeprecationWarning).
-_OLD_ORDER = (
-    "lmax",
-    "height_km",
-    "step_deg",
-    "lat_max",
-    "region",
-    "thresholds_mg",
-    "device",
-    "ellipsoid",
-    "epoch",
-    "units",
-    "progress",
-)
-#: The 0.1 positional order of :func:`truncation_map` and :func:`component_maps`.
-_TRUNCATION_ORDER = (
-    "height_km",
-    "orders",
-    "step_deg",
-    "lat_max",
-    "region",
-    "device",
-    "ellipsoid",
-    "units",
-)
-_COMPONENTS_ORDER = (
-    "lmax",
-    "height_km",
-    "step_deg",
-    "lat_max",
-    "region",
-    "device",
-    "ellipsoid",
-    "epoch",
-    "progress",
-)
-
-#: Options each façade takes (the rest of a request is set by the façade itself).
-_GRID = ("height_km", "step_deg", "lat_max", "region", "ellipsoid")
-_MODEL = ("model", "lmax", "epoch")
-_RUN = ("device", "progress", "client", "scheduler", "rows_per_block")
-_DISTURBANCE = (*_MODEL, *_GRID, *_RUN, "thresholds_mg", "units", "chunks", "percentile_method")
-_TRUNCATION = (*_GRID, *_RUN, "orders", "units")
-_COMPONENTS = (*_MODEL, *_GRID, *_RUN)
-_QUANTITY = (*_MODEL, *_GRID, *_RUN, "chunks", "degree0", "omission_model")
+#: Heights of the sweeps (km).
+SWEEP_HEIGHTS_KM = (20.0, 30.0, 50.0, 70.0, 100.0)
 
 
-def _request(name: str, model: Any, options: dict, allowed: tuple, **fixed: Any) -> MapRequest:
-    """Build the request of façade ``name`` from its options (refusing the ones it lacks)."""
-    unknown = sorted(set(options) - set(allowed))
-    if unknown:
-        raise TypeError(f"{name}() got unexpected keyword arguments: {', '.join(unknown)}")
-    if model is not None:
-        if "model" in options:
-            raise TypeError(f"{name}() got multiple values for argument 'model'")
-        options["model"] = model
-    return MapRequest.build(**options, **fixed)
+def _compute(request: MapRequest) -> xr.Dataset:
+    from fieldmap.products.engine import compute
+
+    return compute(request)
 
 
-@_compat.keyword_api(1, _OLD_ORDER)
-def disturbance_map(model: Any = None, /, **options: Any) -> xr.Dataset:
+def disturbance_map(
+    model: SHModel | str | os.PathLike[str] | None = None,
+    *,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: float = 20.0,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    thresholds_mg: Sequence[float] = DEFAULT_THRESHOLDS_MG,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    units: str = "mGal",
+    device: str | None = None,
+    progress: bool | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    chunks: int | str | None = None,
+    rows_per_block: int | None = None,
+    percentile_method: str = "histogram",
+) -> xr.Dataset:
     """Gravity disturbance map δg = g_model − γ_exact at one height (Chen et al. 2022 §4.1).
 
     One engine computes every map: the grid is split into blocks of latitude rows
     (:func:`fieldmap.products.engine.plan_blocks`), the blocks run here (default) or on a Dask
     cluster, and the statistics are folded from per-block partial results in block order, so
     the values and statistics are the same bits whatever runs the blocks and however many rows
-    a block holds.
+    a block holds. The options are checked once, by
+    :meth:`fieldmap.products.request.MapRequest.build`.
 
     Parameters
     ----------
-    model : str, path or SHModel
-        Bundled name (default ``"eigen-6s"``), ICGEM file, or a model object (also by
-        keyword).
-    **options
-        Keyword options (fields of :class:`~fieldmap.products.request.MapRequest`):
-
-        - ``lmax`` (int): truncation degree (default: the model's);
-        - ``epoch`` (float or str): epoch of time-variable models;
-        - ``height_km`` (float, default 20): height above the ellipsoid,
-          -10 ≤ h ≤ 1e5 (:mod:`fieldmap.limits`). Units: km;
-        - ``step_deg``, ``lat_max`` (float, default 1 and 80): grid spacing and latitude limit
-          of a global grid. Units: degrees;
-        - ``region`` ((west, east, south, north)): a regional grid instead. Units: degrees;
-        - ``thresholds_mg`` (default 0.02, 0.05, 0.06, 0.10): thresholds of the area
-          fractions. Units: mg;
-        - ``ellipsoid`` (``"WGS84"`` default or ``"GRS80"``): the normal field;
-        - ``units`` (``"mGal"`` default, ``"mg"``, ``"m/s2"``, any spelling of
-          :mod:`fieldmap.units`): units of east, north, up, modulus (``modulus_mg`` is always
-          added);
-        - ``device`` (str): Warp device;
-        - ``progress`` (bool): progress bar over the blocks, on stderr (default: for grids
-          of 2e6 nodes or more on a terminal);
-        - ``client`` (``dask.distributed.Client``) or ``scheduler`` (``"local:N"``, an
-          address, or ``"threads"``): run the blocks on Dask;
-        - ``chunks`` (int or ``"auto"``): return a lazy dask-backed Dataset, blocks of at most
-          this many latitude rows (no statistics: they need the whole map);
-        - ``rows_per_block`` (int): most latitude rows per block (the results do not depend
-          on it);
-        - ``percentile_method`` (``"histogram"`` default, or ``"exact"``): percentiles from
-          the merged per-block histograms, within a relative
-          :data:`fieldmap.products.statistics.PERCENTILE_RTOL` of the exact ones, the same on
-          every executor and in streamed files; or the weighted percentiles of the whole map.
+    model : str, path or SHModel, optional
+        Bundled name (default ``"eigen-6s"``), ICGEM file, or a model object.
+    lmax : int, optional
+        Truncation degree (default: the model's).
+    epoch : float or str, optional
+        Epoch of time-variable models. Units: decimal year or ``'YYYY-MM-DD'``.
+    height_km : float
+        Height above the ellipsoid, -10 ≤ h ≤ 1e5 (:mod:`fieldmap.limits`). Units: km.
+    step_deg, lat_max : float
+        Grid spacing and latitude limit of a global grid. Units: degrees.
+    region : (west, east, south, north), optional
+        A regional grid instead. Units: degrees.
+    thresholds_mg : sequence of float
+        Thresholds of the area fractions (default 0.02, 0.05, 0.06, 0.10). Units: mg.
+    ellipsoid : {"WGS84", "GRS80"} or Ellipsoid
+        The normal field.
+    units : str
+        Units of east, north, up, modulus: ``"mGal"`` (default), ``"mg"``, ``"m/s2"``, any
+        spelling of :mod:`fieldmap.units` (``modulus_mg`` is always added).
+    device : str, optional
+        Warp device.
+    progress : bool, optional
+        Progress bar over the blocks, on stderr (default: for grids of 2e6 nodes or more on a
+        terminal).
+    client : dask.distributed.Client, optional
+        Run the blocks on this Dask cluster.
+    scheduler : str, optional
+        Or on this one: ``"local:N"``, an address, or ``"threads"``.
+    chunks : int or "auto", optional
+        Return a lazy dask-backed Dataset, blocks of at most this many latitude rows (no
+        statistics: they need the whole map).
+    rows_per_block : int, optional
+        Most latitude rows per block (the results do not depend on it).
+    percentile_method : {"histogram", "exact"}
+        Percentiles from the merged per-block histograms, within a relative
+        :data:`fieldmap.products.statistics.PERCENTILE_RTOL` of the exact ones, the same on
+        every executor and in streamed files; or the weighted percentiles of the whole map.
 
     Returns
     -------
@@ -166,17 +139,59 @@ def disturbance_map(model: Any = None, /, **options: Any) -> xr.Dataset:
     >>> ds["modulus_mg"].dims, float(ds["height_km"])
     (('latitude', 'longitude'), 20.0)
     """
-    from fieldmap.products.engine import compute
+    return _compute(
+        MapRequest.build(
+            model=model,
+            lmax=lmax,
+            epoch=epoch,
+            height_km=height_km,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            thresholds_mg=thresholds_mg,
+            ellipsoid=ellipsoid,
+            units=units,
+            device=device,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+            chunks=chunks,
+            rows_per_block=rows_per_block,
+            percentile_method=percentile_method,
+            stacked=False,
+        )  # fmt: skip
+    )
 
-    return compute(_request("disturbance_map", model, options, _DISTURBANCE, stacked=False))
 
-
-@_compat.keyword_api(1, _OLD_ORDER)
-def altitude_sweep(model: Any = None, /, **options: Any) -> xr.Dataset:
+def altitude_sweep(
+    model: SHModel | str | os.PathLike[str] | None = None,
+    *,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: Sequence[float] = SWEEP_HEIGHTS_KM,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    thresholds_mg: Sequence[float] = DEFAULT_THRESHOLDS_MG,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    units: str = "mGal",
+    device: str | None = None,
+    progress: bool | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    chunks: int | str | None = None,
+    rows_per_block: int | None = None,
+    percentile_method: str = "histogram",
+) -> xr.Dataset:
     """Disturbance maps and their statistics over a list of heights (Chen et al. 2022 Fig. 7).
 
-    The options are those of :func:`disturbance_map`; ``height_km`` is a sequence of distinct
-    heights (km; default 20, 30, 50, 70, 100).
+    Parameters
+    ----------
+    height_km : sequence of float
+        Distinct heights (default 20, 30, 50, 70, 100). Units: km.
+    model, lmax, epoch, step_deg, lat_max, region, thresholds_mg, ellipsoid, units, device, \
+progress, client, scheduler, chunks, rows_per_block, percentile_method
+        As in :func:`disturbance_map`.
 
     Returns
     -------
@@ -194,14 +209,45 @@ def altitude_sweep(model: Any = None, /, **options: Any) -> xr.Dataset:
     >>> sweep["max_mg"].dims, sweep.sel(height_km=10)["height"].item()
     (('height',), 10000.0)
     """
-    from fieldmap.products.engine import compute
+    return _compute(
+        MapRequest.build(
+            model=model,
+            lmax=lmax,
+            epoch=epoch,
+            height_km=height_km,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            thresholds_mg=thresholds_mg,
+            ellipsoid=ellipsoid,
+            units=units,
+            device=device,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+            chunks=chunks,
+            rows_per_block=rows_per_block,
+            percentile_method=percentile_method,
+            stacked=True,
+        )  # fmt: skip
+    )
 
-    options.setdefault("height_km", (20.0, 30.0, 50.0, 70.0, 100.0))
-    return compute(_request("altitude_sweep", model, options, _DISTURBANCE, stacked=True))
 
-
-@_compat.keyword_api(0, _TRUNCATION_ORDER)
-def truncation_map(**options: Any) -> xr.Dataset:
+def truncation_map(
+    *,
+    height_km: float = 20.0,
+    orders: Sequence[int] = (2, 4, 6),
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    units: str = "mGal",
+    device: str | None = None,
+    progress: bool | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    rows_per_block: int | None = None,
+) -> xr.Dataset:
     """Map the truncation error of the J2/J4/J6 normal gravitation against the exact one (Fig. 8).
 
     δg_Jn = g_Jn − γ_exact with g_Jn from eqs. (7)-(13) of Chen et al. (2022) (gradient
@@ -210,13 +256,13 @@ def truncation_map(**options: Any) -> xr.Dataset:
 
     Parameters
     ----------
-    **options
-        ``height_km`` (one height, default 20. Units: km), ``orders`` (distinct orders among
-        2, 4, 6, default all; 2.5 is an error, not order 2), and ``step_deg``, ``lat_max``,
-        ``region``, ``ellipsoid``, ``units``, ``device``, ``progress``, ``client``,
-        ``scheduler``, ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional
-        order (height_km, orders, step_deg, lat_max, region, device, ellipsoid, units) still
-        works, with a DeprecationWarning.
+    height_km : float
+        One height. Units: km.
+    orders : sequence of int
+        Distinct orders among 2, 4, 6 (2.5 is an error, not order 2).
+    step_deg, lat_max, region, ellipsoid, units, device, progress, client, scheduler, \
+rows_per_block
+        As in :func:`disturbance_map`.
 
     Returns
     -------
@@ -232,14 +278,41 @@ def truncation_map(**options: Any) -> xr.Dataset:
     >>> tr["max_mg"].dims, tr["order"].values.tolist()
     (('order',), [2, 4])
     """
-    from fieldmap.products.engine import compute
+    return _compute(
+        MapRequest.build(
+            height_km=height_km,
+            orders=orders,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            ellipsoid=ellipsoid,
+            units=units,
+            device=device,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+            rows_per_block=rows_per_block,
+            quantity="truncation",
+        )  # fmt: skip
+    )
 
-    options.setdefault("orders", (2, 4, 6))
-    return compute(_request("truncation_map", None, options, _TRUNCATION, quantity="truncation"))
 
-
-@_compat.keyword_api(1, _COMPONENTS_ORDER)
-def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
+def component_maps(
+    model: SHModel | str | os.PathLike[str] | None = None,
+    *,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: float = 20.0,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    device: str | None = None,
+    progress: bool | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    rows_per_block: int | None = None,
+) -> xr.Dataset:
     """Model gravity and normal gravity components at one height (Chen et al. 2022 Figs. 2-3).
 
     Both include the centrifugal acceleration of the ellipsoid's rotation rate. Computed on the
@@ -247,27 +320,63 @@ def component_maps(model: Any = None, /, **options: Any) -> xr.Dataset:
 
     Parameters
     ----------
-    model : str, path or SHModel
-        As in :func:`disturbance_map`.
-    **options
-        ``lmax``, ``epoch``, ``height_km`` (one height), ``step_deg``, ``lat_max``,
-        ``region``, ``ellipsoid``, ``device``, ``progress``, ``client``, ``scheduler``,
-        ``rows_per_block`` as in :func:`disturbance_map`. The 0.1 positional order (model,
-        lmax, height_km, step_deg, lat_max, region, device, ellipsoid, epoch, progress) still
-        works, with a DeprecationWarning.
+    model, lmax, epoch, height_km, step_deg, lat_max, region, ellipsoid, device, progress, \
+client, scheduler, rows_per_block
+        As in :func:`disturbance_map` (one height).
 
     Returns
     -------
     xarray.Dataset
         ``model_east``, ``model_north``, ``model_up`` and ``normal_east``, ``normal_north``,
         ``normal_up`` on (latitude, longitude). Units: m s-2.
+
+    Examples
+    --------
+    >>> import fieldmap
+    >>> ds = fieldmap.component_maps(lmax=12, step_deg=30.0)
+    >>> round(float(ds["normal_up"].min()), 2)  # at 60° N and S, 20 km up. Units: m/s²
+    -9.76
     """
-    from fieldmap.products.engine import compute
+    return _compute(
+        MapRequest.build(
+            model=model,
+            lmax=lmax,
+            epoch=epoch,
+            height_km=height_km,
+            step_deg=step_deg,
+            lat_max=lat_max,
+            region=region,
+            ellipsoid=ellipsoid,
+            device=device,
+            progress=progress,
+            client=client,
+            scheduler=scheduler,
+            rows_per_block=rows_per_block,
+            quantity="components",
+        )  # fmt: skip
+    )
 
-    return compute(_request("component_maps", model, options, _COMPONENTS, quantity="components"))
 
-
-def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
+def quantity_map(
+    quantity: str,
+    *,
+    model: SHModel | str | os.PathLike[str] | None = None,
+    lmax: int | None = None,
+    epoch: float | str | None = None,
+    height_km: float | Sequence[float] = 20.0,
+    step_deg: float = 1.0,
+    lat_max: float = 80.0,
+    region: Sequence[float] | None = None,
+    ellipsoid: Ellipsoid | str = "WGS84",
+    device: str | None = None,
+    progress: bool | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    chunks: int | str | None = None,
+    rows_per_block: int | None = None,
+    degree0: bool = False,
+    omission_model: str | None = None,
+) -> xr.Dataset:
     """Map of a geodetic quantity on a global or regional grid, at one or several heights.
 
     Parameters
@@ -286,13 +395,16 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
         m), ``"anomaly-classical"`` (mGal), ``"disturbance-sa"`` (−∂T/∂r, mGal) and ``"trr"``
         (∂²T/∂r², E); ``"ewh"``: equivalent water height (m) of a difference of two fields
         (``model=fieldmap.field.water.field_difference(a, b)``; one field alone is refused).
-    **options
-        ``model``, ``lmax``, ``epoch``, ``height_km`` (one or several; ignored for the geoid,
-        a property of the surface), ``step_deg``, ``lat_max``, ``region``, ``ellipsoid``,
-        ``device``, ``progress``, ``client``, ``scheduler``, ``chunks``, ``rows_per_block`` as
-        in :func:`disturbance_map`; ``degree0`` (bool): keep the degree-0 term of T (default
-        False, as GeographicLib); ``omission_model`` (``"tscherning-rapp"`` default,
-        ``"kaula"``, ``"fitted"``): the degree-variance model of ``"omission-sigma"``.
+    height_km : float or sequence of float
+        One height or several (a sweep); ignored for the geoid, a property of the surface.
+        Units: km.
+    degree0 : bool
+        Keep the degree-0 term of T (default False, as GeographicLib).
+    omission_model : {"tscherning-rapp", "kaula", "fitted"}, optional
+        The degree-variance model of ``"omission-sigma"`` (default ``"tscherning-rapp"``).
+    model, lmax, epoch, step_deg, lat_max, region, ellipsoid, device, progress, client, \
+scheduler, chunks, rows_per_block
+        As in :func:`disturbance_map`.
 
     Returns
     -------
@@ -311,21 +423,42 @@ def quantity_map(quantity: str, **options: Any) -> xr.Dataset:
     """
     import numpy as np
 
-    from fieldmap.products.engine import compute
-
+    run = dict(
+        model=model, lmax=lmax, epoch=epoch, step_deg=step_deg, lat_max=lat_max, region=region,
+        ellipsoid=ellipsoid, device=device, progress=progress, client=client,
+        scheduler=scheduler, chunks=chunks, rows_per_block=rows_per_block,
+    )  # fmt: skip
     if quantity == "disturbance":
-        if options.pop("degree0", False):
-            raise InputError("degree0 applies to the potential T and its quantities, not to δg")
-        hs = np.atleast_1d(np.asarray(options.pop("height_km", 20.0), dtype=object)).ravel()
+        if degree0:
+            raise InputError(
+                "degree0 applies to the potential T and its quantities, not to δg", param="degree0"
+            )
+        if omission_model is not None:
+            raise InputError(
+                "omission_model applies to the omission-sigma quantity, not to disturbance",
+                param="omission_model",
+            )
+        hs = np.atleast_1d(np.asarray(height_km, dtype=object)).ravel()
         if hs.size == 1:
-            return disturbance_map(height_km=hs[0], **options)
-        return altitude_sweep(height_km=list(hs), **options)
+            return disturbance_map(height_km=hs[0], **run)
+        return altitude_sweep(height_km=list(hs), **run)
     from fieldmap.products.variables import QUANTITIES
 
     if quantity not in QUANTITIES:
-        raise InputError(f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}")
-    if quantity == "ewh" and options.get("degree0", False):
-        raise InputError("degree0 applies to the potential T and its quantities, not to EWH")
-    return compute(
-        _request("quantity_map", None, options, _QUANTITY, quantity=quantity, stacked=True)
+        raise InputError(
+            f"quantity must be one of {', '.join(QUANTITIES)}, got {quantity!r}", param="quantity"
+        )
+    if quantity == "ewh" and degree0:
+        raise InputError(
+            "degree0 applies to the potential T and its quantities, not to EWH", param="degree0"
+        )
+    return _compute(
+        MapRequest.build(
+            quantity=quantity,
+            height_km=height_km,
+            degree0=degree0,
+            omission_model=omission_model,
+            stacked=True,
+            **run,
+        )  # fmt: skip
     )

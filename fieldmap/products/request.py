@@ -21,14 +21,20 @@ Examples
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+import os
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+import numpy.typing as npt
 
 from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import Ellipsoid
 from fieldmap.grids.spec import GridSpec
+
+if TYPE_CHECKING:
+    from fieldmap.models.shmodel import SHModel
 
 #: Quantities of the products that are not those of :data:`fieldmap.products.variables.VARIABLES`:
 #: the J2n truncation error (no model) and the model and normal gravity components.
@@ -195,12 +201,6 @@ class Execution:
         return parse_scheduler(self.executor)
 
 
-#: Keys of :meth:`MapRequest.build` that go to :class:`Output` and :class:`Execution`.
-_OUTPUT = tuple(f.name for f in dataclasses.fields(Output))
-_EXECUTION = tuple(f.name for f in dataclasses.fields(Execution))
-_WHERE = ("model", "lmax", "epoch", "height_km", "step_deg", "lat_max", "region", "ellipsoid")
-
-
 @dataclasses.dataclass(frozen=True)
 class MapRequest:
     """One map product to compute: model, grid, ellipsoid, output and execution, all checked.
@@ -258,43 +258,107 @@ class MapRequest:
             raise InputError("a lazy Dataset (chunks=) carries no statistics: no percentile_method")
 
     @classmethod
-    def build(cls, **options: Any) -> MapRequest:
+    def build(
+        cls,
+        *,
+        model: SHModel | str | os.PathLike[str] | None = None,
+        lmax: int | None = None,
+        epoch: float | str | None = None,
+        height_km: float | str | Sequence[float | str] | None = None,
+        heights_m: npt.ArrayLike | None = None,
+        step_deg: float = 1.0,
+        lat_max: float = 80.0,
+        region: Sequence[float] | None = None,
+        ellipsoid: Ellipsoid | str = "WGS84",
+        load: Callable[[], SHModel] | None = None,
+        quantity: str = "disturbance",
+        units: str = "mGal",
+        thresholds_mg: Sequence[float | str] = DEFAULT_THRESHOLDS_MG,
+        orders: Sequence[int] = (2, 4, 6),
+        degree0: bool = False,
+        stacked: bool = False,
+        percentile_method: str = "histogram",
+        omission_model: str | None = None,
+        device: str | None = None,
+        client: Any = None,
+        scheduler: str | None = None,
+        executor: Any = None,
+        chunks: int | str | dict | None = None,
+        rows_per_block: int | None = None,
+        progress: bool | None = None,
+        window: int | None = None,
+    ) -> MapRequest:
         """Build a request from a user's options, validating each once.
 
         Parameters
         ----------
-        **options
-            Where: ``model`` (bundled name, ICGEM file or SHModel; default ``"eigen-6s"``),
-            ``lmax``, ``epoch``, ``height_km`` (one or several, km) or ``heights_m``,
-            ``step_deg``, ``lat_max``, ``region`` (west, east, south, north; degrees),
-            ``ellipsoid`` (name or :class:`~fieldmap.field.ellipsoid.Ellipsoid`), ``load``
-            (a callable returning the model, the CLI's with its model-file options).
-            What: the fields of :class:`Output`. How: the fields of :class:`Execution`, with
-            ``client`` (a Dask client) and ``scheduler`` (a string) as spellings of
-            ``executor``.
+        model : str, path or SHModel, optional
+            Bundled name, ICGEM file or model (default ``"eigen-6s"``), loaded with ``lmax``
+            and ``epoch``; or ``load``, a callable returning the model (the CLI's, with its
+            model-file options).
+        lmax : int, optional
+            Truncation degree.
+        epoch : float or str, optional
+            Epoch of time-variable terms. Units: decimal year or ``'YYYY-MM-DD'``.
+        height_km : float or sequence of float, optional
+            One height (a map) or several distinct ones (``stacked``), default 20. Units: km.
+        heights_m : array_like, optional
+            The heights in metres instead (not with ``height_km``). Units: m.
+        step_deg, lat_max : float
+            Grid spacing and latitude limit of a global grid. Units: degrees.
+        region : (west, east, south, north), optional
+            A regional grid instead. Units: degrees.
+        ellipsoid : Ellipsoid or str
+            The normal field (a name or an :class:`~fieldmap.field.ellipsoid.Ellipsoid`).
+        load : callable, optional
+            Returns the model (instead of ``model``, ``lmax``, ``epoch``).
+        quantity, units, thresholds_mg, orders, degree0, stacked, percentile_method, \
+omission_model
+            What the product holds: the fields of :class:`Output`.
+        device, executor, chunks, rows_per_block, progress, window
+            How its blocks run: the fields of :class:`Execution`.
+        client, scheduler
+            Spellings of ``executor``: a ``dask.distributed.Client``, or a scheduler string
+            (``"local:N"``, an address, ``"threads"``).
 
         Raises
         ------
         fieldmap.errors.InputError
             One line naming the bad value.
-        TypeError
-            An unknown option.
         """
-        known = {*_OUTPUT, *_EXECUTION, *_WHERE, "heights_m", "load", "client", "scheduler"}
-        unknown = sorted(set(options) - known)
-        if unknown:
-            raise TypeError(f"MapRequest.build() got unexpected options: {', '.join(unknown)}")
-        client, scheduler = options.pop("client", None), options.pop("scheduler", None)
-        if client is not None and scheduler is not None:
-            raise InputError("pass client= or scheduler=, not both")
-        if client is not None or scheduler is not None:
-            options["executor"] = client if client is not None else scheduler
-        output = Output(**{k: options[k] for k in _OUTPUT if k in options})
-        execution = Execution(**{k: options[k] for k in _EXECUTION if k in options})
-        grid = _grid(output, options)
-        ell = ellipsoid_of(options.get("ellipsoid", "WGS84"))
-        model = _model(output, options)
-        return cls(model, grid, ell, output, execution)
+        if sum(x is not None for x in (client, scheduler, executor)) > 1:
+            raise InputError("pass client= or scheduler=, not both", param="client")
+        output = Output(
+            quantity=quantity,
+            units=units,
+            thresholds_mg=cast(Any, thresholds_mg),  # parsed and sorted by Output
+            orders=cast(Any, orders),
+            degree0=degree0,
+            stacked=stacked,
+            percentile_method=percentile_method,
+            omission_model=omission_model,
+        )
+        execution = Execution(
+            device=device,
+            executor=next((x for x in (client, scheduler, executor) if x is not None), None),
+            chunks=chunks,
+            rows_per_block=rows_per_block,
+            progress=progress,
+            window=window,
+        )
+        if height_km is not None and heights_m is not None:
+            raise InputError("give height_km= or heights_m=, not both", param="height_km")
+        grid = _grid(output, height_km, heights_m, step_deg, lat_max, region)
+        ell = ellipsoid_of(ellipsoid)
+        if output.quantity == TRUNCATION:
+            mod = None
+        elif load is not None:
+            mod = load()
+        else:
+            from fieldmap.models.registry import load_model
+
+            mod = load_model("eigen-6s" if model is None else model, lmax=lmax, epoch=epoch)
+        return cls(mod, grid, ell, output, execution)
 
     def compute(self) -> Any:
         """Compute the product (:func:`fieldmap.products.engine.compute`): an xarray.Dataset."""
@@ -331,38 +395,24 @@ def heights_m(height_km: Any, one: str | None = None) -> np.ndarray:
     return limits.heights_from_km(height_km, distinct=True, one=one)
 
 
-def _grid(output: Output, options: dict) -> GridSpec:
+def _grid(
+    output: Output,
+    height_km: Any,
+    heights_m_: Any,
+    step_deg: float,
+    lat_max: float,
+    region: Sequence[float] | None,
+) -> GridSpec:
     from fieldmap.grids.spec import make_grid
     from fieldmap.products.variables import SURFACE_QUANTITIES
 
     if output.quantity in SURFACE_QUANTITIES:
         h = np.zeros(1)  # the geoid is a property of the surface
-    elif "heights_m" in options:
-        if "height_km" in options:
-            raise InputError("give height_km= or heights_m=, not both")
-        h = np.asarray(options["heights_m"], dtype=np.float64).ravel()
+    elif heights_m_ is not None:
+        h = np.asarray(heights_m_, dtype=np.float64).ravel()
     else:
         one = None if output.stacked else f"a {output.quantity} map takes one height"
         if output.quantity == "disturbance" and not output.stacked:
             one = "disturbance_map takes one height; use altitude_sweep for several"
-        h = heights_m(options.get("height_km", 20.0), one)
-    return make_grid(
-        options.get("step_deg", 1.0),
-        options.get("lat_max", 80.0),
-        options.get("region"),
-        h,
-        whole_in_memory=False,
-    )
-
-
-def _model(output: Output, options: dict) -> Any:
-    if output.quantity == TRUNCATION:
-        return None
-    load = options.get("load")
-    if load is not None:
-        return load()
-    from fieldmap.models.registry import load_model
-
-    return load_model(
-        options.get("model", "eigen-6s"), lmax=options.get("lmax"), epoch=options.get("epoch")
-    )
+        h = heights_m(20.0 if height_km is None else height_km, one)
+    return make_grid(step_deg, lat_max, cast(Any, region), h, whole_in_memory=False)

@@ -34,13 +34,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fieldmap import _compat
 from fieldmap.field import legendre
 from fieldmap.models.shmodel import SHModel
-
-#: 0.2's ``legendre_rows`` (the row-wise X-number Legendre functions) is
-#: ``fieldmap.field.legendre.legendre_rows``: production code (the commission σ) uses it too
-__getattr__ = _compat.moved_names("reference.sh")
 
 
 def spherical_gradient(

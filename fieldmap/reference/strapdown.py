@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fieldmap import _compat
 from fieldmap.nav.frames import LaunchFrame
 
 if TYPE_CHECKING:
@@ -37,13 +36,6 @@ def rodrigues(phi: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + c * (K @ K)
 
 
-@_compat.grouped_api(
-    (
-        "dtheta", "dv", "dt", "P0", "V0", "C0", "frame", "gravitation_ecef", "t0",
-        "output_every", "acc_bias", "gyro_bias",
-    ),
-    {"increments": ("dtheta", "dv", "dt"), "start": ("P0", "V0", "C0")},
-)  # fmt: skip
 def propagate_lci_reference(
     increments: _Increments,
     start: tuple[ArrayLike, ArrayLike, ArrayLike],
@@ -77,11 +69,6 @@ def propagate_lci_reference(
     Returns
     -------
     t, P, V, C : arrays (n_out,), (n, n_out, 3), (n, n_out, 3), (n, n_out, 3, 3)
-
-    Notes
-    -----
-    0.2 took ``dtheta, dv, dt, P0, V0, C0`` as six arguments; they still work, with a
-    ``DeprecationWarning``.
     """
     dtheta, dv, dt = increments
     P0, V0, C0 = start
@@ -121,13 +108,6 @@ def propagate_lci_reference(
     return np.array(ts), np.stack(Ps, 1), np.stack(Vs, 1), np.stack(Cs, 1)
 
 
-@_compat.grouped_api(
-    (
-        "dtheta", "dv", "dt", "llh0", "v0", "C0", "gravity_ned", "ellipsoid", "output_every",
-        "attitude", "frame_rotation", "baro",
-    ),
-    {"increments": ("dtheta", "dv", "dt"), "start": ("llh0", "v0", "C0")},
-)  # fmt: skip
 def propagate_ned_reference(
     increments: _Increments,
     start: tuple[ArrayLike, ArrayLike, ArrayLike],
@@ -166,11 +146,6 @@ def propagate_ned_reference(
     Returns
     -------
     llh, v, C : arrays (n, n_out, 3), (n, n_out, 3), (n, n_out, 3, 3)
-
-    Notes
-    -----
-    0.2 took ``dtheta, dv, dt, llh0, v0, C0`` as six arguments; they still work, with a
-    ``DeprecationWarning``.
     """
     dtheta, dv = (np.asarray(x, dtype=np.float64) for x in increments[:2])
     dt = increments[2]

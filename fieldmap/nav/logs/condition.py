@@ -164,7 +164,6 @@ from typing import Any, NoReturn
 import numpy as np
 
 import fieldmap.nav.logs.fit as cfit
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
@@ -506,7 +505,6 @@ def without_velocities(track: Any) -> Any:
     return replace(track, velocity=None, notes=(*getattr(track, "notes", ()), note))
 
 
-@options_api("options", Conditioning)
 def condition(track: Any, options: Conditioning | None = None) -> ConditionedFlight:
     """Clean, smooth samples of a raw flight log, and a report of what was done.
 
@@ -545,7 +543,6 @@ def condition(track: Any, options: Conditioning | None = None) -> ConditionedFli
     return finish(st, st.fit(st.longest(ids)))
 
 
-@options_api("options", Conditioning)
 def condition_segments(track: Any, options: Conditioning | None = None) -> list[ConditionedFlight]:
     """Condition every segment of a log (gaps and jumps separate them), in time order.
 

@@ -76,7 +76,6 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 
 #: normal consistency factor of the MAD (1 / Φ⁻¹(3/4))
@@ -431,7 +430,6 @@ class PathFit:
             raise InputError(f"max_run must be an integer, got {self.max_run!r}")
 
 
-@options_api("settings", PathFit, first_field="dof")
 def fit_path(
     grid: tuple[float, float, int],
     t: np.ndarray,

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fieldmap import _compat, limits
+from fieldmap import limits
 from fieldmap.errors import InputError
 from fieldmap.products.tables.model import COMPONENTS, CompensationTable
 
@@ -206,23 +206,6 @@ def _evaluate(
     return a, b, c, d
 
 
-def _fold_old(old: dict[str, Any], kwargs: dict[str, Any]) -> Any:
-    """0.2's ``lmax=`` (on the model now) and ``seed=`` (fixed: 0) of :func:`build_table`."""
-    notes = []
-    if "lmax" in old:
-        from fieldmap.field.gravity import apply_model_options
-
-        kwargs["model"] = apply_model_options(kwargs.get("model", "eigen-6s"), old["lmax"])
-        notes.append("lmax= belongs to the model: pass model=load_model(name, lmax=...)")
-    if "seed" in old:
-        notes.append("seed= is gone: the check points are drawn with seed 0")
-        seed = int(old["seed"])
-        if seed != 0:  # still honoured, through the implementation
-            return "; ".join(notes), lambda *a, **kw: _build(*a, **kw, seed=seed)
-    return "; ".join(notes)
-
-
-@_compat.folded(("lmax", "seed"), _fold_old)
 def build_table(
     region: Iterable[float | str],
     heights_km: Iterable[float | str],
@@ -261,26 +244,19 @@ def build_table(
     -------
     (CompensationTable, dict)
         The table (float32 values) and its verification report (JSON-ready).
+
+    Examples
+    --------
+    A table over a 1° square, 0 to 10 km, within 5 mGal of a degree-12 model:
+
+    >>> import fieldmap
+    >>> model = fieldmap.load_model("eigen-6s", lmax=12)
+    >>> table, report = fieldmap.build_table(
+    ...     (9.5, 10.5, 44.5, 45.5), (0, 10), 5.0, model=model, check_points=10
+    ... )
+    >>> report["verification"]["max_mgal"] < 5.0
+    True
     """
-    return _build(
-        region, heights_km, max_error_mgal, budget_mb=budget_mb, model=model, device=device,
-        check_points=check_points, log=log,
-    )  # fmt: skip
-
-
-def _build(
-    region: Iterable[float | str],
-    heights_km: Iterable[float | str],
-    max_error_mgal: float,
-    *,
-    budget_mb: float = 8.0,
-    model: SHModel | str | os.PathLike[str] = "eigen-6s",
-    device: str | None = None,
-    check_points: int = CHECK_POINTS,
-    log: Callable[[str], object] | None = None,
-    seed: int = 0,
-) -> tuple[CompensationTable, dict[str, Any]]:
-    """:func:`build_table`, and the seed of the check points (0.2's ``seed=``)."""
     from fieldmap.grids.synthesis import resolve_device
     from fieldmap.models.registry import load_model
 
@@ -319,7 +295,7 @@ def _build(
         lat, lon, h = cand.axes()
         values = _synth(m, lat, lon, h, device).astype(np.float32)
         tab = CompensationTable(lat[0], cand.dlat, lon[0], cand.dlon, h[0], cand.dh, values)
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(0)
         a, b, c, d = _evaluate(lat, m, rng, tab, device, int(check_points))
         errs = {k: float(np.max(np.abs(v))) for k, v in zip("ABCD", (a, b, c, d))}
         step = {**cand.spacing(), "size_bytes": cand.nbytes, "max_error_mgal": errs}

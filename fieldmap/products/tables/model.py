@@ -43,7 +43,6 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fieldmap import _compat
 from fieldmap.errors import InputError
 
 #: Prefix of a table model name: ``model="table:FILE"``.
@@ -351,6 +350,3 @@ def _read_file(path: Path) -> CompensationTable:
     if head[:4] in (b"\x89HDF", b"CDF\x01", b"CDF\x02"):
         return read_netcdf(path)
     raise InputError(f"{path}: not a compensation table (neither table.bin nor NetCDF)")
-
-
-__getattr__ = _compat.moved_names("products.tables.model")
