@@ -91,6 +91,8 @@ _LAZY = {
     "load_imu": "fieldmap.nav.sensors",
     "run_flight": "fieldmap.nav.study",
     "FlightStudy": "fieldmap.nav.study",
+    "load_flight": "fieldmap.nav.logs",
+    "GnssSpec": "fieldmap.nav.aiding",
     "BaroSpec": "fieldmap.nav.study",
     "build_table": "fieldmap.products.tables.build",
     "allan_deviation": "fieldmap.nav.sensors",

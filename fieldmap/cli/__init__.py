@@ -338,7 +338,7 @@ OPTIONS: dict[str, str | None] = {
     "frame": "--frame",
     "altitude_aiding": "--altitude-aiding",
     "baro": None,
-    "truth": "--model",
+    "truth": "--truth-model",
     "truth_lmax": "--lmax",
     "truth_evaluation": "--truth-evaluation",
     "gravity_rate_hz": "--gravity-rate-hz",

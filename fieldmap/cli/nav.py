@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from fieldmap import durations
 from fieldmap.errors import InputError
 from fieldmap.limits import MAX_DRAWS
 
@@ -417,16 +418,19 @@ def _run_flights(
                     res.summary["meta"][key] = None
         if cf is not None:
             res.summary["conditioning"] = cf.report
-        results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))
+        # the ground-track figure's map: drawn only with the figures
+        grid = None if args.no_plots else disturbance_grid(res, st.truth, device=device)
+        results.append((name, res, cf, grid))
     several = len(results) > 1
     with output_batch(args.out) as batch:  # every file of every flight, or none
         for name, res, cf, grid in results:
             prefix = f"navsim_flight_{name}" if several else "navsim_flight"
+            figures = not args.no_plots
             if isinstance(res, FlightResult):
-                write_flight_outputs(res, batch, grid, prefix=prefix)
+                write_flight_outputs(res, batch, grid, prefix=prefix, figures=figures)
             else:
-                write_covariance_outputs(res, batch, prefix=prefix)
-            if cf is not None:
+                write_covariance_outputs(res, batch, prefix=prefix, figures=figures)
+            if cf is not None and figures:
                 from fieldmap.nav.logs.report import plot_conditioning
 
                 batch.png(plot_conditioning(cf), f"{prefix}_conditioning.png")
@@ -603,16 +607,21 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--duration",
-        type=float,
+        type=durations.argument,
         default=None,
-        help="flight time in s (paper's studies: at most 800, default 800; flight: default all)",
+        metavar="TIME",
+        help="flight time in s, or with a unit s, min, h (5min, 1.5h) (paper's studies: at most "
+        "800 s, default 800; flight: default all)",
     )
     p.add_argument(
-        "--model",
+        "--truth-model",
         default="eigen-6s",
-        help="truth gravity model: bundled name or ICGEM .gfc[.gz] file (default eigen-6s)",
+        metavar="MODEL",
+        help="truth gravity model, the field the vehicle flies through: bundled name or ICGEM "
+        ".gfc[.gz] file (default eigen-6s); the navigation models are --models",
     )
-    p.add_argument("--truth", dest="model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument("--truth", dest="truth_model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument("--model", action=_NoModelOption, help=argparse.SUPPRESS)
     p.add_argument(
         "--lmax",
         type=int,
@@ -632,10 +641,11 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--output-dt",
-        type=float,
+        type=durations.argument,
         default=None,
-        help="interval of the error curves in s (paper's studies: default 1, dividing the run; "
-        "flight: default about 3600 points)",
+        metavar="TIME",
+        help="interval of the error curves in s, or with a unit (paper's studies: default 1, "
+        "dividing the run; flight: default about 3600 points)",
     )
     p.add_argument(
         "--no-timing",
@@ -659,6 +669,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         default="outputs",
         help="output folder, created with its parents if missing (default outputs/)",
     )
+    p.add_argument("--no-plots", action="store_true", help="write CSV, JSON and NetCDF only")
     _flight_options(p)
 
 
@@ -758,10 +769,17 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     """Add the ``navsim`` sub-command."""
     p = subparsers.add_parser(
         "navsim",
-        help="navigation errors by gravity model and IMU grade (Chen et al. 2022 Tables 1, 3, 4)",
-        description="Boost-glide INS simulation in the launch-centred inertial frame: exact IMU "
-        "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
-        "each navigation gravity model and IMU error draw in one Warp launch. "
+        help="which gravity model your flight's INS needs: navigation errors by gravity model "
+        "and IMU grade (your flight log or a route; the paper's Tables 1, 3, 4)",
+        description="Flight study: what each navigation gravity model (--models: J2, J4, J6, the "
+        "exact normal field, SH degrees, compensation tables) adds to the position error of a "
+        "strapdown INS of a given grade (--imu) on your flight (--trajectory FILE: CSV, ADS-B, "
+        "GPX, NMEA, IGC; or --route with --speed-mps), against the truth gravity field "
+        "(--truth-model, default the bundled EIGEN-6S at full degree), by Monte Carlo or "
+        "covariance analysis, with or without GNSS aiding; it recommends the simplest model "
+        "whose gravity error stays below --fraction of the IMU's own error. "
+        "The paper's studies (--study table1|table3|table4|all, Chen et al. 2022) fly the "
+        "boost-glide path in the launch-centred inertial frame. "
         "Bad input, or an option given where it does nothing (a flight option with --study, "
         "--bias-mode with --route): one line on stderr, exit status 2, nothing written.",
     )
@@ -808,7 +826,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
     from fieldmap._warp import resolve_device
-    from fieldmap.models.registry import announce, load_model
+    from fieldmap.models.registry import announce
     from fieldmap.nav.imu import sample_count
     from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
@@ -824,7 +842,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
             raise InputError(f"{name} must be a positive number, got {v}")
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
-    model = load_model(args.model, lmax=args.lmax, tide_system=args.tide_system)
+    model = _truth_model(args)
     if is_flight(args) and "table:" in str(args.models):  # truth and tables in one tide system
         from fieldmap.cli.model_options import in_tables_system
 
@@ -866,6 +884,52 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     check_out_dir(args.out)
     device = resolve_device(args.device)
     return device, models, nav
+
+
+class _NoModelOption(argparse.Action):
+    """``navsim --model``: refused, naming the two options it could have meant.
+
+    The truth model (``--truth-model``) and the navigation models (``--models``) are one letter
+    apart as ``--model`` and ``--models``; the old spelling of the truth's option is refused
+    rather than kept, so that ``--model j2`` (a navigation model) cannot fly as the truth.
+    """
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        from fieldmap.nav.gravity import is_navigation_name
+
+        if is_navigation_name(values):
+            parser.error(
+                f"--model {values}: navsim has no --model; navigation gravity models go to "
+                f"--models {values} (the truth model is --truth-model)"
+            )
+        parser.error(
+            f"--model {values}: navsim has no --model; the truth gravity model is "
+            f"--truth-model {values} (the navigation models are --models)"
+        )
+
+
+def _truth_model(args: argparse.Namespace) -> SHModel:
+    """Load the truth model of ``--truth-model``; a navigation model's name says ``--models``."""
+    from fieldmap.models.registry import load_model
+    from fieldmap.nav.gravity import is_navigation_name
+
+    name = args.truth_model
+    try:
+        return load_model(name, lmax=args.lmax, tide_system=args.tide_system)
+    except InputError as exc:
+        if not is_navigation_name(name):
+            raise
+        raise InputError(
+            f"--truth-model {name}: {name!r} is a navigation gravity model, not a truth model "
+            "(a spherical-harmonic model: eigen-6s or an ICGEM file); navigation models go to "
+            f"--models {name}"
+        ) from exc
 
 
 def split_list(values: Iterable[object]) -> list[str]:
@@ -947,7 +1011,7 @@ def run(args: argparse.Namespace) -> int:
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:
-            write_outputs(res, batch)
+            write_outputs(res, batch, figures=not args.no_plots)
     for res in results:
         print(format_table(res))
     return 1 if any(res.meta.get("diverged") for res in results) else 0
@@ -963,18 +1027,17 @@ def _scenario_and_studies(
 ) -> list[StudyResult]:
     from tqdm import tqdm
 
-    from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
-        f"truth {args.model})"
+        f"truth {args.truth_model})"
     )
     sc = build_scenario(
         duration=args.duration,
         sampling=ImuSampling(args.rate, args.gauss),
-        truth=load_model(args.model, lmax=args.lmax, tide_system=args.tide_system),
+        truth=_truth_model(args),
         output_dt=args.output_dt,
         device=device,
         progress=True,

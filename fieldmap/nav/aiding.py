@@ -41,7 +41,6 @@ outage is the error just before the first update after it, at START + DURATION.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -55,22 +54,19 @@ __all__ = [
     "nees_bounds", "nees_summary", "outage_ends", "parse_outages",
 ]  # fmt: skip
 
-_UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "h": 3600.0}
-
 
 def _seconds(text: str, what: str) -> float:
-    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(s|min|h)?\s*", text)
+    """Return a start, duration or period of ``outages`` in s (:mod:`fieldmap.durations`)."""
+    from fieldmap.durations import seconds
+
     try:
-        if m is None:
-            raise ValueError
-        v = float(m.group(1)) * _UNITS[m.group(2) or ""]
-    except ValueError:
-        raise InputError(
-            f"gnss.outages: {what} {text.strip()!r} is no time (seconds, or with a unit s, min, h)",
-            param="gnss.outages",
-        ) from None
+        v = seconds(text, param="gnss.outages", what=what)
+    except InputError as exc:
+        raise InputError(f"gnss.outages: {exc}", param="gnss.outages") from None
     if not np.isfinite(v):
-        raise InputError(f"gnss.outages: {what} {text.strip()!r} is not finite", "gnss.outages")
+        raise InputError(
+            f"gnss.outages: {what} {text.strip()!r} is not finite", param="gnss.outages"
+        )
     return v
 
 
@@ -98,7 +94,9 @@ def parse_outages(text: str) -> tuple[tuple[tuple[float, float], ...], tuple[flo
         )
     if every:
         if len(pairs) != 1:
-            raise InputError("gnss.outages: one PERIOD:DURATION after 'every'", "gnss.outages")
+            raise InputError(
+                "gnss.outages: one PERIOD:DURATION after 'every'", param="gnss.outages"
+            )
         return (), pairs[0]
     return tuple(pairs), None
 
@@ -711,7 +709,11 @@ def add_to_dataset(ds: Any, doc: dict[str, Any], sigma_h: np.ndarray | None) -> 
             np.asarray(sigma_h),
             {"units": "m", "long_name": "GNSS/INS filter's a priori horizontal position sigma"},
         )
-    ds = ds.assign(new).assign_coords(coasting_row=("coasting_row", np.array(rows, dtype=str)))
+    from fieldmap.nav.study import labels
+
+    ds = ds.assign(new).assign_coords(
+        labels(coasting_row=(rows, "IMU only, then each navigation gravity model"))
+    )
     nees = g.get("nees")
     if nees and nees.get("fixes"):
         ds.attrs["gnss_nees_mean"] = nees["mean"]

@@ -75,6 +75,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from fieldmap._compat import options_api
+from fieldmap.durations import seconds
 from fieldmap.errors import InputError
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
@@ -704,11 +705,15 @@ class FlightStudy:
 
     Parameters
     ----------
-    flight : Trajectory, FlightSamples, str or sequence of (lat, lon, h)
+    flight : Trajectory, FlightSamples, path, str or sequence of (lat, lon, h)
         The flight: a trajectory (e.g. :class:`~fieldmap.nav.trajectory.FlightTrajectory`), the
         samples of :func:`~fieldmap.nav.trajectory.read_flight` or
-        :func:`~fieldmap.nav.trajectory.route_flight`, or a route (``"lat,lon,h;..."`` or
-        waypoints; degrees, degrees, m) flown at ``speed_mps``.
+        :func:`~fieldmap.nav.trajectory.route_flight`, a flight log file (a path: CSV, ADS-B
+        export, GPX, NMEA, IGC or NetCDF, read and conditioned by
+        :func:`fieldmap.nav.logs.load_flight` with its defaults, the truth model's geoid for
+        MSL heights, as ``fieldmap navsim --trajectory FILE``), or a route (``"lat,lon,h;..."``
+        or waypoints; degrees, degrees, m) flown at ``speed_mps``. A string of numbers,
+        commas and semicolons is a route; any other string is a file.
     imu : str or ImuErrorSpec
         A preset name (``ideal consumer industrial tactical navigation strategic
         table2-groupN table4``), an IMU TOML file, or a spec (:mod:`fieldmap.nav.sensors`).
@@ -744,10 +749,12 @@ class FlightStudy:
         whole model every step.
     n_gauss : int
         Gauss–Legendre nodes per IMU sample in the synthesis, 1..16.
-    duration : float, optional
-        Part of the flight to simulate (default all). Units: s.
-    output_dt : float, optional
-        Interval of the stored errors (default :func:`default_output_dt`). Units: s.
+    duration : float or str, optional
+        Part of the flight to simulate (default all). Units: s, or a string with its unit
+        (``"5min"``, ``"1.5h"``: :func:`fieldmap.durations.seconds`).
+    output_dt : float or str, optional
+        Interval of the stored errors (default :func:`default_output_dt`). Units: s, or a
+        string with its unit.
     block_s : float
         Length of a synthesis/propagation block (memory bound). Units: s.
     fraction : float
@@ -798,8 +805,8 @@ class FlightStudy:
     truth_evaluation: str = "interpolated"
     gravity_rate_hz: float | str | None = None
     n_gauss: int = 3
-    duration: float | None = None
-    output_dt: float | None = None
+    duration: float | str | None = None
+    output_dt: float | str | None = None
     block_s: float = 600.0
     fraction: float = 0.1
     speed_mps: float | None = None
@@ -820,6 +827,10 @@ class FlightStudy:
     n_draws: int = field(init=False)
     gravity_every: int = field(init=False)
     gravity_terms: GravityTerms = field(init=False)
+    #: a flight given as a log file: what its conditioning did
+    #: (:class:`~fieldmap.nav.logs.report.ConditionedFlight`, its ``report`` lands in the
+    #: summary's ``conditioning``); None for any other flight
+    conditioning: Any = field(init=False)
 
     def __post_init__(self) -> None:
         from fieldmap.limits import MAX_DRAWS
@@ -828,8 +839,21 @@ class FlightStudy:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
-        flight = self.flight
-        if isinstance(flight, (str, list, tuple, np.ndarray)):
+        flight, truth_model = self.flight, None
+        put("conditioning", None)
+        if isinstance(flight, os.PathLike) or (isinstance(flight, str) and not _is_route(flight)):
+            if self.speed_mps is not None:
+                raise InputError(
+                    f"speed_mps applies to a route flight, not to the flight file {flight}",
+                    param="speed_mps",
+                )
+            from fieldmap.nav.logs import load_flight
+
+            # the truth's geoid makes a log's MSL heights ellipsoidal
+            truth_model = load_truth_model(self.truth, self.truth_lmax)
+            flight, conditioning = load_flight(flight, model=truth_model)
+            put("conditioning", conditioning)
+        elif isinstance(flight, (str, list, tuple, np.ndarray)):
             if self.speed_mps is None:
                 raise InputError(
                     "a route flight needs its ground speed (speed_mps=)", param="speed_mps"
@@ -898,14 +922,18 @@ class FlightStudy:
         if not 1 <= int(self.n_gauss) <= 16:
             raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}", param="n_gauss")
         put("n_draws", int(n_draws))
-        model = load_truth_model(self.truth, self.truth_lmax)
+        model = (
+            load_truth_model(self.truth, self.truth_lmax) if truth_model is None else truth_model
+        )
         put("truth", model)
         names = self.models
         if isinstance(names, str):  # "j2,sh18" or "j2 sh18", as the CLI takes them
             names = names.replace(",", " ").split()
         put("models", tuple(check_model_names(names, model)))
         traj = self.flight
-        duration = traj.duration if self.duration is None else float(self.duration)
+        duration = (
+            traj.duration if self.duration is None else seconds(self.duration, param="duration")
+        )
         if not 0 < duration <= traj.duration * (1 + 1e-12):
             raise InputError(
                 f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)",
@@ -921,7 +949,11 @@ class FlightStudy:
         check_mechanization(frame, baro=aiding == "baro")
         put("aiding", aiding)
         rate_hz = self.rate_hz
-        output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
+        output_dt = (
+            default_output_dt(duration)
+            if self.output_dt is None
+            else seconds(self.output_dt, param="output_dt")
+        )
         per_fix = _check_gnss(self, duration, frame)
         if per_fix and self.output_dt is None:  # the stored states hold every fix
             per_out = next(
@@ -1056,8 +1088,17 @@ def run_flight(
             raise InputError("a covariance study runs here: client= is for the Monte Carlo")
         from fieldmap.nav.covariance import covariance_study
 
-        return covariance_study(study, device)
-    return _fly(study, device, client, progress)
+        res: FlightResult | CovarianceStudyResult = covariance_study(study, device)
+    else:
+        res = _fly(study, device, client, progress)
+    if study.conditioning is not None:  # a log file: what was done to it, as navsim writes it
+        res.summary["conditioning"] = study.conditioning.report
+    return res
+
+
+def _is_route(text: str) -> bool:
+    """Tell a route (``"47,8,500;47.3,8.3,1000"``: numbers and separators) from a file name."""
+    return bool(text.strip()) and set(text) <= set("0123456789.,;+-eE \t\n")
 
 
 def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) -> FlightResult:
@@ -1316,7 +1357,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
             },
         )
     budget = getattr(res, "budget", None)
-    coords_extra = {}
+    coords_extra: dict[str, tuple[Any, str]] = {}
     if budget is not None and models:
         terms = ("total", "model_difference", "omission", "commission")
 
@@ -1331,7 +1372,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                 "term off), NED",
             },
         )
-        coords_extra["gravity_term"] = ("gravity_term", np.array(terms))
+        coords_extra["gravity_term"] = (terms, "term of the gravity error budget")
     ds = xr.Dataset(
         {
             **sigma,
@@ -1365,19 +1406,27 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                     "long_name": "double time integral of the horizontal gravity error",
                 },
             ),
-            "latitude": ("time", res.track[:, 0], {"units": "degrees_north"}),
-            "longitude": ("time", res.track[:, 1], {"units": "degrees_east"}),
-            "height": ("time", res.track[:, 2], {"units": "m", "long_name": "ellipsoidal height"}),
+            **flown_path(res.track),
         },
         coords={
-            "run": ("run", np.array(res.labels, dtype=str)),
-            "run_model": ("run", np.array(res.models, dtype=str)),
-            "draw": ("run", res.draw),
-            "model": ("model", np.array(models, dtype=str)),
+            **labels(
+                run=(res.labels, "run: navigation model and IMU error draw"),
+                model=(models, "navigation gravity model"),
+                axis=(axis, "axis of the local level frame (north, east, down)"),
+                horizontal_axis=(axis[:2], "horizontal axis of the local level frame"),
+                **coords_extra,
+            ),
+            "run_model": (
+                "run",
+                np.array(res.models, dtype=str),
+                {"long_name": "navigation gravity model of each run (imu_only: the reference)"},
+            ),
+            "draw": (
+                "run",
+                res.draw,
+                {"long_name": "Monte Carlo draw of the IMU errors of each run", "units": "1"},
+            ),
             "time": ("time", res.t, {"units": "s", "long_name": "time since the first sample"}),
-            "axis": ("axis", axis),
-            "horizontal_axis": ("horizontal_axis", axis[:2]),
-            **coords_extra,
         },
         attrs={
             "Conventions": "CF-1.8",
@@ -1391,4 +1440,51 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
         from fieldmap.nav.aiding import add_to_dataset
 
         ds = add_to_dataset(ds, res.summary, res.sigma_h)
+    return indexed_labels(ds)
+
+
+#: suffix of the string label coordinates of a study's Dataset (:func:`labels`)
+LABEL = "_label"
+
+
+def labels(**dims: tuple[Any, str]) -> dict[str, tuple[str, np.ndarray, dict[str, str]]]:
+    """Return the string labels of dimensions as CF auxiliary coordinates: ``<dim>_label``.
+
+    ``dims``: dimension -> (labels, long name). A CF coordinate variable (one named as its
+    dimension) must be numeric and monotonic (CF 1.8 §5), so the labels of the dimensions
+    ``run``, ``model``, ``axis``… are string auxiliary coordinates of their own name
+    (``model_label(model)``); the data variables name them in their ``coordinates`` attribute.
+    :func:`indexed_labels` makes them selectable (``ds.sel(model_label="j4")``).
+    """
+    return {
+        f"{dim}{LABEL}": (dim, np.array(list(values), dtype=str), {"long_name": long_name})
+        for dim, (values, long_name) in dims.items()
+    }
+
+
+def indexed_labels(ds: xr.Dataset) -> xr.Dataset:
+    """Return ``ds`` with an index on each label coordinate of :func:`labels` (for ``sel``)."""
+    for name in list(ds.coords):
+        coord = ds.coords[name]
+        if str(name).endswith(LABEL) and coord.ndim == 1 and name not in ds.xindexes:
+            ds = ds.set_xindex(str(name))
     return ds
+
+
+def flown_path(track: np.ndarray) -> dict[str, tuple[str, np.ndarray, dict[str, str]]]:
+    """Return the true path's latitude, longitude and height over time, with CF attributes.
+
+    ``track`` (n, 3): geodetic latitude and longitude (degrees) and height above the ellipsoid
+    (m) of the truth at the output times.
+    """
+    return {
+        "latitude": ("time", track[:, 0], {
+            "standard_name": "latitude", "long_name": "geodetic latitude of the flown path",
+            "units": "degrees_north"}),
+        "longitude": ("time", track[:, 1], {
+            "standard_name": "longitude", "long_name": "longitude of the flown path",
+            "units": "degrees_east"}),
+        "height": ("time", track[:, 2], {
+            "standard_name": "height_above_reference_ellipsoid",
+            "long_name": "ellipsoidal height of the flown path", "units": "m"}),
+    }  # fmt: skip
