@@ -25,7 +25,7 @@ and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` 
 figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
 are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
 the kinematics that were flown. Its notes, like the messages of the readers and the
-conditioning, name the options here (:func:`fieldmap.cli.reword`).
+conditioning, name the options here (:func:`fieldmap.cli.wording_of`).
 
 The module reads top-down: your flight (its options and steps); all the options and where
 each applies; the command.
@@ -221,10 +221,11 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
 
     The conditioning options are refused (one line) where no flight is conditioned: with
     ``--no-smooth``, and when every file is flown as recorded. The notes of the conditioning
-    name the options here (:func:`fieldmap.cli.reword`; its errors are reworded where
+    name the options here (:func:`fieldmap.cli.wording_of`; its errors are worded so where
     they are reported, :func:`fieldmap.cli.main`).
     """
-    from fieldmap.cli import given, reword
+    from fieldmap.cli import given, wording_of
+    from fieldmap.errors import worded
     from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
     from fieldmap.nav.trajectory import FlightTrajectory, route_flight
@@ -266,7 +267,8 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
             model=model,
         )
         if cf is not None:
-            cf.report["notes"] = [reword(note) for note in cf.report["notes"]]
+            navsim = wording_of("navsim")
+            cf.report["notes"] = [worded(note, navsim) for note in cf.report["notes"]]
         name = Path(path).name.split(".")[0] or "flight"
         base, k = name, 2
         while name in names:
@@ -303,7 +305,7 @@ def _flight_study(
     """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
 
     Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
-    names the options instead (:func:`fieldmap.cli.reword`).
+    names the options instead (:func:`fieldmap.cli.wording_of`).
     """
     from fieldmap.nav.study import FlightStudy
 
@@ -949,7 +951,7 @@ def _check_flight_args(
 
     The CLI checks what only it has (the choice of flight, the log options, options given
     where they do nothing); the study checks the rest, once, when it is built (its messages
-    name the Python keywords, which :func:`fieldmap.cli.reword` names as options).
+    name the Python keywords, which :func:`fieldmap.cli.wording_of` names as options).
     """
     from fieldmap._warp import resolve_device
     from fieldmap.nav.sensors import PRESETS, load_imu

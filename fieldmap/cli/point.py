@@ -4,8 +4,9 @@
 :mod:`fieldmap.cli.verify`.)
 
 ``fieldmap point`` reads lines ``lat lon [h]`` or ``lat,lon[,h]`` (geodetic degrees, metres above
-WGS84; h defaults to 0 as in ``Gravity``) and prints one line per input line: east north up of the disturbance in
-mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in m/s². A line that
+WGS84; h defaults to 0 as in ``Gravity``) and prints one line per input line: east north up of
+the disturbance in mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in
+m/s². A line that
 cannot be used prints ``ERROR: <reason>`` in its place, the other lines are still computed (in
 one batched kernel launch) and the exit status is 1.
 

@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword
 from fieldmap.nav.linear import core_dynamics, rk4_transition
 
 __all__ = [
@@ -233,8 +233,9 @@ def _aided(
     k = step / dt
     if t.size < 2 or np.any(np.abs(k - np.round(k)) > 1e-6 * k) or np.any(k < 1 - 1e-9):
         raise InputError(
-            f"the covariance grid must hold every GNSS fix ({step:g} s apart): output_dt "
-            f"{dt.max():g} s",
+            f"the covariance grid must hold every GNSS fix ({step:g} s apart): ",
+            Keyword("output_dt"),
+            f" {dt.max():g} s",
             param="output_dt",
         )
     names, P0s, gqgs = [], [], []

@@ -76,7 +76,7 @@ import numpy as np
 
 from fieldmap._compat import options_api
 from fieldmap.durations import seconds
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Keyword, Label, Setting
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
 from fieldmap.nav.budget import (
@@ -265,7 +265,8 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     lo = max([d for d in divisors if d * step_s <= output_dt] or [1])
     hi = min([d for d in divisors if d * step_s >= output_dt] or [steps])
     raise InputError(
-        f"output_dt: output interval {output_dt:g} s is not a whole number of navigation steps "
+        Keyword("output_dt"),
+        f": output interval {output_dt:g} s is not a whole number of navigation steps "
         f"({step_s:g} s) dividing the run ({steps * step_s:g} s): use e.g. "
         f"{lo * step_s:g} s or {hi * step_s:g} s",
         param="output_dt",
@@ -844,7 +845,8 @@ class FlightStudy:
         if isinstance(flight, os.PathLike) or (isinstance(flight, str) and not _is_route(flight)):
             if self.speed_mps is not None:
                 raise InputError(
-                    f"speed_mps applies to a route flight, not to the flight file {flight}",
+                    Keyword("speed_mps"),
+                    f" applies to a route flight, not to the flight file {flight}",
                     param="speed_mps",
                 )
             from fieldmap.nav.logs import load_flight
@@ -856,19 +858,18 @@ class FlightStudy:
         elif isinstance(flight, (str, list, tuple, np.ndarray)):
             if self.speed_mps is None:
                 raise InputError(
-                    "a route flight needs its ground speed (speed_mps=)", param="speed_mps"
+                    "a route flight needs its ground speed", Label("speed_mps"), param="speed_mps"
                 )
             flight = route_flight(flight, self.speed_mps)
             put("speed_mps", None)  # flown into the trajectory: dataclasses.replace works
         elif self.speed_mps is not None:
-            raise InputError(
-                "speed_mps applies to a route flight (flight= a route)", param="speed_mps"
-            )
+            raise InputError(Keyword("speed_mps"), " applies to a route flight", param="speed_mps")
         if isinstance(flight, FlightSamples):
             flight = FlightTrajectory(flight)
         if not isinstance(flight, Trajectory):
             raise InputError(
-                "flight must be a Trajectory, FlightSamples or a route, got "
+                Keyword("flight"),
+                " must be a Trajectory, FlightSamples, a log file or a route, got "
                 f"{type(flight).__name__}",
                 param="flight",
             )
@@ -879,19 +880,24 @@ class FlightStudy:
         elif isinstance(self.imu, (str, os.PathLike)):
             if not str(self.imu).strip():
                 raise InputError(
-                    f"imu is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU "
-                    ".toml file",
+                    Keyword("imu"),
+                    f" is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU .toml file",
                     param="imu",
                 )
             label, spec = sensors.load_imu(self.imu)
         else:
-            raise InputError(f"imu must be a preset name, a .toml file or an ImuErrorSpec, "
-                             f"got {type(self.imu).__name__}", param="imu")  # fmt: skip
+            raise InputError(
+                Keyword("imu"),
+                f" must be a preset name, a .toml file or an ImuErrorSpec, got "
+                f"{type(self.imu).__name__}",
+                param="imu",
+            )
         put("imu", spec)
         put("imu_name", label if self.imu_name is None else str(self.imu_name))
         if self.truth_evaluation not in ("interpolated", "full"):
             raise InputError(
-                f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}",
+                Keyword("truth_evaluation"),
+                f" must be 'interpolated' or 'full', got {self.truth_evaluation!r}",
                 param="truth_evaluation",
             )
         frame = check_mechanization(self.frame)
@@ -899,28 +905,37 @@ class FlightStudy:
         aiding = str(self.altitude_aiding).lower()
         if aiding not in ("auto", "none", "baro"):
             raise InputError(
-                f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
+                Keyword("altitude_aiding"),
+                f" must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
                 param="altitude_aiding",
             )
         if self.method not in ("monte-carlo", "covariance"):
             raise InputError(
-                f"method must be 'monte-carlo' or 'covariance', got {self.method!r}", param="method"
+                Keyword("method"),
+                f" must be 'monte-carlo' or 'covariance', got {self.method!r}",
+                param="method",
             )
         if not 0 < self.fraction < 1:
-            raise InputError(f"fraction must be in (0, 1), got {self.fraction}", param="fraction")
+            raise InputError(
+                Keyword("fraction"), f" must be in (0, 1), got {self.fraction}", param="fraction"
+            )
         for name in ("rate_hz", "block_s"):
             v = getattr(self, name)
             if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
-                raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
+                raise InputError(
+                    Keyword(name), f" must be a positive number, got {v!r}", param=name
+                )
         n_draws = 1 if spec.is_ideal else self.draws
         if isinstance(self.draws, bool) or not 1 <= int(self.draws) <= MAX_DRAWS:
             raise InputError(
-                f"draws must be within 1..{MAX_DRAWS}, got {self.draws}", param="draws"
+                Keyword("draws"), f" must be within 1..{MAX_DRAWS}, got {self.draws}", param="draws"
             )
         if isinstance(self.seed, bool) or int(self.seed) < 0:
-            raise InputError(f"seed must be >= 0, got {self.seed}", param="seed")
+            raise InputError(Keyword("seed"), f" must be >= 0, got {self.seed}", param="seed")
         if not 1 <= int(self.n_gauss) <= 16:
-            raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}", param="n_gauss")
+            raise InputError(
+                Keyword("n_gauss"), f" must be in 1..16, got {self.n_gauss}", param="n_gauss"
+            )
         put("n_draws", int(n_draws))
         model = (
             load_truth_model(self.truth, self.truth_lmax) if truth_model is None else truth_model
@@ -936,14 +951,15 @@ class FlightStudy:
         )
         if not 0 < duration <= traj.duration * (1 + 1e-12):
             raise InputError(
-                f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)",
+                Keyword("duration"),
+                f" {duration:g} s does not fit the flight ({traj.duration:g} s)",
                 param="duration",
             )
         put("duration_s", duration)
         try:
             check_tables_cover(self.models, traj, duration)
         except InputError as exc:
-            raise InputError(f"models: {exc}", param="models") from None
+            raise InputError(Keyword("models"), f": {exc}", param="models") from None
         if aiding == "auto":
             aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
         check_mechanization(frame, baro=aiding == "baro")
@@ -966,7 +982,8 @@ class FlightStudy:
         every = _steps_per_output(output_dt, rate_hz)
         if frame == "lci" and every % 2:
             raise InputError(
-                f"frame='lci' steps two IMU samples at a time: the output interval "
+                Setting("frame", "lci"),
+                " steps two IMU samples at a time: the output interval "
                 f"{output_dt:g} s must be an even number of samples at {rate_hz:g} Hz",
                 param="frame",
             )
@@ -992,7 +1009,8 @@ class FlightStudy:
         if block * rate_hz > MAX_SAMPLES:
             raise InputError(
                 f"a block of {block:g} s at {rate_hz:g} Hz is {block * rate_hz:.3g} IMU samples, "
-                f"more than {MAX_SAMPLES}: lower rate_hz or block_s",
+                f"more than {MAX_SAMPLES}",
+                Advice(": lower ", Keyword("rate_hz"), " or ", Keyword("block_s")),
                 param="block_s",
             )
         sample_count(block, rate_hz)
@@ -1013,9 +1031,11 @@ def _check_gnss(study: FlightStudy, duration: float, frame: str) -> int:
     from fieldmap.nav.aiding import GnssSpec
 
     if not isinstance(g, GnssSpec):
-        raise InputError(f"gnss must be a GnssSpec or None, got {type(g).__name__}", param="gnss")
+        raise InputError(
+            Keyword("gnss"), f" must be a GnssSpec or None, got {type(g).__name__}", param="gnss"
+        )
     if frame != "ned":
-        raise InputError("GNSS aiding needs frame='ned'", param="frame")
+        raise InputError("GNSS aiding needs ", Setting("frame", "ned"), param="frame")
     g.check_flight(duration, float(study.rate_hz))
     return int(round(study.rate_hz / g.rate_hz))
 
@@ -1031,13 +1051,14 @@ def _gravity_terms(study: FlightStudy, model: SHModel, n_draws: int) -> GravityT
     comm = study.commission
     if comm not in (None, True, False):
         raise InputError(
-            f"commission must be True, False or None, got {comm!r}", param="commission"
+            Keyword("commission"), f" must be True, False or None, got {comm!r}", param="commission"
         )
     if comm is None:
         comm = model.has_sigma
     elif comm and not model.has_sigma:
         raise InputError(
-            f"commission: the truth model {model.name} carries no coefficient standard deviations",
+            Keyword("commission"),
+            f": the truth model {model.name} carries no coefficient standard deviations",
             param="commission",
         )
     return GravityTerms(omission, bool(comm), max(n_draws, GRAVITY_DRAWS), int(study.seed))

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fieldmap._compat import options_api
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Message, Pass
 from fieldmap.nav.logs.condition import Conditioning
 
 if TYPE_CHECKING:
@@ -136,13 +136,18 @@ def load_flight(
         cf = condition(track, replace(options, reorder=options.reorder and not exact))
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
-        text, param = str(exc), exc.param
+        message, param = Message(exc.args[0] if exc.args else ""), exc.param
         if param == "reorder" and exact:  # the caller's keyword that sorts is smooth=
-            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
+            message = message.substitute(Pass("reorder", True), Pass("smooth", True))
+            param = "smooth"
         if track.time_guess is not None:
             # the guess of the time units may be what made the log fail: say it was a guess
-            text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"
+            message = Message(
+                message,
+                f"; {track.time_guess}",
+                Advice(": ", Pass("time_format", "s"), " if they are seconds"),
+            )
             param = param or "time_format"
-        if text == str(exc):
+        if param == exc.param and track.time_guess is None:
             raise
-        raise InputError(text, param=param) from None
+        raise InputError(message, param=param) from None
