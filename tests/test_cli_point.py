@@ -197,3 +197,22 @@ def test_evaluate_points_old_spelling_gives_the_same_bits():
     with pytest.warns(DeprecationWarning, match="lmax= go in model_options="):
         old = evaluate_points(lat, lon, h, lmax=12, device="cpu")
     np.testing.assert_array_equal(old, new)
+
+
+def test_comma_separated_points_read_as_whitespace_separated():
+    """``printf "30,105,20000" | fieldmap point``: the CSV export a user has at hand.
+
+    Comma-separated lines (spaces around the commas allowed, h optional) give the numbers of the
+    same points separated by whitespace; an empty field is a bad line, not a number skipped.
+    """
+    points = "30 105 20000\n-33.9 151.2\n45.5 -10 1000\n"
+    commas = "30,105,20000\n-33.9, 151.2\n 45.5 , -10 , 1000 \n"
+    want = _run(["point", "--precision", "10"], points)
+    got = _run(["point", "--precision", "10"], commas)
+    assert want.returncode == got.returncode == 0, got.stderr
+    assert got.stdout == want.stdout and len(got.stdout.splitlines()) == 3
+    bad = _run(["point"], "30,,105\n30,105,20000,5\n")
+    assert bad.returncode == 1
+    first, second = bad.stdout.splitlines()
+    assert first == "ERROR: empty field 2 in '30,,105'"
+    assert second == "ERROR: expected 'lat lon [h]', got 4 fields"
