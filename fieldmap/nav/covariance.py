@@ -516,10 +516,10 @@ class CovarianceStudyResult:
                         "each gravity term (RMS over draws), NED",
                     },
                 ),
-                **flown_path(self.track),
             },  # fmt: skip
             coords={
                 "time": ("time", self.t, {"units": "s", "long_name": "time since the start"}),
+                **flown_path(self.track),
                 **labels(
                     source=(src, "error source of the IMU (and of the baro loop)"),
                     model=(models, "navigation gravity model"),

@@ -1427,7 +1427,6 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                     "long_name": "double time integral of the horizontal gravity error",
                 },
             ),
-            **flown_path(res.track),
         },
         coords={
             **labels(
@@ -1448,6 +1447,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                 {"long_name": "Monte Carlo draw of the IMU errors of each run", "units": "1"},
             ),
             "time": ("time", res.t, {"units": "s", "long_name": "time since the first sample"}),
+            **flown_path(res.track),
         },
         attrs={
             "Conventions": "CF-1.8",
@@ -1496,7 +1496,8 @@ def flown_path(track: np.ndarray) -> dict[str, tuple[str, np.ndarray, dict[str, 
     """Return the true path's latitude, longitude and height over time, with CF attributes.
 
     ``track`` (n, 3): geodetic latitude and longitude (degrees) and height above the ellipsoid
-    (m) of the truth at the output times.
+    (m) of the truth at the output times. A study's Dataset holds them as auxiliary coordinates
+    of ``time`` (a CF trajectory: every curve over time names where it was flown).
     """
     return {
         "latitude": ("time", track[:, 0], {
