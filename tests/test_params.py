@@ -242,7 +242,7 @@ def test_text_is_never_searched():
     The same name in plain text (a path, a column header, a plain word) stays as written, even
     where it is the error's own keyword.
     """
-    text = "/data/max_gap_s/columns.csv: column alt_units of table:models.bin"
+    text = "flights/max_gap_s/columns.csv: column alt_units of table:models.bin"
     e = InputError(text, param="alt_units")
     assert e.worded(NAVSIM) == text
     e = InputError(f"{text}; ", Keyword("alt_units"), " given", param="alt_units")

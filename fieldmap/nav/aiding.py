@@ -729,7 +729,7 @@ def add_to_dataset(ds: Any, doc: dict[str, Any], sigma_h: np.ndarray | None) -> 
             np.asarray(sigma_h),
             {"units": "m", "long_name": "GNSS/INS filter's a priori horizontal position sigma"},
         )
-    from fieldmap.nav.study import labels
+    from fieldmap.nav.cf import labels
 
     ds = ds.assign(new).assign_coords(
         labels(coasting_row=(rows, "IMU only, then each navigation gravity model"))

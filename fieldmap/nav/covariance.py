@@ -462,7 +462,7 @@ class CovarianceStudyResult:
 
         import xarray as xr
 
-        from fieldmap.nav.study import flown_path, indexed_labels, labels
+        from fieldmap.nav.cf import flown_path, indexed_labels, labels
 
         cov = self.covariance
         src = list(cov.sources)

@@ -1361,8 +1361,14 @@ def to_dataset(res: Any) -> xr.Dataset:
 
 
 def flight_dataset(res: FlightResult) -> xr.Dataset:
-    """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8)."""
+    """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8).
+
+    String labels as auxiliary coordinates, the flown path as coordinates of time
+    (:mod:`fieldmap.nav.cf`).
+    """
     import xarray as xr
+
+    from fieldmap.nav.cf import flown_path, indexed_labels, labels
 
     models = list(res.dg)
     axis = np.array(["north", "east", "down"])
@@ -1462,51 +1468,3 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
 
         ds = add_to_dataset(ds, res.summary, res.sigma_h)
     return indexed_labels(ds)
-
-
-#: suffix of the string label coordinates of a study's Dataset (:func:`labels`)
-LABEL = "_label"
-
-
-def labels(**dims: tuple[Any, str]) -> dict[str, tuple[str, np.ndarray, dict[str, str]]]:
-    """Return the string labels of dimensions as CF auxiliary coordinates: ``<dim>_label``.
-
-    ``dims``: dimension -> (labels, long name). A CF coordinate variable (one named as its
-    dimension) must be numeric and monotonic (CF 1.8 §5), so the labels of the dimensions
-    ``run``, ``model``, ``axis``… are string auxiliary coordinates of their own name
-    (``model_label(model)``); the data variables name them in their ``coordinates`` attribute.
-    :func:`indexed_labels` makes them selectable (``ds.sel(model_label="j4")``).
-    """
-    return {
-        f"{dim}{LABEL}": (dim, np.array(list(values), dtype=str), {"long_name": long_name})
-        for dim, (values, long_name) in dims.items()
-    }
-
-
-def indexed_labels(ds: xr.Dataset) -> xr.Dataset:
-    """Return ``ds`` with an index on each label coordinate of :func:`labels` (for ``sel``)."""
-    for name in list(ds.coords):
-        coord = ds.coords[name]
-        if str(name).endswith(LABEL) and coord.ndim == 1 and name not in ds.xindexes:
-            ds = ds.set_xindex(str(name))
-    return ds
-
-
-def flown_path(track: np.ndarray) -> dict[str, tuple[str, np.ndarray, dict[str, str]]]:
-    """Return the true path's latitude, longitude and height over time, with CF attributes.
-
-    ``track`` (n, 3): geodetic latitude and longitude (degrees) and height above the ellipsoid
-    (m) of the truth at the output times. A study's Dataset holds them as auxiliary coordinates
-    of ``time`` (a CF trajectory: every curve over time names where it was flown).
-    """
-    return {
-        "latitude": ("time", track[:, 0], {
-            "standard_name": "latitude", "long_name": "geodetic latitude of the flown path",
-            "units": "degrees_north"}),
-        "longitude": ("time", track[:, 1], {
-            "standard_name": "longitude", "long_name": "longitude of the flown path",
-            "units": "degrees_east"}),
-        "height": ("time", track[:, 2], {
-            "standard_name": "height_above_reference_ellipsoid",
-            "long_name": "ellipsoidal height of the flown path", "units": "m"}),
-    }  # fmt: skip
