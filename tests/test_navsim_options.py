@@ -143,6 +143,30 @@ def test_durations_with_units_on_the_command_line(tmp_path, capsys):
                  "--out", str(tmp_path / "p")]) == 0  # fmt: skip
     meta = json.loads((tmp_path / "p" / "navsim_table1.json").read_text())["meta"]
     assert meta["duration_s"] == pytest.approx(3.0, rel=1e-15)
+    gnss = tmp_path / "gnss"
+    assert (
+        main(
+            [
+                "navsim",
+                *ROUTE,
+                *FAST,
+                "--imu",
+                "tactical",
+                "--draws",
+                "2",
+                "--no-plots",
+                "--gnss-bias",
+                "1:10min",
+                "--gnss-outage",
+                "0.5min:20s",
+                "--out",
+                str(gnss),
+            ]
+        )
+        == 0
+    )
+    meta = json.loads((gnss / "navsim_flight.json").read_text())["meta"]["gnss"]
+    assert meta["bias_tau_s"] == 600.0 and meta["outages"] == [[30.0, 20.0]]
     allan = tmp_path / "allan"
     assert main(["imu", "allan", "--duration", "0.5min", "--rate", "10", "--no-plots",
                  "--out", str(allan)]) == 0  # fmt: skip

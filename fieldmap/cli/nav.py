@@ -359,10 +359,11 @@ def _gnss(args: argparse.Namespace) -> Any:
             if len(parts) > 2:
                 raise ValueError
             bias = float(parts[0])
-            tau = float(parts[1]) if len(parts) == 2 else tau
-        except ValueError:
+            tau = durations.seconds(parts[1]) if len(parts) == 2 else tau
+        except (ValueError, InputError):
             raise InputError(
-                f"--gnss-bias must be M[:TAU_S] (numbers), got {args.gnss_bias!r}"
+                "--gnss-bias must be M[:TAU_S] (metres; the correlation time in s, or with a "
+                f"unit s, min, h: 1:600, 1:10min), got {args.gnss_bias!r}"
             ) from None
     return GnssSpec(
         bias_m=bias,
@@ -539,7 +540,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="M[:TAU_S]",
         help="GNSS position bias per axis, first-order Gauss-Markov: 1 sigma in m and "
-        "correlation time in s (default 0, none; time 600 s)",
+        "correlation time in s, or with a unit (2:10min) (default 0, none; time 600 s)",
     )
     g.add_argument(
         "--gnss-outage",
