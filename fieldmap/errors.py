@@ -40,7 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any, Union, cast
 
 
 class FieldmapError(Exception):
@@ -205,6 +205,17 @@ class Message(str):
     docstring. Joined to other text (``f"{msg}"``, ``msg + "..."``) it is plain text in the
     Python wording; give it to :class:`InputError` (or to another ``Message``) as a part to
     keep its keywords.
+
+    Examples
+    --------
+    >>> note = Message("vehicle: glider (guessed", Advice("; ", Pass("vehicle", Metavar("CLASS")),
+    ...                " to choose"), ")")
+    >>> note
+    'vehicle: glider (guessed; pass vehicle=CLASS to choose)'
+    >>> note.worded(Wording({"vehicle": "--vehicle"}))
+    'vehicle: glider (guessed; give --vehicle CLASS to choose)'
+    >>> note.worded(Wording({}))
+    'vehicle: glider (guessed)'
     """
 
     parts: tuple[Part, ...]
@@ -239,6 +250,10 @@ class Message(str):
         return (Message, self.parts)
 
 
+#: the parts that make a message a :class:`Message` (besides text)
+_REFERENCES = (Keyword, Label, Setting, Pass, Advice, Message)
+
+
 def worded(text: str, wording: Wording) -> str:
     """Return ``text`` in the words of ``wording``: a :class:`Message` reworded, text as it is."""
     return text.worded(wording) if isinstance(text, Message) else str(text)
@@ -251,7 +266,8 @@ class InputError(FieldmapError, ValueError):
     ----------
     *parts
         The message (one line): a text, or text and keyword references (:class:`Keyword`,
-        :class:`Label`, :class:`Setting`, :class:`Advice`), joined as a :class:`Message`.
+        :class:`Label`, :class:`Setting`, :class:`Advice`), joined as a :class:`Message`
+        (without a keyword reference, the arguments of any exception).
     param : str, optional
         The keyword argument of the function called that the error is about
         (``"max_gap_s"``). None: the error is about no single keyword.
@@ -260,9 +276,9 @@ class InputError(FieldmapError, ValueError):
     command line (:mod:`fieldmap.cli` uses the option table of the command).
     """
 
-    def __init__(self, *parts: Part, param: str | None = None) -> None:
-        if len(parts) > 1 or any(not isinstance(p, str) for p in parts):
-            parts = (Message(*parts),)
+    def __init__(self, *parts: object, param: str | None = None) -> None:
+        if any(isinstance(p, _REFERENCES) for p in parts):
+            parts = (Message(*cast("tuple[Part, ...]", parts)),)
         super().__init__(*parts)
         self.param = param
 

@@ -23,6 +23,8 @@ ENTRY_POINTS = {
     "fieldmap.field.omission": ("Omission",),
     "fieldmap.models.registry": ("load_model",),
     "fieldmap.models.shmodel": ("SHModel.truncated",),
+    "fieldmap.errors": ("Message",),
+    "fieldmap.durations": ("seconds",),
 }
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
