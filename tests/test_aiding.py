@@ -255,7 +255,9 @@ def test_coasting_error_matches_pyins_feedback_filter():
     fixes = pd.DataFrame({"lat": flat[on], "lon": flon[on], "alt": fh[on]}, index=tf[on])
     out = filters.run_feedback_filter(
         pva0, 1e-3, 1e-4, 1e-5, 1e-5, increments,
-        gyro_model=inertial_sensor.EstimationModel(bias_sd=spec.gyro_bias_deg_per_h * sensors.DEG_H),
+        gyro_model=inertial_sensor.EstimationModel(
+            bias_sd=spec.gyro_bias_deg_per_h * sensors.DEG_H
+        ),
         accel_model=inertial_sensor.EstimationModel(bias_sd=spec.accel_bias_ug * sensors.UG),
         measurements=[measurements.Position(fixes, gnss.sigma_m)], time_step=1.0,
     )  # fmt: skip

@@ -47,9 +47,11 @@ def test_toml_unit_keys(tmp_path):
     name, spec = load_imu(p)
     assert name == "my unit"
     assert spec == ImuErrorSpec(
-        accel_bias_ug=50, accel_vrw_ug_per_sqrt_hz=20, gyro_bias_deg_per_h=0.5, gyro_arw_deg_per_sqrt_h=0.05,
-        gyro_bias_instability_deg_per_h=0.1, accel_bias_instability_tau_s=600, gyro_bias_instability_tau_s=600, accel_scale_factor_ppm=100,
-        gyro_scale_factor_ppm=50, accel_misalignment_arcsec=20, gyro_misalignment_arcsec=20,
+        accel_bias_ug=50, accel_vrw_ug_per_sqrt_hz=20, gyro_bias_deg_per_h=0.5,
+        gyro_arw_deg_per_sqrt_h=0.05, gyro_bias_instability_deg_per_h=0.1,
+        accel_bias_instability_tau_s=600, gyro_bias_instability_tau_s=600,
+        accel_scale_factor_ppm=100, gyro_scale_factor_ppm=50, accel_misalignment_arcsec=20,
+        gyro_misalignment_arcsec=20,
     )  # fmt: skip
 
 
