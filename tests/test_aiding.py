@@ -218,7 +218,7 @@ def test_coasting_error_matches_pyins_feedback_filter():
     assert pyins.__version__ == "1.0"
     rate, seed, (t0, dur) = 5.0, 7, (60.0, 300.0)
     end = t0 + dur
-    spec = ImuErrorSpec(acc_bias_ug=1000.0, gyro_bias_deg_h=1.0)
+    spec = ImuErrorSpec(accel_bias_ug=1000.0, gyro_bias_deg_per_h=1.0)
     gnss = GnssSpec(rate_hz=1.0, sigma_m=0.5, velocity_sigma_mps=None, outages=f"{t0:g}:{dur:g}")
     study = FlightStudy(
         "47,8,500;47.5,9,500", speed_mps=150, imu=spec, models="j4", truth_lmax=10,
@@ -255,8 +255,10 @@ def test_coasting_error_matches_pyins_feedback_filter():
     fixes = pd.DataFrame({"lat": flat[on], "lon": flon[on], "alt": fh[on]}, index=tf[on])
     out = filters.run_feedback_filter(
         pva0, 1e-3, 1e-4, 1e-5, 1e-5, increments,
-        gyro_model=inertial_sensor.EstimationModel(bias_sd=spec.gyro_bias_deg_h * sensors.DEG_H),
-        accel_model=inertial_sensor.EstimationModel(bias_sd=spec.acc_bias_ug * sensors.UG),
+        gyro_model=inertial_sensor.EstimationModel(
+            bias_sd=spec.gyro_bias_deg_per_h * sensors.DEG_H
+        ),
+        accel_model=inertial_sensor.EstimationModel(bias_sd=spec.accel_bias_ug * sensors.UG),
         measurements=[measurements.Position(fixes, gnss.sigma_m)], time_step=1.0,
     )  # fmt: skip
     row = out.trajectory.loc[end, ["lat", "lon", "alt"]].to_numpy(dtype=float)

@@ -296,7 +296,8 @@ def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
 
 def test_reader_notes_name_the_cli_options(tmp_path):
     """An IGC note said "give height_ref='msl'"; from the CLI it names --height-ref msl."""
-    from fieldmap.cli import options_of, reword
+    from fieldmap.cli import wording_of
+    from fieldmap.errors import worded
     from fieldmap.nav.logs.read import read_track
 
     rows = ["AXXX001", "HFDTE010124"]
@@ -306,8 +307,8 @@ def test_reader_notes_name_the_cli_options(tmp_path):
     igc = tmp_path / "f.igc"
     igc.write_text("\n".join(rows) + "\n")
     python = " ".join(read_track(igc).notes)
-    cli = " ".join(reword(note, options=options_of("navsim")) for note in read_track(igc).notes)
-    table = " ".join(reword(note, options=options_of("table")) for note in read_track(igc).notes)
+    cli = " ".join(worded(note, wording_of("navsim")) for note in read_track(igc).notes)
+    table = " ".join(worded(note, wording_of("table")) for note in read_track(igc).notes)
     assert "pass height_ref='msl'" in python
     assert "give --height-ref msl" in cli and "height_ref" not in cli
     assert table.endswith("no HFALG header)") and "height_ref" not in table

@@ -408,8 +408,8 @@ def test_api_imu_errors():
     from fieldmap.nav import sensors as ie
 
     for value in (-1.0, float("nan"), "x", None, True):
-        with pytest.raises(InputError, match="acc_bias_ug"):
-            ie.ImuErrorSpec(acc_bias_ug=value)
+        with pytest.raises(InputError, match="accel_bias_ug"):
+            ie.ImuErrorSpec(accel_bias_ug=value)
     for kw, msg in (
         ({"n": 0}, ">= 1"),
         ({"n": 2.5}, "integer"),

@@ -517,7 +517,7 @@ NAVSIM_CASES = [
     ([*_ROUTE, "--omission-model", "foo"], "unknown degree-variance model 'foo'"),
     ([*_ROUTE, "--commission", "maybe"], "invalid choice"),
     (
-        [*_ROUTE, "--commission", "on", "--model", "good.gfc", "--models", "j4"],
+        [*_ROUTE, "--commission", "on", "--truth-model", "good.gfc", "--models", "j4"],
         "no coefficient standard deviations",
     ),
     (["--omission-model", "kaula"], "--omission-model applies to"),

@@ -56,9 +56,9 @@ def test_terms_add_draw_by_draw(low_flight):
     np.testing.assert_allclose(tot, b.model_difference["j4"][None] - b.commission, rtol=1e-15)
     # the dataset carries each term's curve
     ds = low_flight.to_dataset()
-    assert list(ds["gravity_term"].values) == ["total", "model_difference", "omission",
-                                               "commission"]  # fmt: skip
-    assert np.all(np.isnan(ds["gravity_contribution"].sel(gravity_term="omission")))
+    assert list(ds["gravity_term_label"].values) == ["total", "model_difference", "omission",
+                                                     "commission"]  # fmt: skip
+    assert np.all(np.isnan(ds["gravity_contribution"].sel(gravity_term_label="omission")))
 
 
 def test_commission_refused_without_sigma(tmp_path):

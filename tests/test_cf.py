@@ -73,6 +73,43 @@ def _products() -> dict:
     }
 
 
+#: the NetCDF files of ``fieldmap navsim``, one of each kind: name -> the command's options
+NAVSIM_RUNS = {
+    "navsim_paper": ["--study", "table1", "--duration", "4", "--lmax", "10", "--models", "j2"],
+    "navsim_log_monte_carlo": ["--imu", "tactical", "--draws", "2"],
+    "navsim_log_covariance": ["--imu", "tactical", "--method", "covariance"],
+    "navsim_gnss_monte_carlo": ["--imu", "tactical", "--draws", "2", "--gnss-outage", "40:30"],
+    "navsim_gnss_covariance": [
+        "--imu", "tactical", "--method", "covariance", "--gnss-outage", "40:30"
+    ],
+}  # fmt: skip
+
+
+def _flight_files(folder: Path) -> dict[str, Path]:
+    """Run ``fieldmap navsim`` once per kind of flight NetCDF; return name -> its file.
+
+    The flights are a 2-minute log (a CSV without attitude: read and conditioned as a user's
+    log) flown by Monte Carlo and by covariance, free and with a GNSS outage; and the paper's
+    table 1. Tiny runs: 10 Hz IMU, degree 10, no figures.
+    """
+    from fieldmap.cli import main
+
+    k = np.arange(121.0)
+    log = folder / "log.csv"
+    log.write_text(
+        "time_s,lat_deg,lon_deg,height_m\n"
+        + "".join(f"{t:g},{47 + t * 200 / 111_000:.9f},8.0,{1000 + 2 * t:g}\n" for t in k)
+    )
+    flight = ["--trajectory", str(log), "--lmax", "10", "--models", "j4,sh8", "--rate", "10"]
+    out = {}
+    for name, args in NAVSIM_RUNS.items():
+        where = folder / name
+        argv = args if "--study" in args else [*flight, *args]
+        assert main(["navsim", *argv, "--no-timing", "--no-plots", "--out", str(where)]) == 0
+        (out[name],) = where.glob("*.nc")
+    return out
+
+
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("cf")
@@ -93,6 +130,7 @@ def files(tmp_path_factory):
         path = folder / f"{name}.nc"
         write_product(MapRequest.build(heights_m=heights, stacked=stacked, **small), path)
         out[name] = path
+    out.update(_flight_files(folder))
     for name, q, heights in (
         ("streamed_geoid", "geoid", (0.0,)),
         ("streamed_deflection_sweep", "deflection", (2e4, 5e4)),
@@ -164,6 +202,7 @@ PRODUCTS = [
     "streamed_deflection_sweep",
     "gradient",
     "streamed_gradient_sweep",
+    *NAVSIM_RUNS,
 ]
 
 
@@ -246,3 +285,34 @@ def test_bad_netcdf_dtype_writes_nothing(tmp_path):
     with pytest.raises(InputError, match="dtype"):
         io.write_netcdf(ds, tmp_path / "x.nc", dtype="float16")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", [n for n in NAVSIM_RUNS if n != "navsim_paper"])
+def test_flight_files_name_the_path_and_their_labels(name, files):
+    """The flown path as CF latitude/longitude/height; labels as auxiliary coordinates.
+
+    A string label (run, model, axis…) is no CF coordinate variable (those are numeric): each
+    is a ``<dim>_label`` variable that the data variables name in ``coordinates``; read back,
+    the labels select (``sel(model_label="j4")``).
+    """
+    import netCDF4
+
+    with netCDF4.Dataset(files[name]) as nc:
+        for var, std, units in (
+            ("latitude", "latitude", "degrees_north"),
+            ("longitude", "longitude", "degrees_east"),
+            ("height", "height_above_reference_ellipsoid", "m"),
+        ):
+            v = nc.variables[var]
+            assert (v.standard_name, v.units) == (std, units) and v.long_name, var
+        dims = set(nc.dimensions)
+        strings = [n for n, v in nc.variables.items() if v.dtype == str or v.dtype.kind == "S"]
+        assert strings and not set(strings) & dims, strings  # no string coordinate variable
+        assert {"model_label", "axis_label"} <= set(strings)
+        if "run" in dims:
+            assert nc.variables["draw"].units == "1"
+            assert "run_label" in nc.variables["position_error"].coordinates.split()
+    with xr.open_dataset(files[name]) as ds:
+        err = ds.set_xindex("model_label")
+        first = str(ds["model_label"].values[0])
+        assert err.sel(model_label=first)["model_label"].item() == first

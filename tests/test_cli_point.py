@@ -181,3 +181,22 @@ def test_verify_reports_failures(monkeypatch):
     assert len(rows) == 1 and not rows[0].ok
     assert rows[0].max_rel == pytest.approx(1e-9, rel=1e-6, abs=0)
     assert "FAIL" in verify.format_table(rows)
+
+
+def test_comma_separated_points_read_as_whitespace_separated():
+    """``printf "30,105,20000" | fieldmap point``: the CSV export a user has at hand.
+
+    Comma-separated lines (spaces around the commas allowed, h optional) give the numbers of the
+    same points separated by whitespace; an empty field is a bad line, not a number skipped.
+    """
+    points = "30 105 20000\n-33.9 151.2\n45.5 -10 1000\n"
+    commas = "30,105,20000\n-33.9, 151.2\n 45.5 , -10 , 1000 \n"
+    want = _run(["point", "--precision", "10"], points)
+    got = _run(["point", "--precision", "10"], commas)
+    assert want.returncode == got.returncode == 0, got.stderr
+    assert got.stdout == want.stdout and len(got.stdout.splitlines()) == 3
+    bad = _run(["point"], "30,,105\n30,105,20000,5\n")
+    assert bad.returncode == 1
+    first, second = bad.stdout.splitlines()
+    assert first == "ERROR: empty field 2 in '30,,105'"
+    assert second == "ERROR: expected 'lat lon [h]', got 4 fields"

@@ -58,7 +58,7 @@ def test_accelerometer_bias_half_b_t_squared_and_schuler():
     # axis errs by b/ω²(1 − cos ωt), ω² = GM/r³ (½ b t² early on); north is the Earth's axis
     # there, so its channel is the pure Schuler loop
     b = 100e-6 * 9.80665
-    study = _stationary(ImuErrorSpec(acc_bias_ug=100.0), 2.0 * 3600.0)
+    study = _stationary(ImuErrorSpec(accel_bias_ug=100.0), 2.0 * 3600.0)
     cov = covariance_analysis(study)
     ell = study.flight.frame.ellipsoid
     w = np.sqrt(ell.GM / ell.a**3)
@@ -70,7 +70,7 @@ def test_accelerometer_bias_half_b_t_squared_and_schuler():
 
 
 def test_sources_are_those_of_the_spec():
-    spec = ImuErrorSpec(gyro_bias_deg_h=1.0, acc_noise_ug_rthz=50.0)
+    spec = ImuErrorSpec(gyro_bias_deg_per_h=1.0, accel_vrw_ug_per_sqrt_hz=50.0)
     cov = covariance_analysis(_stationary(spec, 600.0, lat=45.0))
     assert cov.sources == ["gyro bias", "velocity random walk"]
     tot2 = sum(v**2 for v in cov.position.values())

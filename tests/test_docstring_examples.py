@@ -27,6 +27,8 @@ ENTRY_POINTS = {
     "fieldmap.models.registry": ("load_model",),
     "fieldmap.models.shmodel": ("SHModel.truncated",),
     "fieldmap.nav.study": ("FlightStudy", "run_flight"),
+    "fieldmap.errors": ("Message",),
+    "fieldmap.durations": ("seconds",),
 }
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 

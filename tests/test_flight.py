@@ -229,8 +229,9 @@ def test_time_blocks_do_not_change_the_result(monkeypatch):
         return out
 
     imu = ImuErrorSpec(
-        acc_bias_ug=100.0, gyro_bias_deg_h=1.0, acc_scale_ppm=100.0, acc_noise_ug_rthz=20.0,
-        gyro_arw_deg_rth=0.05, acc_bi_ug=20.0, acc_bi_tau_s=100.0, gyro_bi_deg_h=0.2,
+        accel_bias_ug=100.0, gyro_bias_deg_per_h=1.0, accel_scale_factor_ppm=100.0,
+        accel_vrw_ug_per_sqrt_hz=20.0, gyro_arw_deg_per_sqrt_h=0.05, accel_bias_instability_ug=20.0,
+        accel_bias_instability_tau_s=100.0, gyro_bias_instability_deg_per_h=0.2,
     )  # fmt: skip
     _, a = _ideal_study(imu=imu, draws=2, block_s=240.0)
     monkeypatch.setattr(study, "synthesize", spy)

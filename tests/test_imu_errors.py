@@ -16,16 +16,26 @@ def test_unit_constants():
 
 
 def test_tables_hold_the_paper_values():
-    assert [ie.TABLE2_GROUPS[g].acc_bias_ug for g in (1, 2, 3, 4)] == [100.0, 10.0, 1.0, 0.0]
-    assert [ie.TABLE2_GROUPS[g].acc_noise_ug_rthz for g in (1, 2, 3, 4)] == [10.0, 1.0, 0.1, 0.0]
+    assert [ie.TABLE2_GROUPS[g].accel_bias_ug for g in (1, 2, 3, 4)] == [100.0, 10.0, 1.0, 0.0]
+    assert [ie.TABLE2_GROUPS[g].accel_vrw_ug_per_sqrt_hz for g in (1, 2, 3, 4)] == [
+        10.0,
+        1.0,
+        0.1,
+        0.0,
+    ]
     t4 = ie.TABLE4
     assert (
-        t4.gyro_bias_deg_h,
-        t4.gyro_arw_deg_rth,
-        t4.gyro_misalign_arcsec,
-        t4.gyro_scale_ppm,
+        t4.gyro_bias_deg_per_h,
+        t4.gyro_arw_deg_per_sqrt_h,
+        t4.gyro_misalignment_arcsec,
+        t4.gyro_scale_factor_ppm,
     ) == (0.003, 0.0003, 0.5, 10.0)
-    assert (t4.acc_bias_ug, t4.acc_noise_ug_rthz, t4.acc_misalign_arcsec, t4.acc_scale_ppm) == (
+    assert (
+        t4.accel_bias_ug,
+        t4.accel_vrw_ug_per_sqrt_hz,
+        t4.accel_misalignment_arcsec,
+        t4.accel_scale_factor_ppm,
+    ) == (
         10.0,
         1.0,
         0.5,
@@ -44,7 +54,7 @@ def test_draws_are_deterministic_per_seed():
 
 
 def test_bias_draw_statistics_match_their_definition():
-    spec = ie.ImuErrorSpec(acc_bias_ug=100.0, gyro_bias_deg_h=0.003)
+    spec = ie.ImuErrorSpec(accel_bias_ug=100.0, gyro_bias_deg_per_h=0.003)
     g = ie.draw(spec, 20000, seed=1, mode="gauss")
     sigma = 100.0 * ie.UG
     # 60000 samples: the std of the sample std is σ/√(2·60000) ≈ 0.3 %; 2 % is > 6σ
@@ -59,7 +69,9 @@ def test_bias_draw_statistics_match_their_definition():
 
 
 def test_bias_shifts_the_mean_of_the_increments_by_b_dt():
-    d = ie.draw(ie.ImuErrorSpec(acc_bias_ug=100.0, gyro_bias_deg_h=1.0), 1, seed=3, mode="fixed")
+    d = ie.draw(
+        ie.ImuErrorSpec(accel_bias_ug=100.0, gyro_bias_deg_per_h=1.0), 1, seed=3, mode="fixed"
+    )
     dt = 0.005
     th, v = ie.apply(np.zeros((10, 3)), np.zeros((10, 3)), dt, d)
     np.testing.assert_allclose(v, 100.0 * ie.UG * dt, rtol=1e-14)
@@ -68,7 +80,7 @@ def test_bias_shifts_the_mean_of_the_increments_by_b_dt():
 
 def test_white_noise_scales_with_sqrt_hz():
     """σ in µg/√Hz: per-sample std σ√dt, and the velocity error after 1 s has std σ·√1 s."""
-    spec = ie.ImuErrorSpec(acc_noise_ug_rthz=10.0, gyro_arw_deg_rth=0.01)
+    spec = ie.ImuErrorSpec(accel_vrw_ug_per_sqrt_hz=10.0, gyro_arw_deg_per_sqrt_h=0.01)
     d = ie.draw(spec, 1, seed=5)
     sigma = 10.0 * ie.UG
     for rate in (100.0, 400.0):
@@ -88,7 +100,7 @@ def test_white_noise_scales_with_sqrt_hz():
 
 
 def test_scale_factor_and_misalignment_matrix():
-    spec = ie.ImuErrorSpec(acc_scale_ppm=10.0, acc_misalign_arcsec=0.5)
+    spec = ie.ImuErrorSpec(accel_scale_factor_ppm=10.0, accel_misalignment_arcsec=0.5)
     d = ie.draw(spec, 500, seed=9)
     M = d.acc_M
     # M = diag(1 + s) R(ε): row norms are 1 + s_i, and R = diag(1+s)^-1 M is a rotation
@@ -115,7 +127,7 @@ def test_kernel_bias_gives_half_b_t2():
     fr = LaunchFrame(108.2, 34.0, 195.0, 400.0)
     st = Stationary(fr, 20.0)
     imu = synthesize(st, ImuSampling(100.0, 1), Gravitation("j2"))
-    d = ie.draw(ie.ImuErrorSpec(acc_bias_ug=100.0), 2, seed=0, mode="fixed")
+    d = ie.draw(ie.ImuErrorSpec(accel_bias_ug=100.0), 2, seed=0, mode="fixed")
     d2 = ie.ErrorDraws.concat([d, ie.draw(ie.ImuErrorSpec(), 1)])
     k0 = st.kinematics([0.0])
     res = propagate_lci(
@@ -137,9 +149,9 @@ def test_kernel_bias_gives_half_b_t2():
 
 def test_bad_specs_are_rejected():
     with pytest.raises(InputError):
-        ie.ImuErrorSpec(acc_bias_ug=-1.0)
+        ie.ImuErrorSpec(accel_bias_ug=-1.0)
     with pytest.raises(InputError):
-        ie.ImuErrorSpec(gyro_bias_deg_h=float("nan"))
+        ie.ImuErrorSpec(gyro_bias_deg_per_h=float("nan"))
     with pytest.raises(InputError, match="mode"):
         ie.draw(ie.TABLE4, 2, mode="uniform")
     with pytest.raises(InputError):

@@ -22,7 +22,12 @@ from fieldmap.nav.sensors import (
 def test_presets_are_ordered_by_grade():
     """Every error source shrinks from consumer to strategic; ideal has none."""
     order = ["consumer", "industrial", "navigation", "strategic"]
-    for key in ("acc_noise_ug_rthz", "gyro_bias_deg_h", "gyro_arw_deg_rth", "gyro_bi_deg_h"):
+    for key in (
+        "accel_vrw_ug_per_sqrt_hz",
+        "gyro_bias_deg_per_h",
+        "gyro_arw_deg_per_sqrt_h",
+        "gyro_bias_instability_deg_per_h",
+    ):
         vals = [getattr(PRESETS[g], key) for g in order]
         assert vals == sorted(vals, reverse=True), key
     assert PRESETS["ideal"].is_ideal and not PRESETS["tactical"].is_ideal
@@ -42,9 +47,11 @@ def test_toml_unit_keys(tmp_path):
     name, spec = load_imu(p)
     assert name == "my unit"
     assert spec == ImuErrorSpec(
-        acc_bias_ug=50, acc_noise_ug_rthz=20, gyro_bias_deg_h=0.5, gyro_arw_deg_rth=0.05,
-        gyro_bi_deg_h=0.1, acc_bi_tau_s=600, gyro_bi_tau_s=600, acc_scale_ppm=100,
-        gyro_scale_ppm=50, acc_misalign_arcsec=20, gyro_misalign_arcsec=20,
+        accel_bias_ug=50, accel_vrw_ug_per_sqrt_hz=20, gyro_bias_deg_per_h=0.5,
+        gyro_arw_deg_per_sqrt_h=0.05, gyro_bias_instability_deg_per_h=0.1,
+        accel_bias_instability_tau_s=600, gyro_bias_instability_tau_s=600,
+        accel_scale_factor_ppm=100, gyro_scale_factor_ppm=50, accel_misalignment_arcsec=20,
+        gyro_misalignment_arcsec=20,
     )  # fmt: skip
 
 
@@ -140,14 +147,14 @@ def test_specific_key_wins_over_shared_one(shared_first):
     items += [("accel_bias_ug", 1.0)]
     data = dict(items if shared_first else items[::-1])
     spec = spec_from_mapping(data)
-    assert (spec.acc_bi_tau_s, spec.gyro_bi_tau_s) == (100.0, 600.0)
-    assert (spec.acc_scale_ppm, spec.gyro_scale_ppm) == (10.0, 20.0)
+    assert (spec.accel_bias_instability_tau_s, spec.gyro_bias_instability_tau_s) == (100.0, 600.0)
+    assert (spec.accel_scale_factor_ppm, spec.gyro_scale_factor_ppm) == (10.0, 20.0)
 
 
 def test_numpy_scalars_from_python():
     """A mapping built in Python may hold NumPy numbers; they are checked the same way."""
     spec = spec_from_mapping({"accel_bias_ug": np.float32(5.0), "gyro_bias_deg_per_h": np.int64(2)})
-    assert (spec.acc_bias_ug, spec.gyro_bias_deg_h) == (5.0, 2.0)
+    assert (spec.accel_bias_ug, spec.gyro_bias_deg_per_h) == (5.0, 2.0)
     with pytest.raises(InputError, match=r"accel_bias_ug = 1e\+300 is outside"):
         spec_from_mapping({"accel_bias_ug": np.float64(1e300)})
 
@@ -166,7 +173,7 @@ def test_gm_peak_constant():
 
 def test_allan_white_noise_slope_and_value():
     """VRW/ARW only: slope −1/2 and σ(1 s) = the density (1 µg/√Hz -> 1 µg at 1 s)."""
-    spec = ImuErrorSpec(acc_noise_ug_rthz=20.0, gyro_arw_deg_rth=0.1)
+    spec = ImuErrorSpec(accel_vrw_ug_per_sqrt_hz=20.0, gyro_arw_deg_per_sqrt_h=0.1)
     tab = allan_table(spec, 2000.0, 100.0, seed=3)
     t = tab["tau_s"]
     sel = (t >= 0.05) & (t <= 20.0)
@@ -181,7 +188,12 @@ def test_allan_white_noise_slope_and_value():
 
 def test_allan_bias_instability_floor():
     """Gauss–Markov only: the maximum sits at the spec's floor B near 1.89 τ_c."""
-    spec = ImuErrorSpec(gyro_bi_deg_h=2.0, gyro_bi_tau_s=1.0, acc_bi_ug=30.0, acc_bi_tau_s=1.0)
+    spec = ImuErrorSpec(
+        gyro_bias_instability_deg_per_h=2.0,
+        gyro_bias_instability_tau_s=1.0,
+        accel_bias_instability_ug=30.0,
+        accel_bias_instability_tau_s=1.0,
+    )
     tab = allan_table(spec, 20000.0, 20.0, seed=5)
     t = tab["tau_s"]
     for key, B in (("gyro_adev_deg_h", 2.0), ("accel_adev_ug", 30.0)):
@@ -242,3 +254,43 @@ def test_cli_imu_out_of_range(tmp_path, capsys, text, msg):
     assert len(err) == 1 and err[0].startswith("fieldmap imu: error: ") and msg in err[0], err
     assert str(bad) in err[0]
     assert not out.exists()
+
+
+def _toml(spec: dict) -> str:
+    return "".join(f"{key} = {value!r}\n" for key, value in spec.items())
+
+
+def test_one_vocabulary_toml_json_python(tmp_path, capsys):
+    """A run's ``imu_spec`` (JSON) copied into a TOML file flies as the same IMU.
+
+    The keys of a TOML file, of :class:`ImuErrorSpec` and of the study JSON are one set: a
+    spec goes TOML -> run -> JSON -> TOML -> run and comes back equal, field by field.
+    """
+    import dataclasses
+    import json
+
+    from fieldmap.cli import main
+
+    assert {f.name for f in dataclasses.fields(ImuErrorSpec)} <= set(TOML_KEYS)
+    first = tmp_path / "mine.toml"
+    first.write_text(
+        "name = 'mine'\naccel_bias_ug = 300.0\naccel_vrw_ug_per_sqrt_hz = 40.0\n"
+        "gyro_arw_deg_per_sqrt_h = 0.05\ngyro_bias_deg_per_h = 0.7\n"
+        "gyro_bias_instability_deg_per_h = 0.2\nbias_instability_tau_s = 900.0\n"
+    )
+    route = ["--route", "47,8,500;47.02,8,500", "--speed-mps", "100", "--rate", "10"]
+    fast = [*route, "--lmax", "10", "--models", "j4", "--draws", "2", "--no-timing", "--no-plots"]
+
+    def fly(toml, out):
+        assert main(["navsim", *fast, "--imu", str(toml), "--out", str(out)]) == 0
+        return json.loads((out / "navsim_flight.json").read_text())["meta"]["imu_spec"]
+
+    spec = fly(first, tmp_path / "a")
+    assert spec["accel_bias_ug"] == 300.0 and spec["gyro_arw_deg_per_sqrt_h"] == 0.05
+    assert spec["accel_bias_instability_tau_s"] == spec["gyro_bias_instability_tau_s"] == 900.0
+    assert ImuErrorSpec(**spec) == load_imu(first)[1]  # Python takes the JSON keys as they are
+    copied = tmp_path / "copied.toml"
+    copied.write_text(_toml(spec))
+    assert load_imu(copied)[1] == load_imu(first)[1]
+    assert fly(copied, tmp_path / "b") == spec
+    capsys.readouterr()

@@ -151,7 +151,7 @@ def test_table4_values_against_an_independent_computation(scenario):
     from fieldmap.reference import normal as nref
     from fieldmap.reference.strapdown import propagate_lci_reference
 
-    spec = ImuErrorSpec(acc_bias_ug=10.0, gyro_bias_deg_h=0.003)
+    spec = ImuErrorSpec(accel_bias_ug=10.0, gyro_bias_deg_per_h=0.003)
     res = navsim.table4(scenario, ["j4"], navsim.MonteCarlo(draws=1, spec=spec, mode="fixed"))
     sc, fr = scenario, scenario.traj.frame
     j4 = lambda r: nref.jn_gravitation(*np.asarray(r).T, fr.ellipsoid, 4)  # noqa: E731

@@ -28,14 +28,14 @@ ROUTE = "45,7,3000;45.3,7.4,5000;45.1,7.9,5000"
 
 #: every noise source on (white noise, bias instability with a short τ), plus biases
 NOISY = ImuErrorSpec(
-    acc_bias_ug=100.0,
-    acc_noise_ug_rthz=50.0,
-    gyro_bias_deg_h=1.0,
-    gyro_arw_deg_rth=0.1,
-    acc_bi_ug=50.0,
-    acc_bi_tau_s=60.0,
-    gyro_bi_deg_h=0.5,
-    gyro_bi_tau_s=60.0,
+    accel_bias_ug=100.0,
+    accel_vrw_ug_per_sqrt_hz=50.0,
+    gyro_bias_deg_per_h=1.0,
+    gyro_arw_deg_per_sqrt_h=0.1,
+    accel_bias_instability_ug=50.0,
+    accel_bias_instability_tau_s=60.0,
+    gyro_bias_instability_deg_per_h=0.5,
+    gyro_bias_instability_tau_s=60.0,
 )
 
 

@@ -678,8 +678,19 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
     ("navsim", "--rate"): [C("table1", "--rate", "10"), C("flight", "--rate", "10")],
     ("navsim", "--gauss"): [C("table1", "--gauss", "2"), C("flight", "--gauss", "2")],
     ("navsim", "--duration"): [C("table1", "--duration", "3"), C("flight", "--duration", "8")],
-    ("navsim", "--model"): [C("table1", "--model", "kaula.gfc")],
-    ("navsim", "--truth"): [C("table1", "--truth", "kaula.gfc", expect=ALIAS, note="--model")],
+    ("navsim", "--truth-model"): [
+        C("table1", "--truth-model", "kaula.gfc"),
+        C("flight", "--truth-model", "kaula.gfc"),
+        C("flight", "--truth-model", "j2", expect=REFUSED, note="--models j2"),
+    ],
+    # the old name of --truth-model, one letter from --models: refused, naming both
+    ("navsim", "--model"): [
+        C("table1", "--model", "kaula.gfc", expect=REFUSED, note="--truth-model kaula.gfc"),
+        C("flight", "--model", "j2", expect=REFUSED, note="--models j2"),
+    ],
+    ("navsim", "--truth"): [
+        C("table1", "--truth", "kaula.gfc", expect=ALIAS, note="--truth-model")
+    ],
     ("navsim", "--lmax"): [C("table1", "--lmax", "8"), C("flight", "--lmax", "8")],
     ("navsim", "--tide-system"): [
         C("table1", "--tide-system", "mean_tide"),
@@ -698,6 +709,7 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("flight", "--scheduler", "threads", expect=NEUTRAL),
     ],
     ("navsim", "--out"): [C("table1", expect=OUT)],
+    ("navsim", "--no-plots"): [C("table1", "--no-plots"), C("flight", "--no-plots")],
     ("navsim", "--columns"): [
         C("flight-log", "--columns", "time=timestamp,lat=latitude,lon=longitude,alt=altitude"),
         C("flight", "--columns", "time=t,lat=a,lon=b,alt=c", expect=REFUSED, note="--route"),
@@ -832,6 +844,7 @@ OPTIONS: dict[tuple[str, str], list[Case]] = {
         C("allan-ideal", "--seed", "1", expect=REFUSED, note="ideal"),
     ],
     ("imu allan", "--out"): [C("allan", expect=OUT)],
+    ("imu allan", "--no-plots"): [C("allan", "--no-plots")],
 }
 
 

@@ -1,10 +1,12 @@
-"""Errors that know their keyword, and the one table the command line rewords them with.
+"""Errors that know their keyword, and the one table the command line words them with.
 
-The flight-log code (:mod:`fieldmap.nav.logs`), the flight study and the propagator
-(:mod:`fieldmap.nav.study`, :mod:`fieldmap.nav.propagator`) word their messages for a Python
-caller and raise :class:`~fieldmap.errors.InputError` with ``param=``;
-:mod:`fieldmap.cli` maps keywords to options. A keyword a message can name but the table
-does not know would reach a command-line user as a Python keyword: the walks below fail on it.
+The library words its messages for a Python caller and builds those that name a keyword from
+parts (:mod:`fieldmap.errors`: ``Keyword``, ``Label``, ``Setting``, ``Advice``, ``Pass``);
+an :class:`~fieldmap.errors.InputError` about one carries it as ``param``.
+:mod:`fieldmap.cli` maps keywords to options (:data:`fieldmap.cli.OPTIONS`) and the message
+words itself with that table: nothing is searched for in its text. A keyword a message can name
+but the table does not know would reach a command-line user as a Python keyword: the walks below
+fail on it.
 """
 
 from __future__ import annotations
@@ -12,21 +14,34 @@ from __future__ import annotations
 import ast
 import inspect
 import pickle
-import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import fieldmap.nav
-from fieldmap.cli import ADVICE, OPTIONS, options_of, reword
-from fieldmap.errors import InputError
+from fieldmap.cli import ADVICE, OPTIONS, wording_of
+from fieldmap.errors import (
+    PYTHON,
+    Advice,
+    InputError,
+    Keyword,
+    Label,
+    Message,
+    Metavar,
+    Pass,
+    Setting,
+    Wording,
+    worded,
+)
 
 NAV = Path(fieldmap.nav.__file__).parent
+NAVSIM, TABLE = wording_of("navsim"), wording_of("table")
+REFERENCES = ("Keyword", "Label", "Setting", "Pass")
 
 
 def _param_names(tree: ast.AST) -> set[str]:
-    """Return the strings in every ``param=`` argument of a call (both arms of an ``if``)."""
+    """Return the keywords a module names: ``param=`` strings and keyword references' names."""
 
     def values(e: ast.expr) -> set[str]:
         if isinstance(e, ast.IfExp):
@@ -39,11 +54,13 @@ def _param_names(tree: ast.AST) -> set[str]:
     for node in ast.walk(tree):
         if isinstance(node, ast.Call):
             out |= {v for kw in node.keywords if kw.arg == "param" for v in values(kw.value)}
+            if getattr(node.func, "id", None) in REFERENCES and node.args:
+                out |= values(node.args[0])
     return out
 
 
 def _params_used() -> set[str]:
-    """Return every keyword named by a ``param=`` in :mod:`fieldmap.nav` (its packages too)."""
+    """Return every keyword named by a message in :mod:`fieldmap.nav` (its packages too)."""
     used: set[str] = set()
     for path in sorted(NAV.rglob("*.py")):
         used |= _param_names(ast.parse(path.read_text(encoding="utf-8")))
@@ -55,6 +72,7 @@ def test_every_param_raised_in_nav_is_in_the_table():
     assert used, "no param= found: the walk is broken"
     assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used  # nav.logs
     assert {"frame", "output_dt", "block_s", "models", "draws"} <= used  # study, propagator
+    assert {"min_speed_mps", "height_ref", "time_format", "vehicle", "rate_hz"} <= used  # parts
     assert not used - set(OPTIONS), f"keywords missing from cli.OPTIONS: {used - set(OPTIONS)}"
 
 
@@ -102,6 +120,11 @@ def test_input_error_param():
     assert e.param == "max_gap_s" and str(e) == "max_gap_s must be a positive number"
     back = pickle.loads(pickle.dumps(e))  # through a Dask worker
     assert back.param == "max_gap_s" and str(back) == str(e)
+    e = InputError("over 60 s", Label("max_gap_s"), Advice(": raise ", Keyword("max_gap_s")),
+                   param="max_gap_s")  # fmt: skip
+    back = pickle.loads(pickle.dumps(e))  # the parts travel with it
+    assert str(back) == "over 60 s (max_gap_s): raise max_gap_s"
+    assert back.worded(NAVSIM) == "over 60 s (--max-gap-s): raise --max-gap-s"
 
 
 class _Track:
@@ -132,7 +155,7 @@ def test_conditioning_errors_carry_their_keyword():
     assert "30 m/s (min_speed_mps)" in str(e) and "pass airborne_only=False" in str(e)
 
 
-def test_reworded_for_navsim_and_for_table():
+def test_worded_for_navsim_and_for_table():
     """The navsim wording names options; table (no such options) leaves the advice out."""
     from fieldmap.nav.logs.condition import condition
 
@@ -143,93 +166,102 @@ def test_reworded_for_navsim_and_for_table():
     assert python.endswith(
         "over 60 s (max_gap_s) or a jump (12 kept); the samples are 100 s apart: raise max_gap_s"
     )
-    navsim = reword(python, e.param, options_of("navsim"))
-    assert navsim.endswith(
+    assert e.worded(PYTHON) == python
+    assert e.worded(NAVSIM).endswith(
         "over 60 s (--max-gap-s) or a jump (12 kept); the samples are 100 s apart: "
         "raise --max-gap-s"
     )
-    table = reword(python, e.param, options_of("table"))
-    assert table.endswith("over 60 s or a jump (12 kept); the samples are 100 s apart")
+    assert e.worded(TABLE).endswith("over 60 s or a jump (12 kept); the samples are 100 s apart")
 
 
 @pytest.mark.parametrize(
-    "text, navsim, table",
+    "parts, python, navsim, table",
     [
         # an advice by a switch (ADVICE), a label without an option
-        ("x: slower than 30 m/s (min_speed_mps) (2 of 9); pass airborne_only=False to keep it",
+        (("x: slower than 30 m/s", Label("min_speed_mps"), " (2 of 9)",
+          Advice("; ", Pass("airborne_only", False), " to keep it")),
+         "x: slower than 30 m/s (min_speed_mps) (2 of 9); pass airborne_only=False to keep it",
          "x: slower than 30 m/s (2 of 9); leave out --airborne-only to keep it",
          "x: slower than 30 m/s (2 of 9)"),
-        # a setting by an option with a value; "? " keeps its question mark
-        ("feet read as metres? pass alt_units='ft', or pass alt_units='m' if these are metres",
+        # a setting by an option with a value; two advices, each left out on its own
+        (("feet read as metres?", Advice(" ", Pass("alt_units", "ft")),
+          Advice(", or ", Pass("alt_units", "m"), " if these are metres")),
+         "feet read as metres? pass alt_units='ft', or pass alt_units='m' if these are metres",
          "feet read as metres? give --alt-units ft, or give --alt-units m if these are metres",
          "feet read as metres?"),
-        # an advice inside parentheses ends at the unmatched ")"
-        ("read as MSL (it is above the ellipsoid: pass height_ref='ellipsoid')",
+        # an advice inside parentheses
+        (("read as MSL (it is above the ellipsoid", Advice(": ", Pass("height_ref", "ellipsoid")),
+          ")"),
+         "read as MSL (it is above the ellipsoid: pass height_ref='ellipsoid')",
          "read as MSL (it is above the ellipsoid: give --height-ref ellipsoid)",
          "read as MSL (it is above the ellipsoid)"),
-        # balanced parentheses inside an advice; "(guessed: ...)" holds no keyword
-        ("t (guessed: above 1e11) is late: give their units with time_format (s, epoch)",
-         "t (guessed: above 1e11) is late: give their units with --time-format (s, epoch)",
-         "t (guessed: above 1e11) is late"),
-        # an advice without an option anywhere is left out; "raise the limit" names none
-        ("more than 60 s (max_gap_s): raise the limit; pass on_long_gap='longest' to fly",
+        # an advice with a keyword named in it
+        (("t is late", Advice(": give their units with ", Keyword("time_format"), " (s, epoch)")),
+         "t is late: give their units with time_format (s, epoch)",
+         "t is late: give their units with --time-format (s, epoch)",
+         "t is late"),
+        # an advice without an option anywhere is left out; text without keywords stays
+        (("more than 60 s", Label("max_gap_s"), ": raise the limit",
+          Advice("; ", Pass("on_long_gap", "longest"), " to fly")),
+         "more than 60 s (max_gap_s): raise the limit; pass on_long_gap='longest' to fly",
          "more than 60 s (--max-gap-s): raise the limit",
          "more than 60 s: raise the limit"),
-        # bare names: an option where there is one, the Python name where there is none
-        ("alt_units: 'km' is not one of m, ft", "--alt-units: 'km' is not one of m, ft",
+        # keywords in a sentence: an option where there is one, the Python name where none
+        ((Keyword("alt_units"), ": 'km' is not one of m, ft"),
+         "alt_units: 'km' is not one of m, ft", "--alt-units: 'km' is not one of m, ft",
          "alt_units: 'km' is not one of m, ft"),
-        ("threshold must be a positive number", "threshold must be a positive number",
+        ((Keyword("threshold"), " must be a positive number"),
+         "threshold must be a positive number", "threshold must be a positive number",
          "threshold must be a positive number"),
-        # an option spelled already, and column names, are left alone
-        ("--columns: missing alt (--columns t=...)", "--columns: missing alt (--columns t=...)",
-         "--columns: missing alt (--columns t=...)"),
-        ("a file (time_s, height_m with attitude, or NetCDF) takes no alt_units",
-         "a file (time_s, height_m with attitude, or NetCDF) takes no --alt-units",
-         "a file (time_s, height_m with attitude, or NetCDF) takes no alt_units"),
+        # settings outside an advice; a placeholder value
+        (("baro altitude aiding needs ", Setting("frame", "ned")),
+         "baro altitude aiding needs frame='ned'", "baro altitude aiding needs --frame ned",
+         "baro altitude aiding needs frame='ned'"),
+        (("vehicle: airliner (guessed", Advice("; ", Pass("vehicle", Metavar("CLASS")),
+                                                " to choose"), ")"),
+         "vehicle: airliner (guessed; pass vehicle=CLASS to choose)",
+         "vehicle: airliner (guessed; give --vehicle CLASS to choose)",
+         "vehicle: airliner (guessed)"),
+        # an option named otherwise than the keyword
+        ((Keyword("n_gauss"), " must be in 1..16, got 0"), "n_gauss must be in 1..16, got 0",
+         "--gauss must be in 1..16, got 0", "n_gauss must be in 1..16, got 0"),
     ],
 )  # fmt: skip
-def test_reword(text, navsim, table):
-    assert reword(text, options=options_of("navsim")) == navsim
-    assert reword(text, options=options_of("table")) == table
+def test_wording(parts, python, navsim, table):
+    msg = Message(*parts)
+    assert str(msg) == python and msg == python  # a str: the Python wording
+    assert msg.worded(NAVSIM) == navsim
+    assert msg.worded(TABLE) == table
+    e = InputError(*parts)
+    assert str(e) == python and e.worded(NAVSIM) == navsim and e.worded(TABLE) == table
 
 
-def test_plain_words_are_reworded_only_as_the_errors_keyword():
-    text = "f.gpx: columns and time_format apply to CSV files (a gpx); unrecognised columns"
-    assert reword(text, "columns") == (
-        "f.gpx: --columns and --time-format apply to CSV files (a gpx); unrecognised --columns"
-    )
-    assert reword(text) == (
-        "f.gpx: columns and --time-format apply to CSV files (a gpx); unrecognised columns"
-    )
+def test_text_is_never_searched():
+    """Only keyword references are worded, never names found in the text.
+
+    The same name in plain text (a path, a column header, a plain word) stays as written, even
+    where it is the error's own keyword.
+    """
+    text = "flights/max_gap_s/columns.csv: column alt_units of table:models.bin"
+    e = InputError(text, param="alt_units")
+    assert e.worded(NAVSIM) == text
+    e = InputError(f"{text}; ", Keyword("alt_units"), " given", param="alt_units")
+    assert e.worded(NAVSIM) == f"{text}; --alt-units given"
+    assert worded(text, NAVSIM) == text  # notes that are plain text
 
 
-@pytest.mark.parametrize(
-    "text, param, navsim",
-    [
-        # a bare setting outside an advice
-        ("baro altitude aiding needs frame='ned'", "frame",
-         "baro altitude aiding needs --frame ned"),
-        ("frame='lci' steps two IMU samples at a time: the output interval 0.005 s must be an "
-         "even number of samples at 200 Hz", "frame",
-         "--frame lci steps two IMU samples at a time: the output interval 0.005 s must be an "
-         "even number of samples at 200 Hz"),
-        # the error's own keyword, a plain word; an option named otherwise than the keyword
-        ("draws must be within 1..10000, got 0", "draws", "--draws must be within 1..10000, got 0"),
-        ("n_gauss must be in 1..16, got 0", "n_gauss", "--gauss must be in 1..16, got 0"),
-        ("a block of 201 s at 1e+07 Hz is 2.01e+09 IMU samples, more than 2000000: lower rate_hz "
-         "or block_s", "block_s",
-         "a block of 201 s at 1e+07 Hz is 2.01e+09 IMU samples, more than 2000000: lower --rate "
-         "or --block-s"),
-        # never inside a path
-        ("models: table:/data/models/g.bin does not cover the flight", "models",
-         "--models: table:/data/models/g.bin does not cover the flight"),
-        ("models: table:models.bin does not cover the flight", "models",
-         "--models: table:models.bin does not cover the flight"),
-    ],
-)  # fmt: skip
-def test_reword_study_messages(text, param, navsim):
-    assert reword(text, param, options_of("navsim")) == navsim
-    assert reword(text, param, options_of("table")) == text
+def test_substitute_replaces_advice_about_one_keyword_with_another():
+    msg = Message("line 4 goes back", Advice("; ", Pass("reorder", True), " to sort"))
+    new = msg.substitute(Pass("reorder", True), Pass("smooth", True))
+    assert str(new) == "line 4 goes back; pass smooth=True to sort"
+    assert new.worded(NAVSIM) == "line 4 goes back; leave out --no-smooth to sort"
+
+
+def test_a_wording_of_its_own():
+    """Another front end (a GUI, a config file) gives its own names for the keywords."""
+    gui = Wording({"max_gap_s": "'largest gap'"})
+    msg = Message("over 60 s", Label("max_gap_s"), Advice(": raise ", Keyword("max_gap_s")))
+    assert msg.worded(gui) == "over 60 s ('largest gap'): raise 'largest gap'"
 
 
 @pytest.mark.parametrize(
@@ -242,6 +274,11 @@ def test_reword_study_messages(text, param, navsim):
          "output interval 0.0033 s is not a whole number of IMU samples at 200 Hz"),
         (dict(rate_hz=-1.0), "rate_hz", "--rate must be a positive number, got -1.0"),
         (dict(duration=1e9), "duration", "--duration 1e+09 s does not fit the flight (201 s)"),
+        (dict(draws=0), "draws", "--draws must be within 1..10000, got 0"),
+        (dict(n_gauss=0), "n_gauss", "--gauss must be in 1..16, got 0"),
+        (dict(rate_hz=1e7, block_s=201.0), "block_s",
+         "a block of 201 s at 1e+07 Hz is 2.01e+09 IMU samples, more than 2000000: lower --rate "
+         "or --block-s"),
     ],
 )  # fmt: skip
 def test_flight_study_errors_carry_their_keyword(kw, param, navsim):
@@ -251,10 +288,12 @@ def test_flight_study_errors_carry_their_keyword(kw, param, navsim):
     from fieldmap.nav.trajectory import FlightTrajectory, route_flight
 
     traj = FlightTrajectory(route_flight("47,8,1000;47.3,8.3,1000", 200.0))
-    e = _raised(FlightStudy, traj, imu="tactical", models="j4", draws=2, truth_lmax=20, **kw)
+    kw = dict(imu="tactical", models="j4", draws=2, truth_lmax=20) | kw
+    e = _raised(FlightStudy, traj, **kw)
     assert e.param == param
     assert _worded(e, "navsim") == navsim
-    assert _worded(e, "table") == str(e)
+    # table has none of these options: keywords keep their Python names, advice is left out
+    assert _worded(e, "table") == str(e).replace(": lower rate_hz or block_s", "")
 
 
 def test_conditioning_notes_leave_no_python_advice_on_the_command_line():
@@ -264,6 +303,8 @@ def test_conditioning_notes_leave_no_python_advice_on_the_command_line():
 
     adsb = Path(__file__).parent / "data" / "adsb"
     cf = condition(read_track(adsb / "noisy_takeoff.csv.gz", height_ref="pressure"))
-    notes = [reword(n, None, options_of("navsim")) for n in cf.report["notes"]]
+    notes = [worded(n, NAVSIM) for n in cf.report["notes"]]
     assert any("give --vehicle CLASS" in n for n in notes), notes
-    assert not [n for n in notes if re.search(r"\bpass \w+=", n)], notes
+    assert not [n for n in notes if "pass " in n and "=" in n], notes
+    python = " ".join(cf.report["notes"])
+    assert "pass vehicle=CLASS" in python

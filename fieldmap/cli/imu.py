@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 import numpy as np
 
+from fieldmap import durations
 from fieldmap.errors import InputError
 
 
@@ -41,10 +42,17 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="preset (ideal consumer industrial tactical navigation strategic table2-groupN "
         "table4) or a TOML file (default tactical)",
     )
-    a.add_argument("--duration", type=float, default=7200.0, help="record length in s (7200)")
+    a.add_argument(
+        "--duration",
+        type=durations.argument,
+        default=7200.0,
+        metavar="TIME",
+        help="record length in s, or with a unit s, min, h (default 7200 s, 2h)",
+    )
     a.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
     a.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     a.add_argument("--out", default="outputs", help="output folder (default outputs/)")
+    a.add_argument("--no-plots", action="store_true", help="write CSV and JSON only")
     a.set_defaults(func=run_allan)
 
 
@@ -75,8 +83,9 @@ def run_allan(args: argparse.Namespace) -> int:
     with output_batch(args.out) as batch:
         batch.text(buf.getvalue(), base + ".csv")
         batch.text(json.dumps(doc, indent=2) + "\n", base + ".json")
-        with signals_deferred():
-            batch.png(_figure(label, tab), base + ".png")
+        if not args.no_plots:
+            with signals_deferred():
+                batch.png(_figure(label, tab), base + ".png")
     print(f"Allan deviation of {label!r} ({args.duration:g} s at {args.rate:g} Hz, axis x)")
     print(f"{'tau s':>10s} {'gyro deg/h':>12s} {'accel ug':>12s}")
     for t, g, a in zip(tab["tau_s"][::4], tab["gyro_adev_deg_h"][::4], tab["accel_adev_ug"][::4]):
@@ -84,7 +93,8 @@ def run_allan(args: argparse.Namespace) -> int:
     print(
         f"spec: ARW -> {tab['gyro_arw_at_1s_deg_h']:.4g} deg/h at 1 s, VRW -> "
         f"{tab['accel_vrw_at_1s_ug']:.4g} ug at 1 s; bias instability floors "
-        f"{tab['gyro_bias_instability_deg_h']:.4g} deg/h, {tab['accel_bias_instability_ug']:.4g} ug"
+        f"{tab['gyro_bias_instability_deg_per_h']:.4g} deg/h, "
+        f"{tab['accel_bias_instability_ug']:.4g} ug"
     )
     return 0
 
@@ -103,7 +113,7 @@ def _figure(label: str, tab: dict) -> Figure:
             "gyro_adev_deg_h",
             "deg/h",
             tab["gyro_arw_at_1s_deg_h"],
-            "gyro_bias_instability_deg_h",
+            "gyro_bias_instability_deg_per_h",
         ),
         (axes[1], "accel_adev_ug", "µg", tab["accel_vrw_at_1s_ug"], "accel_bias_instability_ug"),
     ):

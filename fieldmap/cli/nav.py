@@ -25,7 +25,7 @@ and per flight ``navsim_flight.{json,csv,nc,png}``, ``navsim_flight_track.png`` 
 figure ``navsim_flight_conditioning.png`` (prefixed ``navsim_flight_<name>`` when several flights
 are flown in one launch). The JSON carries a ``conditioning`` block: what was done to the log and
 the kinematics that were flown. Its notes, like the messages of the readers and the
-conditioning, name the options here (:func:`fieldmap.cli.reword`).
+conditioning, name the options here (:func:`fieldmap.cli.wording_of`).
 
 The module reads top-down: your flight (its options and steps); all the options and where
 each applies; the command.
@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from fieldmap import durations
 from fieldmap.errors import InputError
 from fieldmap.limits import MAX_DRAWS
 
@@ -220,10 +221,11 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
 
     The conditioning options are refused (one line) where no flight is conditioned: with
     ``--no-smooth``, and when every file is flown as recorded. The notes of the conditioning
-    name the options here (:func:`fieldmap.cli.reword`; its errors are reworded where
+    name the options here (:func:`fieldmap.cli.wording_of`; its errors are worded so where
     they are reported, :func:`fieldmap.cli.main`).
     """
-    from fieldmap.cli import given, reword
+    from fieldmap.cli import given, wording_of
+    from fieldmap.errors import worded
     from fieldmap.nav.logs import load_flight
     from fieldmap.nav.logs.condition import Conditioning
     from fieldmap.nav.trajectory import FlightTrajectory, route_flight
@@ -265,7 +267,8 @@ def _flights(args: argparse.Namespace, model: SHModel) -> list[Flight]:
             model=model,
         )
         if cf is not None:
-            cf.report["notes"] = [reword(note) for note in cf.report["notes"]]
+            navsim = wording_of("navsim")
+            cf.report["notes"] = [worded(note, navsim) for note in cf.report["notes"]]
         name = Path(path).name.split(".")[0] or "flight"
         base, k = name, 2
         while name in names:
@@ -302,7 +305,7 @@ def _flight_study(
     """Return the :class:`~fieldmap.nav.study.FlightStudy` of the options.
 
     Its refusals name the Python keywords and carry them (``param``): :func:`fieldmap.cli.main`
-    names the options instead (:func:`fieldmap.cli.reword`).
+    names the options instead (:func:`fieldmap.cli.wording_of`).
     """
     from fieldmap.nav.study import FlightStudy
 
@@ -356,10 +359,11 @@ def _gnss(args: argparse.Namespace) -> Any:
             if len(parts) > 2:
                 raise ValueError
             bias = float(parts[0])
-            tau = float(parts[1]) if len(parts) == 2 else tau
-        except ValueError:
+            tau = durations.seconds(parts[1]) if len(parts) == 2 else tau
+        except (ValueError, InputError):
             raise InputError(
-                f"--gnss-bias must be M[:TAU_S] (numbers), got {args.gnss_bias!r}"
+                "--gnss-bias must be M[:TAU_S] (metres; the correlation time in s, or with a "
+                f"unit s, min, h: 1:600, 1:10min), got {args.gnss_bias!r}"
             ) from None
     return GnssSpec(
         bias_m=bias,
@@ -417,16 +421,19 @@ def _run_flights(
                     res.summary["meta"][key] = None
         if cf is not None:
             res.summary["conditioning"] = cf.report
-        results.append((name, res, cf, disturbance_grid(res, st.truth, device=device)))
+        # the ground-track figure's map: drawn only with the figures
+        grid = None if args.no_plots else disturbance_grid(res, st.truth, device=device)
+        results.append((name, res, cf, grid))
     several = len(results) > 1
     with output_batch(args.out) as batch:  # every file of every flight, or none
         for name, res, cf, grid in results:
             prefix = f"navsim_flight_{name}" if several else "navsim_flight"
+            figures = not args.no_plots
             if isinstance(res, FlightResult):
-                write_flight_outputs(res, batch, grid, prefix=prefix)
+                write_flight_outputs(res, batch, grid, prefix=prefix, figures=figures)
             else:
-                write_covariance_outputs(res, batch, prefix=prefix)
-            if cf is not None:
+                write_covariance_outputs(res, batch, prefix=prefix, figures=figures)
+            if cf is not None and figures:
                 from fieldmap.nav.logs.report import plot_conditioning
 
                 batch.png(plot_conditioning(cf), f"{prefix}_conditioning.png")
@@ -533,7 +540,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="M[:TAU_S]",
         help="GNSS position bias per axis, first-order Gauss-Markov: 1 sigma in m and "
-        "correlation time in s (default 0, none; time 600 s)",
+        "correlation time in s, or with a unit (2:10min) (default 0, none; time 600 s)",
     )
     g.add_argument(
         "--gnss-outage",
@@ -603,16 +610,21 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--duration",
-        type=float,
+        type=durations.argument,
         default=None,
-        help="flight time in s (paper's studies: at most 800, default 800; flight: default all)",
+        metavar="TIME",
+        help="flight time in s, or with a unit s, min, h (5min, 1.5h) (paper's studies: at most "
+        "800 s, default 800; flight: default all)",
     )
     p.add_argument(
-        "--model",
+        "--truth-model",
         default="eigen-6s",
-        help="truth gravity model: bundled name or ICGEM .gfc[.gz] file (default eigen-6s)",
+        metavar="MODEL",
+        help="truth gravity model, the field the vehicle flies through: bundled name or ICGEM "
+        ".gfc[.gz] file (default eigen-6s); the navigation models are --models",
     )
-    p.add_argument("--truth", dest="model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument("--truth", dest="truth_model", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    p.add_argument("--model", action=_NoModelOption, help=argparse.SUPPRESS)
     p.add_argument(
         "--lmax",
         type=int,
@@ -632,10 +644,11 @@ def add_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--output-dt",
-        type=float,
+        type=durations.argument,
         default=None,
-        help="interval of the error curves in s (paper's studies: default 1, dividing the run; "
-        "flight: default about 3600 points)",
+        metavar="TIME",
+        help="interval of the error curves in s, or with a unit (paper's studies: default 1, "
+        "dividing the run; flight: default about 3600 points)",
     )
     p.add_argument(
         "--no-timing",
@@ -659,6 +672,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
         default="outputs",
         help="output folder, created with its parents if missing (default outputs/)",
     )
+    p.add_argument("--no-plots", action="store_true", help="write CSV, JSON and NetCDF only")
     _flight_options(p)
 
 
@@ -758,10 +772,17 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     """Add the ``navsim`` sub-command."""
     p = subparsers.add_parser(
         "navsim",
-        help="navigation errors by gravity model and IMU grade (Chen et al. 2022 Tables 1, 3, 4)",
-        description="Boost-glide INS simulation in the launch-centred inertial frame: exact IMU "
-        "increments under the truth gravity (bundled EIGEN-6S, full degree), propagated with "
-        "each navigation gravity model and IMU error draw in one Warp launch. "
+        help="which gravity model your flight's INS needs: navigation errors by gravity model "
+        "and IMU grade (your flight log or a route; the paper's Tables 1, 3, 4)",
+        description="Flight study: what each navigation gravity model (--models: J2, J4, J6, the "
+        "exact normal field, SH degrees, compensation tables) adds to the position error of a "
+        "strapdown INS of a given grade (--imu) on your flight (--trajectory FILE: CSV, ADS-B, "
+        "GPX, NMEA, IGC; or --route with --speed-mps), against the truth gravity field "
+        "(--truth-model, default the bundled EIGEN-6S at full degree), by Monte Carlo or "
+        "covariance analysis, with or without GNSS aiding; it recommends the simplest model "
+        "whose gravity error stays below --fraction of the IMU's own error. "
+        "The paper's studies (--study table1|table3|table4|all, Chen et al. 2022) fly the "
+        "boost-glide path in the launch-centred inertial frame. "
         "Bad input, or an option given where it does nothing (a flight option with --study, "
         "--bias-mode with --route): one line on stderr, exit status 2, nothing written.",
     )
@@ -808,7 +829,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     Warnings for the user (deprecated model names) go to ``notes``, printed once all passed.
     """
     from fieldmap._warp import resolve_device
-    from fieldmap.models.registry import announce, load_model
+    from fieldmap.models.registry import announce
     from fieldmap.nav.imu import sample_count
     from fieldmap.nav.study import output_steps
     from fieldmap.products.io import check_out_dir
@@ -824,7 +845,7 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
             raise InputError(f"{name} must be a positive number, got {v}")
     if not 0 < args.fraction < 1:
         raise InputError(f"--fraction must be in (0, 1), got {args.fraction}")
-    model = load_model(args.model, lmax=args.lmax, tide_system=args.tide_system)
+    model = _truth_model(args)
     if is_flight(args) and "table:" in str(args.models):  # truth and tables in one tide system
         from fieldmap.cli.model_options import in_tables_system
 
@@ -868,6 +889,52 @@ def _check_args(args: argparse.Namespace, notes: list[str]) -> tuple[str, list[s
     return device, models, nav
 
 
+class _NoModelOption(argparse.Action):
+    """``navsim --model``: refused, naming the two options it could have meant.
+
+    The truth model (``--truth-model``) and the navigation models (``--models``) are one letter
+    apart as ``--model`` and ``--models``; the old spelling of the truth's option is refused
+    rather than kept, so that ``--model j2`` (a navigation model) cannot fly as the truth.
+    """
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        from fieldmap.nav.gravity import is_navigation_name
+
+        if is_navigation_name(values):
+            parser.error(
+                f"--model {values}: navsim has no --model; navigation gravity models go to "
+                f"--models {values} (the truth model is --truth-model)"
+            )
+        parser.error(
+            f"--model {values}: navsim has no --model; the truth gravity model is "
+            f"--truth-model {values} (the navigation models are --models)"
+        )
+
+
+def _truth_model(args: argparse.Namespace) -> SHModel:
+    """Load the truth model of ``--truth-model``; a navigation model's name says ``--models``."""
+    from fieldmap.models.registry import load_model
+    from fieldmap.nav.gravity import is_navigation_name
+
+    name = args.truth_model
+    try:
+        return load_model(name, lmax=args.lmax, tide_system=args.tide_system)
+    except InputError as exc:
+        if not is_navigation_name(name):
+            raise
+        raise InputError(
+            f"--truth-model {name}: {name!r} is a navigation gravity model, not a truth model "
+            "(a spherical-harmonic model: eigen-6s or an ICGEM file); navigation models go to "
+            f"--models {name}"
+        ) from exc
+
+
 def split_list(values: Iterable[object]) -> list[str]:
     """``["j2,j4", "sh18"]`` or ``["j2 j4"]`` -> ``["j2", "j4", "sh18"]`` (commas or spaces)."""
     return [m for v in values for m in str(v).replace(",", " ").split() if m]
@@ -885,7 +952,7 @@ def _check_flight_args(
 
     The CLI checks what only it has (the choice of flight, the log options, options given
     where they do nothing); the study checks the rest, once, when it is built (its messages
-    name the Python keywords, which :func:`fieldmap.cli.reword` names as options).
+    name the Python keywords, which :func:`fieldmap.cli.wording_of` names as options).
     """
     from fieldmap._warp import resolve_device
     from fieldmap.nav.sensors import PRESETS, load_imu
@@ -947,7 +1014,7 @@ def run(args: argparse.Namespace) -> int:
         results = _scenario_and_studies(args, device, studies, models, nav, client)
     with output_batch(args.out) as batch:  # all files of all studies, or none
         for res in results:
-            write_outputs(res, batch)
+            write_outputs(res, batch, figures=not args.no_plots)
     for res in results:
         print(format_table(res))
     return 1 if any(res.meta.get("diverged") for res in results) else 0
@@ -963,18 +1030,17 @@ def _scenario_and_studies(
 ) -> list[StudyResult]:
     from tqdm import tqdm
 
-    from fieldmap.models.registry import load_model
     from fieldmap.nav.imu import ImuSampling
     from fieldmap.nav.study import build_scenario
 
     tqdm.write(
         f"navsim: synthesizing the IMU ({args.duration:g} s at {args.rate:g} Hz, "
-        f"truth {args.model})"
+        f"truth {args.truth_model})"
     )
     sc = build_scenario(
         duration=args.duration,
         sampling=ImuSampling(args.rate, args.gauss),
-        truth=load_model(args.model, lmax=args.lmax, tide_system=args.tide_system),
+        truth=_truth_model(args),
         output_dt=args.output_dt,
         device=device,
         progress=True,

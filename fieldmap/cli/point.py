@@ -3,9 +3,10 @@
 ``fieldmap point`` works like GeographicLib's ``Gravity``. (``fieldmap verify`` lives in
 :mod:`fieldmap.cli.verify`.)
 
-``fieldmap point`` reads lines ``lat lon [h]`` (geodetic degrees, metres above WGS84; h defaults
-to 0 as in ``Gravity``) and prints one line per input line: east north up of the disturbance in
-mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in m/s². A line that
+``fieldmap point`` reads lines ``lat lon [h]`` or ``lat,lon[,h]`` (geodetic degrees, metres above
+WGS84; h defaults to 0 as in ``Gravity``) and prints one line per input line: east north up of
+the disturbance in mGal (default), of gravity in m/s² (incl. centrifugal) or of normal gravity in
+m/s². A line that
 cannot be used prints ``ERROR: <reason>`` in its place, the other lines are still computed (in
 one batched kernel launch) and the exit status is 1.
 
@@ -101,7 +102,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "point",
         help="gravity at points read from stdin (lat lon h per line)",
         description=(
-            "Read 'lat lon [h]' lines (degrees, degrees, metres above WGS84) and print east north "
+            "Read 'lat lon [h]' or 'lat,lon[,h]' lines (degrees, degrees, metres above WGS84; "
+            "whitespace- or comma-separated) and print east north "
             "up per line: the gravity disturbance in mGal (default), gravity incl. centrifugal "
             "in m/s², or normal gravity in m/s². Accepted: |lat| <= 90, lon in [-540, 540), "
             "h from -10 km to 1e5 km. A bad line prints 'ERROR: reason' in its place (one "
@@ -180,13 +182,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def parse_point_line(line: str) -> tuple[float, float, float]:
     """Return ``(lat, lon, h)`` of one input line, or raise ValueError with the reason.
 
-    Only the syntax is checked here (2 or 3 finite numbers); the ranges are those of the API,
-    checked for all lines at once by :func:`fieldmap.limits.point_errors`. Units: degrees,
-    degrees, m.
+    The numbers are separated by commas (``30,105,20000``, the usual CSV export; spaces around
+    them allowed) or by whitespace (``30 105 20000``, as GeographicLib's ``Gravity``); a line
+    with a comma is read as comma-separated, so an empty field (``30,,105``) is an error, not
+    a missing number skipped. Only the syntax is checked here (2 or 3 finite numbers); the
+    ranges are those of the API, checked for all lines at once by
+    :func:`fieldmap.limits.point_errors`. Units: degrees, degrees, m.
     """
-    fields = line.split()
+    fields = [f.strip() for f in line.split(",")] if "," in line else line.split()
     if len(fields) not in (2, 3):
         raise ValueError(f"expected 'lat lon [h]', got {len(fields)} fields")
+    if "" in fields:
+        raise ValueError(f"empty field {fields.index('') + 1} in {line.strip()!r}")
     vals = []
     for name, text in zip(("latitude", "longitude", "height"), fields):
         try:

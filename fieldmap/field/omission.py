@@ -125,7 +125,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fieldmap import limits
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword, Label
 from fieldmap.models.shmodel import SHModel
 
 __all__ = [
@@ -199,7 +199,8 @@ def degree_variance_model(kind: object) -> str:
     if not isinstance(kind, str) or kind.lower() not in DEGREE_VARIANCE_MODELS:
         raise InputError(
             f"unknown degree-variance model {kind!r} for the omission: one of "
-            f"{', '.join(DEGREE_VARIANCE_MODELS)} (omission_model)",
+            f"{', '.join(DEGREE_VARIANCE_MODELS)}",
+            Label("omission_model"),
             param="omission_model",
         )
     return kind.lower()
@@ -221,7 +222,8 @@ def _whole(value: object, name: str, param: str) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         if isinstance(value, (float, np.floating)) and float(value).is_integer():
             return int(value)
-        raise InputError(f"{name} must be a whole number, got {value!r}", param=param)
+        subject = Keyword(param) if name == param else name
+        raise InputError(subject, f" must be a whole number, got {value!r}", param=param)
     return int(value)
 
 
@@ -528,10 +530,14 @@ class Omission:
         """
         d = _whole(draws, "draws", "draws")
         if not 1 <= d <= limits.MAX_DRAWS:
-            raise InputError(f"draws must be within 1..{limits.MAX_DRAWS}, got {d}", param="draws")
+            raise InputError(
+                Keyword("draws"), f" must be within 1..{limits.MAX_DRAWS}, got {d}", param="draws"
+            )
         s = _whole(seed, "seed", "seed")
         if s < 0:
-            raise InputError(f"seed must be a non-negative whole number, got {s}", param="seed")
+            raise InputError(
+                Keyword("seed"), f" must be a non-negative whole number, got {s}", param="seed"
+            )
         bands = self._bands()
         K = WAVES_PER_BAND
         W = K * len(bands)

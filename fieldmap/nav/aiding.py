@@ -41,13 +41,12 @@ outage is the error just before the first update after it, at START + DURATION.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword, Label
 
 __all__ = [
     "FeedbackFilter", "FilterDesign", "GnssSpec", "add_to_dataset", "aided_response",
@@ -55,22 +54,21 @@ __all__ = [
     "nees_bounds", "nees_summary", "outage_ends", "parse_outages",
 ]  # fmt: skip
 
-_UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "h": 3600.0}
-
 
 def _seconds(text: str, what: str) -> float:
-    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(s|min|h)?\s*", text)
+    """Return a start, duration or period of ``outages`` in s (:mod:`fieldmap.durations`)."""
+    from fieldmap.durations import seconds
+
     try:
-        if m is None:
-            raise ValueError
-        v = float(m.group(1)) * _UNITS[m.group(2) or ""]
-    except ValueError:
-        raise InputError(
-            f"gnss.outages: {what} {text.strip()!r} is no time (seconds, or with a unit s, min, h)",
-            param="gnss.outages",
-        ) from None
+        v = seconds(text, param="gnss.outages", what=what)
+    except InputError as exc:
+        raise InputError(Keyword("gnss.outages"), f": {exc}", param="gnss.outages") from None
     if not np.isfinite(v):
-        raise InputError(f"gnss.outages: {what} {text.strip()!r} is not finite", "gnss.outages")
+        raise InputError(
+            Keyword("gnss.outages"),
+            f": {what} {text.strip()!r} is not finite",
+            param="gnss.outages",
+        )
     return v
 
 
@@ -89,7 +87,8 @@ def parse_outages(text: str) -> tuple[tuple[tuple[float, float], ...], tuple[flo
         bits = part.split(":")
         if len(bits) != 2:
             raise InputError(
-                f"gnss.outages: {part.strip()!r} is not START:DURATION (e.g. 600:300, "
+                Keyword("gnss.outages"),
+                f": {part.strip()!r} is not START:DURATION (e.g. 600:300, "
                 "20min:5min, or every 30min:5min)",
                 param="gnss.outages",
             )
@@ -98,7 +97,11 @@ def parse_outages(text: str) -> tuple[tuple[tuple[float, float], ...], tuple[flo
         )
     if every:
         if len(pairs) != 1:
-            raise InputError("gnss.outages: one PERIOD:DURATION after 'every'", "gnss.outages")
+            raise InputError(
+                Keyword("gnss.outages"),
+                ": one PERIOD:DURATION after 'every'",
+                param="gnss.outages",
+            )
         return (), pairs[0]
     return tuple(pairs), None
 
@@ -145,7 +148,9 @@ class GnssSpec:
             or not isinstance(b, (int, float, np.number))
             or not (np.isfinite(b) and b >= 0)
         ):
-            raise InputError(f"gnss.bias_m must be a number >= 0, got {b!r}", param="gnss.bias_m")
+            raise InputError(
+                Keyword("gnss.bias_m"), f" must be a number >= 0, got {b!r}", param="gnss.bias_m"
+            )
         put("bias_m", float(b))
         for name, v in (("rate_hz", self.rate_hz), ("sigma_m", self.sigma_m),
                         ("velocity_sigma_mps", self.velocity_sigma_mps),
@@ -153,10 +158,14 @@ class GnssSpec:
             if name == "velocity_sigma_mps" and v is None:
                 continue
             if isinstance(v, (str, bool)) or not isinstance(v, (int, float, np.number)):
-                raise InputError(f"gnss.{name} must be a number, got {v!r}", param=f"gnss.{name}")
+                raise InputError(
+                    Keyword(f"gnss.{name}"), f" must be a number, got {v!r}", param=f"gnss.{name}"
+                )
             if not np.isfinite(v) or v <= 0:
                 raise InputError(
-                    f"gnss.{name} must be a positive number, got {v:g}", param=f"gnss.{name}"
+                    Keyword(f"gnss.{name}"),
+                    f" must be a positive number, got {v:g}",
+                    param=f"gnss.{name}",
                 )
             put(name, float(v))
         out = self.outages
@@ -167,14 +176,16 @@ class GnssSpec:
                 pairs = tuple((float(a), float(b)) for a, b in (out or ()))
             except (TypeError, ValueError):
                 raise InputError(
-                    "gnss.outages must be a string or (start, duration) pairs in s",
+                    Keyword("gnss.outages"),
+                    " must be a string or (start, duration) pairs in s",
                     param="gnss.outages",
                 ) from None
             every = None
         for a, d in pairs + ((every,) if every else ()):
             if not (np.isfinite(a) and np.isfinite(d)) or d <= 0 or a < 0:
                 raise InputError(
-                    f"gnss.outages: an outage starts at {a:g} s and lasts {d:g} s: the start "
+                    Keyword("gnss.outages"),
+                    f": an outage starts at {a:g} s and lasts {d:g} s: the start "
                     "must be >= 0 and the duration > 0",
                     param="gnss.outages",
                 )
@@ -182,12 +193,14 @@ class GnssSpec:
         for (a0, d0), (a1, _) in zip(order, order[1:]):
             if a1 < a0 + d0:
                 raise InputError(
-                    f"gnss.outages: the outages {a0:g}:{d0:g} and {a1:g}:{_:g} overlap",
+                    Keyword("gnss.outages"),
+                    f": the outages {a0:g}:{d0:g} and {a1:g}:{_:g} overlap",
                     param="gnss.outages",
                 )
         if every is not None and every[1] >= every[0]:
             raise InputError(
-                f"gnss.outages: every {every[0]:g}:{every[1]:g} s: outages as long as their period "
+                Keyword("gnss.outages"),
+                f": every {every[0]:g}:{every[1]:g} s: outages as long as their period "
                 "overlap (no fix at all)",
                 param="gnss.outages",
             )
@@ -209,29 +222,34 @@ class GnssSpec:
         """Refuse (one line) a rate above the IMU's and outages outside a flight of ``duration``."""
         if self.rate_hz > imu_rate_hz * (1 + 1e-12):
             raise InputError(
-                f"gnss.rate_hz {self.rate_hz:g} Hz is above the IMU rate {imu_rate_hz:g} Hz "
-                "(rate_hz)",
+                Keyword("gnss.rate_hz"),
+                f" {self.rate_hz:g} Hz is above the IMU rate {imu_rate_hz:g} Hz",
+                Label("rate_hz"),
                 param="gnss.rate_hz",
             )
         k = imu_rate_hz / self.rate_hz
         if abs(k - round(k)) > 1e-9 * k:
             raise InputError(
-                f"gnss.rate_hz {self.rate_hz:g} Hz: its fixes are not a whole number of IMU "
-                f"samples apart at {imu_rate_hz:g} Hz (rate_hz)",
+                Keyword("gnss.rate_hz"),
+                f" {self.rate_hz:g} Hz: its fixes are not a whole number of IMU "
+                f"samples apart at {imu_rate_hz:g} Hz",
+                Label("rate_hz"),
                 param="gnss.rate_hz",
             )
         iv = self.intervals(duration)
         if self.every is not None and iv.shape[0] == 0:
             raise InputError(
-                f"gnss.outages: every {self.every[0]:g}:{self.every[1]:g} s has no outage within "
+                Keyword("gnss.outages"),
+                f": every {self.every[0]:g}:{self.every[1]:g} s has no outage within "
                 f"the flight's {duration:g} s",
                 param="gnss.outages",
             )
         for a, b in iv:
             if b > duration * (1 + 1e-12):
                 raise InputError(
-                    f"gnss.outages: the outage {a:g}:{b - a:g} s ends after the flight's "
-                    f"{duration:g} s (duration)",
+                    Keyword("gnss.outages"),
+                    f": the outage {a:g}:{b - a:g} s ends after the flight's {duration:g} s",
+                    Label("duration"),
                     param="gnss.outages",
                 )
 
@@ -711,7 +729,11 @@ def add_to_dataset(ds: Any, doc: dict[str, Any], sigma_h: np.ndarray | None) -> 
             np.asarray(sigma_h),
             {"units": "m", "long_name": "GNSS/INS filter's a priori horizontal position sigma"},
         )
-    ds = ds.assign(new).assign_coords(coasting_row=("coasting_row", np.array(rows, dtype=str)))
+    from fieldmap.nav.cf import labels
+
+    ds = ds.assign(new).assign_coords(
+        labels(coasting_row=(rows, "IMU only, then each navigation gravity model"))
+    )
     nees = g.get("nees")
     if nees and nees.get("fixes"):
         ds.attrs["gnss_nees_mean"] = nees["mean"]

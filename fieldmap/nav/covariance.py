@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword
 from fieldmap.nav.linear import core_dynamics, rk4_transition
 
 __all__ = [
@@ -144,10 +144,10 @@ def _dynamics(
         F[:, rows, gm] = sign * C
         F[:, rows, s] = sign * C * x[:, None, :]  # C diag(x)
         F[:, rows, th] = -sign * C @ _skew(x)
-    if spec.acc_bi_ug:
-        F[:, GA, GA] = -np.eye(3) / spec.acc_bi_tau_s
-    if spec.gyro_bi_deg_h:
-        F[:, GG, GG] = -np.eye(3) / spec.gyro_bi_tau_s
+    if spec.accel_bias_instability_ug:
+        F[:, GA, GA] = -np.eye(3) / spec.accel_bias_instability_tau_s
+    if spec.gyro_bias_instability_deg_per_h:
+        F[:, GG, GG] = -np.eye(3) / spec.gyro_bias_instability_tau_s
     k1, k2, k3 = gains
     if k1 or k2 or k3:
         for j in (BARO_BIAS, BARO_DRIFT):  # δh = e_u − (bias + drift + noise)
@@ -233,8 +233,9 @@ def _aided(
     k = step / dt
     if t.size < 2 or np.any(np.abs(k - np.round(k)) > 1e-6 * k) or np.any(k < 1 - 1e-9):
         raise InputError(
-            f"the covariance grid must hold every GNSS fix ({step:g} s apart): output_dt "
-            f"{dt.max():g} s",
+            f"the covariance grid must hold every GNSS fix ({step:g} s apart): ",
+            Keyword("output_dt"),
+            f" {dt.max():g} s",
             param="output_dt",
         )
     names, P0s, gqgs = [], [], []
@@ -330,17 +331,17 @@ def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceRe
     Fq = 0.5 * (F0 + F1)  # F over a step for the noise integral (third order)
     ned = fl.ned[:n]
 
-    gm_a = spec.acc_bi_ug * sensors.UG / sensors.GM_ADEV_PEAK
-    gm_g = spec.gyro_bi_deg_h * sensors.DEG_H / sensors.GM_ADEV_PEAK
+    gm_a = spec.accel_bias_instability_ug * sensors.UG / sensors.GM_ADEV_PEAK
+    gm_g = spec.gyro_bias_instability_deg_per_h * sensors.DEG_H / sensors.GM_ADEV_PEAK
     aided = study.aiding == "baro"
     # constant sources: (name, states, σ)
     const = [
-        ("accelerometer bias", BA, spec.acc_bias_ug * sensors.UG),
-        ("gyro bias", BG, spec.gyro_bias_deg_h * sensors.DEG_H),
-        ("accelerometer scale factor", SA, spec.acc_scale_ppm * 1e-6),
-        ("accelerometer misalignment", TA, spec.acc_misalign_arcsec * sensors.ARCSEC),
-        ("gyro scale factor", SG, spec.gyro_scale_ppm * 1e-6),
-        ("gyro misalignment", TG, spec.gyro_misalign_arcsec * sensors.ARCSEC),
+        ("accelerometer bias", BA, spec.accel_bias_ug * sensors.UG),
+        ("gyro bias", BG, spec.gyro_bias_deg_per_h * sensors.DEG_H),
+        ("accelerometer scale factor", SA, spec.accel_scale_factor_ppm * 1e-6),
+        ("accelerometer misalignment", TA, spec.accel_misalignment_arcsec * sensors.ARCSEC),
+        ("gyro scale factor", SG, spec.gyro_scale_factor_ppm * 1e-6),
+        ("gyro misalignment", TG, spec.gyro_misalignment_arcsec * sensors.ARCSEC),
         ("baro bias", slice(BARO_BIAS, BARO_BIAS + 1), baro.bias_m if aided else 0.0),
     ]
     const = [c for c in const if c[2] > 0]
@@ -355,12 +356,12 @@ def covariance_analysis(study: Any, t: np.ndarray | None = None) -> CovarianceRe
 
     if gm_a > 0:
         stoch.append(("accelerometer bias instability", diag((GA, gm_a**2)),
-                      diag((GA, 2 * gm_a**2 / spec.acc_bi_tau_s))))  # fmt: skip
+                      diag((GA, 2 * gm_a**2 / spec.accel_bias_instability_tau_s))))  # fmt: skip
     if gm_g > 0:
         stoch.append(("gyro bias instability", diag((GG, gm_g**2)),
-                      diag((GG, 2 * gm_g**2 / spec.gyro_bi_tau_s))))  # fmt: skip
-    vrw = spec.acc_noise_ug_rthz * sensors.UG
-    arw = spec.gyro_arw_deg_rth * sensors.DEG_RTH
+                      diag((GG, 2 * gm_g**2 / spec.gyro_bias_instability_tau_s))))  # fmt: skip
+    vrw = spec.accel_vrw_ug_per_sqrt_hz * sensors.UG
+    arw = spec.gyro_arw_deg_per_sqrt_h * sensors.DEG_RTH
     if vrw > 0:
         stoch.append(("velocity random walk", diag(), diag((V, vrw**2))))
     if arw > 0:
@@ -461,6 +462,8 @@ class CovarianceStudyResult:
 
         import xarray as xr
 
+        from fieldmap.nav.cf import flown_path, indexed_labels, labels
+
         cov = self.covariance
         src = list(cov.sources)
         models = list(self.dg)
@@ -513,19 +516,19 @@ class CovarianceStudyResult:
                         "each gravity term (RMS over draws), NED",
                     },
                 ),
-                "latitude": ("time", self.track[:, 0], {"units": "degrees_north"}),
-                "longitude": ("time", self.track[:, 1], {"units": "degrees_east"}),
-                "height": ("time", self.track[:, 2], {"units": "m"}),
             },  # fmt: skip
             coords={
                 "time": ("time", self.t, {"units": "s", "long_name": "time since the start"}),
-                "source": ("source", np.array(src, dtype=str)),
-                "model": ("model", np.array(models, dtype=str)),
-                "gravity_term": (
-                    "gravity_term",
-                    np.array(["model_difference", "omission", "commission"]),
+                **flown_path(self.track),
+                **labels(
+                    source=(src, "error source of the IMU (and of the baro loop)"),
+                    model=(models, "navigation gravity model"),
+                    gravity_term=(
+                        ("model_difference", "omission", "commission"),
+                        "term of the gravity error budget",
+                    ),
+                    axis=(axis, "axis of the local level frame (north, east, down)"),
                 ),
-                "axis": ("axis", axis),
             },  # fmt: skip
             attrs={
                 "Conventions": "CF-1.8",
@@ -533,11 +536,11 @@ class CovarianceStudyResult:
                 "meta": json.dumps(self.summary["meta"], default=float),
             },
         )
-        if "gnss" not in self.summary:
-            return ds
-        from fieldmap.nav.aiding import add_to_dataset
+        if "gnss" in self.summary:
+            from fieldmap.nav.aiding import add_to_dataset
 
-        return add_to_dataset(ds, self.summary, self.covariance.horizontal())
+            ds = add_to_dataset(ds, self.summary, self.covariance.horizontal())
+        return indexed_labels(ds)
 
 
 def covariance_study(study: Any, device: str | None = None) -> CovarianceStudyResult:

@@ -112,6 +112,21 @@ def gravity_cost(name: str, sh_model: SHModel | None = None) -> float:
     return float((deg + 1) ** 2)
 
 
+def is_navigation_name(name: object) -> bool:
+    """Tell whether ``name`` is spelt as a navigation gravity model (j2 … exact, shN, table:).
+
+    For the messages of a truth model given a navigation model's name (``--truth-model j2``).
+    """
+    key = str(name).strip().lower()
+    return (
+        key in NORMAL_MODELS
+        or key in GRAVITY_ALIASES
+        or key == "auto"
+        or _SH_NAME.match(key) is not None
+        or table_file(str(name)) is not None
+    )
+
+
 def parse_gravity(name: str, sh_model: SHModel | None) -> tuple[int, int]:
     """Navigation gravity name (j2, j4, j6, exact, sh, shN, table:FILE) -> (kernel kind, degree).
 

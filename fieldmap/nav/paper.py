@@ -213,8 +213,8 @@ def table3(
         extra.append(
             {
                 "group": grp,
-                "acc_bias_ug": spec.acc_bias_ug,
-                "acc_noise_ug_rthz": spec.acc_noise_ug_rthz,
+                "accel_bias_ug": spec.accel_bias_ug,
+                "accel_vrw_ug_per_sqrt_hz": spec.accel_vrw_ug_per_sqrt_hz,
                 "draws": n,
             }
         )

@@ -269,11 +269,13 @@ def _is_table4(spec: dict) -> bool:
 def _imu_grade(spec: dict) -> str:
     grade = "IMU grade (Table 4, 1σ)" if _is_table4(spec) else "IMU (1σ)"
     return (
-        f"{grade}: gyro bias {spec['gyro_bias_deg_h']:g} °/h, angle random walk "
-        f"{spec['gyro_arw_deg_rth']:g} °/√h, scale factor {spec['gyro_scale_ppm']:g} ppm, "
-        f"misalignment {spec['gyro_misalign_arcsec']:g}″\naccelerometer bias "
-        f"{spec['acc_bias_ug']:g} µg, white noise {spec['acc_noise_ug_rthz']:g} µg/√Hz, scale "
-        f"factor {spec['acc_scale_ppm']:g} ppm, misalignment {spec['acc_misalign_arcsec']:g}″"
+        f"{grade}: gyro bias {spec['gyro_bias_deg_per_h']:g} °/h, angle random walk "
+        f"{spec['gyro_arw_deg_per_sqrt_h']:g} °/√h, scale factor "
+        f"{spec['gyro_scale_factor_ppm']:g} ppm, misalignment "
+        f"{spec['gyro_misalignment_arcsec']:g}″\naccelerometer bias {spec['accel_bias_ug']:g} µg, "
+        f"white noise {spec['accel_vrw_ug_per_sqrt_hz']:g} µg/√Hz, scale factor "
+        f"{spec['accel_scale_factor_ppm']:g} ppm, misalignment "
+        f"{spec['accel_misalignment_arcsec']:g}″"
     )
 
 
@@ -389,13 +391,13 @@ def _table3(res: StudyResult) -> Figure:
     labels, ref = {}, None
     for c in cases:
         r = rows[c]
-        if r["acc_bias_ug"] == 0 and r["acc_noise_ug_rthz"] == 0:
+        if r["accel_bias_ug"] == 0 and r["accel_vrw_ug_per_sqrt_hz"] == 0:
             what = f"no accelerometer error (gravity-model error of {nav} only)"
             ref = ref or c
         else:
             what = (
-                f"accelerometer bias {r['acc_bias_ug']:g} µg, noise "
-                f"{r['acc_noise_ug_rthz']:g} µg/√Hz (1σ)"
+                f"accelerometer bias {r['accel_bias_ug']:g} µg, noise "
+                f"{r['accel_vrw_ug_per_sqrt_hz']:g} µg/√Hz (1σ)"
             )
         stat = "median" if r["draws"] > 1 else "single run"
         labels[c] = (

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword, Setting
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -96,9 +96,9 @@ def check_mechanization(frame: str, *, baro: bool = False) -> str:
     """
     name = str(frame).lower()
     if name not in ("ned", "lci"):
-        raise InputError(f"frame must be 'ned' or 'lci', got {frame!r}", param="frame")
+        raise InputError(Keyword("frame"), f" must be 'ned' or 'lci', got {frame!r}", param="frame")
     if baro and name != "ned":
-        raise InputError("baro altitude aiding needs frame='ned'", param="frame")
+        raise InputError("baro altitude aiding needs ", Setting("frame", "ned"), param="frame")
     return name
 
 

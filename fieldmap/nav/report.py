@@ -130,18 +130,21 @@ def _json_doc(res: StudyResult) -> dict[str, Any]:
     return doc
 
 
-def write_outputs(res: StudyResult, out: str | Path | OutputBatch) -> list[str]:
+def write_outputs(
+    res: StudyResult, out: str | Path | OutputBatch, *, figures: bool = True
+) -> list[str]:
     """CSV, JSON, NetCDF and PNG of one study; return the paths.
 
     ``out`` is a folder (the four files are written as one
     :func:`fieldmap.products.io.output_batch`)
     or an open :class:`fieldmap.products.io.OutputBatch` (committed by its owner).
+    ``figures=False``: no PNG (``fieldmap navsim --no-plots``).
     """
     from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
 
     if not isinstance(out, OutputBatch):
         with output_batch(out) as batch:
-            paths: list = write_outputs(res, batch)
+            paths: list = write_outputs(res, batch, figures=figures)
         return paths
     base = f"navsim_{res.study}"
     buf = io.StringIO()
@@ -154,6 +157,8 @@ def write_outputs(res: StudyResult, out: str | Path | OutputBatch) -> list[str]:
         out.text(json.dumps(_json_doc(res), indent=2, default=float) + "\n", base + ".json"),
         out.netcdf(to_dataset(res), base + ".nc"),
     ]
+    if not figures:
+        return [str(p) for p in paths]
     with signals_deferred():  # see fieldmap.products.io.signals_deferred
         plot(res, str(out.path(base + ".png")))
     paths.append(out.folder / (base + ".png"))
@@ -260,9 +265,16 @@ def format_covariance(res: CovarianceStudyResult) -> str:
 
 
 def write_covariance_outputs(
-    res: CovarianceStudyResult, out: OutputBatch, prefix: str = "navsim_flight"
+    res: CovarianceStudyResult,
+    out: OutputBatch,
+    prefix: str = "navsim_flight",
+    *,
+    figures: bool = True,
 ) -> list[str]:
-    """``<prefix>.{json,csv,nc,png}`` of a covariance study into an open output batch."""
+    """``<prefix>.{json,csv,nc,png}`` of a covariance study into an open output batch.
+
+    ``figures=False``: no PNG (``fieldmap navsim --no-plots``).
+    """
     from fieldmap.nav import plots
     from fieldmap.products.io import signals_deferred
 
@@ -279,6 +291,8 @@ def write_covariance_outputs(
         out.text(buf.getvalue(), f"{prefix}.csv"),
         out.netcdf(res.to_dataset(), f"{prefix}.nc"),
     ]
+    if not figures:
+        return [str(p) for p in paths]
     with signals_deferred():
         paths.append(out.png(plots.sigma_figure(res), f"{prefix}.png"))
     return [str(p) for p in paths]
@@ -289,19 +303,22 @@ def write_flight_outputs(
     out: str | Path | OutputBatch,
     disturbance: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
     prefix: str = "navsim_flight",
+    *,
+    figures: bool = True,
 ) -> list[str]:
     """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_track.png`` of a flight study.
 
     ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:
     optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure; ``prefix`` the file
-    names' stem (default ``navsim_flight``).
+    names' stem (default ``navsim_flight``); ``figures=False``: no PNG (``fieldmap navsim
+    --no-plots``).
     """
     from fieldmap.nav import plots
     from fieldmap.products.io import OutputBatch, output_batch, signals_deferred
 
     if not isinstance(out, OutputBatch):
         with output_batch(out) as batch:
-            return write_flight_outputs(res, batch, disturbance, prefix)
+            return write_flight_outputs(res, batch, disturbance, prefix, figures=figures)
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["model", "statistic", "horizontal_m", "vertical_m", "north_m", "east_m", "down_m"])
@@ -325,6 +342,8 @@ def write_flight_outputs(
         out.text(buf.getvalue(), f"{prefix}.csv"),
         out.netcdf(flight_dataset(res), f"{prefix}.nc"),
     ]
+    if not figures:
+        return [str(p) for p in paths]
     with signals_deferred():
         paths.append(out.png(plots.errors_figure(res), f"{prefix}.png"))
         paths.append(out.png(plots.track_figure(res, disturbance), f"{prefix}_track.png"))

@@ -169,44 +169,44 @@ class ImuErrorSpec:
 
     Parameters
     ----------
-    acc_bias_ug : float
+    accel_bias_ug : float
         Accelerometer constant bias. Units: µg.
-    acc_noise_ug_rthz : float
+    accel_vrw_ug_per_sqrt_hz : float
         Accelerometer white-noise density. Units: µg/√Hz.
-    acc_scale_ppm : float
+    accel_scale_factor_ppm : float
         Accelerometer scale-factor error. Units: ppm.
-    acc_misalign_arcsec : float
+    accel_misalignment_arcsec : float
         Accelerometer triad installation error. Units: arcsec.
-    gyro_bias_deg_h : float
+    gyro_bias_deg_per_h : float
         Gyro constant bias. Units: °/h.
-    gyro_arw_deg_rth : float
+    gyro_arw_deg_per_sqrt_h : float
         Gyro angle random walk. Units: °/√h.
-    gyro_scale_ppm : float
+    gyro_scale_factor_ppm : float
         Gyro scale-factor error. Units: ppm.
-    gyro_misalign_arcsec : float
+    gyro_misalignment_arcsec : float
         Gyro triad installation error. Units: arcsec.
-    acc_bi_ug : float
+    accel_bias_instability_ug : float
         Accelerometer bias instability (Allan floor). Units: µg.
-    acc_bi_tau_s : float
+    accel_bias_instability_tau_s : float
         Its Gauss–Markov correlation time. Units: s.
-    gyro_bi_deg_h : float
+    gyro_bias_instability_deg_per_h : float
         Gyro bias instability (Allan floor). Units: °/h.
-    gyro_bi_tau_s : float
+    gyro_bias_instability_tau_s : float
         Its Gauss–Markov correlation time. Units: s.
     """
 
-    acc_bias_ug: float = 0.0
-    acc_noise_ug_rthz: float = 0.0
-    acc_scale_ppm: float = 0.0
-    acc_misalign_arcsec: float = 0.0
-    gyro_bias_deg_h: float = 0.0
-    gyro_arw_deg_rth: float = 0.0
-    gyro_scale_ppm: float = 0.0
-    gyro_misalign_arcsec: float = 0.0
-    acc_bi_ug: float = 0.0
-    acc_bi_tau_s: float = 3600.0
-    gyro_bi_deg_h: float = 0.0
-    gyro_bi_tau_s: float = 3600.0
+    accel_bias_ug: float = 0.0
+    accel_vrw_ug_per_sqrt_hz: float = 0.0
+    accel_scale_factor_ppm: float = 0.0
+    accel_misalignment_arcsec: float = 0.0
+    gyro_bias_deg_per_h: float = 0.0
+    gyro_arw_deg_per_sqrt_h: float = 0.0
+    gyro_scale_factor_ppm: float = 0.0
+    gyro_misalignment_arcsec: float = 0.0
+    accel_bias_instability_ug: float = 0.0
+    accel_bias_instability_tau_s: float = 3600.0
+    gyro_bias_instability_deg_per_h: float = 0.0
+    gyro_bias_instability_tau_s: float = 3600.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -217,7 +217,7 @@ class ImuErrorSpec:
                 ok = False
             if not ok:
                 raise InputError(f"IMU error {f.name} must be finite and >= 0, got {v!r}")
-        for key in ("acc_bi_tau_s", "gyro_bi_tau_s"):
+        for key in ("accel_bias_instability_tau_s", "gyro_bias_instability_tau_s"):
             if getattr(self, key) <= 0:
                 raise InputError(f"IMU error {key} must be > 0, got {getattr(self, key)!r}")
 
@@ -231,22 +231,22 @@ class ImuErrorSpec:
 
 #: Table 2 of Chen et al. (2022): accelerometer error groups (gyro perfect).
 TABLE2_GROUPS = {
-    1: ImuErrorSpec(acc_bias_ug=100.0, acc_noise_ug_rthz=10.0),
-    2: ImuErrorSpec(acc_bias_ug=10.0, acc_noise_ug_rthz=1.0),
-    3: ImuErrorSpec(acc_bias_ug=1.0, acc_noise_ug_rthz=0.1),
+    1: ImuErrorSpec(accel_bias_ug=100.0, accel_vrw_ug_per_sqrt_hz=10.0),
+    2: ImuErrorSpec(accel_bias_ug=10.0, accel_vrw_ug_per_sqrt_hz=1.0),
+    3: ImuErrorSpec(accel_bias_ug=1.0, accel_vrw_ug_per_sqrt_hz=0.1),
     4: ImuErrorSpec(),
 }
 
 #: Table 4 of Chen et al. (2022): the full IMU error model.
 TABLE4 = ImuErrorSpec(
-    acc_bias_ug=10.0,
-    acc_noise_ug_rthz=1.0,
-    acc_scale_ppm=10.0,
-    acc_misalign_arcsec=0.5,
-    gyro_bias_deg_h=0.003,
-    gyro_arw_deg_rth=0.0003,
-    gyro_scale_ppm=10.0,
-    gyro_misalign_arcsec=0.5,
+    accel_bias_ug=10.0,
+    accel_vrw_ug_per_sqrt_hz=1.0,
+    accel_scale_factor_ppm=10.0,
+    accel_misalignment_arcsec=0.5,
+    gyro_bias_deg_per_h=0.003,
+    gyro_arw_deg_per_sqrt_h=0.0003,
+    gyro_scale_factor_ppm=10.0,
+    gyro_misalignment_arcsec=0.5,
 )
 
 
@@ -358,17 +358,17 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
     if seed < 0:
         raise InputError(f"seed must be >= 0, got {seed}")
     rng = np.random.default_rng(seed)
-    acc_b = _axes(rng, spec.acc_bias_ug * UG, n, mode)
-    gyro_b = _axes(rng, spec.gyro_bias_deg_h * DEG_H, n, mode)
-    acc_M = (1.0 + _axes(rng, spec.acc_scale_ppm * 1e-6, n, mode))[:, :, None] * rotation(
-        _axes(rng, spec.acc_misalign_arcsec * ARCSEC, n, mode)
+    acc_b = _axes(rng, spec.accel_bias_ug * UG, n, mode)
+    gyro_b = _axes(rng, spec.gyro_bias_deg_per_h * DEG_H, n, mode)
+    acc_M = (1.0 + _axes(rng, spec.accel_scale_factor_ppm * 1e-6, n, mode))[:, :, None] * rotation(
+        _axes(rng, spec.accel_misalignment_arcsec * ARCSEC, n, mode)
     )
-    gyro_M = (1.0 + _axes(rng, spec.gyro_scale_ppm * 1e-6, n, mode))[:, :, None] * rotation(
-        _axes(rng, spec.gyro_misalign_arcsec * ARCSEC, n, mode)
+    gyro_M = (1.0 + _axes(rng, spec.gyro_scale_factor_ppm * 1e-6, n, mode))[:, :, None] * rotation(
+        _axes(rng, spec.gyro_misalignment_arcsec * ARCSEC, n, mode)
     )
     seeds = rng.integers(0, 2**31 - 1, size=n, dtype=np.int64).astype(np.int32)
-    acc_gm_sigma = spec.acc_bi_ug * UG / GM_ADEV_PEAK
-    gyro_gm_sigma = spec.gyro_bi_deg_h * DEG_H / GM_ADEV_PEAK
+    acc_gm_sigma = spec.accel_bias_instability_ug * UG / GM_ADEV_PEAK
+    gyro_gm_sigma = spec.gyro_bias_instability_deg_per_h * DEG_H / GM_ADEV_PEAK
     # drawn after everything else so that specs without bias instability draw as before
     acc_gm = acc_gm_sigma * rng.standard_normal((n, 3)) if acc_gm_sigma else np.zeros((n, 3))
     gyro_gm = gyro_gm_sigma * rng.standard_normal((n, 3)) if gyro_gm_sigma else np.zeros((n, 3))
@@ -377,13 +377,13 @@ def draw(spec: ImuErrorSpec, n: int, seed: int = 0, mode: str = "gauss") -> Erro
         gyro_b,
         acc_M,
         gyro_M,
-        np.full(n, spec.acc_noise_ug_rthz * UG),
-        np.full(n, spec.gyro_arw_deg_rth * DEG_RTH),
+        np.full(n, spec.accel_vrw_ug_per_sqrt_hz * UG),
+        np.full(n, spec.gyro_arw_deg_per_sqrt_h * DEG_RTH),
         seeds,
         np.full(n, acc_gm_sigma),
-        np.full(n, spec.acc_bi_tau_s if acc_gm_sigma else 0.0),
+        np.full(n, spec.accel_bias_instability_tau_s if acc_gm_sigma else 0.0),
         np.full(n, gyro_gm_sigma),
-        np.full(n, spec.gyro_bi_tau_s if gyro_gm_sigma else 0.0),
+        np.full(n, spec.gyro_bias_instability_tau_s if gyro_gm_sigma else 0.0),
         acc_gm,
         gyro_gm,
     )
@@ -510,16 +510,16 @@ def _grade(
     mis: float,
 ) -> ImuErrorSpec:
     return ImuErrorSpec(
-        acc_bias_ug=ab,
-        acc_noise_ug_rthz=avrw,
-        acc_bi_ug=abi,
-        acc_scale_ppm=sf,
-        acc_misalign_arcsec=mis,
-        gyro_bias_deg_h=gb,
-        gyro_arw_deg_rth=garw,
-        gyro_bi_deg_h=gbi,
-        gyro_scale_ppm=sf,
-        gyro_misalign_arcsec=mis,
+        accel_bias_ug=ab,
+        accel_vrw_ug_per_sqrt_hz=avrw,
+        accel_bias_instability_ug=abi,
+        accel_scale_factor_ppm=sf,
+        accel_misalignment_arcsec=mis,
+        gyro_bias_deg_per_h=gb,
+        gyro_arw_deg_per_sqrt_h=garw,
+        gyro_bias_instability_deg_per_h=gbi,
+        gyro_scale_factor_ppm=sf,
+        gyro_misalignment_arcsec=mis,
     )
 
 
@@ -535,23 +535,25 @@ PRESETS: dict[str, ImuErrorSpec] = {
     "table4": TABLE4,
 }
 
-#: TOML key -> ImuErrorSpec field(s)
+#: TOML key -> ImuErrorSpec field(s): a field's own name (one vocabulary: the keys of a TOML
+#: file, of :class:`ImuErrorSpec` and of the ``imu_spec`` a study's JSON records, so that a run's
+#: spec copied into a TOML file loads as the same spec), and the keys shared by both triads
 TOML_KEYS = {
-    "accel_bias_ug": ("acc_bias_ug",),
-    "accel_vrw_ug_per_sqrt_hz": ("acc_noise_ug_rthz",),
-    "accel_bias_instability_ug": ("acc_bi_ug",),
-    "accel_bias_instability_tau_s": ("acc_bi_tau_s",),
-    "accel_scale_factor_ppm": ("acc_scale_ppm",),
-    "accel_misalignment_arcsec": ("acc_misalign_arcsec",),
-    "gyro_bias_deg_per_h": ("gyro_bias_deg_h",),
-    "gyro_arw_deg_per_sqrt_h": ("gyro_arw_deg_rth",),
-    "gyro_bias_instability_deg_per_h": ("gyro_bi_deg_h",),
-    "gyro_bias_instability_tau_s": ("gyro_bi_tau_s",),
-    "gyro_scale_factor_ppm": ("gyro_scale_ppm",),
-    "gyro_misalignment_arcsec": ("gyro_misalign_arcsec",),
-    "scale_factor_ppm": ("acc_scale_ppm", "gyro_scale_ppm"),
-    "misalignment_arcsec": ("acc_misalign_arcsec", "gyro_misalign_arcsec"),
-    "bias_instability_tau_s": ("acc_bi_tau_s", "gyro_bi_tau_s"),
+    "accel_bias_ug": ("accel_bias_ug",),
+    "accel_vrw_ug_per_sqrt_hz": ("accel_vrw_ug_per_sqrt_hz",),
+    "accel_bias_instability_ug": ("accel_bias_instability_ug",),
+    "accel_bias_instability_tau_s": ("accel_bias_instability_tau_s",),
+    "accel_scale_factor_ppm": ("accel_scale_factor_ppm",),
+    "accel_misalignment_arcsec": ("accel_misalignment_arcsec",),
+    "gyro_bias_deg_per_h": ("gyro_bias_deg_per_h",),
+    "gyro_arw_deg_per_sqrt_h": ("gyro_arw_deg_per_sqrt_h",),
+    "gyro_bias_instability_deg_per_h": ("gyro_bias_instability_deg_per_h",),
+    "gyro_bias_instability_tau_s": ("gyro_bias_instability_tau_s",),
+    "gyro_scale_factor_ppm": ("gyro_scale_factor_ppm",),
+    "gyro_misalignment_arcsec": ("gyro_misalignment_arcsec",),
+    "scale_factor_ppm": ("accel_scale_factor_ppm", "gyro_scale_factor_ppm"),
+    "misalignment_arcsec": ("accel_misalignment_arcsec", "gyro_misalignment_arcsec"),
+    "bias_instability_tau_s": ("accel_bias_instability_tau_s", "gyro_bias_instability_tau_s"),
 }
 _TEXT_KEYS = ("name", "description")
 
@@ -723,10 +725,10 @@ def allan_table(spec: ImuErrorSpec, duration: float, rate_hz: float, seed: int =
         "tau_s": taus,
         "gyro_adev_deg_h": ag,
         "accel_adev_ug": aa,
-        "gyro_arw_at_1s_deg_h": spec.gyro_arw_deg_rth * 60.0,
-        "accel_vrw_at_1s_ug": spec.acc_noise_ug_rthz,
-        "gyro_bias_instability_deg_h": spec.gyro_bi_deg_h,
-        "accel_bias_instability_ug": spec.acc_bi_ug,
-        "gyro_bi_tau_s": spec.gyro_bi_tau_s,
-        "accel_bi_tau_s": spec.acc_bi_tau_s,
+        "gyro_arw_at_1s_deg_h": spec.gyro_arw_deg_per_sqrt_h * 60.0,
+        "accel_vrw_at_1s_ug": spec.accel_vrw_ug_per_sqrt_hz,
+        "gyro_bias_instability_deg_per_h": spec.gyro_bias_instability_deg_per_h,
+        "accel_bias_instability_ug": spec.accel_bias_instability_ug,
+        "gyro_bias_instability_tau_s": spec.gyro_bias_instability_tau_s,
+        "accel_bias_instability_tau_s": spec.accel_bias_instability_tau_s,
     }

@@ -74,7 +74,8 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.durations import seconds
+from fieldmap.errors import Advice, InputError, Keyword, Label, Setting
 from fieldmap.models.shmodel import SHModel
 from fieldmap.nav import sensors
 from fieldmap.nav.budget import (
@@ -260,7 +261,8 @@ def output_steps(output_dt: float, steps: int, step_s: float) -> int:
     lo = max([d for d in divisors if d * step_s <= output_dt] or [1])
     hi = min([d for d in divisors if d * step_s >= output_dt] or [steps])
     raise InputError(
-        f"output_dt: output interval {output_dt:g} s is not a whole number of navigation steps "
+        Keyword("output_dt"),
+        f": output interval {output_dt:g} s is not a whole number of navigation steps "
         f"({step_s:g} s) dividing the run ({steps * step_s:g} s): use e.g. "
         f"{lo * step_s:g} s or {hi * step_s:g} s",
         param="output_dt",
@@ -700,11 +702,15 @@ class FlightStudy:
 
     Parameters
     ----------
-    flight : Trajectory, FlightSamples, str or sequence of (lat, lon, h)
+    flight : Trajectory, FlightSamples, path, str or sequence of (lat, lon, h)
         The flight: a trajectory (e.g. :class:`~fieldmap.nav.trajectory.FlightTrajectory`), the
         samples of :func:`~fieldmap.nav.trajectory.read_flight` or
-        :func:`~fieldmap.nav.trajectory.route_flight`, or a route (``"lat,lon,h;..."`` or
-        waypoints; degrees, degrees, m) flown at ``speed_mps``.
+        :func:`~fieldmap.nav.trajectory.route_flight`, a flight log file (a path: CSV, ADS-B
+        export, GPX, NMEA, IGC or NetCDF, read and conditioned by
+        :func:`fieldmap.nav.logs.load_flight` with its defaults, the truth model's geoid for
+        MSL heights, as ``fieldmap navsim --trajectory FILE``), or a route (``"lat,lon,h;..."``
+        or waypoints; degrees, degrees, m) flown at ``speed_mps``. A string of numbers,
+        commas and semicolons is a route; any other string is a file.
     imu : str or ImuErrorSpec
         A preset name (``ideal consumer industrial tactical navigation strategic
         table2-groupN table4``), an IMU TOML file, or a spec (:mod:`fieldmap.nav.sensors`).
@@ -740,10 +746,12 @@ class FlightStudy:
         whole model every step.
     n_gauss : int
         Gauss–Legendre nodes per IMU sample in the synthesis, 1..16.
-    duration : float, optional
-        Part of the flight to simulate (default all). Units: s.
-    output_dt : float, optional
-        Interval of the stored errors (default :func:`default_output_dt`). Units: s.
+    duration : float or str, optional
+        Part of the flight to simulate (default all). Units: s, or a string with its unit
+        (``"5min"``, ``"1.5h"``: :func:`fieldmap.durations.seconds`).
+    output_dt : float or str, optional
+        Interval of the stored errors (default :func:`default_output_dt`). Units: s, or a
+        string with its unit.
     block_s : float
         Length of a synthesis/propagation block (memory bound). Units: s.
     fraction : float
@@ -795,8 +803,8 @@ class FlightStudy:
     truth_evaluation: str = "interpolated"
     gravity_rate_hz: float | str | None = None
     n_gauss: int = 3
-    duration: float | None = None
-    output_dt: float | None = None
+    duration: float | str | None = None
+    output_dt: float | str | None = None
     block_s: float = 600.0
     fraction: float = 0.1
     speed_mps: float | None = None
@@ -817,6 +825,10 @@ class FlightStudy:
     n_draws: int = field(init=False)
     gravity_every: int = field(init=False)
     gravity_terms: GravityTerms = field(init=False)
+    #: a flight given as a log file: what its conditioning did
+    #: (:class:`~fieldmap.nav.logs.report.ConditionedFlight`, its ``report`` lands in the
+    #: summary's ``conditioning``); None for any other flight
+    conditioning: Any = field(init=False)
 
     def __post_init__(self) -> None:
         from fieldmap.limits import MAX_DRAWS
@@ -825,23 +837,36 @@ class FlightStudy:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
-        flight = self.flight
-        if isinstance(flight, (str, list, tuple, np.ndarray)):
+        flight, truth_model = self.flight, None
+        put("conditioning", None)
+        if isinstance(flight, os.PathLike) or (isinstance(flight, str) and not _is_route(flight)):
+            if self.speed_mps is not None:
+                raise InputError(
+                    Keyword("speed_mps"),
+                    f" applies to a route flight, not to the flight file {flight}",
+                    param="speed_mps",
+                )
+            from fieldmap.nav.logs import load_flight
+
+            # the truth's geoid makes a log's MSL heights ellipsoidal
+            truth_model = load_truth_model(self.truth, self.truth_lmax)
+            flight, conditioning = load_flight(flight, model=truth_model)
+            put("conditioning", conditioning)
+        elif isinstance(flight, (str, list, tuple, np.ndarray)):
             if self.speed_mps is None:
                 raise InputError(
-                    "a route flight needs its ground speed (speed_mps=)", param="speed_mps"
+                    "a route flight needs its ground speed", Label("speed_mps"), param="speed_mps"
                 )
             flight = route_flight(flight, self.speed_mps)
             put("speed_mps", None)  # flown into the trajectory: dataclasses.replace works
         elif self.speed_mps is not None:
-            raise InputError(
-                "speed_mps applies to a route flight (flight= a route)", param="speed_mps"
-            )
+            raise InputError(Keyword("speed_mps"), " applies to a route flight", param="speed_mps")
         if isinstance(flight, FlightSamples):
             flight = FlightTrajectory(flight)
         if not isinstance(flight, Trajectory):
             raise InputError(
-                "flight must be a Trajectory, FlightSamples or a route, got "
+                Keyword("flight"),
+                " must be a Trajectory, FlightSamples, a log file or a route, got "
                 f"{type(flight).__name__}",
                 param="flight",
             )
@@ -852,19 +877,24 @@ class FlightStudy:
         elif isinstance(self.imu, (str, os.PathLike)):
             if not str(self.imu).strip():
                 raise InputError(
-                    f"imu is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU "
-                    ".toml file",
+                    Keyword("imu"),
+                    f" is empty: give a preset ({', '.join(sensors.PRESETS)}) or an IMU .toml file",
                     param="imu",
                 )
             label, spec = sensors.load_imu(self.imu)
         else:
-            raise InputError(f"imu must be a preset name, a .toml file or an ImuErrorSpec, "
-                             f"got {type(self.imu).__name__}", param="imu")  # fmt: skip
+            raise InputError(
+                Keyword("imu"),
+                f" must be a preset name, a .toml file or an ImuErrorSpec, got "
+                f"{type(self.imu).__name__}",
+                param="imu",
+            )
         put("imu", spec)
         put("imu_name", label if self.imu_name is None else str(self.imu_name))
         if self.truth_evaluation not in ("interpolated", "full"):
             raise InputError(
-                f"truth_evaluation must be 'interpolated' or 'full', got {self.truth_evaluation!r}",
+                Keyword("truth_evaluation"),
+                f" must be 'interpolated' or 'full', got {self.truth_evaluation!r}",
                 param="truth_evaluation",
             )
         frame = check_mechanization(self.frame)
@@ -872,53 +902,71 @@ class FlightStudy:
         aiding = str(self.altitude_aiding).lower()
         if aiding not in ("auto", "none", "baro"):
             raise InputError(
-                f"altitude_aiding must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
+                Keyword("altitude_aiding"),
+                f" must be 'auto', 'none' or 'baro', got {self.altitude_aiding!r}",
                 param="altitude_aiding",
             )
         if self.method not in ("monte-carlo", "covariance"):
             raise InputError(
-                f"method must be 'monte-carlo' or 'covariance', got {self.method!r}", param="method"
+                Keyword("method"),
+                f" must be 'monte-carlo' or 'covariance', got {self.method!r}",
+                param="method",
             )
         if not 0 < self.fraction < 1:
-            raise InputError(f"fraction must be in (0, 1), got {self.fraction}", param="fraction")
+            raise InputError(
+                Keyword("fraction"), f" must be in (0, 1), got {self.fraction}", param="fraction"
+            )
         for name in ("rate_hz", "block_s"):
             v = getattr(self, name)
             if isinstance(v, (str, bool)) or not np.isfinite(v) or v <= 0:
-                raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
+                raise InputError(
+                    Keyword(name), f" must be a positive number, got {v!r}", param=name
+                )
         n_draws = 1 if spec.is_ideal else self.draws
         if isinstance(self.draws, bool) or not 1 <= int(self.draws) <= MAX_DRAWS:
             raise InputError(
-                f"draws must be within 1..{MAX_DRAWS}, got {self.draws}", param="draws"
+                Keyword("draws"), f" must be within 1..{MAX_DRAWS}, got {self.draws}", param="draws"
             )
         if isinstance(self.seed, bool) or int(self.seed) < 0:
-            raise InputError(f"seed must be >= 0, got {self.seed}", param="seed")
+            raise InputError(Keyword("seed"), f" must be >= 0, got {self.seed}", param="seed")
         if not 1 <= int(self.n_gauss) <= 16:
-            raise InputError(f"n_gauss must be in 1..16, got {self.n_gauss}", param="n_gauss")
+            raise InputError(
+                Keyword("n_gauss"), f" must be in 1..16, got {self.n_gauss}", param="n_gauss"
+            )
         put("n_draws", int(n_draws))
-        model = load_truth_model(self.truth, self.truth_lmax)
+        model = (
+            load_truth_model(self.truth, self.truth_lmax) if truth_model is None else truth_model
+        )
         put("truth", model)
         names = self.models
         if isinstance(names, str):  # "j2,sh18" or "j2 sh18", as the CLI takes them
             names = names.replace(",", " ").split()
         put("models", tuple(check_model_names(names, model)))
         traj = self.flight
-        duration = traj.duration if self.duration is None else float(self.duration)
+        duration = (
+            traj.duration if self.duration is None else seconds(self.duration, param="duration")
+        )
         if not 0 < duration <= traj.duration * (1 + 1e-12):
             raise InputError(
-                f"duration {duration:g} s does not fit the flight ({traj.duration:g} s)",
+                Keyword("duration"),
+                f" {duration:g} s does not fit the flight ({traj.duration:g} s)",
                 param="duration",
             )
         put("duration_s", duration)
         try:
             check_tables_cover(self.models, traj, duration)
         except InputError as exc:
-            raise InputError(f"models: {exc}", param="models") from None
+            raise InputError(Keyword("models"), f": {exc}", param="models") from None
         if aiding == "auto":
             aiding = "baro" if duration > BARO_AFTER_S and frame == "ned" else "none"
         check_mechanization(frame, baro=aiding == "baro")
         put("aiding", aiding)
         rate_hz = self.rate_hz
-        output_dt = default_output_dt(duration) if self.output_dt is None else float(self.output_dt)
+        output_dt = (
+            default_output_dt(duration)
+            if self.output_dt is None
+            else seconds(self.output_dt, param="output_dt")
+        )
         per_fix = _check_gnss(self, duration, frame)
         if per_fix and self.output_dt is None:  # the stored states hold every fix
             per_out = next(
@@ -931,7 +979,8 @@ class FlightStudy:
         every = _steps_per_output(output_dt, rate_hz)
         if frame == "lci" and every % 2:
             raise InputError(
-                f"frame='lci' steps two IMU samples at a time: the output interval "
+                Setting("frame", "lci"),
+                " steps two IMU samples at a time: the output interval "
                 f"{output_dt:g} s must be an even number of samples at {rate_hz:g} Hz",
                 param="frame",
             )
@@ -957,7 +1006,8 @@ class FlightStudy:
         if block * rate_hz > MAX_SAMPLES:
             raise InputError(
                 f"a block of {block:g} s at {rate_hz:g} Hz is {block * rate_hz:.3g} IMU samples, "
-                f"more than {MAX_SAMPLES}: lower rate_hz or block_s",
+                f"more than {MAX_SAMPLES}",
+                Advice(": lower ", Keyword("rate_hz"), " or ", Keyword("block_s")),
                 param="block_s",
             )
         sample_count(block, rate_hz)
@@ -978,9 +1028,11 @@ def _check_gnss(study: FlightStudy, duration: float, frame: str) -> int:
     from fieldmap.nav.aiding import GnssSpec
 
     if not isinstance(g, GnssSpec):
-        raise InputError(f"gnss must be a GnssSpec or None, got {type(g).__name__}", param="gnss")
+        raise InputError(
+            Keyword("gnss"), f" must be a GnssSpec or None, got {type(g).__name__}", param="gnss"
+        )
     if frame != "ned":
-        raise InputError("GNSS aiding needs frame='ned'", param="frame")
+        raise InputError("GNSS aiding needs ", Setting("frame", "ned"), param="frame")
     g.check_flight(duration, float(study.rate_hz))
     return int(round(study.rate_hz / g.rate_hz))
 
@@ -996,13 +1048,14 @@ def _gravity_terms(study: FlightStudy, model: SHModel, n_draws: int) -> GravityT
     comm = study.commission
     if comm not in (None, True, False):
         raise InputError(
-            f"commission must be True, False or None, got {comm!r}", param="commission"
+            Keyword("commission"), f" must be True, False or None, got {comm!r}", param="commission"
         )
     if comm is None:
         comm = model.has_sigma
     elif comm and not model.has_sigma:
         raise InputError(
-            f"commission: the truth model {model.name} carries no coefficient standard deviations",
+            Keyword("commission"),
+            f": the truth model {model.name} carries no coefficient standard deviations",
             param="commission",
         )
     return GravityTerms(omission, bool(comm), max(n_draws, GRAVITY_DRAWS), int(study.seed))
@@ -1058,8 +1111,17 @@ def run_flight(
             raise InputError("a covariance study runs here: client= is for the Monte Carlo")
         from fieldmap.nav.covariance import covariance_study
 
-        return covariance_study(study, device)
-    return _fly(study, device, client, progress)
+        res: FlightResult | CovarianceStudyResult = covariance_study(study, device)
+    else:
+        res = _fly(study, device, client, progress)
+    if study.conditioning is not None:  # a log file: what was done to it, as navsim writes it
+        res.summary["conditioning"] = study.conditioning.report
+    return res
+
+
+def _is_route(text: str) -> bool:
+    """Tell a route (``"47,8,500;47.3,8.3,1000"``: numbers and separators) from a file name."""
+    return bool(text.strip()) and set(text) <= set("0123456789.,;+-eE \t\n")
 
 
 def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) -> FlightResult:
@@ -1301,8 +1363,14 @@ def to_dataset(res: Any) -> xr.Dataset:
 
 
 def flight_dataset(res: FlightResult) -> xr.Dataset:
-    """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8)."""
+    """Error curves, δg and the prediction of a flight study as an ``xarray.Dataset`` (CF-1.8).
+
+    String labels as auxiliary coordinates, the flown path as coordinates of time
+    (:mod:`fieldmap.nav.cf`).
+    """
     import xarray as xr
+
+    from fieldmap.nav.cf import flown_path, indexed_labels, labels
 
     models = list(res.dg)
     axis = np.array(["north", "east", "down"])
@@ -1318,7 +1386,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
             },
         )
     budget = getattr(res, "budget", None)
-    coords_extra = {}
+    coords_extra: dict[str, tuple[Any, str]] = {}
     if budget is not None and models:
         terms = ("total", "model_difference", "omission", "commission")
 
@@ -1333,7 +1401,7 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                 "term off), NED",
             },
         )
-        coords_extra["gravity_term"] = ("gravity_term", np.array(terms))
+        coords_extra["gravity_term"] = (terms, "term of the gravity error budget")
     ds = xr.Dataset(
         {
             **sigma,
@@ -1367,19 +1435,27 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
                     "long_name": "double time integral of the horizontal gravity error",
                 },
             ),
-            "latitude": ("time", res.track[:, 0], {"units": "degrees_north"}),
-            "longitude": ("time", res.track[:, 1], {"units": "degrees_east"}),
-            "height": ("time", res.track[:, 2], {"units": "m", "long_name": "ellipsoidal height"}),
         },
         coords={
-            "run": ("run", np.array(res.labels, dtype=str)),
-            "run_model": ("run", np.array(res.models, dtype=str)),
-            "draw": ("run", res.draw),
-            "model": ("model", np.array(models, dtype=str)),
+            **labels(
+                run=(res.labels, "run: navigation model and IMU error draw"),
+                model=(models, "navigation gravity model"),
+                axis=(axis, "axis of the local level frame (north, east, down)"),
+                horizontal_axis=(axis[:2], "horizontal axis of the local level frame"),
+                **coords_extra,
+            ),
+            "run_model": (
+                "run",
+                np.array(res.models, dtype=str),
+                {"long_name": "navigation gravity model of each run (imu_only: the reference)"},
+            ),
+            "draw": (
+                "run",
+                res.draw,
+                {"long_name": "Monte Carlo draw of the IMU errors of each run", "units": "1"},
+            ),
             "time": ("time", res.t, {"units": "s", "long_name": "time since the first sample"}),
-            "axis": ("axis", axis),
-            "horizontal_axis": ("horizontal_axis", axis[:2]),
-            **coords_extra,
+            **flown_path(res.track),
         },
         attrs={
             "Conventions": "CF-1.8",
@@ -1393,4 +1469,4 @@ def flight_dataset(res: FlightResult) -> xr.Dataset:
         from fieldmap.nav.aiding import add_to_dataset
 
         ds = add_to_dataset(ds, res.summary, res.sigma_h)
-    return ds
+    return indexed_labels(ds)

@@ -43,7 +43,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Message, Pass
 from fieldmap.nav.logs.condition import Conditioning
 
 if TYPE_CHECKING:
@@ -90,7 +90,9 @@ def load_flight(
     options : Conditioning, optional
         The conditioning (default ``Conditioning()``); its ``ellipsoid`` is that of the
         coordinates and of the flight. With ``smooth=False``: the exact interpolation of the
-        samples, refused where times go back (``reorder`` applies to the smoothing only).
+        samples, refused where times go back (``reorder`` applies to the smoothing only). The
+        0.1 keywords (``smooth=``, ``max_gap_s=`` …) still work, with a
+        ``DeprecationWarning``.
     columns, alt_units, height_ref, time_format, model
         As :func:`fieldmap.nav.logs.read.read_track` (``model``: the truth model whose geoid
         makes MSL heights ellipsoidal).
@@ -100,20 +102,6 @@ def load_flight(
     (FlightTrajectory, ConditionedFlight or None)
         The trajectory and the conditioning (its ``report`` and figure); None when flown as
         recorded.
-
-    Examples
-    --------
-    Ten minutes at 230 m/s and 10 km, one fix a second, given as columns:
-
-    >>> import numpy as np
-    >>> import fieldmap
-    >>> t = np.arange(0.0, 601.0)
-    >>> d = 230.0 * t / 111_195.0  # degrees of arc flown
-    >>> log = {"time_s": t, "lat_deg": 46.5 + d * 0.5, "lon_deg": 7.0 + d * 1.26,
-    ...        "height_m": np.full(t.size, 10_000.0)}
-    >>> flight, conditioning = fieldmap.load_flight(log)
-    >>> flight.duration, conditioning.report["outliers"]["count"]  # s
-    (600.0, 0)
     """
     from fieldmap.nav.logs.condition import condition
     from fieldmap.nav.trajectory import FlightTrajectory
@@ -146,13 +134,18 @@ def load_flight(
         cf = condition(track, replace(options, reorder=options.reorder and not exact))
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
-        text, param = str(exc), exc.param
+        message, param = Message(exc.args[0] if exc.args else ""), exc.param
         if param == "reorder" and exact:  # the caller's keyword that sorts is smooth=
-            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
+            message = message.substitute(Pass("reorder", True), Pass("smooth", True))
+            param = "smooth"
         if track.time_guess is not None:
             # the guess of the time units may be what made the log fail: say it was a guess
-            text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"
+            message = Message(
+                message,
+                f"; {track.time_guess}",
+                Advice(": ", Pass("time_format", "s"), " if they are seconds"),
+            )
             param = param or "time_format"
-        if text == str(exc):
+        if param == exc.param and track.time_guess is None:
             raise
-        raise InputError(text, param=param) from None
+        raise InputError(message, param=param) from None

@@ -164,7 +164,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 import fieldmap.nav.logs.fit as cfit
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Keyword, Label, Part, Pass
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.logs.report import (
@@ -300,7 +300,9 @@ def vehicle_class(name: str) -> Vehicle:
     v = VEHICLES.get(str(name).strip().lower())
     if v is None:
         raise InputError(
-            f"vehicle must be one of {', '.join(VEHICLES)}, got {name!r}", param="vehicle"
+            Keyword("vehicle"),
+            f" must be one of {', '.join(VEHICLES)}, got {name!r}",
+            param="vehicle",
         )
     return v
 
@@ -434,7 +436,8 @@ class Conditioning:
     def __post_init__(self) -> None:
         if self.on_long_gap not in ("bridge", "longest", "refuse"):
             raise InputError(
-                f"on_long_gap must be 'bridge', 'longest' or 'refuse', got {self.on_long_gap!r}",
+                Keyword("on_long_gap"),
+                f" must be 'bridge', 'longest' or 'refuse', got {self.on_long_gap!r}",
                 param="on_long_gap",
             )
         for name, optional in (
@@ -451,7 +454,9 @@ class Conditioning:
             if not (optional and v is None) and not (
                 isinstance(v, (int, float)) and np.isfinite(v) and v > 0
             ):
-                raise InputError(f"{name} must be a positive number, got {v!r}", param=name)
+                raise InputError(
+                    Keyword(name), f" must be a positive number, got {v!r}", param=name
+                )
         self.noise_m()
         if self.vehicle is not None:
             vehicle_class(self.vehicle)
@@ -467,7 +472,8 @@ class Conditioning:
             sig = [np.nan]
         if not all(np.isfinite(x) and x > 0 for x in sig):
             raise InputError(
-                f"position_noise_m must be positive metres, got {noise!r}",
+                Keyword("position_noise_m"),
+                f" must be positive metres, got {noise!r}",
                 param="position_noise_m",
             )
         return sig
@@ -765,16 +771,19 @@ class Stages:
         b = int(np.flatnonzero(self.seg == ids[1])[0])
         kind = next((k for i, j, k in self.breaks if a <= i < b or a < j <= b), "gap")
         o = dict(self.opts, **self.lim)
-        why = (
-            f"more than {o['max_gap_s']:g} s (max_gap_s): raise the limit"
+        why: tuple[Part, ...] = (
+            (f"more than {o['max_gap_s']:g} s", Label("max_gap_s"), ": raise the limit")
             if kind == "gap"
-            else f"a position or height jump (faster than {o['max_speed_mps']:g} m/s "
-            f"horizontally or {o['max_climb_mps']:g} m/s vertically)"
+            else (
+                f"a position or height jump (faster than {o['max_speed_mps']:g} m/s "
+                f"horizontally or {o['max_climb_mps']:g} m/s vertically)",
+            )
         )
         raise InputError(
             f"{self.log.source} lines {lines[a]}..{lines[b]}: the flight breaks for "
-            f"{t[b] - t[a]:.1f} s (t = {t[a]:.1f} .. {t[b]:.1f} s), {why}; "
-            "pass on_long_gap='longest' to fly the longest segment",
+            f"{t[b] - t[a]:.1f} s (t = {t[a]:.1f} .. {t[b]:.1f} s), ",
+            *why,
+            Advice("; ", Pass("on_long_gap", "longest"), " to fly the longest segment"),
             param="max_gap_s" if kind == "gap" else "on_long_gap",
         )
 
@@ -815,19 +824,24 @@ class Stages:
         if counts.get("ground", 0) >= 0.5 * n:
             raise InputError(
                 f"{where}: no airborne part: the vehicle stays slower than "
-                f"{o['min_speed_mps']:g} m/s (min_speed_mps) near its first/last height "
-                f"({counts['ground']} of {n} samples on the ground, trimmed); pass "
-                "airborne_only=False to fly the ground movement",
+                f"{o['min_speed_mps']:g} m/s",
+                Label("min_speed_mps"),
+                f" near its first/last height ({counts['ground']} of {n} samples on the ground, "
+                "trimmed)",
+                Advice("; ", Pass("airborne_only", False), " to fly the ground movement"),
                 param="airborne_only",
             )
         what = ", ".join(f"{v} {k}" for k, v in counts.items())
         dtm = median_interval(log.t)
-        hint = ""
+        hint: tuple[Part, ...] = ()
         if dtm > o["max_gap_s"]:
-            hint = f"; the samples are {dtm:g} s apart: raise max_gap_s"
+            hint = (f"; the samples are {dtm:g} s apart", Advice(": raise ", Keyword("max_gap_s")))
         raise InputError(
             f"{where}: no stretch of at least {MIN_POINTS} usable samples without a gap over "
-            f"{o['max_gap_s']:g} s (max_gap_s) or a jump ({what}){hint}",
+            f"{o['max_gap_s']:g} s",
+            Label("max_gap_s"),
+            f" or a jump ({what})",
+            *hint,
             param="max_gap_s",
         )
 
@@ -1553,7 +1567,8 @@ class OrderedLog:
                 i = back[0]
                 raise InputError(
                     f"{src} line {lines[i]}: time {t[i]:.3f} s goes back from the previous "
-                    f"{t[i - 1]:.3f} s (line {lines[i - 1]}); pass reorder=True to sort the log",
+                    f"{t[i - 1]:.3f} s (line {lines[i - 1]})",
+                    Advice("; ", Pass("reorder", True), " to sort the log"),
                     param="reorder",
                 )
             order = np.argsort(t, kind="stable")

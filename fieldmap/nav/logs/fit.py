@@ -76,7 +76,7 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Keyword, Pass
 
 #: normal consistency factor of the MAD (1 / Φ⁻¹(3/4))
 MAD_SCALE = 1.482602218505602
@@ -776,7 +776,8 @@ def check(
                 f"{100 * CONTRADICTION:g} % of the speed (the median differs by "
                 f"{np.median(r):.0f} m/s at a median speed of {np.median(speed):.0f} m/s from "
                 "the positions): a unit or a column mixed up, or velocities that are stale or "
-                "from another source; pass log_velocities=False to fly the positions alone",
+                "from another source",
+                Advice("; ", Pass("log_velocities", False), " to fly the positions alone"),
                 param="log_velocities",
             )
         s = MAD_SCALE * float(np.median(r[agree])) if agree.any() else 0.0
@@ -790,7 +791,9 @@ def check(
                 f"{source} lines {lines[obs.iv[0]]}..{lines[obs.iv[-1]]}: the log's vertical "
                 f"rates ({names}) contradict its heights: {100 * agree.mean():.0f} % agree "
                 f"within half the rate or {CONTRADICTION_V:g} m/s: a unit or a column mixed up "
-                "(the altitudes' alt_units, the rates')?",
+                "(the altitudes' ",
+                Keyword("alt_units"),
+                ", the rates')?",
                 param="alt_units",
             )
         # barometric heights go wrong for minutes (held, from another source) where the

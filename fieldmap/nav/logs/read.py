@@ -112,7 +112,7 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import Advice, InputError, Keyword, Message, Part, Pass
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
 
@@ -399,11 +399,17 @@ def _table(
     ref = next((r for r in alts if filled[r] >= 0.5), max(filled, key=filled.__getitem__))
     ref_note = None
     if kind == "mapping":
-        ref_note = "heights taken as MSL (the default for a column mapping: give height_ref)"
+        ref_note = Message(
+            "heights taken as MSL (the default for a column mapping",
+            Advice(": give ", Keyword("height_ref")),
+            ")",
+        )
     elif ref == "msl":
-        ref_note = (
+        ref_note = Message(
             f"{alts[ref][0]}: ADS-B geometric altitude, read as MSL (DO-260B transponders "
-            "report it above the ellipsoid: pass height_ref='ellipsoid')"
+            "report it above the ellipsoid",
+            Advice(": ", Pass("height_ref", "ellipsoid")),
+            ")",
         )
     names = (tname, latname, lonname)
     p = Parsed(t, lat, lon, alts, ref, units, lines, source, absolute, names, where_word, notes)
@@ -467,15 +473,19 @@ def read_track(
         One line naming the source, line (or record) and column.
     """
     if alt_units not in (None, "m", "ft"):
-        raise InputError(f"alt_units: {alt_units!r} is not one of m, ft", param="alt_units")
+        raise InputError(
+            Keyword("alt_units"), f": {alt_units!r} is not one of m, ft", param="alt_units"
+        )
     if height_ref not in (None, *HEIGHT_REFS):
         raise InputError(
-            f"height_ref: {height_ref!r} is not one of {', '.join(HEIGHT_REFS)}",
+            Keyword("height_ref"),
+            f": {height_ref!r} is not one of {', '.join(HEIGHT_REFS)}",
             param="height_ref",
         )
     if time_format not in (None, "s", "epoch", "epoch_ms", "iso") and "%" not in time_format:
         raise InputError(
-            f"time_format: {time_format!r} is not one of s, epoch, epoch_ms, iso or a "
+            Keyword("time_format"),
+            f": {time_format!r} is not one of s, epoch, epoch_ms, iso or a "
             "strptime pattern (%Y-%m-%d %H:%M:%S)",
             param="time_format",
         )
@@ -495,9 +505,9 @@ def read_track(
             given = [k for k, v in (("columns", columns), ("time_format", time_format)) if v]
             if given:
                 verb = "apply" if len(given) > 1 else "applies"
+                names = [Keyword(given[0])] + [p for k in given[1:] for p in (" and ", Keyword(k))]
                 raise InputError(
-                    f"{path}: {' and '.join(given)} {verb} to CSV files (a {kind})",
-                    param=given[0],
+                    f"{path}: ", *names, f" {verb} to CSV files (a {kind})", param=given[0]
                 )
             p = {"gpx": read_gpx, "nmea": read_nmea, "igc": read_igc}[kind](text, str(path))
     else:
@@ -720,8 +730,8 @@ def _check_epoch(t: np.ndarray, raw: np.ndarray, where: Where, name: str, how: s
         i = int(bad[0])
         when = "before the year 1" if t[i] < _EPOCH_MIN else "after the year 9999"
         raise InputError(
-            f"{where(i)} column {name}: {raw[i]:.17g} read as {how} is {when}: give their units "
-            "with time_format (s, epoch, epoch_ms)",
+            f"{where(i)} column {name}: {raw[i]:.17g} read as {how} is {when}",
+            Advice(": give their units with ", Keyword("time_format"), " (s, epoch, epoch_ms)"),
             param="time_format",
         )
 
@@ -809,14 +819,16 @@ def check_units(
     aname: str,
 ) -> None:
     """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring)."""
-    hint = "pass alt_units='ft'" if units == "m" else "a wrong column?"
-    hint += ", or pass alt_units='m' if these are metres"
+    hint: tuple[Part, ...] = (
+        (Advice(" ", Pass("alt_units", "ft")),) if units == "m" else (" a wrong column?",)
+    ) + (Advice(", or ", Pass("alt_units", "m"), " if these are metres"),)
     hi = float(np.percentile(a, 99))
     if hi > MAX_ALTITUDE:
         i = int(np.argmax(a))
         raise InputError(
             f"{where} {lines[i]} column {aname}: altitudes up to {hi:,.0f} m with an aircraft's "
-            f"speed (median {vmed:.0f} m/s): feet read as metres? {hint}",
+            f"speed (median {vmed:.0f} m/s): feet read as metres?",
+            *hint,
             param="alt_units",
         )
     # A unit error (or a wrong column) is in every sample: the rate it makes is the track's
@@ -839,7 +851,9 @@ def check_units(
             raise InputError(
                 f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {med[i]:,.0f} m/s "
                 f"sustained over 5 samples (an aircraft: < {MAX_CLIMB:g} m/s): altitudes in "
-                f"{units}? {hint}; give alt_units to skip this check",
+                f"{units}?",
+                *hint,
+                Advice("; give ", Keyword("alt_units"), " to skip this check"),
                 param="alt_units",
             )
 
@@ -1195,9 +1209,10 @@ def read_igc(text: str, source: str) -> Parsed:
     else:
         ref = gref
         if alg is None:
-            ref_note = (
+            ref_note = Message(
                 "GNSS altitude read as height above the WGS84 ellipsoid (IGC specification; no "
-                "HFALG header): pass height_ref='msl' if your recorder writes MSL"
+                "HFALG header)",
+                Advice(": ", Pass("height_ref", "msl"), " if your recorder writes MSL"),
             )
     if day0 is None:
         notes.append("no HFDTE date: times are seconds from 00:00 UTC of the flight's first day")

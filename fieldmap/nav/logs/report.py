@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from fieldmap.errors import Advice, Message, Metavar, Pass
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
 from fieldmap.nav.trajectory import FlightSamples
@@ -219,9 +220,12 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
     veh, lim = st.vehicle, st.lim
     if o["smooth"]:
         notes.append(
-            f"vehicle: {veh.name} ({st.vehicle_why}; pass vehicle=CLASS to choose): load factor "
-            f"{veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, speed "
-            f"{veh.speed:g} m/s"
+            Message(
+                f"vehicle: {veh.name} ({st.vehicle_why}",
+                Advice("; ", Pass("vehicle", Metavar("CLASS")), " to choose"),
+                f"): load factor {veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, "
+                f"speed {veh.speed:g} m/s",
+            )
         )
     if fr["softened"]:
         limits = [f"load factor {veh.n_min:g}..{veh.n_max:g} g"]
