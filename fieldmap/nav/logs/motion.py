@@ -1,0 +1,443 @@
+r"""The vehicle's motion as a state-space model, and its robust smoother over a whole log.
+
+One model carries the conditioning of every flight log (:mod:`fieldmap.nav.logs.condition`).
+
+**Motion.** Each axis of the path (the three ECEF axes of the horizontal position's surface
+point, and the height) is a Singer (1970) manoeuvre model with a damped velocity:
+
+.. math::
+
+    \dot p = v, \qquad \dot v = a - \beta v, \qquad \dot a = -a/\tau + w(t),
+    \qquad \mathrm E[w(t)\,w(s)] = q\,\delta(t - s),
+
+the acceleration a first-order Gauss–Markov process of correlation time :math:`\tau` (the
+duration of a manoeuvre) and stationary standard deviation :math:`\sigma_a = \sqrt{q\tau/2}`,
+driven by white jerk of intensity :math:`q` (m²/s⁵). Horizontally :math:`\beta = 0` (a vehicle
+holds its speed); vertically :math:`\beta = 1/\tau_v` makes the vertical speed stationary too:
+over a long gap the expected climb decays to zero instead of integrating into invented height
+swings (Singer 1970; Bar-Shalom, Li & Kirubarajan 2001 §8.2). On a regular grid of step
+:math:`\Delta` the states :math:`x_k = (p, v, a)_k` follow :math:`x_{k+1} = F x_k + e_k`,
+:math:`e_k \sim N(0, Q)`, with :math:`F = e^{A\Delta}` and
+:math:`Q = \int_0^\Delta e^{As} G q G^\top e^{A^\top s} ds` (Van Loan 1978), both from one
+matrix exponential (:meth:`MotionModel.transition`).
+
+**Measurements.** A fix at time :math:`t_i = t_k + \delta` (:math:`|\delta| \le \Delta/2`, the
+nearest node) measures :math:`y_i = h_i^\top x_k + \varepsilon_i` with
+:math:`h = (1, \delta, \delta^2/2)` for a position and :math:`(0, 1, \delta)` for a rate
+(the log's ground velocity or vertical rate); :math:`\varepsilon_i` is drawn from a mixture:
+with probability :math:`1 - \epsilon` the channel's noise :math:`N(0, s^2 \rho_i^2)` (scale
+:math:`s` estimated, :math:`\rho_i` known: a rounding, a run of one repeated value), with
+probability :math:`\epsilon` a fault, uniform over the range the log spans (a fix from
+elsewhere, a glitch, a stretch with wrong time tags).
+
+**Smoother.** The smoothed path minimises
+
+.. math::
+
+    J(x) = \sum_k (x_{k+1} - F x_k)^\top Q^{-1} (x_{k+1} - F x_k)
+         + \sum_i \frac{w_i}{s^2 \rho_i^2} (y_i - h_i^\top x_{k(i)})^2,
+
+whose normal equations :math:`A x = b` are block tridiagonal (banded, 5 off-diagonals): one
+banded Cholesky solve gives the Rauch–Tung–Striebel smoother's mean (Rauch, Tung & Striebel
+1965; the equivalence: Bell 1994). The weights are the EM expectation of the mixture: with
+:math:`\pi_i` the posterior probability that fix :math:`i` is a fault,
+:math:`w_i = 1 - \pi_i`, and :math:`\epsilon` the mean of :math:`\pi` (Dempster, Laird &
+Rubin 1977). A fix is rejected when :math:`\pi_i > 1/2`: the fault explains it better than the
+path does.
+
+**Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
+of the data (diffuse initial state),
+
+.. math::
+
+    -2\log L = J(\hat x) + d\,\log\det A - d\,(N - 1)\log\det Q^{-1}
+             + \sum_i w_i\,d_i \log(s^2 \rho_i^2) + \mathrm{const},
+
+(:math:`d` axes sharing one :math:`A`, :math:`d_i` the measured degrees of freedom of fix
+:math:`i`), with :math:`q` held inside the bounds that the vehicle class gives
+(:mod:`fieldmap.nav.logs.vehicles`): its process noise, not a loop that softens the result
+afterwards.
+
+**Uncertainty.** The posterior covariance is :math:`A^{-1}`; the σ of the path at a node (in a
+gap, say) is one banded solve with a unit vector (:meth:`SmoothedAxis.sigma_at`).
+
+References: Singer, R. A. (1970) IEEE Trans. AES 6, 473-483. Van Loan, C. F. (1978) IEEE Trans.
+AC 23, 395-404. Rauch, H. E., Tung, F. & Striebel, C. T. (1965) AIAA J. 3, 1445-1450. Bell, B.
+M. (1994) SIAM J. Optim. 4, 626-636. Dempster, A. P., Laird, N. M. & Rubin, D. B. (1977) J. R.
+Statist. Soc. B 39, 1-38. Bar-Shalom, Y., Li, X. R. & Kirubarajan, T. (2001) Estimation with
+Applications to Tracking and Navigation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import cho_solve_banded, cholesky_banded, expm
+from scipy.optimize import minimize_scalar
+
+#: states per axis (position, velocity, acceleration) and the band of the normal equations
+NS = 3
+BAND = 2 * NS - 1
+
+
+@dataclass(frozen=True)
+class MotionModel:
+    """The Singer manoeuvre model of one axis (module docstring).
+
+    Attributes
+    ----------
+    tau_s : float
+        Correlation time of the acceleration (a manoeuvre's duration). Units: s.
+    beta : float
+        Damping of the velocity (0: none). Units: 1/s.
+    """
+
+    tau_s: float
+    beta: float = 0.0
+
+    def transition(self, dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(F, Q)`` of one grid step ``dt`` (s) for jerk intensity ``q`` (m²/s⁵).
+
+        Van Loan (1978): ``expm([[-A, G q Gᵀ], [0, Aᵀ]] dt) = [[·, F⁻¹Q], [0, Fᵀ]]``.
+        """
+        A = np.array([[0.0, 1.0, 0.0], [0.0, -self.beta, 1.0], [0.0, 0.0, -1.0 / self.tau_s]])
+        GQG = np.zeros((3, 3))
+        GQG[2, 2] = q
+        M = np.zeros((6, 6))
+        M[:3, :3], M[:3, 3:], M[3:, 3:] = -A, GQG, A.T
+        E = expm(M * dt)
+        F = E[3:, 3:].T
+        Q = F @ E[:3, 3:]
+        return F, 0.5 * (Q + Q.T)
+
+    def sigma_accel(self, q: float) -> float:
+        """Stationary σ of the acceleration (m/s²) for jerk intensity ``q``: √(qτ/2)."""
+        return math.sqrt(q * self.tau_s / 2.0)
+
+    def q_for_sigma_accel(self, sigma_a: float) -> float:
+        """Jerk intensity (m²/s⁵) whose stationary acceleration σ is ``sigma_a`` (m/s²)."""
+        return 2.0 * sigma_a**2 / self.tau_s
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Regular nodes ``t0 + dt * k``, ``k = 0 .. n - 1``. Units: s."""
+
+    t0: float
+    dt: float
+    n: int
+
+    @property
+    def t(self) -> np.ndarray:
+        """The node times (s)."""
+        return self.t0 + self.dt * np.arange(self.n)
+
+    def locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest node ``k`` of each time and the offset ``δ = t − t_k`` (s)."""
+        k = np.clip(np.rint((t - self.t0) / self.dt).astype(np.int64), 0, self.n - 1)
+        return k, t - (self.t0 + self.dt * k)
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One kind of measurement of an axis group: positions (``order`` 0) or rates (1).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Times (s), (m,).
+    y : numpy.ndarray
+        Values, (m, d) for the d axes of the group. Units: m or m/s.
+    rho : numpy.ndarray
+        Relative σ of each (the channel's scale times this is its σ), (m,).
+    order : int
+        0: a position; 1: a rate.
+    dof : int
+        Degrees of freedom one measurement carries (2 for a horizontal position in 3 ECEF
+        axes: the surface point's radial component is no measurement).
+    fault_density : float
+        Density of the fault distribution at any value (uniform over the range the log
+        spans), in the units of ``y`` to the power ``-dof``.
+    name : str
+        For reports.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    rho: np.ndarray
+    order: int
+    dof: int
+    fault_density: float
+    name: str
+
+
+@dataclass
+class SmoothedAxis:
+    """A solved axis group: states, weights, noise levels and the Cholesky factor.
+
+    Attributes
+    ----------
+    x : numpy.ndarray
+        States at the nodes, (n, 3, d): position, velocity, acceleration per axis.
+    q : float
+        Jerk intensity (m²/s⁵).
+    scales : list of float
+        Each channel's noise scale ``s`` (m, m/s).
+    fault_prob : list of numpy.ndarray
+        Each channel's posterior fault probabilities π.
+    fault_rate : list of float
+        Each channel's fault fraction ε.
+    neg2loglik : float
+        The marginal likelihood's ``-2 log L`` at the solution.
+    """
+
+    grid: Grid
+    model: MotionModel
+    x: np.ndarray
+    q: float
+    scales: list[float]
+    fault_prob: list[np.ndarray]
+    fault_rate: list[float]
+    neg2loglik: float
+    chol: np.ndarray = field(repr=False)
+
+    def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
+        """The path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
+        k, d = self.grid.locate(np.asarray(t, dtype=np.float64))
+        h = _rows(d, order)
+        return _apply(h, self.x[k])
+
+    def sigma_at(self, k: int, state: int = 0) -> float:
+        """Posterior σ of state ``state`` (0 position) at node ``k`` (one banded solve)."""
+        e = np.zeros(NS * self.grid.n)
+        e[NS * k + state] = 1.0
+        z = cho_solve_banded((self.chol, False), e)
+        return float(math.sqrt(max(z[NS * k + state], 0.0)))
+
+
+def _rows(delta: np.ndarray, order: int) -> np.ndarray:
+    """Measurement rows (m, 3): position ``(1, δ, δ²/2)`` or rate ``(0, 1, δ)``."""
+    one, zero = np.ones_like(delta), np.zeros_like(delta)
+    if order == 0:
+        return np.stack([one, delta, 0.5 * delta * delta], -1)
+    return np.stack([zero, one, delta], -1)
+
+
+def _apply(h: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Rows ``h`` (m, 3) applied to states ``x`` (m, 3, d): (m, d)."""
+    return h[:, 0, None] * x[:, 0] + h[:, 1, None] * x[:, 1] + h[:, 2, None] * x[:, 2]
+
+
+def _process_band(P: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
+    """The process part of the normal matrix (``P = Q⁻¹``) in upper banded form."""
+    FtPF, mFtP = F.T @ P @ F, -F.T @ P
+    ab = np.zeros((BAND + 1, NS * n))
+    for r in range(NS):
+        for c in range(r, NS):
+            row = BAND + r - c
+            col = np.arange(n) * NS + c
+            vals = np.zeros(n)
+            vals[1:] += P[r, c]
+            vals[:-1] += FtPF[r, c]
+            ab[row, col] = vals
+        for c in range(NS):
+            # block (k, k+1): rows NS k + r, columns NS (k+1) + c
+            row = BAND + r - (NS + c)
+            col = np.arange(n - 1) * NS + NS + c
+            ab[row, col] = mFtP[r, c]
+    return ab
+
+
+class AxisSmoother:
+    """The robust smoother of one axis group (module docstring) on a grid.
+
+    Parameters
+    ----------
+    grid : Grid
+        The nodes (the measurements lie within them).
+    model : MotionModel
+        The motion model of the group's axes.
+    channels : list of Channel
+        The measurements.
+    q_bounds : (float, float)
+        The jerk intensity's bounds (m²/s⁵), from the vehicle class.
+    scale_bounds : list of (float, float)
+        Each channel's noise scale bounds (m or m/s): its floor (the rounding of the values) and
+        a ceiling.
+    fixed_scales : list of float or None
+        Scales given by the user (not estimated) per channel, None where estimated.
+    """
+
+    def __init__(
+        self,
+        grid: Grid,
+        model: MotionModel,
+        channels: list[Channel],
+        q_bounds: tuple[float, float],
+        scale_bounds: list[tuple[float, float]],
+        fixed_scales: list[float | None] | None = None,
+    ) -> None:
+        self.grid, self.model, self.channels = grid, model, channels
+        self.q_bounds, self.scale_bounds = q_bounds, scale_bounds
+        self.fixed = fixed_scales or [None] * len(channels)
+        self.d = channels[0].y.shape[1]
+        self._unit: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
+        loc = [grid.locate(c.t) for c in channels]
+        self.k = [k for k, _ in loc]
+        self.h = [_rows(d, c.order) for (_, d), c in zip(loc, channels)]
+
+    # -- one solve ---------------------------------------------------------------------------
+
+    def _process(self, q: float) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+        """Banded process matrix, ``log det Q⁻¹``, ``Q⁻¹`` and ``F`` for ``q``.
+
+        ``Q`` is linear in ``q`` (``F`` does not depend on it): one matrix exponential per grid.
+        """
+        if self._unit is None:
+            F, Q1 = self.model.transition(self.grid.dt, 1.0)
+            P1 = np.linalg.inv(Q1)
+            P1 = 0.5 * (P1 + P1.T)
+            self._unit = (_process_band(P1, F, self.grid.n), float(np.linalg.slogdet(P1)[1]), P1, F)
+        ab1, logdet1, P1, F = self._unit
+        return ab1 / q, logdet1 - NS * math.log(q), P1 / q, F
+
+    def measurements(self, weights: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each channel's part of the normal equations at unit scale: (banded matrix, rhs)."""
+        n, d = self.grid.n, self.d
+        out = []
+        for c, k, h, w in zip(self.channels, self.k, self.h, weights):
+            wi = w / c.rho**2
+            ab = np.zeros((BAND + 1, NS * n))
+            b = np.zeros((NS * n, d))
+            for r in range(NS):
+                for cc in range(r, NS):
+                    ab[BAND + r - cc, cc::NS] = np.bincount(k, wi * h[:, r] * h[:, cc], minlength=n)
+                for j in range(d):
+                    b[r::NS, j] = np.bincount(k, wi * h[:, r] * c.y[:, j], minlength=n)
+            out.append((ab, b))
+        return out
+
+    def solve(
+        self,
+        q: float,
+        scales: list[float],
+        weights: list[np.ndarray],
+        parts: list[tuple[np.ndarray, np.ndarray]] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """States (n, 3, d), the Cholesky factor and ``-2 log L`` (module docstring).
+
+        ``parts``: :meth:`measurements` of ``weights`` when already computed.
+        """
+        n, d = self.grid.n, self.d
+        ab0, logdetP, P, F = self._process(q)
+        parts = self.measurements(weights) if parts is None else parts
+        ab = ab0.copy()
+        b = np.zeros((NS * n, d))
+        norm = 0.0
+        for c, w, s, (abc, bc) in zip(self.channels, weights, scales, parts):
+            ab += abc / s**2
+            b += bc / s**2
+            norm += float(np.sum(w * c.dof * np.log((s * c.rho) ** 2)))
+        try:
+            cb = cholesky_banded(ab, lower=False, check_finite=False)
+        except np.linalg.LinAlgError:
+            # a grid stretch without measurements and a stiff model: a whisper of a prior on
+            # the states keeps the system definite without moving the solution measurably
+            ab[BAND] += 1e-9 * np.maximum(ab[BAND].max(), 1.0)
+            cb = cholesky_banded(ab, lower=False, check_finite=False)
+        x = cho_solve_banded((cb, False), b, check_finite=False).reshape(n, NS, d)
+        # J at the solution: process + measurements
+        e = x[1:] - np.matmul(F, x[:-1])
+        J = float(np.sum(e * np.matmul(P, e)))
+        for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
+            r = c.y - _apply(h, x[k])
+            J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
+        logdetA = 2.0 * float(np.sum(np.log(cb[BAND])))
+        neg2 = J + d * logdetA - d * (n - 1) * logdetP + norm
+        return x, cb, neg2
+
+    # -- the mixture's weights ----------------------------------------------------------------
+
+    def fault_probabilities(
+        self, x: np.ndarray, scales: list[float], rates: list[float]
+    ) -> list[np.ndarray]:
+        """Posterior fault probability π of every measurement (module docstring)."""
+        out = []
+        for c, k, h, s, eps in zip(self.channels, self.k, self.h, scales, rates):
+            r = c.y - _apply(h, x[k])
+            var = (s * c.rho) ** 2
+            z2 = np.sum(r * r, axis=1) / var
+            # log of the inlier density (dof-dimensional isotropic Gaussian)
+            log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
+            log_out = math.log(max(c.fault_density, 1e-300))
+            a = np.log(eps) + log_out
+            bb = np.log1p(-eps) + log_in
+            m = np.maximum(a, bb)
+            out.append(np.exp(a - m) / (np.exp(a - m) + np.exp(bb - m)))
+        return out
+
+    # -- the whole estimate -------------------------------------------------------------------
+
+    def run(self, q0: float, scales0: list[float], passes: int = 2) -> SmoothedAxis:
+        """EM for the mixture, alternating with the marginal-likelihood noise levels.
+
+        Starts from ``q0`` and ``scales0`` (robust first guesses); each of the ``passes``: the
+        weights from the fault probabilities (twice: the path moves once the gross faults lose
+        their weight), then ``q`` and the scales maximising the likelihood with the weights
+        held; a last E-step gives the weights of the final path.
+        """
+        q = float(np.clip(q0, *self.q_bounds))
+        scales = [
+            float(f) if f is not None else float(np.clip(s, *sb))
+            for s, sb, f in zip(scales0, self.scale_bounds, self.fixed)
+        ]
+        weights = [np.ones(c.t.size) for c in self.channels]
+        rates = [0.01 for _ in self.channels]
+        x, cb, neg2 = self.solve(q, scales, weights)
+        for _ in range(passes):
+            for _ in range(2):
+                pi = self.fault_probabilities(x, scales, rates)
+                rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
+                weights = [1.0 - p for p in pi]
+                x, cb, neg2 = self.solve(q, scales, weights)
+            q, scales = self._maximise(q, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights)
+        pi = self.fault_probabilities(x, scales, rates)
+        rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
+        weights = [1.0 - p for p in pi]
+        x, cb, neg2 = self.solve(q, scales, weights)
+        pi = self.fault_probabilities(x, scales, rates)
+        return SmoothedAxis(self.grid, self.model, x, q, scales, pi, rates, neg2, cb)
+
+    def _maximise(
+        self, q: float, scales: list[float], weights: list[np.ndarray]
+    ) -> tuple[float, list[float]]:
+        """One coordinate sweep of the marginal likelihood over ``log q`` and each ``log s``."""
+
+        parts = self.measurements(weights)
+
+        def over_q(lq: float) -> float:
+            return self.solve(math.exp(lq), scales, weights, parts)[2]
+
+        lo, hi = (math.log(b) for b in self.q_bounds)
+        if hi > lo:
+            q = math.exp(minimize_scalar(over_q, bounds=(lo, hi), method="bounded",
+                                         options={"xatol": 0.1}).x)
+        for i, (sb, f) in enumerate(zip(self.scale_bounds, self.fixed)):
+            if f is not None or sb[1] <= sb[0]:
+                continue
+
+            def over_s(ls: float, i: int = i) -> float:
+                trial = list(scales)
+                trial[i] = math.exp(ls)
+                return self.solve(q, trial, weights, parts)[2]
+
+            res = minimize_scalar(
+                over_s, bounds=(math.log(sb[0]), math.log(sb[1])), method="bounded",
+                options={"xatol": 0.05},
+            )
+            scales = list(scales)
+            scales[i] = math.exp(res.x)
+        return q, scales
