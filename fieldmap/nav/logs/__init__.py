@@ -39,11 +39,9 @@ and the report are imported when a log is loaded.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fieldmap._compat import options_api
 from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning
 
@@ -72,7 +70,6 @@ def _recorded_attitude(source: Any) -> bool:
     return False
 
 
-@options_api("options", Conditioning)
 def load_flight(
     source: Any,
     options: Conditioning | None = None,
@@ -92,9 +89,7 @@ def load_flight(
     options : Conditioning, optional
         The conditioning (default ``Conditioning()``); its ``ellipsoid`` is that of the
         coordinates and of the flight. With ``smooth=False``: the exact interpolation of the
-        samples, refused where times go back (``reorder`` applies to the smoothing only). The
-        0.1 keywords (``smooth=``, ``max_gap_s=`` …) still work, with a
-        ``DeprecationWarning``.
+        samples (times that go back are sorted unless ``reorder=False``).
     columns, alt_units, height_ref, time_format, model
         As :func:`fieldmap.nav.logs.read.read_track` (``model``: the truth model whose geoid
         makes MSL heights ellipsoidal).
@@ -130,15 +125,11 @@ def load_flight(
     from fieldmap.nav.logs.read import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
-    # unconditioned, times going back are refused (today's rule): smooth= is what sorts
-    exact = not options.smooth
     try:
-        cf = condition(track, replace(options, reorder=options.reorder and not exact))
+        cf = condition(track, options)
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
         text, param = str(exc), exc.param
-        if param == "reorder" and exact:  # the caller's keyword that sorts is smooth=
-            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
         if track.time_guess is not None:
             # the guess of the time units may be what made the log fail: say it was a guess
             text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"

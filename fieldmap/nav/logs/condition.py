@@ -72,6 +72,13 @@ EDGE = 8
 STILL_H, STILL_V = 30.0, 15.0
 #: a position's printed rounding finer than this (m) lets collinear fixes mark interpolation
 INTERP_ROUNDING_M = 1.0
+#: a height change smaller than this (m) between fixes is what a conversion adds (geoid, ISA)
+LEVEL_M = 0.05
+#: heights are quantised when this share of their changes are multiples of the smallest
+QUANTISED_SHARE = 0.8
+#: the coarsest grid step (s) the noise levels are estimated on (the measurement rows are a
+#: Taylor step of up to half of it: jerk × (Δ/2)³/6, 0.2 m at 1 m/s³)
+ESTIMATE_DT_S = 5.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
 
@@ -309,19 +316,28 @@ class Measurements:
 def height_quantum(h: np.ndarray) -> float:
     """Step of quantised heights (m), e.g. 7.62 for 25 ft, or 0 when not quantised.
 
-    Every height change is (to 1 %) a whole multiple of the smallest; or, for quantised
-    pressure altitudes converted to heights (steps that vary with altitude), at least a fifth
-    of the changes are zero: then the 10th percentile of the others.
+    A log's altitude printed in 25 ft (or 100 ft) steps keeps the steps through its
+    conversion to heights, up to what the conversion adds smoothly (a geoid height, the ISA
+    profile: centimetres between fixes). Quantised: the changes beyond :data:`LEVEL_M` are, at
+    least :data:`QUANTISED_SHARE` of them, within 5 % of a whole multiple of the smallest
+    (their 5th percentile).
     """
     dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
-    nz = dh[dh > 1e-3]
+    nz = dh[dh > LEVEL_M]
     if nz.size < 10:
         return 0.0
-    q = float(nz.min())
+    q = float(np.percentile(nz, 5))
     r = nz / q
-    if np.mean(np.abs(r - np.round(r)) < 0.01) > 0.98:
-        return q
-    return float(np.percentile(nz, 10)) if np.mean(dh <= 1e-3) >= 0.2 else 0.0
+    near = np.abs(r - np.round(r)) <= 0.05 * np.maximum(np.round(r), 1.0)
+    return q if np.mean(near & (np.round(r) <= 40)) >= QUANTISED_SHARE else 0.0
+
+
+def level_runs(h: np.ndarray, quantum: float) -> np.ndarray:
+    """Length of the run of one quantised height each sample is in (changes under q/4: none)."""
+    same = np.abs(np.diff(h)) < 0.25 * quantum
+    start = np.concatenate([[True], ~same])
+    ident = np.cumsum(start) - 1
+    return np.bincount(ident)[ident].astype(np.float64)
 
 
 def _radii(lat_deg: np.ndarray, ell: Ellipsoid) -> tuple[np.ndarray, np.ndarray]:
@@ -354,10 +370,10 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     span = float(np.max(np.linalg.norm(p[hi] - origin, axis=1))) if hi.size else 0.0
     positions = Channel(
         log.t[hi], p[hi] - origin, np.ones(hi.size), 0, 2,
-        _fault_density(span + 1000.0, 2), "position",
+        _fault_density(span + 1000.0, 2), "position", timing=True,
     )
     q = height_quantum(log.h)
-    runs_h = flt.run_lengths(log.h) if q > 0.0 else np.ones(n)
+    runs_h = level_runs(log.h, q) if q > 0.0 else np.ones(n)
     hspan = float(np.ptp(log.h)) if n else 0.0
     heights = Channel(
         log.t, log.h[:, None], np.sqrt(runs_h), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
@@ -451,10 +467,33 @@ def _smooth(
 ) -> SmoothedAxis:
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
-    bounds = [(max(f, 1e-3), max(f, 1e-3) * 1e5) for f in floors]
-    scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, bounds)]
-    sm = AxisSmoother(grid, model, channels, (lo, hi), bounds, fixed)
-    return sm.run(math.sqrt(lo * hi) * 10.0, scales0)
+    sbounds = [(max(f, 1e-3), max(f, 1e-3) * 1e5) for f in floors]
+    scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
+    q0 = math.sqrt(lo * hi) * 10.0
+    # the height keeps within the class's climb and vertical load factor (bounds, not data)
+    g = 9.80665
+    bounds = (
+        {1: (-vehicle.climb, vehicle.climb), 2: ((vehicle.n_min - 1.0) * g, (vehicle.n_max - 1.0) * g)}
+        if vertical
+        else None
+    )
+    # the noise levels are continuous-time quantities: estimated on a grid as coarse as the
+    # fixes (up to ESTIMATE_DT_S), then the path solved on the output grid with them
+    step = float(np.median(np.diff(channels[0].t))) if channels[0].t.size > 1 else grid.dt
+    coarse_dt = min(step, ESTIMATE_DT_S)
+    weights0 = tau0 = None
+    if coarse_dt >= 2.0 * grid.dt:
+        k = int(coarse_dt // grid.dt)
+        coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
+        est = AxisSmoother(coarse, model, channels, (lo, hi), sbounds, fixed, bounds).run(
+            q0, scales0
+        )
+        q0, scales0, weights0 = est.q, est.scales, [1.0 - p for p in est.fault_prob]
+        tau0 = (est.tau, est.sigma_tau)
+    sm = AxisSmoother(grid, model, channels, (lo, hi), sbounds, fixed, bounds)
+    return sm.run(
+        q0, scales0, passes=0 if weights0 is not None else 2, weights0=weights0, tau0=tau0
+    )
 
 
 def estimate(

@@ -77,6 +77,11 @@ import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded, expm
 from scipy.optimize import minimize_scalar
 
+#: a bounded state is held by a penalty this many times its node's own weight, for at most
+#: BOUND_PASSES growths of the active set
+BOUND_STIFFNESS, BOUND_PASSES = 1e4, 12
+#: the largest σ of a channel's time errors (s)
+TIMING_MAX_S = 30.0
 #: states per axis (position, velocity, acceleration) and the band of the normal equations
 NS = 3
 BAND = 2 * NS - 1
@@ -162,6 +167,10 @@ class Channel:
         spans), in the units of ``y`` to the power ``-dof``.
     name : str
         For reports.
+    timing : bool
+        The samples' time tags err (a position stamped when the message was received or
+        relayed, not when it was fixed): each has a time error τ_i, estimated with the path
+        (module docstring).
     """
 
     t: np.ndarray
@@ -171,6 +180,7 @@ class Channel:
     dof: int
     fault_density: float
     name: str
+    timing: bool = False
 
 
 @dataclass
@@ -191,6 +201,10 @@ class SmoothedAxis:
         Each channel's fault fraction ε.
     neg2loglik : float
         The marginal likelihood's ``-2 log L`` at the solution.
+    tau : list of numpy.ndarray
+        Each channel's estimated time errors (s; zeros where the channel has none).
+    sigma_tau : list of float
+        Each channel's σ of the time errors (s; 0 where none).
     """
 
     grid: Grid
@@ -202,6 +216,8 @@ class SmoothedAxis:
     fault_rate: list[float]
     neg2loglik: float
     chol: np.ndarray = field(repr=False)
+    tau: list[np.ndarray] = field(default_factory=list, repr=False)
+    sigma_tau: list[float] = field(default_factory=list)
 
     def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         """The path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
@@ -268,6 +284,9 @@ class AxisSmoother:
         a ceiling.
     fixed_scales : list of float or None
         Scales given by the user (not estimated) per channel, None where estimated.
+    bounds : dict, optional
+        For a one-axis group (the height): state (1 velocity, 2 acceleration) -> (lower,
+        upper) bounds the path keeps within (the vehicle's climb and vertical load factor).
     """
 
     def __init__(
@@ -278,15 +297,56 @@ class AxisSmoother:
         q_bounds: tuple[float, float],
         scale_bounds: list[tuple[float, float]],
         fixed_scales: list[float | None] | None = None,
+        bounds: dict[int, tuple[float, float]] | None = None,
     ) -> None:
         self.grid, self.model, self.channels = grid, model, channels
+        #: state index (1 velocity, 2 acceleration) -> (lower, upper) bound, one-axis groups
+        self.bounds = dict(bounds or {})
         self.q_bounds, self.scale_bounds = q_bounds, scale_bounds
         self.fixed = fixed_scales or [None] * len(channels)
         self.d = channels[0].y.shape[1]
         self._unit: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
-        loc = [grid.locate(c.t) for c in channels]
-        self.k = [k for k, _ in loc]
-        self.h = [_rows(d, c.order) for (_, d), c in zip(loc, channels)]
+        self.tau = [np.zeros(c.t.size) for c in channels]
+        self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
+        self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
+        self.h: list[np.ndarray] = [np.zeros((0, NS))] * len(channels)
+        for i in range(len(channels)):
+            self._locate(i)
+
+    def _locate(self, i: int) -> None:
+        """The nodes and measurement rows of channel ``i`` at its (re-timed) times."""
+        c = self.channels[i]
+        k, d = self.grid.locate(c.t + self.tau[i])
+        self.k[i], self.h[i] = k, _rows(d, c.order)
+
+    def retime(self, x: np.ndarray, scales: list[float], weights: list[np.ndarray]) -> None:
+        r"""Update the time errors of the channels that have them (module docstring).
+
+        With the path fixed, each fix's time error has the posterior mean (linearised at the
+        current one, :math:`\tau_c`; :math:`r` the residual there, :math:`v` the path's
+        velocity, :math:`s` the channel's σ)
+
+        .. math:: \hat\tau = \frac{v\cdot(r + v\tau_c)}{|v|^2 + s^2/\sigma_\tau^2},
+
+        and :math:`\sigma_\tau^2` the weighted mean of :math:`\hat\tau^2` plus its
+        posterior variance :math:`s^2/(|v|^2 + s^2/\sigma_\tau^2)` (EM).
+        """
+        for i, c in enumerate(self.channels):
+            if not c.timing or c.t.size == 0:
+                continue
+            k, h = self.k[i], self.h[i]
+            pos = _apply(h, x[k])
+            vel = _apply(_rows(h[:, 1], 1), x[k])
+            r = c.y - pos
+            s2 = (scales[i] * c.rho) ** 2
+            v2 = np.sum(vel * vel, axis=1)
+            prior = s2 / self.sigma_tau[i] ** 2
+            tau = np.sum(vel * (r + vel * self.tau[i][:, None]), axis=1) / (v2 + prior)
+            w = weights[i]
+            var = np.sum(w * (tau**2 + s2 / (v2 + prior))) / max(float(np.sum(w)), 1.0)
+            self.sigma_tau[i] = float(np.clip(math.sqrt(var), 1e-3, TIMING_MAX_S))
+            self.tau[i] = tau
+            self._locate(i)
 
     # -- one solve ---------------------------------------------------------------------------
 
@@ -325,10 +385,13 @@ class AxisSmoother:
         scales: list[float],
         weights: list[np.ndarray],
         parts: list[tuple[np.ndarray, np.ndarray]] | None = None,
+        bounded: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, float]:
         """States (n, 3, d), the Cholesky factor and ``-2 log L`` (module docstring).
 
-        ``parts``: :meth:`measurements` of ``weights`` when already computed.
+        ``parts``: :meth:`measurements` of ``weights`` when already computed. ``bounded``: keep
+        the states within :attr:`bounds` (:meth:`_bounded`); the likelihood is that of the
+        unbounded problem (the bounds are no data).
         """
         n, d = self.grid.n, self.d
         ab0, logdetP, P, F = self._process(q)
@@ -348,6 +411,10 @@ class AxisSmoother:
             ab[BAND] += 1e-9 * np.maximum(ab[BAND].max(), 1.0)
             cb = cholesky_banded(ab, lower=False, check_finite=False)
         x = cho_solve_banded((cb, False), b, check_finite=False).reshape(n, NS, d)
+        if bounded and self.bounds:
+            xb, cbb = self._bounded(ab, b, x)
+            if xb is not None:
+                x, cb = xb, cbb
         # J at the solution: process + measurements
         e = x[1:] - np.matmul(F, x[:-1])
         J = float(np.sum(e * np.matmul(P, e)))
@@ -357,6 +424,43 @@ class AxisSmoother:
         logdetA = 2.0 * float(np.sum(np.log(cb[BAND])))
         neg2 = J + d * logdetA - d * (n - 1) * logdetP + norm
         return x, cb, neg2
+
+    def _bounded(
+        self, ab: np.ndarray, b: np.ndarray, x: np.ndarray
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """Keep the states within :attr:`bounds` (an active set of penalised nodes).
+
+        Each node whose state leaves its bound is held at the bound by a penalty
+        ``W (x − bound)²`` with ``W`` :data:`BOUND_STIFFNESS` times the node's diagonal; the set
+        grows until no state leaves its bounds by more than 1 % (at most
+        :data:`BOUND_PASSES` passes). Returns None when no state leaves them.
+        """
+        n, d = self.grid.n, self.d
+        active: dict[int, float] = {}
+        cb = None
+        for _ in range(BOUND_PASSES):
+            new = False
+            for state, (lo, hi) in self.bounds.items():
+                v = x[:, state, 0]
+                tol = 0.01 * max(abs(lo), abs(hi))
+                for idx, val in ((np.flatnonzero(v > hi + tol), hi), (np.flatnonzero(v < lo - tol), lo)):
+                    for k in idx:
+                        key = NS * int(k) + state
+                        if key not in active:
+                            active[key], new = val, True
+            if not new:
+                break
+            keys = np.fromiter(active.keys(), np.int64)
+            vals = np.fromiter(active.values(), np.float64)
+            abk, bk = ab.copy(), b.copy()
+            W = BOUND_STIFFNESS * abk[BAND, keys]
+            abk[BAND, keys] += W
+            bk[keys, :] += (W * vals)[:, None]
+            cb = cholesky_banded(abk, lower=False, check_finite=False)
+            x = cho_solve_banded((cb, False), bk, check_finite=False).reshape(n, NS, d)
+        if cb is None:
+            return None, ab
+        return x, cb
 
     # -- the mixture's weights ----------------------------------------------------------------
 
@@ -380,21 +484,35 @@ class AxisSmoother:
 
     # -- the whole estimate -------------------------------------------------------------------
 
-    def run(self, q0: float, scales0: list[float], passes: int = 2) -> SmoothedAxis:
+    def run(
+        self,
+        q0: float,
+        scales0: list[float],
+        passes: int = 2,
+        weights0: list[np.ndarray] | None = None,
+        tau0: tuple[list[np.ndarray], list[float]] | None = None,
+    ) -> SmoothedAxis:
         """EM for the mixture, alternating with the marginal-likelihood noise levels.
 
         Starts from ``q0`` and ``scales0`` (robust first guesses); each of the ``passes``: the
         weights from the fault probabilities (twice: the path moves once the gross faults lose
         their weight), then ``q`` and the scales maximising the likelihood with the weights
-        held; a last E-step gives the weights of the final path.
+        held; a last E-step gives the weights of the final path. ``weights0``: the weights to
+        start from (default 1: every measurement an inlier); ``tau0``: the time errors and their
+        σ to start from.
         """
+        if tau0 is not None:
+            self.tau = [np.asarray(t, dtype=np.float64).copy() for t in tau0[0]]
+            self.sigma_tau = list(tau0[1])
+            for i in range(len(self.channels)):
+                self._locate(i)
         q = float(np.clip(q0, *self.q_bounds))
         scales = [
             float(f) if f is not None else float(np.clip(s, *sb))
             for s, sb, f in zip(scales0, self.scale_bounds, self.fixed)
         ]
-        weights = [np.ones(c.t.size) for c in self.channels]
-        rates = [0.01 for _ in self.channels]
+        weights = weights0 or [np.ones(c.t.size) for c in self.channels]
+        rates = [float(np.clip(1.0 - np.mean(w), 1e-4, 0.5)) for w in weights]
         x, cb, neg2 = self.solve(q, scales, weights)
         for _ in range(passes):
             for _ in range(2):
@@ -402,14 +520,23 @@ class AxisSmoother:
                 rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
                 weights = [1.0 - p for p in pi]
                 x, cb, neg2 = self.solve(q, scales, weights)
+                if any(c.timing for c in self.channels):
+                    self.retime(x, scales, weights)
+                    x, cb, neg2 = self.solve(q, scales, weights)
             q, scales = self._maximise(q, scales, weights)
             x, cb, neg2 = self.solve(q, scales, weights)
         pi = self.fault_probabilities(x, scales, rates)
         rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
         weights = [1.0 - p for p in pi]
         x, cb, neg2 = self.solve(q, scales, weights)
+        if any(c.timing for c in self.channels):
+            self.retime(x, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights)
         pi = self.fault_probabilities(x, scales, rates)
-        return SmoothedAxis(self.grid, self.model, x, q, scales, pi, rates, neg2, cb)
+        return SmoothedAxis(
+            self.grid, self.model, x, q, scales, pi, rates, neg2, cb,
+            [t.copy() for t in self.tau], list(self.sigma_tau),
+        )
 
     def _maximise(
         self, q: float, scales: list[float], weights: list[np.ndarray]
@@ -419,7 +546,7 @@ class AxisSmoother:
         parts = self.measurements(weights)
 
         def over_q(lq: float) -> float:
-            return self.solve(math.exp(lq), scales, weights, parts)[2]
+            return self.solve(math.exp(lq), scales, weights, parts, bounded=False)[2]
 
         lo, hi = (math.log(b) for b in self.q_bounds)
         if hi > lo:
@@ -432,7 +559,7 @@ class AxisSmoother:
             def over_s(ls: float, i: int = i) -> float:
                 trial = list(scales)
                 trial[i] = math.exp(ls)
-                return self.solve(q, trial, weights, parts)[2]
+                return self.solve(q, trial, weights, parts, bounded=False)[2]
 
             res = minimize_scalar(
                 over_s, bounds=(math.log(sb[0]), math.log(sb[1])), method="bounded",
