@@ -332,14 +332,6 @@ def height_quantum(h: np.ndarray) -> float:
     return q if np.mean(near & (np.round(r) <= 40)) >= QUANTISED_SHARE else 0.0
 
 
-def level_runs(h: np.ndarray, quantum: float) -> np.ndarray:
-    """Length of the run of one quantised height each sample is in (changes under q/4: none)."""
-    same = np.abs(np.diff(h)) < 0.25 * quantum
-    start = np.concatenate([[True], ~same])
-    ident = np.cumsum(start) - 1
-    return np.bincount(ident)[ident].astype(np.float64)
-
-
 def _radii(lat_deg: np.ndarray, ell: Ellipsoid) -> tuple[np.ndarray, np.ndarray]:
     """Prime vertical and meridian radii of curvature (m) at geodetic latitudes."""
     e2 = ell.f * (2.0 - ell.f)
@@ -366,17 +358,16 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     hi = np.flatnonzero(~rep & ~interp)
     if hi.size < MIN_POINTS:  # a log of mostly repeats: its repeats are all it has
         hi = np.flatnonzero(~rep) if np.sum(~rep) >= MIN_POINTS else np.arange(n)
-    rounding = max(flt.printed_step(log.lat), flt.printed_step(log.lon)) * m_per_deg
+    rounding = min(flt.printed_step(log.lat), flt.printed_step(log.lon)) * m_per_deg
     span = float(np.max(np.linalg.norm(p[hi] - origin, axis=1))) if hi.size else 0.0
     positions = Channel(
         log.t[hi], p[hi] - origin, np.ones(hi.size), 0, 2,
         _fault_density(span + 1000.0, 2), "position", timing=True,
     )
     q = height_quantum(log.h)
-    runs_h = level_runs(log.h, q) if q > 0.0 else np.ones(n)
     hspan = float(np.ptp(log.h)) if n else 0.0
     heights = Channel(
-        log.t, log.h[:, None], np.sqrt(runs_h), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
+        log.t, log.h[:, None], np.ones(n), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
     )
     index = {"position": hi, "height": np.arange(n)}
     vel = getattr(track, "velocity", None) if options.log_velocities else None
@@ -398,9 +389,8 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
             vn = speed[iv] * np.cos(chi) * mr / (mr + hh)
             C = C_e_to_enu(log.lat[iv], log.lon[iv])
             v_ecef = ve[:, None] * C[:, 0, :] + vn[:, None] * C[:, 1, :]
-            runs_v = flt.run_lengths(np.stack([speed[iv], course[iv]], -1))
             velocities = Channel(
-                log.t[iv], v_ecef, np.sqrt(runs_v), 1, 2, _fault_density(top.speed, 2), "velocity"
+                log.t[iv], v_ecef, np.ones(iv.size), 1, 2, _fault_density(top.speed, 2), "velocity"
             )
             index["velocity"] = iv
         if vel.climb is not None:
@@ -409,7 +399,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
             if okc.sum() >= MIN_POINTS:
                 ic = np.flatnonzero(okc)
                 climbs = Channel(
-                    log.t[ic], climb[ic, None], np.sqrt(flt.run_lengths(climb[ic])), 1, 1,
+                    log.t[ic], climb[ic, None], np.ones(ic.size), 1, 1,
                     _fault_density(top.climb, 1), "vertical rate",
                 )
                 index["vertical rate"] = ic
@@ -464,6 +454,7 @@ def _smooth(
     channels: list[Channel],
     floors: list[float],
     fixed: list[float | None],
+    origin: np.ndarray | None = None,
 ) -> SmoothedAxis:
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
@@ -485,12 +476,12 @@ def _smooth(
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
         coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
-        est = AxisSmoother(coarse, model, channels, (lo, hi), sbounds, fixed, bounds).run(
+        est = AxisSmoother(coarse, model, channels, (lo, hi), sbounds, fixed, bounds, origin).run(
             q0, scales0
         )
         q0, scales0, weights0 = est.q, est.scales, [1.0 - p for p in est.fault_prob]
         tau0 = (est.tau, est.sigma_tau)
-    sm = AxisSmoother(grid, model, channels, (lo, hi), sbounds, fixed, bounds)
+    sm = AxisSmoother(grid, model, channels, (lo, hi), sbounds, fixed, bounds, origin)
     return sm.run(
         q0, scales0, passes=0 if weights0 is not None else 2, weights0=weights0, tau0=tau0
     )
@@ -512,7 +503,7 @@ def estimate(
             chans.append(meas.velocities)
             floors.append(max(res_s / sq12, 0.01))
             fix.append(None)
-        return _smooth(grid, vehicle, False, chans, floors, fix), chans
+        return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
 
     hz, hchans = horizontal(True)
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:

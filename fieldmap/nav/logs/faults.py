@@ -14,10 +14,8 @@ Two facts about a sample decide whether it is a measurement at all, before any f
   real fix's noise (1 m): there, three noisy fixes are collinear within it only by chance,
   and leaving out such a chance fix loses one sample of many.
 
-A run of one repeated value in a channel whose values are rounded (a quantised height held in
-level flight, a ground speed held in 1 kt steps) carries one rounding error, not one per
-sample: each of its L samples has the relative σ √L (:func:`run_lengths`), so that the run is
-one observation.
+A rounded value (a height in 25 ft steps, a ground speed in knots) is a measurement with at
+least the rounding's σ, q/√12: the conditioning floors each channel's noise there.
 
 After the fit, the samples that the smoother's fault model claims (:mod:`fieldmap.nav.logs.motion`:
 posterior fault probability over 1/2) are grouped into runs and described
