@@ -776,9 +776,14 @@ def _finish(
     faults: list[flt.Fault] = []
     for name, (ch, axis, i) in est.channels.items():
         idx = meas.index[name]
-        fit = axis.value_at(ch.t, ch.order)
+        tau = axis.tau[i] if axis.tau else np.zeros(ch.t.size)
+        fit = axis.value_at(ch.t + tau, ch.order)  # at the re-timed times (time errors)
         res = np.linalg.norm(ch.y - fit, axis=1)
         residuals[name], rejected[name] = res, axis.fault_prob[i] > 0.5
+        if ch.timing and axis.sigma_tau[i] > 0.0:
+            faults += flt.retimed_runs(
+                name, ch.t, log.lines[idx], tau, axis.sigma_tau[i], rejected[name]
+            )
         distance_at = None
         if name == "position":
             pos = ch.y

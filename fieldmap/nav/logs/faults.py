@@ -42,8 +42,9 @@ class Fault:
     channel : str
         ``position``, ``height``, ``velocity`` or ``vertical rate``.
     kind : str
-        ``outlier`` (one sample), ``time-shifted`` (the path explains the run ``time_shift_s``
-        later or earlier), ``displaced`` (off the path).
+        ``outlier`` (one sample), ``time-shifted`` (the path explains the rejected run
+        ``time_shift_s`` later or earlier), ``re-timed`` (kept, each fix moved by its time
+        error, beyond 3 σ of the log's time errors), ``displaced`` (off the path).
     lines : (int, int)
         First and last line of the run in the source.
     t_start_s, t_end_s : float
@@ -73,6 +74,8 @@ class Fault:
             f"passes there {abs(self.time_shift_s or 0.0):.0f} s "
             f"{'earlier' if (self.time_shift_s or 0.0) < 0 else 'later'})",
             "displaced": f"{self.samples} {self.channel}s off the path",
+            "re-timed": f"{self.samples} {self.channel}s re-timed by up to "
+            f"{abs(self.time_shift_s or 0.0):.1f} s (time tags off; kept)",
         }[self.kind]
         unit = "m/s" if self.channel in ("velocity", "vertical rate") else "m"
         return (
@@ -145,6 +148,32 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Inclusive index ranges of the runs of True in ``mask``."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
+
+
+def retimed_runs(
+    channel: str,
+    t: np.ndarray,
+    lines: np.ndarray,
+    tau: np.ndarray,
+    sigma_tau: float,
+    rejected: np.ndarray,
+) -> list[Fault]:
+    """Runs of kept fixes whose time error is beyond 3 σ of the log's (a stretch stamped late).
+
+    ``tau`` (s): each fix's estimated time error; ``offset_m`` of the fault is then the largest
+    time error times nothing (0): the fix is on the path once re-timed.
+    """
+    out = []
+    for a, b in runs((np.abs(tau) > 3.0 * sigma_tau) & ~rejected):
+        idx = np.arange(a, b + 1)
+        j = idx[int(np.argmax(np.abs(tau[idx])))]
+        out.append(
+            Fault(
+                channel, "re-timed", (int(lines[a]), int(lines[b])), float(t[a]), float(t[b]),
+                int(b - a + 1), 0.0, float(tau[j]),
+            )
+        )
+    return out
 
 
 def describe_faults(

@@ -55,7 +55,6 @@ band at road speeds is a car, at walking speeds a pedestrian. The report gives t
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -195,8 +194,11 @@ class Evidence:
     height_band : float
         Spread of the heights (99th − 1st percentile). Units: m.
     slow_airborne : float
-        Fraction of the log slower than 10 m/s while more than 150 m above its lowest height
+        Fraction of the log slower than 3 m/s while more than 150 m above its lowest height
         (hover). Units: 1.
+    circling_climb : float
+        Fraction of the log turning faster than 6 °/s while climbing faster than 0.5 m/s (a
+        thermal: what gliders and paragliders do, and powered aircraft rarely). Units: 1.
     category : str or None
         The ADS-B emitter category, when the log carries one.
     file_format : str or None
@@ -208,6 +210,7 @@ class Evidence:
     turn_rate: float
     height_band: float
     slow_airborne: float
+    circling_climb: float = 0.0
     category: str | None = None
     file_format: str | None = None
 
@@ -248,7 +251,7 @@ def evidence(
     smoothed by running medians over about 15 s (a wild fix moves none of them).
     """
     if t.size < 4:
-        return Evidence(0.0, 0.0, 0.0, _pct(h, 99) - _pct(h, 1), 0.0, category, file_format)
+        return Evidence(0.0, 0.0, 0.0, _pct(h, 99) - _pct(h, 1), 0.0, 0.0, category, file_format)
     dt = np.diff(t)
     dtm = float(np.median(dt))
     half = int(np.clip(round(7.5 / max(dtm, 1e-3)), 1, 15))
@@ -260,58 +263,74 @@ def evidence(
     tm = 0.5 * (t[1:] + t[:-1])
     rate = np.degrees(np.abs(np.diff(track) / np.maximum(np.diff(tm), 1e-3)))
     moving = (speed[1:] > 3.0) & (speed[:-1] > 3.0)
-    turn = _pct(_running_median(rate, half)[moving], 95) if moving.any() else 0.0
+    rate_m = _running_median(rate, half)
+    turn = _pct(rate_m[moving], 95) if moving.any() else 0.0
     hm = 0.5 * (h[1:] + h[:-1])
-    slow_air = float(np.mean((speed < 10.0) & (hm > _pct(h, 1) + 150.0)))
+    slow_air = float(np.mean((speed < 3.0) & (hm > _pct(h, 1) + 150.0)))
+    climb_m = 0.5 * (vz[1:] + vz[:-1])
+    circling = float(np.mean(moving & (rate_m > 6.0) & (climb_m > 0.5))) if moving.any() else 0.0
     return Evidence(
         _pct(speed, 99),
         _pct(np.abs(vz), 99),
         turn,
         _pct(h, 99) - _pct(h, 1),
         slow_air,
+        circling,
         category,
         file_format,
     )
 
 
+#: the top ground speed (m/s) of ordinary flight (a log's 99th percentile) of the classes the
+#: guess walks through, slowest first: their cruise plus a strong wind
+CRUISE = {
+    "paraglider": 25.0,
+    "glider": 60.0,
+    "light-aircraft": 80.0,
+    "turboprop": 160.0,
+    "airliner": 330.0,
+    "fighter": 700.0,
+}
+
+
 def guess_vehicle(ev: Evidence) -> tuple[Vehicle, str]:
-    """Guess the class of a log's vehicle from its :class:`Evidence`, and say from what."""
+    """Guess the class of a log's vehicle from its :class:`Evidence`, and say from what.
+
+    In order: the ADS-B emitter category; a rocket's speeds; the file's format (an IGC
+    file: the slowest glider class whose cruise holds the log's speed); hovering (a
+    helicopter); thermalling (circling climbs: a glider, or a paraglider where slower than
+    its cruise); a vehicle that stays within one height band (a pedestrian or a car by its
+    speed); else the slowest aircraft whose cruise holds the log's top speed (:data:`CRUISE`).
+    """
     if ev.category is not None and str(ev.category).strip().upper() in CATEGORIES:
         c = str(ev.category).strip().upper()
         return VEHICLES[CATEGORIES[c]], f"guessed from the ADS-B emitter category {c}"
     why = f"guessed from the log: {ev.text()}"
     allowed = FORMAT_CLASSES.get((ev.file_format or "").lower())
     if allowed is not None:
-        why += f"; a {ev.file_format.upper()} file (a flight recorder of {', '.join(allowed)})"
+        kinds = ", ".join(allowed)
+        why += f"; a {(ev.file_format or '').upper()} file (a flight recorder of {kinds})"
         for name in allowed:
-            v = VEHICLES[name]
-            if ev.speed <= v.speed and ev.climb <= v.climb:
-                return v, why
+            if ev.speed <= CRUISE[name] and ev.climb <= VEHICLES[name].climb:
+                return VEHICLES[name], why
         return VEHICLES[allowed[-1]], why
     if ev.speed > 1200.0 or ev.climb > 300.0:
         return VEHICLES["rocket"], why
-    # a vehicle that hovers high above its lowest point for a while is a helicopter
     if ev.slow_airborne > 0.05 and ev.speed <= VEHICLES["helicopter"].speed:
-        return VEHICLES["helicopter"], why + "; hovers or flies slowly while airborne"
-    # on the surface: within one height band, slower than road speeds
+        share = 100 * ev.slow_airborne
+        return VEHICLES["helicopter"], why + f"; hovers {share:.0f} % of the time"
+    if ev.circling_climb > 0.03 and ev.speed <= CRUISE["glider"]:
+        name = "paraglider" if ev.speed <= CRUISE["paraglider"] else "glider"
+        share = 100 * ev.circling_climb
+        return VEHICLES[name], why + f"; circles in climbs {share:.0f} % of the time"
     if ev.height_band < 150.0 and ev.climb < 5.0:
-        for name in ("pedestrian", "car"):
-            if ev.speed <= VEHICLES[name].speed / 2.0:
+        for name, top in (("pedestrian", 10.0), ("car", 45.0)):
+            if ev.speed <= top:
                 return VEHICLES[name], why + "; stays near one height"
-    for name in ("glider", "light-aircraft", "turboprop", "airliner", "fighter"):
-        v = VEHICLES[name]
-        if ev.speed <= v.speed * _share(name) and ev.climb <= v.climb:
-            return v, why
+    for name in ("light-aircraft", "turboprop", "airliner", "fighter"):
+        if ev.speed <= CRUISE[name] and ev.climb <= VEHICLES[name].climb:
+            return VEHICLES[name], why
     return VEHICLES["fighter"], why
-
-
-def _share(name: str) -> float:
-    """The share of a class's top speed a log's robust top speed reaches in ordinary flight.
-
-    A class's speed is its limit plus wind; a flight's 99th-percentile ground speed is its
-    cruise: gliders cruise below 55 m/s, light aircraft below 80, turboprops below 160.
-    """
-    return {"glider": 0.55, "light-aircraft": 0.62, "turboprop": 0.84}.get(name, 1.0)
 
 
 def describe(v: Vehicle) -> str:
@@ -326,12 +345,12 @@ def describe(v: Vehicle) -> str:
 __all__ = [
     "ALIASES",
     "CATEGORIES",
+    "CRUISE",
     "VEHICLES",
     "Evidence",
     "Vehicle",
     "describe",
     "evidence",
     "guess_vehicle",
-    "math",
     "vehicle_class",
 ]
