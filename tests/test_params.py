@@ -53,7 +53,7 @@ def _params_used() -> set[str]:
 def test_every_param_raised_in_nav_is_in_the_table():
     used = _params_used()
     assert used, "no param= found: the walk is broken"
-    assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used  # nav.logs
+    assert {"alt_units", "airborne_only", "reorder", "log_velocities"} <= used  # nav.logs
     assert {"frame", "output_dt", "block_s", "models", "draws"} <= used  # study, propagator
     assert not used - set(OPTIONS), f"keywords missing from cli.OPTIONS: {used - set(OPTIONS)}"
 

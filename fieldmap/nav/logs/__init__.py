@@ -39,6 +39,7 @@ and the report are imported when a log is loaded.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -125,11 +126,15 @@ def load_flight(
     from fieldmap.nav.logs.read import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
+    # unconditioned, times going back are refused: smooth= is what sorts
+    exact = not options.smooth
     try:
-        cf = condition(track, options)
+        cf = condition(track, replace(options, reorder=options.reorder and not exact))
         return FlightTrajectory(cf.samples, ellipsoid=ellipsoid), cf
     except InputError as exc:
         text, param = str(exc), exc.param
+        if param == "reorder" and exact:  # the caller's keyword that sorts is smooth=
+            text, param = text.replace("pass reorder=True", "pass smooth=True"), "smooth"
         if track.time_guess is not None:
             # the guess of the time units may be what made the log fail: say it was a guess
             text = f"{text}; {track.time_guess}: pass time_format='s' if they are seconds"

@@ -79,6 +79,9 @@ QUANTISED_SHARE = 0.8
 #: the coarsest grid step (s) the noise levels are estimated on (the measurement rows are a
 #: Taylor step of up to half of it: jerk × (Δ/2)³/6, 0.2 m at 1 m/s³)
 ESTIMATE_DT_S = 5.0
+#: a log's rates differ from its path's by a unit's factor when they agree on it within this
+#: spread (of the logarithms) where both move faster than UNIT_MIN_RATE (m/s)
+UNIT_SPREAD, UNIT_MIN_RATE = 0.15, 2.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
 
@@ -311,6 +314,7 @@ class Measurements:
     velocity_resolution: tuple[float, float, float]
     velocity_columns: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    source: str = "flight"
 
 
 def height_quantum(h: np.ndarray) -> float:
@@ -407,7 +411,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         notes.append("the log's velocities not used (log_velocities=False)")
     return Measurements(
         positions, heights, velocities, climbs, index, origin, rep, interp, q, rounding,
-        resolution, columns, tuple(notes),
+        resolution, columns, tuple(notes), log.source,
     )
 
 
@@ -458,7 +462,13 @@ def _smooth(
 ) -> SmoothedAxis:
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
-    sbounds = [(max(f, 1e-3), max(f, 1e-3) * 1e5) for f in floors]
+    # a rate channel noisier than a tenth of the class's top speed (climb) tells nothing of
+    # the path: its noise is bounded there, and a contradiction shows as faults instead
+    top = vehicle.climb if vertical else vehicle.speed
+    sbounds = [
+        (max(f, 1e-3), max(f, 1e-3) * 1e5 if c.order == 0 else max(0.1 * top, 2.0 * f))
+        for f, c in zip(floors, channels)
+    ]
     scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
     q0 = math.sqrt(lo * hi) * 10.0
     # the height keeps within the class's climb and vertical load factor (bounds, not data)
@@ -506,6 +516,19 @@ def estimate(
         return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
 
     hz, hchans = horizontal(True)
+    if meas.velocities is not None:
+        # a constant factor between the log's speeds and its positions' is a unit mistake
+        log_speed = np.linalg.norm(meas.velocities.y, axis=1)
+        path_speed = np.linalg.norm(hz.value_at(meas.velocities.t, 1), axis=1)
+        k = _unit_factor(log_speed, path_speed)
+        if k is not None:
+            raise InputError(
+                f"{meas.source}: the log's velocities ({', '.join(meas.velocity_columns)}) "
+                f"contradict its positions: their speeds are {k:.3g} × the positions' "
+                "throughout (a unit or column mistake); give the right columns, or "
+                "log_velocities=False to fly the positions alone",
+                param="log_velocities",
+            )
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
         share = 100.0 * float(np.mean(hz.fault_prob[1] > 0.5))
@@ -523,6 +546,15 @@ def estimate(
         vfloors.append(max(res_v / sq12, 0.01))
         vfix.append(None)
     vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+    if meas.climbs is not None:
+        k = _unit_factor(meas.climbs.y[:, 0], vt.value_at(meas.climbs.t, 1)[:, 0])
+        if k is not None:
+            raise InputError(
+                f"{meas.source}: the log's vertical rates are {k:.3g} × the rate of its heights "
+                "throughout (a unit mistake in the heights or the rates: feet read as "
+                "metres?); give alt_units",
+                param="alt_units",
+            )
     if len(vchans) > 1 and max(vt.fault_rate) >= 0.5:
         share = 100.0 * float(np.mean(vt.fault_prob[1] > 0.5))
         vchans, vfloors, vfix = vchans[:1], vfloors[:1], vfix[:1]
@@ -536,6 +568,24 @@ def estimate(
         for i, c in enumerate(cl):
             chans[c.name] = (c, axis, i)
     return PathEstimate(hz, vt, chans, tuple(notes))
+
+
+def _unit_factor(log_rate: np.ndarray, path_rate: np.ndarray) -> float | None:
+    """The constant factor between a log's rates and its path's, where there is one.
+
+    Where the path moves (|rate| over :data:`UNIT_MIN_RATE`), the log's rates over the path's:
+    their median k, and the spread of their logarithms (1.4826 × MAD). A factor is a unit
+    (or column) mistake when k is off 1 by more than a quarter and the ratios agree on it
+    within :data:`UNIT_SPREAD` (velocities stale or from another source scatter instead).
+    """
+    moving = (np.abs(path_rate) > UNIT_MIN_RATE) & (np.abs(log_rate) > UNIT_MIN_RATE)
+    moving &= np.sign(log_rate) == np.sign(path_rate)
+    if moving.sum() < 20 or moving.mean() < 0.5 * np.mean(np.abs(path_rate) > UNIT_MIN_RATE):
+        return None
+    lr = np.log(np.abs(log_rate[moving]) / np.abs(path_rate[moving]))
+    k = float(np.exp(np.median(lr)))
+    spread = 1.4826 * float(np.median(np.abs(lr - np.median(lr))))
+    return k if abs(math.log(k)) > math.log(1.25) and spread < UNIT_SPREAD else None
 
 
 # -- the whole conditioning ------------------------------------------------------------------
