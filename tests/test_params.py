@@ -134,22 +134,17 @@ def test_conditioning_errors_carry_their_keyword():
 
 def test_reworded_for_navsim_and_for_table():
     """The navsim wording names options; table (no such options) leaves the advice out."""
-    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.condition import Conditioning, condition
 
-    k = np.arange(12.0)
-    sparse = _Track(100.0 * k, 47.0 + k * 0.18, np.full(12, 1e3), "sparse.csv")
-    e = _raised(condition, sparse)
+    k = np.arange(120.0)
+    taxi = _Track(k, 47.0 + k * 5.0 / 111e3, np.full(120, 500.0) + 0.0 * k, "taxi.csv")
+    e = _raised(condition, taxi, Conditioning(airborne_only=True))
     python = str(e)
-    assert python.endswith(
-        "over 60 s (max_gap_s) or a jump (12 kept); the samples are 100 s apart: raise max_gap_s"
-    )
+    assert python.endswith("pass airborne_only=False to fly the ground movement")
     navsim = reword(python, e.param, options_of("navsim"))
-    assert navsim.endswith(
-        "over 60 s (--max-gap-s) or a jump (12 kept); the samples are 100 s apart: "
-        "raise --max-gap-s"
-    )
+    assert "(--min-speed-mps)" not in navsim and "airborne_only" not in navsim
     table = reword(python, e.param, options_of("table"))
-    assert table.endswith("over 60 s or a jump (12 kept); the samples are 100 s apart")
+    assert "airborne_only" not in table
 
 
 @pytest.mark.parametrize(

@@ -247,7 +247,12 @@ def build_report(c: Any) -> dict[str, Any]:
             "stall_speed_m_s": veh.stall,
         },
         "kinematics": kinematics(s, c.options.ellipsoid),
-        "notes": [*c.track_notes, *c.notes],
+        "notes": [*c.track_notes, *c.notes]
+        + (
+            [f"vehicle: {veh.name} ({c.vehicle_how}); pass vehicle=CLASS to choose"]
+            if c.vehicle_how.startswith("guessed")
+            else []
+        ),
     }
     if est is None:
         return report
