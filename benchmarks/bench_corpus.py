@@ -18,10 +18,13 @@ The two methods, on the same file:
   smoother (``flight.compute_xy(proj).filter(KalmanSmoother6D())``, ``proj`` the Lambert
   conformal projection centred on the flight, ``Flight.projection("lcc")``) and back to
   latitude and longitude (``compute_latlon_from_xy``). The smoother takes the log at its own
-  rate (it steps 1 s per row whatever the rate). Its first row must be complete (a NaN there
-  makes every state NaN): empty velocity cells of the first rows are back-filled, later ones
-  left empty (the smoother rejects them, as designed); a velocity column the log lacks is made
-  from the log's own finite differences (ground speed and track from the projected positions,
+  rate: it steps 1 s per row whatever the rate, so on sparse or gappy logs its path flies
+  far faster than the log (``--traffic-resample 1s`` resamples first with
+  ``Flight.resample("1s")``, as traffic's users often do, so that its step is the rows'
+  spacing). Its first row must be complete (a NaN there makes every state NaN): empty
+  velocity cells of the first rows are back-filled, later ones left empty (the smoother
+  rejects them, as designed); a velocity column the log lacks is made from the log's own
+  finite differences (ground speed and track from the projected positions,
   vertical rate from the altitude). Its heights are the smoothed barometric altitude with the
   geoid height fieldmap's reader applies to the same fixes. Reading included in its time.
 
@@ -32,8 +35,9 @@ traffic's own ``groundspeed`` output (its velocity state).
 
 Usage::
 
-    python benchmarks/bench_corpus.py [--category calibration ...] [--limit N] [--csv FILE]
-        [--sigma-h 7.62] [--no-traffic]
+    python benchmarks/bench_corpus.py [--category calibration ...] [--name guatemala ...]
+        [--limit N] [--csv FILE] [--sigma-h 7.62] [--no-traffic | --no-fieldmap]
+        [--traffic-resample 1s]
 
 Needs ``pip install traffic==2.13 "pandas<2.3"`` (not a dependency of fieldmap); without it,
 one line and exit status 2.
@@ -71,6 +75,10 @@ FT, KT = 0.3048, 1852.0 / 3600.0
 ENVELOPES = {"zero_gravity": (0.0, 2.2)}
 
 
+class _Skipped(Exception):
+    """fieldmap not run (``--no-fieldmap``)."""
+
+
 @dataclass
 class Row:
     """One piece's numbers (the CSV's columns)."""
@@ -99,8 +107,14 @@ class Row:
     extra: dict = field(default_factory=dict)
 
 
-def traffic_path(path: Path, geoid: tuple[np.ndarray, np.ndarray]) -> tuple[Any, float]:
-    """Smooth one piece with KalmanSmoother6D; return ((t, lat, lon, h, gs_col_max), seconds)."""
+def traffic_path(
+    path: Path, geoid: tuple[np.ndarray, np.ndarray], resample: str | None = None
+) -> tuple[Any, float]:
+    """Smooth one piece with KalmanSmoother6D; return ((t, lat, lon, h, gs_col_max), seconds).
+
+    ``resample`` (``"1s"``): ``Flight.resample`` first (linear interpolation of every column,
+    the projected positions included), so that the smoother's 1 s step is the rows' spacing.
+    """
     import pandas as pd
     from traffic.algorithms.filters.kalman import KalmanSmoother6D
     from traffic.core import Flight
@@ -131,7 +145,10 @@ def traffic_path(path: Path, geoid: tuple[np.ndarray, np.ndarray]) -> tuple[Any,
         first = d[c].first_valid_index()
         if first is not None and first > 0:
             d.loc[: first - 1, c] = d.loc[first, c]
-    out = Flight(d).filter(KalmanSmoother6D()).compute_latlon_from_xy(proj).data
+    flight = Flight(d)
+    if resample:
+        flight = flight.resample(resample)
+    out = flight.filter(KalmanSmoother6D()).compute_latlon_from_xy(proj).data
     sec = time.perf_counter() - t0
     t = (out["timestamp"] - out["timestamp"].iloc[0]).dt.total_seconds().to_numpy()
     g = pd.DataFrame(
@@ -163,8 +180,14 @@ def geoid_of(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return log.t[order], (log.h - alt)[order]
 
 
-def run_piece(entry: dict, sigma_h: float, with_traffic: bool) -> Row:
-    """Fly one piece both ways."""
+def run_piece(
+    entry: dict,
+    sigma_h: float,
+    with_traffic: bool,
+    with_fieldmap: bool = True,
+    resample: str | None = None,
+) -> Row:
+    """Fly one piece both ways (or one)."""
     from fieldmap.errors import InputError
     from fieldmap.nav.logs import load_flight
 
@@ -175,6 +198,8 @@ def run_piece(entry: dict, sigma_h: float, with_traffic: bool) -> Row:
     )  # fmt: skip
     t0 = time.perf_counter()
     try:
+        if not with_fieldmap:
+            raise _Skipped
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _, cf = load_flight(path, height_ref="pressure")
@@ -188,6 +213,8 @@ def run_piece(entry: dict, sigma_h: float, with_traffic: bool) -> Row:
         )  # fmt: skip
         row.fm_flown, row.fm_heights_within = c.flown_fraction, c.heights_within
         row.fm_worst_dh, row.fm_worst_dh_line = c.worst_height_offset_m, c.worst_height_line
+    except _Skipped:
+        row.fm_s = None
     except InputError as exc:
         row.fm_s = time.perf_counter() - t0
         row.fm_status, row.fm_reason = "refused", str(exc).splitlines()[0]
@@ -198,7 +225,7 @@ def run_piece(entry: dict, sigma_h: float, with_traffic: bool) -> Row:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                (t, lat, lon, h, gs_col), row.tr_s = traffic_path(path, geoid_of(path))
+                (t, lat, lon, h, gs_col), row.tr_s = traffic_path(path, geoid_of(path), resample)
             k: PathKinematics = path_kinematics(t, lat, lon, h)
             row.tr_status = "ok"
             row.tr_gs, row.tr_gs_col = k.max_ground_speed_m_s, gs_col
@@ -238,6 +265,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--csv", type=Path, help="write every number to this CSV file")
     ap.add_argument("--sigma-h", type=float, default=7.62, help="height σ of a fix (m)")
     ap.add_argument("--no-traffic", action="store_true", help="fieldmap only")
+    ap.add_argument("--no-fieldmap", action="store_true", help="traffic only")
+    ap.add_argument(
+        "--traffic-resample",
+        metavar="RULE",
+        help="resample the log (traffic's Flight.resample, e.g. 1s) before the smoother",
+    )
     args = ap.parse_args(argv)
     if not args.no_traffic:
         try:
@@ -263,7 +296,9 @@ def main(argv: list[str] | None = None) -> int:
     out = open(args.csv, "w", newline="") if args.csv else None
     try:
         for e in entries:
-            r = run_piece(e, args.sigma_h, not args.no_traffic)
+            r = run_piece(
+                e, args.sigma_h, not args.no_traffic, not args.no_fieldmap, args.traffic_resample
+            )
             rows.append(r)
             print(line(r), flush=True)
             if out is not None:
