@@ -53,7 +53,7 @@ The options travel as one :class:`Conditioning`, validated once on construction;
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -82,6 +82,8 @@ ESTIMATE_DT_S = 5.0
 #: a log's rates differ from its path's by a unit's factor when they agree on it within this
 #: spread (of the logarithms) where both move faster than UNIT_MIN_RATE (m/s)
 UNIT_SPREAD, UNIT_MIN_RATE = 0.15, 2.0
+#: the positions' σ starts this many times its robust first guess where rates are measured
+ANNEAL = 30.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
 
@@ -470,6 +472,12 @@ def _smooth(
         for f, c in zip(floors, channels)
     ]
     scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
+    if len(channels) > 1 and channels[1].order == 1 and channels[0].order == 0:
+        # annealing: the first weights are judged against a path shaped by the rates (a
+        # stretch of displaced positions cannot pull it), with the positions' σ wide; the
+        # likelihood then sets it (a log whose rates are the wrong ones shows as positions
+        # mostly faults, and the rates are left out: estimate())
+        scales0[0] *= ANNEAL
     q0 = math.sqrt(lo * hi) * 10.0
     # the height keeps within the class's climb and vertical load factor (bounds, not data)
     g = 9.80665
@@ -507,14 +515,27 @@ def estimate(
     res_s, res_c, res_v = meas.velocity_resolution
     notes: list[str] = []
 
+    velocities = meas.velocities
+
     def horizontal(use_velocities: bool) -> tuple[SmoothedAxis, list[Channel]]:
         chans, floors, fix = [meas.positions], [pos_floor], [None if fixed is None else fixed[0]]
-        if use_velocities and meas.velocities is not None:
-            chans.append(meas.velocities)
+        if use_velocities and velocities is not None:
+            chans.append(velocities)
             floors.append(max(res_s / sq12, 0.01))
             fix.append(None)
         return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
 
+    if velocities is not None:
+        # the tracks against the positions' own path: a track column off (a fault uniform in
+        # angle) keeps its ground speed, along the path's direction (track_faults)
+        alone, _ = horizontal(False)
+        velocities, replaced = track_faults(velocities, alone)
+        if replaced:
+            notes.append(
+                f"{replaced} of the log's tracks ({100.0 * replaced / velocities.t.size:.0f} %) "
+                "are off the direction its positions fly: their ground speeds used along the "
+                "positions' direction"
+            )
     hz, hchans = horizontal(True)
     if meas.velocities is not None:
         # a constant factor between the log's speeds and its positions' is a unit mistake
@@ -568,6 +589,41 @@ def estimate(
         for i, c in enumerate(cl):
             chans[c.name] = (c, axis, i)
     return PathEstimate(hz, vt, chans, tuple(notes))
+
+
+def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:
+    r"""The velocity channel with the tracks that are faults replaced by the path's direction.
+
+    The angle δ between a log's velocity and the positions-only path's velocity (where the path
+    moves faster than :data:`UNIT_MIN_RATE`) is an inlier, :math:`N(0, \sigma_\chi^2)`, or a
+    fault, uniform over ±180°: EM for :math:`\sigma_\chi` and the fault share, and a track is
+    a fault where its posterior probability is over 1/2. Such a sample keeps its speed, along
+    the path's direction (a measurement of the speed alone: the direction is the path's own).
+    """
+    pv = path.value_at(vel.t, 1)
+    ps = np.linalg.norm(pv, axis=1)
+    ls = np.linalg.norm(vel.y, axis=1)
+    moving = (ps > UNIT_MIN_RATE) & (ls > UNIT_MIN_RATE)
+    if moving.sum() < 10:
+        return vel, 0
+    cosang = np.sum(vel.y[moving] * pv[moving], axis=1) / (ls[moving] * ps[moving])
+    ang = np.arccos(np.clip(cosang, -1.0, 1.0))
+    sig, eps = math.radians(5.0), 0.1
+    pi = np.zeros(ang.size)
+    for _ in range(20):
+        log_in = -0.5 * (ang / sig) ** 2 - math.log(sig * math.sqrt(2.0 * math.pi)) + math.log(2.0)
+        log_out = -math.log(math.pi)
+        a, b = math.log(eps) + log_out, math.log1p(-eps) + log_in
+        pi = 1.0 / (1.0 + np.exp(b - a))
+        w = 1.0 - pi
+        sig = max(math.sqrt(float(np.sum(w * ang**2) / max(np.sum(w), 1.0))), math.radians(0.5))
+        eps = float(np.clip(np.mean(pi), 1e-4, 0.999))
+    bad = np.flatnonzero(moving)[pi > 0.5]
+    if bad.size == 0:
+        return vel, 0
+    y = vel.y.copy()
+    y[bad] = (ls[bad] / ps[bad])[:, None] * pv[bad]
+    return replace(vel, y=y), int(bad.size)
 
 
 def _unit_factor(log_rate: np.ndarray, path_rate: np.ndarray) -> float | None:
