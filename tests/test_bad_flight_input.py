@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from fieldmap.cli import main
 from refusals import refused
 
 from fieldmap.errors import InputError
@@ -220,17 +222,16 @@ def test_corridor_heights_are_checked_on_the_path_navsim_flies(tmp_path, capsys,
 
 def test_corridor_flight_refusal_advises_no_option_table_lacks(tmp_path, capsys):
     """``table --corridor`` reads its flight with the defaults: no advice to set a keyword."""
-    k = np.arange(12.0)
-    f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
+    k = np.arange(121.0)
+    f = _flight(tmp_path / "still.csv", lat=np.full(121, 47.0), h=np.full(121, 1000.0) + 0 * k)
     argv = ["table", "--lmax", "20", "--corridor", str(f), "--height-km", "0,5"]
     refused(
         [*argv, "--max-error-mgal", "5"],
         tmp_path,
         capsys,
-        "sparse.csv lines 2..13",
-        "without a gap over 60 s or a jump",
-        "the samples are 100 s apart",
-        absent=("max_gap_s", "--max-gap-s", "raise"),
+        "still.csv lines 2..122",
+        "not a flight",
+        absent=("airborne_only", "--airborne-only", "pass "),
     )
 
 
@@ -284,14 +285,13 @@ def test_keep_ground_and_airborne_only_refused_together(tmp_path, capsys):
     refused(argv, tmp_path, capsys, "--keep-ground", "--airborne-only", "give one")
 
 
-def test_gap_message_names_max_gap_s_option(tmp_path, capsys):
-    """The message said "max_gap_s = 60 s": the option is --max-gap-s."""
+def test_sparse_log_flown_with_its_gaps_listed(tmp_path, capsys):
+    """Twelve fixes 100 s apart: flown (gaps are the model's prediction), each gap listed."""
     k = np.arange(12.0)
     f = _flight(tmp_path / "sparse.csv", n=12, t=100.0 * k, lat=47.0 + k * 0.18)
-    argv = _navsim("--trajectory", str(f))
-    refused(
-        argv, tmp_path, capsys, "60 s (--max-gap-s)", "raise --max-gap-s", absent=("max_gap_s",)
-    )
+    rc = main([*_navsim("--trajectory", str(f)), "--out", str(tmp_path / "out")])
+    out = capsys.readouterr().out
+    assert rc == 0 and "gap: lines 2..3 (100 s" in out and out.count("gap: lines") == 11
 
 
 def test_reader_notes_name_the_cli_options(tmp_path):

@@ -70,7 +70,7 @@ def _params_used() -> set[str]:
 def test_every_param_raised_in_nav_is_in_the_table():
     used = _params_used()
     assert used, "no param= found: the walk is broken"
-    assert {"max_gap_s", "alt_units", "airborne_only", "reorder"} <= used  # nav.logs
+    assert {"alt_units", "airborne_only", "reorder", "log_velocities"} <= used  # nav.logs
     assert {"frame", "output_dt", "block_s", "models", "draws"} <= used  # study, propagator
     assert {"min_speed_mps", "height_ref", "time_format", "vehicle", "rate_hz"} <= used  # parts
     assert not used - set(OPTIONS), f"keywords missing from cli.OPTIONS: {used - set(OPTIONS)}"
@@ -157,21 +157,17 @@ def test_conditioning_errors_carry_their_keyword():
 
 def test_worded_for_navsim_and_for_table():
     """The navsim wording names options; table (no such options) leaves the advice out."""
-    from fieldmap.nav.logs.condition import condition
+    from fieldmap.nav.logs.condition import Conditioning, condition
 
-    k = np.arange(12.0)
-    sparse = _Track(100.0 * k, 47.0 + k * 0.18, np.full(12, 1e3), "sparse.csv")
-    e = _raised(condition, sparse)
+    k = np.arange(120.0)
+    taxi = _Track(k, 47.0 + k * 5.0 / 111e3, np.full(120, 500.0) + 0.0 * k, "taxi.csv")
+    e = _raised(condition, taxi, Conditioning(airborne_only=True))
     python = str(e)
-    assert python.endswith(
-        "over 60 s (max_gap_s) or a jump (12 kept); the samples are 100 s apart: raise max_gap_s"
-    )
+    assert python.endswith("pass airborne_only=False to fly the ground movement")
     assert e.worded(PYTHON) == python
-    assert e.worded(NAVSIM).endswith(
-        "over 60 s (--max-gap-s) or a jump (12 kept); the samples are 100 s apart: "
-        "raise --max-gap-s"
-    )
-    assert e.worded(TABLE).endswith("over 60 s or a jump (12 kept); the samples are 100 s apart")
+    navsim = e.worded(NAVSIM)
+    assert "airborne_only" not in navsim and "leave out --airborne-only" in navsim
+    assert "airborne_only" not in e.worded(TABLE)
 
 
 @pytest.mark.parametrize(

@@ -90,9 +90,7 @@ def load_flight(
     options : Conditioning, optional
         The conditioning (default ``Conditioning()``); its ``ellipsoid`` is that of the
         coordinates and of the flight. With ``smooth=False``: the exact interpolation of the
-        samples, refused where times go back (``reorder`` applies to the smoothing only). The
-        0.1 keywords (``smooth=``, ``max_gap_s=`` …) still work, with a
-        ``DeprecationWarning``.
+        samples (times that go back are sorted unless ``reorder=False``).
     columns, alt_units, height_ref, time_format, model
         As :func:`fieldmap.nav.logs.read.read_track` (``model``: the truth model whose geoid
         makes MSL heights ellipsoidal).
@@ -102,6 +100,19 @@ def load_flight(
     (FlightTrajectory, ConditionedFlight or None)
         The trajectory and the conditioning (its ``report`` and figure); None when flown as
         recorded.
+
+    Examples
+    --------
+    A log of a climb north at 222 m/s, written as a CSV file, flown as an airliner:
+
+    >>> import pathlib, tempfile
+    >>> rows = ["time_s,lat_deg,lon_deg,height_m"]
+    >>> rows += [f"{s},{47 + s * 2e-3:.6f},8.0,{1000 + 2 * s}" for s in range(300)]
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "climb.csv"
+    >>> _ = path.write_text("\\n".join(rows))
+    >>> flight, conditioned = load_flight(path)
+    >>> conditioned.report["vehicle"]["class"], round(conditioned.samples.t[-1])
+    ('airliner', 299)
     """
     from fieldmap.nav.logs.condition import condition
     from fieldmap.nav.trajectory import FlightTrajectory
@@ -128,7 +139,7 @@ def load_flight(
     from fieldmap.nav.logs.read import read_track
 
     track = read_track(source, **reader_opts, model=model, ellipsoid=ellipsoid)
-    # unconditioned, times going back are refused (today's rule): smooth= is what sorts
+    # unconditioned, times going back are refused: smooth= is what sorts
     exact = not options.smooth
     try:
         cf = condition(track, replace(options, reorder=options.reorder and not exact))

@@ -11,6 +11,7 @@ track angle, ``(v_N a_E − v_E a_N) / v_H²``, where the ground speed exceeds 1
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -26,18 +27,19 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 #: a sample's fate: the codes of ``ConditionedFlight.raw["status"]``
-KEPT, OUTLIER_H, OUTLIER_V, OUTLIER_HV, STALE, GROUND, DROPPED, GAP = range(8)
-STATUS_NAMES = ("kept", "outlier_h", "outlier_v", "outlier_hv", "stale", "ground", "dropped", "gap")
+KEPT, OUTLIER_H, OUTLIER_V, OUTLIER_HV, NOT_MEASURED, TRIMMED = range(6)
+STATUS_NAMES = ("kept", "outlier_h", "outlier_v", "outlier_hv", "not_measured", "trimmed")
 
-#: outliers shown in the report's "worst" list
-N_WORST = 10
+#: faults shown in the text report
+N_WORST = 8
 METHOD = (
-    "Hampel identifier on running-median trends, robust (bisquare) penalised cubic spline on a "
-    "regular grid with λ from the discrepancy principle, softened to the vehicle limits"
+    "Singer manoeuvre model per axis (white jerk, vehicle-class bounds), robust smoother over "
+    "the whole log (banded normal equations = RTS smoother; EM weights of an inlier/fault "
+    "mixture), noise levels by marginal likelihood"
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class ConditionedFlight:
     """Result of :func:`~fieldmap.nav.logs.condition.condition`.
 
@@ -47,21 +49,26 @@ class ConditionedFlight:
         The smooth path on a regular grid, times from 0 (``t_start`` the first, in the track's
         time scale); what :class:`~fieldmap.nav.trajectory.FlightTrajectory` takes.
     report : dict
-        JSON-ready summary: ``samples``, ``order``, ``stale``, ``interpolated`` (positions
-        interpolated between fixes: :func:`_interpolated`), ``outliers`` (every rejected
-        sample with line, time and offset), ``fit`` (σ, residual RMS), ``gaps``, ``segments``,
-        ``ground_trimmed`` (``airborne_only``), ``ground`` (the ground movement flown as such:
-        :func:`_ground`), ``kinematics`` (:func:`kinematics`), ``options``, ``notes``.
+        JSON-ready summary (:func:`build_report`): ``samples``, ``order``, ``vehicle`` (class,
+        how chosen, evidence), ``model`` (the motion model's noise levels), ``channels`` (each
+        measurement channel: noise σ, fault rate, residual RMS and largest, rejected samples),
+        ``fit`` (the horizontal and vertical noise and residuals in one place), ``faults``
+        (every run of rejected samples, with lines and what it is), ``gaps`` (longer than
+        ``max_gap_s``, with the path's σ), ``ground``, ``kinematics`` (:func:`kinematics`),
+        ``velocity`` (the flown path against the log's velocities), ``options``, ``notes``.
     raw : dict
         The ordered raw samples (``t`` relative to ``samples.t_start``, ``lat``, ``lon``, ``h``,
-        ``lines``), each one's ``status`` (codes :data:`STATUS_NAMES`) and offsets from the
-        fitted path (``offset_h``, ``offset_v``, m; from the robust trend outside the flown
-        segment) for :func:`plot_conditioning`.
+        ``lines``), each one's ``status`` (codes :data:`STATUS_NAMES`) and distances from the
+        flown path (``offset_h``, ``offset_v``, m) for :func:`plot_conditioning`.
+    conditioned : Conditioned
+        The typed result the report is built from
+        (:class:`~fieldmap.nav.logs.condition.Conditioned`).
     """
 
     samples: FlightSamples
     report: dict
     raw: dict = field(repr=False)
+    conditioned: Any = field(default=None, repr=False)
 
     def format_report(self) -> str:
         """Return the report as text (see :func:`format_report`)."""
@@ -75,6 +82,20 @@ def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.nd
     a, b = ell.a, ell.b
     g0 = (a * ell.gamma_a * c2 + b * ell.gamma_b * s2) / np.sqrt(a * a * c2 + b * b * s2)
     return g0 * (1.0 - 2.0 * h / a * (1.0 + ell.f + ell.m - 2.0 * ell.f * s2) + 3.0 * (h / a) ** 2)
+
+
+def flown_velocity(
+    samples: FlightSamples, t: np.ndarray, ellipsoid: Ellipsoid = WGS84
+) -> np.ndarray:
+    """East, north, up velocity (m/s) of the flown path (the quintic through ``samples``) at
+    times ``t`` (s, the samples' time scale), (m, 3)."""
+    from scipy.interpolate import make_interp_spline
+
+    s = samples
+    r = np.stack(geodetic_to_ecef(s.lat, s.lon, s.h, ellipsoid), -1)
+    v = make_interp_spline(s.t, r, k=5)(t, 1)
+    C = C_e_to_enu(np.interp(t, s.t, s.lat), np.interp(t, s.t, s.lon))
+    return np.einsum("nij,nj->ni", C, v)
 
 
 def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
@@ -121,149 +142,85 @@ def kinematics(samples: FlightSamples, ellipsoid: Ellipsoid = WGS84) -> dict:
     }
 
 
-def _runs(mask: np.ndarray, t: np.ndarray, lines: np.ndarray) -> list[dict]:
-    """Contiguous runs of ``mask`` as dicts of times, lines and sample counts."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    out = []
-    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
-        out.append(
-            {
-                "t_start_s": float(t[a]),
-                "t_end_s": float(t[b]),
-                "lines": [int(lines[a]), int(lines[b])],
-                "samples": int(b - a + 1),
-            }
-        )
+def _stats(x: np.ndarray) -> tuple[float, float, int]:
+    """RMS, largest and the index of the largest of ``x`` (0, 0, -1 when empty)."""
+    if x.size == 0:
+        return 0.0, 0.0, -1
+    i = int(np.argmax(x))
+    return float(np.sqrt(np.mean(x * x))), float(x[i]), i
+
+
+def _velocity_residuals(c: Any, t0: float) -> dict[str, Any] | None:
+    """The flown path's ground speed, track and vertical rate against the log's own."""
+    m = c.measurements
+    if m is None or (m.velocities is None and m.climbs is None):
+        return None
+    log, s = c.log, c.samples
+    out: dict[str, Any] = {"columns": list(m.velocity_columns)}
+    lo, hi = s.t_start, s.t_start + s.t[-1]
+    for name in ("velocity", "vertical rate"):
+        if name not in m.index:
+            continue
+        idx = m.index[name]
+        inside = (log.t[idx] >= lo) & (log.t[idx] <= hi)
+        idx = idx[inside]
+        if idx.size == 0:
+            continue
+        v = flown_velocity(s, log.t[idx] - lo, c.options.ellipsoid)
+        used = name in c.residuals
+        rej = c.rejected[name][inside] if used else np.zeros(idx.size, bool)
+        if name == "velocity":
+            vel_e = m.velocities
+            assert vel_e is not None
+            gs_flown = np.hypot(v[:, 0], v[:, 1])
+            ch = np.degrees(np.arctan2(v[:, 0], v[:, 1]))
+            # the log's own values, as given
+            from_track = c.velocity_log
+            gs_log, tr_log = from_track[0][idx], from_track[1][idx]
+            dgs = np.abs(gs_flown - gs_log)
+            dtr = np.abs((ch - tr_log + 180.0) % 360.0 - 180.0)
+            fast = gs_log > 10.0
+            for key, x in (("groundspeed", dgs), ("track", dtr[fast])):
+                unit = "deg" if key == "track" else "m_s"
+                r_all, m_all, _ = _stats(x)
+                keep = x[~(rej[fast] if key == "track" else rej)]
+                r_in, m_in, _ = _stats(keep)
+                out[f"{key}_rms_{unit}"], out[f"{key}_max_{unit}"] = r_in, m_in
+                out[f"{key}_all_rms_{unit}"], out[f"{key}_all_max_{unit}"] = r_all, m_all
+            out["velocity_used"] = used
+            out["velocity_rejected"] = int(rej.sum())
+        else:
+            climb_log = c.velocity_log[2][idx]
+            d = np.abs(v[:, 2] - climb_log)
+            r_in, m_in, _ = _stats(d[~rej])
+            r_all, m_all, _ = _stats(d)
+            out["vertical_rate_rms_m_s"], out["vertical_rate_max_m_s"] = r_in, m_in
+            out["vertical_rate_all_rms_m_s"], out["vertical_rate_all_max_m_s"] = r_all, m_all
+            out["vertical_rate_used"] = used
+            out["vertical_rate_rejected"] = int(rej.sum())
     return out
 
 
-def _intervals(t: np.ndarray, dtm: float) -> tuple[int, float]:
-    """Intervals of ``t`` longer than 2.5 median intervals: count and the longest (s)."""
-    if t.size < 2:
-        return 0, 0.0
-    d = np.diff(t)
-    return int(np.sum(d > 2.5 * dtm)), float(d.max())
-
-
-def _ground(st: Any, t0: float) -> dict[str, Any]:
-    """Return the ground movement flown as such (``st.ground_pieces``), JSON-ready.
-
-    ``flown``: each piece (before or after the flight) with its times (relative to ``t0``),
-    lines, samples, level height and where it came from, noise σ, fit residual RMS and
-    samples softened; ``duration_s`` and ``fraction_of_log``: their time against the log's
-    span (first to last sample); ``envelope``: the ground envelope they keep within.
-    """
-    log = st.log
-    pieces = list(getattr(st, "ground_pieces", []))
-    env = getattr(st, "ground_envelope", None)
-    span = float(log.t[-1] - log.t[0]) if log.t.size > 1 else 0.0
-    duration = float(sum(p["t_end"] - p["t_start"] for p in pieces))
-    flown = []
-    for p in pieces:
-        d = {k: v for k, v in p.items() if k not in ("t_start", "t_end")}
-        flown.append(dict(d, t_start_s=p["t_start"] - t0, t_end_s=p["t_end"] - t0))
-    return {
-        "flown": flown,
-        "samples": int(sum(p["samples"] for p in pieces)),
-        "duration_s": duration,
-        "fraction_of_log": duration / span if span > 0.0 else 0.0,
-        "envelope": None
-        if env is None
-        else {"load_factor_g": [env.n_min, env.n_max], "max_jerk_m_s3": env.jerk},
-    }
-
-
-def _interpolated(st: Any) -> dict[str, Any]:
-    """Return the positions interpolated between fixes (JSON-ready; ``st.interpolated``)."""
-    L = np.asarray(getattr(st, "interpolated", np.zeros(0)))
-    first = (L > 0.0) & (np.concatenate([[0.0], L[:-1]]) == 0.0)
-    return {
-        "positions": int(np.sum(L > 0.0)),
-        "runs": int(np.sum(first)),
-        "tolerance_deg": float(getattr(st, "interpolated_tol", 0.0)),
-        "use": "each run of L weighted 1/L: one observation; not in the noise estimates",
-    }
-
-
-def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
-    """Assemble the :class:`ConditionedFlight` of a fitted segment ``fr`` of the stages ``st``.
-
-    ``st``: a :class:`fieldmap.nav.logs.condition.Stages` (not imported: condition imports this
-    module).
-    """
-    log, o, track = st.log, st.opts, st.track
-    samples, status = fr["samples"], st.status()
-    t0 = samples.t_start
-    rej: list[dict] = []
-    for i in np.flatnonzero((status >= OUTLIER_H) & (status <= OUTLIER_HV)):
-        c = int(status[i])
-        offset = {OUTLIER_H: st.off_h[i], OUTLIER_V: st.off_v[i]}.get(
-            c, float(np.hypot(st.off_h[i], st.off_v[i]))
-        )
-        rej.append(
-            {
-                "line": int(log.lines[i]),
-                "t_s": float(log.t[i] - t0),
-                "component": {OUTLIER_H: "horizontal", OUTLIER_V: "vertical"}.get(c, "both"),
-                "offset_m": float(abs(offset)),
-            }
-        )
-    hi, vi = fr["hi"], fr["vi"]
-    dtm = float(np.median(np.diff(log.t[hi]))) if hi.size > 1 else 0.0
-    nb_h, long_h = _intervals(log.t[hi], dtm)
-    nb_v, long_v = _intervals(log.t[vi], dtm)
-    sig = fr["sigma"]
-    flown = (log.t >= fr["t_lo"]) & (log.t <= fr["t_hi"])
-    notes = list(getattr(track, "notes", ()) or ())
-    if st.dropped:
-        notes.append(f"flew the longest of {len(st.dropped) + 1} segments (breaks: gaps, jumps)")
-    veh, lim = st.vehicle, st.lim
-    if o["smooth"]:
-        notes.append(
-            Message(
-                f"vehicle: {veh.name} ({st.vehicle_why}",
-                Advice("; ", Pass("vehicle", Metavar("CLASS")), " to choose"),
-                f"): load factor {veh.n_min:g}..{veh.n_max:g} g, jerk {lim['max_jerk']:g} m/s³, "
-                f"speed {veh.speed:g} m/s",
-            )
-        )
-    if fr["softened"]:
-        limits = [f"load factor {veh.n_min:g}..{veh.n_max:g} g"]
-        limits += [
-            f"{lim[k]:g} {u}" for k, u in (("max_accel_g", "g"), ("max_jerk", "m/s³")) if lim[k]
-        ]
-        notes.append(
-            f"the path was softened near {fr['softened']} samples to keep within the vehicle "
-            f"limits ({', '.join(limits)})"
-        )
-
-    interp = _interpolated(st)
-    if interp["positions"]:
-        notes.append(
-            f"{interp['positions']} positions in {interp['runs']} runs interpolated between "
-            f"fixes (collinear at equal time steps within {interp['tolerance_deg']:.1g}°, the "
-            "rounding of the printed digits): each run one observation in the fit, left out "
-            "of the noise and timing-jitter estimates"
-        )
-
-    def rel(d: dict) -> dict:
-        return dict(d, t_start_s=d["t_start_s"] - t0, t_end_s=d["t_end_s"] - t0)
-
-    report = {
+def build_report(c: Any) -> dict[str, Any]:
+    """The JSON-ready report of a :class:`~fieldmap.nav.logs.condition.Conditioned`."""
+    log, s, m, est, veh = c.log, c.samples, c.measurements, c.estimate, c.vehicle
+    t0 = s.t_start
+    report: dict[str, Any] = {
         "source": log.source,
-        "height_ref": getattr(track, "height_ref", None),
-        "t0_utc": getattr(track, "t0_utc", None),
+        "height_ref": c.height_ref,
+        "t0_utc": c.t0_utc,
         "t_start_s": float(t0),
-        "method": METHOD if o["smooth"] else "exact: the ordered samples, no smoothing",
-        "options": dict(o),
+        "method": METHOD if est is not None else "exact: the ordered samples, no smoothing",
+        "options": c.options.as_dict(),
         "samples": {
             "in": int(log.n_in),
             "invalid": int(log.n_invalid),
             "first_invalid_line": log.first_invalid_line,
-            "out": int(samples.t.size),
-            "used_horizontal": int(hi.size),
-            "used_vertical": int(vi.size),
-            "dt_out_s": fr["dt_out"],
+            "ordered": int(log.t.size),
+            "out": int(s.t.size),
+            "dt_out_s": None if c.grid is None else float(c.grid.dt),
+            "repeated_positions": 0 if m is None else int(m.repeated.sum()),
+            "interpolated_positions": 0 if m is None else int(m.interpolated.sum()),
         },
         "order": {
             "reordered": log.n_reordered,
@@ -271,99 +228,206 @@ def finish(st: Any, fr: dict[str, Any]) -> ConditionedFlight:
             "duplicates": log.n_duplicates,
             "first_duplicate_line": log.first_duplicate_line,
         },
-        "stale": {"positions": int(np.sum(st.stale)), "heights": int(np.sum(st.stale_v))},
-        "interpolated": interp,
-        "outliers": {
-            "count": len(rej),
-            "horizontal": int(np.sum(st.out_h)),
-            "vertical": int(np.sum(st.out_v)),
-            "in_flown_segment": int(
-                np.sum(((status >= OUTLIER_H) & (status <= OUTLIER_HV))[flown])
-            ),
-            "worst": sorted(rej, key=lambda r: -float(r["offset_m"]))[:N_WORST],
-            "samples": rej,
-        },
-        "fit": {
-            "sigma_h_m": None if sig is None else float(sig[0]),
-            "sigma_v_m": None if sig is None else float(sig[1]),
-            "sigma_estimated": bool(fr["sigma_estimated"]),
-            "height_quantum_m": float(st.quantum),
-            "residual_rms_h_m": float(fr["rms"][0]),
-            "residual_rms_v_m": float(fr["rms"][1]),
-            "lambda_h": float(fr["lam"][0]),
-            "lambda_v": float(fr["lam"][1]),
-            "edf_h": float(fr["edf"][0]),
-            "edf_v": float(fr["edf"][1]),
-            "softened_samples": int(fr["softened"]),
-        },
-        "gaps": {
-            "limit_s": o["max_gap_s"],
-            "bridged": nb_h,
-            "bridged_vertical": nb_v,
-            "longest_bridged_s": max(long_h, long_v),
-            "breaks": [
-                {
-                    "kind": kind,
-                    "t_from_s": float(log.t[a] - t0),
-                    "t_to_s": float(log.t[b] - t0),
-                    "duration_s": float(log.t[b] - log.t[a]),
-                    "lines": [int(log.lines[a]), int(log.lines[b])],
-                }
-                for a, b, kind in st.breaks
-            ],
-            "samples_in_breaks": int(np.sum(status == GAP)),
-            "long_bridged": [
-                {
-                    "t_from_s": b["t_from"] - t0,
-                    "t_to_s": b["t_to"] - t0,
-                    "duration_s": b["t_to"] - b["t_from"],
-                    "lines": b["lines"],
-                    "sigma_h_m": b["sigma_h_m"],
-                    "sigma_v_m": b["sigma_v_m"],
-                }
-                for b in fr["bridges"]
-            ],
-        },
-        "segments": {
-            "flown": {
-                "t_start_s": 0.0,
-                "t_end_s": float(samples.t[-1]),
-                "lines": [int(samples.lines[0]), int(samples.lines[-1])],
-            },
-            "dropped": [rel(d) for d in st.dropped],
-        },
         "vehicle": {
             "class": veh.name,
-            "how": st.vehicle_why,
+            "how": c.vehicle_how,
+            "evidence": None if c.evidence is None else {
+                "speed_m_s": c.evidence.speed,
+                "climb_m_s": c.evidence.climb,
+                "turn_rate_deg_s": c.evidence.turn_rate,
+                "height_band_m": c.evidence.height_band,
+                "slow_airborne_fraction": c.evidence.slow_airborne,
+                "category": c.evidence.category,
+                "file_format": c.evidence.file_format,
+            },
             "load_factor_g": [veh.n_min, veh.n_max],
-            "max_jerk_m_s3": lim["max_jerk"],
             "max_speed_m_s": veh.speed,
             "max_climb_m_s": veh.climb,
+            "max_accel_h_m_s2": veh.accel_h,
+            "max_accel_v_m_s2": veh.accel_v,
+            "stall_speed_m_s": veh.stall,
         },
-        "ground_trimmed": [rel(g) for g in _runs(st.ground, log.t, log.lines)],
-        "ground": _ground(st, t0),
-        "kinematics": kinematics(samples, log.ellipsoid),
-        "velocity": fr.get("velocity"),
-        "timing": fr.get("timing"),
-        "notes": notes,
+        "kinematics": kinematics(s, c.options.ellipsoid),
+        "notes": [*c.track_notes, *c.notes]
+        + (
+            [
+                Message(
+                    f"vehicle: {veh.name} ({c.vehicle_how})",
+                    Advice("; ", Pass("vehicle", Metavar("CLASS")), " to choose"),
+                )
+            ]
+            if c.vehicle_how.startswith("guessed")
+            else []
+        ),
     }
+    if est is None:
+        return report
+    assert m is not None
+    sig = {}
+    chans: dict[str, Any] = {}
+    for name, (ch, axis, i) in est.channels.items():
+        res, rej = c.residuals[name], c.rejected[name]
+        idx = m.index[name]
+        r_in, m_in, _ = _stats(res[~rej])
+        r_all, m_all, j = _stats(res)
+        per_axis = 1.0 / math.sqrt(ch.dof) if ch.dof == 2 else 1.0
+        chans[name] = {
+            "samples": int(ch.t.size),
+            "noise_sigma": float(axis.scales[i]),
+            "fault_rate": float(axis.fault_rate[i]),
+            "rejected": int(rej.sum()),
+            "residual_rms": r_in * per_axis,
+            "residual_max": m_in,
+            "residual_all_max": m_all,
+            "residual_all_max_line": int(log.lines[idx[j]]) if j >= 0 else None,
+        }
+        sig[name] = float(axis.scales[i])
+    hz, vt = est.horizontal, est.vertical
+    pos, hgt = chans["position"], chans["height"]
+    report["model"] = {
+        "horizontal": {
+            "jerk_intensity_m2_s5": hz.q,
+            "sigma_accel_m_s2": hz.model.sigma_accel(hz.q),
+            "tau_s": hz.model.tau_s,
+            "q_bounds": list(veh.q_bounds(False)),
+        },
+        "vertical": {
+            "jerk_intensity_m2_s5": vt.q,
+            "sigma_accel_m_s2": vt.model.sigma_accel(vt.q),
+            "tau_s": vt.model.tau_s,
+            "tau_climb_s": 1.0 / vt.model.beta,
+            "q_bounds": list(veh.q_bounds(True)),
+        },
+    }
+    report["channels"] = chans
+    report["fit"] = {
+        "sigma_h_m": sig["position"],
+        "sigma_v_m": sig["height"],
+        "sigma_estimated": c.options.noise_m() is None,
+        "height_quantum_m": float(m.height_quantum),
+        "residual_rms_h_m": pos["residual_rms"],
+        "residual_rms_v_m": hgt["residual_rms"],
+        "residual_max_h_m": pos["residual_max"],
+        "residual_max_v_m": hgt["residual_max"],
+        "residual_all_max_h_m": pos["residual_all_max"],
+        "residual_all_max_v_m": hgt["residual_all_max"],
+    }
+    report["faults"] = {
+        "runs": len(c.faults),
+        "samples": {k: int(v.sum()) for k, v in c.rejected.items()},
+        "list": [
+            {
+                "channel": f.channel,
+                "kind": f.kind,
+                "lines": list(f.lines),
+                "t_start_s": f.t_start_s - t0,
+                "t_end_s": f.t_end_s - t0,
+                "samples": f.samples,
+                "offset": f.offset_m,
+                "time_shift_s": f.time_shift_s,
+                "text": f.text(t0),
+            }
+            for f in c.faults
+        ],
+    }
+    report["gaps"] = {
+        "limit_s": float(c.options.max_gap_s),
+        "count": len(c.gaps),
+        "longest_s": max((g.t_to_s - g.t_from_s for g in c.gaps), default=0.0),
+        "list": [
+            {
+                "t_from_s": g.t_from_s - t0,
+                "t_to_s": g.t_to_s - t0,
+                "duration_s": g.t_to_s - g.t_from_s,
+                "lines": list(g.lines),
+                "sigma_h_m": g.sigma_h_m,
+                "sigma_v_m": g.sigma_v_m,
+            }
+            for g in c.gaps
+        ],
+    }
+    report["timing"] = _timing(est)
+    report["ground"] = _ground(c)
+    report["velocity"] = _velocity_residuals(c, t0)
+    return report
+
+
+def _timing(est: Any) -> dict[str, Any] | None:
+    """The time errors of the fixes (the position channel's), when the log shows them."""
+    _, axis, i = est.channels["position"]
+    sig = axis.sigma_tau[i] if axis.sigma_tau else 0.0
+    if sig <= 0.0:
+        return None
+    tau = axis.tau[i]
+    return {
+        "sigma_s": float(sig),
+        "shift_rms_s": float(np.sqrt(np.mean(tau**2))),
+        "shift_max_s": float(np.max(np.abs(tau))),
+        "fixes": int(tau.size),
+    }
+
+
+def _ground(c: Any) -> dict[str, Any]:
+    """Time at the ends of the flown path slower than the vehicle's stall speed (on the ground)."""
+    veh, s = c.vehicle, c.samples
+    if veh.stall <= 0.0 or s.t.size < 2:
+        return {"duration_s": 0.0, "fraction_of_flight": 0.0, "stall_speed_m_s": veh.stall}
+    hz = c.estimate.horizontal
+    a, b = c.flown
+    speed = np.linalg.norm(hz.x[a : b + 1, 1, :], axis=1)
+    fast = np.flatnonzero(speed >= veh.stall)
+    dt = float(s.t[1] - s.t[0])
+    if fast.size == 0:
+        dur = float(s.t[-1])
+    else:
+        dur = float((fast[0] + (speed.size - 1 - fast[-1])) * dt)
+    span = float(s.t[-1]) or 1.0
+    return {"duration_s": dur, "fraction_of_flight": dur / span, "stall_speed_m_s": veh.stall}
+
+
+def conditioned_flight(c: Any) -> ConditionedFlight:
+    """The :class:`ConditionedFlight` of a conditioning result ``c`` (a ``Conditioned``)."""
+    log, s = c.log, c.samples
+    n = log.t.size
+    report = build_report(c)
+    status = np.full(n, KEPT, np.int64)
+    off_h, off_v = np.zeros(n), np.zeros(n)
+    m = c.measurements
+    if m is not None:
+        status[m.repeated | m.interpolated] = NOT_MEASURED
+        ip, ih = m.index["position"], m.index["height"]
+        off_h[ip], off_v[ih] = c.residuals["position"], c.residuals["height"]
+        # the positions not measured: their distance from the path all the same
+        other = np.setdiff1d(np.arange(n), ip)
+        if other.size and c.estimate is not None:
+            p = np.stack(geodetic_to_ecef(log.lat[other], log.lon[other], np.zeros(other.size),
+                                          c.options.ellipsoid), -1) - m.origin
+            off_h[other] = np.linalg.norm(p - c.estimate.horizontal.value_at(log.t[other]), axis=1)
+        bad_h = np.zeros(n, bool)
+        bad_v = np.zeros(n, bool)
+        bad_h[ip[c.rejected["position"]]] = True
+        bad_v[ih[c.rejected["height"]]] = True
+        status[bad_h] = OUTLIER_H
+        status[bad_v] = OUTLIER_V
+        status[bad_h & bad_v] = OUTLIER_HV
+    lo, hi = s.t_start, s.t_start + s.t[-1]
+    status[(log.t < lo - 1e-9) | (log.t > hi + 1e-9)] = TRIMMED
     raw = {
-        "t": log.t - t0,
+        "t": log.t - s.t_start,
         "lat": log.lat,
         "lon": log.lon,
         "h": log.h,
         "lines": log.lines,
         "status": status,
-        "offset_h": np.abs(st.off_h),
-        "offset_v": np.abs(st.off_v),
+        "offset_h": off_h,
+        "offset_v": off_v,
     }
-    return ConditionedFlight(samples, report, raw)
+    return ConditionedFlight(s, report, raw, c)
 
 
 def format_report(rep: dict) -> str:
     """Text of a conditioning report (:attr:`ConditionedFlight.report`), one item a line."""
-    s, o, f, g, k = rep["samples"], rep["order"], rep["fit"], rep["gaps"], rep["kinematics"]
-    out = rep["outliers"]
+    s, o, k, v = rep["samples"], rep["order"], rep["kinematics"], rep["vehicle"]
     lines = [f"Conditioned flight: {rep['source']}"]
     extra = []
     if s["invalid"]:
@@ -376,67 +440,64 @@ def format_report(rep: dict) -> str:
         extra.append(
             f"{o['duplicates']} repeated times dropped (first line {o['first_duplicate_line']})"
         )
-    st = rep["stale"]
-    if st["positions"] or st["heights"]:
-        extra.append(f"{st['positions']} stale positions, {st['heights']} stale heights")
+    if s.get("repeated_positions"):
+        extra.append(f"{s['repeated_positions']} repeated positions (the fix before, resent)")
+    if s.get("interpolated_positions"):
+        extra.append(f"{s['interpolated_positions']} positions interpolated between fixes")
     dt = f" every {s['dt_out_s']:g} s" if s["dt_out_s"] else ""
     lines.append(f"  samples: {s['in']} in, {s['out']} out{dt}" + "".join("; " + e for e in extra))
     lines.append(f"  method: {rep['method']}")
-    if f["sigma_h_m"] is not None:
-        how = "estimated" if f["sigma_estimated"] else "given"
-        q = f"; heights quantised in {f['height_quantum_m']:.2f} m" if f["height_quantum_m"] else ""
+    lines.append(
+        f"  vehicle: {v['class']} ({v['how']}): load factor {v['load_factor_g'][0]:g}.."
+        f"{v['load_factor_g'][1]:g} g, speed to {v['max_speed_m_s']:g} m/s"
+    )
+    if "model" in rep:
+        mh, mv = rep["model"]["horizontal"], rep["model"]["vertical"]
         lines.append(
-            f"  noise σ ({how}): {f['sigma_h_m']:.2f} m horizontal, {f['sigma_v_m']:.2f} m "
-            f"vertical{q}; fit residual RMS {f['residual_rms_h_m']:.2f} m, "
-            f"{f['residual_rms_v_m']:.2f} m ({s['used_horizontal']} positions, "
-            f"{s['used_vertical']} heights)"
+            f"  motion model: acceleration σ {mh['sigma_accel_m_s2']:.2f} m/s² horizontally "
+            f"({mh['tau_s']:g} s manoeuvres), {mv['sigma_accel_m_s2']:.2f} m/s² vertically "
+            "(estimated within the class's bounds)"
         )
-        worst = ", ".join(
-            f"line {w['line']} (t = {w['t_s']:.1f} s, {w['offset_m']:.0f} m {w['component']})"
-            for w in out["worst"][:5]
-        )
-        lines.append(
-            f"  outliers rejected: {out['count']} ({out['horizontal']} horizontal, "
-            f"{out['vertical']} vertical)" + (f"; worst: {worst}" if worst else "")
-        )
-        lines.append(
-            f"  gaps bridged: {g['bridged']} (longest {g['longest_bridged_s']:.1f} s); breaks "
-            f"(gaps over {g['limit_s']:g} s, jumps): {len(g['breaks'])}"
-        )
-        for b in g.get("long_bridged", []):
+        units = {"position": "m", "height": "m", "velocity": "m/s", "vertical rate": "m/s"}
+        for name, ch in rep["channels"].items():
+            u = units.get(name, "")
+            per = " per axis" if name in ("position", "velocity") else ""
             lines.append(
-                f"  long gap bridged: lines {b['lines'][0]}..{b['lines'][1]} "
-                f"({b['duration_s']:.0f} s, t = {b['t_from_s']:.0f}..{b['t_to_s']:.0f} s): "
-                f"a path the vehicle could fly, σ {b['sigma_h_m']:.0f} m per horizontal axis, "
-                f"{b['sigma_v_m']:.0f} m vertical at mid-gap"
+                f"  {name}: {ch['samples']} measured, noise σ {ch['noise_sigma']:.2f} {u}{per}; "
+                f"residual RMS {ch['residual_rms']:.2f} {u}{per}, largest {ch['residual_max']:.1f}"
+                f" {u} (kept), {ch['residual_all_max']:.0f} {u} (all, line "
+                f"{ch['residual_all_max_line']}); {ch['rejected']} rejected"
             )
-    for d in rep["segments"]["dropped"]:
-        lines.append(
-            f"  segment dropped: lines {d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
-            f"t = {d['t_start_s']:.0f}..{d['t_end_s']:.0f} s)"
-        )
-    gr = rep.get("ground") or {}
-    for d in gr.get("flown", []):
-        env = gr["envelope"]
-        lines.append(
-            f"  ground movement flown as such ({d['side']} the flight): lines "
-            f"{d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
-            f"{d['t_end_s'] - d['t_start_s']:.0f} s), level at {d['height_m']:.0f} m "
-            f"({d['height_from']}), noise σ {d['sigma_h_m']:.1f} m, fit residual RMS "
-            f"{d['residual_rms_h_m']:.1f} m, within {env['load_factor_g'][0]:g}.."
-            f"{env['load_factor_g'][1]:g} g and {env['max_jerk_m_s3']:g} m/s³"
-            + (f" (softened near {d['softened_samples']} samples)" if d["softened_samples"] else "")
-        )
-    if gr.get("flown"):
-        lines.append(
-            f"  on the ground: {gr['duration_s']:.0f} s, {100 * gr['fraction_of_log']:.1f} % "
-            "of the log's span, flown as an aircraft on the ground"
-        )
-    for d in rep["ground_trimmed"]:
-        lines.append(
-            f"  ground trimmed: lines {d['lines'][0]}..{d['lines'][1]} ({d['samples']} samples, "
-            f"{d['t_end_s'] - d['t_start_s']:.0f} s)"
-        )
+        fl = rep["faults"]["list"]
+        if fl:
+            # the largest first: samples × distance, a re-timed run by its time error at 100 m/s
+            worst = sorted(
+                fl, key=lambda f: -f["samples"] * (f["offset"] + 100.0 * abs(f["time_shift_s"] or 0))
+            )[:N_WORST]
+            lines.append(f"  faults: {len(fl)} runs of rejected samples; the largest:")
+            lines += [f"    {f['text']}" for f in worst]
+        g = rep["gaps"]
+        for gp in g["list"]:
+            lines.append(
+                f"  gap: lines {gp['lines'][0]}..{gp['lines'][1]} ({gp['duration_s']:.0f} s, "
+                f"t = {gp['t_from_s']:.0f}..{gp['t_to_s']:.0f} s): flown as the model predicts, "
+                f"σ {gp['sigma_h_m']:.0f} m per horizontal axis, {gp['sigma_v_m']:.0f} m vertical "
+                "at mid-gap"
+            )
+        tm = rep.get("timing")
+        if tm:
+            lines.append(
+                f"  time errors of the fixes: σ {tm['sigma_s']:.2f} s (the along-track spread "
+                f"beyond the across-track one); each fix re-timed, {tm['shift_rms_s']:.2f} s RMS,"
+                f" largest {tm['shift_max_s']:.1f} s"
+            )
+        gr = rep["ground"]
+        if gr["duration_s"] > 0.0:
+            lines.append(
+                f"  on the ground (slower than the stall speed, {gr['stall_speed_m_s']:g} m/s, "
+                f"at the ends): {gr['duration_s']:.0f} s, "
+                f"{100 * gr['fraction_of_flight']:.1f} % of the flown span"
+            )
     lines.append(
         f"  flown: {k['duration_s']:.0f} s, max speed {k['max_speed_m_s']:.0f} m/s; peak "
         f"acceleration {k['peak_acceleration_g']:.2f} g (t = {k['peak_acceleration_t_s']:.0f} s, "
@@ -445,58 +506,33 @@ def format_report(rep: dict) -> str:
         f"{k['peak_turn_rate_deg_s']:.1f} °/s, climb {k['peak_climb_rate_m_s']:.1f} m/s, "
         f"descent {k['peak_descent_rate_m_s']:.1f} m/s"
     )
-    tm = rep.get("timing")
-    if tm:
-        lines.append(
-            f"  timing jitter of the fixes: σ {tm['jitter_s']:.2f} s ({tm['sigma_along_m']:.0f} m "
-            f"along the track at {tm['speed_m_s']:.0f} m/s, {tm['sigma_across_m']:.1f} m across):"
-            f" modelled as a time error per fix, {tm['fixes_retimed']} fixes moved by "
-            f"{tm['time_shift_rms_s']:.2f} s RMS (max {tm['time_shift_max_s']:.1f} s)"
-        )
     vr = rep.get("velocity")
     if vr:
         parts = []
         if "groundspeed_rms_m_s" in vr:
             parts.append(
                 f"ground speed {vr['groundspeed_rms_m_s']:.2f} m/s RMS (max "
-                f"{vr['groundspeed_max_m_s']:.1f}), track {vr['track_rms_deg']:.2f}° RMS (max "
-                f"{vr['track_max_deg']:.1f}°)"
+                f"{vr['groundspeed_max_m_s']:.1f}; all {vr['groundspeed_all_max_m_s']:.1f}), "
+                f"track {vr['track_rms_deg']:.2f}° RMS (max {vr['track_max_deg']:.1f}°)"
             )
         if "vertical_rate_rms_m_s" in vr:
             parts.append(
                 f"vertical rate {vr['vertical_rate_rms_m_s']:.2f} m/s RMS (max "
-                f"{vr['vertical_rate_max_m_s']:.1f})"
+                f"{vr['vertical_rate_max_m_s']:.1f}; all {vr['vertical_rate_all_max_m_s']:.1f})"
             )
-        lines.append(
-            f"  velocity residuals, flown − log ({', '.join(vr['columns'])}; fitted with σ "
-            f"{vr['sigma_h_m_s']:.2f} m/s per horizontal axis, {vr['sigma_v_m_s']:.2f} m/s "
-            f"vertical; {vr['outliers']} outliers left out): " + "; ".join(parts)
-        )
-        every = []
-        if "groundspeed_all_rms_m_s" in vr:
-            every.append(
-                f"ground speed {vr['groundspeed_all_rms_m_s']:.2f} m/s RMS (max "
-                f"{vr['groundspeed_all_max_m_s']:.1f}), track {vr['track_all_rms_deg']:.2f}° "
-                f"RMS (max {vr['track_all_max_deg']:.1f}°)"
-            )
-        if "vertical_rate_all_rms_m_s" in vr:
-            every.append(
-                f"vertical rate {vr['vertical_rate_all_rms_m_s']:.2f} m/s RMS (max "
-                f"{vr['vertical_rate_all_max_m_s']:.1f})"
-            )
-        if every:
+        if parts:
             lines.append(
-                "  against every velocity of the log, the outliers included: " + "; ".join(every)
+                f"  flown − log's velocities ({', '.join(vr['columns'])}): " + "; ".join(parts)
             )
     lines += [f"  note: {n}" for n in rep["notes"]]
     return "\n".join(lines)
 
 
 def plot_conditioning(cf: ConditionedFlight) -> Figure:
-    """Raw samples against the conditioned path: map, height, offsets; a matplotlib Figure.
+    """Raw samples against the conditioned path: map, height, distances; a matplotlib Figure.
 
-    Rejected samples are marked (red), stale positions grey; offsets are from the fitted path
-    (from the robust trend outside the flown segment).
+    Rejected samples are marked (red x), samples that are no measurement (repeated or
+    interpolated positions) grey; distances are from the flown path.
     """
     from matplotlib.figure import Figure
 
@@ -508,18 +544,18 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
     fig = Figure(figsize=(12, 8), layout="constrained")
     ax = fig.subplots(2, 2)
     a = ax[0, 0]
-    a.plot(raw["lon"][~bad_h], raw["lat"][~bad_h], ".", ms=2, color="0.6", label="raw")
+    a.plot(raw["lon"][~bad_h], raw["lat"][~bad_h], ".", ms=2, color="0.6", label="log")
     a.plot(raw["lon"][bad_h], raw["lat"][bad_h], "x", color="r", label="rejected")
-    a.plot(s.lon, s.lat, "-", lw=1, color="C0", label="conditioned")
+    a.plot(s.lon, s.lat, "-", lw=1, color="C0", label="flown")
     a.set_xlabel("longitude (°)")
     a.set_ylabel("latitude (°)")
     a.legend(fontsize=8)
     a = ax[0, 1]
-    a.plot(raw["t"][~bad_v] / 60, raw["h"][~bad_v], ".", ms=2, color="0.6", label="raw")
+    a.plot(raw["t"][~bad_v] / 60, raw["h"][~bad_v], ".", ms=2, color="0.6", label="log")
     a.plot(raw["t"][bad_v] / 60, raw["h"][bad_v], "x", color="r", label="rejected")
-    a.plot(s.t / 60, s.h, "-", lw=1, color="C0", label="conditioned")
+    a.plot(s.t / 60, s.h, "-", lw=1, color="C0", label="flown")
     a.set_xlabel("time (min)")
-    a.set_ylabel(f"height (m, {cf.report.get('height_ref') or 'ellipsoid'})")
+    a.set_ylabel("height above the ellipsoid (m)")
     a.legend(fontsize=8)
     for a, key, bad, what in (
         (ax[1, 0], "offset_h", bad_h, "horizontal"),
@@ -528,12 +564,11 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
         a.semilogy(raw["t"][used] / 60, np.maximum(raw[key][used], 1e-2), ".", ms=2, color="C0")
         a.semilogy(raw["t"][bad] / 60, np.maximum(raw[key][bad], 1e-2), "x", color="r")
         a.set_xlabel("time (min)")
-        a.set_ylabel(f"{what} offset from the path (m)")
+        a.set_ylabel(f"{what} distance from the path (m)")
         a.grid(True, which="both", alpha=0.3)
     for a in ax.flat:
         a.grid(True, alpha=0.3)
     fig.suptitle(
-        f"{cf.report['source']}: {STATUS_NAMES[KEPT]} {int(used.sum())}, rejected "
-        f"{int((bad_h | bad_v).sum())}"
+        f"{cf.report['source']}: {int(used.sum())} kept, {int((bad_h | bad_v).sum())} rejected"
     )
     return fig

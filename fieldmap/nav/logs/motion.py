@@ -1,0 +1,665 @@
+r"""The vehicle's motion as a state-space model, and its robust smoother over a whole log.
+
+One model carries the conditioning of every flight log (:mod:`fieldmap.nav.logs.condition`).
+
+**Motion.** Each axis of the path (the three ECEF axes of the horizontal position's surface
+point, and the height) is a Singer (1970) manoeuvre model with a damped velocity:
+
+.. math::
+
+    \dot p = v, \qquad \dot v = a - \beta v, \qquad \dot a = -a/\tau + w(t),
+    \qquad \mathrm E[w(t)\,w(s)] = q\,\delta(t - s),
+
+the acceleration a first-order Gauss–Markov process of correlation time :math:`\tau` (the
+duration of a manoeuvre) and stationary standard deviation :math:`\sigma_a = \sqrt{q\tau/2}`,
+driven by white jerk of intensity :math:`q` (m²/s⁵). Horizontally :math:`\beta = 0` (a vehicle
+holds its speed); vertically :math:`\beta = 1/\tau_v` makes the vertical speed stationary too:
+over a long gap the expected climb decays to zero instead of integrating into invented height
+swings (Singer 1970; Bar-Shalom, Li & Kirubarajan 2001 §8.2). On a regular grid of step
+:math:`\Delta` the states :math:`x_k = (p, v, a)_k` follow :math:`x_{k+1} = F x_k + e_k`,
+:math:`e_k \sim N(0, Q)`, with :math:`F = e^{A\Delta}` and
+:math:`Q = \int_0^\Delta e^{As} G q G^\top e^{A^\top s} ds` (Van Loan 1978), both from one
+matrix exponential (:meth:`MotionModel.transition`).
+
+**Mean acceleration.** The horizontal axes follow the ECEF surface point, whose acceleration
+is not zero in straight flight: following the Earth's curvature takes
+:math:`a_c = -|v|^2\,\hat r/|r|` (0.01 m/s² at 250 m/s, 110 m of sag over a 5-minute gap
+if it relaxed to zero). The acceleration relaxes to :math:`a_c` instead,
+:math:`\dot a = -(a - a_c)/\tau + w`, a known input computed from the path itself and
+updated with it (:meth:`AxisSmoother.set_mean_acceleration`): the process residual is
+:math:`x_{k+1} - F x_k - B a_{c,k}` (:meth:`MotionModel.forcing`).
+
+**Measurements.** A fix at time :math:`t_i = t_k + \delta` (:math:`|\delta| \le \Delta/2`, the
+nearest node) measures :math:`y_i = h_i^\top x_k + \varepsilon_i` with
+:math:`h = (1, \delta, \delta^2/2)` for a position and :math:`(0, 1, \delta)` for a rate
+(the log's ground velocity or vertical rate); :math:`\varepsilon_i` is drawn from a mixture:
+with probability :math:`1 - \epsilon` the channel's noise :math:`N(0, s^2 \rho_i^2)` (scale
+:math:`s` estimated, :math:`\rho_i` known: a rounding, a run of one repeated value), with
+probability :math:`\epsilon` a fault, uniform over the range the log spans (a fix from
+elsewhere, a glitch, a stretch with wrong time tags).
+
+**Smoother.** The smoothed path minimises
+
+.. math::
+
+    J(x) = \sum_k (x_{k+1} - F x_k)^\top Q^{-1} (x_{k+1} - F x_k)
+         + \sum_i \frac{w_i}{s^2 \rho_i^2} (y_i - h_i^\top x_{k(i)})^2,
+
+whose normal equations :math:`A x = b` are block tridiagonal (banded, 5 off-diagonals): one
+banded Cholesky solve gives the Rauch–Tung–Striebel smoother's mean (Rauch, Tung & Striebel
+1965; the equivalence: Bell 1994). The weights are the EM expectation of the mixture: with
+:math:`\pi_i` the posterior probability that fix :math:`i` is a fault,
+:math:`w_i = 1 - \pi_i`, and :math:`\epsilon` the mean of :math:`\pi` (Dempster, Laird &
+Rubin 1977). A fix is rejected when :math:`\pi_i > 1/2`: the fault explains it better than the
+path does.
+
+**Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
+of the data (diffuse initial state),
+
+.. math::
+
+    -2\log L = J(\hat x) + d\,\log\det A - d\,(N - 1)\log\det Q^{-1}
+             + \sum_i w_i\,d_i \log(s^2 \rho_i^2) + \mathrm{const},
+
+(:math:`d` axes sharing one :math:`A`, :math:`d_i` the measured degrees of freedom of fix
+:math:`i`), with :math:`q` held inside the bounds that the vehicle class gives
+(:mod:`fieldmap.nav.logs.vehicles`): its process noise, not a loop that softens the result
+afterwards.
+
+**Uncertainty.** The posterior covariance is :math:`A^{-1}`; the σ of the path at a node (in a
+gap, say) is one banded solve with a unit vector (:meth:`SmoothedAxis.sigma_at`).
+
+References: Singer, R. A. (1970) IEEE Trans. AES 6, 473-483. Van Loan, C. F. (1978) IEEE Trans.
+AC 23, 395-404. Rauch, H. E., Tung, F. & Striebel, C. T. (1965) AIAA J. 3, 1445-1450. Bell, B.
+M. (1994) SIAM J. Optim. 4, 626-636. Dempster, A. P., Laird, N. M. & Rubin, D. B. (1977) J. R.
+Statist. Soc. B 39, 1-38. Bar-Shalom, Y., Li, X. R. & Kirubarajan, T. (2001) Estimation with
+Applications to Tracking and Navigation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import cho_solve_banded, cholesky_banded, expm
+from scipy.optimize import minimize_scalar
+
+#: a bounded state is held by a penalty this many times its node's own weight, for at most
+#: BOUND_PASSES growths of the active set
+BOUND_STIFFNESS, BOUND_PASSES = 1e4, 12
+#: the largest σ of a channel's time errors (s)
+TIMING_MAX_S = 30.0
+#: states per axis (position, velocity, acceleration) and the band of the normal equations
+NS = 3
+BAND = 2 * NS - 1
+
+
+@dataclass(frozen=True)
+class MotionModel:
+    """The Singer manoeuvre model of one axis (module docstring).
+
+    Attributes
+    ----------
+    tau_s : float
+        Correlation time of the acceleration (a manoeuvre's duration). Units: s.
+    beta : float
+        Damping of the velocity (0: none). Units: 1/s.
+    """
+
+    tau_s: float
+    beta: float = 0.0
+
+    def transition(self, dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(F, Q)`` of one grid step ``dt`` (s) for jerk intensity ``q`` (m²/s⁵).
+
+        Van Loan (1978): ``expm([[-A, G q Gᵀ], [0, Aᵀ]] dt) = [[·, F⁻¹Q], [0, Fᵀ]]``.
+        """
+        A = np.array([[0.0, 1.0, 0.0], [0.0, -self.beta, 1.0], [0.0, 0.0, -1.0 / self.tau_s]])
+        GQG = np.zeros((3, 3))
+        GQG[2, 2] = q
+        M = np.zeros((6, 6))
+        M[:3, :3], M[:3, 3:], M[3:, 3:] = -A, GQG, A.T
+        E = expm(M * dt)
+        F = E[3:, 3:].T
+        Q = F @ E[:3, 3:]
+        return F, 0.5 * (Q + Q.T)
+
+    def forcing(self, dt: float) -> np.ndarray:
+        """The state change ``B`` (3,) over one step ``dt`` of a unit mean acceleration ``a_c``.
+
+        With :math:`\dot a = -(a - a_c)/\tau + w` and :math:`a_c` constant over the step,
+        :math:`x_{k+1} = F x_k + B a_c + e_k`, :math:`B = \int_0^{\Delta} e^{As} ds\,(0, 0,
+        1/\tau)^\top` (one augmented matrix exponential).
+        """
+        A = np.array([[0.0, 1.0, 0.0], [0.0, -self.beta, 1.0], [0.0, 0.0, -1.0 / self.tau_s]])
+        M = np.zeros((4, 4))
+        M[:3, :3] = A
+        M[2, 3] = 1.0 / self.tau_s
+        return expm(M * dt)[:3, 3]
+
+    def stationary_precision(self, q: float) -> np.ndarray:
+        """Precision (3, 3) of the prior on the first node: its stationary states.
+
+        The acceleration is stationary (variance qτ/2), and so is the velocity where it is
+        damped (β > 0; the continuous Lyapunov equation of the (v, a) subsystem); the
+        position, and an undamped velocity, have a diffuse prior (zero precision). Without
+        it the path before the first fix would be the model run backwards, which grows the
+        relaxing acceleration by e^{Δ/τ} a step.
+        """
+        from scipy.linalg import solve_continuous_lyapunov
+
+        out = np.zeros((3, 3))
+        if self.beta > 0.0:
+            A2 = np.array([[-self.beta, 1.0], [0.0, -1.0 / self.tau_s]])
+            S = solve_continuous_lyapunov(A2, -np.array([[0.0, 0.0], [0.0, q]]))
+            out[1:, 1:] = np.linalg.inv(0.5 * (S + S.T))
+        else:
+            out[2, 2] = 2.0 / (q * self.tau_s)
+        return out
+
+    def sigma_accel(self, q: float) -> float:
+        """Stationary σ of the acceleration (m/s²) for jerk intensity ``q``: √(qτ/2)."""
+        return math.sqrt(q * self.tau_s / 2.0)
+
+    def q_for_sigma_accel(self, sigma_a: float) -> float:
+        """Jerk intensity (m²/s⁵) whose stationary acceleration σ is ``sigma_a`` (m/s²)."""
+        return 2.0 * sigma_a**2 / self.tau_s
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Regular nodes ``t0 + dt * k``, ``k = 0 .. n - 1``. Units: s."""
+
+    t0: float
+    dt: float
+    n: int
+
+    @property
+    def t(self) -> np.ndarray:
+        """The node times (s)."""
+        return self.t0 + self.dt * np.arange(self.n)
+
+    def locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest node ``k`` of each time and the offset ``δ = t − t_k`` (s)."""
+        k = np.clip(np.rint((t - self.t0) / self.dt).astype(np.int64), 0, self.n - 1)
+        return k, t - (self.t0 + self.dt * k)
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One kind of measurement of an axis group: positions (``order`` 0) or rates (1).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Times (s), (m,).
+    y : numpy.ndarray
+        Values, (m, d) for the d axes of the group. Units: m or m/s.
+    rho : numpy.ndarray
+        Relative σ of each (the channel's scale times this is its σ), (m,).
+    order : int
+        0: a position; 1: a rate.
+    dof : int
+        Degrees of freedom one measurement carries (2 for a horizontal position in 3 ECEF
+        axes: the surface point's radial component is no measurement).
+    fault_density : float
+        Density of the fault distribution at any value (uniform over the range the log
+        spans), in the units of ``y`` to the power ``-dof``.
+    name : str
+        For reports.
+    timing : bool
+        The samples' time tags err (a position stamped when the message was received or
+        relayed, not when it was fixed): each has a time error τ_i, estimated with the path
+        (module docstring).
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    rho: np.ndarray
+    order: int
+    dof: int
+    fault_density: float
+    name: str
+    timing: bool = False
+
+
+@dataclass
+class SmoothedAxis:
+    """A solved axis group: states, weights, noise levels and the Cholesky factor.
+
+    Attributes
+    ----------
+    x : numpy.ndarray
+        States at the nodes, (n, 3, d): position, velocity, acceleration per axis.
+    q : float
+        Jerk intensity (m²/s⁵).
+    scales : list of float
+        Each channel's noise scale ``s`` (m, m/s).
+    fault_prob : list of numpy.ndarray
+        Each channel's posterior fault probabilities π.
+    fault_rate : list of float
+        Each channel's fault fraction ε.
+    neg2loglik : float
+        The marginal likelihood's ``-2 log L`` at the solution.
+    tau : list of numpy.ndarray
+        Each channel's estimated time errors (s; zeros where the channel has none).
+    sigma_tau : list of float
+        Each channel's σ of the time errors (s; 0 where none).
+    """
+
+    grid: Grid
+    model: MotionModel
+    x: np.ndarray
+    q: float
+    scales: list[float]
+    fault_prob: list[np.ndarray]
+    fault_rate: list[float]
+    neg2loglik: float
+    chol: np.ndarray = field(repr=False)
+    tau: list[np.ndarray] = field(default_factory=list, repr=False)
+    sigma_tau: list[float] = field(default_factory=list)
+
+    def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
+        """The path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
+        k, d = self.grid.locate(np.asarray(t, dtype=np.float64))
+        h = _rows(d, order)
+        return _apply(h, self.x[k])
+
+    def sigma_at(self, k: int, state: int = 0) -> float:
+        """Posterior σ of state ``state`` (0 position) at node ``k`` (one banded solve)."""
+        e = np.zeros(NS * self.grid.n)
+        e[NS * k + state] = 1.0
+        z = cho_solve_banded((self.chol, False), e)
+        return float(math.sqrt(max(z[NS * k + state], 0.0)))
+
+
+def _rows(delta: np.ndarray, order: int) -> np.ndarray:
+    """Measurement rows (m, 3): position ``(1, δ, δ²/2)`` or rate ``(0, 1, δ)``."""
+    one, zero = np.ones_like(delta), np.zeros_like(delta)
+    if order == 0:
+        return np.stack([one, delta, 0.5 * delta * delta], -1)
+    return np.stack([zero, one, delta], -1)
+
+
+def _apply(h: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Rows ``h`` (m, 3) applied to states ``x`` (m, 3, d): (m, d)."""
+    return h[:, 0, None] * x[:, 0] + h[:, 1, None] * x[:, 1] + h[:, 2, None] * x[:, 2]
+
+
+def _process_band(P: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
+    """The process part of the normal matrix (``P = Q⁻¹``) in upper banded form."""
+    FtPF, mFtP = F.T @ P @ F, -F.T @ P
+    ab = np.zeros((BAND + 1, NS * n))
+    for r in range(NS):
+        for c in range(r, NS):
+            row = BAND + r - c
+            col = np.arange(n) * NS + c
+            vals = np.zeros(n)
+            vals[1:] += P[r, c]
+            vals[:-1] += FtPF[r, c]
+            ab[row, col] = vals
+        for c in range(NS):
+            # block (k, k+1): rows NS k + r, columns NS (k+1) + c
+            row = BAND + r - (NS + c)
+            col = np.arange(n - 1) * NS + NS + c
+            ab[row, col] = mFtP[r, c]
+    return ab
+
+
+class AxisSmoother:
+    """The robust smoother of one axis group (module docstring) on a grid.
+
+    Parameters
+    ----------
+    grid : Grid
+        The nodes (the measurements lie within them).
+    model : MotionModel
+        The motion model of the group's axes.
+    channels : list of Channel
+        The measurements.
+    q_bounds : (float, float)
+        The jerk intensity's bounds (m²/s⁵), from the vehicle class.
+    scale_bounds : list of (float, float)
+        Each channel's noise scale bounds (m or m/s): its floor (the rounding of the values) and
+        a ceiling.
+    fixed_scales : list of float or None
+        Scales given by the user (not estimated) per channel, None where estimated.
+    origin : numpy.ndarray, optional
+        For the ECEF surface point: the point its positions are relative to; the acceleration
+        then relaxes to the curvature's (module docstring).
+    bounds : dict, optional
+        For a one-axis group (the height): state (1 velocity, 2 acceleration) -> (lower,
+        upper) bounds the path keeps within (the vehicle's climb and vertical load factor).
+    """
+
+    def __init__(
+        self,
+        grid: Grid,
+        model: MotionModel,
+        channels: list[Channel],
+        q_bounds: tuple[float, float],
+        scale_bounds: list[tuple[float, float]],
+        fixed_scales: list[float | None] | None = None,
+        bounds: dict[int, tuple[float, float]] | None = None,
+        origin: np.ndarray | None = None,
+    ) -> None:
+        self.grid, self.model, self.channels = grid, model, channels
+        #: state index (1 velocity, 2 acceleration) -> (lower, upper) bound, one-axis groups
+        self.bounds = dict(bounds or {})
+        #: for the three ECEF axes of a surface point: the ECEF point the positions are
+        #: relative to (the curvature input is on); None: no mean acceleration
+        self.origin = origin
+        self.q_bounds, self.scale_bounds = q_bounds, scale_bounds
+        self.fixed = fixed_scales or [None] * len(channels)
+        self.d = channels[0].y.shape[1]
+        self._unit: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
+        #: the mean acceleration input per node and axis (n, d), and its state change per step
+        self.a_c = np.zeros((grid.n, self.d))
+        self._B = model.forcing(grid.dt)
+        self.curvature = False
+        self.tau = [np.zeros(c.t.size) for c in channels]
+        self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
+        self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
+        self.h: list[np.ndarray] = [np.zeros((0, NS))] * len(channels)
+        for i in range(len(channels)):
+            self._locate(i)
+
+    def _locate(self, i: int) -> None:
+        """The nodes and measurement rows of channel ``i`` at its (re-timed) times."""
+        c = self.channels[i]
+        k, d = self.grid.locate(c.t + self.tau[i])
+        self.k[i], self.h[i] = k, _rows(d, c.order)
+
+    def set_mean_acceleration(self, x: np.ndarray) -> None:
+        """The surface point's curvature acceleration ``−|v|² r̂/|r|`` of the path ``x``."""
+        r = x[:, 0, :] + self.origin
+        v = x[:, 1, :]
+        rn = np.linalg.norm(r, axis=1)
+        vt = v - (np.sum(v * r, axis=1) / rn**2)[:, None] * r
+        self.a_c = -(np.sum(vt * vt, axis=1) / rn**2)[:, None] * r
+
+    def retime(self, x: np.ndarray, scales: list[float], weights: list[np.ndarray]) -> None:
+        r"""Update the time errors of the channels that have them (module docstring).
+
+        A time error :math:`\tau_i` moves a fix along the path's velocity :math:`v`: the
+        residual at the stamped time, :math:`r = y - p(t)`, has along the track the variance
+        :math:`s^2 + |v|^2\sigma_\tau^2` and across it :math:`s^2`. So
+        :math:`\sigma_\tau^2 = \overline{(a^2 - c^2)}/\overline{|v|^2}` (moments of the
+        along and across components over the inliers), taken only where that excess is
+        significant (over 3 standard errors; else the fixes have no time errors); then each
+        fix's posterior mean
+
+        .. math:: \hat\tau = \frac{v\cdot r}{|v|^2 + s^2/\sigma_\tau^2}.
+        """
+        for i, c in enumerate(self.channels):
+            if not c.timing or c.t.size < 10:
+                continue
+            k, h = self.k[i], self.h[i]
+            pos = _apply(h, x[k])
+            vel = _apply(_rows(h[:, 1], 1), x[k])
+            r = c.y - pos + vel * self.tau[i][:, None]  # the residual at the stamped time
+            v2 = np.sum(vel * vel, axis=1)
+            along = np.sum(r * vel, axis=1) / np.sqrt(np.maximum(v2, 1e-12))
+            excess = (2.0 * along**2 - np.sum(r * r, axis=1))[v2 > 1.0]
+            w = weights[i][v2 > 1.0]
+            neff = float(np.sum(w))
+            sig2 = 0.0
+            if neff > 10.0:
+                mean = float(np.sum(w * excess) / neff)
+                se = float(np.sqrt(np.sum(w * (excess - mean) ** 2) / neff / neff))
+                if mean > 3.0 * se:
+                    sig2 = min(mean / float(np.sum(w * v2[v2 > 1.0]) / neff), TIMING_MAX_S**2)
+            self.sigma_tau[i] = math.sqrt(sig2)
+            if sig2 == 0.0:
+                self.tau[i] = np.zeros(c.t.size)
+            else:
+                s2 = (scales[i] * c.rho) ** 2
+                self.tau[i] = np.sum(vel * r, axis=1) / (v2 + s2 / sig2)
+            self._locate(i)
+
+    # -- one solve ---------------------------------------------------------------------------
+
+    def _process(self, q: float) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+        """Banded process matrix, ``log det Q⁻¹``, ``Q⁻¹`` and ``F`` for ``q``.
+
+        ``Q`` is linear in ``q`` (``F`` does not depend on it): one matrix exponential per grid.
+        """
+        if self._unit is None:
+            F, Q1 = self.model.transition(self.grid.dt, 1.0)
+            P1 = np.linalg.inv(Q1)
+            P1 = 0.5 * (P1 + P1.T)
+            self._unit = (_process_band(P1, F, self.grid.n), float(np.linalg.slogdet(P1)[1]), P1, F)
+        ab1, logdet1, P1, F = self._unit
+        ab = ab1 / q
+        P0 = self.model.stationary_precision(q)
+        for r in range(NS):
+            for c in range(r, NS):
+                ab[BAND + r - c, c] += P0[r, c]
+        return ab, logdet1 - NS * math.log(q), P1 / q, F
+
+    def measurements(self, weights: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each channel's part of the normal equations at unit scale: (banded matrix, rhs)."""
+        n, d = self.grid.n, self.d
+        out = []
+        for c, k, h, w in zip(self.channels, self.k, self.h, weights):
+            wi = w / c.rho**2
+            ab = np.zeros((BAND + 1, NS * n))
+            b = np.zeros((NS * n, d))
+            for r in range(NS):
+                for cc in range(r, NS):
+                    ab[BAND + r - cc, cc::NS] = np.bincount(k, wi * h[:, r] * h[:, cc], minlength=n)
+                for j in range(d):
+                    b[r::NS, j] = np.bincount(k, wi * h[:, r] * c.y[:, j], minlength=n)
+            out.append((ab, b))
+        return out
+
+    def solve(
+        self,
+        q: float,
+        scales: list[float],
+        weights: list[np.ndarray],
+        parts: list[tuple[np.ndarray, np.ndarray]] | None = None,
+        bounded: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """States (n, 3, d), the Cholesky factor and ``-2 log L`` (module docstring).
+
+        ``parts``: :meth:`measurements` of ``weights`` when already computed. ``bounded``: keep
+        the states within :attr:`bounds` (:meth:`_bounded`); the likelihood is that of the
+        unbounded problem (the bounds are no data).
+        """
+        n, d = self.grid.n, self.d
+        ab0, logdetP, P, F = self._process(q)
+        parts = self.measurements(weights) if parts is None else parts
+        ab = ab0.copy()
+        b = np.zeros((NS * n, d))
+        norm = 0.0
+        forced = self.origin is not None and np.any(self.a_c)
+        if forced:
+            # the process residual x_{k+1} − F x_k − f_k, f_k = B a_c,k: rhs P f_k for node k+1
+            # and −Fᵀ P f_k for node k
+            f = self._B[None, :, None] * self.a_c[:-1, None, :]
+            Pf = np.matmul(P, f)
+            FtPf = np.matmul(F.T, Pf)
+            bb = b.reshape(n, NS, d)
+            bb[1:] += Pf
+            bb[:-1] -= FtPf
+        for c, w, s, (abc, bc) in zip(self.channels, weights, scales, parts):
+            ab += abc / s**2
+            b += bc / s**2
+            norm += float(np.sum(w * c.dof * np.log((s * c.rho) ** 2)))
+        try:
+            cb = cholesky_banded(ab, lower=False, check_finite=False)
+        except np.linalg.LinAlgError:
+            # a grid stretch without measurements and a stiff model: a whisper of a prior on
+            # the states keeps the system definite without moving the solution measurably
+            ab[BAND] += 1e-9 * np.maximum(ab[BAND].max(), 1.0)
+            cb = cholesky_banded(ab, lower=False, check_finite=False)
+        x = cho_solve_banded((cb, False), b, check_finite=False).reshape(n, NS, d)
+        if bounded and self.bounds:
+            xb, cbb = self._bounded(ab, b, x)
+            if xb is not None:
+                x, cb = xb, cbb
+        # J at the solution: process + measurements
+        e = x[1:] - np.matmul(F, x[:-1])
+        if forced:
+            e = e - f
+        J = float(np.sum(e * np.matmul(P, e)))
+        P0 = self.model.stationary_precision(q)
+        J += float(np.sum(x[0] * np.matmul(P0, x[0])))
+        w0 = np.linalg.eigvalsh(P0)
+        logdetP0 = float(np.sum(np.log(w0[w0 > 0.0])))
+        for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
+            r = c.y - _apply(h, x[k])
+            J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
+        logdetA = 2.0 * float(np.sum(np.log(cb[BAND])))
+        neg2 = J + d * logdetA - d * (n - 1) * logdetP - d * logdetP0 + norm
+        return x, cb, neg2
+
+    def _bounded(
+        self, ab: np.ndarray, b: np.ndarray, x: np.ndarray
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """Keep the states within :attr:`bounds` (an active set of penalised nodes).
+
+        Each node whose state leaves its bound is held at the bound by a penalty
+        ``W (x − bound)²`` with ``W`` :data:`BOUND_STIFFNESS` times the node's diagonal; the set
+        grows until no state leaves its bounds by more than 1 % (at most
+        :data:`BOUND_PASSES` passes). Returns None when no state leaves them.
+        """
+        n, d = self.grid.n, self.d
+        active: dict[int, float] = {}
+        cb = None
+        for _ in range(BOUND_PASSES):
+            new = False
+            for state, (lo, hi) in self.bounds.items():
+                v = x[:, state, 0]
+                tol = 0.01 * max(abs(lo), abs(hi))
+                for idx, val in ((np.flatnonzero(v > hi + tol), hi), (np.flatnonzero(v < lo - tol), lo)):
+                    for k in idx:
+                        key = NS * int(k) + state
+                        if key not in active:
+                            active[key], new = val, True
+            if not new:
+                break
+            keys = np.fromiter(active.keys(), np.int64)
+            vals = np.fromiter(active.values(), np.float64)
+            abk, bk = ab.copy(), b.copy()
+            W = BOUND_STIFFNESS * abk[BAND, keys]
+            abk[BAND, keys] += W
+            bk[keys, :] += (W * vals)[:, None]
+            cb = cholesky_banded(abk, lower=False, check_finite=False)
+            x = cho_solve_banded((cb, False), bk, check_finite=False).reshape(n, NS, d)
+        if cb is None:
+            return None, ab
+        return x, cb
+
+    # -- the mixture's weights ----------------------------------------------------------------
+
+    def fault_probabilities(
+        self, x: np.ndarray, scales: list[float], rates: list[float]
+    ) -> list[np.ndarray]:
+        """Posterior fault probability π of every measurement (module docstring)."""
+        out = []
+        for c, k, h, s, eps in zip(self.channels, self.k, self.h, scales, rates):
+            r = c.y - _apply(h, x[k])
+            var = (s * c.rho) ** 2
+            z2 = np.sum(r * r, axis=1) / var
+            # log of the inlier density (dof-dimensional isotropic Gaussian)
+            log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
+            log_out = math.log(max(c.fault_density, 1e-300))
+            a = np.log(eps) + log_out
+            bb = np.log1p(-eps) + log_in
+            m = np.maximum(a, bb)
+            out.append(np.exp(a - m) / (np.exp(a - m) + np.exp(bb - m)))
+        return out
+
+    # -- the whole estimate -------------------------------------------------------------------
+
+    def run(
+        self,
+        q0: float,
+        scales0: list[float],
+        passes: int = 2,
+        weights0: list[np.ndarray] | None = None,
+        tau0: tuple[list[np.ndarray], list[float]] | None = None,
+    ) -> SmoothedAxis:
+        """EM for the mixture, alternating with the marginal-likelihood noise levels.
+
+        Starts from ``q0`` and ``scales0`` (robust first guesses); each of the ``passes``: the
+        weights from the fault probabilities (twice: the path moves once the gross faults lose
+        their weight), then ``q`` and the scales maximising the likelihood with the weights
+        held; a last E-step gives the weights of the final path. ``weights0``: the weights to
+        start from (default 1: every measurement an inlier); ``tau0``: the time errors and their
+        σ to start from.
+        """
+        if tau0 is not None:
+            self.tau = [np.asarray(t, dtype=np.float64).copy() for t in tau0[0]]
+            self.sigma_tau = list(tau0[1])
+            for i in range(len(self.channels)):
+                self._locate(i)
+        q = float(np.clip(q0, *self.q_bounds))
+        scales = [
+            float(f) if f is not None else float(np.clip(s, *sb))
+            for s, sb, f in zip(scales0, self.scale_bounds, self.fixed)
+        ]
+        weights = weights0 or [np.ones(c.t.size) for c in self.channels]
+        rates = [float(np.clip(1.0 - np.mean(w), 1e-4, 0.5)) for w in weights]
+        x, cb, neg2 = self.solve(q, scales, weights)
+        for _ in range(passes):
+            for _ in range(2):
+                pi = self.fault_probabilities(x, scales, rates)
+                rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
+                weights = [1.0 - p for p in pi]
+                if self.origin is not None:
+                    self.set_mean_acceleration(x)
+                x, cb, neg2 = self.solve(q, scales, weights)
+                if any(c.timing for c in self.channels):
+                    self.retime(x, scales, weights)
+                    x, cb, neg2 = self.solve(q, scales, weights)
+            q, scales = self._maximise(q, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights)
+        pi = self.fault_probabilities(x, scales, rates)
+        rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
+        weights = [1.0 - p for p in pi]
+        if self.origin is not None:
+            self.set_mean_acceleration(x)
+        x, cb, neg2 = self.solve(q, scales, weights)
+        if any(c.timing for c in self.channels):
+            self.retime(x, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights)
+        pi = self.fault_probabilities(x, scales, rates)
+        return SmoothedAxis(
+            self.grid, self.model, x, q, scales, pi, rates, neg2, cb,
+            [t.copy() for t in self.tau], list(self.sigma_tau),
+        )
+
+    def _maximise(
+        self, q: float, scales: list[float], weights: list[np.ndarray]
+    ) -> tuple[float, list[float]]:
+        """One coordinate sweep of the marginal likelihood over ``log q`` and each ``log s``."""
+
+        parts = self.measurements(weights)
+
+        def over_q(lq: float) -> float:
+            return self.solve(math.exp(lq), scales, weights, parts, bounded=False)[2]
+
+        lo, hi = (math.log(b) for b in self.q_bounds)
+        if hi > lo:
+            q = math.exp(minimize_scalar(over_q, bounds=(lo, hi), method="bounded",
+                                         options={"xatol": 0.1}).x)
+        for i, (sb, f) in enumerate(zip(self.scale_bounds, self.fixed)):
+            if f is not None or sb[1] <= sb[0]:
+                continue
+
+            def over_s(ls: float, i: int = i) -> float:
+                trial = list(scales)
+                trial[i] = math.exp(ls)
+                return self.solve(q, trial, weights, parts, bounded=False)[2]
+
+            res = minimize_scalar(
+                over_s, bounds=(math.log(sb[0]), math.log(sb[1])), method="bounded",
+                options={"xatol": 0.05},
+            )
+            scales = list(scales)
+            scales[i] = math.exp(res.x)
+        return q, scales

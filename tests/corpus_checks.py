@@ -1,0 +1,291 @@
+r"""A flown corpus piece checked against what the aircraft itself reported (issue 34).
+
+:func:`check_piece` takes a piece of ``tests/data/corpus/`` and the path that
+:func:`fieldmap.nav.logs.load_flight` made of it, and measures, from the flown samples and the
+raw log only (nothing of the conditioning's own report is read):
+
+- the flown path's largest ground speed against the log's robust maximum, the 99.5th
+  percentile (NumPy's linear interpolation) of its ``groundspeed`` column (every row that has
+  one, read from the CSV itself, kt → m/s), so that one bad value does not set it;
+- the specific force of the flown path, its least and largest magnitude (g);
+- the fraction of the log's span (first to last fix) that the flown path covers;
+- the fraction of the log's fixes (rows that :func:`~fieldmap.nav.logs.read.read_track` keeps)
+  whose height is within ``k_sigma`` σ of the flown path's height at the fix's time (a fix
+  outside the flown span counts as not within), with the worst offset and its line.
+
+The flown path is the quintic interpolating spline (``make_interp_spline``, k = 5) of the
+samples in ECEF: the path :class:`~fieldmap.nav.trajectory.FlightTrajectory` flies. It is
+evaluated at the samples and half-way between them. The specific force is
+
+.. math::
+
+    \mathbf f = \ddot{\mathbf r}_e + 2\,\boldsymbol\Omega\times\dot{\mathbf r}_e
+    + \gamma(\varphi, h)\,\mathbf u
+
+with :math:`\ddot{\mathbf r}_e, \dot{\mathbf r}_e` the spline's ECEF derivatives,
+:math:`\mathbf u` the ellipsoidal normal (up) and :math:`\gamma` normal gravity: Somigliana's
+formula at the ellipsoid (Heiskanen & Moritz 1967 eq. 2-78) with the second-order height
+expansion (eq. 2-124). At rest it is 1 g up.
+
+:func:`path_kinematics` does the same for any samples (``bench_corpus.py`` measures
+``traffic``'s smoother with it), so both methods are measured with one yardstick.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fieldmap.field.ellipsoid import WGS84, Ellipsoid
+from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
+from fieldmap.nav.logs.read import read_track
+from fieldmap.units import STANDARD_GRAVITY as G0
+
+KT = 1852.0 / 3600.0
+#: the issue's "suspect" rules: flown ground speed over this factor of the log's robust maximum
+SPEED_FACTOR = 1.05
+#: ... specific force outside this range (g) for an aircraft that is not aerobatic
+SPECIFIC_FORCE_RANGE = (0.3, 1.8)
+#: ... less than this fraction of the log's span flown
+MIN_FLOWN = 0.90
+
+
+@dataclass(frozen=True)
+class PathKinematics:
+    """Peaks of a path through samples (see :func:`path_kinematics`).
+
+    Attributes
+    ----------
+    max_ground_speed_m_s : float
+        Largest horizontal speed. Units: m/s.
+    max_ground_speed_t_s : float
+        Its time, from the first sample. Units: s.
+    specific_force_min_g, specific_force_max_g : float
+        Least and largest magnitude of the specific force. Units: g (9.80665 m/s²).
+    specific_force_worst_t_s : float
+        Time of the magnitude furthest from 1 g, from the first sample. Units: s.
+    """
+
+    max_ground_speed_m_s: float
+    max_ground_speed_t_s: float
+    specific_force_min_g: float
+    specific_force_max_g: float
+    specific_force_worst_t_s: float
+
+
+@dataclass(frozen=True)
+class CorpusCheck:
+    """A flown piece against its log (see the module docstring).
+
+    Attributes
+    ----------
+    source : str
+        The piece's file.
+    reported_gs_max_m_s : float or None
+        The log's robust maximum ground speed (99.5th percentile of its ``groundspeed``
+        column); None when the log has none. Units: m/s.
+    flown : PathKinematics
+        The flown path's peaks.
+    speed_ratio : float or None
+        ``flown.max_ground_speed_m_s / reported_gs_max_m_s``.
+    log_span_s, flown_span_s : float
+        Last minus first fix of the log; last minus first flown sample. Units: s.
+    flown_fraction : float
+        The part of the log's span inside the flown span (0..1).
+    fixes : int
+        Fixes of the log (rows that ``read_track`` keeps).
+    sigma_h_m, k_sigma : float
+        The height σ given (m) and the multiple of it checked.
+    heights_within : float
+        Fraction of the fixes whose height is within ``k_sigma`` σ of the flown path.
+    fixes_outside_flown : int
+        Fixes before the first or after the last flown sample (counted as not within).
+    worst_height_offset_m : float
+        Largest absolute height offset of a flown-past fix from the path (0 when none). Units: m.
+    worst_height_line : int
+        Its line in the file (0 when none).
+    """
+
+    source: str
+    reported_gs_max_m_s: float | None
+    flown: PathKinematics
+    speed_ratio: float | None
+    log_span_s: float
+    flown_span_s: float
+    flown_fraction: float
+    fixes: int
+    sigma_h_m: float
+    k_sigma: float
+    heights_within: float
+    fixes_outside_flown: int
+    worst_height_offset_m: float
+    worst_height_line: int
+
+    def suspect(self, envelope: tuple[float, float] | None = SPECIFIC_FORCE_RANGE) -> list[str]:
+        """Return the issue's reasons to call the flown path suspect (empty: clean).
+
+        Ground speed over :data:`SPEED_FACTOR` × the log's robust maximum, specific force
+        outside ``envelope`` (g; default :data:`SPECIFIC_FORCE_RANGE`, that of an aircraft that
+        is not aerobatic; None: not checked), less than :data:`MIN_FLOWN` of the log flown.
+        """
+        why = []
+        if self.speed_ratio is not None and self.speed_ratio > SPEED_FACTOR:
+            why.append(
+                f"ground speed {self.flown.max_ground_speed_m_s:.0f} m/s = "
+                f"{self.speed_ratio:.2f} x reported {self.reported_gs_max_m_s:.0f}"
+            )
+        f = self.flown
+        lo, hi = envelope or (-np.inf, np.inf)
+        if f.specific_force_min_g < lo or f.specific_force_max_g > hi:
+            why.append(
+                f"specific force {f.specific_force_min_g:.2f}..{f.specific_force_max_g:.2f} g"
+            )
+        if self.flown_fraction < MIN_FLOWN:
+            why.append(f"{100 * self.flown_fraction:.0f} % of the log flown")
+        return why
+
+
+def reported_max_ground_speed(path: str | Path, q: float = 99.5) -> float | None:
+    """Return the ``q``-th percentile of a traffic CSV's ``groundspeed`` column (m/s), or None.
+
+    Read from the file itself (gzip or not), every row with a value: no fieldmap reader
+    decides which rows count.
+    """
+    raw = Path(path).read_bytes()
+    if raw[:2] == b"\x1f\x8b":
+        raw = gzip.decompress(raw)
+    rows = csv.DictReader(io.StringIO(raw.decode()))
+    if "groundspeed" not in (rows.fieldnames or ()):
+        return None
+    v = np.array([float(r["groundspeed"]) for r in rows if r["groundspeed"].strip()])
+    return float(np.percentile(v, q)) * KT if v.size else None
+
+
+def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.ndarray:
+    """Magnitude of normal gravity (m/s²): Heiskanen & Moritz (1967) eqs. 2-78 and 2-124."""
+    phi = np.radians(lat_deg)
+    c2, s2 = np.cos(phi) ** 2, np.sin(phi) ** 2
+    a, b = ell.a, ell.b
+    g0 = (a * ell.gamma_a * c2 + b * ell.gamma_b * s2) / np.sqrt(a * a * c2 + b * b * s2)
+    return g0 * (1.0 - 2.0 * h / a * (1.0 + ell.f + ell.m - 2.0 * ell.f * s2) + 3.0 * (h / a) ** 2)
+
+
+def _spline(t: np.ndarray, lat: np.ndarray, lon: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> Any:
+    from scipy.interpolate import make_interp_spline
+
+    r = np.stack(geodetic_to_ecef(lat, lon, h, ell), -1)
+    return make_interp_spline(t, r, k=5)
+
+
+def path_kinematics(
+    t: np.ndarray, lat: np.ndarray, lon: np.ndarray, h: np.ndarray, ellipsoid: Ellipsoid = WGS84
+) -> PathKinematics:
+    """Peaks of the quintic ECEF spline through samples (times strictly increasing).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Times. Units: s.
+    lat, lon : numpy.ndarray
+        Geodetic latitude, longitude. Units: degrees.
+    h : numpy.ndarray
+        Height above ``ellipsoid``. Units: m.
+    ellipsoid : Ellipsoid
+    """
+    t = np.asarray(t, float)
+    sp = _spline(t, lat, lon, h, ellipsoid)
+    tt = np.sort(np.concatenate([t, 0.5 * (t[1:] + t[:-1])]))
+    r, v, a = sp(tt), sp(tt, 1), sp(tt, 2)
+    la, lo, hh = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
+    C = C_e_to_enu(la, lo)
+    v_enu = np.einsum("nij,nj->ni", C, v)
+    w = np.array([0.0, 0.0, ellipsoid.omega])
+    f = a + 2.0 * np.cross(w, v) + _normal_gravity(la, hh, ellipsoid)[:, None] * C[:, 2, :]
+    fs = np.linalg.norm(f, axis=1) / G0
+    gs = np.hypot(v_enu[:, 0], v_enu[:, 1])
+    i, j = int(np.argmax(gs)), int(np.argmax(np.abs(fs - 1.0)))
+    return PathKinematics(
+        max_ground_speed_m_s=float(gs[i]),
+        max_ground_speed_t_s=float(tt[i] - t[0]),
+        specific_force_min_g=float(fs.min()),
+        specific_force_max_g=float(fs.max()),
+        specific_force_worst_t_s=float(tt[j] - t[0]),
+    )
+
+
+def check_piece(
+    path: str | Path,
+    samples: Any,
+    *,
+    sigma_h: float,
+    k_sigma: float = 3.0,
+    height_ref: str = "pressure",
+    ellipsoid: Ellipsoid = WGS84,
+) -> CorpusCheck:
+    """Check a flown piece against its log.
+
+    Parameters
+    ----------
+    path : str or Path
+        The piece (a traffic-layout CSV of ``tests/data/corpus``).
+    samples : FlightSamples
+        The flown samples: ``ConditionedFlight.samples`` (or the ``samples`` of the
+        ``FlightTrajectory``) that :func:`~fieldmap.nav.logs.load_flight` returned: ``t`` from
+        0, ``t_start`` in the log's time scale, ``lat``, ``lon``, ``h``.
+    sigma_h : float
+        The σ of a fix's height. Units: m.
+    k_sigma : float
+        A fix is within when its offset is at most ``k_sigma * sigma_h``.
+    height_ref : str
+        The log's height reference, as given to ``load_flight``.
+    ellipsoid : Ellipsoid
+        That of the samples' heights.
+
+    Returns
+    -------
+    CorpusCheck
+    """
+    # alt_units given: the reader's guess of the units refuses logs with altitude glitches,
+    # and the traffic layout's altitudes are feet by definition
+    log = read_track(path, height_ref=height_ref, alt_units="ft", ellipsoid=ellipsoid)
+    s = samples
+    t_abs = s.t_start + s.t
+    flown = path_kinematics(s.t, s.lat, s.lon, s.h, ellipsoid)
+    reported = reported_max_ground_speed(path)
+    t0, t1 = float(log.t.min()), float(log.t.max())
+    f0, f1 = float(t_abs[0]), float(t_abs[-1])
+    span = t1 - t0
+    cover = max(0.0, min(t1, f1) - max(t0, f0))
+    inside = (log.t >= f0) & (log.t <= f1)
+    ok = np.zeros(log.t.size, bool)
+    worst, worst_line = 0.0, 0
+    if inside.any():
+        sp = _spline(np.asarray(s.t, float), s.lat, s.lon, s.h, ellipsoid)
+        r = sp(log.t[inside] - s.t_start)
+        _, _, h_path = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
+        off = np.abs(log.h[inside] - h_path)
+        ok[inside] = off <= k_sigma * sigma_h
+        k = int(np.argmax(off))
+        worst, worst_line = float(off[k]), int(log.lines[inside][k])
+    return CorpusCheck(
+        source=str(path),
+        reported_gs_max_m_s=reported,
+        flown=flown,
+        speed_ratio=None if not reported else flown.max_ground_speed_m_s / reported,
+        log_span_s=span,
+        flown_span_s=f1 - f0,
+        flown_fraction=cover / span if span > 0 else float(f1 >= t1 and f0 <= t0),
+        fixes=int(log.t.size),
+        sigma_h_m=float(sigma_h),
+        k_sigma=float(k_sigma),
+        heights_within=float(ok.mean()) if ok.size else 0.0,
+        fixes_outside_flown=int((~inside).sum()),
+        worst_height_offset_m=worst,
+        worst_height_line=worst_line,
+    )

@@ -1,0 +1,77 @@
+"""The corpus checks (tests/corpus_checks.py) measure what they say, and the corpus is as listed."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from corpus_checks import check_piece, path_kinematics, reported_max_ground_speed
+
+from fieldmap.nav.logs.read import read_track
+from fieldmap.nav.trajectory import FlightSamples
+
+CORPUS = Path(__file__).parent / "data" / "corpus"
+MANIFEST = json.loads((CORPUS / "manifest.json").read_text())
+
+
+def _circle(v: float, radius: float, h: float = 3000.0, dt: float = 1.0):
+    """Return a level turn at constant speed round (45° N, 5° E), a small circle."""
+    t = np.arange(0.0, 2 * np.pi * radius / v, dt)
+    ang = v * t / radius
+    r_n = 6_378_137.0 * (1 - 0.00669438) / (1 - 0.00669438 * np.sin(np.radians(45)) ** 2) ** 1.5
+    r_e = 6_378_137.0 / np.sqrt(1 - 0.00669438 * np.sin(np.radians(45)) ** 2)
+    lat = 45.0 + np.degrees(radius * np.sin(ang) / (r_n + h))
+    lon = 5.0 + np.degrees(radius * (1 - np.cos(ang)) / ((r_e + h) * np.cos(np.radians(45))))
+    return t, lat, lon, np.full_like(t, h)
+
+
+def test_level_turn_speed_and_specific_force():
+    # 100 m/s round a 2 km circle: centripetal v²/R = 5 m/s², so |f| = √(g² + 25) = 1.126 g
+    # (normal gravity at 45°, 3 km: 9.797 m/s²); Coriolis (2Ωv ≤ 0.015 m/s²) and the Earth's
+    # curvature under a level path (v²/R_E ≈ 0.0016 m/s²) stay within the tolerance
+    k = path_kinematics(*_circle(100.0, 2000.0))
+    assert k.max_ground_speed_m_s == pytest.approx(100.0, rel=2e-3)
+    expected = np.hypot(9.7974, 5.0) / 9.80665
+    assert k.specific_force_max_g == pytest.approx(expected, abs=3e-3)
+    assert k.specific_force_min_g == pytest.approx(expected, abs=3e-3)
+
+
+def test_straight_level_flight_is_one_g():
+    t = np.arange(0.0, 600.0, 5.0)
+    lat, lon, h = 45.0 + 0.001 * t / 1.11, np.full_like(t, 5.0), np.full_like(t, 3000.0)
+    k = path_kinematics(t, lat, lon, h)
+    assert k.specific_force_min_g == pytest.approx(0.999, abs=3e-3)
+    assert k.specific_force_max_g == pytest.approx(0.999, abs=3e-3)
+
+
+@pytest.mark.parametrize("piece", ["calibration/munich", "gliders/cevennes"])
+def test_a_log_flown_through_its_own_fixes_meets_the_checks(piece):
+    path = CORPUS / f"{piece}.csv.gz"
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    t, first = np.unique(log.t, return_index=True)
+    s = FlightSamples(
+        t - t[0], log.lat[first], log.lon[first], log.h[first], None, "test", log.lines[first], t[0]
+    )
+    c = check_piece(path, s, sigma_h=1.0)
+    assert c.flown_fraction == 1.0
+    assert c.fixes_outside_flown == 0
+    # every fix with a time of its own is on the path; repeated times may not be
+    assert c.heights_within >= first.size / log.t.size
+    # cut the last quarter: a quarter of the span is not flown
+    n = int(0.75 * t.size)
+    cut = FlightSamples(s.t[:n], s.lat[:n], s.lon[:n], s.h[:n], None, "test", s.lines[:n], t[0])
+    c = check_piece(path, cut, sigma_h=1.0)
+    assert c.flown_fraction == pytest.approx((t[n - 1] - t[0]) / (t[-1] - t[0]))
+    assert c.fixes_outside_flown == int((log.t > t[n - 1]).sum())
+    assert any("of the log flown" in w for w in c.suspect())
+
+
+def test_manifest_lists_every_piece_with_its_robust_maximum():
+    listed = {(e["category"], e["name"]) for e in MANIFEST["pieces"]}
+    on_disk = {(p.parent.name, p.name[: -len(".csv.gz")]) for p in CORPUS.glob("*/*.csv.gz")}
+    assert listed == on_disk
+    for e in MANIFEST["pieces"][::10]:
+        gs = reported_max_ground_speed(CORPUS / e["category"] / f"{e['name']}.csv.gz")
+        assert gs == pytest.approx(e["gs_p995_m_s"], abs=1e-3)
