@@ -639,7 +639,7 @@ def load_imu(name_or_path: str | os.PathLike[str]) -> tuple[str, ImuErrorSpec]:
     --------
     >>> import fieldmap
     >>> name, spec = fieldmap.load_imu("tactical")
-    >>> name, spec.acc_bias_ug, spec.gyro_bias_deg_h  # µg, °/h
+    >>> name, spec.accel_bias_ug, spec.gyro_bias_deg_per_h  # µg, °/h
     ('tactical', 1000.0, 1.0)
     """
     if sys.version_info >= (3, 11):

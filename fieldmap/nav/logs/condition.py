@@ -61,7 +61,7 @@ import numpy as np
 from fieldmap.errors import Advice, InputError, Keyword, Label, Message, Pass, Setting
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.logs import faults as flt
+import fieldmap.nav.logs.faults as flt
 from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, SmoothedAxis
 from fieldmap.nav.logs.vehicles import Evidence, Vehicle, evidence, guess_vehicle, vehicle_class
 from fieldmap.nav.trajectory import MIN_POINTS, FlightSamples
