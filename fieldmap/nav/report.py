@@ -262,7 +262,10 @@ def format_covariance(res: CovarianceStudyResult) -> str:
 def write_covariance_outputs(
     res: CovarianceStudyResult, out: OutputBatch, prefix: str = "navsim_flight"
 ) -> list[str]:
-    """``<prefix>.{json,csv,nc,png}`` of a covariance study into an open output batch."""
+    """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_budget.png`` of a covariance study.
+
+    Into an open output batch: the σ(t) figure and the error budget (:mod:`fieldmap.nav.plots`).
+    """
     from fieldmap.nav import plots
     from fieldmap.products.io import signals_deferred
 
@@ -281,6 +284,7 @@ def write_covariance_outputs(
     ]
     with signals_deferred():
         paths.append(out.png(plots.sigma_figure(res), f"{prefix}.png"))
+        paths.append(out.png(plots.budget_figure(res), f"{prefix}_budget.png"))
     return [str(p) for p in paths]
 
 
@@ -290,7 +294,7 @@ def write_flight_outputs(
     disturbance: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
     prefix: str = "navsim_flight",
 ) -> list[str]:
-    """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_track.png`` of a flight study.
+    """``<prefix>.{json,csv,nc,png}``, ``<prefix>_track.png`` and ``_budget.png`` of a flight study.
 
     ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:
     optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure; ``prefix`` the file
@@ -328,4 +332,5 @@ def write_flight_outputs(
     with signals_deferred():
         paths.append(out.png(plots.errors_figure(res), f"{prefix}.png"))
         paths.append(out.png(plots.track_figure(res, disturbance), f"{prefix}_track.png"))
+        paths.append(out.png(plots.budget_figure(res), f"{prefix}_budget.png"))
     return [str(p) for p in paths]
