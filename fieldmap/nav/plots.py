@@ -54,6 +54,13 @@ if TYPE_CHECKING:
     from fieldmap.nav.paper import StudyResult
     from fieldmap.nav.study import FlightResult
 
+__all__ = [
+    "FIGURE_SIZE", "KINDS", "LOG_DECADES", "MIN_BAND_DRAWS", "at_paper_duration", "budget_bars",
+    "budget_figure", "budget_moment", "disturbance_grid", "errors_figure", "flight_figure",
+    "make_figure", "model_label", "plot", "short_label", "sigma_figure", "source_styles",
+    "track_aspect", "track_figure",
+]  # fmt: skip
+
 #: (colour, line style, marker) of a curve
 _Style = tuple[str, Any, str | None]
 
@@ -1025,10 +1032,11 @@ def budget_moment(res: FlightResult | CovarianceStudyResult) -> tuple[int, str, 
 
 def _imu_only_horizontal(res: FlightResult | CovarianceStudyResult, i: int) -> float:
     """Return the IMU-only horizontal error at output ``i`` (Monte Carlo RMS or covariance σ)."""
-    dpos = getattr(res, "dpos", None)
-    if dpos is None:
+    from fieldmap.nav.study import FlightResult
+
+    if not isinstance(res, FlightResult):
         return float(res.covariance.horizontal()[i])
-    d = dpos[np.asarray(res.models) == "imu_only", i, :2]
+    d = res.dpos[np.asarray(res.models) == "imu_only", i, :2]
     return float(np.sqrt(np.mean(np.sum(d * d, -1))))
 
 
@@ -1042,20 +1050,22 @@ def budget_bars(res: FlightResult | CovarianceStudyResult, i: int) -> list[tuple
     (deterministic), (b) omission and (c) commission (the same for every model; RMS of their
     draws). Sorted from the largest.
     """
+    from fieldmap.nav.study import FlightResult
+
     bars: list[tuple[str, float, str]] = []
-    cov = getattr(res, "covariance", None)
-    dpos = getattr(res, "dpos", None)
-    if dpos is not None:
+    mc = isinstance(res, FlightResult)
+    if isinstance(res, FlightResult):
         n = int(np.sum(np.asarray(res.models) == "imu_only"))
         bars.append(
             (f"all sources: Monte Carlo RMS of {n} draw(s)", _imu_only_horizontal(res, i),
              "all sources")
         )  # fmt: skip
+    cov = res.covariance
     if cov is not None:
         for s in cov.sources:
             bars.append((s, float(cov.horizontal(s)[i]), _source_group(s)))
-        if dpos is None or cov.sources:
-            what = "all sources: root sum of squares" + (" (linear)" if dpos is not None else "")
+        if not mc or cov.sources:
+            what = "all sources: root sum of squares" + (" (linear)" if mc else "")
             bars.append((what, float(cov.horizontal()[i]), "all sources"))
     b = res.budget
     if b is not None:
