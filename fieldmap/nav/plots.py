@@ -58,7 +58,7 @@ __all__ = [
     "FIGURE_SIZE", "KINDS", "LOG_DECADES", "MIN_BAND_DRAWS", "at_paper_duration", "budget_bars",
     "budget_figure", "budget_moment", "disturbance_grid", "errors_figure", "flight_figure",
     "make_figure", "model_label", "plot", "short_label", "sigma_figure", "source_styles",
-    "track_aspect", "track_figure",
+    "track_aspect", "track_figure", "track_view",
 ]  # fmt: skip
 
 #: (colour, line style, marker) of a curve
@@ -1187,26 +1187,48 @@ def track_aspect(lat_limits: Sequence[float]) -> float:
     return float(1.0 / np.cos(np.radians(np.clip(mid, -85.0, 85.0))))
 
 
+def track_view(track: npt.ArrayLike) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Return the (latitude, longitude) limits, degrees, of a map of a ground track.
+
+    A tenth of the track's extent around it, at least 0.05° (5 km); the narrower side at
+    least 3/4 of the wider, measured in kilometres (a degree of longitude is cos φ of one of
+    latitude), so that a track along a meridian is not a line on a sliver of map.
+    """
+    tr = np.asarray(track, dtype=np.float64)
+    la, lo = tr[:, 0], tr[:, 1]
+    cos = np.cos(np.radians(np.clip(0.5 * (la.min() + la.max()), -85.0, 85.0)))
+    # half-widths in degrees of latitude
+    hy, hx = 0.5 * np.ptp(la), 0.5 * np.ptp(lo) * cos
+    pad = max(0.2 * max(hx, hy), 0.05)
+    hy, hx = hy + pad, hx + pad
+    hy, hx = max(hy, 0.75 * hx), max(hx, 0.75 * hy)
+    mid_la, mid_lo = 0.5 * (la.min() + la.max()), 0.5 * (lo.min() + lo.max())
+    lat = (float(max(mid_la - hy, -90.0)), float(min(mid_la + hy, 90.0)))
+    return lat, (float(mid_lo - hx / cos), float(mid_lo + hx / cos))
+
+
 def track_figure(
     res: FlightResult | CovarianceStudyResult,
     disturbance: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
 ) -> Figure:
     """Ground track over the truth model's disturbance (mGal, if given), with coastlines.
 
-    Zoomed to the track (a tenth of its extent around it, at least 0.05°), equal aspect: a
-    kilometre east is as long as a kilometre north (:func:`track_aspect`); the coastlines are
-    the bundled Natural Earth 1:50m ones (:mod:`fieldmap.products.coastline`).
+    Zoomed to the track (a tenth of its extent around it, at least 0.05°; the narrower side at
+    least 3/4 of the wider), equal aspect: a kilometre east is as long as a kilometre north
+    (:func:`track_aspect`); the coastlines are the bundled Natural Earth 1:50m ones
+    (:mod:`fieldmap.products.coastline`).
     """
     plt = _plt()
     fig, ax = plt.subplots(figsize=FIGURE_SIZE["track"], layout="constrained")
     la, lo = res.track[:, 0], res.track[:, 1]
-    pad = max(0.1 * max(np.ptp(la), np.ptp(lo)), 0.05)
-    ax.set_xlim(lo.min() - pad, lo.max() + pad)
-    ax.set_ylim(max(la.min() - pad, -90.0), min(la.max() + pad, 90.0))
+    (y0, y1), (x0, x1) = track_view(res.track)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.autoscale(False)
     if disturbance is not None:
         lat, lon, dg = (np.asarray(x) for x in disturbance)
-        lim = float(np.nanmax(np.abs(dg)))
+        seen = dg[np.ix_((lat >= y0) & (lat <= y1), (lon >= x0) & (lon <= x1))]
+        lim = float(np.nanmax(np.abs(seen if seen.size else dg)))  # the scale of what is shown
         pc = ax.pcolormesh(lon, lat, dg, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="auto")
         fig.colorbar(pc, ax=ax, shrink=0.85,
                      label="gravity disturbance δg_D at the mean flight height (mGal)")  # fmt: skip
@@ -1217,7 +1239,7 @@ def track_figure(
     ax.set_ylabel("latitude (°)")
     coastline.draw(ax, lon_min=ax.get_xlim()[0], color="0.3", linewidth=0.8)
     ax.set_aspect(track_aspect(ax.get_ylim()))
-    ax.legend(loc="best", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3, fontsize=8, frameon=False)
     summary = getattr(res, "summary", None)
     name = f"Flight {summary['meta']['trajectory']}: " if summary else ""
     what = "ground track" + ("" if disturbance is None else " over the truth model's disturbance")
@@ -1231,14 +1253,17 @@ def disturbance_grid(
     n: int = 60,
     device: str | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Down component of g_truth − γ_normal (mGal) on a grid around the track at mean height."""
+    """Down component of g_truth − γ_normal (mGal) on a grid over the track's map at mean height.
+
+    ``n`` × ``n`` points over :func:`track_view` and a cell beyond each side.
+    """
     from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
     from fieldmap.nav.imu import Gravitation
 
-    la, lo = res.track[:, 0], res.track[:, 1]
-    pad = max(0.5, 0.1 * max(np.ptp(la), np.ptp(lo)))
-    lat = np.linspace(max(la.min() - pad, -89.0), min(la.max() + pad, 89.0), n)
-    lon = np.linspace(lo.min() - pad, lo.max() + pad, n)
+    (y0, y1), (x0, x1) = track_view(res.track)  # the map's view, and a cell more each side
+    dy, dx = (y1 - y0) / (n - 3), (x1 - x0) / (n - 3)
+    lat = np.linspace(max(y0 - dy, -89.0), min(y1 + dy, 89.0), n)
+    lon = np.linspace(x0 - dx, x1 + dx, n)
     LA, LO = np.meshgrid(lat, lon, indexing="ij")
     h = np.full(LA.size, float(np.mean(res.track[:, 2])))
     r = np.stack(geodetic_to_ecef(LA.ravel(), LO.ravel(), h), -1)
