@@ -1101,7 +1101,7 @@ def budget_figure(res: FlightResult | CovarianceStudyResult) -> Figure:
     how = (
         "IMU sources: Monte Carlo RMS of all of them together"
         + (" and the filter's linear σ of each alone" if getattr(res, "covariance", None) else
-           " (the draws hold every source at once: --method covariance splits them)")
+           " (the draws hold every source at once: the covariance method splits them)")
         if mc
         else "IMU, baro and GNSS sources: 1σ of each alone, linear covariance analysis"
     )  # fmt: skip
