@@ -91,6 +91,7 @@ def test_covariance_study_from_the_command_line(tmp_path, capsys):
     assert "linear covariance analysis" in text and "gyro bias" in text
     assert sorted(p.name for p in out.iterdir()) == [
         "navsim_flight.csv", "navsim_flight.json", "navsim_flight.nc", "navsim_flight.png",
+        "navsim_flight_budget.png",
     ]  # fmt: skip
     import json
 

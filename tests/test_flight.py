@@ -336,7 +336,7 @@ def test_cli_flight_and_bad_file(tmp_path, capsys):
     assert "recommended_model" in doc and doc["meta"]["altitude_aiding"] == "none"
     assert sorted(p.name for p in out.iterdir()) == [
         "navsim_flight.csv", "navsim_flight.json", "navsim_flight.nc", "navsim_flight.png",
-        "navsim_flight_track.png",
+        "navsim_flight_budget.png", "navsim_flight_track.png",
     ]  # fmt: skip
     bad = _csv(tmp_path, _bad(_turning_flight(), "time_s", 10, 8.0))
     out2 = tmp_path / "o2"

@@ -50,12 +50,15 @@ model errors are not states here (their contributions come from :mod:`fieldmap.n
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from fieldmap.errors import InputError, Keyword
 from fieldmap.nav.linear import core_dynamics, rk4_transition
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "SOURCES", "CovarianceResult", "CovarianceStudyResult", "covariance_analysis",
@@ -455,6 +458,24 @@ class CovarianceStudyResult:
     budget: Any
     summary: dict
     diverged: list = field(default_factory=list)
+
+    def plot(self, kind: str = "errors") -> Figure:
+        """Draw the study as a :class:`matplotlib.figure.Figure` (``fig.savefig("f.png")``).
+
+        Parameters
+        ----------
+        kind : {"errors", "budget", "track"}
+            ``"errors"`` (default): σ(t) of the horizontal and vertical position error per
+            error source, with the gravity terms, the recommendation as the caption
+            (``navsim_flight.png``); ``"budget"``: the error budget, one bar per error source,
+            sorted, the gravity terms (a) model difference, (b) omission, (c) commission beside
+            the IMU's, at the flight's end or at the end of the worst GNSS outage
+            (``navsim_flight_budget.png``); ``"track"``: the ground track.
+            See :mod:`fieldmap.nav.plots`.
+        """
+        from fieldmap.nav.plots import flight_figure
+
+        return flight_figure(self, kind)
 
     def to_dataset(self) -> Any:
         """σ(t) per source and the gravity terms as an ``xarray.Dataset`` (CF-1.8)."""

@@ -173,31 +173,93 @@ def plot(res: StudyResult, path: str) -> None:
 
 
 # --- flight study ---------------------------------------------------------------------------
+#: fewest Monte Carlo draws the text report trusts the 10 % rule with: the IMU-only RMS of n
+#: draws of a 2-D Gaussian error is uncertain by about 1/(2√n) (16 % at 10 draws, 29 % at 3),
+#: and a model's RMS can come out below the IMU-only one although it adds error
+MIN_RULE_DRAWS = 10
+
+
+def _columns(cols: list[tuple[str, str, int]]) -> list[str]:
+    """Two header lines, names over units: ``cols`` is ``[(name, unit, width), ...]``."""
+    names = " ".join(f"{n:{w}s}" if k == 0 else f"{n:>{w}s}" for k, (n, _, w) in enumerate(cols))
+    units = " ".join(f"{u:{w}s}" if k == 0 else f"{u:>{w}s}" for k, (_, u, w) in enumerate(cols))
+    return [names, units]
+
+
+def _gravity_cells(g: dict[str, Any]) -> str:
+    """Return the gravity contribution and its terms (a), (b), (c), horizontal, as table cells."""
+    gt = g.get("horizontal_terms_m") or {}
+    return (
+        f"{_num(g.get('horizontal_m'), '14.3f', 14)} "
+        f"{_num(gt.get('model_difference'), '10.3f', 10)} "
+        f"{_num(gt.get('omission'), '13.3f', 13)} {_num(gt.get('commission'), '15.3f', 15)}"
+    )
+
+
+GRAVITY_COLUMNS = [
+    ("gravity horiz", "m", 14),
+    ("(a) model", "m", 10),
+    ("(b) omission", "m", 13),
+    ("(c) commission", "m", 15),
+]
+
+
+def _rule_caveat(doc: dict[str, Any]) -> list[str]:
+    """Return a caution line when the 10 % rule rests on fewer than :data:`MIN_RULE_DRAWS` draws."""
+    m = doc["meta"]
+    n = int(m.get("draws") or 0)
+    spec = m.get("imu_spec") or {}
+    ideal = not any(v for v in spec.values() if isinstance(v, (int, float)))
+    if ideal or n >= MIN_RULE_DRAWS:
+        return []
+    return [
+        f"caution: the {doc['fraction']:.0%} rule compares with the IMU-only RMS of {n} draw(s), "
+        f"itself uncertain by about ±{50.0 / np.sqrt(n):.0f} % (1σ); with so few draws a model's "
+        "RMS can come out below the IMU-only one although the model adds error ('added horiz'): "
+        f"fly {MIN_RULE_DRAWS} draws or more, or the covariance method"
+    ]
+
+
 def format_flight(res: FlightResult) -> str:
-    """Plain-text table of a flight study: final errors per model (horizontal / vertical)."""
+    """Plain-text report of a flight study: final errors per model, units under each column.
+
+    A GNSS-aided study opens with the coasting errors at the end of each outage (the numbers
+    that matter: aided, the errors at the flight's end are a fix's noise), then the table at
+    the flight's end. A caution line says when the recommendation's rule rests on fewer than
+    :data:`MIN_RULE_DRAWS` draws.
+    """
     doc = res.summary
     m = doc["meta"]
     w = max(10, *(len(name) for name in doc["models"]))  # a table:FILE name can be long
     lines = [
         f"== flight {m['trajectory']}: {m['duration_s']:g} s, IMU {m['imu']} at "
         f"{m['imu_rate_hz']:g} Hz, {m['draws']} draw(s), frame {m['frame']}, altitude aiding "
-        f"{m['altitude_aiding']}, truth {m['truth_model']} degree {m['truth_degree']} ==",
-        f"{'model':{w}s} {'horiz rms m':>12s} {'p95':>10s} {'vert rms m':>11s} {'|dv| rms':>10s} "
-        f"{'added horiz':>12s} {'gravity h':>10s} {'(a) model':>10s} {'(b) omis.':>10s} "
-        f"{'(c) comm.':>10s}",
+        f"{m['altitude_aiding']}, truth {m['truth_model']} degree {m['truth_degree']} =="
     ]
+    if "gnss" in doc:  # an aided study (the module entered only then)
+        from fieldmap.nav.aiding import format_gnss
+
+        lines.extend(format_gnss(doc))
+        lines.append("at the flight's end (GNSS-aided):")
+    lines += _columns(
+        [
+            ("model", "", w),
+            ("horiz rms", "m", 10),
+            ("horiz p95", "m", 10),
+            ("vert rms", "m", 10),
+            ("|dv| rms", "m/s", 9),
+            ("added horiz", "m", 12),
+            *GRAVITY_COLUMNS,
+        ]
+    )
     for name, e in doc["models"].items():
-        g = e.get("gravity") or {}
-        gt = g.get("horizontal_terms_m") or {}
         lines.append(
-            f"{name:{w}s} {_num(e['final_horizontal_error_m']['rms'], '12.3f', 12)} "
+            f"{name:{w}s} {_num(e['final_horizontal_error_m']['rms'], '10.3f', 10)} "
             f"{_num(e['final_horizontal_error_m']['p95'], '10.3f', 10)} "
-            f"{_num(e['final_vertical_error_m']['rms'], '11.3f', 11)} "
-            f"{_num(e['final_velocity_error_m_s']['rms'], '10.4f', 10)} "
+            f"{_num(e['final_vertical_error_m']['rms'], '10.3f', 10)} "
+            f"{_num(e['final_velocity_error_m_s']['rms'], '9.4f', 9)} "
             f"{_num(e.get('added_horizontal_error_m'), '12.3f', 12)} "
-            f"{_num(g.get('horizontal_m'), '10.3f', 10)} "
-            f"{_num(gt.get('model_difference'), '10.3f', 10)} "
-            f"{_num(gt.get('omission'), '10.3f', 10)} {_num(gt.get('commission'), '10.3f', 10)}"
+            + _gravity_cells(e.get("gravity") or {})
             + ("  DIVERGED" if e["diverged"] else "")
         )
     terms = m.get("gravity_terms")
@@ -215,51 +277,74 @@ def format_flight(res: FlightResult) -> str:
             + "; (c) commission: "
             + ("the truth's coefficient sigma" if terms["commission"] else "off")
         )
-    if "gnss" in doc:  # an aided study (the module entered only then)
-        from fieldmap.nav.aiding import format_gnss
-
-        lines.extend(format_gnss(doc))
+    lines.extend(_rule_caveat(doc))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
 
 def format_covariance(res: CovarianceStudyResult) -> str:
-    """Plain-text error budget of a covariance study: each source, then each gravity model."""
+    """Plain-text error budget of a covariance study: each source, then each gravity model.
+
+    Units under each column. A GNSS-aided study opens with the coasting errors at the end of
+    each outage, and gives the sources and the models at the end of the worst outage (the
+    recommendation's moment) beside the flight's end (aided: a fix's noise).
+    """
+    from fieldmap.nav.plots import budget_moment
+
     doc = res.summary
     m = doc["meta"]
+    cov = res.covariance
     lines = [
         f"== flight {m['trajectory']}: {m['duration_s']:g} s, IMU {m['imu']}, frame {m['frame']}, "
         f"altitude aiding {m['altitude_aiding']}, truth {m['truth_model']} degree "
-        f"{m['truth_degree']}: linear covariance analysis ==",
-        f"{'error source':32s} {'final horiz σ m':>16s} {'final vert σ m':>15s}",
+        f"{m['truth_degree']}: linear covariance analysis =="
     ]
-    for name, e in doc["sources"].items():
-        lines.append(
-            f"{name:32s} {_num(e['final_horizontal_sigma_m'], '16.3f', 16)} "
-            f"{_num(e['final_vertical_sigma_m'], '15.3f', 15)}"
-        )
-    lines.append(
-        f"{'IMU and baro, all':32s} {_num(doc['imu_only_horizontal_error_m'], '16.3f', 16)} "
-        f"{_num(doc['imu_only_vertical_error_m'], '15.3f', 15)}"
-    )
-    w = max(10, *(len(name) for name in doc["models"]))
-    lines.append(
-        f"{'model':{w}s} {'horiz m':>10s} {'gravity h':>10s} {'(a) model':>10s} "
-        f"{'(b) omis.':>10s} {'(c) comm.':>10s}"
-    )
-    for name, e in doc["models"].items():
-        g = e["gravity"]
-        gt = g["horizontal_terms_m"]
-        lines.append(
-            f"{name:{w}s} {_num(e['final_horizontal_error_m'], '10.3f', 10)} "
-            f"{_num(g['horizontal_m'], '10.3f', 10)} "
-            f"{_num(gt['model_difference'], '10.3f', 10)} {_num(gt['omission'], '10.3f', 10)} "
-            f"{_num(gt['commission'], '10.3f', 10)}"
-        )
-    if "gnss" in doc:  # an aided study (the module entered only then)
+    aided = "gnss" in doc
+    i, when, _ = budget_moment(res)
+    total = "all sources (root sum of squares)"
+    sw = max([len(total), *(len(name) for name in cov.sources)])
+    if aided:  # the module entered only then
         from fieldmap.nav.aiding import format_gnss
 
         lines.extend(format_gnss(doc))
+        lines.append(f"error sources at {when}, and at the flight's end (GNSS-aided):")
+        cols = [
+            ("error source", "", sw),
+            ("horiz σ", "m", 9),
+            ("vert σ", "m", 9),
+            ("final horiz σ", "m", 14),
+            ("final vert σ", "m", 13),
+        ]
+    else:
+        cols = [("error source", "", sw), ("final horiz σ", "m", 14), ("final vert σ", "m", 13)]
+    lines += _columns(cols)
+
+    def row(name: str, sigma: np.ndarray) -> str:
+        cells = []
+        if aided:
+            cells += [_num(float(np.hypot(*sigma[i, :2])), "9.3f", 9),
+                      _num(float(sigma[i, 2]), "9.3f", 9)]  # fmt: skip
+        cells += [_num(float(np.hypot(*sigma[-1, :2])), "14.3f", 14),
+                  _num(float(sigma[-1, 2]), "13.3f", 13)]  # fmt: skip
+        return f"{name:{sw}s} " + " ".join(cells)
+
+    for name in cov.sources:
+        lines.append(row(name, cov.position[name]))
+    lines.append(row(total, cov.total()))
+    w = max(10, *(len(name) for name in doc["models"]))
+    at = f"at {when}" if aided else "at the flight's end"
+    lines.append(f"navigation models {at}: IMU errors and gravity together, and gravity alone")
+    lines += _columns([("model", "", w), ("horiz", "m", 10), *GRAVITY_COLUMNS])
+    worst = None
+    if aided and doc["gnss"]["outages"]:
+        worst = max(doc["gnss"]["outages"], key=lambda o: o["imu_only_horizontal_error_m"])
+    for name, e in doc["models"].items():
+        if worst is not None:
+            here = worst["models"][name]
+            total, g = here["horizontal_error_m"], here["gravity"]
+        else:
+            total, g = e["final_horizontal_error_m"], e["gravity"]
+        lines.append(f"{name:{w}s} {_num(total, '10.3f', 10)} " + _gravity_cells(g))
     lines.append(f"recommended model: {doc['recommendation']}")
     return "\n".join(lines)
 
@@ -271,8 +356,9 @@ def write_covariance_outputs(
     *,
     figures: bool = True,
 ) -> list[str]:
-    """``<prefix>.{json,csv,nc,png}`` of a covariance study into an open output batch.
+    """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_budget.png`` of a covariance study.
 
+    Into an open output batch: the σ(t) figure and the error budget (:mod:`fieldmap.nav.plots`);
     ``figures=False``: no PNG (``fieldmap navsim --no-plots``).
     """
     from fieldmap.nav import plots
@@ -295,6 +381,7 @@ def write_covariance_outputs(
         return [str(p) for p in paths]
     with signals_deferred():
         paths.append(out.png(plots.sigma_figure(res), f"{prefix}.png"))
+        paths.append(out.png(plots.budget_figure(res), f"{prefix}_budget.png"))
     return [str(p) for p in paths]
 
 
@@ -306,7 +393,7 @@ def write_flight_outputs(
     *,
     figures: bool = True,
 ) -> list[str]:
-    """``<prefix>.{json,csv,nc,png}`` and ``<prefix>_track.png`` of a flight study.
+    """``<prefix>.{json,csv,nc,png}``, ``<prefix>_track.png`` and ``_budget.png`` of a flight study.
 
     ``out`` is a folder or an open :class:`fieldmap.products.io.OutputBatch`. ``disturbance``:
     optional ``(lat, lon, dg_mgal)`` grid for the ground-track figure; ``prefix`` the file
@@ -347,4 +434,5 @@ def write_flight_outputs(
     with signals_deferred():
         paths.append(out.png(plots.errors_figure(res), f"{prefix}.png"))
         paths.append(out.png(plots.track_figure(res, disturbance), f"{prefix}_track.png"))
+        paths.append(out.png(plots.budget_figure(res), f"{prefix}_budget.png"))
     return [str(p) for p in paths]

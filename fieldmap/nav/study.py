@@ -103,9 +103,10 @@ from fieldmap.nav.trajectory import BoostGlide, Kinematics, Trajectory, geodetic
 
 if TYPE_CHECKING:
     import xarray as xr
+    from matplotlib.figure import Figure
 
     from fieldmap.field.ellipsoid import Ellipsoid
-    from fieldmap.nav.covariance import CovarianceStudyResult
+    from fieldmap.nav.covariance import CovarianceResult, CovarianceStudyResult
 
 #: normal navigation models -> the ``normal=`` name of :mod:`fieldmap.field.normal` (the same
 #: names: the exact level-ellipsoid field is ``"exact"`` on both sides)
@@ -633,10 +634,31 @@ class FlightResult:
     budget: GravityBudget | None = None
     #: GNSS-aided: the filter's horizontal σ of the IMU-only error (n_out,) m; else None
     sigma_h: Any = None
+    #: GNSS-aided: the filter's linear covariance, σ(t) per error source; else None
+    covariance: CovarianceResult | None = None
 
     def to_dataset(self) -> xr.Dataset:
         """Return the results as an ``xarray.Dataset`` over (run, time) with units (CF-1.8)."""
         return flight_dataset(self)
+
+    def plot(self, kind: str = "errors") -> Figure:
+        """Draw the study as a :class:`matplotlib.figure.Figure` (``fig.savefig("f.png")``).
+
+        Parameters
+        ----------
+        kind : {"errors", "budget", "track"}
+            ``"errors"`` (default): the position errors over time per navigation model, the
+            gravity error along the track and the error each model adds, the recommendation
+            as the caption (``navsim_flight.png``); ``"budget"``: the error budget, one bar per
+            error source, sorted, the gravity terms (a) model difference, (b) omission,
+            (c) commission beside the IMU's, at the flight's end or at the end of the worst
+            GNSS outage (``navsim_flight_budget.png``); ``"track"``: the ground track
+            (``navsim_flight_track.png`` draws it over the truth's disturbance).
+            See :mod:`fieldmap.nav.plots`.
+        """
+        from fieldmap.nav.plots import flight_figure
+
+        return flight_figure(self, kind)
 
 
 def _steps_per_output(output_dt: float, rate_hz: float) -> int:
@@ -1311,6 +1333,7 @@ def _fly(study: FlightStudy, device: str | None, client: Any, progress: bool) ->
         coasting_summary(summary, result, study.gnss, cov.horizontal())
         summary["gnss"]["nees"] = nees_summary(filt, imu_set[perm] == 1)
         result.sigma_h = cov.horizontal()
+        result.covariance = cov
     return result
 
 
