@@ -263,6 +263,20 @@ def _ewh(model: SHModel, job: Any, ell: Ellipsoid) -> dict[str, Any]:
     return grid_ewh(model, job.grid, device=job.device)
 
 
+def _radial(model: SHModel, job: Any, ell: Ellipsoid) -> dict[str, Any]:
+    """δg · r̂: the disturbance's up and north components turned by φ − ψ, in mGal."""
+    import numpy as np
+
+    from fieldmap.field.frames import geodetic_to_ecef
+    from fieldmap.grids.synthesis import synthesize
+    from fieldmap.units import MGAL
+
+    vec = synthesize(model, job.grid, ell, "disturbance", job.device, progress=False)
+    x, _, z = geodetic_to_ecef(job.grid.lat, 0.0, job.grid.heights[0], ell)
+    tilt = (np.radians(job.grid.lat) - np.arctan2(z, x))[None, :, None]  # φ − ψ
+    return {"radial": (np.cos(tilt) * vec[..., 2] - np.sin(tilt) * vec[..., 1]) / MGAL}
+
+
 # ------------------------------------------------------------------------ checks, attributes
 
 
@@ -683,6 +697,24 @@ QUANTITIES: tuple[Quantity, ...] = (
         source="{model} degree {lmax}",
         surface=True,
         check=_needs_difference,
+    ),
+    Quantity(
+        "radial",
+        "radial (geocentric) component of the gravity disturbance g_model - gamma_exact (mGal)",
+        (
+            Variable(
+                "radial",
+                "mGal",
+                "radial component of the gravity disturbance (g_model - gamma_exact), geocentric",
+            ),
+        ),
+        _radial,
+        definition=_fixed(
+            "delta g . r_hat: the gravity disturbance of the disturbance maps (model minus exact "
+            "normal gravitation, geodetic east-north-up) projected on the geocentric radial "
+            "direction, cos(phi - psi) delta g_up - sin(phi - psi) delta g_north with psi the "
+            "geocentric latitude of the node"
+        ),
     ),
 )
 
