@@ -775,8 +775,10 @@ def _wrapped(text: str, fig: Figure | SubFigure, fontsize: float) -> str:
     """``text`` broken into lines that fit the figure's width (a title inside the canvas)."""
     import textwrap
 
+    # a title is centred on its map, left of the figure's centre (the colour bar is right):
+    # lines of 0.8 of the figure's width, a character being ~0.55 em wide
     width = fig.get_figure(root=True).get_figwidth()
-    chars = max(30, int(width * 72 / (0.55 * fontsize)))  # a character is ~0.55 em wide
+    chars = max(30, int(0.8 * width * 72 / (0.55 * fontsize)))
     return "\n".join(textwrap.fill(line, chars) for line in text.split("\n"))
 
 
