@@ -285,3 +285,22 @@ class InputError(FieldmapError, ValueError):
     def worded(self, wording: Wording) -> str:
         """Return the message in the words of ``wording`` (a command's options)."""
         return worded(self.args[0], wording) if self.args else ""
+
+
+class UnitWarning(UserWarning):
+    """A value that is accepted but looks like a unit typed wrong (the result is computed).
+
+    Parameters
+    ----------
+    param : str
+        The keyword the value was given to (``"height_km"``); the command line names its
+        option instead (``--height-km``).
+    value : str
+        The value as given (``"20000"``, ``"20, 50"``).
+    detail : str
+        What was seen and the likely slip, one line.
+    """
+
+    def __init__(self, param: str, value: str, detail: str) -> None:
+        super().__init__(f"{param}={value}: {detail}")
+        self.param, self.value, self.detail = param, value, detail

@@ -7,7 +7,7 @@ import pytest
 
 from fieldmap import _warp
 from fieldmap.errors import InputError
-from fieldmap.products import engine
+from fieldmap.products import layouts
 from fieldmap.products import statistics as bs
 from fieldmap.products.statistics import area_weights
 from fieldmap.products.variables import vector_vars
@@ -68,7 +68,7 @@ def test_disturbance_partial_same_bits(threads, layout, units, shape):
     ref_vec = vec.copy(order="K")  # the same layout: the same order of the sums of squares
     ref = {k: v[1] for k, v in vector_vars(ref_vec, (), units, "", overwrite=True).items()}
     with _warp.threads(threads):
-        data, part = engine.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
+        data, part = layouts.disturbance_partial(vec, units, rw, THRESHOLDS, hw)
         again = bs.block_partial(ref["modulus_mg"], rw, THRESHOLDS, hw)
     assert list(data) == list(ref)
     for name in ref:
@@ -86,7 +86,7 @@ def test_disturbance_partial_non_finite(bad):
     vec[50, 3, 1] = bad
     rw = area_weights(np.linspace(-80, 80, 64))
     with _warp.threads(2), pytest.raises(InputError, match="map holds non-finite values"):
-        engine.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
+        layouts.disturbance_partial(vec, "mGal", rw, THRESHOLDS, bs.histogram_weights(rw, 40))
 
 
 def test_scalar_bin_matches_array_bins():
@@ -108,20 +108,20 @@ def test_dataset_without_merge_is_the_constructors(stacked):
     from fieldmap.products import variables
 
     grid = make_grid(10.0, 80.0, None, np.array([2e4, 5e4] if stacked else [2e4]))
-    parts = variables.disturbance_template_parts(
+    tmpl = variables.disturbance_template(
         load_model("eigen-6s", lmax=4), grid, get_ellipsoid("WGS84"), "mGal", THRESHOLDS, stacked
     )
     rng = np.random.default_rng(3)
     data = {
-        name: xr.Variable(parts["dims"], rng.random(grid.shape if stacked else grid.shape[1:]), a)
-        for name, a in parts["variables"].items()
+        name: xr.Variable(tmpl.dims, rng.random(grid.shape if stacked else grid.shape[1:]), a)
+        for name, a in tmpl.variables.items()
     }
     if stacked:
         stat = {"max_mg": 1.0, "mean_mg": 0.5, "p50_mg": 0.4, "p99_mg": 0.9}
         stat["area_fraction_above"] = {f"{t:g}": 0.1 for t in THRESHOLDS}
         data.update(variables.sweep_statistics([stat, stat], THRESHOLDS))
-    fast = variables.dataset(dict(data), parts["coords"], dict(parts["attrs"]))
-    want = xr.Dataset(dict(data), coords=parts["coords"], attrs=dict(parts["attrs"]))
+    fast = variables.dataset(dict(data), tmpl.coords, dict(tmpl.attrs))
+    want = xr.Dataset(dict(data), coords=tmpl.coords, attrs=dict(tmpl.attrs))
     xr.testing.assert_identical(fast, want)
     xr.testing._assert_internal_invariants(fast, check_default_indexes=True)
     assert list(fast.variables) == list(want.variables)

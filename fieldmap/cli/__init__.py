@@ -43,7 +43,7 @@ import re
 import signal
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import FrameType
 from typing import Any, NoReturn
 
@@ -390,6 +390,25 @@ def _worded(exc: BaseException, command: str) -> str:
     return str(exc)
 
 
+def _warning_line(prefix: str, show: Callable[..., None]) -> Callable[..., None]:
+    """``warnings.showwarning`` printing a :class:`fieldmap.errors.UnitWarning` as one line.
+
+    The line names the command's option (``--height-km 20000: ...``: the map commands' options
+    are their keywords spelt with dashes); any other warning is shown by ``show``.
+    """
+    from fieldmap.errors import UnitWarning
+
+    def showwarning(message: Any, category: type, *args: Any, **kwargs: Any) -> None:
+        if isinstance(message, UnitWarning):
+            option = "--" + message.param.replace("_", "-")
+            text = f"{option} {message.value.replace(',', '')}: {message.detail}"
+            print(f"{prefix}: warning: {_one_line(text)}", file=sys.stderr)
+        else:
+            show(message, category, *args, **kwargs)
+
+    return showwarning
+
+
 def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
@@ -397,7 +416,7 @@ def _one_line(text: object) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status."""
     from fieldmap import config
-    from fieldmap.errors import FieldmapError
+    from fieldmap.errors import FieldmapError, UnitWarning
 
     program = argv is None  # this process's own command line (the ``fieldmap`` program)
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -423,7 +442,10 @@ def main(argv: list[str] | None = None) -> int:
         pass
     try:
         config.get()  # the FIELDMAP_* variables, read once: a bad value is bad input (exit 2)
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", UnitWarning)  # every run says it, not the first
+            warnings.showwarning = _warning_line(prefix, warnings.showwarning)
+            return int(args.func(args) or 0)
     except FieldmapError as exc:
         print(f"{prefix}: error: {_one_line(_worded(exc, args.command))}", file=sys.stderr)
         return 2

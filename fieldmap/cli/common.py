@@ -88,11 +88,21 @@ def api_call(option: str, check: Callable[..., _T], *args: Any, **kwargs: Any) -
 
 
 def stem(ds: xr.Dataset, kind: str) -> str:
-    """File stem of a product: kind, model, degree, height(s), region, step."""
+    """File stem of a product: kind, model, degree, tide system, height(s), region, step.
+
+    The tide system is named when it is not the model file's own (``--tide-system``), so that
+    the maps of two systems do not overwrite each other:
+    ``disturbance_eigen-6s_L240_zero_tide_h20km_step1``.
+    """
     a = ds.attrs
     parts = [kind]
     if a.get("model"):
         parts.append(f"{a['model'].lower()}_L{a['model_lmax']}")
+        from fieldmap.products.variables import converted_tide_system
+
+        system = converted_tide_system(a)
+        if system is not None:
+            parts.append(system)
     w, e, s, n = (float(x) for x in a["region_west_east_south_north_deg"])
     if "height" not in ds.dims:
         parts.append(f"h{float(ds['height'].values) / 1e3:g}km")

@@ -194,24 +194,7 @@ def _write(
 
 
 def _plot(ds: xr.Dataset) -> Figure:
-    """Omission modulus per degree (rows) at the lowest height."""
-    import matplotlib.pyplot as plt
+    """Omission modulus per degree (rows) at the lowest height, in the map style."""
+    from fieldmap.products.plots import plot_omission
 
-    degs = [int(d) for d in ds["degree"].values]
-    fig, axes = plt.subplots(len(degs), 1, figsize=(8, 3.2 * len(degs)), squeeze=False)
-    lon, lat = ds["longitude"].values, ds["latitude"].values
-    for k, d in enumerate(degs):
-        ax = axes[k, 0]
-        v = ds["modulus"].values[k, 0]
-        im = ax.pcolormesh(lon, lat, v, shading="nearest", cmap="magma_r")
-        fig.colorbar(im, ax=ax, label="|δg_full − δg_d| (mGal)")
-        h = float(ds["height"].values[0]) / 1e3
-        ax.set_title(
-            f"omission of degree {d} ({ds.attrs['model']} L = {ds.attrs['model_lmax']}), "
-            f"h = {h:g} km; max {float(v.max()):.3g} mGal",
-            fontsize=10,
-        )
-        ax.set_xlabel("longitude (°E)")
-        ax.set_ylabel("latitude (°N)")
-    fig.tight_layout()
-    return fig
+    return plot_omission(ds)

@@ -48,7 +48,7 @@ def run(
         _report(view, info, request.grid, heights_km, thresholds, elapsed)
         return summary(view), plots.disturbance_figures(view, thresholds)
 
-    base = stem(template(request), "sweep" if stacked else "disturbance")
+    base = stem(template(request).skeleton(), "sweep" if stacked else "disturbance")
     return stream(args, request, base, write, publish)
 
 

@@ -62,45 +62,14 @@ def _common(p: argparse.ArgumentParser, model: bool = True) -> None:
         from fieldmap.cli.model_options import add_model_options
 
         add_model_options(p)
+        from fieldmap.products.quantities import MAP_QUANTITIES, cli_help
+
         p.add_argument(
             "--quantity",
-            # fieldmap.products.variables.QUANTITIES, spelt out: importing it (xarray,
-            # pandas) would cost a second at every start of every sub-command
-            choices=(
-                "disturbance",
-                "anomaly",
-                "deflection",
-                "geoid",
-                "potential",
-                "gradient",
-                "gradient-disturbance",
-                "gradient-normal",
-                "gradient-invariants",
-                "disturbance-sigma",
-                "anomaly-sigma",
-                "geoid-sigma",
-                "omission-sigma",
-                "height-anomaly",
-                "anomaly-classical",
-                "disturbance-sa",
-                "trr",
-                "ewh",
-            ),
+            # the registry of fieldmap.products.quantities (no xarray: a light import)
+            choices=MAP_QUANTITIES,
             default="disturbance",
-            help="disturbance (default); anomaly (mGal), deflection (xi, eta arcsec), geoid (m, "
-            "at h = 0), potential (T, m²/s²): see fieldmap.field.geodesy; gradient, "
-            "gradient-disturbance, gradient-normal: the six ENU components of the gradient "
-            "tensor of gravity, of the disturbance or of exact normal gravity (Eötvös); "
-            "gradient-invariants: I1 (E²), I2 (E³) and the eigenvalues (E) of the model "
-            "gravitation's tensor; "
-            "disturbance-sigma, anomaly-sigma, geoid-sigma: the "
-            "commission error from the model's coefficient sigma (diagonal propagation); "
-            "omission-sigma: sigma north, east, down and modulus (mGal) of the field above the "
-            "model's degree (--lmax), from a degree-variance model (--omission-model); ICGEM's "
-            "functionals (Barthelmes 2013): height-anomaly (zeta on the ellipsoid, m, at h = 0), "
-            "anomaly-classical (|grad W(h)| - |grad U(h - zeta)|, mGal), disturbance-sa (-dT/dr, "
-            "mGal), trr (d2T/dr2, Eötvös), ewh (equivalent water height, m, at h = 0, of "
-            "--model minus --minus)",
+            help=cli_help(),
         )
         p.add_argument(
             "--minus",

@@ -37,21 +37,22 @@ def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
         raise InputError(
             f"--thresholds-mg applies to the disturbance modulus, not to --quantity {args.quantity}"
         )
-    from fieldmap.products.variables import SURFACE_QUANTITIES
+    from fieldmap.products.quantities import quantity
 
-    if args.quantity in SURFACE_QUANTITIES and given(args, "height_km"):
+    entry = quantity(args.quantity)
+    if entry.surface and given(args, "height_km"):
         raise InputError(
             f"--height-km: --quantity {args.quantity} is a property of the ellipsoid's surface "
             "(h = 0); leave --height-km out"
         )
-    if args.quantity == "gradient-normal":
+    if not entry.uses_model:
         from fieldmap.cli.model_options import MODEL_OPTIONS
 
         for dest, option in MODEL_OPTIONS.items():
             if given(args, dest):
                 raise InputError(
-                    f"{option}: --quantity gradient-normal is the exact normal gravity of the "
-                    "ellipsoid, no model enters it; leave the model options out"
+                    f"{option}: no model enters --quantity {args.quantity} ({entry.help}); "
+                    "leave the model options out"
                 )
     if streamed(args):
         return _run_blocks(args, heights_km)
@@ -83,10 +84,11 @@ def run_quantity(args: argparse.Namespace, heights_km: list[float]) -> int:
 
 def report(quantity: str, summ: dict) -> None:
     """Print the statistics of a quantity map, a line per variable and height."""
-    from fieldmap.products.variables import VARIABLES
+    from fieldmap.products.quantities import quantity as entry
 
     heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    for name, units, _, _ in VARIABLES[quantity]:
+    for var in entry(quantity).variables:
+        name, units = var.name, var.units
         s = summ[name]
         for k, h in enumerate(heights):
             pick = (lambda v: v[k]) if isinstance(s["max"], list) else (lambda v: v)
@@ -98,17 +100,10 @@ def report(quantity: str, summ: dict) -> None:
 
 
 def figures(ds: xr.Dataset, quantity: str, summ: dict) -> list[tuple[str, Callable[..., Figure]]]:
-    """(file suffix, figure maker) for every variable and height of a quantity map."""
-    from fieldmap.products.plots import plot_quantity
-    from fieldmap.products.variables import VARIABLES
+    """(file suffix, figure maker) of a quantity map, in its style (``quantity_figures``)."""
+    from fieldmap.products.plots import quantity_figures
 
-    heights = summ["height_m"] if isinstance(summ["height_m"], list) else [summ["height_m"]]
-    out: list[tuple[str, Callable[..., Figure]]] = []
-    for name, _, _, _ in VARIABLES[quantity]:
-        for k, h in enumerate(heights):
-            suffix = name if len(heights) == 1 else f"{name}_h{h / 1e3:g}km"
-            out.append((suffix, lambda name=name, k=k: plot_quantity(ds, name, height_index=k)))
-    return out
+    return quantity_figures(ds, quantity)
 
 
 def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
@@ -140,5 +135,5 @@ def _run_blocks(args: argparse.Namespace, heights_km: list[float]) -> int:
             print(f"  figures from one row and column in {view.attrs['figure_decimation']}")
         return summ, figures(view, args.quantity, summ)
 
-    base = stem(template(request), args.quantity)
+    base = stem(template(request).skeleton(), args.quantity)
     return stream(args, request, base, write, publish)

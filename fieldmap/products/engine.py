@@ -37,7 +37,7 @@ import dataclasses
 import math
 import os
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -49,11 +49,8 @@ from fieldmap.products.sinks import memory_target
 from fieldmap.products.statistics import (
     OrderedFold,
     finish_statistics,
-    joined_partials,
-    rows_partial,
-    scalar_partial,
 )
-from fieldmap.products.variables import assemble_quantity, index_height_km
+from fieldmap.products.variables import Template, index_height_km
 
 if TYPE_CHECKING:
     from fieldmap.field.ellipsoid import Ellipsoid
@@ -250,51 +247,17 @@ class Job:
 
     @property
     def thresholds(self) -> tuple:
-        """Thresholds of the area fractions (mg): the disturbance's only."""
-        return tuple(self.output.thresholds_mg) if self.quantity == "disturbance" else ()
+        """Thresholds of the area fractions (mg): those of the layout's statistics."""
+        from fieldmap.products.layouts import layout_of
 
-
-def disturbance_partial(
-    vec: np.ndarray,
-    units: str,
-    row_weights: np.ndarray,
-    thresholds: Sequence[float],
-    hist_weights: np.ndarray,
-) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Convert a block's m/s² vector in place and take its statistics, in one pass over the rows.
-
-    The variables of :func:`fieldmap.products.variables.vector_vars` with ``overwrite=True``
-    and the statistics of :func:`~fieldmap.products.statistics.block_partial` of their
-    ``modulus_mg``, the same bits: each part of the rows (on the CPU threads) is converted
-    (:func:`fieldmap.products.variables.convert_rows`) and reduced while it is in the cache.
-
-    Returns
-    -------
-    (dict, dict)
-        {name: (rows, nlon) array} of east, north, up, modulus, modulus_mg, and the partial.
-    """
-    from fieldmap.grids.longitude import map_rows
-    from fieldmap.products.variables import convert_rows
-    from fieldmap.units import get_unit
-
-    scale = get_unit(units).si
-    comps = np.moveaxis(vec, -1, 0)
-    mods = np.empty((2, *comps.shape[1:]))
-    rw, hw = np.asarray(row_weights), np.asarray(hist_weights)
-
-    def part(
-        a: int, b: int
-    ) -> tuple[float, float, int, np.ndarray, np.ndarray, list[np.ndarray], np.ndarray] | None:
-        convert_rows(comps, comps, mods, scale, a, b)
-        return rows_partial(mods[1, a:b], rw[a:b], thresholds, hw[a:b])
-
-    parts = map_rows(part, comps.shape[1], 32)
-    names = ("east", "north", "up", "modulus", "modulus_mg")
-    return dict(zip(names, (*comps, *mods))), joined_partials(parts, len(thresholds))
+        return layout_of(self.quantity).thresholds(self.output)
 
 
 def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
     """Synthesise one block; write it to the zarr store if ``job.store``, return the rest.
+
+    The quantity's entry (:mod:`fieldmap.products.quantities`) computes the block's terms, its
+    layout (:mod:`fieldmap.products.layouts`) turns them into variables and statistics.
 
     Returns
     -------
@@ -304,85 +267,16 @@ def compute_block(job: Job, model: SHModel | None) -> dict[str, Any]:
         workers cannot write alone (:meth:`fieldmap.products.sinks.ZarrTarget.write_block`).
     """
     from fieldmap.field.ellipsoid import get_ellipsoid
-    from fieldmap.grids.synthesis import synthesize
+    from fieldmap.products.layouts import layout_of
+    from fieldmap.products.quantities import quantity
 
     if "distributed" in sys.modules:  # a Dask worker; a process without Dask is none
         from fieldmap.cluster import worker_setup
 
         worker_setup()
-    ell = get_ellipsoid(job.ellipsoid)
-    sub = job.grid
-    row_weights, hist_weights = job.weights
-    units = job.output.units
-    if job.quantity == "disturbance":
-        assert model is not None  # None for truncation maps only
-        vec = synthesize(model, sub, ell, "disturbance", job.device, progress=False)[0]
-        # converted in place and reduced in one pass (vector_vars and block_partial, same bits)
-        data, partial = disturbance_partial(vec, units, row_weights, job.thresholds, hist_weights)
-    elif job.quantity == "truncation":
-        from fieldmap.grids.synthesis import normal_rows
-
-        # J2n normal gravitation minus the exact one: axisymmetric, one row for every longitude
-        exact = normal_rows(sub, ell, "exact", job.device)[0]
-        err = normal_rows(sub, ell, f"j{job.order}", job.device)[0] - exact
-        vec = np.empty((err.shape[0], sub.lon.size, 3))
-        vec[...] = err[:, None, :]
-        # converted as vector_vars converts (the same bits); its statistics are those of the
-        # whole maps (compute), so the block carries none
-        from fieldmap.products.variables import DISTURBANCE_VARIABLES, convert_rows
-        from fieldmap.units import get_unit
-
-        comps = np.moveaxis(vec, -1, 0)
-        mods = np.empty((2, *comps.shape[1:]))
-        convert_rows(comps, comps, mods, get_unit(units).si)
-        data = dict(zip(DISTURBANCE_VARIABLES, (*comps, *mods)))
-        partial = {"vars": {}}
-    elif job.quantity == "components":
-        from fieldmap.grids.synthesis import centrifugal_rows, normal_rows
-
-        assert model is not None
-        g = synthesize(model, sub, ell, "gravity", job.device, progress=False)[0]
-        gam = (normal_rows(sub, ell, "exact", job.device) + centrifugal_rows(sub, ell))[0]
-        gam = np.broadcast_to(gam[:, None, :], g.shape)
-        data = {}
-        for k, c in enumerate(("east", "north", "up")):
-            data[f"model_{c}"] = g[..., k]
-            data[f"normal_{c}"] = np.array(gam[..., k])
-        partial = {"vars": {}}
-    else:
-        from fieldmap.products.variables import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
-
-        assert model is not None
-        if job.quantity in GRADIENT_QUANTITIES:
-            from fieldmap.field.gradient import grid_gradient
-
-            vals = grid_gradient(model, sub, job.quantity, ellipsoid=ell, device=job.device)
-        elif job.quantity in SIGMA_QUANTITIES:
-            from fieldmap.field.commission_grid import grid_commission
-
-            vals = grid_commission(model, sub, job.quantity, ellipsoid=ell)
-        elif job.quantity == "ewh":
-            from fieldmap.field.water import grid_ewh
-
-            vals = grid_ewh(model, sub, device=job.device)
-        elif job.quantity == "omission-sigma":
-            from fieldmap.field.omission import grid_omission
-
-            shape = (sub.lat.size, sub.lon.size)
-            vals = grid_omission(model, sub.heights, shape, job.output.omission_model)
-        else:
-            from fieldmap.field.geodesy import grid_quantities
-
-            vals = grid_quantities(
-                model,
-                sub,
-                job.quantity,
-                ellipsoid=ell,
-                degree0=job.output.degree0,
-                device=job.device,
-            )
-        data = {k: v[0] for k, v in vals.items()}
-        partial = {"vars": {k: scalar_partial(v, row_weights) for k, v in data.items()}}
+    q = quantity(job.quantity)
+    terms = q.synthesis(model, job, get_ellipsoid(job.ellipsoid))
+    data, partial = layout_of(q).block(job, terms)
     out = {"index": job.block.index, "layer": job.block.layer, "rows": job.block.rows}
     if job.store is not None:
         data = job.store.write_block(job.block, data)
@@ -480,11 +374,9 @@ def product_grid(request: _Request) -> GridSpec:
     A layer is a height of the grid; the orders of a truncation map (one height) are its
     layers, each at that height.
     """
-    grid = request.grid
-    if request.output.quantity == "truncation":
-        n = len(request.output.orders)
-        return dataclasses.replace(grid, heights=np.repeat(grid.heights[:1], n))
-    return grid
+    from fieldmap.products.layouts import layout_of
+
+    return layout_of(request.output.quantity).grid(request)
 
 
 def plan(request: _Request, local: bool = True) -> list[Block]:
@@ -504,10 +396,12 @@ def plan(request: _Request, local: bool = True) -> list[Block]:
 
 def make_jobs(request: _Request, blocks: list[Block], store: Any = None) -> list[Job]:
     """One :class:`Job` per block of a request's product (``store``: workers write there)."""
+    from fieldmap.products.layouts import layout_of
     from fieldmap.products.statistics import area_weights, histogram_weights
 
     grid = product_grid(request)
     out = request.output
+    layout = layout_of(out.quantity)
     aw = area_weights(grid.lat)
     hw = histogram_weights(aw, grid.lon.size)
     return [
@@ -520,7 +414,7 @@ def make_jobs(request: _Request, blocks: list[Block], store: Any = None) -> list
             output=out,
             ellipsoid=request.ellipsoid.name,
             device=request.execution.device,
-            order=out.orders[b.layer] if out.quantity == "truncation" else 0,
+            order=layout.order(out, b.layer),
             store=store,
         )
         for b in blocks
@@ -607,6 +501,7 @@ def lazy(request: _Request) -> xr.Dataset:
     import dask.array as da
 
     from fieldmap.cluster import scattered
+    from fieldmap.products.layouts import layout_of
 
     grid, mod, client = request.grid, request.model, request.execution.client
     tmpl = template(request)
@@ -632,15 +527,11 @@ def lazy(request: _Request) -> xr.Dataset:
             r = r1
         return da.concatenate(parts, axis=0)
 
-    ds = tmpl.copy()
-    var_attrs = ds.attrs.pop("variables")
-    dims = ds.attrs.pop("dims")
-    stacked = "height" in dims
-    for name, va in var_attrs.items():
+    ds = tmpl.skeleton()
+    for name, va in tmpl.variables.items():
         cols = [column(name, k) for k in range(nh)]
-        ds[name] = (dims, da.stack(cols) if stacked else cols[0], va)
-    if request.output.quantity == "disturbance":
-        ds.attrs["thresholds_mg"] = np.array(request.output.thresholds_mg)
+        ds[name] = (tmpl.dims, da.stack(cols) if tmpl.stacked else cols[0], va)
+    ds.attrs.update(layout_of(request.output.quantity).lazy_attrs(request))
     return index_height_km(ds)
 
 
@@ -670,28 +561,15 @@ def executor_client(request: _Request) -> Iterator[Any]:
             yield c
 
 
-def template(request: _Request) -> xr.Dataset:
-    """Coordinates, global and variable attributes of a request's product, without data.
+def template(request: _Request) -> Template:
+    """Return the request's product without data: coordinates, attributes, variables, dims.
 
-    ``attrs["variables"]`` maps each variable name to its attributes, ``attrs["dims"]`` gives
-    the dimensions of the variables (:mod:`fieldmap.products.variables`).
+    Built by the layout of the request's quantity (:mod:`fieldmap.products.layouts`) from the
+    quantity's entry (:mod:`fieldmap.products.quantities`).
     """
-    from fieldmap.products import variables as v
+    from fieldmap.products.layouts import layout_of
 
-    out, grid, mod, ell = request.output, request.grid, request.model, request.ellipsoid
-    if out.quantity == "disturbance":
-        return v.disturbance_template(mod, grid, ell, out.units, out.thresholds_mg, out.stacked)
-    if out.quantity == "truncation":
-        return v.truncation_template(grid, ell, out.orders, out.units)
-    if out.quantity == "components":
-        return v.components_template(mod, grid, ell)
-    ds = v.quantity_template(out.quantity, mod, grid, ell, out.degree0)
-    if out.quantity == "omission-sigma":
-        from fieldmap.field.omission import Omission
-
-        om = Omission(mod.lmax, out.omission_model, model=mod)
-        ds.attrs.update(omission_model=om.kind, omission_max_degree=om.max_degree)
-    return ds
+    return layout_of(request.output.quantity).template(request)
 
 
 def compute(request: _Request) -> xr.Dataset:
@@ -700,111 +578,37 @@ def compute(request: _Request) -> xr.Dataset:
     The blocks run on the request's executor, into memory; with ``execution.chunks`` the
     result is :func:`lazy`. The statistics are folded from the blocks' partial results in
     block order (the same bits on every executor); ``percentile_method="exact"`` and the
-    truncation map take them from the whole arrays.
+    truncation map take them from the whole arrays. Warns (:class:`fieldmap.errors.UnitWarning`)
+    of a disturbance map that looks like a unit typed wrong (:mod:`fieldmap.products.unit_hints`).
     """
     from fieldmap.grids.spec import check_memory
+    from fieldmap.products.layouts import layout_of
+    from fieldmap.products.quantities import quantity
 
     if request.execution.chunks is not None:
         return lazy(request)
     out = request.output
-    layers = len(out.orders) if out.quantity == "truncation" else 1
-    check_memory(request.grid, layers=layers)  # the result is returned whole
+    q = quantity(out.quantity)
+    layout = layout_of(q)
     grid = product_grid(request)
+    check_memory(request.grid, layers=grid.heights.size // request.grid.heights.size)
     progress = show_progress(int(np.prod(grid.shape)), request.execution.progress)
-    if out.quantity == "disturbance":  # its parts only: a map costs little more than its blocks
-        from fieldmap.products.variables import DISTURBANCE_VARIABLES
-
-        tmpl, names = None, DISTURBANCE_VARIABLES
-    else:
-        tmpl = template(request)
-        names = tuple(tmpl.attrs["variables"])
-    stacked = out.stacked or out.quantity == "truncation" or out.quantity not in _ONE_LAYER
     with (
         executor_client(request) as c,
-        memory_target(grid, stacked, names, c) as (
-            sink,
-            store,
-            arrays,
-        ),
+        memory_target(grid, layout.stacked(out), q.names, c) as (sink, store, arrays),
     ):
         stats = run_blocks(request, client=c, sink=sink, store=store, progress=progress)
         values = arrays()
-    if tmpl is None:
-        return _disturbance_dataset(request, values, stats)
-    if out.quantity == "truncation":
-        return _truncation_dataset(request, tmpl, values)
-    if out.quantity == "components":
-        return _dataset_of(tmpl, values)
-    return assemble_quantity(tmpl, values, per_variable(stats))
+    _hints(request, stats)
+    return layout.assemble(request, values, stats)
 
 
-#: Products whose arrays hold one layer without a height dimension unless stacked.
-_ONE_LAYER = ("disturbance", "components")
+def _hints(request: _Request, stats: list[dict[str, Any]]) -> None:
+    """Warn of a disturbance map or sweep that looks like a unit typed wrong."""
+    if request.output.quantity == "disturbance":
+        from fieldmap.products.unit_hints import check_disturbance
 
-
-def per_variable(stats: list[dict]) -> dict:
-    """[{var: s} per height] -> {var: [s per height]}."""
-    return {name: [s[name] for s in stats] for name in stats[0]}
-
-
-def _dataset_of(tmpl: xr.Dataset, values: dict) -> xr.Dataset:
-    ds = tmpl.copy()
-    var_attrs = ds.attrs.pop("variables")
-    dims = ds.attrs.pop("dims")
-    return xr.Dataset(
-        {name: (dims, values[name], a) for name, a in var_attrs.items()},
-        coords=ds.coords,
-        attrs=ds.attrs,
-    )
-
-
-def _disturbance_dataset(
-    request: _Request, values: dict[str, np.ndarray], stats: list[dict[str, Any]]
-) -> xr.Dataset:
-    from fieldmap.products import variables as v
-
-    out, grid = request.output, request.grid
-    parts = v.disturbance_template_parts(
-        request.model, grid, request.ellipsoid, out.units, out.thresholds_mg, out.stacked
-    )
-    if out.percentile_method == "exact":
-        from fieldmap.products.statistics import (
-            DEFAULT_PERCENTILES,
-            area_weights,
-            weighted_percentiles,
-        )
-
-        w = area_weights(grid.lat)[:, None]
-        mod_mg = values["modulus_mg"].reshape(grid.shape)
-        for k, st in enumerate(stats):
-            qs = weighted_percentiles(mod_mg[k], w, DEFAULT_PERCENTILES)
-            st.update({f"p{q:g}_mg": float(x) for q, x in zip(DEFAULT_PERCENTILES, qs)})
-    attrs = dict(parts["attrs"])
-    dims, var_attrs = parts["dims"], parts["variables"]
-    data = {name: xr.Variable(dims, values[name], var_attrs[name]) for name in var_attrs}
-    if out.stacked:
-        data.update(v.sweep_statistics(stats, out.thresholds_mg))
-        attrs["percentile_method"] = v.percentile_method_text(out.percentile_method)
-    else:
-        attrs.update(v.map_attrs(stats[0], out.thresholds_mg, out.percentile_method))
-    # one Dataset, built at once (an update would align the variables again)
-    return index_height_km(v.dataset(data, parts["coords"], attrs))
-
-
-def _truncation_dataset(
-    request: _Request, tmpl: xr.Dataset, values: dict[str, np.ndarray]
-) -> xr.Dataset:
-    from fieldmap.products.statistics import map_statistics
-    from fieldmap.products.variables import mg_attrs, statistic_name
-
-    ds = _dataset_of(tmpl, values)
-    # the same area-weighted statistics as the disturbance maps (a plain node mean would
-    # over-weight the high latitudes, where the J2n errors are largest), from the whole maps
-    st = [map_statistics(m, request.grid.lat, thresholds_mg=()) for m in ds["modulus_mg"].values]
-    for key in ("max_mg", "mean_mg", "rms_mg"):
-        long = f"{statistic_name(key)} truncation error"
-        ds[key] = ("order", np.array([s[key] for s in st]), mg_attrs(long))
-    return ds
+        check_disturbance(stats, request.output.thresholds_mg, request.grid.heights)
 
 
 # ---------------------------------------------------------------------------- to a store
@@ -849,12 +653,13 @@ def write_product(
         [statistics per height]}), ``grid``, ``model`` (name, lmax) and ``path``.
     """
     from fieldmap.products import sinks
-    from fieldmap.products import variables as v
     from fieldmap.products.io import writing
+    from fieldmap.products.layouts import layout_of
 
     check_format(fmt)
     out, grid, mod = request.output, request.grid, request.model
-    if out.quantity in ("truncation", "components"):
+    layout = layout_of(out.quantity)
+    if not layout.streamable:
         raise InputError(f"a {out.quantity} map is computed in memory: it is not streamed")
     if out.percentile_method != "histogram":
         raise InputError(
@@ -875,23 +680,20 @@ def write_product(
                 writer = sinks.NetCDFWriter(str(tmp), tmpl, grid)
                 sink, store = writer.sink, None
             stats = run_blocks(request, client=c, sink=sink, store=store)
-            if out.quantity != "disturbance":
-                per_var, extra = v.quantity_statistics_fields(tmpl, per_variable(stats))
-                attrs, var_attrs = {}, per_var
-            elif out.stacked:
-                attrs = {"percentile_method": v.percentile_method_text()}
-                extra, var_attrs = v.sweep_statistics(stats, out.thresholds_mg), None
-            else:
-                attrs = v.map_attrs(stats[0], out.thresholds_mg)
-                extra, var_attrs = None, None
+            attrs, extra, var_attrs = layout.streamed_statistics(request, tmpl, stats)
             if fmt == "zarr":
                 target.check_complete()
-                sinks.finish_zarr(str(tmp), attrs, extra or None, var_attrs)
+                sinks.finish_zarr(str(tmp), attrs, extra, var_attrs)
             else:
                 assert writer is not None  # opened above for the netcdf format
-                writer.finish(attrs, extra or None, var_attrs)
+                writer.finish(attrs, extra, var_attrs)
         finally:
             if writer is not None:
                 writer.close()
-    per_layer: Any = stats if out.quantity == "disturbance" else per_variable(stats)
-    return {"stats": per_layer, "grid": grid, "model": (mod.name, mod.lmax), "path": path}
+    _hints(request, stats)
+    return {
+        "stats": layout.statistics(stats),
+        "grid": grid,
+        "model": (mod.name, mod.lmax),
+        "path": path,
+    }

@@ -16,12 +16,20 @@ Maps of several heights of one sweep share one colour scale (the largest value o
 so that they can be compared by eye.
 
 Sweeps and the truncation study (Figs. 7, 8) are :func:`plot_sweep` and
-:func:`plot_truncation`; the quantity maps :func:`plot_quantity`. The map panel (plate carrée,
-coastlines, size and resolution of a figure) is shared by all.
+:func:`plot_truncation`. Every other quantity is drawn in one map style, its entry's
+(:mod:`fieldmap.products.quantities`): :func:`plot_quantity` (one variable) or
+:func:`plot_panels` (all of them, the gradient tensor's six components in one figure), with a
+colour scale chosen from the values (:func:`colours`: symmetric about zero and clipped at the
+99th percentile of |x| for signed fields, the clip shown by the colour bar's arrows);
+:func:`quantity_figures` lists them. :func:`plot_omission` draws the SH omission maps in the
+same style. The map panel (plate carrée, coastlines, degree ticks, equal aspect, size and
+resolution of a figure) is shared by all; titles name the model, its degree, the height and a
+tide system other than the model file's (:func:`source_text`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -41,7 +49,8 @@ from numpy.typing import ArrayLike  # noqa: E402
 
 from fieldmap.products import coastline  # noqa: E402
 from fieldmap.products.io import PNG_DPI  # noqa: E402
-from fieldmap.products.variables import SURFACE_QUANTITIES, fraction_attr  # noqa: E402
+from fieldmap.products.quantities import Style  # noqa: E402
+from fieldmap.products.variables import fraction_attr  # noqa: E402
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -70,11 +79,11 @@ def _halo(lw: float) -> list[AbstractPathEffect]:
 
 
 def describe(ds: xr.Dataset, height_m: float | None = None) -> str:
-    """'EIGEN-6S degree 240, h = 20 km' from a Dataset's attributes."""
+    """'EIGEN-6S degree 240, h = 20 km' from a Dataset's attributes (with a converted tide)."""
     h = float(ds["height"].values) if height_m is None else float(height_m)
     parts = []
     if ds.attrs.get("model"):
-        parts.append(f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}")
+        parts.append(source_text(ds))
     parts.append(f"h = {h / 1e3:g} km")
     return ", ".join(parts)
 
@@ -183,7 +192,7 @@ def plot_components(ds: xr.Dataset, which: str = "model") -> Figure:
     """
     fig, axes = plt.subplots(3, 1, figsize=_figsize(ds, 3), constrained_layout=True)
     what = (
-        f"gravity from {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
+        f"gravity from {source_text(ds)}"
         if which == "model"
         else f"normal gravity of {ds.attrs['ellipsoid']} (exact)"
     )
@@ -323,7 +332,7 @@ def plot_isolines_panels(
         ticks=edges if len(edges) <= 16 else None,
     )
     fig.suptitle(
-        f"Gravity disturbance |δg|, {ds.attrs['model']} degree {ds.attrs['model_lmax']}"
+        f"Gravity disturbance |δg|, {source_text(ds)}"
         f" minus exact {ds.attrs.get('ellipsoid', 'WGS84')} normal gravity "
         "(one colour scale)",
         fontsize=10,
@@ -573,7 +582,7 @@ def plot_sweep(
     a2.legend(fontsize=8)
     a2.set_title("Disturbance modulus versus height", fontsize=10)
     fig.suptitle(
-        f"Altitude sweep — {ds.attrs['model']} degree {ds.attrs['model_lmax']} minus exact "
+        f"Altitude sweep — {source_text(ds)} minus exact "
         f"{ds.attrs.get('ellipsoid', 'WGS84')} normal gravity",
         fontsize=11,
     )
@@ -627,15 +636,214 @@ def _to_mg(units: str) -> float:
     return get_unit(units).si / MG
 
 
+#: Colour-bar spellings of the UDUNITS units of the quantities.
+_UNIT_LABELS = {
+    "1e-9 s-2": "E",
+    "1e-18 s-4": "E²",
+    "1e-27 s-6": "E³",
+    "m2 s-2": "m²/s²",
+    "m s-2": "m/s²",
+}
+#: Default colour maps of the scales (:class:`fieldmap.products.quantities.Style`).
+_CMAPS = {"signed": "RdBu_r", "magnitude": "magma_r", "level": "viridis"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Colours:
+    """A colour scale chosen from a map's values (:func:`colours`).
+
+    Attributes
+    ----------
+    vmin, vmax : float
+        Ends of the scale (``vmin == -vmax`` for a signed scale).
+    cmap : str
+    extend : {"neither", "min", "max", "both"}
+        The colour bar's arrows: values beyond the scale's ends, drawn in the end colours.
+    kind : {"signed", "magnitude", "level", "constant"}
+        The scale chosen (an ``auto`` style's choice made; ``constant``: every value the same,
+        drawn mid-scale).
+    note : str
+        How the ends were chosen, for the colour bar's label ("" when nothing is clipped).
+    """
+
+    vmin: float
+    vmax: float
+    cmap: str
+    extend: Literal["neither", "both", "min", "max"]
+    kind: str
+    note: str
+
+
+def colours(values: np.ndarray, lat: np.ndarray, style: Style) -> Colours:
+    """Choose the colour scale of a map from its values (area-weighted percentiles).
+
+    ``signed``: symmetric about zero, to the ``style.clip`` percentile of |x| (a field of both
+    signs: anomaly, geoid, deflection); ``magnitude``: 0 to the percentile (standard
+    deviations; from the ``100 - clip`` percentile where that is above half the top, a field
+    far from zero everywhere); ``level``: between the ``100 - clip`` and ``clip`` percentiles
+    (a field far from zero); ``auto``: ``signed`` if those percentiles have opposite signs,
+    else ``level``. A few extreme nodes (mountains, trenches) then take the end colours and the
+    colour bar's arrows instead of leaving the rest of the map pale. A constant field gets a
+    scale around its value.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        (nlat, nlon); NaNs are ignored.
+    lat : numpy.ndarray
+        Latitudes of the rows (area weights). Units: degrees.
+    style : fieldmap.products.quantities.Style
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fieldmap.products.plots import colours
+    >>> from fieldmap.products.quantities import Style
+    >>> x = np.linspace(-1.0, 3.0, 200).reshape(10, 20)
+    >>> c = colours(x, np.linspace(-45.0, 45.0, 10), Style(scale="signed"))
+    >>> c.vmin == -c.vmax, c.extend
+    (True, 'max')
+    """
+    from fieldmap.products.statistics import area_weights, weighted_percentiles
+
+    w = np.broadcast_to(area_weights(lat)[:, None], values.shape)
+    ok = np.isfinite(values)
+    v, w = values[ok], w[ok]
+    if v.size == 0:
+        return Colours(-1.0, 1.0, _CMAPS["signed"], "neither", "signed", "")
+    q = float(style.clip)
+    kind = style.scale
+    if float(np.min(v)) == float(np.max(v)):  # a constant field: its value mid-scale
+        x = float(v[0])
+        pad = abs(x) * 0.5 or 1.0
+        cmap = style.cmap or _CMAPS["magnitude" if kind == "magnitude" else "level"]
+        return Colours(x - pad, x + pad, cmap, "neither", "constant", "")
+    if kind == "auto":
+        lo, hi = weighted_percentiles(v, w, [100.0 - q, q])
+        kind = "signed" if lo < 0.0 < hi else "level"
+    if kind == "signed":
+        top = float(weighted_percentiles(np.abs(v), w, [q])[0]) or float(np.max(np.abs(v)))
+        top = top or 1.0
+        vmin, vmax = -top, top
+        note = f"±{_ordinal(q)} percentile of |x|"
+    elif kind == "magnitude":
+        lo, top = (float(x) for x in weighted_percentiles(v, w, [100.0 - q, q]))
+        top = top if top > 0 else float(np.max(v)) or 1.0
+        if lo < 0.5 * top:  # from zero, as a size is read
+            vmin, note = min(0.0, float(np.min(v))), f"0 to the {_ordinal(q)} percentile"
+        else:  # a field far from zero everywhere (a sigma of 0.1 to 0.18 m): its own range
+            vmin, note = lo, f"{_ordinal(100 - q)} to {_ordinal(q)} percentile"
+        vmax = top
+    else:
+        vmin, vmax = (float(x) for x in weighted_percentiles(v, w, [100.0 - q, q]))
+        note = f"{_ordinal(100 - q)} to {_ordinal(q)} percentile"
+        if vmax <= vmin:  # all but a few nodes alike
+            pad = abs(vmin) * 1e-3 or 1.0
+            vmin, vmax = vmin - pad, vmax + pad
+    low, high = bool(np.min(v) < vmin), bool(np.max(v) > vmax)
+    extend: Literal["neither", "both", "min", "max"] = (
+        "both" if low and high else "min" if low else "max" if high else "neither"
+    )
+    cmap = style.cmap or _CMAPS[kind]
+    return Colours(vmin, vmax, cmap, extend, kind, note if extend != "neither" else "")
+
+
+def source_text(ds: xr.Dataset) -> str:
+    """Name the source of a product: model and degree (and the tide system where converted)."""
+    from fieldmap.products.variables import converted_tide_system
+
+    a = ds.attrs
+    if not a.get("model"):
+        return f"{a.get('ellipsoid', 'WGS84')} normal field"
+    system = converted_tide_system(a)
+    return f"{a['model']} degree {a.get('model_lmax')}" + (f" ({system})" if system else "")
+
+
+def _unit_label(units: str) -> str:
+    return _UNIT_LABELS.get(units, units)
+
+
+def _ordinal(q: float) -> str:
+    """1 -> '1st', 99 -> '99th', 99.5 -> '99.5th'."""
+    text = f"{q:g}"
+    if "." in text or text.endswith(("11", "12", "13")):
+        return f"{text}th"
+    return text + {"1": "st", "2": "nd", "3": "rd"}.get(text[-1], "th")
+
+
+def _wrapped(text: str, fig: Figure | SubFigure, fontsize: float) -> str:
+    """``text`` broken into lines that fit the figure's width (a title inside the canvas)."""
+    import textwrap
+
+    # a title is centred on its map, left of the figure's centre (the colour bar is right):
+    # lines of 0.8 of the figure's width, a character being ~0.55 em wide
+    width = fig.get_figure(root=True).get_figwidth()
+    chars = max(30, int(0.8 * width * 72 / (0.55 * fontsize)))
+    return "\n".join(textwrap.fill(line, chars) for line in text.split("\n"))
+
+
+def _layer(ds: xr.Dataset, height_index: int | None) -> tuple[xr.Dataset, float]:
+    """Return the map at one height of a product (the first by default) and that height (m)."""
+    if "height" in ds.dims:
+        sub = ds.isel(height=0 if height_index is None else int(height_index))
+    else:
+        sub = ds
+    return sub, float(sub["height"].values)
+
+
+def _where(ds: xr.Dataset, height: float) -> str:
+    from fieldmap.products.quantities import quantity
+
+    surface = quantity(ds.attrs["quantity"]).surface
+    return "h = 0" if surface else f"h = {height / 1e3:g} km"
+
+
+def _quantity_panel(
+    fig: Figure | SubFigure, ax: Axes, sub: xr.Dataset, name: str, style: Style
+) -> Colours:
+    """Draw one variable of a quantity map in the map style on ``ax``, with its colour bar."""
+    var = sub[name]
+    values = np.asarray(var.values)
+    c = colours(values, sub["latitude"].values, style)
+    mesh = _mesh(ax, sub, values, cmap=c.cmap, vmin=c.vmin, vmax=c.vmax)
+    _map_axes(ax, sub)
+    units = _unit_label(str(var.attrs.get("units", "")))
+    _colorbar(
+        fig,
+        mesh,
+        ax,
+        f"{name} ({units})" + (f"; colours {c.note}" if c.note else ""),
+        extend=c.extend,
+    )
+    if c.kind == "constant":
+        ax.text(
+            0.5,
+            0.5,
+            f"the same at every node: {float(np.nanmax(values)):.4g} {units}",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+            fontsize=9,
+            bbox=dict(fc="white", ec="0.6", alpha=0.9),
+            zorder=7,
+        )
+    return c
+
+
 def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None) -> Figure:
-    """Map of one variable with coastlines and a diverging colour scale centred on zero.
+    """Map of one variable of a quantity map, in the map style of every quantity.
+
+    Plate carrée in degrees with coastlines, a labelled graticule and equal aspect (as the
+    disturbance maps); the colour scale is chosen from the values in the quantity's style
+    (:func:`colours`): symmetric about zero for a signed field, clipped at a high percentile,
+    the clip shown by the colour bar's arrows.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        From :func:`quantity_map`.
+        From :func:`fieldmap.quantity_map`.
     name : str
-        Variable (``anomaly``, ``xi``, ``eta``, ``geoid``, ``potential``).
+        A variable of it (``anomaly``, ``xi``, ``geoid``, ``T_uu``...).
     height_index : int, optional
         Height of a sweep (default: the first).
 
@@ -643,54 +851,110 @@ def plot_quantity(ds: xr.Dataset, name: str, height_index: int | None = None) ->
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib
+    from fieldmap.products.quantities import quantity
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import TwoSlopeNorm
+    sub, height = _layer(ds, height_index)
+    style = quantity(ds.attrs["quantity"]).style
+    fig, ax = plt.subplots(figsize=_figsize(sub), constrained_layout=True)
+    _quantity_panel(fig, ax, sub, name, style)
+    title = f"{sub[name].attrs['long_name']}\n{source_text(ds)}, {_where(ds, height)}"
+    ax.set_title(_wrapped(title, fig, 9), fontsize=9)
+    return fig
 
-    var = ds[name]
-    values = var.values
-    if "height" in ds.dims:
-        k = 0 if height_index is None else int(height_index)
-        values = values[k]
-        height = float(ds["height"].values[k])
-    else:
-        height = float(ds["height"].values)
-    lon = ds["longitude"].values
-    lat = ds["latitude"].values
-    top = float(np.nanmax(np.abs(values))) or 1.0
-    aspect = max(0.25, (lat[-1] - lat[0] + 1e-9) / max(lon[-1] - lon[0], 1e-9))
-    w = min(8.0, 6.5 / aspect)
-    fig, ax = plt.subplots(figsize=(w + 1.3, w * aspect + 1.1), constrained_layout=True)
-    mesh = ax.pcolormesh(
-        lon,
-        lat,
-        values,
-        cmap="RdBu_r",
-        norm=TwoSlopeNorm(vcenter=0.0, vmin=-top, vmax=top),
-        shading="nearest",
-        rasterized=True,
+
+def plot_panels(ds: xr.Dataset, height_index: int | None = None) -> Figure:
+    """Every variable of a quantity map in one figure (the gradient tensor's six components).
+
+    Two columns of maps in the style of :func:`plot_quantity`, each with its own colour scale
+    chosen from its values; one title for the figure.
+    """
+    from fieldmap.products.quantities import quantity
+
+    q = quantity(ds.attrs["quantity"])
+    sub, height = _layer(ds, height_index)
+    names = q.names
+    ncols = 2 if len(names) > 1 else 1
+    nrows = -(-len(names) // ncols)
+    w, h = _figsize(sub, map_width=6.0, max_map_height=4.5, extra_width=1.4)
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(ncols * w, nrows * (h - 0.3) + 0.7), constrained_layout=True
     )
-    step = node_step(ds)
-    ax.set_xlim(lon[0] - step / 2, lon[-1] + step / 2)
-    ax.set_ylim(lat[0] - step / 2, lat[-1] + step / 2)
-    ax.set_aspect("equal")
-    coastline.draw(ax, lon_min=lon[0] - step / 2 - 1e-9)
-    ax.set_xlabel("longitude (°E)")
-    ax.set_ylabel("latitude (°N)")
-    ax.tick_params(labelsize=8)
-    cb = fig.colorbar(mesh, ax=ax, shrink=0.9, pad=0.015, aspect=25, fraction=0.04)
-    cb.set_label(f"{name} ({var.attrs['units']})", fontsize=9)
-    surface = ds.attrs.get("quantity") in SURFACE_QUANTITIES
-    where = "h = 0" if surface else f"h = {height / 1e3:g} km"
-    a = ds.attrs
-    source = (
-        f"{a['model']} degree {a.get('model_lmax')}"
-        if a.get("model")
-        else f"{a.get('ellipsoid')} normal field"
+    flat = np.atleast_1d(axes).ravel()
+    for ax, name in zip(flat, names):
+        _quantity_panel(fig, ax, sub, name, q.style)
+        ax.set_title(name, fontsize=9)
+    for ax in flat[len(names) :]:
+        ax.set_visible(False)
+    what = sub[names[0]].attrs["long_name"].split(",")[0]
+    title = f"{what}\n{source_text(ds)}, {_where(ds, height)}"
+    fig.suptitle(_wrapped(title, fig, 10), fontsize=10)
+    return fig
+
+
+def quantity_figures(ds: xr.Dataset, quantity: str) -> list[tuple[str, Callable[[], Figure]]]:
+    """Return the figures of a quantity map or sweep, as ``(file suffix, maker)`` pairs.
+
+    In the quantity's style (:mod:`fieldmap.products.quantities`): one map per variable and
+    height (suffix: the variable, ``<variable>_h<h>km`` in a sweep), or one figure of all
+    variables per height (``panels``: the tensor's, suffix ``tensor``).
+    """
+    from functools import partial
+
+    from fieldmap.products.quantities import quantity as entry
+
+    q = entry(quantity)
+    heights = np.atleast_1d(ds["height"].values)
+    sweep = heights.size > 1
+
+    def at(k: int) -> str:
+        return f"_h{heights[k] / 1e3:g}km" if sweep else ""
+
+    if q.style.figure == "panels":
+        return [(q.style.suffix + at(k), partial(plot_panels, ds, k)) for k in range(heights.size)]
+    return [
+        (name + at(k), partial(plot_quantity, ds, name, k))
+        for name in q.names
+        for k in range(heights.size)
+    ]
+
+
+def plot_omission(ds: xr.Dataset, variable: str = "modulus") -> Figure:
+    """Spherical-harmonic omission maps, one per degree d, at the product's first height.
+
+    ``ds`` from :func:`fieldmap.products.degree.omission_map`: the disturbance of the model's
+    degrees d+1..L. In the map style of every quantity: coastlines, graticule, equal aspect,
+    a colour scale from 0 to the 99th percentile of each map (arrows beyond).
+    """
+    degs = [int(d) for d in ds["degree"].values]
+    first = ds.isel(degree=0, height=0)
+    w, h = _figsize(first)
+    fig, axes = plt.subplots(
+        len(degs),
+        1,
+        figsize=(w, len(degs) * (h - 0.3) + 0.6),
+        constrained_layout=True,
+        squeeze=False,
     )
-    ax.set_title(f"{var.attrs['long_name']}\n{source}, {where}", fontsize=9)
+    style = Style(scale="magnitude")
+    height = float(ds["height"].values[0])
+    units = _unit_label(str(ds[variable].attrs.get("units", "")))
+    for k, d in enumerate(degs):
+        sub = ds.isel(degree=k, height=0)
+        ax = axes[k, 0]
+        v = np.asarray(sub[variable].values)
+        c = colours(v, sub["latitude"].values, style)
+        mesh = _mesh(ax, sub, v, cmap=c.cmap, vmin=c.vmin, vmax=c.vmax)
+        _map_axes(ax, sub)
+        label = f"|δg_full − δg_{d}| ({units})" + (f"; colours {c.note}" if c.note else "")
+        _colorbar(fig, mesh, ax, label, extend=c.extend)
+        ax.set_title(
+            f"omission of degree {d} (the model's degrees {d + 1}..{ds.attrs['model_lmax']}); "
+            f"max {float(np.nanmax(v)):.3g} {units}",
+            fontsize=9,
+        )
+    fig.suptitle(
+        f"Spherical-harmonic omission, {source_text(ds)}, h = {height / 1e3:g} km", fontsize=10
+    )
     return fig
 
 

@@ -36,20 +36,7 @@ from fieldmap.grids.spec import GridSpec
 if TYPE_CHECKING:
     from fieldmap.models.shmodel import SHModel
 
-#: Quantities of the products that are not those of :data:`fieldmap.products.variables.VARIABLES`:
-#: the J2n truncation error (no model) and the model and normal gravity components.
-TRUNCATION = "truncation"
-COMPONENTS = "components"
-#: The omission error's σ (:mod:`fieldmap.field.omission`): it takes ``omission_model``.
-OMISSION = "omission-sigma"
 DEFAULT_THRESHOLDS_MG = (0.02, 0.05, 0.06, 0.10)
-
-
-def known_quantities() -> tuple[str, ...]:
-    """Every product a request can ask for."""
-    from fieldmap.products.variables import QUANTITIES
-
-    return (*QUANTITIES, TRUNCATION, COMPONENTS)
 
 
 def _set(obj: object, **values: Any) -> None:
@@ -64,8 +51,8 @@ class Output:
     Attributes
     ----------
     quantity : str
-        ``"disturbance"`` (default), a quantity of
-        :data:`fieldmap.products.variables.VARIABLES`, ``"truncation"`` or ``"components"``.
+        ``"disturbance"`` (default) or another quantity of the registry
+        (:mod:`fieldmap.products.quantities`), ``"truncation"`` and ``"components"`` included.
     units : str
         Units of the disturbance vector (any spelling of :mod:`fieldmap.units`; kept in its
         canonical name). ``modulus_mg`` is always added.
@@ -74,7 +61,7 @@ class Output:
     orders : tuple of int
         J2n orders of a truncation map (distinct, among 2, 4, 6).
     degree0 : bool
-        Keep the degree-0 term of T (the potential and its quantities only).
+        Keep the degree-0 term of T (the quantities of T only: their entry's ``degree0``).
     stacked : bool
         A stack of heights (a sweep: ``height`` is a dimension) rather than one map.
     percentile_method : {"histogram", "exact"}
@@ -82,7 +69,7 @@ class Output:
     omission_model : str, optional
         Degree-variance model of ``"omission-sigma"``
         (:data:`fieldmap.field.omission.DEGREE_VARIANCE_MODELS`; default
-        ``"tscherning-rapp"``); refused for any other quantity.
+        ``"tscherning-rapp"``); refused for a quantity whose entry does not take one.
     """
 
     quantity: str = "disturbance"
@@ -95,19 +82,12 @@ class Output:
     omission_model: str | None = None
 
     def __post_init__(self) -> None:
+        from fieldmap.products.quantities import quantity
         from fieldmap.products.statistics import check_percentile_method, parse_thresholds
-        from fieldmap.products.variables import GRADIENT_QUANTITIES, SIGMA_QUANTITIES
         from fieldmap.units import get_unit
 
-        if self.quantity not in known_quantities():
-            raise InputError(
-                f"quantity must be one of {', '.join(known_quantities())}, got {self.quantity!r}"
-            )
-        scalar = self.quantity not in ("disturbance", TRUNCATION)
-        if self.degree0 and (
-            self.quantity in (*GRADIENT_QUANTITIES, *SIGMA_QUANTITIES, COMPONENTS, OMISSION)
-            or not scalar
-        ):
+        q = quantity(self.quantity)
+        if self.degree0 and not q.degree0:
             what = "δg" if self.quantity == "disturbance" else self.quantity
             raise InputError(
                 f"degree0 applies to the potential T and its quantities, not to {what}"
@@ -120,17 +100,20 @@ class Output:
             degree0=bool(self.degree0),
             stacked=bool(self.stacked),
         )
-        if self.quantity == TRUNCATION:
+        if q.layout == "orders":
             _set(self, orders=limits.check_orders(self.orders))
         _set(self, omission_model=_omission_model(self.quantity, self.omission_model))
 
 
-def _omission_model(quantity: str, kind: str | None) -> str | None:
-    """Return the degree-variance model of an omission-sigma product (None for others)."""
-    if quantity != OMISSION:
+def _omission_model(name: str, kind: str | None) -> str | None:
+    """Return the degree-variance model of an omission product (None for others)."""
+    from fieldmap.products.quantities import QUANTITIES, quantity
+
+    if not quantity(name).omission_model:
         if kind is not None:
+            takes = ", ".join(q.name for q in QUANTITIES if q.omission_model)
             raise InputError(
-                f"omission_model applies to the {OMISSION} quantity, not to {quantity}",
+                f"omission_model applies to the {takes} quantity, not to {name}",
                 param="omission_model",
             )
         return None
@@ -229,30 +212,20 @@ class MapRequest:
     execution: Execution = Execution()
 
     def __post_init__(self) -> None:
-        from fieldmap.products.variables import SIGMA_QUANTITIES, SURFACE_QUANTITIES
+        from fieldmap.products.layouts import layout_of
+        from fieldmap.products.quantities import quantity
 
         q = self.output.quantity
-        if self.model is None and q != TRUNCATION:
+        entry = quantity(q)
+        if self.model is None and entry.layout != "orders":
             raise InputError(f"a {q} product needs a model")
-        if q in SURFACE_QUANTITIES and not np.array_equal(self.grid.heights, [0.0]):
+        if entry.surface and not np.array_equal(self.grid.heights, [0.0]):
             raise InputError(f"{q} is a property of the surface: its grid has the one height 0")
         if not self.output.stacked and self.grid.heights.size != 1:
             raise InputError("one map takes one height; a sweep (stacked) takes several")
-        if q == "ewh":  # of a change of the field only: one line, before anything is written
-            from fieldmap.field.water import check_difference
-
-            check_difference(self.model)
-        if q in SIGMA_QUANTITIES and (self.model.sigma_c is None or self.model.sigma_s is None):
-            raise InputError(
-                f"model {self.model.name} carries no coefficient standard deviations (sigma C, "
-                f"sigma S): --quantity {q} needs an ICGEM file with sigma columns"
-            )
-        if q == OMISSION:
-            from fieldmap.field.omission import Omission
-
-            # validated once here (degree >= 2, a fitted law needs power in the model)
-            Omission(self.model.lmax, str(self.output.omission_model), model=self.model)
-        if self.execution.chunks is not None and q in (TRUNCATION, COMPONENTS):
+        if entry.check is not None:  # one line, before anything is computed or written
+            entry.check(self)
+        if self.execution.chunks is not None and not layout_of(entry).streamable:
             raise InputError(f"a {q} map is computed at once: no chunks=")
         if self.execution.chunks is not None and self.output.percentile_method != "histogram":
             raise InputError("a lazy Dataset (chunks=) carries no statistics: no percentile_method")
@@ -350,7 +323,9 @@ omission_model
             raise InputError("give height_km= or heights_m=, not both", param="height_km")
         grid = _grid(output, height_km, heights_m, step_deg, lat_max, region)
         ell = ellipsoid_of(ellipsoid)
-        if output.quantity == TRUNCATION:
+        from fieldmap.products.quantities import quantity
+
+        if quantity(output.quantity).layout == "orders":  # the J2n series: no model
             mod = None
         elif load is not None:
             mod = load()
@@ -404,9 +379,9 @@ def _grid(
     region: Sequence[float] | None,
 ) -> GridSpec:
     from fieldmap.grids.spec import make_grid
-    from fieldmap.products.variables import SURFACE_QUANTITIES
+    from fieldmap.products.quantities import quantity
 
-    if output.quantity in SURFACE_QUANTITIES:
+    if quantity(output.quantity).surface:
         h = np.zeros(1)  # the geoid is a property of the surface
     elif heights_m_ is not None:
         h = np.asarray(heights_m_, dtype=np.float64).ravel()

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import xarray as xr
 
-from fieldmap.products.variables import DISTURBANCE_VARIABLES
+from fieldmap.products.variables import DISTURBANCE_VARIABLES, Template
 
 if TYPE_CHECKING:
     from fieldmap.grids.spec import GridSpec
@@ -222,7 +222,7 @@ class ZarrTarget:
 
 
 def create_zarr(
-    path: str | os.PathLike[str], tmpl: xr.Dataset, grid: GridSpec, block_rows: int | None = None
+    path: str | os.PathLike[str], tmpl: Template, grid: GridSpec, block_rows: int | None = None
 ) -> ZarrTarget:
     """Create the zarr store (coordinates, attributes, empty chunked variables) at ``path``.
 
@@ -234,15 +234,14 @@ def create_zarr(
     import zarr
 
     nh, nlat, nlon = grid.shape
-    stacked = "height" in tmpl.attrs["dims"]
+    stacked = tmpl.stacked
     rows = chunk_rows(nlon)
     if block_rows is not None:  # ... but no chunk under 128 KiB: tiny files cost more
         rows = min(rows, max(block_rows // 8, -(-(2**17) // (8 * nlon)), 1))
     shape = (nh, nlat, nlon) if stacked else (nlat, nlon)
     chunks = (1, rows, nlon) if stacked else (rows, nlon)
-    ds = tmpl.copy()
-    var_attrs = ds.attrs.pop("variables")
-    dims = ds.attrs.pop("dims")
+    ds = tmpl.skeleton()
+    var_attrs, dims = tmpl.variables, tmpl.dims
     for name in var_attrs:
         ds[name] = (dims, da.zeros(shape, chunks=chunks), var_attrs[name])
     encoding = {name: {"chunks": chunks} for name in var_attrs}
@@ -288,14 +287,13 @@ def _jsonable(v: Any) -> Any:
 class NetCDFWriter:
     """A NetCDF-4 file written block by block by one writer (the client)."""
 
-    def __init__(self, path: str | os.PathLike[str], tmpl: xr.Dataset, grid: GridSpec) -> None:
+    def __init__(self, path: str | os.PathLike[str], tmpl: Template, grid: GridSpec) -> None:
         import netCDF4
 
         nh, nlat, nlon = grid.shape
-        ds = tmpl.copy()
-        var_attrs = ds.attrs.pop("variables")
-        dims = ds.attrs.pop("dims")
-        self.stacked = "height" in dims
+        ds = tmpl.skeleton()
+        var_attrs, dims = tmpl.variables, tmpl.dims
+        self.stacked = tmpl.stacked
         from fieldmap.products.io import COMPLEVEL, netcdf_encoding
 
         # the same encoding as the in-memory products: no _FillValue on coordinates (CF 1.8 §5)

@@ -13,9 +13,10 @@ dimension (in the unit the heights are given in), so that ``sweep.sel(height_km=
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import threading
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -23,6 +24,8 @@ import xarray as xr
 
 from fieldmap import __version__
 from fieldmap.errors import InputError
+from fieldmap.products.quantities import MAP_QUANTITIES, Variable, vector_variables
+from fieldmap.products.quantities import quantity as get_quantity
 from fieldmap.products.statistics import threshold_key
 from fieldmap.units import MG, get_unit
 
@@ -177,6 +180,17 @@ def _tide_conversion(model: SHModel, history: str) -> dict[str, Any]:
     return {"model_tide_system_of_file": system, "history": f"{history}; {model.name} {note}"}
 
 
+def converted_tide_system(attrs: Mapping[str, Any]) -> str | None:
+    """Return the tide system of a product's model converted from its file's, else None.
+
+    Read from the global attributes :func:`global_attrs` writes (``model_tide_system`` and
+    ``model_tide_system_of_file``): file names and figure titles name it (``--tide-system``).
+    """
+    of_file = attrs.get("model_tide_system_of_file")
+    system = attrs.get("model_tide_system")
+    return str(system) if of_file is not None and of_file != system else None
+
+
 def disturbance_attrs(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> dict[str, Any]:
     """Global attributes of a gravity-disturbance product (in-memory or block by block)."""
     heights = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
@@ -204,7 +218,7 @@ def convert_rows(
     hold the components, ``mods`` (2, rows, ...) receives the modulus in the unit and in mg;
     element by element, on the rows ``[a, b)`` of the second axis (default: everything). The
     one conversion of :func:`vector_vars` and of the blocks of the maps
-    (:func:`fieldmap.products.engine.disturbance_partial`): the same bits.
+    (:func:`fieldmap.products.layouts.disturbance_partial`): the same bits.
     """
     ix = (slice(None),) if a is None else (slice(None), slice(a, b))
     c, d, m = comps[ix], dst[ix], mods[ix]
@@ -249,14 +263,7 @@ def vector_vars(
 
 def vector_attrs(units: str, what: str) -> dict:
     """Attributes of east, north, up, modulus (in ``units``) and modulus_mg, by name, in order."""
-    unit = cf_units(units)
-    out = {
-        name: {"units": unit, "long_name": f"{cf} component of the {what}"}
-        for name, cf in COMPONENTS.items()
-    }
-    out["modulus"] = {"units": unit, "long_name": f"modulus of the {what}"}
-    out["modulus_mg"] = mg_attrs(f"modulus of the {what} in mg")
-    return out
+    return variable_attrs(vector_variables(what), units)
 
 
 def stats_attrs(stats: dict) -> dict:
@@ -317,269 +324,117 @@ def sweep_statistics(stats: list[dict[str, Any]], thresholds: Sequence[float]) -
     return out
 
 
-#: quantity -> variables: (name, units, long name, CF standard name or None)
-VARIABLES: dict[str, list[tuple[str, str, str, str | None]]] = {
-    "anomaly": [
-        (
-            "anomaly",
-            "mGal",
-            "gravity anomaly, spherical approximation: -dT/dr - 2T/r",
-            None,
-        )
-    ],
-    "deflection": [
-        ("xi", "arcsec", "northerly component of the deflection of the vertical", None),
-        ("eta", "arcsec", "easterly component of the deflection of the vertical", None),
-    ],
-    "geoid": [
-        (
-            "geoid",
-            "m",
-            "geoid height above the reference ellipsoid (Bruns: T/gamma0)",
-            "geoid_height_above_reference_ellipsoid",
-        )
-    ],
-    "potential": [("potential", "m2 s-2", "disturbing potential T = W - U", None)],
-}
-for _q, _what in (
-    ("gradient", "gravity"),
-    ("gradient-disturbance", "gravity disturbance"),
-    ("gradient-normal", "exact normal gravity"),
-):
-    VARIABLES[_q] = [
-        (
-            name,
-            "1e-9 s-2",
-            f"gradient tensor of {_what}, d g_{name[2]} / d {name[3]} (ENU), Eotvos",
-            None,
-        )
-        for name in ("T_ee", "T_en", "T_eu", "T_nn", "T_nu", "T_uu")
-    ]
-VARIABLES["gradient-invariants"] = [
-    ("I1", "1e-18 s-4", "second invariant of the gravitation gradient tensor, E^2", None),
-    ("I2", "1e-27 s-6", "third invariant (determinant) of the gravitation gradient tensor, E^3",
-     None),
-    *[
-        (f"eig_{k}", "1e-9 s-2", f"{o} eigenvalue of the gravitation gradient tensor, Eotvos",
-         None)
-        for k, o in ((1, "largest"), (2, "middle"), (3, "smallest"))
-    ],
-]  # fmt: skip
-#: quantities of the tensor (no disturbing potential involved: degree0 does not apply)
-GRADIENT_QUANTITIES = ("gradient", "gradient-disturbance", "gradient-normal", "gradient-invariants")
-_SIGMA = "standard deviation (commission error, diagonal propagation of the coefficient sigma)"
-VARIABLES["disturbance-sigma"] = [
-    (f"sigma_{c}", "mGal", f"{_SIGMA} of the {c} component of the gravity disturbance", None)
-    for c in ("east", "north", "up")
-]
-VARIABLES["anomaly-sigma"] = [("anomaly_sigma", "mGal", f"{_SIGMA} of the gravity anomaly", None)]
-VARIABLES["geoid-sigma"] = [("geoid_sigma", "m", f"{_SIGMA} of the geoid height", None)]
-_OMISSION = (
-    "standard deviation (omission error: the degrees above the model's, from a degree-variance "
-    "model)"
-)
-VARIABLES["omission-sigma"] = [
-    (
-        f"omission_sigma_{c}",
-        "mGal",
-        f"{_OMISSION} of the {c} component of the gravity disturbance",
-        None,
-    )
-    for c in ("north", "east", "down")
-]
-VARIABLES["omission-sigma"].append(
-    (
-        "omission_sigma_modulus",
-        "mGal",
-        f"{_OMISSION} of the gravity disturbance vector (root of the three variances summed)",
-        None,
-    )
-)
-VARIABLES.update(
-    {
-        "height-anomaly": [
-            (
-                "height_anomaly",
-                "m",
-                "height anomaly on the ellipsoid (Bruns: T(h=0)/gamma0), ICGEM height_anomaly_ell",
-                None,
-            )
-        ],
-        "anomaly-classical": [
-            (
-                "anomaly_classical",
-                "mGal",
-                "classical gravity anomaly, |grad W(h)| - |grad U(h - zeta)|, ICGEM "
-                "gravity_anomaly_cl",
-                None,
-            )
-        ],
-        "disturbance-sa": [
-            (
-                "disturbance_sa",
-                "mGal",
-                "gravity disturbance in spherical approximation, -dT/dr, ICGEM "
-                "gravity_disturbance_sa",
-                None,
-            )
-        ],
-        "trr": [
-            (
-                "trr",
-                "1e-9 s-2",
-                "second radial derivative of the disturbing potential, d2T/dr2, Eotvos, ICGEM "
-                "second_r_derivative",
-                None,
-            )
-        ],
-        "ewh": [
-            (
-                "ewh",
-                "m",
-                "equivalent water height of the difference of two fields (load Love numbers), "
-                "ICGEM water_column",
-                "lwe_thickness",
-            )
-        ],
-    }
-)  # ICGEM's functionals (Barthelmes 2013; fieldmap.field.geodesy, fieldmap.field.water)
-#: commission-error quantities (fieldmap.field.commission_grid)
-SIGMA_QUANTITIES = ("disturbance-sigma", "anomaly-sigma", "geoid-sigma")
-#: quantities that live on the ellipsoid (h = 0)
-SURFACE_QUANTITIES = ("geoid", "geoid-sigma", "height-anomaly", "ewh")
-QUANTITIES = ("disturbance", *VARIABLES)
+#: The quantities of :func:`fieldmap.quantity_map` (:mod:`fieldmap.products.quantities`).
+QUANTITIES = MAP_QUANTITIES
 
 
-def _definition(degree0: bool, quantity: str = "potential") -> str:
-    if quantity == "omission-sigma":
-        return (
-            "standard deviation of the gravity disturbance of the degrees above the model's "
-            "degree L, an isotropic random field with the degree variances of the "
-            "degree-variance model named in omission_model (fieldmap.field.omission: "
-            "Tscherning & Rapp 1974 model 4, Kaula's rule, or a power law fitted to the model's "
-            "degrees L/2..L); spherical approximation r = R + h, so the same at every node of a "
-            "height; degrees L+1..omission_max_degree"
-        )
-    if quantity in SIGMA_QUANTITIES:
-        return (
-            "standard deviation of the quantity propagated from the model's coefficient "
-            "standard deviations sigma C, sigma S, assumed uncorrelated (diagonal propagation: "
-            "the full covariance is not used); the degrees above the model's degree are not "
-            "counted (omission error); geoid at h = 0"
-        )
-    if quantity in GRADIENT_QUANTITIES:
-        what = {
-            "gradient": "g",
-            "gradient-disturbance": "g - gamma_exact (gravitation)",
-            "gradient-normal": "gamma_exact (with centrifugal)",
-            "gradient-invariants": "model gravitation",
-        }[quantity]
-        text = (
-            f"second derivatives of the potential: d({what})_i / dx_j in the local geodetic "
-            "east-north-up frame at each node (1 E = 1e-9 s-2); g is model gravitation plus "
-            "centrifugal; synthesised from the second derivatives of the series (one Legendre "
-            "pass per row, FFT in longitude), the normal field as its zonal J2n series, the "
-            "centrifugal tensor in closed form; the tensor is symmetric, so six components"
-        )
-        if quantity == "gradient-invariants":
-            text += (
-                "; invariants I1 = sum of the principal 2x2 minors, I2 = determinant "
-                "(Pedersen & Rasmussen 1990), eigenvalues in decreasing order"
-            )
-        return text
-    if quantity == "ewh":
-        from fieldmap.field.water import DEFINITION
+@dataclasses.dataclass(frozen=True)
+class Template:
+    """A product without its data: what the engine and the sinks build it from.
 
-        return DEFINITION
-    zero = (
-        "the degree-0 term (GM - GM_ellipsoid)/r is included"
-        if degree0
-        else "the degree-0 term (GM - GM_ellipsoid)/r is left out, as GeographicLib's Gravity"
-    )
-    return (
-        "T = W - U, model minus level-ellipsoid normal potential; "
-        + zero
-        + "; anomaly and deflection in the spherical approximation (Heiskanen & Moritz 1967 "
-        "eq. 2-151c), gamma the normal gravity at the point; geoid N = T(h=0)/gamma0 "
-        "(Somigliana) + HeightOffset and correction terms of a GeographicLib model"
-        + _FUNCTIONALS.get(quantity, "")
-    )
+    Attributes
+    ----------
+    coords : dict
+        {name: xarray.Variable}: latitude, longitude, height, height_km (and ``order`` or
+        ``threshold_mg`` where the product has them).
+    attrs : dict
+        Global attributes (CF-1.8, provenance, grid, model).
+    variables : dict
+        {name: attributes} of the product's variables, in order.
+    dims : tuple of str
+        Dimensions of every variable.
+    """
+
+    coords: dict[str, xr.Variable]
+    attrs: dict[str, Any]
+    variables: dict[str, dict[str, Any]]
+    dims: tuple[str, ...]
+
+    @property
+    def stacked(self) -> bool:
+        """Whether the variables have a ``height`` dimension (a sweep)."""
+        return "height" in self.dims
+
+    def skeleton(self) -> xr.Dataset:
+        """Return the product's coordinates and global attributes, without variables."""
+        return xr.Dataset(coords=self.coords, attrs=dict(self.attrs))
 
 
-#: the definitions of ICGEM's functionals (Barthelmes 2013), appended to T's
-_FUNCTIONALS = {
-    "height-anomaly": "; height anomaly on the ellipsoid zeta = T(h=0)/gamma0 (Barthelmes 2013 "
-    "sections 2.2, 4.3: Bruns' formula; the geoid without a GeographicLib model's N - zeta terms)",
-    "anomaly-classical": "; classical gravity anomaly |grad W(P)| - |grad U(Q)|, Q on the "
-    "ellipsoidal normal of P at height h - zeta with U(Q) = W(P) (Barthelmes 2013 sections "
-    "2.4.1, 4.5), zeta solved by Newton's method on the closed-form normal potential",
-    "disturbance-sa": "; gravity disturbance in spherical approximation -dT/dr, geocentric "
-    "radial derivative (Barthelmes 2013 sections 3.4, 4.4)",
-    "trr": "; second radial derivative d2T/dr2 = r^-2 sum_n (n+1)(n+2) T_n (geocentric r; "
-    "Barthelmes 2013 section 4.1), 1 E = 1e-9 s-2",
-}
+def variable_attrs(
+    variables: Sequence[Variable],
+    units: str | None = None,
+    model: SHModel | None = None,
+    ell: Ellipsoid | None = None,
+) -> dict[str, dict[str, Any]]:
+    """{name: CF attributes} of registry variables (:class:`fieldmap.products.quantities.Variable`).
+
+    ``units``: the units of the variables whose units are the request's (the disturbance
+    vector); ``model`` and ``ell`` fill in the long names that name them.
+    """
+    names = {"model": getattr(model, "name", None), "ellipsoid": getattr(ell, "name", None)}
+    out = {}
+    for v in variables:
+        if v.units is None:
+            if units is None:
+                raise ValueError(f"variable {v.name} takes the request's units: give units")
+            unit = cf_units(get_unit(units).name)
+        else:
+            unit = v.units
+        long_name = v.long_name.format(**names) if "{" in v.long_name else v.long_name
+        va: dict[str, Any] = {"units": unit, "long_name": long_name}
+        if v.standard_name:
+            va["standard_name"] = v.standard_name
+        if v.comment:
+            va["comment"] = v.comment
+        out[v.name] = va
+    return out
 
 
 def quantity_template(
-    quantity: str, mod: SHModel, grid: GridSpec, ell: Ellipsoid, degree0: bool
-) -> xr.Dataset:
-    """Coordinates and attributes of a quantity map, without data.
+    quantity: str,
+    mod: SHModel,
+    grid: GridSpec,
+    ell: Ellipsoid,
+    degree0: bool,
+    extra_attrs: dict[str, Any] | None = None,
+) -> Template:
+    """Coordinates and attributes of a quantity map (the ``fields`` layout), without data.
 
-    ``attrs["variables"]`` maps each variable to its attributes and ``attrs["dims"]`` holds
-    the dimensions of the variables (shared with the block engine of
-    :mod:`fieldmap.products.engine`).
+    Everything comes from the quantity's entry (:mod:`fieldmap.products.quantities`): the
+    variables, the definition, source and frame attributes; ``extra_attrs`` are added to the
+    global attributes.
     """
+    q = get_quantity(quantity)
     stacked = grid.heights.size > 1
     heights_txt = ", ".join(f"{x / 1e3:g}" for x in grid.heights)
     # no model enters the exact normal gravity: the product names none
-    model = None if quantity == "gradient-normal" else mod
-    title = f"{VARIABLES[quantity][0][2].split(',')[0].split(' (')[0]} at {heights_txt} km, " + (
+    model = mod if q.uses_model else None
+    what = q.variables[0].long_name.split(",")[0].split(" (")[0]
+    title = f"{what} at {heights_txt} km, " + (
         f"{mod.name} degree {mod.lmax}" if model is not None else f"{ell.name} normal field"
     )
-    attrs = global_attrs(
-        title,
-        model,
-        ell,
-        grid,
-        f"fieldmap {__version__}: "
-        + {
-            "gradient": f"{mod.name} degree {mod.lmax}",
-            "gradient-invariants": f"{mod.name} degree {mod.lmax}",
-            "gradient-normal": f"the exact normal gravity of {ell.name}",
-            "ewh": f"{mod.name} degree {mod.lmax}",
-        }.get(quantity, f"{mod.name} degree {mod.lmax} minus the {ell.name} normal field"),
-    )
-    attrs.update({"quantity": quantity, "definition": _definition(degree0, quantity)})
-    attrs["frame"] = (
-        "local geodetic east-north-up at each node"
-        if quantity in GRADIENT_QUANTITIES
-        else "geocentric spherical (deflection components), values are scalars otherwise"
-    )
-    var_attrs = {}
-    for name, units, long_name, std in VARIABLES[quantity]:
-        va: dict[str, Any] = {"units": units, "long_name": long_name}
-        if std:
-            va["standard_name"] = std
-        var_attrs[name] = va
-    ds = xr.Dataset(coords=coords(grid, stacked), attrs=attrs)
-    ds.attrs["variables"] = var_attrs
-    ds.attrs["dims"] = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
-    return ds
+    source = q.source.format(model=mod.name, lmax=mod.lmax, ellipsoid=ell.name)
+    attrs = global_attrs(title, model, ell, grid, f"fieldmap {__version__}: {source}")
+    assert q.definition is not None  # every quantity of the fields layout has one
+    attrs.update({"quantity": quantity, "definition": q.definition(degree0)})
+    attrs["frame"] = q.frame
+    attrs.update(extra_attrs or {})
+    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
+    return Template(coords(grid, stacked), attrs, variable_attrs(q.variables), dims)
 
 
-def quantity_statistics_fields(tmpl: xr.Dataset, stats: dict) -> tuple[dict, dict]:
+def quantity_statistics_fields(tmpl: Template, stats: dict) -> tuple[dict, dict]:
     """Statistics of each variable in the product's form: (attributes per variable, variables).
 
     ``stats``: {name: [{"min", "max", "mean", "rms"} per height]}. One height: ``actual_range``,
     ``area_weighted_mean``, ``area_weighted_rms`` in the variable's attributes; several: the
     variables ``<name>_min`` ... on ``height``.
     """
-    stacked = "height" in tmpl.attrs["dims"]
     per_var: dict[str, dict] = {}
     extra: dict[str, tuple] = {}
-    for name, va in tmpl.attrs["variables"].items():
+    for name, va in tmpl.variables.items():
         per_h = stats[name]
-        if stacked:
+        if tmpl.stacked:
             for key in ("min", "max", "mean", "rms"):
                 extra[f"{name}_{key}"] = (
                     "height",
@@ -598,48 +453,14 @@ def quantity_statistics_fields(tmpl: xr.Dataset, stats: dict) -> tuple[dict, dic
     return per_var, extra
 
 
-def assemble_quantity(tmpl: xr.Dataset, vals: dict, stats: dict) -> xr.Dataset:
+def assemble_quantity(tmpl: Template, vals: dict, stats: dict) -> xr.Dataset:
     """Build the product Dataset from its template, arrays ``(nh, nlat, nlon)`` and statistics."""
-    ds = tmpl.copy()
-    var_attrs = ds.attrs.pop("variables")
-    dims = ds.attrs.pop("dims")
-    stacked = "height" in dims
     per_var, extra = quantity_statistics_fields(tmpl, stats)
     data = {}
-    for name, va in var_attrs.items():
+    for name, va in tmpl.variables.items():
         v = vals[name]
-        data[name] = (dims, v if stacked else v[0], {**va, **per_var[name]})
-    return xr.Dataset({**data, **extra}, coords=ds.coords, attrs=ds.attrs)
-
-
-def disturbance_template_parts(
-    mod: SHModel,
-    grid: GridSpec,
-    ell: Ellipsoid,
-    units: str,
-    thresholds: Sequence[float],
-    stacked: bool,
-) -> dict[str, Any]:
-    """Return the parts of :func:`disturbance_template`: coords, attrs, variables, dims.
-
-    ``coords`` maps names to ``xarray.Variable``; ``variables`` maps each variable name to its
-    attributes. A product returned in memory is built from them in one ``xarray.Dataset``.
-    """
-    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
-    attrs = vector_attrs(get_unit(units).name, "gravity disturbance")
-    c = coords(grid, stacked)
-    if stacked:
-        c["threshold_mg"] = xr.Variable(
-            "threshold_mg",
-            np.array(thresholds, dtype=np.float64),
-            mg_attrs("threshold of the disturbance modulus"),
-        )
-    return {
-        "coords": c,
-        "attrs": disturbance_attrs(mod, grid, ell),
-        "variables": {name: attrs[name] for name in DISTURBANCE_VARIABLES},
-        "dims": dims,
-    }
+        data[name] = (tmpl.dims, v if tmpl.stacked else v[0], {**va, **per_var[name]})
+    return xr.Dataset({**data, **extra}, coords=tmpl.coords, attrs=dict(tmpl.attrs))
 
 
 def disturbance_template(
@@ -649,18 +470,22 @@ def disturbance_template(
     units: str,
     thresholds: Sequence[float],
     stacked: bool,
-) -> xr.Dataset:
+) -> Template:
     """Coordinates, global and variable attributes of a disturbance product, without data.
 
-    The attributes are those of :func:`fieldmap.products.maps.disturbance_map` (taken from the
-    same helpers); ``attrs["variables"]`` maps each variable name
-    to its attributes.
+    The attributes are those of :func:`fieldmap.products.maps.disturbance_map`; a product
+    returned in memory is built from them in one ``xarray.Dataset`` (:func:`dataset`).
     """
-    parts = disturbance_template_parts(mod, grid, ell, units, thresholds, stacked)
-    ds = xr.Dataset(coords=parts["coords"], attrs=parts["attrs"])
-    ds.attrs["variables"] = parts["variables"]
-    ds.attrs["dims"] = parts["dims"]
-    return ds
+    dims = ("height", "latitude", "longitude") if stacked else ("latitude", "longitude")
+    c = coords(grid, stacked)
+    if stacked:
+        c["threshold_mg"] = xr.Variable(
+            "threshold_mg",
+            np.array(thresholds, dtype=np.float64),
+            mg_attrs("threshold of the disturbance modulus"),
+        )
+    variables = variable_attrs(get_quantity("disturbance").variables, units)
+    return Template(c, disturbance_attrs(mod, grid, ell), variables, dims)
 
 
 def percentile_method_text(method: str = "histogram") -> str:
@@ -828,7 +653,8 @@ def _quantity_summary(ds: xr.Dataset) -> dict:
     out = _header(ds, a["quantity"])
     out["definition"] = a.get("definition")
     stacked = "height" in ds.dims
-    for name, units, _, _ in VARIABLES[a["quantity"]]:
+    for var in get_quantity(a["quantity"]).variables:
+        name, units = var.name, var.units
         stats: dict[str, Any]
         if stacked:
             stats = {
@@ -849,7 +675,7 @@ def _quantity_summary(ds: xr.Dataset) -> dict:
 
 def truncation_template(
     grid: GridSpec, ell: Ellipsoid, orders: Sequence[int], units: str
-) -> xr.Dataset:
+) -> Template:
     """Template of a truncation map: the J2n normal gravitation minus the exact one, per order.
 
     Variables east, north, up, modulus (in ``units``), modulus_mg on (order, latitude,
@@ -860,48 +686,28 @@ def truncation_template(
     c["order"] = xr.Variable(
         "order", np.array(orders), {"long_name": "highest zonal J2n term kept", "units": "1"}
     )
-    ds = xr.Dataset(
-        coords=c,
-        attrs=global_attrs(
-            f"J-series truncation error at {h / 1e3:g} km ({ell.name})",
-            None,
-            ell,
-            grid,
-            f"fieldmap {__version__}: J{'/J'.join(map(str, orders))} normal gravitation minus "
-            f"exact normal gravitation of {ell.name}",
-        ),
+    attrs = global_attrs(
+        f"J-series truncation error at {h / 1e3:g} km ({ell.name})",
+        None,
+        ell,
+        grid,
+        f"fieldmap {__version__}: J{'/J'.join(map(str, orders))} normal gravitation minus "
+        f"exact normal gravitation of {ell.name}",
     )
-    ds.attrs["variables"] = vector_attrs(
-        get_unit(units).name, "normal gravitation truncation error"
-    )
-    ds.attrs["dims"] = ("order", "latitude", "longitude")
-    return ds
+    variables = variable_attrs(get_quantity("truncation").variables, units)
+    return Template(c, attrs, variables, ("order", "latitude", "longitude"))
 
 
-def components_template(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> xr.Dataset:
+def components_template(mod: SHModel, grid: GridSpec, ell: Ellipsoid) -> Template:
     """Template of the component maps: model and normal gravity, east, north, up (m s-2)."""
     h = float(grid.heights[0])
-    ds = xr.Dataset(
-        coords=coords(grid, False),
-        attrs=global_attrs(
-            f"Gravity components at {h / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
-            mod,
-            ell,
-            grid,
-            f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravity and exact "
-            f"normal gravity of {ell.name}, both with centrifugal acceleration",
-        ),
+    attrs = global_attrs(
+        f"Gravity components at {h / 1e3:g} km, {mod.name} degree {mod.lmax} and {ell.name}",
+        mod,
+        ell,
+        grid,
+        f"fieldmap {__version__}: {mod.name} degree {mod.lmax} gravity and exact "
+        f"normal gravity of {ell.name}, both with centrifugal acceleration",
     )
-    var_attrs = {}
-    for c, cf_name in COMPONENTS.items():
-        var_attrs[f"model_{c}"] = {
-            "units": "m s-2",
-            "long_name": f"{cf_name} component of gravity from {mod.name}",
-        }
-        var_attrs[f"normal_{c}"] = {
-            "units": "m s-2",
-            "long_name": f"{cf_name} component of normal gravity ({ell.name})",
-        }
-    ds.attrs["variables"] = var_attrs
-    ds.attrs["dims"] = ("latitude", "longitude")
-    return ds
+    variables = variable_attrs(get_quantity("components").variables, None, mod, ell)
+    return Template(coords(grid, False), attrs, variables, ("latitude", "longitude"))
