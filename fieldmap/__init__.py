@@ -68,8 +68,6 @@ _LAZY = {
     "load_imu": "fieldmap.nav.sensors",
     "ImuErrorSpec": "fieldmap.nav.sensors",
     "FlightStudy": "fieldmap.nav.study",
-    "load_flight": "fieldmap.nav.logs",
-    "GnssSpec": "fieldmap.nav.aiding",
     "BaroSpec": "fieldmap.nav.study",
     "GnssSpec": "fieldmap.nav.aiding",
     "run_flight": "fieldmap.nav.study",

@@ -17,10 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from fieldmap.cli import main
 from refusals import refused
 
+from fieldmap.cli import main
 from fieldmap.errors import InputError
 
 HEADER = "time_s,lat_deg,lon_deg,height_m"

@@ -22,7 +22,6 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main
-from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning, condition
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -319,7 +318,7 @@ REAL = ["elal747", "qantas747", "noisy_landing", "noisy_takeoff", "noisy_time_is
 
 
 def _reported_max_groundspeed(path: Path) -> float:
-    """The log's robust top ground speed: the 99.5th percentile of its column (m/s)."""
+    """Return the log's robust top ground speed: the 99.5th percentile of its column (m/s)."""
     with gzip.open(path, "rt") as f:
         rows = f.read().splitlines()
     col = rows[0].split(",").index("groundspeed")
@@ -369,7 +368,7 @@ def test_real_log_with_stale_velocities_flown_on_its_positions():
 
 
 def _igc(path: Path, t, lat, lon, h) -> Path:
-    """An IGC file of fixes (GNSS altitude on the ellipsoid, pressure altitude the same)."""
+    """Write an IGC file of fixes (GNSS altitude on the ellipsoid, pressure altitude the same)."""
     out = ["AXXX001", "HFDTE150724", "HFALGALG:ELL"]
     for k in range(t.size):
         s = int(t[k])
@@ -406,8 +405,11 @@ def test_paraglider_launch_and_landing_flown_at_the_logs_heights(tmp_path):
     ang = 2.0 * np.pi * tf / 25.0
     x[fly] = 240.0 + 10.0 * tf * 0.3 + 40.0 * np.sin(ang)
     y[fly] = 40.0 * (1.0 - np.cos(ang))
-    h[fly] = 587.0 + 1.5 * tf * (tf < 600) + (900.0 - 1.6 * (tf - 600.0)) * (tf >= 600) - (
-        900.0 * (tf >= 600) - 0.0
+    h[fly] = (
+        587.0
+        + 1.5 * tf * (tf < 600)
+        + (900.0 - 1.6 * (tf - 600.0)) * (tf >= 600)
+        - (900.0 * (tf >= 600) - 0.0)
     )
     h[fly] = np.where(tf < 600, 587.0 + 1.5 * tf, 1487.0 - 1.45 * (tf - 600.0))
     end = tt >= 1680.0
@@ -461,7 +463,9 @@ def test_gpx_gaps_bridged_within_the_neighbours_heights(tmp_path):
     s = cf.samples
     for g in cf.report["gaps"]["list"]:
         inside = (s.t > g["t_from_s"]) & (s.t < g["t_to_s"])
-        near = (track.t - s.t_start > g["t_from_s"] - 300) & (track.t - s.t_start < g["t_to_s"] + 300)
+        near = (track.t - s.t_start > g["t_from_s"] - 300) & (
+            track.t - s.t_start < g["t_to_s"] + 300
+        )
         lo, hi = track.h[near].min(), track.h[near].max()
         assert lo - 20.0 < s.h[inside].min() and s.h[inside].max() < hi + 20.0, (lo, hi)
         assert g["sigma_v_m"] > 0.0

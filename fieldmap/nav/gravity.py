@@ -120,7 +120,6 @@ def is_navigation_name(name: object) -> bool:
     key = str(name).strip().lower()
     return (
         key in NORMAL_MODELS
-        or key in GRAVITY_ALIASES
         or key == "auto"
         or _SH_NAME.match(key) is not None
         or table_file(str(name)) is not None

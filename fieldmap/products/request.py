@@ -323,9 +323,9 @@ omission_model
             raise InputError("give height_km= or heights_m=, not both", param="height_km")
         grid = _grid(output, height_km, heights_m, step_deg, lat_max, region)
         ell = ellipsoid_of(ellipsoid)
-        from fieldmap.products.quantities import quantity
+        from fieldmap.products.quantities import quantity as quantity_of
 
-        if quantity(output.quantity).layout == "orders":  # the J2n series: no model
+        if quantity_of(output.quantity).layout == "orders":  # the J2n series: no model
             mod = None
         elif load is not None:
             mod = load()

@@ -109,7 +109,7 @@ def load_flight(
     >>> rows = ["time_s,lat_deg,lon_deg,height_m"]
     >>> rows += [f"{s},{47 + s * 2e-3:.6f},8.0,{1000 + 2 * s}" for s in range(300)]
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "climb.csv"
-    >>> _ = path.write_text("\\n".join(rows))
+    >>> _ = path.write_text(chr(10).join(rows))
     >>> flight, conditioned = load_flight(path)
     >>> conditioned.report["vehicle"]["class"], round(conditioned.samples.t[-1])
     ('airliner', 299)

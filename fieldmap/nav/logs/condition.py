@@ -58,10 +58,10 @@ from typing import Any
 
 import numpy as np
 
+import fieldmap.nav.logs.faults as flt
 from fieldmap.errors import Advice, InputError, Keyword, Label, Message, Pass, Setting
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-import fieldmap.nav.logs.faults as flt
 from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, SmoothedAxis
 from fieldmap.nav.logs.vehicles import Evidence, Vehicle, evidence, guess_vehicle, vehicle_class
 from fieldmap.nav.trajectory import MIN_POINTS, FlightSamples
@@ -144,14 +144,19 @@ class Conditioning:
         for name, optional in (("max_gap_s", False), ("min_speed_mps", False), ("dt_out", True)):
             v = getattr(self, name)
             if not (optional and v is None) and not (
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                isinstance(v, (int, float))
+                and not isinstance(v, bool)
+                and math.isfinite(v)
                 and v > 0
             ):
-                raise InputError(Keyword(name), f" must be a positive number, got {v!r}", param=name)
+                raise InputError(
+                    Keyword(name), f" must be a positive number, got {v!r}", param=name
+                )
         for name in ("smooth", "airborne_only", "log_velocities", "reorder"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(
-                    Keyword(name), f" must be True or False, got {getattr(self, name)!r}",
+                    Keyword(name),
+                    f" must be True or False, got {getattr(self, name)!r}",
                     param=name,
                 )
         self.noise_m()
@@ -169,13 +174,14 @@ class Conditioning:
             sig = [math.nan]
         if not all(math.isfinite(x) and x > 0 for x in sig):
             raise InputError(
-                Keyword("position_noise_m"), f" must be positive metres, got {noise!r}",
+                Keyword("position_noise_m"),
+                f" must be positive metres, got {noise!r}",
                 param="position_noise_m",
             )
         return sig[0], sig[1]
 
     def as_dict(self) -> dict[str, Any]:
-        """The options as the report gives them (JSON-ready)."""
+        """Return the options as the report gives them (JSON-ready)."""
         noise = self.noise_m()
         return {
             "smooth": self.smooth,
@@ -220,7 +226,9 @@ class OrderedLog:
 def order_log(track: Any, reorder: bool = True) -> OrderedLog:
     """Order a track's finite samples by time (step 1); refuse impossible coordinates."""
     src = str(getattr(track, "source", "flight"))
-    arrs = [np.asarray(getattr(track, k), dtype=np.float64).ravel() for k in ("t", "lat", "lon", "h")]
+    arrs = [
+        np.asarray(getattr(track, k), dtype=np.float64).ravel() for k in ("t", "lat", "lon", "h")
+    ]
     n = arrs[0].size
     lines = getattr(track, "lines", None)
     lines = np.arange(1, n + 1) if lines is None else np.asarray(lines, dtype=np.int64).ravel()
@@ -250,7 +258,8 @@ def order_log(track: Any, reorder: bool = True) -> OrderedLog:
                 param="reorder",
             )
         order = np.argsort(t, kind="stable")
-        t, lat, lon, h, lines, index = (a[order] for a in (t, lat, lon, h, lines, index))
+        t, lat, lon, h = (a[order] for a in (t, lat, lon, h))
+        lines, index = lines[order], index[order]
     dup = np.concatenate([[False], np.diff(t) == 0.0]) if t.size else np.zeros(0, bool)
     keep = ~dup
     return OrderedLog(
@@ -353,7 +362,7 @@ def _fault_density(extent: float, dof: int) -> float:
 
 
 def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicle) -> Measurements:
-    """The channels of the ordered log (step 2; :mod:`fieldmap.nav.logs.faults`)."""
+    """Return the channels of the ordered log (step 2; :mod:`fieldmap.nav.logs.faults`)."""
     ell = options.ellipsoid
     n = log.t.size
     zero = np.zeros(n)
@@ -369,8 +378,14 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     rounding = min(flt.printed_step(log.lat), flt.printed_step(log.lon)) * m_per_deg
     span = float(np.max(np.linalg.norm(p[hi] - origin, axis=1))) if hi.size else 0.0
     positions = Channel(
-        log.t[hi], p[hi] - origin, np.ones(hi.size), 0, 2,
-        _fault_density(span + 1000.0, 2), "position", timing=True,
+        log.t[hi],
+        p[hi] - origin,
+        np.ones(hi.size),
+        0,
+        2,
+        _fault_density(span + 1000.0, 2),
+        "position",
+        timing=True,
     )
     q = height_quantum(log.h)
     hspan = float(np.ptp(log.h)) if n else 0.0
@@ -407,15 +422,34 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
             if okc.sum() >= MIN_POINTS:
                 ic = np.flatnonzero(okc)
                 climbs = Channel(
-                    log.t[ic], climb[ic, None], np.ones(ic.size), 1, 1,
-                    _fault_density(top.climb, 1), "vertical rate",
+                    log.t[ic],
+                    climb[ic, None],
+                    np.ones(ic.size),
+                    1,
+                    1,
+                    _fault_density(top.climb, 1),
+                    "vertical rate",
                 )
                 index["vertical rate"] = ic
     elif getattr(track, "velocity", None) is not None:
-        notes.append(Message("the log's velocities not used (", Setting("log_velocities", False), ")"))
+        notes.append(
+            Message("the log's velocities not used (", Setting("log_velocities", False), ")")
+        )
     return Measurements(
-        positions, heights, velocities, climbs, index, origin, rep, interp, q, rounding,
-        resolution, columns, tuple(notes), log.source,
+        positions,
+        heights,
+        velocities,
+        climbs,
+        index,
+        origin,
+        rep,
+        interp,
+        q,
+        rounding,
+        resolution,
+        columns,
+        tuple(notes),
+        log.source,
     )
 
 
@@ -443,7 +477,7 @@ class PathEstimate:
 
 
 def _first_scale(ch: Channel) -> float:
-    """A robust first guess of a channel's noise σ: its samples against their neighbours' line."""
+    """Return a robust first guess of a channel's noise σ (each sample against its neighbours)."""
     t, y = ch.t, ch.y
     if t.size < 5:
         return 1.0
@@ -484,7 +518,10 @@ def _smooth(
     # the height keeps within the class's climb and vertical load factor (bounds, not data)
     g = 9.80665
     bounds = (
-        {1: (-vehicle.climb, vehicle.climb), 2: ((vehicle.n_min - 1.0) * g, (vehicle.n_max - 1.0) * g)}
+        {
+            1: (-vehicle.climb, vehicle.climb),
+            2: ((vehicle.n_min - 1.0) * g, (vehicle.n_max - 1.0) * g),
+        }
         if vertical
         else None
     )
@@ -595,7 +632,7 @@ def estimate(
 
 
 def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:
-    r"""The velocity channel with the tracks that are faults replaced by the path's direction.
+    r"""Return the velocity channel with its faulty tracks replaced by the path's direction.
 
     The angle δ between a log's velocity and the positions-only path's velocity (where the path
     moves faster than :data:`UNIT_MIN_RATE`) is an inlier, :math:`N(0, \sigma_\chi^2)`, or a
@@ -630,7 +667,7 @@ def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:
 
 
 def _unit_factor(log_rate: np.ndarray, path_rate: np.ndarray) -> float | None:
-    """The constant factor between a log's rates and its path's, where there is one.
+    """Return the constant factor between a log's rates and its path's, where there is one.
 
     Where the path moves (|rate| over :data:`UNIT_MIN_RATE`), the log's rates over the path's:
     their median k, and the spread of their logarithms (1.4826 × MAD). A factor is a unit
@@ -713,7 +750,7 @@ class Conditioned:
 
 
 def _track_info(track: Any, log: OrderedLog) -> dict[str, Any]:
-    """What the report takes from the track as it is: notes, height reference, velocities."""
+    """Return what the report takes from the track as it is: notes, height reference, velocities."""
     vel = getattr(track, "velocity", None)
     vlog = None
     if vel is not None:
@@ -816,8 +853,17 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         )
         veh = vehicle_class(options.vehicle or "airliner")
         c = Conditioned(
-            log, None, veh, "given" if options.vehicle else "not used (smooth=False)", None,
-            None, None, samples, (0, log.t.size - 1), options=options, **info,
+            log,
+            None,
+            veh,
+            "given" if options.vehicle else "not used (smooth=False)",
+            None,
+            None,
+            None,
+            samples,
+            (0, log.t.size - 1),
+            options=options,
+            **info,
         )
         return conditioned_flight(c)
     vehicle, how, ev = _vehicle(log, track, options)
@@ -846,7 +892,7 @@ def _finish(
     options: Conditioning,
     info: dict[str, Any],
 ) -> Conditioned:
-    """Samples, faults, gaps and residuals of an estimate (step 5)."""
+    """Compute the samples, faults, gaps and residuals of an estimate (step 5)."""
     ell = options.ellipsoid
     ng = grid.n - 2 * EDGE
     a, b = EDGE, EDGE + ng - 1
@@ -898,14 +944,21 @@ def _finish(
         if name == "position":
             pos = ch.y
 
-            def distance_at(j: np.ndarray, shift: float, pos: np.ndarray = pos, ch: Channel = ch
-                            ) -> np.ndarray:
+            def distance_at(
+                j: np.ndarray, shift: float, pos: np.ndarray = pos, ch: Channel = ch
+            ) -> np.ndarray:
                 return np.linalg.norm(pos[j] - hz.value_at(ch.t[j] + shift), axis=1)
 
         shifts = np.arange(-SHIFT_MAX_S, SHIFT_MAX_S + 0.5 * grid.dt, max(grid.dt, 1.0))
         faults += flt.describe_faults(
-            name, ch.t, log.lines[idx], rejected[name], res, distance_at,
-            axis.scales[i] * math.sqrt(ch.dof), shifts,
+            name,
+            ch.t,
+            log.lines[idx],
+            rejected[name],
+            res,
+            distance_at,
+            axis.scales[i] * math.sqrt(ch.dof),
+            shifts,
         )
     faults.sort(key=lambda f: f.t_start_s)
     # gaps between the fixes flown past (positions or heights kept)
@@ -916,12 +969,33 @@ def _finish(
     gaps = []
     if tu.size > 1:
         for j in np.flatnonzero(np.diff(tu) > options.max_gap_s):
-            k = int(np.clip(np.rint((0.5 * (tu[j] + tu[j + 1]) - grid.t0) / grid.dt), 0, grid.n - 1))
+            k = int(
+                np.clip(np.rint((0.5 * (tu[j] + tu[j + 1]) - grid.t0) / grid.dt), 0, grid.n - 1)
+            )
             gaps.append(
-                Gap(float(tu[j]), float(tu[j + 1]), (int(lu[j]), int(lu[j + 1])),
-                    hz.sigma_at(k), vt.sigma_at(k))
+                Gap(
+                    float(tu[j]),
+                    float(tu[j + 1]),
+                    (int(lu[j]), int(lu[j + 1])),
+                    hz.sigma_at(k),
+                    vt.sigma_at(k),
+                )
             )
     return Conditioned(
-        log, meas, vehicle, how, ev, est, grid, samples, (a, b), faults, gaps, residuals,
-        rejected, options, tuple(notes), **info,
+        log,
+        meas,
+        vehicle,
+        how,
+        ev,
+        est,
+        grid,
+        samples,
+        (a, b),
+        faults,
+        gaps,
+        residuals,
+        rejected,
+        options,
+        tuple(notes),
+        **info,
     )

@@ -67,7 +67,7 @@ class Fault:
     time_shift_s: float | None = None
 
     def text(self, t0: float = 0.0) -> str:
-        """The fault in words (times relative to ``t0``)."""
+        """Return the fault in words (times relative to ``t0``)."""
         what = {
             "outlier": f"{self.channel} outlier",
             "time-shifted": f"{self.samples} {self.channel}s with wrong time tags (the path "
@@ -85,7 +85,7 @@ class Fault:
 
 
 def printed_step(x: np.ndarray) -> float:
-    """The finest decimal step printed in ``x``: 10^-d for the most decimals d (≥ 1e-12).
+    """Return the finest decimal step printed in ``x``: 10^-d for the most decimals d (≥ 1e-12).
 
     A value read from text printed with d decimals is within float rounding of a multiple of
     10^-d; values with more (computed, binary sources) give 1e-12.
@@ -99,7 +99,7 @@ def printed_step(x: np.ndarray) -> float:
 
 
 def repeated(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    """Samples repeating the previous sample's position exactly, (n,) bool (module docstring)."""
+    """Return the samples repeating the previous sample's position exactly, (n,) bool."""
     out = np.zeros(lat.size, bool)
     out[1:] = (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1])
     return out
@@ -158,7 +158,7 @@ def retimed_runs(
     sigma_tau: float,
     rejected: np.ndarray,
 ) -> list[Fault]:
-    """Runs of kept fixes whose time error is beyond 3 σ of the log's (a stretch stamped late).
+    """Return the runs of kept fixes whose time error is beyond 3 σ of the log's (stamped late).
 
     ``tau`` (s): each fix's estimated time error; ``offset_m`` of the fault is then the largest
     time error times nothing (0): the fix is on the path once re-timed.
@@ -169,8 +169,14 @@ def retimed_runs(
         j = idx[int(np.argmax(np.abs(tau[idx])))]
         out.append(
             Fault(
-                channel, "re-timed", (int(lines[a]), int(lines[b])), float(t[a]), float(t[b]),
-                int(b - a + 1), 0.0, float(tau[j]),
+                channel,
+                "re-timed",
+                (int(lines[a]), int(lines[b])),
+                float(t[a]),
+                float(t[b]),
+                int(b - a + 1),
+                0.0,
+                float(tau[j]),
             )
         )
     return out

@@ -126,7 +126,7 @@ class MotionModel:
         return F, 0.5 * (Q + Q.T)
 
     def forcing(self, dt: float) -> np.ndarray:
-        """The state change ``B`` (3,) over one step ``dt`` of a unit mean acceleration ``a_c``.
+        r"""Return the state change ``B`` (3,) over a step ``dt`` of a unit mean acceleration.
 
         With :math:`\dot a = -(a - a_c)/\tau + w` and :math:`a_c` constant over the step,
         :math:`x_{k+1} = F x_k + B a_c + e_k`, :math:`B = \int_0^{\Delta} e^{As} ds\,(0, 0,
@@ -261,7 +261,7 @@ class SmoothedAxis:
     sigma_tau: list[float] = field(default_factory=list)
 
     def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
-        """The path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
+        """Return the path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
         k, d = self.grid.locate(np.asarray(t, dtype=np.float64))
         h = _rows(d, order)
         return _apply(h, self.x[k])
@@ -288,7 +288,7 @@ def _apply(h: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def _process_band(P: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
-    """The process part of the normal matrix (``P = Q⁻¹``) in upper banded form."""
+    """Return the process part of the normal matrix (``P = Q⁻¹``) in upper banded form."""
     FtPF, mFtP = F.T @ P @ F, -F.T @ P
     ab = np.zeros((BAND + 1, NS * n))
     for r in range(NS):
@@ -366,13 +366,13 @@ class AxisSmoother:
             self._locate(i)
 
     def _locate(self, i: int) -> None:
-        """The nodes and measurement rows of channel ``i`` at its (re-timed) times."""
+        """Return the nodes and measurement rows of channel ``i`` at its (re-timed) times."""
         c = self.channels[i]
         k, d = self.grid.locate(c.t + self.tau[i])
         self.k[i], self.h[i] = k, _rows(d, c.order)
 
     def set_mean_acceleration(self, x: np.ndarray) -> None:
-        """The surface point's curvature acceleration ``−|v|² r̂/|r|`` of the path ``x``."""
+        """Return the surface point's curvature acceleration ``−|v|² r̂/|r|`` of the path ``x``."""
         r = x[:, 0, :] + self.origin
         v = x[:, 1, :]
         rn = np.linalg.norm(r, axis=1)
@@ -534,7 +534,10 @@ class AxisSmoother:
             for state, (lo, hi) in self.bounds.items():
                 v = x[:, state, 0]
                 tol = 0.01 * max(abs(lo), abs(hi))
-                for idx, val in ((np.flatnonzero(v > hi + tol), hi), (np.flatnonzero(v < lo - tol), lo)):
+                for idx, val in (
+                    (np.flatnonzero(v > hi + tol), hi),
+                    (np.flatnonzero(v < lo - tol), lo),
+                ):
                     for k in idx:
                         key = NS * int(k) + state
                         if key not in active:
@@ -629,15 +632,23 @@ class AxisSmoother:
             x, cb, neg2 = self.solve(q, scales, weights)
         pi = self.fault_probabilities(x, scales, rates)
         return SmoothedAxis(
-            self.grid, self.model, x, q, scales, pi, rates, neg2, cb,
-            [t.copy() for t in self.tau], list(self.sigma_tau),
+            self.grid,
+            self.model,
+            x,
+            q,
+            scales,
+            pi,
+            rates,
+            neg2,
+            cb,
+            [t.copy() for t in self.tau],
+            list(self.sigma_tau),
         )
 
     def _maximise(
         self, q: float, scales: list[float], weights: list[np.ndarray]
     ) -> tuple[float, list[float]]:
         """One coordinate sweep of the marginal likelihood over ``log q`` and each ``log s``."""
-
         parts = self.measurements(weights)
 
         def over_q(lq: float) -> float:
@@ -645,8 +656,9 @@ class AxisSmoother:
 
         lo, hi = (math.log(b) for b in self.q_bounds)
         if hi > lo:
-            q = math.exp(minimize_scalar(over_q, bounds=(lo, hi), method="bounded",
-                                         options={"xatol": 0.1}).x)
+            q = math.exp(
+                minimize_scalar(over_q, bounds=(lo, hi), method="bounded", options={"xatol": 0.1}).x
+            )
         for i, (sb, f) in enumerate(zip(self.scale_bounds, self.fixed)):
             if f is not None or sb[1] <= sb[0]:
                 continue
@@ -657,7 +669,9 @@ class AxisSmoother:
                 return self.solve(q, trial, weights, parts, bounded=False)[2]
 
             res = minimize_scalar(
-                over_s, bounds=(math.log(sb[0]), math.log(sb[1])), method="bounded",
+                over_s,
+                bounds=(math.log(sb[0]), math.log(sb[1])),
+                method="bounded",
                 options={"xatol": 0.05},
             )
             scales = list(scales)

@@ -87,8 +87,10 @@ def _normal_gravity(lat_deg: np.ndarray, h: np.ndarray, ell: Ellipsoid) -> np.nd
 def flown_velocity(
     samples: FlightSamples, t: np.ndarray, ellipsoid: Ellipsoid = WGS84
 ) -> np.ndarray:
-    """East, north, up velocity (m/s) of the flown path (the quintic through ``samples``) at
-    times ``t`` (s, the samples' time scale), (m, 3)."""
+    """Return the east, north, up velocity (m/s) of the flown path at times ``t``, (m, 3).
+
+    The path is the quintic through ``samples``; ``t`` in the samples' time scale (s).
+    """
     from scipy.interpolate import make_interp_spline
 
     s = samples
@@ -151,7 +153,7 @@ def _stats(x: np.ndarray) -> tuple[float, float, int]:
 
 
 def _velocity_residuals(c: Any, t0: float) -> dict[str, Any] | None:
-    """The flown path's ground speed, track and vertical rate against the log's own."""
+    """Return the flown path's ground speed, track and vertical rate against the log's own."""
     m = c.measurements
     if m is None or (m.velocities is None and m.climbs is None):
         return None
@@ -202,7 +204,7 @@ def _velocity_residuals(c: Any, t0: float) -> dict[str, Any] | None:
 
 
 def build_report(c: Any) -> dict[str, Any]:
-    """The JSON-ready report of a :class:`~fieldmap.nav.logs.condition.Conditioned`."""
+    """Return the JSON-ready report of a :class:`~fieldmap.nav.logs.condition.Conditioned`."""
     log, s, m, est, veh = c.log, c.samples, c.measurements, c.estimate, c.vehicle
     t0 = s.t_start
     report: dict[str, Any] = {
@@ -231,7 +233,9 @@ def build_report(c: Any) -> dict[str, Any]:
         "vehicle": {
             "class": veh.name,
             "how": c.vehicle_how,
-            "evidence": None if c.evidence is None else {
+            "evidence": None
+            if c.evidence is None
+            else {
                 "speed_m_s": c.evidence.speed,
                 "climb_m_s": c.evidence.climb,
                 "turn_rate_deg_s": c.evidence.turn_rate,
@@ -353,7 +357,7 @@ def build_report(c: Any) -> dict[str, Any]:
 
 
 def _timing(est: Any) -> dict[str, Any] | None:
-    """The time errors of the fixes (the position channel's), when the log shows them."""
+    """Return the time errors of the fixes (the position channel's), when the log shows them."""
     _, axis, i = est.channels["position"]
     sig = axis.sigma_tau[i] if axis.sigma_tau else 0.0
     if sig <= 0.0:
@@ -386,7 +390,7 @@ def _ground(c: Any) -> dict[str, Any]:
 
 
 def conditioned_flight(c: Any) -> ConditionedFlight:
-    """The :class:`ConditionedFlight` of a conditioning result ``c`` (a ``Conditioned``)."""
+    """Return the :class:`ConditionedFlight` of a conditioning result ``c`` (a ``Conditioned``)."""
     log, s = c.log, c.samples
     n = log.t.size
     report = build_report(c)
@@ -400,8 +404,15 @@ def conditioned_flight(c: Any) -> ConditionedFlight:
         # the positions not measured: their distance from the path all the same
         other = np.setdiff1d(np.arange(n), ip)
         if other.size and c.estimate is not None:
-            p = np.stack(geodetic_to_ecef(log.lat[other], log.lon[other], np.zeros(other.size),
-                                          c.options.ellipsoid), -1) - m.origin
+            p = (
+                np.stack(
+                    geodetic_to_ecef(
+                        log.lat[other], log.lon[other], np.zeros(other.size), c.options.ellipsoid
+                    ),
+                    -1,
+                )
+                - m.origin
+            )
             off_h[other] = np.linalg.norm(p - c.estimate.horizontal.value_at(log.t[other]), axis=1)
         bad_h = np.zeros(n, bool)
         bad_v = np.zeros(n, bool)
@@ -472,7 +483,8 @@ def format_report(rep: dict) -> str:
         if fl:
             # the largest first: samples × distance, a re-timed run by its time error at 100 m/s
             worst = sorted(
-                fl, key=lambda f: -f["samples"] * (f["offset"] + 100.0 * abs(f["time_shift_s"] or 0))
+                fl,
+                key=lambda f: -f["samples"] * (f["offset"] + 100.0 * abs(f["time_shift_s"] or 0)),
             )[:N_WORST]
             lines.append(f"  faults: {len(fl)} runs of rejected samples; the largest:")
             lines += [f"    {f['text']}" for f in worst]

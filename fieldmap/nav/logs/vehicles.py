@@ -104,11 +104,11 @@ class Vehicle:
         return max(self.n_max - 1.0, 1.0 - self.n_min) * G0
 
     def horizontal_model(self) -> MotionModel:
-        """The Singer model of each horizontal axis (no velocity damping)."""
+        """Return the Singer model of each horizontal axis (no velocity damping)."""
         return MotionModel(tau_s=self.tau_s)
 
     def vertical_model(self) -> MotionModel:
-        """The Singer model of the height (the vertical speed damped over ``tau_climb_s``)."""
+        """Return the Singer model of the height (its vertical speed damped: ``tau_climb_s``)."""
         return MotionModel(tau_s=self.tau_s, beta=1.0 / self.tau_climb_s)
 
     def q_bounds(self, vertical: bool) -> tuple[float, float]:
@@ -215,7 +215,7 @@ class Evidence:
     file_format: str | None = None
 
     def text(self) -> str:
-        """The evidence in words."""
+        """Return the evidence in words."""
         return (
             f"ground speed to {self.speed:.0f} m/s, climb/descent to {self.climb:.1f} m/s, "
             f"turns to {self.turn_rate:.0f} °/s, heights over {self.height_band:.0f} m"
