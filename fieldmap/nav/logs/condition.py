@@ -799,6 +799,17 @@ def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicl
     ev = evidence(
         log.t[keep], en[keep, 0], en[keep, 1], log.h[keep], getattr(track, "category", None), fmt
     )
+    vel = getattr(track, "velocity", None) if options.log_velocities else None
+    if vel is not None:
+        # what the vehicle itself reported is better evidence of its speed and climb than the
+        # differences of its fixes (a glitch or a jump moves those)
+        gs = vel.speed[log.index]
+        gs = gs[np.isfinite(gs)]
+        ev = replace(ev, speed=float(np.percentile(gs, 99))) if gs.size >= 20 else ev
+        if vel.climb is not None:
+            cl = np.abs(vel.climb[log.index])
+            cl = cl[np.isfinite(cl)]
+            ev = replace(ev, climb=float(np.percentile(cl, 99))) if cl.size >= 20 else ev
     if options.vehicle is not None:
         return vehicle_class(options.vehicle), "given", ev
     v, why = guess_vehicle(ev)

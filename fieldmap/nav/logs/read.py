@@ -573,7 +573,11 @@ def _finish(
             f"{np.degrees(vmed):.0f} m/s as radians): give degrees"
         )
     if alt_units is None and not p.units_fixed and v.size and vmed <= MAX_AIRCRAFT_SPEED:
-        check_units(a, t, lines, units, vmed, f"{where}", aname)
+        # a log with its own vertical rates has its heights' unit checked against them by the
+        # conditioning (a constant factor between the two), where altitude glitches are
+        # faults of their own: here the rate test is for logs without them
+        rates = p.velocity is not None and p.velocity.climb is not None
+        check_units(a, t, lines, units, vmed, f"{where}", aname, sustained=not rates)
     h = a
     if ref != "ellipsoid":
         h, note = to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
@@ -817,8 +821,13 @@ def check_units(
     vmed: float,
     where: str,
     aname: str,
+    sustained: bool = True,
 ) -> None:
-    """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring)."""
+    """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring).
+
+    ``sustained=False``: the altitudes' top only, not their sustained rate (a log with its own
+    vertical rates, whose factor to the heights the conditioning checks).
+    """
     hint: tuple[Part, ...] = (
         (Advice(" ", Pass("alt_units", "ft")),) if units == "m" else (" a wrong column?",)
     ) + (Advice(", or ", Pass("alt_units", "m"), " if these are metres"),)
@@ -839,6 +848,8 @@ def check_units(
     # intervals (the ends of a wrong level held for a while), which are no sustained rate
     # either. A log that is wrong throughout (a climb x 3.28, altitudes alternating all along)
     # is no outlier and is refused as before; the conditioning removes the outliers later.
+    if not sustained:
+        return
     dt = np.diff(t)
     ok = np.flatnonzero(dt > 0)
     window = np.lib.stride_tricks.sliding_window_view
