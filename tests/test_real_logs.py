@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from fieldmap.cli import main
+from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning, condition
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -230,23 +231,33 @@ def _contradicting(tmp_path: Path, scale: float, rotate: float) -> Path:
     return path
 
 
-@pytest.mark.parametrize(("scale", "rotate"), [(KT, 0.0), (1.0, 90.0)])
-def test_velocities_contradicting_the_positions_left_out(tmp_path, scale, rotate):
-    """Ground speeds in m/s under a knots column, or tracks a quarter turn off: not used, said."""
-    path = _contradicting(tmp_path, scale, rotate)
+def test_tracks_off_the_positions_keep_their_speeds(tmp_path):
+    """Tracks a quarter turn off (another convention): the speeds are used along the positions."""
+    path = _contradicting(tmp_path, 1.0, 90.0)
     track = read_track(path, height_ref="ellipsoid")
     cf = condition(track)
-    assert any("contradict its positions" in n for n in cf.report["notes"])
-    assert "position" in cf.report["channels"] and "velocity" not in cf.report["channels"]
+    assert any("tracks" in n and "off the direction" in n for n in cf.report["notes"])
     k = cf.report["kinematics"]
     assert k["duration_s"] >= np.ptp(track.t) - 1.0
     assert 225.0 < k["max_ground_speed_m_s"] < 245.0  # the positions' speed, 235 m/s
-    rc = main(
-        ["navsim", "--lmax", "20", "--models", "j4", "--rate", "10", "--no-timing",
-         "--trajectory", str(path), "--height-ref", "ellipsoid", "--method", "covariance",
-         "--out", str(tmp_path / "out")]
-    )  # fmt: skip
-    assert rc == 0
+    assert cf.report["velocity"]["groundspeed_rms_m_s"] < 2.0
+
+
+def test_velocities_in_another_unit_refused(tmp_path, capsys):
+    """Ground speeds in m/s under a knots column: a constant factor, one line naming the fix."""
+    path = _contradicting(tmp_path, KT, 0.0)
+    with pytest.raises(InputError, match=r"contradict its positions: their speeds are 0\.51") as e:
+        condition(read_track(path, height_ref="ellipsoid"))
+    assert e.value.param == "log_velocities" and "\n" not in str(e.value)
+    argv = ["navsim", "--lmax", "20", "--models", "j4", "--rate", "10", "--no-timing"]
+    out = tmp_path / "out"
+    rc = main([*argv, "--trajectory", str(path), "--height-ref", "ellipsoid", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--ignore-log-velocities" in err[0], err
+    assert not out.exists()
+    # flown on its positions when the velocities are left out
+    cf = condition(read_track(path, height_ref="ellipsoid"), Conditioning(log_velocities=False))
+    assert 225.0 < cf.report["kinematics"]["max_ground_speed_m_s"] < 245.0
 
 
 def test_velocities_left_out_on_request(tmp_path):

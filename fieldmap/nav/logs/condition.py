@@ -555,6 +555,7 @@ def estimate(
     notes: list[str] = []
 
     velocities = meas.velocities
+    alone: SmoothedAxis | None = None
 
     def horizontal(use_velocities: bool) -> tuple[SmoothedAxis, list[Channel]]:
         chans, floors, fix = [meas.positions], [pos_floor], [None if fixed is None else fixed[0]]
@@ -565,22 +566,12 @@ def estimate(
         return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
 
     if velocities is not None:
-        # the tracks against the positions' own path: a track column off (a fault uniform in
-        # angle) keeps its ground speed, along the path's direction (track_faults)
         alone, _ = horizontal(False)
-        velocities, replaced = track_faults(velocities, alone)
-        if replaced:
-            notes.append(
-                f"{replaced} of the log's tracks ({100.0 * replaced / velocities.t.size:.0f} %) "
-                "are off the direction its positions fly: their ground speeds used along the "
-                "positions' direction"
-            )
-    hz, hchans = horizontal(True)
-    if meas.velocities is not None:
         # a constant factor between the log's speeds and its positions' is a unit mistake
-        log_speed = np.linalg.norm(meas.velocities.y, axis=1)
-        path_speed = np.linalg.norm(hz.value_at(meas.velocities.t, 1), axis=1)
-        k = _unit_factor(log_speed, path_speed)
+        k = _unit_factor(
+            np.linalg.norm(velocities.y, axis=1),
+            np.linalg.norm(alone.value_at(velocities.t, 1), axis=1),
+        )
         if k is not None:
             raise InputError(
                 f"{meas.source}: the log's velocities ({', '.join(meas.velocity_columns)}) "
@@ -589,10 +580,20 @@ def estimate(
                 Advice("; ", Pass("log_velocities", False), " to fly the positions alone"),
                 param="log_velocities",
             )
+        # the tracks against the positions' own path: a track column off (a fault uniform in
+        # angle) keeps its ground speed, along the path's direction (track_faults)
+        velocities, replaced = track_faults(velocities, alone)
+        if replaced:
+            notes.append(
+                f"{replaced} of the log's tracks ({100.0 * replaced / velocities.t.size:.0f} %) "
+                "are off the direction its positions fly: their ground speeds used along the "
+                "positions' direction"
+            )
+    hz, hchans = horizontal(True)
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
         share = 100.0 * float(np.mean(hz.fault_prob[1] > 0.5))
-        hz, hchans = horizontal(False)
+        hz, hchans = (alone, [meas.positions]) if alone is not None else horizontal(False)
         notes.append(
             f"the log's ground speeds and tracks contradict its positions ({share:.0f} % of "
             "them off the path the positions and velocities would share): not used, the "
@@ -605,9 +606,11 @@ def estimate(
         vchans.append(meas.climbs)
         vfloors.append(max(res_v / sq12, 0.01))
         vfix.append(None)
-    vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+    heights_alone = None
     if meas.climbs is not None:
-        k = _unit_factor(meas.climbs.y[:, 0], vt.value_at(meas.climbs.t, 1)[:, 0])
+        # a constant factor between the log's vertical rates and its heights' is a unit mistake
+        heights_alone = _smooth(grid, vehicle, True, vchans[:1], vfloors[:1], vfix[:1])
+        k = _unit_factor(meas.climbs.y[:, 0], heights_alone.value_at(meas.climbs.t, 1)[:, 0])
         if k is not None:
             raise InputError(
                 f"{meas.source}: the log's vertical rates are {k:.3g} × the rate of its heights "
@@ -616,10 +619,15 @@ def estimate(
                 Advice("; check ", Keyword("alt_units")),
                 param="alt_units",
             )
+    vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
     if len(vchans) > 1 and max(vt.fault_rate) >= 0.5:
         share = 100.0 * float(np.mean(vt.fault_prob[1] > 0.5))
         vchans, vfloors, vfix = vchans[:1], vfloors[:1], vfix[:1]
-        vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+        vt = (
+            heights_alone
+            if heights_alone is not None
+            else _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+        )
         notes.append(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"

@@ -139,23 +139,15 @@ class MotionModel:
         return expm(M * dt)[:3, 3]
 
     def stationary_precision(self, q: float) -> np.ndarray:
-        """Precision (3, 3) of the prior on the first node: its stationary states.
+        """Return the precision (3, 3) of the prior on the first node: its stationary state.
 
-        The acceleration is stationary (variance qτ/2), and so is the velocity where it is
-        damped (β > 0; the continuous Lyapunov equation of the (v, a) subsystem); the
-        position, and an undamped velocity, have a diffuse prior (zero precision). Without
-        it the path before the first fix would be the model run backwards, which grows the
-        relaxing acceleration by e^{Δ/τ} a step.
+        The acceleration is stationary, variance qτ/2; the position and the velocity have a
+        diffuse prior (zero precision: a log may start in a climb the jerk intensity says
+        nothing of). Without it the path before the first fix would be the model run
+        backwards, which grows the relaxing acceleration by e^{Δ/τ} a step.
         """
-        from scipy.linalg import solve_continuous_lyapunov
-
         out = np.zeros((3, 3))
-        if self.beta > 0.0:
-            A2 = np.array([[-self.beta, 1.0], [0.0, -1.0 / self.tau_s]])
-            S = solve_continuous_lyapunov(A2, -np.array([[0.0, 0.0], [0.0, q]]))
-            out[1:, 1:] = np.linalg.inv(0.5 * (S + S.T))
-        else:
-            out[2, 2] = 2.0 / (q * self.tau_s)
+        out[2, 2] = 2.0 / (q * self.tau_s)
         return out
 
     def sigma_accel(self, q: float) -> float:

@@ -825,8 +825,9 @@ def check_units(
 ) -> None:
     """Refuse altitudes in the wrong unit on an aircraft-like track (module docstring).
 
-    ``sustained=False``: the altitudes' top only, not their sustained rate (a log with its own
-    vertical rates, whose factor to the heights the conditioning checks).
+    ``sustained=False`` (a log with its own vertical rates, whose factor to the heights the
+    conditioning checks, where local altitude glitches are faults of their own): the sustained
+    rate refuses only a log that is wrong over most of its intervals.
     """
     hint: tuple[Part, ...] = (
         (Advice(" ", Pass("alt_units", "ft")),) if units == "m" else (" a wrong column?",)
@@ -848,8 +849,6 @@ def check_units(
     # intervals (the ends of a wrong level held for a while), which are no sustained rate
     # either. A log that is wrong throughout (a climb x 3.28, altitudes alternating all along)
     # is no outlier and is refused as before; the conditioning removes the outliers later.
-    if not sustained:
-        return
     dt = np.diff(t)
     ok = np.flatnonzero(dt > 0)
     window = np.lib.stride_tricks.sliding_window_view
@@ -857,7 +856,7 @@ def check_units(
     rate = np.abs(np.diff(trend))[ok] / dt[ok]
     if rate.size >= 5:
         med = np.median(window(rate, 5), axis=1)
-        if med.max() > MAX_CLIMB:
+        if med.max() > MAX_CLIMB and (sustained or np.mean(med > MAX_CLIMB) > 0.5):
             i = int(np.argmax(med))
             raise InputError(
                 f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {med[i]:,.0f} m/s "

@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fieldmap.errors import InputError
+from fieldmap.errors import InputError, Keyword
 from fieldmap.nav.logs.motion import MotionModel
 from fieldmap.units import STANDARD_GRAVITY as G0
 
@@ -174,7 +174,9 @@ def vehicle_class(name: str) -> Vehicle:
     v = VEHICLES.get(ALIASES.get(key, key))
     if v is None:
         raise InputError(
-            f"vehicle must be one of {', '.join(VEHICLES)}, got {name!r}", param="vehicle"
+            Keyword("vehicle"),
+            f" must be one of {', '.join(VEHICLES)}, got {name!r}",
+            param="vehicle",
         )
     return v
 
