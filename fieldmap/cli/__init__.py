@@ -311,6 +311,8 @@ OPTIONS: dict[str, str | None] = {
     "threshold": None,
     "dt_out": None,
     "vehicle": "--vehicle",
+    # FlightResult.plot / CovarianceStudyResult.plot (Python only)
+    "kind": None,
     "log_velocities": None,  # --ignore-log-velocities sets log_velocities=False: see ADVICE
     "model": None,  # the truth model's geoid makes MSL heights ellipsoidal
     "ellipsoid": None,

@@ -43,17 +43,6 @@ if TYPE_CHECKING:
 
 #: Navigation gravity models of Table 1 (keys of the JSON output).
 TABLE1_MODELS = ("j2", "j4", "j6", "exact", "sh18", "sh200")
-#: Paper values (Chen et al. 2022 Table 1): |δv| m/s, |δp| m, CPU s per gravity evaluation,
-#: keyed by our navigation model names (the paper has no exact-normal row).
-PAPER_TABLE1 = {
-    "j2": (0.742, 387.18, 0.000003),
-    "j4": (0.686, 351.28, 0.000003),
-    "j6": (0.686, 351.19, 0.000004),
-    "sh18": (0.181, 117.52, 0.000214),
-    "sh200": (0.060, 35.88, 0.004449),
-}
-#: Paper values (Chen et al. 2022 Table 3): |δv| m/s, |δp| m per accelerometer group.
-PAPER_TABLE3 = {1: (2.033, 1019.98), 2: (0.507, 296.69), 3: (0.667, 344.29), 4: (0.686, 351.19)}
 
 
 def gravity_eval_seconds(

@@ -50,9 +50,20 @@ if TYPE_CHECKING:
     from matplotlib.patches import Patch
 
     from fieldmap.models.shmodel import SHModel
-    from fieldmap.nav.covariance import CovarianceStudyResult
-    from fieldmap.nav.paper import StudyResult
-    from fieldmap.nav.study import FlightResult
+
+#: a flight study's results (fieldmap.nav.study.FlightResult, Monte Carlo: its draws' errors in
+#: ``dpos``; fieldmap.nav.covariance.CovarianceStudyResult), whose plot() draws with this
+#: module: named here without importing them, so the modules stay acyclic
+FlightResult = Any
+CovarianceStudyResult = Any
+#: the paper study's result (fieldmap.nav.paper.StudyResult), likewise
+StudyResult = Any
+
+
+def _monte_carlo(res: Any) -> bool:
+    """Tell a Monte Carlo flight result (its draws' errors, ``dpos``) from a covariance one."""
+    return hasattr(res, "dpos")
+
 
 __all__ = [
     "FIGURE_SIZE", "KINDS", "LOG_DECADES", "MIN_BAND_DRAWS", "at_paper_duration", "budget_bars",
@@ -401,7 +412,7 @@ def _mc(
 
 
 def _table3(res: StudyResult) -> Figure:
-    from fieldmap.nav.paper import PAPER_TABLE3
+    from fieldmap.nav.paper_tables import PAPER_TABLE3
 
     meta = res.meta
     rows = {f"group{r['group']}": r for r in res.rows}
@@ -475,7 +486,7 @@ def _table4(res: StudyResult) -> Figure:
 
 
 def _table1(res: StudyResult) -> Figure:
-    from fieldmap.nav.paper import PAPER_TABLE1
+    from fieldmap.nav.paper_tables import PAPER_TABLE1
 
     meta, t = res.meta, res.t[1:]
     groups = _groups(res.labels)
@@ -1034,9 +1045,7 @@ def budget_moment(res: FlightResult | CovarianceStudyResult) -> tuple[int, str, 
 
 def _imu_only_horizontal(res: FlightResult | CovarianceStudyResult, i: int) -> float:
     """Return the IMU-only horizontal error at output ``i`` (Monte Carlo RMS or covariance σ)."""
-    from fieldmap.nav.study import FlightResult
-
-    if not isinstance(res, FlightResult):
+    if not _monte_carlo(res):
         return float(res.covariance.horizontal()[i])
     d = res.dpos[np.asarray(res.models) == "imu_only", i, :2]
     return float(np.sqrt(np.mean(np.sum(d * d, -1))))
@@ -1052,11 +1061,9 @@ def budget_bars(res: FlightResult | CovarianceStudyResult, i: int) -> list[tuple
     (deterministic), (b) omission and (c) commission (the same for every model; RMS of their
     draws). Sorted from the largest.
     """
-    from fieldmap.nav.study import FlightResult
-
     bars: list[tuple[str, float, str]] = []
-    mc = isinstance(res, FlightResult)
-    if isinstance(res, FlightResult):
+    mc = _monte_carlo(res)
+    if mc:
         n = int(np.sum(np.asarray(res.models) == "imu_only"))
         bars.append(
             (f"all sources: Monte Carlo RMS of {n} draw(s)", _imu_only_horizontal(res, i),

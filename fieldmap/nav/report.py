@@ -42,7 +42,7 @@ def format_table(res: StudyResult) -> str:
     Columns never overflow: values too wide for their column are printed in exponent form, missing
     or non-finite ones as ``-``; diverged runs are listed below the table.
     """
-    from fieldmap.nav.paper import PAPER_TABLE1, PAPER_TABLE3
+    from fieldmap.nav.paper_tables import PAPER_TABLE1, PAPER_TABLE3
     from fieldmap.nav.plots import at_paper_duration
 
     paper = at_paper_duration(res.meta)
@@ -98,7 +98,7 @@ def format_table(res: StudyResult) -> str:
 
 
 def _json_doc(res: StudyResult) -> dict[str, Any]:
-    from fieldmap.nav.paper import PAPER_TABLE1, PAPER_TABLE3
+    from fieldmap.nav.paper_tables import PAPER_TABLE1, PAPER_TABLE3
 
     doc: dict[str, Any] = {
         "study": res.study,

@@ -65,6 +65,7 @@ from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, SmoothedAxis
 from fieldmap.nav.logs.vehicles import Evidence, Vehicle, evidence, guess_vehicle, vehicle_class
 from fieldmap.nav.trajectory import MIN_POINTS, FlightSamples
+from fieldmap.units import STANDARD_GRAVITY
 
 #: grid nodes beyond the data at either end (there the model alone shapes the path)
 EDGE = 8
@@ -119,7 +120,7 @@ class Conditioning:
     reorder : bool
         Sort times that go back; False: refuse them (an :class:`InputError` naming the line).
     dt_out : float, optional
-        Output sample interval (s). Default: the median sample interval, within 0.1..1 s.
+        Output sample interval (s). Default: the median sample interval, within 0.1..5 s.
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
 
@@ -516,7 +517,7 @@ def _smooth(
         scales0[0] *= ANNEAL
     q0 = math.sqrt(lo * hi) * 10.0
     # the height keeps within the class's climb and vertical load factor (bounds, not data)
-    g = 9.80665
+    g = STANDARD_GRAVITY
     bounds = (
         {
             1: (-vehicle.climb, vehicle.climb),
@@ -887,7 +888,10 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         return conditioned_flight(c)
     vehicle, how, ev = _vehicle(log, track, options)
     meas = measurements(log, track, options, vehicle)
-    dt = options.dt_out or float(np.clip(np.median(np.diff(log.t)), 0.1, 1.0))
+    # the grid as fine as the fixes, within 0.1..ESTIMATE_DT_S s: a grid much finer than the
+    # fixes would hold a stiff model's straight lines by faint data alone (a normal matrix
+    # past the digits of float64); the flight's quintic flies between the nodes
+    dt = options.dt_out or float(np.clip(np.median(np.diff(log.t)), 0.1, ESTIMATE_DT_S))
     t_lo, t_hi = float(log.t[0]), float(log.t[-1])
     ng = int(math.floor((t_hi - t_lo) / dt + 1e-9)) + 1
     if ng < MIN_POINTS:

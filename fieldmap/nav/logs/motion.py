@@ -88,6 +88,8 @@ from scipy.optimize import minimize_scalar
 #: a bounded state is held by a penalty this many times its node's own weight, for at most
 #: BOUND_PASSES growths of the active set
 BOUND_STIFFNESS, BOUND_PASSES = 1e4, 12
+#: iterative refinement steps of each banded solve (:func:`_solve_refined`)
+REFINE_STEPS = 2
 #: the largest σ of a channel's time errors (s)
 TIMING_MAX_S = 30.0
 #: states per axis (position, velocity, acceleration) and the band of the normal equations
@@ -250,6 +252,8 @@ class SmoothedAxis:
     neg2loglik: float
     chol: np.ndarray = field(repr=False)
     tau: list[np.ndarray] = field(default_factory=list, repr=False)
+    #: the equilibration of the factored matrix (:func:`_factor`)
+    dscale: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     sigma_tau: list[float] = field(default_factory=list)
 
     def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
@@ -262,7 +266,7 @@ class SmoothedAxis:
         """Posterior σ of state ``state`` (0 position) at node ``k`` (one banded solve)."""
         e = np.zeros(NS * self.grid.n)
         e[NS * k + state] = 1.0
-        z = cho_solve_banded((self.chol, False), e)
+        z = _solve_factored(self.chol, self.dscale, e[:, None])[:, 0]
         return float(math.sqrt(max(z[NS * k + state], 0.0)))
 
 
@@ -272,6 +276,59 @@ def _rows(delta: np.ndarray, order: int) -> np.ndarray:
     if order == 0:
         return np.stack([one, delta, 0.5 * delta * delta], -1)
     return np.stack([zero, one, delta], -1)
+
+
+def _factor(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cholesky factor of the banded matrix equilibrated by its diagonal, and the scaling.
+
+    ``D A D`` with ``D = diag(A)^(-1/2)``: the states' precisions span many decades (a
+    position's against an acceleration's, a stiff prior against faint fixes); scaled to a unit
+    diagonal the factor keeps the digits the solution needs.
+    """
+    dscale = 1.0 / np.sqrt(ab[BAND])
+    abs_ = ab.copy()
+    n = ab.shape[1]
+    for r in range(BAND):
+        k = BAND - r  # row r holds A[j - k, j]
+        abs_[r, k:] *= dscale[: n - k] * dscale[k:]
+    abs_[BAND] = 1.0
+    try:
+        cb = cholesky_banded(abs_, lower=False, check_finite=False)
+    except np.linalg.LinAlgError:
+        # a grid stretch without measurements and a stiff model: a whisper of a prior on
+        # the states keeps the system definite without moving the solution measurably
+        abs_[BAND] += 1e-12
+        cb = cholesky_banded(abs_, lower=False, check_finite=False)
+    return cb, dscale
+
+
+def _solve_factored(cb: np.ndarray, dscale: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve ``A x = b`` with :func:`_factor`'s factor and scaling."""
+    y = cho_solve_banded((cb, False), b * dscale[:, None], check_finite=False)
+    return y * dscale[:, None]
+
+
+def _band_matvec(ab: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Return ``A x`` for the symmetric ``A`` in upper banded form ``ab``, ``x`` (n, d)."""
+    y = ab[BAND][:, None] * x
+    for k in range(1, BAND + 1):
+        vals = ab[BAND - k, k:][:, None]  # A[j - k, j]
+        y[:-k] += vals * x[k:]
+        y[k:] += vals * x[:-k]
+    return y
+
+
+def _solve_refined(ab: np.ndarray, fac: tuple[np.ndarray, np.ndarray], b: np.ndarray) -> np.ndarray:
+    """Solve ``A x = b`` and refine it twice against ``A`` itself (iterative refinement).
+
+    A smooth path pinned by faint fixes under a stiff model has a normal matrix whose
+    condition number reaches 1e13 (the straight lines are held by the fixes alone); each
+    refinement step divides the error by about that number times the machine epsilon.
+    """
+    x = _solve_factored(*fac, b)
+    for _ in range(REFINE_STEPS):
+        x = x + _solve_factored(*fac, b - _band_matvec(ab, x))
+    return x
 
 
 def _apply(h: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -356,6 +413,31 @@ class AxisSmoother:
         self.h: list[np.ndarray] = [np.zeros((0, NS))] * len(channels)
         for i in range(len(channels)):
             self._locate(i)
+        self.x_ref = self._reference()
+
+    def _reference(self) -> np.ndarray:
+        """Return a path the model moves along without process noise, near the data, (n, 3, d).
+
+        The smoother solves for the path's departure from it: the normal matrix of a stiff model
+        pinned by faint fixes reaches condition numbers of 1e13, and what it leaves of the
+        solution's digits must not be those of the Earth's radius. Undamped axes: the
+        least-squares straight line through the first channel's values (constant velocity, no
+        acceleration: ``F`` carries it exactly); damped ones (the height): their mean, at rest.
+        """
+        c = self.channels[0]
+        t = self.grid.t
+        out = np.zeros((self.grid.n, NS, self.d))
+        if c.t.size == 0:
+            return out
+        tc = float(np.mean(c.t))
+        if self.model.beta > 0.0 or c.t.size < 2 or np.ptp(c.t) == 0.0:
+            out[:, 0, :] = np.mean(c.y, axis=0)
+            return out
+        A = np.stack([np.ones_like(c.t), c.t - tc], -1)
+        coef, *_ = np.linalg.lstsq(A, c.y, rcond=None)
+        out[:, 0, :] = coef[0] + np.outer(t - tc, coef[1])
+        out[:, 1, :] = coef[1]
+        return out
 
     def _locate(self, i: int) -> None:
         """Return the nodes and measurement rows of channel ``i`` at its (re-timed) times."""
@@ -438,11 +520,12 @@ class AxisSmoother:
             wi = w / c.rho**2
             ab = np.zeros((BAND + 1, NS * n))
             b = np.zeros((NS * n, d))
+            yd = c.y - _apply(h, self.x_ref[k])  # the values' departure from the reference
             for r in range(NS):
                 for cc in range(r, NS):
                     ab[BAND + r - cc, cc::NS] = np.bincount(k, wi * h[:, r] * h[:, cc], minlength=n)
                 for j in range(d):
-                    b[r::NS, j] = np.bincount(k, wi * h[:, r] * c.y[:, j], minlength=n)
+                    b[r::NS, j] = np.bincount(k, wi * h[:, r] * yd[:, j], minlength=n)
             out.append((ab, b))
         return out
 
@@ -480,37 +563,33 @@ class AxisSmoother:
             ab += abc / s**2
             b += bc / s**2
             norm += float(np.sum(w * c.dof * np.log((s * c.rho) ** 2)))
-        try:
-            cb = cholesky_banded(ab, lower=False, check_finite=False)
-        except np.linalg.LinAlgError:
-            # a grid stretch without measurements and a stiff model: a whisper of a prior on
-            # the states keeps the system definite without moving the solution measurably
-            ab[BAND] += 1e-9 * np.maximum(ab[BAND].max(), 1.0)
-            cb = cholesky_banded(ab, lower=False, check_finite=False)
-        x = cho_solve_banded((cb, False), b, check_finite=False).reshape(n, NS, d)
+        cb, dscale = _factor(ab)
+        logdetA = 2.0 * float(np.sum(np.log(cb[BAND]))) - 2.0 * float(np.sum(np.log(dscale)))
+        dx = _solve_refined(ab, (cb, dscale), b).reshape(n, NS, d)
         if bounded and self.bounds:
-            xb, cbb = self._bounded(ab, b, x)
+            xb, fb = self._bounded(ab, b, dx)
             if xb is not None:
-                x, cb = xb, cbb
+                dx, (cb, dscale) = xb, fb
+        self._last_factor = (cb, dscale)
+        x = self.x_ref + dx
         # J at the solution: process + measurements
-        e = x[1:] - np.matmul(F, x[:-1])
+        e = dx[1:] - np.matmul(F, dx[:-1])  # the reference moves without process noise
         if forced:
             e = e - f
         J = float(np.sum(e * np.matmul(P, e)))
         P0 = self.model.stationary_precision(q)
-        J += float(np.sum(x[0] * np.matmul(P0, x[0])))
+        J += float(np.sum(x[0] * np.matmul(P0, x[0])))  # the reference is at rest there
         w0 = np.linalg.eigvalsh(P0)
         logdetP0 = float(np.sum(np.log(w0[w0 > 0.0])))
         for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
             r = c.y - _apply(h, x[k])
             J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
-        logdetA = 2.0 * float(np.sum(np.log(cb[BAND])))
         neg2 = J + d * logdetA - d * (n - 1) * logdetP - d * logdetP0 + norm
         return x, cb, neg2
 
     def _bounded(
         self, ab: np.ndarray, b: np.ndarray, x: np.ndarray
-    ) -> tuple[np.ndarray | None, np.ndarray]:
+    ) -> tuple[np.ndarray | None, tuple[np.ndarray, np.ndarray]]:
         """Keep the states within :attr:`bounds` (an active set of penalised nodes).
 
         Each node whose state leaves its bound is held at the bound by a penalty
@@ -520,11 +599,11 @@ class AxisSmoother:
         """
         n, d = self.grid.n, self.d
         active: dict[int, float] = {}
-        cb = None
+        fac = None
         for _ in range(BOUND_PASSES):
             new = False
             for state, (lo, hi) in self.bounds.items():
-                v = x[:, state, 0]
+                v = x[:, state, 0] + self.x_ref[:, state, 0]
                 tol = 0.01 * max(abs(lo), abs(hi))
                 for idx, val in (
                     (np.flatnonzero(v > hi + tol), hi),
@@ -533,7 +612,7 @@ class AxisSmoother:
                     for k in idx:
                         key = NS * int(k) + state
                         if key not in active:
-                            active[key], new = val, True
+                            active[key], new = val - self.x_ref[k, state, 0], True
             if not new:
                 break
             keys = np.fromiter(active.keys(), np.int64)
@@ -542,11 +621,11 @@ class AxisSmoother:
             W = BOUND_STIFFNESS * abk[BAND, keys]
             abk[BAND, keys] += W
             bk[keys, :] += (W * vals)[:, None]
-            cb = cholesky_banded(abk, lower=False, check_finite=False)
-            x = cho_solve_banded((cb, False), bk, check_finite=False).reshape(n, NS, d)
-        if cb is None:
-            return None, ab
-        return x, cb
+            fac = _factor(abk)
+            x = _solve_refined(abk, fac, bk).reshape(n, NS, d)
+        if fac is None:
+            return None, (ab, ab[BAND])
+        return x, fac
 
     # -- the mixture's weights ----------------------------------------------------------------
 
@@ -633,8 +712,9 @@ class AxisSmoother:
             rates,
             neg2,
             cb,
-            [t.copy() for t in self.tau],
-            list(self.sigma_tau),
+            tau=[t.copy() for t in self.tau],
+            sigma_tau=list(self.sigma_tau),
+            dscale=self._last_factor[1],
         )
 
     def _maximise(
