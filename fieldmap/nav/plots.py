@@ -1182,8 +1182,8 @@ def flight_figure(res: FlightResult | CovarianceStudyResult, kind: str = "errors
     if kind == "track":
         return track_figure(res)
     if getattr(res, "dpos", None) is None:
-        return sigma_figure(res)  # type: ignore[arg-type]
-    return errors_figure(res)  # type: ignore[arg-type]
+        return sigma_figure(res)
+    return errors_figure(res)
 
 
 def track_aspect(lat_limits: Sequence[float]) -> float:
