@@ -70,7 +70,9 @@ from fieldmap.units import STANDARD_GRAVITY
 #: grid nodes beyond the data at either end (there the model alone shapes the path)
 EDGE = 8
 #: a vehicle within STILL_H m horizontally and STILL_V m vertically of one place never moved
-STILL_H, STILL_V = 30.0, 15.0
+STILL_H = 30.0
+#: ... and the height band (m) it stays within
+STILL_V = 15.0
 #: a position's printed rounding finer than this (m) lets collinear fixes mark interpolation
 INTERP_ROUNDING_M = 1.0
 #: a height change smaller than this (m) between fixes is what a conversion adds (geoid, ISA)
@@ -82,7 +84,9 @@ QUANTISED_SHARE = 0.8
 ESTIMATE_DT_S = 5.0
 #: a log's rates differ from its path's by a unit's factor when they agree on it within this
 #: spread (of the logarithms) where both move faster than UNIT_MIN_RATE (m/s)
-UNIT_SPREAD, UNIT_MIN_RATE = 0.15, 2.0
+UNIT_SPREAD = 0.15
+#: the rate (m/s) both must exceed for their ratio to count
+UNIT_MIN_RATE = 2.0
 #: the positions' σ starts this many times its robust first guess where rates are measured
 ANNEAL = 30.0
 #: time shifts tried for a rejected run of positions (s, both ways)
@@ -120,7 +124,8 @@ class Conditioning:
     reorder : bool
         Sort times that go back; False: refuse them (an :class:`InputError` naming the line).
     dt_out : float, optional
-        Output sample interval (s). Default: the median sample interval, within 0.1..5 s.
+        Output sample interval (s). Default: the median sample interval, within 0.1..1 s (5 s
+        for a log whose fixes are further apart than that).
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
 
@@ -888,10 +893,14 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         return conditioned_flight(c)
     vehicle, how, ev = _vehicle(log, track, options)
     meas = measurements(log, track, options, vehicle)
-    # the grid as fine as the fixes, within 0.1..ESTIMATE_DT_S s: a grid much finer than the
-    # fixes would hold a stiff model's straight lines by faint data alone (a normal matrix
-    # past the digits of float64); the flight's quintic flies between the nodes
-    dt = options.dt_out or float(np.clip(np.median(np.diff(log.t)), 0.1, ESTIMATE_DT_S))
+    # the grid as fine as the fixes, within 0.1..1 s; a log whose fixes are further apart than
+    # ESTIMATE_DT_S is solved on the grid its noise levels are estimated on: a 1 s grid there
+    # would hold a stiff model's straight lines by faint data alone (a normal matrix past the
+    # digits of float64), and the flight's quintic flies between the nodes
+    step = float(np.median(np.diff(log.t)))
+    dt = options.dt_out or (
+        ESTIMATE_DT_S if step > ESTIMATE_DT_S else float(np.clip(step, 0.1, 1.0))
+    )
     t_lo, t_hi = float(log.t[0]), float(log.t[-1])
     ng = int(math.floor((t_hi - t_lo) / dt + 1e-9)) + 1
     if ng < MIN_POINTS:

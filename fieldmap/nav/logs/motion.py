@@ -85,15 +85,17 @@ import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded, expm
 from scipy.optimize import minimize_scalar
 
-#: a bounded state is held by a penalty this many times its node's own weight, for at most
-#: BOUND_PASSES growths of the active set
-BOUND_STIFFNESS, BOUND_PASSES = 1e4, 12
+#: a bounded state is held by a penalty this many times its node's own weight
+BOUND_STIFFNESS = 1e4
+#: the active set of bounded states grows at most this many times
+BOUND_PASSES = 12
 #: iterative refinement steps of each banded solve (:func:`_solve_refined`)
 REFINE_STEPS = 2
 #: the largest σ of a channel's time errors (s)
 TIMING_MAX_S = 30.0
-#: states per axis (position, velocity, acceleration) and the band of the normal equations
+#: states per axis (position, velocity, acceleration)
 NS = 3
+#: off-diagonals of the normal equations (blocks of NS states, tridiagonal)
 BAND = 2 * NS - 1
 
 
