@@ -165,7 +165,7 @@ class MotionModel:
 
 @dataclass(frozen=True)
 class Grid:
-    """Regular nodes ``t0 + dt * k``, ``k = 0 .. n - 1``. Units: s."""
+    """Regular nodes ``t0 + dt * k`` for k from 0 to n - 1 (s)."""
 
     t0: float
     dt: float
