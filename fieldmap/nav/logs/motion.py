@@ -683,26 +683,10 @@ class AxisSmoother:
         x, cb, neg2 = self.solve(q, scales, weights)
         for _ in range(passes):
             for _ in range(2):
-                pi = self.fault_probabilities(x, scales, rates)
-                rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
-                weights = [1.0 - p for p in pi]
-                if self.origin is not None:
-                    self.set_mean_acceleration(x)
-                x, cb, neg2 = self.solve(q, scales, weights)
-                if any(c.timing for c in self.channels):
-                    self.retime(x, scales, weights)
-                    x, cb, neg2 = self.solve(q, scales, weights)
+                x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates)
             q, scales = self._maximise(q, scales, weights)
             x, cb, neg2 = self.solve(q, scales, weights)
-        pi = self.fault_probabilities(x, scales, rates)
-        rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
-        weights = [1.0 - p for p in pi]
-        if self.origin is not None:
-            self.set_mean_acceleration(x)
-        x, cb, neg2 = self.solve(q, scales, weights)
-        if any(c.timing for c in self.channels):
-            self.retime(x, scales, weights)
-            x, cb, neg2 = self.solve(q, scales, weights)
+        x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates)
         pi = self.fault_probabilities(x, scales, rates)
         return SmoothedAxis(
             self.grid,
@@ -718,6 +702,25 @@ class AxisSmoother:
             sigma_tau=list(self.sigma_tau),
             dscale=self._last_factor[1],
         )
+
+    def _e_step(
+        self, x: np.ndarray, q: float, scales: list[float], rates: list[float]
+    ) -> tuple[np.ndarray, np.ndarray, float, list[np.ndarray], list[float]]:
+        """One E-step at the path ``x``: fault probabilities, weights and the path they give.
+
+        The weights and fault shares from ``x``, the curvature input and the time errors
+        updated with the path, the path solved again: ``(x, factor, -2 log L, weights, rates)``.
+        """
+        pi = self.fault_probabilities(x, scales, rates)
+        rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
+        weights = [1.0 - p for p in pi]
+        if self.origin is not None:
+            self.set_mean_acceleration(x)
+        x, cb, neg2 = self.solve(q, scales, weights)
+        if any(c.timing for c in self.channels):
+            self.retime(x, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights)
+        return x, cb, neg2, weights, rates
 
     def _maximise(
         self, q: float, scales: list[float], weights: list[np.ndarray]
