@@ -9,22 +9,26 @@ and 0.10 mg (in black), 80S-80N, 1-degree grid.
 Run: ``python examples/fig04_06_disturbance_20km.py``.
 """
 
-from _settings import lmax, out_dir, step
+import os
 
 import fieldmap
 from fieldmap.products import plots
-from fieldmap.products.io import write_png
+from fieldmap.products.io import prepare_out_dir, write_png
 from fieldmap.products.variables import summary
+
+# full size by default (the paper's); the tests run it small with these variables
+step_deg = float(os.environ.get("FIELDMAP_EXAMPLE_STEP", "1"))  # grid step (degrees)
+lmax = int(os.environ.get("FIELDMAP_EXAMPLE_LMAX", "0")) or None  # None: full degree
+out = prepare_out_dir(os.environ.get("FIELDMAP_EXAMPLE_OUT", "outputs/examples"))
 
 ds = fieldmap.disturbance_map(
     model="eigen-6s",
-    lmax=lmax(),
+    lmax=lmax,
     height_km=20,
-    step_deg=step(),
+    step_deg=step_deg,
     lat_max=80,
     thresholds_mg=(0.02, 0.05, 0.06, 0.10),
 )
-out = out_dir()
 write_png(plots.plot_isolines(ds, [0.02, 0.06, 0.10]), out / "fig04_isolines_20km.png")
 write_png(plots.plot_threshold(ds, 0.06), out / "fig05_above_0.06mg_20km.png")
 write_png(plots.plot_threshold(ds, 0.10), out / "fig06_above_0.10mg_20km.png")

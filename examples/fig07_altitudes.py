@@ -10,22 +10,26 @@ height; the paper's 20-km area fractions as open diamonds).
 Run: ``python examples/fig07_altitudes.py``.
 """
 
-from _settings import lmax, out_dir, step
+import os
 
 import fieldmap
 from fieldmap.products import plots
-from fieldmap.products.io import write_png
+from fieldmap.products.io import prepare_out_dir, write_png
+
+# full size by default (the paper's); the tests run it small with these variables
+step_deg = float(os.environ.get("FIELDMAP_EXAMPLE_STEP", "1"))  # grid step (degrees)
+lmax = int(os.environ.get("FIELDMAP_EXAMPLE_LMAX", "0")) or None  # None: full degree
+out = prepare_out_dir(os.environ.get("FIELDMAP_EXAMPLE_OUT", "outputs/examples"))
 
 heights = [20, 30, 50, 70, 100]
 sw = fieldmap.altitude_sweep(
     model="eigen-6s",
-    lmax=lmax(),
+    lmax=lmax,
     height_km=heights,
-    step_deg=step(),
+    step_deg=step_deg,
     lat_max=80,
     thresholds_mg=(0.02, 0.05, 0.06, 0.10),
 )
-out = out_dir()
 for k, h in enumerate(heights):
     if h in (50, 100):
         write_png(

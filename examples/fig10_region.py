@@ -10,21 +10,27 @@ our own boost-glide path (fieldmap.nav.trajectory.BoostGlide, 800 s).
 Run: ``python examples/fig10_region.py``.
 """
 
+import os
+
 import numpy as np
-from _settings import lmax, out_dir, step
 from matplotlib.patches import Rectangle
 
 import fieldmap
 from fieldmap.nav.trajectory import BoostGlide
 from fieldmap.products import plots
-from fieldmap.products.io import write_png
+from fieldmap.products.io import prepare_out_dir, write_png
+
+# full size by default (the paper's); the tests run it small with these variables
+step_deg = float(os.environ.get("FIELDMAP_EXAMPLE_STEP", "0.025"))  # grid step (degrees)
+lmax = int(os.environ.get("FIELDMAP_EXAMPLE_LMAX", "0")) or None  # None: full degree
+out = prepare_out_dir(os.environ.get("FIELDMAP_EXAMPLE_OUT", "outputs/examples"))
 
 levels = (0.025, 0.05, 0.075, 0.10)
 ds = fieldmap.disturbance_map(
     model="eigen-6s",
-    lmax=lmax(),
+    lmax=lmax,
     height_km=20,
-    step_deg=min(step(0.025), 0.5),
+    step_deg=min(step_deg, 0.5),
     region=(100, 112, 18, 37),
     thresholds_mg=levels,
 )
@@ -49,7 +55,7 @@ ax.text(
     lon[0] + 0.25, lat[0], "our boost-glide:\nlaunch", fontsize=7, zorder=9, va="center", bbox=box
 )
 ax.text(lon[-1] + 0.25, lat[-1], "end (800 s)", fontsize=7, zorder=9, va="center", bbox=box)
-write_png(fig, out_dir() / "fig10_region_20km.png")
+write_png(fig, out / "fig10_region_20km.png")
 sub = ds.sel(longitude=slice(103, 109), latitude=slice(20, 35))
 print(
     f"{ds.attrs['model']} degree {ds.attrs['model_lmax']}, 100-112E 18-37N at 20 km: "
