@@ -68,20 +68,21 @@ numpydoc_xref_param_type = False
 nitpicky = False
 
 # -- Gallery (sphinx-gallery) ----------------------------------------------------------------
-# Every script of examples/ runs in this build and is rendered with its figures in gallery/.
+# Every script of examples/ (and of its sections flights/, maps/) runs in this build and is
+# rendered with its figures in gallery/.
 # The scripts save their figures as PNG files (fieldmap.products.io.write_png closes them), so
 # the scraper of _ext/fieldmap_gallery.py collects the files written into FIELDMAP_EXAMPLE_OUT;
 # the navigation examples run short (--small) with their outputs there too. Hooks are named by
 # qualified name, which keeps this configuration picklable (no warning, so -W passes).
 import fieldmap_gallery  # noqa: E402  (docs/_ext, on sys.path above)
 
-os.environ["FIELDMAP_EXAMPLE_OUT"] = str(fieldmap_gallery.OUT)
+os.environ.update(fieldmap_gallery.ENVIRONMENT)  # outputs, short flights, the sample logs
 os.environ.setdefault("MPLBACKEND", "agg")
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
     "gallery_dirs": "gallery",
     "filename_pattern": fieldmap_gallery.FILENAME_PATTERN,  # every example runs
-    "ignore_pattern": fieldmap_gallery.IGNORE_PATTERN,  # _settings.py: a helper, not an example
+    "ignore_pattern": fieldmap_gallery.IGNORE_PATTERN,  # _*.py: a helper, not an example
     "image_scrapers": ("fieldmap_gallery.png_scraper",),
     "reset_argv": "fieldmap_gallery.example_argv",
     "within_subsection_order": "FileNameSortKey",  # figures in the paper's order

@@ -33,6 +33,44 @@ def _python_blocks(path: pathlib.Path) -> list[str]:
     return re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), re.S)
 
 
+def _docs_extension():
+    """docs/_ext/fieldmap_docs.py, the local Sphinx extension (imported from its file)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "fieldmap_docs", DOCS / "_ext" / "fieldmap_docs.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_docs_build_runs_the_flight_guide(tmp_path):
+    """The docs build runs every Python block of the guide and fails on the first that fails.
+
+    The guide holds the marker; the extension's block finder sees the blocks this module's does;
+    a marked page's blocks run, one without the marker is left alone, and a page whose code
+    raises stops the build (``ExtensionError``). The guide's own run is
+    ``test_flight_from_python`` (the build runs the same blocks).
+    """
+    from sphinx.errors import ExtensionError
+
+    ext = _docs_extension()
+    page = DOCS / "user_guide" / "flight_python.md"
+    text = page.read_text(encoding="utf-8")
+    assert ext.RUN_MARKER in text
+    assert ext.python_blocks(text) == _python_blocks(page)
+    done = tmp_path / "ran"
+    code = f"```python\nimport pathlib\npathlib.Path({str(done)!r}).write_text('ran')\n```\n"
+    ext.run_page_code(None, "unmarked", [code])
+    assert not done.exists()
+    ext.run_page_code(None, "marked", [f"{ext.RUN_MARKER}\n{code}"])
+    assert done.read_text() == "ran"
+    bad = f"{ext.RUN_MARKER}\n```python\nx = 1\n```\n```python\nx / 0\n```\n"
+    with pytest.raises(ExtensionError, match="Python block 2 failed: ZeroDivisionError"):
+        ext.run_page_code(None, "bad", [bad])
+
+
 def test_python_api_block_runs():
     text = README.read_text(encoding="utf-8")
     section = text[text.index("## Python API") :]
@@ -46,19 +84,34 @@ def test_python_api_block_runs():
     assert float(env["ds"]["modulus_mg"].max()) > 0
 
 
-def test_flight_from_python(capsys):
-    """docs/user_guide/flight_python.md: the public flight-study call, as the page writes it.
+def test_flight_from_python(capsys, monkeypatch):
+    """docs/user_guide/flight_python.md: the public flight-study calls, as the page writes them.
 
-    The page's claims are checked too: J2 and J4 add more than the 10 % of the IMU-only error
-    allowed; the full SH model (``sh`` → ``sh240``) adds exactly nothing against the truth, but
-    the field above degree 240 and the commission do, more than 10 %, so no model is
-    recommended and the omission is named as the dominant term.
+    The first block is the five lines of a user's own log (a log shipped in tests/data, the path
+    from the repository's root, where the docs build runs it too): it prints the recommendation
+    and draws the figure. The second block's claims are checked too: J2 and J4 add more than
+    the 10 % of the IMU-only error allowed; the full SH model (``sh`` → ``sh240``) adds exactly
+    nothing against the truth, but the field above degree 240 and the commission do, more than
+    10 %, so no model is recommended and the omission is named as the dominant term.
     """
+    import matplotlib.pyplot as plt
+
     page = DOCS / "user_guide" / "flight_python.md"
-    (block,) = _python_blocks(page)
+    five, block = _python_blocks(page)
+    assert len([line for line in five.splitlines() if line.strip()]) == 5, five
+    monkeypatch.chdir(ROOT)  # the page's paths are the repository's
+    plt.close("all")
     env: dict = {}
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)  # the page shows today's call
+        exec(compile(five, str(page), "exec"), env)
+    assert env["study"].conditioning is not None  # a log file, read and conditioned
+    assert env["res"].summary["recommendation"] in capsys.readouterr().out
+    assert len(plt.get_fignums()) == 1  # res.plot() drew the figure
+    plt.close("all")
+    env = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
         exec(compile(block, str(page), "exec"), env)
     res, added, imu_only = env["res"], env["added_m"], env["imu_only_m"]
     budget = env["budget_m"]

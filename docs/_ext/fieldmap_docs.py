@@ -6,7 +6,10 @@
 - :func:`escape_magnitudes` keeps plain-text magnitudes such as ``|δp|`` in docstrings from being
   read as reStructuredText substitutions;
 - :func:`cli_parser` is the ``fieldmap`` argument parser with its help texts made inert for
-  sphinx-argparse (which parses them as reStructuredText; they are written for a terminal).
+  sphinx-argparse (which parses them as reStructuredText; they are written for a terminal);
+- :func:`run_page_code` runs the Python blocks of the pages marked with :data:`RUN_MARKER` (the
+  guide "Flight study from Python") as the build reads them, so a guide whose code no longer
+  runs fails the build.
 """
 
 from __future__ import annotations
@@ -262,9 +265,65 @@ def drop_object_base(app, name, obj, options, bases: list) -> None:
     bases[:] = [b for b in bases if b is not object]
 
 
+# -- pages whose code the build runs -----------------------------------------------------------
+#: A page holding this comment has its Python blocks run by the build, in order, in one
+#: namespace, from the repository's root (where the paths they name are relative to).
+RUN_MARKER = "<!-- the docs build runs the Python blocks of this page -->"
+ROOT = DOCS.parent
+
+
+def python_blocks(text: str) -> list[str]:
+    """Return the fenced Python blocks of a Markdown page, in order."""
+    return re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+
+
+def run_page_code(app, docname: str, source: list[str]) -> None:
+    """Run the Python blocks of a page holding :data:`RUN_MARKER`; fail the build if one fails.
+
+    Sphinx's ``source-read`` event, so each build that reads the page runs it (``make docs``
+    reads every page: ``-E``). The figures the code draws are closed after it.
+    """
+    if RUN_MARKER not in source[0]:
+        return
+    import contextlib
+    import io
+    import os
+    import time
+
+    import matplotlib
+    from sphinx.errors import ExtensionError
+    from sphinx.util import logging
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    blocks = python_blocks(source[0])
+    if not blocks:
+        raise ExtensionError(f"{docname}: marked to run, but holds no Python block")
+    namespace: dict = {"__name__": "__main__"}
+    here, start = os.getcwd(), time.perf_counter()
+    os.chdir(ROOT)
+    try:
+        for k, block in enumerate(blocks, 1):
+            try:
+                with contextlib.redirect_stdout(io.StringIO()):
+                    exec(compile(block, f"{docname} (Python block {k})", "exec"), namespace)
+            except Exception as exc:
+                raise ExtensionError(
+                    f"{docname}: Python block {k} failed: {type(exc).__name__}: {exc}"
+                ) from exc
+    finally:
+        os.chdir(here)
+        plt.close("all")
+    logging.getLogger(__name__).info(
+        f"{docname}: ran its {len(blocks)} Python blocks in {time.perf_counter() - start:.0f} s"
+    )
+
+
 def setup(app):
     """Generate the API lists before autosummary (builder-inited) runs; escape docstrings."""
     app.connect("config-inited", write_api_lists)
+    app.connect("source-read", run_page_code)
     app.connect("autodoc-process-docstring", escape_magnitudes, priority=400)
     app.connect("autodoc-process-bases", drop_object_base)
     _extend_abbreviations()

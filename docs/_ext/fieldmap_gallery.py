@@ -1,12 +1,14 @@
-"""sphinx-gallery hooks of the fieldmap documentation: the example scripts' PNG files.
+"""sphinx-gallery hooks of the fieldmap documentation: the example scripts' settings and PNG files.
 
-The example scripts in ``examples/`` save their figures as PNG files with
+The example scripts in ``examples/`` (the paper's, and the sections ``flights/`` and ``maps/``)
+save their figures as PNG files with
 :func:`fieldmap.products.io.write_png` (which closes each figure), so sphinx-gallery's matplotlib
 scraper finds no open figure. The scraper here collects the PNG files an example wrote into
 :data:`OUT` instead (the folder of ``FIELDMAP_EXAMPLE_OUT``, and of ``--out`` of the navigation
-examples), as in sphinx-gallery's "image files on disk" recipe. ``docs/conf.py`` names these hooks
-by their qualified names (``fieldmap_gallery.png_scraper``, ``fieldmap_gallery.example_argv``),
-which keeps the Sphinx configuration picklable.
+examples), as in sphinx-gallery's "image files on disk" recipe. :data:`ENVIRONMENT` is what the
+build sets for them: the output folder, the short flights, the folder of the sample logs.
+``docs/conf.py`` names these hooks by their qualified names (``fieldmap_gallery.png_scraper``,
+``fieldmap_gallery.example_argv``), which keeps the Sphinx configuration picklable.
 """
 
 from __future__ import annotations
@@ -14,12 +16,25 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[2]
 #: Where the examples write their figures during the docs build (inside the build folder).
-OUT = Path(__file__).resolve().parents[1] / "_build" / "gallery_outputs"
+OUT = ROOT / "docs" / "_build" / "gallery_outputs"
 
-#: sphinx-gallery's ``filename_pattern``: every script of examples/ runs in the docs build ...
-FILENAME_PATTERN = r"/(fig|section|table)\w*\.py$"
-#: ... except the helpers (``_settings.py``), which are no examples (``ignore_pattern``).
+#: The environment of the examples in the docs build (sphinx-gallery runs each in the folder of
+#: its script): figures into :data:`OUT`; the flight examples fly their short version (the
+#: first minutes, few draws, a low IMU rate) and read the sample logs by their absolute path.
+#: The map examples run at full size (they read ``FIELDMAP_EXAMPLE_STEP``/``_LMAX``, not set).
+ENVIRONMENT = {
+    "FIELDMAP_EXAMPLE_OUT": str(OUT),
+    "FIELDMAP_EXAMPLE_SMALL": "1",
+    "FIELDMAP_EXAMPLE_LOGS": str(ROOT / "tests" / "data" / "flights"),
+}
+
+#: sphinx-gallery's ``filename_pattern``: every script of examples/ and its sections runs in
+#: the docs build ...
+FILENAME_PATTERN = r"/[a-z]\w*\.py$"
+#: ... but a file whose name starts with ``_`` would be a helper, no example (``ignore_pattern``;
+#: there is none: each example reads its settings itself, from public API only).
 IGNORE_PATTERN = r"(^|/)_\w*\.py$"
 
 #: Command-line arguments of the navigation examples in the gallery: the short run of the

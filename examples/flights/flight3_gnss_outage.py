@@ -13,7 +13,7 @@ over the IMU's errors and the GNSS noise. The first figure shows the errors over
 outages shaded; the second the error budget at the end of the worst outage.
 
 Run: ``python examples/flights/flight3_gnss_outage.py`` from the repository's root (about
-10 min on two cores); ``FIELDMAP_EXAMPLE_SMALL=1`` flies the first 30 minutes (one outage),
+80 s on two cores); ``FIELDMAP_EXAMPLE_SMALL=1`` flies the first 30 minutes (one outage),
 with 2 draws at 50 Hz.
 """
 

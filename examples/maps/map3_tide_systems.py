@@ -1,5 +1,5 @@
 """Tide systems: the zero-tide minus the tide-free geoid.
-=====================================================
+======================================================
 
 The same model, EIGEN-6S, in two permanent-tide systems: tide-free (its file's) and zero-tide
 (:func:`fieldmap.load_model` with ``tide_system="zero_tide"``, IERS Conventions 2010 §6.2.2).
