@@ -58,15 +58,16 @@ def test_docs_build_runs_the_flight_guide(tmp_path):
     ext = _docs_extension()
     page = DOCS / "user_guide" / "flight_python.md"
     text = page.read_text(encoding="utf-8")
-    assert ext.RUN_MARKER in text
+    assert ext.RUN_MARKER.search(text)
     assert ext.python_blocks(text) == _python_blocks(page)
     done = tmp_path / "ran"
     code = f"```python\nimport pathlib\npathlib.Path({str(done)!r}).write_text('ran')\n```\n"
     ext.run_page_code(None, "unmarked", [code])
     assert not done.exists()
-    ext.run_page_code(None, "marked", [f"{ext.RUN_MARKER}\n{code}"])
+    marker = "<!-- the docs build runs the Python blocks of this page in tests/ -->"
+    ext.run_page_code(None, "marked", [f"{marker}\n{code}"])
     assert done.read_text() == "ran"
-    bad = f"{ext.RUN_MARKER}\n```python\nx = 1\n```\n```python\nx / 0\n```\n"
+    bad = f"{marker}\n```python\nx = 1\n```\n```python\nx / 0\n```\n"
     with pytest.raises(ExtensionError, match="Python block 2 failed: ZeroDivisionError"):
         ext.run_page_code(None, "bad", [bad])
 
@@ -87,9 +88,9 @@ def test_python_api_block_runs():
 def test_flight_from_python(capsys, monkeypatch):
     """docs/user_guide/flight_python.md: the public flight-study calls, as the page writes them.
 
-    The first block is the five lines of a user's own log (a log shipped in tests/data, the path
-    from the repository's root, where the docs build runs it too): it prints the recommendation
-    and draws the figure. The second block's claims are checked too: J2 and J4 add more than
+    The first block is the five lines of a user's own log (a log shipped in tests/data/flights,
+    run in that folder, as the docs build runs it): it prints the recommendation and draws the
+    figure. The second block's claims are checked too: J2 and J4 add more than
     the 10 % of the IMU-only error allowed; the full SH model (``sh`` → ``sh240``) adds exactly
     nothing against the truth, but the field above degree 240 and the commission do, more than
     10 %, so no model is recommended and the omission is named as the dominant term.
@@ -99,7 +100,9 @@ def test_flight_from_python(capsys, monkeypatch):
     page = DOCS / "user_guide" / "flight_python.md"
     five, block = _python_blocks(page)
     assert len([line for line in five.splitlines() if line.strip()]) == 5, five
-    monkeypatch.chdir(ROOT)  # the page's paths are the repository's
+    folder = _docs_extension().RUN_MARKER.search(page.read_text(encoding="utf-8"))[1]
+    assert folder == "tests/data/flights"
+    monkeypatch.chdir(ROOT / folder)  # where the docs build runs the page
     plt.close("all")
     env: dict = {}
     with warnings.catch_warnings():

@@ -267,8 +267,10 @@ def drop_object_base(app, name, obj, options, bases: list) -> None:
 
 # -- pages whose code the build runs -----------------------------------------------------------
 #: A page holding this comment has its Python blocks run by the build, in order, in one
-#: namespace, from the repository's root (where the paths they name are relative to).
-RUN_MARKER = "<!-- the docs build runs the Python blocks of this page -->"
+#: namespace, in the folder it names (relative to the repository's root, where the paths the
+#: code names are relative to): ``<!-- the docs build runs the Python blocks of this page in
+#: tests/data/flights/ -->``.
+RUN_MARKER = re.compile(r"<!-- the docs build runs the Python blocks of this page in (\S*?)/? -->")
 ROOT = DOCS.parent
 
 
@@ -283,7 +285,8 @@ def run_page_code(app, docname: str, source: list[str]) -> None:
     Sphinx's ``source-read`` event, so each build that reads the page runs it (``make docs``
     reads every page: ``-E``). The figures the code draws are closed after it.
     """
-    if RUN_MARKER not in source[0]:
+    marker = RUN_MARKER.search(source[0])
+    if marker is None:
         return
     import contextlib
     import io
@@ -302,7 +305,7 @@ def run_page_code(app, docname: str, source: list[str]) -> None:
         raise ExtensionError(f"{docname}: marked to run, but holds no Python block")
     namespace: dict = {"__name__": "__main__"}
     here, start = os.getcwd(), time.perf_counter()
-    os.chdir(ROOT)
+    os.chdir(ROOT / marker[1])
     try:
         for k, block in enumerate(blocks, 1):
             try:
