@@ -535,7 +535,7 @@ def _smooth(
     # fixes (up to ESTIMATE_DT_S), then the path solved on the output grid with them
     step = float(np.median(np.diff(channels[0].t))) if channels[0].t.size > 1 else grid.dt
     coarse_dt = min(step, ESTIMATE_DT_S)
-    weights0 = tau0 = None
+    weights0 = tau0 = lam0 = None
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
         coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
@@ -544,9 +544,16 @@ def _smooth(
         )
         q0, scales0, weights0 = est.q, est.scales, [1.0 - p for p in est.fault_prob]
         tau0 = (est.tau, est.sigma_tau)
+        # a coarse step's weight holds for each fine step inside it (the jerk's scale)
+        lam0 = est.lam[np.minimum(np.arange(grid.n - 1) // k, est.lam.size - 1)]
     sm = AxisSmoother(grid, model, channels, (lo, hi), sbounds, fixed, bounds, origin)
     return sm.run(
-        q0, scales0, passes=0 if weights0 is not None else 2, weights0=weights0, tau0=tau0
+        q0,
+        scales0,
+        passes=0 if weights0 is not None else 2,
+        weights0=weights0,
+        tau0=tau0,
+        lam0=lam0,
     )
 
 

@@ -60,7 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fieldmap.errors import InputError, Keyword
-from fieldmap.nav.logs.motion import MotionModel
+from fieldmap.nav.logs.motion import VERTICAL_JERK_DOF, MotionModel
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 
@@ -108,8 +108,14 @@ class Vehicle:
         return MotionModel(tau_s=self.tau_s)
 
     def vertical_model(self) -> MotionModel:
-        """Return the Singer model of the height (its vertical speed damped: ``tau_climb_s``)."""
-        return MotionModel(tau_s=self.tau_s, beta=1.0 / self.tau_climb_s)
+        """Return the Singer model of the height (its vertical speed damped: ``tau_climb_s``).
+
+        Its jerk is heavy-tailed: Student-t with
+        :data:`~fieldmap.nav.logs.motion.VERTICAL_JERK_DOF` degrees of freedom (manoeuvres).
+        """
+        return MotionModel(
+            tau_s=self.tau_s, beta=1.0 / self.tau_climb_s, jerk_dof=VERTICAL_JERK_DOF
+        )
 
     def q_bounds(self, vertical: bool) -> tuple[float, float]:
         """Jerk intensity bounds (m²/s⁵): the largest acceleration is a 3σ manoeuvre."""
