@@ -124,8 +124,10 @@ class Conditioning:
     reorder : bool
         Sort times that go back; False: refuse them (an :class:`InputError` naming the line).
     dt_out : float, optional
-        Output sample interval (s). Default: the median sample interval, within 0.1..1 s (5 s
-        for a log whose fixes are further apart than that).
+        Output sample interval (s): the last sample falls less than one interval after the last
+        fix. Default: the median sample interval, within 0.1..1 s (5 s for a log whose fixes are
+        further apart than that), shortened to divide the log's span: the first and the last
+        sample on the first and the last fix.
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
 
@@ -909,7 +911,12 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         ESTIMATE_DT_S if step > ESTIMATE_DT_S else float(np.clip(step, 0.1, 1.0))
     )
     t_lo, t_hi = float(log.t[0]), float(log.t[-1])
-    ng = int(math.floor((t_hi - t_lo) / dt + 1e-9)) + 1
+    # the first and the last node on the first and the last fix: the step shortened to divide
+    # the span (a given dt_out is kept, and the last node falls less than a step after the
+    # last fix)
+    ng = int(math.ceil((t_hi - t_lo) / dt - 1e-9)) + 1
+    if options.dt_out is None and ng > 1:
+        dt = (t_hi - t_lo) / (ng - 1)
     if ng < MIN_POINTS:
         raise InputError(
             f"{log.source} lines {log.lines[0]}..{log.lines[-1]}: the flight lasts "
