@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import PurePath
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -580,7 +581,6 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
         a.grid(True, which="both", alpha=0.3)
     for a in ax.flat:
         a.grid(True, alpha=0.3)
-    fig.suptitle(
-        f"{cf.report['source']}: {int(used.sum())} kept, {int((bad_h | bad_v).sum())} rejected"
-    )
+    name = PurePath(str(cf.report["source"])).name  # the file, not the folder it was read in
+    fig.suptitle(f"{name}: {int(used.sum())} kept, {int((bad_h | bad_v).sum())} rejected")
     return fig
