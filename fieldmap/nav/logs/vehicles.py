@@ -23,12 +23,9 @@ light-aircraft  −1.5 … 3.8 130     20      17    8     120    CS-23 normal c
 turboprop       −1 … 2.5   190     25      10    15    300    CS-25 / CS-23 commuter limit
                                                               loads; 45° bank (calibration
                                                               orbits, standard-rate turns)
-airliner        −1 … 2.5   360     110     6     30    300    CS-25.337 limit loads (parabolic
+airliner        −1 … 2.5   360     40      6     30    300    CS-25.337 limit loads (parabolic
                                                               flights reach 0 g); 30° bank in
-                                                              service; Mach 0.9 + jet stream;
-                                                              250 m/s on a 26° flight path (an
-                                                              emergency descent, a parabola's
-                                                              pull-up)
+                                                              service; Mach 0.9 + jet stream
 helicopter      −0.5 … 3.5 110     20      10    8     60     CS-27/29 manoeuvring loads; 45°
 fighter         −3 … 9     700     300     80    4     60     F-16 +9/−3 g; Mach 2
 uav             −1 … 4     80      25      20    4     60     small drones, no basis: light
@@ -135,7 +132,7 @@ VEHICLES: dict[str, Vehicle] = {
         Vehicle("glider", -2.65, 5.3, 100.0, 15.0, 12.0, 6.0, 120.0, 15.0),
         Vehicle("light-aircraft", -1.5, 3.8, 130.0, 20.0, 17.0, 8.0, 120.0, 20.0),
         Vehicle("turboprop", -1.0, 2.5, 190.0, 25.0, 10.0, 15.0, 300.0, 35.0),
-        Vehicle("airliner", -1.0, 2.5, 360.0, 110.0, 6.0, 30.0, 300.0, 50.0),
+        Vehicle("airliner", -1.0, 2.5, 360.0, 40.0, 6.0, 30.0, 300.0, 50.0),
         Vehicle("helicopter", -0.5, 3.5, 110.0, 20.0, 10.0, 8.0, 60.0),
         Vehicle("fighter", -3.0, 9.0, 700.0, 300.0, 80.0, 4.0, 60.0, 60.0),
         Vehicle("uav", -1.0, 4.0, 80.0, 25.0, 20.0, 4.0, 60.0),
