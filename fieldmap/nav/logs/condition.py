@@ -357,6 +357,21 @@ def height_quantum(h: np.ndarray) -> float:
     return q if np.mean(near & (np.round(r) <= 40)) >= QUANTISED_SHARE else 0.0
 
 
+def _repeats(y: np.ndarray, tol: float = 0.0) -> np.ndarray | None:
+    """Return the samples whose value (row of ``y``) repeats the one before within ``tol``.
+
+    None when none does. A repeat is a copy of the earlier value or a fresh one in the same
+    printed cell (the smoother's mixture tells which: :mod:`fieldmap.nav.logs.motion`, "Held
+    values"). The rates (ground velocity, vertical rate) are given it; the heights are not: a
+    vehicle on the ground or in level flight repeats its height for minutes as a measurement,
+    and the heights are what the path's height keeps to (tried on the corpus: heights taken
+    for copies on the ground let the path float off 82 pieces' heights).
+    """
+    out = np.zeros(y.shape[0], bool)
+    out[1:] = np.all(np.abs(y[1:] - y[:-1]) <= tol, axis=1)
+    return out if out.any() else None
+
+
 def _radii(lat_deg: np.ndarray, ell: Ellipsoid) -> tuple[np.ndarray, np.ndarray]:
     """Prime vertical and meridian radii of curvature (m) at geodetic latitudes."""
     e2 = ell.f * (2.0 - ell.f)
@@ -398,7 +413,13 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     q = height_quantum(log.h)
     hspan = float(np.ptp(log.h)) if n else 0.0
     heights = Channel(
-        log.t, log.h[:, None], np.ones(n), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
+        log.t,
+        log.h[:, None],
+        np.ones(n),
+        0,
+        1,
+        _fault_density(hspan + 1000.0, 1),
+        "height",
     )
     index = {"position": hi, "height": np.arange(n)}
     vel = getattr(track, "velocity", None) if options.log_velocities else None
@@ -420,8 +441,19 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
             vn = speed[iv] * np.cos(chi) * mr / (mr + hh)
             C = C_e_to_enu(log.lat[iv], log.lon[iv])
             v_ecef = ve[:, None] * C[:, 0, :] + vn[:, None] * C[:, 1, :]
+            cells = resolution[0] * np.maximum(
+                speed[iv] * math.radians(resolution[1]), resolution[0]
+            )
             velocities = Channel(
-                log.t[iv], v_ecef, np.ones(iv.size), 1, 2, _fault_density(top.speed, 2), "velocity"
+                log.t[iv],
+                v_ecef,
+                np.ones(iv.size),
+                1,
+                2,
+                _fault_density(top.speed, 2),
+                "velocity",
+                held=_repeats(np.stack([speed[iv], course[iv]], -1)),
+                cell=float(np.median(cells)) if resolution[0] > 0.0 else 0.0,
             )
             index["velocity"] = iv
         if vel.climb is not None:
@@ -437,6 +469,8 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
                     1,
                     _fault_density(top.climb, 1),
                     "vertical rate",
+                    held=_repeats(climb[ic, None]),
+                    cell=resolution[2],
                 )
                 index["vertical rate"] = ic
     elif getattr(track, "velocity", None) is not None:
@@ -537,14 +571,15 @@ def _smooth(
     # fixes (up to ESTIMATE_DT_S), then the path solved on the output grid with them
     step = float(np.median(np.diff(channels[0].t))) if channels[0].t.size > 1 else grid.dt
     coarse_dt = min(step, ESTIMATE_DT_S)
-    weights0 = tau0 = lam0 = None
+    weights0 = tau0 = lam0 = shares0 = None
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
         coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
         est = AxisSmoother(coarse, model, channels, (lo, hi), sbounds, fixed, bounds, origin).run(
             q0, scales0
         )
-        q0, scales0, weights0 = est.q, est.scales, [1.0 - p for p in est.fault_prob]
+        q0, scales0, weights0 = est.q, est.scales, est.weights()
+        shares0 = (est.fault_rate, est.held_rate)
         tau0 = (est.tau, est.sigma_tau)
         # a coarse step's weight holds for each fine step inside it (the jerk's scale)
         lam0 = est.lam[np.minimum(np.arange(grid.n - 1) // k, est.lam.size - 1)]
@@ -556,6 +591,7 @@ def _smooth(
         weights0=weights0,
         tau0=tau0,
         lam0=lam0,
+        shares0=shares0,
     )
 
 
@@ -651,6 +687,13 @@ def estimate(
     for axis, cl in ((hz, hchans), (vt, vchans)):
         for i, c in enumerate(cl):
             chans[c.name] = (c, axis, i)
+            copies = int(np.sum(axis.held_prob[i] > 0.5))
+            if copies:
+                notes.append(
+                    f"{copies} of the log's {c.name}s ({100.0 * copies / c.t.size:.0f} %) repeat "
+                    "the value before them where the path moves on: copies of it (a value held "
+                    "or filled forward), not measurements"
+                )
     return PathEstimate(hz, vt, chans, tuple(notes))
 
 

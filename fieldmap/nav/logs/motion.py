@@ -60,9 +60,32 @@ nearest node) measures :math:`y_i = h_i^\top x_k + \varepsilon_i` with
 :math:`h = (1, \delta, \delta^2/2)` for a position and :math:`(0, 1, \delta)` for a rate
 (the log's ground velocity or vertical rate); :math:`\varepsilon_i` is drawn from a mixture:
 with probability :math:`1 - \epsilon` the channel's noise :math:`N(0, s^2 \rho_i^2)` (scale
-:math:`s` estimated, :math:`\rho_i` known: a rounding, a run of one repeated value), with
+:math:`s` estimated, :math:`\rho_i` known, 1 for every channel a log gives), with
 probability :math:`\epsilon` a fault, uniform over the range the log spans (a fix from
 elsewhere, a glitch, a stretch with wrong time tags).
+
+**Held values.** A sample whose printed value repeats the one before it exactly is either a
+new measurement that happens to fall in the same printed cell, or the earlier value sent
+again (a log resampled to a clock and filled forward, a receiver that holds its last rate
+while it has none): a copy, which says nothing of the path at its own time. Its measurement
+is a three-way mixture: fault :math:`\epsilon`, copy :math:`(1 - \epsilon)\eta`, fresh
+:math:`(1 - \epsilon)(1 - \eta)`. In probabilities of the printed value (the densities times
+the cell :math:`c` of one printed value: the channel's resolution, to the power :math:`d_i`),
+a copy repeats the value with probability 1, a fresh value with
+:math:`N(y_i; h_i^\top x, s^2\rho_i^2)\,c`, a fault with :math:`f c`. So the posterior
+probability that sample :math:`i` is a copy is
+
+.. math::
+
+    \kappa_i = \frac{(1-\epsilon)\,\eta}{\epsilon f c + (1-\epsilon)(1-\eta)\,
+               N(y_i; h_i^\top x, s^2\rho_i^2)\,c + (1-\epsilon)\,\eta},
+
+its fault probability :math:`\pi_i` the same with :math:`\epsilon f c` on top, and its
+weight :math:`w_i = 1 - \pi_i - \kappa_i`; :math:`\eta` is the mean of :math:`\kappa` over the
+channel's repeats (EM). A value held while the path moves on (a vertical rate repeated for
+two minutes while the heights level off) is explained as copies, not as a path that follows
+it; where the values are fresh (a rate held at zero in level flight, resolved within a
+quarter of the noise), :math:`N c > 1` and :math:`\eta` goes to zero.
 
 **Smoother.** The smoothed path minimises
 
@@ -75,9 +98,9 @@ whose normal equations :math:`A x = b` are block tridiagonal (banded, 5 off-diag
 banded Cholesky solve gives the Rauch–Tung–Striebel smoother's mean (Rauch, Tung & Striebel
 1965; the equivalence: Bell 1994). The weights are the EM expectation of the mixture: with
 :math:`\pi_i` the posterior probability that fix :math:`i` is a fault,
-:math:`w_i = 1 - \pi_i`, and :math:`\epsilon` the mean of :math:`\pi` (Dempster, Laird &
-Rubin 1977). A fix is rejected when :math:`\pi_i > 1/2`: the fault explains it better than the
-path does.
+:math:`w_i = 1 - \pi_i` (:math:`1 - \pi_i - \kappa_i` for a repeat), and :math:`\epsilon` the
+mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
+:math:`\pi_i > 1/2`: the fault explains it better than the path does.
 
 **Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
 of the data (diffuse initial state),
@@ -125,6 +148,8 @@ REFINE_STEPS = 2
 VERTICAL_JERK_DOF = 1.0
 #: E-steps of the steps' weights λ, after the noise levels (module docstring)
 MANOEUVRE_STEPS = 8
+#: the share η of a channel's repeats taken for copies before the first E-step: no preference
+HELD_START = 0.5
 #: the largest σ of a channel's time errors (s)
 TIMING_MAX_S = 30.0
 #: states per axis (position, velocity, acceleration)
@@ -247,6 +272,12 @@ class Channel:
         The samples' time tags err (a position stamped when the message was received or
         relayed, not when it was fixed): each has a time error τ_i, estimated with the path
         (module docstring).
+    held : numpy.ndarray, optional
+        The samples whose printed value repeats the previous sample's exactly, (m,) bool: a
+        copy or a fresh value (module docstring, "Held values"). None: no repeats modelled.
+    cell : float
+        The size of one printed value (the channel's resolution to the power ``dof``), in the
+        units of ``y`` to the power ``dof``.
     """
 
     t: np.ndarray
@@ -257,6 +288,8 @@ class Channel:
     fault_density: float
     name: str
     timing: bool = False
+    held: np.ndarray | None = None
+    cell: float = 0.0
 
 
 @dataclass
@@ -298,6 +331,14 @@ class SmoothedAxis:
     sigma_tau: list[float] = field(default_factory=list)
     #: the steps' weights λ of the heavy-tailed jerk (module docstring), (n - 1,)
     lam: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: each channel's posterior probabilities κ that a repeat is a copy (module docstring)
+    held_prob: list[np.ndarray] = field(default_factory=list, repr=False)
+    #: each channel's share η of its repeats that are copies (0 where it has none)
+    held_rate: list[float] = field(default_factory=list)
+
+    def weights(self) -> list[np.ndarray]:
+        """Each channel's measurement weights ``1 − π − κ`` (module docstring)."""
+        return [1.0 - p - k for p, k in zip(self.fault_prob, self.held_prob)]
 
     def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         """Return the path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
@@ -491,6 +532,11 @@ class AxisSmoother:
         self.a_c = np.zeros((grid.n, self.d))
         self._B = model.forcing(grid.dt)
         self.curvature = False
+        #: each channel's share η of its repeats that are copies (module docstring)
+        self.held_rates = [
+            HELD_START if c.held is not None and np.any(c.held) and c.cell > 0.0 else 0.0
+            for c in channels
+        ]
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
         self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
@@ -716,23 +762,38 @@ class AxisSmoother:
 
     # -- the mixture's weights ----------------------------------------------------------------
 
-    def fault_probabilities(
+    def posteriors(
         self, x: np.ndarray, scales: list[float], rates: list[float]
-    ) -> list[np.ndarray]:
-        """Posterior fault probability π of every measurement (module docstring)."""
-        out = []
-        for c, k, h, s, eps in zip(self.channels, self.k, self.h, scales, rates):
+    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Posterior fault probabilities π and copy probabilities κ (module docstring).
+
+        Per channel, at the path ``x``, with the fault shares ``rates`` and the copy shares
+        :attr:`held_rates`; κ is 0 for a sample that repeats nothing.
+        """
+        faults, copies = [], []
+        for c, k, h, s, eps, eta in zip(
+            self.channels, self.k, self.h, scales, rates, self.held_rates
+        ):
             r = c.y - _apply(h, x[k])
             var = (s * c.rho) ** 2
             z2 = np.sum(r * r, axis=1) / var
             # log of the inlier density (dof-dimensional isotropic Gaussian)
             log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
             log_out = math.log(max(c.fault_density, 1e-300))
-            a = np.log(eps) + log_out
+            a = np.full(r.shape[0], np.log(eps) + log_out)
             bb = np.log1p(-eps) + log_in
-            m = np.maximum(a, bb)
-            out.append(np.exp(a - m) / (np.exp(a - m) + np.exp(bb - m)))
-        return out
+            if eta > 0.0 and c.held is not None:
+                # in probabilities of the printed value: densities per cell, a copy's 1 per cell
+                bb = np.where(c.held, bb + math.log1p(-eta), bb)
+                cc = np.where(c.held, math.log1p(-eps) + math.log(eta) - math.log(c.cell), -np.inf)
+            else:
+                cc = np.full(r.shape[0], -np.inf)
+            m = np.maximum(np.maximum(a, bb), cc)
+            ea, eb, ec = np.exp(a - m), np.exp(bb - m), np.exp(cc - m)
+            den = ea + eb + ec
+            faults.append(ea / den)
+            copies.append(ec / den)
+        return faults, copies
 
     # -- the whole estimate -------------------------------------------------------------------
 
@@ -744,6 +805,7 @@ class AxisSmoother:
         weights0: list[np.ndarray] | None = None,
         tau0: tuple[list[np.ndarray], list[float]] | None = None,
         lam0: np.ndarray | None = None,
+        shares0: tuple[list[float], list[float]] | None = None,
     ) -> SmoothedAxis:
         """EM for the mixture, alternating with the marginal-likelihood noise levels.
 
@@ -752,7 +814,9 @@ class AxisSmoother:
         their weight), then ``q`` and the scales maximising the likelihood with the weights
         held; a last E-step gives the weights of the final path. ``weights0``: the weights to
         start from (default 1: every measurement an inlier); ``tau0``: the time errors and their
-        σ to start from; ``lam0``: the steps' weights to start from (default 1).
+        σ to start from; ``lam0``: the steps' weights to start from (default 1); ``shares0``:
+        the fault and copy shares ε, η to start from (default: from ``weights0``, and
+        :data:`HELD_START`).
         """
         if lam0 is not None:
             self.lam = np.asarray(lam0, dtype=np.float64).copy()
@@ -768,6 +832,8 @@ class AxisSmoother:
         ]
         weights = weights0 or [np.ones(c.t.size) for c in self.channels]
         rates = [float(np.clip(1.0 - np.mean(w), 1e-4, 0.5)) for w in weights]
+        if shares0 is not None:
+            rates, self.held_rates = list(shares0[0]), list(shares0[1])
         x, cb, neg2 = self.solve(q, scales, weights)
         for _ in range(passes):
             for _ in range(2):
@@ -777,7 +843,7 @@ class AxisSmoother:
         for _ in range(MANOEUVRE_STEPS if self.model.jerk_dof and lam0 is None else 0):
             x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, heavy=True)
         x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates)
-        pi = self.fault_probabilities(x, scales, rates)
+        pi, kappa = self.posteriors(x, scales, rates)
         return SmoothedAxis(
             self.grid,
             self.model,
@@ -792,6 +858,8 @@ class AxisSmoother:
             sigma_tau=list(self.sigma_tau),
             dscale=self._last_factor[1],
             lam=self.lam.copy(),
+            held_prob=kappa,
+            held_rate=list(self.held_rates),
         )
 
     def manoeuvres(self, x: np.ndarray, q: float) -> np.ndarray:
@@ -830,9 +898,13 @@ class AxisSmoother:
         the time errors updated with the path, the path solved again: ``(x, factor,
         -2 log L, weights, rates)``.
         """
-        pi = self.fault_probabilities(x, scales, rates)
+        pi, kappa = self.posteriors(x, scales, rates)
         rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
-        weights = [1.0 - p for p in pi]
+        self.held_rates = [
+            float(np.clip(np.mean(kp[c.held]), 1e-4, 1.0 - 1e-4)) if eta > 0.0 else 0.0
+            for c, kp, eta in zip(self.channels, kappa, self.held_rates)
+        ]
+        weights = [1.0 - p - kp for p, kp in zip(pi, kappa)]
         if self.origin is not None:
             self.set_mean_acceleration(x)
         if heavy:

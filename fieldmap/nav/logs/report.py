@@ -281,6 +281,7 @@ def build_report(c: Any) -> dict[str, Any]:
             "noise_sigma": float(axis.scales[i]),
             "fault_rate": float(axis.fault_rate[i]),
             "rejected": int(rej.sum()),
+            "copies": int(np.sum(axis.held_prob[i] > 0.5)),
             "residual_rms": r_in * per_axis,
             "residual_max": m_in,
             "residual_all_max": m_all,
@@ -479,6 +480,7 @@ def format_report(rep: dict) -> str:
                 f"residual RMS {ch['residual_rms']:.2f} {u}{per}, largest {ch['residual_max']:.1f}"
                 f" {u} (kept), {ch['residual_all_max']:.0f} {u} (all, line "
                 f"{ch['residual_all_max_line']}); {ch['rejected']} rejected"
+                + (f", {ch['copies']} copies of the value before" if ch["copies"] else "")
             )
         fl = rep["faults"]["list"]
         if fl:

@@ -1,0 +1,108 @@
+"""A rate the log holds while the vehicle moves on is a copy, not a measurement (issue 34).
+
+A synthetic airliner log in ``traffic``'s CSV layout, one row a second (a log resampled to a
+clock and filled forward, as the corpus's ADS-B pieces): it climbs at 15 ± 2 m/s, then
+eases to 5 m/s over 20 s and climbs on for two minutes. Its ``vertical_rate`` column (0.3 m/s
+of noise, 64 ft/min steps) stops being updated at the ease: it holds the last climb to the
+end (what the corpus's ``quickstart_3944e1_02`` does for 140 s). The altitudes (25 ft
+steps) are fresh all along. Its truth is built here, with its own geodesy.
+
+The smoother's mixture (``fieldmap.nav.logs.motion``, "Held values") takes the held rates for
+copies of the last fresh one: the path follows the heights, and the report counts the copies.
+Taken as 120 measurements of a 15 m/s climb they would pull the path hundreds of metres above
+the heights. A rate held at its value because the value does not change (the ground speed of
+straight and level flight, repeated row after row) stays a measurement: the copies' share of
+the repeats goes to zero there.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pytest
+
+from fieldmap.nav.logs import load_flight
+from fieldmap.nav.logs.read import read_track
+
+FT, KT, FPM = 0.3048, 1852.0 / 3600.0, 0.3048 / 60.0
+A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
+E2 = F_WGS * (2.0 - F_WGS)
+SPEED = 200.0  # m/s north
+
+
+def _ramp(t: np.ndarray, t0: float, dur: float) -> np.ndarray:
+    """0 before t0, 1 after t0 + dur, a smooth (C²) step between."""
+    x = np.clip((t - t0) / dur, 0.0, 1.0)
+    return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+
+def _truth(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Latitude, height and climb rate at ``t`` (s): 15 ± 2 m/s, then 5 m/s from 300 s."""
+
+    def climb(t: np.ndarray) -> np.ndarray:
+        ease = _ramp(t, 300.0, 20.0)
+        return (15.0 + 2.0 * np.sin(2.0 * np.pi * t / 60.0)) * (1.0 - ease) + 5.0 * ease
+
+    vz = climb(t)
+    # the height: the integral of vz (fine sampling, trapezoids)
+    tf = np.arange(0.0, t.max() + 0.005, 0.01)
+    vf = climb(tf)
+    hf = 3000.0 + np.concatenate([[0.0], np.cumsum(0.5 * (vf[1:] + vf[:-1]) * 0.01)])
+    h = np.interp(t, tf, hf)
+    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(47.0)) ** 2) ** 1.5
+    return 47.0 + np.degrees(SPEED * t / m_lat), h, vz
+
+
+@pytest.fixture(scope="module")
+def flown(tmp_path_factory):
+    t = np.arange(0.0, 440.0 + 0.5, 1.0)
+    lat, h, vz = _truth(t)
+    alt_ft = np.round(h / FT / 25.0) * 25.0
+    rng = np.random.default_rng(34)
+    vr_fpm = np.round((vz + 0.3 * rng.standard_normal(t.size)) / FPM / 64.0) * 64.0
+    vr_fpm[t >= 300.0] = vr_fpm[t < 300.0][-1]  # held from the ease on
+    t0 = dt.datetime(2024, 5, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
+    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    for ti, la, al, vr in zip(t, lat, alt_ft, vr_fpm):
+        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
+        rows.append(
+            f"{stamp},abc123,TEST1,{la:.6f},8.000000,{al:.0f},{round(SPEED / KT)},0,{vr:.0f}"
+        )
+    path = tmp_path_factory.mktemp("held") / "held_climb.csv"
+    path.write_text("\n".join(rows) + "\n")
+    _, cf = load_flight(path, height_ref="pressure")
+    return path, h, cf
+
+
+def test_path_follows_the_heights_not_the_held_rate(flown):
+    """Within 3σ of the 25 ft steps of every height (the held rate: 400 m above them).
+
+    The log's heights as the conditioning reads them (pressure altitudes plus the geoid);
+    each is its true height rounded to 7.6 m, so within 3σ = 6.6 m of the path (σ = 7.6/√12)
+    where the path is within 2.8 m of the truth.
+    """
+    path, h, cf = flown
+    log = read_track(path, height_ref="pressure")
+    s = cf.samples
+    err = np.abs(np.interp(log.t, s.t_start + s.t, s.h) - log.h)
+    sigma = 25.0 * FT / np.sqrt(12.0)
+    assert err.max() <= 3.0 * sigma, f"worst {err.max():.1f} m at line {log.lines[np.argmax(err)]}"
+    # and against the truth: the log's conversion adds the geoid, a few metres' trend here
+    assert np.sqrt(np.mean(err**2)) < 3.0
+
+
+def test_held_rates_are_reported_as_copies(flown):
+    _, _, cf = flown
+    ch = cf.report["channels"]["vertical rate"]
+    # the 140 rows from the ease on repeat the last fresh rate: copies (and, of the rates
+    # before it that repeat the one before them, those that the noise explains no better)
+    assert ch["copies"] >= 130, ch
+    assert ch["rejected"] < 10, ch
+    assert any("copies of it" in str(n) for n in cf.report["notes"])
+
+
+def test_a_steady_ground_speed_stays_a_measurement(flown):
+    """Straight and level at 200 m/s: every ground speed repeats, none is a copy."""
+    _, _, cf = flown
+    assert cf.report["channels"]["velocity"]["copies"] == 0
