@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.condition import Conditioning, condition
+from fieldmap.nav.logs.condition import Conditioning, condition, height_quantum
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.logs.report import OUTLIER_H, OUTLIER_HV, OUTLIER_V, plot_conditioning
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -225,6 +225,21 @@ def test_report_counts(synthetic):
     assert r["vehicle"]["class"] == "airliner" and r["vehicle"]["how"].startswith("guessed")
     text = cf.format_report()
     assert "faults:" in text and "peak acceleration" in text and "largest" in text
+
+
+def test_height_quantum_of_resampled_altitudes():
+    """25 ft steps found where a third of the changes are interpolated between them; not in
+    a continuous climb; 100 ft steps (Mode C) as themselves."""
+    rng = np.random.default_rng(7)
+    steps = rng.choice([-1, 0, 1, 1, 2], size=3000).astype(float)
+    # resampled to a clock: a third of the changes are a third or half of a step
+    steps[::3] *= rng.choice([1 / 3, 1 / 2], size=steps[::3].size)
+    alt_ft = 5000.0 + 25.0 * np.cumsum(steps)
+    geoid = 47.0 + 1e-4 * np.arange(alt_ft.size)  # the conversion adds a smooth term
+    assert abs(height_quantum(alt_ft * FT + geoid) - 25 * FT) < 0.02
+    assert abs(height_quantum(4.0 * alt_ft * FT + geoid) - 100 * FT) < 0.05
+    climb = 300.0 + np.cumsum(rng.uniform(2.0, 12.0, size=3000))  # GNSS heights, continuous
+    assert height_quantum(climb) == 0.0
 
 
 def test_plot(synthetic):

@@ -104,12 +104,14 @@ def test_fieldmap_csv(tmp_path, fl):
 
 
 def opensky_rows(fl, geo=True, scale=1.0):
+    """OpenSky state vectors of ``fl``: 230 m/s, 60°, ``fl["vertrate"]`` (m/s; 10 if none)."""
     rows = ["time,icao24,lat,lon,velocity,heading,vertrate,baroaltitude,geoaltitude"]
+    vr = np.broadcast_to(fl.get("vertrate", 10.0), fl["t"].shape)
     for k in range(fl["t"].size):
         g = f"{fl['H'][k] * scale:.2f}" if geo else ""
         rows.append(
-            f"{int(fl['epoch'][k])},4b1815,{fl['lat'][k]:.7f},{fl['lon'][k]:.7f},230,60,10,"
-            f"{fl['H'][k] * scale:.2f},{g}"
+            f"{int(fl['epoch'][k])},4b1815,{fl['lat'][k]:.7f},{fl['lon'][k]:.7f},230,60,"
+            f"{vr[k]:g},{fl['H'][k] * scale:.2f},{g}"
         )
     return rows
 
@@ -673,7 +675,11 @@ def test_isolated_spikes_are_no_unit_error(tmp_path, fl):
     z = R_ISA * H / (R_ISA - H)
     np.testing.assert_allclose(tr.h - z, geoid(tr), atol=0.05)  # read as they are: not cleaned
     # the same spikes on a fighter's climb (100 m/s to 8 km) in feet read as metres: refused
-    steep = dict(spiky, H=np.minimum(500.0 + 100.0 * fl["t"], 8000.0))
+    steep = dict(
+        spiky,
+        H=np.minimum(500.0 + 100.0 * fl["t"], 8000.0),
+        vertrate=np.where(fl["t"] < 75.0, 100.0, 0.0),
+    )
     steep["H"][[30, 32]] = [1150 * FT, 1700 * FT]
     steep["H"][[50, 51]] = 36_000 * FT
     assert read_track(write(tmp_path / "m.csv", opensky_rows(steep))).h.max() > 8000

@@ -77,8 +77,11 @@ STILL_V = 15.0
 INTERP_ROUNDING_M = 1.0
 #: a height change smaller than this (m) between fixes is what a conversion adds (geoid, ISA)
 LEVEL_M = 0.05
-#: heights are quantised when this share of their changes are multiples of the smallest
-QUANTISED_SHARE = 0.8
+#: the coarsest step of a quantised altitude (m): Mode C's 100 ft (ICAO Annex 10 Vol IV,
+#: Gillham code), with the 5 % of a step that the conversion to heights may add
+HEIGHT_STEP_MAX_M = 100.0 * 0.3048 * 1.05
+#: heights are quantised when this share of their changes are multiples of one step
+QUANTISED_SHARE = 0.5
 #: the coarsest grid step (s) the noise levels are estimated on (the measurement rows are a
 #: Taylor step of up to half of it: jerk × (Δ/2)³/6, 0.2 m at 1 m/s³)
 ESTIMATE_DT_S = 5.0
@@ -343,18 +346,27 @@ def height_quantum(h: np.ndarray) -> float:
 
     A log's altitude printed in 25 ft (or 100 ft) steps keeps the steps through its
     conversion to heights, up to what the conversion adds smoothly (a geoid height, the ISA
-    profile: centimetres between fixes). Quantised: the changes beyond :data:`LEVEL_M` are, at
-    least :data:`QUANTISED_SHARE` of them, within 5 % of a whole multiple of the smallest
-    (their 5th percentile).
+    profile: centimetres between fixes). The step is the changes' most common value (beyond
+    :data:`LEVEL_M`, within 5 % of it; the median of those), up to :data:`HEIGHT_STEP_MAX_M`;
+    the heights are quantised when at least :data:`QUANTISED_SHARE` of the changes are within
+    5 % of a whole multiple of it (up to 40). A few changes off the steps (a glitch) do not
+    hide them; altitudes interpolated between fixes (changes of a third or half a step,
+    common) are not quantised.
     """
     dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
-    nz = dh[dh > LEVEL_M]
+    nz = dh[(dh > LEVEL_M) & (dh <= HEIGHT_STEP_MAX_M)]
     if nz.size < 10:
         return 0.0
-    q = float(np.percentile(nz, 5))
-    r = nz / q
-    near = np.abs(r - np.round(r)) <= 0.05 * np.maximum(np.round(r), 1.0)
-    return q if np.mean(near & (np.round(r) <= 40)) >= QUANTISED_SHARE else 0.0
+    values = np.unique(np.round(nz, 2))
+    near = np.abs(nz[None, :] - values[:, None]) <= 0.05 * values[:, None]
+    counts = near.sum(axis=1)
+    c = int(np.flatnonzero(counts == counts.max())[-1])  # the largest of equally common
+    q = float(np.median(nz[near[c]]))
+    allnz = dh[dh > LEVEL_M]
+    r = allnz / q
+    k = np.round(r)
+    share = np.mean((np.abs(r - k) <= 0.05 * np.maximum(k, 1.0)) & (k <= 40))
+    return q if share >= QUANTISED_SHARE else 0.0
 
 
 def _repeats(y: np.ndarray, tol: float = 0.0) -> np.ndarray | None:
