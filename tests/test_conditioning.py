@@ -11,16 +11,16 @@ import csv
 import gzip
 import json
 import math
-from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 import pytest
+from log_tracks import raw_track
 
 from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning, condition, height_quantum
-from fieldmap.nav.logs.read import read_track
+from fieldmap.nav.logs.read import RawTrack, read_track
 from fieldmap.nav.logs.report import OUTLIER_H, OUTLIER_HV, OUTLIER_V, plot_conditioning
 from fieldmap.nav.trajectory import FlightTrajectory
 
@@ -28,21 +28,6 @@ A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
 E2 = F_WGS * (2.0 - F_WGS)
 FT = 0.3048
 G = 9.80665
-
-
-@dataclass(frozen=True)
-class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
-
-    t: np.ndarray
-    lat: np.ndarray
-    lon: np.ndarray
-    h: np.ndarray
-    lines: np.ndarray
-    source: str = "synthetic.csv"
-    height_ref: str = "ellipsoid"
-    notes: tuple = ()
-    t0_utc: str | None = None
 
 
 def ecef(lat, lon, h):
@@ -144,7 +129,7 @@ def adsb_log(seed=1, duration=2400.0):
         order[j], order[j + 1] = order[j + 1], order[j]
     for d in (600, 1200, 2200):  # repeated samples (same time)
         order = np.insert(order, int(np.searchsorted(order, d)), d)
-    track = Track(t[order], lat_n[order], lon_n[order], h_n[order], lines[order])
+    track = raw_track(t[order], lat_n[order], lon_n[order], h_n[order], lines[order])
     truth = {
         "t": td,
         "lat": lat_d,
@@ -228,8 +213,10 @@ def test_report_counts(synthetic):
 
 
 def test_height_quantum_of_resampled_altitudes():
-    """25 ft steps found where a third of the changes are interpolated between them; not in
-    a continuous climb; 100 ft steps (Mode C) as themselves."""
+    """25 ft steps found where a third of the changes are interpolated between them.
+
+    Not in a continuous climb; 100 ft steps (Mode C) as themselves.
+    """
     rng = np.random.default_rng(7)
     steps = rng.choice([-1, 0, 1, 1, 2], size=3000).astype(float)
     # resampled to a clock: a third of the changes are a third or half of a step
@@ -262,7 +249,7 @@ def test_given_noise_and_exact_mode(synthetic):
 
 
 def quiet_track(t, lat, lon, h, source="quiet.csv"):
-    return Track(t, lat, lon, h, np.arange(t.size) + 2, source=source)
+    return raw_track(t, lat, lon, h, np.arange(t.size) + 2, source=source)
 
 
 def straight(t, v=200.0, lat0=40.0, lon0=-3.0, h0=3000.0, vz=0.0, heading=90.0):
@@ -393,7 +380,7 @@ ADSB_FLIGHTS = (
 )  # fmt: skip
 
 
-def _load_adsb(path: Path) -> Track:
+def _load_adsb(path: Path) -> RawTrack:
     """Read an excerpt (traffic layout: ISO UTC times, degrees, ft) as the raw fields, no reader."""
     with gzip.open(path, "rt", newline="") as f:
         rows = list(csv.DictReader(f))
@@ -404,7 +391,7 @@ def _load_adsb(path: Path) -> Track:
     t = np.array([datetime.fromisoformat(r["timestamp"].replace("Z", "+00:00")).timestamp()
                   for r in rows])  # fmt: skip
     lat, lon, alt = arr("latitude"), arr("longitude"), arr("altitude")
-    return Track(t, lat, lon, alt * FT, np.arange(t.size) + 2, source=str(path))
+    return raw_track(t, lat, lon, alt * FT, np.arange(t.size) + 2, source=str(path))
 
 
 @pytest.mark.parametrize("name", ADSB_FLIGHTS)

@@ -12,31 +12,15 @@ inverse.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pytest
+from log_tracks import raw_track
 
 from fieldmap.nav.logs.condition import Conditioning, condition
 
 A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
 E2 = F_WGS * (2.0 - F_WGS)
 FT = 0.3048
-
-
-@dataclass(frozen=True)
-class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
-
-    t: np.ndarray
-    lat: np.ndarray
-    lon: np.ndarray
-    h: np.ndarray
-    lines: np.ndarray
-    source: str = "go_around.csv"
-    height_ref: str = "ellipsoid"
-    notes: tuple = ()
-    t0_utc: str | None = None
 
 
 def _ramp(t: np.ndarray, t0: float, dur: float) -> np.ndarray:
@@ -66,7 +50,7 @@ def flown():
     step = int(round(5.0 / (td[1] - td[0])))
     t, la, lo, hh = td[::step], lat[::step], lon[::step], h[::step]
     h_log = np.round(hh / (25 * FT)) * 25 * FT  # 25 ft altitude quantisation
-    track = Track(t, la, lo, h_log, np.arange(t.size) + 2)
+    track = raw_track(t, la, lo, h_log, source="go_around.csv")
     cf = condition(track, Conditioning(vehicle="turboprop"))
     return (td, h), (t, h_log), cf
 

@@ -8,11 +8,11 @@ with their own geodesy (a flat-Earth dead reckoning, accurate to far better than
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
+from log_tracks import raw_track
 
 from fieldmap.cli import main
 from fieldmap.errors import InputError
@@ -23,22 +23,6 @@ from fieldmap.nav.logs.vehicles import vehicle_class as vehicle
 M_DEG = math.radians(1.0) * 6.371e6
 
 
-@dataclass(frozen=True)
-class Track:
-    """Stand-in with the fields of fieldmap.nav.logs.read.RawTrack."""
-
-    t: np.ndarray
-    lat: np.ndarray
-    lon: np.ndarray
-    h: np.ndarray
-    lines: np.ndarray
-    source: str = "vehicle.csv"
-    height_ref: str = "ellipsoid"
-    notes: tuple = ()
-    t0_utc: str | None = None
-    category: str | None = None
-
-
 def straight(speed, h0, n=900, dt=1.0, noise=3.0, seed=3, category=None):
     """Return a straight level track east at ``speed`` m/s with ``noise`` m white position noise."""
     rng = np.random.default_rng(seed)
@@ -46,7 +30,7 @@ def straight(speed, h0, n=900, dt=1.0, noise=3.0, seed=3, category=None):
     lat = 45.0 + rng.normal(0.0, noise, n) / M_DEG
     lon = 5.0 + (speed * t + rng.normal(0.0, noise, n)) / (M_DEG * math.cos(math.radians(45.0)))
     h = h0 + rng.normal(0.0, noise, n)
-    return Track(t, lat, lon, h, np.arange(n) + 2, category=category)
+    return raw_track(t, lat, lon, h, source="vehicle.csv", category=category)
 
 
 def test_every_class_has_a_sane_envelope():
@@ -131,7 +115,7 @@ def test_guess_from_robust_speeds_ignores_spikes():
     tr = straight(60.0, 1500.0)
     lon = tr.lon.copy()
     lon[::50] += 0.5  # a wild fix every 50 (40 km off): not a rocket
-    cf = condition(Track(tr.t, tr.lat, lon, tr.h, tr.lines))
+    cf = condition(raw_track(tr.t, tr.lat, lon, tr.h, tr.lines, source="vehicle.csv"))
     assert cf.report["vehicle"]["class"] == "light-aircraft"
     assert cf.report["faults"]["samples"]["position"] >= tr.t.size // 50
 
@@ -145,7 +129,7 @@ def test_a_hard_pull_up_is_bounded_by_the_airliner_envelope():
     vz = np.cumsum(az) * dt
     h = 9000.0 + np.cumsum(vz) * dt
     base = straight(230.0, 0.0, n=n, dt=dt, noise=1.0)
-    tr = Track(base.t, base.lat, base.lon, base.h + h, base.lines)
+    tr = raw_track(base.t, base.lat, base.lon, base.h + h, base.lines, source="vehicle.csv")
     air = condition(tr, Conditioning(vehicle="airliner")).report["kinematics"]
     fighter = condition(tr, Conditioning(vehicle="fighter")).report["kinematics"]
     assert air["peak_specific_force_g"] <= 2.5 + 0.05
