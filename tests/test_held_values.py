@@ -1,4 +1,4 @@
-"""A rate the log holds while the vehicle moves on is a copy, not a measurement (issue 34).
+"""A rate the log holds or interpolates is a copy or a computation, not a measurement (issue 34).
 
 A synthetic airliner log in ``traffic``'s CSV layout, one row a second (a log resampled to a
 clock and filled forward, as the corpus's ADS-B pieces): it climbs at 15 ± 2 m/s, then
@@ -13,6 +13,9 @@ Taken as 120 measurements of a 15 m/s climb they would pull the path hundreds of
 the heights. A rate held at its value because the value does not change (the ground speed of
 straight and level flight, repeated row after row) stays a measurement: the copies' share of
 the repeats goes to zero there.
+
+The same log resampled to a clock with its rates interpolated between fixes: the values off
+the column's 64 ft/min steps are computed, not measured, and left out.
 """
 
 from __future__ import annotations
@@ -106,3 +109,44 @@ def test_a_steady_ground_speed_stays_a_measurement(flown):
     """Straight and level at 200 m/s: every ground speed repeats, none is a copy."""
     _, _, cf = flown
     assert cf.report["channels"]["velocity"]["copies"] == 0
+
+
+def test_vertical_rates_between_the_steps_are_no_measurements(tmp_path):
+    """A log resampled to a clock: its vertical rates between fixes are interpolated.
+
+    Two rows in three of the synthetic climb keep their measured rate (a whole number of
+    64 ft/min steps); the third holds a rate interpolated linearly between its neighbours,
+    mostly off the steps.
+    Those are computed, not measured: left out of the vertical rate channel, and said so. A
+    column whose non-zero values are mostly off the steps (finer, or another source's units)
+    is kept whole.
+    """
+    t = np.arange(0.0, 300.0 + 0.5, 1.0)
+    lat, h, vz = _truth(t)
+    measured = np.round(vz / FPM / 64.0) * 64.0
+    fixes = np.flatnonzero(np.arange(t.size) % 3 != 2)
+    vr = np.interp(t, t[fixes], measured[fixes])  # resampled: linear between the fixes
+    off = np.abs(vr / 64.0 - np.round(vr / 64.0)) > 1e-6
+    assert off.sum() > t.size / 5  # the test's premise: many rows between the steps
+
+    def fly(rates: np.ndarray) -> dict:
+        t0 = dt.datetime(2024, 5, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
+        rows = [
+            "timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"
+        ]
+        for ti, la, hh, r in zip(t, lat, h, rates):
+            stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
+            rows.append(
+                f"{stamp},abc123,TEST1,{la:.6f},8.000000,{round(hh / FT / 25) * 25},"
+                f"{round(SPEED / KT)},0,{r:.4f}"
+            )
+        path = tmp_path / f"resampled_{len(list(tmp_path.iterdir()))}.csv"
+        path.write_text("\n".join(rows) + "\n")
+        return load_flight(path, height_ref="pressure")[1].report
+
+    rep = fly(vr)
+    assert rep["channels"]["vertical rate"]["samples"] == t.size - off.sum()
+    assert any("off the column's resolution" in str(n) for n in rep["notes"])
+    # a column printed finer than the steps (every value off them): all kept
+    rep = fly(vr + 0.37)
+    assert rep["channels"]["vertical rate"]["samples"] == t.size
