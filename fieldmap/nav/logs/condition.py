@@ -440,6 +440,16 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     m_per_deg = math.radians(1.0) * ell.a
     rep = flt.repeated(log.lat, log.lon)
     interp, _ = flt.interpolated(log.t, log.lat, log.lon, m_per_deg, INTERP_ROUNDING_M)
+    vel = getattr(track, "velocity", None)
+    state = [log.h]
+    if vel is not None:
+        state += [vel.speed[log.index], vel.track[log.index]]
+        state += [vel.climb[log.index]] if vel.climb is not None else []
+    state_tol = np.zeros(len(state))
+    state_tol[0] = LEVEL_M  # the geoid and ISA terms a held altitude gains along the line
+    interp |= flt.extrapolated(
+        log.t, log.lat, log.lon, np.stack(state, -1), state_tol, p, top.speed
+    )
     interp &= ~rep
     hi = np.flatnonzero(~rep & ~interp)
     if hi.size < MIN_POINTS:  # a log of mostly repeats: its repeats are all it has
@@ -468,7 +478,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         "height",
     )
     index = {"position": hi, "height": np.arange(n)}
-    vel = getattr(track, "velocity", None) if options.log_velocities else None
+    vel = vel if options.log_velocities else None
     velocities = climbs = None
     notes: list[str] = []
     resolution = (0.0, 0.0, 0.0)

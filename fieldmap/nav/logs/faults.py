@@ -14,6 +14,17 @@ Two facts about a sample decide whether it is a measurement at all, before any f
   real fix's noise (1 m): there, three noisy fixes are collinear within it only by chance,
   and leaving out such a chance fix loses one sample of many.
 
+- **An extrapolated position** (dead reckoning while the log holds its last state): a sample
+  whose every other column (height, ground speed, track, vertical rate) repeats the sample
+  before it exactly while its position moves on at the same velocity as over the step
+  before, within the rounding of the digits printed, in a run that the next fix cannot be
+  reached from within the vehicle's top speed while the run's first fix can
+  (:func:`extrapolated`). A receiver that has lost the vehicle advances its last fix at its
+  last velocity: the positions are a function of that fix, not measurements, and the next
+  real fix is off their line by more than the vehicle flies. A real straight run at a held
+  state (straight and level, or a receiver's perfect dead reckoning) reaches the next fix
+  within the vehicle's speed: its positions stay measurements.
+
 A rounded value (a height in 25 ft steps, a ground speed in knots) is a measurement with at
 least the rounding's σ, q/√12: the conditioning floors each channel's noise there.
 
@@ -129,6 +140,58 @@ def interpolated(
         & ((lat[2:] != lat[1:-1]) | (lon[2:] != lon[1:-1]))
     )
     return out, tol
+
+
+def extrapolated(
+    t: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    state: np.ndarray,
+    state_tol: np.ndarray,
+    xyz: np.ndarray,
+    max_speed: float,
+) -> np.ndarray:
+    """Positions extrapolated from a held state, (n,) bool (module docstring).
+
+    ``state``: the sample's other columns, (n, k) (NaN where empty: an empty column is held
+    when empty again), each repeated within its ``state_tol`` (k,) (what a conversion adds to
+    a held value: a geoid height along the line). A sample is extrapolated when its state
+    repeats the previous sample's and its position moves at the previous step's velocity
+    (degrees per second) within ``q/Δt_k + q/Δt_(k-1)``, the most that rounding each of the
+    three positions to ``q`` (the printed step of the latitudes and longitudes) changes the
+    difference of the two; and when, for its run ``a..b`` of such samples, the next sample
+    ``b + 1`` is further from ``b`` than ``max_speed`` (m/s) flies in their time apart while
+    it is within that of the run's first fix ``a - 1`` (``xyz``: the samples' positions, (n,
+    3), m).
+    """
+    n = t.size
+    out = np.zeros(n, bool)
+    if n < 3 or state.shape[1] == 0:
+        return out
+    q = max(printed_step(lat), printed_step(lon))
+    st = np.where(np.isnan(state), 0.0, state)
+    empty = np.isnan(state)
+    same_state = (np.abs(st[1:] - st[:-1]) <= state_tol) & (empty[1:] == empty[:-1])
+    held = np.all(same_state, axis=1)  # sample k + 1 repeats sample k
+    dt = np.diff(t)
+    if np.any(dt <= 0.0):
+        return out
+    tol = q / dt[1:] + q / dt[:-1]
+    same = np.ones(n - 2, bool)
+    for x in (lat, lon):
+        v = np.diff(x) / dt
+        same &= np.abs(v[1:] - v[:-1]) <= tol
+    cand = np.zeros(n, bool)
+    cand[2:] = held[1:] & same & ((lat[2:] != lat[1:-1]) | (lon[2:] != lon[1:-1]))
+
+    def reach(i: int, j: int) -> float:
+        return float(np.linalg.norm(xyz[j] - xyz[i])) / (t[j] - t[i])
+
+    for a, b in runs(cand):
+        c = b + 1
+        if c < n and reach(b, c) > max_speed and reach(a - 1, c) <= max_speed:
+            out[a : b + 1] = True
+    return out
 
 
 def run_lengths(x: np.ndarray) -> np.ndarray:

@@ -1,0 +1,83 @@
+"""Positions a receiver extrapolates from its last fix are no measurements (issue 34).
+
+A synthetic glider log in ``traffic``'s CSV layout, a row every 12 s, latitudes and
+longitudes printed to 1e-4 degree (as the corpus's glider pieces): it flies north at 30 m/s,
+then turns right through 90° at 1.5 °/s and flies east. While it turns the receiver has lost
+it and sends its last state again (ground speed, track, altitude and vertical rate held),
+advancing the last fix north at the last velocity: ten rows of dead reckoning. The next real
+fix is kilometres off that line. Its truth is built here, with its own geodesy.
+
+Taken for measurements, the extrapolated positions pull the path up the dead-reckoned line
+before it turns to the real fix (51 m/s, the smoother rejecting the end of the line); left
+out (:func:`fieldmap.nav.logs.faults.extrapolated`: the next fix is 4 km from the line's end,
+12 s later, and 3.5 km from the last real fix, 132 s later), the path bridges from the last
+real fix to the next one at the glider's speed. Flown from fixes only, the same turn keeps
+every position (a straight run at a held state that reaches the next fix is no dead
+reckoning).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fieldmap.nav.logs import load_flight
+from fieldmap.nav.logs.condition import Conditioning
+
+sys.path.insert(0, str(Path(__file__).parent))
+from corpus_checks import path_kinematics  # noqa: E402
+
+KT, FT = 1852.0 / 3600.0, 0.3048
+A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
+E2 = F_WGS * (2.0 - F_WGS)
+LAT0, LON0, V = 46.0, 10.0, 30.0
+TURN_AT, RATE = 600.0, np.radians(1.5)  # the turn: from 600 s, 1.5 °/s for 60 s
+
+
+def _truth(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """North and east (m) and the track (degrees) of the flight at ``t`` (s)."""
+    r = V / RATE  # the turn's radius
+    turn_end = TURN_AT + 0.5 * np.pi / RATE
+    north = np.where(t <= TURN_AT, V * t, V * TURN_AT + r * np.sin(RATE * (t - TURN_AT)))
+    east = np.where(t <= TURN_AT, 0.0, r * (1.0 - np.cos(RATE * (t - TURN_AT))))
+    after = t > turn_end
+    north = np.where(after, V * TURN_AT + r, north)
+    east = np.where(after, r + V * (t - turn_end), east)
+    track = np.degrees(np.clip(RATE * (t - TURN_AT), 0.0, 0.5 * np.pi))
+    return north, east, track
+
+
+def _write(path: Path, held: bool) -> Path:
+    t = np.arange(0.0, 1200.0 + 0.5, 12.0)
+    north, east, track = _truth(t)
+    lost = (t > TURN_AT) & (t <= TURN_AT + 120.0)  # ten rows while it turns
+    last = np.flatnonzero(t <= TURN_AT)[-1]
+    if held:  # the last state sent again, the position advanced at the last velocity
+        north = np.where(lost, north[last] + V * (t - t[last]), north)
+        east = np.where(lost, east[last], east)
+        track = np.where(lost, track[last], track)
+    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) ** 1.5
+    n_lon = A_WGS / np.sqrt(1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) * np.cos(np.radians(LAT0))
+    lat = LAT0 + np.degrees(north / m_lat)
+    lon = LON0 + np.degrees(east / n_lon)
+    t0 = dt.datetime(2024, 7, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
+    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    for ti, la, lo, tr in zip(t, lat, lon, track):
+        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
+        rows.append(f"{stamp},3ed6a0,D-KXYZ,{la:.4f},{lo:.4f},6000,{round(V / KT)},{tr:.0f},0")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("held", [False, True], ids=["fixes", "dead-reckoned"])
+def test_the_turn_is_flown_at_the_gliders_speed(tmp_path, held):
+    """The flown path's ground speed stays within 15 % of the glider's 30 m/s."""
+    _, cf = load_flight(_write(tmp_path / "glider.csv", held), Conditioning(vehicle="glider"))
+    s = cf.samples
+    k = path_kinematics(s.t, s.lat, s.lon, s.h)
+    assert k.max_ground_speed_m_s <= 1.15 * V, k
+    assert cf.report["samples"]["interpolated_positions"] >= (9 if held else 0)
