@@ -26,8 +26,9 @@ likelihood, with :math:`q` bounded by the vehicle class
 1. *Order* (:func:`order_log`): non-finite samples dropped (counted); times that go back
    sorted (or refused with ``reorder=False``); of samples sharing a time the first is kept.
 2. *Measurements* (:func:`measurements`, :mod:`fieldmap.nav.logs.faults`): a repeated position
-   is no new fix, a position interpolated between fixes is none either; a run of one rounded
-   value is one observation.
+   is no new fix, a position interpolated between fixes or extrapolated from one is none
+   either, nor a vertical rate off its column's steps; a rate that repeats the value before
+   it is a copy or a fresh value, as the smoother's mixture finds (held values).
 3. *Vehicle* (:func:`~fieldmap.nav.logs.vehicles.guess_vehicle`): given, or guessed from the
    ADS-B category, the file's format and the log's speeds, climbs and turns.
 4. *Estimate* (:func:`estimate`): the horizontal and vertical smoothers. Where the log's

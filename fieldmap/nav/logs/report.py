@@ -456,7 +456,10 @@ def format_report(rep: dict) -> str:
     if s.get("repeated_positions"):
         extra.append(f"{s['repeated_positions']} repeated positions (the fix before, resent)")
     if s.get("interpolated_positions"):
-        extra.append(f"{s['interpolated_positions']} positions interpolated between fixes")
+        extra.append(
+            f"{s['interpolated_positions']} positions interpolated between fixes or "
+            "extrapolated from one (no measurements)"
+        )
     dt = f" every {s['dt_out_s']:g} s" if s["dt_out_s"] else ""
     lines.append(f"  samples: {s['in']} in, {s['out']} out{dt}" + "".join("; " + e for e in extra))
     lines.append(f"  method: {rep['method']}")
