@@ -379,10 +379,9 @@ def _off_resolution(x: np.ndarray, step: float) -> np.ndarray:
     values interpolated between fixes): not measurements, as an interpolated position is none
     (:mod:`fieldmap.nav.logs.faults`). A column mostly off the grid is in other units or
     finer: nothing is said of it (all False); zeros, on every grid, do not count. Applied to
-    the vertical rates: the ground
-    speeds of a resampled log, interpolated the same way, are the ground velocity's, whose
-    track has no grid to tell them by (tried on the corpus: dropping the ground speeds off
-    their knots alone flew three pieces faster than reported).
+    the vertical rates only: the ground speeds of a resampled log, interpolated the same way,
+    are the ground velocity's, whose track has no grid to tell them by (tried on the corpus:
+    dropping the ground speeds off their knots alone flew three pieces faster than reported).
     """
     out = np.zeros(x.shape, bool)
     fin = np.isfinite(x)
@@ -404,8 +403,8 @@ def _computed_note(n: int, of: int, what: str) -> str:
     )
 
 
-def _repeats(y: np.ndarray, tol: float = 0.0) -> np.ndarray | None:
-    """Return the samples whose value (row of ``y``) repeats the one before within ``tol``.
+def _repeats(y: np.ndarray) -> np.ndarray | None:
+    """Return the samples whose value (row of ``y``) repeats the one before exactly.
 
     None when none does. A repeat is a copy of the earlier value or a fresh one in the same
     printed cell (the smoother's mixture tells which: :mod:`fieldmap.nav.logs.motion`, "Held
@@ -415,7 +414,7 @@ def _repeats(y: np.ndarray, tol: float = 0.0) -> np.ndarray | None:
     for copies on the ground let the path float off 82 pieces' heights).
     """
     out = np.zeros(y.shape[0], bool)
-    out[1:] = np.all(np.abs(y[1:] - y[:-1]) <= tol, axis=1)
+    out[1:] = np.all(y[1:] == y[:-1], axis=1)
     return out if out.any() else None
 
 
@@ -470,13 +469,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     q = height_quantum(log.h)
     hspan = float(np.ptp(log.h)) if n else 0.0
     heights = Channel(
-        log.t,
-        log.h[:, None],
-        np.ones(n),
-        0,
-        1,
-        _fault_density(hspan + 1000.0, 1),
-        "height",
+        log.t, log.h[:, None], np.ones(n), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
     )
     index = {"position": hi, "height": np.arange(n)}
     vel = vel if options.log_velocities else None
@@ -748,7 +741,7 @@ def estimate(
     for axis, cl in ((hz, hchans), (vt, vchans)):
         for i, c in enumerate(cl):
             chans[c.name] = (c, axis, i)
-            copies = int(np.sum(axis.held_prob[i] > 0.5))
+            copies = axis.copies(i)
             if copies:
                 notes.append(
                     f"{copies} of the log's {c.name}s ({100.0 * copies / c.t.size:.0f} %) repeat "

@@ -194,19 +194,6 @@ def extrapolated(
     return out
 
 
-def run_lengths(x: np.ndarray) -> np.ndarray:
-    """Length of the run of equal rows each row of ``x`` (m,) or (m, k) is in, (m,)."""
-    x = np.asarray(x)
-    if x.ndim == 1:
-        x = x[:, None]
-    if x.shape[0] == 0:
-        return np.ones(0)
-    same = np.all(x[1:] == x[:-1], axis=1)
-    start = np.concatenate([[True], ~same])
-    ident = np.cumsum(start) - 1
-    return np.bincount(ident)[ident].astype(np.float64)
-
-
 def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Inclusive index ranges of the runs of True in ``mask``."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))

@@ -340,6 +340,10 @@ class SmoothedAxis:
         """Each channel's measurement weights ``1 − π − κ`` (module docstring)."""
         return [1.0 - p - k for p, k in zip(self.fault_prob, self.held_prob)]
 
+    def copies(self, i: int) -> int:
+        """Return how many samples of channel ``i`` are taken for copies (κ over 1/2)."""
+        return int(np.sum(self.held_prob[i] > 0.5))
+
     def value_at(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         """Return the path's position (``order`` 0) or rate (1) at times ``t``, (m, d)."""
         k, d = self.grid.locate(np.asarray(t, dtype=np.float64))

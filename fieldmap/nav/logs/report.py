@@ -281,7 +281,7 @@ def build_report(c: Any) -> dict[str, Any]:
             "noise_sigma": float(axis.scales[i]),
             "fault_rate": float(axis.fault_rate[i]),
             "rejected": int(rej.sum()),
-            "copies": int(np.sum(axis.held_prob[i] > 0.5)),
+            "copies": axis.copies(i),
             "residual_rms": r_in * per_axis,
             "residual_max": m_in,
             "residual_all_max": m_all,
