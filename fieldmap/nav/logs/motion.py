@@ -102,6 +102,17 @@ banded Cholesky solve gives the Rauch–Tung–Striebel smoother's mean (Rauch, 
 mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
 :math:`\pi_i > 1/2`: the fault explains it better than the path does.
 
+**Speed.** A vehicle flies no faster than it can; where a log reports its ground speed, the
+fastest speed it reports as a measurement (a rate sample of weight over 1/2:
+:meth:`AxisSmoother.top_speed`) is the envelope the path keeps within, :math:`|P_k v_k| \le V`
+at every node (:math:`P_k` the projection on the tangent plane: the surface point's speed over
+the ground). Without it a gap's path is the jerk's least-effort curve: a vehicle that enters
+a gap heading away from where it leaves it swings out wide and catches up at speeds it never
+flew (a tanker turning in a 6-minute gap at 1.3 × its top speed). The bounded path minimises
+:math:`J` over the bounded set (a convex problem: :meth:`AxisSmoother._speed_bounded`); like
+the height's climb and load factor it is a bound, not data: the likelihood and the noise
+levels are those of the unbounded problem.
+
 **Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
 of the data (diffuse initial state),
 
@@ -142,6 +153,12 @@ from scipy.optimize import minimize_scalar
 BOUND_STIFFNESS = 1e4
 #: the active set of bounded states grows at most this many times
 BOUND_PASSES = 12
+#: a state leaves its bound when it passes it by more than this fraction of it
+BOUND_TOLERANCE = 0.01
+#: the shortest fraction of a Newton step the speed bound's line search tries
+LINE_SEARCH_MIN = 1.0 / 64.0
+#: the speed bound's penalties, in units of a node's own weight: raised in turn (continuation)
+SPEED_STIFFNESS = (1.0, 1e2, 1e4)
 #: iterative refinement steps of each banded solve (:func:`_solve_refined`)
 REFINE_STEPS = 2
 #: degrees of freedom ν of the height's Student-t jerk (module docstring): 1, a Cauchy jerk
@@ -335,6 +352,10 @@ class SmoothedAxis:
     held_prob: list[np.ndarray] = field(default_factory=list, repr=False)
     #: each channel's share η of its repeats that are copies (0 where it has none)
     held_rate: list[float] = field(default_factory=list)
+    #: the speed bound of the surface point (m/s; module docstring, "Speed"), None where none
+    top_speed: float | None = None
+    #: the nodes the speed bound holds (the path there would fly faster without it)
+    speed_held: int = 0
 
     def weights(self) -> list[np.ndarray]:
         """Each channel's measurement weights ``1 − π − κ`` (module docstring)."""
@@ -373,19 +394,20 @@ def _factor(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     position's against an acceleration's, a stiff prior against faint fixes); scaled to a unit
     diagonal the factor keeps the digits the solution needs.
     """
-    dscale = 1.0 / np.sqrt(ab[BAND])
+    band = ab.shape[0] - 1
+    dscale = 1.0 / np.sqrt(ab[band])
     abs_ = ab.copy()
     n = ab.shape[1]
-    for r in range(BAND):
-        k = BAND - r  # row r holds A[j - k, j]
+    for r in range(band):
+        k = band - r  # row r holds A[j - k, j]
         abs_[r, k:] *= dscale[: n - k] * dscale[k:]
-    abs_[BAND] = 1.0
+    abs_[band] = 1.0
     try:
         cb = cholesky_banded(abs_, lower=False, check_finite=False)
     except np.linalg.LinAlgError:
         # a grid stretch without measurements and a stiff model: a whisper of a prior on
         # the states keeps the system definite without moving the solution measurably
-        abs_[BAND] += 1e-12
+        abs_[band] += 1e-12
         cb = cholesky_banded(abs_, lower=False, check_finite=False)
     return cb, dscale
 
@@ -398,9 +420,10 @@ def _solve_factored(cb: np.ndarray, dscale: np.ndarray, b: np.ndarray) -> np.nda
 
 def _band_matvec(ab: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Return ``A x`` for the symmetric ``A`` in upper banded form ``ab``, ``x`` (n, d)."""
-    y = ab[BAND][:, None] * x
-    for k in range(1, BAND + 1):
-        vals = ab[BAND - k, k:][:, None]  # A[j - k, j]
+    band = ab.shape[0] - 1
+    y = ab[band][:, None] * x
+    for k in range(1, band + 1):
+        vals = ab[band - k, k:][:, None]  # A[j - k, j]
         y[:-k] += vals * x[k:]
         y[k:] += vals * x[:-k]
     return y
@@ -541,6 +564,8 @@ class AxisSmoother:
             HELD_START if c.held is not None and np.any(c.held) and c.cell > 0.0 else 0.0
             for c in channels
         ]
+        #: the speed bound of the last path solved within it, and the nodes it holds
+        self.speed_held: tuple[float | None, int] = (None, 0)
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
         self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
@@ -673,12 +698,14 @@ class AxisSmoother:
         weights: list[np.ndarray],
         parts: list[tuple[np.ndarray, np.ndarray]] | None = None,
         bounded: bool = True,
+        speed: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, float]:
         """States (n, 3, d), the Cholesky factor and ``-2 log L`` (module docstring).
 
         ``parts``: :meth:`measurements` of ``weights`` when already computed. ``bounded``: keep
-        the states within :attr:`bounds` (:meth:`_bounded`); the likelihood is that of the
-        unbounded problem (the bounds are no data).
+        the states within :attr:`bounds` (:meth:`_bounded`); ``speed``: and the surface point's
+        speed within :meth:`top_speed` (:meth:`_speed_bounded`: the path returned, not each
+        E-step's); the likelihood is that of the unbounded problem (the bounds are no data).
         """
         n, d = self.grid.n, self.d
         ab0, logdetP, P, F = self._process(q)
@@ -707,6 +734,13 @@ class AxisSmoother:
             xb, fb = self._bounded(ab, b, dx)
             if xb is not None:
                 dx, (cb, dscale) = xb, fb
+        top = self.top_speed(weights) if speed and self.origin is not None else None
+        if speed:
+            self.speed_held = (top, 0)
+        if top is not None:
+            xs = self._speed_bounded(ab, b, dx, top)
+            if xs is not None:
+                dx = xs
         self._last_factor = (cb, dscale)
         x = self.x_ref + dx
         # J at the solution: process + measurements
@@ -741,7 +775,7 @@ class AxisSmoother:
             new = False
             for state, (lo, hi) in self.bounds.items():
                 v = x[:, state, 0] + self.x_ref[:, state, 0]
-                tol = 0.01 * max(abs(lo), abs(hi))
+                tol = BOUND_TOLERANCE * max(abs(lo), abs(hi))
                 for idx, val in (
                     (np.flatnonzero(v > hi + tol), hi),
                     (np.flatnonzero(v < lo - tol), lo),
@@ -763,6 +797,111 @@ class AxisSmoother:
         if fac is None:
             return None, (ab, ab[BAND])
         return x, fac
+
+    def top_speed(self, weights: list[np.ndarray]) -> float | None:
+        """Return the fastest speed the rate channels report as a measurement (weight over 1/2).
+
+        The surface point's speed bound (module docstring, "Speed"); None where no rate channel
+        has a measurement.
+        """
+        tops = [
+            float(np.max(np.linalg.norm(c.y[w > 0.5], axis=1)))
+            for c, w in zip(self.channels, weights)
+            if c.order == 1 and np.any(w > 0.5)
+        ]
+        return max(tops) if tops else None
+
+    def _speed_bounded(
+        self, ab: np.ndarray, b: np.ndarray, x: np.ndarray, top: float
+    ) -> np.ndarray | None:
+        r"""Keep the surface point's speed at or below ``top`` (module docstring, "Speed").
+
+        The bound is held by a penalty on each node's excess speed,
+
+        .. math::
+
+            f(x) = \tfrac12 x^\top A x - b^\top x
+                 + \tfrac12 \sum_k W_k \big(s_k - V'\big)_+^2,
+            \qquad s_k = |P_k v_k|,
+
+        (:math:`P_k` the projection on the tangent plane at the node, :math:`V'` the bound
+        plus half of :data:`BOUND_TOLERANCE`, so that a path flying the top speed itself, a
+        log at constant speed, is left alone), a convex function minimised by Newton's method
+        with a backtracking line search on :math:`f(x + ts) - f(x)` (computed from the
+        differences: :math:`f` is a sum of large terms). The penalty's Hessian at a node over
+        :math:`V'`, :math:`W_k[u u^\top + (1 - V'/s_k)(P_k - u u^\top)]`
+        (:math:`u = P_k v_k / s_k`), couples its axes, so each step is solved in the
+        interleaved order (node, state, axis): a band of ``BAND·d + d − 1``. :math:`W_k` is
+        :data:`SPEED_STIFFNESS` times the node's own weight, raised in turn from the last
+        minimum (a stiff penalty from the start would have its Newton steps overshoot at the
+        nodes just under the bound), until no node passes the bound by more than
+        :data:`BOUND_TOLERANCE`; each stiffness takes at most :data:`BOUND_PASSES` steps.
+        Returns None when no node passes it.
+        """
+        n, d = self.grid.n, self.d
+        band = BAND * d + d - 1
+        ref_v = self.x_ref[:, 1, :]
+
+        def excess(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            """Tangent projectors (n, d, d), tangential velocities and speeds."""
+            r = x[:, 0, :] + self.x_ref[:, 0, :] + self.origin
+            r /= np.linalg.norm(r, axis=1)[:, None]
+            P = np.eye(d)[None] - r[:, :, None] * r[:, None, :]
+            vt = np.einsum("kij,kj->ki", P, x[:, 1, :] + ref_v)
+            return P, vt, np.linalg.norm(vt, axis=1)
+
+        P, vt, speed = excess(x)
+        if np.max(speed) <= top * (1.0 + BOUND_TOLERANCE):
+            return None
+        # the penalty starts halfway to the tolerance: a path that flies the top speed itself
+        # (a log at constant speed) leaves it alone, and the bound holds what passes it
+        level, limit = top * (1.0 + 0.5 * BOUND_TOLERANCE), top * (1.0 + BOUND_TOLERANCE)
+        held = int(np.sum(speed > limit))
+        abx0 = np.zeros((band + 1, NS * n * d))
+        for o in range(BAND + 1):
+            for j in range(d):
+                abx0[band - o * d, j::d] = ab[BAND - o]
+        for stiffness in SPEED_STIFFNESS:
+            W = stiffness * ab[BAND, NS * np.arange(n) + 1]
+            for _ in range(BOUND_PASSES):
+                on = np.flatnonzero(speed > level)
+                u = vt[on] / speed[on, None]
+                grad = _band_matvec(ab, x.reshape(NS * n, d)) - b  # of the quadratic part
+                g = grad.reshape(n, NS, d).copy()
+                g[on, 1, :] += (W[on] * (speed[on] - level))[:, None] * u
+                uu = u[:, :, None] * u[:, None, :]
+                H = W[on, None, None] * (
+                    uu + (1.0 - level / speed[on])[:, None, None] * (P[on] - uu)
+                )
+                abx = abx0.copy()
+                base = (NS * on + 1) * d
+                for j in range(d):
+                    for jj in range(j, d):
+                        abx[band - (jj - j), base + jj] += H[:, j, jj]
+                step = -_solve_refined(abx, _factor(abx), g.reshape(-1)[:, None])
+                step = step.reshape(n, NS, d)
+                # f(x + t s) − f(x), from the differences (f itself is a sum of large terms)
+                S = step.reshape(NS * n, d)
+                q1 = float(np.sum(grad * S))
+                q2 = float(np.sum(S * _band_matvec(ab, S)))
+                pen = float(np.sum(W * np.maximum(speed - level, 0.0) ** 2))
+                t = 1.0
+                while t >= LINE_SEARCH_MIN:
+                    trial = x + t * step
+                    P_t, vt_t, speed_t = excess(trial)
+                    pen_t = float(np.sum(W * np.maximum(speed_t - level, 0.0) ** 2))
+                    if t * q1 + 0.5 * t * t * q2 + 0.5 * (pen_t - pen) <= 0.0:
+                        break
+                    t *= 0.5
+                else:
+                    break  # no step lowers f: this stiffness's minimum to the precision
+                x, P, vt, speed = trial, P_t, vt_t, speed_t
+                if t * float(np.max(np.abs(step[:, 1, :]))) <= BOUND_TOLERANCE * top:
+                    break
+            if np.max(speed) <= limit:
+                break
+        self.speed_held = (top, held)
+        return x
 
     # -- the mixture's weights ----------------------------------------------------------------
 
@@ -846,7 +985,7 @@ class AxisSmoother:
             x, cb, neg2 = self.solve(q, scales, weights)
         for _ in range(MANOEUVRE_STEPS if self.model.jerk_dof and lam0 is None else 0):
             x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, heavy=True)
-        x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates)
+        x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, final=True)
         pi, kappa = self.posteriors(x, scales, rates)
         return SmoothedAxis(
             self.grid,
@@ -864,6 +1003,8 @@ class AxisSmoother:
             lam=self.lam.copy(),
             held_prob=kappa,
             held_rate=list(self.held_rates),
+            top_speed=self.speed_held[0],
+            speed_held=self.speed_held[1],
         )
 
     def manoeuvres(self, x: np.ndarray, q: float) -> np.ndarray:
@@ -894,13 +1035,19 @@ class AxisSmoother:
         return (nu + NS * self.d) / (nu + m)
 
     def _e_step(
-        self, x: np.ndarray, q: float, scales: list[float], rates: list[float], heavy: bool = False
+        self,
+        x: np.ndarray,
+        q: float,
+        scales: list[float],
+        rates: list[float],
+        heavy: bool = False,
+        final: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, float, list[np.ndarray], list[float]]:
         """One E-step at the path ``x``: fault probabilities, weights and the path they give.
 
         The weights and fault shares from ``x``, the curvature input, the steps' weights and
-        the time errors updated with the path, the path solved again: ``(x, factor,
-        -2 log L, weights, rates)``.
+        the time errors updated with the path, the path solved again (``final``: within the
+        speed bound too): ``(x, factor, -2 log L, weights, rates)``.
         """
         pi, kappa = self.posteriors(x, scales, rates)
         rates = [float(np.clip(np.mean(p), 1e-4, 0.5)) for p in pi]
@@ -913,10 +1060,10 @@ class AxisSmoother:
             self.set_mean_acceleration(x)
         if heavy:
             self.lam = self.manoeuvres(x, q)
-        x, cb, neg2 = self.solve(q, scales, weights)
+        x, cb, neg2 = self.solve(q, scales, weights, speed=final)
         if any(c.timing for c in self.channels):
             self.retime(x, scales, weights)
-            x, cb, neg2 = self.solve(q, scales, weights)
+            x, cb, neg2 = self.solve(q, scales, weights, speed=final)
         return x, cb, neg2, weights, rates
 
     def _maximise(
