@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from fieldmap.nav.logs import load_flight
 from fieldmap.nav.logs.condition import Conditioning
@@ -74,6 +75,9 @@ def test_the_gap_is_flown_within_the_reported_speed(tmp_path):
     s = cf.samples
     k = path_kinematics(s.t, s.lat, s.lon, s.h)
     assert k.max_ground_speed_m_s <= 1.02 * V, k
+    bound = cf.report["model"]["horizontal"]
+    assert bound["top_speed_m_s"] == pytest.approx(V, rel=0.01)
+    assert 60.0 <= bound["speed_bound_held_s"] <= GAP[1] - GAP[0], bound
     tt = s.t - s.t[0]
     for edge in GAP:
         i = int(np.argmin(np.abs(tt - edge)))

@@ -705,12 +705,6 @@ def estimate(
             "them off the path the positions and velocities would share): not used, the "
             "horizontal path follows the positions alone"
         )
-    if hz.speed_held:
-        notes.append(
-            f"the horizontal path is held at the log's top ground speed ({hz.top_speed:.0f} m/s) "
-            f"for {hz.speed_held * grid.dt:.0f} s where the motion model alone would fly faster "
-            "(turns in gaps, displaced positions)"
-        )
     vchans = [meas.heights]
     vfloors = [max(meas.height_quantum / sq12, 0.01)]
     vfix = [None if fixed is None else fixed[1]]

@@ -103,12 +103,13 @@ mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
 :math:`\pi_i > 1/2`: the fault explains it better than the path does.
 
 **Speed.** A vehicle flies no faster than it can; where a log reports its ground speed, the
-fastest speed it reports as a measurement (a rate sample of weight over 1/2:
-:meth:`AxisSmoother.top_speed`) is the envelope the path keeps within, :math:`|P_k v_k| \le V`
-at every node (:math:`P_k` the projection on the tangent plane: the surface point's speed over
-the ground). Without it a gap's path is the jerk's least-effort curve: a vehicle that enters
-a gap heading away from where it leaves it swings out wide and catches up at speeds it never
-flew (a tanker turning in a 6-minute gap at 1.3 × its top speed). The bounded path minimises
+fastest speed that a measurement (a rate sample of weight over 1/2) and the path both say it
+flew (per sample the smaller of the two: :meth:`AxisSmoother.top_speed`) is the envelope the
+path keeps within, :math:`|P_k v_k| \le V` at every node (:math:`P_k` the projection on the
+tangent plane: the surface point's speed over the ground). Without it a gap's path is the
+jerk's least-effort curve: a vehicle that enters a gap heading away from where it leaves it
+swings out wide and catches up at speeds it never flew (a tanker turning in a 6-minute gap at
+1.3 × its top speed). The bounded path minimises
 :math:`J` over the bounded set (a convex problem: :meth:`AxisSmoother._speed_bounded`); like
 the height's climb and load factor it is a bound, not data: the likelihood and the noise
 levels are those of the unbounded problem.
@@ -734,7 +735,9 @@ class AxisSmoother:
             xb, fb = self._bounded(ab, b, dx)
             if xb is not None:
                 dx, (cb, dscale) = xb, fb
-        top = self.top_speed(weights) if speed and self.origin is not None else None
+        top = (
+            self.top_speed(weights, self.x_ref + dx) if speed and self.origin is not None else None
+        )
         if speed:
             self.speed_held = (top, 0)
         if top is not None:
@@ -798,17 +801,20 @@ class AxisSmoother:
             return None, (ab, ab[BAND])
         return x, fac
 
-    def top_speed(self, weights: list[np.ndarray]) -> float | None:
-        """Return the fastest speed the rate channels report as a measurement (weight over 1/2).
+    def top_speed(self, weights: list[np.ndarray], x: np.ndarray) -> float | None:
+        """Return the fastest speed that the log and the path ``x`` both say was flown.
 
-        The surface point's speed bound (module docstring, "Speed"); None where no rate channel
-        has a measurement.
+        Per rate sample that is a measurement (weight over 1/2), the smaller of its speed and
+        the path's there: a reported speed the path does not follow (a noisy value), or a path
+        speed no sample reports (a swing into a gap), does not raise it. The surface point's
+        speed bound (module docstring, "Speed"); None where no rate channel has a measurement.
         """
-        tops = [
-            float(np.max(np.linalg.norm(c.y[w > 0.5], axis=1)))
-            for c, w in zip(self.channels, weights)
-            if c.order == 1 and np.any(w > 0.5)
-        ]
+        tops = []
+        for c, w, k, h in zip(self.channels, weights, self.k, self.h):
+            if c.order != 1 or not np.any(w > 0.5):
+                continue
+            path = np.linalg.norm(_apply(h, x[k]), axis=1)
+            tops.append(float(np.max(np.minimum(np.linalg.norm(c.y, axis=1), path)[w > 0.5])))
         return max(tops) if tops else None
 
     def _speed_bounded(

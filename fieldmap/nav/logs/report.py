@@ -296,6 +296,9 @@ def build_report(c: Any) -> dict[str, Any]:
             "sigma_accel_m_s2": hz.model.sigma_accel(hz.q),
             "tau_s": hz.model.tau_s,
             "q_bounds": list(veh.q_bounds(False)),
+            # the speed bound (the log's top ground speed) and how long it holds the path
+            "top_speed_m_s": hz.top_speed,
+            "speed_bound_held_s": hz.speed_held * hz.grid.dt,
         },
         "vertical": {
             "jerk_intensity_m2_s5": vt.q,
@@ -473,6 +476,12 @@ def format_report(rep: dict) -> str:
             f"  motion model: acceleration σ {mh['sigma_accel_m_s2']:.2f} m/s² horizontally "
             f"({mh['tau_s']:g} s manoeuvres), {mv['sigma_accel_m_s2']:.2f} m/s² vertically "
             "(estimated within the class's bounds)"
+            + (
+                f"; speed within the log's top ground speed, {mh['top_speed_m_s']:.0f} m/s "
+                f"(held there for {mh['speed_bound_held_s']:.0f} s)"
+                if mh["top_speed_m_s"] is not None
+                else ""
+            )
         )
         units = {"position": "m", "height": "m", "velocity": "m/s", "vertical rate": "m/s"}
         for name, ch in rep["channels"].items():
