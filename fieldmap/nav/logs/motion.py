@@ -848,7 +848,7 @@ class AxisSmoother:
         band = BAND * d + d - 1
         ref_v = self.x_ref[:, 1, :]
 
-        def excess(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        def tangential(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             """Tangent projectors (n, d, d), tangential velocities and speeds."""
             r = x[:, 0, :] + self.x_ref[:, 0, :] + self.origin
             r /= np.linalg.norm(r, axis=1)[:, None]
@@ -856,7 +856,7 @@ class AxisSmoother:
             vt = np.einsum("kij,kj->ki", P, x[:, 1, :] + ref_v)
             return P, vt, np.linalg.norm(vt, axis=1)
 
-        P, vt, speed = excess(x)
+        P, vt, speed = tangential(x)
         if np.max(speed) <= top * (1.0 + BOUND_TOLERANCE):
             return None
         # the penalty starts halfway to the tolerance: a path that flies the top speed itself
@@ -894,7 +894,7 @@ class AxisSmoother:
                 t = 1.0
                 while t >= LINE_SEARCH_MIN:
                     trial = x + t * step
-                    P_t, vt_t, speed_t = excess(trial)
+                    P_t, vt_t, speed_t = tangential(trial)
                     pen_t = float(np.sum(W * np.maximum(speed_t - level, 0.0) ** 2))
                     if t * q1 + 0.5 * t * t * q2 + 0.5 * (pen_t - pen) <= 0.0:
                         break
