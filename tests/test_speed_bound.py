@@ -9,6 +9,10 @@ The jerk's least-effort curve from a northbound state to a southbound one 28 km 
 swings out and catches up at 1.3 × the aircraft's speed; the log reports 100 m/s throughout,
 so the flown path keeps within it (:meth:`fieldmap.nav.logs.motion.AxisSmoother.top_speed`)
 and still meets the fixes on both sides of the gap.
+
+A second log reports its ground speed only while it taxis at 10 m/s at each end; in between its
+positions fly at 100 m/s. The bound is no lower than the positions require, so the cruise is
+flown at the positions' speed, not held to the taxi's.
 """
 
 from __future__ import annotations
@@ -85,3 +89,28 @@ def test_the_gap_is_flown_within_the_reported_speed(tmp_path):
         dn = np.radians(s.lat[i] - lat[j]) * 6.37e6
         de = np.radians(s.lon[i] - lon[j]) * 6.37e6 * np.cos(np.radians(LAT0))
         assert np.hypot(dn, de) < 30.0, (edge, dn, de)
+
+
+def test_speeds_reported_on_the_ground_only_do_not_hold_the_cruise(tmp_path):
+    """A taxi's reported 10 m/s does not bound a cruise its positions fly at 100 m/s."""
+    t = np.arange(0.0, 1500.5, 5.0)
+    v = np.interp(t, [0, 200, 260, 1240, 1300, 1500], [10, 10, V, V, 10, 10])
+    north = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * 5.0)])
+    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) ** 1.5
+    lat = LAT0 + np.degrees(north / m_lat)
+    alt_ft = np.interp(t, [0, 260, 400, 1100, 1240, 1500], [0, 0, 3000, 3000, 0, 0]) / 0.3048
+    t0 = dt.datetime(2024, 7, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
+    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    for ti, la, vi, a in zip(t, lat, v, alt_ft):
+        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
+        taxi = ti < 200.0 or ti > 1300.0
+        gs, tr = (f"{vi / KT:.0f}", "0") if taxi else ("", "")
+        rows.append(f"{stamp},3c6a01,D-IXYZ,{la:.5f},{LON0:.5f},{a:.0f},{gs},{tr},")
+    path = tmp_path / "taxi_speeds.csv"
+    path.write_text("\n".join(rows) + "\n")
+    _, cf = load_flight(path, Conditioning(vehicle="turboprop"))
+    s = cf.samples
+    k = path_kinematics(s.t, s.lat, s.lon, s.h)
+    assert 0.98 * V <= k.max_ground_speed_m_s <= 1.02 * V, k
+    assert cf.report["model"]["horizontal"]["top_speed_m_s"] >= 0.95 * V
+    assert cf.report["fit"]["residual_all_max_h_m"] < 10.0

@@ -104,15 +104,16 @@ mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
 
 **Speed.** A vehicle flies no faster than it can; where a log reports its ground speed, the
 fastest speed that a measurement (a rate sample of weight over 1/2) and the path both say it
-flew (per sample the smaller of the two: :meth:`AxisSmoother.top_speed`) is the envelope the
-path keeps within, :math:`|P_k v_k| \le V` at every node (:math:`P_k` the projection on the
-tangent plane: the surface point's speed over the ground). Without it a gap's path is the
-jerk's least-effort curve: a vehicle that enters a gap heading away from where it leaves it
-swings out wide and catches up at speeds it never flew (a tanker turning in a 6-minute gap at
-1.3 × its top speed). The bounded path minimises
-:math:`J` over the bounded set (a convex problem: :meth:`AxisSmoother._speed_bounded`); like
-the height's climb and load factor it is a bound, not data: the likelihood and the noise
-levels are those of the unbounded problem.
+flew (per sample the smaller of the two), and no less than its consecutive measured
+positions require at all but 1 % of the steps (:meth:`AxisSmoother.top_speed`), is the
+envelope the path keeps within, :math:`|P_k v_k| \le V` at every node (:math:`P_k` the
+projection on the tangent plane: the surface point's speed over the ground). Without it a
+gap's path is the jerk's least-effort curve: a vehicle that enters a gap heading away from
+where it leaves it swings out wide and catches up at speeds it never flew (a tanker turning
+in a 6-minute gap at 1.3 × its top speed). The bounded path minimises :math:`J` over the
+bounded set (a convex problem: :meth:`AxisSmoother._speed_bounded`); like the height's climb
+and load factor it is a bound, not data: the likelihood and the noise levels are those of
+the unbounded problem.
 
 **Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
 of the data (diffuse initial state),
@@ -160,6 +161,9 @@ BOUND_TOLERANCE = 0.01
 LINE_SEARCH_MIN = 1.0 / 64.0
 #: the speed bound's penalties, in units of a node's own weight: raised in turn (continuation)
 SPEED_STIFFNESS = (1.0, 1e2, 1e4)
+#: the percentile of the speeds consecutive measured positions require that the speed bound
+#: keeps above (a few steps across unrejected glitches do not set it)
+POSITION_SPEED_PERCENTILE = 99.0
 #: iterative refinement steps of each banded solve (:func:`_solve_refined`)
 REFINE_STEPS = 2
 #: degrees of freedom ν of the height's Student-t jerk (module docstring): 1, a Cauchy jerk
@@ -736,7 +740,9 @@ class AxisSmoother:
             if xb is not None:
                 dx, (cb, dscale) = xb, fb
         top = (
-            self.top_speed(weights, self.x_ref + dx) if speed and self.origin is not None else None
+            self.top_speed(weights, self.x_ref + dx, scales)
+            if speed and self.origin is not None
+            else None
         )
         if speed:
             self.speed_held = (top, 0)
@@ -801,21 +807,41 @@ class AxisSmoother:
             return None, (ab, ab[BAND])
         return x, fac
 
-    def top_speed(self, weights: list[np.ndarray], x: np.ndarray) -> float | None:
-        """Return the fastest speed that the log and the path ``x`` both say was flown.
+    def top_speed(
+        self, weights: list[np.ndarray], x: np.ndarray, scales: list[float]
+    ) -> float | None:
+        r"""Return the fastest speed that the log and the path ``x`` both say was flown.
 
         Per rate sample that is a measurement (weight over 1/2), the smaller of its speed and
         the path's there: a reported speed the path does not follow (a noisy value), or a path
-        speed no sample reports (a swing into a gap), does not raise it. The surface point's
-        speed bound (module docstring, "Speed"); None where no rate channel has a measurement.
+        speed no sample reports (a swing into a gap), does not raise it. No less than the
+        positions themselves require: two consecutive measured positions :math:`i, j`
+        (re-timed) are flown at :math:`(|y_j - y_i| - 3\sqrt{2 d}\, s)/(t_j - t_i)` at least
+        (their distance less three σ of its noise, ``d`` the positions' degrees of freedom),
+        and the bound keeps above the :data:`POSITION_SPEED_PERCENTILE`-th percentile of that
+        over the steps: a log whose speeds cover only part of the flight (the taxi at each end)
+        does not hold the rest to them, while a single step across an unrejected glitch or a
+        gap (one pair of fixes against every speed the log reports) does not set it. The
+        surface point's speed bound (module docstring, "Speed"); None where no rate channel has
+        a measurement.
         """
-        tops = []
-        for c, w, k, h in zip(self.channels, weights, self.k, self.h):
-            if c.order != 1 or not np.any(w > 0.5):
+        tops, least = [], 0.0
+        for c, w, k, h, s, tau in zip(self.channels, weights, self.k, self.h, scales, self.tau):
+            on = w > 0.5
+            if c.order == 0 and np.sum(on) > 1:
+                t = (c.t + tau)[on]
+                dy = np.linalg.norm(np.diff(c.y[on], axis=0), axis=1)
+                dt = np.diff(t)
+                ok = dt > 0.0
+                margin = 3.0 * math.sqrt(2.0 * c.dof) * s * c.rho[on][1:][ok]
+                req = (dy[ok] - margin) / dt[ok]
+                if req.size:
+                    least = max(least, float(np.percentile(req, POSITION_SPEED_PERCENTILE)))
+            if c.order != 1 or not np.any(on):
                 continue
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
-            tops.append(float(np.max(np.minimum(np.linalg.norm(c.y, axis=1), path)[w > 0.5])))
-        return max(tops) if tops else None
+            tops.append(float(np.max(np.minimum(np.linalg.norm(c.y, axis=1), path)[on])))
+        return max(max(tops), least) if tops else None
 
     def _speed_bounded(
         self, ab: np.ndarray, b: np.ndarray, x: np.ndarray, top: float
