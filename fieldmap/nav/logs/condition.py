@@ -698,12 +698,13 @@ def estimate(
     hz, hchans = horizontal(True)
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
-        share = 100.0 * float(np.mean(hz.fault_prob[1] > 0.5))
+        off = [100.0 * float(np.mean(p > 0.5)) for p in hz.fault_prob]
         hz, hchans = (alone, [meas.positions]) if alone is not None else horizontal(False)
         notes.append(
-            f"the log's ground speeds and tracks contradict its positions ({share:.0f} % of "
-            "them off the path the positions and velocities would share): not used, the "
-            "horizontal path follows the positions alone"
+            f"the log's ground speeds and tracks contradict its positions (off the path the "
+            f"positions and velocities would share: {off[1]:.0f} % of the velocities, "
+            f"{off[0]:.0f} % of the positions): not used, the horizontal path follows the "
+            "positions alone"
         )
     vchans = [meas.heights]
     vfloors = [max(meas.height_quantum / sq12, 0.01)]
