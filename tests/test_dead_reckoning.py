@@ -5,7 +5,8 @@ longitudes printed to 1e-4 degree (as the corpus's glider pieces): it flies nort
 then turns right through 90° at 1.5 °/s and flies east. While it turns the receiver has lost
 it and sends its last state again (ground speed, track, altitude and vertical rate held),
 advancing the last fix north at the last velocity: ten rows of dead reckoning. The next real
-fix is kilometres off that line. Its truth is built here, with its own geodesy.
+fix is kilometres off that line. Its truth is built here, with the tests' own geodesy
+(``log_tracks``).
 
 Taken for measurements, the extrapolated positions pull the path up the dead-reckoned line
 before it turns to the real fix (51 m/s, the smoother rejecting the end of the line); left
@@ -18,7 +19,6 @@ reckoning).
 
 from __future__ import annotations
 
-import datetime as dt
 import sys
 from pathlib import Path
 
@@ -30,10 +30,9 @@ from fieldmap.nav.logs.condition import Conditioning
 
 sys.path.insert(0, str(Path(__file__).parent))
 from corpus_checks import path_kinematics  # noqa: E402
+from log_tracks import local_to_lat_lon, write_traffic_csv  # noqa: E402
 
 KT, FT = 1852.0 / 3600.0, 0.3048
-A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
-E2 = F_WGS * (2.0 - F_WGS)
 LAT0, LON0, V = 46.0, 10.0, 30.0
 TURN_AT, RATE = 600.0, np.radians(1.5)  # the turn: from 600 s, 1.5 °/s for 60 s
 
@@ -60,17 +59,12 @@ def _write(path: Path, held: bool) -> Path:
         north = np.where(lost, north[last] + V * (t - t[last]), north)
         east = np.where(lost, east[last], east)
         track = np.where(lost, track[last], track)
-    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) ** 1.5
-    n_lon = A_WGS / np.sqrt(1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) * np.cos(np.radians(LAT0))
-    lat = LAT0 + np.degrees(north / m_lat)
-    lon = LON0 + np.degrees(east / n_lon)
-    t0 = dt.datetime(2024, 7, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
-    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
-    for ti, la, lo, tr in zip(t, lat, lon, track):
-        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
-        rows.append(f"{stamp},3ed6a0,D-KXYZ,{la:.4f},{lo:.4f},6000,{round(V / KT)},{tr:.0f},0")
-    path.write_text("\n".join(rows) + "\n")
-    return path
+    lat, lon = local_to_lat_lon(north, east, LAT0, LON0)
+    rows = [
+        f"3ed6a0,D-KXYZ,{la:.4f},{lo:.4f},6000,{round(V / KT)},{tr:.0f},0"
+        for la, lo, tr in zip(lat, lon, track)
+    ]
+    return write_traffic_csv(path, t, rows)
 
 
 @pytest.mark.parametrize("held", [False, True], ids=["fixes", "dead-reckoned"])

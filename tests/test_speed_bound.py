@@ -3,7 +3,7 @@
 A synthetic turboprop log in ``traffic``'s CSV layout, a row every 5 s: it flies north at
 100 m/s, then the log falls silent for 6 minutes while the aircraft turns back through 180° at
 3 °/s (a standard-rate turn, 60 s) and flies south; the rows resume on its southbound leg.
-Its truth is built here, with its own geodesy.
+Its truth is built here, with the tests' own geodesy (``log_tracks``).
 
 The jerk's least-effort curve from a northbound state to a southbound one 28 km south of it
 swings out and catches up at 1.3 × the aircraft's speed; the log reports 100 m/s throughout,
@@ -17,7 +17,6 @@ flown at the positions' speed, not held to the taxi's.
 
 from __future__ import annotations
 
-import datetime as dt
 import sys
 from pathlib import Path
 
@@ -29,10 +28,9 @@ from fieldmap.nav.logs.condition import Conditioning
 
 sys.path.insert(0, str(Path(__file__).parent))
 from corpus_checks import path_kinematics  # noqa: E402
+from log_tracks import local_to_lat_lon, write_traffic_csv  # noqa: E402
 
 KT = 1852.0 / 3600.0
-A_WGS, F_WGS = 6378137.0, 1.0 / 298.257223563
-E2 = F_WGS * (2.0 - F_WGS)
 LAT0, LON0, V = 44.0, 5.0, 100.0
 GAP = (900.0, 1260.0)  # the log is silent from 900 s to 1260 s
 TURN_AT, RATE = 930.0, np.radians(3.0)  # the turn: from 930 s, 3 °/s for 60 s
@@ -55,17 +53,12 @@ def _write(path: Path) -> tuple[Path, np.ndarray, np.ndarray, np.ndarray]:
     t = np.arange(0.0, 2200.0 + 0.5, 5.0)
     t = t[(t <= GAP[0]) | (t >= GAP[1])]
     north, east, track = _truth(t)
-    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) ** 1.5
-    n_lon = A_WGS / np.sqrt(1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) * np.cos(np.radians(LAT0))
-    lat = LAT0 + np.degrees(north / m_lat)
-    lon = LON0 + np.degrees(east / n_lon)
-    t0 = dt.datetime(2024, 7, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
-    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
-    for ti, la, lo, tr in zip(t, lat, lon, track):
-        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
-        rows.append(f"{stamp},3c6a01,D-IXYZ,{la:.5f},{lo:.5f},12000,{V / KT:.0f},{tr:.0f},0")
-    path.write_text("\n".join(rows) + "\n")
-    return path, t, lat, lon
+    lat, lon = local_to_lat_lon(north, east, LAT0, LON0)
+    rows = [
+        f"3c6a01,D-IXYZ,{la:.5f},{lo:.5f},12000,{V / KT:.0f},{tr:.0f},0"
+        for la, lo, tr in zip(lat, lon, track)
+    ]
+    return write_traffic_csv(path, t, rows), t, lat, lon
 
 
 def test_the_gap_is_flown_within_the_reported_speed(tmp_path):
@@ -96,18 +89,14 @@ def test_speeds_reported_on_the_ground_only_do_not_hold_the_cruise(tmp_path):
     t = np.arange(0.0, 1500.5, 5.0)
     v = np.interp(t, [0, 200, 260, 1240, 1300, 1500], [10, 10, V, V, 10, 10])
     north = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * 5.0)])
-    m_lat = A_WGS * (1.0 - E2) / (1.0 - E2 * np.sin(np.radians(LAT0)) ** 2) ** 1.5
-    lat = LAT0 + np.degrees(north / m_lat)
+    lat, _ = local_to_lat_lon(north, np.zeros_like(north), LAT0, LON0)
     alt_ft = np.interp(t, [0, 260, 400, 1100, 1240, 1500], [0, 0, 3000, 3000, 0, 0]) / 0.3048
-    t0 = dt.datetime(2024, 7, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
-    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
-    for ti, la, vi, a in zip(t, lat, v, alt_ft):
-        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
-        taxi = ti < 200.0 or ti > 1300.0
-        gs, tr = (f"{vi / KT:.0f}", "0") if taxi else ("", "")
-        rows.append(f"{stamp},3c6a01,D-IXYZ,{la:.5f},{LON0:.5f},{a:.0f},{gs},{tr},")
-    path = tmp_path / "taxi_speeds.csv"
-    path.write_text("\n".join(rows) + "\n")
+    taxi = (t < 200.0) | (t > 1300.0)
+    rows = [
+        f"3c6a01,D-IXYZ,{la:.5f},{LON0:.5f},{a:.0f}," + (f"{vi / KT:.0f},0," if on_ground else ",,")
+        for la, vi, a, on_ground in zip(lat, v, alt_ft, taxi)
+    ]
+    path = write_traffic_csv(tmp_path / "taxi_speeds.csv", t, rows)
     _, cf = load_flight(path, Conditioning(vehicle="turboprop"))
     s = cf.samples
     k = path_kinematics(s.t, s.lat, s.lon, s.h)
