@@ -415,3 +415,21 @@ def test_flight_files_in_tests_data():
         assert cf.report["kinematics"]["peak_acceleration_g"] < 3.0, f
         assert np.all(np.isfinite(cf.samples.lat)) and np.all(np.isfinite(cf.samples.h))
         FlightTrajectory(cf.samples)
+
+
+def test_fault_lines_name_their_samples_in_words():
+    """The report's fault lines count samples as a reader writes them, not "velocitys"."""
+    from fieldmap.nav.logs.faults import Fault
+
+    assert (
+        "6 velocities off the path"
+        in Fault("velocity", "displaced", (3, 8), 0.0, 5.0, 6, 14.0).text()
+    )
+    assert (
+        "1 position with wrong time tags"
+        in Fault("position", "time-shifted", (3, 3), 0.0, 5.0, 1, 90.0, -3.0).text()
+    )
+    assert (
+        "2 vertical rates re-timed"
+        in Fault("vertical rate", "re-timed", (3, 4), 0.0, 5.0, 2, 1.0, 1.5).text()
+    )

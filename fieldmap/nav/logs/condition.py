@@ -746,9 +746,10 @@ def estimate(
             copies = axis.copies(i)
             if copies:
                 notes.append(
-                    f"{copies} of the log's {c.name}s ({100.0 * copies / c.t.size:.0f} %) repeat "
-                    "the value before them where the path moves on: copies of it (a value held "
-                    "or filled forward), not measurements"
+                    f"{copies} of the log's {flt.plural(c.name)} "
+                    f"({100.0 * copies / c.t.size:.0f} %) repeat the value before them where the "
+                    "path moves on: copies of it (a value held or filled forward), not "
+                    "measurements"
                 )
     return PathEstimate(hz, vt, chans, tuple(notes))
 

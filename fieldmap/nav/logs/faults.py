@@ -81,11 +81,11 @@ class Fault:
         """Return the fault in words (times relative to ``t0``)."""
         what = {
             "outlier": f"{self.channel} outlier",
-            "time-shifted": f"{self.samples} {self.channel}s with wrong time tags (the path "
+            "time-shifted": f"{counted(self.samples, self.channel)} with wrong time tags (the path "
             f"passes there {abs(self.time_shift_s or 0.0):.0f} s "
             f"{'earlier' if (self.time_shift_s or 0.0) < 0 else 'later'})",
-            "displaced": f"{self.samples} {self.channel}s off the path",
-            "re-timed": f"{self.samples} {self.channel}s re-timed by up to "
+            "displaced": f"{counted(self.samples, self.channel)} off the path",
+            "re-timed": f"{counted(self.samples, self.channel)} re-timed by up to "
             f"{abs(self.time_shift_s or 0.0):.1f} s (time tags off; kept)",
         }[self.kind]
         unit = "m/s" if self.channel in ("velocity", "vertical rate") else "m"
@@ -93,6 +93,16 @@ class Fault:
             f"lines {self.lines[0]}..{self.lines[1]} (t = {self.t_start_s - t0:.0f} s): {what}, "
             f"up to {self.offset_m:.0f} {unit}"
         )
+
+
+def plural(channel: str) -> str:
+    """Return a channel's name in the plural: "velocities", "heights", "vertical rates"."""
+    return f"{channel[:-1]}ies" if channel.endswith("y") else f"{channel}s"
+
+
+def counted(n: int, channel: str) -> str:
+    """Return ``n`` samples of a channel in words: "1 velocity", "6 velocities", "2 heights"."""
+    return f"1 {channel}" if n == 1 else f"{n} {plural(channel)}"
 
 
 def printed_step(x: np.ndarray) -> float:
