@@ -129,6 +129,14 @@ of the data (diffuse initial state),
 (:mod:`fieldmap.nav.logs.vehicles`): its process noise, not a loop that softens the result
 afterwards.
 
+Known defect: for the surface point, :math:`d = 3` counts the radial axis in the determinants,
+while :math:`d_i = 2` normalises only the measured ones; the unpaid radial term favours a
+wide positions' σ. Where fixes are dense the data outweigh it; on a log with fixes far apart
+in its turns (20 s, 60° of turn) the σ is not identified by the data and goes to its ceiling
+(CAL FIRE tankers: about 1 km, the path hundreds of metres off the fixes). Counting the
+measured axes alone sends it to its floor instead: what is missing is a prior on σ from the
+sensor's accuracy (``tests/test_position_noise.py`` records it).
+
 **Uncertainty.** The posterior covariance is :math:`A^{-1}`; the σ of the path at a node (in a
 gap, say) is one banded solve with a unit vector (:meth:`SmoothedAxis.sigma_at`).
 
