@@ -3,11 +3,13 @@
 For each piece of ``tests/data/corpus/`` (``manifest.json``; ``--category`` and ``--limit``
 pick a subset) it prints one line: the log's robust maximum ground speed (the 99.5th
 percentile of its ``groundspeed`` column), then for each method the largest ground speed and
-the specific-force range of its path and the wall time it took, and fieldmap's verdict by
-issue 34's rules: ``clean``, ``suspect`` (ground speed over 1.05 × the log's robust maximum,
-specific force outside 0.3..1.8 g, less than 90 % of the log flown; the reasons follow),
-``refused`` (an :class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any
-other exception: its type and message). Medians at the end; ``--csv FILE`` writes every number.
+the specific-force range of its path, ``off95`` (the 95th percentile over the log's fixes of
+their horizontal distance from the path at their times: where the path flies; a measure, not
+a rule) and the wall time it took, and fieldmap's verdict by issue 34's rules: ``clean``,
+``suspect`` (ground speed over 1.05 × the log's robust maximum, specific force outside
+0.3..1.8 g, less than 90 % of the log flown; the reasons follow), ``refused`` (an
+:class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any other
+exception: its type and message). Medians at the end; ``--csv FILE`` writes every number.
 
 The two methods, on the same file:
 
@@ -69,6 +71,8 @@ from corpus_checks import (  # noqa: E402
     path_kinematics,
 )
 
+from fieldmap.nav.trajectory import FlightSamples  # noqa: E402
+
 FT, KT = 0.3048, 1852.0 / 3600.0
 #: pieces whose real specific force leaves 0.3..1.8 g (issue 34: the parabolic flights reach
 #: 0 g at the tops and up to 2.2 g at the pull-ups), with the envelope they are checked against
@@ -97,12 +101,16 @@ class Row:
     fm_heights_within: float | None = None
     fm_worst_dh: float | None = None
     fm_worst_dh_line: int | None = None
+    fm_off50: float | None = None
+    fm_off95: float | None = None
     fm_s: float | None = None
     tr_status: str = ""
     tr_gs: float | None = None
     tr_gs_col: float | None = None
     tr_sf_min: float | None = None
     tr_sf_max: float | None = None
+    tr_off50: float | None = None
+    tr_off95: float | None = None
     tr_s: float | None = None
     extra: dict = field(default_factory=dict)
 
@@ -110,7 +118,9 @@ class Row:
 def traffic_path(
     path: Path, geoid: tuple[np.ndarray, np.ndarray], resample: str | None = None
 ) -> tuple[Any, float]:
-    """Smooth one piece with KalmanSmoother6D; return ((t, lat, lon, h, gs_col_max), seconds).
+    """Smooth one piece with KalmanSmoother6D; return ((t, lat, lon, h, gs_col_max, t0), seconds).
+
+    ``t`` from 0 at ``t0`` (the first output row's epoch seconds).
 
     ``resample`` (``"1s"``): ``Flight.resample`` first (linear interpolation of every column,
     the projected positions included), so that the smoother's 1 s step is the rows' spacing.
@@ -163,7 +173,8 @@ def traffic_path(
     t_abs = out["timestamp"].iloc[0].timestamp() + g["t"].to_numpy()
     h = g["alt"].to_numpy() + np.interp(t_abs, *geoid)
     gs_col = float(np.nanmax(out["groundspeed"].to_numpy(float))) * KT
-    return (g["t"].to_numpy(), g["lat"].to_numpy(), g["lon"].to_numpy(), h, gs_col), sec
+    t0_epoch = float(out["timestamp"].iloc[0].timestamp())
+    return (g["t"].to_numpy(), g["lat"].to_numpy(), g["lon"].to_numpy(), h, gs_col, t0_epoch), sec
 
 
 def geoid_of(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -213,6 +224,7 @@ def run_piece(
         )  # fmt: skip
         row.fm_flown, row.fm_heights_within = c.flown_fraction, c.heights_within
         row.fm_worst_dh, row.fm_worst_dh_line = c.worst_height_offset_m, c.worst_height_line
+        row.fm_off50, row.fm_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
     except _Skipped:
         row.fm_s = None
     except InputError as exc:
@@ -225,11 +237,16 @@ def run_piece(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                (t, lat, lon, h, gs_col), row.tr_s = traffic_path(path, geoid_of(path), resample)
+                (t, lat, lon, h, gs_col, t0), row.tr_s = traffic_path(
+                    path, geoid_of(path), resample
+                )
             k: PathKinematics = path_kinematics(t, lat, lon, h)
             row.tr_status = "ok"
             row.tr_gs, row.tr_gs_col = k.max_ground_speed_m_s, gs_col
             row.tr_sf_min, row.tr_sf_max = k.specific_force_min_g, k.specific_force_max_g
+            samples = FlightSamples(t, lat, lon, h, None, "traffic", np.zeros(t.size, int), t0)
+            c = check_piece(path, samples, sigma_h=sigma_h)
+            row.tr_off50, row.tr_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
         except Exception as exc:  # noqa: BLE001 - a failure of the peer is a result too
             row.tr_status = f"error {type(exc).__name__}: {exc}".splitlines()[0]
     return row
@@ -243,11 +260,11 @@ def line(r: Row) -> str:
     """One printed line."""
     fm = (
         f"{_f(r.fm_gs, '6.0f')} {_f(r.fm_sf_min, '5.2f')}..{_f(r.fm_sf_max, '<6.2f')} "
-        f"{_f(r.fm_s, '6.1f')}"
+        f"{_f(r.fm_off95, '6.0f')} {_f(r.fm_s, '6.1f')}"
     )
     tr = (
         f"{_f(r.tr_gs, '6.0f')} {_f(r.tr_gs_col, '6.0f')} {_f(r.tr_sf_min, '5.2f')}.."
-        f"{_f(r.tr_sf_max, '<6.2f')} {_f(r.tr_s, '6.1f')}"
+        f"{_f(r.tr_sf_max, '<6.2f')} {_f(r.tr_off95, '6.0f')} {_f(r.tr_s, '6.1f')}"
     )
     tail = f"{r.fm_status}{': ' + r.fm_reason if r.fm_reason else ''}"
     if r.tr_status and r.tr_status != "ok":
@@ -288,8 +305,8 @@ def main(argv: list[str] | None = None) -> int:
         entries = entries[: args.limit]
     print(
         f"{'piece':42s} {'rows':>6s} {'hours':>5s} {'gs995':>6s} | "
-        f"{'fm gs':>6s} {'fm sf g':>12s} {'fm s':>6s} | "
-        f"{'tr gs':>6s} {'gs col':>6s} {'tr sf g':>12s} {'tr s':>6s} | fieldmap"
+        f"{'fm gs':>6s} {'fm sf g':>12s} {'off95':>6s} {'fm s':>6s} | "
+        f"{'tr gs':>6s} {'gs col':>6s} {'tr sf g':>12s} {'off95':>6s} {'tr s':>6s} | fieldmap"
     )
     rows: list[Row] = []
     writer = None
@@ -341,6 +358,11 @@ def summary(rows: list[Row]) -> None:
         f"{med([r.tr_s for r in rows])}; per hour of log: fieldmap "
         f"{med([r.fm_s / r.hours for r in rows if r.fm_s and r.hours > 0])}, traffic "
         f"{med([r.tr_s / r.hours for r in rows if r.tr_s and r.hours > 0])}"
+    )
+    print(
+        "median horizontal offset from the fixes (m; median, 95th percentile per piece): "
+        f"fieldmap {med([r.fm_off50 for r in flown])}, {med([r.fm_off95 for r in flown])}; "
+        f"traffic {med([r.tr_off50 for r in rows])}, {med([r.tr_off95 for r in rows])}"
     )
     print(f"pieces flown by both: {len(both)}")
 

@@ -11,7 +11,10 @@ raw log only (nothing of the conditioning's own report is read):
 - the fraction of the log's span (first to last fix) that the flown path covers;
 - the fraction of the log's fixes (rows that :func:`~fieldmap.nav.logs.read.read_track` keeps)
   whose height is within ``k_sigma`` σ of the flown path's height at the fix's time (a fix
-  outside the flown span counts as not within), with the worst offset and its line.
+  outside the flown span counts as not within), with the worst offset and its line;
+- how far the flown path passes from the log's positions: the horizontal distance of each
+  flown-past fix from the path at its time, its median and 95th percentile (not a check: a
+  measure of where the path flies, for the benchmark and the notes).
 
 The flown path is the quintic interpolating spline (``make_interp_spline``, k = 5) of the
 samples in ECEF: the path :class:`~fieldmap.nav.trajectory.FlightTrajectory` flies. It is
@@ -110,6 +113,9 @@ class CorpusCheck:
         Largest absolute height offset of a flown-past fix from the path (0 when none). Units: m.
     worst_height_line : int
         Its line in the file (0 when none).
+    horizontal_offset_median_m, horizontal_offset_p95_m : float
+        Median and 95th percentile of the horizontal distance of the flown-past fixes from
+        the path at their times (NaN when none is flown past). Units: m.
     """
 
     source: str
@@ -126,6 +132,8 @@ class CorpusCheck:
     fixes_outside_flown: int
     worst_height_offset_m: float
     worst_height_line: int
+    horizontal_offset_median_m: float = float("nan")
+    horizontal_offset_p95_m: float = float("nan")
 
     def suspect(self, envelope: tuple[float, float] | None = SPECIFIC_FORCE_RANGE) -> list[str]:
         """Return the issue's reasons to call the flown path suspect (empty: clean).
@@ -219,6 +227,20 @@ def path_kinematics(
     )
 
 
+def horizontal_offsets(
+    r_path: np.ndarray, lat: np.ndarray, lon: np.ndarray, ellipsoid: Ellipsoid = WGS84
+) -> np.ndarray:
+    """Return the horizontal distance (m) of fixes ``lat, lon`` from path points ``r_path``.
+
+    ``r_path`` (n, 3): the path in ECEF at the fixes' times. Each fix is placed at the path's
+    own height there, so that only the horizontal part of the offset remains: the chord
+    between the two points (within 1e-7 of the distance along the surface up to 10 km).
+    """
+    _, _, h = ecef_to_geodetic(r_path[:, 0], r_path[:, 1], r_path[:, 2], ellipsoid)
+    fix = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), axis=-1)
+    return np.linalg.norm(fix - r_path, axis=1)
+
+
 def check_piece(
     path: str | Path,
     samples: Any,
@@ -265,6 +287,7 @@ def check_piece(
     inside = (log.t >= f0) & (log.t <= f1)
     ok = np.zeros(log.t.size, bool)
     worst, worst_line = 0.0, 0
+    horizontal = np.zeros(0)
     if inside.any():
         sp = _spline(np.asarray(s.t, float), s.lat, s.lon, s.h, ellipsoid)
         r = sp(log.t[inside] - s.t_start)
@@ -273,6 +296,7 @@ def check_piece(
         ok[inside] = off <= k_sigma * sigma_h
         k = int(np.argmax(off))
         worst, worst_line = float(off[k]), int(log.lines[inside][k])
+        horizontal = horizontal_offsets(r, log.lat[inside], log.lon[inside], ellipsoid)
     return CorpusCheck(
         source=str(path),
         reported_gs_max_m_s=reported,
@@ -288,4 +312,8 @@ def check_piece(
         fixes_outside_flown=int((~inside).sum()),
         worst_height_offset_m=worst,
         worst_height_line=worst_line,
+        horizontal_offset_median_m=float(np.median(horizontal)) if horizontal.size else np.nan,
+        horizontal_offset_p95_m=(
+            float(np.percentile(horizontal, 95.0)) if horizontal.size else np.nan
+        ),
     )

@@ -59,6 +59,7 @@ def test_a_log_flown_through_its_own_fixes_meets_the_checks(piece):
     assert c.fixes_outside_flown == 0
     # every fix with a time of its own is on the path; repeated times may not be
     assert c.heights_within >= first.size / log.t.size
+    assert c.horizontal_offset_p95_m < 1e-3
     # cut the last quarter: a quarter of the span is not flown
     n = int(0.75 * t.size)
     cut = FlightSamples(s.t[:n], s.lat[:n], s.lon[:n], s.h[:n], None, "test", s.lines[:n], t[0])
@@ -75,3 +76,19 @@ def test_manifest_lists_every_piece_with_its_robust_maximum():
     for e in MANIFEST["pieces"][::10]:
         gs = reported_max_ground_speed(CORPUS / e["category"] / f"{e['name']}.csv.gz")
         assert gs == pytest.approx(e["gs_p995_m_s"], abs=1e-3)
+
+
+def test_horizontal_offset_of_a_path_beside_the_fixes():
+    """The path flown 250 m east of the fixes (and 40 m above them) is 250 m off them."""
+    path = CORPUS / "calibration/munich.csv.gz"
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    t, first = np.unique(log.t, return_index=True)
+    lat = log.lat[first]
+    # 250 m east on the parallel: the prime vertical radius of curvature, cos(lat)
+    s2 = np.sin(np.radians(lat)) ** 2
+    n = 6_378_137.0 / np.sqrt(1.0 - 0.0066943799901 * s2)
+    lon = log.lon[first] + np.degrees(250.0 / ((n + log.h[first] + 40.0) * np.cos(np.radians(lat))))
+    s = FlightSamples(t - t[0], lat, lon, log.h[first] + 40.0, None, "test", log.lines[first], t[0])
+    c = check_piece(path, s, sigma_h=1.0)
+    assert c.horizontal_offset_median_m == pytest.approx(250.0, abs=0.01)
+    assert c.horizontal_offset_p95_m == pytest.approx(250.0, abs=0.01)
