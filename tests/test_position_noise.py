@@ -16,8 +16,9 @@ radial axis rewards a wide σ that nothing pays for, and on the corpus's CAL FIR
 takes the σ to its ceiling, about 1 km, with the path hundreds of metres off the fixes.
 Counted over the measured axes only (branch ``likelihood-wip``), this log's σ goes to its
 floor instead (0.01 m: the path through every noisy fix). What is missing is the sensor's
-own accuracy as a prior on σ where the fixes cannot tell; until then this test records the
-defect (strict: it fails the suite when it starts to pass).
+own accuracy as a prior on σ where the fixes cannot tell, and a motion model that holds a
+turn; until then this test records the defect (strict: it fails the suite when it starts to
+pass).
 """
 
 from __future__ import annotations

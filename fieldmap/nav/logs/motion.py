@@ -134,8 +134,10 @@ while :math:`d_i = 2` normalises only the measured ones; the unpaid radial term 
 wide positions' σ. Where fixes are dense the data outweigh it; on a log with fixes far apart
 in its turns (20 s, 60° of turn) the σ is not identified by the data and goes to its ceiling
 (CAL FIRE tankers: about 1 km, the path hundreds of metres off the fixes). Counting the
-measured axes alone sends it to its floor instead: what is missing is a prior on σ from the
-sensor's accuracy (``tests/test_position_noise.py`` records it).
+measured axes alone sends it to its floor instead. What is missing: a prior on σ from the
+sensor's accuracy, and a model that holds a turn (a sustained 4-7 m/s² orbit costs the
+zero-mean acceleration, relaxing in τ, more than rejecting fixes does);
+``tests/test_position_noise.py`` records it.
 
 **Uncertainty.** The posterior covariance is :math:`A^{-1}`; the σ of the path at a node (in a
 gap, say) is one banded solve with a unit vector (:meth:`SmoothedAxis.sigma_at`).
