@@ -4,11 +4,12 @@ For each piece of ``tests/data/corpus/`` (``manifest.json``; ``--category`` and 
 pick a subset) it prints one line: the log's robust maximum ground speed (the 99.5th
 percentile of its ``groundspeed`` column), then for each method the largest ground speed and
 the specific-force range of its path, ``off95`` (the 95th percentile over the log's fixes of
-their horizontal distance from the path at their times: where the path flies; a measure, not
-a rule) and the wall time it took, and fieldmap's verdict by issue 34's rules: ``clean``,
-``suspect`` (ground speed over 1.05 × the log's robust maximum, specific force outside
-0.3..1.8 g, less than 90 % of the log flown; the reasons follow), ``refused`` (an
-:class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any other
+their horizontal distance from the path at their stamped times: where the path flies; a
+measure, not a rule: where a log's positions carry time errors, part of it is along the
+track, the fixes re-timed) and the wall time it took, and fieldmap's verdict by issue 34's
+rules: ``clean``, ``suspect`` (ground speed over 1.05 × the log's robust maximum, specific
+force outside 0.3..1.8 g, less than 90 % of the log flown; the reasons follow), ``refused``
+(an :class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any other
 exception: its type and message). Medians at the end; ``--csv FILE`` writes every number.
 
 The two methods, on the same file:
