@@ -80,3 +80,34 @@ def test_sparse_orbit_is_flown_at_its_speed(orbit):
     east = np.radians(s.lon) * 6_371_000.0 * np.cos(np.radians(LAT0))
     speed = np.hypot(np.diff(north), np.diff(east)) / np.diff(s.t)
     assert abs(float(np.median(speed)) - V) < 0.03 * V
+
+
+CORPUS = Path(__file__).parent / "data" / "corpus"
+
+
+def test_report_says_where_a_noise_estimate_stopped_at_its_bound(tmp_path):
+    """A σ left at the bound of its search is said so, where the user reads the σ.
+
+    A log without noise (straight and level at 100 m/s, its positions printed to 1e-8°): every
+    channel's σ goes to its floor, and the report says so; munich (a calibration flight logged
+    every 5 s) has no σ at a bound; a σ the user gives is not estimated, so no bound is
+    reported for it.
+    """
+    t = np.arange(0.0, 900.0, 1.0)
+    lat, lon = local_to_lat_lon(100.0 * t, 0.0 * t, 45.0, 7.0)
+    rows = [
+        f"abc123,TEST01,{la:.8f},{lo:.8f},10000,{100.0 / KT:.1f},0.0,0" for la, lo in zip(lat, lon)
+    ]
+    path = write_traffic_csv(tmp_path / "straight.csv", t, rows)
+    _, cf = load_flight(path, height_ref="pressure")
+    ch = cf.report["channels"]["position"]
+    assert ch["noise_sigma_at_bound"] == "floor", ch
+    text = cf.format_report()
+    assert f"the estimate stopped at its floor, {ch['noise_sigma_bounds'][0]:.4g} m" in text
+
+    _, cf = load_flight(path, Conditioning(position_noise_m=0.01), height_ref="pressure")
+    assert cf.report["channels"]["position"]["noise_sigma_at_bound"] is None
+
+    _, cf = load_flight(CORPUS / "calibration" / "munich.csv.gz", height_ref="pressure")
+    assert all(c["noise_sigma_at_bound"] is None for c in cf.report["channels"].values())
+    assert "the estimate stopped" not in cf.format_report()

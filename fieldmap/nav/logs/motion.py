@@ -174,6 +174,8 @@ SPEED_STIFFNESS = (1.0, 1e2, 1e4)
 #: the percentile of the speeds consecutive measured positions require that the speed bound
 #: keeps above (a few steps across unrejected glitches do not set it)
 POSITION_SPEED_PERCENTILE = 99.0
+#: the precision (in the logarithm) the noise scales are maximised to
+SCALE_XATOL = 0.05
 #: iterative refinement steps of each banded solve (:func:`_solve_refined`)
 REFINE_STEPS = 2
 #: degrees of freedom ν of the height's Student-t jerk (module docstring): 1, a Cauchy jerk
@@ -346,6 +348,11 @@ class SmoothedAxis:
         Each channel's estimated time errors (s; zeros where the channel has none).
     sigma_tau : list of float
         Each channel's σ of the time errors (s; 0 where none).
+    scale_bounds : list of (float, float)
+        Each channel's bounds of ``s`` (its floor and ceiling): where the maximiser stopped at
+        one (:meth:`SmoothedAxis.scale_at_bound`), the likelihood wanted a value beyond it.
+    fixed : list of bool
+        Each channel's ``s`` given, not estimated.
     """
 
     grid: Grid
@@ -371,6 +378,24 @@ class SmoothedAxis:
     top_speed: float | None = None
     #: the nodes the speed bound holds (the path there would fly faster without it)
     speed_held: int = 0
+    scale_bounds: list[tuple[float, float]] = field(default_factory=list)
+    fixed: list[bool] = field(default_factory=list)
+
+    def scale_at_bound(self, i: int) -> str | None:
+        """Return the bound (``"floor"``, ``"ceiling"``) channel ``i``'s estimate stopped at.
+
+        Within twice the maximiser's tolerance (:data:`SCALE_XATOL`) of it; None where the
+        estimate is inside its bounds, or the scale was given.
+        """
+        if i >= len(self.scale_bounds) or (i < len(self.fixed) and self.fixed[i]):
+            return None
+        lo, hi = self.scale_bounds[i]
+        ls = math.log(self.scales[i])
+        if hi > lo and ls >= math.log(hi) - 2.0 * SCALE_XATOL:
+            return "ceiling"
+        if hi > lo and ls <= math.log(lo) + 2.0 * SCALE_XATOL:
+            return "floor"
+        return None
 
     def weights(self) -> list[np.ndarray]:
         """Each channel's measurement weights ``1 − π − κ`` (module docstring)."""
@@ -1047,6 +1072,8 @@ class AxisSmoother:
             held_rate=list(self.held_rates),
             top_speed=self.speed_held[0],
             speed_held=self.speed_held[1],
+            scale_bounds=list(self.scale_bounds),
+            fixed=[f is not None for f in self.fixed],
         )
 
     def manoeuvres(self, x: np.ndarray, q: float) -> np.ndarray:
@@ -1135,7 +1162,7 @@ class AxisSmoother:
                 over_s,
                 bounds=(math.log(sb[0]), math.log(sb[1])),
                 method="bounded",
-                options={"xatol": 0.05},
+                options={"xatol": SCALE_XATOL},
             )
             scales = list(scales)
             scales[i] = math.exp(res.x)

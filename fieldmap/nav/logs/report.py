@@ -52,7 +52,8 @@ class ConditionedFlight:
     report : dict
         JSON-ready summary (:func:`build_report`): ``samples``, ``order``, ``vehicle`` (class,
         how chosen, evidence), ``model`` (the motion model's noise levels), ``channels`` (each
-        measurement channel: noise σ, fault rate, residual RMS and largest, rejected samples),
+        measurement channel: noise σ, its search bounds and the one it stopped at, if any,
+        fault rate, residual RMS and largest, rejected samples),
         ``fit`` (the horizontal and vertical noise and residuals in one place), ``faults``
         (every run of rejected samples, with lines and what it is), ``gaps`` (longer than
         ``max_gap_s``, with the path's σ), ``ground``, ``kinematics`` (:func:`kinematics`),
@@ -279,6 +280,9 @@ def build_report(c: Any) -> dict[str, Any]:
         chans[name] = {
             "samples": int(ch.t.size),
             "noise_sigma": float(axis.scales[i]),
+            # "floor" or "ceiling" where the estimate stopped at a bound of its search
+            "noise_sigma_at_bound": axis.scale_at_bound(i),
+            "noise_sigma_bounds": [float(b) for b in axis.scale_bounds[i]],
             "fault_rate": float(axis.fault_rate[i]),
             "rejected": int(rej.sum()),
             "copies": axis.copies(i),
@@ -487,8 +491,16 @@ def format_report(rep: dict) -> str:
         for name, ch in rep["channels"].items():
             u = units.get(name, "")
             per = " per axis" if name in ("position", "velocity") else ""
+            bound = ch["noise_sigma_at_bound"]
+            at = (
+                f" (the estimate stopped at its {bound}, "
+                f"{ch['noise_sigma_bounds'][bound == 'ceiling']:.4g} {u})"
+                if bound
+                else ""
+            )
             lines.append(
-                f"  {name}: {ch['samples']} measured, noise σ {ch['noise_sigma']:.2f} {u}{per}; "
+                f"  {name}: {ch['samples']} measured, "
+                f"noise σ {ch['noise_sigma']:.2f} {u}{per}{at}; "
                 f"residual RMS {ch['residual_rms']:.2f} {u}{per}, largest {ch['residual_max']:.1f}"
                 f" {u} (kept), {ch['residual_all_max']:.0f} {u} (all, line "
                 f"{ch['residual_all_max_line']}); {ch['rejected']} rejected"
