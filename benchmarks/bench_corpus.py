@@ -69,7 +69,6 @@ from corpus_checks import (  # noqa: E402
     SPECIFIC_FORCE_RANGE,
     PathKinematics,
     check_piece,
-    path_kinematics,
 )
 
 from fieldmap.nav.trajectory import FlightSamples  # noqa: E402
@@ -241,12 +240,12 @@ def run_piece(
                 (t, lat, lon, h, gs_col, t0), row.tr_s = traffic_path(
                     path, geoid_of(path), resample
                 )
-            k: PathKinematics = path_kinematics(t, lat, lon, h)
+            samples = FlightSamples(t, lat, lon, h, None, "traffic", np.zeros(t.size, int), t0)
+            c = check_piece(path, samples, sigma_h=sigma_h)
+            k: PathKinematics = c.flown
             row.tr_status = "ok"
             row.tr_gs, row.tr_gs_col = k.max_ground_speed_m_s, gs_col
             row.tr_sf_min, row.tr_sf_max = k.specific_force_min_g, k.specific_force_max_g
-            samples = FlightSamples(t, lat, lon, h, None, "traffic", np.zeros(t.size, int), t0)
-            c = check_piece(path, samples, sigma_h=sigma_h)
             row.tr_off50, row.tr_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
         except Exception as exc:  # noqa: BLE001 - a failure of the peer is a result too
             row.tr_status = f"error {type(exc).__name__}: {exc}".splitlines()[0]

@@ -228,16 +228,20 @@ def path_kinematics(
 
 
 def horizontal_offsets(
-    r_path: np.ndarray, lat: np.ndarray, lon: np.ndarray, ellipsoid: Ellipsoid = WGS84
+    r_path: np.ndarray,
+    h_path: np.ndarray,
+    lat: np.ndarray,
+    lon: np.ndarray,
+    ellipsoid: Ellipsoid = WGS84,
 ) -> np.ndarray:
     """Return the horizontal distance (m) of fixes ``lat, lon`` from path points ``r_path``.
 
-    ``r_path`` (n, 3): the path in ECEF at the fixes' times. Each fix is placed at the path's
-    own height there, so that only the horizontal part of the offset remains: the chord
-    between the two points (within 1e-7 of the distance along the surface up to 10 km).
+    ``r_path`` (n, 3): the path in ECEF at the fixes' times, ``h_path`` its heights there.
+    Each fix is placed at the path's height, so that only the horizontal part of the offset
+    remains: the chord between the two points (within 1e-7 of the distance along the surface
+    up to 10 km).
     """
-    _, _, h = ecef_to_geodetic(r_path[:, 0], r_path[:, 1], r_path[:, 2], ellipsoid)
-    fix = np.stack(geodetic_to_ecef(lat, lon, h, ellipsoid), axis=-1)
+    fix = np.stack(geodetic_to_ecef(lat, lon, h_path, ellipsoid), axis=-1)
     return np.linalg.norm(fix - r_path, axis=1)
 
 
@@ -296,7 +300,7 @@ def check_piece(
         ok[inside] = off <= k_sigma * sigma_h
         k = int(np.argmax(off))
         worst, worst_line = float(off[k]), int(log.lines[inside][k])
-        horizontal = horizontal_offsets(r, log.lat[inside], log.lon[inside], ellipsoid)
+        horizontal = horizontal_offsets(r, h_path, log.lat[inside], log.lon[inside], ellipsoid)
     return CorpusCheck(
         source=str(path),
         reported_gs_max_m_s=reported,

@@ -387,15 +387,13 @@ class SmoothedAxis:
         Within twice the maximiser's tolerance (:data:`SCALE_XATOL`) of it; None where the
         estimate is inside its bounds, or the scale was given.
         """
-        if i >= len(self.scale_bounds) or (i < len(self.fixed) and self.fixed[i]):
-            return None
         lo, hi = self.scale_bounds[i]
+        if self.fixed[i] or hi <= lo:
+            return None
         ls = math.log(self.scales[i])
-        if hi > lo and ls >= math.log(hi) - 2.0 * SCALE_XATOL:
+        if ls >= math.log(hi) - 2.0 * SCALE_XATOL:
             return "ceiling"
-        if hi > lo and ls <= math.log(lo) + 2.0 * SCALE_XATOL:
-            return "floor"
-        return None
+        return "floor" if ls <= math.log(lo) + 2.0 * SCALE_XATOL else None
 
     def weights(self) -> list[np.ndarray]:
         """Each channel's measurement weights ``1 − π − κ`` (module docstring)."""
