@@ -657,7 +657,7 @@ def estimate(
     fixed = options.noise_m()
     sq12 = math.sqrt(12.0)
     pos_floor = max(meas.position_rounding_m / sq12, 0.01)
-    res_s, res_c, res_v = meas.velocity_resolution
+    res_s, _, res_v = meas.velocity_resolution
     notes: list[str] = []
 
     velocities = meas.velocities

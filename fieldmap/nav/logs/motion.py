@@ -256,10 +256,6 @@ class MotionModel:
         """Stationary σ of the acceleration (m/s²) for jerk intensity ``q``: √(qτ/2)."""
         return math.sqrt(q * self.tau_s / 2.0)
 
-    def q_for_sigma_accel(self, sigma_a: float) -> float:
-        """Jerk intensity (m²/s⁵) whose stationary acceleration σ is ``sigma_a`` (m/s²)."""
-        return 2.0 * sigma_a**2 / self.tau_s
-
 
 @dataclass(frozen=True)
 class Grid:
@@ -596,7 +592,6 @@ class AxisSmoother:
         #: the mean acceleration input per node and axis (n, d), and its state change per step
         self.a_c = np.zeros((grid.n, self.d))
         self._B = model.forcing(grid.dt)
-        self.curvature = False
         #: each channel's share η of its repeats that are copies (module docstring)
         self.held_rates = [
             HELD_START if c.held is not None and np.any(c.held) and c.cell > 0.0 else 0.0
