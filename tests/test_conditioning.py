@@ -229,6 +229,25 @@ def test_height_quantum_of_resampled_altitudes():
     assert height_quantum(climb) == 0.0
 
 
+def test_height_quantum_of_a_level_flight():
+    """A level flight's few 25 ft steps are its quantum when too many agree for chance.
+
+    Five changes, all one step (by chance: 0.25⁴ = 0.4 %), are quantised; three are not
+    (6 %); nor are five changes of continuous heights between 2 and 12 m.
+    """
+    geoid = 47.0 + 1e-4 * np.arange(70)  # the conversion adds a smooth term
+    level = np.full(70, 33975.0)
+    for i in (10, 30, 50):  # a step up and back, three times: 6 changes, 1 step each
+        level[i : i + 5] += 25.0
+    h = level * FT + geoid
+    assert abs(height_quantum(h) - 25 * FT) < 0.05
+    assert abs(height_quantum(h[:52]) - 25 * FT) < 0.05  # 5 changes
+    assert height_quantum(h[:32]) == 0.0  # 3 changes
+    rng = np.random.default_rng(3)
+    gnss = np.repeat(3000.0 + np.cumsum(rng.uniform(2.0, 12.0, size=6)), 10)
+    assert height_quantum(gnss) == 0.0
+
+
 def test_plot(synthetic):
     fig = plot_conditioning(synthetic[2])
     assert len(fig.axes) == 4

@@ -58,6 +58,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy.stats import binom
 from threadpoolctl import threadpool_limits
 
 import fieldmap.nav.logs.faults as flt
@@ -84,6 +85,16 @@ LEVEL_M = 0.05
 HEIGHT_STEP_MAX_M = 100.0 * 0.3048 * 1.05
 #: heights are quantised when this share of their changes are multiples of one step
 QUANTISED_SHARE = 0.5
+#: the changes (up to the coarsest step) a share of them is judged on; fewer are judged by the
+#: chance that they agree on the step (:data:`QUANTISED_CHANCE`)
+QUANTISED_MIN_CHANGES = 10
+#: the chance that a change of heights that are not quantised falls within 5 % of a whole
+#: multiple of a step, up to the coarsest step: the windows (0.1 k q wide for k = 1 to 4)
+#: cover q of the 4.5 q those multiples span, so about a quarter
+STEP_CHANCE = 0.25
+#: the heights are quantised only when changes agreeing on one step by chance (binomial in
+#: :data:`STEP_CHANCE`) are less likely than this
+QUANTISED_CHANCE = 0.01
 #: the coarsest grid step (s) the noise levels are estimated on (the measurement rows are a
 #: Taylor step of up to half of it: jerk × (Δ/2)³/6, 0.2 m at 1 m/s³)
 ESTIMATE_DT_S = 5.0
@@ -344,20 +355,25 @@ class Measurements:
 
 
 def height_quantum(h: np.ndarray) -> float:
-    """Step of quantised heights (m), e.g. 7.62 for 25 ft, or 0 when not quantised.
+    r"""Step of quantised heights (m), e.g. 7.62 for 25 ft, or 0 when not quantised.
 
     A log's altitude printed in 25 ft (or 100 ft) steps keeps the steps through its
     conversion to heights, up to what the conversion adds smoothly (a geoid height, the ISA
     profile: centimetres between fixes). The step is the changes' most common value (beyond
     :data:`LEVEL_M`, within 5 % of it; the median of those), up to :data:`HEIGHT_STEP_MAX_M`;
     the heights are quantised when at least :data:`QUANTISED_SHARE` of the changes are within
-    5 % of a whole multiple of it (up to 40). A few changes off the steps (a glitch) do not
-    hide them; altitudes interpolated between fixes (changes of a third or half a step,
-    common) are not quantised.
+    5 % of a whole multiple of it (up to 40), judged on at least
+    :data:`QUANTISED_MIN_CHANGES` changes up to the coarsest step. Fewer (a level flight's
+    few steps of 25 ft) count when those on the step are too many for chance: of the n − 1
+    besides one that sets the step, m − 1 or more agree by chance with probability
+    :math:`P(X \ge m - 1)`, X binomial in n − 1 and :data:`STEP_CHANCE`, under
+    :data:`QUANTISED_CHANCE` (5 changes all on the step count; 3 do not). A few changes off
+    the steps (a glitch) do not hide them; altitudes interpolated between fixes (changes of
+    a third or half a step, common) are not quantised.
     """
     dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
     nz = dh[(dh > LEVEL_M) & (dh <= HEIGHT_STEP_MAX_M)]
-    if nz.size < 10:
+    if nz.size < 2:
         return 0.0
     values = np.unique(np.round(nz, 2))
     near = np.abs(nz[None, :] - values[:, None]) <= 0.05 * values[:, None]
@@ -368,7 +384,12 @@ def height_quantum(h: np.ndarray) -> float:
     r = allnz / q
     k = np.round(r)
     share = np.mean((np.abs(r - k) <= 0.05 * np.maximum(k, 1.0)) & (k <= 40))
-    return q if share >= QUANTISED_SHARE else 0.0
+    rs = nz / q
+    ks = np.round(rs)
+    m = int(np.sum((ks >= 1.0) & (np.abs(rs - ks) <= 0.05 * ks)))
+    chance = float(binom.sf(m - 2, nz.size - 1, STEP_CHANCE))  # P(X >= m - 1)
+    enough = nz.size >= QUANTISED_MIN_CHANGES or chance < QUANTISED_CHANCE
+    return q if share >= QUANTISED_SHARE and enough else 0.0
 
 
 def _off_resolution(x: np.ndarray, step: float) -> np.ndarray:
