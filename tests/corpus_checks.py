@@ -57,6 +57,10 @@ SPEED_FACTOR = 1.05
 SPECIFIC_FORCE_RANGE = (0.3, 1.8)
 #: ... less than this fraction of the log's span flown
 MIN_FLOWN = 0.90
+#: the corpus test's rules (stricter): at least this fraction of the log's span flown ...
+CORPUS_MIN_FLOWN = 0.95
+#: ... and at least this fraction of the fixes' heights within ``k_sigma`` σ of the path
+CORPUS_MIN_WITHIN = 0.99
 
 
 @dataclass(frozen=True)
@@ -156,6 +160,24 @@ class CorpusCheck:
             )
         if self.flown_fraction < MIN_FLOWN:
             why.append(f"{100 * self.flown_fraction:.0f} % of the log flown")
+        return why
+
+    def corpus_reasons(self, envelope: tuple[float, float]) -> list[str]:
+        """Return why the piece does not meet the corpus test's checks (empty: it meets them).
+
+        :meth:`suspect` within the vehicle class's load-factor ``envelope`` (g), at least
+        :data:`CORPUS_MIN_FLOWN` of the log's span flown and at least
+        :data:`CORPUS_MIN_WITHIN` of the fixes' heights within ``k_sigma`` σ.
+        """
+        why = self.suspect(envelope=envelope)
+        if MIN_FLOWN <= self.flown_fraction < CORPUS_MIN_FLOWN:
+            why.append(f"{100 * self.flown_fraction:.0f} % of the log flown")
+        if self.heights_within < CORPUS_MIN_WITHIN:
+            why.append(
+                f"{100 * self.heights_within:.1f} % of the heights within {self.k_sigma:g}σ "
+                f"({self.sigma_h_m:.1f} m; worst {self.worst_height_offset_m:.0f} m at line "
+                f"{self.worst_height_line})"
+            )
         return why
 
 

@@ -63,14 +63,7 @@ def test_corpus_piece_flown_as_reported(piece):
     sigma = max(rep["fit"]["sigma_v_m"], 1.0)
     chk = check_piece(path, cf.samples, sigma_h=sigma)
     lo, hi = rep["vehicle"]["load_factor_g"]
-    why = chk.suspect(envelope=(lo, hi))
-    if chk.flown_fraction < 0.95:
-        why.append(f"{100 * chk.flown_fraction:.0f} % of the log flown")
-    if chk.heights_within < 0.99:
-        why.append(
-            f"{100 * chk.heights_within:.1f} % of the heights within 3σ ({sigma:.1f} m; worst "
-            f"{chk.worst_height_offset_m:.0f} m at line {chk.worst_height_line})"
-        )
+    why = chk.corpus_reasons(envelope=(lo, hi))
     assert not why, f"{rep['vehicle']['class']}: " + "; ".join(why)
 
 

@@ -69,6 +69,38 @@ def test_a_log_flown_through_its_own_fixes_meets_the_checks(piece):
     assert any("of the log flown" in w for w in c.suspect())
 
 
+def test_corpus_reasons_name_each_check_the_test_applies():
+    """The corpus test's reasons: the issue's, the span under 95 % and the heights under 99 %.
+
+    munich's raw fixes flown as they are (their noise makes them fast and jerky: the issue's
+    reasons), then cut to 93 % of the span, then 5 m low against 1 m of σ.
+    """
+    path = CORPUS / "calibration/munich.csv.gz"
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    t, first = np.unique(log.t, return_index=True)
+
+    def flown(n: int, dh: float = 0.0) -> FlightSamples:
+        i = first[:n]
+        return FlightSamples(
+            t[:n] - t[0], log.lat[i], log.lon[i], log.h[i] + dh, None, "test", log.lines[i], t[0]
+        )
+
+    envelope = (-1.0, 2.5)
+    whole = check_piece(path, flown(t.size), sigma_h=1.0)
+    assert whole.heights_within >= 0.99 and whole.flown_fraction == 1.0
+    assert whole.corpus_reasons(envelope) == whole.suspect(envelope)
+    n = int(np.searchsorted(t, t[0] + 0.93 * (t[-1] - t[0])))
+    short = check_piece(path, flown(n), sigma_h=1.0)
+    assert not any("flown" in w for w in short.suspect(envelope))  # the issue's 90 % is met
+    # (the fixes past its end are not within either)
+    assert "93 % of the log flown" in short.corpus_reasons(envelope)
+    low = check_piece(path, flown(t.size, dh=-5.0), sigma_h=1.0)
+    assert low.corpus_reasons(envelope)[-1] == (
+        f"0.0 % of the heights within 3σ (1.0 m; worst {low.worst_height_offset_m:.0f} m at "
+        f"line {low.worst_height_line})"
+    )
+
+
 def test_manifest_lists_every_piece_with_its_robust_maximum():
     listed = {(e["category"], e["name"]) for e in MANIFEST["pieces"]}
     on_disk = {(p.parent.name, p.name[: -len(".csv.gz")]) for p in CORPUS.glob("*/*.csv.gz")}
