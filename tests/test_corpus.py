@@ -72,3 +72,51 @@ def test_known_list_names_corpus_pieces():
     names = {p["name"] for p in PIECES}
     assert set(KNOWN) <= names
     assert all(reason and "\n" not in reason for reason in KNOWN.values())
+
+
+@pytest.mark.slow
+def test_zero_gravity_flown_with_its_parabolas():
+    """The Airbus parabolic flight is an airliner's, each parabola flown at the loads it flew.
+
+    Issue 34: the specific force below 0.3 g at each parabola's top and at most 2.2 g at the
+    pull-ups (the aircraft flies 1.8 g there). The parabolas are found in the log alone: each
+    run of vertical rates over 15,000 ft/min, its top the highest altitude the log reports in
+    the 40 s after the run.
+    """
+    import csv
+    import gzip
+
+    import numpy as np
+    from corpus_checks import path_kinematics
+
+    from fieldmap.nav.logs.read import read_track
+
+    path = CORPUS / "featured" / "zero_gravity.csv.gz"
+    _, cf = load_flight(path, height_ref="pressure")
+    assert cf.report["vehicle"]["class"] == "airliner"
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    with gzip.open(path, "rt") as f:
+        rate = {
+            i: float(row["vertical_rate"])
+            for i, row in enumerate(csv.DictReader(f), start=2)
+            if row["vertical_rate"]
+        }
+    steep = np.array([rate.get(int(line), 0.0) > 15_000.0 for line in log.lines])
+    idx = np.flatnonzero(steep)
+    runs = np.split(idx, np.flatnonzero(np.diff(log.t[idx]) > 60.0) + 1)
+    s = cf.samples
+    t = s.t_start + s.t
+    tops = []
+    for run in runs:
+        after = (log.t > log.t[run[-1]]) & (log.t <= log.t[run[-1]] + 40.0)
+        if not after.any():
+            continue
+        t_top = log.t[after][np.argmax(log.h[after])]
+        near = np.abs(t - t_top) <= 10.0
+        tops.append(
+            path_kinematics(s.t[near], s.lat[near], s.lon[near], s.h[near]).specific_force_min_g
+        )
+    assert len(tops) >= 30
+    assert max(tops) < 0.3, tops
+    whole = path_kinematics(s.t, s.lat, s.lon, s.h)
+    assert whole.specific_force_max_g <= 2.2

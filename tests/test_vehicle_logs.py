@@ -111,6 +111,22 @@ def test_guess_from_the_evidence():
     assert guess_vehicle(Evidence(**dict(base, speed=140.0)))[0].name == "turboprop"
 
 
+def test_a_parabolic_flights_climbs_raise_the_airliners_bound():
+    """An airliner flying parabolas climbs at 106 m/s: still an airliner, flown at that climb.
+
+    Its ordinary bound (40 m/s) holds a log with no such climbs; the log's own top climb raises
+    it, up to the largest an airliner reaches (130 m/s); a faster climb is no airliner's.
+    """
+    base = dict(speed=240.0, turn_rate=1.0, height_band=8000.0, slow_airborne=0.0)
+    airliner = guess_vehicle(Evidence(**base, climb=107.0))[0]
+    assert airliner.name == "airliner"
+    assert guess_vehicle(Evidence(**base, climb=200.0))[0].name == "fighter"
+    assert airliner.with_log_climb(12.0).climb == 40.0
+    assert airliner.with_log_climb(107.0).climb == 107.0
+    assert airliner.with_log_climb(500.0).climb == 130.0
+    assert VEHICLES["turboprop"].with_log_climb(107.0).climb == VEHICLES["turboprop"].climb
+
+
 def test_guess_from_robust_speeds_ignores_spikes():
     tr = straight(60.0, 1500.0)
     lon = tr.lon.copy()

@@ -30,7 +30,9 @@ likelihood, with :math:`q` bounded by the vehicle class
    either, nor a vertical rate off its column's steps; a rate that repeats the value before
    it is a copy or a fresh value, as the smoother's mixture finds (held values).
 3. *Vehicle* (:func:`~fieldmap.nav.logs.vehicles.guess_vehicle`): given, or guessed from the
-   ADS-B category, the file's format and the log's speeds, climbs and turns.
+   ADS-B category, the file's format and the log's speeds, climbs and turns; its climb bound
+   raised to the log's own top climb, up to the largest the class reaches
+   (:meth:`~fieldmap.nav.logs.vehicles.Vehicle.with_log_climb`: a parabolic flight's).
 4. *Estimate* (:func:`estimate`): the horizontal and vertical smoothers. Where the log's
    velocities contradict its positions (the joint fit would reject most positions or most
    velocities) they are left out and the report says so.
@@ -735,9 +737,12 @@ def estimate(
         vfloors.append(max(res_v / sq12, 0.01))
         vfix.append(None)
     heights_alone = None
+    # the heights' own rate, whatever the class's climb: a bound would hide the factor below
+    # (an airliner's heights in feet read as metres climb at 3.3 × its rates)
+    unbounded = replace(vehicle, climb=math.inf)
     if meas.climbs is not None:
         # a constant factor between the log's vertical rates and its heights' is a unit mistake
-        heights_alone = _smooth(grid, vehicle, True, vchans[:1], vfloors[:1], vfix[:1])
+        heights_alone = _smooth(grid, unbounded, True, vchans[:1], vfloors[:1], vfix[:1])
         k = _unit_factor(meas.climbs.y[:, 0], heights_alone.value_at(meas.climbs.t, 1)[:, 0])
         if k is not None:
             raise InputError(
@@ -751,11 +756,7 @@ def estimate(
     if len(vchans) > 1 and max(vt.fault_rate) >= 0.5:
         share = 100.0 * float(np.mean(vt.fault_prob[1] > 0.5))
         vchans, vfloors, vfix = vchans[:1], vfloors[:1], vfix[:1]
-        vt = (
-            heights_alone
-            if heights_alone is not None
-            else _smooth(grid, vehicle, True, vchans, vfloors, vfix)
-        )
+        vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
         notes.append(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"
@@ -1022,6 +1023,7 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         )
         return conditioned_flight(c)
     vehicle, how, ev = _vehicle(log, track, options)
+    vehicle = vehicle.with_log_climb(ev.climb)
     meas = measurements(log, track, options, vehicle)
     # the grid as fine as the fixes, within 0.1..1 s; a log whose fixes are further apart than
     # ESTIMATE_DT_S is solved on the grid its noise levels are estimated on: a 1 s grid there

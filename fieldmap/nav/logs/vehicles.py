@@ -24,8 +24,10 @@ turboprop       −1 … 2.5   190     25      10    15    300    CS-25 / CS-23 
                                                               loads; 45° bank (calibration
                                                               orbits, standard-rate turns)
 airliner        −1 … 2.5   360     40      6     30    300    CS-25.337 limit loads (parabolic
-                                                              flights reach 0 g); 30° bank in
-                                                              service; Mach 0.9 + jet stream
+                           (130)                              flights reach 0 g); 30° bank in
+                                                              service; Mach 0.9 + jet stream;
+                                                              climbs 40 in service, 130 in a
+                                                              parabolic flight's pull-up
 helicopter      −0.5 … 3.5 110     20      10    8     60     CS-27/29 manoeuvring loads; 45°
 fighter         −3 … 9     700     300     80    4     60     F-16 +9/−3 g; Mach 2
 uav             −1 … 4     80      25      20    4     60     small drones, no basis: light
@@ -44,18 +46,29 @@ model, which over a gap longer than it returns the expected climb to zero. Stall
 slowest an aircraft flies: airliner 50 m/s, turboprop 35, fighter 60, light aircraft 20,
 glider 15, paraglider 6; other classes hover or stop.)
 
+**Climb.** ``climb`` is the fastest vertical speed of a class's ordinary flight, the bound a
+flown path keeps within; a log whose own climbs are faster (its robust top climb,
+:attr:`Evidence.climb`) raises it to them, up to the largest the class reaches at all
+(in brackets; :meth:`Vehicle.with_log_climb`). An airliner climbs and descends at up to
+40 m/s in service; flying parabolas (Airbus A310 Zero-G: a 1.8 g pull-up to 47° nose-up from
+about 240 m/s) it climbs at 106 m/s (20,800 ft/min in the ``traffic`` sample's vertical
+rates), and the largest is taken as 130 m/s (47° at 180 m/s). A log with no such climbs keeps
+the ordinary bound, which holds its path against altitude glitches that the fault model
+does not reject.
+
 Guess (:func:`guess_vehicle`), when the user names none: the ADS-B emitter category where the
 log carries one (DO-260B §2.2.3.2.5.2: A1 light, A2 small, A3-A5 large and heavy, A6 high
 performance, A7 rotorcraft, B1 glider, B4 ultralight/hang glider/paraglider, B6 UAV, C1/C2
 surface vehicles); else the evidence of the log: the slowest class whose envelope holds the
-log's robust top speed, climb and turn rate, among those its format allows (an IGC file is
+log's robust top speed, climb (up to the largest the class reaches) and turn rate, among those
+its format allows (an IGC file is
 a glider's or paraglider's flight recorder); a vehicle that stays within its first height's
 band at road speeds is a car, at walking speeds a pedestrian. The report gives the evidence.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -77,7 +90,8 @@ class Vehicle:
     speed : float
         Largest speed over the ground. Units: m/s.
     climb : float
-        Largest vertical speed, up or down. Units: m/s.
+        Largest vertical speed of its ordinary flight, up or down: the bound the path keeps
+        within unless the log shows faster climbs (:meth:`with_log_climb`). Units: m/s.
     accel_h : float
         Largest horizontal acceleration sustained (a turn, braking). Units: m/s².
     tau_s : float
@@ -86,6 +100,10 @@ class Vehicle:
         Correlation time of the vertical speed. Units: s.
     stall : float
         Slowest speed it flies at (0: it hovers or stops). Units: m/s.
+    climb_max : float or None
+        Largest vertical speed it can reach at all (zoom climbs, parabolic flights, dives),
+        where that is beyond ``climb``: how far a log's own climbs raise the bound. None:
+        ``climb``. Units: m/s.
     """
 
     name: str
@@ -97,6 +115,23 @@ class Vehicle:
     tau_s: float
     tau_climb_s: float
     stall: float = 0.0
+    climb_max: float | None = None
+
+    @property
+    def largest_climb(self) -> float:
+        """Largest vertical speed the class can reach at all (m/s): ``climb_max`` or ``climb``."""
+        return self.climb if self.climb_max is None else self.climb_max
+
+    def with_log_climb(self, climb: float) -> Vehicle:
+        """Return the class with its climb bound raised to a log's robust top climb (m/s).
+
+        The bound is the log's own top climb (:attr:`Evidence.climb`: the 99th percentile of
+        its vertical rates, or of its heights' running-median rates), no less than the class's
+        ordinary ``climb`` and no more than the largest it can reach (:attr:`largest_climb`):
+        a parabolic flight's airliner climbs at 106 m/s, which its ordinary 40 m/s would cut
+        off, while a log with no such climbs keeps the ordinary bound against its glitches.
+        """
+        return replace(self, climb=float(min(max(climb, self.climb), self.largest_climb)))
 
     @property
     def accel_v(self) -> float:
@@ -132,7 +167,7 @@ VEHICLES: dict[str, Vehicle] = {
         Vehicle("glider", -2.65, 5.3, 100.0, 15.0, 12.0, 6.0, 120.0, 15.0),
         Vehicle("light-aircraft", -1.5, 3.8, 130.0, 20.0, 17.0, 8.0, 120.0, 20.0),
         Vehicle("turboprop", -1.0, 2.5, 190.0, 25.0, 10.0, 15.0, 300.0, 35.0),
-        Vehicle("airliner", -1.0, 2.5, 360.0, 40.0, 6.0, 30.0, 300.0, 50.0),
+        Vehicle("airliner", -1.0, 2.5, 360.0, 40.0, 6.0, 30.0, 300.0, 50.0, climb_max=130.0),
         Vehicle("helicopter", -0.5, 3.5, 110.0, 20.0, 10.0, 8.0, 60.0),
         Vehicle("fighter", -3.0, 9.0, 700.0, 300.0, 80.0, 4.0, 60.0, 60.0),
         Vehicle("uav", -1.0, 4.0, 80.0, 25.0, 20.0, 4.0, 60.0),
@@ -336,7 +371,7 @@ def guess_vehicle(ev: Evidence) -> tuple[Vehicle, str]:
             if ev.speed <= top:
                 return VEHICLES[name], why + "; stays near one height"
     for name in ("light-aircraft", "turboprop", "airliner", "fighter"):
-        if ev.speed <= CRUISE[name] and ev.climb <= VEHICLES[name].climb:
+        if ev.speed <= CRUISE[name] and ev.climb <= VEHICLES[name].largest_climb:
             return VEHICLES[name], why
     return VEHICLES["fighter"], why
 
