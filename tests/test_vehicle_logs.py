@@ -124,7 +124,11 @@ def test_a_parabolic_flights_climbs_raise_the_airliners_bound():
     assert airliner.with_log_climb(12.0).climb == 40.0
     assert airliner.with_log_climb(107.0).climb == 107.0
     assert airliner.with_log_climb(500.0).climb == 130.0
-    assert VEHICLES["turboprop"].with_log_climb(107.0).climb == VEHICLES["turboprop"].climb
+    assert VEHICLES["light-aircraft"].with_log_climb(107.0).climb == 20.0
+    # a vertical rate the log reports, confirmed by its neighbours, counts as its top climb
+    ev = Evidence(**base, climb=20.0, climb_reported=33.0)
+    assert ev.top_climb == 33.0
+    assert VEHICLES["turboprop"].with_log_climb(ev.top_climb).climb == 33.0
 
 
 def test_guess_from_robust_speeds_ignores_spikes():
@@ -158,3 +162,52 @@ def test_vehicle_option_in_params_table():
 
     assert OPTIONS["vehicle"] == "--vehicle"
     assert Path(__file__).exists()
+
+
+def _zoom_log(path, spike_only=False):
+    """Write an airliner's log (230 m/s east at 9 km, 1 s) with a 20 s zoom climb to 60 m/s.
+
+    ``spike_only``: level all along, the vertical rate reporting 60 m/s at one row only.
+    Returns the file and the true heights (m, ISA pressure altitude as written).
+    """
+    from log_tracks import local_to_lat_lon, write_traffic_csv
+
+    n = 1800
+    t = np.arange(float(n))
+    vz = np.where((t >= 900) & (t < 920), 60.0 * np.sin(np.pi * (t - 900) / 20.0), 0.0)
+    if spike_only:
+        vz = np.zeros(n)
+    h = 9000.0 + np.concatenate([[0.0], np.cumsum(0.5 * (vz[1:] + vz[:-1]))])
+    rate = vz.copy()
+    if spike_only:
+        rate[900] = 60.0
+    lat, lon = local_to_lat_lon(np.zeros(n), 230.0 * t, 45.0, 5.0)
+    rows = [
+        f"abc123,TEST1,{la:.7f},{lo:.7f},{hi / 0.3048:.0f},{230 / 0.514444:.1f},90.0,"
+        f"{r / 0.3048 * 60:.0f}"
+        for la, lo, hi, r in zip(lat, lon, h, rate)
+    ]
+    return write_traffic_csv(path, t, rows), h
+
+
+def test_a_zoom_climb_the_log_reports_raises_the_climb_bound(tmp_path):
+    """The vertical rates of a 20 s zoom at 60 m/s (0.6 % of the log) lift the airliner's bound.
+
+    Its 99th percentile stays under the ordinary 40 m/s; the rates that the neighbours confirm
+    reach 60, and the path flies the zoom within metres of the log's heights. One rate of
+    60 m/s in level flight is no climb: the ordinary bound holds.
+    """
+    from fieldmap.nav.logs.read import read_track
+
+    path, h = _zoom_log(tmp_path / "zoom.csv")
+    cf = condition(read_track(path, height_ref="pressure"))
+    v = cf.report["vehicle"]
+    assert v["class"] == "airliner" and v["evidence"]["climb_m_s"] < 40.0
+    assert v["evidence"]["climb_reported_m_s"] == pytest.approx(60.0, abs=1.0)
+    assert v["max_climb_m_s"] == pytest.approx(60.0, abs=1.0)
+    flown = np.interp(np.arange(h.size), cf.samples.t, cf.samples.h)
+    log = read_track(path, height_ref="pressure")
+    assert np.max(np.abs(flown - log.h)) < 10.0
+    spike, _ = _zoom_log(tmp_path / "spike.csv", spike_only=True)
+    level = condition(read_track(spike, height_ref="pressure")).report["vehicle"]
+    assert level["max_climb_m_s"] == 40.0

@@ -954,7 +954,11 @@ def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicl
         if vel.climb is not None:
             cl = np.abs(vel.climb[log.index])
             cl = cl[np.isfinite(cl)]
-            ev = replace(ev, climb=float(np.percentile(cl, 99))) if cl.size >= 20 else ev
+            if cl.size >= 20:
+                confirmed = np.median(np.lib.stride_tricks.sliding_window_view(cl, 3), axis=1)
+                ev = replace(
+                    ev, climb=float(np.percentile(cl, 99)), climb_reported=float(confirmed.max())
+                )
     if options.vehicle is not None:
         return vehicle_class(options.vehicle), "given", ev
     v, why = guess_vehicle(ev)
@@ -1023,7 +1027,7 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
         )
         return conditioned_flight(c)
     vehicle, how, ev = _vehicle(log, track, options)
-    vehicle = vehicle.with_log_climb(ev.climb)
+    vehicle = vehicle.with_log_climb(ev.top_climb)
     meas = measurements(log, track, options, vehicle)
     # the grid as fine as the fixes, within 0.1..1 s; a log whose fixes are further apart than
     # ESTIMATE_DT_S is solved on the grid its noise levels are estimated on: a 1 s grid there

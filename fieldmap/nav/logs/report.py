@@ -240,6 +240,7 @@ def build_report(c: Any) -> dict[str, Any]:
             else {
                 "speed_m_s": c.evidence.speed,
                 "climb_m_s": c.evidence.climb,
+                "climb_reported_m_s": c.evidence.climb_reported,
                 "turn_rate_deg_s": c.evidence.turn_rate,
                 "height_band_m": c.evidence.height_band,
                 "slow_airborne_fraction": c.evidence.slow_airborne,

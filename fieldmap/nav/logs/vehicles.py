@@ -21,8 +21,10 @@ glider          −2.65 …5.3 100     15      12    6     120    CS-22 utility 
                                                               + wind; thermalling at 45-50°
 light-aircraft  −1.5 … 3.8 130     20      17    8     120    CS-23 normal category; 60° bank
 turboprop       −1 … 2.5   190     25      10    15    300    CS-25 / CS-23 commuter limit
-                                                              loads; 45° bank (calibration
-                                                              orbits, standard-rate turns)
+                           (40)                               loads; 45° bank (calibration
+                                                              orbits, standard-rate turns);
+                                                              a business jet flown at these
+                                                              speeds climbs at up to 40
 airliner        −1 … 2.5   360     40      6     30    300    CS-25.337 limit loads (parabolic
                            (130)                              flights reach 0 g); 30° bank in
                                                               service; Mach 0.9 + jet stream;
@@ -47,14 +49,17 @@ slowest an aircraft flies: airliner 50 m/s, turboprop 35, fighter 60, light airc
 glider 15, paraglider 6; other classes hover or stop.)
 
 **Climb.** ``climb`` is the fastest vertical speed of a class's ordinary flight, the bound a
-flown path keeps within; a log whose own climbs are faster (its robust top climb,
-:attr:`Evidence.climb`) raises it to them, up to the largest the class reaches at all
-(in brackets; :meth:`Vehicle.with_log_climb`). An airliner climbs and descends at up to
-40 m/s in service; flying parabolas (Airbus A310 Zero-G: a 1.8 g pull-up to 47° nose-up from
-about 240 m/s) it climbs at 106 m/s (20,800 ft/min in the ``traffic`` sample's vertical
-rates), and the largest is taken as 130 m/s (47° at 180 m/s). A log with no such climbs keeps
-the ordinary bound, which holds its path against altitude glitches that the fault model
-does not reject.
+flown path keeps within; a log whose own climbs are faster (:attr:`Evidence.top_climb`: the
+99th percentile of its climbs, or the fastest vertical rate it reports that its neighbours
+confirm) raises it to them, up to the largest the class reaches at all (in brackets;
+:meth:`Vehicle.with_log_climb`). An airliner climbs and descends at up to 40 m/s in
+service; flying parabolas (Airbus A310 Zero-G: a 1.8 g pull-up to 47° nose-up from about
+240 m/s) it climbs at 106 m/s (20,800 ft/min in the ``traffic`` sample's vertical rates), and
+the largest is taken as 130 m/s (47° at 180 m/s). The turboprop class is the guess for any
+aircraft flying at its speeds, business jets on calibration flights among them, which climb at
+up to 40 m/s (8,000 ft/min). A log with no such climbs keeps the ordinary bound, which holds
+its path against altitude glitches that the fault model does not reject. The other classes'
+ordinary climb is their largest.
 
 Guess (:func:`guess_vehicle`), when the user names none: the ADS-B emitter category where the
 log carries one (DO-260B §2.2.3.2.5.2: A1 light, A2 small, A3-A5 large and heavy, A6 high
@@ -166,7 +171,7 @@ VEHICLES: dict[str, Vehicle] = {
         Vehicle("paraglider", 0.0, 3.0, 35.0, 10.0, 10.0, 4.0, 60.0, 6.0),
         Vehicle("glider", -2.65, 5.3, 100.0, 15.0, 12.0, 6.0, 120.0, 15.0),
         Vehicle("light-aircraft", -1.5, 3.8, 130.0, 20.0, 17.0, 8.0, 120.0, 20.0),
-        Vehicle("turboprop", -1.0, 2.5, 190.0, 25.0, 10.0, 15.0, 300.0, 35.0),
+        Vehicle("turboprop", -1.0, 2.5, 190.0, 25.0, 10.0, 15.0, 300.0, 35.0, climb_max=40.0),
         Vehicle("airliner", -1.0, 2.5, 360.0, 40.0, 6.0, 30.0, 300.0, 50.0, climb_max=130.0),
         Vehicle("helicopter", -0.5, 3.5, 110.0, 20.0, 10.0, 8.0, 60.0),
         Vehicle("fighter", -3.0, 9.0, 700.0, 300.0, 80.0, 4.0, 60.0, 60.0),
@@ -246,6 +251,10 @@ class Evidence:
         The ADS-B emitter category, when the log carries one.
     file_format : str or None
         The log's format (``igc``, ``gpx``, ``csv`` …).
+    climb_reported : float or None
+        Fastest vertical rate the log itself reports and its neighbours confirm: the largest
+        median of three consecutive reports' magnitudes (one wild value is no climb). None
+        for a log without vertical rates. Units: m/s.
     """
 
     speed: float
@@ -256,6 +265,12 @@ class Evidence:
     circling_climb: float = 0.0
     category: str | None = None
     file_format: str | None = None
+    climb_reported: float | None = None
+
+    @property
+    def top_climb(self) -> float:
+        """The log's top climb (m/s): the faster of :attr:`climb` and :attr:`climb_reported`."""
+        return max(self.climb, self.climb_reported or 0.0)
 
     def text(self) -> str:
         """Return the evidence in words."""
