@@ -120,3 +120,22 @@ def test_zero_gravity_flown_with_its_parabolas():
     assert max(tops) < 0.3, tops
     whole = path_kinematics(s.t, s.lat, s.lon, s.h)
     assert whole.specific_force_max_g <= 2.2
+
+
+@pytest.mark.slow
+def test_a_spoofed_stretch_keeps_the_loads_and_says_the_speed_bound_did_not_hold():
+    """``traffic``'s spoofing sample: positions that leap to a far, self-consistent stretch.
+
+    The fit keeps them as fixes, so no path within the log's top ground speed passes near
+    them; forcing one towards them flew 46 g. The path is the unbounded one, within the
+    airliner's loads, and the report says the bound was not held.
+    """
+    from corpus_checks import path_kinematics
+
+    _, cf = load_flight(CORPUS / "noisy" / "noisy_spoofing.csv.gz", height_ref="pressure")
+    model = cf.report["model"]["horizontal"]
+    assert model["top_speed_m_s"] is not None and not model["speed_bound_holds"]
+    assert "could not be held" in cf.format_report()
+    s = cf.samples
+    k = path_kinematics(s.t, s.lat, s.lon, s.h)
+    assert 0.3 <= k.specific_force_min_g and k.specific_force_max_g <= 1.8

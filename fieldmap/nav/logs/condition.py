@@ -617,6 +617,7 @@ def _smooth(
     floors: list[float],
     fixed: list[float | None],
     origin: np.ndarray | None = None,
+    reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SmoothedAxis:
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
@@ -653,15 +654,17 @@ def _smooth(
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
         coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
-        est = AxisSmoother(coarse, model, channels, (lo, hi), sbounds, fixed, bounds, origin).run(
-            q0, scales0
-        )
+        est = AxisSmoother(
+            coarse, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
+        ).run(q0, scales0)
         q0, scales0, weights0 = est.q, est.scales, est.weights()
         shares0 = (est.fault_rate, est.held_rate)
         tau0 = (est.tau, est.sigma_tau)
         # a coarse step's weight holds for each fine step inside it (the jerk's scale)
         lam0 = est.lam[np.minimum(np.arange(grid.n - 1) // k, est.lam.size - 1)]
-    sm = AxisSmoother(grid, model, channels, (lo, hi), sbounds, fixed, bounds, origin)
+    sm = AxisSmoother(
+        grid, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
+    )
     return sm.run(
         q0,
         scales0,
@@ -686,8 +689,10 @@ def estimate(
     velocities = meas.velocities
     alone: SmoothedAxis | None = None
 
+    fix0 = None if fixed is None else fixed[0]
+
     def horizontal(use_velocities: bool) -> tuple[SmoothedAxis, list[Channel]]:
-        chans, floors, fix = [meas.positions], [pos_floor], [None if fixed is None else fixed[0]]
+        chans, floors, fix = [meas.positions], [pos_floor], [fix0]
         if use_velocities and velocities is not None:
             chans.append(velocities)
             floors.append(max(res_s / sq12, 0.01))
@@ -722,7 +727,13 @@ def estimate(
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
         off = [100.0 * float(np.mean(p > 0.5)) for p in hz.fault_prob]
-        hz, hchans = (alone, [meas.positions]) if alone is not None else horizontal(False)
+        # their speeds still bound the path (motion module docstring, "Speed")
+        assert velocities is not None
+        speeds = (velocities.t, np.linalg.norm(velocities.y, axis=1))
+        hz = _smooth(
+            grid, vehicle, False, [meas.positions], [pos_floor], [fix0], meas.origin, speeds
+        )
+        hchans = [meas.positions]
         notes.append(
             f"the log's ground speeds and tracks contradict its positions (off the path the "
             f"positions and velocities would share: {off[1]:.0f} % of the velocities, "

@@ -106,14 +106,22 @@ mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
 fastest speed that a measurement (a rate sample of weight over 1/2) and the path both say it
 flew (per sample the smaller of the two), and no less than its consecutive measured
 positions require at all but 1 % of the steps (:meth:`AxisSmoother.top_speed`), is the
-envelope the path keeps within, :math:`|P_k v_k| \le V` at every node (:math:`P_k` the
-projection on the tangent plane: the surface point's speed over the ground). Without it a
+envelope the path keeps within, :math:`|v_k| \le V` at every node (the surface point's
+velocity: its speed over the ground, all of it; a bound on its projection on the tangent plane
+alone let a path held off a far stretch of fixes escape along the radius, through the Earth,
+at km/s). Without it a
 gap's path is the jerk's least-effort curve: a vehicle that enters a gap heading away from
 where it leaves it swings out wide and catches up at speeds it never flew (a tanker turning
-in a 6-minute gap at 1.3 × its top speed). The bounded path minimises :math:`J` over the
-bounded set (a convex problem: :meth:`AxisSmoother._speed_bounded`); like the height's climb
-and load factor it is a bound, not data: the likelihood and the noise levels are those of
-the unbounded problem.
+in a 6-minute gap at 1.3 × its top speed). Where the log's velocities are left out of the
+fit (they contradict its positions: tracks off, a stretch resampled), their speeds still set
+the envelope the same way, per sample the smaller of the reported speed and the path's. The
+bounded path minimises :math:`J` over the bounded set (a convex problem:
+:meth:`AxisSmoother._speed_bounded`); like the height's climb and load factor it is a bound,
+not data: the likelihood and the noise levels are those of the unbounded problem. So where the
+fit keeps fixes the vehicle could not have reached at that speed (a spoofed stretch of
+positions, self-consistent and far away), no path within the bound passes near them: it would
+only trade speed for loads (46 g on ``traffic``'s spoofing sample). There the bound is not
+held, the path is the unbounded one, and the report says so.
 
 **Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
 of the data (diffuse initial state),
@@ -374,6 +382,9 @@ class SmoothedAxis:
     top_speed: float | None = None
     #: the nodes the speed bound holds (the path there would fly faster without it)
     speed_held: int = 0
+    #: False where the bound could not be held against the fixes the fit keeps (the path is
+    #: then the unbounded one: :meth:`AxisSmoother._speed_bounded`)
+    speed_bound_holds: bool = True
     scale_bounds: list[tuple[float, float]] = field(default_factory=list)
     fixed: list[bool] = field(default_factory=list)
 
@@ -564,6 +575,10 @@ class AxisSmoother:
     bounds : dict, optional
         For a one-axis group (the height): state (1 velocity, 2 acceleration) -> (lower,
         upper) bounds the path keeps within (the vehicle's climb and vertical load factor).
+    reported_speeds : (numpy.ndarray, numpy.ndarray), optional
+        Times (s) and magnitudes (m/s, the surface point's) of a log's ground speeds that are
+        no channel of the fit (its velocities left out): the evidence of the speed envelope
+        in their place (:meth:`top_speed`).
     """
 
     def __init__(
@@ -576,8 +591,14 @@ class AxisSmoother:
         fixed_scales: list[float | None] | None = None,
         bounds: dict[int, tuple[float, float]] | None = None,
         origin: np.ndarray | None = None,
+        reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         self.grid, self.model, self.channels = grid, model, channels
+        #: the log's speeds outside the fit, their nodes and rate rows (for top_speed)
+        self.reported_speeds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if reported_speeds is not None and np.size(reported_speeds[0]):
+            k, d = grid.locate(np.asarray(reported_speeds[0], float))
+            self.reported_speeds = (np.asarray(reported_speeds[1], float), k, _rows(d, 1))
         #: state index (1 velocity, 2 acceleration) -> (lower, upper) bound, one-axis groups
         self.bounds = dict(bounds or {})
         #: for the three ECEF axes of a surface point: the ECEF point the positions are
@@ -599,6 +620,8 @@ class AxisSmoother:
         ]
         #: the speed bound of the last path solved within it, and the nodes it holds
         self.speed_held: tuple[float | None, int] = (None, 0)
+        #: whether the last path solved within it keeps that bound (see _speed_bounded)
+        self.speed_bound_holds = True
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
         self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
@@ -773,7 +796,7 @@ class AxisSmoother:
             else None
         )
         if speed:
-            self.speed_held = (top, 0)
+            self.speed_held, self.speed_bound_holds = (top, 0), True
         if top is not None:
             xs = self._speed_bounded(ab, b, dx, top)
             if xs is not None:
@@ -850,8 +873,9 @@ class AxisSmoother:
         over the steps: a log whose speeds cover only part of the flight (the taxi at each end)
         does not hold the rest to them, while a single step across an unrejected glitch or a
         gap (one pair of fixes against every speed the log reports) does not set it. The
-        surface point's speed bound (module docstring, "Speed"); None where no rate channel has
-        a measurement.
+        surface point's speed bound (module docstring, "Speed"); where no rate channel has a
+        measurement, the :attr:`reported_speeds` (every one: none is judged by the fit) take
+        their place; None without either.
         """
         tops, least = [], 0.0
         for c, w, k, h, s, tau in zip(self.channels, weights, self.k, self.h, scales, self.tau):
@@ -869,6 +893,10 @@ class AxisSmoother:
                 continue
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
             tops.append(float(np.max(np.minimum(np.linalg.norm(c.y, axis=1), path)[on])))
+        if not tops and self.reported_speeds is not None:
+            speed, k, h = self.reported_speeds
+            path = np.linalg.norm(_apply(h, x[k]), axis=1)
+            tops.append(float(np.max(np.minimum(speed, path))))
         return max(max(tops), least) if tops else None
 
     def _speed_bounded(
@@ -882,35 +910,34 @@ class AxisSmoother:
 
             f(x) = \tfrac12 x^\top A x - b^\top x
                  + \tfrac12 \sum_k W_k \big(s_k - V'\big)_+^2,
-            \qquad s_k = |P_k v_k|,
+            \qquad s_k = |v_k|,
 
-        (:math:`P_k` the projection on the tangent plane at the node, :math:`V'` the bound
+        (:math:`v_k` the surface point's velocity at the node, :math:`V'` the bound
         plus half of :data:`BOUND_TOLERANCE`, so that a path flying the top speed itself, a
         log at constant speed, is left alone), a convex function minimised by Newton's method
         with a backtracking line search on :math:`f(x + ts) - f(x)` (computed from the
         differences: :math:`f` is a sum of large terms). The penalty's Hessian at a node over
-        :math:`V'`, :math:`W_k[u u^\top + (1 - V'/s_k)(P_k - u u^\top)]`
-        (:math:`u = P_k v_k / s_k`), couples its axes, so each step is solved in the
+        :math:`V'`, :math:`W_k[u u^\top + (1 - V'/s_k)(I - u u^\top)]`
+        (:math:`u = v_k / s_k`), couples its axes, so each step is solved in the
         interleaved order (node, state, axis): a band of ``BAND·d + d − 1``. :math:`W_k` is
         :data:`SPEED_STIFFNESS` times the node's own weight, raised in turn from the last
         minimum (a stiff penalty from the start would have its Newton steps overshoot at the
         nodes just under the bound), until no node passes the bound by more than
         :data:`BOUND_TOLERANCE`; each stiffness takes at most :data:`BOUND_PASSES` steps.
-        Returns None when no node passes it.
+        Returns None when no node passes it, and when the stiffest penalty still leaves nodes
+        past it (the fixes the fit keeps hold the path off: module docstring, "Speed";
+        :attr:`speed_bound_holds` False).
         """
         n, d = self.grid.n, self.d
         band = BAND * d + d - 1
         ref_v = self.x_ref[:, 1, :]
 
-        def tangential(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            """Tangent projectors (n, d, d), tangential velocities and speeds."""
-            r = x[:, 0, :] + self.x_ref[:, 0, :] + self.origin
-            r /= np.linalg.norm(r, axis=1)[:, None]
-            P = np.eye(d)[None] - r[:, :, None] * r[:, None, :]
-            vt = np.einsum("kij,kj->ki", P, x[:, 1, :] + ref_v)
-            return P, vt, np.linalg.norm(vt, axis=1)
+        def velocities(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """Return the surface point's velocities (n, d) and speeds."""
+            v = x[:, 1, :] + ref_v
+            return v, np.linalg.norm(v, axis=1)
 
-        P, vt, speed = tangential(x)
+        vt, speed = velocities(x)
         if np.max(speed) <= top * (1.0 + BOUND_TOLERANCE):
             return None
         # the penalty starts halfway to the tolerance: a path that flies the top speed itself
@@ -931,7 +958,7 @@ class AxisSmoother:
                 g[on, 1, :] += (W[on] * (speed[on] - level))[:, None] * u
                 uu = u[:, :, None] * u[:, None, :]
                 H = W[on, None, None] * (
-                    uu + (1.0 - level / speed[on])[:, None, None] * (P[on] - uu)
+                    uu + (1.0 - level / speed[on])[:, None, None] * (np.eye(d) - uu)
                 )
                 abx = abx0.copy()
                 base = (NS * on + 1) * d
@@ -948,18 +975,25 @@ class AxisSmoother:
                 t = 1.0
                 while t >= LINE_SEARCH_MIN:
                     trial = x + t * step
-                    P_t, vt_t, speed_t = tangential(trial)
+                    vt_t, speed_t = velocities(trial)
                     pen_t = float(np.sum(W * np.maximum(speed_t - level, 0.0) ** 2))
                     if t * q1 + 0.5 * t * t * q2 + 0.5 * (pen_t - pen) <= 0.0:
                         break
                     t *= 0.5
                 else:
                     break  # no step lowers f: this stiffness's minimum to the precision
-                x, P, vt, speed = trial, P_t, vt_t, speed_t
+                x, vt, speed = trial, vt_t, speed_t
                 if t * float(np.max(np.abs(step[:, 1, :]))) <= BOUND_TOLERANCE * top:
                     break
             if np.max(speed) <= limit:
                 break
+        if np.max(speed) > limit:
+            # the measurements the fit keeps hold the path off the bound (a stretch of positions
+            # the vehicle could not have reached, kept as fixes): a path forced towards it
+            # would only trade speed for loads; the unbounded path stands, and the report
+            # says the bound did not hold
+            self.speed_held, self.speed_bound_holds = (top, held), False
+            return None
         self.speed_held = (top, held)
         return x
 
@@ -1065,6 +1099,7 @@ class AxisSmoother:
             held_rate=list(self.held_rates),
             top_speed=self.speed_held[0],
             speed_held=self.speed_held[1],
+            speed_bound_holds=self.speed_bound_holds,
             scale_bounds=list(self.scale_bounds),
             fixed=[f is not None for f in self.fixed],
         )

@@ -304,6 +304,7 @@ def build_report(c: Any) -> dict[str, Any]:
             # the speed bound (the log's top ground speed) and how long it holds the path
             "top_speed_m_s": hz.top_speed,
             "speed_bound_held_s": hz.speed_held * hz.grid.dt,
+            "speed_bound_holds": hz.speed_bound_holds,
         },
         "vertical": {
             "jerk_intensity_m2_s5": vt.q,
@@ -484,7 +485,14 @@ def format_report(rep: dict) -> str:
             + (
                 f"; speed within the log's top ground speed, {mh['top_speed_m_s']:.0f} m/s "
                 f"(held there for {mh['speed_bound_held_s']:.0f} s)"
-                if mh["top_speed_m_s"] is not None
+                if mh["top_speed_m_s"] is not None and mh["speed_bound_holds"]
+                else ""
+            )
+            + (
+                f"; the log's top ground speed, {mh['top_speed_m_s']:.0f} m/s, could not be "
+                f"held ({mh['speed_bound_held_s']:.0f} s faster): fixes the vehicle could not "
+                "have reached are kept, and the path flies them"
+                if mh["top_speed_m_s"] is not None and not mh["speed_bound_holds"]
                 else ""
             )
         )
