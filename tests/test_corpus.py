@@ -127,8 +127,9 @@ def test_a_spoofed_stretch_keeps_the_loads_and_says_the_speed_bound_did_not_hold
     """``traffic``'s spoofing sample: positions that leap to a far, self-consistent stretch.
 
     The fit keeps them as fixes, so no path within the log's top ground speed passes near
-    them; forcing one towards them flew 46 g. The path is the unbounded one, within the
-    airliner's loads, and the report says the bound was not held.
+    them: one forced towards them flew 46 g, beyond any airliner's acceleration. The path is
+    the unbounded one, within the airliner's loads, and the report says the bound was not
+    held.
     """
     from corpus_checks import path_kinematics
 

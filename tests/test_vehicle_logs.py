@@ -191,7 +191,7 @@ def _zoom_log(path, spike_only=False):
 
 
 def test_a_zoom_climb_the_log_reports_raises_the_climb_bound(tmp_path):
-    """The vertical rates of a 20 s zoom at 60 m/s (0.6 % of the log) lift the airliner's bound.
+    """The vertical rates of a 20 s zoom to 60 m/s (1.1 % of the log) lift the airliner's bound.
 
     Its 99th percentile stays under the ordinary 40 m/s; the rates that the neighbours confirm
     reach 60, and the path flies the zoom within metres of the log's heights. One rate of

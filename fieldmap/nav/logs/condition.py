@@ -963,13 +963,15 @@ def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicl
         gs = gs[np.isfinite(gs)]
         ev = replace(ev, speed=float(np.percentile(gs, 99))) if gs.size >= 20 else ev
         if vel.climb is not None:
-            cl = np.abs(vel.climb[log.index])
-            cl = cl[np.isfinite(cl)]
-            if cl.size >= 20:
-                confirmed = np.median(np.lib.stride_tricks.sliding_window_view(cl, 3), axis=1)
-                ev = replace(
-                    ev, climb=float(np.percentile(cl, 99)), climb_reported=float(confirmed.max())
-                )
+            rates = vel.climb[log.index]
+            rates = rates[np.isfinite(rates)]
+            if rates.size >= 20:
+                ev = replace(ev, climb=float(np.percentile(np.abs(rates), 99)))
+                # a rate that repeats the one before is a copy, no new report (held values)
+                fresh = np.abs(rates[np.r_[True, rates[1:] != rates[:-1]]])
+                if fresh.size >= 3:
+                    windows = np.lib.stride_tricks.sliding_window_view(fresh, 3)
+                    ev = replace(ev, climb_reported=float(np.median(windows, axis=1).max()))
     if options.vehicle is not None:
         return vehicle_class(options.vehicle), "given", ev
     v, why = guess_vehicle(ev)

@@ -120,8 +120,10 @@ bounded path minimises :math:`J` over the bounded set (a convex problem:
 not data: the likelihood and the noise levels are those of the unbounded problem. So where the
 fit keeps fixes the vehicle could not have reached at that speed (a spoofed stretch of
 positions, self-consistent and far away), no path within the bound passes near them: it would
-only trade speed for loads (46 g on ``traffic``'s spoofing sample). There the bound is not
-held, the path is the unbounded one, and the report says so.
+only trade speed for loads (46 g on ``traffic``'s spoofing sample). A bounded path that
+accelerates harder than the class's largest acceleration (the 3σ manoeuvre of its jerk bound)
+and than the unbounded path is not flyable either: there the bound is not held, the path is
+the unbounded one, and the report says so (:meth:`AxisSmoother._flyable`).
 
 **Noise levels** (:math:`q`, and each channel's :math:`s`) maximise the marginal likelihood
 of the data (diffuse initial state),
@@ -799,8 +801,10 @@ class AxisSmoother:
             self.speed_held, self.speed_bound_holds = (top, 0), True
         if top is not None:
             xs = self._speed_bounded(ab, b, dx, top)
-            if xs is not None:
+            if xs is not None and self._flyable(xs, dx):
                 dx = xs
+            elif xs is not None:
+                self.speed_bound_holds = False
         self._last_factor = (cb, dscale)
         x = self.x_ref + dx
         # J at the solution: process + measurements
@@ -924,9 +928,7 @@ class AxisSmoother:
         minimum (a stiff penalty from the start would have its Newton steps overshoot at the
         nodes just under the bound), until no node passes the bound by more than
         :data:`BOUND_TOLERANCE`; each stiffness takes at most :data:`BOUND_PASSES` steps.
-        Returns None when no node passes it, and when the stiffest penalty still leaves nodes
-        past it (the fixes the fit keeps hold the path off: module docstring, "Speed";
-        :attr:`speed_bound_holds` False).
+        Returns None when no node passes it.
         """
         n, d = self.grid.n, self.d
         band = BAND * d + d - 1
@@ -987,15 +989,24 @@ class AxisSmoother:
                     break
             if np.max(speed) <= limit:
                 break
-        if np.max(speed) > limit:
-            # the measurements the fit keeps hold the path off the bound (a stretch of positions
-            # the vehicle could not have reached, kept as fixes): a path forced towards it
-            # would only trade speed for loads; the unbounded path stands, and the report
-            # says the bound did not hold
-            self.speed_held, self.speed_bound_holds = (top, held), False
-            return None
         self.speed_held = (top, held)
         return x
+
+    def _flyable(self, bounded: np.ndarray, free: np.ndarray) -> bool:
+        r"""Return whether the speed-bounded path keeps within the class's accelerations.
+
+        The class's largest acceleration is the 3σ manoeuvre of its jerk bound,
+        :math:`3\sqrt{q_{max}\tau/2}` (:mod:`~fieldmap.nav.logs.vehicles`); the bounded path
+        may accelerate up to it, or as hard as the unbounded path does where that is harder
+        (the fixes' own manoeuvres). Past both, the fixes the fit keeps hold the path off the
+        bound (a stretch of positions the vehicle could not have reached, kept as fixes): the
+        bound would only trade speed for loads (module docstring, "Speed").
+        """
+        a_max = 3.0 * self.model.sigma_accel(self.q_bounds[1])
+        acc = self.x_ref[:, 2, :]
+        worst = float(np.max(np.linalg.norm(bounded[:, 2, :] + acc, axis=1)))
+        free_worst = float(np.max(np.linalg.norm(free[:, 2, :] + acc, axis=1)))
+        return worst <= max(a_max, free_worst)
 
     # -- the mixture's weights ----------------------------------------------------------------
 

@@ -21,12 +21,12 @@ glider          −2.65 …5.3 100     15      12    6     120    CS-22 utility 
                                                               + wind; thermalling at 45-50°
 light-aircraft  −1.5 … 3.8 130     20      17    8     120    CS-23 normal category; 60° bank
 turboprop       −1 … 2.5   190     25      10    15    300    CS-25 / CS-23 commuter limit
-                           (40)                               loads; 45° bank (calibration
+                                   (40)                       loads; 45° bank (calibration
                                                               orbits, standard-rate turns);
                                                               a business jet flown at these
                                                               speeds climbs at up to 40
 airliner        −1 … 2.5   360     40      6     30    300    CS-25.337 limit loads (parabolic
-                           (130)                              flights reach 0 g); 30° bank in
+                                   (130)                      flights reach 0 g); 30° bank in
                                                               service; Mach 0.9 + jet stream;
                                                               climbs 40 in service, 130 in a
                                                               parabolic flight's pull-up
@@ -130,9 +130,10 @@ class Vehicle:
     def with_log_climb(self, climb: float) -> Vehicle:
         """Return the class with its climb bound raised to a log's robust top climb (m/s).
 
-        The bound is the log's own top climb (:attr:`Evidence.climb`: the 99th percentile of
-        its vertical rates, or of its heights' running-median rates), no less than the class's
-        ordinary ``climb`` and no more than the largest it can reach (:attr:`largest_climb`):
+        The bound is the log's own top climb (:attr:`Evidence.top_climb`: the 99th percentile
+        of its vertical rates, or of its heights' running-median rates, or the fastest rate it
+        reports that its neighbours confirm), no less than the class's ordinary ``climb`` and
+        no more than the largest it can reach (:attr:`largest_climb`):
         a parabolic flight's airliner climbs at 106 m/s, which its ordinary 40 m/s would cut
         off, while a log with no such climbs keeps the ordinary bound against its glitches.
         """
@@ -253,8 +254,9 @@ class Evidence:
         The log's format (``igc``, ``gpx``, ``csv`` …).
     climb_reported : float or None
         Fastest vertical rate the log itself reports and its neighbours confirm: the largest
-        median of three consecutive reports' magnitudes (one wild value is no climb). None
-        for a log without vertical rates. Units: m/s.
+        median of three consecutive reports' magnitudes (one wild value is no climb; a rate
+        that repeats the one before is a copy, not a report). None for a log without
+        vertical rates. Units: m/s.
     """
 
     speed: float
