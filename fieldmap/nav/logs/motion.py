@@ -385,7 +385,7 @@ class SmoothedAxis:
     #: the nodes the speed bound holds (the path there would fly faster without it)
     speed_held: int = 0
     #: False where the bound could not be held against the fixes the fit keeps (the path is
-    #: then the unbounded one: :meth:`AxisSmoother._speed_bounded`)
+    #: then the unbounded one: :meth:`AxisSmoother._flyable`)
     speed_bound_holds: bool = True
     scale_bounds: list[tuple[float, float]] = field(default_factory=list)
     fixed: list[bool] = field(default_factory=list)
@@ -622,7 +622,7 @@ class AxisSmoother:
         ]
         #: the speed bound of the last path solved within it, and the nodes it holds
         self.speed_held: tuple[float | None, int] = (None, 0)
-        #: whether the last path solved within it keeps that bound (see _speed_bounded)
+        #: whether the last path solved within it keeps that bound (see _flyable)
         self.speed_bound_holds = True
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
