@@ -211,3 +211,34 @@ def test_a_zoom_climb_the_log_reports_raises_the_climb_bound(tmp_path):
     spike, _ = _zoom_log(tmp_path / "spike.csv", spike_only=True)
     level = condition(read_track(spike, height_ref="pressure")).report["vehicle"]
     assert level["max_climb_m_s"] == 40.0
+
+
+def test_rates_computed_between_reports_confirm_no_climb(tmp_path):
+    """One wild vertical rate, resampled into its neighbours, is still one report.
+
+    A 120 m/s aircraft (a turboprop) climbing at 384 ft/min (the rates on ADS-B's 64 ft/min
+    steps) reports 11,776 ft/min at one row, and the two rows each side hold values
+    interpolated towards it (off the steps: computed, not reported). Read as reports, they
+    would confirm a climb of 7,851 ft/min (40 m/s, the median of three) and raise the climb
+    bound from the turboprop's ordinary 25 m/s to its largest, 40.
+    """
+    from log_tracks import local_to_lat_lon, write_traffic_csv
+
+    from fieldmap.nav.logs.read import read_track
+
+    n, speed = 1800, 120.0
+    t = np.arange(float(n))
+    climbing = (t >= 300) & (t < 600)
+    rate_fpm = np.where(climbing, 384.0, 0.0)
+    h = 1500.0 + np.cumsum(np.r_[0.0, rate_fpm[:-1]]) * 0.3048 / 60.0
+    spike = 11776.0
+    rate_fpm[1198:1203] = [spike / 3, 2 * spike / 3, spike, 2 * spike / 3, spike / 3]
+    lat, lon = local_to_lat_lon(np.zeros(n), speed * t, 45.0, 5.0)
+    rows = [
+        f"abc123,TEST1,{la:.7f},{lo:.7f},{hi / 0.3048:.0f},{speed / 0.514444:.1f},90.0,{r:.2f}"
+        for la, lo, hi, r in zip(lat, lon, h, rate_fpm)
+    ]
+    path = write_traffic_csv(tmp_path / "computed_rates.csv", t, rows)
+    v = condition(read_track(path, height_ref="pressure")).report["vehicle"]
+    assert v["evidence"]["climb_reported_m_s"] == pytest.approx(384.0 * 0.3048 / 60.0, rel=1e-6)
+    assert v["class"] == "turboprop" and v["max_climb_m_s"] == 25.0

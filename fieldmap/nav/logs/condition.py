@@ -964,7 +964,8 @@ def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicl
         ev = replace(ev, speed=float(np.percentile(gs, 99))) if gs.size >= 20 else ev
         if vel.climb is not None:
             rates = vel.climb[log.index]
-            rates = rates[np.isfinite(rates)]
+            # a rate computed between measurements (off the column's steps) reports nothing
+            rates = rates[np.isfinite(rates) & ~_off_resolution(rates, vel.resolution[2])]
             if rates.size >= 20:
                 ev = replace(ev, climb=float(np.percentile(np.abs(rates), 99)))
                 # a rate that repeats the one before is a copy, no new report (held values)

@@ -255,8 +255,9 @@ class Evidence:
     climb_reported : float or None
         Fastest vertical rate the log itself reports and its neighbours confirm: the largest
         median of three consecutive reports' magnitudes (one wild value is no climb; a rate
-        that repeats the one before is a copy, not a report). None for a log without
-        vertical rates. Units: m/s.
+        that repeats the one before is a copy, and a rate off the column's steps was computed
+        between reports: neither is a report). None for a log without vertical rates.
+        Units: m/s.
     """
 
     speed: float
