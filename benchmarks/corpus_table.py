@@ -78,6 +78,7 @@ def fly(piece: dict[str, str]) -> dict[str, Any]:
         "seconds": seconds,
         "span_h": chk.log_span_s / 3600.0,
         "speed_ratio": chk.speed_ratio,
+        "speed_ratio_p995": chk.speed_ratio_p995,
         "specific_force_g": [chk.flown.specific_force_min_g, chk.flown.specific_force_max_g],
         "heights_within": chk.heights_within,
         "sigma_h_m": chk.sigma_h_m,
