@@ -3,9 +3,10 @@
 Flies every piece of ``tests/data/corpus/`` (``manifest.json``; ``--category`` and ``--name``
 pick a subset) through :func:`fieldmap.nav.logs.load_flight` with the defaults (pressure
 altitudes), as ``tests/test_corpus.py`` does, and judges it with the same checks
-(:meth:`corpus_checks.CorpusCheck.corpus_reasons`: ground speed within 5 % of the log's robust
-maximum, specific force inside the vehicle class's envelope, 95 % of the span flown, 99 % of the
-fixes' heights within 3σ). It prints, by category, the pieces that meet them, those that fail
+(:meth:`corpus_checks.CorpusCheck.corpus_reasons`: ground speed within 5 % of what the aircraft
+reported when it flew it, or of the log's robust maximum where that is more, specific force
+inside the vehicle class's envelope, 95 % of the span flown, 99 % of the fixes' heights within
+3σ). It prints, by category, the pieces that meet them, those that fail
 only on their heights, those that fail on speed, force or span, those refused (one line of
 :class:`~fieldmap.errors.InputError`) and those that raised anything else; then the pieces whose
 verdict disagrees with ``known.json`` (the test's list of exceptions) and the time per hour of

@@ -324,7 +324,7 @@ def reported_ground_speeds(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def reported_speed_at(t_report: np.ndarray, speed: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """The reported ground speed at times ``t``: the running median of three, interpolated.
+    """Return the reported ground speed at times ``t``: the running median of three, interpolated.
 
     Each report is replaced by the median of itself and its two neighbours (the first and last
     by that of themselves, their neighbour and themselves again), so that a single bad report

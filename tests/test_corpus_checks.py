@@ -70,7 +70,7 @@ def test_a_log_flown_through_its_own_fixes_meets_the_checks(piece):
 
 
 def test_corpus_reasons_name_each_check_the_test_applies():
-    """The corpus test's reasons: the issue's, the span under 95 % and the heights under 99 %.
+    """The corpus test's reasons: speed, force, the span under 95 % and the heights under 99 %.
 
     munich's raw fixes flown as they are (their noise makes them fast and jerky: the issue's
     reasons), then cut to 93 % of the span, then 5 m low against 1 m of σ.
@@ -88,7 +88,10 @@ def test_corpus_reasons_name_each_check_the_test_applies():
     envelope = (-1.0, 2.5)
     whole = check_piece(path, flown(t.size), sigma_h=1.0)
     assert whole.heights_within >= 0.99 and whole.flown_fraction == 1.0
-    assert whole.corpus_reasons(envelope) == whole.suspect(envelope)
+    # the same two reasons: the speed judged where it is flown, then the force
+    assert whole.suspect(envelope)[0].startswith("ground speed 256 m/s = 2.18 x reported 118")
+    assert whole.corpus_reasons(envelope)[0].startswith("ground speed 2.18 x reported at t = ")
+    assert whole.corpus_reasons(envelope)[1:] == whole.suspect(envelope)[1:]
     n = int(np.searchsorted(t, t[0] + 0.93 * (t[-1] - t[0])))
     short = check_piece(path, flown(n), sigma_h=1.0)
     assert not any("flown" in w for w in short.suspect(envelope))  # the issue's 90 % is met
@@ -127,7 +130,7 @@ def test_horizontal_offset_of_a_path_beside_the_fixes():
 
 
 def _north_at(speed: np.ndarray, dt: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times, latitudes and longitudes of a flight north from 45° N at ``speed`` (m/s) per step."""
+    """Return times, latitudes, longitudes of a flight north from 45° N at ``speed`` (m/s)."""
     h, a, e2 = 3000.0, 6_378_137.0, 0.0066943799901
     t = np.arange(speed.size) * dt
     north = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * dt)])
