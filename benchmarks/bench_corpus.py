@@ -2,8 +2,10 @@
 
 For each piece of ``tests/data/corpus/`` (``manifest.json``; ``--category`` and ``--limit``
 pick a subset) it prints one line: the log's robust maximum ground speed (the 99.5th
-percentile of its ``groundspeed`` column), then for each method the largest ground speed and
-the specific-force range of its path, ``off95`` (the 95th percentile over the log's fixes of
+percentile of its ``groundspeed`` column), then for each method the largest ground speed,
+``x rep`` (the largest ratio of the path's ground speed to what the aircraft reported when it
+flew it, the corpus test's speed rule: ``CorpusCheck.speed_ratio``), the specific-force range
+of its path, ``off95`` (the 95th percentile over the log's fixes of
 their horizontal distance from the path at their stamped times: where the path flies; a
 measure, not a rule: where a log's positions carry time errors, part of it is along the
 track, the fixes re-timed) and the wall time it took, and fieldmap's verdict by issue 34's
@@ -67,6 +69,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from corpus_checks import (  # noqa: E402
     SPECIFIC_FORCE_RANGE,
+    SPEED_FACTOR,
     PathKinematics,
     check_piece,
 )
@@ -95,6 +98,7 @@ class Row:
     fm_status: str = ""
     fm_reason: str = ""
     fm_gs: float | None = None
+    fm_gs_local: float | None = None
     fm_sf_min: float | None = None
     fm_sf_max: float | None = None
     fm_flown: float | None = None
@@ -107,6 +111,7 @@ class Row:
     tr_status: str = ""
     tr_gs: float | None = None
     tr_gs_col: float | None = None
+    tr_gs_local: float | None = None
     tr_sf_min: float | None = None
     tr_sf_max: float | None = None
     tr_off50: float | None = None
@@ -222,6 +227,7 @@ def run_piece(
         row.fm_gs, row.fm_sf_min, row.fm_sf_max = (
             f.max_ground_speed_m_s, f.specific_force_min_g, f.specific_force_max_g,
         )  # fmt: skip
+        row.fm_gs_local = c.speed_ratio
         row.fm_flown, row.fm_heights_within = c.flown_fraction, c.heights_within
         row.fm_worst_dh, row.fm_worst_dh_line = c.worst_height_offset_m, c.worst_height_line
         row.fm_off50, row.fm_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
@@ -245,6 +251,7 @@ def run_piece(
             k: PathKinematics = c.flown
             row.tr_status = "ok"
             row.tr_gs, row.tr_gs_col = k.max_ground_speed_m_s, gs_col
+            row.tr_gs_local = c.speed_ratio
             row.tr_sf_min, row.tr_sf_max = k.specific_force_min_g, k.specific_force_max_g
             row.tr_off50, row.tr_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
         except Exception as exc:  # noqa: BLE001 - a failure of the peer is a result too
@@ -259,11 +266,13 @@ def _f(x: float | None, fmt: str) -> str:
 def line(r: Row) -> str:
     """One printed line."""
     fm = (
-        f"{_f(r.fm_gs, '6.0f')} {_f(r.fm_sf_min, '5.2f')}..{_f(r.fm_sf_max, '<6.2f')} "
+        f"{_f(r.fm_gs, '6.0f')} {_f(r.fm_gs_local, '5.2f')} "
+        f"{_f(r.fm_sf_min, '5.2f')}..{_f(r.fm_sf_max, '<6.2f')} "
         f"{_f(r.fm_off95, '6.0f')} {_f(r.fm_s, '6.1f')}"
     )
     tr = (
-        f"{_f(r.tr_gs, '6.0f')} {_f(r.tr_gs_col, '6.0f')} {_f(r.tr_sf_min, '5.2f')}.."
+        f"{_f(r.tr_gs, '6.0f')} {_f(r.tr_gs_local, '5.2f')} {_f(r.tr_gs_col, '6.0f')} "
+        f"{_f(r.tr_sf_min, '5.2f')}.."
         f"{_f(r.tr_sf_max, '<6.2f')} {_f(r.tr_off95, '6.0f')} {_f(r.tr_s, '6.1f')}"
     )
     tail = f"{r.fm_status}{': ' + r.fm_reason if r.fm_reason else ''}"
@@ -305,8 +314,9 @@ def main(argv: list[str] | None = None) -> int:
         entries = entries[: args.limit]
     print(
         f"{'piece':42s} {'rows':>6s} {'hours':>5s} {'gs995':>6s} | "
-        f"{'fm gs':>6s} {'fm sf g':>12s} {'off95':>6s} {'fm s':>6s} | "
-        f"{'tr gs':>6s} {'gs col':>6s} {'tr sf g':>12s} {'off95':>6s} {'tr s':>6s} | fieldmap"
+        f"{'fm gs':>6s} {'x rep':>5s} {'fm sf g':>12s} {'off95':>6s} {'fm s':>6s} | "
+        f"{'tr gs':>6s} {'x rep':>5s} {'gs col':>6s} {'tr sf g':>12s} {'off95':>6s} {'tr s':>6s} | "
+        "fieldmap"
     )
     rows: list[Row] = []
     writer = None
@@ -348,6 +358,14 @@ def summary(rows: list[Row]) -> None:
     fm_ratio = [r.fm_gs / r.reported_gs for r in flown if r.fm_gs and r.reported_gs]
     tr_ratio = [r.tr_gs / r.reported_gs for r in rows if r.tr_gs and r.reported_gs]
     print(f"median ground speed / reported: fieldmap {med(fm_ratio)}, traffic {med(tr_ratio)}")
+    paired = [r for r in both if r.fm_gs_local is not None and r.tr_gs_local is not None]
+    no_further = sum(r.fm_gs_local <= max(r.tr_gs_local, SPEED_FACTOR) for r in paired)
+    print(
+        f"ground speed against the reports where it is flown (x rep): fieldmap within "
+        f"{SPEED_FACTOR} or no further than traffic on {no_further} of {len(paired)} pieces; "
+        f"within {SPEED_FACTOR}: fieldmap {sum(r.fm_gs_local <= SPEED_FACTOR for r in paired)}, "
+        f"traffic {sum(r.tr_gs_local <= SPEED_FACTOR for r in paired)}"
+    )
     print(
         f"median specific force max (g): fieldmap {med([r.fm_sf_max for r in flown])}, "
         f"traffic {med([r.tr_sf_max for r in rows])}; min: fieldmap "
