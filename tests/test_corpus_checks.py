@@ -90,7 +90,8 @@ def test_corpus_reasons_name_each_check_the_test_applies():
     assert whole.heights_within >= 0.99 and whole.flown_fraction == 1.0
     # the same two reasons: the speed judged where it is flown, then the force
     assert whole.suspect(envelope)[0].startswith("ground speed 256 m/s = 2.18 x reported 118")
-    assert whole.corpus_reasons(envelope)[0].startswith("ground speed 2.18 x reported at t = ")
+    assert whole.corpus_reasons(envelope)[0].startswith("ground speed 256 m/s at t = ")
+    assert " = 2.18 x the larger of the speed reported there (" in whole.corpus_reasons(envelope)[0]
     assert whole.corpus_reasons(envelope)[1:] == whole.suspect(envelope)[1:]
     n = int(np.searchsorted(t, t[0] + 0.93 * (t[-1] - t[0])))
     short = check_piece(path, flown(n), sigma_h=1.0)
@@ -179,8 +180,14 @@ def test_a_top_speed_flown_where_it_was_reported_meets_the_speed_rule(tmp_path):
     c = check_piece(hidden, samples, sigma_h=1000.0)
     assert c.speed_ratio == pytest.approx(1.30, abs=0.01)
     assert c.speed_worst_t_s == pytest.approx(2000.0, abs=1.0)
-    assert any(w.startswith("ground speed 1.30 x reported at t = 2000 s") for w in
+    assert any(w.startswith("ground speed 130 m/s at t = 2000 s = 1.30 x the larger") for w in
                c.corpus_reasons((0.0, 9.0)))  # fmt: skip
+    # the dive reported, but 1000 s before it is flown: no report of its time excuses it
+    early = tmp_path / "early.csv"
+    _write_log(early, t, lat, lon, 3000.0, np.roll(speed, -1000) / kt)
+    c = check_piece(early, samples, sigma_h=1000.0)
+    assert c.speed_ratio == pytest.approx(1.30, abs=0.01)
+    assert c.speed_worst_t_s == pytest.approx(2000.0, abs=1.0)
     assert np.mean(speed > 105.0) < 0.005  # under the percentile
 
 
@@ -194,3 +201,10 @@ def test_one_bad_speed_report_sets_nothing():
     v[7:] = 120.0  # a real change, reported twice or more
     got = reported_speed_at(t, v, np.array([0.0, 4.0, 6.5, 7.0, 9.0, 12.0]))
     assert got.tolist() == [100.0, 100.0, 110.0, 120.0, 120.0, 120.0]
+    # a bad first or last report sets nothing either (take-off and landing)
+    v = np.full(10, 100.0)
+    v[0] = v[-1] = 900.0
+    assert reported_speed_at(t, v, np.array([-5.0, 0.0, 9.0, 15.0])).tolist() == [100.0] * 4
+    # fewer than three reports: none can be told bad; none at all: NaN
+    assert reported_speed_at(t[:2], v[:2], np.array([0.5])).tolist() == [500.0]
+    assert np.isnan(reported_speed_at(t[:0], v[:0], np.array([0.5]))).all()
