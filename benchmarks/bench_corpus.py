@@ -12,7 +12,9 @@ track, the fixes re-timed) and the wall time it took, and fieldmap's verdict by 
 rules: ``clean``, ``suspect`` (ground speed over 1.05 × the log's robust maximum, specific
 force outside 0.3..1.8 g, less than 90 % of the log flown; the reasons follow), ``refused``
 (an :class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any other
-exception: its type and message). Medians at the end; ``--csv FILE`` writes every number.
+exception: its type and message). Medians and counts at the end (the pieces where fieldmap's
+speed, and its specific force, are no further from the reports and from 1 g than traffic's);
+``--csv FILE`` writes every number.
 
 The two methods, on the same file:
 
@@ -365,6 +367,18 @@ def summary(rows: list[Row]) -> None:
         f"{SPEED_FACTOR} or no further than traffic on {no_further} of {len(paired)} pieces; "
         f"within {SPEED_FACTOR}: fieldmap {sum(r.fm_gs_local <= SPEED_FACTOR for r in paired)}, "
         f"traffic {sum(r.tr_gs_local <= SPEED_FACTOR for r in paired)}"
+    )
+    loads = [r for r in both if None not in (r.fm_sf_min, r.fm_sf_max, r.tr_sf_min, r.tr_sf_max)]
+
+    def off_1g(lo: float | None, hi: float | None) -> float:
+        return max(abs(float(lo or 1.0) - 1.0), abs(float(hi or 1.0) - 1.0))
+
+    calmer = sum(
+        off_1g(r.fm_sf_min, r.fm_sf_max) <= off_1g(r.tr_sf_min, r.tr_sf_max) for r in loads
+    )
+    print(
+        "specific force: fieldmap's largest departure from 1 g no larger than traffic's on "
+        f"{calmer} of {len(loads)} pieces"
     )
     print(
         f"median specific force max (g): fieldmap {med([r.fm_sf_max for r in flown])}, "
