@@ -371,7 +371,8 @@ def summary(rows: list[Row]) -> None:
     loads = [r for r in both if None not in (r.fm_sf_min, r.fm_sf_max, r.tr_sf_min, r.tr_sf_max)]
 
     def off_1g(lo: float | None, hi: float | None) -> float:
-        return max(abs(float(lo or 1.0) - 1.0), abs(float(hi or 1.0) - 1.0))
+        assert lo is not None and hi is not None  # (loads has both)
+        return max(abs(lo - 1.0), abs(hi - 1.0))
 
     calmer = sum(
         off_1g(r.fm_sf_min, r.fm_sf_max) <= off_1g(r.tr_sf_min, r.tr_sf_max) for r in loads

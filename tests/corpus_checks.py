@@ -218,16 +218,21 @@ class CorpusCheck:
         return why
 
 
+def _csv_rows(path: str | Path) -> csv.DictReader:
+    """Return the rows of a traffic CSV (gzip or not), read from the file itself."""
+    raw = Path(path).read_bytes()
+    if raw[:2] == b"\x1f\x8b":
+        raw = gzip.decompress(raw)
+    return csv.DictReader(io.StringIO(raw.decode()))
+
+
 def reported_max_ground_speed(path: str | Path, q: float = 99.5) -> float | None:
     """Return the ``q``-th percentile of a traffic CSV's ``groundspeed`` column (m/s), or None.
 
     Read from the file itself (gzip or not), every row with a value: no fieldmap reader
     decides which rows count.
     """
-    raw = Path(path).read_bytes()
-    if raw[:2] == b"\x1f\x8b":
-        raw = gzip.decompress(raw)
-    rows = csv.DictReader(io.StringIO(raw.decode()))
+    rows = _csv_rows(path)
     if "groundspeed" not in (rows.fieldnames or ()):
         return None
     v = np.array([float(r["groundspeed"]) for r in rows if r["groundspeed"].strip()])
@@ -312,10 +317,7 @@ def reported_ground_speeds(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     the rows sorted by time (a stable sort: rows sharing a time keep their order). Empty arrays
     when the log has no ``groundspeed`` column.
     """
-    raw = Path(path).read_bytes()
-    if raw[:2] == b"\x1f\x8b":
-        raw = gzip.decompress(raw)
-    rows = csv.DictReader(io.StringIO(raw.decode()))
+    rows = _csv_rows(path)
     if "groundspeed" not in (rows.fieldnames or ()):
         return np.zeros(0), np.zeros(0)
     t, v = [], []
