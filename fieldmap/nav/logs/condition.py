@@ -35,7 +35,10 @@ likelihood, with :math:`q` bounded by the vehicle class
    (:meth:`~fieldmap.nav.logs.vehicles.Vehicle.with_log_climb`: a parabolic flight's).
 4. *Estimate* (:func:`estimate`): the horizontal and vertical smoothers. Where the log's
    velocities contradict its positions (the joint fit would reject most positions or most
-   velocities) they are left out and the report says so.
+   velocities) they are left out and the report says so. The height's EM runs from two
+   starts, the annealed one and the Huber M-estimate, compared at one set of noise levels
+   by the mixture's likelihood (:func:`_height`): a long run of wrong altitudes cannot hold
+   the path where the EM's first start put it.
 5. *Samples*: the smoothed path at the grid nodes from the first sample to the last
    (``airborne_only`` trims the slow ends of an aircraft's log); the faults as runs with their
    lines (:func:`~fieldmap.nav.logs.faults.describe_faults`), gaps longer than ``max_gap_s``
@@ -618,7 +621,15 @@ def _smooth(
     fixed: list[float | None],
     origin: np.ndarray | None = None,
     reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
+    noise_of: SmoothedAxis | None = None,
 ) -> SmoothedAxis:
+    """Smooth one axis group (module docstring, step 4).
+
+    ``noise_of``: a solution whose noise levels, fault and copy shares and steps' weights are
+    held; the weights and the path are estimated again from the weights of the Huber
+    M-estimate (:meth:`~fieldmap.nav.logs.motion.AxisSmoother.huber_weights`), a robust
+    start that does not depend on the annealing (:func:`_height`).
+    """
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
     # a rate channel noisier than a tenth of the class's top speed (climb) tells nothing of
@@ -628,14 +639,6 @@ def _smooth(
         (max(f, 1e-3), max(f, 1e-3) * 1e5 if c.order == 0 else max(0.1 * top, 2.0 * f))
         for f, c in zip(floors, channels)
     ]
-    scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
-    if len(channels) > 1 and channels[1].order == 1 and channels[0].order == 0:
-        # annealing: the first weights are judged against a path shaped by the rates (a
-        # stretch of displaced positions cannot pull it), with the positions' σ wide; the
-        # likelihood then sets it (a log whose rates are the wrong ones shows as positions
-        # mostly faults, and the rates are left out: estimate())
-        scales0[0] *= ANNEAL
-    q0 = math.sqrt(lo * hi) * 10.0
     # the height keeps within the class's climb and vertical load factor (bounds, not data)
     g = STANDARD_GRAVITY
     bounds = (
@@ -646,6 +649,33 @@ def _smooth(
         if vertical
         else None
     )
+
+    def smoother(on: Grid) -> AxisSmoother:
+        return AxisSmoother(
+            on, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
+        )
+
+    scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
+    if len(channels) > 1 and channels[1].order == 1 and channels[0].order == 0:
+        # annealing: the first weights are judged against a path shaped by the rates (a
+        # stretch of displaced positions cannot pull it), with the positions' σ wide; the
+        # likelihood then sets it (a log whose rates are the wrong ones shows as positions
+        # mostly faults, and the rates are left out: estimate())
+        scales0[0] *= ANNEAL
+    if noise_of is not None:
+        # the Huber M-estimate at the first guesses of the σ (annealed as above), then the
+        # EM's weights and path at the noise levels of ``noise_of``
+        sm = smoother(grid)
+        q, scales = noise_of.q, list(noise_of.scales)
+        return sm.run(
+            q,
+            scales,
+            hold_noise=True,
+            weights0=sm.huber_weights(q, scales0),
+            lam0=noise_of.lam,
+            shares0=(list(noise_of.fault_rate), list(noise_of.held_rate)),
+        )
+    q0 = math.sqrt(lo * hi) * 10.0
     # the noise levels are continuous-time quantities: estimated on a grid as coarse as the
     # fixes (up to ESTIMATE_DT_S), then the path solved on the output grid with them
     step = float(np.median(np.diff(channels[0].t))) if channels[0].t.size > 1 else grid.dt
@@ -653,19 +683,13 @@ def _smooth(
     weights0 = tau0 = lam0 = shares0 = None
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
-        coarse = Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)
-        est = AxisSmoother(
-            coarse, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
-        ).run(q0, scales0)
+        est = smoother(Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)).run(q0, scales0)
         q0, scales0, weights0 = est.q, est.scales, est.weights()
         shares0 = (est.fault_rate, est.held_rate)
         tau0 = (est.tau, est.sigma_tau)
         # a coarse step's weight holds for each fine step inside it (the jerk's scale)
         lam0 = est.lam[np.minimum(np.arange(grid.n - 1) // k, est.lam.size - 1)]
-    sm = AxisSmoother(
-        grid, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
-    )
-    return sm.run(
+    return smoother(grid).run(
         q0,
         scales0,
         passes=0 if weights0 is not None else 2,
@@ -674,6 +698,44 @@ def _smooth(
         lam0=lam0,
         shares0=shares0,
     )
+
+
+def _height(
+    grid: Grid,
+    vehicle: Vehicle,
+    channels: list[Channel],
+    floors: list[float],
+    fixed: list[float | None],
+) -> SmoothedAxis:
+    r"""Smooth the height from two starts and keep the likelier (module docstring, step 4).
+
+    The EM converges to a local maximum of the likelihood: from the annealed start, a long run
+    of wrong altitudes (a transponder's stale airborne altitude for 100 s after a landing) can
+    hold the path while the fixes before it are judged faults (in squares, 97 altitudes 10 km
+    up outweigh the 240 fixes of the approach before them). The second start is the Huber
+    M-estimate at the same first guesses of the σ (convex: its minimum does not depend on where
+    its iteration starts, and a run of glitches pulls it with a bounded force per sample), from
+    which the weights and the path are estimated again at the first solution's noise levels
+    :math:`q, s`, fault and copy shares and steps' weights. Of the two, the one with the
+    smaller
+
+    .. math::
+
+        -2\log L = J_Q(\hat x) + d\log\det A - d\sum_k\log\det(\lambda_k Q^{-1})
+                  - 2\sum_i \log\big[\epsilon f c + (1-\epsilon)(1-\eta_i)\,
+                    N(y_i; h_i^\top\hat x, s^2\rho_i^2)\,c + (1-\epsilon)\eta_i\big]
+
+    (:math:`J_Q` the process term of :math:`J`, each measurement's whole mixture density in
+    the sum: :meth:`~fieldmap.nav.logs.motion.AxisSmoother.mixture_loglik`) is kept;
+    at the same noise levels the comparison is between paths, not between noise levels (the
+    mixture's likelihood rises as the σ falls and fixes turn faults, so two solutions with
+    their own noise levels favour the one that rejects more).
+    """
+    first = _smooth(grid, vehicle, True, channels, floors, fixed)
+    judged = _smooth(grid, vehicle, True, channels, floors, fixed, noise_of=first)
+    if judged.mixture_neg2loglik < first.mixture_neg2loglik:
+        return judged
+    return first
 
 
 def estimate(
@@ -763,11 +825,11 @@ def estimate(
                 Advice("; check ", Keyword("alt_units")),
                 param="alt_units",
             )
-    vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+    vt = _height(grid, vehicle, vchans, vfloors, vfix)
     if len(vchans) > 1 and max(vt.fault_rate) >= 0.5:
         share = 100.0 * float(np.mean(vt.fault_prob[1] > 0.5))
         vchans, vfloors, vfix = vchans[:1], vfloors[:1], vfix[:1]
-        vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix)
+        vt = _height(grid, vehicle, vchans, vfloors, vfix)
         notes.append(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"

@@ -171,6 +171,9 @@ import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded, expm
 from scipy.optimize import minimize_scalar
 
+#: Huber's threshold (in σ) and the reweighting passes of the robust start (huber_weights)
+HUBER_K = 1.0
+HUBER_PASSES = 12
 #: a bounded state is held by a penalty this many times its node's own weight
 BOUND_STIFFNESS = 1e4
 #: the active set of bounded states grows at most this many times
@@ -389,6 +392,10 @@ class SmoothedAxis:
     speed_bound_holds: bool = True
     scale_bounds: list[tuple[float, float]] = field(default_factory=list)
     fixed: list[bool] = field(default_factory=list)
+    #: ``-2 log L`` with each measurement's mixture density (fault, inlier, copy) in place of
+    #: its weighted square (:meth:`AxisSmoother.mixture_loglik`): two solutions of one log
+    #: compared by it (conditioning's two starts)
+    mixture_neg2loglik: float = float("nan")
 
     def scale_at_bound(self, i: int) -> str | None:
         """Return the bound (``"floor"``, ``"ceiling"``) channel ``i``'s estimate stopped at.
@@ -626,6 +633,7 @@ class AxisSmoother:
         self.speed_bound_holds = True
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
+        self._last_measured = 0.0
         self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
         self.h: list[np.ndarray] = [np.zeros((0, NS))] * len(channels)
         for i in range(len(channels)):
@@ -816,10 +824,13 @@ class AxisSmoother:
         J += float(np.sum(x[0] * np.matmul(P0, x[0])))  # the reference is at rest there
         w0 = np.linalg.eigvalsh(P0)
         logdetP0 = float(np.sum(np.log(w0[w0 > 0.0])))
+        J_meas = 0.0
         for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
             r = c.y - _apply(h, x[k])
-            J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
-        neg2 = J + d * logdetA - d * logdetP - d * logdetP0 + norm
+            J_meas += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
+        #: the weighted measurements' part of -2 log L (``mixture_neg2loglik`` replaces it)
+        self._last_measured = J_meas + norm
+        neg2 = J + J_meas + d * logdetA - d * logdetP - d * logdetP0 + norm
         return x, cb, neg2
 
     def _bounded(
@@ -1019,6 +1030,32 @@ class AxisSmoother:
         :attr:`held_rates`; κ is 0 for a sample that repeats nothing.
         """
         faults, copies = [], []
+        for a, bb, cc in self._components(x, scales, rates):
+            m = np.maximum(np.maximum(a, bb), cc)
+            ea, eb, ec = np.exp(a - m), np.exp(bb - m), np.exp(cc - m)
+            tot = ea + eb + ec
+            faults.append(ea / tot)
+            copies.append(ec / tot)
+        return faults, copies
+
+    def mixture_loglik(self, x: np.ndarray, scales: list[float], rates: list[float]) -> float:
+        r"""Return the measurements' log-likelihood under the mixture at the path ``x``.
+
+        :math:`\sum_i \log[\epsilon f + (1-\epsilon)(1-\eta_i) N(y_i; h_i^\top x,
+        s^2\rho_i^2) + (1-\epsilon)\eta_i/c]` over every channel (module docstring: the
+        fault, the inlier and, for a repeat, the copy), each a density of the printed value.
+        """
+        out = 0.0
+        for a, bb, cc in self._components(x, scales, rates):
+            m = np.maximum(np.maximum(a, bb), cc)
+            out += float(np.sum(m + np.log(np.exp(a - m) + np.exp(bb - m) + np.exp(cc - m))))
+        return out
+
+    def _components(
+        self, x: np.ndarray, scales: list[float], rates: list[float]
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Each channel's log densities of a sample as a fault, an inlier and a copy."""
+        out = []
         for c, k, h, s, eps, eta in zip(
             self.channels, self.k, self.h, scales, rates, self.held_rates
         ):
@@ -1036,12 +1073,30 @@ class AxisSmoother:
                 cc = np.where(c.held, math.log1p(-eps) + math.log(eta) - math.log(c.cell), -np.inf)
             else:
                 cc = np.full(r.shape[0], -np.inf)
-            m = np.maximum(np.maximum(a, bb), cc)
-            ea, eb, ec = np.exp(a - m), np.exp(bb - m), np.exp(cc - m)
-            den = ea + eb + ec
-            faults.append(ea / den)
-            copies.append(ec / den)
-        return faults, copies
+            out.append((a, bb, cc))
+        return out
+
+    def huber_weights(
+        self, q: float, scales: list[float], passes: int = HUBER_PASSES
+    ) -> list[np.ndarray]:
+        r"""Return the weights of the Huber M-estimate of the path (a robust, convex start).
+
+        Iteratively reweighted least squares for :math:`\sum_i \rho(r_i / s\rho_i)` with
+        Huber's :math:`\rho` (quadratic within :data:`HUBER_K`, linear beyond): weights
+        :math:`w_i = \min(1, k / |z_i|)`. The objective is convex, so its minimum does not
+        depend on where the iteration starts: a run of glitches, however long, pulls the path
+        with a bounded force per sample instead of the square of its offset.
+        """
+        weights = [np.ones(c.t.size) for c in self.channels]
+        for _ in range(passes):
+            x, _, _ = self.solve(q, scales, weights)
+            new = []
+            for c, k, h, s in zip(self.channels, self.k, self.h, scales):
+                r = c.y - _apply(h, x[k])
+                z = np.sqrt(np.sum(r * r, axis=1)) / (s * c.rho)
+                new.append(np.minimum(1.0, HUBER_K / np.maximum(z, 1e-300)))
+            weights = new
+        return weights
 
     # -- the whole estimate -------------------------------------------------------------------
 
@@ -1054,6 +1109,7 @@ class AxisSmoother:
         tau0: tuple[list[np.ndarray], list[float]] | None = None,
         lam0: np.ndarray | None = None,
         shares0: tuple[list[float], list[float]] | None = None,
+        hold_noise: bool = False,
     ) -> SmoothedAxis:
         """EM for the mixture, alternating with the marginal-likelihood noise levels.
 
@@ -1064,7 +1120,8 @@ class AxisSmoother:
         start from (default 1: every measurement an inlier); ``tau0``: the time errors and their
         σ to start from; ``lam0``: the steps' weights to start from (default 1); ``shares0``:
         the fault and copy shares ε, η to start from (default: from ``weights0``, and
-        :data:`HELD_START`).
+        :data:`HELD_START`); ``hold_noise``: ``q`` and the scales stay at ``q0`` and
+        ``scales0`` (the passes are E-steps only).
         """
         if lam0 is not None:
             self.lam = np.asarray(lam0, dtype=np.float64).copy()
@@ -1086,12 +1143,14 @@ class AxisSmoother:
         for _ in range(passes):
             for _ in range(2):
                 x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates)
-            q, scales = self._maximise(q, scales, weights)
-            x, cb, neg2 = self.solve(q, scales, weights)
+            if not hold_noise:
+                q, scales = self._maximise(q, scales, weights)
+                x, cb, neg2 = self.solve(q, scales, weights)
         for _ in range(MANOEUVRE_STEPS if self.model.jerk_dof and lam0 is None else 0):
             x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, heavy=True)
         x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, final=True)
         pi, kappa = self.posteriors(x, scales, rates)
+        mixture = neg2 - self._last_measured - 2.0 * self.mixture_loglik(x, scales, rates)
         return SmoothedAxis(
             self.grid,
             self.model,
@@ -1113,6 +1172,7 @@ class AxisSmoother:
             speed_bound_holds=self.speed_bound_holds,
             scale_bounds=list(self.scale_bounds),
             fixed=[f is not None for f in self.fixed],
+            mixture_neg2loglik=mixture,
         )
 
     def manoeuvres(self, x: np.ndarray, q: float) -> np.ndarray:
