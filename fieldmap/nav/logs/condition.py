@@ -110,6 +110,9 @@ UNIT_SPREAD = 0.15
 UNIT_MIN_RATE = 2.0
 #: the positions' σ starts this many times its robust first guess where rates are measured
 ANNEAL = 30.0
+#: the height's second start is kept when its -2 log L is smaller than the first's by more
+#: than this: 2 ln B > 10, "very strong" evidence on Kass & Raftery's (1995) scale (_height)
+START_EVIDENCE = 10.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
 
@@ -623,12 +626,15 @@ def _smooth(
     reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
     noise_of: SmoothedAxis | None = None,
 ) -> SmoothedAxis:
-    """Smooth one axis group (module docstring, step 4).
+    r"""Smooth one axis group (module docstring, step 4).
 
-    ``noise_of``: a solution whose noise levels, fault and copy shares and steps' weights are
-    held; the weights and the path are estimated again from the weights of the Huber
-    M-estimate (:meth:`~fieldmap.nav.logs.motion.AxisSmoother.huber_weights`), a robust
-    start that does not depend on the annealing (:func:`_height`).
+    ``noise_of``: a solution of the same channels whose noise levels :math:`q, s` and steps'
+    weights :math:`\lambda` are held; the EM's weights and path (and the fault and copy shares,
+    from that solution's) are estimated again from the weights of the Huber M-estimate
+    (:meth:`~fieldmap.nav.logs.motion.AxisSmoother.huber_weights`, at ``noise_of``'s
+    :math:`q`, the first guesses of the σ below and :math:`\lambda = 1`), a start that does not
+    depend on the least-squares one (:func:`_height`). For channels without time errors
+    (the height's): ``noise_of``'s are not carried.
     """
     model = vehicle.vertical_model() if vertical else vehicle.horizontal_model()
     lo, hi = vehicle.q_bounds(vertical)
@@ -715,25 +721,33 @@ def _height(
     up outweigh the 240 fixes of the approach before them). The second start is the Huber
     M-estimate at the same first guesses of the σ (convex: its minimum does not depend on where
     its iteration starts, and a run of glitches pulls it with a bounded force per sample), from
-    which the weights and the path are estimated again at the first solution's noise levels
-    :math:`q, s`, fault and copy shares and steps' weights. Of the two, the one with the
-    smaller
+    which the EM's weights and path are estimated again at the first solution's noise levels
+    :math:`q, s` and steps' weights :math:`\lambda` (the fault and copy shares
+    :math:`\epsilon, \eta` re-estimated with the weights, as in any E-step). Of the two, the
+    one with the smaller
 
     .. math::
 
         -2\log L = J_Q(\hat x) + d\log\det A - d\sum_k\log\det(\lambda_k Q^{-1})
-                  - 2\sum_i \log\big[\epsilon f c + (1-\epsilon)(1-\eta_i)\,
-                    N(y_i; h_i^\top\hat x, s^2\rho_i^2)\,c + (1-\epsilon)\eta_i\big]
+                  - d\log\det P_0
+                  - 2\sum_i \log\big[\epsilon f + (1-\epsilon)(1-\eta_i)\,
+                    N(y_i; h_i^\top\hat x, s^2\rho_i^2) + (1-\epsilon)\eta_i/c\big]
 
-    (:math:`J_Q` the process term of :math:`J`, each measurement's whole mixture density in
-    the sum: :meth:`~fieldmap.nav.logs.motion.AxisSmoother.mixture_loglik`) is kept;
+    (:math:`J_Q` the process and initial-state terms of :math:`J`, :math:`P_0` the initial
+    state's precision, :math:`\eta_i = \eta` on a repeated sample of a channel with copies
+    and 0 elsewhere: each measurement's whole mixture density,
+    :meth:`~fieldmap.nav.logs.motion.AxisSmoother.mixture_loglik`) is kept, the second only
+    where the evidence for it is very strong: smaller by more than :data:`START_EVIDENCE`
+    (:math:`2\ln B > 10` on Kass & Raftery's 1995 scale, J. Am. Statist. Assoc. 90, 773-795).
+    Where both starts reach the same optimum, their values differ by the EM's convergence
+    alone, and the first is kept;
     at the same noise levels the comparison is between paths, not between noise levels (the
     mixture's likelihood rises as the σ falls and fixes turn faults, so two solutions with
     their own noise levels favour the one that rejects more).
     """
     first = _smooth(grid, vehicle, True, channels, floors, fixed)
     judged = _smooth(grid, vehicle, True, channels, floors, fixed, noise_of=first)
-    if judged.mixture_neg2loglik < first.mixture_neg2loglik:
+    if first.mixture_neg2loglik - judged.mixture_neg2loglik > START_EVIDENCE:
         return judged
     return first
 

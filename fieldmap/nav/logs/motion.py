@@ -393,8 +393,8 @@ class SmoothedAxis:
     scale_bounds: list[tuple[float, float]] = field(default_factory=list)
     fixed: list[bool] = field(default_factory=list)
     #: ``-2 log L`` with each measurement's mixture density (fault, inlier, copy) in place of
-    #: its weighted square (:meth:`AxisSmoother.mixture_loglik`): two solutions of one log
-    #: compared by it (conditioning's two starts)
+    #: its weighted square and weighted normaliser (:meth:`AxisSmoother.mixture_loglik`): two
+    #: solutions of one log compared by it (the conditioning's two starts of the height)
     mixture_neg2loglik: float = float("nan")
 
     def scale_at_bound(self, i: int) -> str | None:
@@ -633,7 +633,9 @@ class AxisSmoother:
         self.speed_bound_holds = True
         self.tau = [np.zeros(c.t.size) for c in channels]
         self.sigma_tau = [1.0 if c.timing else 0.0 for c in channels]
-        self._last_measured = 0.0
+        #: the last solve's -2 log L without the measurements' terms (its process, initial
+        #: state and determinants), for :attr:`SmoothedAxis.mixture_neg2loglik`
+        self._last_unmeasured = 0.0
         self.k: list[np.ndarray] = [np.zeros(0, np.int64)] * len(channels)
         self.h: list[np.ndarray] = [np.zeros((0, NS))] * len(channels)
         for i in range(len(channels)):
@@ -824,13 +826,11 @@ class AxisSmoother:
         J += float(np.sum(x[0] * np.matmul(P0, x[0])))  # the reference is at rest there
         w0 = np.linalg.eigvalsh(P0)
         logdetP0 = float(np.sum(np.log(w0[w0 > 0.0])))
-        J_meas = 0.0
+        self._last_unmeasured = J + d * logdetA - d * logdetP - d * logdetP0
         for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
             r = c.y - _apply(h, x[k])
-            J_meas += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
-        #: the weighted measurements' part of -2 log L (``mixture_neg2loglik`` replaces it)
-        self._last_measured = J_meas + norm
-        neg2 = J + J_meas + d * logdetA - d * logdetP - d * logdetP0 + norm
+            J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
+        neg2 = J + d * logdetA - d * logdetP - d * logdetP0 + norm
         return x, cb, neg2
 
     def _bounded(
@@ -1043,7 +1043,9 @@ class AxisSmoother:
 
         :math:`\sum_i \log[\epsilon f + (1-\epsilon)(1-\eta_i) N(y_i; h_i^\top x,
         s^2\rho_i^2) + (1-\epsilon)\eta_i/c]` over every channel (module docstring: the
-        fault, the inlier and, for a repeat, the copy), each a density of the printed value.
+        fault, the inlier and, for a repeat, the copy), each a density of the value:
+        :math:`\eta_i` is the channel's copy share :math:`\eta` on a sample that repeats the
+        one before it and 0 elsewhere (and on every sample of a channel without copies).
         """
         out = 0.0
         for a, bb, cc in self._components(x, scales, rates):
@@ -1079,14 +1081,19 @@ class AxisSmoother:
     def huber_weights(
         self, q: float, scales: list[float], passes: int = HUBER_PASSES
     ) -> list[np.ndarray]:
-        r"""Return the weights of the Huber M-estimate of the path (a robust, convex start).
+        r"""Return the weights of the Huber M-estimate of the path (a robust start).
 
-        Iteratively reweighted least squares for :math:`\sum_i \rho(r_i / s\rho_i)` with
-        Huber's :math:`\rho` (quadratic within :data:`HUBER_K`, linear beyond): weights
-        :math:`w_i = \min(1, k / |z_i|)`. The objective is convex, so its minimum does not
-        depend on where the iteration starts: a run of glitches, however long, pulls the path
-        with a bounded force per sample instead of the square of its offset.
+        The path minimising the process term of :math:`J` (module docstring; steps' weights
+        :attr:`lam`) plus :math:`\sum_i \rho(z_i)`, :math:`z_i = |y_i - h_i^\top x| /
+        s\rho_i`, with Huber's :math:`\rho` (quadratic within :data:`HUBER_K`, linear beyond),
+        by ``passes`` of iteratively reweighted least squares from least squares: weights
+        :math:`w_i = \min(1, k / z_i)`. The objective is convex (the bounds held by
+        :meth:`_bounded` aside), so its minimum does not depend on a start, and a run of
+        glitches, however far off, pulls the path with a bounded force per sample instead of
+        one that grows with its offset. The scales are taken as :meth:`run` takes them (within
+        their bounds; a user's fixed σ as given).
         """
+        scales = self._start_scales(scales)
         weights = [np.ones(c.t.size) for c in self.channels]
         for _ in range(passes):
             x, _, _ = self.solve(q, scales, weights)
@@ -1099,6 +1106,13 @@ class AxisSmoother:
         return weights
 
     # -- the whole estimate -------------------------------------------------------------------
+
+    def _start_scales(self, scales0: list[float]) -> list[float]:
+        """Return first guesses of the scales within their bounds, a user's fixed σ as given."""
+        return [
+            float(f) if f is not None else float(np.clip(s, *sb))
+            for s, sb, f in zip(scales0, self.scale_bounds, self.fixed)
+        ]
 
     def run(
         self,
@@ -1131,10 +1145,7 @@ class AxisSmoother:
             for i in range(len(self.channels)):
                 self._locate(i)
         q = float(np.clip(q0, *self.q_bounds))
-        scales = [
-            float(f) if f is not None else float(np.clip(s, *sb))
-            for s, sb, f in zip(scales0, self.scale_bounds, self.fixed)
-        ]
+        scales = self._start_scales(scales0)
         weights = weights0 or [np.ones(c.t.size) for c in self.channels]
         rates = [float(np.clip(1.0 - np.mean(w), 1e-4, 0.5)) for w in weights]
         if shares0 is not None:
@@ -1150,7 +1161,7 @@ class AxisSmoother:
             x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, heavy=True)
         x, cb, neg2, weights, rates = self._e_step(x, q, scales, rates, final=True)
         pi, kappa = self.posteriors(x, scales, rates)
-        mixture = neg2 - self._last_measured - 2.0 * self.mixture_loglik(x, scales, rates)
+        mixture = self._last_unmeasured - 2.0 * self.mixture_loglik(x, scales, rates)
         return SmoothedAxis(
             self.grid,
             self.model,
