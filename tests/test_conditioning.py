@@ -248,6 +248,39 @@ def test_height_quantum_of_a_level_flight():
     assert height_quantum(gnss) == 0.0
 
 
+def test_height_quantum_of_a_cruise_logged_every_10_s():
+    """25 ft steps found where the geoid adds more per fix than the steps are in number.
+
+    Fixes 2.5 km apart (10 s at 250 m/s) gain 0.06 m of geoid height each (a slope of
+    2.4e-5, 5"): without the distances flown the conversion's 0.06 m changes are the most
+    common "step" of a level cruise with six 25 ft steps.
+    """
+    geoid = 47.0 + 0.06 * np.arange(120)
+    level = np.full(120, 37000.0)
+    for i in (20, 60, 100):  # up one step and back, three times
+        level[i : i + 6] -= 25.0
+    h = level * FT + geoid
+    assert abs(height_quantum(h, distance=np.full(119, 2500.0)) - 25 * FT) < 0.1
+    # a climb's continuous heights are no steps, whatever the distances
+    rng = np.random.default_rng(5)
+    climb = 3000.0 + np.cumsum(rng.uniform(2.0, 12.0, size=120))
+    assert height_quantum(climb, distance=np.full(119, 2500.0)) == 0.0
+
+
+def test_quantised_cruise_of_a_real_log_found():
+    """A real cruise logged every 10 s (traffic's switzerland collection) is quantised at 25 ft.
+
+    Its altitudes are whole multiples of 25 ft; the report's quantum says so, and so the
+    heights' σ is no less than a 25 ft step's rounding error, 7.62 m / √12.
+    """
+    corpus = Path(__file__).parent / "data" / "corpus"
+    path = corpus / "switzerland" / "switzerland_44083b_02.csv.gz"
+    cf = condition(read_track(path, height_ref="pressure"))
+    r = cf.report
+    assert abs(r["fit"]["height_quantum_m"] - 25 * FT) < 0.1
+    assert r["channels"]["height"]["noise_sigma"] >= 25 * FT / math.sqrt(12.0) - 1e-9
+
+
 def test_plot(synthetic):
     fig = plot_conditioning(synthetic[2])
     assert len(fig.axes) == 4

@@ -85,6 +85,10 @@ STILL_V = 15.0
 INTERP_ROUNDING_M = 1.0
 #: a height change smaller than this (m) between fixes is what a conversion adds (geoid, ISA)
 LEVEL_M = 0.05
+#: the steepest slope of the geoid (rad): the deflection of the vertical, whose largest values
+#: are about 1' (3e-4 rad) in high mountains: a held altitude converted to heights changes by
+#: up to this times the distance flown between fixes (:func:`height_quantum`)
+GEOID_SLOPE_MAX = 3e-4
 #: the coarsest step of a quantised altitude (m): Mode C's 100 ft (ICAO Annex 10 Vol IV,
 #: Gillham code), with the 5 % of a step that the conversion to heights may add
 HEIGHT_STEP_MAX_M = 100.0 * 0.3048 * 1.05
@@ -362,13 +366,17 @@ class Measurements:
     source: str = "flight"
 
 
-def height_quantum(h: np.ndarray) -> float:
+def height_quantum(h: np.ndarray, distance: np.ndarray | None = None) -> float:
     r"""Step of quantised heights (m), e.g. 7.62 for 25 ft, or 0 when not quantised.
 
     A log's altitude printed in 25 ft (or 100 ft) steps keeps the steps through its
-    conversion to heights, up to what the conversion adds smoothly (a geoid height, the ISA
-    profile: centimetres between fixes). The step is the changes' most common value (beyond
-    :data:`LEVEL_M`, within 5 % of it; the median of those), up to :data:`HEIGHT_STEP_MAX_M`;
+    conversion to heights, up to what the conversion adds smoothly: the ISA profile nothing
+    to a held altitude, the geoid height :math:`N` up to its slope times the distance flown,
+    :math:`|\Delta N| \le` :data:`GEOID_SLOPE_MAX` :math:`d` (0.3 m between fixes 1 km
+    apart; 0.06 m is common between a cruise's fixes 10 s apart, more than a level flight's
+    25 ft steps in number). The candidate steps are the changes beyond that and beyond
+    :data:`LEVEL_M`; the step is their most common value (within 5 % of it; the median of
+    those), up to :data:`HEIGHT_STEP_MAX_M`;
     the heights are quantised when at least :data:`QUANTISED_SHARE` of the changes are within
     5 % of a whole multiple of it (up to 40), judged on at least
     :data:`QUANTISED_MIN_CHANGES` changes up to the coarsest step. Fewer (a level flight's
@@ -380,7 +388,8 @@ def height_quantum(h: np.ndarray) -> float:
     a third or half a step, common) are not quantised.
     """
     dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
-    nz = dh[(dh > LEVEL_M) & (dh <= HEIGHT_STEP_MAX_M)]
+    level = LEVEL_M if distance is None else np.maximum(LEVEL_M, GEOID_SLOPE_MAX * distance)
+    nz = dh[(dh > level) & (dh <= HEIGHT_STEP_MAX_M)]
     if nz.size < 2:
         return 0.0
     values = np.unique(np.round(nz, 2))
@@ -496,7 +505,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         "position",
         timing=True,
     )
-    q = height_quantum(log.h)
+    q = height_quantum(log.h, np.linalg.norm(np.diff(p, axis=0), axis=1))
     hspan = float(np.ptp(log.h)) if n else 0.0
     heights = Channel(
         log.t, log.h[:, None], np.ones(n), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
