@@ -19,7 +19,7 @@ import pytest
 from log_tracks import raw_track
 
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.condition import Conditioning, condition, height_quantum
+from fieldmap.nav.logs.condition import Conditioning, condition, height_quantum, unfixed_stretches
 from fieldmap.nav.logs.read import RawTrack, read_track
 from fieldmap.nav.logs.report import OUTLIER_H, OUTLIER_HV, OUTLIER_V, plot_conditioning
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -363,6 +363,54 @@ def test_long_gap_flown_as_prediction_with_its_sigma():
     dn = (s.lat[mid] - lat[mid]) * math.radians(1.0) * 6.37e6
     assert np.abs(dn).max() < 3.0 * b["sigma_h_m"] and np.abs(dn).max() < 20.0
     assert np.abs(s.h[mid] - h[mid]).max() < 20.0
+
+
+def test_log_ending_in_stale_values_reported_as_prediction():
+    """A log's last 150 s of stale values: flown as the model's prediction, and reported so.
+
+    The σ at the end is stated. A transponder's last rows (after a landing, say) repeat its
+    last position (no new fix) and an altitude 30 km off, beyond any climb in 150 s
+    (rejected): no fix is kept after t = 449 s.
+    """
+    t = np.arange(0.0, 600.0)
+    lat, lon, h = straight(t)
+    stale = t >= 450.0
+    lat[stale], lon[stale] = lat[449], lon[449]
+    h = h.copy()
+    h[stale] = 33000.0
+    cf = condition(quiet_track(t, lat, lon, h, source="stale.csv"))
+    (end,) = [g for g in cf.report["gaps"]["list"] if g["edge"] is not None]
+    assert end["edge"] == "end" and end["fixes"] == "positions and heights"
+    assert end["lines"] == [451, 601]  # the last kept fix (t = 449 s) and the last line
+    assert end["t_from_s"] == pytest.approx(449.0) and end["t_to_s"] == pytest.approx(599.0)
+    # with no fix for 150 s the prediction's σ grows past a fix's
+    assert end["sigma_h_m"] > cf.report["channels"]["position"]["noise_sigma"]
+    assert end["sigma_v_m"] > cf.report["channels"]["height"]["noise_sigma"]
+    assert "end of the flight with no fix: lines 451..601 (150 s" in cf.format_report()
+
+
+def test_unfixed_stretches_of_each_channel():
+    """Stretches without kept positions, without kept heights, and at the ends.
+
+    Overlapping ones of the two channels are one, over their union.
+    """
+    t = np.arange(0.0, 1000.0)
+    lines = np.arange(t.size) + 2
+    pos = np.ones(t.size, bool)
+    hgt = np.ones(t.size, bool)
+    pos[200:300] = False  # a gap in the positions alone
+    hgt[500:650] = False  # in the heights alone
+    pos[800:] = False  # the end: no position kept after t = 799, no height after t = 819
+    hgt[820:] = False
+    kept = {"positions": pos, "heights": hgt}
+    got = unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 60.0)
+    assert got == [
+        (199.0, 300.0, (201, 302), "positions", None),
+        (499.0, 650.0, (501, 652), "heights", None),
+        (799.0, 999.0, (801, 1001), "positions and heights", "end"),
+    ]
+    # shorter than the limit: none
+    assert unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 250.0) == []
 
 
 def test_times_going_back_refused_naming_the_line():

@@ -68,6 +68,21 @@ def test_the_stale_altitudes_are_rejected_and_little_else(flown):
     assert STALE_ALTITUDES <= rejected <= STALE_ALTITUDES + 0.02 * log.t.size, rejected
 
 
+def test_the_frozen_tail_is_reported_as_prediction_with_its_sigma(flown):
+    """After the landing no fix is kept: the report says the last 113 s are prediction.
+
+    The positions repeat and the altitudes are stale there. The report gives the vertical σ at
+    the end, hundreds of metres: the path climbs from the flare's last upward acceleration, not
+    to a height the log gives.
+    """
+    cf, log, _ = flown
+    (end,) = [g for g in cf.report["gaps"]["list"] if g["edge"] == "end"]
+    assert end["fixes"] == "positions and heights"
+    assert STALE_LINE - 2 <= end["lines"][0] <= STALE_LINE and end["lines"][1] == log.lines[-1]
+    assert end["sigma_v_m"] > 100.0
+    assert "end of the flight with no fix" in cf.format_report()
+
+
 def _axis(y: np.ndarray, t: np.ndarray, fault_density: float, held=None, cell: float = 0.0):
     from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, MotionModel
 

@@ -41,8 +41,11 @@ likelihood, with :math:`q` bounded by the vehicle class
    the path where the EM's first start put it.
 5. *Samples*: the smoothed path at the grid nodes from the first sample to the last
    (``airborne_only`` trims the slow ends of an aircraft's log); the faults as runs with their
-   lines (:func:`~fieldmap.nav.logs.faults.describe_faults`), gaps longer than ``max_gap_s``
-   with the path's posterior σ at their middle.
+   lines (:func:`~fieldmap.nav.logs.faults.describe_faults`); the stretches longer than
+   ``max_gap_s`` flown without a kept position or height (:func:`unfixed_stretches`): gaps
+   between fixes, with the path's posterior σ at their middle, and the ends of the flown span
+   before the first kept fix or after the last (a transponder's stale last rows), flown from
+   one side only, with the σ at their far end.
 
 Gaps are prediction: across an interval without fixes the path is the model's conditional
 mean given both sides, within the vehicle's climb (its vertical speed relaxes to zero over the
@@ -930,13 +933,78 @@ def _unit_factor(log_rate: np.ndarray, path_rate: np.ndarray) -> float | None:
 
 @dataclass(frozen=True)
 class Gap:
-    """An interval without fixes longer than ``max_gap_s``, and the path's σ at its middle."""
+    """A stretch flown without fixes, longer than ``max_gap_s``, and the path's σ there.
+
+    Attributes
+    ----------
+    t_from_s, t_to_s : float
+        Its start and end (the log's time scale; s).
+    lines : (int, int)
+        The lines of the fixes kept on either side (at an end of the flown span: the span's
+        first or last line).
+    sigma_h_m, sigma_v_m : float
+        The path's posterior σ per horizontal axis and vertically (m): at the middle of a gap
+        between fixes, at the far end of a stretch at an end of the flown span (its largest).
+    fixes : str
+        What is missing there: ``"positions and heights"`` (no fix at all), ``"positions"``
+        or ``"heights"`` (the other channel's fixes are kept).
+    edge : str or None
+        ``"start"`` or ``"end"``: a stretch before the first kept fix or after the last, flown
+        from the fixes on one side only; None: a gap between fixes.
+    """
 
     t_from_s: float
     t_to_s: float
     lines: tuple[int, int]
     sigma_h_m: float
     sigma_v_m: float
+    fixes: str = "positions and heights"
+    edge: str | None = None
+
+
+def unfixed_stretches(
+    t: np.ndarray,
+    lines: np.ndarray,
+    kept: dict[str, np.ndarray],
+    flown: tuple[float, float],
+    flown_lines: tuple[int, int],
+    max_gap_s: float,
+) -> list[tuple[float, float, tuple[int, int], str, str | None]]:
+    """Return the stretches of the flown span without a kept fix of a channel, over ``max_gap_s``.
+
+    ``kept`` maps ``"positions"`` and ``"heights"`` to the ordered samples whose fix of that
+    channel the path kept (bool, like ``t``); ``flown`` is the flown span (s), ``flown_lines``
+    its first and last lines. Between two kept fixes further apart than ``max_gap_s`` the path
+    is the model's prediction from both sides; before the first kept fix and after the last,
+    from one side only. Stretches of the two channels that overlap are reported as one, over
+    their union, as missing ``"positions and heights"``. Returns
+    ``(t_from, t_to, lines, fixes, edge)`` in time order.
+    """
+    found: list[tuple[float, float, tuple[int, int], str, str | None]] = []
+    for name, keep in kept.items():
+        tk, lk = t[keep], lines[keep]
+        tk_in = (tk >= flown[0]) & (tk <= flown[1])
+        tk, lk = tk[tk_in], lk[tk_in]
+        if tk.size == 0:  # none kept at all: the channel's faults say so
+            continue
+        for j in np.flatnonzero(np.diff(tk) > max_gap_s):
+            found.append((float(tk[j]), float(tk[j + 1]), (int(lk[j]), int(lk[j + 1])), name, None))
+        if tk[0] - flown[0] > max_gap_s:
+            found.append((flown[0], float(tk[0]), (flown_lines[0], int(lk[0])), name, "start"))
+        if flown[1] - tk[-1] > max_gap_s:
+            found.append((float(tk[-1]), flown[1], (int(lk[-1]), flown_lines[1]), name, "end"))
+    found.sort(key=lambda g: (g[0], g[1]))
+    merged: list[tuple[float, float, tuple[int, int], str, str | None]] = []
+    for g in found:
+        if merged and g[0] < merged[-1][1] and g[3] != merged[-1][3]:
+            m = merged[-1]
+            lo = (m[0], m[2][0]) if m[0] <= g[0] else (g[0], g[2][0])
+            hi = (m[1], m[2][1]) if m[1] >= g[1] else (g[1], g[2][1])
+            edge = m[4] if m[4] == g[4] else (m[4] or g[4])
+            merged[-1] = (lo[0], hi[0], (lo[1], hi[1]), "positions and heights", edge)
+        else:
+            merged.append(g)
+    return merged
 
 
 @dataclass(frozen=True)
@@ -1236,26 +1304,23 @@ def _finish(
             shifts,
         )
     faults.sort(key=lambda f: f.t_start_s)
-    # gaps between the fixes flown past (positions or heights kept)
-    used = np.zeros(log.t.size, bool)
-    used[meas.index["position"][~rejected["position"]]] = True
-    tu = log.t[used]
-    lu = log.lines[used]
+    # stretches flown without the fixes of a channel: between kept fixes, and at the ends
+    kept = {}
+    for name, channel in (("positions", "position"), ("heights", "height")):
+        kept[name] = np.zeros(log.t.size, bool)
+        kept[name][meas.index[channel][~rejected[channel]]] = True
     gaps = []
-    if tu.size > 1:
-        for j in np.flatnonzero(np.diff(tu) > options.max_gap_s):
-            k = int(
-                np.clip(np.rint((0.5 * (tu[j] + tu[j + 1]) - grid.t0) / grid.dt), 0, grid.n - 1)
-            )
-            gaps.append(
-                Gap(
-                    float(tu[j]),
-                    float(tu[j + 1]),
-                    (int(lu[j]), int(lu[j + 1])),
-                    hz.sigma_at(k),
-                    vt.sigma_at(k),
-                )
-            )
+    for t_a, t_b, lines, fixes, edge in unfixed_stretches(
+        log.t,
+        log.lines,
+        kept,
+        (float(tg[0]), float(tg[-1])),
+        (int(samples.lines[0]), int(samples.lines[-1])),
+        options.max_gap_s,
+    ):
+        at = {None: 0.5 * (t_a + t_b), "start": t_a, "end": t_b}[edge]
+        k = int(np.clip(np.rint((at - grid.t0) / grid.dt), 0, grid.n - 1))
+        gaps.append(Gap(t_a, t_b, lines, hz.sigma_at(k), vt.sigma_at(k), fixes, edge))
     return Conditioned(
         log,
         meas,

@@ -357,6 +357,8 @@ def build_report(c: Any) -> dict[str, Any]:
                 "lines": list(g.lines),
                 "sigma_h_m": g.sigma_h_m,
                 "sigma_v_m": g.sigma_v_m,
+                "fixes": g.fixes,
+                "edge": g.edge,
             }
             for g in c.gaps
         ],
@@ -365,6 +367,23 @@ def build_report(c: Any) -> dict[str, Any]:
     report["ground"] = _ground(c)
     report["velocity"] = _velocity_residuals(c, t0)
     return report
+
+
+def _gap_text(gp: dict[str, Any]) -> str:
+    """One line of the report on a stretch flown without fixes (``report["gaps"]["list"]``)."""
+    where = f"lines {gp['lines'][0]}..{gp['lines'][1]} ({gp['duration_s']:.0f} s, t = "
+    where += f"{gp['t_from_s']:.0f}..{gp['t_to_s']:.0f} s)"
+    sigma = f"σ {gp['sigma_h_m']:.0f} m per horizontal axis, {gp['sigma_v_m']:.0f} m vertical"
+    both = gp["fixes"] == "positions and heights"
+    if gp["edge"] is None:
+        what = "gap" if both else f"gap in the {gp['fixes']}"
+        return f"{what}: {where}: flown as the model predicts, {sigma} at mid-gap"
+    side = "after" if gp["edge"] == "start" else "before"
+    what = "no fix" if both else f"no {gp['fixes'][:-1]} kept"
+    return (
+        f"{gp['edge']} of the flight with {what}: {where}: flown as the model predicts from "
+        f"the fixes {side} it, {sigma} at its {gp['edge']}"
+    )
 
 
 def _timing(est: Any) -> dict[str, Any] | None:
@@ -526,12 +545,7 @@ def format_report(rep: dict) -> str:
             lines += [f"    {f['text']}" for f in worst]
         g = rep["gaps"]
         for gp in g["list"]:
-            lines.append(
-                f"  gap: lines {gp['lines'][0]}..{gp['lines'][1]} ({gp['duration_s']:.0f} s, "
-                f"t = {gp['t_from_s']:.0f}..{gp['t_to_s']:.0f} s): flown as the model predicts, "
-                f"σ {gp['sigma_h_m']:.0f} m per horizontal axis, {gp['sigma_v_m']:.0f} m vertical "
-                "at mid-gap"
-            )
+            lines.append("  " + _gap_text(gp))
         tm = rep.get("timing")
         if tm:
             lines.append(
