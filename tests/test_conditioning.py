@@ -19,7 +19,13 @@ import pytest
 from log_tracks import raw_track
 
 from fieldmap.errors import InputError
-from fieldmap.nav.logs.condition import Conditioning, condition, height_quantum, unfixed_stretches
+from fieldmap.nav.logs.condition import (
+    Conditioning,
+    condition,
+    height_quantum,
+    recordings_apart,
+    unfixed_stretches,
+)
 from fieldmap.nav.logs.read import RawTrack, read_track
 from fieldmap.nav.logs.report import OUTLIER_H, OUTLIER_HV, OUTLIER_V, plot_conditioning
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -411,6 +417,46 @@ def test_unfixed_stretches_of_each_channel():
     ]
     # shorter than the limit: none
     assert unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 250.0) == []
+
+
+def test_a_time_tag_from_another_day_is_dropped_and_reported():
+    """One row stamped 1970 (a receiver's clock reset) in a 20-minute log is a recording apart.
+
+    Flown, it would be a gap of 49 years; sorted, it is dropped and named, and the rest is
+    flown as it was, whatever its place in the file and with reorder=False.
+    """
+    t = np.arange(1.6e9, 1.6e9 + 1200.0)
+    lat, lon, h = straight(t - t[0])
+    tt = t.copy()
+    tt[700] = 0.0
+    for opts in (Conditioning(), Conditioning(reorder=False)):
+        cf = condition(quiet_track(tt, lat, lon, h, source="clock.csv"), opts)
+        (a,) = cf.report["order"]["apart"]
+        assert a["samples"] == 1 and a["lines"] == [702, 702] and a["gap_s"] > 1e9
+        assert cf.report["kinematics"]["duration_s"] == pytest.approx(1199.0)
+        assert "1 dropped at line 702, 51 years from the rest of the log" in cf.format_report()
+
+
+def test_two_recordings_days_apart_fly_the_larger():
+    """Two flights 30 days apart in one file: the one with more samples is flown.
+
+    The other is named as a recording apart; a 3-hour coverage gap inside a 7-hour flight
+    stays a gap.
+    """
+    t1 = np.arange(0.0, 1800.0, 5.0)
+    t2 = 30 * 86400.0 + np.arange(0.0, 3600.0, 5.0)
+    t = np.concatenate([t1, t2])
+    lat, lon, h = straight(np.concatenate([t1, t2 - t2[0]]))
+    cf = condition(quiet_track(t, lat, lon, h, source="two.csv"))
+    (a,) = cf.report["order"]["apart"]
+    assert a["samples"] == t1.size and a["lines"] == [2, t1.size + 1]
+    assert cf.report["kinematics"]["duration_s"] == pytest.approx(3595.0)
+    t = np.concatenate([np.arange(0.0, 7200.0, 10.0), np.arange(18000.0, 25200.0, 10.0)])
+    kept, parts = recordings_apart(t)
+    assert parts == [] and kept.size == t.size
+    # short logs: a gap shorter than APART_S never splits them, however long the rest
+    t = np.concatenate([np.arange(0.0, 40.0), np.arange(140.0, 180.0)])
+    assert recordings_apart(t)[1] == []
 
 
 def test_times_going_back_refused_naming_the_line():

@@ -120,6 +120,9 @@ ANNEAL = 30.0
 #: the height's second start is kept when its -2 log L is smaller than the first's by more
 #: than this: 2 ln B > 10, "very strong" evidence on Kass & Raftery's (1995) scale (_height)
 START_EVIDENCE = 10.0
+#: a gap longer than this (s), and than the rest of the log, separates two recordings
+#: (recordings_apart): the 30 min at which tests/data/corpus/make_corpus.py splits flights
+APART_S = 1800.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
 
@@ -260,6 +263,53 @@ class OrderedLog:
     first_reordered_line: int | None
     n_duplicates: int
     first_duplicate_line: int | None
+    #: the recordings apart from the flown one that were dropped (:func:`recordings_apart`)
+    apart: tuple[Apart, ...] = ()
+
+
+@dataclass(frozen=True)
+class Apart:
+    """Samples dropped as a recording apart (:func:`recordings_apart`).
+
+    ``samples`` of them, lines ``lines[0]..lines[1]`` (the first and last in time order),
+    ``gap_s`` from the rest of the log.
+    """
+
+    samples: int
+    lines: tuple[int, int]
+    gap_s: float
+
+
+def recordings_apart(t: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int, float]]]:
+    r"""Return the samples of the one recording a sorted log flies, and the parts apart from it.
+
+    A flight log is one recording: its samples, in time order, leave no gap longer than the
+    recording on both sides of it together. Where the largest gap :math:`g` is longer than the
+    rest of the log's span :math:`T - g` and than :data:`APART_S` (the corpus's own split of
+    flights, ``tests/data/corpus/make_corpus.py``), the two sides are not one flight: a time
+    tag from another day (a receiver's clock reset, a GPS week rollover, a wrong date), or
+    another flight in the same file. The side with fewer samples is dropped (the later of two
+    equal ones), and the rule applied again to the rest. Flying across such a gap would be a
+    prediction over days (and a grid of millions of nodes); a long coverage gap inside a flight
+    (an ocean crossing's 3 h of a 7 h log) is shorter than the rest and stays a gap.
+
+    Returns the kept sample indices and, per dropped part, (first, last) indices and the gap.
+    """
+    lo, hi = 0, t.size
+    dropped: list[tuple[int, int, float]] = []
+    while hi - lo >= 2:
+        gaps = np.diff(t[lo:hi])
+        j = int(np.argmax(gaps))
+        g = float(gaps[j])
+        if g <= max(APART_S, float(t[hi - 1] - t[lo]) - g):
+            break
+        if j + 1 < hi - lo - (j + 1):  # fewer before the gap
+            dropped.append((lo, lo + j, g))
+            lo = lo + j + 1
+        else:
+            dropped.append((lo + j + 1, hi - 1, g))
+            hi = lo + j + 1
+    return np.arange(lo, hi), dropped
 
 
 def order_log(track: Any, reorder: bool = True) -> OrderedLog:
@@ -285,6 +335,15 @@ def order_log(track: Any, reorder: bool = True) -> OrderedLog:
             raise InputError(
                 f"{src} line {lines[bad[0]]}: {name} {v[bad[0]]:g} is beyond ±{lim:g} degrees"
             )
+    # a recording apart (a time tag from another day) is dropped before the order is judged
+    by_time = np.argsort(t, kind="stable")
+    kept, parts = recordings_apart(t[by_time])
+    apart = tuple(
+        Apart(b - a + 1, (int(lines[by_time[a]]), int(lines[by_time[b]])), g) for a, b, g in parts
+    )
+    if parts:
+        on = np.sort(by_time[kept])
+        t, lat, lon, h, lines, index = (a[on] for a in (t, lat, lon, h, lines, index))
     back = np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1]) + 1 if t.size else back_none()
     first_back = int(lines[back[0]]) if back.size else None
     if back.size:
@@ -316,6 +375,7 @@ def order_log(track: Any, reorder: bool = True) -> OrderedLog:
         first_back,
         int(dup.sum()),
         int(lines[dup][0]) if dup.any() else None,
+        apart,
     )
 
 

@@ -231,6 +231,9 @@ def build_report(c: Any) -> dict[str, Any]:
             "first_reordered_line": log.first_reordered_line,
             "duplicates": log.n_duplicates,
             "first_duplicate_line": log.first_duplicate_line,
+            "apart": [
+                {"samples": a.samples, "lines": list(a.lines), "gap_s": a.gap_s} for a in log.apart
+            ],
         },
         "vehicle": {
             "class": veh.name,
@@ -466,6 +469,14 @@ def conditioned_flight(c: Any) -> ConditionedFlight:
     return ConditionedFlight(s, report, raw, c)
 
 
+def _duration(seconds: float) -> str:
+    """Return a duration as a person reads it: seconds, minutes, hours, days or years."""
+    for unit, size in (("years", 365.25 * 86400.0), ("days", 86400.0), ("h", 3600.0)):
+        if seconds >= 2.0 * size:
+            return f"{seconds / size:.0f} {unit}"
+    return f"{seconds / 60.0:.0f} min" if seconds >= 120.0 else f"{seconds:.0f} s"
+
+
 def format_report(rep: dict) -> str:
     """Text of a conditioning report (:attr:`ConditionedFlight.report`), one item a line."""
     s, o, k, v = rep["samples"], rep["order"], rep["kinematics"], rep["vehicle"]
@@ -480,6 +491,16 @@ def format_report(rep: dict) -> str:
     if o["duplicates"]:
         extra.append(
             f"{o['duplicates']} repeated times dropped (first line {o['first_duplicate_line']})"
+        )
+    for a in o.get("apart", []):
+        at = (
+            f"line {a['lines'][0]}"
+            if a["samples"] == 1
+            else f"lines {a['lines'][0]}..{a['lines'][1]} (the first and last in time order)"
+        )
+        extra.append(
+            f"{a['samples']} dropped at {at}, {_duration(a['gap_s'])} from the rest of the "
+            "log: a recording apart (a time tag from another day, or another flight), not flown"
         )
     if s.get("repeated_positions"):
         extra.append(f"{s['repeated_positions']} repeated positions (the fix before, resent)")
