@@ -315,10 +315,15 @@ def test_reader_notes_name_the_cli_options(tmp_path):
 
 # ------------------------------------------------------------------------------------ 4.5
 def test_no_smooth_across_a_long_gap_names_the_lines(tmp_path, capsys):
-    """The quintic across a 100,000 s gap dives 300 km: "ECEF point more than 10000 m below"."""
-    t = np.arange(121.0)
-    t[61:] += 100_000.0
-    f = _flight(tmp_path / "gap.csv", t=t)
+    """The quintic across a 100,000 s gap dives 300 km: "ECEF point more than 10000 m below".
+
+    The log goes on for 160,000 s after the gap (one recording, not two: see
+    ``condition.recordings_apart``).
+    """
+    n = 221
+    t = np.arange(float(n))
+    t[61:] = 100_060.0 + 1000.0 * np.arange(n - 61)
+    f = _flight(tmp_path / "gap.csv", n=n, t=t)
     argv = _navsim("--trajectory", str(f), "--no-smooth")
     refused(argv, tmp_path, capsys, "gap.csv lines 62..63", "without samples", absent=("ECEF",))
 

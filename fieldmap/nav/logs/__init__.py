@@ -119,6 +119,8 @@ def load_flight(
 
     options = Conditioning() if options is None else options
     ellipsoid = options.ellipsoid
+    if isinstance(source, (str, Path)) and Path(source).is_dir():
+        raise InputError(f"{source}: a directory, not a flight file")
     if isinstance(source, (str, Path)) and not Path(source).is_file():
         raise InputError(f"{source}: flight file not found")
     reader_opts = {

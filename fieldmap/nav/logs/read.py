@@ -4,7 +4,8 @@ r"""Flight logs as they come (CSV, GPX, NMEA, IGC, tables) read into one ``RawTr
 conditioning step's job): samples stay in file order, repeats kept, each with the line (or
 record) it came from. What it does is give every log the same meaning: times in seconds (epoch
 seconds UTC when the source has absolute times), latitude and longitude in degrees, and the
-height **above the ellipsoid** in metres, converted from the source's height reference:
+height **above the ellipsoid** in metres, converted from the source's height reference (its
+own, or the ``height_ref`` given to :func:`read_track`):
 
 - ``ellipsoid``: used as is;
 - ``msl`` (orthometric height H, above the geoid): h = H + N, N the geoid height of fieldmap's
@@ -36,13 +37,21 @@ given, epoch seconds (> 1e8), epoch milliseconds (> 1e11: a guess of the units, 
 and any later refusal of the log mention), ISO 8601 strings (naive = UTC) or a ``strptime``
 pattern (``time_format``). Rows with an empty latitude, longitude or altitude
 (``""``, ``nan``, ``null``) are dropped and counted in the notes; anything else that is not a
-number is refused with its line and column. GPX, NMEA 0183 and IGC: below.
+number is refused with its line and column. Rows with an empty time are dropped and counted
+too; an infinite value (``inf``) is read as empty, and said. Lines that are no samples (a
+repeat of the header, a row of empty cells, a last line cut short by the end of the file) are
+dropped and said (:func:`csv_table`). An altitude column of an ADS-B layout that is zero in
+every row is the recorder's "none", not a flight at sea level: not used
+(:func:`_zero_columns`). A table of several aircraft (``icao24``) is refused: a flight is one
+aircraft's. GPX, NMEA 0183 and IGC: below.
 
 Refused with one :class:`~fieldmap.errors.InputError` naming file, line and column: unknown
 columns (the message lists them and the ``--columns`` mapping), unparsable times or numbers,
 latitudes beyond ±90° or longitudes beyond ±360°, heights outside -10 km..1e8 m, epoch times
 outside the years 1..9999, radians, a header naming a column twice, one column mapped to two
-fields, an empty file, a file that is no flight log. Units are checked, not guessed, where
+fields, an empty file (or white space only), a directory, a file that is no flight log. A
+log's *local* defects (one glitched record or value) cost that record, counted in the notes
+with its line, never the log. Units are checked, not guessed, where
 neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
 NMEA, IGC: metres) fixes them: an aircraft-like track (median ground speed below 700 m/s) with
 altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples (of the running
@@ -87,7 +96,8 @@ GNSS receiver and flight-recorder logs (GPX 1.1, NMEA 0183 and IGC):
   ``GEO`` of recent recorders says MSL). ``LAD``/``LOD`` extensions (``I`` record) add
   decimals of minutes.
 
-Times of day roll over at midnight (a step back by more than 12 h adds a day).
+Times of day roll over at midnight; a record whose time of day leaves the log's sequence and
+comes back (a time fault), or that no clock shows (hour 25), is dropped (:func:`days_of`).
 
 The velocities become a :class:`Velocities` (no vertical speed: neither format has one): the
 conditioning checks them against the positions and fits the path to them
@@ -101,6 +111,7 @@ from __future__ import annotations
 
 import csv
 import gzip
+import math
 import os
 import re
 import zlib
@@ -112,7 +123,7 @@ from typing import Any
 
 import numpy as np
 
-from fieldmap.errors import Advice, InputError, Keyword, Message, Part, Pass
+from fieldmap.errors import Advice, InputError, Keyword, Message, Part, Pass, Setting
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.limits import MAX_HEIGHT, MIN_HEIGHT, number_text
 
@@ -226,6 +237,13 @@ class Parsed:
     velocity: Velocities | None = None
     #: an ADS-B emitter category, when the source gives one
     category: str | None = None
+    #: which column an explicit ``height_ref`` the source has no column for may read:
+    #: ``"datum"`` (GPX, NMEA, IGC, whose specifications say what each altitude is): only the
+    #: datum of a GNSS altitude (ellipsoid or MSL, which receivers write either way);
+    #: ``"geometric"`` (a table's layout): any column read as a geometric height, but no
+    #: pressure altitude made of a geometric one; ``"any"`` (a column mapping: ``height_ref``
+    #: says what the mapped column is)
+    declares: str = "datum"
 
 
 def utc_seconds(d: datetime) -> float:
@@ -386,15 +404,31 @@ def _table(
         )
     notes += [] if layout[0] == "mapping" else [f"layout {layout[0]}"]
     kind, tname, latname, lonname, altmap, units = layout
+    if col("icao24") is not None:
+        _one_aircraft(get(col("icao24")), source)
 
     def where(i: int) -> str:
         return f"{source} {where_word} {lines[i]}"
 
+    def column(name: str) -> np.ndarray:
+        """Numbers of a column; an infinite value (a glitch, an overflow) read as empty, said."""
+        v = numbers(get(col(name)), where, name)
+        bad = np.isinf(v)
+        if bad.any():
+            notes.append(
+                f"{name}: {_count(int(bad.sum()), 'value')} not finite ({v[bad][0]:g}) read as "
+                f"empty ({_at(where_word, lines[bad])})"
+            )
+            v[bad] = np.nan
+        return v
+
     t, absolute, tnote = times(get(col(tname)), where, tname, time_format)
     notes += [tnote] if tnote else []
-    lat = numbers(get(col(latname)), where, latname)
-    lon = numbers(get(col(lonname)), where, lonname)
-    alts = {r: (c, numbers(get(col(c)), where, c)) for r, c in altmap.items() if col(c) is not None}
+    lat = column(latname)
+    lon = column(lonname)
+    alts = {r: (c, column(c)) for r, c in altmap.items() if col(c) is not None}
+    if kind not in ("mapping", "fieldmap"):  # a recorder's columns; the others the user's heights
+        alts = _zero_columns(alts, source, notes)
     filled = {r: float(np.mean(np.isfinite(v))) for r, (_, v) in alts.items()}
     ref = next((r for r in alts if filled[r] >= 0.5), max(filled, key=filled.__getitem__))
     ref_note = None
@@ -416,9 +450,9 @@ def _table(
     vcols = VELOCITY_COLUMNS.get(kind)
     if vcols is not None and col(vcols[0]) is not None and col(vcols[2]) is not None:
         sname, sf, trname, cname, cf = vcols
-        speed = numbers(get(col(sname)), where, sname) * sf
-        track = numbers(get(col(trname)), where, trname)
-        climb = numbers(get(col(cname)), where, cname) * cf if col(cname) is not None else None
+        speed = column(sname) * sf
+        track = column(trname)
+        climb = column(cname) * cf if col(cname) is not None else None
         used = (sname, trname) + ((cname,) if climb is not None else ())
         p.velocity = Velocities(speed, track, climb, ADSB_RESOLUTION, used)
     if col("category") is not None:
@@ -427,7 +461,56 @@ def _table(
         if cats:
             p.category = max(set(cats), key=cats.count)
     guess = tnote if tnote and GUESS_MS in tnote else None
-    return replace(p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess)
+    declares = "any" if kind == "mapping" else "geometric"
+    return replace(
+        p, ref_note=ref_note, units_fixed=kind == "fieldmap", time_guess=guess, declares=declares
+    )
+
+
+def _one_aircraft(cells: Any, source: str) -> None:
+    """Refuse a table of several aircraft (``icao24`` addresses): one flight is one aircraft's."""
+    ids = [str(c).strip().lower() for c in cells]
+    rows: dict[str, int] = {}
+    for a in ids:
+        if a and a not in _EMPTY:
+            rows[a] = rows.get(a, 0) + 1
+    if len(rows) > 1:
+        most = sorted(rows.items(), key=lambda item: -item[1])
+        listed = ", ".join(f"{a}: {n} rows" for a, n in most[:5])
+        more = f" and {len(most) - 5} more" if len(most) > 5 else ""
+        raise InputError(
+            f"{source}: {len(rows)} aircraft in one log (icao24 {listed}{more}): a flight is "
+            "one aircraft's; give one flight per file"
+        )
+
+
+def _zero_columns(
+    alts: dict[str, tuple[str, np.ndarray]], source: str, notes: list[str]
+) -> dict[str, tuple[str, np.ndarray]]:
+    """Altitude columns without those that are zero in every row (said in ``notes``).
+
+    A recorder's altitude is never exactly zero all along a flight (a pressure altitude moves
+    with the weather and the flight, a GNSS one with its noise): zero throughout is the
+    recorder's "none" (no such sensor, or a field it fills with 0), not a flight at sea level.
+    Refused where no altitude is left.
+    """
+    zero = [
+        r for r, (_, v) in alts.items() if np.isfinite(v).any() and not np.any(v[np.isfinite(v)])
+    ]
+    if not zero:
+        return alts
+    names = " and ".join(alts[r][0] for r in zero)
+    left = {r: a for r, a in alts.items() if r not in zero}
+    if not left:
+        raise InputError(
+            f"{source} column {names}: zero in every row, a log without that altitude (no "
+            "sensor), not a flight at sea level; the log has no other altitude column"
+        )
+    notes.append(
+        f"{names}: zero in every row (a log without that altitude, not a flight at sea level): "
+        f"not used; {', '.join(c for c, _ in left.values())} used"
+    )
+    return left
 
 
 def read_track(
@@ -455,7 +538,13 @@ def read_track(
         explicitly, the units checks are skipped.
     height_ref : {"ellipsoid", "msl", "pressure"}, optional
         Reference of the source heights (default: the layout's; the column of that kind when
-        the source has several, e.g. ``pressure`` picks OpenSky's ``baroaltitude``).
+        the source has several, e.g. ``pressure`` picks OpenSky's ``baroaltitude``). Where the
+        source has no column of that kind, it declares what its altitude is: the datum of a
+        GNSS altitude (``ellipsoid`` or ``msl``; GPX, NMEA, IGC), the reference of a column
+        mapping's altitude, a geometric reading of a table's. A pressure altitude the log does
+        not have (GPX, NMEA, an IGC recorder without a pressure sensor, an ADS-B table without
+        its barometric column), or a GNSS altitude an IGC file does not have, is refused, never
+        made of another column (:func:`_altitude`).
     time_format : str, optional
         ``"s"`` (as given), ``"epoch"``, ``"epoch_ms"``, ``"iso"`` or a ``strptime`` pattern.
     model : str or SHModel, optional
@@ -495,12 +584,15 @@ def read_track(
         columns = parse_columns(",".join(f"{k}={v}" for k, v in dict(columns).items()))
     if isinstance(source, (str, os.PathLike)):
         path = Path(source)
+        if path.is_dir():
+            raise InputError(f"{path}: a directory, not a flight log")
         if not path.is_file():
             raise InputError(f"{path}: flight log not found")
         text, kind = load_text(path)
         if kind == "csv":
-            header, get, lines = csv_table(text, str(path))
+            header, get, lines, dropped = csv_table(text, str(path))
             p = _table(header, get, lines, str(path), "line", columns, time_format)
+            p.notes += dropped
         else:
             given = [k for k, v in (("columns", columns), ("time_format", time_format)) if v]
             if given:
@@ -518,6 +610,35 @@ def read_track(
     return _finish(p, alt_units, height_ref, model, ellipsoid)
 
 
+#: how messages name the height references
+_REF_WORDS = {"ellipsoid": "above the ellipsoid", "msl": "MSL", "pressure": "pressure altitude"}
+
+
+def _altitude(p: Parsed, ref: str) -> tuple[str, np.ndarray]:
+    """Name and values of the altitude read in the height reference ``ref``.
+
+    The source's column of that reference; where it has none, what :attr:`Parsed.declares`
+    allows (the default column read in ``ref``), else refused: a height reference asked for
+    explicitly is never replaced by another quantity without a word.
+    """
+    if ref in p.alts:
+        return p.alts[ref]
+    geometric = [r for r in p.alts if r != "pressure"]
+    if p.declares == "any" or (
+        ref != "pressure" and (p.declares == "geometric" or p.height_ref in geometric)
+    ):
+        return p.alts[p.height_ref]
+    want = "pressure altitude" if ref == "pressure" else "GNSS (geometric) altitude"
+    have = ", ".join(f"{name} ({_REF_WORDS[r]})" for r, (name, _) in p.alts.items())
+    raise InputError(
+        f"{p.source}: ",
+        Setting("height_ref", ref),
+        f" asks for a {want}, which the log does not have (its altitudes: {have})",
+        Advice(": leave out ", Keyword("height_ref"), " to read them as they are"),
+        param="height_ref",
+    )
+
+
 def _finish(
     p: Parsed,
     alt_units: str | None,
@@ -527,7 +648,7 @@ def _finish(
 ) -> RawTrack:
     """Check, convert units and the height reference: the :class:`RawTrack`."""
     ref = height_ref or p.height_ref
-    aname, alt = p.alts.get(ref, p.alts[p.height_ref])
+    aname, alt = _altitude(p, ref)
     notes = list(p.notes) + ([p.ref_note] if p.ref_note and height_ref is None else [])
     where = f"{p.source} {p.where}"
     for name, v, lim in ((p.names[1], p.lat, 90.0), (p.names[2], p.lon, 360.0)):
@@ -535,11 +656,18 @@ def _finish(
         if bad.size:
             i = bad[0]
             raise InputError(f"{where} {p.lines[i]} column {name}: {v[i]:g} is beyond ±{lim:g}°")
-    keep = np.isfinite(p.lat) & np.isfinite(p.lon) & np.isfinite(alt)
+    timed = np.isfinite(p.t)
+    if not timed.all():
+        notes.append(
+            f"dropped {int((~timed).sum())} of {_count(timed.size, 'sample')} with an empty "
+            f"{p.names[0]} ({_at(p.where, p.lines[~timed])})"
+        )
+    located = np.isfinite(p.lat) & np.isfinite(p.lon) & np.isfinite(alt)
+    keep = timed & located
     if not keep.any():
         raise InputError(f"{p.source}: no sample has a latitude, longitude and {aname}")
-    if not keep.all():
-        n, first = int((~keep).sum()), int(p.lines[np.flatnonzero(~keep)[0]])
+    if not located[timed].all():
+        n, first = int((timed & ~located).sum()), int(p.lines[timed & ~located][0])
         notes.append(
             f"dropped {n} of {keep.size} samples with empty latitude, longitude or "
             f"{aname} (first at {p.where} {first})"
@@ -610,8 +738,22 @@ _MAGIC = {
 }
 
 
+#: byte order marks of UTF-32 and UTF-16 text (UTF-32 first: its LE mark starts with UTF-16's),
+#: which Python's codecs read and drop
+_UNICODE_BOMS = (
+    (b"\xff\xfe\x00\x00", "utf-32"),
+    (b"\x00\x00\xfe\xff", "utf-32"),
+    (b"\xff\xfe", "utf-16"),
+    (b"\xfe\xff", "utf-16"),
+)
+
+
 def load_text(path: Path) -> tuple[str, str]:
-    """Text of a flight log (gzip undone) and its kind: ``csv``, ``gpx``, ``nmea`` or ``igc``."""
+    """Text of a flight log (gzip undone) and its kind: ``csv``, ``gpx``, ``nmea`` or ``igc``.
+
+    UTF-8 (with or without a byte order mark), Latin-1, and UTF-16 or UTF-32 with a byte order
+    mark (a spreadsheet's "Unicode text"). White space before the first line counts for nothing.
+    """
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -626,14 +768,29 @@ def load_text(path: Path) -> tuple[str, str]:
     for magic, what in _MAGIC.items():
         if data.startswith(magic):
             raise InputError(f"{path}: not a flight log ({what})")
-    if b"\x00" in data[:65536]:
+    unicode = next((c for bom, c in _UNICODE_BOMS if data.startswith(bom)), None)
+    if unicode is not None:  # text with the NUL bytes of its code units, not binary data
+        try:
+            text = data.decode(unicode)
+        except UnicodeDecodeError as exc:
+            raise InputError(
+                f"{path}: not readable as the {unicode.upper()} text its byte order mark "
+                f"announces ({exc.reason} at byte {exc.start})"
+            ) from None
+    elif b"\x00" in data[:65536]:
         raise InputError(f"{path}: not a text flight log (binary data)")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
+    else:
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = data.decode("latin-1")
+    # a byte order mark alone, or white space that only Unicode calls so (no-break spaces,
+    # the ASCII separators 0x1c-0x1f), is as empty as nothing
+    body = text.lstrip()
+    if not body:
+        raise InputError(f"{path}: empty flight log (white space only)")
     suffix = "".join(s for s in path.suffixes[-2:] if s.lower() != ".gz").lower()
-    head = [s.strip() for s in text[:20000].splitlines() if s.strip()][:50]
+    head = [s.strip() for s in body[:20000].splitlines() if s.strip()][:50]
     if suffix == ".gpx" or head[0].startswith("<"):
         return text, "gpx"
     nmea = sum(1 for s in head if re.search(r"\$[A-Z]{5},", s))
@@ -648,7 +805,11 @@ def load_text(path: Path) -> tuple[str, str]:
 
 
 def numbers(cells: Any, where: Where, name: str) -> np.ndarray:
-    """Floats of a column: empty cells NaN, anything else that is no number refused."""
+    """Floats of a column: empty cells NaN, anything else that is no number refused.
+
+    Infinite values (``inf``) are returned as they are: the caller reads them as empty and
+    says so.
+    """
     arr = np.asarray(cells)
     try:
         out = arr.astype(np.float64)
@@ -660,9 +821,6 @@ def numbers(cells: Any, where: Where, name: str) -> np.ndarray:
                 out[i] = np.nan if c is None or s.lower() in _EMPTY else float(s)
             except ValueError:
                 raise InputError(f"{where(i)} column {name}: {s!r} is not a number") from None
-    bad = np.flatnonzero(np.isinf(out))
-    if bad.size:
-        raise InputError(f"{where(bad[0])} column {name}: {out[bad[0]]} is not finite")
     return out
 
 
@@ -681,13 +839,16 @@ def times(
     Numbers without ``fmt`` are seconds as given, epoch seconds above 1e8, epoch milliseconds
     above 1e11 (the median): the last is a guess of their units, and the note says so. Epoch
     times beyond the years 1..9999 are refused with the line, the column and how they were read.
+    An empty time is NaN (its sample is dropped and counted, :func:`read_track`); a column
+    without any time is refused.
     """
     arr = np.asarray(cells)
     if arr.dtype.kind == "M":
-        if np.isnat(arr).any():
-            raise InputError(f"{where(np.flatnonzero(np.isnat(arr))[0])} column {name}: empty time")
+        nat = np.isnat(arr)
+        if nat.all():
+            raise InputError(f"{where(0)} column {name}: empty time")
         t = (arr.astype("datetime64[ns]") - np.datetime64(0, "ns")) / np.timedelta64(1, "s")
-        return t.astype(np.float64), True, None
+        return np.where(nat, np.nan, t.astype(np.float64)), True, None
     kinds = {"s": 1.0, "epoch": 1.0, "epoch_ms": 1e-3}
     first = next((str(c) for c in arr if str(c).strip().lower() not in _EMPTY), "")
     numeric = fmt in kinds or (fmt is None and _isnum(first))
@@ -695,7 +856,8 @@ def times(
     for i, c in enumerate(arr):
         s = str(c).strip()
         if s.lower() in _EMPTY or s == "NaT":
-            raise InputError(f"{where(i)} column {name}: empty time")
+            out[i] = np.nan
+            continue
         try:
             if isinstance(c, datetime):
                 out[i] = utc_seconds(c)
@@ -708,9 +870,11 @@ def times(
         except ValueError:
             what = "a number" if numeric else f"a time ({fmt or 'ISO 8601'})"
             raise InputError(f"{where(i)} column {name}: {s!r} is not {what}") from None
+    if np.isnan(out).all():
+        raise InputError(f"{where(0)} column {name}: empty time")
     if not numeric:
         return out, True, None
-    med = float(np.median(np.abs(out)))
+    med = float(np.nanmedian(np.abs(out)))
     if fmt == "epoch_ms" or (fmt is None and med > 1e11):
         how = "epoch milliseconds" + (f" ({GUESS_MS})" if fmt is None else "")
         _check_epoch(out * 1e-3, out, where, name, how)
@@ -748,8 +912,14 @@ def _isnum(s: str) -> bool:
         return False
 
 
-def csv_table(text: str, source: str) -> tuple[list[str], Getter, np.ndarray]:
-    """Header, getter of a column's cells and line numbers of a CSV text."""
+def csv_table(text: str, source: str) -> tuple[list[str], Getter, np.ndarray, list[str]]:
+    """Header, getter of a column's cells, line numbers and notes of a CSV text.
+
+    Lines that are no samples of the log are dropped and said in the notes: a repeat of the
+    header (two exports joined), a row of empty cells (a spreadsheet's), and the last line when
+    it has fewer fields than the header (the file ends inside it: a write or a download cut
+    short). Any other line with another number of fields than the header is refused.
+    """
     header, hline, rows, lines = None, 0, [], []
     body = [(k, s) for k, s in enumerate(text.splitlines(), 1) if s.strip() and s[:1] != "#"]
     if not body:
@@ -762,17 +932,40 @@ def csv_table(text: str, source: str) -> tuple[list[str], Getter, np.ndarray]:
             f"{source} line {hline}: numbers where the header row naming the columns should be "
             f"(a flight log needs one; {HINT})"
         )
+    repeats, empty, cut = [], [], None
     for (k, _), cells in zip(body[1:], csv.reader((s for _, s in body[1:]), delimiter=delim)):
+        if [c.strip().lstrip("\ufeff") for c in cells] == header:
+            repeats.append(k)
+            continue
+        if not any(c.strip() for c in cells):
+            empty.append(k)
+            continue
         if len(cells) != len(header):
+            if k == body[-1][0] and len(cells) < len(header):
+                cut = (k, len(cells))
+                continue
             raise InputError(
                 f"{source} line {k}: {len(cells)} fields, the header (line {hline}) has "
                 f"{len(header)}"
             )
         rows.append(cells)
         lines.append(k)
+    notes = []
+    if repeats:
+        notes.append(
+            f"dropped {_count(len(repeats), 'repeat')} of the header (line {hline}) among the "
+            f"samples ({_at('line', repeats)}: logs joined into one file?)"
+        )
+    if empty:
+        notes.append(f"dropped {_count(len(empty), 'row')} of empty cells ({_at('line', empty)})")
+    if cut is not None:
+        notes.append(
+            f"dropped the last line ({cut[0]}): {cut[1]} fields, the header (line {hline}) has "
+            f"{len(header)}: the file ends inside it"
+        )
     if not rows:
         raise InputError(f"{source}: a header (line {hline}) but no samples")
-    return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64)
+    return header, lambda j: [r[j] for r in rows], np.asarray(lines, dtype=np.int64), notes
 
 
 def object_table(obj: Any, source: str) -> tuple[list[str], Getter, np.ndarray]:
@@ -954,28 +1147,145 @@ def _line_of(text: str, pos: int) -> int:
     return text.count("\n", 0, pos) + 1
 
 
-def _days(tods: list[float]) -> np.ndarray:
-    """Day index of each time of day in order: a step back by more than 12 h is midnight."""
-    day, out, prev = 0, np.zeros(len(tods)), None
-    for i, x in enumerate(tods):
-        if prev is not None and x < prev - DAY / 2:
-            day += 1
-        out[i], prev = day, x
-    return out
+def _count(n: int, thing: str, things: str | None = None) -> str:
+    """``1 B record``, ``2 B records`` (``things``: a plural other than ``thing + "s"``)."""
+    return f"{n} {thing if n == 1 else things or thing + 's'}"
+
+
+def _at(where: str, lines: Any, shown: int = 5) -> str:
+    """Name the lines (or records) of dropped items: ``line 7``, ``lines 7, 9 and 3 more``."""
+    lines = [int(k) for k in lines]
+    if len(lines) == 1:
+        return f"{where} {lines[0]}"
+    more = f" and {len(lines) - shown} more" if len(lines) > shown else ""
+    return f"{where}s {', '.join(map(str, lines[:shown]))}{more}"
+
+
+#: the records after a jump in time that tell a gap from a time fault: as the running median
+#: of 5 of :func:`check_units`, a run of up to 2 wrong records in 5 is outvoted
+TIME_VOTES = 5
+
+
+def _after(t_ref: float, tod: float) -> float:
+    """Time (s from the log's first midnight) of the time of day ``tod`` recorded after ``t_ref``.
+
+    The same day, unless the clock went back by more than 12 h: then the next day.
+    """
+    t = math.floor(t_ref / DAY) * DAY + tod
+    return t + DAY if t_ref - t > DAY / 2 else t
+
+
+def _follows(t_a: float, tod: float) -> float:
+    """Step (s) from the time ``t_a`` to a later record's time of day; inf if it is before."""
+    step = _after(t_a, tod) - t_a
+    return step if step >= 0 else math.inf
+
+
+def days_of(tods: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    r"""Day of each time of day of a log in file order, and which times are time faults.
+
+    Times of day (``hhmmss`` of IGC B records and NMEA sentences) go forward by the log's
+    ordinary step :math:`\Delta` (the median of its positive steps, counted forward across
+    midnight): a recorder writes at its own interval. A step back from late in the day to early
+    in the next that, counted forward across midnight, is no longer than :math:`\Delta` is a
+    **midnight rollover** (the next day); any step no longer than :math:`\Delta` (forward, or
+    back by up to :math:`\Delta`: repeated or jittered epochs, which the conditioning orders) is
+    ordinary. A time of day after a step back of more than 12 h is read as the next day's, any
+    other as the same day's.
+
+    A longer step, to a record :math:`i`, is a **jump**: a gap, a midnight rollover inside a
+    gap, a stretch sent again, or a clock reset that the log keeps. It is kept when the log goes
+    on from it. Each of the next :data:`TIME_VOTES` records :math:`j` at other times votes for
+    the record it follows by the shorter step forward: :math:`i`, or the last record kept before
+    it, :math:`r` (a record before both, of a stretch sent again, votes for neither). A jump
+    that the log comes back from, that more records follow :math:`r` than :math:`i` (one B
+    record at ``000005`` or ``235959`` in the afternoon), fits neither an ordinary step nor a
+    rollover: a **time fault**, dropped. A record in order with its successors is followed by
+    each of them by a shorter step than :math:`r` is, so it is no fault, whatever the length of
+    its step.
+
+    Returns the day index (0 for the first record's day; faults keep 0) and the fault mask.
+    """
+    x = np.asarray(tods, dtype=np.float64)
+    day, fault = np.zeros(x.size), np.zeros(x.size, dtype=bool)
+    forward = np.diff(x) % DAY
+    forward = forward[forward > 0]
+    ordinary = float(np.median(forward)) if forward.size else 0.0
+    t_ref = float(x[0]) if x.size else 0.0
+    for i in range(1, x.size):
+        t = _after(t_ref, x[i])
+        if abs(t - t_ref) > ordinary:
+            for_ref = for_i = votes = 0
+            for j in range(i + 1, x.size):
+                if votes == TIME_VOTES:
+                    break
+                if x[j] != x[i]:
+                    votes += 1
+                    from_ref, from_i = _follows(t_ref, x[j]), _follows(t, x[j])
+                    for_ref += from_ref < from_i
+                    for_i += from_i < from_ref
+            if for_ref > for_i:
+                fault[i] = True
+                continue
+        t_ref, day[i] = t, round((t - x[i]) / DAY)
+    return day, fault
+
+
+def _hms(tod: float) -> str:
+    """Return a time of day (s) as ``hh:mm:ss``."""
+    s = int(tod)
+    return f"{s // 3600:02d}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+def _time_faults(tods: list[float], fault: np.ndarray, lines: list[int], what: str) -> str:
+    """Return the note on the time faults among ``what`` (``B record``) at ``lines``."""
+    k = np.flatnonzero(fault)
+    first = int(k[0])
+    kept = np.flatnonzero(~fault[:first])
+    near = f" after {_hms(tods[kept[-1]])}" if kept.size else ""
+    return (
+        f"dropped {_count(k.size, what)} whose time of day leaves the log's sequence and comes "
+        "back "
+        f"(a time fault; {_at('line', [lines[j] for j in k])}: {_hms(tods[first])}{near})"
+    )
+
+
+def _gpx_error_line(text: str, msg: str) -> int | None:
+    """Line of the value a gpxpy error names (an attribute for ``<None>``), or None."""
+    m = re.search(r"Invalid value for <(\w+)>\.\.\. (.*?) \(", msg)
+    if m:
+        value = re.escape(m[2].strip())
+        if m[1] == "None":  # a point's attribute (lat, lon; a bounds' minlat...)
+            pat = rf"\b(?:lat|lon|min\w*|max\w*)\s*=\s*[\"']\s*{value}\s*[\"']"
+        else:
+            pat = rf"<(?:\w+:)?{m[1]}\b[^>]*>\s*{value}\s*<"
+        found = re.search(pat, text)
+        return _line_of(text, found.start()) if found else None
+    m = re.search(r"line (\d+), column \d+", msg)  # the XML parser's own position
+    return int(m[1]) if m else None
 
 
 def read_gpx(text: str, source: str) -> Parsed:
-    """Track (else route) points of a GPX 1.0/1.1 file, segments concatenated in order."""
+    """Track (else route) points of a GPX 1.0/1.1 file, segments concatenated in order.
+
+    A point without a readable ``<time>`` (none, or text that is no ISO 8601 time: gpxpy reads
+    both as none) is dropped and counted in the notes with its line: one bad point is no
+    reason to refuse the track; a track without any time is refused. A speed or course that is
+    empty, ``NaN`` or infinite is none (as a CSV cell).
+    """
     import gpxpy
     import gpxpy.gpx
 
+    # white space before the XML declaration (which XML forbids): blanked with the
+    # declaration, so that every offset and line stays where the file has it
+    decl = re.match(r"\s+(<\?xml[^>]*\?>)", text)
+    xml = text if decl is None else " " * decl.start(1) + " " * len(decl[1]) + text[decl.end() :]
     try:
-        gpx = gpxpy.parse(text)
+        gpx = gpxpy.parse(xml)
     except gpxpy.gpx.GPXException as exc:
         msg = str(exc).splitlines()[0]
-        m = re.search(r"\.\.\. (.*?) \(", msg)
-        pos = text.find(m.group(1)) if m else -1
-        at = f" line {_line_of(text, pos)}" if pos >= 0 else ""
+        line = _gpx_error_line(text, msg)
+        at = f" line {line}" if line is not None else ""
         raise InputError(f"{source}{at}: not a readable GPX file ({msg})") from None
     kind = "trkpt"
     pts: list = [p for trk in gpx.tracks for seg in trk.segments for p in seg.points]
@@ -988,16 +1298,22 @@ def read_gpx(text: str, source: str) -> Parsed:
         lines, where = np.array([_line_of(text, p) for p in tags], dtype=np.int64), "line"
     else:
         lines, where = np.arange(1, len(pts) + 1, dtype=np.int64), kind
-    t = np.empty(len(pts))
-    for i, p in enumerate(pts):
-        if p.time is None:
-            raise InputError(f"{source} {where} {lines[i]} column time: <{kind}> without <time>")
-        t[i] = utc_seconds(p.time)
+    timed = np.array([p.time is not None for p in pts])
+    if not timed.any():
+        raise InputError(f"{source} {where} {lines[0]} column time: <{kind}> without <time>")
+    notes = []
+    if not timed.all():
+        notes.append(
+            f"dropped {int((~timed).sum())} of {len(pts)} <{kind}> without a readable <time> "
+            f"({_at(where, lines[~timed])})"
+        )
+        pts, lines = [p for p, ok in zip(pts, timed) if ok], lines[timed]
+    t = np.array([utc_seconds(p.time) for p in pts], dtype=np.float64)
     lat = np.array([p.latitude for p in pts], dtype=np.float64)
     lon = np.array([p.longitude for p in pts], dtype=np.float64)
     ele = np.array([np.nan if p.elevation is None else p.elevation for p in pts])
     alts = {"msl": ("ele", ele)}
-    notes = [f"GPX: {len(pts)} <{kind}> points; <ele> read as height above mean sea level"]
+    notes.insert(0, f"GPX: {len(pts)} <{kind}> points; <ele> read as height above mean sea level")
     ref = "msl"
     if all(p.geoid_height is not None for p in pts):
         sep = np.array([p.geoid_height for p in pts], dtype=np.float64)
@@ -1006,11 +1322,11 @@ def read_gpx(text: str, source: str) -> Parsed:
         notes[0] = f"GPX: {len(pts)} <{kind}> points; h = <ele> + <geoidheight> (the file's own)"
     speed = [_printed(getattr(p, "speed", None)) or _extension(p, "speed") for p in pts]
     course = [_printed(getattr(p, "course", None)) or _extension(p, "course") for p in pts]
-    for k, (a, b) in enumerate(zip(speed, course)):
-        for name, x in (("speed", a), ("course", b)):
+    for values, name in ((speed, "speed"), (course, "course")):
+        for k, x in enumerate(values):
             try:
-                if x and not np.isfinite(float(x)):
-                    raise ValueError
+                if x and (x.lower() in _EMPTY or not np.isfinite(float(x))):
+                    values[k] = ""  # NaN or infinite: none, as an empty cell
             except ValueError:
                 raise InputError(
                     f"{source} {where} {lines[k]} column {name}: {x!r} is not a number"
@@ -1037,20 +1353,31 @@ def _dm(s: str, hemi: str, neg: str, where: str, name: str) -> float:
     return float((d + (v - 100.0 * d) / 60.0) * (-1.0 if hemi == neg else 1.0))
 
 
-def _tod(s: str, where: str) -> float:
-    """Seconds of the day from ``hhmmss[.ss]``."""
+def _tod(s: str) -> float | None:
+    """Seconds of the day from ``hhmmss[.ss]``; None for no time of day.
+
+    Hours 00-23, minutes 00-59, seconds below 61 (60: a UTC leap second).
+    """
     m = re.fullmatch(r"(\d{2})(\d{2})(\d{2}(?:\.\d*)?)", s)
     if not m or int(m[1]) > 23 or int(m[2]) > 59 or float(m[3]) >= 61:
-        raise InputError(f"{where} column field 1 (UTC time): {s!r} is no hhmmss.ss")
+        return None
     return int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3])
 
 
 def read_nmea(text: str, source: str) -> Parsed:
-    """GGA fixes of an NMEA 0183 log, dated by RMC sentences (see the module docstring)."""
+    """GGA fixes of an NMEA 0183 log, dated by RMC sentences (see the module docstring).
+
+    A sentence with a valid checksum but a glitched value costs what the value serves, counted
+    in the notes with its line: a time of day that is no ``hhmmss`` (hour 25) or a time fault
+    (:func:`days_of`) its sentence; an RMC date that is no ``ddmmyy`` (``000000``) the date
+    alone (the other RMC sentences date the fixes).
+    """
     import pynmea2
 
     stamps: list[tuple[str, int, float, Any]] = []  # (GGA|RMC, line, time of day, payload)
     skipped = {"with a bad checksum": 0, "incomplete": 0, "without a fix": 0}
+    no_time: list[tuple[int, str]] = []  # (line, field 1) of sentences with no time of day
+    no_date: list[tuple[int, str]] = []  # (line, field 9) of RMC with no date
     for lineno, raw in enumerate(text.splitlines(), start=1):
         i = raw.find("$")
         s = raw[i:].strip() if i >= 0 else ""
@@ -1070,13 +1397,17 @@ def read_nmea(text: str, source: str) -> Parsed:
         if s[3:6] == "RMC":
             if not f[0]:
                 continue
+            tod = _tod(f[0])
+            if tod is None:  # one sentence's glitch: its date and velocity are not used
+                no_time.append((lineno, f[0]))
+                continue
             day0 = None
             if re.fullmatch(r"\d{6}", f[8]):
                 d = (int(f[8][4:]) + 2000, int(f[8][2:4]), int(f[8][:2]))
                 try:
                     day0 = datetime(*d, tzinfo=timezone.utc).timestamp()
-                except ValueError:
-                    raise InputError(f"{where} column RMC field 9 (date): {f[8]!r} is no ddmmyy")
+                except ValueError:  # one sentence's glitch (000000): the other RMC date it
+                    no_date.append((lineno, f[8]))
             vel = ("", "")
             if f[1] == "A":
                 for j, name in ((6, "field 7 (speed, knots)"), (7, "field 8 (course)")):
@@ -1086,7 +1417,7 @@ def read_nmea(text: str, source: str) -> Parsed:
                     except ValueError:
                         raise InputError(f"{where} column RMC {name}: {f[j]!r} is not a number")
                 vel = (f[6], f[7])
-            stamps.append(("RMC", lineno, _tod(f[0], where), (day0, vel)))
+            stamps.append(("RMC", lineno, tod, (day0, vel)))
             continue
         if not has_sum and (len(msg.data) < 11 or not f[8]):
             skipped["incomplete"] += 1
@@ -1103,14 +1434,34 @@ def read_nmea(text: str, source: str) -> Parsed:
             _dm(f[1], f[2], "S", where, "GGA field 2 (latitude)"),
             _dm(f[3], f[4], "W", where, "GGA field 4 (longitude)"),
         )
-        stamps.append(("GGA", lineno, _tod(f[0], where), (*pos, alt, sep)))
+        tod = _tod(f[0])
+        if tod is None:
+            no_time.append((lineno, f[0]))
+            continue
+        stamps.append(("GGA", lineno, tod, (*pos, alt, sep)))
+    days, fault = days_of([s[2] for s in stamps])
+    dropped = []
+    if no_time:
+        dropped.append(
+            f"dropped {_count(len(no_time), 'sentence')} whose time of day (field 1) is no hhmmss "
+            f"({_at('line', [k for k, _ in no_time])}: {no_time[0][1]!r})"
+        )
+    if fault.any():
+        tods, where_of = [s[2] for s in stamps], [s[1] for s in stamps]
+        dropped.append(_time_faults(tods, fault, where_of, "sentence"))
+        stamps = [s for s, bad in zip(stamps, fault) if not bad]
+        days = days[~fault]
+    if no_date:
+        dropped.append(
+            f"{_count(len(no_date), 'RMC date')} (field 9) that is no ddmmyy not used "
+            f"({_at('line', [k for k, _ in no_date])}: {no_date[0][1]!r})"
+        )
     fixes = [k for k, s in enumerate(stamps) if s[0] == "GGA"]
     why = ", ".join(f"{n} sentences {k}" for k, n in skipped.items() if n)
     if not fixes:
         raise InputError(
             f"{source}: no usable GGA fix in the NMEA log ({why or 'no GGA sentence'})"
         )
-    days = _days([s[2] for s in stamps])
     anchors = [
         (k, s[3][0] - days[k] * DAY)
         for k, s in enumerate(stamps)
@@ -1125,6 +1476,7 @@ def read_nmea(text: str, source: str) -> Parsed:
         cols.append(stamps[k][3])
     lat, lon, alt, sep = np.array(cols, dtype=np.float64).T
     notes = [f"NMEA 0183: {len(fixes)} GGA fixes" + (f"; skipped {why}" if why else "")]
+    notes += dropped
     speed: list[str] = []
     course: list[str] = []
     for k in fixes:  # the RMC of the same epoch: the sentence before or after the GGA
@@ -1173,9 +1525,22 @@ def _igc_dm(digits: str, extra: str, deg: int) -> float:
 
 
 def read_igc(text: str, source: str) -> Parsed:
-    """B fixes of an IGC flight recorder file (see the module docstring)."""
+    """B fixes of an IGC flight recorder file (see the module docstring).
+
+    Local defects of a recorder cost their record, counted in the notes with its line: a time
+    of day that no clock shows (hour 24 or more, minute 60 or more, second 61 or more; 60 is a
+    leap second), a time fault (:func:`days_of`), and the last B record of the file when the
+    file ends inside it (fewer than its 35 bytes: the recorder stopped while writing, or the
+    file was cut). Any other B record that does not match the format is refused. An altitude
+    that is zero in every B record is the recorder's "none" (no pressure sensor, or no 3D fix),
+    not a flight at sea level: it is not used (as a table's, :func:`_zero_columns`).
+    """
     day0, alg, ext, rows, tods = None, None, {}, [], []
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    no_time: list[tuple[int, str]] = []
+    cut: tuple[int, int] | None = None
+    all_lines = text.splitlines()
+    last = max((k for k, r in enumerate(all_lines, start=1) if r.strip()), default=0)
+    for lineno, raw in enumerate(all_lines, start=1):
         s = raw.rstrip()
         if s.startswith("HFDTE") or s.startswith("HODTE"):
             m = re.match(r"H[FO]DTE(?:[A-Z ]*:)?\s*(\d{2})(\d{2})(\d{2})", s)
@@ -1192,37 +1557,74 @@ def read_igc(text: str, source: str) -> Parsed:
                 for k in range(3, len(s), 7)
             }
         elif s.startswith("B"):
+            if lineno == last and len(s) < _B_FIELDS[-1][2]:
+                cut = (lineno, len(s))
+                continue
             for name, a, b, pat in _B_FIELDS:
                 if not re.fullmatch(pat, s[a - 1 : b]):
                     raise InputError(
                         f"{source} line {lineno} column {name} (B record bytes {a}-{b}): "
                         f"{s[a - 1 : b]!r} does not match the IGC B record"
                     )
+            tod = _tod(s[1:7])
+            if tod is None:
+                no_time.append((lineno, s[1:7]))
+                continue
             lad, lod = (s[ext[k][0] - 1 : ext[k][1]] if k in ext else "" for k in ("LAD", "LOD"))
             y = _igc_dm(s[7:14], lad if lad.isdigit() else "", 2) * (-1 if s[14] == "S" else 1)
             x = _igc_dm(s[15:23], lod if lod.isdigit() else "", 3) * (-1 if s[23] == "W" else 1)
             rows.append(
                 (lineno, y, x, float(s[25:30]), float(s[30:35]) if s[24] == "A" else np.nan)
             )
-            tods.append(int(s[1:3]) * 3600.0 + int(s[3:5]) * 60.0 + int(s[5:7]))
+            tods.append(tod)
+    dropped = []
+    if cut is not None:
+        dropped.append(
+            f"dropped the last B record (line {cut[0]}): the file ends inside it "
+            f"({cut[1]} of its {_B_FIELDS[-1][2]} bytes)"
+        )
+    if no_time:
+        dropped.append(
+            f"dropped {_count(len(no_time), 'B record')} whose time (bytes 2-7) no clock shows "
+            f"({_at('line', [k for k, _ in no_time])}: {no_time[0][1]!r})"
+        )
+    day, fault = days_of(tods)
+    if fault.any():
+        dropped.append(_time_faults(tods, fault, [r[0] for r in rows], "B record"))
+        rows = [r for r, bad in zip(rows, fault) if not bad]
+        tods = [x for x, bad in zip(tods, fault) if not bad]
+        day = day[~fault]
     if not rows:
-        raise InputError(f"{source}: no B record (fix) in the IGC file")
+        why = f" ({'; '.join(dropped)})" if dropped else ""
+        raise InputError(f"{source}: no B record (fix) in the IGC file{why}")
     lines, lat, lon, press, gnss = (np.array(c) for c in zip(*rows))
-    t = np.asarray(tods) + _days(tods) * DAY + (day0.timestamp() if day0 else 0.0)
+    t = np.asarray(tods) + day * DAY + (day0.timestamp() if day0 else 0.0)
     gref = "msl" if alg == "GEO" else "ellipsoid"
-    alts = {"pressure": ("pressure altitude (B bytes 26-30)", press)}
-    alts[gref] = ("GNSS altitude (B bytes 31-35)", gnss)
-    notes, ref_note = [f"IGC: {len(rows)} B fixes"], None
-    if not np.any(np.nan_to_num(gnss) != 0.0):
+    has_press, has_gnss = bool(np.any(press != 0.0)), bool(np.any(np.nan_to_num(gnss) != 0.0))
+    if not (has_press or has_gnss):
+        raise InputError(
+            f"{source}: no altitude: the pressure altitude (B bytes 26-30) is zero in every B "
+            "record and there is no GNSS altitude (bytes 31-35 zero, or 2D fixes): a recorder "
+            "without either, not a flight at sea level"
+        )
+    alts = {"pressure": ("pressure altitude (B bytes 26-30)", press)} if has_press else {}
+    notes, ref_note = [f"IGC: {len(rows)} B fixes", *dropped], None
+    if not has_gnss:
         ref = "pressure"
         notes.append("no GNSS altitude (all zero or 2D fixes): pressure altitude used")
     else:
+        alts[gref] = ("GNSS altitude (B bytes 31-35)", gnss)
         ref = gref
         if alg is None:
             ref_note = Message(
                 "GNSS altitude read as height above the WGS84 ellipsoid (IGC specification; no "
                 "HFALG header)",
                 Advice(": ", Pass("height_ref", "msl"), " if your recorder writes MSL"),
+            )
+        if not has_press:
+            notes.append(
+                "no pressure altitude (zero in every B record: no pressure sensor): GNSS "
+                "altitude used"
             )
     if day0 is None:
         notes.append("no HFDTE date: times are seconds from 00:00 UTC of the flight's first day")
