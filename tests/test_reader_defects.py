@@ -280,6 +280,32 @@ def test_igc_time_no_clock_shows(tmp_path, rows, stamp):
     noted(track, "no clock shows", f"line {k + 4}", stamp)
 
 
+@pytest.mark.parametrize("at", [(9, "61"), (18, "60")])
+def test_igc_position_no_chart_shows(tmp_path, rows, at):
+    """A latitude or longitude of 61 or 60 minutes: the record's defect, dropped and named."""
+    base = read_track(write(tmp_path / "base.igc", igc(rows)))
+    recs = igc(rows)
+    k = 700
+    j, minutes = at
+    recs[k + 3] = recs[k + 3][:j] + minutes + recs[k + 3][j + 2 :]
+    track = read_track(write(tmp_path / "place.igc", recs))
+    same_but(track, base, [k])
+    noted(track, "no chart shows", f"line {k + 4}")
+
+
+def test_nmea_position_no_chart_shows(tmp_path, rows):
+    """A GGA latitude of 61 minutes: the sentence's defect, dropped and named."""
+    base = read_track(write(tmp_path / "base.nmea", nmea_lines(rows)))
+    sentences = nmea_lines(rows)
+    k = 600  # GGA of row k: line 2k + 2
+    fields = sentences[2 * k + 1][1:-3].split(",")
+    fields[2] = fields[2][:2] + "61" + fields[2][4:]
+    sentences[2 * k + 1] = nmea(",".join(fields))
+    track = read_track(write(tmp_path / "place.nmea", sentences))
+    same_but(track, base, [k])
+    noted(track, "no chart shows", f"line {2 * k + 2}")
+
+
 def test_nmea_clock_glitch_and_a_bad_date(tmp_path, rows):
     """One GGA at 00:00:05 (a time fault) and one RMC dated 000000: their lines named."""
     base = read_track(write(tmp_path / "base.nmea", nmea_lines(rows)))

@@ -1378,6 +1378,7 @@ def read_nmea(text: str, source: str) -> Parsed:
     skipped = {"with a bad checksum": 0, "incomplete": 0, "without a fix": 0}
     no_time: list[tuple[int, str]] = []  # (line, field 1) of sentences with no time of day
     no_date: list[tuple[int, str]] = []  # (line, field 9) of RMC with no date
+    no_place: list[tuple[int, str]] = []  # (line, fields 2-5) of GGA positions no chart shows
     for lineno, raw in enumerate(text.splitlines(), start=1):
         i = raw.find("$")
         s = raw[i:].strip() if i >= 0 else ""
@@ -1438,6 +1439,13 @@ def read_nmea(text: str, source: str) -> Parsed:
         if tod is None:
             no_time.append((lineno, f[0]))
             continue
+        dm = [float(x) for x in (f[1], f[3])]
+        if not all(
+            _place_shown(str(int(v // 100)), str(int(v % 100)), lim)
+            for v, lim in zip(dm, (90, 180))
+        ):
+            no_place.append((lineno, f"{f[1]},{f[2]},{f[3]},{f[4]}"))
+            continue
         stamps.append(("GGA", lineno, tod, (*pos, alt, sep)))
     days, fault = days_of([s[2] for s in stamps])
     dropped = []
@@ -1451,6 +1459,12 @@ def read_nmea(text: str, source: str) -> Parsed:
         dropped.append(_time_faults(tods, fault, where_of, "sentence"))
         stamps = [s for s, bad in zip(stamps, fault) if not bad]
         days = days[~fault]
+    if no_place:
+        dropped.append(
+            f"dropped {_count(len(no_place), 'GGA sentence')} whose position (fields 2-5) no "
+            "chart shows: minutes of 60 or more, or degrees beyond 90 (latitude) or 180 "
+            f"(longitude) ({_at('line', [k for k, _ in no_place])}: {no_place[0][1]!r})"
+        )
     if no_date:
         dropped.append(
             f"{_count(len(no_date), 'RMC date')} (field 9) that is no ddmmyy not used "
@@ -1519,6 +1533,16 @@ _B_FIELDS = (
 )
 
 
+def _place_shown(degrees: str, minutes: str, limit: int) -> bool:
+    """Return whether whole degrees and minutes (digits) name a place on the Earth.
+
+    Minutes 0-59, degrees up to ``limit`` (90 for a latitude, 180 for a longitude) with no
+    minutes beyond it.
+    """
+    d, m = int(degrees), int(minutes)
+    return m < 60 and (d < limit or (d == limit and m == 0))
+
+
 def _igc_dm(digits: str, extra: str, deg: int) -> float:
     minutes = float(digits[deg : deg + 2] + "." + digits[deg + 2 :] + extra)
     return int(digits[:deg]) + minutes / 60.0
@@ -1537,6 +1561,7 @@ def read_igc(text: str, source: str) -> Parsed:
     """
     day0, alg, ext, rows, tods = None, None, {}, [], []
     no_time: list[tuple[int, str]] = []
+    no_place: list[tuple[int, str]] = []  # (line, bytes 8-24) of positions no chart shows
     cut: tuple[int, int] | None = None
     all_lines = text.splitlines()
     last = max((k for k, r in enumerate(all_lines, start=1) if r.strip()), default=0)
@@ -1570,6 +1595,9 @@ def read_igc(text: str, source: str) -> Parsed:
             if tod is None:
                 no_time.append((lineno, s[1:7]))
                 continue
+            if not _place_shown(s[7:9], s[9:11], 90) or not _place_shown(s[15:18], s[18:20], 180):
+                no_place.append((lineno, s[7:24]))
+                continue
             lad, lod = (s[ext[k][0] - 1 : ext[k][1]] if k in ext else "" for k in ("LAD", "LOD"))
             y = _igc_dm(s[7:14], lad if lad.isdigit() else "", 2) * (-1 if s[14] == "S" else 1)
             x = _igc_dm(s[15:23], lod if lod.isdigit() else "", 3) * (-1 if s[23] == "W" else 1)
@@ -1587,6 +1615,12 @@ def read_igc(text: str, source: str) -> Parsed:
         dropped.append(
             f"dropped {_count(len(no_time), 'B record')} whose time (bytes 2-7) no clock shows "
             f"({_at('line', [k for k, _ in no_time])}: {no_time[0][1]!r})"
+        )
+    if no_place:
+        dropped.append(
+            f"dropped {_count(len(no_place), 'B record')} whose position (bytes 8-24) no chart "
+            "shows: minutes of 60 or more, or degrees beyond 90 (latitude) or 180 (longitude) "
+            f"({_at('line', [k for k, _ in no_place])}: {no_place[0][1]!r})"
         )
     day, fault = days_of(tods)
     if fault.any():
