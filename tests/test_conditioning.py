@@ -21,6 +21,7 @@ from log_tracks import raw_track
 from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import (
     Conditioning,
+    Stretch,
     condition,
     height_quantum,
     recordings_apart,
@@ -411,9 +412,9 @@ def test_unfixed_stretches_of_each_channel():
     kept = {"positions": pos, "heights": hgt}
     got = unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 60.0)
     assert got == [
-        (199.0, 300.0, (201, 302), "positions", None),
-        (499.0, 650.0, (501, 652), "heights", None),
-        (799.0, 999.0, (801, 1001), "positions and heights", "end"),
+        Stretch(199.0, 300.0, (201, 302), "positions", None),
+        Stretch(499.0, 650.0, (501, 652), "heights", None),
+        Stretch(799.0, 999.0, (801, 1001), "positions and heights", "end"),
     ]
     # shorter than the limit: none
     assert unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 250.0) == []

@@ -1022,6 +1022,20 @@ class Gap:
     edge: str | None = None
 
 
+@dataclass(frozen=True)
+class Stretch:
+    """A stretch of the flown span without a kept fix of a channel (:func:`unfixed_stretches`).
+
+    ``t_from_s``, ``t_to_s``, ``lines``, ``fixes`` and ``edge`` as in :class:`Gap`.
+    """
+
+    t_from_s: float
+    t_to_s: float
+    lines: tuple[int, int]
+    fixes: str
+    edge: str | None = None
+
+
 def unfixed_stretches(
     t: np.ndarray,
     lines: np.ndarray,
@@ -1029,7 +1043,7 @@ def unfixed_stretches(
     flown: tuple[float, float],
     flown_lines: tuple[int, int],
     max_gap_s: float,
-) -> list[tuple[float, float, tuple[int, int], str, str | None]]:
+) -> list[Stretch]:
     """Return the stretches of the flown span without a kept fix of a channel, over ``max_gap_s``.
 
     ``kept`` maps ``"positions"`` and ``"heights"`` to the ordered samples whose fix of that
@@ -1037,10 +1051,9 @@ def unfixed_stretches(
     its first and last lines. Between two kept fixes further apart than ``max_gap_s`` the path
     is the model's prediction from both sides; before the first kept fix and after the last,
     from one side only. Stretches of the two channels that overlap are reported as one, over
-    their union, as missing ``"positions and heights"``. Returns
-    ``(t_from, t_to, lines, fixes, edge)`` in time order.
+    their union, as missing ``"positions and heights"``. In time order.
     """
-    found: list[tuple[float, float, tuple[int, int], str, str | None]] = []
+    found: list[Stretch] = []
     for name, keep in kept.items():
         tk, lk = t[keep], lines[keep]
         tk_in = (tk >= flown[0]) & (tk <= flown[1])
@@ -1048,20 +1061,30 @@ def unfixed_stretches(
         if tk.size == 0:  # none kept at all: the channel's faults say so
             continue
         for j in np.flatnonzero(np.diff(tk) > max_gap_s):
-            found.append((float(tk[j]), float(tk[j + 1]), (int(lk[j]), int(lk[j + 1])), name, None))
+            found.append(
+                Stretch(float(tk[j]), float(tk[j + 1]), (int(lk[j]), int(lk[j + 1])), name)
+            )
         if tk[0] - flown[0] > max_gap_s:
-            found.append((flown[0], float(tk[0]), (flown_lines[0], int(lk[0])), name, "start"))
+            found.append(
+                Stretch(flown[0], float(tk[0]), (flown_lines[0], int(lk[0])), name, "start")
+            )
         if flown[1] - tk[-1] > max_gap_s:
-            found.append((float(tk[-1]), flown[1], (int(lk[-1]), flown_lines[1]), name, "end"))
-    found.sort(key=lambda g: (g[0], g[1]))
-    merged: list[tuple[float, float, tuple[int, int], str, str | None]] = []
+            found.append(
+                Stretch(float(tk[-1]), flown[1], (int(lk[-1]), flown_lines[1]), name, "end")
+            )
+    found.sort(key=lambda g: (g.t_from_s, g.t_to_s))
+    merged: list[Stretch] = []
     for g in found:
-        if merged and g[0] < merged[-1][1] and g[3] != merged[-1][3]:
-            m = merged[-1]
-            lo = (m[0], m[2][0]) if m[0] <= g[0] else (g[0], g[2][0])
-            hi = (m[1], m[2][1]) if m[1] >= g[1] else (g[1], g[2][1])
-            edge = m[4] if m[4] == g[4] else (m[4] or g[4])
-            merged[-1] = (lo[0], hi[0], (lo[1], hi[1]), "positions and heights", edge)
+        m = merged[-1] if merged else None
+        if m is not None and g.t_from_s < m.t_to_s and g.fixes != m.fixes:
+            first, last = (m if m.t_from_s <= g.t_from_s else g), (m if m.t_to_s >= g.t_to_s else g)
+            merged[-1] = Stretch(
+                first.t_from_s,
+                last.t_to_s,
+                (first.lines[0], last.lines[1]),
+                "positions and heights",
+                m.edge or g.edge,
+            )
         else:
             merged.append(g)
     return merged
@@ -1370,7 +1393,7 @@ def _finish(
         kept[name] = np.zeros(log.t.size, bool)
         kept[name][meas.index[channel][~rejected[channel]]] = True
     gaps = []
-    for t_a, t_b, lines, fixes, edge in unfixed_stretches(
+    for st in unfixed_stretches(
         log.t,
         log.lines,
         kept,
@@ -1378,9 +1401,10 @@ def _finish(
         (int(samples.lines[0]), int(samples.lines[-1])),
         options.max_gap_s,
     ):
-        at = {None: 0.5 * (t_a + t_b), "start": t_a, "end": t_b}[edge]
-        k = int(np.clip(np.rint((at - grid.t0) / grid.dt), 0, grid.n - 1))
-        gaps.append(Gap(t_a, t_b, lines, hz.sigma_at(k), vt.sigma_at(k), fixes, edge))
+        at = {None: 0.5 * (st.t_from_s + st.t_to_s), "start": st.t_from_s, "end": st.t_to_s}
+        k = int(np.clip(np.rint((at[st.edge] - grid.t0) / grid.dt), 0, grid.n - 1))
+        sigma_h, sigma_v = hz.sigma_at(k), vt.sigma_at(k)
+        gaps.append(Gap(st.t_from_s, st.t_to_s, st.lines, sigma_h, sigma_v, st.fixes, st.edge))
     return Conditioned(
         log,
         meas,
