@@ -418,6 +418,13 @@ def test_unfixed_stretches_of_each_channel():
     ]
     # shorter than the limit: none
     assert unfixed_stretches(t, lines, kept, (0.0, 999.0), (2, 1001), 250.0) == []
+    # a flown span trimmed to t = 250..700 (airborne_only): the positions' gap began on the
+    # ground at t = 199, beside the span, with a fix on both sides: a gap, not the start
+    got = unfixed_stretches(t, lines, kept, (250.0, 700.0), (252, 702), 40.0)
+    assert got == [
+        Stretch(250.0, 300.0, (201, 302), "positions", None),
+        Stretch(499.0, 650.0, (501, 652), "heights", None),
+    ]
 
 
 def test_a_time_tag_from_another_day_is_dropped_and_reported():

@@ -235,22 +235,41 @@ def test_igc_real_log_has_no_time_fault(tmp_path, rows):
     assert np.diff(track.t).min() == -326.0
 
 
-@pytest.mark.parametrize("glitch", ["000005", "235959"])
-def test_igc_one_clock_glitch_is_a_time_fault(tmp_path, rows, glitch):
-    """One B record at 00:00:05 (or 23:59:59) in the afternoon: dropped and named, no new day.
+def test_igc_one_clock_glitch_is_a_time_fault(tmp_path, rows):
+    """One B record at 00:00:05 in the afternoon: dropped and named, no new day.
 
-    It was read as the next day's (a step back of more than 12 h), or 11 h late, and the rest
-    of the log with it (the flight flown over 29 h).
+    It was read as the next day's (a step back of more than 12 h), and the rest of the log with
+    it (the flight flown over 29 h).
     """
     base = read_track(write(tmp_path / "base.igc", igc(rows)))
     recs = igc(rows)
     k = 600
-    recs[k + 3] = "B" + glitch + recs[k + 3][7:]
+    assert base.t[k] % 86400 > 12 * 3600  # in the afternoon: 00:00:05 is 12 h back or more
+    recs[k + 3] = "B000005" + recs[k + 3][7:]
     track = read_track(write(tmp_path / "glitch.igc", recs))
     same_but(track, base, [k])
     note = noted(track, "time fault", f"line {k + 4}:")
-    assert f"{glitch[:2]}:{glitch[2:4]}:{glitch[4:]}" in note
+    assert "00:00:05" in note
     assert np.ptp(track.t) == np.ptp(base.t)
+
+
+def test_igc_clock_glitch_within_the_day_is_left_to_the_conditioning(tmp_path, rows):
+    """One B record at 23:59:59 in the afternoon: the day is not at stake, the reader keeps it.
+
+    Every other record keeps its time (no day added); the conditioning drops the record, 8 h
+    after the rest of the flight, as a recording apart and names its line.
+    """
+    base = read_track(write(tmp_path / "base.igc", igc(rows)))
+    recs = igc(rows)
+    k = 600
+    recs[k + 3] = "B235959" + recs[k + 3][7:]
+    path = write(tmp_path / "late.igc", recs)
+    track = read_track(path)
+    np.testing.assert_array_equal(np.delete(track.t, k), np.delete(base.t, k))
+    assert track.t[k] % 86400 == 86399.0
+    _, cf = load_flight(path)
+    (apart,) = cf.report["order"]["apart"]
+    assert apart["samples"] == 1 and apart["lines"] == [k + 4, k + 4]
 
 
 @pytest.mark.parametrize(
@@ -517,6 +536,8 @@ def test_load_flight_drops_a_glitched_record_and_reports_it(tmp_path, rows):
     recs[203] = "B000005" + recs[203][7:]
     write(path, recs)
     flight, conditioned = load_flight(path)
-    assert any("time fault" in n and "line 204" in n for n in conditioned.report["notes"])
+    # 11 h before a morning's fixes: the same day, a recording apart (no day is at stake)
+    (apart,) = conditioned.report["order"]["apart"]
+    assert apart["samples"] == 1 and apart["lines"] == [204, 204]
     span = (when(rows[499]) - when(rows[0])).total_seconds()
     assert flight.duration <= span

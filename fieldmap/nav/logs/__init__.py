@@ -21,7 +21,8 @@ takes it from file to flight:
    outliers, gaps, ground, smoothing: the path's acceleration and jerk are the vehicle's, not
    the noise's) and builds the flight, with the options of one
    :class:`~fieldmap.nav.logs.condition.Conditioning`. ``smooth=False`` keeps the exact
-   interpolation of the samples (and its refusals) for clean, simulated inputs; fieldmap's own
+   interpolation of the samples (and its refusals) for clean, simulated inputs, after the
+   ordering step (a recording apart, days from the rest, is dropped there too); fieldmap's own
    CSV with attitude columns and NetCDF files are flown as recorded (their attitude would be
    lost by the smoothing).
 

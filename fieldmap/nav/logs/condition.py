@@ -23,8 +23,11 @@ likelihood, with :math:`q` bounded by the vehicle class
 
 **Steps.**
 
-1. *Order* (:func:`order_log`): non-finite samples dropped (counted); times that go back
-   sorted (or refused with ``reorder=False``); of samples sharing a time the first is kept.
+1. *Order* (:func:`order_log`): non-finite samples dropped (counted); a recording apart, a
+   gap longer than the rest of the log away (a time tag from another day), dropped and named
+   (:func:`recordings_apart`; with ``smooth=False`` and ``reorder=False`` too); times that go
+   back sorted (or refused with ``reorder=False``); of samples sharing a time the first is
+   kept.
 2. *Measurements* (:func:`measurements`, :mod:`fieldmap.nav.logs.faults`): a repeated position
    is no new fix, a position interpolated between fixes or extrapolated from one is none
    either, nor a vertical rate off its column's steps; a rate that repeats the value before
@@ -291,7 +294,9 @@ def recordings_apart(t: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int, fl
     another flight in the same file. The side with fewer samples is dropped (the later of two
     equal ones), and the rule applied again to the rest. Flying across such a gap would be a
     prediction over days (and a grid of millions of nodes); a long coverage gap inside a flight
-    (an ocean crossing's 3 h of a 7 h log) is shorter than the rest and stays a gap.
+    (an ocean crossing's 3 h of a 7 h log) is shorter than the rest and stays a gap. A gap
+    longer than both its sides (6 h between 30 and 40 minutes of coverage) is more prediction
+    than log: the shorter side is dropped and named, and the rest flown.
 
     Returns the kept sample indices and, per dropped part, (first, last) indices and the gap.
     """
@@ -451,7 +456,13 @@ def height_quantum(h: np.ndarray, distance: np.ndarray | None = None) -> float:
     a third or half a step, common) are not quantised.
     """
     dh = np.abs(np.diff(np.asarray(h, dtype=np.float64)))
-    level = LEVEL_M if distance is None else np.maximum(LEVEL_M, GEOID_SLOPE_MAX * distance)
+    # at most half a 25 ft step (Mode S's, the finest an aircraft's altitude is printed in):
+    # fixes tens of km apart (a tanker's) keep their steps as candidates
+    level = (
+        LEVEL_M
+        if distance is None
+        else np.clip(GEOID_SLOPE_MAX * distance, LEVEL_M, 0.5 * 25.0 * 0.3048)
+    )
     nz = dh[(dh > level) & (dh <= HEIGHT_STEP_MAX_M)]
     if nz.size < 2:
         return 0.0
@@ -1056,14 +1067,14 @@ def unfixed_stretches(
     found: list[Stretch] = []
     for name, keep in kept.items():
         tk, lk = t[keep], lines[keep]
-        tk_in = (tk >= flown[0]) & (tk <= flown[1])
-        tk, lk = tk[tk_in], lk[tk_in]
         if tk.size == 0:  # none kept at all: the channel's faults say so
             continue
+        # between kept fixes (those outside the flown span too: a span trimmed to the air
+        # keeps the fixes on the ground beside it), the part inside the flown span
         for j in np.flatnonzero(np.diff(tk) > max_gap_s):
-            found.append(
-                Stretch(float(tk[j]), float(tk[j + 1]), (int(lk[j]), int(lk[j + 1])), name)
-            )
+            a, b = max(float(tk[j]), flown[0]), min(float(tk[j + 1]), flown[1])
+            if b - a > max_gap_s:
+                found.append(Stretch(a, b, (int(lk[j]), int(lk[j + 1])), name))
         if tk[0] - flown[0] > max_gap_s:
             found.append(
                 Stretch(flown[0], float(tk[0]), (flown_lines[0], int(lk[0])), name, "start")

@@ -1185,45 +1185,47 @@ def days_of(tods: list[float]) -> tuple[np.ndarray, np.ndarray]:
     r"""Day of each time of day of a log in file order, and which times are time faults.
 
     Times of day (``hhmmss`` of IGC B records and NMEA sentences) go forward by the log's
-    ordinary step :math:`\Delta` (the median of its positive steps, counted forward across
-    midnight): a recorder writes at its own interval. A step back from late in the day to early
-    in the next that, counted forward across midnight, is no longer than :math:`\Delta` is a
-    **midnight rollover** (the next day); any step no longer than :math:`\Delta` (forward, or
-    back by up to :math:`\Delta`: repeated or jittered epochs, which the conditioning orders) is
-    ordinary. A time of day after a step back of more than 12 h is read as the next day's, any
-    other as the same day's.
+    ordinary step :math:`\Delta` (the median of its steps, each the shorter way round the
+    clock): a recorder writes at its own interval. A time of day after a step back of more than
+    12 h is read as the next day's, any other as the same day's: a step back from late in the
+    day to early in the next is a **midnight rollover**.
 
-    A longer step, to a record :math:`i`, is a **jump**: a gap, a midnight rollover inside a
-    gap, a stretch sent again, or a clock reset that the log keeps. It is kept when the log goes
-    on from it. Each of the next :data:`TIME_VOTES` records :math:`j` at other times votes for
-    the record it follows by the shorter step forward: :math:`i`, or the last record kept before
-    it, :math:`r` (a record before both, of a stretch sent again, votes for neither). A jump
-    that the log comes back from, that more records follow :math:`r` than :math:`i` (one B
-    record at ``000005`` or ``235959`` in the afternoon), fits neither an ordinary step nor a
-    rollover: a **time fault**, dropped. A record in order with its successors is followed by
-    each of them by a shorter step than :math:`r` is, so it is no fault, whatever the length of
-    its step.
+    Only the day is at stake here: a record that is merely out of order (a few seconds back, an
+    hour off within the day) keeps its time, for the conditioning to order or to judge
+    (:func:`~fieldmap.nav.logs.condition.recordings_apart`). A step longer than :math:`\Delta`
+    that puts a record on another day than the record before it, :math:`r`, is a rollover
+    inside a gap, or a time fault that would move every later record by a day (one B record at
+    ``000005`` in the afternoon). The next :data:`TIME_VOTES` records at other times than the
+    record :math:`i` (a run of equal times, a stuck clock, counts as one record) each vote for
+    the one they follow by the shorter step forward, :math:`i` or :math:`r` (a record before
+    both votes for neither). Where more follow :math:`r`, the log comes back from :math:`i`: a
+    **time fault**, dropped. Where the log goes on from :math:`i`, it is a rollover. With 3 or
+    more faults among 5 records, the faults win the vote (as a median of 5 would).
 
     Returns the day index (0 for the first record's day; faults keep 0) and the fault mask.
     """
     x = np.asarray(tods, dtype=np.float64)
     day, fault = np.zeros(x.size), np.zeros(x.size, dtype=bool)
-    forward = np.diff(x) % DAY
-    forward = forward[forward > 0]
-    ordinary = float(np.median(forward)) if forward.size else 0.0
+    step = np.diff(x) % DAY
+    step = np.minimum(step, DAY - step)
+    step = step[step > 0]
+    ordinary = float(np.median(step)) if step.size else 0.0
+    # where each run of equal times ends (the first later record at another time)
+    run_end = np.full(x.size, x.size, dtype=np.int64)
+    for i in range(x.size - 2, -1, -1):
+        run_end[i] = run_end[i + 1] if x[i + 1] == x[i] else i + 1
     t_ref = float(x[0]) if x.size else 0.0
     for i in range(1, x.size):
         t = _after(t_ref, x[i])
-        if abs(t - t_ref) > ordinary:
+        if abs(t - t_ref) > ordinary and t // DAY != t_ref // DAY:
             for_ref = for_i = votes = 0
-            for j in range(i + 1, x.size):
-                if votes == TIME_VOTES:
-                    break
-                if x[j] != x[i]:
-                    votes += 1
-                    from_ref, from_i = _follows(t_ref, x[j]), _follows(t, x[j])
-                    for_ref += from_ref < from_i
-                    for_i += from_i < from_ref
+            j = int(run_end[i])
+            while j < x.size and votes < TIME_VOTES:
+                votes += 1
+                from_ref, from_i = _follows(t_ref, x[j]), _follows(t, x[j])
+                for_ref += from_ref < from_i
+                for_i += from_i < from_ref
+                j = int(run_end[j])
             if for_ref > for_i:
                 fault[i] = True
                 continue
@@ -1369,8 +1371,9 @@ def read_nmea(text: str, source: str) -> Parsed:
 
     A sentence with a valid checksum but a glitched value costs what the value serves, counted
     in the notes with its line: a time of day that is no ``hhmmss`` (hour 25) or a time fault
-    (:func:`days_of`) its sentence; an RMC date that is no ``ddmmyy`` (``000000``) the date
-    alone (the other RMC sentences date the fixes).
+    (:func:`days_of`) its sentence; a GGA position that no chart shows (60 minutes or more,
+    degrees beyond 90 or 180) its sentence; an RMC date that is no ``ddmmyy`` (``000000``) the
+    date alone (the other RMC sentences date the fixes).
     """
     import pynmea2
 
