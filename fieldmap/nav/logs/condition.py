@@ -41,7 +41,10 @@ likelihood, with :math:`q` bounded by the vehicle class
    velocities) they are left out and the report says so. The height's EM runs from two
    starts, the annealed one and the Huber M-estimate, compared at one set of noise levels
    by the mixture's likelihood (:func:`_height`): a long run of wrong altitudes cannot hold
-   the path where the EM's first start put it.
+   the path where the EM's first start put it. An aircraft slower than its stall speed less
+   the strongest surface wind is on the ground: there its vertical rate is 0 within a
+   runway's slope, a constraint no run of heights outweighs (:func:`ground_level`,
+   :func:`_on_ground`: a transponder's stale airborne altitudes while it taxis are faults).
 5. *Samples*: the smoothed path at the grid nodes from the first sample to the last
    (``airborne_only`` trims the slow ends of an aircraft's log); the faults as runs with their
    lines (:func:`~fieldmap.nav.logs.faults.describe_faults`); the stretches longer than
@@ -128,6 +131,21 @@ START_EVIDENCE = 10.0
 APART_S = 1800.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
+#: the strongest surface wind (m/s) an aircraft takes off or lands in: 40 kt. An aircraft
+#: flies at an airspeed above its stall speed, so its ground speed is at least its stall
+#: speed less this: slower, it is on the ground (:func:`ground_level`)
+SURFACE_WIND_MAX = 20.0
+#: the steepest slope of a runway or taxiway (rise over run): ICAO Annex 14 vol. I allows up
+#: to 2 % along a runway and 3 % along a taxiway; on the ground the height changes at most at
+#: this times the ground speed
+GROUND_SLOPE_MAX = 0.03
+#: a fix is slower than the vehicle flies when its path's speed is, by this many σ of the
+#: path's speed (one-sided 98 %)
+GROUND_SIGMAS = 2.0
+#: the name of the ground's vertical rates among the channels (:func:`ground_level`)
+GROUND_CHANNEL = "level on the ground"
+#: the ground's vertical rates' fault share to start from (:func:`_on_ground`)
+GROUND_FAULT_START = 0.01
 
 
 @dataclass(frozen=True)
@@ -708,8 +726,12 @@ def _smooth(
     origin: np.ndarray | None = None,
     reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
     noise_of: SmoothedAxis | None = None,
+    start: SmoothedAxis | None = None,
 ) -> SmoothedAxis:
     r"""Smooth one axis group (module docstring, step 4).
+
+    ``start`` (with ``noise_of``): the EM starts from its weights instead of the Huber
+    M-estimate's.
 
     ``noise_of``: a solution of the same channels whose noise levels :math:`q, s` and steps'
     weights :math:`\lambda` are held; the EM's weights and path (and the fault and copy shares,
@@ -760,7 +782,7 @@ def _smooth(
             q,
             scales,
             hold_noise=True,
-            weights0=sm.huber_weights(q, scales0),
+            weights0=sm.huber_weights(q, scales0) if start is None else start.weights(),
             lam0=noise_of.lam,
             shares0=(list(noise_of.fault_rate), list(noise_of.held_rate)),
         )
@@ -830,6 +852,41 @@ def _height(
     """
     first = _smooth(grid, vehicle, True, channels, floors, fixed)
     judged = _smooth(grid, vehicle, True, channels, floors, fixed, noise_of=first)
+    if first.mixture_neg2loglik - judged.mixture_neg2loglik > START_EVIDENCE:
+        return judged
+    return first
+
+
+def _on_ground(
+    grid: Grid,
+    vehicle: Vehicle,
+    air: SmoothedAxis,
+    channels: list[Channel],
+    floors: list[float],
+    fixed: list[float | None],
+    level: float,
+) -> SmoothedAxis:
+    """Smooth the height again with the ground's vertical rates (:func:`ground_level`).
+
+    The EM starts from the path without them, ``air``, and keeps its noise levels: the jerk
+    intensity :math:`q` is the vehicle's in flight, which minutes of a level taxi would pull
+    down to the bound of its class (and the take-off that follows would turn faults). A second
+    start is the Huber M-estimate at those levels, kept where the mixture's likelihood favours
+    it by more than :data:`START_EVIDENCE`, as in :func:`_height`: ``air``'s path may hold a
+    taxi at stale airborne altitudes that the level ground then joins, where the Huber
+    estimate (a bounded pull per sample) finds the field's.
+    """
+    extra = len(channels) - len(air.scales)
+    held = replace(
+        air,
+        scales=list(air.scales) + [level] * extra,
+        fault_prob=list(air.fault_prob) + [np.zeros(c.t.size) for c in channels[-extra:]],
+        held_prob=list(air.held_prob) + [np.zeros(c.t.size) for c in channels[-extra:]],
+        fault_rate=list(air.fault_rate) + [GROUND_FAULT_START] * extra,
+        held_rate=list(air.held_rate) + [0.0] * extra,
+    )
+    first = _smooth(grid, vehicle, True, channels, floors, fixed, noise_of=held, start=held)
+    judged = _smooth(grid, vehicle, True, channels, floors, fixed, noise_of=held)
     if first.mixture_neg2loglik - judged.mixture_neg2loglik > START_EVIDENCE:
         return judged
     return first
@@ -931,6 +988,15 @@ def estimate(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"
         )
+    ground = ground_level(meas, hz, vehicle)
+    if ground is not None and np.any(
+        np.abs(vt.value_at(ground[0].t, 1)[:, 0])
+        > GROUND_SIGMAS * GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
+    ):
+        meas.index[ground[0].name] = ground[1]
+        level = GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
+        vchans, vfloors, vfix = vchans + [ground[0]], vfloors + [level], vfix + [level]
+        vt = _on_ground(grid, vehicle, vt, vchans, vfloors, vfix, level)
     chans: dict[str, tuple[Channel, SmoothedAxis, int]] = {}
     for axis, cl in ((hz, hchans), (vt, vchans)):
         for i, c in enumerate(cl):
@@ -944,6 +1010,47 @@ def estimate(
                     "measurements"
                 )
     return PathEstimate(hz, vt, chans, tuple(notes))
+
+
+def ground_level(
+    meas: Measurements, path: SmoothedAxis, vehicle: Vehicle
+) -> tuple[Channel, np.ndarray] | None:
+    r"""Return the vertical rates a vehicle on the ground has, and the samples they are at.
+
+    An aircraft flies at an airspeed of at least its stall speed :math:`v_s`, in a wind of at
+    most :data:`SURFACE_WIND_MAX` (:math:`W`) near the ground, so at a ground speed
+    :math:`|v| \ge v_s - W`. Where the horizontal path is slower at a sample of the log it is
+    on the ground, where its height changes at most at the slope of a runway or taxiway
+    (:data:`GROUND_SLOPE_MAX`, :math:`\gamma`): a vertical rate :math:`\dot h = 0` measured
+    with σ :math:`\gamma (v_s - W)` and no fault component: a constraint of the model, which
+    no run of heights outweighs (a transponder's stale airborne altitudes on the ground, or the
+    0 ft that surface messages without an altitude are written as, are then the heights'
+    faults). A vehicle that hovers or flies slower than the wind (:math:`v_s \le W`) has none.
+    """
+    slow = vehicle.stall - SURFACE_WIND_MAX
+    if slow <= 0.0 or meas.heights.t.size == 0:
+        return None
+    t = meas.heights.t  # every sample's time: a vehicle standing still repeats its position
+    speed = np.linalg.norm(path.value_at(t, 1), axis=1)
+    on = np.flatnonzero(speed < slow)
+    if on.size:
+        # slower with confidence: by GROUND_SIGMAS of the path's posterior σ of speed (per
+        # axis), which fixes far apart or noisy leave wide
+        nodes, where = np.unique(path.grid.locate(t[on])[0], return_inverse=True)
+        sure = speed[on] + GROUND_SIGMAS * path.sigmas_at(nodes, 1)[where] < slow
+        on = on[sure]
+    if on.size < MIN_POINTS:
+        return None
+    ch = Channel(
+        t[on],
+        np.zeros((on.size, 1)),
+        np.ones(on.size),
+        1,
+        1,
+        0.0,
+        GROUND_CHANNEL,
+    )
+    return ch, meas.index["height"][on]
 
 
 def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:
@@ -1386,6 +1493,8 @@ def _finish(
             ) -> np.ndarray:
                 return np.linalg.norm(pos[j] - hz.value_at(ch.t[j] + shift), axis=1)
 
+        if name == GROUND_CHANNEL:
+            continue  # the model's, not the log's: no fault of the log
         shifts = np.arange(-SHIFT_MAX_S, SHIFT_MAX_S + 0.5 * grid.dt, max(grid.dt, 1.0))
         faults += flt.describe_faults(
             name,

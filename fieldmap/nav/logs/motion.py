@@ -308,7 +308,8 @@ class Channel:
         axes: the surface point's radial component is no measurement).
     fault_density : float
         Density of the fault distribution at any value (uniform over the range the log
-        spans), in the units of ``y`` to the power ``-dof``.
+        spans), in the units of ``y`` to the power ``-dof``; 0: no sample is a fault (a
+        constraint of the model, not the log's).
     name : str
         For reports.
     timing : bool
@@ -424,6 +425,19 @@ class SmoothedAxis:
         k, d = self.grid.locate(np.asarray(t, dtype=np.float64))
         h = _rows(d, order)
         return _apply(h, self.x[k])
+
+    def sigmas_at(self, nodes: np.ndarray, state: int = 0, chunk: int = 64) -> np.ndarray:
+        """Posterior σ of state ``state`` at each of ``nodes`` (``chunk`` banded solves at once)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        out = np.empty(nodes.size)
+        for a in range(0, nodes.size, chunk):
+            rows = NS * nodes[a : a + chunk] + state
+            cols = np.arange(rows.size)
+            e = np.zeros((NS * self.grid.n, rows.size))
+            e[rows, cols] = 1.0
+            z = _solve_factored(self.chol, self.dscale, e)
+            out[a : a + rows.size] = np.sqrt(np.maximum(z[rows, cols], 0.0))
+        return out
 
     def sigma_at(self, k: int, state: int = 0) -> float:
         """Posterior σ of state ``state`` (0 position) at node ``k`` (one banded solve)."""
@@ -1066,7 +1080,8 @@ class AxisSmoother:
             z2 = np.sum(r * r, axis=1) / var
             # log of the inlier density (dof-dimensional isotropic Gaussian)
             log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
-            log_out = math.log(max(c.fault_density, 1e-300))
+            # a channel without faults (density 0: a constraint of the model) has none
+            log_out = math.log(max(c.fault_density, 1e-300)) if c.fault_density > 0 else -np.inf
             a = np.full(r.shape[0], np.log(eps) + log_out)
             bb = np.log1p(-eps) + log_in
             if eta > 0.0 and c.held is not None:

@@ -21,6 +21,7 @@ import numpy as np
 from fieldmap.errors import Advice, Message, Metavar, Pass
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
+from fieldmap.nav.logs.condition import GROUND_CHANNEL, SURFACE_WIND_MAX
 from fieldmap.nav.trajectory import FlightSamples
 from fieldmap.units import STANDARD_GRAVITY as G0
 
@@ -408,7 +409,12 @@ def _ground(c: Any) -> dict[str, Any]:
     """Time at the ends of the flown path slower than the vehicle's stall speed (on the ground)."""
     veh, s = c.vehicle, c.samples
     if veh.stall <= 0.0 or s.t.size < 2:
-        return {"duration_s": 0.0, "fraction_of_flight": 0.0, "stall_speed_m_s": veh.stall}
+        return {
+            "duration_s": 0.0,
+            "fraction_of_flight": 0.0,
+            "stall_speed_m_s": veh.stall,
+            "level_fixes": 0,
+        }
     hz = c.estimate.horizontal
     a, b = c.flown
     speed = np.linalg.norm(hz.x[a : b + 1, 1, :], axis=1)
@@ -419,7 +425,14 @@ def _ground(c: Any) -> dict[str, Any]:
     else:
         dur = float((fast[0] + (speed.size - 1 - fast[-1])) * dt)
     span = float(s.t[-1]) or 1.0
-    return {"duration_s": dur, "fraction_of_flight": dur / span, "stall_speed_m_s": veh.stall}
+    level = c.estimate.channels.get(GROUND_CHANNEL)
+    held = 0 if level is None else int(np.sum(level[1].fault_prob[level[2]] <= 0.5))
+    return {
+        "duration_s": dur,
+        "fraction_of_flight": dur / span,
+        "stall_speed_m_s": veh.stall,
+        "level_fixes": held,
+    }
 
 
 def conditioned_flight(c: Any) -> ConditionedFlight:
@@ -538,6 +551,8 @@ def format_report(rep: dict) -> str:
         )
         units = {"position": "m", "height": "m", "velocity": "m/s", "vertical rate": "m/s"}
         for name, ch in rep["channels"].items():
+            if name == GROUND_CHANNEL:
+                continue  # the model's (the ground line above), not the log's
             u = units.get(name, "")
             per = " per axis" if name in ("position", "velocity") else ""
             bound = ch["noise_sigma_at_bound"]
@@ -580,6 +595,12 @@ def format_report(rep: dict) -> str:
                 f"  on the ground (slower than the stall speed, {gr['stall_speed_m_s']:g} m/s, "
                 f"at the ends): {gr['duration_s']:.0f} s, "
                 f"{100 * gr['fraction_of_flight']:.1f} % of the flown span"
+            )
+        if gr["level_fixes"]:
+            lines.append(
+                f"  held level at {gr['level_fixes']} fixes slower than the vehicle flies "
+                f"({gr['stall_speed_m_s']:g} m/s less {SURFACE_WIND_MAX:g} m/s of wind): on "
+                "the ground, whatever the heights say"
             )
     lines.append(
         f"  flown: {k['duration_s']:.0f} s, max speed {k['max_speed_m_s']:.0f} m/s; peak "

@@ -1,0 +1,79 @@
+"""An aircraft slower than it can fly is on the ground, whatever its altitude column says.
+
+``zurich_airport_4b1614`` (a corpus piece: an airliner taxiing at Zurich for seven minutes, one
+row a second, then its take-off) logs its field's 1,800-1,825 ft on the ground, and between
+those rows stale airborne altitudes of 20,650 to 30,825 ft (about 45 % of the taxi's altitude
+rows). The height smoother had nothing to tell the two apart: it flew the taxi 6 to 9 km up
+and dived to the runway at the take-off.
+
+An aircraft flies at an airspeed of at least its stall speed, so, in a surface wind of at
+most 20 m/s, at a ground speed of at least its stall speed less 20 m/s. Slower (by two σ of
+the horizontal path's speed), it is on the ground, where its height changes at most at a
+runway's slope: a vertical rate 0 measured with the σ of that slope
+(:func:`fieldmap.nav.logs.condition.ground_level`). The taxi is now flown level, within 80 m
+of the field's heights (no DEM: the level is the one the take-off's heights join).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fieldmap.nav.logs import load_flight
+from fieldmap.nav.logs.condition import SURFACE_WIND_MAX, ground_level
+from fieldmap.nav.logs.read import read_track
+from fieldmap.nav.logs.vehicles import vehicle_class
+
+CORPUS = Path(__file__).parent / "data" / "corpus"
+TAXI = CORPUS / "onground" / "zurich_airport_4b1614.csv.gz"
+FIRST_AIRBORNE_LINE = 443  # the take-off roll's first row after the last stale altitude
+FIELD_FT = (1800.0, 1825.0)  # the ground rows' altitudes
+
+
+@pytest.fixture(scope="module")
+def taxi():
+    _, cf = load_flight(TAXI, height_ref="pressure")
+    log = read_track(TAXI, height_ref="pressure", alt_units="ft")
+    s = cf.samples
+    path = np.interp(log.t, s.t_start + s.t, s.h)
+    return cf, log, path
+
+
+def test_the_taxi_is_flown_at_the_fields_heights(taxi):
+    """The old path flew the taxi at 6-9 km (7.7 km above the field's rows)."""
+    cf, log, path = taxi
+    field = (log.lines < FIRST_AIRBORNE_LINE) & (log.h < 0.3048 * FIELD_FT[1] + 200.0)
+    assert field.sum() > 50
+    off = np.abs(path[field] - log.h[field])
+    assert off.max() < 80.0, f"the taxi flown up to {off.max():.0f} m off the field's heights"
+    stale = (log.lines < FIRST_AIRBORNE_LINE) & ~field
+    assert np.all(path[stale] < log.h[stale] - 5000.0), "a stale altitude flown"
+
+
+def test_the_report_says_where_the_path_is_held_level(taxi):
+    cf, _, _ = taxi
+    gr = cf.report["ground"]
+    assert gr["level_fixes"] > 20
+    assert "level on the ground" not in [f["channel"] for f in cf.report["faults"]["list"]]
+    text = cf.format_report()
+    assert f"held level at {gr['level_fixes']} fixes slower than the vehicle flies" in text
+
+
+@pytest.mark.parametrize("piece", ["gliders/sisteron_01", "firefighting/calfire_a53602_04"])
+def test_no_ground_where_the_vehicle_flies(piece):
+    """None is held level: a glider's stall speed is below the wind's.
+
+    A tanker's fixes 20-200 s apart leave its speed too uncertain (the path's speed dips below
+    15 m/s between them, but not by two of its σ).
+    """
+    _, cf = load_flight(CORPUS / f"{piece}.csv.gz", height_ref="pressure")
+    assert cf.report["ground"]["level_fixes"] == 0
+
+
+def test_a_vehicle_slower_than_the_wind_has_no_ground():
+    """Stall ≤ the wind: a glider, a helicopter or a car may be slow in flight or on the road."""
+    for name in ("glider", "helicopter", "paraglider", "car"):
+        assert vehicle_class(name).stall <= SURFACE_WIND_MAX
+        assert ground_level(None, None, vehicle_class(name)) is None  # type: ignore[arg-type]
