@@ -417,7 +417,9 @@ def check_piece(
     f0, f1 = float(t_abs[0]), float(t_abs[-1])
     span = t1 - t0
     cover = max(0.0, min(t1, f1) - max(t0, f0))
-    inside = (log.t >= f0) & (log.t <= f1)
+    # a fix is a sample with a height of its own (a surface report's placeholder is none)
+    has = np.ones(log.t.size, bool) if log.no_height is None else ~log.no_height
+    inside = (log.t >= f0) & (log.t <= f1) & has
     ok = np.zeros(log.t.size, bool)
     worst, worst_line = 0.0, 0
     horizontal = np.zeros(0)
@@ -442,11 +444,11 @@ def check_piece(
         log_span_s=span,
         flown_span_s=f1 - f0,
         flown_fraction=cover / span if span > 0 else float(f1 >= t1 and f0 <= t0),
-        fixes=int(log.t.size),
+        fixes=int(has.sum()),
         sigma_h_m=float(sigma_h),
         k_sigma=float(k_sigma),
-        heights_within=float(ok.mean()) if ok.size else 0.0,
-        fixes_outside_flown=int((~inside).sum()),
+        heights_within=float(ok[has].mean()) if has.any() else 0.0,
+        fixes_outside_flown=int((~inside & has).sum()),
         worst_height_offset_m=worst,
         worst_height_line=worst_line,
         horizontal_offset_median_m=float(np.median(horizontal)) if horizontal.size else np.nan,

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from fieldmap.nav.logs import load_flight
-from fieldmap.nav.logs.condition import SURFACE_WIND_MAX, ground_level
+from fieldmap.nav.logs.condition import ground_level
 from fieldmap.nav.logs.read import read_track
-from fieldmap.nav.logs.vehicles import vehicle_class
+from fieldmap.nav.logs.vehicles import SURFACE_WIND_MAX, vehicle_class
 
 CORPUS = Path(__file__).parent / "data" / "corpus"
 TAXI = CORPUS / "onground" / "zurich_airport_4b1614.csv.gz"
@@ -70,6 +70,29 @@ def test_no_ground_where_the_vehicle_flies(piece):
     """
     _, cf = load_flight(CORPUS / f"{piece}.csv.gz", height_ref="pressure")
     assert cf.report["ground"]["level_fixes"] == 0
+
+
+def test_the_landing_roll_and_taxi_stay_on_the_runway():
+    """``kiruna`` (a corpus piece: a calibration turboprop, one row every 5 s) lands at 1,750 ft.
+
+    Its last 15 rows, the taxi after the landing roll (lines 1678-1692), read 0 ft: ADS-B
+    surface reports carry no altitude, and the table holds 0 there. Read as heights, they drew
+    the path 530 m down the runway in the landing roll; read as positions without a height
+    (the reader's note), the taxi is flown, level, at the heights of the roll before it.
+    """
+    path = CORPUS / "calibration" / "kiruna.csv.gz"
+    _, cf = load_flight(path, height_ref="pressure")
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    assert np.array_equal(np.flatnonzero(log.no_height), np.arange(1676, 1691))
+    roll = (log.lines >= 1671) & (log.lines <= 1677)  # 98 kt and slower, 1,725-1,750 ft
+    s = cf.samples
+    assert s.t_start + s.t[-1] == log.t[-1]  # the taxi flown
+    path_h = np.interp(log.t, s.t_start + s.t, s.h)
+    assert np.all(np.abs(path_h[roll] - log.h[roll]) < 20.0), path_h[roll] - log.h[roll]
+    runway = log.h[log.lines == 1677][0]
+    taxi = log.lines >= 1678
+    assert np.all(np.abs(path_h[taxi] - runway) < 20.0), path_h[taxi] - runway
+    assert any("15 rows of 0 read as no altitude" in n for n in cf.report["notes"])
 
 
 def test_a_vehicle_slower_than_the_wind_has_no_ground():

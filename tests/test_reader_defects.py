@@ -412,6 +412,76 @@ def test_csv_altitude_zero_throughout(tmp_path, text):
     one_line(e)
 
 
+def test_adsb_altitude_of_zero_is_a_surface_report_without_one(tmp_path, text):
+    """0 in an ADS-B altitude column is the export's placeholder, not a height.
+
+    Surface position messages carry no altitude (DO-260B); the tables written from them put 0
+    there, whatever the field's elevation (Sisteron's 1,800 ft read as sea level). The rows
+    keep their time and position, marked as having no height (``no_height``; their ``h``
+    interpolated between the others'), and the notes name them.
+    """
+    lines = text.splitlines()
+    alt = lines[0].split(",").index("altitude")
+    base = read_track(write(tmp_path / "base.csv", lines))
+    ground = [1, 2, 3, 700]  # rows: the first three and one in flight
+    zeroed = [lines[0]] + [
+        ",".join(c if j != alt or k not in ground else "0" for j, c in enumerate(r.split(",")))
+        for k, r in enumerate(lines[1:], start=1)
+    ]
+    track = read_track(write(tmp_path / "zero.csv", zeroed))
+    rows = np.array(ground) - 1
+    for name in ("t", "lat", "lon"):  # the same samples
+        np.testing.assert_array_equal(getattr(track, name), getattr(base, name))
+    assert base.no_height is None
+    np.testing.assert_array_equal(np.flatnonzero(track.no_height), rows)
+    others = np.setdiff1d(np.arange(base.t.size), rows)
+    np.testing.assert_allclose(track.h[others], base.h[others], rtol=0, atol=1e-6)
+    # between the heights of the others: the first rows take the first height of its own
+    assert np.all(track.h[rows[:3]] == track.h[3])
+    assert min(track.h[698], track.h[700]) <= track.h[699] <= max(track.h[698], track.h[700])
+    note = noted(track, "4 rows of 0 read as no altitude", "surface reports")
+    assert "lines 2, 3, 4, 701" in note
+    # a real altitude of 0.5 ft is a height
+    half = [lines[0]] + [
+        ",".join(c if j != alt or k != 700 else "0.5" for j, c in enumerate(r.split(",")))
+        for k, r in enumerate(lines[1:], start=1)
+    ]
+    assert read_track(write(tmp_path / "half.csv", half)).no_height is None
+
+
+def test_adsb_rows_resampled_from_a_surface_report_have_no_height(tmp_path, text, rows):
+    """A table resampled between a placeholder 0 and the next altitude: those rows are none.
+
+    ``traffic`` resamples a flight onto a regular grid: between the last surface report (0)
+    and the first airborne altitude it draws a straight line, whose rows are drawn from the
+    placeholder, not measured. Rows off that line (a real climb) keep their heights.
+    """
+    lines = text.splitlines()
+    head = lines[0].split(",")
+    alt = head.index("altitude")
+    t = np.array([when(r).timestamp() for r in rows])
+    a = np.array([float(r["altitude"]) for r in rows])
+
+    def table(values: dict[int, float]) -> list[str]:
+        out = [lines[0]]
+        for k, r in enumerate(lines[1:]):
+            cells = r.split(",")
+            if k in values:
+                cells[alt] = repr(values[k])
+            out.append(",".join(cells))
+        return out
+
+    # rows 0-2 surface reports; rows 3-4 on the line from (t2, 0) to (t5, a5)
+    drawn = {k: float(a[5] * (t[k] - t[2]) / (t[5] - t[2])) for k in (3, 4)}
+    track = read_track(write(tmp_path / "drawn.csv", table({0: 0.0, 1: 0.0, 2: 0.0, **drawn})))
+    np.testing.assert_array_equal(np.flatnonzero(track.no_height), [0, 1, 2, 3, 4])
+    assert "2 rows resampled between them" in noted(track, "surface reports")
+    # the same rows 20 ft off the line: a climb of their own, heights kept
+    off = {k: v + 20.0 for k, v in drawn.items()}
+    track = read_track(write(tmp_path / "off.csv", table({0: 0.0, 1: 0.0, 2: 0.0, **off})))
+    np.testing.assert_array_equal(np.flatnonzero(track.no_height), [0, 1, 2])
+
+
 # --------------------------------------------------------------------------- several aircraft
 
 

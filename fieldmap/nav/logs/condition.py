@@ -32,6 +32,9 @@ likelihood, with :math:`q` bounded by the vehicle class
    is no new fix, a position interpolated between fixes or extrapolated from one is none
    either, nor a vertical rate off its column's steps; a rate that repeats the value before
    it is a copy or a fresh value, as the smoother's mixture finds (held values).
+   A sample without a height of its own (an ADS-B surface report, whose altitude column
+   holds a placeholder: :attr:`~fieldmap.nav.logs.read.RawTrack.no_height`) is a position
+   only.
 3. *Vehicle* (:func:`~fieldmap.nav.logs.vehicles.guess_vehicle`): given, or guessed from the
    ADS-B category, the file's format and the log's speeds, climbs and turns; its climb bound
    raised to the log's own top climb, up to the largest the class reaches
@@ -80,7 +83,16 @@ from fieldmap.errors import Advice, InputError, Keyword, Label, Message, Pass, S
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
 from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, SmoothedAxis
-from fieldmap.nav.logs.vehicles import Evidence, Vehicle, evidence, guess_vehicle, vehicle_class
+from fieldmap.nav.logs.vehicles import (
+    GROUND_CHANNEL,
+    GROUND_SLOPE_MAX,
+    SURFACE_WIND_MAX,
+    Evidence,
+    Vehicle,
+    evidence,
+    guess_vehicle,
+    vehicle_class,
+)
 from fieldmap.nav.trajectory import MIN_POINTS, FlightSamples
 from fieldmap.units import STANDARD_GRAVITY
 
@@ -131,19 +143,9 @@ START_EVIDENCE = 10.0
 APART_S = 1800.0
 #: time shifts tried for a rejected run of positions (s, both ways)
 SHIFT_MAX_S = 120.0
-#: the strongest surface wind (m/s) an aircraft takes off or lands in: 40 kt. An aircraft
-#: flies at an airspeed above its stall speed, so its ground speed is at least its stall
-#: speed less this: slower, it is on the ground (:func:`ground_level`)
-SURFACE_WIND_MAX = 20.0
-#: the steepest slope of a runway or taxiway (rise over run): ICAO Annex 14 vol. I allows up
-#: to 2 % along a runway and 3 % along a taxiway; on the ground the height changes at most at
-#: this times the ground speed
-GROUND_SLOPE_MAX = 0.03
 #: a fix is slower than the vehicle flies when its path's speed is, by this many σ of the
 #: path's speed (one-sided 98 %)
 GROUND_SIGMAS = 2.0
-#: the name of the ground's vertical rates among the channels (:func:`ground_level`)
-GROUND_CHANNEL = "level on the ground"
 #: the ground's vertical rates' fault share to start from (:func:`_on_ground`)
 GROUND_FAULT_START = 0.01
 
@@ -421,7 +423,8 @@ class Measurements:
     velocities, climbs : Channel or None
         The log's ground velocities (surface-point ECEF rates, m/s) and vertical rates.
     index : dict
-        Channel name -> indices of the ordered samples it holds.
+        Channel name -> indices of the ordered samples it holds (the heights: those with a
+        height of their own, :attr:`~fieldmap.nav.logs.read.RawTrack.no_height`).
     origin : numpy.ndarray
         The ECEF point subtracted from the positions (m).
     repeated, interpolated : numpy.ndarray
@@ -450,6 +453,8 @@ class Measurements:
     velocity_columns: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     source: str = "flight"
+    #: every ordered sample's time (s)
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def height_quantum(h: np.ndarray, distance: np.ndarray | None = None) -> float:
@@ -597,12 +602,22 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         "position",
         timing=True,
     )
-    q = height_quantum(log.h, np.linalg.norm(np.diff(p, axis=0), axis=1))
-    hspan = float(np.ptp(log.h)) if n else 0.0
+    # the samples with a height of their own (a surface report's placeholder is none)
+    blank = getattr(track, "no_height", None)
+    hr = np.arange(n) if blank is None else np.flatnonzero(~np.asarray(blank)[log.index])
+    hr = hr if hr.size >= MIN_POINTS else np.arange(n)
+    q = height_quantum(log.h[hr], np.linalg.norm(np.diff(p[hr], axis=0), axis=1))
+    hspan = float(np.ptp(log.h[hr])) if hr.size else 0.0
     heights = Channel(
-        log.t, log.h[:, None], np.ones(n), 0, 1, _fault_density(hspan + 1000.0, 1), "height"
+        log.t[hr],
+        log.h[hr, None],
+        np.ones(hr.size),
+        0,
+        1,
+        _fault_density(hspan + 1000.0, 1),
+        "height",
     )
-    index = {"position": hi, "height": np.arange(n)}
+    index = {"position": hi, "height": hr}
     vel = vel if options.log_velocities else None
     velocities = climbs = None
     notes: list[str] = []
@@ -677,6 +692,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         columns,
         tuple(notes),
         log.source,
+        log.t,
     )
 
 
@@ -1018,19 +1034,22 @@ def ground_level(
     r"""Return the vertical rates a vehicle on the ground has, and the samples they are at.
 
     An aircraft flies at an airspeed of at least its stall speed :math:`v_s`, in a wind of at
-    most :data:`SURFACE_WIND_MAX` (:math:`W`) near the ground, so at a ground speed
-    :math:`|v| \ge v_s - W`. Where the horizontal path is slower at a sample of the log it is
-    on the ground, where its height changes at most at the slope of a runway or taxiway
-    (:data:`GROUND_SLOPE_MAX`, :math:`\gamma`): a vertical rate :math:`\dot h = 0` measured
-    with σ :math:`\gamma (v_s - W)` and no fault component: a constraint of the model, which
-    no run of heights outweighs (a transponder's stale airborne altitudes on the ground, or the
-    0 ft that surface messages without an altitude are written as, are then the heights'
-    faults). A vehicle that hovers or flies slower than the wind (:math:`v_s \le W`) has none.
+    most :data:`~fieldmap.nav.logs.vehicles.SURFACE_WIND_MAX` (:math:`W`) near the ground,
+    so at a ground speed :math:`|v| \ge v_s - W`. Where the horizontal path is slower (by
+    :data:`GROUND_SIGMAS` of its posterior σ of speed) at a sample of the log, it is on the
+    ground, where its height changes at most at the slope of a runway or taxiway
+    (:data:`~fieldmap.nav.logs.vehicles.GROUND_SLOPE_MAX`, :math:`\gamma`): a vertical rate
+    :math:`\dot h = 0` measured with σ :math:`\gamma (v_s - W)` and no fault component: a
+    constraint of the model, which no run of heights outweighs (a transponder's stale airborne
+    altitudes while it taxis are then the heights' faults). The samples are every sample of
+    the log, with a height of its own or not (a surface report has none: the reader's
+    :attr:`~fieldmap.nav.logs.read.RawTrack.no_height`). A vehicle that hovers or flies slower
+    than the wind (:math:`v_s \le W`) has none.
     """
     slow = vehicle.stall - SURFACE_WIND_MAX
-    if slow <= 0.0 or meas.heights.t.size == 0:
+    if slow <= 0.0 or meas.t.size == 0:
         return None
-    t = meas.heights.t  # every sample's time: a vehicle standing still repeats its position
+    t = meas.t  # every sample's time: a vehicle standing still repeats its position
     speed = np.linalg.norm(path.value_at(t, 1), axis=1)
     on = np.flatnonzero(speed < slow)
     if on.size:
@@ -1050,7 +1069,7 @@ def ground_level(
         0.0,
         GROUND_CHANNEL,
     )
-    return ch, meas.index["height"][on]
+    return ch, on
 
 
 def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:

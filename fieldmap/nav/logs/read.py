@@ -42,8 +42,10 @@ too; an infinite value (``inf``) is read as empty, and said. Lines that are no s
 repeat of the header, a row of empty cells, a last line cut short by the end of the file) are
 dropped and said (:func:`csv_table`). An altitude column of an ADS-B layout that is zero in
 every row is the recorder's "none", not a flight at sea level: not used
-(:func:`_zero_columns`). A table of several aircraft (``icao24``) is refused: a flight is one
-aircraft's. GPX, NMEA 0183 and IGC: below.
+(:func:`_zero_columns`); an altitude of exactly 0 in some rows is a surface report's
+placeholder (they carry no altitude), read as empty (:func:`_surface_zeros`). A table of
+several aircraft (``icao24``) is refused: a flight is one aircraft's. GPX, NMEA 0183 and IGC:
+below.
 
 Refused with one :class:`~fieldmap.errors.InputError` naming file, line and column: unknown
 columns (the message lists them and the ``--columns`` mapping), unparsable times or numbers,
@@ -200,6 +202,9 @@ class RawTrack:
     time_guess: str | None = None
     velocity: Velocities | None = None
     category: str | None = None
+    #: the samples without a height of their own (a surface report's placeholder altitude):
+    #: positions only, their ``h`` interpolated in time between the others' (bool), or None
+    no_height: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -244,6 +249,9 @@ class Parsed:
     #: pressure altitude made of a geometric one; ``"any"`` (a column mapping: ``height_ref``
     #: says what the mapped column is)
     declares: str = "datum"
+    #: height reference -> the rows whose altitude is a surface report's placeholder (read as
+    #: none: positions without a height; :func:`_surface_zeros`)
+    surface: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def utc_seconds(d: datetime) -> float:
@@ -429,6 +437,7 @@ def _table(
     alts = {r: (c, column(c)) for r, c in altmap.items() if col(c) is not None}
     if kind not in ("mapping", "fieldmap"):  # a recorder's columns; the others the user's heights
         alts = _zero_columns(alts, source, notes)
+        alts, surface = _surface_zeros(alts, t, lines, where_word, notes)
     filled = {r: float(np.mean(np.isfinite(v))) for r, (_, v) in alts.items()}
     ref = next((r for r in alts if filled[r] >= 0.5), max(filled, key=filled.__getitem__))
     ref_note = None
@@ -447,6 +456,7 @@ def _table(
         )
     names = (tname, latname, lonname)
     p = Parsed(t, lat, lon, alts, ref, units, lines, source, absolute, names, where_word, notes)
+    p.surface = surface if kind not in ("mapping", "fieldmap") else {}
     vcols = VELOCITY_COLUMNS.get(kind)
     if vcols is not None and col(vcols[0]) is not None and col(vcols[2]) is not None:
         sname, sf, trname, cname, cf = vcols
@@ -511,6 +521,79 @@ def _zero_columns(
         f"not used; {', '.join(c for c, _ in left.values())} used"
     )
     return left
+
+
+def _surface_zeros(
+    alts: dict[str, tuple[str, np.ndarray]],
+    t: np.ndarray,
+    lines: np.ndarray,
+    where: str,
+    notes: list[str],
+) -> tuple[dict[str, tuple[str, np.ndarray]], dict[str, np.ndarray]]:
+    """ADS-B altitudes of exactly 0 read as none (said in ``notes``): a surface report's.
+
+    An ADS-B surface position message carries no altitude (RTCA DO-260B, 2.2.3.2.4: the
+    aircraft is on the ground), and the tables built from them (OpenSky's state vectors,
+    ``traffic``'s flights) hold 0 in the altitude column there, whatever the field's
+    elevation: a placeholder, not a height (Munich's 1,487 ft field read as 0 ft put the
+    taxi 450 m below the runway the aircraft takes off from). Those rows keep their position
+    and time, without a height (:attr:`RawTrack.no_height`); so do the rows of a table
+    resampled between a placeholder and the altitude beside it, which lie on the straight
+    line in time from the one to the other (:func:`_resampled_from`). A real altitude of
+    exactly 0 (a pressure altitude at a field near sea level, in 25 ft steps) costs those rows'
+    heights alone. Returns the columns (NaN there) and, per height reference, the rows.
+    """
+    out, surface = {}, {}
+    for r, (name, v) in alts.items():
+        zero = v == 0.0
+        if zero.any():
+            line = _resampled_from(v, t, zero)
+            v = np.where(zero | line, np.nan, v)
+            surface[r] = zero | line
+            notes.append(
+                f"{name}: {_count(int(zero.sum()), 'row')} of 0 read as no altitude (ADS-B "
+                f"surface reports, which carry none; {_at(where, lines[zero])})"
+                + (
+                    f" and {_count(int(line.sum()), 'row')} resampled between them and the "
+                    f"altitudes beside them ({_at(where, lines[line])})"
+                    if line.any()
+                    else ""
+                )
+                + ": positions without a height"
+            )
+        out[r] = (name, v)
+    return out, surface
+
+
+def _resampled_from(v: np.ndarray, t: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """Return the rows beside a run of placeholders that a resampling drew from them (bool).
+
+    After a run of zeros ending at row :math:`z`, rows :math:`z+1 .. e-1` are resampled when
+    each lies on the line from :math:`(t_z, 0)` to :math:`(t_e, v_e)` (to 1e-6 of the values,
+    their printed digits), for the furthest such :math:`e` (an altitude of its own): a linear
+    interpolation between the placeholder and the next altitude. Before a run, alike.
+    """
+    n = v.size
+    out = np.zeros(n, bool)
+
+    def on_line(z: int, e: int) -> bool:
+        lo, hi = min(z, e), max(z, e)
+        mid = np.arange(lo + 1, hi)
+        if not np.all(np.isfinite(v[mid]) & ~zero[mid]) or t[e] == t[z]:
+            return False
+        want = v[e] * (t[mid] - t[z]) / (t[e] - t[z])
+        return bool(np.all(np.abs(v[mid] - want) <= 1e-6 * max(abs(v[e]), 1.0) + 1e-3))
+
+    for step in (1, -1):
+        ends = np.flatnonzero(zero & ~np.roll(zero, -step)) if n > 1 else np.zeros(0, int)
+        for z in ends.tolist():
+            e, best = z + 2 * step, None
+            while 0 <= e < n and np.isfinite(v[e]) and not zero[e] and on_line(z, e):
+                best, e = e, e + step
+            if best is not None:
+                lo, hi = sorted((z, best))
+                out[lo + 1 : hi] = True
+    return out
 
 
 def read_track(
@@ -662,9 +745,10 @@ def _finish(
             f"dropped {int((~timed).sum())} of {_count(timed.size, 'sample')} with an empty "
             f"{p.names[0]} ({_at(p.where, p.lines[~timed])})"
         )
-    located = np.isfinite(p.lat) & np.isfinite(p.lon) & np.isfinite(alt)
+    surface = p.surface.get(ref if ref in p.alts else p.height_ref, np.zeros(p.t.size, bool))
+    located = np.isfinite(p.lat) & np.isfinite(p.lon) & (np.isfinite(alt) | surface)
     keep = timed & located
-    if not keep.any():
+    if not (keep & np.isfinite(alt)).any():
         raise InputError(f"{p.source}: no sample has a latitude, longitude and {aname}")
     if not located[timed].all():
         n, first = int((timed & ~located).sum()), int(p.lines[timed & ~located][0])
@@ -673,6 +757,7 @@ def _finish(
             f"{aname} (first at {p.where} {first})"
         )
     t, lat, lon, a, lines = (x[keep] for x in (p.t, p.lat, p.lon, alt, p.lines))
+    blank = ~np.isfinite(a)  # surface reports: positions without a height
     units = alt_units or p.alt_units
     if units == "ft":
         a = a * FT
@@ -705,11 +790,15 @@ def _finish(
         # conditioning (a constant factor between the two), where altitude glitches are
         # faults of their own: here the rate test is for logs without them
         rates = p.velocity is not None and p.velocity.climb is not None
-        check_units(a, t, lines, units, vmed, f"{where}", aname, sustained=not rates)
+        on = ~blank
+        check_units(a[on], t[on], lines[on], units, vmed, f"{where}", aname, sustained=not rates)
     h = a
     if ref != "ellipsoid":
         h, note = to_ellipsoid(ref, lat, lon, a, model, ellipsoid)
         notes += note
+    if blank.any():  # between the heights of the others, for what needs one per sample
+        h = h.copy()
+        h[blank] = np.interp(t[blank], t[~blank], h[~blank])
     t0 = iso_utc(float(t[0])) if p.absolute else None
     vel = p.velocity
     if vel is not None:
@@ -721,7 +810,19 @@ def _finish(
             vel.names,
         )
     return RawTrack(
-        t, lat, lon, h, lines, p.source, ref, tuple(notes), t0, p.time_guess, vel, p.category
+        t,
+        lat,
+        lon,
+        h,
+        lines,
+        p.source,
+        ref,
+        tuple(notes),
+        t0,
+        p.time_guess,
+        vel,
+        p.category,
+        blank if blank.any() else None,
     )
 
 
@@ -1075,7 +1176,7 @@ def to_ellipsoid(
     notes = []
     if ref == "pressure":
         a = R_ISA * a / (R_ISA - a)
-        top = float(np.max(a))
+        top = float(np.nanmax(a))
         notes.append(
             "pressure altitude converted with the ISA standard atmosphere (ISO 2533, ICAO Doc "
             f"7488), taken as MSL height: approximate (±{0.04 * top + 80:.0f} m at {top:.0f} m "

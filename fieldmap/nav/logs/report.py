@@ -21,7 +21,7 @@ import numpy as np
 from fieldmap.errors import Advice, Message, Metavar, Pass
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, geodetic_to_ecef
-from fieldmap.nav.logs.condition import GROUND_CHANNEL, SURFACE_WIND_MAX
+from fieldmap.nav.logs.vehicles import GROUND_CHANNEL, SURFACE_WIND_MAX
 from fieldmap.nav.trajectory import FlightSamples
 from fieldmap.units import STANDARD_GRAVITY as G0
 
@@ -61,8 +61,9 @@ class ConditionedFlight:
         ``velocity`` (the flown path against the log's velocities), ``options``, ``notes``.
     raw : dict
         The ordered raw samples (``t`` relative to ``samples.t_start``, ``lat``, ``lon``, ``h``,
-        ``lines``), each one's ``status`` (codes :data:`STATUS_NAMES`) and distances from the
-        flown path (``offset_h``, ``offset_v``, m) for :func:`plot_conditioning`.
+        ``lines``; ``h`` and ``offset_v`` NaN at a sample without a height of its own), each
+        one's ``status`` (codes :data:`STATUS_NAMES`) and distances from the flown path
+        (``offset_h``, ``offset_v``, m) for :func:`plot_conditioning`.
     conditioned : Conditioned
         The typed result the report is built from
         (:class:`~fieldmap.nav.logs.condition.Conditioned`).
@@ -469,11 +470,16 @@ def conditioned_flight(c: Any) -> ConditionedFlight:
         status[bad_h & bad_v] = OUTLIER_HV
     lo, hi = s.t_start, s.t_start + s.t[-1]
     status[(log.t < lo - 1e-9) | (log.t > hi + 1e-9)] = TRIMMED
+    h = log.h
+    if m is not None and m.index["height"].size < n:  # samples without a height of their own
+        h = np.full(n, np.nan)
+        h[m.index["height"]] = log.h[m.index["height"]]
+        off_v[np.isnan(h)] = np.nan
     raw = {
         "t": log.t - s.t_start,
         "lat": log.lat,
         "lon": log.lon,
-        "h": log.h,
+        "h": h,
         "lines": log.lines,
         "status": status,
         "offset_h": off_h,

@@ -81,6 +81,19 @@ from fieldmap.errors import InputError, Keyword
 from fieldmap.nav.logs.motion import VERTICAL_JERK_DOF, MotionModel
 from fieldmap.units import STANDARD_GRAVITY as G0
 
+#: the strongest surface wind (m/s) an aircraft takes off or lands in: 40 kt. An aircraft
+#: flies at an airspeed above its stall speed, so its ground speed is at least its stall
+#: speed less this: slower, it is on the ground
+#: (:func:`fieldmap.nav.logs.condition.ground_level`)
+SURFACE_WIND_MAX = 20.0
+#: the steepest slope of a runway or taxiway (rise over run): ICAO Annex 14 vol. I allows up
+#: to 2 % along a runway and 3 % along a taxiway; on the ground the height changes at most at
+#: this times the ground speed
+GROUND_SLOPE_MAX = 0.03
+#: the name of the ground's vertical rates among a conditioning's channels
+#: (:func:`fieldmap.nav.logs.condition.ground_level`)
+GROUND_CHANNEL = "level on the ground"
+
 
 @dataclass(frozen=True)
 class Vehicle:
