@@ -95,6 +95,27 @@ def test_the_landing_roll_and_taxi_stay_on_the_runway():
     assert any("15 rows of 0 read as no altitude" in n for n in cf.report["notes"])
 
 
+def test_surface_reports_are_on_the_ground_at_any_speed():
+    """``munich`` (a corpus piece, one row every 5 s) starts with 68 ADS-B surface reports.
+
+    Their altitude column holds 0 (no altitude); the taxi and the take-off roll, up to 105 kt,
+    are on the ground by the transponder's word. Flown level there, joined to the climb's
+    first altitudes; without the surface reports' word the taxi was the climb's prediction
+    backwards, 300 m below the runway at the log's start.
+    """
+    path = CORPUS / "calibration" / "munich.csv.gz"
+    _, cf = load_flight(path, height_ref="pressure")
+    log = read_track(path, height_ref="pressure", alt_units="ft")
+    assert log.surface_report is not None
+    start = np.flatnonzero(log.surface_report & (log.lines < 100))
+    assert start.size == 68
+    s = cf.samples
+    path_h = np.interp(log.t[start], s.t_start + s.t, s.h)
+    assert np.ptp(path_h) < 5.0, np.ptp(path_h)
+    first = np.flatnonzero(~log.no_height)[1]  # the climb's first altitude of its own
+    assert abs(path_h[-1] - log.h[first]) < 60.0
+
+
 def test_a_vehicle_slower_than_the_wind_has_no_ground():
     """Stall ≤ the wind: a glider, a helicopter or a car may be slow in flight or on the road."""
     for name in ("glider", "helicopter", "paraglider", "car"):

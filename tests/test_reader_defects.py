@@ -434,6 +434,8 @@ def test_adsb_altitude_of_zero_is_a_surface_report_without_one(tmp_path, text):
         np.testing.assert_array_equal(getattr(track, name), getattr(base, name))
     assert base.no_height is None
     np.testing.assert_array_equal(np.flatnonzero(track.no_height), rows)
+    np.testing.assert_array_equal(np.flatnonzero(track.surface_report), rows)
+    assert base.surface_report is None
     others = np.setdiff1d(np.arange(base.t.size), rows)
     np.testing.assert_allclose(track.h[others], base.h[others], rtol=0, atol=1e-6)
     # between the heights of the others: the first rows take the first height of its own
@@ -475,6 +477,8 @@ def test_adsb_rows_resampled_from_a_surface_report_have_no_height(tmp_path, text
     drawn = {k: float(a[5] * (t[k] - t[2]) / (t[5] - t[2])) for k in (3, 4)}
     track = read_track(write(tmp_path / "drawn.csv", table({0: 0.0, 1: 0.0, 2: 0.0, **drawn})))
     np.testing.assert_array_equal(np.flatnonzero(track.no_height), [0, 1, 2, 3, 4])
+    # on the ground by the transponder's word: the surface reports, not the rows drawn
+    np.testing.assert_array_equal(np.flatnonzero(track.surface_report), [0, 1, 2])
     assert "2 rows resampled between them" in noted(track, "surface reports")
     # the same rows 20 ft off the line: a climb of their own, heights kept
     off = {k: v + 20.0 for k, v in drawn.items()}

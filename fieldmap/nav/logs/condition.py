@@ -455,6 +455,8 @@ class Measurements:
     source: str = "flight"
     #: every ordered sample's time (s)
     t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the ordered samples that are surface reports: on the ground by the log's word (bool)
+    surface: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
 
 def height_quantum(h: np.ndarray, distance: np.ndarray | None = None) -> float:
@@ -603,6 +605,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         timing=True,
     )
     # the samples with a height of their own (a surface report's placeholder is none)
+    sr = getattr(track, "surface_report", None)
     blank = getattr(track, "no_height", None)
     hr = np.arange(n) if blank is None else np.flatnonzero(~np.asarray(blank)[log.index])
     hr = hr if hr.size >= MIN_POINTS else np.arange(n)
@@ -693,6 +696,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         tuple(notes),
         log.source,
         log.t,
+        np.zeros(n, bool) if sr is None else np.asarray(sr, bool)[log.index],
     )
 
 
@@ -1043,8 +1047,10 @@ def ground_level(
     constraint of the model, which no run of heights outweighs (a transponder's stale airborne
     altitudes while it taxis are then the heights' faults). The samples are every sample of
     the log, with a height of its own or not (a surface report has none: the reader's
-    :attr:`~fieldmap.nav.logs.read.RawTrack.no_height`). A vehicle that hovers or flies slower
-    than the wind (:math:`v_s \le W`) has none.
+    :attr:`~fieldmap.nav.logs.read.RawTrack.no_height`); an ADS-B surface report is on the
+    ground by the transponder's word, at any speed (the take-off roll;
+    :attr:`~fieldmap.nav.logs.read.RawTrack.surface_report`). A vehicle that hovers or flies
+    slower than the wind (:math:`v_s \le W`) has none.
     """
     slow = vehicle.stall - SURFACE_WIND_MAX
     if slow <= 0.0 or meas.t.size == 0:
@@ -1058,6 +1064,8 @@ def ground_level(
         nodes, where = np.unique(path.grid.locate(t[on])[0], return_inverse=True)
         sure = speed[on] + GROUND_SIGMAS * path.sigmas_at(nodes, 1)[where] < slow
         on = on[sure]
+    if meas.surface.any():  # on the ground by the transponder's word, however fast
+        on = np.union1d(on, np.flatnonzero(meas.surface))
     if on.size < MIN_POINTS:
         return None
     ch = Channel(

@@ -205,6 +205,9 @@ class RawTrack:
     #: the samples without a height of their own (a surface report's placeholder altitude):
     #: positions only, their ``h`` interpolated in time between the others' (bool), or None
     no_height: np.ndarray | None = None
+    #: the samples that are ADS-B surface reports: on the ground by the transponder's own
+    #: word (bool), or None
+    surface_report: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -249,8 +252,9 @@ class Parsed:
     #: pressure altitude made of a geometric one; ``"any"`` (a column mapping: ``height_ref``
     #: says what the mapped column is)
     declares: str = "datum"
-    #: height reference -> the rows whose altitude is a surface report's placeholder (read as
-    #: none: positions without a height; :func:`_surface_zeros`)
+    #: height reference -> per row, 1 where the altitude is a surface report's placeholder, 2
+    #: where it is resampled from one, 0 elsewhere (:func:`_surface_zeros`): positions without
+    #: a height
     surface: dict[str, np.ndarray] = field(default_factory=dict)
 
 
@@ -549,7 +553,7 @@ def _surface_zeros(
         if zero.any():
             line = _resampled_from(v, t, zero)
             v = np.where(zero | line, np.nan, v)
-            surface[r] = zero | line
+            surface[r] = np.where(zero, 1, np.where(line, 2, 0)).astype(np.int8)
             notes.append(
                 f"{name}: {_count(int(zero.sum()), 'row')} of 0 read as no altitude (ADS-B "
                 f"surface reports, which carry none; {_at(where, lines[zero])})"
@@ -745,8 +749,8 @@ def _finish(
             f"dropped {int((~timed).sum())} of {_count(timed.size, 'sample')} with an empty "
             f"{p.names[0]} ({_at(p.where, p.lines[~timed])})"
         )
-    surface = p.surface.get(ref if ref in p.alts else p.height_ref, np.zeros(p.t.size, bool))
-    located = np.isfinite(p.lat) & np.isfinite(p.lon) & (np.isfinite(alt) | surface)
+    code = p.surface.get(ref if ref in p.alts else p.height_ref, np.zeros(p.t.size, np.int8))
+    located = np.isfinite(p.lat) & np.isfinite(p.lon) & (np.isfinite(alt) | (code > 0))
     keep = timed & located
     if not (keep & np.isfinite(alt)).any():
         raise InputError(f"{p.source}: no sample has a latitude, longitude and {aname}")
@@ -758,6 +762,7 @@ def _finish(
         )
     t, lat, lon, a, lines = (x[keep] for x in (p.t, p.lat, p.lon, alt, p.lines))
     blank = ~np.isfinite(a)  # surface reports: positions without a height
+    on_ground = code[keep] == 1
     units = alt_units or p.alt_units
     if units == "ft":
         a = a * FT
@@ -823,6 +828,7 @@ def _finish(
         vel,
         p.category,
         blank if blank.any() else None,
+        on_ground if on_ground.any() else None,
     )
 
 
