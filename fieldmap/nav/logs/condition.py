@@ -715,12 +715,20 @@ class PathEstimate:
         Channel name -> (the Channel, its smoother, its position in that smoother's list).
     notes : tuple of str
         What was decided (velocities left out, ...).
+    index : dict
+        Channel name -> the ordered samples it is at, for the channels the model adds (the
+        ground's, :func:`ground_level`); the log's are in :attr:`Measurements.index`.
     """
 
     horizontal: SmoothedAxis
     vertical: SmoothedAxis
     channels: dict[str, tuple[Channel, SmoothedAxis, int]]
     notes: tuple[str, ...] = ()
+    index: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def samples_of(self, name: str, meas: Measurements) -> np.ndarray:
+        """Return the ordered samples channel ``name`` is at (the model's or the log's)."""
+        return self.index[name] if name in self.index else meas.index[name]
 
 
 def _first_scale(ch: Channel) -> float:
@@ -1008,12 +1016,13 @@ def estimate(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"
         )
+    added: dict[str, np.ndarray] = {}
     ground = ground_level(meas, hz, vehicle)
     if ground is not None and np.any(
         np.abs(vt.value_at(ground[0].t, 1)[:, 0])
         > GROUND_SIGMAS * GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
     ):
-        meas.index[ground[0].name] = ground[1]
+        added[ground[0].name] = ground[1]
         level = GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
         vchans, vfloors, vfix = vchans + [ground[0]], vfloors + [level], vfix + [level]
         vt = _on_ground(grid, vehicle, vt, vchans, vfloors, vfix, level)
@@ -1029,7 +1038,7 @@ def estimate(
                     "path moves on: copies of it (a value held or filled forward), not "
                     "measurements"
                 )
-    return PathEstimate(hz, vt, chans, tuple(notes))
+    return PathEstimate(hz, vt, chans, tuple(notes), added)
 
 
 def ground_level(
@@ -1502,7 +1511,7 @@ def _finish(
     rejected: dict[str, np.ndarray] = {}
     faults: list[flt.Fault] = []
     for name, (ch, axis, i) in est.channels.items():
-        idx = meas.index[name]
+        idx = est.samples_of(name, meas)
         tau = axis.tau[i] if axis.tau else np.zeros(ch.t.size)
         fit = axis.value_at(ch.t + tau, ch.order)  # at the re-timed times (time errors)
         res = np.linalg.norm(ch.y - fit, axis=1)

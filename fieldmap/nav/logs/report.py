@@ -279,7 +279,7 @@ def build_report(c: Any) -> dict[str, Any]:
     chans: dict[str, Any] = {}
     for name, (ch, axis, i) in est.channels.items():
         res, rej = c.residuals[name], c.rejected[name]
-        idx = m.index[name]
+        idx = est.samples_of(name, m)
         r_in, m_in, _ = _stats(res[~rej])
         r_all, m_all, j = _stats(res)
         per_axis = 1.0 / math.sqrt(ch.dof) if ch.dof == 2 else 1.0
