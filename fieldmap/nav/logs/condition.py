@@ -1018,12 +1018,11 @@ def estimate(
         )
     added: dict[str, np.ndarray] = {}
     ground = ground_level(meas, hz, vehicle)
+    level = GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)  # the ground's rate σ
     if ground is not None and np.any(
-        np.abs(vt.value_at(ground[0].t, 1)[:, 0])
-        > GROUND_SIGMAS * GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
+        np.abs(vt.value_at(ground[0].t, 1)[:, 0]) > GROUND_SIGMAS * level
     ):
         added[ground[0].name] = ground[1]
-        level = GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)
         vchans, vfloors, vfix = vchans + [ground[0]], vfloors + [level], vfix + [level]
         vt = _on_ground(grid, vehicle, vt, vchans, vfloors, vfix, level)
     chans: dict[str, tuple[Channel, SmoothedAxis, int]] = {}

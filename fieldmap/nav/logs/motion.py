@@ -441,10 +441,7 @@ class SmoothedAxis:
 
     def sigma_at(self, k: int, state: int = 0) -> float:
         """Posterior σ of state ``state`` (0 position) at node ``k`` (one banded solve)."""
-        e = np.zeros(NS * self.grid.n)
-        e[NS * k + state] = 1.0
-        z = _solve_factored(self.chol, self.dscale, e[:, None])[:, 0]
-        return float(math.sqrt(max(z[NS * k + state], 0.0)))
+        return float(self.sigmas_at(np.array([k]), state)[0])
 
 
 def _rows(delta: np.ndarray, order: int) -> np.ndarray:
