@@ -13,6 +13,10 @@ and still meets the fixes on both sides of the gap.
 A second log reports its ground speed only while it taxis at 10 m/s at each end; in between its
 positions fly at 100 m/s. The bound is no lower than the positions require, so the cruise is
 flown at the positions' speed, not held to the taxi's.
+
+A real glider log (``gliders/franconia``) reports 94 kt once among hundreds of reports below
+84 kt, at a stretch where fixes 14 s apart are 1.3 km apart: that one report does not set the
+bound, the log's robust top speed does.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from fieldmap.nav.logs import load_flight
 from fieldmap.nav.logs.condition import Conditioning
 
 sys.path.insert(0, str(Path(__file__).parent))
-from corpus_checks import path_kinematics  # noqa: E402
+from corpus_checks import path_kinematics, reported_max_ground_speed  # noqa: E402
 from log_tracks import local_to_lat_lon, write_traffic_csv  # noqa: E402
 
 KT = 1852.0 / 3600.0
@@ -103,3 +107,16 @@ def test_speeds_reported_on_the_ground_only_do_not_hold_the_cruise(tmp_path):
     assert 0.98 * V <= k.max_ground_speed_m_s <= 1.02 * V, k
     assert cf.report["model"]["horizontal"]["top_speed_m_s"] >= 0.95 * V
     assert cf.report["fit"]["residual_all_max_h_m"] < 10.0
+
+
+@pytest.mark.slow
+def test_one_fast_report_does_not_set_the_bound():
+    """Franconia's bound is its robust top speed, not its one report of 94 kt (48 m/s)."""
+    path = Path(__file__).parent / "data" / "corpus" / "gliders" / "franconia.csv.gz"
+    p995 = reported_max_ground_speed(path)
+    assert reported_max_ground_speed(path, q=100.0) == pytest.approx(94 * KT)
+    _, cf = load_flight(path, height_ref="pressure")
+    top = cf.report["model"]["horizontal"]["top_speed_m_s"]
+    assert top <= 1.01 * p995, (top, p995)
+    s = cf.samples
+    assert path_kinematics(s.t, s.lat, s.lon, s.h).max_ground_speed_m_s <= 1.05 * p995

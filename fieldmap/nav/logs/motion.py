@@ -104,7 +104,8 @@ mean of :math:`\pi` (Dempster, Laird & Rubin 1977). A fix is rejected when
 
 **Speed.** A vehicle flies no faster than it can; where a log reports its ground speed, the
 fastest speed that a measurement (a rate sample of weight over 1/2) and the path both say it
-flew (per sample the smaller of the two), and no less than its consecutive measured
+flew (per sample the smaller of the two) at all but 0.5 % of the samples (the log's robust
+top speed: one report does not set it), and no less than its consecutive measured
 positions require at all but 1 % of the steps (:meth:`AxisSmoother.top_speed`), is the
 envelope the path keeps within, :math:`|v_k| \le V` at every node (the surface point's
 velocity: its speed over the ground, all of it; a bound on its projection on the tangent plane
@@ -187,6 +188,9 @@ SPEED_STIFFNESS = (1.0, 1e2, 1e4)
 #: the percentile of the speeds consecutive measured positions require that the speed bound
 #: keeps above (a few steps across unrejected glitches do not set it)
 POSITION_SPEED_PERCENTILE = 99.0
+#: the percentile of the speeds that the log reports and the path flies (per sample the
+#: smaller) that sets the speed bound: the log's robust top speed, which no single report sets
+REPORTED_SPEED_PERCENTILE = 99.5
 #: the precision (in the logarithm) the noise scales are maximised to
 SCALE_XATOL = 0.05
 #: iterative refinement steps of each banded solve (:func:`_solve_refined`)
@@ -891,7 +895,11 @@ class AxisSmoother:
 
         Per rate sample that is a measurement (weight over 1/2), the smaller of its speed and
         the path's there: a reported speed the path does not follow (a noisy value), or a path
-        speed no sample reports (a swing into a gap), does not raise it. No less than the
+        speed no sample reports (a swing into a gap), does not raise it; and of those, the
+        :data:`REPORTED_SPEED_PERCENTILE`-th percentile, the log's robust top speed: a single
+        report that the path flies as fast (a glider's one report of 94 kt among hundreds
+        below 84, a tanker's one report of 110 m/s where fixes 100 s apart pull the path
+        along) does not set it. No less than the
         positions themselves require: two consecutive measured positions :math:`i, j`
         (re-timed) are flown at :math:`(|y_j - y_i| - 3\sqrt{2 d}\, s)/(t_j - t_i)` at least
         (their distance less three σ of its noise, ``d`` the positions' degrees of freedom),
@@ -903,7 +911,7 @@ class AxisSmoother:
         measurement, the :attr:`reported_speeds` (every one: none is judged by the fit) take
         their place; None without either.
         """
-        tops, least = [], 0.0
+        flown, least = [], 0.0
         for c, w, k, h, s, tau in zip(self.channels, weights, self.k, self.h, scales, self.tau):
             on = w > 0.5
             if c.order == 0 and np.sum(on) > 1:
@@ -918,12 +926,14 @@ class AxisSmoother:
             if c.order != 1 or not np.any(on):
                 continue
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
-            tops.append(float(np.max(np.minimum(np.linalg.norm(c.y, axis=1), path)[on])))
-        if not tops and self.reported_speeds is not None:
+            flown.append(np.minimum(np.linalg.norm(c.y, axis=1), path)[on])
+        if not flown and self.reported_speeds is not None:
             speed, k, h = self.reported_speeds
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
-            tops.append(float(np.max(np.minimum(speed, path))))
-        return max(max(tops), least) if tops else None
+            flown.append(np.minimum(speed, path))
+        if not flown:
+            return None
+        return max(float(np.percentile(np.concatenate(flown), REPORTED_SPEED_PERCENTILE)), least)
 
     def _speed_bounded(
         self, ab: np.ndarray, b: np.ndarray, x: np.ndarray, top: float
