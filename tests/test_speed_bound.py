@@ -14,9 +14,9 @@ A second log reports its ground speed only while it taxis at 10 m/s at each end;
 positions fly at 100 m/s. The bound is no lower than the positions require, so the cruise is
 flown at the positions' speed, not held to the taxi's.
 
-A real glider log (``gliders/franconia``) reports 94 kt once among hundreds of reports below
-84 kt, at a stretch where fixes 14 s apart are 1.3 km apart: that one report does not set the
-bound, the log's robust top speed does.
+A real glider log (``gliders/franconia``) reports up to 94 kt, and 99.5 % of its reports at
+most 84 kt; where fixes 14 s apart are 1.3 km apart, the path flew as fast as its fastest
+reports. Those few do not set the bound: the log's robust top speed does.
 """
 
 from __future__ import annotations

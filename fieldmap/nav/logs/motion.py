@@ -896,10 +896,10 @@ class AxisSmoother:
         Per rate sample that is a measurement (weight over 1/2), the smaller of its speed and
         the path's there: a reported speed the path does not follow (a noisy value), or a path
         speed no sample reports (a swing into a gap), does not raise it; and of those, the
-        :data:`REPORTED_SPEED_PERCENTILE`-th percentile, the log's robust top speed: a single
-        report that the path flies as fast (a glider's one report of 94 kt among hundreds
-        below 84, a tanker's one report of 110 m/s where fixes 100 s apart pull the path
-        along) does not set it. No less than the
+        :data:`REPORTED_SPEED_PERCENTILE`-th percentile, the log's robust top speed: the few
+        fastest reports that the path flies as fast do not set it (a glider's 13 reports of
+        85-94 kt of 2,697, 99.5 % at most 84 kt, while fixes 14 s apart 1.3 km apart pull the
+        path along; a tanker's one report of 110 m/s beside fixes 100 s apart). No less than the
         positions themselves require: two consecutive measured positions :math:`i, j`
         (re-timed) are flown at :math:`(|y_j - y_i| - 3\sqrt{2 d}\, s)/(t_j - t_i)` at least
         (their distance less three σ of its noise, ``d`` the positions' degrees of freedom),
