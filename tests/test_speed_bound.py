@@ -111,7 +111,7 @@ def test_speeds_reported_on_the_ground_only_do_not_hold_the_cruise(tmp_path):
 
 @pytest.mark.slow
 def test_one_fast_report_does_not_set_the_bound():
-    """Franconia's bound is its robust top speed, not its one report of 94 kt (48 m/s)."""
+    """Franconia's bound is its robust top speed, not its fastest report, 94 kt (48 m/s)."""
     path = Path(__file__).parent / "data" / "corpus" / "gliders" / "franconia.csv.gz"
     p995 = reported_max_ground_speed(path)
     assert reported_max_ground_speed(path, q=100.0) == pytest.approx(94 * KT)

@@ -891,7 +891,7 @@ class AxisSmoother:
     def top_speed(
         self, weights: list[np.ndarray], x: np.ndarray, scales: list[float]
     ) -> float | None:
-        r"""Return the fastest speed that the log and the path ``x`` both say was flown.
+        r"""Return the robust top speed that the log and the path ``x`` both say was flown.
 
         Per rate sample that is a measurement (weight over 1/2), the smaller of its speed and
         the path's there: a reported speed the path does not follow (a noisy value), or a path
