@@ -16,10 +16,6 @@ the repeats goes to zero there.
 
 The same log resampled to a clock with its rates interpolated between fixes: the values off
 the column's 64 ft/min steps are computed, not measured, and left out.
-
-A ground speed column that holds one stale value for the whole flight (``inflight_refuelling``
-holds 536 kt for its last hours while it flies at 410 kt) is one value, not a unit mistake: the
-log is flown at its positions' speed, not refused.
 """
 
 from __future__ import annotations
@@ -155,22 +151,3 @@ def test_vertical_rates_between_the_steps_are_no_measurements(tmp_path):
     # a column printed finer than the steps (every value off them): all kept
     rep = fly(vr + 0.37)
     assert rep["channels"]["vertical rate"]["samples"] == t.size
-
-
-def test_a_stale_ground_speed_is_no_unit_mistake(tmp_path):
-    """A ground speed held at 1.3 × the flight's for 15 minutes: flown, not refused."""
-    t = np.arange(0.0, 900.0 + 0.5, 1.0)
-    lat, _, _ = _truth(t)
-    stale = round(1.3 * SPEED / KT)
-    t0 = dt.datetime(2024, 5, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
-    rows = ["timestamp,icao24,callsign,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
-    for ti, la in zip(t, lat):
-        stamp = (t0 + dt.timedelta(seconds=float(ti))).strftime("%Y-%m-%dT%H:%M:%SZ")
-        rows.append(f"{stamp},abc123,TEST1,{la:.7f},8.0000000,33000,{stale},0,0")
-    path = tmp_path / "stale_speed.csv"
-    path.write_text("\n".join(rows) + "\n")
-    _, cf = load_flight(path, height_ref="pressure")
-    s = cf.samples
-    north = np.diff(s.lat) * np.pi / 180.0 * 6.37e6 / np.diff(s.t)
-    assert np.median(north) == pytest.approx(SPEED, rel=0.01)
-    assert cf.report["channels"]["velocity"]["copies"] >= 0.99 * t.size - 1

@@ -678,9 +678,7 @@ def test_isolated_spikes_are_no_unit_error(tmp_path, fl):
     steep = dict(
         spiky,
         H=np.minimum(500.0 + 100.0 * fl["t"], 8000.0),
-        # the reported rates scatter by 2 m/s as a sensor's do (a value repeated row after row
-        # is one value, not a factor: the conditioning counts the first of each run)
-        vertrate=np.where(fl["t"] < 75.0, 100.0 + 2.0 * np.sin(fl["t"]), 0.0),
+        vertrate=np.where(fl["t"] < 75.0, 100.0, 0.0),
     )
     steep["H"][[30, 32]] = [1150 * FT, 1700 * FT]
     steep["H"][[50, 51]] = 36_000 * FT

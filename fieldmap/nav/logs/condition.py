@@ -949,7 +949,6 @@ def estimate(
         k = _unit_factor(
             np.linalg.norm(velocities.y, axis=1),
             np.linalg.norm(alone.value_at(velocities.t, 1), axis=1),
-            velocities.held,
         )
         if k is not None:
             raise InputError(
@@ -999,9 +998,7 @@ def estimate(
     if meas.climbs is not None:
         # a constant factor between the log's vertical rates and its heights' is a unit mistake
         heights_alone = _smooth(grid, unbounded, True, vchans[:1], vfloors[:1], vfix[:1])
-        k = _unit_factor(
-            meas.climbs.y[:, 0], heights_alone.value_at(meas.climbs.t, 1)[:, 0], meas.climbs.held
-        )
+        k = _unit_factor(meas.climbs.y[:, 0], heights_alone.value_at(meas.climbs.t, 1)[:, 0])
         if k is not None:
             raise InputError(
                 f"{meas.source}: the log's vertical rates are {k:.3g} × the rate of its heights "
@@ -1126,22 +1123,14 @@ def track_faults(vel: Channel, path: SmoothedAxis) -> tuple[Channel, int]:
     return replace(vel, y=y), int(bad.size)
 
 
-def _unit_factor(
-    log_rate: np.ndarray, path_rate: np.ndarray, held: np.ndarray | None = None
-) -> float | None:
+def _unit_factor(log_rate: np.ndarray, path_rate: np.ndarray) -> float | None:
     """Return the constant factor between a log's rates and its path's, where there is one.
 
     Where the path moves (|rate| over :data:`UNIT_MIN_RATE`), the log's rates over the path's:
     their median k, and the spread of their logarithms (1.4826 × MAD). A factor is a unit
     (or column) mistake when k is off 1 by more than a quarter and the ratios agree on it
     within :data:`UNIT_SPREAD` (velocities stale or from another source scatter instead).
-    Only the first of each run of equal values counts (``held``: the samples that repeat the
-    one before): a value held for an hour against a path at a steady speed is one value, not
-    a factor (``inflight_refuelling``'s ground speed column holds 536 kt from 1 h 45 min to
-    its end, while it flies at 410 kt).
     """
-    if held is not None:
-        log_rate, path_rate = log_rate[~held], path_rate[~held]
     moving = (np.abs(path_rate) > UNIT_MIN_RATE) & (np.abs(log_rate) > UNIT_MIN_RATE)
     moving &= np.sign(log_rate) == np.sign(path_rate)
     if moving.sum() < 20 or moving.mean() < 0.5 * np.mean(np.abs(path_rate) > UNIT_MIN_RATE):
