@@ -68,7 +68,12 @@ def fly(piece: dict[str, str]) -> dict[str, Any]:
         }
     seconds = time.perf_counter() - t0
     rep = cf.report
-    chk = check_piece(path, cf.samples, sigma_h=max(rep["fit"]["sigma_v_m"], 1.0))
+    chk = check_piece(
+        path,
+        cf.samples,
+        sigma_h=max(rep["fit"]["sigma_v_m"], 1.0),
+        height_time_sigma=rep["fit"]["height_time_sigma_s"],
+    )
     reasons = chk.corpus_reasons(envelope=tuple(rep["vehicle"]["load_factor_g"]))
     heights = chk.heights_within < CORPUS_MIN_WITHIN
     verdict = "meets" if not reasons else "heights" if heights and len(reasons) == 1 else "other"
@@ -83,6 +88,7 @@ def fly(piece: dict[str, str]) -> dict[str, Any]:
         "specific_force_g": [chk.flown.specific_force_min_g, chk.flown.specific_force_max_g],
         "heights_within": chk.heights_within,
         "sigma_h_m": chk.sigma_h_m,
+        "height_time_sigma_s": chk.height_time_sigma_s,
         "horizontal_offset_median_m": chk.horizontal_offset_median_m,
         "horizontal_offset_p95_m": chk.horizontal_offset_p95_m,
         "position_sigma_m": rep["channels"]["position"]["noise_sigma"],

@@ -22,7 +22,11 @@ raw log only (nothing of the conditioning's own report is read):
 - the fraction of the log's span (first to last fix) that the flown path covers;
 - the fraction of the log's fixes (rows that :func:`~fieldmap.nav.logs.read.read_track` keeps)
   whose height is within ``k_sigma`` σ of the flown path's height at the fix's time (a fix
-  outside the flown span counts as not within), with the worst offset and its line;
+  outside the flown span counts as not within), with the worst offset and its line. The σ
+  of a fix is :math:`\sqrt{\sigma_h^2 + (\dot z\,\sigma_\tau)^2}`: the height's noise and,
+  where the fixes' time stamps err with σ :math:`\sigma_\tau` (the conditioning's estimate
+  from the positions' along-track residuals), the height the path climbs in that time
+  (:math:`\dot z` the flown path's vertical speed at the fix's time; 0 without time errors);
 - how far the flown path passes from the log's positions: the horizontal distance of each
   flown-past fix from the path at its time, its median and 95th percentile (not a check: a
   measure of where the path flies, for the benchmark and the notes).
@@ -130,6 +134,9 @@ class CorpusCheck:
         Fixes of the log (rows that ``read_track`` keeps).
     sigma_h_m, k_sigma : float
         The height σ given (m) and the multiple of it checked.
+    height_time_sigma_s : float
+        The σ of the fixes' time errors given (s; 0: none): a fix's σ is
+        √(σ_h² + (ż σ_τ)²) (the module docstring).
     heights_within : float
         Fraction of the fixes whose height is within ``k_sigma`` σ of the flown path.
     fixes_outside_flown : int
@@ -163,6 +170,7 @@ class CorpusCheck:
     worst_height_line: int
     horizontal_offset_median_m: float = float("nan")
     horizontal_offset_p95_m: float = float("nan")
+    height_time_sigma_s: float = 0.0
 
     def suspect(self, envelope: tuple[float, float] | None = SPECIFIC_FORCE_RANGE) -> list[str]:
         """Return the issue's reasons to call the flown path suspect (empty: clean).
@@ -210,10 +218,15 @@ class CorpusCheck:
             )
         why += self._force_and_span(envelope, CORPUS_MIN_FLOWN)
         if self.heights_within < CORPUS_MIN_WITHIN:
+            timed = (
+                f" and {self.height_time_sigma_s:.2f} s of time error"
+                if self.height_time_sigma_s > 0.0
+                else ""
+            )
             why.append(
                 f"{100 * self.heights_within:.1f} % of the heights within {self.k_sigma:g}σ "
-                f"({self.sigma_h_m:.1f} m; worst {self.worst_height_offset_m:.0f} m at line "
-                f"{self.worst_height_line})"
+                f"({self.sigma_h_m:.1f} m{timed}; worst {self.worst_height_offset_m:.0f} m at "
+                f"line {self.worst_height_line})"
             )
         return why
 
@@ -371,6 +384,7 @@ def check_piece(
     *,
     sigma_h: float,
     k_sigma: float = 3.0,
+    height_time_sigma: float = 0.0,
     height_ref: str = "pressure",
     ellipsoid: Ellipsoid = WGS84,
 ) -> CorpusCheck:
@@ -387,7 +401,11 @@ def check_piece(
     sigma_h : float
         The σ of a fix's height. Units: m.
     k_sigma : float
-        A fix is within when its offset is at most ``k_sigma * sigma_h``.
+        A fix is within when its offset is at most ``k_sigma`` times its σ,
+        ``sqrt(sigma_h**2 + (vz * height_time_sigma)**2)``.
+    height_time_sigma : float
+        The σ of the fixes' time errors (0: none; ``report["fit"]["height_time_sigma_s"]``),
+        with ``vz`` the flown path's vertical speed at the fix's time. Units: s.
     height_ref : str
         The log's height reference, as given to ``load_flight``.
     ellipsoid : Ellipsoid
@@ -426,9 +444,14 @@ def check_piece(
     if inside.any():
         sp = _spline(np.asarray(s.t, float), s.lat, s.lon, s.h, ellipsoid)
         r = sp(log.t[inside] - s.t_start)
-        _, _, h_path = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
+        la, lo, h_path = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
         off = np.abs(log.h[inside] - h_path)
-        ok[inside] = off <= k_sigma * sigma_h
+        sig = np.full(off.size, float(sigma_h))
+        if height_time_sigma > 0.0:
+            up = C_e_to_enu(la, lo)[:, 2, :]
+            vz = np.sum(sp(log.t[inside] - s.t_start, 1) * up, axis=1)
+            sig = np.sqrt(sig**2 + (vz * height_time_sigma) ** 2)
+        ok[inside] = off <= k_sigma * sig
         k = int(np.argmax(off))
         worst, worst_line = float(off[k]), int(log.lines[inside][k])
         horizontal = horizontal_offsets(r, h_path, log.lat[inside], log.lon[inside], ellipsoid)
@@ -447,6 +470,7 @@ def check_piece(
         fixes=int(has.sum()),
         sigma_h_m=float(sigma_h),
         k_sigma=float(k_sigma),
+        height_time_sigma_s=float(height_time_sigma),
         heights_within=float(ok[has].mean()) if has.any() else 0.0,
         fixes_outside_flown=int((~inside & has).sum()),
         worst_height_offset_m=worst,

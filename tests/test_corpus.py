@@ -62,7 +62,9 @@ def test_corpus_piece_flown_as_reported(piece):
     _, cf = load_flight(path, height_ref="pressure")
     rep = cf.report
     sigma = max(rep["fit"]["sigma_v_m"], 1.0)
-    chk = check_piece(path, cf.samples, sigma_h=sigma)
+    chk = check_piece(
+        path, cf.samples, sigma_h=sigma, height_time_sigma=rep["fit"]["height_time_sigma_s"]
+    )
     lo, hi = rep["vehicle"]["load_factor_g"]
     why = chk.corpus_reasons(envelope=(lo, hi))
     assert not why, f"{rep['vehicle']['class']}: " + "; ".join(why)

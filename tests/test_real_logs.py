@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from corpus_checks import check_piece
 
 from fieldmap.cli import main
 from fieldmap.errors import InputError
@@ -106,8 +107,12 @@ def airliner(duration=2100.0, dt=0.05):
     return t, lat, lon, h, vh, np.degrees(psi) % 360.0, vz, sf
 
 
-def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0):
-    """Write the airliner as a traffic-layout ADS-B log; return the truth (dense) and the path."""
+def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0, shared_stamp=False):
+    """Write the airliner as a traffic-layout ADS-B log; return the truth (dense) and the path.
+
+    ``shared_stamp``: the altitude is that of the position's time (one message, one stamp, one
+    time error); else of the row's own time (on a clock of its own).
+    """
     t_d, lat_d, lon_d, h_d, gs_d, trk_d, vz_d, sf = airliner()
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, t_d[-1] - 5.0, 1.0)
@@ -122,7 +127,7 @@ def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0):
     lat = np.interp(te, t_d, lat_d) + rng.normal(0.0, noise_m, n) / m_lat
     m_lon = m_lat * np.cos(np.radians(lat))
     lon = np.interp(te, t_d, lon_d) + rng.normal(0.0, noise_m, n) / m_lon
-    alt_ft = np.round(np.interp(t, t_d, h_d) / FT / 25.0) * 25.0
+    alt_ft = np.round(np.interp(te if shared_stamp else t, t_d, h_d) / FT / 25.0) * 25.0
     for i, km in ((150, 2.0), (151, 2.0), (1000, -1.5), (1600, 3.0)):  # position outliers
         lat[i] += km * 1e3 / m_lat
     for i, dft in ((400, 1000.0), (1100, -600.0), (1101, -600.0)):  # altitude spikes
@@ -216,6 +221,44 @@ def test_synthetic_adsb_velocities_and_time_errors_reported(synthetic):
     assert tm is not None and 0.25 < tm["sigma_s"] < 1.0  # 0.5 s injected
     text = cf.format_report()
     assert "flown − log's velocities" in text and "time errors of the fixes" in text
+
+
+def test_heights_stamped_with_their_fixes_time_carry_its_time_errors(tmp_path):
+    """Altitudes in the positions' messages: 0.5 s of time error is 4 m in an 8 m/s climb.
+
+    Each height's σ at its stamped time is √(s² + (ż σ_τ)²) with the positions' σ_τ: the
+    climbs' heights are within 3 of it (3 altitude spikes aside), and the path flies the
+    climb as the truth does, not the time errors' zig-zag.
+    """
+    path, truth = adsb_csv(tmp_path / "shared.csv", shared_stamp=True)
+    cf = condition(read_track(path, height_ref="ellipsoid"))
+    fit = cf.report["fit"]
+    assert 0.25 < fit["height_time_sigma_s"] < 1.0  # 0.5 s injected
+    chk = check_piece(
+        path,
+        cf.samples,
+        sigma_h=max(fit["sigma_v_m"], 1.0),
+        height_time_sigma=fit["height_time_sigma_s"],
+        height_ref="ellipsoid",
+    )
+    assert chk.heights_within >= 0.99
+    _, _, dv, _ = _errors(cf, truth)
+    assert np.sqrt(np.mean(dv**2)) < 5.0
+
+
+def test_heights_on_a_clock_of_their_own_carry_no_time_errors(synthetic):
+    """The positions late or early, the heights at their rows' times: s alone, within 3 s."""
+    tr, _, cf = synthetic
+    path = Path(tr.source)
+    fit = cf.report["fit"]
+    chk = check_piece(
+        path,
+        cf.samples,
+        sigma_h=max(fit["sigma_v_m"], 1.0),
+        height_time_sigma=fit["height_time_sigma_s"],
+        height_ref="ellipsoid",
+    )
+    assert chk.heights_within >= 0.99
 
 
 def _contradicting(tmp_path: Path, scale: float, rotate: float) -> Path:

@@ -44,7 +44,9 @@ likelihood, with :math:`q` bounded by the vehicle class
    velocities) they are left out and the report says so. The height's EM runs from two
    starts, the annealed one and the Huber M-estimate, compared at one set of noise levels
    by the mixture's likelihood (:func:`_height`): a long run of wrong altitudes cannot hold
-   the path where the EM's first start put it. An aircraft slower than its stall speed less
+   the path where the EM's first start put it. Where the positions show time errors, the
+   heights in their rows carry them too, in proportion to the climb (motion module
+   docstring, "Time errors"). An aircraft slower than its stall speed less
    the strongest surface wind is on the ground: there its vertical rate is 0 within a
    runway's slope, a constraint no run of heights outweighs (:func:`ground_level`,
    :func:`_on_ground`: a transponder's stale airborne altitudes while it taxis are faults).
@@ -1016,6 +1018,17 @@ def estimate(
             f"the log's vertical rates contradict its heights ({share:.0f} % of them off the "
             "shared path): not used"
         )
+    timing = hz.sigma_tau[0] if hz.sigma_tau else 0.0
+    if timing > 0.0:
+        # a height is stamped with its row's time: the fixes' time errors move it along the
+        # climb (motion module docstring, "Time errors"), at the path's vertical speed: E-steps
+        # from the solution without them, at its noise levels (the same docstring)
+        # only a row whose position is a fix has its time error (a repeated or interpolated
+        # position, a row sent again, has none that the positions measure)
+        fix = np.isin(meas.index["height"], meas.index["position"])
+        vz = np.where(fix, vt.value_at(meas.heights.t, 1)[:, 0], 0.0)
+        vchans[0] = replace(meas.heights, time_variance=(vz * timing) ** 2)
+        vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix, noise_of=vt, start=vt)
     added: dict[str, np.ndarray] = {}
     ground = ground_level(meas, hz, vehicle)
     level = GROUND_SLOPE_MAX * (vehicle.stall - SURFACE_WIND_MAX)  # the ground's rate σ

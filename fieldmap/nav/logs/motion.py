@@ -87,14 +87,42 @@ two minutes while the heights level off) is explained as copies, not as a path t
 it; where the values are fresh (a rate held at zero in level flight, resolved within a
 quarter of the noise), :math:`N c > 1` and :math:`\eta` goes to zero.
 
+**Time errors.** A position stamped when its message was received or relayed, not when it
+was fixed, lies along the track by its time error: fix :math:`i` measures
+:math:`p(t_i + \tau_i)`, :math:`\tau_i \sim N(0, \sigma_\tau^2)`. The positions'
+:math:`\sigma_\tau` is the along-track spread of their residuals beyond the across-track one,
+and each fix is re-timed by its posterior mean (:meth:`AxisSmoother.retime`). A height in the
+same row carries the same stamp: at its stamped time it is off by :math:`\dot z_i \tau_i`, so
+its noise variance is
+
+.. math::
+
+    \sigma_i^2 = s^2\rho_i^2 + (\dot z_i\,\sigma_\tau)^2,
+
+:math:`\dot z_i` the path's vertical speed there (from a solve without the term) and
+:math:`\sigma_\tau` the positions' (:attr:`Channel.time_variance`), on the rows whose position
+is a fix (a repeated or interpolated position, a row sent again, has no time error that the
+positions measure: its height keeps :math:`s\rho_i`). In level flight nothing
+changes; in a climb at 15 m/s, time errors of 0.5 s are 7.5 m of noise: not faults, and not a
+zig-zag for the path to fly. A log whose positions show no time errors (a GNSS logger's)
+keeps :math:`\sigma_i = s\rho_i`. The term enters as E-steps from the solution without it, at
+its noise levels (:math:`q`, :math:`s`, the steps' :math:`\lambda`) and from its weights. Not
+re-estimated: with the term, :math:`s` is identified by the level stretches alone, where an
+altitude held at one printed value has the same rounding error at every sample, which the
+model (independent errors) reads as none: its estimate falls to its floor (``vancouver``:
+2.3 m → 1 cm, every level fix then a fault). Not started again either: a fresh start may
+settle in another mode of the mixture (``noisy_time_issue``'s replayed climb, flown at 40 m/s
+instead of rejected).
+
 **Smoother.** The smoothed path minimises
 
 .. math::
 
     J(x) = \sum_k \lambda_k (x_{k+1} - F x_k)^\top Q^{-1} (x_{k+1} - F x_k)
-         + \sum_i \frac{w_i}{s^2 \rho_i^2} (y_i - h_i^\top x_{k(i)})^2,
+         + \sum_i \frac{w_i}{\sigma_i^2} (y_i - h_i^\top x_{k(i)})^2,
 
-whose normal equations :math:`A x = b` are block tridiagonal (banded, 5 off-diagonals): one
+(:math:`\sigma_i^2 = s^2\rho_i^2`, with the time errors' term where a channel has one) whose
+normal equations :math:`A x = b` are block tridiagonal (banded, 5 off-diagonals): one
 banded Cholesky solve gives the Rauch–Tung–Striebel smoother's mean (Rauch, Tung & Striebel
 1965; the equivalence: Bell 1994). The weights are the EM expectation of the mixture: with
 :math:`\pi_i` the posterior probability that fix :math:`i` is a fault,
@@ -132,7 +160,7 @@ of the data (diffuse initial state),
 .. math::
 
     -2\log L = J(\hat x) + d\,\log\det A - d\sum_k \log\det(\lambda_k Q^{-1})
-             + \sum_i w_i\,d_i \log(s^2 \rho_i^2) + \mathrm{const},
+             + \sum_i w_i\,d_i \log \sigma_i^2 + \mathrm{const},
 
 (:math:`d` axes sharing one :math:`A`, :math:`d_i` the measured degrees of freedom of fix
 :math:`i`, :math:`Q^{-1}` of step :math:`k` weighted by :math:`\lambda_k`), with
@@ -326,6 +354,10 @@ class Channel:
     cell : float
         The size of one printed value (the channel's resolution to the power ``dof``), in the
         units of ``y`` to the power ``dof``.
+    time_variance : numpy.ndarray, optional
+        The variance each sample's time error adds at its stamped time (module docstring,
+        "Time errors"), (m,), in the units of ``y`` squared: known, not scaled by ``s``. None:
+        none.
     """
 
     t: np.ndarray
@@ -338,6 +370,12 @@ class Channel:
     timing: bool = False
     held: np.ndarray | None = None
     cell: float = 0.0
+    time_variance: np.ndarray | None = None
+
+    def variance(self, s: float) -> np.ndarray:
+        """Each sample's noise variance at the scale ``s`` (module docstring), (m,)."""
+        var = (s * self.rho) ** 2
+        return var if self.time_variance is None else var + self.time_variance
 
 
 @dataclass
@@ -730,7 +768,7 @@ class AxisSmoother:
             if sig2 == 0.0:
                 self.tau[i] = np.zeros(c.t.size)
             else:
-                s2 = (scales[i] * c.rho) ** 2
+                s2 = c.variance(scales[i])
                 self.tau[i] = np.sum(vel * r, axis=1) / (v2 + s2 / sig2)
             self._locate(i)
 
@@ -757,29 +795,37 @@ class AxisSmoother:
                 ab[BAND + r - c, c] += P0[r, c]
         return ab, logdet1 - (self.grid.n - 1) * NS * math.log(q), P1 / q, F
 
-    def measurements(self, weights: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Each channel's part of the normal equations at unit scale: (banded matrix, rhs)."""
+    def measurements(self, weights: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray] | None]:
+        """Each channel's part of the normal equations at unit scale: (banded matrix, rhs).
+
+        A channel with a time errors' variance has none at unit scale (its variance is not
+        the scale's square times a constant): :meth:`solve` builds its part at its scale.
+        """
+        return [
+            self._part(i, w / c.rho**2) if c.time_variance is None else None
+            for i, (c, w) in enumerate(zip(self.channels, weights))
+        ]
+
+    def _part(self, i: int, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Channel ``i``'s part of the normal equations with the samples' weights ``wi``."""
         n, d = self.grid.n, self.d
-        out = []
-        for c, k, h, w in zip(self.channels, self.k, self.h, weights):
-            wi = w / c.rho**2
-            ab = np.zeros((BAND + 1, NS * n))
-            b = np.zeros((NS * n, d))
-            yd = c.y - _apply(h, self.x_ref[k])  # the values' departure from the reference
-            for r in range(NS):
-                for cc in range(r, NS):
-                    ab[BAND + r - cc, cc::NS] = np.bincount(k, wi * h[:, r] * h[:, cc], minlength=n)
-                for j in range(d):
-                    b[r::NS, j] = np.bincount(k, wi * h[:, r] * yd[:, j], minlength=n)
-            out.append((ab, b))
-        return out
+        c, k, h = self.channels[i], self.k[i], self.h[i]
+        ab = np.zeros((BAND + 1, NS * n))
+        b = np.zeros((NS * n, d))
+        yd = c.y - _apply(h, self.x_ref[k])  # the values' departure from the reference
+        for r in range(NS):
+            for cc in range(r, NS):
+                ab[BAND + r - cc, cc::NS] = np.bincount(k, wi * h[:, r] * h[:, cc], minlength=n)
+            for j in range(d):
+                b[r::NS, j] = np.bincount(k, wi * h[:, r] * yd[:, j], minlength=n)
+        return ab, b
 
     def solve(
         self,
         q: float,
         scales: list[float],
         weights: list[np.ndarray],
-        parts: list[tuple[np.ndarray, np.ndarray]] | None = None,
+        parts: list[tuple[np.ndarray, np.ndarray] | None] | None = None,
         bounded: bool = True,
         speed: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -806,10 +852,15 @@ class AxisSmoother:
             bb = b.reshape(n, NS, d)
             bb[1:] += Pf
             bb[:-1] -= FtPf
-        for c, w, s, (abc, bc) in zip(self.channels, weights, scales, parts):
-            ab += abc / s**2
-            b += bc / s**2
-            norm += float(np.sum(w * c.dof * np.log((s * c.rho) ** 2)))
+        for i, (c, w, s, part) in enumerate(zip(self.channels, weights, scales, parts)):
+            if part is None:  # a time errors' variance: the part at this scale
+                abc, bc = self._part(i, w / c.variance(s))
+                ab += abc
+                b += bc
+            else:
+                ab += part[0] / s**2
+                b += part[1] / s**2
+            norm += float(np.sum(w * c.dof * np.log(c.variance(s))))
         cb, dscale = _factor(ab)
         logdetA = 2.0 * float(np.sum(np.log(cb[BAND]))) - 2.0 * float(np.sum(np.log(dscale)))
         dx = _solve_refined(ab, (cb, dscale), b).reshape(n, NS, d)
@@ -844,7 +895,7 @@ class AxisSmoother:
         self._last_unmeasured = J + d * logdetA - d * logdetP - d * logdetP0
         for c, k, h, w, s in zip(self.channels, self.k, self.h, weights, scales):
             r = c.y - _apply(h, x[k])
-            J += float(np.sum(w / (s * c.rho) ** 2 * np.sum(r * r, axis=1)))
+            J += float(np.sum(w / c.variance(s) * np.sum(r * r, axis=1)))
         neg2 = J + d * logdetA - d * logdetP - d * logdetP0 + norm
         return x, cb, neg2
 
@@ -1083,7 +1134,7 @@ class AxisSmoother:
             self.channels, self.k, self.h, scales, rates, self.held_rates
         ):
             r = c.y - _apply(h, x[k])
-            var = (s * c.rho) ** 2
+            var = c.variance(s)
             z2 = np.sum(r * r, axis=1) / var
             # log of the inlier density (dof-dimensional isotropic Gaussian)
             log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
@@ -1122,7 +1173,7 @@ class AxisSmoother:
             new = []
             for c, k, h, s in zip(self.channels, self.k, self.h, scales):
                 r = c.y - _apply(h, x[k])
-                z = np.sqrt(np.sum(r * r, axis=1)) / (s * c.rho)
+                z = np.sqrt(np.sum(r * r, axis=1) / c.variance(s))
                 new.append(np.minimum(1.0, HUBER_K / np.maximum(z, 1e-300)))
             weights = new
         return weights
