@@ -107,11 +107,14 @@ def airliner(duration=2100.0, dt=0.05):
     return t, lat, lon, h, vh, np.degrees(psi) % 360.0, vz, sf
 
 
-def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0, shared_stamp=False):
+def adsb_csv(
+    path: Path, seed=7, jitter_s=0.5, noise_m=5.0, shared_stamp=False, height_jitter_s=0.0
+):
     """Write the airliner as a traffic-layout ADS-B log; return the truth (dense) and the path.
 
     ``shared_stamp``: the altitude is that of the position's time (one message, one stamp, one
-    time error); else of the row's own time (on a clock of its own).
+    time error); else of the row's own time (on a clock of its own), late or early by a
+    random time of σ ``height_jitter_s`` of its own.
     """
     t_d, lat_d, lon_d, h_d, gs_d, trk_d, vz_d, sf = airliner()
     rng = np.random.default_rng(seed)
@@ -127,7 +130,10 @@ def adsb_csv(path: Path, seed=7, jitter_s=0.5, noise_m=5.0, shared_stamp=False):
     lat = np.interp(te, t_d, lat_d) + rng.normal(0.0, noise_m, n) / m_lat
     m_lon = m_lat * np.cos(np.radians(lat))
     lon = np.interp(te, t_d, lon_d) + rng.normal(0.0, noise_m, n) / m_lon
-    alt_ft = np.round(np.interp(te if shared_stamp else t, t_d, h_d) / FT / 25.0) * 25.0
+    t_alt = te if shared_stamp else t
+    if height_jitter_s > 0.0:
+        t_alt = np.clip(t + rng.normal(0.0, height_jitter_s, n), 0.0, t_d[-1])
+    alt_ft = np.round(np.interp(t_alt, t_d, h_d) / FT / 25.0) * 25.0
     for i, km in ((150, 2.0), (151, 2.0), (1000, -1.5), (1600, 3.0)):  # position outliers
         lat[i] += km * 1e3 / m_lat
     for i, dft in ((400, 1000.0), (1100, -600.0), (1101, -600.0)):  # altitude spikes
@@ -246,8 +252,8 @@ def test_heights_stamped_with_their_fixes_time_carry_its_time_errors(tmp_path):
     assert np.sqrt(np.mean(dv**2)) < 5.0
 
 
-def test_heights_on_a_clock_of_their_own_carry_no_time_errors(synthetic):
-    """The positions late or early, the heights at their rows' times: s alone, within 3 s."""
+def test_heights_on_a_clock_of_their_own_within_their_sigma(synthetic):
+    """The positions late or early, the heights on their rows' clock: within 3σ as given."""
     tr, _, cf = synthetic
     path = Path(tr.source)
     fit = cf.report["fit"]
@@ -259,6 +265,29 @@ def test_heights_on_a_clock_of_their_own_carry_no_time_errors(synthetic):
         height_ref="ellipsoid",
     )
     assert chk.heights_within >= 0.99
+
+
+def test_heights_with_time_errors_of_their_own_carry_them(tmp_path):
+    """Altitudes late or early by 1 s (σ) of their own, the positions by 0.1 s.
+
+    The heights' σ_τ exceeds the positions' (their own residuals in the climbs say so, by the
+    mixture's likelihood), and the climbs' heights are within 3 of their σ.
+    """
+    path, truth = adsb_csv(tmp_path / "own.csv", jitter_s=0.1, height_jitter_s=1.0)
+    cf = condition(read_track(path, height_ref="ellipsoid"))
+    fit = cf.report["fit"]
+    positions = cf.report["timing"]["sigma_s"] if cf.report["timing"] else 0.0
+    assert 0.5 < fit["height_time_sigma_s"] < 2.0 and fit["height_time_sigma_s"] > positions
+    chk = check_piece(
+        path,
+        cf.samples,
+        sigma_h=max(fit["sigma_v_m"], 1.0),
+        height_time_sigma=fit["height_time_sigma_s"],
+        height_ref="ellipsoid",
+    )
+    assert chk.heights_within >= 0.99
+    _, _, dv, _ = _errors(cf, truth)
+    assert np.sqrt(np.mean(dv**2)) < 5.0
 
 
 def _contradicting(tmp_path: Path, scale: float, rotate: float) -> Path:

@@ -77,6 +77,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 from scipy.stats import binom
 from threadpoolctl import threadpool_limits
 
@@ -84,7 +85,7 @@ import fieldmap.nav.logs.faults as flt
 from fieldmap.errors import Advice, InputError, Keyword, Label, Message, Pass, Setting
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.logs.motion import AxisSmoother, Channel, Grid, SmoothedAxis
+from fieldmap.nav.logs.motion import TIMING_MAX_S, AxisSmoother, Channel, Grid, SmoothedAxis
 from fieldmap.nav.logs.vehicles import (
     GROUND_CHANNEL,
     GROUND_SLOPE_MAX,
@@ -135,6 +136,9 @@ ESTIMATE_DT_S = 5.0
 UNIT_SPREAD = 0.15
 #: the rate (m/s) both must exceed for their ratio to count
 UNIT_MIN_RATE = 2.0
+#: the heights' time errors are taken where they lower -2 log L by more than this (one
+#: parameter: 3 standard errors' worth, chi-square of one degree of freedom at 9)
+TIME_ERROR_EVIDENCE = 9.0
 #: the positions' σ starts this many times its robust first guess where rates are measured
 ANNEAL = 30.0
 #: the height's second start is kept when its -2 log L is smaller than the first's by more
@@ -720,6 +724,8 @@ class PathEstimate:
     index : dict
         Channel name -> the ordered samples it is at, for the channels the model adds (the
         ground's, :func:`ground_level`); the log's are in :attr:`Measurements.index`.
+    height_time_sigma_s : float
+        The σ of the heights' time errors (s; 0: none), motion module docstring, "Time errors".
     """
 
     horizontal: SmoothedAxis
@@ -727,6 +733,7 @@ class PathEstimate:
     channels: dict[str, tuple[Channel, SmoothedAxis, int]]
     notes: tuple[str, ...] = ()
     index: dict[str, np.ndarray] = field(default_factory=dict)
+    height_time_sigma_s: float = 0.0
 
     def samples_of(self, name: str, meas: Measurements) -> np.ndarray:
         """Return the ordered samples channel ``name`` is at (the model's or the log's)."""
@@ -1019,13 +1026,14 @@ def estimate(
             "shared path): not used"
         )
     timing = hz.sigma_tau[0] if hz.sigma_tau else 0.0
+    # only a row whose position is a fix has its time error (a repeated or interpolated
+    # position, a row sent again, has none that the positions measure)
+    fix = np.isin(meas.index["height"], meas.index["position"])
+    timing = _height_time_sigma(vt, vchans[0], fix, timing)
     if timing > 0.0:
-        # a height is stamped with its row's time: the fixes' time errors move it along the
-        # climb (motion module docstring, "Time errors"), at the path's vertical speed: E-steps
+        # a height is stamped with its row's time: its time errors move it along the climb
+        # (motion module docstring, "Time errors"), at the path's vertical speed: E-steps
         # from the solution without them, at its noise levels (the same docstring)
-        # only a row whose position is a fix has its time error (a repeated or interpolated
-        # position, a row sent again, has none that the positions measure)
-        fix = np.isin(meas.index["height"], meas.index["position"])
         vz = np.where(fix, vt.value_at(meas.heights.t, 1)[:, 0], 0.0)
         vchans[0] = replace(meas.heights, time_variance=(vz * timing) ** 2)
         vt = _smooth(grid, vehicle, True, vchans, vfloors, vfix, noise_of=vt, start=vt)
@@ -1050,7 +1058,47 @@ def estimate(
                     "path moves on: copies of it (a value held or filled forward), not "
                     "measurements"
                 )
-    return PathEstimate(hz, vt, chans, tuple(notes), added)
+    return PathEstimate(hz, vt, chans, tuple(notes), added, timing)
+
+
+def _height_time_sigma(vt: SmoothedAxis, heights: Channel, fix: np.ndarray, shared: float) -> float:
+    r"""Return the σ of the heights' time errors (s): the fixes' or, with evidence, more.
+
+    A height stamped :math:`\tau` late or early is off the path by :math:`\dot z\,\tau`: its
+    inlier density is :math:`N(r_i; 0, s^2 + \dot z_i^2\sigma_\tau^2)` in the heights'
+    mixture (fault, inlier, copy: motion module docstring) at the path, noise scale and shares
+    of the solution ``vt`` without the term (:math:`\dot z_i = 0` where ``fix`` is False: a row
+    whose position is no fix). A height in a fix's row has at least that fix's time error
+    (one message, one stamp): ``shared``, the positions' :math:`\sigma_\tau`. An altitude
+    updated less often than its rows (held for a second or two in a climb) is older than its
+    stamp by more: :math:`\sigma_\tau` maximises the likelihood over
+    [``shared``, :data:`~fieldmap.nav.logs.motion.TIMING_MAX_S`], and is taken where it beats
+    ``shared`` by more than :data:`TIME_ERROR_EVIDENCE` in :math:`-2\log L` (else ``shared``).
+    """
+    r = heights.y[:, 0] - vt.value_at(heights.t)[:, 0]
+    vz2 = np.where(fix, vt.value_at(heights.t, 1)[:, 0], 0.0) ** 2
+    s2 = vt.scales[0] ** 2
+    eps, eta = vt.fault_rate[0], vt.held_rate[0]
+    log_fault = math.log(eps * heights.fault_density) if heights.fault_density > 0 else -np.inf
+    held = heights.held if heights.held is not None and eta > 0.0 else np.zeros(r.size, bool)
+    log_fresh0 = math.log1p(-eps) + np.where(held, math.log1p(-eta) if eta < 1 else -np.inf, 0.0)
+    log_copy = np.where(
+        held,
+        math.log1p(-eps) + math.log(max(eta, 1e-300)) - math.log(max(heights.cell, 1e-300)),
+        -np.inf,
+    )
+
+    def neg2(sig: float) -> float:
+        var = s2 + vz2 * sig * sig
+        log_in = log_fresh0 - 0.5 * r * r / var - 0.5 * np.log(2.0 * np.pi * var)
+        m = np.maximum(np.maximum(log_in, log_copy), log_fault)
+        tot = np.exp(log_in - m) + np.exp(log_copy - m) + np.exp(log_fault - m)
+        return -2.0 * float(np.sum(m + np.log(tot)))
+
+    if shared >= TIMING_MAX_S or r.size < 10:
+        return shared
+    best = minimize_scalar(neg2, bounds=(shared, TIMING_MAX_S), method="bounded")
+    return float(best.x) if neg2(shared) - float(best.fun) > TIME_ERROR_EVIDENCE else shared
 
 
 def ground_level(

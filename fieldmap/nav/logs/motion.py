@@ -99,20 +99,23 @@ its noise variance is
 
     \sigma_i^2 = s^2\rho_i^2 + (\dot z_i\,\sigma_\tau)^2,
 
-:math:`\dot z_i` the path's vertical speed there (from a solve without the term) and
-:math:`\sigma_\tau` the positions' (:attr:`Channel.time_variance`), on the rows whose position
-is a fix (a repeated or interpolated position, a row sent again, has no time error that the
-positions measure: its height keeps :math:`s\rho_i`). In level flight nothing
-changes; in a climb at 15 m/s, time errors of 0.5 s are 7.5 m of noise: not faults, and not a
-zig-zag for the path to fly. A log whose positions show no time errors (a GNSS logger's)
-keeps :math:`\sigma_i = s\rho_i`. The term enters as E-steps from the solution without it, at
-its noise levels (:math:`q`, :math:`s`, the steps' :math:`\lambda`) and from its weights. Not
-re-estimated: with the term, :math:`s` is identified by the level stretches alone, where an
-altitude held at one printed value has the same rounding error at every sample, which the
-model (independent errors) reads as none: its estimate falls to its floor (``vancouver``:
-2.3 m → 1 cm, every level fix then a fault). Not started again either: a fresh start may
-settle in another mode of the mixture (``noisy_time_issue``'s replayed climb, flown at 40 m/s
-instead of rejected).
+:math:`\dot z_i` the path's vertical speed there (from a solve without the term,
+:attr:`Channel.time_variance`), on the rows whose position is a fix (a repeated or
+interpolated position, a row sent again, has no time error that the positions measure: its
+height keeps :math:`s\rho_i`). The heights' :math:`\sigma_\tau` is at least the positions'
+(one message, one stamp); an altitude updated less often than its rows (held a second or two
+in a climb) is older than its stamp by more, and a larger :math:`\sigma_\tau` is taken where
+the heights' own mixture likelihood says so (:func:`fieldmap.nav.logs.condition.estimate`).
+In level flight nothing changes; in a climb at 15 m/s, time errors of 0.5 s are 7.5 m of
+noise: not faults, and not a zig-zag for the path to fly. A GNSS logger's positions and
+heights show none, and keep :math:`\sigma_i = s\rho_i`. The term enters as E-steps from the
+solution without it, at its noise levels (:math:`q`, :math:`s`, the steps' :math:`\lambda`)
+and from its weights. Not re-estimated: with the term, :math:`s` is identified by the level
+stretches alone, where an altitude held at one printed value has the same rounding error at
+every sample, which the model (independent errors) reads as none: its estimate falls to its
+floor (``vancouver``: 2.3 m → 1 cm, every level fix then a fault). Not started again either:
+a fresh start may settle in another mode of the mixture (``noisy_time_issue``'s replayed
+climb, flown at 40 m/s instead of rejected).
 
 **Smoother.** The smoothed path minimises
 

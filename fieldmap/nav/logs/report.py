@@ -300,7 +300,6 @@ def build_report(c: Any) -> dict[str, Any]:
         sig[name] = float(axis.scales[i])
     hz, vt = est.horizontal, est.vertical
     pos, hgt = chans["position"], chans["height"]
-    chans_i = {name: i for name, (_, _, i) in est.channels.items()}
     report["model"] = {
         "horizontal": {
             "jerk_intensity_m2_s5": hz.q,
@@ -326,11 +325,7 @@ def build_report(c: Any) -> dict[str, Any]:
         "sigma_v_m": sig["height"],
         # the σ of the time errors a height carries from its row's stamp (0: none; motion
         # module docstring, "Time errors"): its σ at the stamped time is √(s² + (ż σ_τ)²)
-        "height_time_sigma_s": (
-            float(hz.sigma_tau[chans_i["position"]])
-            if est.channels["height"][0].time_variance is not None
-            else 0.0
-        ),
+        "height_time_sigma_s": est.height_time_sigma_s,
         "sigma_estimated": c.options.noise_m() is None,
         "height_quantum_m": float(m.height_quantum),
         "residual_rms_h_m": pos["residual_rms"],
