@@ -229,6 +229,18 @@ def test_synthetic_adsb_velocities_and_time_errors_reported(synthetic):
     assert "flown − log's velocities" in text and "time errors of the fixes" in text
 
 
+def _heights_within_their_sigma(path: Path, cf) -> float:
+    """Return the fraction of the log's heights within 3 of the σ the fit gives each."""
+    fit = cf.report["fit"]
+    return check_piece(
+        path,
+        cf.samples,
+        sigma_h=max(fit["sigma_v_m"], 1.0),
+        height_time_sigma=fit["height_time_sigma_s"],
+        height_ref="ellipsoid",
+    ).heights_within
+
+
 def test_heights_stamped_with_their_fixes_time_carry_its_time_errors(tmp_path):
     """Altitudes in the positions' messages: 0.5 s of time error is 4 m in an 8 m/s climb.
 
@@ -240,14 +252,7 @@ def test_heights_stamped_with_their_fixes_time_carry_its_time_errors(tmp_path):
     cf = condition(read_track(path, height_ref="ellipsoid"))
     fit = cf.report["fit"]
     assert 0.25 < fit["height_time_sigma_s"] < 1.0  # 0.5 s injected
-    chk = check_piece(
-        path,
-        cf.samples,
-        sigma_h=max(fit["sigma_v_m"], 1.0),
-        height_time_sigma=fit["height_time_sigma_s"],
-        height_ref="ellipsoid",
-    )
-    assert chk.heights_within >= 0.99
+    assert _heights_within_their_sigma(path, cf) >= 0.99
     _, _, dv, _ = _errors(cf, truth)
     assert np.sqrt(np.mean(dv**2)) < 5.0
 
@@ -255,16 +260,7 @@ def test_heights_stamped_with_their_fixes_time_carry_its_time_errors(tmp_path):
 def test_heights_on_a_clock_of_their_own_within_their_sigma(synthetic):
     """The positions late or early, the heights on their rows' clock: within 3σ as given."""
     tr, _, cf = synthetic
-    path = Path(tr.source)
-    fit = cf.report["fit"]
-    chk = check_piece(
-        path,
-        cf.samples,
-        sigma_h=max(fit["sigma_v_m"], 1.0),
-        height_time_sigma=fit["height_time_sigma_s"],
-        height_ref="ellipsoid",
-    )
-    assert chk.heights_within >= 0.99
+    assert _heights_within_their_sigma(Path(tr.source), cf) >= 0.99
 
 
 def test_heights_with_time_errors_of_their_own_carry_them(tmp_path):
@@ -278,14 +274,7 @@ def test_heights_with_time_errors_of_their_own_carry_them(tmp_path):
     fit = cf.report["fit"]
     positions = cf.report["timing"]["sigma_s"] if cf.report["timing"] else 0.0
     assert 0.5 < fit["height_time_sigma_s"] < 2.0 and fit["height_time_sigma_s"] > positions
-    chk = check_piece(
-        path,
-        cf.samples,
-        sigma_h=max(fit["sigma_v_m"], 1.0),
-        height_time_sigma=fit["height_time_sigma_s"],
-        height_ref="ellipsoid",
-    )
-    assert chk.heights_within >= 0.99
+    assert _heights_within_their_sigma(path, cf) >= 0.99
     _, _, dv, _ = _errors(cf, truth)
     assert np.sqrt(np.mean(dv**2)) < 5.0
 
