@@ -85,7 +85,15 @@ import fieldmap.nav.logs.faults as flt
 from fieldmap.errors import Advice, InputError, Keyword, Label, Message, Pass, Setting
 from fieldmap.field.ellipsoid import WGS84, Ellipsoid
 from fieldmap.field.frames import C_e_to_enu, ecef_to_geodetic, geodetic_to_ecef
-from fieldmap.nav.logs.motion import TIMING_MAX_S, AxisSmoother, Channel, Grid, SmoothedAxis
+from fieldmap.nav.logs.motion import (
+    TIMING_MAX_S,
+    AxisSmoother,
+    Channel,
+    Grid,
+    SmoothedAxis,
+    log_mixture,
+    mixture_components,
+)
 from fieldmap.nav.logs.vehicles import (
     GROUND_CHANNEL,
     GROUND_SLOPE_MAX,
@@ -1082,25 +1090,13 @@ def _height_time_sigma(
     likelihood, where it beats ``at_least`` by more than :data:`TIME_ERROR_EVIDENCE` in
     :math:`-2\log L` (else ``at_least``).
     """
-    r = heights.y[:, 0] - vt.value_at(heights.t)[:, 0]
+    r = heights.y - vt.value_at(heights.t)[:, :1]
     vz2 = np.where(fix, vt.value_at(heights.t, 1)[:, 0], 0.0) ** 2
-    s2 = vt.scales[0] ** 2
-    eps, eta = vt.fault_rate[0], vt.held_rate[0]
-    log_fault = math.log(eps * heights.fault_density) if heights.fault_density > 0 else -np.inf
-    held = heights.held if heights.held is not None and eta > 0.0 else np.zeros(r.size, bool)
-    log_fresh0 = math.log1p(-eps) + np.where(held, math.log1p(-eta) if eta < 1 else -np.inf, 0.0)
-    log_copy = np.where(
-        held,
-        math.log1p(-eps) + math.log(max(eta, 1e-300)) - math.log(max(heights.cell, 1e-300)),
-        -np.inf,
-    )
+    s, eps, eta = vt.scales[0], vt.fault_rate[0], vt.held_rate[0]
 
     def neg2(sig: float) -> float:
-        var = s2 + vz2 * sig * sig
-        log_in = log_fresh0 - 0.5 * r * r / var - 0.5 * np.log(2.0 * np.pi * var)
-        m = np.maximum(np.maximum(log_in, log_copy), log_fault)
-        tot = np.exp(log_in - m) + np.exp(log_copy - m) + np.exp(log_fault - m)
-        return -2.0 * float(np.sum(m + np.log(tot)))
+        timed = replace(heights, time_variance=vz2 * sig * sig)
+        return -2.0 * float(np.sum(log_mixture(*mixture_components(timed, r, s, eps, eta))))
 
     if r.size < 10 or at_least >= TIMING_MAX_S:
         return at_least

@@ -622,6 +622,41 @@ def _process_band(P: np.ndarray, F: np.ndarray, n: int, lam: np.ndarray) -> np.n
     return ab
 
 
+def mixture_components(
+    c: Channel, r: np.ndarray, s: float, eps: float, eta: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Return the log densities of each sample of ``c`` as a fault, an inlier and a copy.
+
+    At the residuals ``r`` (m, d) from a path, the noise scale ``s``, the fault share
+    :math:`\epsilon` (``eps``) and the copy share :math:`\eta` (``eta``; module docstring):
+    :math:`\log \epsilon f`, :math:`\log (1-\epsilon)(1-\eta_i) N(r_i; 0, \sigma_i^2)` with
+    :math:`\sigma_i^2` from :meth:`Channel.variance` and :math:`\log (1-\epsilon)\eta_i / c`
+    (:math:`\eta_i = \eta` on a sample that repeats the one before it, else 0; a channel
+    without faults, density 0, has :math:`-\infty` for the first).
+    """
+    var = c.variance(s)
+    z2 = np.sum(r * r, axis=1) / var
+    # log of the inlier density (dof-dimensional isotropic Gaussian)
+    log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
+    # a channel without faults (density 0: a constraint of the model) has none
+    log_out = math.log(max(c.fault_density, 1e-300)) if c.fault_density > 0 else -np.inf
+    a = np.full(r.shape[0], np.log(eps) + log_out)
+    bb = np.log1p(-eps) + log_in
+    if eta > 0.0 and c.held is not None:
+        # in probabilities of the printed value: densities per cell, a copy's 1 per cell
+        bb = np.where(c.held, bb + math.log1p(-eta), bb)
+        cc = np.where(c.held, math.log1p(-eps) + math.log(eta) - math.log(c.cell), -np.inf)
+    else:
+        cc = np.full(r.shape[0], -np.inf)
+    return a, bb, cc
+
+
+def log_mixture(a: np.ndarray, bb: np.ndarray, cc: np.ndarray) -> np.ndarray:
+    """Return each sample's log-likelihood from its three :func:`mixture_components`."""
+    m = np.maximum(np.maximum(a, bb), cc)
+    return m + np.log(np.exp(a - m) + np.exp(bb - m) + np.exp(cc - m))
+
+
 class AxisSmoother:
     """The robust smoother of one axis group (module docstring) on a grid.
 
@@ -1128,37 +1163,18 @@ class AxisSmoother:
         :math:`\eta_i` is the channel's copy share :math:`\eta` on a sample that repeats the
         one before it and 0 elsewhere (and on every sample of a channel without copies).
         """
-        out = 0.0
-        for a, bb, cc in self._components(x, scales, rates):
-            m = np.maximum(np.maximum(a, bb), cc)
-            out += float(np.sum(m + np.log(np.exp(a - m) + np.exp(bb - m) + np.exp(cc - m))))
-        return out
+        return float(sum(log_mixture(*parts).sum() for parts in self._components(x, scales, rates)))
 
     def _components(
         self, x: np.ndarray, scales: list[float], rates: list[float]
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Each channel's log densities of a sample as a fault, an inlier and a copy."""
-        out = []
-        for c, k, h, s, eps, eta in zip(
-            self.channels, self.k, self.h, scales, rates, self.held_rates
-        ):
-            r = c.y - _apply(h, x[k])
-            var = c.variance(s)
-            z2 = np.sum(r * r, axis=1) / var
-            # log of the inlier density (dof-dimensional isotropic Gaussian)
-            log_in = -0.5 * z2 - 0.5 * c.dof * np.log(2.0 * np.pi * var)
-            # a channel without faults (density 0: a constraint of the model) has none
-            log_out = math.log(max(c.fault_density, 1e-300)) if c.fault_density > 0 else -np.inf
-            a = np.full(r.shape[0], np.log(eps) + log_out)
-            bb = np.log1p(-eps) + log_in
-            if eta > 0.0 and c.held is not None:
-                # in probabilities of the printed value: densities per cell, a copy's 1 per cell
-                bb = np.where(c.held, bb + math.log1p(-eta), bb)
-                cc = np.where(c.held, math.log1p(-eps) + math.log(eta) - math.log(c.cell), -np.inf)
-            else:
-                cc = np.full(r.shape[0], -np.inf)
-            out.append((a, bb, cc))
-        return out
+        return [
+            mixture_components(c, c.y - _apply(h, x[k]), s, eps, eta)
+            for c, k, h, s, eps, eta in zip(
+                self.channels, self.k, self.h, scales, rates, self.held_rates
+            )
+        ]
 
     def huber_weights(
         self, q: float, scales: list[float], passes: int = HUBER_PASSES
