@@ -12,9 +12,14 @@ track, the fixes re-timed) and the wall time it took, and fieldmap's verdict by 
 rules: ``clean``, ``suspect`` (ground speed over 1.05 × the log's robust maximum, specific
 force outside 0.3..1.8 g, less than 90 % of the log flown; the reasons follow), ``refused``
 (an :class:`~fieldmap.errors.InputError`: its one line follows) or ``error`` (any other
-exception: its type and message). Medians and counts at the end (the pieces where fieldmap's
-speed, and its specific force, are no further from the reports and from 1 g than traffic's);
-``--csv FILE`` writes every number.
+exception: its type and message). ``log sf g`` is the load-factor range the log's own
+velocities report (ground speed, track and vertical rate differenced over ±10 s; the 0.5th
+and 99.5th percentiles) and each method's ``dev`` the 95th percentile of its path's departure
+from it, differenced alike (``corpus_checks.force_against_log``): the log reports no specific
+force, but it reports the velocities it was flown at. Medians and counts at the end (the
+pieces where fieldmap's speed is no further from the reports than traffic's, its specific
+force no further from 1 g, and no further from the log's own); ``--csv FILE`` writes every
+number.
 
 The two methods, on the same file:
 
@@ -70,10 +75,12 @@ CORPUS = ROOT / "tests" / "data" / "corpus"
 sys.path.insert(0, str(ROOT / "tests"))
 
 from corpus_checks import (  # noqa: E402
+    FORCE_WINDOW_S,
     SPECIFIC_FORCE_RANGE,
     SPEED_FACTOR,
     PathKinematics,
     check_piece,
+    force_against_log,
 )
 
 from fieldmap.nav.trajectory import FlightSamples  # noqa: E402
@@ -103,6 +110,7 @@ class Row:
     fm_gs_local: float | None = None
     fm_sf_min: float | None = None
     fm_sf_max: float | None = None
+    fm_sf_dev: float | None = None
     fm_flown: float | None = None
     fm_heights_within: float | None = None
     fm_worst_dh: float | None = None
@@ -116,6 +124,9 @@ class Row:
     tr_gs_local: float | None = None
     tr_sf_min: float | None = None
     tr_sf_max: float | None = None
+    tr_sf_dev: float | None = None
+    log_sf_min: float | None = None
+    log_sf_max: float | None = None
     tr_off50: float | None = None
     tr_off95: float | None = None
     tr_s: float | None = None
@@ -233,6 +244,11 @@ def run_piece(
         row.fm_flown, row.fm_heights_within = c.flown_fraction, c.heights_within
         row.fm_worst_dh, row.fm_worst_dh_line = c.worst_height_offset_m, c.worst_height_line
         row.fm_off50, row.fm_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
+        fa = force_against_log(path, cf.samples)
+        if fa.rows:
+            row.fm_sf_dev, row.log_sf_min, row.log_sf_max = (
+                fa.departure_p95_g, fa.log_min_g, fa.log_max_g,
+            )  # fmt: skip
     except _Skipped:
         row.fm_s = None
     except InputError as exc:
@@ -256,6 +272,11 @@ def run_piece(
             row.tr_gs_local = c.speed_ratio
             row.tr_sf_min, row.tr_sf_max = k.specific_force_min_g, k.specific_force_max_g
             row.tr_off50, row.tr_off95 = c.horizontal_offset_median_m, c.horizontal_offset_p95_m
+            fa = force_against_log(path, samples)
+            if fa.rows:
+                row.tr_sf_dev, row.log_sf_min, row.log_sf_max = (
+                    fa.departure_p95_g, fa.log_min_g, fa.log_max_g,
+                )  # fmt: skip
         except Exception as exc:  # noqa: BLE001 - a failure of the peer is a result too
             row.tr_status = f"error {type(exc).__name__}: {exc}".splitlines()[0]
     return row
@@ -269,19 +290,21 @@ def line(r: Row) -> str:
     """One printed line."""
     fm = (
         f"{_f(r.fm_gs, '6.0f')} {_f(r.fm_gs_local, '5.2f')} "
-        f"{_f(r.fm_sf_min, '5.2f')}..{_f(r.fm_sf_max, '<6.2f')} "
+        f"{_f(r.fm_sf_min, '5.2f')}..{_f(r.fm_sf_max, '<6.2f')} {_f(r.fm_sf_dev, '5.2f')} "
         f"{_f(r.fm_off95, '6.0f')} {_f(r.fm_s, '6.1f')}"
     )
     tr = (
         f"{_f(r.tr_gs, '6.0f')} {_f(r.tr_gs_local, '5.2f')} {_f(r.tr_gs_col, '6.0f')} "
         f"{_f(r.tr_sf_min, '5.2f')}.."
-        f"{_f(r.tr_sf_max, '<6.2f')} {_f(r.tr_off95, '6.0f')} {_f(r.tr_s, '6.1f')}"
+        f"{_f(r.tr_sf_max, '<6.2f')} {_f(r.tr_sf_dev, '5.2f')} "
+        f"{_f(r.tr_off95, '6.0f')} {_f(r.tr_s, '6.1f')}"
     )
     tail = f"{r.fm_status}{': ' + r.fm_reason if r.fm_reason else ''}"
     if r.tr_status and r.tr_status != "ok":
         tail += f" | traffic {r.tr_status}"
     head = f"{r.category + '/' + r.name:42s} {r.rows:6d} {r.hours:5.2f}"
-    return f"{head} {_f(r.reported_gs, '6.0f'):>6s} | {fm} | {tr} | {tail}"
+    log = f"{_f(r.log_sf_min, '5.2f')}..{_f(r.log_sf_max, '<6.2f')}"
+    return f"{head} {_f(r.reported_gs, '6.0f'):>6s} {log} | {fm} | {tr} | {tail}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -315,9 +338,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.limit is not None:
         entries = entries[: args.limit]
     print(
-        f"{'piece':42s} {'rows':>6s} {'hours':>5s} {'gs995':>6s} | "
-        f"{'fm gs':>6s} {'x rep':>5s} {'fm sf g':>12s} {'off95':>6s} {'fm s':>6s} | "
-        f"{'tr gs':>6s} {'x rep':>5s} {'gs col':>6s} {'tr sf g':>12s} {'off95':>6s} {'tr s':>6s} | "
+        f"{'piece':42s} {'rows':>6s} {'hours':>5s} {'gs995':>6s} {'log sf g':>12s} | "
+        f"{'fm gs':>6s} {'x rep':>5s} {'fm sf g':>12s} {'dev':>5s} {'off95':>6s} {'fm s':>6s} | "
+        f"{'tr gs':>6s} {'x rep':>5s} {'gs col':>6s} {'tr sf g':>12s} {'dev':>5s} {'off95':>6s} "
+        f"{'tr s':>6s} | "
         "fieldmap"
     )
     rows: list[Row] = []
@@ -380,6 +404,14 @@ def summary(rows: list[Row]) -> None:
     print(
         "specific force: fieldmap's largest departure from 1 g no larger than traffic's on "
         f"{calmer} of {len(loads)} pieces"
+    )
+    devs = [r for r in both if r.fm_sf_dev is not None and r.tr_sf_dev is not None]
+    closer = sum(r.fm_sf_dev <= r.tr_sf_dev for r in devs)
+    print(
+        "specific force against the log's own velocities (dev: the 95th percentile of "
+        f"|n_path - n_log|, both differenced over ±{FORCE_WINDOW_S:.0f} s): fieldmap no further "
+        f"than traffic on {closer} of {len(devs)} pieces; median dev (g): fieldmap "
+        f"{med([r.fm_sf_dev for r in devs])}, traffic {med([r.tr_sf_dev for r in devs])}"
     )
     print(
         f"median specific force max (g): fieldmap {med([r.fm_sf_max for r in flown])}, "

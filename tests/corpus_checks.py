@@ -19,7 +19,9 @@ raw log only (nothing of the conditioning's own report is read):
   It is never stricter than the issue's rule: a path faster than the reports there but under
   1.05 × the log's 99.5th percentile meets both;
 - the specific force of the flown path, its least and largest magnitude (g);
-- the fraction of the log's span (first to last fix) that the flown path covers;
+- the fraction of the log's span (first to last fix) that the flown path covers; the rows of
+  a frozen end (the last rows repeating every value of the row before them:
+  :func:`last_new_row_time`) are no fixes, neither here nor below;
 - the fraction of the log's fixes (rows that :func:`~fieldmap.nav.logs.read.read_track` keeps)
   whose height is within ``k_sigma`` σ of the flown path's height at the fix's time (a fix
   outside the flown span counts as not within), with the worst offset and its line. The σ
@@ -66,6 +68,7 @@ from fieldmap.nav.logs.read import _iso, read_track
 from fieldmap.units import STANDARD_GRAVITY as G0
 
 KT = 1852.0 / 3600.0
+FT_PER_MIN = 0.3048 / 60.0
 #: the issue's "suspect" rules: flown ground speed over this factor of the log's robust maximum
 SPEED_FACTOR = 1.05
 #: ... specific force outside this range (g) for an aircraft that is not aerobatic
@@ -127,11 +130,12 @@ class CorpusCheck:
         The reported speed (running median of three) at that instant (NaN without one).
         Units: m/s.
     log_span_s, flown_span_s : float
-        Last minus first fix of the log; last minus first flown sample. Units: s.
+        Last minus first fix of the log (the last: :func:`last_new_row_time`); last minus
+        first flown sample. Units: s.
     flown_fraction : float
         The part of the log's span inside the flown span (0..1).
     fixes : int
-        Fixes of the log (rows that ``read_track`` keeps).
+        Fixes of the log (rows that ``read_track`` keeps, up to :func:`last_new_row_time`).
     sigma_h_m, k_sigma : float
         The height σ given (m) and the multiple of it checked.
     height_time_sigma_s : float
@@ -237,6 +241,41 @@ def _csv_rows(path: str | Path) -> csv.DictReader:
     if raw[:2] == b"\x1f\x8b":
         raw = gzip.decompress(raw)
     return csv.DictReader(io.StringIO(raw.decode()))
+
+
+#: the columns whose values make a row of a traffic CSV (:func:`last_new_row_time`)
+ROW_VALUES = ("latitude", "longitude", "altitude", "groundspeed", "track", "vertical_rate")
+
+
+def last_new_row_time(path: str | Path, lines: np.ndarray | None = None) -> float:
+    """Return the time (s, POSIX) of the log's last row with a value new to it.
+
+    The rows with a ``timestamp``, a ``latitude`` and a ``longitude`` (and, given ``lines``,
+    at those lines of the file: the fixes a reader keeps), in time order (stable); the last
+    of them whose cells in :data:`ROW_VALUES` (those the log has, compared as the
+    text printed) differ from the row's before it. A log that ends with rows repeating every
+    value of the row before them has measured nothing after that row (it froze, or was filled
+    forward to a clock): those rows are no fixes, and the log's span ends there (issue 34:
+    nothing invented). Read from the file itself; +inf when no row repeats the one before.
+    """
+    rows = _csv_rows(path)
+    cols = [c for c in ROW_VALUES if c in (rows.fieldnames or ())]
+    wanted = None if lines is None else {int(x) for x in lines}
+    kept = [
+        (_iso(r["timestamp"].strip()), tuple((r[c] or "").strip() for c in cols))
+        for line, r in enumerate(rows, start=2)
+        if (r.get("timestamp") or "").strip()
+        and (r.get("latitude") or "").strip()
+        and (r.get("longitude") or "").strip()
+        and (wanted is None or line in wanted)
+    ]
+    kept.sort(key=lambda x: x[0])
+    if len(kept) < 2 or kept[-1][1] != kept[-2][1]:
+        return np.inf
+    i = len(kept) - 1
+    while i > 0 and kept[i][1] == kept[i - 1][1]:
+        i -= 1
+    return float(kept[i][0])
 
 
 def reported_max_ground_speed(path: str | Path, q: float = 99.5) -> float | None:
@@ -360,6 +399,115 @@ def reported_speed_at(t_report: np.ndarray, speed: np.ndarray, t: np.ndarray) ->
     return np.interp(t, t_report, m3)
 
 
+#: the half-width (s) of the window over which :func:`force_against_log` differences velocities
+FORCE_WINDOW_S = 10.0
+
+
+@dataclass(frozen=True)
+class ForceAgainstLog:
+    """A path's specific force against its log's velocities' (:func:`force_against_log`).
+
+    Attributes
+    ----------
+    log_min_g, log_max_g : float
+        The 0.5th and 99.5th percentiles of the log's load factor. Units: g.
+    departure_p95_g : float
+        The 95th percentile over the compared rows of :math:`|n_{path} - n_{log}|`. Units: g.
+    rows : int
+        The rows compared (0: the log reports no velocities; the other fields NaN).
+    """
+
+    log_min_g: float
+    log_max_g: float
+    departure_p95_g: float
+    rows: int
+
+
+def reported_velocities(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Return the times (s, POSIX) and the east, north, up velocities (m/s) a traffic CSV reports.
+
+    Every row with a ``timestamp``, a ``groundspeed`` and a ``track`` (and a ``vertical_rate``
+    where the log has that column; without it, up is 0 throughout), sorted by time (stably);
+    each component then the running median of three (:func:`reported_speed_at`'s), so that
+    one bad report sets nothing. Empty arrays when the log reports no velocities.
+    """
+    rows = _csv_rows(path)
+    names = rows.fieldnames or ()
+    if "groundspeed" not in names or "track" not in names:
+        return np.zeros(0), np.zeros((0, 3))
+    climbs = "vertical_rate" in names
+    t, v = [], []
+    for r in rows:
+        stamp, gs, tr = (r.get("timestamp") or "").strip(), r["groundspeed"], r["track"]
+        vr = r["vertical_rate"].strip() if climbs else "0"
+        if not (stamp and gs.strip() and tr.strip() and vr):
+            continue
+        speed, chi = float(gs) * KT, np.radians(float(tr))
+        up = float(vr) * FT_PER_MIN
+        if np.isfinite(speed) and np.isfinite(chi) and np.isfinite(up):
+            t.append(_iso(stamp))
+            v.append((speed * np.sin(chi), speed * np.cos(chi), up))
+    order = np.argsort(np.asarray(t), kind="stable")
+    t_s, v_s = np.asarray(t)[order], np.asarray(v).reshape(-1, 3)[order]
+    if t_s.size >= 3:
+        m3 = np.median(np.stack([v_s[:-2], v_s[1:-1], v_s[2:]]), axis=0)
+        v_s = np.concatenate([m3[:1], m3, m3[-1:]])
+    return t_s, v_s
+
+
+def _windowed_load(t: np.ndarray, v: np.ndarray, at: np.ndarray, g: np.ndarray, w: float):
+    """Load factor at ``at`` from velocities ``v(t)`` (ENU) differenced over ``at`` ± ``w``."""
+    lo = np.stack([np.interp(at - w, t, v[:, i]) for i in range(3)], -1)
+    hi = np.stack([np.interp(at + w, t, v[:, i]) for i in range(3)], -1)
+    a = (hi - lo) / (2.0 * w)
+    a[:, 2] += g
+    return np.linalg.norm(a, axis=1) / G0
+
+
+def force_against_log(
+    path: str | Path, samples: Any, *, window: float = FORCE_WINDOW_S, ellipsoid: Ellipsoid = WGS84
+) -> ForceAgainstLog:
+    r"""Compare a path's specific force with the one its log's own velocities report.
+
+    The log reports no specific force, but it reports the velocity it was flown at (ground
+    speed, track, vertical rate: :func:`reported_velocities`). Differenced over a window,
+    :math:`\mathbf a = [\mathbf v(t+w) - \mathbf v(t-w)] / 2w` (each velocity interpolated
+    linearly in time), it gives the load factor :math:`n = |\mathbf a + \gamma\,\mathbf
+    u| / g_0` the aircraft reported (Coriolis and the frame's turn over the window, under
+    0.002 g, left out). The path's velocity (the quintic ECEF spline's, in the local east,
+    north, up frame at each end) is differenced over the same window at the same rows, so
+    both are smoothed alike: a path that follows the reported turns and pull-ups has
+    :math:`n_{path} \approx n_{log}` whatever the window; one smoothed through them departs.
+    The rows compared: those whose window lies within the flown span and between the log's
+    second and last but one velocity reports (the first and last have no median of three).
+    ``samples`` as for :func:`check_piece`.
+    """
+    t, v = reported_velocities(path)
+    s = samples
+    f0, f1 = float(s.t_start + s.t[0]), float(s.t_start + s.t[-1])
+    if t.size < 3:
+        return ForceAgainstLog(np.nan, np.nan, np.nan, 0)
+    at = t[(t - window >= max(t[1], f0)) & (t + window <= min(t[-2], f1))]
+    if at.size == 0:
+        return ForceAgainstLog(np.nan, np.nan, np.nan, 0)
+    sp = _spline(np.asarray(s.t, float), s.lat, s.lon, s.h, ellipsoid)
+    ends = np.concatenate([at - window, at + window]) - s.t_start
+    r, dr = sp(ends), sp(ends, 1)
+    la, lo, hh = ecef_to_geodetic(r[:, 0], r[:, 1], r[:, 2], ellipsoid)
+    v_enu = np.einsum("nij,nj->ni", C_e_to_enu(la, lo), dr)
+    a = (v_enu[at.size :] - v_enu[: at.size]) / (2.0 * window)
+    g = _normal_gravity(la[: at.size], hh[: at.size], ellipsoid)
+    a[:, 2] += g
+    n_path = np.linalg.norm(a, axis=1) / G0
+    n_log = _windowed_load(t, v, at, g, window)
+    return ForceAgainstLog(
+        log_min_g=float(np.percentile(n_log, 0.5)),
+        log_max_g=float(np.percentile(n_log, 99.5)),
+        departure_p95_g=float(np.percentile(np.abs(n_path - n_log), 95.0)),
+        rows=int(at.size),
+    )
+
+
 def horizontal_offsets(
     r_path: np.ndarray,
     h_path: np.ndarray,
@@ -431,12 +579,13 @@ def check_piece(
         k = int(np.argmax(r))
         ratio, worst_t, there = float(r[k]), float(series.t[k] - series.t[0]), float(local[k])
         worst_v = float(series.ground_speed[k])
-    t0, t1 = float(log.t.min()), float(log.t.max())
+    t0, t1 = float(log.t.min()), min(float(log.t.max()), last_new_row_time(path, log.lines))
     f0, f1 = float(t_abs[0]), float(t_abs[-1])
     span = t1 - t0
     cover = max(0.0, min(t1, f1) - max(t0, f0))
     # a fix is a sample with a height of its own (a surface report's placeholder is none)
     has = np.ones(log.t.size, bool) if log.no_height is None else ~log.no_height
+    has &= log.t <= t1  # a row of a frozen end is no fix
     inside = (log.t >= f0) & (log.t <= f1) & has
     ok = np.zeros(log.t.size, bool)
     worst, worst_line = 0.0, 0

@@ -372,12 +372,14 @@ def test_long_gap_flown_as_prediction_with_its_sigma():
     assert np.abs(s.h[mid] - h[mid]).max() < 20.0
 
 
-def test_log_ending_in_stale_values_reported_as_prediction():
-    """A log's last 150 s of stale values: flown as the model's prediction, and reported so.
+def test_log_ending_in_stale_values_is_flown_to_its_last_new_row():
+    """A log's last 150 s of stale values: not flown past its last new row, and reported so.
 
-    The σ at the end is stated. A transponder's last rows (after a landing, say) repeat its
-    last position (no new fix) and an altitude 30 km off, beyond any climb in 150 s
-    (rejected): no fix is kept after t = 449 s.
+    A transponder's last rows (after a landing, say) repeat its last position (no new fix)
+    and, from t = 450 s, an altitude 30 km off, beyond any climb (rejected). From t = 451 s
+    every value repeats the row before: nothing more is measured, and a path there would be
+    the model's prediction from one side (before, 150 s of it were flown, with a σ growing
+    past a fix's). The path ends at t = 450 s; the 149 rows after it are trimmed and named.
     """
     t = np.arange(0.0, 600.0)
     lat, lon, h = straight(t)
@@ -386,14 +388,13 @@ def test_log_ending_in_stale_values_reported_as_prediction():
     h = h.copy()
     h[stale] = 33000.0
     cf = condition(quiet_track(t, lat, lon, h, source="stale.csv"))
-    (end,) = [g for g in cf.report["gaps"]["list"] if g["edge"] is not None]
-    assert end["edge"] == "end" and end["fixes"] == "positions and heights"
-    assert end["lines"] == [451, 601]  # the last kept fix (t = 449 s) and the last line
-    assert end["t_from_s"] == pytest.approx(449.0) and end["t_to_s"] == pytest.approx(599.0)
-    # with no fix for 150 s the prediction's σ grows past a fix's
-    assert end["sigma_h_m"] > cf.report["channels"]["position"]["noise_sigma"]
-    assert end["sigma_v_m"] > cf.report["channels"]["height"]["noise_sigma"]
-    assert "end of the flight with no fix: lines 451..601 (150 s" in cf.format_report()
+    assert cf.samples.t[-1] == pytest.approx(450.0)
+    (note,) = [n for n in cf.report["notes"] if "the log froze there" in n]
+    assert "last 149 rows (lines 453..601, 149 s) repeat every value of line 452" in note
+    raw = cf.raw
+    assert np.all(raw["status"][raw["lines"] >= 453] == 5)  # trimmed
+    assert cf.report["channels"]["height"]["rejected"] == 1  # the stale altitude at 450 s
+    assert "end of the flight with no fix" not in cf.format_report()  # 1 s: under max_gap_s
 
 
 def test_unfixed_stretches_of_each_channel():

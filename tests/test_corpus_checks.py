@@ -210,3 +210,70 @@ def test_one_bad_speed_report_sets_nothing():
     # fewer than three reports: none can be told bad; none at all: NaN
     assert reported_speed_at(t[:2], v[:2], np.array([0.5])).tolist() == [500.0]
     assert np.isnan(reported_speed_at(t[:0], v[:0], np.array([0.5]))).all()
+
+
+def _write_velocity_log(path: Path, t, lat, lon, speed_m_s, track_deg) -> None:
+    from datetime import datetime, timezone
+
+    kt = 1852.0 / 3600.0
+    rows = ["timestamp,icao24,latitude,longitude,altitude,groundspeed,track,vertical_rate"]
+    for ti, la, lo, gs, tr in zip(t, lat, lon, speed_m_s, track_deg, strict=True):
+        stamp = datetime.fromtimestamp(1.6e9 + ti, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+        rows.append(f"{stamp},abc123,{la:.8f},{lo:.8f},3000,{gs / kt:.4f},{tr:.4f},0")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_specific_force_against_the_log_s_own_velocities(tmp_path):
+    """A level turn at 100 m/s round 2 km, reported by its ground speed and track.
+
+    Differenced over ±10 s, the reported velocity turns by ωw = 0.5 rad each way: the chord
+    gives |a| = (v²/R) sin(ωw)/(ωw) = 4.794 m/s², so n = √(γ² + a²)/g0 = 1.1123 (γ = 9.7974
+    m/s² at 45°, 3 km). The path that flies the circle has that load factor at every row; a
+    path flown straight north through the same times departs by n - 1 (the turn it left out).
+    """
+    from corpus_checks import force_against_log
+
+    t, lat, lon, h = _circle(100.0, 2000.0)
+    ang = 100.0 * t / 2000.0
+    track = np.degrees(np.arctan2(np.sin(ang), np.cos(ang)))  # east of north: the turn to the east
+    log = tmp_path / "turn.csv"
+    _write_velocity_log(log, t, lat, lon, np.full_like(t, 100.0), track % 360.0)
+    samples = FlightSamples(t, lat, lon, h, None, "test", np.arange(t.size) + 2, 1.6e9)
+    a = 5.0 * np.sin(0.5) / 0.5
+    expected = np.hypot(9.7974, a) / 9.80665
+    c = force_against_log(log, samples)
+    assert c.rows == t.size - 22
+    assert c.log_max_g == pytest.approx(expected, abs=1e-3)
+    assert c.log_min_g == pytest.approx(expected, abs=1e-3)
+    assert c.departure_p95_g < 3e-3
+    tn, latn, lonn = _north_at(np.full(t.size, 100.0))
+    straight = FlightSamples(tn, latn, lonn, h, None, "test", np.arange(t.size) + 2, 1.6e9)
+    c = force_against_log(log, straight)
+    assert c.departure_p95_g == pytest.approx(expected - 0.999, abs=3e-3)
+
+
+def test_a_frozen_end_is_no_part_of_the_log_s_span(tmp_path):
+    """Rows repeating every value of the row before them at the end are no fixes.
+
+    A path that stops at the last new row flies the whole span and every fix; counted as
+    fixes, the 100 frozen rows would leave a third of the span unflown.
+    """
+    from corpus_checks import last_new_row_time
+
+    speed = np.full(200, 100.0)
+    t, lat, lon = _north_at(speed)
+    kt = 1852.0 / 3600.0
+    lat[200 - 100 :], lon[200 - 100 :] = lat[99], lon[99]
+    log = tmp_path / "frozen.csv"
+    _write_log(log, t, lat, lon, 3000.0, speed / kt)
+    assert last_new_row_time(log) == pytest.approx(1.6e9 + 99.0)
+    flown = FlightSamples(t[:100], lat[:100], lon[:100], np.full(100, 3000.0 * 0.3048), None,
+                          "test", np.arange(100) + 2, 1.6e9)  # fmt: skip
+    c = check_piece(log, flown, sigma_h=1000.0)  # (the heights are not the point)
+    assert c.flown_fraction == pytest.approx(1.0)
+    assert c.fixes == 100 and c.heights_within == 1.0
+    moving = tmp_path / "moving.csv"
+    _write_log(moving, t, lat, lon, 3000.0, (speed + np.arange(200)) / kt)  # new speeds: fixes
+    assert last_new_row_time(moving) == np.inf
+    c = check_piece(moving, flown, sigma_h=1000.0)
+    assert c.flown_fraction == pytest.approx(99.0 / 199.0)

@@ -1,21 +1,24 @@
 """A long run of wrong altitudes at a log's end does not pull the landing up (issue 34).
 
 ``quickstart_398564`` (a corpus piece: an Air France airliner landing at Paris-CDG, one row a
-second) descends to the runway by line 1340. From line 1341 to its last fix (line 1453) its
-position, ground speed and vertical rate are frozen, and its altitude column reads 100 ft for
-9 s, 7,950 ft for 6 s, then 35,000 ft for 97 s: a transponder's stale values.
+second) descends to the runway by line 1350. Its altitude column holds 144 m (475 ft) for
+12 s from line 1329 while its vertical rate reports a descent of 3.6-3.9 m/s, then reads
+106 m and the runway's 75.6 m (100 ft) to line 1350. From line 1341 its position, ground
+speed and vertical rate are frozen, and from line 1351 its altitude column reads 7,950 ft for
+6 s, then 35,000 ft: a transponder's stale values. From line 1369 every value repeats the
+row before (a frozen end: no measurement, not flown).
 
 Started from the least-squares path (every fix an inlier, the heights' σ annealed wide), the
 smoother's EM took the stale altitudes for the path's and the 140 s of approach before them
 for faults: 97 altitudes 10 km up outweighed, in squares, the 240 fixes of the approach. The
 path climbed from 630 m to 2,470 m while the aircraft landed (1.8 km above the log's heights;
-75 % of its fixes before line 1341 within 3σ, 99.2 % now). The height is now also started
-from the Huber M-estimate (convex: a run of glitches, however far off, pulls it with a
-bounded force per sample;
-:meth:`fieldmap.nav.logs.motion.AxisSmoother.huber_weights`), and of the two solutions the
-likelier under the mixture, compared at one set of noise levels, is kept
+75 % of its fixes before line 1341 within 3σ). The height is now also started from the Huber
+M-estimate (convex: a run of glitches, however far off, pulls it with a bounded force per
+sample; :meth:`fieldmap.nav.logs.motion.AxisSmoother.huber_weights`), and of the two
+solutions the likelier under the mixture, compared at one set of noise levels, is kept
 (:func:`fieldmap.nav.logs.condition._height`): it flies the approach and the landing at the
-log's heights and rejects the stale tail.
+log's heights and rejects the stale altitudes. Until the frozen end was trimmed, the path
+also flew level through the held 144 m and on, 41-90 m above the runway, climbing.
 """
 
 from __future__ import annotations
@@ -29,8 +32,10 @@ from fieldmap.nav.logs import load_flight
 from fieldmap.nav.logs.read import read_track
 
 PIECE = Path(__file__).parent / "data" / "corpus" / "quickstart" / "quickstart_398564.csv.gz"
-STALE_LINE = 1341  # the first line of the frozen rows
-STALE_ALTITUDES = 6 + 97  # the rows that read 7,950 and 35,000 ft
+HELD_LINE = 1329  # the altitude column holds 144 m from here, in the descent
+STALE_LINE = 1351  # the first stale airborne altitude after the touchdown
+FROZEN_LINE = 1369  # every value repeats the row before from here to the end
+TOUCHDOWN = (1344, 1350)  # the runway's altitude, 100 ft
 
 
 @pytest.fixture(scope="module")
@@ -43,44 +48,51 @@ def flown():
 
 
 def test_the_approach_and_landing_are_flown_at_the_logs_heights(flown):
-    """Within 3σ of the fit's own height σ at ≥ 99 % of the fixes before the frozen rows.
+    """The approach within 3σ at ≥ 99 % of its fixes, the touchdown at every fix.
 
-    75 % from the least-squares start alone: the approach flown up to 1.8 km too high.
+    Within 3σ of the fit's own height σ; the 12 s of a held altitude descended through.
+
+    75 % of the approach from the least-squares start alone (flown up to 1.8 km too high);
+    the touchdown 73-90 m above the runway, climbing, before the frozen end was trimmed.
     """
     cf, log, off = flown
+    s = cf.samples
     sigma = max(cf.report["channels"]["height"]["noise_sigma"], 1.0)
-    before = log.lines < STALE_LINE
-    within = np.mean(np.abs(off[before]) <= 3.0 * sigma)
-    worst = int(np.argmax(np.abs(off[before])))
+    approach = log.lines < HELD_LINE
+    within = np.mean(np.abs(off[approach]) <= 3.0 * sigma)
+    worst = int(np.argmax(np.abs(off[approach])))
     assert within >= 0.99, (
-        f"{100 * within:.1f} % within 3σ ({sigma:.1f} m); worst {off[before][worst]:.0f} m "
-        f"at line {log.lines[before][worst]}"
+        f"{100 * within:.1f} % within 3σ ({sigma:.1f} m); worst {off[approach][worst]:.0f} m "
+        f"at line {log.lines[approach][worst]}"
     )
+    touchdown = (log.lines >= TOUCHDOWN[0]) & (log.lines <= TOUCHDOWN[1])
+    assert np.all(np.abs(off[touchdown]) <= 3.0 * sigma), off[touchdown]
+    held = (log.lines >= 1336) & (log.lines <= 1340)  # below the held value, descending
+    vz = np.interp(log.t[held], s.t_start + s.t[1:], np.diff(s.h) / np.diff(s.t))
+    assert np.all(off[held] < 0.0) and np.all(vz < -3.0), (off[held], vz)
 
 
 def test_the_stale_altitudes_are_rejected_and_little_else(flown):
-    """The 103 stale airborne altitudes, and no more than 2 % of the log besides.
+    """The stale airborne altitudes up to the frozen end, and no more than 2 % of the log besides.
 
     426 of its 1,452 heights were rejected from the least-squares start alone.
     """
     cf, log, _ = flown
+    stale = np.sum((log.lines >= STALE_LINE) & (log.lines < FROZEN_LINE))
+    assert stale == 18
     rejected = cf.report["channels"]["height"]["rejected"]
-    assert STALE_ALTITUDES <= rejected <= STALE_ALTITUDES + 0.02 * log.t.size, rejected
+    assert stale <= rejected <= stale + 0.02 * log.t.size, rejected
 
 
-def test_the_frozen_tail_is_reported_as_prediction_with_its_sigma(flown):
-    """After the landing no fix is kept: the report says the last 113 s are prediction.
-
-    The positions repeat and the altitudes are stale there. The report gives the vertical σ at
-    the end, hundreds of metres: the path climbs from the flare's last upward acceleration, not
-    to a height the log gives.
-    """
+def test_the_frozen_end_is_trimmed_and_reported(flown):
+    """From line 1369 every value repeats the row before: not flown, the rows named."""
     cf, log, _ = flown
-    (end,) = [g for g in cf.report["gaps"]["list"] if g["edge"] == "end"]
-    assert end["fixes"] == "positions and heights"
-    assert STALE_LINE - 2 <= end["lines"][0] <= STALE_LINE and end["lines"][1] == log.lines[-1]
-    assert end["sigma_v_m"] > 100.0
-    assert "end of the flight with no fix" in cf.format_report()
+    s = cf.samples
+    last = log.t[log.lines == FROZEN_LINE - 1][0]
+    assert s.t_start + s.t[-1] == pytest.approx(last)
+    (note,) = [n for n in cf.report["notes"] if "the log froze there" in n]
+    assert f"lines {FROZEN_LINE}..{log.lines[-1]}" in note
+    assert np.all(cf.raw["status"][cf.raw["lines"] >= FROZEN_LINE] == 5)  # trimmed
 
 
 def _axis(y: np.ndarray, t: np.ndarray, fault_density: float, held=None, cell: float = 0.0):

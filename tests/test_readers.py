@@ -333,12 +333,16 @@ def test_nmea_rmc_velocities_observed(tmp_path, fl):
     assert rep["groundspeed_rms_m_s"] < 0.2 and rep["track_rms_deg"] < 0.1
 
 
-def test_nmea_rmc_velocities_in_the_wrong_unit_refused(tmp_path, fl):
-    """Speeds in km/h written where knots belong: the velocities contradict the positions."""
+def test_nmea_rmc_velocities_in_the_wrong_unit_left_out(tmp_path, fl):
+    """Speeds in km/h written where knots belong: a factor 1.85, the velocities left out.
+
+    The positions alone fly the path; the note names the columns and the factor.
+    """
     tr = read_track(write(tmp_path / "kmh.nmea", nmea_lines(fl, knots=3.6)))
-    with pytest.raises(InputError, match="RMC field 7 .*contradict its positions") as e:
-        condition(tr)
-    assert "\n" not in str(e.value)
+    cf = condition(tr)
+    (note,) = [n for n in cf.report["notes"] if "× its positions' throughout" in n]
+    assert "RMC field 7" in note and "1.85 ×" in note
+    assert "velocity" not in cf.report["channels"]
 
 
 def test_nmea_rmc_void_or_without_course(tmp_path, fl):

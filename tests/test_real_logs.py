@@ -23,7 +23,6 @@ import pytest
 from corpus_checks import check_piece
 
 from fieldmap.cli import main
-from fieldmap.errors import InputError
 from fieldmap.nav.logs.condition import Conditioning, condition
 from fieldmap.nav.logs.read import read_track
 from fieldmap.nav.trajectory import FlightTrajectory
@@ -304,21 +303,23 @@ def test_tracks_off_the_positions_keep_their_speeds(tmp_path):
     assert cf.report["velocity"]["groundspeed_rms_m_s"] < 2.0
 
 
-def test_velocities_in_another_unit_refused(tmp_path, capsys):
-    """Ground speeds in m/s under a knots column: a constant factor, one line naming the fix."""
+def test_velocities_in_another_unit_left_out(tmp_path):
+    """Ground speeds in m/s under a knots column: a constant factor, the velocities left out.
+
+    The speeds say nothing of the path then, not even its top speed (at 0.51 × they would
+    hold it to half the aircraft's): the positions alone fly it, at the aircraft's speed, and
+    the note gives the factor. The CLI flies it too.
+    """
     path = _contradicting(tmp_path, KT, 0.0)
-    with pytest.raises(InputError, match=r"contradict its positions: their speeds are 0\.51") as e:
-        condition(read_track(path, height_ref="ellipsoid"))
-    assert e.value.param == "log_velocities" and "\n" not in str(e.value)
+    cf = condition(read_track(path, height_ref="ellipsoid"))
+    (note,) = [n for n in cf.report["notes"] if "× its positions' throughout" in n]
+    assert "(groundspeed, track) are 0.515 ×" in note  # whole m/s over the path's speed
+    assert "velocity" not in cf.report["channels"]
+    assert 225.0 < cf.report["kinematics"]["max_ground_speed_m_s"] < 245.0
     argv = ["navsim", "--lmax", "20", "--models", "j4", "--rate", "10", "--no-timing"]
     out = tmp_path / "out"
     rc = main([*argv, "--trajectory", str(path), "--height-ref", "ellipsoid", "--out", str(out)])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1 and "--ignore-log-velocities" in err[0], err
-    assert not out.exists()
-    # flown on its positions when the velocities are left out
-    cf = condition(read_track(path, height_ref="ellipsoid"), Conditioning(log_velocities=False))
-    assert 225.0 < cf.report["kinematics"]["max_ground_speed_m_s"] < 245.0
+    assert rc == 0
 
 
 def test_velocities_left_out_on_request(tmp_path):
@@ -428,11 +429,18 @@ def test_real_adsb_flown_whole_at_the_reported_speeds(name):
 
 
 def test_real_log_with_stale_velocities_flown_on_its_positions():
-    """inflight_refuelling: its velocity columns are stale; its orbits are flown all the same."""
+    """inflight_refuelling: its velocity columns are stale; its orbits are flown all the same.
+
+    To its last new row: its last rows repeat every value of the row before them (a frozen
+    end, not flown).
+    """
     track = read_track(ADSB / "inflight_refuelling.csv.gz", height_ref="pressure")
     for cf in (condition(track), condition(track, Conditioning(log_velocities=False))):
         k = cf.report["kinematics"]
-        assert k["duration_s"] >= 0.99 * (track.t[-1] - track.t[0])
+        frozen = [n for n in cf.report["notes"] if "the log froze there" in n]
+        last = cf.raw["t"][cf.raw["status"] != 5][-1]  # the last row not trimmed
+        assert len(frozen) <= 1 and last == pytest.approx(k["duration_s"], abs=1.0)
+        assert k["duration_s"] >= 0.95 * (track.t[-1] - track.t[0])
         assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
 
 
@@ -541,3 +549,51 @@ def test_gpx_gaps_bridged_within_the_neighbours_heights(tmp_path):
         lo, hi = track.h[near].min(), track.h[near].max()
         assert lo - 20.0 < s.h[inside].min() and s.h[inside].max() < hi + 20.0, (lo, hi)
         assert g["sigma_v_m"] > 0.0
+
+
+def _with_tail(path: Path, out: Path, seconds: int, vary_speed: bool = False) -> Path:
+    """Write ``path`` with ``seconds`` more rows at 1 s repeating its last row's values.
+
+    ``vary_speed``: the repeated rows' ground speed changes (1 kt a row): a new value each.
+    """
+    rows = path.read_text().splitlines()
+    stamp, *values = rows[-1].split(",")
+    t_last = datetime.strptime(stamp, "%Y-%m-%dT%H:%M:%SZ").replace(tzinfo=timezone.utc)
+    for k in range(1, seconds + 1):
+        when = datetime.fromtimestamp(t_last.timestamp() + k, timezone.utc)
+        vals = list(values)
+        if vary_speed:
+            vals[5] = str(int(vals[5]) + k)
+        rows.append(when.strftime("%Y-%m-%dT%H:%M:%SZ") + "," + ",".join(vals))
+    out.write_text("\n".join(rows) + "\n")
+    return out
+
+
+def test_a_frozen_end_is_not_flown(tmp_path):
+    """A log whose last 120 rows repeat every value of the row before them (it froze there).
+
+    Nothing is measured after the last new row: the path ends there, flown exactly as the log
+    without the frozen rows is (the same bits), the rows are reported with their lines and
+    trimmed, and no 120 s of straight flight at the last velocity (28 km) is invented. Rows
+    that repeat the position but report a new ground speed each are measurements: flown.
+    """
+    path, _ = adsb_csv(tmp_path / "log.csv")
+    n_rows = len(path.read_text().splitlines()) - 1
+    plain = condition(read_track(path, height_ref="ellipsoid"))
+    frozen = _with_tail(path, tmp_path / "frozen.csv", 120)
+    cf = condition(read_track(frozen, height_ref="ellipsoid"))
+    assert np.array_equal(cf.samples.t, plain.samples.t)
+    for k in ("lat", "lon", "h"):
+        assert np.array_equal(getattr(cf.samples, k), getattr(plain.samples, k))
+    last, first_frozen = n_rows + 1, n_rows + 2  # line 1 is the header
+    note = [n for n in cf.report["notes"] if "froze" in n]
+    assert len(note) == 1
+    assert f"lines {first_frozen}..{first_frozen + 119}" in note[0]
+    assert f"line {last}:" in note[0]
+    raw = cf.raw
+    tail = raw["lines"] >= first_frozen
+    assert tail.sum() == 120 and np.all(raw["status"][tail] == 5)  # TRIMMED
+    moving = _with_tail(path, tmp_path / "moving.csv", 120, vary_speed=True)
+    cm = condition(read_track(moving, height_ref="ellipsoid"))
+    assert cm.samples.t[-1] == pytest.approx(plain.samples.t[-1] + 120.0, abs=1.0)
+    assert not any("froze" in n for n in cm.report["notes"])

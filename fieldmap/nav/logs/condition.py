@@ -592,11 +592,18 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     n = log.t.size
     zero = np.zeros(n)
     p = np.stack(geodetic_to_ecef(log.lat, log.lon, zero, ell), -1)
-    origin = np.mean(p, axis=0)
     m_per_deg = math.radians(1.0) * ell.a
     rep = flt.repeated(log.lat, log.lon)
     interp, _ = flt.interpolated(log.t, log.lat, log.lon, m_per_deg, INTERP_ROUNDING_M)
     vel = getattr(track, "velocity", None)
+    # a frozen end (faults module docstring): its rows are no measurements of any channel
+    values = [log.lat, log.lon, log.h]
+    if vel is not None and options.log_velocities:
+        values += [vel.speed[log.index], vel.track[log.index]]
+        values += [vel.climb[log.index]] if vel.climb is not None else []
+    frozen = flt.frozen_tail(values)
+    end = n - frozen if n - frozen >= MIN_POINTS else n
+    origin = np.mean(p[:end], axis=0)
     state = [log.h]
     if vel is not None:
         state += [vel.speed[log.index], vel.track[log.index]]
@@ -607,9 +614,9 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         log.t, log.lat, log.lon, np.stack(state, -1), state_tol, p, top.speed
     )
     interp &= ~rep
-    hi = np.flatnonzero(~rep & ~interp)
+    hi = np.flatnonzero(~rep[:end] & ~interp[:end])
     if hi.size < MIN_POINTS:  # a log of mostly repeats: its repeats are all it has
-        hi = np.flatnonzero(~rep) if np.sum(~rep) >= MIN_POINTS else np.arange(n)
+        hi = np.flatnonzero(~rep[:end]) if np.sum(~rep[:end]) >= MIN_POINTS else np.arange(end)
     rounding = min(flt.printed_step(log.lat), flt.printed_step(log.lon)) * m_per_deg
     span = float(np.max(np.linalg.norm(p[hi] - origin, axis=1))) if hi.size else 0.0
     positions = Channel(
@@ -626,7 +633,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     sr = getattr(track, "surface_report", None)
     blank = getattr(track, "no_height", None)
     hr = np.arange(n) if blank is None else np.flatnonzero(~np.asarray(blank)[log.index])
-    hr = hr if hr.size >= MIN_POINTS else np.arange(n)
+    hr = hr[hr < end] if np.sum(hr < end) >= MIN_POINTS else np.arange(end)
     q = height_quantum(log.h[hr], np.linalg.norm(np.diff(p[hr], axis=0), axis=1))
     hspan = float(np.ptp(log.h[hr])) if hr.size else 0.0
     heights = Channel(
@@ -649,6 +656,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         src = log.index
         speed, course = vel.speed[src], vel.track[src]
         ok = np.isfinite(speed) & np.isfinite(course) & (speed >= 0.0)
+        ok[end:] = False
         if ok.sum() >= MIN_POINTS:
             iv = np.flatnonzero(ok)
             chi = np.radians(course[iv])
@@ -680,6 +688,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
             if computed.any():
                 notes.append(_computed_note(int(computed.sum()), int(okc.sum()), "vertical rates"))
             okc &= ~computed
+            okc[end:] = False
             if okc.sum() >= MIN_POINTS:
                 ic = np.flatnonzero(okc)
                 climbs = Channel(
@@ -698,6 +707,13 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         notes.append(
             Message("the log's velocities not used (", Setting("log_velocities", False), ")")
         )
+    if end < n:
+        notes.append(
+            f"the log's last {frozen} rows (lines {log.lines[end]}..{log.lines[-1]}, "
+            f"{log.t[-1] - log.t[end - 1]:.0f} s) repeat every value of line "
+            f"{log.lines[end - 1]}: written again, not measured (the log froze there); the "
+            "path ends at that line"
+        )
     return Measurements(
         positions,
         heights,
@@ -713,8 +729,8 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
         columns,
         tuple(notes),
         log.source,
-        log.t,
-        np.zeros(n, bool) if sr is None else np.asarray(sr, bool)[log.index],
+        log.t[:end],
+        (np.zeros(n, bool) if sr is None else np.asarray(sr, bool)[log.index])[:end],
     )
 
 
@@ -964,31 +980,37 @@ def estimate(
             fix.append(None)
         return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
 
+    factor = None
     if velocities is not None:
         alone, _ = horizontal(False)
-        # a constant factor between the log's speeds and its positions' is a unit mistake
-        k = _unit_factor(
+        # a constant factor between the log's speeds and its positions' (a unit or column
+        # mistake, or one speed held for the whole flight): the speeds say nothing of the
+        # path, not even its top speed; the positions alone say where it flew
+        factor = _unit_factor(
             np.linalg.norm(velocities.y, axis=1),
             np.linalg.norm(alone.value_at(velocities.t, 1), axis=1),
         )
-        if k is not None:
-            raise InputError(
-                f"{meas.source}: the log's velocities ({', '.join(meas.velocity_columns)}) "
-                f"contradict its positions: their speeds are {k:.3g} × the positions' "
-                "throughout (a unit or column mistake)",
-                Advice("; ", Pass("log_velocities", False), " to fly the positions alone"),
-                param="log_velocities",
-            )
-        # the tracks against the positions' own path: a track column off (a fault uniform in
-        # angle) keeps its ground speed, along the path's direction (track_faults)
-        velocities, replaced = track_faults(velocities, alone)
-        if replaced:
+        if factor is not None:
             notes.append(
-                f"{replaced} of the log's tracks ({100.0 * replaced / velocities.t.size:.0f} %) "
-                "are off the direction its positions fly: their ground speeds used along the "
-                "positions' direction"
+                f"the log's ground speeds ({', '.join(meas.velocity_columns[:2])}) are "
+                f"{factor:.3g} × its positions' throughout (a unit or column mistake, or a "
+                "speed held from elsewhere): not used, the horizontal path follows the "
+                "positions alone"
             )
-    hz, hchans = horizontal(True)
+        else:
+            # the tracks against the positions' own path: a track column off (a fault uniform
+            # in angle) keeps its ground speed, along the path's direction (track_faults)
+            velocities, replaced = track_faults(velocities, alone)
+            if replaced:
+                notes.append(
+                    f"{replaced} of the log's tracks "
+                    f"({100.0 * replaced / velocities.t.size:.0f} %) are off the direction its "
+                    "positions fly: their ground speeds used along the positions' direction"
+                )
+    if factor is not None and alone is not None:
+        hz, hchans = alone, [meas.positions]
+    else:
+        hz, hchans = horizontal(True)
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
         off = [100.0 * float(np.mean(p > 0.5)) for p in hz.fault_prob]
@@ -1506,7 +1528,7 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
     dt = options.dt_out or (
         ESTIMATE_DT_S if step > ESTIMATE_DT_S else float(np.clip(step, 0.1, 1.0))
     )
-    t_lo, t_hi = float(log.t[0]), float(log.t[-1])
+    t_lo, t_hi = float(log.t[0]), float(meas.t[-1])  # to the last row measured
     # the first and the last node on the first and the last fix: the step shortened to divide
     # the span (a given dt_out is kept, and the last node falls less than a step after the
     # last fix)

@@ -25,6 +25,15 @@ Two facts about a sample decide whether it is a measurement at all, before any f
   state (straight and level, or a receiver's perfect dead reckoning) reaches the next fix
   within the vehicle's speed: its positions stay measurements.
 
+- **A frozen end**: a log whose last rows repeat every value of the row before them
+  (position, height and each velocity column it has; an empty cell equal to an empty cell)
+  has measured nothing after the first row of that run: its values were written again (a
+  receiver that lost the vehicle holding its last state, a track filled forward to a clock).
+  The measurements end there, and so does the flown path (:func:`frozen_tail`): past it a
+  path would be the motion model's prediction from one side only, a flight the log never
+  saw. A vehicle parked at the end repeats its values too: its last row with a new value
+  is where it stood, and no more is known after it.
+
 A rounded value (a height in 25 ft steps, a ground speed in knots) is a measurement with at
 least the rounding's σ, q/√12: the conditioning floors each channel's noise there.
 
@@ -124,6 +133,20 @@ def repeated(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
     out = np.zeros(lat.size, bool)
     out[1:] = (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1])
     return out
+
+
+def frozen_tail(columns: list[np.ndarray]) -> int:
+    """Return how many rows at the end repeat every value of the row before (module docstring).
+
+    ``columns``: the log's values, (n,) each; NaN equals NaN (an empty cell repeated).
+    """
+    n = columns[0].size if columns else 0
+    same = np.ones(max(n - 1, 0), bool)
+    for c in columns:
+        a, b = c[1:], c[:-1]
+        same &= (a == b) | (np.isnan(a) & np.isnan(b))
+    new = np.flatnonzero(~same)
+    return n - 1 - (int(new[-1]) + 1) if new.size else max(n - 1, 0)
 
 
 def interpolated(
