@@ -243,23 +243,27 @@ def _csv_rows(path: str | Path) -> csv.DictReader:
     return csv.DictReader(io.StringIO(raw.decode()))
 
 
-#: the columns whose values make a row of a traffic CSV (:func:`last_new_row_time`)
-ROW_VALUES = ("latitude", "longitude", "altitude", "groundspeed", "track", "vertical_rate")
+#: the columns whose values make a row of a traffic CSV (:func:`last_new_row_time`), with the
+#: altitude column the log is read with
+ROW_VALUES = ("latitude", "longitude", "groundspeed", "track", "vertical_rate")
 
 
-def last_new_row_time(path: str | Path, lines: np.ndarray | None = None) -> float:
+def last_new_row_time(
+    path: str | Path, lines: np.ndarray | None = None, altitude: str = "altitude"
+) -> float:
     """Return the time (s, POSIX) of the log's last row with a value new to it.
 
     The rows with a ``timestamp``, a ``latitude`` and a ``longitude`` (and, given ``lines``,
     at those lines of the file: the fixes a reader keeps), in time order (stable); the last
-    of them whose cells in :data:`ROW_VALUES` (those the log has, compared as the
-    text printed) differ from the row's before it. A log that ends with rows repeating every
+    of them whose cells in :data:`ROW_VALUES` and ``altitude`` (those the log has, compared
+    as the text printed) differ from the row's before it. A log that ends with rows repeating every
     value of the row before them has measured nothing after that row (it froze, or was filled
     forward to a clock): those rows are no fixes, and the log's span ends there (issue 34:
-    nothing invented). Read from the file itself; +inf when no row repeats the one before.
+    nothing invented). Read from the file itself; +inf when the last row does not repeat the
+    one before it.
     """
     rows = _csv_rows(path)
-    cols = [c for c in ROW_VALUES if c in (rows.fieldnames or ())]
+    cols = [c for c in (*ROW_VALUES, altitude) if c in (rows.fieldnames or ())]
     wanted = None if lines is None else {int(x) for x in lines}
     kept = [
         (_iso(r["timestamp"].strip()), tuple((r[c] or "").strip() for c in cols))
@@ -579,7 +583,15 @@ def check_piece(
         k = int(np.argmax(r))
         ratio, worst_t, there = float(r[k]), float(series.t[k] - series.t[0]), float(local[k])
         worst_v = float(series.ground_speed[k])
-    t0, t1 = float(log.t.min()), min(float(log.t.max()), last_new_row_time(path, log.lines))
+    t0, t1 = (
+        float(log.t.min()),
+        min(
+            float(log.t.max()),
+            last_new_row_time(
+                path, log.lines, "geoaltitude" if height_ref == "msl" else "altitude"
+            ),
+        ),
+    )
     f0, f1 = float(t_abs[0]), float(t_abs[-1])
     span = t1 - t0
     cover = max(0.0, min(t1, f1) - max(t0, f0))

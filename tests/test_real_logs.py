@@ -316,6 +316,8 @@ def test_velocities_in_another_unit_left_out(tmp_path):
     assert "(groundspeed, track) are 0.515 ×" in note  # whole m/s over the path's speed
     assert "velocity" not in cf.report["channels"]
     assert 225.0 < cf.report["kinematics"]["max_ground_speed_m_s"] < 245.0
+    # its speeds (121 "m/s") are no evidence of the vehicle either: guessed from the positions
+    assert cf.report["vehicle"]["class"] == "airliner", cf.report["vehicle"]
     argv = ["navsim", "--lmax", "20", "--models", "j4", "--rate", "10", "--no-timing"]
     out = tmp_path / "out"
     rc = main([*argv, "--trajectory", str(path), "--height-ref", "ellipsoid", "--out", str(out)])
@@ -439,7 +441,7 @@ def test_real_log_with_stale_velocities_flown_on_its_positions():
         k = cf.report["kinematics"]
         frozen = [n for n in cf.report["notes"] if "the log froze there" in n]
         last = cf.raw["t"][cf.raw["status"] != 5][-1]  # the last row not trimmed
-        assert len(frozen) <= 1 and last == pytest.approx(k["duration_s"], abs=1.0)
+        assert len(frozen) == 1 and last == pytest.approx(k["duration_s"], abs=1.0)
         assert k["duration_s"] >= 0.95 * (track.t[-1] - track.t[0])
         assert 0.3 <= k["min_specific_force_g"] and k["peak_specific_force_g"] <= 1.8
 
@@ -593,6 +595,21 @@ def test_a_frozen_end_is_not_flown(tmp_path):
     raw = cf.raw
     tail = raw["lines"] >= first_frozen
     assert tail.sum() == 120 and np.all(raw["status"][tail] == 5)  # TRIMMED
+    # the rows keep their heights; no distance from a path that is not flown there
+    assert np.all(np.isfinite(raw["h"][tail]))
+    assert np.all(np.isnan(raw["offset_h"][tail]) & np.isnan(raw["offset_v"][tail]))
+    # a given output interval: the last sample still names the last measured line
+    every = condition(read_track(frozen, height_ref="ellipsoid"), Conditioning(dt_out=0.7))
+    assert every.samples.lines[-1] == last
+    # fixes 10 s apart with the frozen rows at 1 s: the grid is the fixes' (5 s), not 1 s
+    rows = path.read_text().splitlines()
+    sparse = tmp_path / "sparse.csv"
+    sparse.write_text("\n".join([rows[0], *rows[1::10]]) + "\n")
+    alone = condition(read_track(sparse, height_ref="ellipsoid"))
+    tailed = _with_tail(sparse, tmp_path / "sf.csv", 300)
+    cs = condition(read_track(tailed, height_ref="ellipsoid"))
+    assert np.array_equal(cs.samples.t, alone.samples.t)
+    assert np.array_equal(cs.samples.h, alone.samples.h)
     moving = _with_tail(path, tmp_path / "moving.csv", 120, vary_speed=True)
     cm = condition(read_track(moving, height_ref="ellipsoid"))
     assert cm.samples.t[-1] == pytest.approx(plain.samples.t[-1] + 120.0, abs=1.0)

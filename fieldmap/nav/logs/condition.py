@@ -41,7 +41,9 @@ likelihood, with :math:`q` bounded by the vehicle class
    (:meth:`~fieldmap.nav.logs.vehicles.Vehicle.with_log_climb`: a parabolic flight's).
 4. *Estimate* (:func:`estimate`): the horizontal and vertical smoothers. Where the log's
    velocities contradict its positions (the joint fit would reject most positions or most
-   velocities) they are left out and the report says so. The height's EM runs from two
+   velocities, or their speeds are a constant factor off the positions': a unit or column
+   mistake, the vehicle then guessed again without them) they are left out and the report
+   says so. The height's EM runs from two
    starts, the annealed one and the Huber M-estimate, compared at one set of noise levels
    by the mixture's likelihood (:func:`_height`): a long run of wrong altitudes cannot hold
    the path where the EM's first start put it. Where the positions show time errors, the
@@ -51,12 +53,14 @@ likelihood, with :math:`q` bounded by the vehicle class
    runway's slope, a constraint no run of heights outweighs (:func:`ground_level`,
    :func:`_on_ground`: a transponder's stale airborne altitudes while it taxis are faults).
 5. *Samples*: the smoothed path at the grid nodes from the first sample to the last
-   (``airborne_only`` trims the slow ends of an aircraft's log); the faults as runs with their
-   lines (:func:`~fieldmap.nav.logs.faults.describe_faults`); the stretches longer than
-   ``max_gap_s`` flown without a kept position or height (:func:`unfixed_stretches`): gaps
-   between fixes, with the path's posterior σ at their middle, and the ends of the flown span
-   before the first kept fix or after the last (a transponder's stale last rows), flown from
-   one side only, with the σ at their far end.
+   measured one (a frozen end, rows repeating every value of the row before, is measured by
+   none: :func:`measured_end`; ``airborne_only`` trims the slow ends of an aircraft's log);
+   the faults as runs with their lines (:func:`~fieldmap.nav.logs.faults.describe_faults`);
+   the stretches longer than ``max_gap_s`` flown without a kept position or height
+   (:func:`unfixed_stretches`): gaps between fixes, with the path's posterior σ at their
+   middle, and the ends of the flown span before the first kept fix or after the last (a
+   transponder's stale last altitudes, rejected), flown from one side only, with the σ at
+   their far end.
 
 Gaps are prediction: across an interval without fixes the path is the model's conditional
 mean given both sides, within the vehicle's climb (its vertical speed relaxes to zero over the
@@ -200,9 +204,10 @@ class Conditioning:
         Sort times that go back; False: refuse them (an :class:`InputError` naming the line).
     dt_out : float, optional
         Output sample interval (s): the last sample falls less than one interval after the last
-        fix. Default: the median sample interval, within 0.1..1 s (5 s for a log whose fixes are
-        further apart than that), shortened to divide the log's span: the first and the last
-        sample on the first and the last fix.
+        measured fix. Default: the median interval of the measured samples, within 0.1..1 s (5 s
+        for a log whose fixes are further apart than that), shortened to divide their span:
+        the first and the last sample on the first and the last measured fix (a frozen end's
+        rows are none: :func:`measured_end`).
     ellipsoid : Ellipsoid
         Ellipsoid of the coordinates.
 
@@ -586,8 +591,47 @@ def _fault_density(extent: float, dof: int) -> float:
     return 1.0 / (math.pi * extent**2) if dof == 2 else 1.0 / (2.0 * extent)
 
 
-def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicle) -> Measurements:
-    """Return the channels of the ordered log (step 2; :mod:`fieldmap.nav.logs.faults`)."""
+def measured_end(log: OrderedLog, track: Any, options: Conditioning) -> int:
+    """Return how many of the ordered samples are measured: all but a frozen end's.
+
+    A frozen end (:func:`~fieldmap.nav.logs.faults.frozen_tail`) over the values the
+    conditioning reads (position, height and, where it uses them, the velocities); none
+    where fewer than ``MIN_POINTS`` samples would be left (a log of repeats: its repeats are
+    all it has).
+    """
+    n = log.t.size
+    vel = getattr(track, "velocity", None)
+    values = [log.lat, log.lon, log.h]
+    if vel is not None and options.log_velocities:
+        values += [vel.speed[log.index], vel.track[log.index]]
+        values += [vel.climb[log.index]] if vel.climb is not None else []
+    frozen = flt.frozen_tail(values)
+    return n - frozen if n - frozen >= MIN_POINTS else n
+
+
+def _head(log: OrderedLog, end: int) -> OrderedLog:
+    """Return the first ``end`` samples of an ordered log."""
+    if end == log.t.size:
+        return log
+    return replace(
+        log,
+        t=log.t[:end],
+        lat=log.lat[:end],
+        lon=log.lon[:end],
+        h=log.h[:end],
+        lines=log.lines[:end],
+        index=log.index[:end],
+    )
+
+
+def measurements(
+    log: OrderedLog, track: Any, options: Conditioning, top: Vehicle, end: int
+) -> Measurements:
+    """Return the channels of the ordered log (step 2; :mod:`fieldmap.nav.logs.faults`).
+
+    Its first ``end`` samples are measured (:func:`measured_end`): the rest, a frozen end,
+    are in no channel.
+    """
     ell = options.ellipsoid
     n = log.t.size
     zero = np.zeros(n)
@@ -596,13 +640,7 @@ def measurements(log: OrderedLog, track: Any, options: Conditioning, top: Vehicl
     rep = flt.repeated(log.lat, log.lon)
     interp, _ = flt.interpolated(log.t, log.lat, log.lon, m_per_deg, INTERP_ROUNDING_M)
     vel = getattr(track, "velocity", None)
-    # a frozen end (faults module docstring): its rows are no measurements of any channel
-    values = [log.lat, log.lon, log.h]
-    if vel is not None and options.log_velocities:
-        values += [vel.speed[log.index], vel.track[log.index]]
-        values += [vel.climb[log.index]] if vel.climb is not None else []
-    frozen = flt.frozen_tail(values)
-    end = n - frozen if n - frozen >= MIN_POINTS else n
+    frozen = n - end
     origin = np.mean(p[:end], axis=0)
     state = [log.h]
     if vel is not None:
@@ -754,6 +792,9 @@ class PathEstimate:
         ground's, :func:`ground_level`); the log's are in :attr:`Measurements.index`.
     height_time_sigma_s : float
         The σ of the heights' time errors (s; 0: none), motion module docstring, "Time errors".
+    speed_factor : float or None
+        The constant factor between the log's ground speeds and its positions' (a unit or
+        column mistake; the velocities left out), None where there is none.
     """
 
     horizontal: SmoothedAxis
@@ -762,6 +803,9 @@ class PathEstimate:
     notes: tuple[str, ...] = ()
     index: dict[str, np.ndarray] = field(default_factory=dict)
     height_time_sigma_s: float = 0.0
+    #: the constant factor between the log's ground speeds and its positions' where there is
+    #: one (the velocities then left out), else None
+    speed_factor: float | None = None
 
     def samples_of(self, name: str, meas: Measurements) -> np.ndarray:
         """Return the ordered samples channel ``name`` is at (the model's or the log's)."""
@@ -1094,7 +1138,7 @@ def estimate(
                     "path moves on: copies of it (a value held or filled forward), not "
                     "measurements"
                 )
-    return PathEstimate(hz, vt, chans, tuple(notes), added, timing)
+    return PathEstimate(hz, vt, chans, tuple(notes), added, timing, factor)
 
 
 def _height_time_sigma(
@@ -1421,7 +1465,14 @@ def _too_few(log: OrderedLog) -> None:
         )
 
 
-def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicle, str, Evidence]:
+def _vehicle(
+    log: OrderedLog, track: Any, options: Conditioning, log_speeds: bool = True
+) -> tuple[Vehicle, str, Evidence]:
+    """Return the vehicle class, how it was chosen and the evidence.
+
+    ``log_speeds``: the log's ground speeds are evidence of its speed (False where they are
+    a unit's factor off the positions').
+    """
     ell = options.ellipsoid
     lat0, lon0 = float(np.median(log.lat)), float(np.median(log.lon))
     p = np.stack(geodetic_to_ecef(log.lat, log.lon, np.zeros_like(log.h), ell), -1)
@@ -1438,7 +1489,8 @@ def _vehicle(log: OrderedLog, track: Any, options: Conditioning) -> tuple[Vehicl
         # differences of its fixes (a glitch or a jump moves those)
         gs = vel.speed[log.index]
         gs = gs[np.isfinite(gs)]
-        ev = replace(ev, speed=float(np.percentile(gs, 99))) if gs.size >= 20 else ev
+        if log_speeds and gs.size >= 20:
+            ev = replace(ev, speed=float(np.percentile(gs, 99)))
         if vel.climb is not None:
             rates = vel.climb[log.index]
             # a rate computed between measurements (off the column's steps) reports nothing
@@ -1517,14 +1569,16 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
             **info,
         )
         return conditioned_flight(c)
-    vehicle, how, ev = _vehicle(log, track, options)
+    end = measured_end(log, track, options)
+    measured = _head(log, end)  # the samples measured: a frozen end's are none
+    vehicle, how, ev = _vehicle(measured, track, options)
     vehicle = vehicle.with_log_climb(ev.top_climb)
-    meas = measurements(log, track, options, vehicle)
+    meas = measurements(log, track, options, vehicle, end)
     # the grid as fine as the fixes, within 0.1..1 s; a log whose fixes are further apart than
     # ESTIMATE_DT_S is solved on the grid its noise levels are estimated on: a 1 s grid there
     # would hold a stiff model's straight lines by faint data alone (a normal matrix past the
     # digits of float64), and the flight's quintic flies between the nodes
-    step = float(np.median(np.diff(log.t)))
+    step = float(np.median(np.diff(meas.t)))
     dt = options.dt_out or (
         ESTIMATE_DT_S if step > ESTIMATE_DT_S else float(np.clip(step, 0.1, 1.0))
     )
@@ -1545,6 +1599,14 @@ def condition(track: Any, options: Conditioning | None = None) -> Any:
     # them, and two logs conditioned at once on two cores took 15 × as long with it
     with threadpool_limits(limits=1, user_api="blas"):
         est = estimate(meas, vehicle, grid, options)
+        if est.speed_factor is not None and options.vehicle is None:
+            # the speeds a unit's factor off are no evidence of the vehicle either
+            again, why, ev2 = _vehicle(measured, track, options, log_speeds=False)
+            if again.name != vehicle.name:
+                vehicle, ev = again.with_log_climb(ev2.top_climb), ev2
+                how = f"{why} (the log's ground speeds left out: a unit's factor off)"
+                meas = measurements(log, track, options, vehicle, end)
+                est = estimate(meas, vehicle, grid, options)
     return conditioned_flight(_finish(log, meas, vehicle, how, ev, est, grid, options, info))
 
 
@@ -1589,7 +1651,7 @@ def _finish(
     lon += 360.0 * np.round((log.lon[0] - lon[0]) / 360.0)
     h = vt.x[nodes, 0, 0]
     tg = grid.t[nodes]
-    near = np.clip(np.searchsorted(log.t, tg), 0, log.t.size - 1)
+    near = np.clip(np.searchsorted(meas.t, tg), 0, meas.t.size - 1)  # a measured sample's
     samples = FlightSamples(
         tg - tg[0], lat, lon, h, None, log.source, log.lines[near], float(tg[0])
     )

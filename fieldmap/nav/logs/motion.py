@@ -152,7 +152,8 @@ gap's path is the jerk's least-effort curve: a vehicle that enters a gap heading
 where it leaves it swings out wide and catches up at speeds it never flew (a tanker turning
 in a 6-minute gap at 1.3 × its top speed). Where the log's velocities are left out of the
 fit (they contradict its positions: tracks off, a stretch resampled), their speeds still set
-the envelope the same way, per sample the smaller of the reported speed and the path's. The
+the envelope the same way (not where they are a constant factor off the positions': then they
+are no speeds of the path), per sample the smaller of the reported speed and the path's. The
 bounded path minimises :math:`J` over the bounded set (a convex problem:
 :meth:`AxisSmoother._speed_bounded`); like the height's climb and load factor it is a bound,
 not data: the likelihood and the noise levels are those of the unbounded problem. So where the

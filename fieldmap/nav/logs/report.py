@@ -63,7 +63,8 @@ class ConditionedFlight:
         The ordered raw samples (``t`` relative to ``samples.t_start``, ``lat``, ``lon``, ``h``,
         ``lines``; ``h`` and ``offset_v`` NaN at a sample without a height of its own), each
         one's ``status`` (codes :data:`STATUS_NAMES`) and distances from the flown path
-        (``offset_h``, ``offset_v``, m) for :func:`plot_conditioning`.
+        (``offset_h``, ``offset_v``, m; NaN on a frozen end's rows, where no path is flown)
+        for :func:`plot_conditioning`.
     conditioned : Conditioned
         The typed result the report is built from
         (:class:`~fieldmap.nav.logs.condition.Conditioned`).
@@ -474,10 +475,14 @@ def conditioned_flight(c: Any) -> ConditionedFlight:
     lo, hi = s.t_start, s.t_start + s.t[-1]
     status[(log.t < lo - 1e-9) | (log.t > hi + 1e-9)] = TRIMMED
     h = log.h
-    if m is not None and m.index["height"].size < n:  # samples without a height of their own
-        h = np.full(n, np.nan)
-        h[m.index["height"]] = log.h[m.index["height"]]
-        off_v[np.isnan(h)] = np.nan
+    end = n if m is None else m.t.size  # the rows after are a frozen end: no path there
+    if m is not None and m.index["height"].size < end:  # samples without a height of their own
+        own = np.zeros(n, bool)
+        own[m.index["height"]] = True
+        own[end:] = own[end - 1]  # a frozen end's rows repeat the last measured one
+        h = np.where(own, log.h, np.nan)
+        off_v[~own] = np.nan
+    off_h[end:], off_v[end:] = np.nan, np.nan
     raw = {
         "t": log.t - s.t_start,
         "lat": log.lat,
