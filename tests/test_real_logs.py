@@ -595,6 +595,9 @@ def test_a_frozen_end_is_not_flown(tmp_path):
     raw = cf.raw
     tail = raw["lines"] >= first_frozen
     assert tail.sum() == 120 and np.all(raw["status"][tail] == 5)  # TRIMMED
+    from fieldmap.nav.logs.report import plot_conditioning
+
+    assert plot_conditioning(cf)._suptitle.get_text().endswith(", 120 not flown")
     # the rows keep their heights; no distance from a path that is not flown there
     assert np.all(np.isfinite(raw["h"][tail]))
     assert np.all(np.isnan(raw["offset_h"][tail]) & np.isnan(raw["offset_v"][tail]))

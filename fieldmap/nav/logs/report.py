@@ -650,7 +650,8 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
     """Raw samples against the conditioned path: map, height, distances; a matplotlib Figure.
 
     Rejected samples are marked (red x), samples that are no measurement (repeated or
-    interpolated positions) grey; distances are from the flown path.
+    interpolated positions) grey, samples the path does not fly past (a frozen end, the slow
+    ends ``airborne_only`` trims) light grey circles; distances are from the flown path.
     """
     from matplotlib.figure import Figure
 
@@ -659,18 +660,28 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
     bad_h = np.isin(st, (OUTLIER_H, OUTLIER_HV))
     bad_v = np.isin(st, (OUTLIER_V, OUTLIER_HV))
     used = st == KEPT
+    off = st == TRIMMED
     fig = Figure(figsize=(12, 8), layout="constrained")
     ax = fig.subplots(2, 2)
     a = ax[0, 0]
-    a.plot(raw["lon"][~bad_h], raw["lat"][~bad_h], ".", ms=2, color="0.6", label="log")
+    a.plot(
+        raw["lon"][~bad_h & ~off], raw["lat"][~bad_h & ~off], ".", ms=2, color="0.6", label="log"
+    )
     a.plot(raw["lon"][bad_h], raw["lat"][bad_h], "x", color="r", label="rejected")
+    if off.any():
+        a.plot(raw["lon"][off], raw["lat"][off], "o", ms=3, mfc="none", color="0.75",
+               label="not flown")  # fmt: skip
     a.plot(s.lon, s.lat, "-", lw=1, color="C0", label="flown")
     a.set_xlabel("longitude (°)")
     a.set_ylabel("latitude (°)")
     a.legend(fontsize=8)
     a = ax[0, 1]
-    a.plot(raw["t"][~bad_v] / 60, raw["h"][~bad_v], ".", ms=2, color="0.6", label="log")
+    a.plot(raw["t"][~bad_v & ~off] / 60, raw["h"][~bad_v & ~off], ".", ms=2, color="0.6",
+           label="log")  # fmt: skip
     a.plot(raw["t"][bad_v] / 60, raw["h"][bad_v], "x", color="r", label="rejected")
+    if off.any():
+        a.plot(raw["t"][off] / 60, raw["h"][off], "o", ms=3, mfc="none", color="0.75",
+               label="not flown")  # fmt: skip
     a.plot(s.t / 60, s.h, "-", lw=1, color="C0", label="flown")
     a.set_xlabel("time (min)")
     a.set_ylabel("height above the ellipsoid (m)")
@@ -687,5 +698,6 @@ def plot_conditioning(cf: ConditionedFlight) -> Figure:
     for a in ax.flat:
         a.grid(True, alpha=0.3)
     name = PurePath(str(cf.report["source"])).name  # the file, not the folder it was read in
-    fig.suptitle(f"{name}: {int(used.sum())} kept, {int((bad_h | bad_v).sum())} rejected")
+    title = f"{name}: {int(used.sum())} kept, {int((bad_h | bad_v).sum())} rejected"
+    fig.suptitle(title + (f", {int(off.sum())} not flown" if off.any() else ""))
     return fig
