@@ -398,9 +398,17 @@ def reported_speed_at(t_report: np.ndarray, speed: np.ndarray, t: np.ndarray) ->
     """
     if speed.size < 3:
         return np.interp(t, t_report, speed) if speed.size else np.full(np.shape(t), np.nan)
-    m3 = np.median(np.stack([speed[:-2], speed[1:-1], speed[2:]]), axis=0)
-    m3 = np.concatenate([m3[:1], m3, m3[-1:]])
-    return np.interp(t, t_report, m3)
+    return np.interp(t, t_report, _median_of_three(speed))
+
+
+def _median_of_three(x: np.ndarray) -> np.ndarray:
+    """Return the running median of three of the rows of ``x`` (3 or more).
+
+    Each row the median of itself and its two neighbours, the first and last the median of
+    the first and last three (:func:`reported_speed_at`).
+    """
+    m3 = np.median(np.stack([x[:-2], x[1:-1], x[2:]]), axis=0)
+    return np.concatenate([m3[:1], m3, m3[-1:]])
 
 
 #: the half-width (s) of the window over which :func:`force_against_log` differences velocities
@@ -453,10 +461,7 @@ def reported_velocities(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             v.append((speed * np.sin(chi), speed * np.cos(chi), up))
     order = np.argsort(np.asarray(t), kind="stable")
     t_s, v_s = np.asarray(t)[order], np.asarray(v).reshape(-1, 3)[order]
-    if t_s.size >= 3:
-        m3 = np.median(np.stack([v_s[:-2], v_s[1:-1], v_s[2:]]), axis=0)
-        v_s = np.concatenate([m3[:1], m3, m3[-1:]])
-    return t_s, v_s
+    return t_s, (_median_of_three(v_s) if t_s.size >= 3 else v_s)
 
 
 def _windowed_load(t: np.ndarray, v: np.ndarray, at: np.ndarray, g: np.ndarray, w: float):
