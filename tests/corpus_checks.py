@@ -256,7 +256,8 @@ def last_new_row_time(
     The rows with a ``timestamp``, a ``latitude`` and a ``longitude`` (and, given ``lines``,
     at those lines of the file: the fixes a reader keeps), in time order (stable); the last
     of them whose cells in :data:`ROW_VALUES` and ``altitude`` (those the log has, compared
-    as the text printed) differ from the row's before it. A log that ends with rows repeating every
+    as the text printed; an empty cell is no new value, and reads as its column's last one)
+    differ from the row's before it. A log that ends with rows repeating every
     value of the row before them has measured nothing after that row (it froze, or was filled
     forward to a clock): those rows are no fixes, and the log's span ends there (issue 34:
     nothing invented). Read from the file itself; +inf when the last row does not repeat the
@@ -274,6 +275,10 @@ def last_new_row_time(
         and (wanted is None or line in wanted)
     ]
     kept.sort(key=lambda x: x[0])
+    last: list[str] = [""] * len(cols)  # an empty cell holds its column's last value
+    for j, (t, cells) in enumerate(kept):
+        last = [c or prev for c, prev in zip(cells, last)]
+        kept[j] = (t, tuple(last))
     if len(kept) < 2 or kept[-1][1] != kept[-2][1]:
         return np.inf
     i = len(kept) - 1

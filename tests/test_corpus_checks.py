@@ -267,6 +267,13 @@ def test_a_frozen_end_is_no_part_of_the_log_s_span(tmp_path):
     log = tmp_path / "frozen.csv"
     _write_log(log, t, lat, lon, 3000.0, speed / kt)
     assert last_new_row_time(log) == pytest.approx(1.6e9 + 99.0)
+    # the frozen rows without their altitude (an ADS-B table's empty cells): an empty cell is
+    # no new value, so the end is still the last row with one
+    text = log.read_text().splitlines()
+    blank = tmp_path / "blank.csv"
+    cut = [",".join(r.split(",")[:4] + [""] + r.split(",")[5:]) for r in text[1 + 120 :]]
+    blank.write_text("\n".join(text[: 1 + 120] + cut) + "\n")
+    assert last_new_row_time(blank) == pytest.approx(1.6e9 + 99.0)
     flown = FlightSamples(t[:100], lat[:100], lon[:100], np.full(100, 3000.0 * 0.3048), None,
                           "test", np.arange(100) + 2, 1.6e9)  # fmt: skip
     c = check_piece(log, flown, sigma_h=1000.0)  # (the heights are not the point)

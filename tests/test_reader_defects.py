@@ -556,8 +556,14 @@ def test_csv_empty_time_and_infinite_value(tmp_path, text):
     inf = lines.copy()
     inf[k + 1] = ",".join(row[:5] + ["inf"] + row[6:])
     track = read_track(write(tmp_path / "inf.csv", inf))
-    same_but(track, base, [k], h_atol=0.05)
+    # read as empty: the row keeps its time and position, without a height
+    for name in ("t", "lat", "lon"):
+        np.testing.assert_array_equal(getattr(track, name), getattr(base, name))
+    np.testing.assert_array_equal(np.flatnonzero(track.no_height), [k])
+    others = np.arange(len(base)) != k
+    np.testing.assert_allclose(track.h[others], base.h[others], rtol=0, atol=0.05)
     noted(track, "altitude: 1 value not finite (inf) read as empty", f"line {k + 2}")
+    noted(track, "altitude: 1 row without a value", f"line {k + 2}", "positions without a height")
     no_time = lines.copy()
     no_time[k + 1] = ",".join([""] + row[1:])
     track = read_track(write(tmp_path / "notime.csv", no_time))

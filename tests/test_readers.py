@@ -203,6 +203,11 @@ def test_mapping_odd_names_feet(tmp_path, fl):
 
 
 def test_empty_cells_dropped_and_gzip(tmp_path, fl):
+    """Rows without a position are dropped; a row with a position and no altitude is kept.
+
+    ADS-B exports hold rows between altitude messages and a taxi's surface reports with an
+    empty altitude: their positions are measurements, kept as positions without a height.
+    """
     rows = opensky_rows(fl)
     for k in (5, 6, 700):  # ADS-B exports: rows without a position or altitude
         c = rows[k].split(",")
@@ -211,9 +216,12 @@ def test_empty_cells_dropped_and_gzip(tmp_path, fl):
     path = tmp_path / "states.csv.gz"
     path.write_bytes(gzip.compress(("\n".join(rows) + "\n").encode()))
     tr = read_track(path)
-    assert len(tr) == fl["t"].size - 3
-    assert any("dropped 3 of 1800" in n and "line 6" in n for n in tr.notes)
+    assert len(tr) == fl["t"].size - 2
+    assert any("dropped 2 of 1800" in n and "line 6" in n for n in tr.notes)
     assert 6 not in tr.lines and tr.lines[4] == 8
+    assert any("1 row without a value (line 701)" in n for n in tr.notes), tr.notes
+    np.testing.assert_array_equal(tr.lines[tr.no_height], [701])
+    np.testing.assert_allclose(tr.lat[tr.lines == 701], fl["lat"][699], atol=1e-6)
 
 
 def test_parse_columns():
@@ -619,9 +627,10 @@ def test_traffic_package_samples(name):
     [
         # line 7443 on: 15850 ft, 1150, 15800, 1700, 15750 (1 Hz)
         ("noisy_time_issue", 8294, [7445, 7447]),
-        # 130 rows without an altitude; 35975 ft held during the take-off roll at Zurich (line
-        # 86 on; 1525 ft between), trimmed with the roll by the conditioning
-        ("noisy_takeoff", 600, []),
+        # 130 rows without an altitude (positions without a height); 35975 ft held during the
+        # take-off roll at Zurich (line 86 on; 1525 ft between), trimmed with the roll by the
+        # conditioning
+        ("noisy_takeoff", 730, []),
     ],
 )
 def test_altitude_spikes_are_not_a_unit_error(name, rows, spikes):

@@ -35,13 +35,15 @@ transponders report GNSS height above the ellipsoid, older ones above MSL, so it
 MSL (a note says so; ``height_ref="ellipsoid"`` reads it as ellipsoidal). Times: seconds as
 given, epoch seconds (> 1e8), epoch milliseconds (> 1e11: a guess of the units, which the notes
 and any later refusal of the log mention), ISO 8601 strings (naive = UTC) or a ``strptime``
-pattern (``time_format``). Rows with an empty latitude, longitude or altitude
-(``""``, ``nan``, ``null``) are dropped and counted in the notes; anything else that is not a
-number is refused with its line and column. Rows with an empty time are dropped and counted
-too; an infinite value (``inf``) is read as empty, and said. Lines that are no samples (a
-repeat of the header, a row of empty cells, a last line cut short by the end of the file) are
-dropped and said (:func:`csv_table`). An altitude column of an ADS-B layout that is zero in
-every row is the recorder's "none", not a flight at sea level: not used
+pattern (``time_format``). Rows with an empty latitude or longitude (``""``, ``nan``,
+``null``) are dropped and counted in the notes; a row with a position and an empty altitude
+keeps its position and time, without a height (:attr:`RawTrack.no_height`: an ADS-B table's
+rows between altitude messages, a taxi's surface reports), counted in the notes; anything
+else that is not a number is refused with its line and column. Rows with an empty time are
+dropped and counted too; an infinite value (``inf``) is read as empty, and said. Lines that
+are no samples (a repeat of the header, a row of empty cells, a last line cut short by the
+end of the file) are dropped and said (:func:`csv_table`). An altitude column of an ADS-B
+layout that is zero in every row is the recorder's "none", not a flight at sea level: not used
 (:func:`_zero_columns`); an altitude of exactly 0 in some rows is a surface report's
 placeholder (they carry no altitude), read as empty (:func:`_surface_zeros`). A table of
 several aircraft (``icao24``) is refused: a flight is one aircraft's. GPX, NMEA 0183 and IGC:
@@ -202,8 +204,9 @@ class RawTrack:
     time_guess: str | None = None
     velocity: Velocities | None = None
     category: str | None = None
-    #: the samples without a height of their own (a surface report's placeholder altitude):
-    #: positions only, their ``h`` interpolated in time between the others' (bool), or None
+    #: the samples without a height of their own (an empty altitude, or a surface report's
+    #: placeholder): positions only, their ``h`` interpolated in time between the others'
+    #: (bool), or None
     no_height: np.ndarray | None = None
     #: the samples that are ADS-B surface reports: on the ground by the transponder's own
     #: word (bool), or None
@@ -750,15 +753,21 @@ def _finish(
             f"{p.names[0]} ({_at(p.where, p.lines[~timed])})"
         )
     code = p.surface.get(ref if ref in p.alts else p.height_ref, np.zeros(p.t.size, np.int8))
-    located = np.isfinite(p.lat) & np.isfinite(p.lon) & (np.isfinite(alt) | (code > 0))
+    located = np.isfinite(p.lat) & np.isfinite(p.lon)
     keep = timed & located
     if not (keep & np.isfinite(alt)).any():
         raise InputError(f"{p.source}: no sample has a latitude, longitude and {aname}")
     if not located[timed].all():
         n, first = int((timed & ~located).sum()), int(p.lines[timed & ~located][0])
         notes.append(
-            f"dropped {n} of {keep.size} samples with empty latitude, longitude or "
-            f"{aname} (first at {p.where} {first})"
+            f"dropped {n} of {keep.size} samples with an empty latitude or longitude "
+            f"(first at {p.where} {first})"
+        )
+    unheighted = keep & ~np.isfinite(alt) & (code == 0)
+    if unheighted.any():
+        notes.append(
+            f"{aname}: {_count(int(unheighted.sum()), 'row')} without a value "
+            f"({_at(p.where, p.lines[unheighted])}): positions without a height"
         )
     t, lat, lon, a, lines = (x[keep] for x in (p.t, p.lat, p.lon, alt, p.lines))
     blank = ~np.isfinite(a)  # surface reports: positions without a height
