@@ -46,12 +46,15 @@ likelihood, with :math:`q` bounded by the vehicle class
    says so. The height's EM runs from two
    starts, the annealed one and the Huber M-estimate, compared at one set of noise levels
    by the mixture's likelihood (:func:`_height`): a long run of wrong altitudes cannot hold
-   the path where the EM's first start put it. Where the positions show time errors, the
-   heights in their rows carry them too, in proportion to the climb (motion module
-   docstring, "Time errors"). An aircraft slower than its stall speed less
-   the strongest surface wind is on the ground: there its vertical rate is 0 within a
-   runway's slope, a constraint no run of heights outweighs (:func:`ground_level`,
-   :func:`_on_ground`: a transponder's stale airborne altitudes while it taxis are faults).
+   the path where the EM's first start put it. So does the horizontal one where the log
+   repeats its velocities, the second start the fresh samples' path (:func:`_horizontal`):
+   a ground speed held through a taxi cannot hold the path away from the taxi's positions.
+   Where the positions show time errors, the heights in their rows carry them too, in
+   proportion to the climb (motion module docstring, "Time errors"). An aircraft slower
+   than its stall speed less the strongest surface wind is on the ground: there its
+   vertical rate is 0 within a runway's slope, a constraint no run of heights outweighs
+   (:func:`ground_level`, :func:`_on_ground`: a transponder's stale airborne altitudes
+   while it taxis are faults).
 5. *Samples*: the smoothed path at the grid nodes from the first sample to the last
    measured one (a frozen end, rows repeating every value of the row before, is measured by
    none: :func:`measured_end`; ``airborne_only`` trims the slow ends of an aircraft's log);
@@ -836,11 +839,13 @@ def _smooth(
     reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
     noise_of: SmoothedAxis | None = None,
     start: SmoothedAxis | None = None,
+    fresh: bool = False,
 ) -> SmoothedAxis:
     r"""Smooth one axis group (module docstring, step 4).
 
     ``start`` (with ``noise_of``): the EM starts from its weights instead of the Huber
-    M-estimate's.
+    M-estimate's. ``fresh`` (with ``noise_of``): from the fresh samples' weights instead, 1
+    for a sample and 0 for a repeat (:func:`_horizontal`).
 
     ``noise_of``: a solution of the same channels whose noise levels :math:`q, s` and steps'
     weights :math:`\lambda` are held; the EM's weights and path (and the fault and copy shares,
@@ -887,11 +892,18 @@ def _smooth(
         # EM's weights and path at the noise levels of ``noise_of``
         sm = smoother(grid)
         q, scales = noise_of.q, list(noise_of.scales)
+        if fresh:
+            first = [
+                np.where(np.asarray(c.held), 0.0, 1.0) if _copies(c) else np.ones(c.t.size)
+                for c in channels
+            ]
+        else:
+            first = sm.huber_weights(q, scales0) if start is None else start.weights()
         return sm.run(
             q,
             scales,
             hold_noise=True,
-            weights0=sm.huber_weights(q, scales0) if start is None else start.weights(),
+            weights0=first,
             lam0=noise_of.lam,
             shares0=(list(noise_of.fault_rate), list(noise_of.held_rate)),
         )
@@ -918,6 +930,50 @@ def _smooth(
         lam0=lam0,
         shares0=shares0,
     )
+
+
+def _copies(c: Channel) -> bool:
+    """Whether the smoother takes some samples of ``c`` for copies (motion, "Held values")."""
+    return c.held is not None and bool(np.any(c.held)) and c.cell > 0.0
+
+
+def _horizontal(
+    grid: Grid,
+    vehicle: Vehicle,
+    channels: list[Channel],
+    floors: list[float],
+    fixed: list[float | None],
+    origin: np.ndarray,
+) -> SmoothedAxis:
+    r"""Smooth the horizontal path from two starts and keep the likelier (step 4).
+
+    The EM's first path weighs every sample of the log, its repeats too (a copy or a fresh
+    value: motion module docstring, "Held values"). Where a value is held for minutes while
+    the positions move on (ADS-B's last airborne ground speed, 103 kt, filled forward through
+    a 5-minute taxi), that first path follows the held value, the positions that contradict
+    it turn faults, and the EM stays there: a local maximum (the taxi flown as a 4 km loop at
+    53 m/s). The second start is the fresh samples' path: each repeat at weight 0, since a
+    copy says nothing of the path, from which the EM's weights and path are estimated again
+    at the first solution's noise levels. Of the two, the one with the smaller mixture
+    :math:`-2\log L` (:func:`_height`'s comparison) is kept, the second only by more than
+    :data:`START_EVIDENCE`, and only where its path keeps within the vehicle's top speed
+    (motion module docstring, "Speed") or the first's does not either: the bound is the
+    model's, a path it cannot hold flies fixes the vehicle could not reach. The noise levels
+    stay the first's (as the height's): estimated again from the second start, the EM went
+    on to σ of a few metres on 5-second helicopter fixes and flew their scatter at 6.7 g
+    (tour_de_france_3924a4_16). Without repeats there is one start.
+    """
+    first = _smooth(grid, vehicle, False, channels, floors, fixed, origin)
+    if not any(_copies(c) for c in channels):
+        return first
+    judged = _smooth(
+        grid, vehicle, False, channels, floors, fixed, origin, noise_of=first, fresh=True
+    )
+    if first.mixture_neg2loglik - judged.mixture_neg2loglik <= START_EVIDENCE:
+        return first
+    if first.speed_bound_holds and not judged.speed_bound_holds:
+        return first  # a path the vehicle's top speed cannot hold is no flight of it
+    return judged
 
 
 def _height(
@@ -1022,7 +1078,7 @@ def estimate(
             chans.append(velocities)
             floors.append(max(res_s / sq12, 0.01))
             fix.append(None)
-        return _smooth(grid, vehicle, False, chans, floors, fix, meas.origin), chans
+        return _horizontal(grid, vehicle, chans, floors, fix, meas.origin), chans
 
     factor = None
     if velocities is not None:

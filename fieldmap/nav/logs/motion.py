@@ -85,7 +85,12 @@ weight :math:`w_i = 1 - \pi_i - \kappa_i`; :math:`\eta` is the mean of :math:`\k
 channel's repeats (EM). A value held while the path moves on (a vertical rate repeated for
 two minutes while the heights level off) is explained as copies, not as a path that follows
 it; where the values are fresh (a rate held at zero in level flight, resolved within a
-quarter of the noise), :math:`N c > 1` and :math:`\eta` goes to zero.
+quarter of the noise), :math:`N c > 1` and :math:`\eta` goes to zero. A path that weighs
+the repeats from the start follows a value held for minutes, and the fixes that contradict
+it turn faults: a local maximum the EM does not leave (ADS-B's last airborne ground speed,
+103 kt, held through a 5-minute taxi: the taxi's positions rejected, the path a 4 km loop
+at 53 m/s). The horizontal EM therefore has a second start, the path of the fresh samples
+alone (each repeat at weight 0: :func:`fieldmap.nav.logs.condition._horizontal`).
 
 **Time errors.** A position stamped when its message was received or relayed, not when it
 was fixed, lies along the track by its time error: fix :math:`i` measures
