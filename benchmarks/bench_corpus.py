@@ -204,9 +204,12 @@ def geoid_of(path: Path) -> tuple[np.ndarray, np.ndarray]:
     log = read_track(path, height_ref="pressure", alt_units="ft")
     with gzip.open(path, "rt") as f:
         rows = list(csv.DictReader(f))
-    alt = np.array([float(rows[int(n) - 2]["altitude"]) * FT for n in log.lines])
-    order = np.argsort(log.t, kind="stable")
-    return log.t[order], (log.h - alt)[order]
+    # the fixes with an altitude of their own (a row without one has no geoid height here)
+    has = np.ones(log.t.size, bool) if log.no_height is None else ~log.no_height
+    alt = np.array([float(rows[int(n) - 2]["altitude"]) * FT for n in log.lines[has]])
+    t, h = log.t[has], log.h[has]
+    order = np.argsort(t, kind="stable")
+    return t[order], (h - alt)[order]
 
 
 def run_piece(
