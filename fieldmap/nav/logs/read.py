@@ -770,7 +770,7 @@ def _finish(
             f"({_at(p.where, p.lines[unheighted])}): positions without a height"
         )
     t, lat, lon, a, lines = (x[keep] for x in (p.t, p.lat, p.lon, alt, p.lines))
-    blank = ~np.isfinite(a)  # surface reports: positions without a height
+    blank = ~np.isfinite(a)  # no altitude (empty, or a placeholder): positions only
     on_ground = code[keep] == 1
     units = alt_units or p.alt_units
     if units == "ft":
