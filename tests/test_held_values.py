@@ -180,8 +180,9 @@ def test_a_taxi_under_a_held_ground_speed_follows_its_positions():
     minutes while its ``groundspeed`` and ``track`` columns hold 103 kt and 254°, row after
     row: ADS-B's last airborne velocity, filled forward. An EM whose first path weighed those
     repeats followed them, took the taxi's positions for faults and flew a 4 km loop at
-    53 m/s beside the airport (the fixes' 95th-percentile distance from it 3.8 km). The first
-    path is now the fresh samples' (``fieldmap.nav.logs.motion``, "Held values").
+    53 m/s beside the airport (the fixes' 95th-percentile distance from it 3.8 km). The
+    horizontal EM now has a second start, the fresh samples' path, kept by the mixture's
+    likelihood (``fieldmap.nav.logs.condition._horizontal``).
     """
     from corpus_checks import check_piece
 
