@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 from fieldmap.nav.logs import load_flight
+from fieldmap.nav.logs.condition import Conditioning
 from fieldmap.nav.logs.read import read_track
 
 FT, KT, FPM = 0.3048, 1852.0 / 3600.0, 0.3048 / 60.0
@@ -223,3 +224,25 @@ def test_other_taxis_under_a_held_ground_speed_follow_their_positions(name, line
     off = _offsets_at_every_row(piece, cf.samples)
     assert np.percentile(off, 95) < 150.0, np.percentile(off, 95)
     assert np.max(off) < 500.0, np.max(off)
+
+
+def test_noise_levels_of_a_start_that_rejects_its_positions_are_estimated_again():
+    """``zurich_airport_0083c3``: a landing and a 7-minute taxi, velocities held in the taxi.
+
+    The EM's first start (every repeat weighed) takes half of the positions for faults, and
+    its positions' σ runs to its 1 km ceiling. The second start (the fresh samples' path) wins
+    by the likelihood; judged at the first's noise levels alone, it flew the positions at
+    1 km of σ, by the held velocities, and cut the taxi's turns (half of the rows 37 m or more
+    off the path, the 95th percentile 185 m). Those noise levels are no estimate of the
+    positions' noise: the EM goes on from the second start with them estimated again, and the
+    path flies the rows as the positions alone fly them.
+    """
+    piece = Path(__file__).parent / "data" / "corpus" / "onground" / "zurich_airport_0083c3.csv.gz"
+    _, cf = load_flight(piece, height_ref="pressure")
+    _, alone = load_flight(piece, Conditioning(log_velocities=False), height_ref="pressure")
+    assert cf.report["channels"]["position"]["noise_sigma_at_bound"] is None
+    off = _offsets_at_every_row(piece, cf.samples)
+    off_alone = _offsets_at_every_row(piece, alone.samples)
+    assert np.median(off) < 1.2 * np.median(off_alone) + 1.0, (np.median(off), np.median(off_alone))
+    p95, p95_alone = np.percentile(off, 95), np.percentile(off_alone, 95)
+    assert p95 < 1.2 * p95_alone + 1.0, (p95, p95_alone)

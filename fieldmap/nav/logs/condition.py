@@ -840,12 +840,15 @@ def _smooth(
     noise_of: SmoothedAxis | None = None,
     start: SmoothedAxis | None = None,
     fresh: bool = False,
+    again: SmoothedAxis | None = None,
 ) -> SmoothedAxis:
     r"""Smooth one axis group (module docstring, step 4).
 
     ``start`` (with ``noise_of``): the EM starts from its weights instead of the Huber
     M-estimate's. ``fresh`` (with ``noise_of``): from the fresh samples' weights instead, 1
-    for a sample and 0 for a repeat (:func:`_horizontal`).
+    for a sample and 0 for a repeat (:func:`_horizontal`). ``again`` (without ``noise_of``):
+    the EM, noise levels included, starts from that solution's weights, noise levels, shares
+    and time errors instead of the first guesses.
 
     ``noise_of``: a solution of the same channels whose noise levels :math:`q, s` and steps'
     weights :math:`\lambda` are held; the EM's weights and path (and the fault and copy shares,
@@ -908,23 +911,32 @@ def _smooth(
             shares0=(list(noise_of.fault_rate), list(noise_of.held_rate)),
         )
     q0 = math.sqrt(lo * hi) * 10.0
+    weights0 = tau0 = lam0 = shares0 = None
+    if again is not None:
+        # the EM from ``again``'s weights, noise levels, shares and time errors
+        q0, scales0, weights0 = again.q, list(again.scales), again.weights()
+        shares0 = (list(again.fault_rate), list(again.held_rate))
+        tau0 = (again.tau, again.sigma_tau)
+    passes = 2
     # the noise levels are continuous-time quantities: estimated on a grid as coarse as the
     # fixes (up to ESTIMATE_DT_S), then the path solved on the output grid with them
     step = float(np.median(np.diff(channels[0].t))) if channels[0].t.size > 1 else grid.dt
     coarse_dt = min(step, ESTIMATE_DT_S)
-    weights0 = tau0 = lam0 = shares0 = None
     if coarse_dt >= 2.0 * grid.dt:
         k = int(coarse_dt // grid.dt)
-        est = smoother(Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)).run(q0, scales0)
+        est = smoother(Grid(grid.t0, grid.dt * k, (grid.n - 1) // k + 2)).run(
+            q0, scales0, weights0=weights0, tau0=tau0, shares0=shares0
+        )
         q0, scales0, weights0 = est.q, est.scales, est.weights()
         shares0 = (est.fault_rate, est.held_rate)
         tau0 = (est.tau, est.sigma_tau)
         # a coarse step's weight holds for each fine step inside it (the jerk's scale)
         lam0 = est.lam[np.minimum(np.arange(grid.n - 1) // k, est.lam.size - 1)]
+        passes = 0
     return smoother(grid).run(
         q0,
         scales0,
-        passes=0 if weights0 is not None else 2,
+        passes=passes,
         weights0=weights0,
         tau0=tau0,
         lam0=lam0,
@@ -961,7 +973,12 @@ def _horizontal(
     model's, a path it cannot hold flies fixes the vehicle could not reach. The noise levels
     stay the first's (as the height's): estimated again from the second start, the EM went
     on to σ of a few metres on 5-second helicopter fixes and flew their scatter at 6.7 g
-    (tour_de_france_3924a4_16). Without repeats there is one start.
+    (tour_de_france_3924a4_16). Except where the first takes half of a channel for faults
+    (its fault share at the EM's ceiling, 1/2): its noise levels are then those of a path
+    that does not fly that channel, no estimate of its noise (the positions' σ at its 1 km
+    ceiling, the taxi's turns cut by up to 190 m: zurich_airport_0083c3), and the EM goes on
+    from the second start with the noise levels estimated again (there 3.9 m, the σ the
+    positions alone give). Without repeats there is one start.
     """
     first = _smooth(grid, vehicle, False, channels, floors, fixed, origin)
     if not any(_copies(c) for c in channels):
@@ -973,6 +990,8 @@ def _horizontal(
         return first
     if first.speed_bound_holds and not judged.speed_bound_holds:
         return first  # a path the vehicle's top speed cannot hold is no flight of it
+    if max(first.fault_rate) >= 0.5 and max(judged.fault_rate) < 0.5:
+        return _smooth(grid, vehicle, False, channels, floors, fixed, origin, again=judged)
     return judged
 
 
