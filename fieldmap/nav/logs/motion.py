@@ -183,6 +183,20 @@ of the data (diffuse initial state),
 (:mod:`fieldmap.nav.logs.vehicles`): its process noise, not a loop that softens the result
 afterwards.
 
+Known defect: the noise levels are not converged. The EM makes two passes of E-steps and
+maximisations (on the estimation grid), and from the annealed start (the positions' σ 30 ×
+its first guess, where rates are measured) two passes leave the positions' σ at 60-300 m on
+ADS-B logs where it converges to 5-35 m: the calibration flights' fixes are flown about
+110 m off at the median (``brussels_ils``: σ 263 m, converged 25 m). Tried: passes until
+every level settles to the precision it is maximised to (at most 8), horizontally: the median
+offsets fell by more than 5 % on 22 of the 24 calibration flights (none rose), 31 of the 75
+Swiss pieces (4 rose), 12 of the 16 featured ones (none rose); but on
+``dreamliner_airfrance_39c424`` the σ converged to 1.2 m (the positions alone give the same),
+the path then followed 11 s of positions interpolated at 365 m/s (line 2426) that the speed
+bound could not hold, at 1.85 × the reported speed, and ``belevingsvlucht``'s heights fell
+below 99 % within 3σ; the EM also took 45 % longer. Not kept: a converged σ needs the runs of
+interpolated positions judged as such first.
+
 Known defect: for the surface point, :math:`d = 3` counts the radial axis in the determinants,
 while :math:`d_i = 2` normalises only the measured ones; the unpaid radial term favours a
 wide positions' σ. Where fixes are dense the data outweigh it; on a log with fixes far apart
