@@ -192,10 +192,11 @@ every level settles to the precision it is maximised to (at most 8), horizontall
 offsets fell by more than 5 % on 22 of the 24 calibration flights (none rose), 31 of the 75
 Swiss pieces (4 rose), 12 of the 16 featured ones (none rose); but on
 ``dreamliner_airfrance_39c424`` the σ converged to 1.2 m (the positions alone give the same),
-the path then followed 11 s of positions interpolated at 365 m/s (line 2426) that the speed
-bound could not hold, at 1.85 × the reported speed, and ``belevingsvlucht``'s heights fell
-below 99 % within 3σ; the EM also took 45 % longer. Not kept: a converged σ needs the runs of
-interpolated positions judged as such first.
+and the path kept a stale fix (line 2405: 365 m from the fix 29 s before it, 11.3 km from the
+one 31 s after, which are 194 m/s apart), which the speed bound could not hold: 1.85 × the
+reported speed. ``belevingsvlucht``'s heights fell below 99 % within 3σ, and the EM took 45 %
+longer. Not kept: a converged σ needs such a fix rejected first (the EM's weights keep it from
+its first path on).
 
 Known defect: for the surface point, :math:`d = 3` counts the radial axis in the determinants,
 while :math:`d_i = 2` normalises only the measured ones; the unpaid radial term favours a
