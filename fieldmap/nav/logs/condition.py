@@ -974,11 +974,13 @@ def _horizontal(
     stay the first's (as the height's): estimated again from the second start, the EM went
     on to σ of a few metres on 5-second helicopter fixes and flew their scatter at 6.7 g
     (tour_de_france_3924a4_16). Except where the first takes half of a channel for faults
-    (its fault share at the EM's ceiling, 1/2): its noise levels are then those of a path
-    that does not fly that channel, no estimate of its noise (the positions' σ at its 1 km
-    ceiling, the taxi's turns cut by up to 190 m: zurich_airport_0083c3), and the EM goes on
-    from the second start with the noise levels estimated again (there 3.9 m, the σ the
-    positions alone give). Without repeats there is one start.
+    (its fault share at the EM's ceiling, 1/2) and the second does not: the first's noise
+    levels are then those of a path that does not fly that channel, no estimate of its noise
+    (the positions' σ at its 1 km ceiling, the taxi's turns cut by up to 190 m:
+    zurich_airport_0083c3), and the EM goes on from the second start with the noise levels
+    estimated again (there 3.9 m, the σ the positions alone give). Where the second rejects
+    half a channel too, the channels contradict each other and :func:`estimate` leaves the
+    velocities out. Without repeats there is one start.
     """
     first = _smooth(grid, vehicle, False, channels, floors, fixed, origin)
     if not any(_copies(c) for c in channels):
