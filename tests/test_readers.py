@@ -676,6 +676,38 @@ def test_real_log_in_wrong_units_refused(tmp_path):
         read_track(m)
 
 
+def test_glitches_alternating_with_the_altitudes_are_no_unit_error(tmp_path):
+    """A relay aircraft's log that interleaves another's altitudes is read, with or without rates.
+
+    The ``tour_de_france`` relay's climb (4,650 to 12,500 ft, 10:36-10:41) has altitudes of
+    675-1,775 ft every sample or few: steps of 300-400 m/s both ways, 3 in 5 in places, that
+    the running median keeps, but no height gained net. Without its velocity columns (positions
+    and altitudes only, as many logs come) it was refused as feet read as metres; the
+    conditioning rejects the glitches as faults and flies the climb.
+    """
+    src = Path(__file__).parent / "data" / "corpus" / "tv_relay" / "tour_de_france_3924a4_08.csv.gz"
+    with gzip.open(src, "rt") as f:
+        rows = [r.split(",") for r in f.read().splitlines()[:240]]
+    keep = [j for j, c in enumerate(rows[0]) if c not in ("groundspeed", "track", "vertical_rate")]
+    path = write(tmp_path / "relay.csv", [",".join(r[j] for j in keep) for r in rows])
+    tr = read_track(path)
+    assert len(tr) == len(rows) - 1
+    # above 4,500 ft from line 26 on: the altitudes below 2,000 ft there are the other's
+    low = [line for line, r in enumerate(rows[1:], start=2) if line > 25 and float(r[5]) < 2000]
+    assert len(low) == 19
+    cf = condition(tr)
+    found = {
+        line
+        for f in cf.report["faults"]["list"]
+        if f["channel"] == "height"
+        for line in range(f["lines"][0], f["lines"][1] + 1)
+    }
+    assert set(low) <= found
+    # the path climbs with the log's true altitudes, not down to the glitches
+    k = cf.report["kinematics"]
+    assert k["peak_climb_rate_m_s"] < 25 and k["peak_descent_rate_m_s"] < 25
+
+
 def test_isolated_spikes_are_no_unit_error(tmp_path, fl):
     """Spikes (1 or 2 samples, two within 5) and a wrong level held are no sustained rate."""
     H = fl["H"].copy()

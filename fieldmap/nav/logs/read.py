@@ -59,10 +59,11 @@ with its line, never the log. Units are checked, not guessed, where
 neither ``alt_units``, the column name (``height_m``) nor the format's specification (GPX,
 NMEA, IGC: metres) fixes them: an aircraft-like track (median ground speed below 700 m/s) with
 altitudes above 30 km or a vertical rate above 300 m/s sustained over 5 samples (of the running
-median of 5 altitudes, so that isolated spikes are not taken for a unit error) is refused as
-feet read as metres (or a wrong column). Messages name keyword arguments (an
-:class:`~fieldmap.errors.InputError` about one has it as ``param``; the command line rewords
-them with its options).
+median of 5 altitudes, so that isolated spikes are not taken for a unit error; step by step and
+net, so that glitches alternating with the true altitudes are not either), or fast steps over
+most of the log, is refused as feet read as metres (or a wrong column). Messages name keyword
+arguments (an :class:`~fieldmap.errors.InputError` about one has it as ``param``; the command
+line rewords them with its options).
 
 The format is recognised by its content (:func:`load_text`): CSV text and tables are read here
 (:func:`csv_table`, :func:`object_table`; cells by :func:`numbers` and :func:`times`), the GNSS
@@ -1158,6 +1159,13 @@ def check_units(
     # intervals (the ends of a wrong level held for a while), which are no sustained rate
     # either. A log that is wrong throughout (a climb x 3.28, altitudes alternating all along)
     # is no outlier and is refused as before; the conditioning removes the outliers later.
+    #
+    # Sustained is also net: a wrong unit scales the climb itself, so the height the trend
+    # gains over the 5 intervals is as fast as its steps. Altitude glitches that alternate
+    # with the true ones faster than the median removes them (a relay aircraft's log that
+    # interleaves another's altitude every sample or two: 7,050, 1,675, 7,275 ft every 5 s)
+    # step fast both ways and gain nothing net: local faults for the conditioning to reject,
+    # no unit error.
     dt = np.diff(t)
     ok = np.flatnonzero(dt > 0)
     window = np.lib.stride_tricks.sliding_window_view
@@ -1165,10 +1173,16 @@ def check_units(
     rate = np.abs(np.diff(trend))[ok] / dt[ok]
     if rate.size >= 5:
         med = np.median(window(rate, 5), axis=1)
-        if med.max() > MAX_CLIMB and (sustained or np.mean(med > MAX_CLIMB) > 0.5):
-            i = int(np.argmax(med))
+        first, last = ok[:-4], ok[4:] + 1  # each window's first and last sample
+        span = t[last] - t[first]
+        net = np.abs(trend[last] - trend[first]) / np.where(span > 0, span, np.inf)
+        climb = np.where(span > 0, np.minimum(med, net), med)
+        throughout = np.mean(med > MAX_CLIMB) > 0.5
+        if throughout or (sustained and climb.max() > MAX_CLIMB):
+            fast = med if throughout else climb
+            i = int(np.argmax(fast))
             raise InputError(
-                f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {med[i]:,.0f} m/s "
+                f"{where} {lines[ok[i] + 1]} column {aname}: vertical rate {fast[i]:,.0f} m/s "
                 f"sustained over 5 samples (an aircraft: < {MAX_CLIMB:g} m/s): altitudes in "
                 f"{units}?",
                 *hint,
