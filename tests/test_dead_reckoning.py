@@ -75,3 +75,27 @@ def test_the_turn_is_flown_at_the_gliders_speed(tmp_path, held):
     k = path_kinematics(s.t, s.lat, s.lon, s.h)
     assert k.max_ground_speed_m_s <= 1.15 * V, k
     assert cf.report["samples"]["interpolated_positions"] >= (9 if held else 0)
+
+
+def test_a_fix_before_a_stale_position_is_no_dead_reckoning():
+    """A fix that a stale position follows is kept; the run before it is no dead reckoning.
+
+    A log resampled to 1 s between fixes (``traffic``'s featured samples) at a held state,
+    flying at 0.0018°/s (~220 m/s) with positions printed to 1e-4°, whose row 2 s after the
+    fix at 33 s is an earlier position sent again (the one of 0 s, 7 km back), with the rows
+    after it interpolated from there to the next fix (``dreamliner_airfrance_39c424``, line
+    2405). The row after the fix is kilometres off in 1 s and reachable from the run's start,
+    as after dead reckoning; but it returns to no track the vehicle flies (the row after it
+    is as far again): the jump is the fault, and the fix before it is kept.
+    """
+    from fieldmap.nav.logs.faults import extrapolated
+
+    t = np.arange(101.0)
+    knots_t = np.array([0.0, 33.0, 35.0, 70.0, 100.0])  # fixes at 0, 33, 70 and 100 s
+    knots = np.array([0.0, 33.0, 0.0, 70.0, 100.0]) * 0.0018  # 35 s: the position of 0 s
+    lat = np.round(LAT0 + np.interp(t, knots_t, knots), 4)
+    lon = np.round(LON0 + 0.5 * (lat - LAT0), 4)
+    state = np.tile([15260.0, 386.0, 30.0, 0.0], (t.size, 1))  # altitude, speed, track, rate
+    xyz = np.stack([(lat - LAT0) * 111_132.0, (lon - LON0) * 77_330.0, np.zeros_like(t)], -1)
+    out = extrapolated(t, lat, lon, state, np.zeros(4), xyz, 270.0)
+    assert not out.any(), np.flatnonzero(out)

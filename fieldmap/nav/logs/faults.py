@@ -21,9 +21,12 @@ Two facts about a sample decide whether it is a measurement at all, before any f
   reached from within the vehicle's top speed while the run's first fix can
   (:func:`extrapolated`). A receiver that has lost the vehicle advances its last fix at its
   last velocity: the positions are a function of that fix, not measurements, and the next
-  real fix is off their line by more than the vehicle flies. A real straight run at a held
+  real fix is off their line by more than the vehicle flies, and the track goes on from it
+  (the sample after it is within the top speed of it). A real straight run at a held
   state (straight and level, or a receiver's perfect dead reckoning) reaches the next fix
-  within the vehicle's speed: its positions stay measurements.
+  within the vehicle's speed: its positions stay measurements. So does a run followed by a
+  jump to a position that the track does not go on from (an earlier position sent again, the
+  rows after it interpolated from there: the jump is the fault, not the run before it).
 
 - **A frozen end**: a log whose last rows repeat every value of the row before them
   (position, height and each velocity column it has; an empty cell equal to an empty cell)
@@ -194,8 +197,8 @@ def extrapolated(
     three positions to ``q`` (the printed step of the latitudes and longitudes) changes the
     difference of the two; and when, for its run ``a..b`` of such samples, the next sample
     ``b + 1`` is further from ``b`` than ``max_speed`` (m/s) flies in their time apart while
-    it is within that of the run's first fix ``a - 1`` (``xyz``: the samples' positions, (n,
-    3), m).
+    it is within that of the run's first fix ``a - 1`` and the sample after it, ``b + 2``, is
+    within that of it (``xyz``: the samples' positions, (n, 3), m).
     """
     n = t.size
     out = np.zeros(n, bool)
@@ -222,7 +225,12 @@ def extrapolated(
 
     for a, b in runs(cand):
         c = b + 1
-        if c < n and reach(b, c) > max_speed and reach(a - 1, c) <= max_speed:
+        if (
+            c < n
+            and reach(b, c) > max_speed
+            and reach(a - 1, c) <= max_speed
+            and (c + 1 == n or reach(c, c + 1) <= max_speed)
+        ):
             out[a : b + 1] = True
     return out
 
