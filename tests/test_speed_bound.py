@@ -21,6 +21,7 @@ reports. Those few do not set the bound: the log's robust top speed does.
 
 from __future__ import annotations
 
+import gzip
 import sys
 from pathlib import Path
 
@@ -31,7 +32,12 @@ from fieldmap.nav.logs import load_flight
 from fieldmap.nav.logs.condition import Conditioning
 
 sys.path.insert(0, str(Path(__file__).parent))
-from corpus_checks import path_kinematics, reported_max_ground_speed  # noqa: E402
+from corpus_checks import (  # noqa: E402
+    SPEED_FACTOR,
+    check_piece,
+    path_kinematics,
+    reported_max_ground_speed,
+)
 from log_tracks import local_to_lat_lon, write_traffic_csv  # noqa: E402
 
 KT = 1852.0 / 3600.0
@@ -139,3 +145,36 @@ def test_a_manoeuvre_the_bound_leaves_alone_does_not_unset_it():
     s = cf.samples
     top = bound["top_speed_m_s"]
     assert path_kinematics(s.t, s.lat, s.lon, s.h).max_ground_speed_m_s <= 1.01 * top
+
+
+@pytest.mark.parametrize(
+    "piece", ["calibration/noumea", "gliders/alpi_italiane", "firefighting/calfire_a53d70_12"]
+)
+def test_a_log_of_positions_alone_is_flown_within_its_speeds(tmp_path, piece):
+    """A log without velocity columns keeps within the speeds its positions report.
+
+    The corpus piece is written with its positions and altitudes only (as IGC, GPX and many
+    ADS-B exports come) and flown; it is judged against the ground speeds the aircraft
+    reported in the columns left out. Without a bound from the positions these were flown at
+    1.36 × (noumea: a turboprop circling a navaid, a row every 5 s), 1.36 × (a glider) and
+    1.20 × (a tanker, fixes up to minutes apart) the speeds reported.
+    """
+    src = Path(__file__).parent / "data" / "corpus" / f"{piece}.csv.gz"
+    with gzip.open(src, "rt") as f:
+        rows = [r.split(",") for r in f.read().splitlines()]
+    keep = [j for j, c in enumerate(rows[0]) if c not in ("groundspeed", "track", "vertical_rate")]
+    path = tmp_path / "positions.csv"
+    path.write_text("\n".join(",".join(r[j] for j in keep) for r in rows) + "\n")
+    _, cf = load_flight(path, height_ref="pressure")
+    assert "velocity" not in cf.report["channels"]
+    rep = cf.report
+    chk = check_piece(
+        src,
+        cf.samples,
+        sigma_h=max(rep["fit"]["sigma_v_m"], 1.0),
+        height_time_sigma=rep["fit"]["height_time_sigma_s"],
+    )
+    assert chk.speed_ratio <= SPEED_FACTOR, chk.corpus_reasons(
+        tuple(rep["vehicle"]["load_factor_g"])
+    )
+    assert rep["model"]["horizontal"]["top_speed_m_s"] <= 1.05 * reported_max_ground_speed(src)

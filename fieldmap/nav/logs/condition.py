@@ -841,6 +841,7 @@ def _smooth(
     start: SmoothedAxis | None = None,
     fresh: bool = False,
     again: SmoothedAxis | None = None,
+    speeds_of_positions: bool = False,
 ) -> SmoothedAxis:
     r"""Smooth one axis group (module docstring, step 4).
 
@@ -880,7 +881,16 @@ def _smooth(
 
     def smoother(on: Grid) -> AxisSmoother:
         return AxisSmoother(
-            on, model, channels, (lo, hi), sbounds, fixed, bounds, origin, reported_speeds
+            on,
+            model,
+            channels,
+            (lo, hi),
+            sbounds,
+            fixed,
+            bounds,
+            origin,
+            reported_speeds,
+            speeds_of_positions,
         )
 
     scales0 = [max(_first_scale(c), b[0]) for c, b in zip(channels, sbounds)]
@@ -956,6 +966,7 @@ def _horizontal(
     floors: list[float],
     fixed: list[float | None],
     origin: np.ndarray,
+    speeds_of_positions: bool = False,
 ) -> SmoothedAxis:
     r"""Smooth the horizontal path from two starts and keep the likelier (step 4).
 
@@ -982,18 +993,19 @@ def _horizontal(
     half a channel too, the channels contradict each other and :func:`estimate` leaves the
     velocities out. Without repeats there is one start.
     """
-    first = _smooth(grid, vehicle, False, channels, floors, fixed, origin)
+    only = {"speeds_of_positions": speeds_of_positions}
+    first = _smooth(grid, vehicle, False, channels, floors, fixed, origin, **only)
     if not any(_copies(c) for c in channels):
         return first
     judged = _smooth(
-        grid, vehicle, False, channels, floors, fixed, origin, noise_of=first, fresh=True
+        grid, vehicle, False, channels, floors, fixed, origin, noise_of=first, fresh=True, **only
     )
     if first.mixture_neg2loglik - judged.mixture_neg2loglik <= START_EVIDENCE:
         return first
     if first.speed_bound_holds and not judged.speed_bound_holds:
         return first  # a path the vehicle's top speed cannot hold is no flight of it
     if max(first.fault_rate) >= 0.5 and max(judged.fault_rate) < 0.5:
-        return _smooth(grid, vehicle, False, channels, floors, fixed, origin, again=judged)
+        return _smooth(grid, vehicle, False, channels, floors, fixed, origin, again=judged, **only)
     return judged
 
 
@@ -1093,13 +1105,16 @@ def estimate(
 
     fix0 = None if fixed is None else fixed[0]
 
-    def horizontal(use_velocities: bool) -> tuple[SmoothedAxis, list[Channel]]:
+    def horizontal(
+        use_velocities: bool, speeds_of_positions: bool = False
+    ) -> tuple[SmoothedAxis, list[Channel]]:
         chans, floors, fix = [meas.positions], [pos_floor], [fix0]
         if use_velocities and velocities is not None:
             chans.append(velocities)
             floors.append(max(res_s / sq12, 0.01))
             fix.append(None)
-        return _horizontal(grid, vehicle, chans, floors, fix, meas.origin), chans
+        sm = _horizontal(grid, vehicle, chans, floors, fix, meas.origin, speeds_of_positions)
+        return sm, chans
 
     factor = None
     if velocities is not None:
@@ -1128,10 +1143,12 @@ def estimate(
                     f"({100.0 * replaced / velocities.t.size:.0f} %) are off the direction its "
                     "positions fly: their ground speeds used along the positions' direction"
                 )
-    if factor is not None and alone is not None:
-        hz, hchans = alone, [meas.positions]
+    if factor is not None:
+        # the positions alone, bounded by the speeds they report (the log's are none of the
+        # path's): ``alone`` is not, as the reference the log's speeds were judged against
+        hz, hchans = horizontal(False, speeds_of_positions=True)
     else:
-        hz, hchans = horizontal(True)
+        hz, hchans = horizontal(True, speeds_of_positions=velocities is None)
     if len(hchans) > 1 and max(hz.fault_rate) >= 0.5:
         # the velocities and the positions cannot both hold: the positions say where it was
         off = [100.0 * float(np.mean(p > 0.5)) for p in hz.fault_prob]

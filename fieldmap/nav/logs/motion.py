@@ -158,7 +158,13 @@ where it leaves it swings out wide and catches up at speeds it never flew (a tan
 in a 6-minute gap at 1.3 × its top speed). Where the log's velocities are left out of the
 fit (they contradict its positions: tracks off, a stretch resampled), their speeds still set
 the envelope the same way (not where they are a constant factor off the positions': then they
-are no speeds of the path), per sample the smaller of the reported speed and the path's. The
+are no speeds of the path), per sample the smaller of the reported speed and the path's. A log
+of positions alone (IGC, GPX, an ADS-B table without velocity columns) reports its speeds
+through them: each step between consecutive measured positions flies at its mean speed at
+least, and the smaller of that and the path's speed at the step's end is a sample of the same
+envelope (without it such logs were flown unbounded: of the 261 corpus pieces written without
+their velocity columns, 86 flew over 1.05 × the speeds the aircraft reported, gliders at up to
+2 ×). The
 bounded path minimises :math:`J` over the bounded set (a convex problem:
 :meth:`AxisSmoother._speed_bounded`); like the height's climb and load factor it is a bound,
 not data: the likelihood and the noise levels are those of the unbounded problem. So where the
@@ -706,6 +712,10 @@ class AxisSmoother:
         Times (s) and magnitudes (m/s, the surface point's) of a log's ground speeds that are
         no channel of the fit (its velocities left out): the evidence of the speed envelope
         in their place (:meth:`top_speed`).
+    speeds_of_positions : bool
+        The log reports no speeds that are speeds of the path (no velocity columns, or speeds
+        a constant factor off its positions'): the steps between its measured positions are
+        the evidence of the speed envelope (:meth:`top_speed`).
     """
 
     def __init__(
@@ -719,8 +729,10 @@ class AxisSmoother:
         bounds: dict[int, tuple[float, float]] | None = None,
         origin: np.ndarray | None = None,
         reported_speeds: tuple[np.ndarray, np.ndarray] | None = None,
+        speeds_of_positions: bool = False,
     ) -> None:
         self.grid, self.model, self.channels = grid, model, channels
+        self.speeds_of_positions = speeds_of_positions
         #: the log's speeds outside the fit, their nodes and rate rows (for top_speed)
         self.reported_speeds: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         if reported_speeds is not None and np.size(reported_speeds[0]):
@@ -1025,9 +1037,15 @@ class AxisSmoother:
         gap (one pair of fixes against every speed the log reports) does not set it. The
         surface point's speed bound (module docstring, "Speed"); where no rate channel has a
         measurement, the :attr:`reported_speeds` (every one: none is judged by the fit) take
-        their place; None without either.
+        their place; without either, where the log reports no speeds of the path
+        (:attr:`speeds_of_positions`: a log of positions alone, IGC, GPX, an ADS-B table
+        without its velocity columns), the speeds its positions report: per step between two
+        consecutive measured positions, the smaller of its mean speed and the path's speed
+        at the later one, at the same percentile (a step's mean speed is no more than the
+        fastest the vehicle flew in it, up to the positions' noise, which the path's speed
+        does not carry; a gap's step, one of many, does not set it). None without positions.
         """
-        flown, least = [], 0.0
+        flown, least, stepped = [], 0.0, []
         for c, w, k, h, s, tau in zip(self.channels, weights, self.k, self.h, scales, self.tau):
             on = w > 0.5
             if c.order == 0 and np.sum(on) > 1:
@@ -1039,6 +1057,10 @@ class AxisSmoother:
                 req = (dy[ok] - margin) / dt[ok]
                 if req.size:
                     least = max(least, float(np.percentile(req, POSITION_SPEED_PERCENTILE)))
+                    # each step's mean speed, and the path's speed at its end fix
+                    rate = np.stack([np.zeros(len(h)), np.ones(len(h)), h[:, 1]], -1)
+                    path = np.linalg.norm(_apply(rate, x[k])[on][1:][ok], axis=1)
+                    stepped.append(np.minimum(dy[ok] / dt[ok], path))
             if c.order != 1 or not np.any(on):
                 continue
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
@@ -1047,6 +1069,8 @@ class AxisSmoother:
             speed, k, h = self.reported_speeds
             path = np.linalg.norm(_apply(h, x[k]), axis=1)
             flown.append(np.minimum(speed, path))
+        if not flown and self.speeds_of_positions:
+            flown = stepped
         if not flown:
             return None
         return max(float(np.percentile(np.concatenate(flown), REPORTED_SPEED_PERCENTILE)), least)
