@@ -16,18 +16,25 @@ with the processes given running side by side).
 Usage::
 
     python benchmarks/corpus_table.py [--jobs 2] [--json OUT.json] [--before OLD.json]
-        [--category calibration ...] [--name munich ...]
+        [--category calibration ...] [--name munich ...] [--positions-only]
 
 ``--json`` writes one row per piece (its verdict, reasons, numbers); ``--before`` reads such a
-file from an earlier run and prints each cell as ``before → now``.
+file from an earlier run and prints each cell as ``before → now``. ``--positions-only`` flies
+each piece written without its velocity columns (``groundspeed``, ``track``,
+``vertical_rate``: positions and altitudes alone, as IGC, GPX and many ADS-B exports come) and
+judges it against the piece as it is, whose reported speeds it did not see; ``known.json``
+(the exceptions of the test, which flies the pieces whole) is not compared then.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
+import gzip
 import json
 import os
 import sys
+import tempfile
 import time
 import traceback
 import warnings
@@ -45,8 +52,22 @@ VERDICTS = ("meets", "heights", "other", "refused", "error")
 HEADINGS = ("meet", "fail only heights", "fail speed, force or span", "refused", "errors")
 
 
-def fly(piece: dict[str, str]) -> dict[str, Any]:
-    """Fly one piece and judge it; a JSON-ready row."""
+#: the columns ``--positions-only`` leaves out
+VELOCITY_COLUMNS = ("groundspeed", "track", "vertical_rate")
+
+
+def positions_only(path: Path, folder: Path) -> Path:
+    """Write the piece at ``path`` without its :data:`VELOCITY_COLUMNS` into ``folder``."""
+    with gzip.open(path, "rt") as f:
+        rows = [r.split(",") for r in f.read().splitlines()]
+    keep = [j for j, c in enumerate(rows[0]) if c not in VELOCITY_COLUMNS]
+    out = folder / path.name.removesuffix(".gz")
+    out.write_text("\n".join(",".join(r[j] for j in keep if j < len(r)) for r in rows) + "\n")
+    return out
+
+
+def fly(piece: dict[str, str], positions: bool = False) -> dict[str, Any]:
+    """Fly one piece and judge it; a JSON-ready row (``positions``: ``--positions-only``)."""
     warnings.simplefilter("ignore")
     from corpus_checks import CORPUS_MIN_WITHIN, check_piece
 
@@ -55,9 +76,11 @@ def fly(piece: dict[str, str]) -> dict[str, Any]:
 
     path = CORPUS / piece["category"] / f"{piece['name']}.csv.gz"
     row: dict[str, Any] = {"name": piece["name"], "category": piece["category"]}
-    t0 = time.perf_counter()
     try:
-        _, cf = load_flight(path, height_ref="pressure")
+        with tempfile.TemporaryDirectory() as tmp:
+            source = positions_only(path, Path(tmp)) if positions else path
+            t0 = time.perf_counter()
+            _, cf = load_flight(source, height_ref="pressure")
     except InputError as e:
         return row | {"verdict": "refused", "reasons": [str(e)]}
     except Exception as e:  # noqa: BLE001 - an internal error is a verdict here
@@ -126,6 +149,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--before", type=Path, help="an earlier --json file to compare with")
     ap.add_argument("--category", action="append", help="only these categories (repeatable)")
     ap.add_argument("--name", action="append", help="only these pieces (repeatable)")
+    ap.add_argument(
+        "--positions-only",
+        action="store_true",
+        help="fly each piece without its velocity columns (judged against the piece)",
+    )
     args = ap.parse_args(argv)
     if args.jobs < 1:
         ap.error(f"--jobs must be at least 1, not {args.jobs}")
@@ -151,28 +179,30 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     # the largest logs first, so that the processes finish together
     pieces.sort(key=lambda p: -(CORPUS / p["category"] / f"{p['name']}.csv.gz").stat().st_size)
+    flight = functools.partial(fly, positions=args.positions_only)
     if args.jobs == 1:
-        rows = [fly(p) for p in pieces]
+        rows = [flight(p) for p in pieces]
     else:
         # spawned, not forked: a fork of a process whose thread pools hold locks can hang
         with get_context("spawn").Pool(args.jobs) as pool:
-            rows = pool.map(fly, pieces, chunksize=1)
+            rows = pool.map(flight, pieces, chunksize=1)
     rows.sort(key=lambda r: (r["category"], r["name"]))
     print(table(rows, before))
     n = len(rows)
     meets = sum(r["verdict"] == "meets" for r in rows)
     print(f"\nmeet the checks: {meets} of {n} ({100.0 * meets / n:.1f} %)")
-    known = json.loads((CORPUS / "known.json").read_text())
+    known = {} if args.positions_only else json.loads((CORPUS / "known.json").read_text())
     listed_meeting = [r["name"] for r in rows if r["name"] in known and r["verdict"] == "meets"]
     unlisted = [
         r["name"]
         for r in rows
         if r["name"] not in known and r["verdict"] in ("heights", "other", "error")
     ]
-    print(
-        f"in known.json: {sum(r['name'] in known for r in rows)}; of them meeting now: "
-        f"{listed_meeting or 'none'}; failing, not listed: {unlisted or 'none'}"
-    )
+    if not args.positions_only:
+        print(
+            f"in known.json: {sum(r['name'] in known for r in rows)}; of them meeting now: "
+            f"{listed_meeting or 'none'}; failing, not listed: {unlisted or 'none'}"
+        )
     for r in rows:
         if r["verdict"] == "error":
             print(f"error: {r['category']}/{r['name']}: {r['reasons'][0]}")

@@ -43,6 +43,21 @@ def test_table_counts_a_meeting_and_a_refused_piece(corpus_table, tmp_path, caps
     assert "verdicts changed: none" in text
 
 
+def test_positions_only_flies_the_piece_without_its_velocities(corpus_table, tmp_path, capsys):
+    """``--positions-only``: the tanker flown from its positions, judged against its speeds."""
+    piece = corpus_table.CORPUS / "firefighting" / "calfire_a53d70_12.csv.gz"
+    alone = corpus_table.positions_only(piece, tmp_path)
+    header = alone.read_text().splitlines()[0].split(",")
+    assert not set(header) & set(corpus_table.VELOCITY_COLUMNS) and "altitude" in header
+    out = tmp_path / "rows.json"
+    argv = ["--jobs", "1", "--name", "calfire_a53d70_12", "--positions-only", "--json", str(out)]
+    assert corpus_table.main(argv) == 0
+    text = capsys.readouterr().out
+    assert "| **all** | 1 | 1 | 0 | 0 | 0 | 0 |" in text and "known.json" not in text
+    (row,) = json.loads(out.read_text())
+    assert row["verdict"] == "meets" and row["speed_ratio"] <= 1.05
+
+
 def test_bad_arguments_are_one_line_and_status_2(corpus_table, tmp_path, capsys):
     assert corpus_table.main(["--name", "no_such_piece"]) == 2
     assert corpus_table.main(["--name", "munich", "--json", str(tmp_path / "no" / "x")]) == 2
