@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import gzip
 import json
 import os
 import sys
@@ -52,24 +51,10 @@ VERDICTS = ("meets", "heights", "other", "refused", "error")
 HEADINGS = ("meet", "fail only heights", "fail speed, force or span", "refused", "errors")
 
 
-#: the columns ``--positions-only`` leaves out
-VELOCITY_COLUMNS = ("groundspeed", "track", "vertical_rate")
-
-
-def positions_only(path: Path, folder: Path) -> Path:
-    """Write the piece at ``path`` without its :data:`VELOCITY_COLUMNS` into ``folder``."""
-    with gzip.open(path, "rt") as f:
-        rows = [r.split(",") for r in f.read().splitlines()]
-    keep = [j for j, c in enumerate(rows[0]) if c not in VELOCITY_COLUMNS]
-    out = folder / path.name.removesuffix(".gz")
-    out.write_text("\n".join(",".join(r[j] for j in keep if j < len(r)) for r in rows) + "\n")
-    return out
-
-
 def fly(piece: dict[str, str], positions: bool = False) -> dict[str, Any]:
     """Fly one piece and judge it; a JSON-ready row (``positions``: ``--positions-only``)."""
     warnings.simplefilter("ignore")
-    from corpus_checks import CORPUS_MIN_WITHIN, check_piece
+    from corpus_checks import CORPUS_MIN_WITHIN, check_piece, positions_only
 
     from fieldmap.errors import InputError
     from fieldmap.nav.logs import load_flight

@@ -651,3 +651,21 @@ def check_piece(
             float(np.percentile(horizontal, 95.0)) if horizontal.size else np.nan
         ),
     )
+
+
+#: the columns ``--positions-only`` leaves out
+VELOCITY_COLUMNS = ("groundspeed", "track", "vertical_rate")
+
+
+def positions_only(path: Path, folder: Path) -> Path:
+    """Write the log at ``path`` without its :data:`VELOCITY_COLUMNS` into ``folder``.
+
+    Positions and altitudes alone, as IGC, GPX and many ADS-B exports come
+    (``benchmarks/corpus_table.py --positions-only``); returns the file written.
+    """
+    with gzip.open(path, "rt") as f:
+        rows = [r.split(",") for r in f.read().splitlines()]
+    keep = [j for j, c in enumerate(rows[0]) if c not in VELOCITY_COLUMNS]
+    out = folder / path.name.removesuffix(".gz")
+    out.write_text("\n".join(",".join(r[j] for j in keep if j < len(r)) for r in rows) + "\n")
+    return out

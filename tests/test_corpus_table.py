@@ -46,9 +46,10 @@ def test_table_counts_a_meeting_and_a_refused_piece(corpus_table, tmp_path, caps
 def test_positions_only_flies_the_piece_without_its_velocities(corpus_table, tmp_path, capsys):
     """``--positions-only``: the tanker flown from its positions, judged against its speeds."""
     piece = corpus_table.CORPUS / "firefighting" / "calfire_a53d70_12.csv.gz"
-    alone = corpus_table.positions_only(piece, tmp_path)
-    header = alone.read_text().splitlines()[0].split(",")
-    assert not set(header) & set(corpus_table.VELOCITY_COLUMNS) and "altitude" in header
+    from corpus_checks import VELOCITY_COLUMNS, positions_only
+
+    header = positions_only(piece, tmp_path).read_text().splitlines()[0].split(",")
+    assert not set(header) & set(VELOCITY_COLUMNS) and "altitude" in header
     out = tmp_path / "rows.json"
     argv = ["--jobs", "1", "--name", "calfire_a53d70_12", "--positions-only", "--json", str(out)]
     assert corpus_table.main(argv) == 0

@@ -993,35 +993,8 @@ def _horizontal(
     half a channel too, the channels contradict each other and :func:`estimate` leaves the
     velocities out. Without repeats there is one start.
     """
-    first = _smooth(
-        grid,
-        vehicle,
-        False,
-        channels,
-        floors,
-        fixed,
-        origin,
-        speeds_of_positions=speeds_of_positions,
-    )
-    if not any(_copies(c) for c in channels):
-        return first
-    judged = _smooth(
-        grid,
-        vehicle,
-        False,
-        channels,
-        floors,
-        fixed,
-        origin,
-        noise_of=first,
-        fresh=True,
-        speeds_of_positions=speeds_of_positions,
-    )
-    if first.mixture_neg2loglik - judged.mixture_neg2loglik <= START_EVIDENCE:
-        return first
-    if first.speed_bound_holds and not judged.speed_bound_holds:
-        return first  # a path the vehicle's top speed cannot hold is no flight of it
-    if max(first.fault_rate) >= 0.5 and max(judged.fault_rate) < 0.5:
+
+    def smooth(**start: Any) -> SmoothedAxis:
         return _smooth(
             grid,
             vehicle,
@@ -1030,9 +1003,20 @@ def _horizontal(
             floors,
             fixed,
             origin,
-            again=judged,
+            **start,
             speeds_of_positions=speeds_of_positions,
         )
+
+    first = smooth()
+    if not any(_copies(c) for c in channels):
+        return first
+    judged = smooth(noise_of=first, fresh=True)
+    if first.mixture_neg2loglik - judged.mixture_neg2loglik <= START_EVIDENCE:
+        return first
+    if first.speed_bound_holds and not judged.speed_bound_holds:
+        return first  # a path the vehicle's top speed cannot hold is no flight of it
+    if max(first.fault_rate) >= 0.5 and max(judged.fault_rate) < 0.5:
+        return smooth(again=judged)
     return judged
 
 
